@@ -1,0 +1,81 @@
+"""Frame and unit conventions, stated once.
+
+- World: local NED (x north, y east, z down), metres. Heading (yaw) from north, positive
+  clockwise seen from above, in (-pi, pi].
+- Body: FRD (x forward, y right, z down). A positive yaw rate turns right.
+- Camera: OpenCV (x right, y down, z forward).
+- Bearings: positive clockwise seen from above (target to the right is positive).
+- Inside lfctl everything is SI (m, s, rad); degrees appear only in TOML keys ending in
+  ``_deg`` and in MAVLink fields, converted at that edge.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to (-pi, pi].
+
+    Parameters
+    ----------
+    angle_rad : float
+        Any finite angle in radians.
+    """
+    wrapped = math.fmod(angle_rad + math.pi, 2.0 * math.pi)
+    if wrapped <= 0.0:
+        wrapped += 2.0 * math.pi
+    return wrapped - math.pi
+
+
+def ned_to_body(north_m: float, east_m: float, yaw_rad: float) -> tuple[float, float]:
+    """Rotate a horizontal NED vector into body FRD (forward, right)."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return c * north_m + s * east_m, -s * north_m + c * east_m
+
+
+def body_to_ned(forward_m: float, right_m: float, yaw_rad: float) -> tuple[float, float]:
+    """Rotate a horizontal body FRD vector (forward, right) into NED (north, east)."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return c * forward_m - s * right_m, s * forward_m + c * right_m
+
+
+def range_bearing(
+    from_north_m: float, from_east_m: float, from_yaw_rad: float, to_north_m: float, to_east_m: float
+) -> tuple[float, float]:
+    """Range (m) and body-relative bearing (rad, clockwise positive) from one pose to a point."""
+    dn, de = to_north_m - from_north_m, to_east_m - from_east_m
+    return math.hypot(dn, de), wrap_pi(math.atan2(de, dn) - from_yaw_rad)
+
+
+def geodetic_to_ned(
+    lat_deg: float, lon_deg: float, alt_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
+) -> tuple[float, float, float]:
+    """Local tangent-plane NED (m) of a geodetic point relative to home (equirectangular).
+
+    Accurate to a few millimetres over the hundreds of metres a ground-robot mission spans.
+    """
+    dlat = math.radians(lat_deg - home_lat_deg)
+    dlon = math.radians(lon_deg - home_lon_deg)
+    north = dlat * EARTH_RADIUS_M
+    east = dlon * EARTH_RADIUS_M * math.cos(math.radians(home_lat_deg))
+    return north, east, home_alt_m - alt_m
+
+
+def ned_to_geodetic(
+    north_m: float, east_m: float, down_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
+) -> tuple[float, float, float]:
+    """Inverse of :func:`geodetic_to_ned`: (lat_deg, lon_deg, alt_m)."""
+    lat = home_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
+    lon = home_lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(home_lat_deg))))
+    return lat, lon, home_alt_m - down_m
+
+
+def rot_z(yaw_rad: float) -> np.ndarray:
+    """3x3 rotation about z (NED down): body-to-NED for a vehicle with this yaw."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

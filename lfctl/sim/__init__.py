@@ -1,0 +1,1 @@
+"""Co-simulation: FMU build and load (the only package that imports fmpy), lockstep master, world state."""

@@ -1,0 +1,411 @@
+"""Load vehicle FMUs with fmpy and step them fast; the only module that imports fmpy's
+runtime (with fmu_build, which imports it for paths and headers).
+
+A vehicle FMU is any FMI 2.0 or 3.0 Co-Simulation FMU with, by some name, the roles lfctl
+needs: forward-speed and yaw-rate command inputs, and north, east, yaw, speed and yaw-rate
+outputs. :class:`RoleMap` names them; declared units are converted to SI. Each FMU file is
+extracted once and its library loaded once (:class:`FmuLibrary`); every instance of it shares
+that library. Stepping calls the FMI functions through ctypes with arrays preallocated over
+rows of numpy arrays the co-simulation master owns, so no list is built per step.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import logging
+import math
+import shutil
+import tempfile
+import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
+
+from lfctl.errors import ConfigError, FmuError
+
+log = logging.getLogger(__name__)
+
+INPUT_ROLES = ("speed_cmd", "yaw_rate_cmd")
+OUTPUT_ROLES = ("north", "east", "yaw", "speed", "yaw_rate")
+POSE_ROLES = ("north_0", "east_0", "yaw_0")
+ROLE_SI_UNIT = {
+    "speed_cmd": "m/s",
+    "yaw_rate_cmd": "rad/s",
+    "north": "m",
+    "east": "m",
+    "yaw": "rad",
+    "speed": "m/s",
+    "yaw_rate": "rad/s",
+    "north_0": "m",
+    "east_0": "m",
+    "yaw_0": "rad",
+}
+#: unit -> (SI unit, factor to SI)
+UNIT_TO_SI = {
+    "m": ("m", 1.0),
+    "cm": ("m", 0.01),
+    "mm": ("m", 0.001),
+    "km": ("m", 1000.0),
+    "m/s": ("m/s", 1.0),
+    "km/h": ("m/s", 1.0 / 3.6),
+    "rad": ("rad", 1.0),
+    "deg": ("rad", math.pi / 180.0),
+    "rad/s": ("rad/s", 1.0),
+    "deg/s": ("rad/s", math.pi / 180.0),
+}
+FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+
+
+@dataclass(frozen=True)
+class RoleMap:
+    """Which FMU variable plays each role lfctl needs, and unit overrides.
+
+    Parameters
+    ----------
+    names : Mapping[str, str]
+        role -> FMU variable name, for every role in INPUT_ROLES and OUTPUT_ROLES; the
+        POSE_ROLES (initial-pose parameters) are optional: without them lfctl moves the
+        FMU's own origin to the vehicle's initial pose.
+    units : Mapping[str, str]
+        role -> unit, for FMUs that declare none or declare it wrongly.
+    """
+
+    names: Mapping[str, str] = field(default_factory=lambda: {r: r for r in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES)})
+    units: Mapping[str, str] = field(default_factory=dict)
+
+
+BUILTIN_ROLE_MAP = RoleMap()
+
+
+def _status_text(status: int) -> str:
+    return FMI_STATUS[status] if 0 <= status < len(FMI_STATUS) else f"illegal status {status}"
+
+
+class FmuLibrary:
+    """One FMU file: model description read, archive extracted and library loaded once.
+
+    Use as a context manager, or call :meth:`close`; closing frees every instance and removes
+    the extracted folder.
+    """
+
+    def __init__(self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP) -> None:
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise FmuError(f"FMU file {self.path} does not exist", model=str(self.path), call="load")
+        self.md = self.describe(self.path)
+        self.fmi_version = int(self.md.fmiVersion.split(".")[0])
+        if self.fmi_version not in (2, 3):
+            raise FmuError(
+                f"{self.path}: FMI {self.md.fmiVersion} is not supported (need 2.0 or 3.0)",
+                model=str(self.path),
+                call="load",
+            )
+        if self.md.coSimulation is None:
+            raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
+        self.identifier: str = self.md.coSimulation.modelIdentifier
+        self.variables = {v.name: v for v in self.md.modelVariables}
+        self.vr, self.scale, self.pose_mapped = self._resolve_roles(role_map)
+        self._unzipdir: str | None = None
+        self._instances: list[FmuInstance] = []
+        try:
+            self._unzipdir = extract(str(self.path), unzipdir=tempfile.mkdtemp(prefix=f"lfctl-{self.identifier}-"))
+        except Exception as exc:
+            self.close()
+            raise FmuError(f"{self.path}: cannot extract: {exc}", model=self.identifier, call="extract") from exc
+
+    @staticmethod
+    def describe(path: str | Path) -> Any:
+        """Read only the model description of an FMU file (errors as FmuError)."""
+        p = Path(path)
+        try:
+            return read_model_description(str(p))
+        except FileNotFoundError as exc:
+            raise FmuError(f"FMU file {p} does not exist", model=str(p), call="load") from exc
+        except zipfile.BadZipFile as exc:
+            raise FmuError(f"{p} is not an FMU: not a readable zip archive ({exc})", model=str(p), call="load") from exc
+        except Exception as exc:
+            raise FmuError(f"{p} has no valid modelDescription.xml: {exc}", model=str(p), call="load") from exc
+
+    # -- role mapping ---------------------------------------------------------------------
+    def _resolve_roles(self, role_map: RoleMap) -> tuple[dict[str, int], dict[str, float], bool]:
+        vr: dict[str, int] = {}
+        scale: dict[str, float] = {}
+        for role in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES):
+            name = role_map.names.get(role)
+            optional = role in POSE_ROLES
+            if name is None or (optional and name not in self.variables):
+                if optional:
+                    continue
+                raise ConfigError(f"{self.path}: no variable mapped to role {role!r}")
+            var = self.variables.get(name)
+            if var is None:
+                raise ConfigError(
+                    f"{self.path}: variable {name!r} (mapped to role {role!r}) does not exist; "
+                    f"`lfctl fmu info {self.path}` lists the variables"
+                )
+            want = "input" if role in INPUT_ROLES else ("output" if role in OUTPUT_ROLES else "parameter")
+            if var.causality != want:
+                raise ConfigError(
+                    f"{self.path}: variable {name!r} mapped to role {role!r} has causality "
+                    f"{var.causality!r}, expected {want!r}"
+                )
+            if var.type not in ("Real", "Float64"):
+                raise ConfigError(f"{self.path}: variable {name!r} has type {var.type}, expected a Real/Float64")
+            unit = role_map.units.get(role) or self._unit_of(var) or ROLE_SI_UNIT[role]
+            si, factor = UNIT_TO_SI.get(unit, (None, 0.0))
+            if si != ROLE_SI_UNIT[role]:
+                raise ConfigError(
+                    f"{self.path}: variable {name!r} for role {role!r} has unit {unit!r}; expected one "
+                    f"convertible to {ROLE_SI_UNIT[role]} ({', '.join(k for k, v in UNIT_TO_SI.items() if v[0] == ROLE_SI_UNIT[role])})"
+                )
+            vr[role] = int(var.valueReference)
+            scale[role] = factor
+        return vr, scale, all(r in vr for r in POSE_ROLES)
+
+    @staticmethod
+    def _unit_of(var: Any) -> str | None:
+        if getattr(var, "unit", None):
+            return str(var.unit)
+        declared = getattr(var, "declaredType", None)
+        if declared is not None and getattr(declared, "unit", None):
+            return str(declared.unit)
+        return None
+
+    # -- instances ------------------------------------------------------------------------
+    def instantiate(
+        self,
+        instance_name: str,
+        parameters: Mapping[str, float],
+        pose: tuple[float, float, float],
+        cmd_row: np.ndarray,
+        out_row: np.ndarray,
+        start_time_s: float = 0.0,
+    ) -> FmuInstance:
+        """Create, parameterise and initialise one instance (see :class:`FmuInstance`)."""
+        if self._unzipdir is None:
+            raise FmuError(f"{self.path}: library is closed", model=self.identifier, call="instantiate")
+        inst = FmuInstance(self, instance_name, parameters, pose, cmd_row, out_row, start_time_s)
+        self._instances.append(inst)
+        return inst
+
+    def close(self) -> None:
+        """Free every instance and remove the extracted folder."""
+        for inst in self._instances:
+            inst.free()
+        self._instances.clear()
+        if self._unzipdir:
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            self._unzipdir = None
+
+    def __enter__(self) -> FmuLibrary:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class FmuInstance:
+    """One vehicle's FMU instance, stepped through preallocated ctypes arrays.
+
+    ``cmd_row`` (2 floats: speed, yaw rate, in the FMU's units) and ``out_row`` (5 floats:
+    north, east, yaw, speed, yaw rate, in the FMU's units) are views into arrays the caller
+    owns; :meth:`step` sends the first and fills the second.
+    """
+
+    def __init__(
+        self,
+        lib: FmuLibrary,
+        name: str,
+        parameters: Mapping[str, float],
+        pose: tuple[float, float, float],
+        cmd_row: np.ndarray,
+        out_row: np.ndarray,
+        start_time_s: float,
+    ) -> None:
+        self.lib = lib
+        self.name = name
+        self.messages: list[str] = []
+        self.t_s = start_time_s
+        self._start_time_s = start_time_s
+        self._freed = False
+        md = lib.md
+        common = dict(guid=md.guid, modelIdentifier=lib.identifier, unzipDirectory=lib._unzipdir, instanceName=name)
+        try:
+            if lib.fmi_version == 2:
+                self._slave: Any = FMU2Slave(**common)
+                self._callbacks = fmi2CallbackFunctions()
+                self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
+                self._slave.instantiate(callbacks=self._callbacks)
+            else:
+                self._slave = FMU3Slave(**common)
+                self._slave.instantiate(logMessage=self._log3)
+        except FmuError:
+            raise
+        except Exception as exc:
+            raise self._error(f"cannot instantiate {lib.identifier} as {name!r}: {exc}", "Instantiate") from exc
+        self._set_parameters(parameters, pose)
+        dll = self._slave.dll
+        c = self._slave.component
+        self._c = c
+        n_in, n_out = len(INPUT_ROLES), len(OUTPUT_ROLES)
+        self._vr_in = (ctypes.c_uint32 * n_in)(*(lib.vr[r] for r in INPUT_ROLES))
+        self._vr_out = (ctypes.c_uint32 * n_out)(*(lib.vr[r] for r in OUTPUT_ROLES))
+        if cmd_row.dtype != np.float64 or not cmd_row.flags.c_contiguous or cmd_row.shape != (n_in,):
+            raise ValueError(f"cmd_row must be a contiguous float64 array of shape ({n_in},)")
+        if out_row.dtype != np.float64 or not out_row.flags.c_contiguous or out_row.shape != (n_out,):
+            raise ValueError(f"out_row must be a contiguous float64 array of shape ({n_out},)")
+        self._in = (ctypes.c_double * n_in).from_buffer(cmd_row)
+        self._out = (ctypes.c_double * n_out).from_buffer(out_row)
+        if lib.fmi_version == 2:
+            self._set = dll.fmi2SetReal
+            self._get = dll.fmi2GetReal
+            self._do = dll.fmi2DoStep
+            self._step_args: tuple[Any, ...] = (1,)
+            self._nvals: tuple[Any, ...] = ()
+        else:
+            self._set = dll.fmi3SetFloat64
+            self._get = dll.fmi3GetFloat64
+            self._do = dll.fmi3DoStep
+            self._flags = [fmi3Boolean() for _ in range(3)]
+            self._last = fmi3Float64()
+            self._step_args = (True, *(ctypes.byref(f) for f in self._flags), ctypes.byref(self._last))
+        self._nin, self._nout = n_in, n_out
+        self._setup_calls()
+        self.read()
+
+    # FMU log callbacks: keep messages (errors name the variable), forward to logging.
+    def _log2(self, env: object, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+        self._keep(status, category, message.replace(b"%%", b"%"))
+
+    def _log3(self, env: object, status: int, category: bytes, message: bytes) -> None:
+        self._keep(status, category, message)
+
+    def _keep(self, status: int, category: bytes | None, message: bytes | None) -> None:
+        text = (message or b"").decode("utf-8", "replace")
+        self.messages.append(text)
+        # Errors travel inside the FmuError that follows; warnings are worth a line here.
+        level = logging.WARNING if status == 1 else logging.DEBUG
+        log.log(level, "%s [%s] %s", self.name, _status_text(status), text)
+
+    def _error(self, message: str, call: str, status: int | None = None) -> FmuError:
+        return FmuError(message, model=self.lib.identifier, call=call, status=status, log=self.messages)
+
+    def _setup_calls(self) -> None:
+        # Pre-bind argument tuples so the hot path only unpacks them.
+        if self.lib.fmi_version == 2:
+            self._set_args = (self._c, self._vr_in, self._nin, self._in)
+            self._get_args = (self._c, self._vr_out, self._nout, self._out)
+        else:
+            self._set_args = (self._c, self._vr_in, self._nin, self._in, self._nin)
+            self._get_args = (self._c, self._vr_out, self._nout, self._out, self._nout)
+
+    def _checked(self, call: str, fn: Any, *args: Any, **kwargs: Any) -> None:
+        try:
+            fn(*args, **kwargs)
+        except FMICallException as exc:
+            raise self._error(
+                f"{self.lib.identifier} ({self.name}): {call} returned {_status_text(exc.status)}", call, exc.status
+            ) from exc
+
+    def _set_parameters(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
+        s = self._slave
+        values: dict[int, float] = {}
+        for name, value in parameters.items():
+            var = self.lib.variables.get(name)
+            if var is None:
+                raise ConfigError(f"{self.lib.path}: parameter {name!r} does not exist in {self.lib.identifier}")
+            if var.causality != "parameter":
+                raise ConfigError(f"{self.lib.path}: {name!r} has causality {var.causality!r}, not a parameter")
+            values[int(var.valueReference)] = float(value)
+        if self.lib.pose_mapped:
+            for role, value in zip(POSE_ROLES, pose, strict=True):
+                values[self.lib.vr[role]] = value / self.lib.scale[role]
+        vrs, vals = list(values), list(values.values())
+        if self.lib.fmi_version == 2:
+            self._checked("fmi2SetupExperiment", s.setupExperiment, None, self._start_time_s)
+            if vrs:
+                self._checked("fmi2SetReal", s.setReal, vrs, vals)
+            self._checked("fmi2EnterInitializationMode", s.enterInitializationMode)
+            self._checked("fmi2ExitInitializationMode", s.exitInitializationMode)
+        else:
+            if vrs:
+                self._checked("fmi3SetFloat64", s.setFloat64, vrs, vals)
+            self._checked("fmi3EnterInitializationMode", s.enterInitializationMode, startTime=self._start_time_s)
+            self._checked("fmi3ExitInitializationMode", s.exitInitializationMode)
+
+    # -- hot path ------------------------------------------------------------------------
+    def step(self, dt_s: float) -> None:
+        """Send the command row, advance ``dt_s``, read the output row. Raises FmuError."""
+        status = self._set(*self._set_args)
+        if status == 0:
+            status = self._do(self._c, self.t_s, dt_s, *self._step_args)
+            if status == 0:
+                status = self._get(*self._get_args)
+                if status == 0:
+                    self.t_s += dt_s
+                    return
+                call = "GetReal"
+            else:
+                call = "DoStep"
+        else:
+            call = "SetReal"
+        self._raise_status(call, status)
+
+    def _raise_status(self, call: str, status: int) -> None:
+        prefix = "fmi2" if self.lib.fmi_version == 2 else "fmi3"
+        if status == 1:  # warning: keep going, it was logged
+            return
+        full = prefix + (call if prefix == "fmi2" else call.replace("Real", "Float64"))
+        raise self._error(
+            f"{self.lib.identifier} ({self.name}): {full} at t={self.t_s:.6g} s returned {_status_text(status)}",
+            full,
+            status,
+        )
+
+    def set_real(self, values: Mapping[str, float]) -> None:
+        """Set FMU variables by name (slow path: tests, tunable parameters)."""
+        vrs = [int(self.lib.variables[n].valueReference) for n in values]
+        v = self.lib.fmi_version
+        fn = self._slave.setReal if v == 2 else self._slave.setFloat64
+        self._checked("fmi2SetReal" if v == 2 else "fmi3SetFloat64", fn, vrs, [float(v) for v in values.values()])
+
+    def get_real(self, names: list[str]) -> list[float]:
+        """Get FMU variables by name (slow path)."""
+        vrs = [int(self.lib.variables[n].valueReference) for n in names]
+        fn = self._slave.getReal if self.lib.fmi_version == 2 else self._slave.getFloat64
+        try:
+            return list(fn(vrs))
+        except FMICallException as exc:
+            raise self._error(f"{self.lib.identifier} ({self.name}): GetReal failed", "GetReal", exc.status) from exc
+
+    def read(self) -> None:
+        """Refresh the output row without stepping."""
+        status = self._get(*self._get_args)
+        if status != 0:
+            self._raise_status("GetReal", status)
+
+    def reset(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
+        """FMI Reset, then parameterise and initialise again at the start time."""
+        self._checked("Reset", self._slave.reset)
+        self.t_s = self._start_time_s
+        self._set_parameters(parameters, pose)
+        self.read()
+
+    def free(self) -> None:
+        """Terminate (when possible) and free the instance; safe to call twice."""
+        if self._freed:
+            return
+        self._freed = True
+        with contextlib.suppress(Exception):  # already in an error state: freeing is still right
+            self._slave.terminate()
+        fn = self._slave.fmi2FreeInstance if self.lib.fmi_version == 2 else self._slave.fmi3FreeInstance
+        fn(self._slave.component)
+        # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.

@@ -1,0 +1,378 @@
+"""Build the built-in vehicle FMUs (FMI 2.0 and 3.0 Co-Simulation) from fmu_models/.
+
+A model folder holds ``config.h`` (identity and the variable table as an X-macro) and
+``model.c``; ``fmu_models/common`` holds the model core and the two FMI wrappers. The variable
+table is the single source: the C core compiles it, and this module parses it to write both
+``modelDescription.xml`` files. Builds land in a content-hashed cache (sources, compiler
+version, flags), so a second call costs only the hash.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+import xml.etree.ElementTree as ET
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import fmpy
+import platformdirs
+
+from lfctl.errors import BuildToolError, FmuError
+
+log = logging.getLogger(__name__)
+
+#: Repository folder with the C sources (editable install: next to the package).
+MODELS_DIR = Path(__file__).resolve().parents[2] / "fmu_models"
+COMMON_DIR = MODELS_DIR / "common"
+CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fvisibility=hidden", "-fPIC", "-shared")
+#: Bump when the generated XML or archive layout changes, to invalidate old caches.
+GENERATOR_VERSION = "3"
+
+_UNIT_BASE = {  # unit name -> SI base-unit exponents for <BaseUnit>
+    "m": {"m": 1},
+    "s": {"s": 1},
+    "rad": {"rad": 1},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "rad/s": {"rad": 1, "s": -1},
+}
+
+_VAR_RE = re.compile(
+    r"X\(\s*(\w+)\s*,\s*(INPUT|OUTPUT|PARAMETER)\s*,\s*(FIXED|TUNABLE|CONTINUOUS)\s*,\s*"
+    r'([-+0-9.eE]+)\s*,\s*"([^"]*)"\s*,\s*"([^"]*)"\s*\)'
+)
+
+
+@dataclass(frozen=True)
+class ModelVariable:
+    """One variable of a built-in model, as declared in its config.h."""
+
+    value_reference: int
+    name: str
+    causality: str  # "input" | "output" | "parameter" | "independent"
+    variability: str  # "fixed" | "tunable" | "continuous"
+    start: float
+    unit: str
+    description: str
+
+
+@dataclass(frozen=True)
+class ModelSource:
+    """A built-in model's identity and variable table, parsed from config.h."""
+
+    identifier: str
+    token: str
+    description: str
+    n_states: int
+    variables: tuple[ModelVariable, ...]
+    folder: Path
+
+
+@dataclass(frozen=True)
+class BuiltModel:
+    """Paths of one model's built FMUs."""
+
+    identifier: str
+    fmi2: Path
+    fmi3: Path
+
+    def path(self, fmi_version: int) -> Path:
+        """The FMU for FMI ``fmi_version`` (2 or 3)."""
+        if fmi_version == 2:
+            return self.fmi2
+        if fmi_version == 3:
+            return self.fmi3
+        raise FmuError(f"FMI version must be 2 or 3, got {fmi_version!r}", model=self.identifier)
+
+
+def _define(text: str, name: str, config: Path) -> str:
+    m = re.search(rf"#define\s+{name}\s+(.+)", text)
+    if not m:
+        raise FmuError(f"{config}: missing #define {name}", model=str(config.parent.name))
+    return m.group(1).strip().strip('"')
+
+
+def parse_model_source(folder: Path) -> ModelSource:
+    """Parse a model folder's config.h into a :class:`ModelSource`."""
+    config = folder / "config.h"
+    try:
+        text = config.read_text()
+    except OSError as exc:
+        raise FmuError(f"cannot read {config}: {exc}", model=folder.name) from exc
+    variables = [ModelVariable(0, "time", "independent", "continuous", 0.0, "s", "Simulation time")]
+    for i, m in enumerate(_VAR_RE.finditer(text), start=1):
+        name, caus, var, start, unit, desc = m.groups()
+        variables.append(ModelVariable(i, name, caus.lower(), var.lower(), float(start), unit, desc))
+    if len(variables) == 1:
+        raise FmuError(f"{config}: no X(...) variables in MODEL_VARIABLES", model=folder.name)
+    return ModelSource(
+        identifier=_define(text, "MODEL_IDENTIFIER", config),
+        token=_define(text, "INSTANTIATION_TOKEN", config),
+        description=_define(text, "MODEL_DESCRIPTION_TEXT", config),
+        n_states=int(_define(text, "N_STATES", config)),
+        variables=tuple(variables),
+        folder=folder,
+    )
+
+
+def available_models() -> list[str]:
+    """Names of the built-in models (folders of fmu_models/ with a config.h)."""
+    if not MODELS_DIR.is_dir():
+        return []
+    return sorted(p.name for p in MODELS_DIR.iterdir() if (p / "config.h").is_file())
+
+
+def _units_element(parent: ET.Element, units: set[str], fmi_version: int) -> None:
+    defs = ET.SubElement(parent, "UnitDefinitions")
+    for unit in sorted(u for u in units if u in _UNIT_BASE):
+        el = ET.SubElement(defs, "Unit", name=unit)
+        ET.SubElement(el, "BaseUnit", {k: str(v) for k, v in _UNIT_BASE[unit].items()})
+
+
+def _fmt(value: float) -> str:
+    return repr(float(value))
+
+
+def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
+    """The modelDescription.xml of ``src`` for FMI ``fmi_version`` (2 or 3)."""
+    units = {v.unit for v in src.variables if v.unit in _UNIT_BASE}
+    sources = ["model_core.c", f"fmi{fmi_version}_wrapper.c", "model.c"]
+    if fmi_version == 2:
+        root = ET.Element(
+            "fmiModelDescription",
+            fmiVersion="2.0",
+            modelName=src.identifier,
+            guid=src.token,
+            description=src.description,
+            generationTool=f"lfctl {GENERATOR_VERSION}",
+            variableNamingConvention="flat",
+            numberOfEventIndicators="0",
+        )
+        cs = ET.SubElement(
+            root,
+            "CoSimulation",
+            modelIdentifier=src.identifier,
+            canHandleVariableCommunicationStepSize="true",
+            canGetAndSetFMUstate="true",
+            canSerializeFMUstate="true",
+            canNotUseMemoryManagementFunctions="true",
+        )
+        files = ET.SubElement(cs, "SourceFiles")
+        for name in sources:
+            ET.SubElement(files, "File", name=name)
+        _units_element(root, units, 2)
+        ET.SubElement(root, "DefaultExperiment", startTime="0", stopTime="10", stepSize="0.01")
+        mvars = ET.SubElement(root, "ModelVariables")
+        for v in src.variables:
+            attrs = {
+                "name": v.name,
+                "valueReference": str(v.value_reference),
+                "causality": v.causality,
+                "variability": v.variability,
+                "description": v.description,
+            }
+            real = {"unit": v.unit} if v.unit in _UNIT_BASE else {}
+            if v.causality in ("input", "parameter"):
+                real["start"] = _fmt(v.start)
+            if v.causality == "output":
+                attrs["initial"] = "calculated"
+            sv = ET.SubElement(mvars, "ScalarVariable", attrs)
+            ET.SubElement(sv, "Real", real)
+        ms = ET.SubElement(root, "ModelStructure")
+        outputs = ET.SubElement(ms, "Outputs")
+        initial = ET.SubElement(ms, "InitialUnknowns")
+        for index, v in enumerate(src.variables, start=1):  # 1-based ScalarVariable index
+            if v.causality == "output":
+                ET.SubElement(outputs, "Unknown", index=str(index))
+                ET.SubElement(initial, "Unknown", index=str(index))
+    else:
+        root = ET.Element(
+            "fmiModelDescription",
+            fmiVersion="3.0",
+            modelName=src.identifier,
+            instantiationToken=src.token,
+            description=src.description,
+            generationTool=f"lfctl {GENERATOR_VERSION}",
+            variableNamingConvention="flat",
+        )
+        ET.SubElement(
+            root,
+            "CoSimulation",
+            modelIdentifier=src.identifier,
+            canHandleVariableCommunicationStepSize="true",
+            canGetAndSetFMUState="true",
+            canSerializeFMUState="true",
+            hasEventMode="false",
+            providesIntermediateUpdate="false",
+        )
+        _units_element(root, units, 3)
+        ET.SubElement(root, "DefaultExperiment", startTime="0", stopTime="10", stepSize="0.01")
+        mvars = ET.SubElement(root, "ModelVariables")
+        for v in src.variables:
+            attrs = {
+                "name": v.name,
+                "valueReference": str(v.value_reference),
+                "causality": v.causality,
+                "variability": v.variability,
+                "description": v.description,
+            }
+            if v.unit in _UNIT_BASE:
+                attrs["unit"] = v.unit
+            if v.causality in ("input", "parameter"):
+                attrs["start"] = _fmt(v.start)
+            if v.causality == "output":
+                attrs["initial"] = "calculated"
+            ET.SubElement(mvars, "Float64", attrs)
+        ms = ET.SubElement(root, "ModelStructure")
+        for v in src.variables:
+            if v.causality == "output":
+                ET.SubElement(ms, "Output", valueReference=str(v.value_reference))
+        for v in src.variables:
+            if v.causality == "output":
+                ET.SubElement(ms, "InitialUnknown", valueReference=str(v.value_reference))
+    ET.indent(root)
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+def build_description_xml(src: ModelSource) -> bytes:
+    """FMI 3 ``sources/buildDescription.xml`` so importers can rebuild the binary."""
+    root = ET.Element("fmiBuildDescription", fmiVersion="3.0")
+    cfg = ET.SubElement(root, "BuildConfiguration", modelIdentifier=src.identifier)
+    fileset = ET.SubElement(cfg, "SourceFileSet", language="C99")
+    for name in ("model_core.c", "fmi3_wrapper.c", "model.c"):
+        ET.SubElement(fileset, "SourceFile", name=name)
+    ET.indent(root)
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+def find_compiler() -> str:
+    """Path of the system C compiler (cc, gcc or clang), or a :class:`BuildToolError`."""
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    raise BuildToolError(
+        "no C compiler on PATH (looked for cc, gcc, clang): the vehicle FMUs are built from C; "
+        "install one, e.g. `apt-get install gcc` on Debian/Ubuntu",
+        call="build",
+    )
+
+
+def _compiler_version(compiler: str) -> str:
+    try:
+        out = subprocess.run([compiler, "--version"], capture_output=True, text=True, timeout=30, check=True)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise BuildToolError(f"C compiler {compiler} does not run: {exc}", call="build") from exc
+    return out.stdout.splitlines()[0] if out.stdout else compiler
+
+
+def _source_files(src_folder: Path, fmi_version: int) -> list[Path]:
+    return [
+        COMMON_DIR / "model_core.h",
+        COMMON_DIR / "model_core.c",
+        COMMON_DIR / f"fmi{fmi_version}_wrapper.c",
+        src_folder / "config.h",
+        src_folder / "model.c",
+    ]
+
+
+def cache_key(src: ModelSource, compiler_version: str) -> str:
+    """Content hash of everything that determines the built FMUs."""
+    h = hashlib.sha256()
+    for part in (GENERATOR_VERSION, compiler_version, " ".join(CFLAGS), fmpy.__version__):
+        h.update(part.encode() + b"\0")
+    for fmi in (2, 3):
+        for f in _source_files(src.folder, fmi):
+            h.update(f.name.encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def default_cache_dir() -> Path:
+    """Where built FMUs are kept: the user cache directory (``~/.cache/lfctl/fmu`` on Linux)."""
+    return Path(platformdirs.user_cache_dir("lfctl")) / "fmu"
+
+
+def _compile(compiler: str, sources: list[Path], include_dirs: list[Path], out: Path, model: str) -> None:
+    cmd = [compiler, *CFLAGS, *(f"-I{d}" for d in include_dirs), *(str(s) for s in sources), "-lm", "-o", str(out)]
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise BuildToolError(f"compiling {model} failed to start: {exc}", model=model, call="compile") from exc
+    if res.returncode != 0:
+        raise BuildToolError(
+            f"compiling {model} failed (exit {res.returncode}):\n{res.stderr.strip()}", model=model, call="compile"
+        )
+
+
+def _package(src: ModelSource, fmi_version: int, compiler: str, work: Path, out: Path) -> None:
+    stage = work / f"fmi{fmi_version}"
+    sources_dir = stage / "sources"
+    sources_dir.mkdir(parents=True)
+    for f in _source_files(src.folder, fmi_version):
+        shutil.copy2(f, sources_dir / f.name)
+    platform = fmpy.platform if fmi_version == 2 else fmpy.platform_tuple
+    bin_dir = stage / "binaries" / platform
+    bin_dir.mkdir(parents=True)
+    c_sources = [sources_dir / n for n in ("model_core.c", f"fmi{fmi_version}_wrapper.c", "model.c")]
+    fmi_headers = Path(fmpy.__file__).parent / "c-code"
+    _compile(compiler, c_sources, [sources_dir, fmi_headers], bin_dir / f"{src.identifier}.so", src.identifier)
+    (stage / "modelDescription.xml").write_bytes(model_description_xml(src, fmi_version))
+    if fmi_version == 3:
+        (sources_dir / "buildDescription.xml").write_bytes(build_description_xml(src))
+    readme = src.folder / "readme.md"
+    if readme.is_file():
+        (stage / "documentation").mkdir()
+        shutil.copy2(readme, stage / "documentation" / "readme.md")
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zf:
+        for f in sorted(stage.rglob("*")):
+            if f.is_file():
+                zf.write(f, f.relative_to(stage).as_posix())
+
+
+def build_model(name: str, cache_dir: Path | None = None, *, force: bool = False) -> BuiltModel:
+    """Build (or fetch from the cache) FMI 2 and FMI 3 FMUs of built-in model ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A folder of fmu_models/, e.g. ``"SkidSteerRover"``.
+    cache_dir : Path, optional
+        Cache root; default :func:`default_cache_dir`.
+    force : bool
+        Rebuild even when the cache has this content hash.
+    """
+    folder = MODELS_DIR / name
+    if not (folder / "config.h").is_file():
+        known = ", ".join(available_models()) or "none"
+        raise FmuError(f"unknown built-in model {name!r} (known: {known})", model=name, call="build")
+    src = parse_model_source(folder)
+    compiler = find_compiler()
+    key = cache_key(src, _compiler_version(compiler))
+    root = (cache_dir or default_cache_dir()) / f"{src.identifier}-{key}"
+    built = BuiltModel(src.identifier, root / f"{src.identifier}.fmi2.fmu", root / f"{src.identifier}.fmi3.fmu")
+    if not force and built.fmi2.is_file() and built.fmi3.is_file():
+        return built
+    root.parent.mkdir(parents=True, exist_ok=True)
+    log.info("building %s FMUs into %s", src.identifier, root)
+    with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
+        work = Path(tmp)
+        out_dir = work / "out"
+        out_dir.mkdir()
+        for fmi in (2, 3):
+            _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
+        if root.exists():
+            shutil.rmtree(root)
+        os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
+    return built
+
+
+def build_all(cache_dir: Path | None = None, *, force: bool = False) -> list[BuiltModel]:
+    """Build every built-in model; see :func:`build_model`."""
+    return [build_model(name, cache_dir, force=force) for name in available_models()]

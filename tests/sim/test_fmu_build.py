@@ -1,0 +1,128 @@
+"""Building the vehicle FMUs: validity, archive contents, cache, missing compiler, sanitizers."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import fmpy
+import pytest
+from fmpy.validation import validate_fmu
+
+from lfctl.errors import BuildToolError, FmuError
+from lfctl.sim import fmu_build
+from lfctl.sim.fmu_build import available_models, build_model, parse_model_source
+
+pytestmark = pytest.mark.fmu
+
+
+def test_every_model_is_listed() -> None:
+    assert {"SkidSteerRover", "KinematicUnicycle"} <= set(available_models())
+
+
+@pytest.mark.parametrize("model", ["SkidSteerRover", "KinematicUnicycle"])
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_fmu_passes_fmpy_validator_with_zero_problems(model: str, fmi: int) -> None:
+    path = build_model(model).path(fmi)
+    assert validate_fmu(str(path)) == []
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_archive_carries_sources_binary_and_description(rover, fmi: int) -> None:
+    names = set(zipfile.ZipFile(rover.path(fmi)).namelist())
+    platform = fmpy.platform if fmi == 2 else fmpy.platform_tuple
+    assert f"binaries/{platform}/SkidSteerRover.so" in names
+    assert {
+        "modelDescription.xml",
+        "sources/model.c",
+        "sources/config.h",
+        "sources/model_core.c",
+        "sources/model_core.h",
+    } <= names
+    assert f"sources/fmi{fmi}_wrapper.c" in names
+    if fmi == 3:
+        assert "sources/buildDescription.xml" in names
+
+
+def test_variable_table_matches_description(rover) -> None:
+    src = parse_model_source(fmu_build.MODELS_DIR / "SkidSteerRover")
+    md = fmpy.read_model_description(str(rover.fmi2))
+    assert [(v.name, v.valueReference) for v in md.modelVariables] == [
+        (v.name, v.value_reference) for v in src.variables
+    ]
+    units = {v.name: v.unit for v in md.modelVariables}
+    assert units["yaw_rate_cmd"] == "rad/s" and units["north"] == "m" and units["tau"] == "s"
+
+
+def test_second_build_is_a_cache_hit(tmp_path: Path) -> None:
+    first = build_model("KinematicUnicycle", tmp_path)
+    stamp = first.fmi2.stat().st_mtime_ns
+    second = build_model("KinematicUnicycle", tmp_path)
+    assert second == first and second.fmi2.stat().st_mtime_ns == stamp
+
+
+def test_cache_key_changes_with_compiler_version() -> None:
+    src = parse_model_source(fmu_build.MODELS_DIR / "SkidSteerRover")
+    assert fmu_build.cache_key(src, "gcc 12.2.0") != fmu_build.cache_key(src, "gcc 13.1.0")
+
+
+def test_no_compiler_gives_an_error_saying_what_to_install(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    with pytest.raises(BuildToolError, match=r"no C compiler on PATH.*apt-get install gcc"):
+        build_model("SkidSteerRover", tmp_path)
+
+
+def test_unknown_model_is_named() -> None:
+    with pytest.raises(FmuError, match=r"unknown built-in model 'Tank'.*SkidSteerRover"):
+        build_model("Tank")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_c_harness_is_clean_under_address_and_leak_sanitizers(tmp_path: Path, fmi: int) -> None:
+    cc = fmu_build.find_compiler()
+    headers = Path(fmpy.__file__).parent / "c-code"
+    repo = fmu_build.MODELS_DIR
+    exe = tmp_path / "harness"
+    cmd = [
+        cc, "-std=c99", "-g", "-fsanitize=address,undefined", "-fno-omit-frame-pointer", f"-DFMI_VERSION={fmi}",
+        "-Wall", "-Wextra", "-Werror", "-Wno-unused-parameter",
+        f"-I{repo / 'SkidSteerRover'}", f"-I{repo / 'common'}", f"-I{headers}",
+        str(Path(__file__).parents[1] / "c" / "harness.c"), str(repo / "common" / "model_core.c"),
+        str(repo / "common" / f"fmi{fmi}_wrapper.c"), str(repo / "SkidSteerRover" / "model.c"), "-lm", "-o", str(exe),
+    ]  # fmt: skip
+    build = subprocess.run(cmd, capture_output=True, text=True)
+    if build.returncode != 0 and "asan" in build.stderr.lower():
+        pytest.skip(f"this compiler has no AddressSanitizer runtime: {build.stderr.strip()[:200]}")
+    assert build.returncode == 0, build.stderr
+    run = subprocess.run(
+        [str(exe)],
+        capture_output=True,
+        text=True,
+        env={"ASAN_OPTIONS": "detect_leaks=1:halt_on_error=1", "UBSAN_OPTIONS": "halt_on_error=1"},
+    )
+    assert run.returncode == 0, run.stderr
+    assert f"fmi{fmi} harness ok" in run.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_fmpy_rebuilds_the_binary_from_the_shipped_sources(rover, tmp_path: Path, fmi: int) -> None:
+    """The archive alone is enough for an importer to compile it on another platform."""
+    from fmpy import extract, simulate_fmu
+    from fmpy.build import build_platform_binary
+
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake not on PATH (fmpy's build uses it)")
+    source_only = tmp_path / "source_only.fmu"
+    with zipfile.ZipFile(rover.path(fmi)) as zin, zipfile.ZipFile(source_only, "w") as zout:
+        for item in zin.infolist():
+            if not item.filename.startswith("binaries/"):
+                zout.writestr(item, zin.read(item.filename))
+    unzipdir = Path(extract(str(source_only), unzipdir=tmp_path / "x")).resolve()
+    build_platform_binary(unzipdir, cmake_options={"CMAKE_C_STANDARD_LIBRARIES:STRING": "-lm"})
+    rebuilt = simulate_fmu(str(unzipdir), stop_time=1.0, start_values={"speed_cmd": 0.3})
+    original = simulate_fmu(str(rover.path(fmi)), stop_time=1.0, start_values={"speed_cmd": 0.3})
+    assert tuple(rebuilt[-1]) == tuple(original[-1])

@@ -1,0 +1,212 @@
+"""The SkidSteerRover equations checked against analytic results, and the FMU's error paths."""
+
+from __future__ import annotations
+
+import math
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from lfctl.errors import ConfigError, FmuError
+from lfctl.sim.fmu import OUTPUT_ROLES, FmuLibrary
+
+pytestmark = pytest.mark.fmu
+
+FAST_WHEELS = {"max_wheel_accel": 1000.0, "max_wheel_speed": 5.0}
+
+
+def run(
+    path: Path,
+    params: dict[str, float],
+    commands: list[tuple[float, float, float]],
+    dt: float = 0.01,
+    pose=(0.0, 0.0, 0.0),
+) -> np.ndarray:
+    """Run one vehicle through (duration_s, speed, yaw_rate) segments; rows of outputs per step."""
+    cmd, out = np.zeros(2), np.zeros(len(OUTPUT_ROLES))
+    rows = [out.copy()]
+    with FmuLibrary(path) as lib:
+        inst = lib.instantiate("v", params, pose, cmd, out)
+        rows = [out.copy()]
+        for duration, speed, yaw_rate in commands:
+            cmd[:] = (speed, yaw_rate)
+            for _ in range(round(duration / dt)):
+                inst.step(dt)
+                rows.append(out.copy())
+    return np.array(rows)
+
+
+def test_straight_line_distance_matches_first_order_lag(rover) -> None:
+    # x(t) = v (t - tau (1 - exp(-t / tau))) for a first-order wheel lag from rest
+    v, tau, t = 0.4, 0.15, 10.0
+    rows = run(rover.fmi2, {**FAST_WHEELS, "tau": tau}, [(t, v, 0.0)])
+    expected = v * (t - tau * (1 - math.exp(-t / tau)))
+    assert rows[-1, 0] == pytest.approx(expected, abs=1e-9)
+    assert rows[-1, 1] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_wheel_lag_reaches_63_percent_at_tau(rover) -> None:
+    tau = 0.2
+    rows = run(rover.fmi2, {**FAST_WHEELS, "tau": tau}, [(tau, 0.5, 0.0)], dt=tau)
+    assert rows[-1, 3] == pytest.approx(0.5 * (1 - math.exp(-1)), abs=1e-6)  # 0.316 m/s
+
+
+def test_acceleration_limit_caps_the_speed_ramp(rover) -> None:
+    rows = run(rover.fmi2, {"max_wheel_accel": 0.5, "tau": 0.01}, [(0.4, 0.5, 0.0)])
+    assert rows[-1, 3] == pytest.approx(0.5 * 0.4, rel=1e-3)  # a_max * t while the limit binds
+
+
+def test_steady_turn_radius_is_speed_over_achieved_yaw_rate(rover) -> None:
+    v, r_cmd, skid = 0.3, 0.5, 0.8
+    rows = run(rover.fmi2, {**FAST_WHEELS, "skid_factor": skid}, [(40.0, v, r_cmd)])
+    assert rows[-1, 4] == pytest.approx(skid * r_cmd, rel=1e-9)  # achieved yaw rate
+    radius = v / (skid * r_cmd)  # 0.75 m
+    # over the last full circle the positions lie on a circle of that radius
+    period = 2 * math.pi / (skid * r_cmd)
+    tail = rows[-int(period / 0.01) :, :2]
+    centre = tail.mean(axis=0)
+    assert np.linalg.norm(tail - centre, axis=1) == pytest.approx(np.full(len(tail), radius), abs=1e-3)
+
+
+def test_wheel_speed_saturation_limits_speed(rover) -> None:
+    rows = run(rover.fmi2, {"max_wheel_speed": 0.5}, [(5.0, 2.0, 0.0)])
+    assert rows[-1, 3] == pytest.approx(0.5, abs=1e-9)
+
+
+def test_fmi2_and_fmi3_give_the_same_trajectory(rover) -> None:
+    profile = [(3.0, 0.4, 0.0), (4.0, 0.3, 0.6), (2.0, -0.2, -1.0)]
+    a = run(rover.fmi2, {}, profile, pose=(1.0, -2.0, 0.3))
+    b = run(rover.fmi3, {}, profile, pose=(1.0, -2.0, 0.3))
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-9)
+
+
+def test_instances_are_independent(rover) -> None:
+    cmd, out = np.zeros((2, 2)), np.zeros((2, 5))
+    with FmuLibrary(rover.fmi2) as lib:
+        a = lib.instantiate("a", {}, (0, 0, 0), cmd[0], out[0])
+        b = lib.instantiate("b", {"tau": 0.5}, (5, 5, 1.0), cmd[1], out[1])
+        cmd[0] = (0.4, 0.2)
+        cmd[1] = (0.1, -0.3)
+        for _ in range(300):
+            a.step(0.01)
+            b.step(0.01)
+    solo = run(rover.fmi2, {}, [(3.0, 0.4, 0.2)])
+    np.testing.assert_array_equal(out[0], solo[-1])
+    assert not np.allclose(out[0], out[1])
+
+
+def test_reset_restores_the_initial_state(rover) -> None:
+    cmd, out = np.zeros(2), np.zeros(5)
+    with FmuLibrary(rover.fmi3) as lib:
+        inst = lib.instantiate("a", {}, (1.0, 2.0, 0.5), cmd, out)
+        initial = out.copy()
+        cmd[:] = (0.4, 0.3)
+        for _ in range(100):
+            inst.step(0.01)
+        assert not np.allclose(out, initial)
+        inst.reset({}, (1.0, 2.0, 0.5))
+        np.testing.assert_array_equal(out, initial)
+        assert inst.t_s == 0.0
+        inst.step(0.01)  # steps again after reset
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_parameter_after_initialisation_is_an_fmu_error_naming_it(rover, fmi: int) -> None:
+    with FmuLibrary(rover.path(fmi)) as lib:
+        inst = lib.instantiate("a", {}, (0, 0, 0), np.zeros(2), np.zeros(5))
+        with pytest.raises(FmuError, match=r"fixed parameter tau cannot be set after initialization"):
+            inst.set_real({"tau": 0.3})
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+def test_non_finite_input_is_an_fmu_error_naming_it(rover, fmi: int, value: float) -> None:
+    with FmuLibrary(rover.path(fmi)) as lib:
+        inst = lib.instantiate("a", {}, (0, 0, 0), np.zeros(2), np.zeros(5))
+        with pytest.raises(FmuError, match=r"variable yaw_rate_cmd must be finite"):
+            inst.set_real({"yaw_rate_cmd": value})
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("dt", [0.0, -0.01])
+def test_non_positive_step_is_an_fmu_error(rover, fmi: int, dt: float) -> None:
+    with FmuLibrary(rover.path(fmi)) as lib:
+        inst = lib.instantiate("a", {}, (0, 0, 0), np.zeros(2), np.zeros(5))
+        with pytest.raises(FmuError, match=r"DoStep.*communicationStepSize must be > 0") as info:
+            inst.step(dt)
+        assert info.value.status == 3 and info.value.model == "SkidSteerRover"
+
+
+def test_invalid_parameter_value_is_named_at_initialisation(rover) -> None:
+    with (
+        FmuLibrary(rover.fmi2) as lib,
+        pytest.raises(FmuError, match=r"parameter skid_factor: must be in \(0, 1\], got 1.5"),
+    ):
+        lib.instantiate("a", {"skid_factor": 1.5}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
+def test_unknown_parameter_is_a_config_error(rover) -> None:
+    with FmuLibrary(rover.fmi2) as lib, pytest.raises(ConfigError, match=r"parameter 'wheelbase' does not exist"):
+        lib.instantiate("a", {"wheelbase": 0.3}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
+def test_missing_fmu_file_is_an_fmu_error(tmp_path: Path) -> None:
+    with pytest.raises(FmuError, match=r"does not exist"):
+        FmuLibrary(tmp_path / "nope.fmu")
+
+
+def test_truncated_fmu_is_an_fmu_error(rover, tmp_path: Path) -> None:
+    data = rover.fmi2.read_bytes()
+    bad = tmp_path / "cut.fmu"
+    bad.write_bytes(data[: len(data) // 2])
+    with pytest.raises(FmuError, match=r"not an FMU: not a readable zip archive"):
+        FmuLibrary(bad)
+
+
+def test_png_renamed_fmu_is_an_fmu_error(tmp_path: Path) -> None:
+    bad = tmp_path / "image.fmu"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(100))
+    with pytest.raises(FmuError, match=r"image.fmu is not an FMU"):
+        FmuLibrary(bad)
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_wrong_guid_is_an_fmu_error_naming_the_token(rover, tmp_path: Path, fmi: int) -> None:
+    src = rover.path(fmi)
+    bad = tmp_path / "wrong.fmu"
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = data.replace(b"{3f0c9a52-", b"{00000000-")
+            zout.writestr(item, data)
+    with FmuLibrary(bad) as lib, pytest.raises(FmuError, match=r"does not match .*3f0c9a52"):
+        lib.instantiate("a", {}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
+def test_fmu_state_get_set_rolls_back(rover) -> None:
+    """canGetAndSetFMUstate is declared: a plain fmpy importer can roll the rover back."""
+    md = read_model_description(str(rover.fmi2))
+    unzip = extract(str(rover.fmi2))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier="SkidSteerRover", instanceName="s")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    s.setReal([1], [0.4])
+    for k in range(50):
+        s.doStep(k * 0.01, 0.01)
+    saved = s.getFMUstate()
+    here = s.getReal([3, 4, 5])
+    for k in range(50, 100):
+        s.doStep(k * 0.01, 0.01)
+    assert s.getReal([3]) != here[:1]
+    s.setFMUstate(saved)
+    assert s.getReal([3, 4, 5]) == here
+    s.freeFMUstate(saved)
+    s.terminate()
+    s.freeInstance()

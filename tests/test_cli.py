@@ -1,0 +1,92 @@
+"""The command line: what a user types, what comes back, exit codes 0 / 1 / 2."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from lfctl.cli import main
+
+ROOT = Path(__file__).parents[1]
+
+
+def test_sim_convoy_prints_a_summary(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", str(ROOT / "examples" / "convoy.toml"), "--duration", "5", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "scenario     convoy" in out and "sim time     5.00 s in 500 steps of 10 ms" in out
+    assert "real-time    x" in out
+    assert "leader" in out and "follower1" in out
+
+
+def test_sim_seed_and_duration_override(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", str(ROOT / "examples" / "column5.toml"), "--duration", "2", "--seed", "7", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "(seed 7, lockstep)" in out and "f4" in out
+
+
+def test_bad_scenario_exits_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[sim]\ndt_s = -1\n[[vehicles]]\nname = "a"\nrole = "leader"\n')
+    assert main(["sim", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "sim.dt_s must be > 0, got -1.0" in err and "Traceback" not in err
+
+
+def test_corrupt_user_fmu_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    fmu = tmp_path / "broken.fmu"
+    fmu.write_bytes(b"PK\x03\x04 not really")
+    scen = tmp_path / "s.toml"
+    scen.write_text(f'[[vehicles]]\nname = "a"\nrole = "leader"\nfmu = "{fmu}"\n')
+    assert main(["sim", str(scen), "--duration", "1"]) == 1
+    assert "broken.fmu is not an FMU" in capsys.readouterr().err
+
+
+def test_fmu_info_lists_variables_with_units(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fmu", "info", "SkidSteerRover", "--fmi-version", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "FMI 3.0" in out
+    line = next(x for x in out.splitlines() if x.startswith("yaw_rate_cmd"))
+    assert "input" in line and "rad/s" in line
+
+
+def test_fmu_info_unknown_target_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fmu", "info", "NoSuchModel"]) == 2
+    assert "neither an FMU file nor a built-in model" in capsys.readouterr().err
+
+
+def test_fmu_build_prints_both_versions(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fmu", "build", "SkidSteerRover"]) == 0
+    out = capsys.readouterr().out
+    assert "FMI 2.0" in out and "FMI 3.0" in out and ".fmi3.fmu" in out
+
+
+def test_unknown_benchmark_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "nope"]) == 2
+    assert "unknown benchmark 'nope' (known: cosim" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.integration
+def test_bench_cosim_prints_table_and_json_line() -> None:
+    out = subprocess.run(
+        [sys.executable, "-m", "lfctl", "bench", "cosim", "--quick"],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=ROOT,
+    ).stdout
+    lines = out.strip().splitlines()
+    assert any(line.startswith("| vehicles") for line in lines)
+    record = json.loads(lines[-1])
+    assert record["benchmark"] == "cosim"
+    assert [r["vehicles"] for r in record["results"]] == [1, 2, 10, 50]
+    assert all(r["master_over_baseline_ratio"] > 0 for r in record["results"])
+
+
+def test_python_dash_m_help() -> None:
+    out = subprocess.run([sys.executable, "-m", "lfctl", "--help"], capture_output=True, text=True, check=True).stdout
+    assert "sim" in out and "fmu" in out and "bench" in out

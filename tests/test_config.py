@@ -1,0 +1,104 @@
+"""Scenario loading: every error names the key, the value and the expectation."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from lfctl.config import load_config, parse_config
+from lfctl.errors import ConfigError
+
+LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
+FOLLOWER = '[[vehicles]]\nname = "f{n}"\nrole = "follower"\n'
+
+
+def test_examples_load() -> None:
+    root = Path(__file__).parents[1] / "examples"
+    convoy = load_config(root / "convoy.toml")
+    assert convoy.name == "convoy" and [v.name for v in convoy.vehicles] == ["leader", "follower1"]
+    column = load_config(root / "column5.toml")
+    assert len(column.followers) == 4
+
+
+def test_degrees_become_radians_once() -> None:
+    cfg = parse_config(LEADER + "yaw_deg = 90.0\n" + FOLLOWER.format(n=1) + "bearing_deg = -30\n")
+    assert cfg.leader.yaw_rad == pytest.approx(math.pi / 2)
+    assert cfg.followers[0].bearing_rad == pytest.approx(-math.pi / 6)
+
+
+def test_defaults_fill_the_sim_section() -> None:
+    cfg = parse_config(LEADER)
+    assert cfg.sim.dt_s == 0.01 and cfg.sim.clock == "lockstep" and cfg.name == "scenario"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[sim]\ndt_s = -0.01\n" + LEADER, r"sim\.dt_s must be > 0, got -0\.01"),
+        ("[sim]\ndt_s = 0\n" + LEADER, r"sim\.dt_s must be > 0, got 0"),
+        ("[sim]\nduration_s = 'long'\n" + LEADER, r"sim\.duration_s must be a number, got 'long'"),
+        ("[sim]\nclock = 'fast'\n" + LEADER, r"sim\.clock must be one of 'lockstep', 'realtime', got 'fast'"),
+        (
+            "[sim]\nguidance_rate_hz = 500\n" + LEADER,
+            r"guidance_rate_hz = 500.0 Hz is faster than the physics rate 1/dt = 100 Hz",
+        ),
+        ("[sim]\nspeed = 3\n" + LEADER, r"unknown key 'sim\.speed' \(allowed here: .*dt_s"),
+        ("", r"need at least one \[\[vehicles\]\] entry, got none"),
+        ("vehicles = 3", r"vehicles must be an array of tables"),
+        (FOLLOWER.format(n=1), r"need exactly one role = \"leader\", got 0"),
+        (
+            LEADER + LEADER.replace('"leader"\nrole', '"l2"\nrole'),
+            r"need exactly one role = \"leader\", got 2 \(\['leader', 'l2'\]\)",
+        ),
+        (LEADER + LEADER, r"vehicles\.name must be unique, got \['leader'\]"),
+        (FOLLOWER.format(n=1) + LEADER, r"the leader must come first, got 'f1' first"),
+        (LEADER + 'role2 = "x"\n', r"unknown key 'vehicles\[leader\]\.role2'"),
+        (LEADER + "yaw_rad = 1.0\n", r"unknown key 'vehicles\[leader\]\.yaw_rad'.*yaw_deg"),
+        (LEADER + "north_m = true\n", r"vehicles\[leader\]\.north_m must be a number, got True"),
+        (LEADER + "fmi_version = 1\n", r"vehicles\[leader\]\.fmi_version must be 2 or 3, got 1"),
+        ('[[vehicles]]\nrole = "leader"\n', r"vehicles\[0\]: missing required key\(s\) 'name'"),
+        ('[[vehicles]]\nname = "a b"\nrole = "leader"\n', r"vehicles\.name must be letters, digits"),
+        (LEADER + FOLLOWER.format(n=1) + "range_m = -1.5\n", r"vehicles\[f1\]\.range_m must be > 0, got -1\.5"),
+        (
+            LEADER + FOLLOWER.format(n=1) + "bearing_deg = 200\n",
+            r"vehicles\[f1\]\.bearing_deg must be within \[-180, 180\], got 200",
+        ),
+        (
+            LEADER + FOLLOWER.format(n=1) + 'target = "ghost"\n',
+            r"vehicles\[f1\]\.target names an unknown vehicle 'ghost'",
+        ),
+        (
+            LEADER + FOLLOWER.format(n=1) + 'target = "f2"\n' + FOLLOWER.format(n=2) + 'target = "f1"\n',
+            r"follower targets form a cycle: f1 -> f2 -> f1",
+        ),
+        (LEADER + "[vehicles.parameters]\ntau = 'slow'\n", r"vehicles\[leader\]\.parameters\.tau must be a number"),
+        (
+            LEADER + "[script]\nleader = [[1.0, 0.3]]\n",
+            r"script\.leader\[0\] must be \[duration_s, speed_mps, yaw_rate_deg_s\]",
+        ),
+        (LEADER + "[script]\nleader = [[-1.0, 0.3, 0]]\n", r"script\.leader\[0\]\[0\] \(duration_s\) must be > 0"),
+        ("[sim\n", r"not valid TOML"),
+    ],
+)
+def test_bad_scenarios_name_the_key(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse_config(text)
+
+
+def test_unreadable_file_is_named(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"cannot read scenario .*missing\.toml"):
+        load_config(tmp_path / "missing.toml")
+
+
+def test_file_errors_carry_the_path(tmp_path: Path) -> None:
+    p = tmp_path / "bad.toml"
+    p.write_text("[sim]\ndt_s = -1\n" + LEADER)
+    with pytest.raises(ConfigError, match=r"bad\.toml: sim\.dt_s must be > 0"):
+        load_config(p)
+
+
+def test_config_error_is_a_value_error() -> None:
+    with pytest.raises(ValueError):
+        parse_config("")

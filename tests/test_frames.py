@@ -1,0 +1,47 @@
+"""Frame conventions and angle wrapping."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lfctl.frames import body_to_ned, geodetic_to_ned, ned_to_body, ned_to_geodetic, range_bearing, wrap_pi
+
+
+@given(st.floats(-1e6, 1e6, allow_nan=False))
+def test_wrap_pi_lands_in_half_open_interval(angle: float) -> None:
+    w = wrap_pi(angle)
+    assert -math.pi < w <= math.pi
+    assert math.isclose(math.sin(w), math.sin(angle), abs_tol=1e-6) and math.isclose(
+        math.cos(w), math.cos(angle), abs_tol=1e-6
+    )
+
+
+def test_wrap_pi_edges() -> None:
+    assert wrap_pi(math.pi) == pytest.approx(math.pi)
+    assert wrap_pi(-math.pi) == pytest.approx(math.pi)
+    assert wrap_pi(3 * math.pi / 2) == pytest.approx(-math.pi / 2)
+
+
+def test_bearing_is_clockwise_positive() -> None:
+    # facing north, a target to the east is 90 deg to the right
+    rng, brg = range_bearing(0.0, 0.0, 0.0, 0.0, 2.0)
+    assert rng == pytest.approx(2.0) and brg == pytest.approx(math.pi / 2)
+
+
+@given(st.floats(-100, 100), st.floats(-100, 100), st.floats(-math.pi, math.pi))
+def test_body_ned_round_trip(n: float, e: float, yaw: float) -> None:
+    f, r = ned_to_body(n, e, yaw)
+    n2, e2 = body_to_ned(f, r, yaw)
+    assert n2 == pytest.approx(n, abs=1e-9) and e2 == pytest.approx(e, abs=1e-9)
+
+
+def test_geodetic_round_trip_and_scale() -> None:
+    home = (12.9716, 77.5946, 900.0)  # Bengaluru
+    lat, lon, alt = ned_to_geodetic(100.0, -50.0, -2.0, *home)
+    n, e, d = geodetic_to_ned(lat, lon, alt, *home)
+    assert (n, e, d) == pytest.approx((100.0, -50.0, -2.0), abs=1e-6)
+    assert lat - home[0] == pytest.approx(100.0 / 111319.49, rel=1e-4)
