@@ -7,13 +7,19 @@ import argparse
 import dataclasses
 import logging
 import math
+import os
 import runpy
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from lfctl import __version__
 from lfctl.errors import ConfigError, FmuError, LfctlError
+
+if TYPE_CHECKING:
+    from lfctl.config import Config
+    from lfctl.sim.runner import RunReport
 
 log = logging.getLogger("lfctl")
 
@@ -28,12 +34,7 @@ def _bench_names() -> list[str]:
 # lfctl sim
 
 
-def cmd_sim(args: argparse.Namespace) -> int:
-    from lfctl.config import load_config
-    from lfctl.sim.cosim import Simulation
-    from lfctl.sim.scripted import scripted_command
-
-    cfg = load_config(args.scenario)
+def _apply_sim_options(cfg: Config, args: argparse.Namespace) -> Config:
     sim_cfg = cfg.sim
     if args.seed is not None:
         sim_cfg = dataclasses.replace(sim_cfg, seed=args.seed)
@@ -41,52 +42,97 @@ def cmd_sim(args: argparse.Namespace) -> int:
         sim_cfg = dataclasses.replace(sim_cfg, duration_s=args.duration)
     if args.realtime:
         sim_cfg = dataclasses.replace(sim_cfg, clock="realtime")
-    cfg = dataclasses.replace(cfg, sim=sim_cfg)
+    if args.sensing is not None:
+        sim_cfg = dataclasses.replace(sim_cfg, sensing=args.sensing)
+    guidance = cfg.guidance
+    if args.controller is not None:
+        guidance = dataclasses.replace(guidance, controller=args.controller)
+    return dataclasses.replace(cfg, sim=sim_cfg, guidance=guidance)
+
+
+def print_report(report: RunReport) -> None:
+    """The run summary: run facts, mission progress, one row per follower."""
+    from lfctl.sim.runner import SETTLE_S
+
+    cfg, result = report.config, report.result
+    print(
+        f"scenario     {cfg.name}  (seed {cfg.sim.seed}, {cfg.sim.clock}, sensing {cfg.sim.sensing}, controller {cfg.guidance.controller})"
+    )
+    print(f"sim time     {result.sim_time_s:.2f} s in {result.ticks} steps of {cfg.sim.dt_s * 1000:g} ms")
+    print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time)")
+    if report.leader_mode == "auto":
+        reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
+        print(f"leader       AUTO: {len(report.waypoints_reached)}/{report.n_waypoints} waypoints reached ({reached})")
+    else:
+        print("leader       scripted speed / yaw-rate profile (no [mission] waypoints)")
+    if report.metrics and cfg.script.followers == "formation":
+        print()
+        print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")
+        head = (
+            "follower",
+            "target",
+            "range_m",
+            "bearing",
+            "rng RMS m",
+            "rng max m",
+            "brg RMS deg",
+            "brg max deg",
+            "min sep m",
+            "tracking s",
+            "occluded s",
+            "lost s",
+        )
+        rows = []
+        for m in report.metrics:
+            st = m.time_in_state_s
+            rows.append((
+                m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
+                f"{m.range_err_rms_m:.3f}", f"{m.range_err_max_m:.3f}", f"{math.degrees(m.bearing_err_rms_rad):.2f}",
+                f"{math.degrees(m.bearing_err_max_rad):.2f}", f"{m.min_separation_m:.2f}",
+                f"{st['tracking']:.1f}", f"{st['occluded']:.1f}", f"{st['lost']:.1f}",
+            ))  # fmt: skip
+        widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
+        for r in [head, *rows]:
+            print(
+                "  ".join(
+                    str(c).rjust(w) if i > 1 else str(c).ljust(w)
+                    for i, (c, w) in enumerate(zip(r, widths, strict=True))
+                )
+            )
+    print()
+    print(f"{'vehicle':<12} {'north_m':>9} {'east_m':>9} {'yaw_deg':>8} {'speed_mps':>10}")
+    for i, name in enumerate(result.names):
+        st = result.final.vehicle(i)
+        print(f"{name:<12} {st.north_m:9.3f} {st.east_m:9.3f} {math.degrees(st.yaw_rad):8.2f} {st.speed_mps:10.3f}")
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    from lfctl.config import load_config
+    from lfctl.sim.runner import run_scenario
+
+    cfg = _apply_sim_options(load_config(args.scenario), args)
     log.info(
         "scenario %s: %d vehicles, %.1f s, dt %.3g s, %s clock",
         cfg.name,
         len(cfg.vehicles),
-        sim_cfg.duration_s,
-        sim_cfg.dt_s,
-        sim_cfg.clock,
+        cfg.sim.duration_s,
+        cfg.sim.dt_s,
+        cfg.sim.clock,
     )
+    show = not args.quiet and sys.stderr.isatty()
 
     def progress(t_s: float, wall_s: float) -> None:
-        if not args.quiet and sys.stderr.isatty():
+        if show:
             rtf = t_s / wall_s if wall_s > 0 else math.inf
-            done = t_s / sim_cfg.duration_s
-            bar = "#" * int(30 * done)
+            bar = "#" * int(30 * t_s / cfg.sim.duration_s)
             print(
-                f"\r[{bar:<30}] {t_s:6.1f}/{sim_cfg.duration_s:.1f} s  x{rtf:7.1f} real time", end="", file=sys.stderr
+                f"\r[{bar:<30}] {t_s:6.1f}/{cfg.sim.duration_s:.1f} s  x{rtf:7.1f} real time", end="", file=sys.stderr
             )
 
-    with Simulation(cfg) as sim:
-        leader = 0
-
-        def script(t_s: float) -> None:
-            speed, yaw_rate = scripted_command(cfg.script, t_s)
-            sim.set_command(leader, speed, yaw_rate)
-            if cfg.script.followers == "copy":
-                for i in range(1, len(sim.names)):
-                    sim.set_command(i, speed, yaw_rate)
-
-        sim.add_task("script", sim_cfg.guidance_rate_hz, script)
-        result = sim.run(progress=progress)
-    if not args.quiet and sys.stderr.isatty():
+    report = run_scenario(cfg, progress=progress)
+    if show:
         print(file=sys.stderr)
-    print(f"scenario     {cfg.name}  (seed {sim_cfg.seed}, {sim_cfg.clock})")
-    print(f"sim time     {result.sim_time_s:.2f} s in {result.ticks} steps of {sim_cfg.dt_s * 1000:g} ms")
-    print(f"wall time    {result.wall_time_s:.3f} s")
-    print(f"real-time    x{result.real_time_factor:.1f}")
-    print(f"inputs       scripted leader profile, followers {cfg.script.followers}")
-    print()
-    print(f"{'vehicle':<12} {'north_m':>9} {'east_m':>9} {'yaw_deg':>8} {'speed_mps':>10} {'path_m':>8}")
-    for i, name in enumerate(result.names):
-        st = result.final.vehicle(i)
-        path = float(((result.pos_ned_m[1:, i] - result.pos_ned_m[:-1, i]) ** 2).sum(axis=1).__pow__(0.5).sum())
-        print(
-            f"{name:<12} {st.north_m:9.3f} {st.east_m:9.3f} {math.degrees(st.yaw_rad):8.2f} {st.speed_mps:10.3f} {path:8.2f}"
-        )
+    print_report(report)
     return 0
 
 
@@ -197,6 +243,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--seed", type=int, metavar="N", help="random seed (default: the scenario's sim.seed)")
     s.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
+    s.add_argument(
+        "--sensing", choices=("truth", "camera"), help="where followers' range/bearing come from (default: sim.sensing)"
+    )
+    s.add_argument(
+        "--controller",
+        choices=("smc", "p"),
+        help="follower control law: sliding mode or the P baseline (default: guidance.controller)",
+    )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=cmd_sim)
 
@@ -240,6 +294,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("lfctl: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `lfctl ... | head`: the reader left; not an error of ours
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except (ConfigError, FileNotFoundError) as exc:
         if args.debug:
             raise

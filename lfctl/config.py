@@ -84,8 +84,8 @@ class VehicleConfig:
     units: Mapping[str, str] = field(default_factory=dict)
     # follower only: whom to follow and where (the Guidance issue drives these)
     target: str | None = None
-    range_m: float = 1.5
-    bearing_rad: float = 0.0
+    range_m: float | None = None
+    bearing_rad: float | None = None
 
     def __post_init__(self) -> None:
         key = f"vehicles[{self.name}]"
@@ -96,11 +96,14 @@ class VehicleConfig:
         for k in ("north_m", "east_m", "yaw_rad"):
             if not math.isfinite(getattr(self, k)):
                 raise ConfigError(f"{key}.{k} must be finite, got {getattr(self, k)!r}")
-        _positive(f"{key}.range_m", self.range_m)
-        if not -math.pi <= self.bearing_rad <= math.pi:
+        if self.range_m is not None:
+            _positive(f"{key}.range_m", self.range_m)
+        if self.bearing_rad is not None and not -math.pi <= self.bearing_rad <= math.pi:
             raise ConfigError(f"{key}.bearing_deg must be within [-180, 180], got {math.degrees(self.bearing_rad):.6g}")
-        if self.role == "leader" and self.target is not None:
-            raise ConfigError(f"{key}.target: a leader follows nobody, got {self.target!r}")
+        if self.role == "leader":
+            for k in ("target", "range_m", "bearing_rad"):
+                if getattr(self, k) is not None:
+                    raise ConfigError(f"{key}.{_toml_key(k)}: a leader follows nobody, got {getattr(self, k)!r}")
         for p, v in self.parameters.items():
             if not math.isfinite(v):
                 raise ConfigError(f"{key}.parameters.{p} must be finite, got {v!r}")
@@ -111,12 +114,13 @@ class ScriptConfig:
     """[script]: open-loop inputs for runs without guidance.
 
     ``leader`` is a list of ``[duration_s, speed_mps, yaw_rate_deg_s]`` segments, repeated
-    to the end of the run; ``followers`` is ``"stand"`` (zero commands) or ``"copy"`` (the
-    leader's commands).
+    to the end of the run (used when ``[mission]`` has no waypoints); ``followers`` is
+    ``"formation"`` (closed-loop formation control), ``"stand"`` (zero commands) or
+    ``"copy"`` (the leader's commands, open loop).
     """
 
     leader: tuple[tuple[float, float, float], ...] = ((4.0, 0.3, 0.0), (3.0, 0.3, 30.0))
-    followers: Literal["stand", "copy"] = "copy"
+    followers: Literal["formation", "stand", "copy"] = "formation"
 
     def __post_init__(self) -> None:
         if not self.leader:
@@ -130,6 +134,124 @@ class ScriptConfig:
 
 
 @dataclass(frozen=True)
+class MissionConfig:
+    """[mission]: the leader's route in local NED, flown in AUTO.
+
+    ``waypoints`` holds ``[north_m, east_m]`` or ``[north_m, east_m, hold_s]`` (wait there).
+    Without waypoints the leader follows ``[script]``.
+    """
+
+    waypoints: tuple[tuple[float, ...], ...] = ()
+    acceptance_radius_m: float = 0.3
+    cruise_speed_mps: float = 0.3
+    lookahead_m: float = 0.8  # 0: pure pursuit of the waypoint (eq. 12)
+
+    def __post_init__(self) -> None:
+        _positive("mission.acceptance_radius_m", self.acceptance_radius_m)
+        _positive("mission.cruise_speed_mps", self.cruise_speed_mps)
+        _non_negative("mission.lookahead_m", self.lookahead_m)
+        for i, wp in enumerate(self.waypoints):
+            if len(wp) not in (2, 3) or not all(math.isfinite(c) for c in wp):
+                raise ConfigError(
+                    f"mission.waypoints[{i}] must be [north_m, east_m] or [north_m, east_m, hold_s] of finite numbers, got {list(wp)!r}"
+                )
+            if len(wp) == 3 and wp[2] < 0:
+                raise ConfigError(f"mission.waypoints[{i}] hold_s must be >= 0, got {wp[2]!r}")
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    """[guidance]: controller choice, gains and limits (leader heading, follower formation)."""
+
+    controller: Literal["smc", "p"] = "smc"
+    max_speed_mps: float = 0.5
+    reverse_speed_mps: float = 0.15  # followers may back up this fast to restore the range
+    max_yaw_rate_radps: float = math.radians(90.0)
+    range_eta_mps: float = 0.25
+    range_phi_m: float = 0.25
+    min_cos_bearing: float = 0.2
+    bearing_eta_radps: float = math.radians(70.0)
+    bearing_lambda_s: float = 0.1
+    bearing_phi_rad: float = math.radians(15.0)
+    heading_eta_radps: float = math.radians(60.0)
+    heading_lambda_s: float = 0.1
+    heading_phi_rad: float = math.radians(20.0)
+    turn_slowdown: float = 0.6
+    p_gain: float = 0.8
+    coast_s: float = 2.0
+    slowdown_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in (
+            "max_speed_mps", "max_yaw_rate_radps", "range_eta_mps", "range_phi_m", "min_cos_bearing",
+            "bearing_eta_radps", "bearing_phi_rad", "heading_eta_radps", "heading_phi_rad", "p_gain", "slowdown_s",
+        ):  # fmt: skip
+            _positive(f"guidance.{_toml_key(name)}", getattr(self, name))
+        for name in ("bearing_lambda_s", "heading_lambda_s", "coast_s", "reverse_speed_mps"):
+            _non_negative(f"guidance.{name}", getattr(self, name))
+        if not 0 <= self.turn_slowdown <= 1:
+            raise ConfigError(f"guidance.turn_slowdown must be within [0, 1], got {self.turn_slowdown!r}")
+        if self.min_cos_bearing > 1:
+            raise ConfigError(f"guidance.min_cos_bearing must be <= 1, got {self.min_cos_bearing!r}")
+
+
+@dataclass(frozen=True)
+class SensingConfig:
+    """[sensing]: the truth sensor (``--sensing truth``): noise, delay, field of view, dropouts.
+
+    ``dropouts`` are ``[start_s, end_s]`` windows with no measurement: an occluder crossing.
+    """
+
+    range_noise_m: float = 0.01
+    bearing_noise_rad: float = math.radians(0.3)
+    delay_s: float = 0.05
+    fov_rad: float = math.radians(360.0)
+    max_range_m: float = 10.0
+    dropouts: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("range_noise_m", "bearing_noise_rad", "delay_s"):
+            _non_negative(f"sensing.{_toml_key(name)}", getattr(self, name))
+        _positive("sensing.fov_deg", self.fov_rad)
+        _positive("sensing.max_range_m", self.max_range_m)
+        if self.delay_s > 1.0:
+            raise ConfigError(f"sensing.delay_s must be <= 1 s, got {self.delay_s!r}")
+        for i, w in enumerate(self.dropouts):
+            if len(w) != 2 or not w[0] < w[1]:
+                raise ConfigError(f"sensing.dropouts[{i}] must be [start_s, end_s] with start < end, got {list(w)!r}")
+
+
+@dataclass(frozen=True)
+class FormationConfig:
+    """[formation]: a shipped shape that fills each follower's target, range and bearing.
+
+    ``shape``: ``"column"`` (one behind the other), ``"echelon"`` (a diagonal line back to the
+    right), ``"vee"`` (alternating right and left arms). ``targets``: ``"chain"`` (follow the
+    vehicle ahead in the shape) or ``"leader"`` (all follow the leader). A follower's own
+    ``target``/``range_m``/``bearing_deg`` override the shape.
+    """
+
+    shape: Literal["none", "column", "echelon", "vee"] = "none"
+    targets: Literal["chain", "leader"] = "chain"
+    spacing_m: float = 1.5
+    angle_rad: float = math.radians(30.0)
+
+    def __post_init__(self) -> None:
+        _positive("formation.spacing_m", self.spacing_m)
+        if not 0 <= self.angle_rad < math.pi / 2:
+            raise ConfigError(f"formation.angle_deg must be within [0, 90), got {math.degrees(self.angle_rad):.6g}")
+
+
+@dataclass(frozen=True)
+class Slot:
+    """Where a follower keeps itself: its target, commanded range (m) and bearing (rad)."""
+
+    target: str
+    range_m: float
+    bearing_rad: float
+
+
+@dataclass(frozen=True)
 class Config:
     """A whole scenario."""
 
@@ -137,6 +259,10 @@ class Config:
     sim: SimConfig
     vehicles: tuple[VehicleConfig, ...]
     script: ScriptConfig = field(default_factory=ScriptConfig)
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    formation: FormationConfig = field(default_factory=FormationConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
@@ -157,7 +283,7 @@ class Config:
             if v.target == v.name:
                 raise ConfigError(f"vehicles[{v.name}].target cannot be the vehicle itself")
         # followers' targets must lead back to the leader without a cycle
-        target = {v.name: (v.target or leaders[0]) for v in self.vehicles if v.role == "follower"}
+        target = {name: slot.target for name, slot in self.slots().items()}
         for start in target:
             seen, node = [start], target[start]
             while node in target:
@@ -165,6 +291,32 @@ class Config:
                     raise ConfigError(f"vehicles: follower targets form a cycle: {' -> '.join([*seen, node])}")
                 seen.append(node)
                 node = target[node]
+
+    def slots(self) -> dict[str, Slot]:
+        """Each follower's target, range and bearing: its own keys, else the formation shape."""
+        f = self.formation
+        out: dict[str, Slot] = {}
+        followers = [v for v in self.vehicles if v.role == "follower"]
+        leader = self.vehicles[0].name
+        for k, v in enumerate(followers, start=1):
+            shaped = f.shape != "none"
+            if f.shape == "vee":  # right arm first, then left, alternating
+                side, rank = (1 if k % 2 else -1), (k + 1) // 2
+                ahead = leader if rank == 1 else followers[k - 3].name
+            else:
+                side, rank = 1, k
+                ahead = self.vehicles[k - 1].name
+            # a follower back-right of its target sees it ahead-left: a negative bearing
+            bearing = -side * f.angle_rad if f.shape in ("echelon", "vee") else 0.0
+            chain = shaped and f.targets == "chain"
+            target = ahead if chain else leader
+            distance = f.spacing_m * (rank if shaped and not chain else 1)
+            out[v.name] = Slot(
+                target=v.target if v.target is not None else target,
+                range_m=v.range_m if v.range_m is not None else distance,
+                bearing_rad=v.bearing_rad if v.bearing_rad is not None else bearing,
+            )
+        return out
 
     @property
     def leader(self) -> VehicleConfig:
@@ -291,7 +443,17 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
     cfg = _build(_ConfigTable, rest, "")
-    return Config(name=cfg.name, sim=cfg.sim, vehicles=tuple(built), script=cfg.script, source=text)
+    return Config(
+        name=cfg.name,
+        sim=cfg.sim,
+        vehicles=tuple(built),
+        script=cfg.script,
+        mission=cfg.mission,
+        guidance=cfg.guidance,
+        sensing=cfg.sensing,
+        formation=cfg.formation,
+        source=text,
+    )
 
 
 @dataclass(frozen=True)
@@ -301,6 +463,10 @@ class _ConfigTable:
     name: str
     sim: SimConfig = field(default_factory=SimConfig)
     script: ScriptConfig = field(default_factory=ScriptConfig)
+    mission: MissionConfig = field(default_factory=MissionConfig)
+    guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    formation: FormationConfig = field(default_factory=FormationConfig)
 
 
 def load_config(path: str | Path) -> Config:

@@ -1,0 +1,2 @@
+"""Guidance and control (pure functions + thin stateful classes): LOS waypoint guidance,
+sliding-mode range and bearing control, leader autopilot, formation controller."""

@@ -1,0 +1,113 @@
+"""The leader's autopilot (AUTO): LOS waypoint guidance + sliding-mode heading control, with
+a speed profile that slows for sharp turns, waits where the mission says, and stops at the
+last waypoint."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+from lfctl.frames import wrap_pi
+from lfctl.guidance.los import LosOutput, WaypointFollower
+from lfctl.guidance.smc import BearingGains, SlidingModeController, clamp
+
+
+@dataclass(frozen=True)
+class AutopilotSettings:
+    """Leader AUTO settings.
+
+    Parameters
+    ----------
+    cruise_speed_mps : float
+        Speed on straight legs, m/s.
+    acceptance_radius_m : float
+        Waypoint switching radius, m.
+    lookahead_m : float or None
+        LOS lookahead on the path, m (None: pure pursuit of the waypoint).
+    turn_slowdown : float
+        Fraction of the cruise speed shed for a 180 deg turn at the next waypoint (0..1).
+    slow_distance_m : float
+        Distance before a waypoint over which the turn slowdown is blended in, m.
+    decel_mps2 : float
+        Deceleration used to stop at the last waypoint, m/s^2.
+    heading : BearingGains
+        Sliding-mode heading gains.
+    """
+
+    cruise_speed_mps: float = 0.3
+    acceptance_radius_m: float = 0.3
+    lookahead_m: float | None = 0.8
+    turn_slowdown: float = 0.6
+    slow_distance_m: float = 0.8
+    decel_mps2: float = 0.3
+    heading: BearingGains = field(
+        default_factory=lambda: BearingGains(eta_radps=1.0, lam_s=0.1, phi_rad=0.35, max_yaw_rate_radps=1.5)
+    )
+
+
+@dataclass(frozen=True)
+class AutopilotOutput:
+    """One step of the leader autopilot."""
+
+    speed_mps: float
+    yaw_rate_radps: float
+    los: LosOutput
+    holding_s: float  # remaining wait at a waypoint (0 when driving)
+
+
+class LeaderAutopilot:
+    """Drives a list of waypoints: ``(north_m, east_m)`` or ``(north_m, east_m, hold_s)``."""
+
+    def __init__(
+        self, waypoints: Sequence[Sequence[float]], settings: AutopilotSettings, start_ned_m: tuple[float, float]
+    ) -> None:
+        self.settings = settings
+        self.holds = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
+        self.follower = WaypointFollower(
+            [(w[0], w[1]) for w in waypoints], settings.acceptance_radius_m, settings.lookahead_m, start_ned_m
+        )
+        self.heading = SlidingModeController(settings.heading)
+        self.reached_log: list[tuple[int, float]] = []
+        self._hold_until = -math.inf
+        self._prev_cmd: float | None = None
+        self._last_los: LosOutput | None = None
+
+    @property
+    def done(self) -> bool:
+        """All waypoints reached."""
+        return self.follower.done
+
+    def step(self, t_s: float, north_m: float, east_m: float, yaw_rad: float, dt_s: float) -> AutopilotOutput:
+        """Commands for this guidance step."""
+        st = self.settings
+        if t_s < self._hold_until and self._last_los is not None:  # waiting at a waypoint
+            return AutopilotOutput(0.0, 0.0, self._last_los, self._hold_until - t_s)
+        los = self.follower.step(north_m, east_m, yaw_rad)
+        self._last_los = los
+        for i in los.reached:
+            self.reached_log.append((i, t_s))
+            if self.holds[i] > 0:
+                self._hold_until = t_s + self.holds[i]
+        if los.done or t_s < self._hold_until:
+            self.heading.reset()
+            self._prev_cmd = None
+            return AutopilotOutput(0.0, 0.0, los, max(0.0, self._hold_until - t_s))
+        err = wrap_pi(los.heading_cmd_rad - yaw_rad)
+        ff = 0.0  # equivalent control: the turn rate of the commanded heading itself
+        if self._prev_cmd is not None and dt_s > 0 and not los.reached:
+            ff = clamp(wrap_pi(los.heading_cmd_rad - self._prev_cmd) / dt_s, -0.5, 0.5)
+        self._prev_cmd = los.heading_cmd_rad
+        yaw_rate = self.heading.step(err, dt_s, ff)
+        # speed: slow for the coming turn and for a large heading error; stop where it ends or waits
+        speed = st.cruise_speed_mps
+        turn = self.follower.next_turn_rad()
+        blend = clamp(1.0 - (los.distance_to_go_m - st.acceptance_radius_m) / st.slow_distance_m, 0.0, 1.0)
+        speed *= 1.0 - st.turn_slowdown * (turn / math.pi) * blend
+        speed *= max(0.0, math.cos(err)) ** 2
+        i = self.follower.index
+        if i == len(self.follower.waypoints) - 1 or self.holds[i] > 0:
+            speed = min(
+                speed, math.sqrt(2.0 * st.decel_mps2 * max(0.0, los.distance_to_go_m - 0.5 * st.acceptance_radius_m))
+            )
+        return AutopilotOutput(speed, yaw_rate, los, 0.0)

@@ -1,0 +1,257 @@
+"""The closed loop: leader autopilot, each follower's sensor and formation controller, wired
+into the co-simulation master; and the per-follower metrics the summary and tests use."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from lfctl.config import Config
+from lfctl.errors import ConfigError
+from lfctl.frames import wrap_pi
+from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
+from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
+from lfctl.guidance.smc import BearingGains, RangeGains
+from lfctl.sim.cosim import RunResult, Simulation
+from lfctl.sim.scripted import scripted_command
+from lfctl.sim.sensing import TruthSensor
+from lfctl.vision.track_state import TrackStatus
+
+SETTLE_S = 5.0
+#: a yaw-rate command swinging across +-this counts as one chattering sign change
+CHATTER_DEADBAND_RADPS = 0.02
+
+
+def sign_changes(values: np.ndarray, deadband: float) -> int:
+    """Swings from above ``+deadband`` to below ``-deadband`` or back (noise inside is ignored)."""
+    outside = np.sign(values[np.abs(values) > deadband])
+    return int(np.count_nonzero(outside[1:] != outside[:-1])) if outside.size > 1 else 0
+
+
+@dataclass
+class FollowerTrace:
+    """What one follower did, sampled at the guidance rate."""
+
+    name: str
+    target: str
+    range_cmd_m: float
+    bearing_cmd_rad: float
+    t_s: list[float] = dataclasses.field(default_factory=list)
+    range_m: list[float] = dataclasses.field(default_factory=list)  # truth
+    bearing_rad: list[float] = dataclasses.field(default_factory=list)  # truth
+    separation_m: list[float] = dataclasses.field(default_factory=list)  # to the nearest vehicle
+    status: list[TrackStatus] = dataclasses.field(default_factory=list)
+    speed_cmd_mps: list[float] = dataclasses.field(default_factory=list)
+    yaw_rate_cmd_radps: list[float] = dataclasses.field(default_factory=list)
+    speed_mps: list[float] = dataclasses.field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class FollowerMetrics:
+    """Formation quality of one follower (errors after ``SETTLE_S``)."""
+
+    name: str
+    target: str
+    range_cmd_m: float
+    bearing_cmd_rad: float
+    range_err_rms_m: float
+    range_err_max_m: float
+    bearing_err_rms_rad: float
+    bearing_err_max_rad: float
+    min_separation_m: float
+    time_in_state_s: dict[str, float]
+    control_effort_rad: float  # integral of |yaw-rate command|
+    chattering_per_s: float  # sign changes of the yaw-rate command per second
+
+
+def follower_metrics(tr: FollowerTrace, dt_s: float, settle_s: float = SETTLE_S) -> FollowerMetrics:
+    """Metrics of one trace (pure)."""
+    t = np.asarray(tr.t_s)
+    keep = t >= settle_s
+    r_err = np.asarray(tr.range_m)[keep] - tr.range_cmd_m
+    b_err = np.array([wrap_pi(b - tr.bearing_cmd_rad) for b in np.asarray(tr.bearing_rad)[keep]])
+    yaw_cmd = np.asarray(tr.yaw_rate_cmd_radps)
+    flips = sign_changes(yaw_cmd, CHATTER_DEADBAND_RADPS)
+    duration = len(t) * dt_s
+    states = {s.value: 0.0 for s in TrackStatus}
+    for s in tr.status:
+        states[s.value] += dt_s
+
+    def rms(a: np.ndarray) -> float:
+        return float(np.sqrt(np.mean(a**2))) if a.size else math.nan
+
+    def amax(a: np.ndarray) -> float:
+        return float(np.max(np.abs(a))) if a.size else math.nan
+
+    return FollowerMetrics(
+        tr.name,
+        tr.target,
+        tr.range_cmd_m,
+        tr.bearing_cmd_rad,
+        rms(r_err),
+        amax(r_err),
+        rms(b_err),
+        amax(b_err),
+        float(np.min(tr.separation_m)) if tr.separation_m else math.nan,
+        states,
+        float(np.sum(np.abs(yaw_cmd)) * dt_s),
+        flips / duration if duration > 0 else 0.0,
+    )
+
+
+@dataclass
+class RunReport:
+    """A closed-loop run: the co-simulation result, follower traces and metrics, mission progress."""
+
+    config: Config
+    result: RunResult
+    traces: list[FollowerTrace]
+    metrics: list[FollowerMetrics]
+    waypoints_reached: list[tuple[int, float]]
+    n_waypoints: int
+    leader_mode: str  # "auto" (mission) or "script"
+
+
+def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, controller: str) -> FormationSettings:
+    """The formation controller settings a scenario asks for."""
+    g = cfg.guidance
+    return FormationSettings(
+        range_cmd_m=range_cmd_m,
+        bearing_cmd_rad=bearing_cmd_rad,
+        controller=controller,  # type: ignore[arg-type]
+        range=RangeGains(
+            eta_mps=g.range_eta_mps,
+            phi_m=g.range_phi_m,
+            min_speed_mps=-g.reverse_speed_mps,
+            max_speed_mps=g.max_speed_mps,
+            min_cos_bearing=g.min_cos_bearing,
+        ),
+        bearing=BearingGains(
+            eta_radps=g.bearing_eta_radps,
+            lam_s=g.bearing_lambda_s,
+            phi_rad=g.bearing_phi_rad,
+            max_yaw_rate_radps=g.max_yaw_rate_radps,
+        ),
+        p_gain_per_s=g.p_gain,
+        coast_s=g.coast_s,
+        slowdown_s=g.slowdown_s,
+        meas_sigma_m=max(0.02, cfg.sensing.range_noise_m * 2),
+    )
+
+
+def autopilot_settings(cfg: Config) -> AutopilotSettings:
+    """The leader AUTO settings a scenario asks for."""
+    g, m = cfg.guidance, cfg.mission
+    return AutopilotSettings(
+        cruise_speed_mps=min(m.cruise_speed_mps, g.max_speed_mps),
+        acceptance_radius_m=m.acceptance_radius_m,
+        lookahead_m=m.lookahead_m if m.lookahead_m > 0 else None,
+        turn_slowdown=g.turn_slowdown,
+        heading=BearingGains(
+            eta_radps=g.heading_eta_radps,
+            lam_s=g.heading_lambda_s,
+            phi_rad=g.heading_phi_rad,
+            max_yaw_rate_radps=g.max_yaw_rate_radps,
+        ),
+    )
+
+
+def run_scenario(
+    cfg: Config,
+    *,
+    controller: str | None = None,
+    realtime: bool | None = None,
+    duration_s: float | None = None,
+    progress: Callable[[float, float], None] | None = None,
+    cache_dir: Path | None = None,
+) -> RunReport:
+    """Run a scenario closed loop and return the report.
+
+    Parameters
+    ----------
+    controller : "smc" or "p", optional
+        Follower control law (default ``guidance.controller``).
+    """
+    if cfg.sim.sensing == "camera":
+        raise ConfigError(
+            "sim.sensing = 'camera' needs the camera renderer and tracker, which are not built yet; use 'truth'"
+        )
+    law = controller or cfg.guidance.controller
+    if law not in ("smc", "p"):
+        raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
+    slots = cfg.slots()
+    dt_guid = 1.0 / cfg.sim.guidance_rate_hz
+    rng = np.random.default_rng(cfg.sim.seed)
+    with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
+        idx = sim.index
+        lead = cfg.leader
+        autopilot = (
+            LeaderAutopilot(cfg.mission.waypoints, autopilot_settings(cfg), (lead.north_m, lead.east_m))
+            if cfg.mission.waypoints
+            else None
+        )
+        followers = []
+        for v in cfg.followers:
+            slot = slots[v.name]
+            followers.append(
+                (
+                    idx[v.name],
+                    idx[slot.target],
+                    TruthSensor(cfg.sensing, np.random.default_rng(rng.integers(2**63))),
+                    FormationController(formation_settings(cfg, slot.range_m, slot.bearing_rad, law)),
+                    FollowerTrace(v.name, slot.target, slot.range_m, slot.bearing_rad),
+                )
+            )
+
+        def guidance(t_s: float) -> None:
+            world = sim.state()
+            ld = world.vehicle(0)
+            if autopilot is not None:
+                out = autopilot.step(t_s, ld.north_m, ld.east_m, ld.yaw_rad, dt_guid)
+                lead_cmd = (out.speed_mps, out.yaw_rate_radps)
+            else:
+                lead_cmd = scripted_command(cfg.script, t_s)
+            sim.set_command(0, *lead_cmd)
+            pos = world.pos_ned_m
+            for me, target, sensor, ctl, tr in followers:
+                st = world.vehicle(me)
+                if cfg.script.followers == "formation":
+                    meas = sensor.measure(t_s, world, me, target)
+                    out_f = ctl.step(meas, Odometry(t_s, st.north_m, st.east_m, st.yaw_rad, st.speed_mps))
+                    cmd, status = (out_f.speed_mps, out_f.yaw_rate_radps), out_f.status
+                else:
+                    cmd = lead_cmd if cfg.script.followers == "copy" else (0.0, 0.0)
+                    status = TrackStatus.TRACKING
+                sim.set_command(me, *cmd)
+                d = pos - pos[me]
+                dist = np.hypot(d[:, 0], d[:, 1])
+                dist[me] = np.inf
+                tgt = world.vehicle(target)
+                tr.t_s.append(t_s)
+                tr.range_m.append(math.hypot(tgt.north_m - st.north_m, tgt.east_m - st.east_m))
+                tr.bearing_rad.append(
+                    wrap_pi(math.atan2(tgt.east_m - st.east_m, tgt.north_m - st.north_m) - st.yaw_rad)
+                )
+                tr.separation_m.append(float(dist.min()))
+                tr.status.append(status)
+                tr.speed_cmd_mps.append(cmd[0])
+                tr.yaw_rate_cmd_radps.append(cmd[1])
+                tr.speed_mps.append(st.speed_mps)
+
+        sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
+        result = sim.run(duration_s, progress=progress)
+    traces = [f[4] for f in followers]
+    return RunReport(
+        config=cfg,
+        result=result,
+        traces=traces,
+        metrics=[follower_metrics(tr, dt_guid) for tr in traces],
+        waypoints_reached=list(autopilot.reached_log) if autopilot else [],
+        n_waypoints=len(cfg.mission.waypoints),
+        leader_mode="auto" if autopilot else "script",
+    )

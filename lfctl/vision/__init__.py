@@ -1,0 +1,1 @@
+"""Perception for real or rendered frames (pure: no sockets, files, clocks or FMU handles)."""

@@ -1,0 +1,43 @@
+"""What a follower's sensor hands to guidance: a relative measurement and a track status.
+
+Shared by every sensor (truth + noise in the simulation, the camera tracker, a real camera),
+so guidance never knows which one it is fed by.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+
+class TrackStatus(enum.Enum):
+    """State of a follower's track on its target."""
+
+    TRACKING = "tracking"  # a fresh measurement this cycle
+    OCCLUDED = "occluded"  # the target is hidden (or the sensor doubts it): coast
+    LOST = "lost"  # gone for longer than the coast allows: stop and hold
+
+
+@dataclass(frozen=True)
+class RelativeMeasurement:
+    """The target as a follower's sensor sees it, in the follower's body frame.
+
+    Parameters
+    ----------
+    t_s : float
+        Time the measurement describes (image time, not arrival time), s.
+    status : TrackStatus
+        TRACKING when ``range_m`` and ``bearing_rad`` are valid.
+    range_m : float
+        Horizontal distance to the target's marker centre, m.
+    bearing_rad : float
+        Bearing of the target from the follower's heading, clockwise positive, rad.
+    quality : float
+        0..1 confidence (1 for truth sensing).
+    """
+
+    t_s: float
+    status: TrackStatus
+    range_m: float = float("nan")
+    bearing_rad: float = float("nan")
+    quality: float = 0.0
