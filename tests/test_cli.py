@@ -26,7 +26,7 @@ def test_sim_convoy_prints_a_summary(capsys: pytest.CaptureFixture[str]) -> None
 def test_sim_seed_and_duration_override(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", str(ROOT / "examples" / "column5.toml"), "--duration", "2", "--seed", "7", "-q"]) == 0
     out = capsys.readouterr().out
-    assert "(seed 7, lockstep)" in out and "f4" in out
+    assert "(seed 7, lockstep," in out and "f4" in out
 
 
 def test_bad_scenario_exits_2_with_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

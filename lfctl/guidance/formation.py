@@ -125,6 +125,31 @@ class TargetEstimator:
     def velocity(self) -> tuple[float, float]:
         return float(self.kf.x[2]), float(self.kf.x[3])
 
+    def range_bearing_sigma(self, dx_m: float, dy_m: float) -> tuple[float, float]:
+        """1-sigma range (m) and bearing (rad) uncertainty of the target seen along (dx, dy)."""
+        s = math.hypot(dx_m, dy_m)
+        if s == 0.0:
+            return math.inf, math.inf
+        u = np.array([dx_m, dy_m]) / s
+        perp = np.array([-u[1], u[0]])
+        cov = self.kf.P[0:2, 0:2]
+        return math.sqrt(float(u @ cov @ u)), math.sqrt(float(perp @ cov @ perp)) / s
+
+    def significant_velocity(self, n_sigma: float = 2.0) -> tuple[float, float]:
+        """The velocity, or zero where it is within ``n_sigma`` of the filter's own uncertainty.
+
+        A still target's estimate wanders with the measurement noise; feeding that forward
+        makes the follower hunt. A velocity the filter cannot tell from zero is taken as zero
+        (a chi-square test on the 2-D velocity, ``n_sigma`` standard deviations).
+        """
+        v = self.kf.x[2:4]
+        cov = self.kf.P[2:4, 2:4]
+        try:
+            d2 = float(v @ np.linalg.solve(cov, v))
+        except np.linalg.LinAlgError:
+            return self.velocity
+        return self.velocity if d2 > n_sigma**2 else (0.0, 0.0)
+
 
 class FormationController:
     """Thin stateful shell: filter, bearing SMC memory, odometry history, track timers."""
@@ -189,7 +214,7 @@ class FormationController:
                 0.0, 0.0, self.status, rng, brg, est.velocity if est.initialised else (0.0, 0.0), since
             )
 
-        (tn, te), (vn, ve) = est.position, est.velocity
+        (tn, te), (vn, ve) = est.position, est.significant_velocity()
         dx, dy = tn - odom.north_m, te - odom.east_m
         rng, brg = self._relative(odom)
         if st.controller == "smc":
@@ -211,13 +236,18 @@ class FormationController:
         self, dx: float, dy: float, vn: float, ve: float, rng: float, brg: float, odom: Odometry, dt: float
     ) -> tuple[float, float]:
         st = self.settings
+        err = wrap_pi(brg - st.bearing_cmd_rad)
+        if vn == 0.0 and ve == 0.0:  # the target is still (to the filter's confidence)
+            sigma_r, sigma_b = self.estimator.range_bearing_sigma(dx, dy)
+            if abs(rng - st.range_cmd_m) < 2.0 * sigma_r and abs(err) < 2.0 * sigma_b:
+                self.bearing_smc.reset()
+                return 0.0, 0.0  # in the slot to within the sensor's noise: hold, do not hunt
         speed = smc_speed_mps(dx, dy, vn, ve, odom.yaw_rad, st.range_cmd_m, st.range)
         # equivalent control: turn rate of the world line of sight, from the relative velocity
         rel_vn = vn - odom.speed_mps * math.cos(odom.yaw_rad)
         rel_ve = ve - odom.speed_mps * math.sin(odom.yaw_rad)
         los_rate = (dx * rel_ve - dy * rel_vn) / max(rng * rng, 1e-6)
         los_rate = clamp(los_rate, -st.bearing.max_yaw_rate_radps, st.bearing.max_yaw_rate_radps)
-        err = wrap_pi(brg - st.bearing_cmd_rad)
         return speed, self.bearing_smc.step(err, dt, los_rate)
 
     def _p_baseline(self, tn: float, te: float, vn: float, ve: float, odom: Odometry) -> tuple[float, float]:

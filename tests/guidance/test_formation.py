@@ -1,0 +1,91 @@
+"""The formation controller: track-state behaviour, the target filter, the P baseline."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
+from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+
+DT = 0.05
+
+
+def meas(t: float, rng: float, brg: float = 0.0) -> RelativeMeasurement:
+    return RelativeMeasurement(t, TrackStatus.TRACKING, rng, brg, 1.0)
+
+
+def test_target_ahead_beyond_range_drives_forward_straight() -> None:
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    out = ctl.step(meas(0.0, 2.5), Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.TRACKING
+    assert out.speed_mps > 0.2 and out.yaw_rate_radps == pytest.approx(0.0, abs=1e-9)
+    assert out.range_est_m == pytest.approx(2.5)
+
+
+def test_target_on_the_right_turns_right() -> None:
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    out = ctl.step(meas(0.0, 1.5, math.radians(20)), Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
+    assert out.yaw_rate_radps > 0
+
+
+def test_filter_estimates_a_moving_target_velocity() -> None:
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    out = None
+    for k in range(200):  # target moving north at 0.3 m/s, follower still at the origin
+        t = k * DT
+        out = ctl.step(meas(t, 2.0 + 0.3 * t), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    assert out is not None
+    assert out.target_vel_ned_mps[0] == pytest.approx(0.3, abs=0.01)
+    assert out.target_vel_ned_mps[1] == pytest.approx(0.0, abs=0.01)
+
+
+def test_coast_then_slow_down_then_lost() -> None:
+    s = FormationSettings(range_cmd_m=1.5, coast_s=2.0, slowdown_s=1.0)
+    ctl = FormationController(s)
+    for k in range(40):  # moving target, tracked for 2 s
+        t = k * DT
+        ctl.step(meas(t, 2.0 + 0.3 * t), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    t0 = 39 * DT
+    seen = {}
+    for k in range(1, 80):
+        t = t0 + k * DT
+        out = ctl.step(RelativeMeasurement(t, TrackStatus.OCCLUDED), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+        seen[round(k * DT, 2)] = out
+    assert seen[1.0].status is TrackStatus.OCCLUDED and seen[1.0].speed_mps > 0.2  # coasting at full control
+    assert seen[2.5].status is TrackStatus.OCCLUDED and 0 < seen[2.5].speed_mps < seen[1.0].speed_mps  # slowing
+    assert seen[3.5].status is TrackStatus.LOST and seen[3.5].speed_mps == 0.0 and seen[3.5].yaw_rate_radps == 0.0
+    # seen again: tracking resumes at once
+    out = ctl.step(meas(t0 + 4.0, 2.0), Odometry(t0 + 4.0, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.TRACKING and out.speed_mps > 0
+
+
+def test_sensor_lost_stops_at_once() -> None:
+    ctl = FormationController(FormationSettings())
+    ctl.step(meas(0.0, 2.0), Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
+    out = ctl.step(RelativeMeasurement(DT, TrackStatus.LOST), Odometry(DT, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.LOST and (out.speed_mps, out.yaw_rate_radps) == (0.0, 0.0)
+
+
+def test_no_measurement_yet_is_lost_and_still() -> None:
+    out = FormationController(FormationSettings()).step(None, Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.LOST and out.speed_mps == 0.0
+
+
+def test_delayed_measurement_is_placed_with_the_odometry_of_its_time() -> None:
+    ctl = FormationController(FormationSettings())
+    # the follower drove 0.3 m north since the image was taken: the target is 0.3 m closer now
+    ctl.step(None, Odometry(0.0, 0.0, 0.0, 0.0, 0.3))
+    out = ctl.step(meas(0.0, 2.0), Odometry(1.0, 0.3, 0.0, 0.0, 0.3))
+    assert out.range_est_m == pytest.approx(1.7)
+
+
+@pytest.mark.parametrize("law", ["smc", "p"])
+def test_at_the_slot_with_a_still_target_both_laws_hold_still(law: str) -> None:
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5, controller=law))
+    out = None
+    for k in range(100):
+        out = ctl.step(meas(k * DT, 1.5), Odometry(k * DT, 0.0, 0.0, 0.0, 0.0))
+    assert out is not None
+    assert abs(out.speed_mps) < 0.01 and abs(out.yaw_rate_radps) < 0.01

@@ -1,0 +1,83 @@
+"""LOS waypoint guidance, paper eq. 12-16, with hand-worked numbers."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lfctl.guidance.los import (
+    WaypointFollower,
+    cross_track_m,
+    distance_to_go_m,
+    heading_error_rad,
+    los_angle_rad,
+    los_heading_rad,
+    path_angle_rad,
+)
+
+
+def test_eq12_los_angle_points_at_next_waypoint() -> None:
+    assert los_angle_rad(0.0, 0.0, 1.0, 1.0) == pytest.approx(math.radians(45))  # north-east
+    assert los_angle_rad(0.0, 0.0, 0.0, -2.0) == pytest.approx(math.radians(-90))  # due west
+    assert los_angle_rad(1.0, 1.0, -1.0, 1.0) == pytest.approx(math.pi)  # due south: atan2, not atan
+
+
+def test_eq13_path_angle_of_the_segment() -> None:
+    assert path_angle_rad(0.0, 0.0, 4.0, 4.0) == pytest.approx(math.radians(45))
+    assert path_angle_rad(4.0, 4.0, 4.0, 0.0) == pytest.approx(math.radians(-90))
+
+
+def test_eq14_is_a_heading_error_wrapped() -> None:
+    assert heading_error_rad(math.radians(170), math.radians(-170)) == pytest.approx(math.radians(-20))
+
+
+def test_eq15_distance_to_go() -> None:
+    assert distance_to_go_m(1.0, 2.0, 4.0, 6.0) == pytest.approx(5.0)
+
+
+def test_eq16_cross_track_sign_right_of_path_is_positive() -> None:
+    # path due north along east = 0; vehicle 1 m east (right of the path), 5 m before the waypoint
+    s = distance_to_go_m(5.0, 1.0, 10.0, 0.0)
+    los = los_angle_rad(5.0, 1.0, 10.0, 0.0)
+    e = cross_track_m(s, los, path_angle_rad(0.0, 0.0, 10.0, 0.0))
+    assert e == pytest.approx(1.0)  # S sin(psi_d - psi_los) is the perpendicular distance
+    left = cross_track_m(distance_to_go_m(5.0, -1.0, 10.0, 0.0), los_angle_rad(5.0, -1.0, 10.0, 0.0), 0.0)
+    assert left == pytest.approx(-1.0)
+
+
+def test_lookahead_heading_steers_back_to_the_path() -> None:
+    # right of a northbound path by 1 m with 1 m lookahead: steer 45 deg left
+    assert los_heading_rad(0.0, 1.0, 1.0) == pytest.approx(math.radians(-45))
+    assert los_heading_rad(0.0, -1.0, 1.0) == pytest.approx(math.radians(45))
+
+
+@given(st.floats(-math.pi, math.pi), st.floats(-50.0, 50.0), st.floats(0.1, 20.0))
+def test_los_heading_is_wrapped(path_heading_rad: float, cross_track: float, lookahead_m: float) -> None:
+    assert -math.pi < los_heading_rad(path_heading_rad, cross_track, lookahead_m) <= math.pi
+
+
+def test_waypoints_switch_inside_the_acceptance_radius() -> None:
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=0.3, lookahead_m=None)
+    out = wf.step(3.5, 0.0, 0.0)
+    assert out.active_index == 0 and out.reached == () and out.heading_cmd_rad == pytest.approx(0.0)
+    out = wf.step(3.8, 0.1, 0.0)
+    assert out.reached == (0,) and out.active_index == 1
+    assert out.heading_cmd_rad == pytest.approx(los_angle_rad(3.8, 0.1, 4.0, 4.0))
+    out = wf.step(4.0, 3.9, math.pi / 2)
+    assert out.reached == (1,) and out.done and wf.done
+
+
+def test_a_passed_waypoint_counts_as_reached_so_the_vehicle_never_circles_back() -> None:
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=0.3, lookahead_m=1.0)
+    out = wf.step(4.2, 0.6, 0.0)  # 0.63 m off the waypoint but past its perpendicular
+    assert out.reached == (0,) and out.active_index == 1
+
+
+def test_invalid_settings_are_named() -> None:
+    with pytest.raises(ValueError, match="acceptance_radius_m must be > 0, got 0"):
+        WaypointFollower([(1.0, 1.0)], 0.0, None)
+    with pytest.raises(ValueError, match="lookahead_m must be > 0 or None, got -1"):
+        WaypointFollower([(1.0, 1.0)], 0.3, -1.0)

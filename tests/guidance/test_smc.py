@@ -1,0 +1,102 @@
+"""Sliding-mode range and bearing control, paper eq. 17-26 (corrected), hand-worked numbers
+and properties."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lfctl.guidance.smc import (
+    BearingGains,
+    RangeGains,
+    SlidingModeController,
+    range_rate_mps,
+    sat,
+    smc_speed_mps,
+    smc_yaw_rate_radps,
+)
+
+WIDE = RangeGains(eta_mps=0.25, phi_m=0.25, min_speed_mps=-1.0, max_speed_mps=1.0)
+
+
+def test_eq20_range_rate_by_hand() -> None:
+    # follower at the origin heading north at 0.3 m/s; leader 2 m north moving north at 0.2 m/s
+    assert range_rate_mps(2.0, 0.0, 0.2, 0.0, 0.3, 0.0) == pytest.approx(-0.1)
+    # leader 2 m east moving east: a northbound follower does not change the range
+    assert range_rate_mps(0.0, 2.0, 0.2, 0.0, 0.3, 0.0) == pytest.approx(0.0)
+
+
+def test_eq23_speed_gives_the_reaching_law_outside_the_boundary_layer() -> None:
+    # leader at (3, 4) (S = 5) moving (0.1, 0.2); follower heading along the line of sight
+    psi = math.atan2(4.0, 3.0)
+    u = smc_speed_mps(3.0, 4.0, 0.1, 0.2, psi, range_cmd_m=4.0, gains=WIDE)
+    # (eta S sgn(s) + dx x0' + dy y0') / (dx cos psi + dy sin psi) = (1.25 + 0.3 + 0.8) / 5
+    assert u == pytest.approx(0.47)
+    assert range_rate_mps(3.0, 4.0, 0.1, 0.2, u, psi) == pytest.approx(-0.25)  # dS/dt = -eta
+
+
+def test_eq23_inside_the_boundary_layer_the_error_decays_proportionally() -> None:
+    psi = math.atan2(4.0, 3.0)
+    u = smc_speed_mps(3.0, 4.0, 0.1, 0.2, psi, range_cmd_m=4.9, gains=WIDE)  # s = 0.1 < phi
+    assert range_rate_mps(3.0, 4.0, 0.1, 0.2, u, psi) == pytest.approx(-0.25 * 0.1 / 0.25)
+
+
+def test_eq23_too_close_backs_off_within_the_reverse_limit() -> None:
+    gains = RangeGains(eta_mps=0.25, phi_m=0.25, min_speed_mps=-0.15, max_speed_mps=0.5)
+    assert smc_speed_mps(1.0, 0.0, 0.0, 0.0, 0.0, range_cmd_m=1.5, gains=gains) == pytest.approx(-0.15)
+
+
+def test_broadside_singularity_is_guarded() -> None:
+    # leader exactly abeam: the printed eq. 23 divides by zero
+    u = smc_speed_mps(0.0, 2.0, 0.3, 0.0, 0.0, range_cmd_m=1.5, gains=RangeGains())
+    assert math.isfinite(u) and RangeGains().min_speed_mps <= u <= RangeGains().max_speed_mps
+
+
+def test_eq26_heading_law_turns_toward_a_target_on_the_right() -> None:
+    gains = BearingGains(eta_radps=1.0, lam_s=0.0, phi_rad=0.2, max_yaw_rate_radps=2.0)
+    assert smc_yaw_rate_radps(0.3, 0.0, gains) == pytest.approx(1.0)  # outside the layer: eta
+    assert smc_yaw_rate_radps(-0.1, 0.0, gains) == pytest.approx(-0.5)  # inside: eta e / phi
+    # eq. 25: the error rate enters the sliding variable with weight lambda
+    g2 = BearingGains(eta_radps=1.0, lam_s=0.5, phi_rad=0.2, max_yaw_rate_radps=2.0)
+    assert smc_yaw_rate_radps(0.1, -0.2, g2) == pytest.approx(0.0)
+
+
+def test_sliding_mode_controller_uses_the_error_rate() -> None:
+    ctl = SlidingModeController(BearingGains(eta_radps=1.0, lam_s=0.5, phi_rad=1.0, max_yaw_rate_radps=2.0))
+    assert ctl.step(0.2, 0.05) == pytest.approx(0.2)  # first step: no rate yet
+    assert ctl.step(0.1, 0.05) == pytest.approx(0.1 + 0.5 * (-2.0))  # rate -2 rad/s
+
+
+finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
+
+
+@given(finite, finite, st.floats(-5, 5), st.floats(-5, 5), st.floats(-10, 10), st.floats(0.1, 20))
+def test_speed_command_always_within_limits(
+    dx: float, dy: float, vx: float, vy: float, psi: float, rcmd: float
+) -> None:
+    g = RangeGains(min_speed_mps=-0.15, max_speed_mps=0.5)
+    u = smc_speed_mps(dx, dy, vx, vy, psi, rcmd, g)
+    assert math.isfinite(u) and -0.15 <= u <= 0.5
+
+
+@given(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3), st.floats(-1e3, 1e3))
+def test_yaw_rate_command_always_within_limits(err: float, rate: float, ff: float) -> None:
+    g = BearingGains(max_yaw_rate_radps=1.5)
+    assert abs(smc_yaw_rate_radps(err, rate, g, ff)) <= 1.5
+
+
+@given(st.floats(-1e6, 1e6))
+def test_sat_is_bounded_and_odd(x: float) -> None:
+    assert -1.0 <= sat(x) <= 1.0 and sat(-x) == -sat(x)
+
+
+def test_gains_reject_bad_values() -> None:
+    with pytest.raises(ValueError, match="eta_mps must be > 0"):
+        RangeGains(eta_mps=0.0)
+    with pytest.raises(ValueError, match=r"min_speed_mps 1\.0 must be <= max_speed_mps 0\.5"):
+        RangeGains(min_speed_mps=1.0, max_speed_mps=0.5)
+    with pytest.raises(ValueError, match="lam_s must be >= 0"):
+        BearingGains(lam_s=-1.0)
