@@ -243,6 +243,160 @@ class FormationConfig:
 
 
 @dataclass(frozen=True)
+class CameraConfig:
+    """[camera]: the pinhole camera on each follower (and the real camera for `lfctl follow`).
+
+    Intrinsics come from ``hfov_deg`` unless ``fx_px`` (and optionally ``fy_px``, ``cx_px``,
+    ``cy_px``) are given. The mount is ``mount_forward_m`` ahead of the vehicle's reference
+    point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
+    """
+
+    width_px: int = 640
+    height_px: int = 480
+    hfov_rad: float = math.radians(62.0)
+    fx_px: float = 0.0
+    fy_px: float = 0.0
+    cx_px: float = 0.0
+    cy_px: float = 0.0
+    k1: float = 0.0  # radial distortion (OpenCV model)
+    k2: float = 0.0
+    mount_forward_m: float = 0.12
+    mount_height_m: float = 0.2
+    pitch_rad: float = 0.0
+    noise_sigma: float = 2.0  # sensor noise, digital numbers (0..255)
+    motion_blur: bool = False
+    jpeg_quality: int = 85  # for recording
+
+    def __post_init__(self) -> None:
+        if not (16 <= self.width_px <= 8192 and 16 <= self.height_px <= 8192):
+            raise ConfigError(
+                f"camera.width_px/height_px must be within 16..8192, got {self.width_px}x{self.height_px}"
+            )
+        if not 0 < self.hfov_rad < math.radians(170):
+            raise ConfigError(f"camera.hfov_deg must be within (0, 170), got {math.degrees(self.hfov_rad):.6g}")
+        for name in ("fx_px", "fy_px", "cx_px", "cy_px", "noise_sigma", "mount_height_m"):
+            _non_negative(f"camera.{name}", getattr(self, name))
+        if not -math.pi / 3 <= self.pitch_rad <= math.pi / 3:
+            raise ConfigError(f"camera.pitch_deg must be within [-60, 60], got {math.degrees(self.pitch_rad):.6g}")
+        if not 1 <= self.jpeg_quality <= 100:
+            raise ConfigError(f"camera.jpeg_quality must be within 1..100, got {self.jpeg_quality!r}")
+
+
+@dataclass(frozen=True)
+class BannerConfig:
+    """[banner]: the leader's marker banner: four markers on a square of side ``side_m``
+    (the paper's E) on a textured panel on the vehicle's back."""
+
+    side_m: float = 0.14
+    marker_size_m: float = 0.035
+    panel_size_m: float = 0.22
+    centre_height_m: float = 0.2
+    marker_hue_deg: float = 0.0  # red; HSV hue in degrees (0..360)
+    marker_saturation: float = 0.85
+    panel_bgr: tuple[int, ...] = (215, 218, 222)  # near white: the markers carry the hue
+
+    def __post_init__(self) -> None:
+        for name in ("side_m", "marker_size_m", "panel_size_m", "centre_height_m"):
+            _positive(f"banner.{name}", getattr(self, name))
+        if self.side_m + self.marker_size_m > self.panel_size_m:
+            raise ConfigError(
+                f"banner.side_m + marker_size_m ({self.side_m + self.marker_size_m:g}) must fit on panel_size_m ({self.panel_size_m:g})"
+            )
+        if not 0 <= self.marker_hue_deg < 360:
+            raise ConfigError(f"banner.marker_hue_deg must be within [0, 360), got {self.marker_hue_deg!r}")
+        if len(self.panel_bgr) != 3 or not all(0 <= c <= 255 for c in self.panel_bgr):
+            raise ConfigError(f"banner.panel_bgr must be [b, g, r] within 0..255, got {list(self.panel_bgr)!r}")
+
+
+@dataclass(frozen=True)
+class PropConfig:
+    """One [[scene.props]]: a vertical panel in the world, still or moving.
+
+    ``kind``: ``"wall"`` / ``"box"`` (textured clutter), ``"distractor"`` (flat, the markers'
+    hue at saturation 0.6), ``"textured_distractor"`` (the markers' hue and saturation,
+    hatched), ``"panel_clutter"`` (flat, the banner panel's colour).
+    """
+
+    kind: Literal["wall", "box", "distractor", "textured_distractor", "panel_clutter"]
+    north_m: float
+    east_m: float
+    yaw_rad: float = 0.0  # the panel's normal, from north
+    width_m: float = 0.5
+    height_m: float = 0.5
+    base_m: float = 0.0  # height of the lower edge above ground
+    vel_north_mps: float = 0.0
+    vel_east_mps: float = 0.0
+
+    def __post_init__(self) -> None:
+        _positive("scene.props.width_m", self.width_m)
+        _positive("scene.props.height_m", self.height_m)
+
+
+@dataclass(frozen=True)
+class OccluderConfig:
+    """One [[scene.occluders]]: a panel that crosses between a follower and its target.
+
+    At ``t_s`` it appears ``lateral_m`` to the side of the line of sight, ``fraction`` of the
+    way from the follower to the target, and moves across it at ``speed_mps``.
+    """
+
+    t_s: float
+    follower: str = ""
+    width_m: float = 0.6
+    height_m: float = 0.6
+    speed_mps: float = 0.4
+    fraction: float = 0.5
+    lateral_m: float = 1.2
+
+    def __post_init__(self) -> None:
+        _non_negative("scene.occluders.t_s", self.t_s)
+        for name in ("width_m", "height_m", "speed_mps", "lateral_m"):
+            _positive(f"scene.occluders.{name}", getattr(self, name))
+        if not 0 < self.fraction < 1:
+            raise ConfigError(f"scene.occluders.fraction must be within (0, 1), got {self.fraction!r}")
+
+
+@dataclass(frozen=True)
+class LightKey:
+    """One [[scene.lighting]] key frame; gain and tint are interpolated between keys."""
+
+    t_s: float
+    gain: float = 1.0
+    tint_bgr: tuple[float, ...] = (1.0, 1.0, 1.0)
+
+    def __post_init__(self) -> None:
+        _non_negative("scene.lighting.t_s", self.t_s)
+        _positive("scene.lighting.gain", self.gain)
+        if len(self.tint_bgr) != 3 or not all(c > 0 for c in self.tint_bgr):
+            raise ConfigError(f"scene.lighting.tint_bgr must be three positive factors, got {list(self.tint_bgr)!r}")
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """[scene]: what the simulated camera sees besides the vehicles."""
+
+    ground: Literal["concrete", "checker", "carpet"] = "concrete"
+    props: tuple[PropConfig, ...] = ()
+    occluders: tuple[OccluderConfig, ...] = ()
+    lighting: tuple[LightKey, ...] = ()
+    flicker_amplitude: float = 0.0
+    flicker_hz: float = 0.0
+    shadow_gain: float = 1.0  # < 1: a shadow band sweeps across the image
+    shadow_period_s: float = 20.0
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.flicker_amplitude < 1:
+            raise ConfigError(f"scene.flicker_amplitude must be within [0, 1), got {self.flicker_amplitude!r}")
+        _non_negative("scene.flicker_hz", self.flicker_hz)
+        if not 0 < self.shadow_gain <= 1:
+            raise ConfigError(f"scene.shadow_gain must be within (0, 1], got {self.shadow_gain!r}")
+        _positive("scene.shadow_period_s", self.shadow_period_s)
+        times = [k.t_s for k in self.lighting]
+        if times != sorted(times):
+            raise ConfigError(f"scene.lighting key frames must be in time order, got t_s {times!r}")
+
+
+@dataclass(frozen=True)
 class Slot:
     """Where a follower keeps itself: its target, commanded range (m) and bearing (rad)."""
 
@@ -263,6 +417,9 @@ class Config:
     guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
     formation: FormationConfig = field(default_factory=FormationConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    banner: BannerConfig = field(default_factory=BannerConfig)
+    scene: SceneConfig = field(default_factory=SceneConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
@@ -282,6 +439,11 @@ class Config:
                 raise ConfigError(f"vehicles[{v.name}].target names an unknown vehicle {v.target!r} (known: {names})")
             if v.target == v.name:
                 raise ConfigError(f"vehicles[{v.name}].target cannot be the vehicle itself")
+        for i, occ in enumerate(self.scene.occluders):
+            if occ.follower and occ.follower not in names:
+                raise ConfigError(
+                    f"scene.occluders[{i}].follower names an unknown vehicle {occ.follower!r} (known: {names})"
+                )
         # followers' targets must lead back to the leader without a cycle
         target = {name: slot.target for name, slot in self.slots().items()}
         for start in target:
@@ -452,6 +614,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         guidance=cfg.guidance,
         sensing=cfg.sensing,
         formation=cfg.formation,
+        camera=cfg.camera,
+        banner=cfg.banner,
+        scene=cfg.scene,
         source=text,
     )
 
@@ -467,6 +632,9 @@ class _ConfigTable:
     guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
     formation: FormationConfig = field(default_factory=FormationConfig)
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    banner: BannerConfig = field(default_factory=BannerConfig)
+    scene: SceneConfig = field(default_factory=SceneConfig)
 
 
 def load_config(path: str | Path) -> Config:

@@ -1,0 +1,582 @@
+"""The simulated sensor: a pinhole camera on a follower, rendering the world truth.
+
+Everything is a plane: a textured ground (one homography, tiled with BORDER_WRAP), vertical
+textured panels (walls, props, distractors, occluders, the leader's banner) and the
+vehicles' box bodies. Planes are clipped at the near plane, warped only inside their
+bounding box and painted far to near. Lighting (gain and tint key frames, flicker, a
+sweeping shadow band), sensor noise (a seeded bank of noise frames) and optional motion
+blur follow. Deterministic for a seed; no per-pixel Python.
+
+Per frame it also returns the ground truth the benchmarks score against: the target's
+banner bounding box and marker centres, its visible fraction, and the true range, bearing
+and relative heading.
+"""
+
+from __future__ import annotations
+
+import colorsys
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from lfctl.config import BannerConfig, CameraConfig, LightKey, PropConfig, SceneConfig
+from lfctl.frames import rot_z, wrap_pi
+
+NEAR_M = 0.05
+BODY_LENGTH_M, BODY_WIDTH_M, BODY_BOTTOM_M, BODY_TOP_M = 0.30, 0.22, 0.03, 0.14
+#: where the banner panel sits, behind the vehicle's reference point (body frame x), m
+BANNER_BACK_M = -BODY_LENGTH_M / 2 - 0.005
+TEX_PX_PER_M = 800.0  # banner texture resolution
+
+
+# ---------------------------------------------------------------------------------------
+# Camera model
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    """Intrinsics (pixels) and mount of a follower's camera."""
+
+    width: int
+    height: int
+    K: np.ndarray  # 3x3
+    dist: np.ndarray  # k1, k2, p1, p2
+    mount_body_m: np.ndarray  # camera centre in the vehicle body frame (FRD)
+    R_body_from_cam: np.ndarray
+
+    @staticmethod
+    def from_config(cfg: CameraConfig) -> CameraModel:
+        fx = cfg.fx_px or (cfg.width_px / 2) / math.tan(cfg.hfov_rad / 2)
+        fy = cfg.fy_px or fx
+        cx = cfg.cx_px or (cfg.width_px - 1) / 2
+        cy = cfg.cy_px or (cfg.height_px - 1) / 2
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        c, s = math.cos(cfg.pitch_rad), math.sin(cfg.pitch_rad)
+        # columns: camera x (right), y (down), z (forward, pitched up by pitch_rad) in FRD
+        R = np.array([[0.0, s, c], [1.0, 0.0, 0.0], [0.0, c, -s]])
+        return CameraModel(
+            cfg.width_px,
+            cfg.height_px,
+            K,
+            np.array([cfg.k1, cfg.k2, 0.0, 0.0]),
+            np.array([cfg.mount_forward_m, 0.0, -cfg.mount_height_m]),
+            R,
+        )
+
+    def pose(self, north_m: float, east_m: float, yaw_rad: float) -> tuple[np.ndarray, np.ndarray]:
+        """(R_cam_from_ned, camera centre in NED) for a vehicle pose."""
+        Rz = rot_z(yaw_rad)
+        R_ned_from_cam = Rz @ self.R_body_from_cam
+        centre = np.array([north_m, east_m, 0.0]) + Rz @ self.mount_body_m
+        return R_ned_from_cam.T, centre
+
+
+# ---------------------------------------------------------------------------------------
+# Textures (procedural, seeded)
+
+
+def hue_bgr(hue_deg: float, saturation: float, value: float) -> tuple[int, int, int]:
+    """BGR of an HSV colour (hue in degrees)."""
+    r, g, b = colorsys.hsv_to_rgb((hue_deg % 360) / 360.0, saturation, value)
+    return int(round(b * 255)), int(round(g * 255)), int(round(r * 255))
+
+
+def _noise_texture(
+    rng: np.random.Generator, h: int, w: int, base: Sequence[int], amplitude: float, blur: int
+) -> np.ndarray:
+    n = rng.normal(0.0, amplitude, (h, w)).astype(np.float32)
+    if blur > 1:
+        # blur a 3x3 tiling and keep the middle: the texture stays periodic (no seams when tiled)
+        n = cv2.GaussianBlur(np.tile(n, (3, 3)), (0, 0), blur)[h : 2 * h, w : 2 * w].copy()
+        n *= amplitude / max(float(n.std()), 1e-6)
+    tex = np.empty((h, w, 3), np.uint8)
+    for c in range(3):
+        tex[:, :, c] = np.clip(base[c] + n, 0, 255).astype(np.uint8)
+    return tex
+
+
+def banner_texture(cfg: BannerConfig, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The banner panel texture and its four marker centres in texture pixels (TL, TR, BR, BL)."""
+    size = int(round(cfg.panel_size_m * TEX_PX_PER_M))
+    tex = _noise_texture(rng, size, size, cfg.panel_bgr, 10.0, 1)
+    # a printed pattern: fine diagonal hatching, the texture LBP keys on
+    for k in range(-size, size, 9):
+        cv2.line(tex, (k, 0), (k + size, size), tuple(int(c * 0.8) for c in cfg.panel_bgr), 2, cv2.LINE_AA)
+    half = cfg.side_m / 2 * TEX_PX_PER_M
+    m = cfg.marker_size_m / 2 * TEX_PX_PER_M
+    c0 = size / 2
+    centres = np.array([[c0 - half, c0 - half], [c0 + half, c0 - half], [c0 + half, c0 + half], [c0 - half, c0 + half]])
+    colour = hue_bgr(cfg.marker_hue_deg, cfg.marker_saturation, 0.85)
+    for cx, cy in centres:
+        cv2.rectangle(
+            tex, (int(round(cx - m)), int(round(cy - m))), (int(round(cx + m)), int(round(cy + m))), colour, -1
+        )
+    return tex, centres
+
+
+def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+    """A tileable ground texture and its resolution (px per m)."""
+    if kind == "checker":
+        tile = np.kron((np.indices((8, 8)).sum(axis=0) % 2), np.ones((64, 64))).astype(np.uint8)
+        tex = np.dstack([90 + 60 * tile] * 3).astype(np.uint8)
+        return tex, 128.0  # 0.5 m squares
+    if kind == "carpet":
+        return _noise_texture(rng, 512, 512, (70, 60, 110), 25.0, 2), 256.0
+    return _noise_texture(rng, 512, 512, (128, 130, 132), 18.0, 3), 128.0
+
+
+def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generator) -> np.ndarray:
+    """Texture of a prop panel by kind."""
+    w = max(8, int(prop.width_m * 200))
+    h = max(8, int(prop.height_m * 200))
+    marker = hue_bgr(banner.marker_hue_deg, banner.marker_saturation, 0.85)
+    if prop.kind == "distractor":
+        # the markers' hue, flat, at a lower saturation (a red box is rarely the markers' red)
+        return _noise_texture(rng, h, w, hue_bgr(banner.marker_hue_deg, 0.6, 0.8), 3.0, 1)
+    if prop.kind == "textured_distractor":
+        # the markers' hue and saturation exactly; only its texture (hatching) differs
+        tex = _noise_texture(rng, h, w, marker, 6.0, 1)
+        dark = tuple(int(c * 0.6) for c in marker)
+        for k in range(0, w + h, 10):
+            cv2.line(tex, (k, 0), (k - h, h), dark, 2, cv2.LINE_AA)
+        return tex
+    if prop.kind == "panel_clutter":
+        return _noise_texture(rng, h, w, banner.panel_bgr, 4.0, 1)
+    if prop.kind == "wall":
+        return _noise_texture(rng, h, w, (150, 160, 170), 20.0, 4)
+    return _noise_texture(rng, h, w, (60, 110, 150), 15.0, 2)  # box: cardboard
+
+
+# ---------------------------------------------------------------------------------------
+# Geometry helpers
+
+
+def _clip_near(points_cam: np.ndarray) -> np.ndarray:
+    """Clip a convex polygon (N, 3) in camera coordinates to z >= NEAR_M."""
+    out = []
+    n = len(points_cam)
+    for i in range(n):
+        a, b = points_cam[i], points_cam[(i + 1) % n]
+        a_in, b_in = a[2] >= NEAR_M, b[2] >= NEAR_M
+        if a_in:
+            out.append(a)
+        if a_in != b_in:
+            t = (NEAR_M - a[2]) / (b[2] - a[2])
+            out.append(a + t * (b - a))
+    return np.array(out) if out else np.empty((0, 3))
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A textured rectangle: origin (top-left), axes along texture x and y (world m per px)."""
+
+    origin: np.ndarray
+    ax: np.ndarray  # world vector per texture pixel along x
+    ay: np.ndarray  # along y
+    texture: np.ndarray | None  # None: flat colour
+    colour: tuple[int, int, int] = (0, 0, 0)
+
+    def corners(self) -> np.ndarray:
+        h, w = (self.texture.shape[:2]) if self.texture is not None else (1, 1)
+        o, ax, ay = self.origin, self.ax * w, self.ay * h
+        return np.array([o, o + ax, o + ax + ay, o + ay])
+
+
+# ---------------------------------------------------------------------------------------
+# Frame truth and vehicles
+
+
+@dataclass(frozen=True)
+class VehiclePose:
+    """A vehicle to draw: pose in NED; the banner on its back when ``banner``."""
+
+    north_m: float
+    east_m: float
+    yaw_rad: float
+    banner: bool = True
+
+
+@dataclass(frozen=True)
+class FrameTruth:
+    """What the frame shows of the target, from the world truth."""
+
+    t_s: float
+    bbox: tuple[int, int, int, int] | None  # banner x, y, w, h in pixels (clipped), None if off-image
+    markers_px: np.ndarray  # (4, 2) projected marker centres TL, TR, BR, BL as seen
+    visible_fraction: float  # of the banner's in-image area not hidden by nearer things
+    in_view: bool  # banner in front of the camera and at least partly inside the image
+    range_m: float  # follower reference point to target reference point
+    bearing_rad: float
+    rel_heading_rad: float  # target yaw - follower yaw
+    banner_cam_m: np.ndarray  # banner centre in the camera frame
+
+
+def banner_geometry(target: VehiclePose, banner: BannerConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """World centre of the banner and its axes (right, down), unit vectors, seen from behind."""
+    Rz = rot_z(target.yaw_rad)
+    centre = np.array([target.north_m, target.east_m, 0.0]) + Rz @ np.array(
+        [BANNER_BACK_M, 0.0, -banner.centre_height_m]
+    )
+    right = Rz @ np.array([0.0, 1.0, 0.0])
+    down = np.array([0.0, 0.0, 1.0])
+    return centre, right, down
+
+
+class Renderer:
+    """Renders one follower's camera view. Build once per follower; call :meth:`render`."""
+
+    def __init__(self, camera: CameraConfig, banner: BannerConfig, scene: SceneConfig, seed: int) -> None:
+        self.cfg = camera
+        self.cam = CameraModel.from_config(camera)
+        self.banner = banner
+        self.scene = scene
+        rng = np.random.default_rng(seed)
+        self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
+        self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
+        self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
+        occ_rng = np.random.default_rng(seed + 1)
+        self.occluder_tex = [
+            _noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
+            for o in scene.occluders
+        ]
+        w, h = camera.width_px, camera.height_px
+        noise_rng = np.random.default_rng(seed + 2)
+        self._noise = (
+            [noise_rng.normal(0, camera.noise_sigma, (h, w, 3)).astype(np.int16) for _ in range(6)]
+            if camera.noise_sigma > 0
+            else []
+        )
+        self._frame_rng = np.random.default_rng(seed + 3)
+        self._sky = self._sky_image()
+        self._ground_rows = self._ground_mask_rows()
+        self._undistort_maps = None
+        if abs(camera.k1) > 0 or abs(camera.k2) > 0:
+            # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
+            m1, m2 = cv2.initUndistortRectifyMap(self.cam.K, self.cam.dist, None, self.cam.K, (w, h), cv2.CV_16SC2)
+            self._undistort_maps = (m1, m2)
+        self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._pyramids: dict[int, list[np.ndarray]] = {}
+
+    # -- static parts -------------------------------------------------------------------
+    def _sky_image(self) -> np.ndarray:
+        h, w = self.cfg.height_px, self.cfg.width_px
+        ramp = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None]
+        top, bottom = np.array([235, 225, 215], np.float32), np.array([190, 190, 185], np.float32)
+        img = top + (bottom - top) * ramp[..., None]
+        return np.broadcast_to(img, (h, w, 3)).astype(np.uint8).copy()
+
+    def _ground_mask_rows(self) -> int:
+        """First image row that sees the ground everywhere (the horizon does not depend on yaw)."""
+        Kinv = np.linalg.inv(self.cam.K)
+        R = self.cam.R_body_from_cam
+        for v in range(self.cfg.height_px):
+            rays = R @ Kinv @ np.array([[0.0, self.cfg.width_px - 1.0], [v, v], [1.0, 1.0]])
+            if np.all(rays[2] > 1e-6):
+                return v
+        return self.cfg.height_px
+
+    # -- painting ----------------------------------------------------------------------
+    def _project(self, R: np.ndarray, c: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        cam = (R @ (pts - c).T).T
+        return cam
+
+    def _paint_ground(self, img: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
+        v0 = self._ground_rows
+        if v0 >= img.shape[0]:
+            return
+        # image -> ground: ray from the camera centre hits z = 0
+        K = self.cam.K
+        s = self.ground_px_per_m
+        # texture (a, b) = s * (north, east); world point (a/s, b/s, 0)
+        M = np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0]])
+        P = K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
+        Hg = P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        del M
+        shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -v0], [0.0, 0.0, 1.0]])
+        H = shift @ Hg  # texture -> image rows v0..
+        h, w = img.shape[0] - v0, img.shape[1]
+        cv2.warpPerspective(
+            self.ground_tex, H, (w, h), dst=img[v0:], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP
+        )
+
+    def _paint_plane(self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane) -> np.ndarray | None:
+        """Warp a plane into the image; returns its image polygon (or None if not visible)."""
+        cam_pts = self._project(R, c, plane.corners())
+        clipped = _clip_near(cam_pts)
+        if len(clipped) < 3:
+            return None
+        K = self.cam.K
+        uv = (K @ clipped.T).T
+        poly = uv[:, :2] / uv[:, 2:3]
+        H_img, W_img = img.shape[:2]
+        x0, y0 = np.floor(poly.min(axis=0)).astype(int)
+        x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
+        if x1 <= x0 or y1 <= y0:
+            return None
+        if plane.texture is None:
+            cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], plane.colour, cv2.LINE_AA, shift=4)
+            return poly
+        sub = img[y0:y1, x0:x1]
+        mask = np.zeros(sub.shape[:2], np.uint8)
+        cv2.fillPoly(mask, [np.round((poly - [x0, y0]) * 16).astype(np.int32)], 255, cv2.LINE_8, shift=4)
+        tex, ax, ay, origin = self._mip_level(plane, R, c)
+        # homography texture -> image: K [R ax, R ay, R (o - c)], then shift to the ROI
+        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
+        Hp = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
+        warped = cv2.warpPerspective(
+            tex, Hp, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+        )
+        cv2.copyTo(warped, mask, sub)  # in place into the view (numpy masked copy is ~80x slower)
+        return poly
+
+    def _mip_level(
+        self, plane: Plane, R: np.ndarray, c: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The pyramid level of the plane's texture whose texels are about a pixel on screen.
+
+        warpPerspective samples points; drawing a texture much finer than the pixels aliases
+        edges and biases small features (a marker's centroid moved by half a pixel). A
+        camera integrates light over each pixel; a texture pre-filtered to the screen scale
+        (a mip level, cv2.pyrDown) is the cheap equivalent.
+        """
+        assert plane.texture is not None
+        centre = plane.corners().mean(axis=0)
+        depth = float((R @ (centre - c))[2])
+        if depth <= NEAR_M:
+            return plane.texture, plane.ax, plane.ay, plane.origin
+        texel_px = self.cam.K[0, 0] * max(float(np.linalg.norm(plane.ax)), float(np.linalg.norm(plane.ay))) / depth
+        level = 0
+        while texel_px * (2 ** (level + 1)) <= 1.0 and level < 4:
+            level += 1
+        if level == 0:
+            return plane.texture, plane.ax, plane.ay, plane.origin
+        pyr = self._pyramids.get(id(plane.texture))
+        if pyr is None:
+            pyr = [plane.texture]
+            self._pyramids[id(plane.texture)] = pyr
+        while len(pyr) <= level:
+            pyr.append(cv2.pyrDown(pyr[-1]))
+        k = 2**level
+        # texel i of level L covers texels k i .. k i + k - 1 of level 0: centre k i + (k - 1) / 2
+        origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
+        return pyr[level], plane.ax * k, plane.ay * k, origin
+
+    def _vehicle_planes(self, v: VehiclePose) -> list[tuple[Plane, str]]:
+        """The vehicle's box faces (flat shaded) and its banner, in world coordinates."""
+        Rz = rot_z(v.yaw_rad)
+        base = np.array([v.north_m, v.east_m, 0.0])
+        L, W = BODY_LENGTH_M / 2, BODY_WIDTH_M / 2
+        zt, zb = -BODY_TOP_M, -BODY_BOTTOM_M
+
+        def P(x: float, y: float, z: float) -> np.ndarray:
+            return base + Rz @ np.array([x, y, z])
+
+        faces = {
+            "back": ([P(-L, -W, zt), P(-L, W, zt), P(-L, W, zb), P(-L, -W, zb)], (55, 55, 60)),
+            "front": ([P(L, W, zt), P(L, -W, zt), P(L, -W, zb), P(L, W, zb)], (60, 60, 65)),
+            "left": ([P(L, -W, zt), P(-L, -W, zt), P(-L, -W, zb), P(L, -W, zb)], (45, 45, 50)),
+            "right": ([P(-L, W, zt), P(L, W, zt), P(L, W, zb), P(-L, W, zb)], (45, 45, 50)),
+            "top": ([P(-L, -W, zt), P(L, -W, zt), P(L, W, zt), P(-L, W, zt)], (80, 80, 85)),
+        }
+        out = []
+        for name, (pts, colour) in faces.items():
+            o = pts[0]
+            out.append((Plane(o, pts[1] - pts[0], pts[3] - pts[0], None, colour), name))
+        if v.banner:
+            centre, right, down = banner_geometry(v, self.banner)
+            size = self.banner_tex.shape[0]
+            half = self.banner.panel_size_m / 2
+            origin = centre - right * half - down * half
+            px = self.banner.panel_size_m / size
+            out.append((Plane(origin, right * px, down * px, self.banner_tex), "banner"))
+        return out
+
+    def _occluders(self, t_s: float, follower: VehiclePose, target: VehiclePose, follower_name: str) -> list[Plane]:
+        planes = []
+        for i, occ in enumerate(self.scene.occluders):
+            if occ.follower and occ.follower != follower_name:
+                continue
+            if t_s < occ.t_s:
+                continue
+            if i not in self._occ_state:
+                # spawn beside the line of sight, then move straight across it
+                f = np.array([follower.north_m, follower.east_m])
+                g = np.array([target.north_m, target.east_m])
+                d = g - f
+                n = np.linalg.norm(d)
+                u = d / n if n > 0 else np.array([1.0, 0.0])
+                left = np.array([u[1], -u[0]])  # NED: left of the line of sight
+                start = f + occ.fraction * d + left * occ.lateral_m
+                self._occ_state[i] = (start, -left * occ.speed_mps)
+            start, vel = self._occ_state[i]
+            pos = start + vel * (t_s - occ.t_s)
+            if np.linalg.norm(pos - start) > 2 * occ.lateral_m + occ.width_m:
+                continue  # gone by
+            # the panel faces along the line of motion's normal (the follower's side)
+            across = vel / max(np.linalg.norm(vel), 1e-9)
+            tex = self.occluder_tex[i]
+            h, w = tex.shape[:2]
+            origin = np.array([pos[0], pos[1], -occ.height_m]) - np.array([across[0], across[1], 0.0]) * occ.width_m / 2
+            ax = np.array([across[0], across[1], 0.0]) * occ.width_m / w
+            ay = np.array([0.0, 0.0, occ.height_m / h])
+            planes.append(Plane(origin, ax, ay, tex))
+        return planes
+
+    def _props(self, t_s: float) -> list[Plane]:
+        planes = []
+        for p, tex in zip(self.scene.props, self.prop_tex, strict=True):
+            n, e = p.north_m + p.vel_north_mps * t_s, p.east_m + p.vel_east_mps * t_s
+            # panel plane: normal along yaw; texture x runs to the right of a viewer facing it
+            normal = np.array([math.cos(p.yaw_rad), math.sin(p.yaw_rad), 0.0])
+            right = np.array([-normal[1], normal[0], 0.0])  # viewer faces -normal; their right
+            h, w = tex.shape[:2]
+            origin = np.array([n, e, -(p.base_m + p.height_m)]) - right * p.width_m / 2
+            planes.append(Plane(origin, right * p.width_m / w, np.array([0.0, 0.0, p.height_m / h]), tex))
+        return planes
+
+    # -- lighting -----------------------------------------------------------------------
+    def light(self, t_s: float) -> tuple[float, np.ndarray]:
+        """Global gain and BGR tint at ``t_s`` (key frames interpolated, then flicker)."""
+        keys: tuple[LightKey, ...] = self.scene.lighting
+        gain, tint = 1.0, np.ones(3)
+        if keys:
+            if t_s <= keys[0].t_s:
+                gain, tint = keys[0].gain, np.array(keys[0].tint_bgr)
+            elif t_s >= keys[-1].t_s:
+                gain, tint = keys[-1].gain, np.array(keys[-1].tint_bgr)
+            else:
+                for a, b in itertools.pairwise(keys):
+                    if a.t_s <= t_s <= b.t_s:
+                        f = (t_s - a.t_s) / (b.t_s - a.t_s) if b.t_s > a.t_s else 1.0
+                        gain = a.gain + f * (b.gain - a.gain)
+                        tint = np.array(a.tint_bgr) + f * (np.array(b.tint_bgr) - np.array(a.tint_bgr))
+                        break
+        if self.scene.flicker_amplitude > 0 and self.scene.flicker_hz > 0:
+            gain *= 1.0 + self.scene.flicker_amplitude * math.sin(2 * math.pi * self.scene.flicker_hz * t_s)
+        return gain, tint
+
+    # -- the frame -----------------------------------------------------------------------
+    def render(
+        self,
+        t_s: float,
+        follower: VehiclePose,
+        others: Sequence[VehiclePose],
+        target_index: int,
+        follower_name: str = "",
+        yaw_rate_radps: float = 0.0,
+    ) -> tuple[np.ndarray, FrameTruth]:
+        """Render the follower's view at ``t_s``; ``others[target_index]`` is the tracked target."""
+        R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
+        img = self._sky.copy()
+        self._paint_ground(img, R, c)
+        target = others[target_index]
+        items: list[tuple[float, Plane, str]] = []
+        for p in self._props(t_s):
+            items.append((float(np.linalg.norm(p.corners().mean(axis=0) - c)), p, "prop"))
+        for i, v in enumerate(others):
+            for plane, name in self._vehicle_planes(v):
+                # back-face culling: faces are laid out as seen from outside (texture x to the
+                # viewer's right, y down), so ax x ay points into the box, away from a viewer
+                corners = plane.corners()
+                normal = np.cross(corners[1] - corners[0], corners[3] - corners[0])
+                centre = corners.mean(axis=0)
+                if np.dot(normal, centre - c) <= 0:
+                    continue
+                items.append(
+                    (
+                        float(np.linalg.norm(centre - c)) - (0.01 if name == "banner" else 0.0),
+                        plane,
+                        "target" if (name == "banner" and i == target_index) else name,
+                    )
+                )
+        for p in self._occluders(t_s, follower, target, follower_name):
+            items.append((float(np.linalg.norm(p.corners().mean(axis=0) - c)), p, "occluder"))
+        items.sort(key=lambda x: -x[0])
+        target_poly = None
+        nearer_polys: list[np.ndarray] = []
+        for _depth, plane, kind in items:
+            poly = self._paint_plane(img, R, c, plane)
+            if kind == "target":
+                target_poly = poly
+            elif poly is not None and target_poly is not None:
+                nearer_polys.append(poly)  # painted after the target: nearer, may hide it
+        truth = self._truth(t_s, R, c, follower, target, target_poly, nearer_polys)
+        if self._undistort_maps is not None:
+            img = cv2.remap(img, self._undistort_maps[0], self._undistort_maps[1], cv2.INTER_LINEAR)
+        if self.cfg.motion_blur and abs(yaw_rate_radps) > 1e-3:
+            length = int(min(31, abs(yaw_rate_radps) / 60.0 * self.cam.K[0, 0]))
+            if length >= 2:
+                img = cv2.blur(img, (length, 1))
+        img = self._apply_light(img, t_s)
+        if self._noise:
+            noise = self._noise[int(self._frame_rng.integers(len(self._noise)))]
+            img = cv2.add(img, noise, dtype=cv2.CV_8U)
+        return img, truth
+
+    def _apply_light(self, img: np.ndarray, t_s: float) -> np.ndarray:
+        gain, tint = self.light(t_s)
+        if gain != 1.0 or np.any(tint != 1.0):
+            img = cv2.transform(img, np.diag(gain * tint).astype(np.float32))
+        sc = self.scene
+        if sc.shadow_gain < 1.0:
+            w = img.shape[1]
+            band = w // 4
+            x0 = int(((t_s % sc.shadow_period_s) / sc.shadow_period_s) * (w + band)) - band
+            a, b = max(0, x0), min(w, x0 + band)
+            if b > a:
+                img[:, a:b] = cv2.convertScaleAbs(img[:, a:b], alpha=sc.shadow_gain)
+        return img
+
+    def _truth(
+        self,
+        t_s: float,
+        R: np.ndarray,
+        c: np.ndarray,
+        follower: VehiclePose,
+        target: VehiclePose,
+        target_poly: np.ndarray | None,
+        nearer: list[np.ndarray],
+    ) -> FrameTruth:
+        K = self.cam.K
+        centre, right, down = banner_geometry(target, self.banner)
+        half = self.banner.side_m / 2
+        marks_w = np.array(
+            [
+                centre - right * half - down * half,
+                centre + right * half - down * half,
+                centre + right * half + down * half,
+                centre - right * half + down * half,
+            ]
+        )
+        cam = (R @ (marks_w - c).T).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = (K @ cam.T).T
+            marks = uv[:, :2] / uv[:, 2:3]
+        ban_cam = R @ (centre - c)
+        rng = math.hypot(target.north_m - follower.north_m, target.east_m - follower.east_m)
+        brg = wrap_pi(math.atan2(target.east_m - follower.east_m, target.north_m - follower.north_m) - follower.yaw_rad)
+        rel = wrap_pi(target.yaw_rad - follower.yaw_rad)
+        bbox, vis, in_view = None, 0.0, False
+        if target_poly is not None:
+            W, H = self.cfg.width_px, self.cfg.height_px
+            x0, y0 = np.floor(target_poly.min(axis=0)).astype(int)
+            x1, y1 = np.ceil(target_poly.max(axis=0)).astype(int)
+            cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+            if cx1 > cx0 and cy1 > cy0:
+                in_view = True
+                bbox = (int(cx0), int(cy0), int(cx1 - cx0), int(cy1 - cy0))
+                mask = np.zeros((cy1 - cy0, cx1 - cx0), np.uint8)
+                cv2.fillPoly(mask, [np.round(target_poly - [cx0, cy0]).astype(np.int32)], 255)
+                total = cv2.countNonZero(mask)
+                for poly in nearer:
+                    cv2.fillPoly(mask, [np.round(poly - [cx0, cy0]).astype(np.int32)], 0)
+                vis = cv2.countNonZero(mask) / total if total else 0.0
+                # the fraction of the whole banner, counting parts outside the image as hidden
+                full = cv2.contourArea(target_poly.astype(np.float32))
+                vis *= min(1.0, total / full) if full > 0 else 0.0
+        return FrameTruth(t_s, bbox, marks, float(vis), in_view, rng, brg, rel, ban_cam)

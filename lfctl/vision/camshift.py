@@ -1,0 +1,73 @@
+"""CAMShift moments (paper eq. 3-8, eq. 7 corrected) and the run on a region of interest."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+TERM = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 10, 1.0)
+
+
+@dataclass(frozen=True)
+class WindowMoments:
+    """Moments of a probability image inside a window and the equivalent ellipse."""
+
+    m00: float
+    xc: float
+    yc: float
+    a: float
+    b: float
+    c: float
+    major: float  # eq. 8 "w": standard deviation along the major axis, px
+    minor: float  # eq. 8 "h": along the minor axis, px
+    angle_rad: float  # of the major axis from the image x axis
+
+
+def window_moments(prob: np.ndarray, window: tuple[int, int, int, int]) -> WindowMoments:
+    """Eq. 3-8 on ``prob`` inside ``window`` (x, y, w, h), coordinates in the full image.
+
+    Eq. 3 ``M00 = sum I``; eq. 4 first moments; eq. 5 ``(xc, yc) = (M10/M00, M01/M00)``;
+    eq. 6 second moments; eq. 7 corrected: ``a = M20/M00 - xc^2``, ``b = 2 (M11/M00 - xc yc)``,
+    ``c = M02/M00 - yc^2``; eq. 8 the axes ``sqrt(((a + c) -+ sqrt(b^2 + (a - c)^2)) / 2)``.
+    """
+    x, y, w, h = window
+    roi = prob[y : y + h, x : x + w].astype(np.float64)
+    ys, xs = np.mgrid[y : y + h, x : x + w]
+    m00 = float(roi.sum())
+    if m00 <= 0:
+        return WindowMoments(0.0, x + w / 2, y + h / 2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    xc = float((xs * roi).sum() / m00)
+    yc = float((ys * roi).sum() / m00)
+    a = float((xs * xs * roi).sum() / m00 - xc * xc)
+    b = float(2.0 * ((xs * ys * roi).sum() / m00 - xc * yc))
+    c = float((ys * ys * roi).sum() / m00 - yc * yc)
+    root = math.sqrt(b * b + (a - c) ** 2)
+    major = math.sqrt(max(0.0, ((a + c) + root) / 2.0))
+    minor = math.sqrt(max(0.0, ((a + c) - root) / 2.0))
+    angle = 0.5 * math.atan2(b, a - c)
+    return WindowMoments(m00, xc, yc, a, b, c, major, minor, angle)
+
+
+def camshift_in_roi(
+    prob_roi: np.ndarray, roi_origin: tuple[int, int], window: tuple[int, int, int, int]
+) -> tuple[tuple[int, int, int, int], float]:
+    """cv2.CamShift on a back-projection of a region of interest.
+
+    ``window`` and the result are in full-image coordinates; returns the new window and the
+    mean probability (0..1) inside it.
+    """
+    ox, oy = roi_origin
+    x, y, w, h = window
+    rh, rw = prob_roi.shape[:2]
+    lx, ly = max(0, x - ox), max(0, y - oy)
+    lw, lh = max(1, min(w, rw - lx)), max(1, min(h, rh - ly))
+    if lx >= rw or ly >= rh:
+        return window, 0.0
+    _, (nx, ny, nw, nh) = cv2.CamShift(prob_roi, (lx, ly, lw, lh), TERM)
+    if nw <= 0 or nh <= 0:
+        return (x, y, 0, 0), 0.0
+    mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0
+    return (nx + ox, ny + oy, nw, nh), mass

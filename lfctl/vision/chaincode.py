@@ -1,0 +1,93 @@
+"""Contours as Freeman chain codes (paper section 3.2, fig. 2) and blob shape measures.
+
+OpenCV's ``findContours(..., CHAIN_APPROX_NONE)`` gives every border pixel (8-connected
+border following); the chain code is the direction between successive pixels. Codes follow
+the paper's figure 2 table: 0 = next column (right), 2 = previous row (up), 4 = left,
+6 = next row (down), odd codes the diagonals between them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+#: (dx, dy) in image coordinates (x right, y down) -> Freeman code, as in fig. 2
+FREEMAN = {(1, 0): 0, (1, -1): 1, (0, -1): 2, (-1, -1): 3, (-1, 0): 4, (-1, 1): 5, (0, 1): 6, (1, 1): 7}
+STEP = {code: d for d, code in FREEMAN.items()}
+
+
+_LUT = np.full(9, -1, np.int8)  # index (dx + 1) * 3 + (dy + 1) -> code
+for (_dx, _dy), _code in FREEMAN.items():
+    _LUT[(_dx + 1) * 3 + (_dy + 1)] = _code
+
+
+def chain_code(contour: np.ndarray) -> list[int]:
+    """Freeman codes of a closed 8-connected contour ((N, 1, 2) or (N, 2) points x, y)."""
+    pts = np.asarray(contour).reshape(-1, 2).astype(np.int64)
+    if len(pts) < 2:
+        return []
+    d = np.roll(pts, -1, axis=0) - pts
+    if np.abs(d).max() > 1 or np.any((d == 0).all(axis=1)):
+        bad = d[(np.abs(d).max(axis=1) > 1) | (d == 0).all(axis=1)][0]
+        raise ValueError(f"contour is not 8-connected: step {(int(bad[0]), int(bad[1]))}")
+    return _LUT[(d[:, 0] + 1) * 3 + (d[:, 1] + 1)].tolist()
+
+
+def chain_perimeter(codes: list[int]) -> float:
+    """Freeman perimeter: 1 per even (axis) step, sqrt(2) per odd (diagonal) step."""
+    odd = sum(c & 1 for c in codes)
+    return (len(codes) - odd) + odd * math.sqrt(2.0)
+
+
+@dataclass(frozen=True)
+class Blob:
+    """A segmented blob: its outer border and shape measures (pixels)."""
+
+    codes: tuple[int, ...]
+    start: tuple[int, int]
+    area_px: float
+    perimeter_px: float
+    centroid: tuple[float, float]
+    bbox: tuple[int, int, int, int]  # x, y, w, h
+
+    @property
+    def squareness(self) -> float:
+        """``4 sqrt(area) / perimeter``: 1 for an axis-aligned square, lower for thin or ragged shapes."""
+        return 4.0 * math.sqrt(self.area_px) / self.perimeter_px if self.perimeter_px > 0 else 0.0
+
+    def is_square(self, min_squareness: float = 0.75, max_aspect: float = 2.0) -> bool:
+        """A square marker seen in perspective: compact, not much longer than wide."""
+        _, _, w, h = self.bbox
+        aspect = max(w, h) / max(1, min(w, h))
+        return self.squareness >= min_squareness and aspect <= max_aspect
+
+
+def blobs(mask: np.ndarray, min_area_px: float = 4.0) -> list[Blob]:
+    """Outer blobs of a binary mask with their chain codes and shape measures."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    out = []
+    for c in contours:
+        m = cv2.moments(c)
+        # the border's own area underestimates small blobs; count the pixels it encloses
+        area = max(m["m00"], 0.0)
+        x, y, w, h = cv2.boundingRect(c)
+        pixel_area = float(w * h) if len(c) <= 4 else area + len(c) / 2.0 + 1.0
+        if pixel_area < min_area_px:
+            continue
+        codes = chain_code(c) if len(c) > 1 else []
+        perim = chain_perimeter(codes) + 4.0  # border pixel centres -> outer edge of the pixels
+        cx, cy = (m["m10"] / m["m00"], m["m01"] / m["m00"]) if m["m00"] > 0 else (x + (w - 1) / 2, y + (h - 1) / 2)
+        out.append(
+            Blob(
+                tuple(codes),
+                (int(c[0, 0, 0]), int(c[0, 0, 1])),
+                pixel_area,
+                perim,
+                (float(cx), float(cy)),
+                (x, y, w, h),
+            )
+        )
+    return out

@@ -1,0 +1,40 @@
+"""Input checks shared by the vision functions: a bad frame or ROI is a clear error."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from lfctl.errors import LfctlError
+
+
+class FrameError(LfctlError, ValueError):
+    """A frame or region of interest is not usable; the message says what was wrong."""
+
+
+def check_bgr(frame: object) -> np.ndarray:
+    """The frame as a non-empty uint8 H x W x 3 array, or :class:`FrameError`."""
+    if frame is None:
+        raise FrameError("frame is None (the source returned no image)")
+    if not isinstance(frame, np.ndarray):
+        raise FrameError(f"frame must be a numpy array, got {type(frame).__name__}")
+    if frame.size == 0:
+        raise FrameError(f"frame is empty (shape {frame.shape})")
+    if frame.dtype != np.uint8:
+        raise FrameError(f"frame must be uint8, got {frame.dtype}")
+    if frame.ndim != 3 or frame.shape[2] != 3:
+        raise FrameError(f"frame must be H x W x 3 (BGR), got shape {frame.shape}")
+    return frame
+
+
+def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """An (x, y, w, h) window with positive size that overlaps the frame, clipped to it."""
+    if len(roi) != 4:
+        raise FrameError(f"ROI must be x, y, w, h; got {roi!r}")
+    x, y, w, h = (int(round(v)) for v in roi)
+    H, W = shape[:2]
+    if w <= 0 or h <= 0:
+        raise FrameError(f"ROI {x},{y},{w},{h} must have a positive width and height")
+    x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, W), min(y + h, H)
+    if x1 <= x0 or y1 <= y0:
+        raise FrameError(f"ROI {x},{y},{w},{h} lies outside the {W}x{H} frame")
+    return x0, y0, x1 - x0, y1 - y0

@@ -1,0 +1,105 @@
+"""The target model (paper section 3.3): a 32 x 16 x 36 hue x saturation x LBP histogram,
+weighted down where the background shares its bins, normalised to a 0..255 look-up table
+and back-projected into an 8-bit probability image."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from lfctl.vision.lbp import N_CODES, lbp_ri36
+
+HUE_BINS, SAT_BINS, LBP_BINS = 32, 16, N_CODES
+FULL_BINS = (HUE_BINS, SAT_BINS, LBP_BINS)
+
+
+@dataclass(frozen=True)
+class FeatureSpace:
+    """Which channels the model uses: the paper's hue + saturation + LBP, or hue alone (the
+    baseline CAMShift)."""
+
+    use_saturation: bool = True
+    use_lbp: bool = True
+    lbp_threshold: int = 3
+    achromatic_s: int = 40
+
+    @property
+    def bins(self) -> list[int]:
+        return [HUE_BINS] + ([SAT_BINS] if self.use_saturation else []) + ([LBP_BINS] if self.use_lbp else [])
+
+    @property
+    def ranges(self) -> list[int]:
+        return [0, 180] + ([0, 256] if self.use_saturation else []) + ([0, N_CODES] if self.use_lbp else [])
+
+    @property
+    def channels(self) -> list[int]:
+        return list(range(len(self.bins)))
+
+    def features(self, frame_bgr: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        """The single-channel feature planes of a frame (or region) and its HSV image.
+
+        Planes: hue, then saturation and the LBP codes when used. With saturation in the
+        model, the hue of nearly grey pixels (below ``achromatic_s``) is set to 0: their hue
+        is noise, and scattered over 32 bins a white panel would vanish from the model;
+        saturation keeps them apart from real red.
+        """
+        hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
+        h, sat, _ = cv2.split(hsv)
+        if not self.use_saturation:
+            return [h], hsv
+        chromatic = cv2.compare(sat, self.achromatic_s, cv2.CMP_GT)
+        planes = [cv2.bitwise_and(h, chromatic), sat]
+        if self.use_lbp:
+            planes.append(lbp_ri36(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY), self.lbp_threshold))
+        return planes, hsv
+
+    def planes(self, frame_bgr: np.ndarray) -> list[np.ndarray]:
+        """The feature planes only (see :meth:`features`)."""
+        return self.features(frame_bgr)[0]
+
+
+def histogram(space: FeatureSpace, planes: list[np.ndarray], mask: np.ndarray | None) -> np.ndarray:
+    """Raw counts over the feature space inside ``mask`` (None: everything)."""
+    return cv2.calcHist(planes, space.channels, mask, space.bins, space.ranges)
+
+
+def ratio_lut(target: np.ndarray, background: np.ndarray | None) -> np.ndarray:
+    """Look-up table 0..255: the target histogram weighted down where the background shares
+    its bins (background-weighted histogram, Comaniciu et al. 2003, as used by Allen and
+    Bradski's background-weighted CAMShift).
+
+    Each bin ``u`` of the target histogram is multiplied by ``v_u = min(1, o* / o_u)`` where
+    ``o_u`` is the background's share of bin ``u`` and ``o*`` its smallest non-zero share: a
+    bin the background never shows keeps its weight, a bin common around the target all but
+    disappears. Bins the target shows only a handful of times are dropped as noise. The table
+    is scaled so its largest entry is 255.
+    """
+    t = target.astype(np.float32)
+    t_sum = float(t.sum())
+    if t_sum <= 0:
+        return np.zeros_like(t)
+    w = t / t_sum
+    w[t < max(1.0, 0.002 * t_sum)] = 0.0
+    if background is not None and float(background.sum()) > 0:
+        o = background.astype(np.float32) / float(background.sum())
+        nonzero = o[o > 0]
+        o_star = float(nonzero.min()) if nonzero.size else 1.0
+        v = np.minimum(1.0, o_star / np.maximum(o, 1e-12)).astype(np.float32)
+        w = w * v
+    peak = float(w.max())
+    return (w * (255.0 / peak)).astype(np.float32) if peak > 0 else w
+
+
+def back_project(space: FeatureSpace, planes: list[np.ndarray], lut: np.ndarray) -> np.ndarray:
+    """The 8-bit probability image of ``planes`` under the look-up table."""
+    return cv2.calcBackProject(planes, space.channels, lut, space.ranges, scale=1.0)
+
+
+def bhattacharyya(a: np.ndarray, b: np.ndarray) -> float:
+    """Bhattacharyya distance of two histograms: 0 identical, 1 disjoint (OpenCV's
+    HISTCMP_BHATTACHARYYA, which normalises them itself)."""
+    if float(a.sum()) <= 0 or float(b.sum()) <= 0:
+        return 1.0
+    return float(cv2.compareHist(a.astype(np.float32), b.astype(np.float32), cv2.HISTCMP_BHATTACHARYYA))

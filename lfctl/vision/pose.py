@@ -1,0 +1,103 @@
+"""Relative pose of the leader from its four markers (paper section 3.5, eq. 9-11).
+
+Camera frame as in OpenCV: x right, y down, z forward. Two estimators:
+
+- the paper's, with the pinhole correction: from the left and right marker pairs' image
+  heights ``h_L``, ``h_R`` (px) the depths ``z = f E / h`` (the printed eq. 10 is a thin-lens
+  form), lateral offsets ``x = z u / f`` (u from the principal point), then eq. 9/11:
+  ``x_T, z_T`` the means, range ``sqrt(x_T^2 + z_T^2)``, bearing ``atan2(x_T, z_T)`` and the
+  banner's yaw from ``(x_R - x_L, z_R - z_L)``;
+- ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)`` on the four centres: the full 6-DoF pose.
+
+Both give the banner centre in the camera frame, the bearing and the leader's heading
+relative to the camera, and a quality figure; :func:`to_vehicle_frame` turns that into the
+range and bearing between the two vehicles' reference points.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from lfctl.frames import wrap_pi
+
+
+@dataclass(frozen=True)
+class MarkerPose:
+    """The banner seen from the camera.
+
+    ``centre_cam_m``: banner centre (x right, y down, z forward), m. ``bearing_rad``:
+    clockwise positive. ``rel_heading_rad``: the leader's heading minus the camera's
+    (clockwise positive). ``quality``: 0..1.
+    """
+
+    centre_cam_m: np.ndarray
+    range_m: float
+    bearing_rad: float
+    rel_heading_rad: float
+    quality: float
+    method: str
+
+
+def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose | None:
+    """Eq. 9-11 with the pinhole correction; ``centres`` TL, TR, BR, BL in undistorted pixels."""
+    tl, tr, br, bl = np.asarray(centres, float)
+    f = float((K[0, 0] + K[1, 1]) / 2)
+    cx, cy = float(K[0, 2]), float(K[1, 2])
+    h_l, h_r = float(np.linalg.norm(bl - tl)), float(np.linalg.norm(br - tr))
+    if h_l < 1.0 or h_r < 1.0:
+        return None
+    z_l, z_r = f * side_m / h_l, f * side_m / h_r  # eq. 10, pinhole form
+    u_l, u_r = (tl[0] + bl[0]) / 2 - cx, (tr[0] + br[0]) / 2 - cx
+    x_l, x_r = z_l * u_l / f, z_r * u_r / f
+    x_t, z_t = (x_l + x_r) / 2, (z_l + z_r) / 2  # eq. 9
+    v_mid = (tl[1] + tr[1] + br[1] + bl[1]) / 4 - cy
+    y_t = z_t * v_mid / f
+    rng = math.hypot(x_t, z_t)  # eq. 11
+    bearing = math.atan2(x_t, z_t)
+    # the banner's right axis in the camera's x-z plane; turning right (clockwise) swings it to -z
+    rel = wrap_pi(math.atan2(-(z_r - z_l), x_r - x_l))
+    # quality: the pair gap (x_R - x_L) should be E cos(yaw); disagreement means a poor fit
+    width = math.hypot(x_r - x_l, z_r - z_l)
+    quality = max(0.0, 1.0 - abs(width - side_m) / side_m)
+    return MarkerPose(np.array([x_t, y_t, z_t]), rng, bearing, rel, quality, "paper")
+
+
+# object points for IPPE_SQUARE: (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2), y up
+def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m: float) -> MarkerPose | None:
+    """``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``; ``centres`` TL, TR, BR, BL in raw pixels."""
+    s = side_m / 2
+    obj = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+    img = np.asarray(centres, np.float64).reshape(4, 1, 2)
+    ok, rvec, tvec = cv2.solvePnP(
+        obj, img, K, dist if dist is not None else np.zeros(4), flags=cv2.SOLVEPNP_IPPE_SQUARE
+    )
+    if not ok:
+        return None
+    R, _ = cv2.Rodrigues(rvec)
+    t = tvec.reshape(3)
+    if t[2] <= 0:
+        return None
+    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, dist if dist is not None else np.zeros(4))
+    err = float(np.sqrt(np.mean(np.sum((proj.reshape(4, 2) - img.reshape(4, 2)) ** 2, axis=1))))
+    x_axis = R[:, 0]  # the banner's right axis in the camera frame
+    rel = wrap_pi(math.atan2(-x_axis[2], x_axis[0]))
+    quality = max(0.0, 1.0 - err / 3.0)
+    return MarkerPose(t.copy(), math.hypot(t[0], t[2]), math.atan2(t[0], t[2]), rel, quality, "pnp")
+
+
+def to_vehicle_frame(
+    pose: MarkerPose, mount_body_m: np.ndarray, R_body_from_cam: np.ndarray, banner_offset_m: float
+) -> tuple[float, float, float]:
+    """Range (m), bearing (rad) and relative heading between the vehicles' reference points.
+
+    The banner centre is moved from the camera frame into the follower's body frame (FRD),
+    then ``banner_offset_m`` forward along the leader's heading to its reference point.
+    """
+    p = mount_body_m + R_body_from_cam @ pose.centre_cam_m
+    fwd = p[0] + banner_offset_m * math.cos(pose.rel_heading_rad)
+    right = p[1] + banner_offset_m * math.sin(pose.rel_heading_rad)
+    return math.hypot(fwd, right), math.atan2(right, fwd), pose.rel_heading_rad
