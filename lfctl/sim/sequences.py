@@ -107,9 +107,10 @@ def make_sequence(
         props += (PropConfig(kind, 2.0 - 0.16, -0.8, math.pi, width_m=size, height_m=size, base_m=base - cam.mount_height_m * 0 , vel_east_mps=speed),)  # fmt: skip
     elif tier == "lighting":
         lighting = (
+            # drops to 40 % and turns warm between 30 % and 50 % of the run
             LightKey(0.0, 1.0),
-            LightKey(3.0, 1.0),
-            LightKey(5.0, 0.4, (1.0, 0.95, 1.25)),
+            LightKey(0.3 * duration, 1.0),
+            LightKey(0.5 * duration, 0.4, (1.0, 0.95, 1.25)),
             LightKey(duration, 0.45, (1.0, 0.95, 1.25)),
         )
         flicker, shadow = 0.05, 0.6

@@ -24,13 +24,19 @@ for (_dx, _dy), _code in FREEMAN.items():
     _LUT[(_dx + 1) * 3 + (_dy + 1)] = _code
 
 
-def chain_code(contour: np.ndarray) -> list[int]:
-    """Freeman codes of a closed 8-connected contour ((N, 1, 2) or (N, 2) points x, y)."""
-    pts = np.asarray(contour).reshape(-1, 2).astype(np.int64)
+def chain_code(contour: np.ndarray, check: bool = True) -> list[int]:
+    """Freeman codes of a closed 8-connected contour ((N, 1, 2) or (N, 2) points x, y).
+
+    ``check=False`` skips the connectivity check for contours from findContours with
+    CHAIN_APPROX_NONE, which are 8-connected by construction.
+    """
+    pts = np.asarray(contour).reshape(-1, 2)
     if len(pts) < 2:
         return []
-    d = np.roll(pts, -1, axis=0) - pts
-    if np.abs(d).max() > 1 or np.any((d == 0).all(axis=1)):
+    d = np.empty_like(pts)
+    d[:-1] = pts[1:] - pts[:-1]
+    d[-1] = pts[0] - pts[-1]
+    if check and (np.abs(d).max() > 1 or np.any((d == 0).all(axis=1))):
         bad = d[(np.abs(d).max(axis=1) > 1) | (d == 0).all(axis=1)][0]
         raise ValueError(f"contour is not 8-connected: step {(int(bad[0]), int(bad[1]))}")
     return _LUT[(d[:, 0] + 1) * 3 + (d[:, 1] + 1)].tolist()
@@ -77,7 +83,7 @@ def blobs(mask: np.ndarray, min_area_px: float = 4.0) -> list[Blob]:
         pixel_area = float(w * h) if len(c) <= 4 else area + len(c) / 2.0 + 1.0
         if pixel_area < min_area_px:
             continue
-        codes = chain_code(c) if len(c) > 1 else []
+        codes = chain_code(c, check=False) if len(c) > 1 else []
         perim = chain_perimeter(codes) + 4.0  # border pixel centres -> outer edge of the pixels
         cx, cy = (m["m10"] / m["m00"], m["m01"] / m["m00"]) if m["m00"] > 0 else (x + (w - 1) / 2, y + (h - 1) / 2)
         out.append(

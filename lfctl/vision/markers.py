@@ -121,20 +121,11 @@ def refine_centre(
     H, W = hsv.shape[:2]
     x0, y0, x1, y1 = max(0, x - 2), max(0, y - 2), min(W, x + w + 2), min(H, y + h + 2)
     roi = hsv[y0:y1, x0:x1]
-    hue = roi[:, :, 0].astype(np.float32)
-    dh = np.abs(hue - hue_deg / 2.0)
-    dh = np.minimum(dh, 180.0 - dh)
-    weight = np.clip(roi[:, :, 1].astype(np.float32) - s_floor, 0, None) * (dh <= tolerance_deg / 2.0)
-    total = float(weight.sum())
-    if total <= 0:
+    dh = cv2.absdiff(roi[:, :, 0], np.full(roi.shape[:2], int(round(hue_deg / 2.0)) % 180, np.uint8))
+    dh = cv2.min(dh, cv2.subtract(np.full_like(dh, 180), dh))  # hue is circular (0..179)
+    on_hue = cv2.compare(dh, tolerance_deg / 2.0, cv2.CMP_LE)
+    weight = cv2.bitwise_and(cv2.subtract(roi[:, :, 1], np.full_like(dh, s_floor)), on_hue)
+    m = cv2.moments(weight)
+    if m["m00"] <= 0:
         return blob.centroid
-    ys, xs = np.mgrid[y0:y1, x0:x1]
-    return float((xs * weight).sum() / total), float((ys * weight).sum() / total)
-
-
-def marker_side_px(c: Constellation) -> float:
-    """Mean side of the constellation, px (for scale checks)."""
-    tl, tr, br, bl = c.centres
-    return float(
-        (np.linalg.norm(tr - tl) + np.linalg.norm(br - bl) + np.linalg.norm(bl - tl) + np.linalg.norm(br - tr)) / 4
-    )
+    return x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]
