@@ -113,9 +113,9 @@ class TargetEstimator:
         self.kf.Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=self.accel_var, block_size=2, order_by_dim=False)
         self.kf.predict()
 
-    def update(self, north_m: float, east_m: float) -> None:
-        """Fuse a position fix."""
-        self.kf.update(np.array([north_m, east_m]))
+    def update(self, north_m: float, east_m: float, R: np.ndarray | None = None) -> None:
+        """Fuse a position fix (``R``: its 2x2 covariance, default the filter's)."""
+        self.kf.update(np.array([north_m, east_m]), R=R)
 
     @property
     def position(self) -> tuple[float, float]:
@@ -178,24 +178,35 @@ class FormationController:
         est = self.estimator
         if est.initialised:
             est.predict(dt)
-        fresh = (
-            meas is not None
-            and meas.status is TrackStatus.TRACKING
-            and math.isfinite(meas.range_m)
-            and math.isfinite(meas.bearing_rad)
-        )
+        seen = meas is not None and meas.status is TrackStatus.TRACKING and math.isfinite(meas.bearing_rad)
+        stale = odom.t_s - self._t_last_meas > st.coast_s + st.slowdown_s
+        has_range = seen and meas is not None and math.isfinite(meas.range_m)
+        # a bearing-only sighting can keep a running filter alive, not start one
+        fresh = has_range or (seen and est.initialised and not stale)
         if fresh and meas is not None:
             at = self._odometry_at(meas.t_s)
-            fwd, right = meas.range_m * math.cos(meas.bearing_rad), meas.range_m * math.sin(meas.bearing_rad)
+            R = None
+            if has_range:
+                rng = meas.range_m
+            else:
+                # bearing only: place the fix at the filter's own range along the measured
+                # bearing, with a large variance along the line of sight and a small one across
+                pn, pe = est.position
+                rng = max(0.1, math.hypot(pn - at.north_m, pe - at.east_m))
+                los = at.yaw_rad + meas.bearing_rad
+                u = np.array([math.cos(los), math.sin(los)])
+                v = np.array([-u[1], u[0]])
+                R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * (rng * 0.02) ** 2
+            fwd, right = rng * math.cos(meas.bearing_rad), rng * math.sin(meas.bearing_rad)
             dn, de = body_to_ned(fwd, right, at.yaw_rad)
             n, e = at.north_m + dn, at.east_m + de
-            if not est.initialised or odom.t_s - self._t_last_meas > st.coast_s + st.slowdown_s:
+            if not est.initialised or stale:
                 est.init(n, e)
             else:
                 # the fix describes meas.t_s: bring it to now with the estimated velocity
                 vn, ve = est.velocity
                 lag = max(0.0, odom.t_s - meas.t_s)
-                est.update(n + vn * lag, e + ve * lag)
+                est.update(n + vn * lag, e + ve * lag, R)
             self._t_last_meas = odom.t_s
         since = odom.t_s - self._t_last_meas
         sensor_lost = meas is not None and meas.status is TrackStatus.LOST

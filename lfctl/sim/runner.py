@@ -17,6 +17,7 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.smc import BearingGains, RangeGains
+from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.sensing import TruthSensor
@@ -169,6 +170,7 @@ def run_scenario(
     duration_s: float | None = None,
     progress: Callable[[float, float], None] | None = None,
     cache_dir: Path | None = None,
+    on_frame: Callable[[str, CameraSample], None] | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -177,10 +179,6 @@ def run_scenario(
     controller : "smc" or "p", optional
         Follower control law (default ``guidance.controller``).
     """
-    if cfg.sim.sensing == "camera":
-        raise ConfigError(
-            "sim.sensing = 'camera' needs the camera renderer and tracker, which are not built yet; use 'truth'"
-        )
     law = controller or cfg.guidance.controller
     if law not in ("smc", "p"):
         raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
@@ -195,14 +193,18 @@ def run_scenario(
             if cfg.mission.waypoints
             else None
         )
+        camera = cfg.sim.sensing == "camera"
         followers = []
         for v in cfg.followers:
             slot = slots[v.name]
+            sensor_seed = int(rng.integers(2**31))
             followers.append(
                 (
                     idx[v.name],
                     idx[slot.target],
-                    TruthSensor(cfg.sensing, np.random.default_rng(rng.integers(2**63))),
+                    CameraSensor(cfg, v.name, sensor_seed)
+                    if camera
+                    else TruthSensor(cfg.sensing, np.random.default_rng(sensor_seed)),
                     FormationController(formation_settings(cfg, slot.range_m, slot.bearing_rad, law)),
                     FollowerTrace(v.name, slot.target, slot.range_m, slot.bearing_rad),
                 )
@@ -221,7 +223,7 @@ def run_scenario(
             for me, target, sensor, ctl, tr in followers:
                 st = world.vehicle(me)
                 if cfg.script.followers == "formation":
-                    meas = sensor.measure(t_s, world, me, target)
+                    meas = sensor.measurement if camera else sensor.measure(t_s, world, me, target)
                     out_f = ctl.step(meas, Odometry(t_s, st.north_m, st.east_m, st.yaw_rad, st.speed_mps))
                     cmd, status = (out_f.speed_mps, out_f.yaw_rate_radps), out_f.status
                 else:
@@ -243,6 +245,16 @@ def run_scenario(
                 tr.yaw_rate_cmd_radps.append(cmd[1])
                 tr.speed_mps.append(st.speed_mps)
 
+        if camera:
+
+            def cameras(t_s: float) -> None:
+                world = sim.state()
+                for me, target, sensor, _ctl, _tr in followers:
+                    sample = sensor.capture(t_s, world, me, target)
+                    if on_frame is not None:
+                        on_frame(sensor.follower, sample)
+
+            sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
         sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
         result = sim.run(duration_s, progress=progress)
     traces = [f[4] for f in followers]

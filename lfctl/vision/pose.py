@@ -66,22 +66,23 @@ def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose 
     return MarkerPose(np.array([x_t, y_t, z_t]), rng, bearing, rel, quality, "paper")
 
 
-# object points for IPPE_SQUARE: (-s/2, s/2), (s/2, s/2), (s/2, -s/2), (-s/2, -s/2), y up
 def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m: float) -> MarkerPose | None:
     """``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``; ``centres`` TL, TR, BR, BL in raw pixels."""
     s = side_m / 2
+    # IPPE_SQUARE's fixed object points, matched to the image corners BL, BR, TR, TL: the
+    # object frame is x right, y down the banner, z away from the camera. This order is exact
+    # on synthetic corners (tests/vision); TL, TR, BR, BL was not.
     obj = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
-    img = np.asarray(centres, np.float64).reshape(4, 1, 2)
-    ok, rvec, tvec = cv2.solvePnP(
-        obj, img, K, dist if dist is not None else np.zeros(4), flags=cv2.SOLVEPNP_IPPE_SQUARE
-    )
+    img = np.ascontiguousarray(np.asarray(centres, np.float64)[[3, 2, 1, 0]]).reshape(4, 1, 2)
+    d = dist if dist is not None else np.zeros(4)
+    ok, rvec, tvec = cv2.solvePnP(obj, img, K, d, flags=cv2.SOLVEPNP_IPPE_SQUARE)
     if not ok:
         return None
     R, _ = cv2.Rodrigues(rvec)
     t = tvec.reshape(3)
     if t[2] <= 0:
         return None
-    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, dist if dist is not None else np.zeros(4))
+    proj, _ = cv2.projectPoints(obj, rvec, tvec, K, d)
     err = float(np.sqrt(np.mean(np.sum((proj.reshape(4, 2) - img.reshape(4, 2)) ** 2, axis=1))))
     x_axis = R[:, 0]  # the banner's right axis in the camera frame
     rel = wrap_pi(math.atan2(-x_axis[2], x_axis[0]))

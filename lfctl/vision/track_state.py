@@ -29,7 +29,7 @@ class RelativeMeasurement:
     status : TrackStatus
         TRACKING when ``range_m`` and ``bearing_rad`` are valid.
     range_m : float
-        Horizontal distance to the target's marker centre, m.
+        Horizontal distance to the target, m; NaN for a bearing-only measurement.
     bearing_rad : float
         Bearing of the target from the follower's heading, clockwise positive, rad.
     quality : float

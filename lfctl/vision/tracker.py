@@ -110,6 +110,14 @@ def _scaled(box: Box, scale: float, centre: tuple[float, float] | None = None) -
     return int(round(cx - nw / 2)), int(round(cy - nh / 2)), int(round(nw)), int(round(nh))
 
 
+def _square(box: Box, scale: float) -> Box:
+    """A square region ``scale`` times the box's longer side, on its centre (a histogram window
+    can collapse to a thin stripe of the banner; the markers' search must not)."""
+    x, y, w, h = box
+    side = max(w, h) * scale
+    return int(round(x + w / 2.0 - side / 2)), int(round(y + h / 2.0 - side / 2)), int(round(side)), int(round(side))
+
+
 def _inner(box: Box, frac: float = 0.7) -> Box:
     return _scaled(box, frac)
 
@@ -144,6 +152,7 @@ class Tracker:
         self._occluded_frames = 0
         self._relearn_count = 0
         self._markers_seen = False
+        self._markers_missing = 0
 
     # -- initialisation ----------------------------------------------------------------
     def init(self, frame: np.ndarray, roi: Box) -> TrackState:
@@ -256,8 +265,18 @@ class Tracker:
         prob = back_project(self.space, planes, self._lut)
         win, mass = camshift_in_roi(prob, (sx, sy), pred_win)
         constellation = self._markers_near(hsv, search, None, origin=(sx, sy)) if s.use_markers else None
+        if constellation is None and self._markers_seen:
+            self._markers_missing += 1
+            if self._markers_missing % 3 == 0:
+                # the histogram window may have shrunk onto part of the banner: look wider
+                wide = _clip(_square(win if win[2] > 0 else pred_win, 4.0), frame.shape)
+                if wide is not None:
+                    wx, wy, ww, wh = wide
+                    whsv = cv2.cvtColor(frame[wy : wy + wh, wx : wx + ww], cv2.COLOR_BGR2HSV)
+                    constellation = self._markers_near(whsv, wide, None, origin=(wx, wy))
         if constellation is not None:
             self._markers_seen = True
+            self._markers_missing = 0
             mbox = _clip(constellation.banner_bbox(s.panel_over_side), frame.shape)
             if mbox is not None:
                 win, mass = mbox, max(mass, 0.5)

@@ -1,0 +1,103 @@
+"""The camera sensor (``--sensing camera``): render the follower's view, track the target's
+banner, estimate its pose and hand guidance a relative measurement. The follower learns
+nothing else about its target."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from lfctl.config import Config
+from lfctl.sim.camera import BANNER_BACK_M, CameraModel, FrameTruth, Renderer, VehiclePose
+from lfctl.sim.world import WorldState
+from lfctl.vision.pose import MarkerPose, paper_pose, pnp_pose, to_vehicle_frame
+from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState
+
+
+@dataclass(frozen=True)
+class CameraSample:
+    """One camera tick: what was seen, how it was tracked, the pose and the truth."""
+
+    t_s: float
+    frame: np.ndarray
+    track: TrackState | None
+    pose: MarkerPose | None
+    measurement: RelativeMeasurement
+    truth: FrameTruth
+
+
+class CameraSensor:
+    """One follower's camera, tracker and pose estimator."""
+
+    def __init__(self, cfg: Config, follower: str, seed: int) -> None:
+        self.cfg = cfg
+        self.follower = follower
+        self.renderer = Renderer(cfg.camera, cfg.banner, cfg.scene, seed)
+        self.cam = CameraModel.from_config(cfg.camera)
+        self.tracker = Tracker(
+            TrackerSettings(
+                kind="full",
+                marker_hue_deg=cfg.banner.marker_hue_deg,
+                panel_over_side=cfg.banner.panel_size_m / cfg.banner.side_m,
+            )
+        )
+        self.started = False
+        self.latest: CameraSample | None = None
+
+    def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
+        """Bearing only, from the tracked window's centre column (its size says too little)."""
+        assert track.bbox is not None
+        x, y, w, h = track.bbox
+        K = self.cam.K
+        ray_cam = np.array([(x + w / 2.0 - K[0, 2]) / K[0, 0], (y + h / 2.0 - K[1, 2]) / K[1, 1], 1.0])
+        ray_body = self.cam.R_body_from_cam @ ray_cam
+        return RelativeMeasurement(
+            t_s, TrackStatus.TRACKING, math.nan, math.atan2(ray_body[1], ray_body[0]), 0.3 * track.quality
+        )
+
+    def capture(self, t_s: float, world: WorldState, me: int, target: int) -> CameraSample:
+        """Render, track and estimate at ``t_s``."""
+        others, index = [], -1
+        for i in range(len(world.names)):
+            if i == me:
+                continue
+            if i == target:
+                index = len(others)
+            others.append(
+                VehiclePose(float(world.pos_ned_m[i, 0]), float(world.pos_ned_m[i, 1]), float(world.yaw_rad[i]))
+            )
+        own = VehiclePose(
+            float(world.pos_ned_m[me, 0]), float(world.pos_ned_m[me, 1]), float(world.yaw_rad[me]), banner=False
+        )
+        frame, truth = self.renderer.render(t_s, own, others, index, self.follower, float(world.yaw_rate_radps[me]))
+        track: TrackState | None
+        if not self.started:
+            track = self.tracker.init_from_markers(frame)
+            self.started = track is not None
+        else:
+            track = self.tracker.update(frame)
+        pose = None
+        if track is not None and track.markers is not None:
+            pose = pnp_pose(track.markers, self.cam.K, self.cam.dist, self.cfg.banner.side_m) or paper_pose(
+                track.markers, self.cam.K, self.cfg.banner.side_m
+            )
+        if pose is not None and track is not None and track.status is TrackStatus.TRACKING:
+            rng, brg, _ = to_vehicle_frame(pose, self.cam.mount_body_m, self.cam.R_body_from_cam, -BANNER_BACK_M)
+            meas = RelativeMeasurement(t_s, TrackStatus.TRACKING, rng, brg, min(pose.quality, track.quality))
+        elif track is not None and track.status is TrackStatus.TRACKING and track.bbox is not None:
+            # markers hidden (banner turned edge-on, partly covered) but the histogram tracker
+            # holds the window: a bearing-only measurement the formation filter can fuse
+            meas = self._window_measurement(t_s, track)
+        else:
+            status = track.status if track is not None else TrackStatus.LOST
+            meas = RelativeMeasurement(t_s, status if status is not TrackStatus.TRACKING else TrackStatus.OCCLUDED)
+        self.latest = CameraSample(t_s, frame, track, pose, meas, truth)
+        return self.latest
+
+    @property
+    def measurement(self) -> RelativeMeasurement | None:
+        """The newest measurement (None before the first frame)."""
+        return self.latest.measurement if self.latest else None

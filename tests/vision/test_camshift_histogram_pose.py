@@ -1,0 +1,119 @@
+"""CAMShift moments (eq. 3-8), the background-weighted model and the two pose estimators."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from lfctl.config import BannerConfig, CameraConfig, SceneConfig
+from lfctl.sim.camera import BANNER_BACK_M, CameraModel, Renderer, VehiclePose
+from lfctl.vision.camshift import camshift_in_roi, window_moments
+from lfctl.vision.histogram import bhattacharyya, ratio_lut
+from lfctl.vision.markers import find_constellation, order_corners
+from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
+
+
+def test_eq3_to_8_moments_of_a_uniform_rectangle() -> None:
+    prob = np.zeros((100, 100), np.uint8)
+    prob[40:50, 20:60] = 255  # 40 wide, 10 tall
+    m = window_moments(prob, (0, 0, 100, 100))
+    assert m.m00 == pytest.approx(400 * 255)
+    assert (m.xc, m.yc) == pytest.approx((39.5, 44.5))
+    assert m.a == pytest.approx((40**2 - 1) / 12)  # variance of a uniform run of 40 pixels
+    assert m.c == pytest.approx((10**2 - 1) / 12)
+    assert m.b == pytest.approx(0.0, abs=1e-9)
+    assert m.major == pytest.approx(math.sqrt(m.a)) and m.minor == pytest.approx(math.sqrt(m.c))
+
+
+def test_eq7_corrected_b_term_gives_the_axis_angle() -> None:
+    prob = np.zeros((120, 120), np.uint8)
+    cv2.ellipse(prob, (60, 60), (40, 8), 30, 0, 360, 255, -1)  # rotated 30 deg
+    m = window_moments(prob, (0, 0, 120, 120))
+    assert math.degrees(m.angle_rad) == pytest.approx(30, abs=1.0)
+    assert m.major / m.minor == pytest.approx(5, rel=0.08)
+
+
+def test_camshift_in_roi_finds_the_blob_in_full_image_coordinates() -> None:
+    prob = np.zeros((200, 300), np.uint8)
+    prob[100:130, 200:230] = 255
+    roi = prob[80:160, 150:260]
+    win, mass = camshift_in_roi(roi, (150, 80), (170, 90, 40, 40))
+    cx, cy = win[0] + win[2] / 2, win[1] + win[3] / 2
+    assert (cx, cy) == pytest.approx((215, 115), abs=2) and mass > 0.5
+
+
+def test_background_weighting_suppresses_shared_bins() -> None:
+    target = np.zeros((4,), np.float32)
+    target[:] = [50, 50, 0, 0]
+    background = np.array([0, 500, 100, 400], np.float32)
+    lut = ratio_lut(target, background)
+    assert lut[0] == pytest.approx(255)  # never in the background: full weight
+    assert lut[1] == pytest.approx(255 * 0.2)  # common in the background: o* / o_u = 0.1 / 0.5
+    assert lut[2] == 0 and lut[3] == 0
+
+
+def test_bhattacharyya_ends() -> None:
+    a = np.array([1, 2, 3, 0], np.float32)
+    assert bhattacharyya(a, a * 7) == pytest.approx(0.0, abs=1e-6)
+    assert bhattacharyya(a, np.array([0, 0, 0, 5], np.float32)) == pytest.approx(1.0)
+
+
+def test_corner_order() -> None:
+    pts = np.array([[10, 50], [50, 12], [12, 10], [52, 51]])
+    assert order_corners(pts).tolist() == [[12, 10], [50, 12], [52, 51], [10, 50]]
+
+
+def projected_square(K: np.ndarray, centre_cam: np.ndarray, yaw: float, side: float) -> np.ndarray:
+    """Image points TL, TR, BR, BL of a vertical square at ``centre_cam`` turned by ``yaw``."""
+    right = np.array([math.cos(yaw), 0.0, -math.sin(yaw)])
+    down = np.array([0.0, 1.0, 0.0])
+    h = side / 2
+    pts = [
+        centre_cam - right * h - down * h,
+        centre_cam + right * h - down * h,
+        centre_cam + right * h + down * h,
+        centre_cam - right * h + down * h,
+    ]
+    uv = (K @ np.array(pts).T).T
+    return uv[:, :2] / uv[:, 2:3]
+
+
+def test_pose_of_a_known_marker_layout() -> None:
+    K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    centre = np.array([0.3, -0.05, 2.0])
+    pts = projected_square(K, centre, math.radians(25), 0.14)
+    for est in (paper_pose(pts, K, 0.14), pnp_pose(pts, K, None, 0.14)):
+        assert est is not None
+        assert est.range_m == pytest.approx(math.hypot(0.3, 2.0), rel=0.01), est.method
+        assert math.degrees(est.bearing_rad) == pytest.approx(math.degrees(math.atan2(0.3, 2.0)), abs=0.3)
+        assert math.degrees(est.rel_heading_rad) == pytest.approx(25, abs=2.0), est.method
+
+
+@pytest.fixture(scope="module")
+def renderer() -> Renderer:
+    return Renderer(CameraConfig(), BannerConfig(), SceneConfig(), 7)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.8, 3.0), st.floats(-0.3, 0.3), st.floats(-0.8, 0.8))
+def test_pose_of_a_rendered_banner_within_tolerance(renderer: Renderer, rng: float, brg: float, yaw: float) -> None:
+    img, truth = renderer.render(
+        0.0, VehiclePose(0, 0, 0, False), [VehiclePose(rng * math.cos(brg), rng * math.sin(brg), yaw)], 0
+    )
+    if truth.visible_fraction < 0.99:  # partly out of the image: no constellation to ask for
+        return
+    c = find_constellation(cv2.cvtColor(img, cv2.COLOR_BGR2HSV), 0.0)
+    assert c is not None
+    cam = CameraModel.from_config(CameraConfig())
+    est = pnp_pose(c.centres, cam.K, None, 0.14)
+    assert est is not None
+    r, b, rel = to_vehicle_frame(est, cam.mount_body_m, cam.R_body_from_cam, -BANNER_BACK_M)
+    assert r == pytest.approx(truth.range_m, rel=0.02)
+    assert math.degrees(abs(b - truth.bearing_rad)) < 1.0
+    # IPPE's two mirror solutions are close for a small banner: the heading is the weak part
+    assert math.degrees(abs(rel - truth.rel_heading_rad)) < 20.0
