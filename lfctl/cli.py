@@ -137,6 +137,121 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------------------
+# lfctl track
+
+
+def _parse_roi(text: str) -> tuple[int, int, int, int]:
+    try:
+        parts = [int(p) for p in text.split(",")]
+    except ValueError:
+        raise ConfigError(f"--roi must be x,y,w,h in whole pixels, got {text!r}") from None
+    if len(parts) != 4:
+        raise ConfigError(f"--roi must be x,y,w,h (four numbers), got {text!r}")
+    return parts[0], parts[1], parts[2], parts[3]
+
+
+def cmd_track(args: argparse.Namespace) -> int:
+    import json
+
+    import cv2
+    import numpy as np
+
+    from lfctl.config import CameraConfig, load_config
+    from lfctl.sim.camera import BANNER_BACK_M, CameraModel
+    from lfctl.vision.frames import FrameError
+    from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
+    from lfctl.vision.tracker import Tracker, TrackerSettings
+
+    source: str | int = int(args.source) if args.source.isdigit() else args.source
+    if isinstance(source, str) and "://" not in source and not Path(source).exists():
+        raise ConfigError(f"video source {source!r} does not exist (give a file, a camera index or a stream URL)")
+    cap = cv2.VideoCapture(source)
+    if not cap.isOpened():
+        raise ConfigError(
+            f"cannot open video source {args.source!r} with OpenCV (unsupported format or no such camera)"
+        )
+    scen = load_config(args.scenario) if args.scenario else None
+    banner = scen.banner if scen else None
+    hue = args.marker_hue_deg if args.marker_hue_deg is not None else (banner.marker_hue_deg if banner else 0.0)
+    side = banner.side_m if banner else 0.14
+    panel = banner.panel_size_m if banner else 0.22
+    settings = TrackerSettings(
+        kind=args.tracker, marker_hue_deg=hue, panel_over_side=panel / side, use_markers=not args.no_markers
+    )
+    tracker = Tracker(settings)
+    fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
+    writer = None
+    cam: CameraModel | None = None
+    n = 0
+    try:
+        while args.max_frames is None or n < args.max_frames:
+            ok, frame = cap.read()
+            if not ok or frame is None:
+                break
+            if cam is None:
+                h, w = frame.shape[:2]
+                cam_cfg = scen.camera if scen else CameraConfig(width_px=w, height_px=h)
+                if (cam_cfg.width_px, cam_cfg.height_px) != (w, h):
+                    cam_cfg = dataclasses.replace(cam_cfg, width_px=w, height_px=h)
+                cam = CameraModel.from_config(cam_cfg)
+                if args.out:
+                    writer = cv2.VideoWriter(str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), fps, (w, h))
+                    if not writer.isOpened():
+                        raise ConfigError(f"cannot write {args.out} (check the directory and the .mp4/.avi extension)")
+                if args.roi:
+                    st = tracker.init(frame, _parse_roi(args.roi))
+                else:
+                    found = tracker.init_from_markers(frame)
+                    if found is None:
+                        raise ConfigError(
+                            "no banner (four-marker constellation) in the first frame: give --roi x,y,w,h"
+                        )
+                    st = found
+            else:
+                st = tracker.update(frame)
+            rec: dict[str, object] = {
+                "frame": n,
+                "t_s": round(n / fps, 4),
+                "state": st.status.value,
+                "bbox": list(st.bbox) if st.bbox else None,
+                "quality": round(st.quality, 3),
+            }
+            if st.markers is not None:
+                rec["markers"] = np.round(st.markers, 2).tolist()
+                pose = pnp_pose(st.markers, cam.K, cam.dist, side) or paper_pose(st.markers, cam.K, side)
+                if pose is not None:
+                    rng, brg, rel = to_vehicle_frame(pose, cam.mount_body_m, cam.R_body_from_cam, -BANNER_BACK_M)
+                    rec["pose"] = {
+                        "range_m": round(rng, 4),
+                        "bearing_deg": round(math.degrees(brg), 3),
+                        "rel_heading_deg": round(math.degrees(rel), 2),
+                        "method": pose.method,
+                    }
+            print(json.dumps(rec), flush=True)
+            if writer is not None:
+                vis = frame.copy()
+                if st.bbox:
+                    x, y, w_, h_ = st.bbox
+                    colour = (0, 200, 0) if st.status.value == "tracking" else (0, 165, 255)
+                    cv2.rectangle(vis, (x, y), (x + w_, y + h_), colour, 2)
+                if st.markers is not None:
+                    for u, v in st.markers:
+                        cv2.circle(vis, (int(u), int(v)), 4, (255, 0, 255), -1)
+                cv2.putText(vis, f"{n} {st.status.value}", (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 2)
+                writer.write(vis)
+            n += 1
+    except FrameError as exc:
+        raise ConfigError(f"frame {n} of {args.source}: {exc}") from exc
+    finally:
+        cap.release()
+        if writer is not None:
+            writer.release()
+    if n == 0:
+        raise ConfigError(f"video source {args.source!r} gave no frames")
+    return 0
+
+
+# ----------------------------------------------------------------------------------------
 # lfctl fmu
 
 
@@ -253,6 +368,21 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=cmd_sim)
+
+    t = sub.add_parser(
+        "track",
+        help="run the tracker on a video file, camera index or stream; JSON line per frame",
+        description="Track the leader's banner (or any object from --roi) in a video; prints one JSON line per frame and can write an annotated video.",
+    )
+    t.add_argument("source", help="video file, camera index (0) or stream URL")
+    t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
+    t.add_argument("--out", type=Path, help="write an annotated video here (.mp4 or .avi)")
+    t.add_argument("--tracker", choices=("full", "hs-lbp", "hue"), default="full", help="tracker kind (default: full)")
+    t.add_argument("--no-markers", action="store_true", help="histogram path only (objects without the banner)")
+    t.add_argument("--marker-hue-deg", type=float, help="marker hue, degrees (default: the scenario's, else red 0)")
+    t.add_argument("--scenario", type=Path, help="take camera intrinsics and banner geometry from this scenario")
+    t.add_argument("--max-frames", type=int, help="stop after this many frames")
+    t.set_defaults(func=cmd_track)
 
     f = sub.add_parser(
         "fmu",
