@@ -129,10 +129,117 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 f"\r[{bar:<30}] {t_s:6.1f}/{cfg.sim.duration_s:.1f} s  x{rtf:7.1f} real time", end="", file=sys.stderr
             )
 
-    report = run_scenario(cfg, progress=progress)
+    if cfg.recording.enabled and not args.no_record:
+        from lfctl.record.writer import Recorder, run_path
+
+        path = run_path(cfg)
+        with Recorder(path, cfg) as rec:
+            report = run_scenario(cfg, progress=progress, recorder=rec)
+        log.info("recorded %d messages to %s", rec.messages, path)
+    else:
+        path = None
+        report = run_scenario(cfg, progress=progress)
     if show:
         print(file=sys.stderr)
     print_report(report)
+    if path is not None:
+        print(f"\nlog          {path}  ({path.stat().st_size / 1e6:.1f} MB; check it with `lfctl audit {path}`)")
+    return 0
+
+
+# ----------------------------------------------------------------------------------------
+# lfctl audit / replay
+
+
+def cmd_audit(args: argparse.Namespace) -> int:
+    import json
+
+    from lfctl.record.audit import audit, check_thresholds, format_report, plot, recover
+
+    if not args.file.exists():
+        raise ConfigError(f"{args.file} does not exist")
+    report = audit(args.file)
+    if args.strict:
+        report.findings.extend(check_thresholds(report))
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "file": report.path,
+                    "ok": report.ok,
+                    "findings": [f.__dict__ for f in report.findings],
+                    "figures": report.figures,
+                },
+                indent=1,
+            )
+        )
+    else:
+        print(format_report(report))
+    if args.plot:
+        for p in plot(report, args.plot):
+            print(f"plot: {p}", file=sys.stderr)
+    if args.recover:
+        n = recover(report, args.recover)
+        print(f"recovered {n} messages into {args.recover}", file=sys.stderr)
+    return 0 if report.ok else 1
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    import json
+
+    import cv2
+    import numpy as np
+
+    from lfctl.record.audit import audit
+    from lfctl.vision.tracker import Tracker, TrackerSettings
+
+    report = audit(args.file)
+    c = report.contents
+    followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
+    name = args.follower or (followers[0] if followers else "")
+    images = c.messages.get(f"/{name}/camera/image/compressed", [])
+    if not images:
+        raise ConfigError(
+            f"{args.file} has no recorded camera images for follower {name!r} (was it run with sensing = 'camera' and recording.images = true?)"
+        )
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+
+    recorded = {t: json.loads(d) for t, d in c.messages.get(f"/{name}/tracker", [])}
+    kind = {"hue-only": "hue", "hue": "hue", "hs-lbp": "hs-lbp", "full": "full"}[args.tracker]
+    tracker = Tracker(TrackerSettings(kind=kind))
+
+    def iou(a: list[int] | None, b: list[int] | None) -> float:
+        if not a or not b:
+            return 0.0
+        ix = max(0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
+        iy = max(0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
+        u = a[2] * a[3] + b[2] * b[3] - ix * iy
+        return ix * iy / u if u > 0 else 0.0
+
+    ok_new = ok_old = n = 0
+    started = False
+    for t, data in images:
+        frame = cv2.imdecode(np.frombuffer(CompressedImage.FromString(data).data, np.uint8), cv2.IMREAD_COLOR)
+        rec = recorded.get(t, {})
+        truth = rec.get("truth_bbox")
+        if not started:
+            if not truth:
+                continue
+            st = tracker.init(frame, tuple(truth))
+            started = True
+            continue
+        st = tracker.update(frame)
+        if truth and rec.get("truth_visible_fraction", 0) >= 0.5:
+            n += 1
+            ok_new += iou(list(st.bbox) if st.bbox else None, truth) >= 0.5
+            ok_old += iou(rec.get("bbox"), truth) >= 0.5
+    if n == 0:
+        raise ConfigError(f"{args.file}: no frame with a recorded truth box to score against")
+    print(f"replayed {len(images)} frames of {name} from {args.file}")
+    print(
+        f"  recorded tracker (full):  success {ok_old / n:.3f}  (IoU >= 0.5 on {n} frames with the banner at least half visible)"
+    )
+    print(f"  replayed tracker ({args.tracker}): success {ok_new / n:.3f}")
     return 0
 
 
@@ -367,7 +474,35 @@ def build_parser() -> argparse.ArgumentParser:
         help="follower control law: sliding mode or the P baseline (default: guidance.controller)",
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    s.add_argument("--no-record", action="store_true", help="do not write the MCAP log (default: [recording] enabled)")
     s.set_defaults(func=cmd_sim)
+
+    a = sub.add_parser(
+        "audit",
+        help="check a run's MCAP log: integrity, provenance, formation/link/mission figures",
+        description="Audit an MCAP run log. Exit 0 when intact (and, with --strict, within the scenario's limits), 1 otherwise.",
+    )
+    a.add_argument("file", type=Path, help="an .mcap log (logs/<run>.mcap)")
+    a.add_argument("--json", action="store_true", help="machine-readable report")
+    a.add_argument("--plot", type=Path, metavar="DIR", help="write PNG plots here")
+    a.add_argument("--strict", action="store_true", help="also fail when the scenario's [audit] limits are exceeded")
+    a.add_argument("--recover", type=Path, metavar="OUT", help="write every intact record into a new, finished file")
+    a.set_defaults(func=cmd_audit)
+
+    rp = sub.add_parser(
+        "replay",
+        help="re-run a tracker on a log's recorded camera frames and compare",
+        description="Decode the recorded camera frames and run a tracker on them; compare with the recorded track and the truth.",
+    )
+    rp.add_argument("file", type=Path, help="an .mcap log recorded with sensing = 'camera'")
+    rp.add_argument(
+        "--tracker",
+        choices=("full", "hs-lbp", "hue-only", "hue"),
+        default="full",
+        help="tracker to replay (default: full)",
+    )
+    rp.add_argument("--follower", help="which follower's camera (default: the first)")
+    rp.set_defaults(func=cmd_replay)
 
     t = sub.add_parser(
         "track",
@@ -418,6 +553,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
+    # SIGTERM ends a run like Ctrl-C: the recorder's `with` block finishes the log file
+    import signal
+
+    def _terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(args.func(args))

@@ -397,6 +397,26 @@ class SceneConfig:
 
 
 @dataclass(frozen=True)
+class RecordingConfig:
+    """[recording]: the run's MCAP log (``<dir>/<UTC time>-<scenario>-<seed>.mcap``)."""
+
+    enabled: bool = True
+    dir: str = "logs"
+    images: bool = True
+    image_rate_hz: float = 30.0  # at most the camera rate
+    jpeg_quality: int = 85
+    compression: Literal["zstd", "lz4", "none"] = "zstd"
+    chunk_size_bytes: int = 1024 * 1024
+
+    def __post_init__(self) -> None:
+        _positive("recording.image_rate_hz", self.image_rate_hz)
+        if not 1 <= self.jpeg_quality <= 100:
+            raise ConfigError(f"recording.jpeg_quality must be within 1..100, got {self.jpeg_quality!r}")
+        if self.chunk_size_bytes < 1024:
+            raise ConfigError(f"recording.chunk_size_bytes must be >= 1024, got {self.chunk_size_bytes!r}")
+
+
+@dataclass(frozen=True)
 class Slot:
     """Where a follower keeps itself: its target, commanded range (m) and bearing (rad)."""
 
@@ -420,6 +440,7 @@ class Config:
     camera: CameraConfig = field(default_factory=CameraConfig)
     banner: BannerConfig = field(default_factory=BannerConfig)
     scene: SceneConfig = field(default_factory=SceneConfig)
+    recording: RecordingConfig = field(default_factory=RecordingConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
@@ -617,6 +638,7 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         camera=cfg.camera,
         banner=cfg.banner,
         scene=cfg.scene,
+        recording=cfg.recording,
         source=text,
     )
 
@@ -635,6 +657,7 @@ class _ConfigTable:
     camera: CameraConfig = field(default_factory=CameraConfig)
     banner: BannerConfig = field(default_factory=BannerConfig)
     scene: SceneConfig = field(default_factory=SceneConfig)
+    recording: RecordingConfig = field(default_factory=RecordingConfig)
 
 
 def load_config(path: str | Path) -> Config:

@@ -147,6 +147,11 @@ class Simulation:
             self._libraries[key] = FmuLibrary(path, role_map)
         return self._libraries[key]
 
+    @property
+    def fmu_paths(self) -> list[Path]:
+        """The FMU files this run loaded."""
+        return list(self._libraries)
+
     def close(self) -> None:
         """Free every FMU instance and extracted folder."""
         for lib in self._libraries.values():

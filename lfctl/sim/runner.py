@@ -17,6 +17,7 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.smc import BearingGains, RangeGains
+from lfctl.record.writer import Recorder
 from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.scripted import scripted_command
@@ -171,6 +172,7 @@ def run_scenario(
     progress: Callable[[float, float], None] | None = None,
     cache_dir: Path | None = None,
     on_frame: Callable[[str, CameraSample], None] | None = None,
+    recorder: Recorder | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -188,6 +190,7 @@ def run_scenario(
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
         idx = sim.index
         lead = cfg.leader
+        n_wp = len(cfg.mission.waypoints)
         autopilot = (
             LeaderAutopilot(cfg.mission.waypoints, autopilot_settings(cfg), (lead.north_m, lead.east_m))
             if cfg.mission.waypoints
@@ -216,6 +219,14 @@ def run_scenario(
             if autopilot is not None:
                 out = autopilot.step(t_s, ld.north_m, ld.east_m, ld.yaw_rad, dt_guid)
                 lead_cmd = (out.speed_mps, out.yaw_rate_radps)
+                if recorder is not None:
+                    for i in out.los.reached:
+                        recorder.json(
+                            "/leader/mission",
+                            "lfctl.Mission",
+                            t_s,
+                            {"event": "reached", "index": i, "active": out.los.active_index, "count": n_wp},
+                        )
             else:
                 lead_cmd = scripted_command(cfg.script, t_s)
             sim.set_command(0, *lead_cmd)
@@ -244,6 +255,27 @@ def run_scenario(
                 tr.speed_cmd_mps.append(cmd[0])
                 tr.yaw_rate_cmd_radps.append(cmd[1])
                 tr.speed_mps.append(st.speed_mps)
+                if recorder is not None:
+                    recorder.json(
+                        f"/{tr.name}/controller",
+                        "lfctl.Controller",
+                        t_s,
+                        {
+                            "status": status.value,
+                            "speed_cmd_mps": round(cmd[0], 5),
+                            "yaw_rate_cmd_degps": round(math.degrees(cmd[1]), 4),
+                            "range_cmd_m": tr.range_cmd_m,
+                            "bearing_cmd_deg": round(math.degrees(tr.bearing_cmd_rad), 4),
+                            "range_m": round(tr.range_m[-1], 5),
+                            "bearing_deg": round(math.degrees(tr.bearing_rad[-1]), 4),
+                            "range_error_m": round(tr.range_m[-1] - tr.range_cmd_m, 5),
+                            "bearing_error_deg": round(
+                                math.degrees(wrap_pi(tr.bearing_rad[-1] - tr.bearing_cmd_rad)), 4
+                            ),
+                            "separation_m": round(tr.separation_m[-1], 5),
+                            "target": tr.target,
+                        },
+                    )
 
         if camera:
 
@@ -253,8 +285,22 @@ def run_scenario(
                     sample = sensor.capture(t_s, world, me, target)
                     if on_frame is not None:
                         on_frame(sensor.follower, sample)
+                    if recorder is not None:
+                        recorder.camera(t_s, sensor.follower, sample)
 
             sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
+        if recorder is not None:
+            recorder.attach_fmus(sim.fmu_paths)
+            for _me, _target, sensor, _ctl, tr in followers:
+                if camera:
+                    cam = sensor.cam
+                    recorder.calibration(0.0, tr.name, cam.K, cam.dist, cam.width, cam.height)
+
+            def telemetry(t_s: float) -> None:
+                st = sim.state()
+                recorder.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
+
+            sim.add_task("record", cfg.sim.telemetry_rate_hz, telemetry)
         sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
         result = sim.run(duration_s, progress=progress)
     traces = [f[4] for f in followers]

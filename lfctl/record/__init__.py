@@ -1,0 +1,1 @@
+"""MCAP recording of every run, and the tools that read it back (audit, replay)."""

@@ -1,0 +1,575 @@
+"""`lfctl audit`: integrity, provenance and content of a run's MCAP log.
+
+Integrity reads every record with CRC validation on (chunk and data-section CRCs) through a
+stream that counts bytes, so a fault is reported with its byte offset: bad magic, a flipped
+byte, a file cut short (after SIGKILL). Everything read before the fault is still audited,
+and ``recover`` writes it to a new, complete file. Provenance checks the metadata and the
+attachments' SHA-256. Content recomputes formation, tracking, pose, mission and link figures
+from the recorded topics.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import itertools
+import json
+import tomllib
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.exceptions import McapError
+from mcap.records import Attachment, Channel, DataEnd, Footer, Header, Message, Metadata, Schema, Statistics
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+
+MAGIC = b"\x89MCAP0\r\n"
+KNOWN_SIGNATURES = {
+    b"\x89PNG": "a PNG image",
+    b"\xff\xd8\xff": "a JPEG image",
+    b"PK\x03\x04": "a zip archive",
+    b"%PDF": "a PDF",
+    b"\x7fELF": "an ELF binary",
+}
+SETTLE_S = 5.0
+
+
+class _CountingStream(io.RawIOBase):
+    """Wraps a file, counting the bytes read (the offset of a fault)."""
+
+    def __init__(self, f: Any) -> None:
+        self.f = f
+        self.pos = 0
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, b: Any) -> int:
+        data = self.f.read(len(b))
+        n = len(data)
+        b[:n] = data
+        self.pos += n
+        return n
+
+    def read(self, n: int = -1) -> bytes:
+        data = self.f.read(n)
+        self.pos += len(data)
+        return data
+
+
+@dataclass
+class Finding:
+    """One problem: ``error`` fails the audit, ``warning`` is reported."""
+
+    level: str
+    what: str
+    offset: int | None = None
+
+    def line(self) -> str:
+        at = f" (byte {self.offset})" if self.offset is not None else ""
+        return f"{self.level.upper()}: {self.what}{at}"
+
+
+@dataclass
+class Contents:
+    """Everything read from the file, up to a fault if there was one."""
+
+    header_library: str = ""
+    schemas: dict[int, Schema] = field(default_factory=dict)
+    channels: dict[int, Channel] = field(default_factory=dict)
+    messages: dict[str, list[tuple[int, bytes]]] = field(default_factory=lambda: defaultdict(list))
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
+    attachments: dict[str, bytes] = field(default_factory=dict)
+    statistics: Statistics | None = None
+    footer: bool = False
+    data_end: bool = False
+    bytes_read: int = 0
+    file_size: int = 0
+
+
+@dataclass
+class AuditReport:
+    path: str
+    findings: list[Finding]
+    contents: Contents
+    figures: dict[str, Any]
+
+    @property
+    def ok(self) -> bool:
+        return not any(f.level == "error" for f in self.findings)
+
+
+def read_contents(path: Path) -> tuple[Contents, list[Finding]]:
+    """Read every record with CRC validation; stop at the first fault and say where."""
+    c = Contents()
+    findings: list[Finding] = []
+    try:
+        c.file_size = path.stat().st_size
+        f = path.open("rb")
+    except OSError as exc:
+        return c, [Finding("error", f"cannot read {path}: {exc}")]
+    with f:
+        head = f.read(8)
+        if head != MAGIC:
+            kind = next((name for sig, name in KNOWN_SIGNATURES.items() if head.startswith(sig)), None)
+            what = f"not an MCAP file: bad magic {head[:8]!r}" + (f" (looks like {kind})" if kind else "")
+            if not head:
+                what = "not an MCAP file: the file is empty"
+            return c, [Finding("error", what, 0)]
+        f.seek(0)
+        stream = _CountingStream(f)
+        last_time: dict[int, int] = {}
+        try:
+            for rec in StreamReader(stream, validate_crcs=True).records:
+                if isinstance(rec, Header):
+                    c.header_library = rec.library
+                elif isinstance(rec, Schema):
+                    c.schemas[rec.id] = rec
+                elif isinstance(rec, Channel):
+                    if rec.schema_id != 0 and rec.schema_id not in c.schemas:
+                        findings.append(
+                            Finding(
+                                "error",
+                                f"channel {rec.topic!r} refers to schema {rec.schema_id} before it is defined",
+                                stream.pos,
+                            )
+                        )
+                    c.channels[rec.id] = rec
+                elif isinstance(rec, Message):
+                    ch = c.channels.get(rec.channel_id)
+                    if ch is None:
+                        findings.append(
+                            Finding(
+                                "error",
+                                f"message on channel {rec.channel_id} before the channel is defined",
+                                stream.pos,
+                            )
+                        )
+                        continue
+                    prev = last_time.get(rec.channel_id)
+                    if prev is not None and rec.log_time < prev:
+                        findings.append(
+                            Finding(
+                                "error",
+                                f"log_time goes back on {ch.topic}: {rec.log_time} ns after {prev} ns",
+                                stream.pos,
+                            )
+                        )
+                    last_time[rec.channel_id] = rec.log_time
+                    c.messages[ch.topic].append((rec.log_time, rec.data))
+                elif isinstance(rec, Metadata):
+                    c.metadata[rec.name] = dict(rec.metadata)
+                elif isinstance(rec, Attachment):
+                    c.attachments[rec.name] = rec.data
+                elif isinstance(rec, Statistics):
+                    c.statistics = rec
+                elif isinstance(rec, DataEnd):
+                    c.data_end = True
+                elif isinstance(rec, Footer):
+                    c.footer = True
+        except (McapError, ValueError, struct_error(), EOFError, OSError) as exc:  # every way a damaged stream fails
+            what = _describe(exc, stream.pos, c.file_size)
+            findings.append(Finding("error", what, stream.pos))
+        c.bytes_read = stream.pos
+    if not c.footer and not any(f.level == "error" for f in findings):
+        findings.append(Finding("error", "no footer: the file was not finished", c.bytes_read))
+    if c.footer:
+        findings.extend(_check_summary_crc(path))
+    return c, findings
+
+
+def _check_summary_crc(path: Path) -> list[Finding]:
+    """The footer's CRC over the summary section (the stream reader does not check it)."""
+    import struct
+    import zlib
+
+    data = path.read_bytes()
+    # footer record: opcode, length, summary_start, summary_offset_start, summary_crc; magic
+    footer = len(data) - 8 - (1 + 8 + 8 + 8 + 4)
+    summary_start, _offsets, crc = struct.unpack_from("<QQI", data, footer + 9)
+    if summary_start == 0 or crc == 0:
+        return []
+    got = zlib.crc32(data[summary_start : len(data) - 8 - 4]) & 0xFFFFFFFF
+    if got != crc:
+        return [Finding("error", f"summary CRC mismatch: computed {got:#010x}, footer says {crc:#010x}", summary_start)]
+    return []
+
+
+def struct_error() -> type[Exception]:
+    import struct
+
+    return struct.error
+
+
+def _describe(exc: Exception, pos: int, size: int) -> str:
+    text = str(exc) or type(exc).__name__
+    if type(exc).__name__ == "EndOfFile" or pos >= size:
+        return f"truncated: the file ends inside a record ({size} bytes; {type(exc).__name__})"
+    if "crc" in text.lower():
+        return f"CRC mismatch: {text}"
+    return f"corrupt record: {type(exc).__name__}: {text}"
+
+
+def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
+    return [(t / 1e9, json.loads(d)) for t, d in c.messages.get(topic, [])]
+
+
+def audit(path: str | Path) -> AuditReport:
+    """Audit a log file; never raises for a bad file (the findings say what is wrong)."""
+    p = Path(path)
+    c, findings = read_contents(p)
+    figures: dict[str, Any] = {
+        "file_bytes": c.file_size,
+        "bytes_read": c.bytes_read,
+        "messages": sum(len(v) for v in c.messages.values()),
+    }
+    if not c.channels and findings:
+        return AuditReport(str(p), findings, c, figures)
+    # -- integrity: counts against the statistics, expected topics, gaps --------------------
+    counted = {ch_id: len(c.messages.get(ch.topic, [])) for ch_id, ch in c.channels.items()}
+    if c.statistics is not None:
+        if c.statistics.message_count != sum(counted.values()):
+            findings.append(
+                Finding(
+                    "error",
+                    f"statistics say {c.statistics.message_count} messages, the file holds {sum(counted.values())}",
+                )
+            )
+        for ch_id, n in c.statistics.channel_message_counts.items():
+            if counted.get(ch_id, 0) != n:
+                findings.append(
+                    Finding(
+                        "error",
+                        f"statistics say {n} messages on {c.channels[ch_id].topic}, the file holds {counted.get(ch_id, 0)}",
+                    )
+                )
+    run = c.metadata.get("run", {})
+    if not run:
+        findings.append(Finding("error", "metadata 'run' missing (scenario, seed, clock)"))
+    if "lfctl" not in c.metadata:
+        findings.append(Finding("error", "metadata 'lfctl' missing (version, git revision, packages)"))
+    expected = _expected_topics(run)
+    for topic, period in expected.items():
+        msgs = c.messages.get(topic)
+        if not msgs:
+            findings.append(Finding("error" if c.footer else "warning", f"expected topic {topic} is missing"))
+            continue
+        times = np.array([t for t, _ in msgs]) / 1e9
+        gaps = np.diff(times)
+        big = gaps > 3 * period + 1e-6
+        if big.any():
+            i = int(np.argmax(gaps))
+            findings.append(
+                Finding(
+                    "warning",
+                    f"{topic}: {int(big.sum())} gaps longer than 3x its {period * 1000:.0f} ms period (longest {gaps[i]:.3f} s at t={times[i]:.2f} s)",
+                )
+            )
+    # -- provenance -------------------------------------------------------------------------
+    hashes = {m["name"]: m["sha256"] for k, m in c.metadata.items() if k.startswith("sha256:")}
+    for name, data in c.attachments.items():
+        want = hashes.get(name)
+        got = hashlib.sha256(data).hexdigest()
+        if want is None:
+            findings.append(Finding("warning", f"attachment {name} has no recorded SHA-256"))
+        elif want != got:
+            findings.append(
+                Finding("error", f"attachment {name}: SHA-256 {got[:12]}... does not match the recorded {want[:12]}...")
+            )
+    figures["attachments"] = sorted(c.attachments)
+    figures["provenance"] = {
+        k: v for k, v in c.metadata.get("lfctl", {}).items() if k in ("version", "git_revision", "python")
+    }
+    figures["run"] = run
+    # -- content ----------------------------------------------------------------------------
+    figures["followers"] = _formation_figures(c, run)
+    figures["mission"] = [
+        {"index": m["index"] + 1, "t_s": round(t, 2)}
+        for t, m in _json_messages(c, "/leader/mission")
+        if m.get("event") == "reached"
+    ]
+    figures["waypoints"] = int(run.get("waypoints", "0") or 0)
+    figures["links"] = _link_figures(c)
+    figures["topics"] = {
+        ch.topic: counted[ch_id] for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic)
+    }
+    return AuditReport(str(p), findings, c, figures)
+
+
+def _expected_topics(run: dict[str, str]) -> dict[str, float]:
+    """Topic -> expected period (s) from the run metadata."""
+    if not run:
+        return {}
+    out: dict[str, float] = {}
+    tel = 1.0 / float(run.get("telemetry_rate_hz", "10"))
+    guid = 1.0 / float(run.get("guidance_rate_hz", "20"))
+    cam = 1.0 / float(run.get("camera_rate_hz", "30"))
+    for v in filter(None, run.get("vehicles", "").split(",")):
+        out[f"/{v}/pose"] = tel
+    out["/tf"] = tel
+    for f in filter(None, run.get("followers", "").split(",")):
+        out[f"/{f}/controller"] = guid
+        if run.get("sensing") == "camera":
+            out[f"/{f}/tracker"] = cam
+            out[f"/{f}/camera/annotations"] = cam
+            if run.get("images") == "true":
+                out[f"/{f}/camera/image/compressed"] = 1.0 / float(run.get("image_rate_hz", "30"))
+    return out
+
+
+def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]:
+    out = []
+    guid = 1.0 / float(run.get("guidance_rate_hz", "20") or 20)
+    for f in filter(None, run.get("followers", "").split(",")):
+        msgs = _json_messages(c, f"/{f}/controller")
+        if not msgs:
+            continue
+        t = np.array([m[0] for m in msgs])
+        r_err = np.array([m[1]["range_error_m"] for m in msgs])
+        b_err = np.array([m[1]["bearing_error_deg"] for m in msgs])
+        keep = t >= SETTLE_S
+        status = [m[1]["status"] for m in msgs]
+        states = {s: round(status.count(s) * guid, 2) for s in ("tracking", "occluded", "lost")}
+        episodes = []
+        i = 0
+        while i < len(status):
+            if status[i] != "tracking" and t[i] > 0.5:
+                j = i
+                while j < len(status) and status[j] != "tracking":
+                    j += 1
+                episodes.append(
+                    {
+                        "start_s": round(float(t[i]), 2),
+                        "duration_s": round(float((j - i) * guid), 2),
+                        "recovered": j < len(status),
+                        "worst": "lost" if "lost" in status[i:j] else "occluded",
+                    }
+                )
+                i = j
+            else:
+                i += 1
+        fig: dict[str, Any] = {
+            "follower": f,
+            "target": msgs[0][1].get("target", ""),
+            "range_cmd_m": msgs[0][1]["range_cmd_m"],
+            "range_err_rms_m": round(float(np.sqrt(np.mean(r_err[keep] ** 2))), 4) if keep.any() else None,
+            "range_err_max_m": round(float(np.max(np.abs(r_err[keep]))), 4) if keep.any() else None,
+            "bearing_err_rms_deg": round(float(np.sqrt(np.mean(b_err[keep] ** 2))), 3) if keep.any() else None,
+            "bearing_err_max_deg": round(float(np.max(np.abs(b_err[keep]))), 3) if keep.any() else None,
+            "min_separation_m": round(float(min(m[1]["separation_m"] for m in msgs)), 3),
+            "time_in_state_s": states,
+            "occlusion_episodes": episodes,
+        }
+        poses = _json_messages(c, f"/{f}/pose_estimate")
+        if poses:
+            pr = np.array(
+                [
+                    (m["range_m"] - m["truth_range_m"]) / m["truth_range_m"]
+                    for _, m in poses
+                    if m["truth_range_m"] <= 3.0
+                ]
+            )
+            pb = np.array([m["bearing_deg"] - m["truth_bearing_deg"] for _, m in poses if m["truth_range_m"] <= 3.0])
+            if pr.size:
+                fig["pose_range_err_rms_pct"] = round(float(np.sqrt(np.mean(pr**2)) * 100), 3)
+                fig["pose_bearing_err_rms_deg"] = round(float(np.sqrt(np.mean(pb**2))), 3)
+        out.append(fig)
+    return out
+
+
+def _link_figures(c: Contents) -> dict[str, Any]:
+    links: dict[str, Any] = {}
+    for topic, msgs in c.messages.items():
+        if not topic.startswith("/mavlink/"):
+            continue
+        dirs = {"in": 0, "out": 0}
+        seq_by_src: dict[tuple[int, int], list[int]] = defaultdict(list)
+        pending: dict[int, float] = {}
+        latencies = []
+        for t, d in msgs:
+            m = json.loads(d)
+            dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
+            if m["direction"] == "in" and "seq" in m:
+                seq_by_src[(m["sysid"], m["compid"])].append(m["seq"])
+            if m["name"] == "COMMAND_LONG" and m["direction"] == "in":
+                pending[m["fields"].get("command", -1)] = t / 1e9
+            if m["name"] == "COMMAND_ACK" and m["direction"] == "out" and m["fields"].get("command") in pending:
+                latencies.append(t / 1e9 - pending.pop(m["fields"]["command"]))
+        lost = 0
+        for seqs in seq_by_src.values():
+            for a, b in itertools.pairwise(seqs):
+                lost += (b - a - 1) % 256
+        links[topic] = {
+            "packets_in": dirs.get("in", 0),
+            "packets_out": dirs.get("out", 0),
+            "lost_in_by_seq": lost,
+            "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
+        }
+    return links
+
+
+def check_thresholds(report: AuditReport) -> list[Finding]:
+    """--strict: the scenario's [audit] limits (from the attached scenario.toml)."""
+    text = report.contents.attachments.get("scenario.toml")
+    limits = {"max_range_err_rms_frac": 0.10, "max_bearing_err_rms_deg": 5.0, "min_separation_m": 0.3}
+    if text:
+        try:
+            limits |= tomllib.loads(text.decode()).get("audit", {})
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+            return [Finding("error", "the attached scenario.toml does not parse")]
+    out = []
+    for f in report.figures.get("followers", []):
+        if (
+            f["range_err_rms_m"] is not None
+            and f["range_err_rms_m"] > limits["max_range_err_rms_frac"] * f["range_cmd_m"]
+        ):
+            out.append(
+                Finding(
+                    "error",
+                    f"{f['follower']}: range error RMS {f['range_err_rms_m']} m exceeds {limits['max_range_err_rms_frac']:.0%} of {f['range_cmd_m']} m",
+                )
+            )
+        if f["bearing_err_rms_deg"] is not None and f["bearing_err_rms_deg"] > limits["max_bearing_err_rms_deg"]:
+            out.append(
+                Finding(
+                    "error",
+                    f"{f['follower']}: bearing error RMS {f['bearing_err_rms_deg']} deg exceeds {limits['max_bearing_err_rms_deg']} deg",
+                )
+            )
+        if f["min_separation_m"] < limits["min_separation_m"]:
+            out.append(
+                Finding(
+                    "error",
+                    f"{f['follower']}: separation fell to {f['min_separation_m']} m (< {limits['min_separation_m']} m)",
+                )
+            )
+    return out
+
+
+def recover(report: AuditReport, out_path: Path) -> int:
+    """Write every record that was read intact into a new, finished file; returns messages."""
+    c = report.contents
+    with out_path.open("wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
+        w.start(profile="", library=(c.header_library or "unknown") + " (recovered by lfctl audit)")
+        for name, data in c.attachments.items():
+            w.add_attachment(0, 0, name, "application/octet-stream", data)
+        for name, md in c.metadata.items():
+            w.add_metadata(name, md)
+        w.add_metadata(
+            "recovery",
+            {
+                "source": report.path,
+                "bytes_read": str(c.bytes_read),
+                "file_bytes": str(c.file_size),
+                "findings": " | ".join(x.line() for x in report.findings),
+            },
+        )
+        schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in c.schemas.items()}
+        n = 0
+        for cid, ch in c.channels.items():
+            new = w.register_channel(ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), dict(ch.metadata))
+            for seq, (t, data) in enumerate(c.messages.get(ch.topic, [])):
+                w.add_message(new, t, data, t, seq)
+                n += 1
+            del cid
+        w.finish()
+    return n
+
+
+def format_report(report: AuditReport) -> str:
+    """The readable table."""
+    fig = report.figures
+    lines = [
+        f"{report.path}",
+        f"  size {fig['file_bytes']} bytes, read {fig['bytes_read']}, {fig['messages']} messages on {len(fig.get('topics', {}))} topics",
+    ]
+    if fig.get("run"):
+        r = fig["run"]
+        lines.append(
+            f"  run: scenario {r.get('scenario')} seed {r.get('seed')} clock {r.get('clock')} dt {r.get('dt_s')} s sensing {r.get('sensing')} controller {r.get('controller')}"
+        )
+    if fig.get("provenance"):
+        p = fig["provenance"]
+        lines.append(
+            f"  lfctl {p.get('version')} ({p.get('git_revision')}), python {p.get('python')}; attachments: {', '.join(fig.get('attachments', []))}"
+        )
+    lines.append("integrity: " + ("OK" if report.ok else "FAILED"))
+    lines += [f"  {f.line()}" for f in report.findings] or ["  no findings"]
+    if fig.get("followers"):
+        lines.append("formation (after 5 s settling):")
+        lines.append(
+            f"  {'follower':<10} {'target':<8} {'rng RMS m':>9} {'rng max m':>9} {'brg RMS deg':>11} {'brg max deg':>11} {'min sep m':>9} {'tracking s':>10} {'occluded s':>10} {'lost s':>6} {'pose rng %':>10} {'pose brg deg':>12}"
+        )
+        for f in fig["followers"]:
+            st = f["time_in_state_s"]
+            lines.append(
+                f"  {f['follower']:<10} {f['target']:<8} {f['range_err_rms_m']!s:>9} {f['range_err_max_m']!s:>9} {f['bearing_err_rms_deg']!s:>11} {f['bearing_err_max_deg']!s:>11} "
+                f"{f['min_separation_m']!s:>9} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {f.get('pose_range_err_rms_pct', '-')!s:>10} {f.get('pose_bearing_err_rms_deg', '-')!s:>12}"
+            )
+            for e in f["occlusion_episodes"]:
+                lines.append(
+                    f"    {e['worst']} at {e['start_s']} s for {e['duration_s']} s, "
+                    + ("recovered" if e["recovered"] else "not recovered")
+                )
+    if fig.get("waypoints"):
+        reached = ", ".join(f"{m['index']}@{m['t_s']}s" for m in fig["mission"]) or "none"
+        lines.append(f"mission: {len(fig['mission'])}/{fig['waypoints']} waypoints reached ({reached})")
+    for topic, link in fig.get("links", {}).items():
+        lines.append(
+            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out, {link['lost_in_by_seq']} lost (by sequence), max command ack {link['command_ack_latency_ms_max']} ms"
+        )
+    return "\n".join(lines)
+
+
+def plot(report: AuditReport, out_dir: Path) -> list[Path]:
+    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    c = report.contents
+    made = []
+    fig, ax = plt.subplots(figsize=(6, 6))
+    for topic, msgs in sorted(c.messages.items()):
+        if topic.endswith("/pose") and topic.count("/") == 2:
+            pts = []
+            for _t, d in msgs:
+                p = PoseInFrame.FromString(d)
+                pts.append((p.pose.position.y, p.pose.position.x))  # east right, north up
+            a = np.array(pts)
+            ax.plot(a[:, 0], a[:, 1], label=topic.split("/")[1])
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal")
+    ax.legend()
+    ax.set_title("trajectories (top view)")
+    made.append(out_dir / "trajectories.png")
+    fig.savefig(made[-1], dpi=100)
+    plt.close(fig)
+    run = c.metadata.get("run", {})
+    for f in filter(None, run.get("followers", "").split(",")):
+        msgs = _json_messages(c, f"/{f}/controller")
+        if not msgs:
+            continue
+        t = np.array([m[0] for m in msgs])
+        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+        a1.plot(t, [m[1]["range_error_m"] for m in msgs])
+        a1.set_ylabel("range error (m)")
+        a2.plot(t, [m[1]["bearing_error_deg"] for m in msgs])
+        a2.set_ylabel("bearing error (deg)")
+        code = {"tracking": 2, "occluded": 1, "lost": 0}
+        a3.step(t, [code[m[1]["status"]] for m in msgs], where="post")
+        a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
+        a3.set_xlabel("simulation time (s)")
+        a1.set_title(f"{f}: formation errors and track state")
+        made.append(out_dir / f"{f}_errors.png")
+        fig.savefig(made[-1], dpi=100)
+        plt.close(fig)
+    return made

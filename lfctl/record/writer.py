@@ -1,0 +1,433 @@
+"""The run recorder: one MCAP file per run, Foxglove schemas where one fits.
+
+Written first, so a crash cannot lose them: metadata (lfctl version and git revision,
+package versions, the run's scenario, seed, clock, dt) and attachments (the scenario TOML,
+each FMU's modelDescription.xml) with their SHA-256 in the metadata. Then messages, in
+zstd (or lz4) chunks of about 1 MiB with chunk and data-section CRCs, ``log_time`` = the
+simulation time in ns.
+
+Topics: ``/<vehicle>/pose`` (foxglove.PoseInFrame), ``/tf`` (foxglove.FrameTransform),
+``/<follower>/camera/image/compressed`` (foxglove.CompressedImage, JPEG),
+``/<follower>/camera/calibration`` (foxglove.CameraCalibration),
+``/<follower>/camera/annotations`` (foxglove.ImageAnnotations), and JSON-schema channels
+``/<follower>/tracker``, ``/<follower>/pose_estimate``, ``/<follower>/controller``,
+``/leader/mission`` and ``/mavlink/<link>``.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as dt
+import hashlib
+import importlib.metadata
+import json
+import math
+import platform
+import subprocess
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
+from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from mcap.writer import CompressionType, Writer
+from mcap_protobuf.schema import build_file_descriptor_set
+
+from lfctl import __version__
+from lfctl.config import Config
+from lfctl.errors import LfctlError
+
+WORLD_FRAME = "ned"
+PACKAGES = (
+    "fmpy",
+    "numpy",
+    "opencv-python-headless",
+    "filterpy",
+    "mcap",
+    "mcap-protobuf-support",
+    "foxglove-schemas-protobuf",
+    "pymavlink",
+    "protobuf",
+)
+
+JSON_SCHEMAS: dict[str, dict[str, Any]] = {
+    "lfctl.Tracker": {
+        "type": "object",
+        "properties": {
+            "state": {"type": "string"},
+            "bbox": {"type": ["array", "null"], "items": {"type": "integer"}},
+            "quality": {"type": "number"},
+            "distance": {"type": "number"},
+            "markers": {"type": ["array", "null"]},
+            "reason": {"type": "string"},
+            "truth_bbox": {"type": ["array", "null"]},
+            "truth_visible_fraction": {"type": "number"},
+        },
+    },
+    "lfctl.PoseEstimate": {
+        "type": "object",
+        "properties": {
+            "method": {"type": "string"},
+            "range_m": {"type": "number"},
+            "bearing_deg": {"type": "number"},
+            "rel_heading_deg": {"type": "number"},
+            "truth_range_m": {"type": "number"},
+            "truth_bearing_deg": {"type": "number"},
+            "truth_rel_heading_deg": {"type": "number"},
+        },
+    },
+    "lfctl.Controller": {
+        "type": "object",
+        "properties": {
+            "status": {"type": "string"},
+            "speed_cmd_mps": {"type": "number"},
+            "yaw_rate_cmd_degps": {"type": "number"},
+            "range_cmd_m": {"type": "number"},
+            "bearing_cmd_deg": {"type": "number"},
+            "range_m": {"type": "number", "description": "truth"},
+            "bearing_deg": {"type": "number", "description": "truth"},
+            "range_error_m": {"type": "number"},
+            "bearing_error_deg": {"type": "number"},
+            "separation_m": {"type": "number"},
+            "target": {"type": "string"},
+        },
+    },
+    "lfctl.Mission": {
+        "type": "object",
+        "properties": {
+            "event": {"type": "string"},
+            "index": {"type": "integer"},
+            "active": {"type": "integer"},
+            "count": {"type": "integer"},
+        },
+    },
+    "lfctl.MavlinkPacket": {
+        "type": "object",
+        "properties": {
+            "direction": {"type": "string", "enum": ["in", "out"]},
+            "sysid": {"type": "integer"},
+            "compid": {"type": "integer"},
+            "msgid": {"type": "integer"},
+            "name": {"type": "string"},
+            "fields": {"type": "object"},
+            "raw": {"type": "string", "contentEncoding": "base64"},
+        },
+    },
+}
+
+
+class RecordError(LfctlError, OSError):
+    """The log could not be written; the message names the file."""
+
+
+def sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def git_revision() -> str:
+    """The source tree's git revision (with ``-dirty``), or ``unknown``."""
+    root = Path(__file__).resolve().parents[2]
+    try:
+        rev = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=True,
+        ).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+        ).stdout.strip()
+        return rev + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def package_versions() -> dict[str, str]:
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def run_path(cfg: Config, now: dt.datetime | None = None) -> Path:
+    """``<dir>/<UTC time>-<scenario>-<seed>.mcap``."""
+    stamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%dT%H%M%SZ")
+    return Path(cfg.recording.dir) / f"{stamp}-{cfg.name}-{cfg.sim.seed}.mcap"
+
+
+def _quat_yaw(yaw_rad: float) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of a rotation by ``yaw_rad`` about z (NED down: clockwise from above)."""
+    return 0.0, 0.0, math.sin(yaw_rad / 2), math.cos(yaw_rad / 2)
+
+
+def _ts(msg_time: Any, t_ns: int) -> None:
+    msg_time.seconds = t_ns // 1_000_000_000
+    msg_time.nanos = t_ns % 1_000_000_000
+
+
+class Recorder:
+    """Writes one run. Use as a context manager; closing finishes the file (summary, CRCs)."""
+
+    def __init__(self, path: str | Path, cfg: Config) -> None:
+        self.path = Path(path)
+        self.cfg = cfg
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._f = self.path.open("wb")
+        except OSError as exc:
+            raise RecordError(f"cannot create the run log {self.path}: {exc}") from exc
+        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[
+            cfg.recording.compression
+        ]
+        self._w = Writer(
+            self._f,
+            chunk_size=cfg.recording.chunk_size_bytes,
+            compression=comp,
+            enable_crcs=True,
+            enable_data_crcs=True,
+        )
+        self._w.start(profile="", library=f"lfctl {__version__}")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._seq: dict[int, int] = {}
+        self._last_image: dict[str, float] = {}
+        self.messages = 0
+        self.bytes_payload = 0
+        self._closed = False
+        self._hashes: dict[str, str] = {}
+        self._attach("scenario.toml", "application/toml", cfg.source.encode())
+        self._w.add_metadata(
+            "lfctl",
+            {
+                "version": __version__,
+                "git_revision": git_revision(),
+                "python": platform.python_version(),
+                "platform": platform.platform(),
+                **{f"package.{k}": v for k, v in package_versions().items()},
+            },
+        )
+        self._w.add_metadata(
+            "run",
+            {
+                "scenario": cfg.name,
+                "seed": str(cfg.sim.seed),
+                "clock": cfg.sim.clock,
+                "dt_s": repr(cfg.sim.dt_s),
+                "duration_s": repr(cfg.sim.duration_s),
+                "sensing": cfg.sim.sensing,
+                "controller": cfg.guidance.controller,
+                "vehicles": ",".join(v.name for v in cfg.vehicles),
+                "followers": ",".join(v.name for v in cfg.followers),
+                "telemetry_rate_hz": repr(cfg.sim.telemetry_rate_hz),
+                "guidance_rate_hz": repr(cfg.sim.guidance_rate_hz),
+                "camera_rate_hz": repr(cfg.sim.camera_rate_hz),
+                "images": str(cfg.recording.images and cfg.sim.sensing == "camera").lower(),
+                "image_rate_hz": repr(min(cfg.recording.image_rate_hz, cfg.sim.camera_rate_hz)),
+                "waypoints": str(len(cfg.mission.waypoints)),
+            },
+        )
+        self._f.flush()
+
+    # -- provenance -----------------------------------------------------------------------
+    def _attach(self, name: str, media_type: str, data: bytes) -> None:
+        """An attachment and, right after it, its SHA-256 (both outside chunks, on disk now)."""
+        self._w.add_attachment(create_time=0, log_time=0, name=name, media_type=media_type, data=data)
+        self._hashes[name] = sha256(data)
+        self._w.add_metadata(f"sha256:{name}", {"name": name, "sha256": self._hashes[name], "bytes": str(len(data))})
+        self._f.flush()
+
+    def attach_fmus(self, fmu_paths: list[Path]) -> None:
+        """Attach each FMU's modelDescription.xml (before any message)."""
+        for p in fmu_paths:
+            with zipfile.ZipFile(p) as z:
+                self._attach(f"{p.name}/modelDescription.xml", "application/xml", z.read("modelDescription.xml"))
+
+    def attach(self, name: str, media_type: str, data: bytes) -> None:
+        """Attach another file (a mission, say)."""
+        self._attach(name, media_type, data)
+
+    # -- channels --------------------------------------------------------------------------
+    def _proto_channel(self, topic: str, message_type: Any) -> int:
+        if topic in self._channels:
+            return self._channels[topic]
+        name = message_type.DESCRIPTOR.full_name
+        if name not in self._schemas:
+            self._schemas[name] = self._w.register_schema(
+                name, "protobuf", build_file_descriptor_set(message_type).SerializeToString()
+            )
+        cid = self._w.register_channel(topic, "protobuf", self._schemas[name])
+        self._channels[topic] = cid
+        return cid
+
+    def _json_channel(self, topic: str, schema_name: str) -> int:
+        if topic in self._channels:
+            return self._channels[topic]
+        if schema_name not in self._schemas:
+            self._schemas[schema_name] = self._w.register_schema(
+                schema_name, "jsonschema", json.dumps(JSON_SCHEMAS[schema_name]).encode()
+            )
+        cid = self._w.register_channel(topic, "json", self._schemas[schema_name])
+        self._channels[topic] = cid
+        return cid
+
+    def _write(self, cid: int, t_s: float, data: bytes) -> None:
+        t_ns = int(round(t_s * 1e9))
+        seq = self._seq.get(cid, 0)
+        self._seq[cid] = seq + 1
+        self._w.add_message(channel_id=cid, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
+        self.messages += 1
+        self.bytes_payload += len(data)
+
+    def json(self, topic: str, schema: str, t_s: float, payload: dict[str, Any]) -> None:
+        """A JSON message on a JSON-schema channel."""
+        self._write(
+            self._json_channel(topic, schema),
+            t_s,
+            json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_jsonable).encode(),
+        )
+
+    # -- topics ----------------------------------------------------------------------------
+    def poses(self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray) -> None:
+        """``/<vehicle>/pose`` for each vehicle and one ``/tf`` per vehicle (ned -> vehicle)."""
+        t_ns = int(round(t_s * 1e9))
+        for i, name in enumerate(names):
+            qx, qy, qz, qw = _quat_yaw(float(yaw_rad[i]))
+            pose = PoseInFrame(frame_id=WORLD_FRAME)
+            _ts(pose.timestamp, t_ns)
+            pose.pose.position.x, pose.pose.position.y = float(pos_ned_m[i, 0]), float(pos_ned_m[i, 1])
+            pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z, pose.pose.orientation.w = (
+                qx,
+                qy,
+                qz,
+                qw,
+            )
+            self._write(self._proto_channel(f"/{name}/pose", PoseInFrame), t_s, pose.SerializeToString())
+            tf = FrameTransform(parent_frame_id=WORLD_FRAME, child_frame_id=name)
+            _ts(tf.timestamp, t_ns)
+            tf.translation.x, tf.translation.y = float(pos_ned_m[i, 0]), float(pos_ned_m[i, 1])
+            tf.rotation.x, tf.rotation.y, tf.rotation.z, tf.rotation.w = qx, qy, qz, qw
+            self._write(self._proto_channel("/tf", FrameTransform), t_s, tf.SerializeToString())
+
+    def calibration(self, t_s: float, follower: str, K: np.ndarray, dist: np.ndarray, width: int, height: int) -> None:
+        cal = CameraCalibration(frame_id=f"{follower}/camera", width=width, height=height, distortion_model="plumb_bob")
+        _ts(cal.timestamp, int(round(t_s * 1e9)))
+        cal.D.extend([float(dist[0]), float(dist[1]), float(dist[2]), float(dist[3]), 0.0])
+        cal.K.extend([float(v) for v in K.ravel()])
+        cal.R.extend([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+        cal.P.extend(
+            [float(K[0, 0]), 0.0, float(K[0, 2]), 0.0, 0.0, float(K[1, 1]), float(K[1, 2]), 0.0, 0.0, 0.0, 1.0, 0.0]
+        )
+        self._write(
+            self._proto_channel(f"/{follower}/camera/calibration", CameraCalibration), t_s, cal.SerializeToString()
+        )
+
+    def camera(self, t_s: float, follower: str, sample: Any) -> None:
+        """One camera tick: image (rate-limited), annotations, tracker state, pose vs truth."""
+        t_ns = int(round(t_s * 1e9))
+        rec = self.cfg.recording
+        period = 1.0 / min(rec.image_rate_hz, self.cfg.sim.camera_rate_hz)
+        if rec.images and t_s - self._last_image.get(follower, -math.inf) >= period - 1e-9:
+            self._last_image[follower] = t_s
+            ok, jpg = cv2.imencode(".jpg", sample.frame, [cv2.IMWRITE_JPEG_QUALITY, rec.jpeg_quality])
+            if ok:
+                img = CompressedImage(frame_id=f"{follower}/camera", format="jpeg", data=jpg.tobytes())
+                _ts(img.timestamp, t_ns)
+                self._write(
+                    self._proto_channel(f"/{follower}/camera/image/compressed", CompressedImage),
+                    t_s,
+                    img.SerializeToString(),
+                )
+        track, truth = sample.track, sample.truth
+        ann = ImageAnnotations()
+        if track is not None and track.bbox is not None:
+            x, y, w, h = track.bbox
+            box = PointsAnnotation(type=PointsAnnotation.Type.LINE_LOOP, thickness=2)
+            _ts(box.timestamp, t_ns)
+            for px, py in ((x, y), (x + w, y), (x + w, y + h), (x, y + h)):
+                p = box.points.add()
+                p.x, p.y = float(px), float(py)
+            colour = (0.1, 0.8, 0.1) if track.status.value == "tracking" else (1.0, 0.65, 0.0)
+            box.outline_color.r, box.outline_color.g, box.outline_color.b, box.outline_color.a = (*colour, 1.0)
+            ann.points.append(box)
+        if track is not None and track.markers is not None:
+            pts = PointsAnnotation(type=PointsAnnotation.Type.POINTS, thickness=6)
+            _ts(pts.timestamp, t_ns)
+            for u, v in track.markers:
+                p = pts.points.add()
+                p.x, p.y = float(u), float(v)
+            pts.outline_color.r, pts.outline_color.b, pts.outline_color.a = 1.0, 1.0, 1.0
+            ann.points.append(pts)
+        self._write(
+            self._proto_channel(f"/{follower}/camera/annotations", ImageAnnotations), t_s, ann.SerializeToString()
+        )
+        self.json(
+            f"/{follower}/tracker",
+            "lfctl.Tracker",
+            t_s,
+            {
+                "state": track.status.value if track else "lost",
+                "bbox": list(track.bbox) if track and track.bbox else None,
+                "quality": float(track.quality) if track else 0.0,
+                "distance": float(track.distance) if track else 1.0,
+                "markers": np.round(track.markers, 2).tolist()
+                if track is not None and track.markers is not None
+                else None,
+                "reason": track.reason if track else "not started",
+                "truth_bbox": list(truth.bbox) if truth.bbox else None,
+                "truth_visible_fraction": round(float(truth.visible_fraction), 4),
+            },
+        )
+        if sample.pose is not None and math.isfinite(sample.measurement.range_m):
+            self.json(
+                f"/{follower}/pose_estimate",
+                "lfctl.PoseEstimate",
+                t_s,
+                {
+                    "method": sample.pose.method,
+                    "range_m": round(sample.measurement.range_m, 5),
+                    "bearing_deg": round(math.degrees(sample.measurement.bearing_rad), 4),
+                    "rel_heading_deg": round(math.degrees(sample.pose.rel_heading_rad), 3),
+                    "truth_range_m": round(truth.range_m, 5),
+                    "truth_bearing_deg": round(math.degrees(truth.bearing_rad), 4),
+                    "truth_rel_heading_deg": round(math.degrees(truth.rel_heading_rad), 3),
+                },
+            )
+
+    def close(self) -> None:
+        """Finish the file: hashes, summary, indexes, footer."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._w.finish()
+        finally:
+            self._f.close()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, bytes):
+        return base64.b64encode(value).decode()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

@@ -1,0 +1,240 @@
+"""MCAP recording and `lfctl audit`: round trip, figures, damage, crash recovery."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from mcap.decoder import DecoderFactory as McapDecoderFactory
+from mcap.reader import NonSeekingReader
+from mcap.stream_reader import StreamReader
+from mcap_protobuf.decoder import DecoderFactory
+
+from lfctl.cli import main
+from lfctl.config import load_config
+from lfctl.record.audit import audit, recover
+from lfctl.record.writer import Recorder
+from lfctl.sim.runner import run_scenario
+
+pytestmark = pytest.mark.fmu
+
+
+class JsonDecoders(McapDecoderFactory):
+    """JSON channels for the official reader (mcap ships decoders for protobuf and ROS only)."""
+
+    def decoder_for(self, message_encoding: str, schema: object):
+        return json.loads if message_encoding == "json" else None
+
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+
+
+def small_chunks(cfg, tmp: Path, sensing: str = "truth", duration: float = 12.0):
+    rec = dataclasses.replace(cfg.recording, dir=str(tmp), chunk_size_bytes=4096, image_rate_hz=5.0)
+    sim = dataclasses.replace(cfg.sim, sensing=sensing, duration_s=duration)
+    return dataclasses.replace(cfg, recording=rec, sim=sim)
+
+
+@pytest.fixture(scope="module")
+def camera_log(tmp_path_factory: pytest.TempPathFactory):
+    tmp = tmp_path_factory.mktemp("log")
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, "camera", 8.0)
+    path = tmp / "run.mcap"
+    with Recorder(path, cfg) as rec:
+        report = run_scenario(cfg, recorder=rec)
+    return path, report
+
+
+@pytest.fixture(scope="module")
+def truth_log(tmp_path_factory: pytest.TempPathFactory):
+    tmp = tmp_path_factory.mktemp("log")
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, "truth", 40.0)
+    path = tmp / "run.mcap"
+    with Recorder(path, cfg) as rec:
+        report = run_scenario(cfg, recorder=rec)
+    return path, report
+
+
+def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None:
+    path, _ = camera_log
+    seen: dict[str, int] = {}
+    with path.open("rb") as f:
+        reader = NonSeekingReader(f, validate_crcs=True, decoder_factories=[DecoderFactory(), JsonDecoders()])
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            seen[channel.topic] = seen.get(channel.topic, 0) + 1
+            if channel.message_encoding == "json":
+                assert isinstance(decoded, dict) and decoded == json.loads(message.data)
+            else:
+                assert decoded.DESCRIPTOR.full_name == schema.name
+            if channel.topic == "/leader/pose":
+                assert (
+                    type(decoded).DESCRIPTOR.full_name == PoseInFrame.DESCRIPTOR.full_name and decoded.frame_id == "ned"
+                )
+            if channel.topic.endswith("image/compressed"):
+                assert type(decoded).DESCRIPTOR.full_name == CompressedImage.DESCRIPTOR.full_name
+                assert decoded.format == "jpeg" and decoded.data[:2] == b"\xff\xd8"
+    expected = {
+        "/leader/pose", "/follower1/pose", "/tf", "/follower1/controller", "/follower1/tracker",
+        "/follower1/pose_estimate", "/follower1/camera/image/compressed", "/follower1/camera/annotations",
+        "/follower1/camera/calibration",
+    }  # fmt: skip
+    assert expected <= set(seen)
+    assert seen["/follower1/camera/image/compressed"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+
+
+def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:
+    path, _ = camera_log
+    rep = audit(path)
+    assert rep.ok, [f.line() for f in rep.findings]
+    assert {"scenario.toml", "SkidSteerRover.fmi2.fmu/modelDescription.xml"} <= set(rep.contents.attachments)
+    assert rep.figures["run"]["scenario"] == "convoy" and rep.figures["run"]["seed"] == "1"
+    assert rep.figures["provenance"]["version"]
+    with path.open("rb") as f:
+        kinds = [type(r).__name__ for r in StreamReader(f, emit_chunks=True).records]
+    first_chunk = kinds.index("Chunk")
+    assert kinds[:first_chunk].count("Attachment") == 2 and kinds[:first_chunk].count("Metadata") >= 4
+
+
+def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log) -> None:
+    path, report = truth_log
+    rep = audit(path)
+    assert rep.ok
+    (f,) = rep.figures["followers"]
+    m = report.metrics[0]
+    assert f["range_err_rms_m"] == pytest.approx(m.range_err_rms_m, abs=1e-4)
+    assert f["range_err_max_m"] == pytest.approx(m.range_err_max_m, abs=1e-4)
+    assert f["bearing_err_rms_deg"] == pytest.approx(math.degrees(m.bearing_err_rms_rad), abs=1e-3)
+    assert f["min_separation_m"] == pytest.approx(m.min_separation_m, abs=1e-3)
+    for state, secs in m.time_in_state_s.items():
+        assert f["time_in_state_s"][state] == pytest.approx(secs, abs=1e-6)
+    assert [w["index"] - 1 for w in rep.figures["mission"]] == [i for i, _ in report.waypoints_reached]
+
+
+def test_a_flipped_byte_inside_a_chunk_is_a_crc_error(truth_log, tmp_path: Path) -> None:
+    data = bytearray(truth_log[0].read_bytes())
+    i = len(data) // 3  # in the data section, among the compressed chunks
+    data[i] ^= 0xFF
+    bad = tmp_path / "flipped.mcap"
+    bad.write_bytes(bytes(data))
+    rep = audit(bad)
+    assert not rep.ok
+    err = next(f for f in rep.findings if f.level == "error")
+    assert ("CRC" in err.what or "corrupt" in err.what) and err.offset is not None and err.offset <= len(data)
+    assert main(["audit", str(bad)]) == 1
+
+
+def test_a_file_cut_at_60_percent_is_reported_and_recovered(
+    truth_log, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = truth_log[0].read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: int(len(data) * 0.6)])
+    rep = audit(cut)
+    assert not rep.ok
+    assert any("truncated" in f.what for f in rep.findings)
+    full = audit(truth_log[0])
+    assert 0.3 * full.figures["messages"] < rep.figures["messages"] < 0.7 * full.figures["messages"]
+    out = tmp_path / "recovered.mcap"
+    assert main(["audit", str(cut), "--recover", str(out)]) == 1
+    assert "truncated" in capsys.readouterr().out
+    again = audit(out)
+    assert again.ok and again.figures["messages"] == rep.figures["messages"]
+    assert "recovery" in again.contents.metadata
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"\x89PNG\r\n\x1a\n" + bytes(64), "looks like a PNG image"),
+        (b"", "the file is empty"),
+        (b"hello world, not mcap", "bad magic"),
+    ],
+)
+def test_non_mcap_files_get_a_clear_error(
+    tmp_path: Path, content: bytes, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    p = tmp_path / "x.mcap"
+    p.write_bytes(content)
+    assert main(["audit", str(p)]) == 1
+    out = capsys.readouterr().out
+    assert message in out and "Traceback" not in out
+
+
+def test_strict_fails_on_the_scenarios_limits(truth_log, tmp_path: Path) -> None:
+    path, _ = truth_log
+    assert main(["audit", str(path), "--strict"]) == 0
+    text = (EXAMPLES / "convoy.toml").read_text() + "\n[audit]\nmax_range_err_rms_frac = 0.0001\n"
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = small_chunks(dataclasses.replace(cfg, source=text), tmp_path, "truth", 8.0)
+    p = tmp_path / "strict.mcap"
+    with Recorder(p, cfg) as rec:
+        run_scenario(cfg, recorder=rec)
+    assert main(["audit", str(p), "--strict"]) == 1
+
+
+def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["audit", str(truth_log[0]), "--json", "--plot", str(tmp_path / "plots")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["ok"] and out["figures"]["followers"][0]["follower"] == "follower1"
+    assert (tmp_path / "plots" / "trajectories.png").stat().st_size > 1000
+    assert (tmp_path / "plots" / "follower1_errors.png").stat().st_size > 1000
+
+
+def test_replay_reruns_a_tracker_on_recorded_frames(camera_log, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["replay", str(camera_log[0]), "--tracker", "hue-only"]) == 0
+    out = capsys.readouterr().out
+    assert "replayed tracker (hue-only): success" in out and "recorded tracker (full):  success" in out
+
+
+@pytest.mark.slow
+@pytest.mark.integration
+def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
+    scen = tmp_path / "s.toml"
+    scen.write_text(
+        (EXAMPLES / "convoy.toml").read_text().replace('sensing = "camera"   # or "truth"', 'sensing = "truth"')
+        + f'\n[recording]\ndir = "{tmp_path}"\nchunk_size_bytes = 4096\n'
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfctl", "sim", str(scen), "--realtime", "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and not list(tmp_path.glob("*.mcap")):
+            time.sleep(0.2)
+        time.sleep(4.0)  # a few seconds of simulated time, several 4 KiB chunks
+        proc.send_signal(signal.SIGKILL)
+        proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    (log,) = tmp_path.glob("*.mcap")
+    rep = audit(log)
+    assert not rep.ok and any("truncated" in f.what or "no footer" in f.what for f in rep.findings)
+    assert rep.figures["messages"] > 50
+    assert {"scenario.toml", "SkidSteerRover.fmi2.fmu/modelDescription.xml"} <= set(rep.contents.attachments)
+    out = tmp_path / "fixed.mcap"
+    assert recover(rep, out) == rep.figures["messages"]
+    assert audit(out).ok
+    assert os.path.getsize(out) > 0
+
+
+def test_a_flipped_byte_in_the_summary_is_caught_by_its_crc(truth_log, tmp_path: Path) -> None:
+    data = bytearray(truth_log[0].read_bytes())
+    i = data.rfind(b"/leader/pose")  # the channel record repeated in the summary section
+    data[i] ^= 0x20
+    bad = tmp_path / "summary.mcap"
+    bad.write_bytes(bytes(data))
+    rep = audit(bad)
+    assert any("summary CRC" in f.what for f in rep.findings if f.level == "error")
