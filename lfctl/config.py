@@ -397,6 +397,32 @@ class SceneConfig:
 
 
 @dataclass(frozen=True)
+class LinkConfig:
+    """[link]: MAVLink. Vehicle n (leader 0) listens on ``udp_base_port + n`` with
+    ``--realtime`` and sends telemetry to ``gcs_udpout`` too; home is the geodetic origin of
+    the local NED frame (GLOBAL_POSITION_INT, missions)."""
+
+    udp_host: str = "127.0.0.1"
+    udp_base_port: int = 14561
+    gcs_udpout: str = "127.0.0.1:14550"  # "" for none
+    home_lat_deg: float = 12.9602  # CSIR-NAL, Bengaluru
+    home_lon_deg: float = 77.6690
+    home_alt_m: float = 900.0
+    rate_hz: float = 50.0
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.udp_base_port <= 65000:
+            raise ConfigError(f"link.udp_base_port must be within 1..65000, got {self.udp_base_port!r}")
+        if self.gcs_udpout and (":" not in self.gcs_udpout or not self.gcs_udpout.rsplit(":", 1)[1].isdigit()):
+            raise ConfigError(f"link.gcs_udpout must be host:port or empty, got {self.gcs_udpout!r}")
+        if not -90 <= self.home_lat_deg <= 90:
+            raise ConfigError(f"link.home_lat_deg must be within [-90, 90], got {self.home_lat_deg!r}")
+        if not -180 <= self.home_lon_deg <= 180:
+            raise ConfigError(f"link.home_lon_deg must be within [-180, 180], got {self.home_lon_deg!r}")
+        _positive("link.rate_hz", self.rate_hz)
+
+
+@dataclass(frozen=True)
 class RecordingConfig:
     """[recording]: the run's MCAP log (``<dir>/<UTC time>-<scenario>-<seed>.mcap``)."""
 
@@ -441,6 +467,7 @@ class Config:
     banner: BannerConfig = field(default_factory=BannerConfig)
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
+    link: LinkConfig = field(default_factory=LinkConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
@@ -639,6 +666,7 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         banner=cfg.banner,
         scene=cfg.scene,
         recording=cfg.recording,
+        link=cfg.link,
         source=text,
     )
 
@@ -658,6 +686,7 @@ class _ConfigTable:
     banner: BannerConfig = field(default_factory=BannerConfig)
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
+    link: LinkConfig = field(default_factory=LinkConfig)
 
 
 def load_config(path: str | Path) -> Config:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from lfctl.frames import wrap_pi
 from lfctl.guidance.los import LosOutput, WaypointFollower
@@ -60,9 +60,14 @@ class LeaderAutopilot:
     """Drives a list of waypoints: ``(north_m, east_m)`` or ``(north_m, east_m, hold_s)``."""
 
     def __init__(
-        self, waypoints: Sequence[Sequence[float]], settings: AutopilotSettings, start_ned_m: tuple[float, float]
+        self,
+        waypoints: Sequence[Sequence[float]],
+        settings: AutopilotSettings,
+        start_ned_m: tuple[float, float],
+        speeds: Sequence[float | None] | None = None,
     ) -> None:
         self.settings = settings
+        self.speeds = list(speeds) if speeds is not None else [None] * len(waypoints)
         self.holds = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
         self.follower = WaypointFollower(
             [(w[0], w[1]) for w in waypoints], settings.acceptance_radius_m, settings.lookahead_m, start_ned_m
@@ -82,7 +87,8 @@ class LeaderAutopilot:
         """Commands for this guidance step."""
         st = self.settings
         if t_s < self._hold_until and self._last_los is not None:  # waiting at a waypoint
-            return AutopilotOutput(0.0, 0.0, self._last_los, self._hold_until - t_s)
+            # the waypoint was reached once, when the wait began: not again on every tick
+            return AutopilotOutput(0.0, 0.0, replace(self._last_los, reached=()), self._hold_until - t_s)
         los = self.follower.step(north_m, east_m, yaw_rad)
         self._last_los = los
         for i in los.reached:
@@ -100,7 +106,8 @@ class LeaderAutopilot:
         self._prev_cmd = los.heading_cmd_rad
         yaw_rate = self.heading.step(err, dt_s, ff)
         # speed: slow for the coming turn and for a large heading error; stop where it ends or waits
-        speed = st.cruise_speed_mps
+        leg_speed = self.speeds[self.follower.index] if self.follower.index < len(self.speeds) else None
+        speed = leg_speed if leg_speed is not None else st.cruise_speed_mps
         turn = self.follower.next_turn_rad()
         blend = clamp(1.0 - (los.distance_to_go_m - st.acceptance_radius_m) / st.slow_distance_m, 0.0, 1.0)
         speed *= 1.0 - st.turn_slowdown * (turn / math.pi) * blend

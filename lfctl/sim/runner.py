@@ -8,6 +8,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -17,11 +18,15 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.smc import BearingGains, RangeGains
+from lfctl.link.endpoint import MODES, packet_record
+from lfctl.link.mission import Leg, to_legs
 from lfctl.record.writer import Recorder
 from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.cosim import RunResult, Simulation
+from lfctl.sim.links import Links
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.sensing import TruthSensor
+from lfctl.sim.world import WorldState
 from lfctl.vision.track_state import TrackStatus
 
 SETTLE_S = 5.0
@@ -173,8 +178,14 @@ def run_scenario(
     cache_dir: Path | None = None,
     on_frame: Callable[[str, CameraSample], None] | None = None,
     recorder: Recorder | None = None,
+    on_links: Callable[[Links], None] | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
+
+    Every vehicle is a MAVLink endpoint: the leader flies the mission its endpoint holds (in
+    lockstep uploaded at t = 0 through the mission protocol), each follower obeys the
+    SET_POSITION_TARGET_LOCAL_NED its companion sends. ``on_links`` sees the endpoints once
+    they are up (``--realtime`` prints their ports from it).
 
     Parameters
     ----------
@@ -188,128 +199,207 @@ def run_scenario(
     dt_guid = 1.0 / cfg.sim.guidance_rate_hz
     rng = np.random.default_rng(cfg.sim.seed)
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
-        idx = sim.index
-        lead = cfg.leader
-        n_wp = len(cfg.mission.waypoints)
-        autopilot = (
-            LeaderAutopilot(cfg.mission.waypoints, autopilot_settings(cfg), (lead.north_m, lead.east_m))
-            if cfg.mission.waypoints
-            else None
-        )
-        camera = cfg.sim.sensing == "camera"
-        followers = []
-        for v in cfg.followers:
-            slot = slots[v.name]
-            sensor_seed = int(rng.integers(2**31))
-            followers.append(
-                (
-                    idx[v.name],
-                    idx[slot.target],
-                    CameraSensor(cfg, v.name, sensor_seed)
-                    if camera
-                    else TruthSensor(cfg.sensing, np.random.default_rng(sensor_seed)),
-                    FormationController(formation_settings(cfg, slot.range_m, slot.bearing_rad, law)),
-                    FollowerTrace(v.name, slot.target, slot.range_m, slot.bearing_rad),
-                )
-            )
-
-        def guidance(t_s: float) -> None:
-            world = sim.state()
-            ld = world.vehicle(0)
-            if autopilot is not None:
-                out = autopilot.step(t_s, ld.north_m, ld.east_m, ld.yaw_rad, dt_guid)
-                lead_cmd = (out.speed_mps, out.yaw_rate_radps)
-                if recorder is not None:
-                    for i in out.los.reached:
-                        recorder.json(
-                            "/leader/mission",
-                            "lfctl.Mission",
-                            t_s,
-                            {"event": "reached", "index": i, "active": out.los.active_index, "count": n_wp},
-                        )
-            else:
-                lead_cmd = scripted_command(cfg.script, t_s)
-            sim.set_command(0, *lead_cmd)
-            pos = world.pos_ned_m
-            for me, target, sensor, ctl, tr in followers:
-                st = world.vehicle(me)
-                if cfg.script.followers == "formation":
-                    meas = sensor.measurement if camera else sensor.measure(t_s, world, me, target)
-                    out_f = ctl.step(meas, Odometry(t_s, st.north_m, st.east_m, st.yaw_rad, st.speed_mps))
-                    cmd, status = (out_f.speed_mps, out_f.yaw_rate_radps), out_f.status
-                else:
-                    cmd = lead_cmd if cfg.script.followers == "copy" else (0.0, 0.0)
-                    status = TrackStatus.TRACKING
-                sim.set_command(me, *cmd)
-                d = pos - pos[me]
-                dist = np.hypot(d[:, 0], d[:, 1])
-                dist[me] = np.inf
-                tgt = world.vehicle(target)
-                tr.t_s.append(t_s)
-                tr.range_m.append(math.hypot(tgt.north_m - st.north_m, tgt.east_m - st.east_m))
-                tr.bearing_rad.append(
-                    wrap_pi(math.atan2(tgt.east_m - st.east_m, tgt.north_m - st.north_m) - st.yaw_rad)
-                )
-                tr.separation_m.append(float(dist.min()))
-                tr.status.append(status)
-                tr.speed_cmd_mps.append(cmd[0])
-                tr.yaw_rate_cmd_radps.append(cmd[1])
-                tr.speed_mps.append(st.speed_mps)
-                if recorder is not None:
-                    recorder.json(
-                        f"/{tr.name}/controller",
-                        "lfctl.Controller",
-                        t_s,
-                        {
-                            "status": status.value,
-                            "speed_cmd_mps": round(cmd[0], 5),
-                            "yaw_rate_cmd_degps": round(math.degrees(cmd[1]), 4),
-                            "range_cmd_m": tr.range_cmd_m,
-                            "bearing_cmd_deg": round(math.degrees(tr.bearing_cmd_rad), 4),
-                            "range_m": round(tr.range_m[-1], 5),
-                            "bearing_deg": round(math.degrees(tr.bearing_rad[-1]), 4),
-                            "range_error_m": round(tr.range_m[-1] - tr.range_cmd_m, 5),
-                            "bearing_error_deg": round(
-                                math.degrees(wrap_pi(tr.bearing_rad[-1] - tr.bearing_cmd_rad)), 4
-                            ),
-                            "separation_m": round(tr.separation_m[-1], 5),
-                            "target": tr.target,
-                        },
-                    )
-
-        if camera:
-
-            def cameras(t_s: float) -> None:
-                world = sim.state()
-                for me, target, sensor, _ctl, _tr in followers:
-                    sample = sensor.capture(t_s, world, me, target)
-                    if on_frame is not None:
-                        on_frame(sensor.follower, sample)
-                    if recorder is not None:
-                        recorder.camera(t_s, sensor.follower, sample)
-
-            sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
+        tap = None
         if recorder is not None:
-            recorder.attach_fmus(sim.fmu_paths)
-            for _me, _target, sensor, _ctl, tr in followers:
-                if camera:
-                    cam = sensor.cam
-                    recorder.calibration(0.0, tr.name, cam.K, cam.dist, cam.width, cam.height)
 
-            def telemetry(t_s: float) -> None:
-                st = sim.state()
-                recorder.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
+            def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
+                recorder.json(f"/mavlink/{vehicle}", "lfctl.MavlinkPacket", sim.t_s, packet_record(direction, msg, raw))
 
-            sim.add_task("record", cfg.sim.telemetry_rate_hz, telemetry)
-        sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
-        result = sim.run(duration_s, progress=progress)
+        links = Links(cfg, sim.realtime, tap)
+        try:
+            if on_links is not None:
+                on_links(links)
+            report = _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder)
+        finally:
+            links.close()
+    return report
+
+
+@dataclass
+class _LeaderState:
+    """The leader's autopilot, rebuilt whenever its endpoint's mission or current item changes."""
+
+    autopilot: LeaderAutopilot | None = None
+    version: int = -1
+    legs: list[Leg] = dataclasses.field(default_factory=list)
+    reached: list[tuple[int, float]] = dataclasses.field(default_factory=list)
+
+
+def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder) -> RunReport:
+    idx = sim.index
+    camera = cfg.sim.sensing == "camera"
+    leader_ep = links.endpoints[0]
+    ls = _LeaderState()
+    commands: dict[int, tuple[float, float]] = {i: (0.0, 0.0) for i in range(len(sim.names))}
+    followers = []
+    for v in cfg.followers:
+        slot = slots[v.name]
+        sensor_seed = int(rng.integers(2**31))
+        sensor = (
+            CameraSensor(cfg, v.name, sensor_seed)
+            if camera
+            else TruthSensor(cfg.sensing, np.random.default_rng(sensor_seed))
+        )
+        followers.append(
+            (
+                idx[v.name],
+                idx[slot.target],
+                sensor,
+                FormationController(formation_settings(cfg, slot.range_m, slot.bearing_rad, law)),
+                FollowerTrace(v.name, slot.target, slot.range_m, slot.bearing_rad),
+            )
+        )
+    last_status: dict[str, TrackStatus] = {}
+
+    def leader_command(t_s: float, world: WorldState) -> tuple[float, float]:
+        ep = leader_ep
+        if not ep.armed:
+            return 0.0, 0.0
+        if ep.mode == MODES["GUIDED"]:
+            return ep.guided_command() or (0.0, 0.0)
+        if ep.mode != MODES["AUTO"]:
+            return 0.0, 0.0
+        if not ep.mission:
+            return scripted_command(cfg.script, t_s) if not cfg.mission.waypoints else (0.0, 0.0)
+        ld = world.vehicle(0)
+        if ep.mission_version != ls.version:
+            ls.version = ep.mission_version
+            ls.legs = to_legs(ep.mission, links.home, max(1, ep.current_seq))
+            settings = dataclasses.replace(
+                autopilot_settings(cfg),
+                cruise_speed_mps=ep.param("WP_SPEED"),
+                acceptance_radius_m=ep.param("WP_RADIUS"),
+            )
+            ls.autopilot = LeaderAutopilot(
+                [(g.north_m, g.east_m, g.hold_s) for g in ls.legs],
+                settings,
+                (ld.north_m, ld.east_m),
+                [g.speed_mps for g in ls.legs],
+            )
+        assert ls.autopilot is not None
+        out = ls.autopilot.step(t_s, ld.north_m, ld.east_m, ld.yaw_rad, dt_guid)
+        for k in out.los.reached:
+            seq = ls.legs[k].seq
+            ep.reached(seq)
+            ls.reached.append((seq - 1, t_s))
+            if recorder is not None:
+                recorder.json(
+                    "/leader/mission",
+                    "lfctl.Mission",
+                    t_s,
+                    {"event": "reached", "index": seq - 1, "active": ep.current_seq, "count": len(ep.mission) - 1},
+                )
+        return out.speed_mps, out.yaw_rate_radps
+
+    def guidance(t_s: float) -> None:
+        world = sim.state()
+        commands[0] = leader_command(t_s, world)
+        pos = world.pos_ned_m
+        for k, (me, target, sensor, ctl, tr) in enumerate(followers):
+            st = world.vehicle(me)
+            ep = links.endpoints[me]
+            rng_cmd, brg_cmd = ep.param("LFC_RANGE"), math.radians(ep.param("LFC_BEARING"))
+            if abs(rng_cmd - ctl.settings.range_cmd_m) > 1e-9 or abs(brg_cmd - ctl.settings.bearing_cmd_rad) > 1e-9:
+                ctl.settings = dataclasses.replace(
+                    ctl.settings, range_cmd_m=rng_cmd, bearing_cmd_rad=brg_cmd
+                )  # set from a GCS
+                tr.range_cmd_m, tr.bearing_cmd_rad = rng_cmd, brg_cmd
+            if cfg.script.followers == "formation":
+                meas = sensor.measurement if camera else sensor.measure(t_s, world, me, target)
+                out_f = ctl.step(meas, Odometry(t_s, st.north_m, st.east_m, st.yaw_rad, st.speed_mps))
+                cmd, status = (out_f.speed_mps, out_f.yaw_rate_radps), out_f.status
+            else:
+                cmd = commands[0] if cfg.script.followers == "copy" else (0.0, 0.0)
+                status = TrackStatus.TRACKING
+            comp = links.companions[k]
+            comp.setpoint(t_s, *cmd)
+            prev = last_status.get(tr.name)
+            if prev is not None and status is not prev and (status is TrackStatus.LOST or prev is TrackStatus.LOST):
+                comp.statustext(f"{tr.name}: leader {'lost, stopping' if status is TrackStatus.LOST else 'reacquired'}")
+            last_status[tr.name] = status
+            d = pos - pos[me]
+            dist = np.hypot(d[:, 0], d[:, 1])
+            dist[me] = np.inf
+            tgt = world.vehicle(target)
+            tr.t_s.append(t_s)
+            tr.range_m.append(math.hypot(tgt.north_m - st.north_m, tgt.east_m - st.east_m))
+            tr.bearing_rad.append(wrap_pi(math.atan2(tgt.east_m - st.east_m, tgt.north_m - st.north_m) - st.yaw_rad))
+            tr.separation_m.append(float(dist.min()))
+            tr.status.append(status)
+            tr.speed_cmd_mps.append(cmd[0])
+            tr.yaw_rate_cmd_radps.append(cmd[1])
+            tr.speed_mps.append(st.speed_mps)
+            if int(round(t_s / dt_guid)) % 10 == 0:  # 2 Hz formation status to the GCS
+                comp.report(
+                    t_s,
+                    tr.range_m[-1] - tr.range_cmd_m,
+                    math.degrees(wrap_pi(tr.bearing_rad[-1] - tr.bearing_cmd_rad)),
+                    1.0 if status is TrackStatus.TRACKING else 0.0,
+                )
+            if recorder is not None:
+                recorder.json(
+                    f"/{tr.name}/controller",
+                    "lfctl.Controller",
+                    t_s,
+                    {
+                        "status": status.value,
+                        "speed_cmd_mps": round(cmd[0], 5),
+                        "yaw_rate_cmd_degps": round(math.degrees(cmd[1]), 4),
+                        "range_cmd_m": tr.range_cmd_m,
+                        "bearing_cmd_deg": round(math.degrees(tr.bearing_cmd_rad), 4),
+                        "range_m": round(tr.range_m[-1], 5),
+                        "bearing_deg": round(math.degrees(tr.bearing_rad[-1]), 4),
+                        "range_error_m": round(tr.range_m[-1] - tr.range_cmd_m, 5),
+                        "bearing_error_deg": round(math.degrees(wrap_pi(tr.bearing_rad[-1] - tr.bearing_cmd_rad)), 4),
+                        "separation_m": round(tr.separation_m[-1], 5),
+                        "target": tr.target,
+                    },
+                )
+
+    def link(t_s: float) -> None:
+        """Endpoints read their links and stream telemetry; vehicles obey their endpoints."""
+        world = sim.state()
+        links.tick(t_s, world)
+        sim.set_command(0, *commands[0])
+        for me, _target, _sensor, _ctl, _tr in followers:
+            ep = links.endpoints[me]
+            cmd = ep.guided_command() if (ep.armed and ep.mode == MODES["GUIDED"]) else None
+            sim.set_command(me, *(cmd or (0.0, 0.0)))
+
+    if camera:
+
+        def cameras(t_s: float) -> None:
+            world = sim.state()
+            for me, target, sensor, _ctl, _tr in followers:
+                sample = sensor.capture(t_s, world, me, target)
+                if on_frame is not None:
+                    on_frame(sensor.follower, sample)
+                if recorder is not None:
+                    recorder.camera(t_s, sensor.follower, sample)
+
+        sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
+    if recorder is not None:
+        recorder.attach_fmus(sim.fmu_paths)
+        for _me, _target, sensor, _ctl, tr in followers:
+            if camera:
+                cam = sensor.cam
+                recorder.calibration(0.0, tr.name, cam.K, cam.dist, cam.width, cam.height)
+
+        def telemetry(t_s: float) -> None:
+            st = sim.state()
+            recorder.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
+
+        sim.add_task("record", cfg.sim.telemetry_rate_hz, telemetry)
+    sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
+    sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), link)
+    result = sim.run(duration_s, progress=progress)
     traces = [f[4] for f in followers]
     return RunReport(
         config=cfg,
         result=result,
         traces=traces,
         metrics=[follower_metrics(tr, dt_guid) for tr in traces],
-        waypoints_reached=list(autopilot.reached_log) if autopilot else [],
-        n_waypoints=len(cfg.mission.waypoints),
-        leader_mode="auto" if autopilot else "script",
+        waypoints_reached=ls.reached,
+        n_waypoints=max(0, len(leader_ep.mission) - 1),
+        leader_mode="auto" if leader_ep.mission else "script",
     )

@@ -89,3 +89,13 @@ def test_at_the_slot_with_a_still_target_both_laws_hold_still(law: str) -> None:
         out = ctl.step(meas(k * DT, 1.5), Odometry(k * DT, 0.0, 0.0, 0.0, 0.0))
     assert out is not None
     assert abs(out.speed_mps) < 0.01 and abs(out.yaw_rate_radps) < 0.01
+
+
+def test_a_waypoint_with_a_wait_is_reported_reached_once() -> None:
+    from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
+
+    ap = LeaderAutopilot([(1.0, 0.0, 5.0), (1.0, 2.0)], AutopilotSettings(), (0.0, 0.0))
+    reached = []
+    for k in range(100):  # at the waypoint, waiting out its 5 s
+        reached.extend(ap.step(k * 0.05, 1.0, 0.0, 0.0, 0.05).los.reached)
+    assert reached == [0]

@@ -1,0 +1,3 @@
+"""MAVLink: ArduPilot-Rover-compatible vehicle endpoints, mission protocol, parameters, modes,
+failsafes, the companion's setpoints and the ground-station client. The only package that
+knows MAVLink names, ids and units (degE7, cdeg, mm)."""

@@ -1,0 +1,276 @@
+"""Mission items: validation with the MAVLink result codes, conversion to the leader's local
+waypoints, and the QGC WPL 110 / QGroundControl .plan file formats."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.errors import ConfigError
+from lfctl.frames import geodetic_to_ned
+
+NAV_WAYPOINT = mav.MAV_CMD_NAV_WAYPOINT  # 16
+NAV_LOITER_TIME = mav.MAV_CMD_NAV_LOITER_TIME  # 19
+DO_JUMP = mav.MAV_CMD_DO_JUMP  # 177
+DO_CHANGE_SPEED = mav.MAV_CMD_DO_CHANGE_SPEED  # 178
+SUPPORTED = {NAV_WAYPOINT, NAV_LOITER_TIME, DO_JUMP, DO_CHANGE_SPEED}
+NAV_FRAMES = {
+    mav.MAV_FRAME_GLOBAL,
+    mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mav.MAV_FRAME_GLOBAL_INT,
+    mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+}
+MAX_EXPANDED = 2000  # DO_JUMP repeats are unrolled up to this many legs
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    """One item as MISSION_ITEM_INT carries it (x, y in degE7, z in m)."""
+
+    seq: int
+    frame: int
+    command: int
+    param1: float = 0.0
+    param2: float = 0.0
+    param3: float = 0.0
+    param4: float = 0.0
+    x: int = 0
+    y: int = 0
+    z: float = 0.0
+    autocontinue: int = 1
+
+    @property
+    def lat_deg(self) -> float:
+        return self.x / 1e7
+
+    @property
+    def lon_deg(self) -> float:
+        return self.y / 1e7
+
+
+def validate_item(item: MissionItem, count: int) -> int:
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home)."""
+    if item.command not in SUPPORTED:
+        return mav.MAV_MISSION_UNSUPPORTED
+    if item.command in (NAV_WAYPOINT, NAV_LOITER_TIME) or item.seq == 0:
+        if item.frame not in NAV_FRAMES:
+            return mav.MAV_MISSION_UNSUPPORTED_FRAME
+        if not -90.0 <= item.lat_deg <= 90.0:
+            return mav.MAV_MISSION_INVALID_PARAM5_X
+        if not -180.0 <= item.lon_deg <= 180.0:
+            return mav.MAV_MISSION_INVALID_PARAM6_Y
+    if item.command == NAV_LOITER_TIME and not item.param1 >= 0:
+        return mav.MAV_MISSION_INVALID_PARAM1
+    if item.command == NAV_WAYPOINT and not item.param1 >= 0:  # hold time, s
+        return mav.MAV_MISSION_INVALID_PARAM1
+    if item.command == DO_JUMP and not (1 <= int(item.param1) < count):
+        return mav.MAV_MISSION_INVALID_PARAM1
+    if item.command == DO_CHANGE_SPEED and not item.param2 > 0 and item.param2 != -1:
+        return mav.MAV_MISSION_INVALID_PARAM2
+    return mav.MAV_MISSION_ACCEPTED
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg for the leader's autopilot: local target, wait there, speed on the way."""
+
+    seq: int  # the mission item this leg ends at
+    north_m: float
+    east_m: float
+    hold_s: float
+    speed_mps: float | None
+
+
+def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_seq: int = 1) -> list[Leg]:
+    """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP and applying DO_CHANGE_SPEED."""
+    legs: list[Leg] = []
+    speed: float | None = None
+    jumps_left: dict[int, int] = {}
+    i = start_seq
+    while 0 < i < len(items) and len(legs) < MAX_EXPANDED:
+        it = items[i]
+        if it.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
+            n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
+            hold = it.param1
+            legs.append(Leg(it.seq, n, e, hold, speed))
+        elif it.command == DO_CHANGE_SPEED and it.param2 > 0:
+            speed = it.param2
+        elif it.command == DO_JUMP:
+            left = jumps_left.setdefault(i, int(it.param2))
+            if left != 0:
+                jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
+                i = int(it.param1)
+                continue
+        i += 1
+    return legs
+
+
+def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, float]) -> list[MissionItem]:
+    """A scenario's local waypoints (north, east[, hold]) as mission items, item 0 = home."""
+    from lfctl.frames import ned_to_geodetic
+
+    items = [
+        MissionItem(
+            0,
+            mav.MAV_FRAME_GLOBAL_INT,
+            NAV_WAYPOINT,
+            x=int(round(home[0] * 1e7)),
+            y=int(round(home[1] * 1e7)),
+            z=home[2],
+        )
+    ]
+    for k, wp in enumerate(waypoints, start=1):
+        lat, lon, _ = ned_to_geodetic(wp[0], wp[1], 0.0, *home)
+        hold = float(wp[2]) if len(wp) > 2 else 0.0
+        items.append(
+            MissionItem(
+                k,
+                mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                NAV_WAYPOINT,
+                param1=hold,
+                x=int(round(lat * 1e7)),
+                y=int(round(lon * 1e7)),
+                z=0.0,
+            )
+        )
+    return items
+
+
+# -- files ----------------------------------------------------------------------------------
+
+
+def load_mission(path: str | Path) -> list[MissionItem]:
+    """Read a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file; item 0 = home."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read mission {p}: {exc}") from exc
+    if p.suffix == ".plan" or text.lstrip().startswith("{"):
+        return _load_plan(p, text)
+    return _load_wpl(p, text)
+
+
+def _load_wpl(p: Path, text: str) -> list[MissionItem]:
+    lines = [ln for ln in text.splitlines() if ln.strip()]
+    if not lines or not lines[0].startswith("QGC WPL 110"):
+        raise ConfigError(
+            f"{p}: not a QGC WPL 110 file (first line must be 'QGC WPL 110', got {lines[0][:40] if lines else ''!r})"
+        )
+    items = []
+    for n, ln in enumerate(lines[1:], start=2):
+        f = ln.replace("\t", " ").split()
+        if len(f) != 12:
+            raise ConfigError(f"{p}:{n}: expected 12 tab-separated fields, got {len(f)}")
+        try:
+            seq, _cur, frame, cmd = int(f[0]), int(f[1]), int(f[2]), int(f[3])
+            p1, p2, p3, p4, lat, lon, alt = (float(v) for v in f[4:11])
+            auto = int(float(f[11]))
+        except ValueError as exc:
+            raise ConfigError(f"{p}:{n}: bad number ({exc})") from exc
+        if seq != len(items):
+            raise ConfigError(f"{p}:{n}: sequence {seq} out of order (expected {len(items)})")
+        frame = {0: mav.MAV_FRAME_GLOBAL_INT, 3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT}.get(frame, frame)
+        items.append(
+            MissionItem(seq, frame, cmd, p1, p2, p3, p4, int(round(lat * 1e7)), int(round(lon * 1e7)), alt, auto)
+        )
+    if not items:
+        raise ConfigError(f"{p}: no mission items")
+    return items
+
+
+def _load_plan(p: Path, text: str) -> list[MissionItem]:
+    try:
+        plan = json.loads(text)
+        mission = plan["mission"]
+        home = mission["plannedHomePosition"]
+        raw = mission["items"]
+    except (json.JSONDecodeError, KeyError, TypeError) as exc:
+        raise ConfigError(f"{p}: not a QGroundControl .plan file ({exc})") from exc
+    items = [
+        MissionItem(
+            0,
+            mav.MAV_FRAME_GLOBAL_INT,
+            NAV_WAYPOINT,
+            x=int(round(home[0] * 1e7)),
+            y=int(round(home[1] * 1e7)),
+            z=float(home[2]),
+        )
+    ]
+    for it in raw:
+        if it.get("type") != "SimpleItem":
+            raise ConfigError(f"{p}: item type {it.get('type')!r} is not supported (only SimpleItem)")
+        prm = [0.0 if v is None else float(v) for v in it.get("params", [0] * 7)]
+        frame = {3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0: mav.MAV_FRAME_GLOBAL_INT, 2: mav.MAV_FRAME_MISSION}.get(
+            int(it.get("frame", 3)), int(it.get("frame", 3))
+        )
+        items.append(
+            MissionItem(
+                len(items),
+                frame,
+                int(it["command"]),
+                *prm[:4],
+                int(round(prm[4] * 1e7)),
+                int(round(prm[5] * 1e7)),
+                prm[6],
+                int(bool(it.get("autoContinue", True))),
+            )
+        )
+    return items
+
+
+def save_mission(items: list[MissionItem], path: str | Path) -> None:
+    """Write QGC WPL 110 (default) or .plan (by extension)."""
+    p = Path(path)
+    if p.suffix == ".plan":
+        home = items[0] if items else MissionItem(0, 0, NAV_WAYPOINT)
+        plan = {
+            "fileType": "Plan",
+            "version": 1,
+            "groundStation": "lfctl",
+            "geoFence": {"circles": [], "polygons": [], "version": 2},
+            "rallyPoints": {"points": [], "version": 2},
+            "mission": {
+                "version": 2,
+                "firmwareType": 3,
+                "vehicleType": 10,
+                "cruiseSpeed": 0.3,
+                "hoverSpeed": 0.3,
+                "plannedHomePosition": [home.lat_deg, home.lon_deg, home.z],
+                "items": [
+                    {
+                        "type": "SimpleItem",
+                        "autoContinue": bool(it.autocontinue),
+                        "command": it.command,
+                        "doJumpId": it.seq,
+                        "frame": it.frame if it.frame != mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT else 3,
+                        "params": [it.param1, it.param2, it.param3, it.param4, it.lat_deg, it.lon_deg, it.z],
+                    }
+                    for it in items[1:]
+                ],  # fmt: skip
+            },
+        }
+        p.write_text(json.dumps(plan, indent=2))
+        return
+    rows = ["QGC WPL 110"]
+    for it in items:
+        frame = {mav.MAV_FRAME_GLOBAL_INT: 0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: 3}.get(it.frame, it.frame)
+        vals = [
+            it.seq,
+            int(it.seq == 0),
+            frame,
+            it.command,
+            it.param1,
+            it.param2,
+            it.param3,
+            it.param4,
+            f"{it.lat_deg:.7f}",
+            f"{it.lon_deg:.7f}",
+            it.z,
+            it.autocontinue,
+        ]
+        rows.append("\t".join(str(v) for v in vals))
+    p.write_text("\n".join(rows) + "\n")
