@@ -121,6 +121,16 @@ def cmd_sim(args: argparse.Namespace) -> int:
     )
     show = not args.quiet and sys.stderr.isatty()
 
+    def announce(links: object) -> None:
+        ports = links.ports  # type: ignore[attr-defined]
+        if ports:
+            for name, port in ports.items():
+                print(
+                    f"mavlink      {name}: udpin {cfg.link.udp_host}:{port}"
+                    + (f", udpout {cfg.link.gcs_udpout}" if cfg.link.gcs_udpout else ""),
+                    flush=True,
+                )
+
     def progress(t_s: float, wall_s: float) -> None:
         if show:
             rtf = t_s / wall_s if wall_s > 0 else math.inf
@@ -134,11 +144,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
         path = run_path(cfg)
         with Recorder(path, cfg) as rec:
-            report = run_scenario(cfg, progress=progress, recorder=rec)
+            report = run_scenario(cfg, progress=progress, recorder=rec, on_links=announce)
         log.info("recorded %d messages to %s", rec.messages, path)
     else:
         path = None
-        report = run_scenario(cfg, progress=progress)
+        report = run_scenario(cfg, progress=progress, on_links=announce)
     if show:
         print(file=sys.stderr)
     print_report(report)
@@ -359,6 +369,122 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------------------
+# lfctl gcs
+
+
+def cmd_gcs(args: argparse.Namespace) -> int:
+    from lfctl.link.gcs import GroundStation
+    from lfctl.link.mission import load_mission, save_mission
+
+    gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout)
+    try:
+        hb = gcs.wait_heartbeat()
+        action = args.action
+        if action == "upload":
+            items = load_mission(args.file)
+            gcs.upload(items)
+            print(f"uploaded {len(items) - 1} items (+ home) to system {args.target}")
+        elif action == "download":
+            items = gcs.download()
+            if args.file:
+                save_mission(items, args.file)
+                print(f"downloaded {len(items)} items to {args.file}")
+            else:
+                for it in items:
+                    print(
+                        f"{it.seq:3d} cmd {it.command:3d} frame {it.frame} p1 {it.param1:g} p2 {it.param2:g} lat {it.lat_deg:.7f} lon {it.lon_deg:.7f} alt {it.z:g}"
+                    )
+        elif action == "clear":
+            gcs.clear()
+            print("mission cleared")
+        elif action in ("mode", "arm", "disarm"):
+            result = gcs.set_mode(args.mode) if action == "mode" else gcs.arm(action == "arm")
+            name = mav_result_name(result)
+            print(f"{action} {args.mode if action == 'mode' else ''}: {name}".replace("  ", " "))
+            if name != "MAV_RESULT_ACCEPTED":
+                return 1
+        elif action == "param":
+            if args.param_action == "list":
+                for k, v in gcs.param_list().items():
+                    print(f"{k:<16} {v:g}")
+            elif args.param_action == "get":
+                print(f"{args.name} = {gcs.param_get(args.name):g}")
+            else:
+                got = gcs.param_set(args.name, args.value)
+                print(f"{args.name} = {got:g}")
+                if abs(got - args.value) > 1e-6:
+                    print(
+                        f"lfctl: error: {args.name} kept {got:g} (refused {args.value:g}; see the vehicle's STATUSTEXT)",
+                        file=sys.stderr,
+                    )
+                    return 1
+        elif action == "watch":
+            _watch(gcs, args.count, hb)
+        return 0
+    finally:
+        gcs.close()
+
+
+def mav_result_name(result: int) -> str:
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    e = mav.enums["MAV_RESULT"].get(result)
+    return e.name if e else str(result)
+
+
+def _watch(gcs: object, count: int | None, first: object) -> None:
+    """A live table of every vehicle heard: mode, armed, position, speed, formation status."""
+    import time
+
+    from lfctl.link.gcs import mode_name
+
+    rows: dict[int, dict[str, object]] = {}
+    shown = 0
+    next_draw = time.monotonic()
+    while count is None or shown < count:
+        gcs.heartbeat()  # type: ignore[attr-defined]
+        m = gcs._next(0.1)  # type: ignore[attr-defined]
+        if m is not None:
+            row = rows.setdefault(
+                m.get_srcSystem(),
+                {
+                    "mode": "?",
+                    "armed": "?",
+                    "lat": 0.0,
+                    "lon": 0.0,
+                    "speed": 0.0,
+                    "rng_err": "",
+                    "brg_err": "",
+                    "trk_q": "",
+                    "text": "",
+                },
+            )
+            kind = m.get_type()
+            if kind == "HEARTBEAT" and m.get_srcComponent() == 1:
+                row["mode"] = mode_name(m.custom_mode)
+                row["armed"] = "armed" if m.base_mode & 128 else "disarmed"
+            elif kind == "GLOBAL_POSITION_INT":
+                row["lat"], row["lon"] = m.lat / 1e7, m.lon / 1e7
+                row["speed"] = math.hypot(m.vx, m.vy) / 100
+            elif kind == "NAMED_VALUE_FLOAT":
+                name = m.name.decode(errors="replace") if isinstance(m.name, bytes) else m.name
+                row[name.rstrip("\x00")] = f"{m.value:.2f}"
+            elif kind == "STATUSTEXT":
+                row["text"] = (m.text.decode(errors="replace") if isinstance(m.text, bytes) else m.text).rstrip("\x00")
+        if time.monotonic() >= next_draw:
+            next_draw = time.monotonic() + 1.0
+            shown += 1
+            print(
+                f"{'sys':>3} {'mode':<7} {'armed':<8} {'lat':>12} {'lon':>12} {'m/s':>5} {'rng_err':>7} {'brg_err':>7} {'trk_q':>5}  last message"
+            )
+            for sysid, r in sorted(rows.items()):
+                print(
+                    f"{sysid:>3} {r['mode']!s:<7} {r['armed']!s:<8} {r['lat']:>12.7f} {r['lon']:>12.7f} {r['speed']:>5.2f} {r['rng_err']!s:>7} {r['brg_err']!s:>7} {r['trk_q']!s:>5}  {r['text']}"
+                )
+            print(flush=True)
+
+
+# ----------------------------------------------------------------------------------------
 # lfctl fmu
 
 
@@ -477,6 +603,40 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--no-record", action="store_true", help="do not write the MCAP log (default: [recording] enabled)")
     s.set_defaults(func=cmd_sim)
 
+    g = sub.add_parser(
+        "gcs",
+        help="a MAVLink ground station: missions, modes, arming, parameters, a live table",
+        description="Talk to a vehicle (lfctl sim --realtime, or a real ArduPilot rover) as system 255, component 190.",
+    )
+    g.add_argument(
+        "--connect",
+        default="udpout:127.0.0.1:14561",
+        help="pymavlink connection (default: the leader of lfctl sim --realtime)",
+    )
+    g.add_argument("--target", type=int, default=1, help="target system id (leader 1, follower n: 1+n)")
+    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer")
+    gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
+    gu = gsub.add_parser("upload", help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan)")
+    gu.add_argument("file", type=Path)
+    gd = gsub.add_parser("download", help="download the mission (print it, or save to FILE)")
+    gd.add_argument("file", type=Path, nargs="?")
+    gsub.add_parser("clear", help="clear the mission")
+    gm = gsub.add_parser("mode", help="set the mode: MANUAL, HOLD, AUTO, GUIDED (FOLLOW)")
+    gm.add_argument("mode", type=str.upper, choices=("MANUAL", "HOLD", "AUTO", "GUIDED", "FOLLOW"))
+    gsub.add_parser("arm", help="arm")
+    gsub.add_parser("disarm", help="disarm")
+    gp = gsub.add_parser("param", help="parameters: list, get NAME, set NAME VALUE")
+    gps = gp.add_subparsers(dest="param_action", required=True, metavar="OP")
+    gps.add_parser("list")
+    gpg = gps.add_parser("get")
+    gpg.add_argument("name")
+    gpsv = gps.add_parser("set")
+    gpsv.add_argument("name")
+    gpsv.add_argument("value", type=float)
+    gw = gsub.add_parser("watch", help="live table of every vehicle heard (Ctrl-C to stop)")
+    gw.add_argument("--count", type=int, help="stop after this many refreshes")
+    g.set_defaults(func=cmd_gcs)
+
     a = sub.add_parser(
         "audit",
         help="check a run's MCAP log: integrity, provenance, formation/link/mission figures",
@@ -575,6 +735,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"lfctl: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a port in use, a directory not writable
+        if args.debug:
+            raise
+        print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 1
     except (FmuError, LfctlError) as exc:
         if args.debug:
             raise

@@ -223,6 +223,7 @@ class VehicleEndpoint:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
         self.mode = custom_mode
         self._guided_stale_reported = False
+        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
         return True
 
     def _ack(self, m: Any, result: int) -> None:
@@ -243,6 +244,7 @@ class VehicleEndpoint:
             if p[0] not in (0.0, 1.0):
                 return mav.MAV_RESULT_DENIED
             self.armed = p[0] == 1.0
+            self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
             self.statustext("Armed" if self.armed else "Disarmed", mav.MAV_SEVERITY_INFO)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_MODE:
@@ -273,6 +275,14 @@ class VehicleEndpoint:
             else:
                 return mav.MAV_RESULT_DENIED
             self._next_due[msg_id] = self.t_s
+            return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_MISSION_START:
+            if len(self.mission) < 2:
+                return mav.MAV_RESULT_DENIED
+            first = int(p[0])
+            if first > 0 and not self.set_current(first):
+                return mav.MAV_RESULT_DENIED
+            self.set_mode(MODES["AUTO"])
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
             return mav.MAV_RESULT_ACCEPTED if self.set_current(int(p[0])) else mav.MAV_RESULT_DENIED

@@ -159,48 +159,54 @@ class GroundStation:
         return out
 
     # -- missions --------------------------------------------------------------------------------
-    def upload(self, items: list[MissionItem], item_timeout_s: float = 1.0) -> None:
-        """Mission upload; MissionProtocolError names the item and result if refused."""
-        self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mav.MAV_MISSION_TYPE_MISSION))
-        while True:
-            try:
-                m = self.wait(("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"), timeout_s=item_timeout_s * 3)
-            except LinkTimeoutError:
-                raise LinkTimeoutError(f"mission upload: system {self.target} stopped asking for items") from None
-            if m.get_type() == "MISSION_ACK":
-                if m.type != mav.MAV_MISSION_ACCEPTED:
-                    raise MissionProtocolError(
-                        f"mission refused by system {self.target}: {_result_name('MAV_MISSION_RESULT', m.type)}"
+    def upload(self, items: list[MissionItem], item_timeout_s: float = 1.0, restarts: int = 5) -> None:
+        """Mission upload; MissionProtocolError names the item and result if refused.
+
+        The vehicle drives the transfer (it re-requests a lost item); when the vehicle falls
+        silent (our MISSION_COUNT or its final MISSION_ACK lost) the upload starts again.
+        """
+        for _attempt in range(restarts + 1):
+            self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mav.MAV_MISSION_TYPE_MISSION))
+            while True:
+                try:
+                    m = self.wait(
+                        ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"), timeout_s=item_timeout_s * 3
                     )
-                return
-            if not 0 <= m.seq < len(items):
-                raise MissionProtocolError(
-                    f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})"
-                )
-            it = items[m.seq]
-            self.send(
-                mav.MAVLink_mission_item_int_message(
-                    self.target,
-                    1,
-                    it.seq,
-                    it.frame,
-                    it.command,
-                    0,
-                    it.autocontinue,
-                    it.param1,
-                    it.param2,
-                    it.param3,
-                    it.param4,
-                    it.x,
-                    it.y,
-                    it.z,
-                    mav.MAV_MISSION_TYPE_MISSION,
-                )
+                except LinkTimeoutError:
+                    break  # restart from MISSION_COUNT
+                if m.get_type() == "MISSION_ACK":
+                    if m.type != mav.MAV_MISSION_ACCEPTED:
+                        raise MissionProtocolError(
+                            f"mission refused by system {self.target}: {_result_name('MAV_MISSION_RESULT', m.type)}"
+                        )
+                    return
+                if not 0 <= m.seq < len(items):
+                    raise MissionProtocolError(
+                        f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})"
+                    )
+                self._send_item(items[m.seq])
+        raise LinkTimeoutError(f"mission upload to system {self.target}: no answer after {restarts + 1} attempts")
+
+    def _send_item(self, it: MissionItem) -> None:
+        self.send(
+            mav.MAVLink_mission_item_int_message(
+                self.target, 1, it.seq, it.frame, it.command, 0, it.autocontinue,
+                it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mav.MAV_MISSION_TYPE_MISSION,
             )
+        )  # fmt: skip
 
     def download(self, retries: int = 5) -> list[MissionItem]:
-        self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
-        count = int(self.wait(("MISSION_COUNT",)).count)
+        """Mission download, re-requesting what is lost."""
+        count = None
+        for _ in range(retries):
+            self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
+            try:
+                count = int(self.wait(("MISSION_COUNT",), timeout_s=self.timeout_s / retries).count)
+                break
+            except LinkTimeoutError:
+                continue
+        if count is None:
+            raise LinkTimeoutError(f"no MISSION_COUNT from system {self.target} after {retries} requests")
         items: list[MissionItem] = []
         while len(items) < count:
             seq = len(items)

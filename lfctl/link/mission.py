@@ -250,7 +250,7 @@ def save_mission(items: list[MissionItem], path: str | Path) -> None:
                         "params": [it.param1, it.param2, it.param3, it.param4, it.lat_deg, it.lon_deg, it.z],
                     }
                     for it in items[1:]
-                ],  # fmt: skip
+                ],
             },
         }
         p.write_text(json.dumps(plan, indent=2))

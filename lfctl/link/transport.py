@@ -21,6 +21,8 @@ class UdpLink:
     def __init__(self, bind: Address | None, outs: list[Address] | None = None) -> None:
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        # a burst from a ground station (a 100-item mission, a parameter dump) must not overflow
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 * 1024 * 1024)
         self.sock.bind(bind or ("127.0.0.1", 0))
         self.sock.setblocking(False)
         self.outs = list(outs or [])
@@ -46,7 +48,7 @@ class UdpLink:
             except OSError:  # nobody listening on a udpout port yet: not an error
                 pass
 
-    def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
+    def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
         out = []
         for _ in range(max_datagrams):
             try:

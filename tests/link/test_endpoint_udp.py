@@ -1,0 +1,250 @@
+"""The vehicle endpoint over real loopback UDP with a real pymavlink ground station."""
+
+from __future__ import annotations
+
+import random
+import socket
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.errors import MissionProtocolError
+from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.link.gcs import GroundStation
+from lfctl.link.mission import load_mission, local_mission, save_mission
+from lfctl.link.transport import MemoryLink, UdpLink
+
+pytestmark = pytest.mark.integration
+HOME = (12.9602, 77.6690, 900.0)
+STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
+
+
+class LossyLink:
+    """Drops a fraction of datagrams both ways (seeded)."""
+
+    def __init__(self, inner: UdpLink, loss: float, seed: int = 7) -> None:
+        self.inner, self.loss, self.rng = inner, loss, random.Random(seed)
+        self.port = inner.port
+
+    def accept_peer(self, addr) -> None:
+        self.inner.accept_peer(addr)
+
+    def send(self, data: bytes) -> None:
+        if self.rng.random() >= self.loss:
+            self.inner.send(data)
+
+    def recv(self, max_datagrams: int = 256):
+        return [d for d in self.inner.recv(max_datagrams) if self.rng.random() >= self.loss]
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+class LiveEndpoint:
+    """An endpoint on 127.0.0.1:0 ticked at 100 Hz by a thread (time = wall time)."""
+
+    def __init__(self, loss: float = 0.0) -> None:
+        udp = UdpLink(("127.0.0.1", 0))
+        self.link = LossyLink(udp, loss) if loss else udp
+        self.ep = VehicleEndpoint("leader", 1, self.link, HOME)
+        self.port = udp.port
+        self._stop = threading.Event()
+        self._t0 = time.monotonic()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self.ep.tick(time.monotonic() - self._t0, STATE)
+            time.sleep(0.01)
+
+    def gcs(self, timeout_s: float = 3.0) -> GroundStation:
+        g = GroundStation(f"udpout:127.0.0.1:{self.port}", target_system=1, timeout_s=timeout_s)
+        g.wait_heartbeat()
+        return g
+
+    def close(self) -> None:
+        self._stop.set()
+        self.thread.join(timeout=2)
+        self.link.close()
+
+
+@pytest.fixture
+def live():
+    ep = LiveEndpoint()
+    yield ep
+    ep.close()
+
+
+SQUARE = [(4.0, 0.0), (4.0, 4.0, 2.0), (0.0, 4.0), (0.0, 0.0)]
+
+
+def test_heartbeat_identifies_an_ardupilot_rover(live: LiveEndpoint) -> None:
+    g = live.gcs()
+    hb = g.wait(("HEARTBEAT",))
+    assert (hb.type, hb.autopilot, hb.custom_mode) == (
+        mav.MAV_TYPE_GROUND_ROVER,
+        mav.MAV_AUTOPILOT_ARDUPILOTMEGA,
+        MODES["HOLD"],
+    )
+    pos = g.wait(("GLOBAL_POSITION_INT",))
+    assert pos.lat == pytest.approx((HOME[0] + 1.0 / 111319.5) * 1e7, abs=20) and pos.hdg == pytest.approx(2865, abs=2)
+    assert g.wait(("HOME_POSITION",)).latitude == int(round(HOME[0] * 1e7))
+    g.close()
+
+
+def test_mission_round_trip_upload_download_clear(live: LiveEndpoint, tmp_path: Path) -> None:
+    g = live.gcs()
+    items = local_mission(SQUARE, HOME)
+    g.upload(items)
+    back = g.download()
+    assert [(i.seq, i.command, i.x, i.y, i.param1) for i in back] == [
+        (i.seq, i.command, i.x, i.y, i.param1) for i in items
+    ]
+    for ext in ("waypoints", "plan"):  # the files round trip too
+        save_mission(back, tmp_path / f"m.{ext}")
+        again = load_mission(tmp_path / f"m.{ext}")
+        assert [(i.command, i.x, i.y) for i in again] == [(i.command, i.x, i.y) for i in back]
+    g.clear()
+    assert g.download() == []
+    g.close()
+
+
+def test_invalid_latitude_is_rejected_and_the_old_mission_stays(live: LiveEndpoint) -> None:
+    g = live.gcs()
+    good = local_mission(SQUARE, HOME)
+    g.upload(good)
+    bad = list(good)
+    bad[3] = type(bad[3])(**{**bad[3].__dict__, "x": 95 * 10**7})
+    with pytest.raises(MissionProtocolError, match="MAV_MISSION_INVALID_PARAM5_X"):
+        g.upload(bad)
+    assert [i.x for i in g.download()] == [i.x for i in good]
+    unsupported = [*good[:2], type(good[2])(**{**good[2].__dict__, "command": mav.MAV_CMD_NAV_TAKEOFF})]
+    with pytest.raises(MissionProtocolError, match="MAV_MISSION_UNSUPPORTED"):
+        g.upload(unsupported)
+    g.close()
+
+
+def test_upload_and_download_complete_with_20_percent_loss_both_ways() -> None:
+    live = LiveEndpoint(loss=0.2)
+    try:
+        g = GroundStation(f"udpout:127.0.0.1:{live.port}", target_system=1, timeout_s=5.0)
+        g.wait_heartbeat()
+        items = local_mission([(float(k), float(k % 3)) for k in range(1, 31)], HOME)
+        g.upload(items, item_timeout_s=0.5)
+        assert [(i.x, i.y) for i in g.download(retries=8)] == [(i.x, i.y) for i in items]
+        g.close()
+    finally:
+        live.close()
+
+
+def test_duplicated_and_reordered_items_are_handled() -> None:
+    a, b = MemoryLink.pair("ep", "gcs")
+    ep = VehicleEndpoint("v", 1, a, HOME)
+    m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    items = local_mission(SQUARE, HOME)
+
+    def item(k: int) -> bytes:
+        it = items[k]
+        return mav.MAVLink_mission_item_int_message(
+            1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, 0, 0, 0, it.x, it.y, it.z, 0
+        ).pack(m)
+
+    b.send(mav.MAVLink_mission_count_message(1, 1, len(items), 0).pack(m))
+    ep.tick(0.0, STATE)
+    b.send(item(0))
+    b.send(item(0))  # duplicate
+    b.send(item(2))  # out of order: the endpoint asks again for 1
+    b.send(item(1))
+    for k in range(2, len(items)):
+        b.send(item(k))
+    ep.tick(0.01, STATE)
+    assert [i.seq for i in ep.mission] == list(range(len(items)))
+
+
+def test_garbage_is_dropped_and_counted_and_the_endpoint_keeps_serving(live: LiveEndpoint) -> None:
+    rng = random.Random(3)
+    m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    good = mav.MAVLink_command_long_message(
+        1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0
+    ).pack(m)
+    other = mav.MAVLink_command_long_message(7, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0).pack(m)
+    bad_crc = bytearray(good)
+    bad_crc[-1] ^= 0xFF
+    unknown = bytearray(b"\xfd\x00\x00\x00\xff\xbe\x01\xe8\x03\x00")  # message id 1000, empty payload
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    for k in range(3000):
+        kind = k % 5
+        if kind == 0:
+            data = bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 300)))
+        elif kind == 1:
+            data = good[: rng.randint(1, len(good) - 1)]  # truncated frame
+        elif kind == 2:
+            data = bytes(bad_crc)
+        elif kind == 3:
+            data = bytes(unknown) + b"\x00\x00"
+        else:
+            data = other  # for another system
+        s.sendto(data, ("127.0.0.1", live.port))
+        if k % 200 == 199:
+            time.sleep(0.01)  # a few thousand datagrams, not a flood the kernel drops
+    s.close()
+    g = live.gcs()
+    assert g.arm(True) == mav.MAV_RESULT_ACCEPTED
+    assert live.ep.armed
+    st = live.ep.stats
+    assert st.datagrams >= 2900  # all (or nearly all) arrived and were read
+    assert st.bad >= 0.5 * 2900 and st.other_sysid >= 550 and st.unknown >= 550
+    g.close()
+
+
+def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None:
+    g = live.gcs()
+    assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED and live.ep.mode == MODES["GUIDED"]
+    assert g.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 99) == mav.MAV_RESULT_DENIED
+    assert g.command(mav.MAV_CMD_NAV_TAKEOFF) == mav.MAV_RESULT_UNSUPPORTED
+    assert g.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == mav.MAV_RESULT_ACCEPTED
+    assert g.wait(("AUTOPILOT_VERSION",)).capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+    # SET_MESSAGE_INTERVAL: ATTITUDE at 50 Hz instead of 10 Hz
+    assert g.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 20_000) == mav.MAV_RESULT_ACCEPTED
+    t0, n = time.monotonic(), 0
+    while time.monotonic() - t0 < 1.0:
+        g.wait(("ATTITUDE",))
+        n += 1
+    assert n > 25
+    assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
+    assert g.param_set("WP_SPEED", 55.0) == pytest.approx(0.42)  # out of range: refused, value kept
+    assert len(g.param_list()) == len(live.ep.params)
+    g.close()
+
+
+def test_gcs_heartbeat_lost_puts_the_vehicle_in_hold() -> None:
+    a, b = MemoryLink.pair("ep", "gcs")
+    ep = VehicleEndpoint("v", 1, a, HOME, mode="AUTO", armed=True)
+    m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    b.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m))
+    ep.tick(0.0, STATE)
+    ep.tick(4.9, STATE)
+    assert ep.mode == MODES["AUTO"]
+    ep.tick(5.1, STATE)
+    assert ep.mode == MODES["HOLD"] and any("heartbeat lost" in t for _, t in ep.statustexts)
+
+
+def test_companion_silence_stops_the_follower_within_the_timeout() -> None:
+    a, b = MemoryLink.pair("ep", "companion")
+    ep = VehicleEndpoint("f", 2, a, HOME, mode="GUIDED", armed=True)
+    m = mav.MAVLink(None, srcSystem=2, srcComponent=191)
+    b.send(
+        mav.MAVLink_set_position_target_local_ned_message(
+            0, 2, 1, mav.MAV_FRAME_BODY_NED, 1479, 0, 0, 0, 0.3, 0, 0, 0, 0, 0, 0, 0.1
+        ).pack(m)
+    )
+    ep.tick(10.0, STATE)
+    assert ep.guided_command() == pytest.approx((0.3, 0.1))
+    ep.tick(10.0 + ep.param("GUID_TIMEOUT") - 0.05, STATE)
+    assert ep.guided_command() is not None
+    ep.tick(10.0 + ep.param("GUID_TIMEOUT") + 0.2, STATE)
+    assert ep.guided_command() is None and any("setpoints stopped" in t for _, t in ep.statustexts)
