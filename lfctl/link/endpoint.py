@@ -31,7 +31,7 @@ GCS_COMPID = 190
 COMPANION_COMPID = 191
 TYPE_MASK_SPEED_YAWRATE = 1479
 MISSION_ITEM_TIMEOUT_S = 0.25
-MISSION_RETRIES = 5
+MISSION_RETRIES = 10  # at 20 % loss each way a round trip fails 36 % of the time
 
 #: default stream rates (Hz), as ArduPilot's SRx_ parameters would set them
 STREAMS = {

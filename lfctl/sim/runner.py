@@ -201,6 +201,7 @@ def run_scenario(
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
         tap = None
         if recorder is not None:
+            recorder.attach_fmus(sim.fmu_paths)  # provenance first: before any message
 
             def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
                 recorder.json(f"/mavlink/{vehicle}", "lfctl.MavlinkPacket", sim.t_s, packet_record(direction, msg, raw))
@@ -379,7 +380,6 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
 
         sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
     if recorder is not None:
-        recorder.attach_fmus(sim.fmu_paths)
         for _me, _target, sensor, _ctl, tr in followers:
             if camera:
                 cam = sensor.cam

@@ -1,0 +1,194 @@
+"""lfctl bench link: the MAVLink endpoint against a minimal pymavlink responder.
+
+COMMAND_LONG -> COMMAND_ACK round trip (median, p99) over loopback UDP against (a) a vehicle
+endpoint streaming its full telemetry while a second endpoint streams too, and (b) a minimal
+pymavlink responder that only answers, in the same run; the time to upload a 100-item mission
+at 0 % and 20 % datagram loss; how many datagrams per second one endpoint parses.
+"""
+
+from __future__ import annotations
+
+import random
+import select
+import socket
+import statistics
+import sys
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import print_json, print_table
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.link.endpoint import VehicleEndpoint
+from lfctl.link.gcs import GroundStation
+from lfctl.link.mission import local_mission
+from lfctl.link.transport import UdpLink
+
+HOME = (12.9602, 77.6690, 900.0)
+STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
+
+
+class Lossy:
+    def __init__(self, inner: UdpLink, loss: float) -> None:
+        self.inner, self.loss, self.rng = inner, loss, random.Random(11)
+
+    def accept_peer(self, addr) -> None:  # noqa: ANN001
+        self.inner.accept_peer(addr)
+
+    def send(self, data: bytes) -> None:
+        if self.rng.random() >= self.loss:
+            self.inner.send(data)
+
+    def recv(self, n: int = 2048):  # noqa: ANN201
+        return [d for d in self.inner.recv(n) if self.rng.random() >= self.loss]
+
+    def close(self) -> None:
+        self.inner.close()
+
+
+def start_endpoints(n: int, loss: float = 0.0) -> tuple[list[VehicleEndpoint], threading.Event, threading.Thread]:
+    eps = []
+    for i in range(n):
+        udp = UdpLink(("127.0.0.1", 0))
+        eps.append(VehicleEndpoint(f"v{i}", 1 + i, Lossy(udp, loss) if loss else udp, HOME))
+    stop = threading.Event()
+    t0 = time.monotonic()
+
+    socks = [(ep.link.inner if isinstance(ep.link, Lossy) else ep.link).sock for ep in eps]
+
+    def run() -> None:
+        while not stop.is_set():
+            for ep in eps:
+                ep.tick(time.monotonic() - t0, STATE)
+            select.select(socks, [], [], 0.005)  # wake on a datagram, or tick telemetry
+
+    th = threading.Thread(target=run, daemon=True)
+    th.start()
+    return eps, stop, th
+
+
+def port_of(ep: VehicleEndpoint) -> int:
+    link = ep.link.inner if isinstance(ep.link, Lossy) else ep.link
+    return link.port
+
+
+def round_trips(port: int, n: int) -> list[float]:
+    g = GroundStation(f"udpout:127.0.0.1:{port}", timeout_s=2.0)
+    g.wait_heartbeat()
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        g.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_HOME_POSITION, retries=1)
+        out.append((time.perf_counter() - t0) * 1000)
+    g.close()
+    return out
+
+
+def minimal_responder() -> tuple[int, threading.Event]:
+    """A bare pymavlink vehicle: heartbeat once a second, ACK every COMMAND_LONG."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    stop = threading.Event()
+
+    def run() -> None:
+        conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=1, source_component=1, dialect="ardupilotmega")
+        last = 0.0
+        while not stop.is_set():
+            if time.monotonic() - last > 1.0:
+                last = time.monotonic()
+                if conn.port is not None and getattr(conn, "last_address", None):
+                    conn.mav.heartbeat_send(mav.MAV_TYPE_GROUND_ROVER, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 0)
+            m = conn.recv_match(blocking=True, timeout=0.05)
+            if m is None:
+                continue
+            if m.get_type() == "HEARTBEAT":
+                conn.mav.heartbeat_send(mav.MAV_TYPE_GROUND_ROVER, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 0)
+            elif m.get_type() == "COMMAND_LONG":
+                conn.mav.command_ack_send(m.command, 0, 0, 0, m.get_srcSystem(), m.get_srcComponent())
+        conn.close()
+
+    threading.Thread(target=run, daemon=True).start()
+    time.sleep(0.2)
+    return port, stop
+
+
+def pct(values: list[float], q: float) -> float:
+    return sorted(values)[min(len(values) - 1, int(q * len(values)))]
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    n_rt = 200 if quick else 1000
+    rows, results = [], {}
+    # (a) our endpoint, two vehicles streaming telemetry
+    eps, stop, th = start_endpoints(2)
+    try:
+        rt = round_trips(port_of(eps[0]), n_rt)
+    finally:
+        stop.set()
+        th.join()
+        for ep in eps:
+            ep.link.close()
+    # (b) minimal pymavlink responder
+    port, stop_min = minimal_responder()
+    try:
+        rt_min = round_trips(port, n_rt)
+    finally:
+        stop_min.set()
+    for name, v in (("lfctl endpoint (2 vehicles streaming)", rt), ("minimal pymavlink responder", rt_min)):
+        rows.append((name, round(statistics.median(v), 3), round(pct(v, 0.99), 3)))
+    results["command_ack_ms"] = {"endpoint_median": statistics.median(rt), "endpoint_p99": pct(rt, 0.99), "minimal_median": statistics.median(rt_min), "minimal_p99": pct(rt_min, 0.99), "ratio_endpoint_over_minimal_median": statistics.median(rt) / statistics.median(rt_min)}
+    print_table(("COMMAND_LONG -> COMMAND_ACK", "median ms", "p99 ms"), rows)
+    # mission upload, 100 items
+    up_rows = []
+    for loss in (0.0, 0.2):
+        eps, stop, th = start_endpoints(1, loss)
+        try:
+            g = GroundStation(f"udpout:127.0.0.1:{port_of(eps[0])}", timeout_s=5.0)
+            g.wait_heartbeat()
+            items = local_mission([(float(k % 10), float(k // 10)) for k in range(100)], HOME)
+            t0 = time.perf_counter()
+            g.upload(items, item_timeout_s=0.5)
+            dt = time.perf_counter() - t0
+            ok = len(eps[0].mission) == len(items)
+            g.close()
+        finally:
+            stop.set()
+            th.join()
+            eps[0].link.close()
+        up_rows.append((f"{int(loss * 100)} %", round(dt, 3), ok))
+        results[f"upload_100_items_s_loss_{int(loss * 100)}pct"] = dt
+    print()
+    print_table(("datagram loss (both ways)", "100-item upload s", "complete"), up_rows)
+    # parse rate: datagrams per second one endpoint reads, decodes and handles
+    udp = UdpLink(("127.0.0.1", 0))
+    ep = VehicleEndpoint("v", 1, udp, HOME)
+    m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    good = [mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m), mav.MAVLink_param_request_read_message(7, 1, b"WP_SPEED", -1).pack(m), bytes(random.Random(1).getrandbits(8) for _ in range(40))]
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    n_send = 20_000 if quick else 100_000
+    handled = 0
+    t0 = time.perf_counter()
+    for k in range(n_send):
+        s.sendto(good[k % 3], ("127.0.0.1", udp.port))
+        if k % 500 == 499:
+            handled += ep.receive()
+    handled += ep.receive()
+    dt = time.perf_counter() - t0
+    s.close()
+    rate = ep.stats.datagrams / dt
+    print(f"\nparse: {ep.stats.datagrams} of {n_send} datagrams read in {dt:.2f} s = {rate:,.0f} datagrams/s (sender in the same process); {ep.stats.bad} bad, {ep.stats.other_sysid} for other systems")
+    results["parse_datagrams_per_s"] = rate
+    results["parse_datagrams_read"] = ep.stats.datagrams
+    udp.close()
+    print_json("link", {k: (round(v, 4) if isinstance(v, float) else v) for k, v in results.items()})
+
+
+if __name__ == "__main__":
+    main()
