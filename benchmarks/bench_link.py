@@ -36,14 +36,14 @@ class Lossy:
     def __init__(self, inner: UdpLink, loss: float) -> None:
         self.inner, self.loss, self.rng = inner, loss, random.Random(11)
 
-    def accept_peer(self, addr) -> None:  # noqa: ANN001
+    def accept_peer(self, addr) -> None:
         self.inner.accept_peer(addr)
 
     def send(self, data: bytes) -> None:
         if self.rng.random() >= self.loss:
             self.inner.send(data)
 
-    def recv(self, n: int = 2048):  # noqa: ANN201
+    def recv(self, n: int = 2048):
         return [d for d in self.inner.recv(n) if self.rng.random() >= self.loss]
 
     def close(self) -> None:
@@ -97,7 +97,9 @@ def minimal_responder() -> tuple[int, threading.Event]:
     stop = threading.Event()
 
     def run() -> None:
-        conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=1, source_component=1, dialect="ardupilotmega")
+        conn = mavutil.mavlink_connection(
+            f"udpin:127.0.0.1:{port}", source_system=1, source_component=1, dialect="ardupilotmega"
+        )
         last = 0.0
         while not stop.is_set():
             if time.monotonic() - last > 1.0:
@@ -143,7 +145,13 @@ def main() -> None:
         stop_min.set()
     for name, v in (("lfctl endpoint (2 vehicles streaming)", rt), ("minimal pymavlink responder", rt_min)):
         rows.append((name, round(statistics.median(v), 3), round(pct(v, 0.99), 3)))
-    results["command_ack_ms"] = {"endpoint_median": statistics.median(rt), "endpoint_p99": pct(rt, 0.99), "minimal_median": statistics.median(rt_min), "minimal_p99": pct(rt_min, 0.99), "ratio_endpoint_over_minimal_median": statistics.median(rt) / statistics.median(rt_min)}
+    results["command_ack_ms"] = {
+        "endpoint_median": statistics.median(rt),
+        "endpoint_p99": pct(rt, 0.99),
+        "minimal_median": statistics.median(rt_min),
+        "minimal_p99": pct(rt_min, 0.99),
+        "ratio_endpoint_over_minimal_median": statistics.median(rt) / statistics.median(rt_min),
+    }
     print_table(("COMMAND_LONG -> COMMAND_ACK", "median ms", "p99 ms"), rows)
     # mission upload, 100 items
     up_rows = []
@@ -170,7 +178,11 @@ def main() -> None:
     udp = UdpLink(("127.0.0.1", 0))
     ep = VehicleEndpoint("v", 1, udp, HOME)
     m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    good = [mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m), mav.MAVLink_param_request_read_message(7, 1, b"WP_SPEED", -1).pack(m), bytes(random.Random(1).getrandbits(8) for _ in range(40))]
+    good = [
+        mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m),
+        mav.MAVLink_param_request_read_message(7, 1, b"WP_SPEED", -1).pack(m),
+        bytes(random.Random(1).getrandbits(8) for _ in range(40)),
+    ]
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     n_send = 20_000 if quick else 100_000
     handled = 0
@@ -183,7 +195,9 @@ def main() -> None:
     dt = time.perf_counter() - t0
     s.close()
     rate = ep.stats.datagrams / dt
-    print(f"\nparse: {ep.stats.datagrams} of {n_send} datagrams read in {dt:.2f} s = {rate:,.0f} datagrams/s (sender in the same process); {ep.stats.bad} bad, {ep.stats.other_sysid} for other systems")
+    print(
+        f"\nparse: {ep.stats.datagrams} of {n_send} datagrams read in {dt:.2f} s = {rate:,.0f} datagrams/s (sender in the same process); {ep.stats.bad} bad, {ep.stats.other_sysid} for other systems"
+    )
     results["parse_datagrams_per_s"] = rate
     results["parse_datagrams_read"] = ep.stats.datagrams
     udp.close()

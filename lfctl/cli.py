@@ -552,19 +552,45 @@ def cmd_fmu_info(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    import json
+    import subprocess
+
     names = _bench_names()
     chosen = [args.name] if args.name else names
     for name in chosen:
         if name not in names:
             raise ConfigError(f"unknown benchmark {name!r} (known: {', '.join(names)})")
-    for name in chosen:
-        print(f"== lfctl bench {name}", flush=True)
+    if args.name:  # one benchmark: run it here, its output is the result
+        print(f"== lfctl bench {args.name}", flush=True)
         argv = sys.argv
         try:
-            sys.argv = [f"bench_{name}.py", *(["--quick"] if args.quick else [])]
-            runpy.run_path(str(BENCH_DIR / f"bench_{name}.py"), run_name="__main__")
+            sys.argv = [f"bench_{args.name}.py", *(["--quick"] if args.quick else [])]
+            runpy.run_path(str(BENCH_DIR / f"bench_{args.name}.py"), run_name="__main__")
         finally:
             sys.argv = argv
+        return 0
+    # all of them, each in its own process, collected into bench-results.md / .json
+    md = ["# lfctl bench results", ""]
+    results: dict[str, object] = {}
+    failed = []
+    for name in chosen:
+        print(f"== lfctl bench {name}", flush=True)
+        cmd = [sys.executable, str(BENCH_DIR / f"bench_{name}.py"), *(["--quick"] if args.quick else [])]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        print(proc.stdout, end="", flush=True)
+        lines = proc.stdout.strip().splitlines()
+        if proc.returncode != 0 or not lines or not lines[-1].startswith("{"):
+            failed.append(name)
+            print(proc.stderr[-2000:], file=sys.stderr)
+            md += [f"## {name}", "", f"FAILED (exit {proc.returncode})", ""]
+            continue
+        results[name] = json.loads(lines[-1])
+        md += [f"## {name}", "", *lines[:-1], ""]
+    Path("bench-results.md").write_text("\n".join(md) + "\n")
+    Path("bench-results.json").write_text(json.dumps(results, indent=1) + "\n")
+    print("wrote bench-results.md and bench-results.json")
+    if failed:
+        raise LfctlError(f"benchmarks failed: {', '.join(failed)}")
     return 0
 
 

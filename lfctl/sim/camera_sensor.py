@@ -5,6 +5,7 @@ nothing else about its target."""
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +47,8 @@ class CameraSensor:
         )
         self.started = False
         self.latest: CameraSample | None = None
+        self.render_s = 0.0  # wall time spent rendering / tracking (the cost split)
+        self.track_s = 0.0
 
     def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
         """Bearing only, from the tracked window's centre column (its size says too little)."""
@@ -72,7 +75,10 @@ class CameraSensor:
         own = VehiclePose(
             float(world.pos_ned_m[me, 0]), float(world.pos_ned_m[me, 1]), float(world.yaw_rad[me]), banner=False
         )
+        t0 = time.perf_counter()
         frame, truth = self.renderer.render(t_s, own, others, index, self.follower, float(world.yaw_rate_radps[me]))
+        t1 = time.perf_counter()
+        self.render_s += t1 - t0
         track: TrackState | None
         if not self.started:
             track = self.tracker.init_from_markers(frame)
@@ -80,6 +86,7 @@ class CameraSensor:
         else:
             track = self.tracker.update(frame)
         pose = None
+        self.track_s += time.perf_counter() - t1  # tracking (the pose below is part of vision too)
         if track is not None and track.markers is not None:
             pose = pnp_pose(track.markers, self.cam.K, self.cam.dist, self.cfg.banner.side_m) or paper_pose(
                 track.markers, self.cam.K, self.cfg.banner.side_m

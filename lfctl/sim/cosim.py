@@ -111,6 +111,8 @@ class Simulation:
         self.tick = 0
         self.t_s = 0.0
         self._opened = False
+        #: wall seconds spent in each task and in FMU stepping ("physics"): the cost split
+        self.task_time_s: dict[str, float] = {}
 
     # -- lifetime ------------------------------------------------------------------------
     def open(self) -> Simulation:
@@ -206,15 +208,20 @@ class Simulation:
     def step(self) -> None:
         """One tick: due tasks at t, then every FMU from t to t + dt."""
         tick = self.tick
+        clock = time.perf_counter
         for task in self._tasks:
             if tick >= task.next_tick:
+                t0 = clock()
                 task.fn(self.t_s)
+                self.task_time_s[task.name] = self.task_time_s.get(task.name, 0.0) + clock() - t0
                 task.runs += 1
                 # due ticks come from the run count, so rounding never accumulates drift
                 task.next_tick = task.start_tick + round(task.runs * task.ticks_per_run)
         dt = self.dt_s
+        t0 = clock()
         for inst in self._instances:
             inst.step(dt)
+        self.task_time_s["physics"] = self.task_time_s.get("physics", 0.0) + clock() - t0
         self.tick = tick + 1
         self.t_s = self.tick * dt
 
@@ -270,4 +277,5 @@ class Simulation:
             pos_ned_m=np.array(pos),
             yaw_rad=np.array(yaw),
             speed_mps=np.array(spd),
+            extra={"task_time_s": dict(self.task_time_s)},
         )

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -251,6 +252,7 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
             )
         )
     last_status: dict[str, TrackStatus] = {}
+    record_camera_s = [0.0]  # wall time the recorder spends on camera ticks (JPEG, annotations)
 
     def leader_command(t_s: float, world: WorldState) -> tuple[float, float]:
         ep = leader_ep
@@ -376,7 +378,9 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
                 if on_frame is not None:
                     on_frame(sensor.follower, sample)
                 if recorder is not None:
+                    t0 = time.perf_counter()
                     recorder.camera(t_s, sensor.follower, sample)
+                    record_camera_s[0] += time.perf_counter() - t0
 
         sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
     if recorder is not None:
@@ -393,6 +397,10 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
     sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
     sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), link)
     result = sim.run(duration_s, progress=progress)
+    result.extra["record_camera_s"] = record_camera_s[0]
+    if camera:
+        result.extra["render_s"] = sum(f[2].render_s for f in followers)
+        result.extra["track_s"] = sum(f[2].track_s for f in followers)
     traces = [f[4] for f in followers]
     return RunReport(
         config=cfg,

@@ -1,0 +1,105 @@
+"""lfctl bench e2e: the whole product, lockstep, as `lfctl sim` runs it.
+
+Camera sensing with the full tracker at 30 Hz, MAVLink in the loop, recording with 30 Hz
+JPEG images: real-time factor for leader + 1 (examples/convoy.toml) and leader + 4
+(examples/column5.toml with camera sensing), and where the time goes: physics (FMU
+stepping), render, vision (tracker + pose), guidance, link (MAVLink endpoints), recording
+(poses and images), other (the master's own loop).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _common import print_json, print_table
+
+from lfctl.config import load_config
+from lfctl.record.writer import Recorder
+from lfctl.sim.runner import run_scenario
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def measure(name: str, duration: float, tmp: str) -> dict:
+    cfg = load_config(EXAMPLES / f"{name}.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration),
+        recording=dataclasses.replace(cfg.recording, dir=tmp),
+    )
+    t0 = time.perf_counter()
+    with Recorder(Path(tmp) / f"{name}.mcap", cfg) as rec:
+        report = run_scenario(cfg, recorder=rec)
+    wall = time.perf_counter() - t0
+    tasks = report.result.extra["task_time_s"]
+    render = report.result.extra.get("render_s", 0.0)
+    camera_total = tasks.get("camera", 0.0)
+    rec_cam = report.result.extra.get("record_camera_s", 0.0)
+    split = {
+        "physics": tasks.get("physics", 0.0),
+        "render": render,
+        "vision": camera_total - render - rec_cam,
+        "guidance": tasks.get("guidance", 0.0),
+        "link": tasks.get("link", 0.0),
+        "recording": tasks.get("record", 0.0) + rec_cam,
+    }
+    split["other"] = max(0.0, wall - sum(split.values()))
+    return {
+        "scenario": name,
+        "followers": len(cfg.followers),
+        "sim_s": duration,
+        "wall_s": wall,
+        "real_time_factor": duration / wall,
+        "split_s": split,
+    }
+
+
+def main() -> None:
+    quick = "--quick" in sys.argv
+    duration = 10.0 if quick else 40.0
+    with tempfile.TemporaryDirectory() as tmp:
+        runs = [measure("convoy", duration, tmp), measure("column5", duration, tmp)]
+    rows = []
+    for r in runs:
+        s = r["split_s"]
+        total = sum(s.values())
+        rows.append(
+            (
+                r["scenario"],
+                r["followers"],
+                round(r["real_time_factor"], 2),
+                *(
+                    f"{100 * s[k] / total:.0f} %"
+                    for k in ("physics", "render", "vision", "guidance", "link", "recording", "other")
+                ),
+            )
+        )
+    print_table(
+        ("scenario", "followers", "RTF", "physics", "render", "vision", "guidance", "link", "recording", "other"), rows
+    )
+    one, four = runs
+    per_follower = [(r["wall_s"] / r["sim_s"]) / r["followers"] for r in runs]
+    print(
+        f"\nwall seconds per simulated second per follower: {per_follower[0]:.3f} (1 follower), {per_follower[1]:.3f} (4 followers): growth is {'linear' if per_follower[1] <= 1.25 * per_follower[0] else 'super-linear'}"
+    )
+    biggest = max(one["split_s"], key=one["split_s"].get)
+    print(f"largest stage for leader + 1: {biggest}")
+    print_json(
+        "e2e",
+        {
+            "leader_plus_1_real_time_factor": round(one["real_time_factor"], 3),
+            "leader_plus_4_real_time_factor": round(four["real_time_factor"], 3),
+            "per_follower_cost_ratio_4_over_1": round(per_follower[1] / per_follower[0], 3),
+            "runs": [{**r, "split_s": {k: round(v, 3) for k, v in r["split_s"].items()}} for r in runs],
+        },
+    )
+
+
+if __name__ == "__main__":
+    main()
