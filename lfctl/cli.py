@@ -485,6 +485,83 @@ def _watch(gcs: object, count: int | None, first: object) -> None:
 
 
 # ----------------------------------------------------------------------------------------
+# lfctl follow
+
+
+def cmd_follow(args: argparse.Namespace) -> int:
+    import cv2
+
+    from lfctl.config import CameraConfig, load_config
+    from lfctl.guidance.formation import FormationController
+    from lfctl.link.companion import RoverLink, follow_loop
+    from lfctl.sim.camera import BANNER_BACK_M, CameraModel
+    from lfctl.sim.runner import formation_settings
+    from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
+    from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+    from lfctl.vision.tracker import Tracker, TrackerSettings
+
+    cfg = load_config(args.scenario) if args.scenario else None
+    if cfg is None:
+        from lfctl.config import parse_config
+
+        cfg = parse_config(
+            '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "rover"\nrole = "follower"\n',
+            "follow",
+        )
+    source: str | int = int(args.camera) if args.camera.isdigit() else args.camera
+    cap = cv2.VideoCapture(source)
+    if not cap.isOpened():
+        raise ConfigError(f"cannot open camera {args.camera!r} (a camera index, video file or stream URL)")
+    ok, frame = cap.read()
+    if not ok or frame is None:
+        raise ConfigError(f"camera {args.camera!r} gave no frame")
+    h, w = frame.shape[:2]
+    cam_cfg = dataclasses.replace(cfg.camera if args.scenario else CameraConfig(), width_px=w, height_px=h)
+    cam = CameraModel.from_config(cam_cfg)
+    banner = cfg.banner
+    tracker = Tracker(
+        TrackerSettings(
+            kind="full", marker_hue_deg=banner.marker_hue_deg, panel_over_side=banner.panel_size_m / banner.side_m
+        )
+    )
+    started = [False]
+    frames = [0]
+
+    def measure(t_s: float) -> RelativeMeasurement | None:
+        ok, img = cap.read()
+        if not ok or img is None or (args.max_frames is not None and frames[0] >= args.max_frames):
+            return None
+        frames[0] += 1
+        st = tracker.update(img) if started[0] else tracker.init_from_markers(img)
+        if st is None:
+            return RelativeMeasurement(t_s, TrackStatus.LOST)
+        started[0] = True
+        if st.markers is not None and st.status is TrackStatus.TRACKING:
+            pose = pnp_pose(st.markers, cam.K, cam.dist, banner.side_m) or paper_pose(st.markers, cam.K, banner.side_m)
+            if pose is not None:
+                rng, brg, _ = to_vehicle_frame(pose, cam.mount_body_m, cam.R_body_from_cam, -BANNER_BACK_M)
+                return RelativeMeasurement(t_s, TrackStatus.TRACKING, rng, brg, pose.quality)
+        return RelativeMeasurement(t_s, st.status if st.status is not TrackStatus.TRACKING else TrackStatus.OCCLUDED)
+
+    slot_range = args.range if args.range is not None else 1.5
+    controller = FormationController(
+        formation_settings(cfg, slot_range, math.radians(args.bearing), cfg.guidance.controller)
+    )
+    rover = RoverLink(args.mavlink, target_system=args.target, timeout_s=args.timeout)
+    try:
+        rover.start()
+        rover.set_guided()
+        if args.arm:
+            rover.arm()
+        steps = follow_loop(rover, measure, controller, 1.0 / args.rate, args.steps)
+    finally:
+        rover.close()
+        cap.release()
+    print(f"sent {steps} setpoints; {frames[0]} frames")
+    return 0
+
+
+# ----------------------------------------------------------------------------------------
 # lfctl fmu
 
 
@@ -662,6 +739,26 @@ def build_parser() -> argparse.ArgumentParser:
     gw = gsub.add_parser("watch", help="live table of every vehicle heard (Ctrl-C to stop)")
     gw.add_argument("--count", type=int, help="stop after this many refreshes")
     g.set_defaults(func=cmd_gcs)
+
+    fo = sub.add_parser(
+        "follow",
+        help="the follower stack on a real rover: camera -> tracker -> formation control -> GUIDED setpoints",
+        description="Run the follower's vision and guidance against a real ArduPilot rover (or lfctl sim --realtime) as its companion computer (component 191).",
+    )
+    fo.add_argument(
+        "--mavlink", required=True, help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600"
+    )
+    fo.add_argument("--camera", default="0", help="camera index, video file or stream URL (default 0)")
+    fo.add_argument("--target", type=int, default=1, help="the rover's system id (default 1)")
+    fo.add_argument("--scenario", type=Path, help="camera intrinsics, banner and guidance gains from this scenario")
+    fo.add_argument("--range", type=float, help="commanded range to the leader, m (default 1.5)")
+    fo.add_argument("--bearing", type=float, default=0.0, help="commanded bearing to the leader, deg (default 0)")
+    fo.add_argument("--rate", type=float, default=20.0, help="setpoint rate, Hz (10-20; default 20)")
+    fo.add_argument("--arm", action="store_true", help="also arm the rover (default: you arm it)")
+    fo.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the rover's heartbeat")
+    fo.add_argument("--max-frames", type=int, help="stop after this many camera frames")
+    fo.add_argument("--steps", type=int, help="stop after this many setpoints")
+    fo.set_defaults(func=cmd_follow)
 
     a = sub.add_parser(
         "audit",
