@@ -397,6 +397,20 @@ class SceneConfig:
 
 
 @dataclass(frozen=True)
+class AuditConfig:
+    """[audit]: limits `lfctl audit --strict` enforces on this scenario's logs."""
+
+    max_range_err_rms_frac: float = 0.10
+    max_bearing_err_rms_deg: float = 5.0
+    min_separation_m: float = 0.3
+
+    def __post_init__(self) -> None:
+        _positive("audit.max_range_err_rms_frac", self.max_range_err_rms_frac)
+        _positive("audit.max_bearing_err_rms_deg", self.max_bearing_err_rms_deg)
+        _non_negative("audit.min_separation_m", self.min_separation_m)
+
+
+@dataclass(frozen=True)
 class LinkConfig:
     """[link]: MAVLink. Vehicle n (leader 0) listens on ``udp_base_port + n`` with
     ``--realtime`` and sends telemetry to ``gcs_udpout`` too; home is the geodetic origin of
@@ -468,6 +482,7 @@ class Config:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    audit: AuditConfig = field(default_factory=AuditConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
@@ -667,6 +682,7 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         scene=cfg.scene,
         recording=cfg.recording,
         link=cfg.link,
+        audit=cfg.audit,
         source=text,
     )
 
@@ -687,6 +703,7 @@ class _ConfigTable:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    audit: AuditConfig = field(default_factory=AuditConfig)
 
 
 def load_config(path: str | Path) -> Config:

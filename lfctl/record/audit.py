@@ -14,7 +14,6 @@ import hashlib
 import io
 import itertools
 import json
-import tomllib
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -413,13 +412,18 @@ def _link_figures(c: Contents) -> dict[str, Any]:
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
     """--strict: the scenario's [audit] limits (from the attached scenario.toml)."""
+    from lfctl.config import AuditConfig, ConfigError, parse_config
+
     text = report.contents.attachments.get("scenario.toml")
-    limits = {"max_range_err_rms_frac": 0.10, "max_bearing_err_rms_deg": 5.0, "min_separation_m": 0.3}
-    if text:
-        try:
-            limits |= tomllib.loads(text.decode()).get("audit", {})
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
-            return [Finding("error", "the attached scenario.toml does not parse")]
+    try:
+        a = parse_config(text.decode()).audit if text else AuditConfig()
+    except (ConfigError, UnicodeDecodeError) as exc:
+        return [Finding("error", f"the attached scenario.toml does not load: {exc}")]
+    limits = {
+        "max_range_err_rms_frac": a.max_range_err_rms_frac,
+        "max_bearing_err_rms_deg": a.max_bearing_err_rms_deg,
+        "min_separation_m": a.min_separation_m,
+    }
     out = []
     for f in report.figures.get("followers", []):
         if (
