@@ -26,39 +26,21 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.link.endpoint import VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import local_mission
-from lfctl.link.transport import UdpLink
+from lfctl.link.transport import LossyLink, UdpLink
 
 HOME = (12.9602, 77.6690, 900.0)
 STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
-
-
-class Lossy:
-    def __init__(self, inner: UdpLink, loss: float) -> None:
-        self.inner, self.loss, self.rng = inner, loss, random.Random(11)
-
-    def accept_peer(self, addr) -> None:
-        self.inner.accept_peer(addr)
-
-    def send(self, data: bytes) -> None:
-        if self.rng.random() >= self.loss:
-            self.inner.send(data)
-
-    def recv(self, n: int = 2048):
-        return [d for d in self.inner.recv(n) if self.rng.random() >= self.loss]
-
-    def close(self) -> None:
-        self.inner.close()
 
 
 def start_endpoints(n: int, loss: float = 0.0) -> tuple[list[VehicleEndpoint], threading.Event, threading.Thread]:
     eps = []
     for i in range(n):
         udp = UdpLink(("127.0.0.1", 0))
-        eps.append(VehicleEndpoint(f"v{i}", 1 + i, Lossy(udp, loss) if loss else udp, HOME))
+        eps.append(VehicleEndpoint(f"v{i}", 1 + i, LossyLink(udp, loss, seed=11) if loss else udp, HOME))
     stop = threading.Event()
     t0 = time.monotonic()
 
-    socks = [(ep.link.inner if isinstance(ep.link, Lossy) else ep.link).sock for ep in eps]
+    socks = [ep.link.sock for ep in eps]
 
     def run() -> None:
         while not stop.is_set():
@@ -72,8 +54,7 @@ def start_endpoints(n: int, loss: float = 0.0) -> tuple[list[VehicleEndpoint], t
 
 
 def port_of(ep: VehicleEndpoint) -> int:
-    link = ep.link.inner if isinstance(ep.link, Lossy) else ep.link
-    return link.port
+    return ep.link.port
 
 
 def round_trips(port: int, n: int) -> list[float]:

@@ -15,7 +15,9 @@ EXAMPLES = sorted((Path(__file__).parents[1] / "examples").glob("*.toml"))
 @pytest.mark.slow
 @pytest.mark.fmu
 @pytest.mark.parametrize("scenario", EXAMPLES, ids=lambda p: p.stem)
-def test_example_runs_and_its_log_passes_the_audit(scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+def test_example_runs_and_its_log_passes_the_audit(
+    scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     monkeypatch.chdir(tmp_path)  # logs/ lands here
     assert main(["sim", str(scenario), "--duration", "20", "-q"]) == 0
     out = capsys.readouterr().out

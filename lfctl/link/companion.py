@@ -13,11 +13,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
+from lfctl.link.gcs import open_connection
 
 log = logging.getLogger(__name__)
 
@@ -40,16 +40,7 @@ class RoverLink:
     """A MAVLink connection to the rover as its companion computer (component 191)."""
 
     def __init__(self, connect: str, target_system: int = 1, timeout_s: float = 10.0) -> None:
-        try:
-            self.conn = mavutil.mavlink_connection(
-                connect,
-                source_system=target_system,
-                source_component=COMPANION_COMPID,
-                dialect="ardupilotmega",
-                autoreconnect=False,
-            )
-        except Exception as exc:
-            raise LinkTimeoutError(f"cannot open MAVLink connection {connect!r}: {exc}") from exc
+        self.conn = open_connection(connect, target_system, COMPANION_COMPID)
         self.target = target_system
         self.timeout_s = timeout_s
         self.odom = RoverOdometry()

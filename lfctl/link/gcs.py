@@ -24,6 +24,16 @@ def _result_name(enum: str, value: int) -> str:
     return e.name if e is not None else str(value)
 
 
+def open_connection(connect: str, sysid: int, compid: int) -> Any:
+    """A pymavlink connection (ardupilotmega dialect) as ``sysid``/``compid``, or LinkTimeoutError."""
+    try:
+        return mavutil.mavlink_connection(
+            connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
+        )
+    except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
+        raise LinkTimeoutError(f"cannot open MAVLink connection {connect!r}: {exc}") from exc
+
+
 class GroundStation:
     """A MAVLink ground station on a pymavlink connection string (``udpout:127.0.0.1:14561``)
     or on any object with ``send(bytes)`` / ``recv()`` (an in-memory link) plus a ``pump``
@@ -43,16 +53,7 @@ class GroundStation:
         self.pump = pump
         self._hb_at = -math.inf
         if isinstance(connect, str):
-            try:
-                self.conn: Any = mavutil.mavlink_connection(
-                    connect,
-                    source_system=GCS_SYSID,
-                    source_component=GCS_COMPID,
-                    dialect="ardupilotmega",
-                    autoreconnect=False,
-                )
-            except Exception as exc:
-                raise LinkTimeoutError(f"cannot open MAVLink connection {connect!r}: {exc}") from exc
+            self.conn: Any = open_connection(connect, GCS_SYSID, GCS_COMPID)
             self.mav = self.conn.mav
             self.link = None
         else:

@@ -51,6 +51,13 @@ class MissionItem:
         return self.y / 1e7
 
 
+def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
+    """Item 0: home, as ArduPilot keeps it."""
+    return MissionItem(
+        0, mav.MAV_FRAME_GLOBAL_INT, NAV_WAYPOINT, x=int(round(lat_deg * 1e7)), y=int(round(lon_deg * 1e7)), z=alt_m
+    )
+
+
 def validate_item(item: MissionItem, count: int) -> int:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home)."""
     if item.command not in SUPPORTED:
@@ -112,16 +119,7 @@ def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, 
     """A scenario's local waypoints (north, east[, hold]) as mission items, item 0 = home."""
     from lfctl.frames import ned_to_geodetic
 
-    items = [
-        MissionItem(
-            0,
-            mav.MAV_FRAME_GLOBAL_INT,
-            NAV_WAYPOINT,
-            x=int(round(home[0] * 1e7)),
-            y=int(round(home[1] * 1e7)),
-            z=home[2],
-        )
-    ]
+    items = [home_item(*home)]
     for k, wp in enumerate(waypoints, start=1):
         lat, lon, _ = ned_to_geodetic(wp[0], wp[1], 0.0, *home)
         hold = float(wp[2]) if len(wp) > 2 else 0.0
@@ -190,16 +188,7 @@ def _load_plan(p: Path, text: str) -> list[MissionItem]:
         raw = mission["items"]
     except (json.JSONDecodeError, KeyError, TypeError) as exc:
         raise ConfigError(f"{p}: not a QGroundControl .plan file ({exc})") from exc
-    items = [
-        MissionItem(
-            0,
-            mav.MAV_FRAME_GLOBAL_INT,
-            NAV_WAYPOINT,
-            x=int(round(home[0] * 1e7)),
-            y=int(round(home[1] * 1e7)),
-            z=float(home[2]),
-        )
-    ]
+    items = [home_item(float(home[0]), float(home[1]), float(home[2]))]
     for it in raw:
         if it.get("type") != "SimpleItem":
             raise ConfigError(f"{p}: item type {it.get('type')!r} is not supported (only SimpleItem)")

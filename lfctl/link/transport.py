@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import random
 import socket
 from collections import deque
 from collections.abc import Callable
@@ -63,6 +64,35 @@ class UdpLink:
 
     def close(self) -> None:
         self.sock.close()
+
+
+class LossyLink:
+    """A link that drops a fraction of datagrams both ways (seeded): for loss tests and the
+    link benchmark."""
+
+    def __init__(self, inner: UdpLink, loss: float, seed: int = 7) -> None:
+        self.inner, self.loss, self.rng = inner, loss, random.Random(seed)
+
+    @property
+    def port(self) -> int:
+        return self.inner.port
+
+    @property
+    def sock(self) -> socket.socket:
+        return self.inner.sock
+
+    def accept_peer(self, addr: Address) -> None:
+        self.inner.accept_peer(addr)
+
+    def send(self, data: bytes) -> None:
+        if self.rng.random() >= self.loss:
+            self.inner.send(data)
+
+    def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
+        return [d for d in self.inner.recv(max_datagrams) if self.rng.random() >= self.loss]
+
+    def close(self) -> None:
+        self.inner.close()
 
 
 class MemoryLink:

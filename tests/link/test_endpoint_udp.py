@@ -15,32 +15,11 @@ from lfctl.errors import MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import load_mission, local_mission, save_mission
-from lfctl.link.transport import MemoryLink, UdpLink
+from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
 
 pytestmark = pytest.mark.integration
 HOME = (12.9602, 77.6690, 900.0)
 STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
-
-
-class LossyLink:
-    """Drops a fraction of datagrams both ways (seeded)."""
-
-    def __init__(self, inner: UdpLink, loss: float, seed: int = 7) -> None:
-        self.inner, self.loss, self.rng = inner, loss, random.Random(seed)
-        self.port = inner.port
-
-    def accept_peer(self, addr) -> None:
-        self.inner.accept_peer(addr)
-
-    def send(self, data: bytes) -> None:
-        if self.rng.random() >= self.loss:
-            self.inner.send(data)
-
-    def recv(self, max_datagrams: int = 256):
-        return [d for d in self.inner.recv(max_datagrams) if self.rng.random() >= self.loss]
-
-    def close(self) -> None:
-        self.inner.close()
 
 
 class LiveEndpoint:

@@ -45,24 +45,22 @@ def small_chunks(cfg, tmp: Path, sensing: str = "truth", duration: float = 12.0)
     return dataclasses.replace(cfg, recording=rec, sim=sim)
 
 
-@pytest.fixture(scope="module")
-def camera_log(tmp_path_factory: pytest.TempPathFactory):
-    tmp = tmp_path_factory.mktemp("log")
-    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, "camera", 8.0)
+def recorded_run(tmp: Path, sensing: str, duration: float):
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, sensing, duration)
     path = tmp / "run.mcap"
     with Recorder(path, cfg) as rec:
         report = run_scenario(cfg, recorder=rec)
     return path, report
+
+
+@pytest.fixture(scope="module")
+def camera_log(tmp_path_factory: pytest.TempPathFactory):
+    return recorded_run(tmp_path_factory.mktemp("log"), "camera", 8.0)
 
 
 @pytest.fixture(scope="module")
 def truth_log(tmp_path_factory: pytest.TempPathFactory):
-    tmp = tmp_path_factory.mktemp("log")
-    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, "truth", 40.0)
-    path = tmp / "run.mcap"
-    with Recorder(path, cfg) as rec:
-        report = run_scenario(cfg, recorder=rec)
-    return path, report
+    return recorded_run(tmp_path_factory.mktemp("log"), "truth", 40.0)
 
 
 def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None:
