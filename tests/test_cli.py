@@ -14,6 +14,12 @@ from lfctl.cli import main
 ROOT = Path(__file__).parents[1]
 
 
+@pytest.fixture(autouse=True)
+def _in_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Runs write logs/ into the working directory: keep them out of the checkout."""
+    monkeypatch.chdir(tmp_path)
+
+
 def test_sim_convoy_prints_a_summary(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", str(ROOT / "examples" / "convoy.toml"), "--duration", "5", "-q"]) == 0
     out = capsys.readouterr().out
