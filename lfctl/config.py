@@ -667,24 +667,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         label = f"vehicles[{v.get('name', i)}]"
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
-    cfg = _build(_ConfigTable, rest, "")
-    return Config(
-        name=cfg.name,
-        sim=cfg.sim,
-        vehicles=tuple(built),
-        script=cfg.script,
-        mission=cfg.mission,
-        guidance=cfg.guidance,
-        sensing=cfg.sensing,
-        formation=cfg.formation,
-        camera=cfg.camera,
-        banner=cfg.banner,
-        scene=cfg.scene,
-        recording=cfg.recording,
-        link=cfg.link,
-        audit=cfg.audit,
-        source=text,
-    )
+    table = _build(_ConfigTable, rest, "")
+    sections = {f.name: getattr(table, f.name) for f in dataclasses.fields(_ConfigTable)}
+    return Config(**sections, vehicles=tuple(built), source=text)
 
 
 @dataclass(frozen=True)
