@@ -373,10 +373,12 @@ def cmd_track(args: argparse.Namespace) -> int:
 
 
 def cmd_gcs(args: argparse.Namespace) -> int:
+    from lfctl.link.endpoint import signing_key_from_passphrase
     from lfctl.link.gcs import GroundStation
     from lfctl.link.mission import load_mission, save_mission
 
-    gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout)
+    key = signing_key_from_passphrase(args.signing_passphrase) if args.signing_passphrase else None
+    gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         hb = gcs.wait_heartbeat()
         action = args.action
@@ -718,6 +720,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     g.add_argument("--target", type=int, default=1, help="target system id (leader 1, follower n: 1+n)")
     g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer")
+    g.add_argument("--signing-passphrase", help="MAVLink 2 signing: the vehicle's [link] signing_passphrase")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     gu = gsub.add_parser("upload", help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan)")
     gu.add_argument("file", type=Path)

@@ -423,6 +423,7 @@ class LinkConfig:
     home_lon_deg: float = 77.6690
     home_alt_m: float = 900.0
     rate_hz: float = 50.0
+    signing_passphrase: str = ""  # non-empty: MAVLink 2 signing on the UDP links (key = SHA-256)
 
     def __post_init__(self) -> None:
         if not 1 <= self.udp_base_port <= 65000:

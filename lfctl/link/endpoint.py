@@ -12,8 +12,10 @@ and failsafes (GCS heartbeat lost -> HOLD; companion silent -> stop). Time comes
 from __future__ import annotations
 
 import base64
+import hashlib
 import logging
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -106,6 +108,7 @@ class VehicleEndpoint:
         mode: str = "HOLD",
         armed: bool = False,
         tap: Callable[[str, Any, bytes], None] | None = None,
+        signing_key: bytes | None = None,
     ) -> None:
         self.name = name
         self.sysid = sysid
@@ -113,8 +116,15 @@ class VehicleEndpoint:
         self.home = home
         self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=1)
         self.mav.robust_parsing = True
-        self.parser = mav.MAVLink(None)
-        self.parser.robust_parsing = True
+        self._signing_key = signing_key
+        self.parser = self._parser(None)
+        self.signed_parser: Any = None
+        if signing_key is not None:
+            # MAVLink 2 signing for the links that leave the machine (UDP): sign what we send,
+            # accept only correctly signed packets from there; the in-memory companion link
+            # stays unsigned
+            setup_signing(self.mav, signing_key)
+            self.signed_parser = self._parser(signing_key)
         self.mode = MODES[mode]
         self.armed = armed
         self.params = default_params(sysid)
@@ -143,6 +153,14 @@ class VehicleEndpoint:
             "yaw_rate_radps": 0.0,
         }
 
+    @staticmethod
+    def _parser(signing_key: bytes | None) -> Any:
+        p = mav.MAVLink(None)
+        p.robust_parsing = True
+        if signing_key is not None:
+            setup_signing(p, signing_key)
+        return p
+
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
         data = msg.pack(self.mav)
@@ -165,13 +183,16 @@ class VehicleEndpoint:
         n = 0
         for data, addr in self.link.recv():
             self.stats.datagrams += 1
-            msgs = self.parser.parse_buffer(data) or []
+            parser = self.signed_parser if (self.signed_parser is not None and addr[0] != "memory") else self.parser
+            msgs = parser.parse_buffer(data) or []
             good = [m for m in msgs if m.get_type() != "BAD_DATA"]
             self.stats.bad += len(msgs) - len(good)
             if not good and not msgs:
-                self.stats.bad += 1  # a fragment the parser kept waiting for: never completes
-                self.parser = mav.MAVLink(None)  # drop it so the next datagram starts clean
-                self.parser.robust_parsing = True
+                self.stats.bad += 1  # a fragment (or a rejected, unsigned packet): drop it
+                if parser is self.signed_parser:
+                    self.signed_parser = self._parser(self._signing_key)
+                else:
+                    self.parser = self._parser(None)
             if good:
                 self.link.accept_peer(addr)
             for m in good:
@@ -628,6 +649,21 @@ class VehicleEndpoint:
                     caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
+
+
+def signing_key_from_passphrase(passphrase: str) -> bytes:
+    """The 32-byte MAVLink 2 signing key of a passphrase (SHA-256, as MAVProxy's `signing setup`)."""
+    return hashlib.sha256(passphrase.encode()).digest()
+
+
+def setup_signing(m: Any, key: bytes) -> None:
+    """Sign outgoing packets with ``key`` and reject unsigned incoming ones on ``m``."""
+    m.signing.secret_key = key
+    m.signing.sign_outgoing = True
+    m.signing.link_id = 0
+    # 10 us units since 2015-01-01, as the specification asks
+    m.signing.timestamp = int((time.time() - 1420070400) * 1e5)
+    m.signing.allow_unsigned_callback = lambda _mav, _msgid: False
 
 
 def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:

@@ -4,6 +4,7 @@ pymavlink, system 255, component 190. Every wait has a timeout and a clear error
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
 from typing import Any
@@ -12,7 +13,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
-from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
+from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES, setup_signing
 from lfctl.link.mission import MissionItem
 
 GCS_SYSID = 255
@@ -26,6 +27,9 @@ def _result_name(enum: str, value: int) -> str:
 
 def open_connection(connect: str, sysid: int, compid: int) -> Any:
     """A pymavlink connection (ardupilotmega dialect) as ``sysid``/``compid``, or LinkTimeoutError."""
+    # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
+    # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
+    os.environ["MAVLINK20"] = "1"
     try:
         return mavutil.mavlink_connection(
             connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
@@ -46,6 +50,7 @@ class GroundStation:
         timeout_s: float = 3.0,
         pump: Callable[[], None] | None = None,
         heartbeats: bool = True,
+        signing_key: bytes | None = None,
     ) -> None:
         self.target = target_system
         self.heartbeats = heartbeats
@@ -55,6 +60,8 @@ class GroundStation:
         if isinstance(connect, str):
             self.conn: Any = open_connection(connect, GCS_SYSID, GCS_COMPID)
             self.mav = self.conn.mav
+            if signing_key is not None:
+                setup_signing(self.mav, signing_key)
             self.link = None
         else:
             self.conn = None
@@ -109,7 +116,8 @@ class GroundStation:
             if m.get_type() in kinds and m.get_srcSystem() == self.target and (where is None or where(m)):
                 return m
         raise LinkTimeoutError(
-            f"no {'/'.join(kinds)} from system {self.target} within {limit:g} s (is the vehicle up and the address right?)"
+            f"no {'/'.join(kinds)} from system {self.target} within {limit:g} s (is the vehicle up, the address "
+            "right, and, if it signs its link, the passphrase the same?)"
         )
 
     def wait_heartbeat(self) -> Any:

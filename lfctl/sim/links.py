@@ -12,7 +12,13 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.config import Config
-from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE, VehicleEndpoint
+from lfctl.link.endpoint import (
+    COMPANION_COMPID,
+    MODES,
+    TYPE_MASK_SPEED_YAWRATE,
+    VehicleEndpoint,
+    signing_key_from_passphrase,
+)
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import local_mission
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
@@ -94,7 +100,8 @@ class Links:
                 self.udp.append(udp)
                 link = Fanout(udp, end)
             ep_tap = (lambda d, m, raw, _n=v.name: tap(_n, d, m, raw)) if tap is not None else None
-            ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap)
+            key = signing_key_from_passphrase(lc.signing_passphrase) if (realtime and lc.signing_passphrase) else None
+            ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
             if realtime and gcs_out:
                 ep.forward = udp.send
             self.endpoints.append(ep)

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.errors import MissionProtocolError
-from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.errors import LinkTimeoutError, MissionProtocolError
+from lfctl.link.endpoint import MODES, VehicleEndpoint, signing_key_from_passphrase
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import load_mission, local_mission, save_mission
 from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
@@ -25,10 +25,10 @@ STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_r
 class LiveEndpoint:
     """An endpoint on 127.0.0.1:0 ticked at 100 Hz by a thread (time = wall time)."""
 
-    def __init__(self, loss: float = 0.0) -> None:
+    def __init__(self, loss: float = 0.0, signing_key: bytes | None = None) -> None:
         udp = UdpLink(("127.0.0.1", 0))
         self.link = LossyLink(udp, loss) if loss else udp
-        self.ep = VehicleEndpoint("leader", 1, self.link, HOME)
+        self.ep = VehicleEndpoint("leader", 1, self.link, HOME, signing_key=signing_key)
         self.port = udp.port
         self._stop = threading.Event()
         self._t0 = time.monotonic()
@@ -40,8 +40,10 @@ class LiveEndpoint:
             self.ep.tick(time.monotonic() - self._t0, STATE)
             time.sleep(0.01)
 
-    def gcs(self, timeout_s: float = 3.0) -> GroundStation:
-        g = GroundStation(f"udpout:127.0.0.1:{self.port}", target_system=1, timeout_s=timeout_s)
+    def gcs(self, timeout_s: float = 3.0, signing_key: bytes | None = None) -> GroundStation:
+        g = GroundStation(
+            f"udpout:127.0.0.1:{self.port}", target_system=1, timeout_s=timeout_s, signing_key=signing_key
+        )
         g.wait_heartbeat()
         return g
 
@@ -227,3 +229,25 @@ def test_companion_silence_stops_the_follower_within_the_timeout() -> None:
     assert ep.guided_command() is not None
     ep.tick(10.0 + ep.param("GUID_TIMEOUT") + 0.2, STATE)
     assert ep.guided_command() is None and any("setpoints stopped" in t for _, t in ep.statustexts)
+
+
+def test_signed_link_obeys_the_key_holder_and_ignores_everyone_else() -> None:
+    key = signing_key_from_passphrase("convoy-7")
+    assert key == signing_key_from_passphrase("convoy-7") and len(key) == 32
+    live = LiveEndpoint(signing_key=key)
+    try:
+        good = live.gcs(signing_key=key)
+        hb = good.wait(("HEARTBEAT",))
+        assert hb.get_signed() and hb.get_link_id() == 0  # what the vehicle sends is signed
+        assert good.arm() == mav.MAV_RESULT_ACCEPTED and live.ep.armed
+        good.close()
+        # no key, or the wrong one: its commands are dropped and counted, the mode stays
+        for other in (None, signing_key_from_passphrase("convoy-8")):
+            bad_before = live.ep.stats.bad
+            g = GroundStation(f"udpout:127.0.0.1:{live.port}", target_system=1, timeout_s=0.3, signing_key=other)
+            with pytest.raises(LinkTimeoutError):
+                g.set_mode("GUIDED")
+            assert live.ep.mode == MODES["HOLD"] and live.ep.stats.bad > bad_before
+            g.close()
+    finally:
+        live.close()
