@@ -240,6 +240,11 @@ class VehicleEndpoint:
     def set_mode(self, custom_mode: int) -> bool:
         if custom_mode not in MODE_NAMES:
             return False
+        if custom_mode == MODES["FOLLOW"]:
+            # ArduPilot's FOLLOW chases another vehicle's GLOBAL_POSITION_INT; lfctl follows by
+            # camera, through GUIDED and the companion: refuse rather than accept and do nothing
+            self.statustext("FOLLOW mode not supported: use GUIDED", mav.MAV_SEVERITY_WARNING)
+            return False
         if custom_mode != self.mode:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
         self.mode = custom_mode

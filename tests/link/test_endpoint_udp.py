@@ -187,6 +187,8 @@ def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None
     assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED and live.ep.mode == MODES["GUIDED"]
     assert g.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 99) == mav.MAV_RESULT_DENIED
     assert g.command(mav.MAV_CMD_NAV_TAKEOFF) == mav.MAV_RESULT_UNSUPPORTED
+    # FOLLOW (6) is a Rover mode lfctl does not fly: refused with a reason, GUIDED kept
+    assert g.set_mode("FOLLOW") == mav.MAV_RESULT_DENIED and live.ep.mode == MODES["GUIDED"]
     assert g.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == mav.MAV_RESULT_ACCEPTED
     assert g.wait(("AUTOPILOT_VERSION",)).capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
     # SET_MESSAGE_INTERVAL: ATTITUDE at 50 Hz instead of 10 Hz
