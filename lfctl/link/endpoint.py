@@ -191,6 +191,9 @@ class VehicleEndpoint:
                 self.stats.bad += 1  # a fragment (or a rejected, unsigned packet): drop it
                 if parser is self.signed_parser:
                     self.signed_parser = self._parser(self._signing_key)
+                    # keep the replay protection: streams' last timestamps and our clock
+                    self.signed_parser.signing.stream_timestamps = parser.signing.stream_timestamps
+                    self.signed_parser.signing.timestamp = parser.signing.timestamp
                 else:
                     self.parser = self._parser(None)
             if good:

@@ -12,7 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
-from lfctl.link.endpoint import MODES, VehicleEndpoint, signing_key_from_passphrase
+from lfctl.link.endpoint import MODES, VehicleEndpoint, setup_signing, signing_key_from_passphrase
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import load_mission, local_mission, save_mission
 from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
@@ -252,4 +252,27 @@ def test_signed_link_obeys_the_key_holder_and_ignores_everyone_else() -> None:
             assert live.ep.mode == MODES["HOLD"] and live.ep.stats.bad > bad_before
             g.close()
     finally:
+        live.close()
+
+
+def test_a_replayed_signed_packet_is_refused_even_after_garbage() -> None:
+    key = signing_key_from_passphrase("convoy-7")
+    live = LiveEndpoint(signing_key=key)
+    sender = mav.MAVLink(None, srcSystem=254, srcComponent=190)
+    setup_signing(sender, key)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        manual = mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["MANUAL"]).pack(sender)
+        sock.sendto(manual, ("127.0.0.1", live.port))
+        deadline = time.monotonic() + 3.0
+        while live.ep.mode != MODES["MANUAL"] and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert live.ep.mode == MODES["MANUAL"]
+        live.ep.set_mode(MODES["HOLD"])
+        sock.sendto(manual[:7], ("127.0.0.1", live.port))  # a fragment: the parser is reset
+        sock.sendto(manual, ("127.0.0.1", live.port))  # the same signed bytes again
+        time.sleep(0.3)
+        assert live.ep.mode == MODES["HOLD"]
+    finally:
+        sock.close()
         live.close()
