@@ -27,6 +27,7 @@ from lfctl.config import BannerConfig, CameraConfig, LightKey, PropConfig, Scene
 from lfctl.frames import rot_z, wrap_pi
 
 NEAR_M = 0.05
+GROUND_TILES = 3  # the floor texture tiled GROUND_TILES x GROUND_TILES for the fast warp path
 BODY_LENGTH_M, BODY_WIDTH_M, BODY_BOTTOM_M, BODY_TOP_M = 0.30, 0.22, 0.03, 0.14
 #: where the banner panel sits, behind the vehicle's reference point (body frame x), m
 BANNER_BACK_M = -BODY_LENGTH_M / 2 - 0.005
@@ -237,6 +238,10 @@ class Renderer:
         rng = np.random.default_rng(seed)
         self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
+        # the tileable floor repeated 3 x 3: warpPerspective's fast path only samples inside
+        # the source image, and wrapping costs ~5x per pixel; centred on the visible floor,
+        # most samples land inside and the picture is the same (the texture is periodic)
+        self._ground_tiles = np.tile(self.ground_tex, (GROUND_TILES, GROUND_TILES, 1))
         self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
         occ_rng = np.random.default_rng(seed + 1)
         self.occluder_tex = [
@@ -299,9 +304,16 @@ class Renderer:
         # half-res pixel (i, j) has its centre at full-res (2 i + 0.5, 2 j + 0.5 + v0)
         shift = np.array([[0.5, 0.0, -0.25], [0.0, 0.5, -0.5 * v0 - 0.25], [0.0, 0.0, 1.0]])
         h, w = img.shape[0] - v0, img.shape[1]
+        M = shift @ Hg
+        # move by whole texture periods so the floor seen mid-image is in the middle tile
+        q = np.linalg.solve(M, np.array([w / 4.0, h / 4.0, 1.0]))
+        ph, pw = self.ground_tex.shape[:2]
+        kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
+        ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
+        M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
         half = cv2.warpPerspective(
-            self.ground_tex,
-            shift @ Hg,
+            self._ground_tiles,
+            M,
             ((w + 1) // 2, (h + 1) // 2),
             flags=cv2.INTER_LINEAR,
             borderMode=cv2.BORDER_WRAP,

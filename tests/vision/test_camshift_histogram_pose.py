@@ -117,3 +117,18 @@ def test_pose_of_a_rendered_banner_within_tolerance(renderer: Renderer, rng: flo
     assert math.degrees(abs(b - truth.bearing_rad)) < 1.0
     # IPPE's two mirror solutions are close for a small banner: the heading is the weak part
     assert math.degrees(abs(rel - truth.rel_heading_rad)) < 20.0
+
+
+@pytest.mark.parametrize("ground", ["concrete", "checker", "carpet"])
+def test_tiled_floor_draws_the_same_picture_as_wrapping_one_tile(ground: str) -> None:
+    # the 3 x 3 tiling is only a speed-up: the periodic floor must look as a wrapped single tile
+    tiled = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
+    single = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
+    single._ground_tiles = single.ground_tex
+    lead = VehiclePose(0.0, 0.0, 0.0)
+    for i in range(20):
+        me = VehiclePose(-1.5 + 37.3 * i, -11.1 * i, 0.7 * i, banner=False)
+        a, _ = tiled.render(i / 30, me, [lead], 0)
+        b, _ = single.render(i / 30, me, [lead], 0)
+        diff = np.abs(a.astype(int) - b.astype(int))
+        assert diff.max() <= 1 and np.mean(diff > 0) < 1e-3
