@@ -499,9 +499,9 @@ class Renderer:
             for plane, name in self._vehicle_planes(v):
                 # back-face culling: faces are laid out as seen from outside (texture x to the
                 # viewer's right, y down), so ax x ay points into the box, away from a viewer
-                corners = plane.corners()
-                normal = np.cross(corners[1] - corners[0], corners[3] - corners[0])
-                centre = corners.mean(axis=0)
+                (ax0, ax1, ax2), (ay0, ay1, ay2) = plane.ax.tolist(), plane.ay.tolist()
+                normal = np.array([ax1 * ay2 - ax2 * ay1, ax2 * ay0 - ax0 * ay2, ax0 * ay1 - ax1 * ay0])
+                centre = plane.corners().mean(axis=0)
                 if np.dot(normal, centre - c) <= 0:
                     continue
                 items.append(
