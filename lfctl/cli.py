@@ -377,7 +377,7 @@ def cmd_gcs(args: argparse.Namespace) -> int:
     from lfctl.link.gcs import GroundStation
     from lfctl.link.mission import load_mission, save_mission
 
-    key = signing_key_from_passphrase(args.signing_passphrase) if args.signing_passphrase else None
+    key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         hb = gcs.wait_heartbeat()
@@ -496,6 +496,7 @@ def cmd_follow(args: argparse.Namespace) -> int:
     from lfctl.config import CameraConfig, load_config
     from lfctl.guidance.formation import FormationController
     from lfctl.link.companion import RoverLink, follow_loop
+    from lfctl.link.endpoint import signing_key_from_passphrase
     from lfctl.sim.camera import BANNER_BACK_M, CameraModel
     from lfctl.sim.runner import formation_settings
     from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
@@ -549,7 +550,12 @@ def cmd_follow(args: argparse.Namespace) -> int:
     controller = FormationController(
         formation_settings(cfg, slot_range, math.radians(args.bearing), cfg.guidance.controller)
     )
-    rover = RoverLink(args.mavlink, target_system=args.target, timeout_s=args.timeout)
+    rover = RoverLink(
+        args.mavlink,
+        target_system=args.target,
+        timeout_s=args.timeout,
+        signing_key=signing_key_from_passphrase(args.signing_passphrase),
+    )
     try:
         rover.start()
         rover.set_guided()
@@ -759,6 +765,7 @@ def build_parser() -> argparse.ArgumentParser:
     fo.add_argument("--rate", type=float, default=20.0, help="setpoint rate, Hz (10-20; default 20)")
     fo.add_argument("--arm", action="store_true", help="also arm the rover (default: you arm it)")
     fo.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the rover's heartbeat")
+    fo.add_argument("--signing-passphrase", help="MAVLink 2 signing: the passphrase the rover's key was set up with")
     fo.add_argument("--max-frames", type=int, help="stop after this many camera frames")
     fo.add_argument("--steps", type=int, help="stop after this many setpoints")
     fo.set_defaults(func=cmd_follow)

@@ -39,8 +39,10 @@ class RoverOdometry:
 class RoverLink:
     """A MAVLink connection to the rover as its companion computer (component 191)."""
 
-    def __init__(self, connect: str, target_system: int = 1, timeout_s: float = 10.0) -> None:
-        self.conn = open_connection(connect, target_system, COMPANION_COMPID)
+    def __init__(
+        self, connect: str, target_system: int = 1, timeout_s: float = 10.0, signing_key: bytes | None = None
+    ) -> None:
+        self.conn = open_connection(connect, target_system, COMPANION_COMPID, signing_key)
         self.target = target_system
         self.timeout_s = timeout_s
         self.odom = RoverOdometry()

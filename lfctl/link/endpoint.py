@@ -659,9 +659,10 @@ class VehicleEndpoint:
             )
 
 
-def signing_key_from_passphrase(passphrase: str) -> bytes:
-    """The 32-byte MAVLink 2 signing key of a passphrase (SHA-256, as MAVProxy's `signing setup`)."""
-    return hashlib.sha256(passphrase.encode()).digest()
+def signing_key_from_passphrase(passphrase: str | None) -> bytes | None:
+    """The 32-byte MAVLink 2 signing key of a passphrase (SHA-256, as MAVProxy's `signing setup`);
+    None (no signing) for no or an empty passphrase."""
+    return hashlib.sha256(passphrase.encode()).digest() if passphrase else None
 
 
 def setup_signing(m: Any, key: bytes) -> None:

@@ -25,17 +25,21 @@ def _result_name(enum: str, value: int) -> str:
     return e.name if e is not None else str(value)
 
 
-def open_connection(connect: str, sysid: int, compid: int) -> Any:
-    """A pymavlink connection (ardupilotmega dialect) as ``sysid``/``compid``, or LinkTimeoutError."""
+def open_connection(connect: str, sysid: int, compid: int, signing_key: bytes | None = None) -> Any:
+    """A pymavlink connection (ardupilotmega dialect) as ``sysid``/``compid``, signing with
+    ``signing_key`` when given, or LinkTimeoutError."""
     # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
     # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
     os.environ["MAVLINK20"] = "1"
     try:
-        return mavutil.mavlink_connection(
+        conn = mavutil.mavlink_connection(
             connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
         )
     except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
         raise LinkTimeoutError(f"cannot open MAVLink connection {connect!r}: {exc}") from exc
+    if signing_key is not None:
+        setup_signing(conn.mav, signing_key)
+    return conn
 
 
 class GroundStation:
@@ -58,10 +62,8 @@ class GroundStation:
         self.pump = pump
         self._hb_at = -math.inf
         if isinstance(connect, str):
-            self.conn: Any = open_connection(connect, GCS_SYSID, GCS_COMPID)
+            self.conn: Any = open_connection(connect, GCS_SYSID, GCS_COMPID, signing_key)
             self.mav = self.conn.mav
-            if signing_key is not None:
-                setup_signing(self.mav, signing_key)
             self.link = None
         else:
             self.conn = None

@@ -100,7 +100,7 @@ class Links:
                 self.udp.append(udp)
                 link = Fanout(udp, end)
             ep_tap = (lambda d, m, raw, _n=v.name: tap(_n, d, m, raw)) if tap is not None else None
-            key = signing_key_from_passphrase(lc.signing_passphrase) if (realtime and lc.signing_passphrase) else None
+            key = signing_key_from_passphrase(lc.signing_passphrase) if realtime else None
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
             if realtime and gcs_out:
                 ep.forward = udp.send

@@ -11,21 +11,26 @@ import cv2
 import pytest
 
 from lfctl.cli import main
-from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.link.endpoint import MODES, VehicleEndpoint, signing_key_from_passphrase
 from lfctl.link.transport import UdpLink
 from lfctl.sim.sequences import make_sequence
 
 pytestmark = pytest.mark.integration
 
 
-def test_follow_drives_a_guided_rover_from_video(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("passphrase", [None, "convoy-7"])
+def test_follow_drives_a_guided_rover_from_video(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], passphrase: str | None
+) -> None:
+    # with a passphrase the rover signs and takes only signed packets: the companion must sign
     video = tmp_path / "leader.avi"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
     for _t, frame, _truth in make_sequence("clear", 1, 40).frames():
         writer.write(frame)
     writer.release()
     udp = UdpLink(("127.0.0.1", 0))
-    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0))
+    key = signing_key_from_passphrase(passphrase)
+    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=key)
     received: list[tuple[float, float]] = []
     names: set[str] = set()
     rover.tap = lambda d, m, raw: names.add(m.get_type()) if d == "in" else None
@@ -58,6 +63,7 @@ def test_follow_drives_a_guided_rover_from_video(tmp_path: Path, capsys: pytest.
                 "30",
                 "--timeout",
                 "5",
+                *(["--signing-passphrase", passphrase] if passphrase else []),
             ]
         )
     finally:
