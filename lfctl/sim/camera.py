@@ -28,6 +28,7 @@ from lfctl.frames import rot_z, wrap_pi
 
 NEAR_M = 0.05
 GROUND_TILES = 3  # the floor texture tiled GROUND_TILES x GROUND_TILES for the fast warp path
+GROUND_LEVELS = 4  # floor mip levels: full, 1/2, 1/4, 1/8 of the texture's resolution
 BODY_LENGTH_M, BODY_WIDTH_M, BODY_BOTTOM_M, BODY_TOP_M = 0.30, 0.22, 0.03, 0.14
 #: where the banner panel sits, behind the vehicle's reference point (body frame x), m
 BANNER_BACK_M = -BODY_LENGTH_M / 2 - 0.005
@@ -152,6 +153,19 @@ def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generato
     return _noise_texture(rng, h, w, (60, 110, 150), 15.0, 2)  # box: cardboard
 
 
+def _periodic_pyramid(tex: np.ndarray, levels: int) -> list[np.ndarray]:
+    """Mip levels of a periodic texture that stay periodic (each pyrDown sees the wrap)."""
+    out = [tex]
+    while len(out) < levels:
+        h, w = out[-1].shape[:2]
+        if h % 2 or w % 2 or min(h, w) < 16:
+            break
+        # filter a 3 x 3 tiling and keep the middle tile: no reflected border at the seams
+        down = cv2.pyrDown(np.tile(out[-1], (3, 3, 1)))
+        out.append(down[h // 2 : h, w // 2 : w].copy())
+    return out
+
+
 # ---------------------------------------------------------------------------------------
 # Geometry helpers
 
@@ -238,10 +252,11 @@ class Renderer:
         rng = np.random.default_rng(seed)
         self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
-        # the tileable floor repeated 3 x 3: warpPerspective's fast path only samples inside
-        # the source image, and wrapping costs ~5x per pixel; centred on the visible floor,
-        # most samples land inside and the picture is the same (the texture is periodic)
-        self._ground_tiles = np.tile(self.ground_tex, (GROUND_TILES, GROUND_TILES, 1))
+        self._ground_levels = _periodic_pyramid(self.ground_tex, GROUND_LEVELS)
+        # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
+        # source image, and wrapping costs ~5x per pixel; centred on the visible floor, most
+        # samples land inside and the picture is the same (the texture is periodic)
+        self._ground_tiles = [np.tile(t, (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels]
         self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
         occ_rng = np.random.default_rng(seed + 1)
         self.occluder_tex = [
@@ -257,8 +272,14 @@ class Renderer:
             n = np.round(noise_rng.normal(0, camera.noise_sigma, (h, w, 3)))
             self._noise.append((np.clip(n, 0, 255).astype(np.uint8), np.clip(-n, 0, 255).astype(np.uint8)))
         self._frame_rng = np.random.default_rng(seed + 3)
-        self._sky = self._sky_image()
-        self._ground_rows = self._ground_mask_rows()
+        # the background (sky, floor and the props behind every vehicle) is drawn at half
+        # resolution and scaled up: _half_K maps the scene into that layer exactly as
+        # cv2.resize maps the layer back (pixel centres at (x + 0.5) * scale - 0.5)
+        self._half_size = ((w + 1) // 2, (h + 1) // 2)
+        sx, sy = self._half_size[0] / w, self._half_size[1] / h
+        self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
+        self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
+        self._ground_bands = self._ground_band_levels()
         self._undistort_maps = None
         if abs(camera.k1) > 0 or abs(camera.k2) > 0:
             # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
@@ -275,58 +296,79 @@ class Renderer:
         img = top + (bottom - top) * ramp[..., None]
         return np.broadcast_to(img, (h, w, 3)).astype(np.uint8).copy()
 
-    def _ground_mask_rows(self) -> int:
-        """First image row that sees the ground everywhere (the horizon does not depend on yaw)."""
-        Kinv = np.linalg.inv(self.cam.K)
+    def _ground_band_levels(self) -> list[tuple[int, int, int]]:
+        """Bands of half-resolution rows that see the floor, each with the mip level to draw it at.
+
+        The camera moves in the plane at a fixed height and pitch, so the floor's distance in
+        each image row, and the size of a pixel's footprint on it, never change: the level
+        whose texel is about one footprint (geometric mean of its two sides) is chosen per
+        row once. Far rows take coarse levels, which is what a pixel integrating light
+        over a long footprint sees, and keeps the warp's reads in cache.
+        """
+        Kinv = np.linalg.inv(self._half_K)
         R = self.cam.R_body_from_cam
-        for v in range(self.cfg.height_px):
-            rays = R @ Kinv @ np.array([[0.0, self.cfg.width_px - 1.0], [v, v], [1.0, 1.0]])
-            if np.all(rays[2] > 1e-6):
-                return v
-        return self.cfg.height_px
+        height = -float(self.cam.mount_body_m[2])
+        w, h = self._half_size
+        cx = self._half_K[0, 2]
+        rows: list[tuple[int, int]] = []
+        for r in range(h):
+            rays = R @ Kinv @ np.array([[0.0, w - 1.0, cx, cx + 1.0, cx], [r, r, r, r, r + 1.0], [1.0] * 5])
+            if not np.all(rays[2] > 1e-6):
+                continue
+            hits = rays[:2] * (height / rays[2])  # body-frame floor points, m
+            across = float(np.linalg.norm(hits[:, 3] - hits[:, 2]))
+            along = float(np.linalg.norm(hits[:, 4] - hits[:, 2]))
+            texels = math.sqrt(across * along) * self.ground_px_per_m
+            level = min(len(self._ground_levels) - 1, max(0, math.floor(math.log2(max(texels, 1.0)))))
+            rows.append((r, level))
+        bands: list[tuple[int, int, int]] = []
+        for r, level in rows:
+            if bands and bands[-1][2] == level and bands[-1][1] == r:
+                bands[-1] = (bands[-1][0], r + 1, level)
+            else:
+                bands.append((r, r + 1, level))
+        return bands
 
     # -- painting ----------------------------------------------------------------------
     def _project(self, R: np.ndarray, c: np.ndarray, pts: np.ndarray) -> np.ndarray:
         cam = (R @ (pts - c).T).T
         return cam
 
-    def _paint_ground(self, img: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
-        v0 = self._ground_rows
-        if v0 >= img.shape[0]:
-            return
-        # image -> ground: ray from the camera centre hits z = 0
-        K = self.cam.K
+    def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
+        """Draw the floor into the half-resolution background layer, band by band."""
         s = self.ground_px_per_m
-        # texture pixel (a, b) is the world point (a / s, b / s, 0)
-        P = K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
+        # texture pixel (a, b) of level 0 is the world point (a / s, b / s, 0)
+        P = self._half_K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
         Hg = P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-        # the floor is background: warp it at half resolution and scale up (4x fewer samples);
-        # half-res pixel (i, j) has its centre at full-res (2 i + 0.5, 2 j + 0.5 + v0)
-        shift = np.array([[0.5, 0.0, -0.25], [0.0, 0.5, -0.5 * v0 - 0.25], [0.0, 0.0, 1.0]])
-        h, w = img.shape[0] - v0, img.shape[1]
-        M = shift @ Hg
-        # move by whole texture periods so the floor seen mid-image is in the middle tile
-        q = np.linalg.solve(M, np.array([w / 4.0, h / 4.0, 1.0]))
-        ph, pw = self.ground_tex.shape[:2]
-        kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
-        ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
-        M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
-        half = cv2.warpPerspective(
-            self._ground_tiles,
-            M,
-            ((w + 1) // 2, (h + 1) // 2),
-            flags=cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_WRAP,
-        )
-        cv2.resize(half, (w, h), dst=img[v0:], interpolation=cv2.INTER_LINEAR)
+        w = layer.shape[1]
+        for r0, r1, level in self._ground_bands:
+            k = 2**level
+            # texel i of this level covers level-0 texels k i .. k i + k - 1: centre k i + (k - 1) / 2
+            to_level = np.array([[k, 0.0, (k - 1) / 2.0], [0.0, k, (k - 1) / 2.0], [0.0, 0.0, 1.0]])
+            M = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]]) @ Hg @ to_level
+            # move by whole texture periods so the floor seen mid-band is in the middle tile
+            q = np.linalg.solve(M, np.array([w / 2.0, (r1 - r0) / 2.0, 1.0]))
+            ph, pw = self._ground_levels[level].shape[:2]
+            kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
+            ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
+            M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
+            cv2.warpPerspective(
+                self._ground_tiles[level],
+                M,
+                (w, r1 - r0),
+                dst=layer[r0:r1],
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_WRAP,
+            )
 
-    def _paint_plane(self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane) -> np.ndarray | None:
-        """Warp a plane into the image; returns its image polygon (or None if not visible)."""
+    def _paint_plane(
+        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane, K: np.ndarray
+    ) -> np.ndarray | None:
+        """Warp a plane into ``img`` (intrinsics ``K``); returns its image polygon (or None if not visible)."""
         cam_pts = self._project(R, c, plane.corners())
         clipped = _clip_near(cam_pts)
         if len(clipped) < 3:
             return None
-        K = self.cam.K
         uv = (K @ clipped.T).T
         poly = uv[:, :2] / uv[:, 2:3]
         H_img, W_img = img.shape[:2]
@@ -341,7 +383,7 @@ class Renderer:
         sub = img[y0:y1, x0:x1]
         mask = np.zeros(sub.shape[:2], np.uint8)
         cv2.fillPoly(mask, [np.round((poly - [x0, y0]) * 16).astype(np.int32)], 255, cv2.LINE_8, shift=4)
-        tex, ax, ay, origin = self._mip_level(plane, R, c)
+        tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
         # homography texture -> image: K [R ax, R ay, R (o - c)], then shift to the ROI
         Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
         Hp = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
@@ -352,7 +394,7 @@ class Renderer:
         return poly
 
     def _mip_level(
-        self, plane: Plane, R: np.ndarray, c: np.ndarray
+        self, plane: Plane, R: np.ndarray, c: np.ndarray, fx: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The pyramid level of the plane's texture whose texels are about a pixel on screen.
 
@@ -366,7 +408,7 @@ class Renderer:
         depth = float((R @ (centre - c))[2])
         if depth <= NEAR_M:
             return plane.texture, plane.ax, plane.ay, plane.origin
-        texel_px = self.cam.K[0, 0] * max(float(np.linalg.norm(plane.ax)), float(np.linalg.norm(plane.ay))) / depth
+        texel_px = fx * max(float(np.linalg.norm(plane.ax)), float(np.linalg.norm(plane.ay))) / depth
         level = 0
         while texel_px * (2 ** (level + 1)) <= 1.0 and level < 4:
             level += 1
@@ -489,8 +531,8 @@ class Renderer:
     ) -> tuple[np.ndarray, FrameTruth]:
         """Render the follower's view at ``t_s``; ``others[target_index]`` is the tracked target."""
         R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
-        img = self._sky.copy()
-        self._paint_ground(img, R, c)
+        layer = self._sky_half.copy()
+        self._paint_ground(layer, R, c)
         target = others[target_index]
         items: list[tuple[float, Plane, str]] = []
         for p in self._props(t_s):
@@ -514,10 +556,15 @@ class Renderer:
         for p in self._occluders(t_s, follower, target, follower_name):
             items.append((float(np.linalg.norm(p.corners().mean(axis=0) - c)), p, "occluder"))
         items.sort(key=lambda x: -x[0])
+        # props farther than every vehicle and occluder are background: into the layer
+        n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))
+        for _depth, plane, _kind in items[:n_back]:
+            self._paint_plane(layer, R, c, plane, self._half_K)
+        img = cv2.resize(layer, (self.cfg.width_px, self.cfg.height_px), interpolation=cv2.INTER_LINEAR)
         target_poly = None
         nearer_polys: list[np.ndarray] = []
-        for _depth, plane, kind in items:
-            poly = self._paint_plane(img, R, c, plane)
+        for _depth, plane, kind in items[n_back:]:
+            poly = self._paint_plane(img, R, c, plane, self.cam.K)
             if kind == "target":
                 target_poly = poly
             elif poly is not None and target_poly is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import cv2
@@ -124,7 +125,7 @@ def test_tiled_floor_draws_the_same_picture_as_wrapping_one_tile(ground: str) ->
     # the 3 x 3 tiling is only a speed-up: the periodic floor must look as a wrapped single tile
     tiled = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
     single = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
-    single._ground_tiles = single.ground_tex
+    single._ground_tiles = single._ground_levels
     lead = VehiclePose(0.0, 0.0, 0.0)
     for i in range(20):
         me = VehiclePose(-1.5 + 37.3 * i, -11.1 * i, 0.7 * i, banner=False)
@@ -132,3 +133,25 @@ def test_tiled_floor_draws_the_same_picture_as_wrapping_one_tile(ground: str) ->
         b, _ = single.render(i / 30, me, [lead], 0)
         diff = np.abs(a.astype(int) - b.astype(int))
         assert diff.max() <= 1 and np.mean(diff > 0) < 1e-3
+
+
+@pytest.mark.parametrize("ground", ["concrete", "checker", "carpet"])
+def test_floor_mip_levels_tile_without_a_seam(ground: str) -> None:
+    # each level is filtered as if the floor went on forever: two tiles of level L side by
+    # side are what filtering a wide patch of level L - 1 gives, seam included
+    levels = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)._ground_levels
+    assert len(levels) == 4
+    for fine, coarse in itertools.pairwise(levels):
+        h, w = fine.shape[:2]
+        wide = cv2.pyrDown(np.tile(fine, (4, 4, 1)))[h // 2 : h // 2 + h, w // 2 : w // 2 + w]
+        assert np.array_equal(wide, np.tile(coarse, (2, 2, 1)))
+        assert abs(float(fine.mean()) - float(coarse.mean())) < 1.0
+
+
+def test_floor_is_coarser_towards_the_horizon() -> None:
+    r = Renderer(CameraConfig(), BannerConfig(), SceneConfig(), 7)
+    bands = r._ground_bands
+    levels = [level for _, _, level in bands]
+    assert levels == sorted(levels, reverse=True) and levels[0] == 3 and levels[-1] == 0
+    # contiguous, down to the bottom row of the half-resolution layer
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(bands)) and bands[-1][1] == r._half_size[1]
