@@ -19,6 +19,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -195,14 +196,40 @@ class Plane:
     texture: np.ndarray | None  # None: flat colour
     colour: tuple[int, int, int] = (0, 0, 0)
 
+    @cached_property
     def corners(self) -> np.ndarray:
+        """World corners (4, 3): origin, along x, opposite, along y."""
         h, w = (self.texture.shape[:2]) if self.texture is not None else (1, 1)
         o, ax, ay = self.origin, self.ax * w, self.ay * h
         return np.array([o, o + ax, o + ax + ay, o + ay])
 
+    @cached_property
+    def centre(self) -> np.ndarray:
+        return self.corners.mean(axis=0)
+
 
 # ---------------------------------------------------------------------------------------
 # Frame truth and vehicles
+
+
+def _box_faces() -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int, int], ...], tuple[str, ...]]:
+    """The body box's faces in the body frame (FRD): corners laid out as seen from outside
+    (first to second: the viewer's right; first to fourth: down), outward normals, colours."""
+    L, W = BODY_LENGTH_M / 2, BODY_WIDTH_M / 2
+    zt, zb = -BODY_TOP_M, -BODY_BOTTOM_M
+    faces = {
+        "back": ([(-L, -W, zt), (-L, W, zt), (-L, W, zb), (-L, -W, zb)], (-1, 0, 0), (55, 55, 60)),
+        "front": ([(L, W, zt), (L, -W, zt), (L, -W, zb), (L, W, zb)], (1, 0, 0), (60, 60, 65)),
+        "left": ([(L, -W, zt), (-L, -W, zt), (-L, -W, zb), (L, -W, zb)], (0, -1, 0), (45, 45, 50)),
+        "right": ([(-L, W, zt), (L, W, zt), (L, W, zb), (-L, W, zb)], (0, 1, 0), (45, 45, 50)),
+        "top": ([(-L, -W, zt), (L, -W, zt), (L, W, zt), (-L, W, zt)], (0, 0, -1), (80, 80, 85)),
+    }
+    corners = np.array([f[0] for f in faces.values()], dtype=float)
+    normals = np.array([f[1] for f in faces.values()], dtype=float)
+    return corners, normals, tuple(f[2] for f in faces.values()), tuple(faces)
+
+
+_BOX_FACES, _BOX_NORMALS, _BOX_COLOURS, _BOX_NAMES = _box_faces()
 
 
 @dataclass(frozen=True)
@@ -365,7 +392,7 @@ class Renderer:
         self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane, K: np.ndarray
     ) -> np.ndarray | None:
         """Warp a plane into ``img`` (intrinsics ``K``); returns its image polygon (or None if not visible)."""
-        cam_pts = self._project(R, c, plane.corners())
+        cam_pts = self._project(R, c, plane.corners)
         clipped = _clip_near(cam_pts)
         if len(clipped) < 3:
             return None
@@ -404,7 +431,7 @@ class Renderer:
         (a mip level, cv2.pyrDown) is the cheap equivalent.
         """
         assert plane.texture is not None
-        centre = plane.corners().mean(axis=0)
+        centre = plane.centre
         depth = float((R @ (centre - c))[2])
         if depth <= NEAR_M:
             return plane.texture, plane.ax, plane.ay, plane.origin
@@ -425,34 +452,29 @@ class Renderer:
         origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
         return pyr[level], plane.ax * k, plane.ay * k, origin
 
-    def _vehicle_planes(self, v: VehiclePose) -> list[tuple[Plane, str]]:
-        """The vehicle's box faces (flat shaded) and its banner, in world coordinates."""
+    def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane, str]]:
+        """The vehicle's box faces (flat shaded) and banner that face the camera at ``c``, with distances."""
         Rz = rot_z(v.yaw_rad)
-        base = np.array([v.north_m, v.east_m, 0.0])
-        L, W = BODY_LENGTH_M / 2, BODY_WIDTH_M / 2
-        zt, zb = -BODY_TOP_M, -BODY_BOTTOM_M
-
-        def P(x: float, y: float, z: float) -> np.ndarray:
-            return base + Rz @ np.array([x, y, z])
-
-        faces = {
-            "back": ([P(-L, -W, zt), P(-L, W, zt), P(-L, W, zb), P(-L, -W, zb)], (55, 55, 60)),
-            "front": ([P(L, W, zt), P(L, -W, zt), P(L, -W, zb), P(L, W, zb)], (60, 60, 65)),
-            "left": ([P(L, -W, zt), P(-L, -W, zt), P(-L, -W, zb), P(L, -W, zb)], (45, 45, 50)),
-            "right": ([P(-L, W, zt), P(L, W, zt), P(L, W, zb), P(-L, W, zb)], (45, 45, 50)),
-            "top": ([P(-L, -W, zt), P(L, -W, zt), P(L, W, zt), P(-L, W, zt)], (80, 80, 85)),
-        }
+        pts = np.array([v.north_m, v.east_m, 0.0]) + _BOX_FACES @ Rz.T  # (5, 4, 3) world corners
+        centres = pts.mean(axis=1)
+        outward = _BOX_NORMALS @ Rz.T
+        # back-face culling: a face is seen only from the side its outward normal points to
+        facing = np.einsum("ij,ij->i", outward, c - centres) > 0
+        dist = np.linalg.norm(centres - c, axis=1)
         out = []
-        for name, (pts, colour) in faces.items():
-            o = pts[0]
-            out.append((Plane(o, pts[1] - pts[0], pts[3] - pts[0], None, colour), name))
+        for k in np.flatnonzero(facing):
+            p = pts[k]
+            out.append((float(dist[k]), Plane(p[0], p[1] - p[0], p[3] - p[0], None, _BOX_COLOURS[k]), _BOX_NAMES[k]))
         if v.banner:
             centre, right, down = banner_geometry(v, self.banner)
-            size = self.banner_tex.shape[0]
-            half = self.banner.panel_size_m / 2
-            origin = centre - right * half - down * half
-            px = self.banner.panel_size_m / size
-            out.append((Plane(origin, right * px, down * px, self.banner_tex), "banner"))
+            if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
+                size = self.banner_tex.shape[0]
+                half = self.banner.panel_size_m / 2
+                origin = centre - right * half - down * half
+                px = self.banner.panel_size_m / size
+                # 1 cm nearer than the back face it is mounted on, so it is painted after it
+                plane = Plane(origin, right * px, down * px, self.banner_tex)
+                out.append((float(np.linalg.norm(plane.centre - c)) - 0.01, plane, "banner"))
         return out
 
     def _occluders(self, t_s: float, follower: VehiclePose, target: VehiclePose, follower_name: str) -> list[Plane]:
@@ -536,25 +558,12 @@ class Renderer:
         target = others[target_index]
         items: list[tuple[float, Plane, str]] = []
         for p in self._props(t_s):
-            items.append((float(np.linalg.norm(p.corners().mean(axis=0) - c)), p, "prop"))
+            items.append((float(np.linalg.norm(p.centre - c)), p, "prop"))
         for i, v in enumerate(others):
-            for plane, name in self._vehicle_planes(v):
-                # back-face culling: faces are laid out as seen from outside (texture x to the
-                # viewer's right, y down), so ax x ay points into the box, away from a viewer
-                (ax0, ax1, ax2), (ay0, ay1, ay2) = plane.ax.tolist(), plane.ay.tolist()
-                normal = np.array([ax1 * ay2 - ax2 * ay1, ax2 * ay0 - ax0 * ay2, ax0 * ay1 - ax1 * ay0])
-                centre = plane.corners().mean(axis=0)
-                if np.dot(normal, centre - c) <= 0:
-                    continue
-                items.append(
-                    (
-                        float(np.linalg.norm(centre - c)) - (0.01 if name == "banner" else 0.0),
-                        plane,
-                        "target" if (name == "banner" and i == target_index) else name,
-                    )
-                )
+            for dist, plane, name in self._vehicle_faces(v, c):
+                items.append((dist, plane, "target" if (name == "banner" and i == target_index) else name))
         for p in self._occluders(t_s, follower, target, follower_name):
-            items.append((float(np.linalg.norm(p.corners().mean(axis=0) - c)), p, "occluder"))
+            items.append((float(np.linalg.norm(p.centre - c)), p, "occluder"))
         items.sort(key=lambda x: -x[0])
         # props farther than every vehicle and occluder are background: into the layer
         n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -61,8 +62,16 @@ class CameraSensor:
             t_s, TrackStatus.TRACKING, math.nan, math.atan2(ray_body[1], ray_body[0]), 0.3 * track.quality
         )
 
-    def capture(self, t_s: float, world: WorldState, me: int, target: int) -> CameraSample:
-        """Render, track and estimate at ``t_s``."""
+    def capture(
+        self,
+        t_s: float,
+        world: WorldState,
+        me: int,
+        target: int,
+        on_render: Callable[[float, np.ndarray], None] | None = None,
+    ) -> CameraSample:
+        """Render, track and estimate at ``t_s``; ``on_render(t_s, frame)`` is called between
+        rendering and tracking (the recorder starts encoding the frame there)."""
         others, index = [], -1
         for i in range(len(world.names)):
             if i == me:
@@ -79,6 +88,9 @@ class CameraSensor:
         frame, truth = self.renderer.render(t_s, own, others, index, self.follower, float(world.yaw_rate_radps[me]))
         t1 = time.perf_counter()
         self.render_s += t1 - t0
+        if on_render is not None:
+            on_render(t_s, frame)
+            t1 = time.perf_counter()
         track: TrackState | None
         if not self.started:
             track = self.tracker.init_from_markers(frame)

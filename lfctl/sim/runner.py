@@ -374,7 +374,13 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
         def cameras(t_s: float) -> None:
             world = sim.state()
             for me, target, sensor, _ctl, _tr in followers:
-                sample = sensor.capture(t_s, world, me, target)
+                sample = sensor.capture(
+                    t_s,
+                    world,
+                    me,
+                    target,
+                    None if recorder is None else lambda t, frame, name=sensor.follower: recorder.image(t, name, frame),
+                )
                 if on_frame is not None:
                     on_frame(sensor.follower, sample)
                 if recorder is not None:

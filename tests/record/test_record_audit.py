@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import os
@@ -12,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
@@ -236,3 +238,19 @@ def test_a_flipped_byte_in_the_summary_is_caught_by_its_crc(truth_log, tmp_path:
     bad.write_bytes(bytes(data))
     rep = audit(bad)
     assert any("summary CRC" in f.what for f in rep.findings if f.level == "error")
+
+
+@pytest.mark.parametrize(("image_rate_hz", "expected"), [(30.0, 1800), (10.0, 600), (7.0, 420)])
+def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_rate_hz: float, expected: int) -> None:
+    # a 30 Hz camera on 100 Hz physics ticks 0.03 or 0.04 s apart; 60 s must give the
+    # configured image rate, not the rate of the shorter gap (30 Hz used to record 20)
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_rate_hz=image_rate_hz))
+    ticks = sorted({math.ceil(k / 30.0 * 100 - 1e-9) / 100 for k in range(1800)})
+    assert {round(b - a, 2) for a, b in itertools.pairwise(ticks)} == {0.03, 0.04}
+    with Recorder(tmp_path / "r.mcap", cfg) as rec:
+        taken = [t for t in ticks if rec._image_due(t, "follower1")]
+    assert abs(len(taken) - expected) <= 1
+    gaps = np.diff(taken)
+    # evenly spread: within a camera period plus a physics step of each other
+    assert gaps.max() - gaps.min() <= 1 / 30 + 0.011
