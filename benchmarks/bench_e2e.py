@@ -37,25 +37,27 @@ def measure(name: str, duration: float, tmp: str) -> dict:
     with Recorder(Path(tmp) / f"{name}.mcap", cfg) as rec:
         report = run_scenario(cfg, recorder=rec)
     wall = time.perf_counter() - t0
-    tasks = report.result.extra["task_time_s"]
-    render = report.result.extra.get("render_s", 0.0)
-    camera_total = tasks.get("camera", 0.0)
-    rec_cam = report.result.extra.get("record_camera_s", 0.0)
+    extra = report.result.extra
+    tasks = extra["task_time_s"]
+    # render, vision and JPEG encoding are summed over the camera processes (CPU seconds);
+    # the rest runs in the main process
     split = {
         "physics": tasks.get("physics", 0.0),
-        "render": render,
-        "vision": camera_total - render - rec_cam,
+        "render": extra["render_s"],
+        "vision": extra["vision_s"],
         "guidance": tasks.get("guidance", 0.0),
         "link": tasks.get("link", 0.0),
-        "recording": tasks.get("record", 0.0) + rec_cam,
+        "recording": tasks.get("record", 0.0) + extra["record_camera_s"] + extra["encode_s"],
     }
-    split["other"] = max(0.0, wall - sum(split.values()))
+    main_process = sum(split.values()) - extra["render_s"] - extra["vision_s"] - extra["encode_s"]
+    split["other"] = max(0.0, wall - main_process - (tasks.get("camera", 0.0) - extra["record_camera_s"]))
     return {
         "scenario": name,
         "followers": len(cfg.followers),
         "sim_s": duration,
         "wall_s": wall,
         "real_time_factor": duration / wall,
+        "camera_workers": extra["camera_workers"],
         "split_s": split,
     }
 

@@ -46,9 +46,14 @@ class SimConfig:
     camera_rate_hz: float = 30.0
     telemetry_rate_hz: float = 10.0
     sensing: Literal["truth", "camera"] = "truth"
+    #: processes besides the main one that render and track followers' cameras: -1 one per
+    #: spare core (at most one per follower beyond the first), 0 none
+    camera_workers: int = -1
 
     def __post_init__(self) -> None:
         _positive("sim.dt_s", self.dt_s)
+        if self.camera_workers < -1:
+            raise ConfigError(f"sim.camera_workers must be -1 (auto), 0 or more, got {self.camera_workers!r}")
         if self.dt_s > 1.0:
             raise ConfigError(f"sim.dt_s must be <= 1 s, got {self.dt_s!r}")
         _positive("sim.duration_s", self.duration_s)

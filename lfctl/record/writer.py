@@ -25,11 +25,9 @@ import math
 import platform
 import subprocess
 import zipfile
-from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
@@ -205,9 +203,6 @@ class Recorder:
         self._channels: dict[str, int] = {}
         self._seq: dict[int, int] = {}
         self._next_image: dict[str, float] = {}  # per follower: when the next image is due, sim s
-        # JPEG encoding releases the GIL: one worker encodes a frame while the tracker runs
-        self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-jpeg")
-        self._encoding: dict[str, tuple[float, Future[tuple[bool, np.ndarray]]]] = {}
         self.messages = 0
         self.bytes_payload = 0
         self._closed = False
@@ -338,7 +333,7 @@ class Recorder:
             self._proto_channel(f"/{follower}/camera/calibration", CameraCalibration), t_s, cal.SerializeToString()
         )
 
-    def _image_due(self, t_s: float, follower: str) -> bool:
+    def image_due(self, t_s: float, follower: str) -> bool:
         """Whether this camera tick's frame is recorded: ``image_rate_hz`` on average, no drift.
 
         Camera ticks fall on physics steps, so their spacing jitters by a step (30 Hz on a
@@ -356,36 +351,18 @@ class Recorder:
         self._next_image[follower] = due + period if t_s - due < period else t_s + period
         return True
 
-    def image(self, t_s: float, follower: str, frame: np.ndarray) -> None:
-        """A new camera frame: if it is due, start encoding it now; :meth:`camera` writes it.
-
-        Call it as soon as the frame exists (before tracking) so that encoding overlaps the
-        tracker on another core. The frame must not change afterwards.
-        """
-        if follower in self._encoding or not self._image_due(t_s, follower):
-            return
-        quality = self.cfg.recording.jpeg_quality
-        job = self._encoder.submit(cv2.imencode, ".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, quality])
-        self._encoding[follower] = (t_s, job)
-
-    def camera(self, t_s: float, follower: str, sample: Any) -> None:
-        """One camera tick: image (rate-limited), annotations, tracker state, pose vs truth."""
+    def camera(self, t_s: float, follower: str, sample: Any, jpeg: bytes | None = None) -> None:
+        """One camera tick: the image (``jpeg``, encoded by the camera when :meth:`image_due`
+        said so), annotations, tracker state, pose vs truth."""
         t_ns = int(round(t_s * 1e9))
-        earlier = self._encoding.get(follower)
-        if earlier is None or earlier[0] != t_s:
-            self._encoding.pop(follower, None)  # a frame of a tick camera() never saw: not recorded
-            self.image(t_s, follower, sample.frame)
-        started = self._encoding.pop(follower, None)
-        if started is not None:
-            ok, jpg = started[1].result()
-            if ok:
-                img = CompressedImage(frame_id=f"{follower}/camera", format="jpeg", data=jpg.tobytes())
-                _ts(img.timestamp, t_ns)
-                self._write(
-                    self._proto_channel(f"/{follower}/camera/image/compressed", CompressedImage),
-                    t_s,
-                    img.SerializeToString(),
-                )
+        if jpeg is not None:
+            img = CompressedImage(frame_id=f"{follower}/camera", format="jpeg", data=jpeg)
+            _ts(img.timestamp, t_ns)
+            self._write(
+                self._proto_channel(f"/{follower}/camera/image/compressed", CompressedImage),
+                t_s,
+                img.SerializeToString(),
+            )
         track, truth = sample.track, sample.truth
         ann = ImageAnnotations()
         if track is not None and track.bbox is not None:
@@ -448,7 +425,6 @@ class Recorder:
             return
         self._closed = True
         try:
-            self._encoder.shutdown(wait=True, cancel_futures=True)
             self._w.finish()
         finally:
             self._f.close()

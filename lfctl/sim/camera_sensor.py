@@ -24,7 +24,7 @@ class CameraSample:
     """One camera tick: what was seen, how it was tracked, the pose and the truth."""
 
     t_s: float
-    frame: np.ndarray
+    frame: np.ndarray | None  # None when it came from a camera worker process (see camera_pool)
     track: TrackState | None
     pose: MarkerPose | None
     measurement: RelativeMeasurement
@@ -48,8 +48,8 @@ class CameraSensor:
         )
         self.started = False
         self.latest: CameraSample | None = None
-        self.render_s = 0.0  # wall time spent rendering / tracking (the cost split)
-        self.track_s = 0.0
+        self.render_s = 0.0  # seconds spent rendering, and tracking + pose (the cost split)
+        self.vision_s = 0.0
 
     def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
         """Bearing only, from the tracked window's centre column (its size says too little)."""
@@ -98,7 +98,6 @@ class CameraSensor:
         else:
             track = self.tracker.update(frame)
         pose = None
-        self.track_s += time.perf_counter() - t1  # tracking (the pose below is part of vision too)
         if track is not None and track.markers is not None:
             pose = pnp_pose(track.markers, self.cam.K, self.cam.dist, self.cfg.banner.side_m) or paper_pose(
                 track.markers, self.cam.K, self.cfg.banner.side_m
@@ -114,6 +113,7 @@ class CameraSensor:
             status = track.status if track is not None else TrackStatus.LOST
             meas = RelativeMeasurement(t_s, status if status is not TrackStatus.TRACKING else TrackStatus.OCCLUDED)
         self.latest = CameraSample(t_s, frame, track, pose, meas, truth)
+        self.vision_s += time.perf_counter() - t1
         return self.latest
 
     @property

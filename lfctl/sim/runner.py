@@ -22,7 +22,8 @@ from lfctl.guidance.smc import BearingGains, RangeGains
 from lfctl.link.endpoint import MODES, packet_record
 from lfctl.link.mission import Leg, to_legs
 from lfctl.record.writer import Recorder
-from lfctl.sim.camera_sensor import CameraSample, CameraSensor
+from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
+from lfctl.sim.camera_sensor import CameraSample
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.links import Links
 from lfctl.sim.scripted import scripted_command
@@ -234,14 +235,12 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
     ls = _LeaderState()
     commands: dict[int, tuple[float, float]] = {i: (0.0, 0.0) for i in range(len(sim.names))}
     followers = []
+    camera_seeds: list[tuple[str, int]] = []
     for v in cfg.followers:
         slot = slots[v.name]
         sensor_seed = int(rng.integers(2**31))
-        sensor = (
-            CameraSensor(cfg, v.name, sensor_seed)
-            if camera
-            else TruthSensor(cfg.sensing, np.random.default_rng(sensor_seed))
-        )
+        camera_seeds.append((v.name, sensor_seed))
+        sensor = None if camera else TruthSensor(cfg.sensing, np.random.default_rng(sensor_seed))
         followers.append(
             (
                 idx[v.name],
@@ -308,7 +307,7 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
                 )  # set from a GCS
                 tr.range_cmd_m, tr.bearing_cmd_rad = rng_cmd, brg_cmd
             if cfg.script.followers == "formation":
-                meas = sensor.measurement if camera else sensor.measure(t_s, world, me, target)
+                meas = pool.measurement(tr.name) if pool is not None else sensor.measure(t_s, world, me, target)
                 out_f = ctl.step(meas, Odometry(t_s, st.north_m, st.east_m, st.yaw_rad, st.speed_mps))
                 cmd, status = (out_f.speed_mps, out_f.yaw_rate_radps), out_f.status
             else:
@@ -369,30 +368,30 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
             cmd = ep.guided_command() if (ep.armed and ep.mode == MODES["GUIDED"]) else None
             sim.set_command(me, *(cmd or (0.0, 0.0)))
 
-    if camera:
+    # frames stay in this process only when someone looks at them
+    pool = CameraPool(cfg, camera_seeds, 0 if on_frame is not None else default_workers(cfg)) if camera else None
+    if pool is not None:
+        quality = cfg.recording.jpeg_quality
 
         def cameras(t_s: float) -> None:
             world = sim.state()
-            for me, target, sensor, _ctl, _tr in followers:
-                sample = sensor.capture(
-                    t_s,
-                    world,
-                    me,
-                    target,
-                    None if recorder is None else lambda t, frame, name=sensor.follower: recorder.image(t, name, frame),
-                )
+            jobs = [
+                CameraJob(tr.name, me, target, quality if recorder and recorder.image_due(t_s, tr.name) else None)
+                for me, target, _sensor, _ctl, tr in followers
+            ]
+            for job, res in zip(jobs, pool.capture(t_s, world, jobs), strict=True):
                 if on_frame is not None:
-                    on_frame(sensor.follower, sample)
+                    on_frame(job.follower, res.sample)
                 if recorder is not None:
                     t0 = time.perf_counter()
-                    recorder.camera(t_s, sensor.follower, sample)
+                    recorder.camera(t_s, job.follower, res.sample, res.jpeg)
                     record_camera_s[0] += time.perf_counter() - t0
 
         sim.add_task("camera", cfg.sim.camera_rate_hz, cameras)
     if recorder is not None:
-        for _me, _target, sensor, _ctl, tr in followers:
-            if camera:
-                cam = sensor.cam
+        for _me, _target, _sensor, _ctl, tr in followers:
+            if pool is not None:
+                cam = pool.cam
                 recorder.calibration(0.0, tr.name, cam.K, cam.dist, cam.width, cam.height)
 
         def telemetry(t_s: float) -> None:
@@ -402,11 +401,18 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
         sim.add_task("record", cfg.sim.telemetry_rate_hz, telemetry)
     sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
     sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), link)
-    result = sim.run(duration_s, progress=progress)
+    try:
+        result = sim.run(duration_s, progress=progress)
+    finally:
+        if pool is not None:
+            pool.close()
     result.extra["record_camera_s"] = record_camera_s[0]
-    if camera:
-        result.extra["render_s"] = sum(f[2].render_s for f in followers)
-        result.extra["track_s"] = sum(f[2].track_s for f in followers)
+    if pool is not None:
+        # CPU seconds summed over processes: with camera workers they add up to more than the wall time
+        result.extra["render_s"] = sum(pool.render_s.values())
+        result.extra["vision_s"] = sum(pool.vision_s.values())
+        result.extra["encode_s"] = sum(pool.encode_s.values())
+        result.extra["camera_workers"] = pool.workers
     traces = [f[4] for f in followers]
     return RunReport(
         config=cfg,

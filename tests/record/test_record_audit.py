@@ -249,7 +249,7 @@ def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_r
     ticks = sorted({math.ceil(k / 30.0 * 100 - 1e-9) / 100 for k in range(1800)})
     assert {round(b - a, 2) for a, b in itertools.pairwise(ticks)} == {0.03, 0.04}
     with Recorder(tmp_path / "r.mcap", cfg) as rec:
-        taken = [t for t in ticks if rec._image_due(t, "follower1")]
+        taken = [t for t in ticks if rec.image_due(t, "follower1")]
     assert abs(len(taken) - expected) <= 1
     gaps = np.diff(taken)
     # evenly spread: within a camera period plus a physics step of each other

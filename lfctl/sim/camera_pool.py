@@ -1,0 +1,275 @@
+"""Followers' cameras across processes: render, track, estimate the pose and encode the JPEG
+of every follower in lockstep, some in this process and the rest in worker processes.
+
+Rendering and tracking are numpy and OpenCV driven from Python, so threads would share one
+interpreter lock; processes do not. Each follower's camera (renderer, tracker, their random
+streams) lives in exactly one process for the whole run and sees the same world states in
+the same order, so a run gives the same result with any number of workers. Per camera tick
+the main process sends the world state (a few hundred bytes) to every worker, runs its own
+followers meanwhile, then collects the workers' samples (no image: the JPEG if one is due).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import traceback
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, replace
+from multiprocessing.connection import Connection
+from typing import Any
+
+import cv2
+import numpy as np
+
+from lfctl.config import Config
+from lfctl.errors import LfctlError
+from lfctl.sim.camera import CameraModel
+from lfctl.sim.camera_sensor import CameraSample, CameraSensor
+from lfctl.sim.world import WorldState
+from lfctl.vision.track_state import RelativeMeasurement
+
+_PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+class CameraWorkerError(LfctlError, RuntimeError):
+    """A camera worker process failed or died."""
+
+
+@dataclass(frozen=True)
+class CameraJob:
+    """One follower's camera tick: ``me`` and ``target`` index the world state."""
+
+    follower: str
+    me: int
+    target: int
+    jpeg_quality: int | None  # encode the frame at this quality (None: no image is due)
+
+
+@dataclass(frozen=True)
+class CameraResult:
+    """What a camera tick hands back: the sample, the JPEG if one was due, and the seconds
+    each stage took (for the cost split)."""
+
+    sample: CameraSample
+    jpeg: bytes | None
+    render_s: float
+    vision_s: float  # tracking and pose
+    encode_s: float  # JPEG
+
+
+def default_workers(cfg: Config) -> int:
+    """``sim.camera_workers`` resolved: -1 is one worker per usable core beyond this one, at
+    most one per follower beyond the first (this process runs cameras too)."""
+    n = cfg.sim.camera_workers
+    if n >= 0:
+        return min(n, max(0, len(cfg.followers) - 1))
+    try:
+        cores = len(os.sched_getaffinity(0))  # respects taskset / cgroup CPU sets
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(0, min(cores - 1, len(cfg.followers) - 1))
+
+
+class _Cameras:
+    """The cameras one process runs, with one JPEG encoder thread (imencode releases the
+    interpreter lock, so a frame is encoded while its tracker runs)."""
+
+    def __init__(self, cfg: Config, specs: list[tuple[str, int]]) -> None:
+        self.sensors = {name: CameraSensor(cfg, name, seed) for name, seed in specs}
+        self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-jpeg")
+
+    def run(self, t_s: float, world: WorldState, jobs: list[CameraJob], keep_frames: bool) -> list[CameraResult]:
+        pending: list[tuple[CameraSample, Future[tuple[bytes | None, float]] | None, float, float]] = []
+        for job in jobs:
+            sensor = self.sensors[job.follower]
+            started: list[Future[tuple[bytes | None, float]]] = []
+
+            def encode(
+                _t: float,
+                frame: np.ndarray,
+                quality: int | None = job.jpeg_quality,
+                started: list[Future[tuple[bytes | None, float]]] = started,
+            ) -> None:
+                if quality is not None:
+                    started.append(self._encoder.submit(_jpeg, frame, quality))
+
+            r0, v0 = sensor.render_s, sensor.vision_s
+            sample = sensor.capture(t_s, world, job.me, job.target, encode)
+            pending.append((sample, started[0] if started else None, sensor.render_s - r0, sensor.vision_s - v0))
+        out = []
+        for sample, fut, render_s, vision_s in pending:
+            jpeg, encode_s = fut.result() if fut is not None else (None, 0.0)
+            kept = sample if keep_frames else replace(sample, frame=None)
+            out.append(CameraResult(kept, jpeg, render_s, vision_s, encode_s))
+        return out
+
+    def close(self) -> None:
+        self._encoder.shutdown(wait=True, cancel_futures=True)
+
+
+def _jpeg(frame: np.ndarray, quality: int) -> tuple[bytes | None, float]:
+    """JPEG of a frame and the seconds it took."""
+    t0 = time.perf_counter()
+    ok, buf = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    return (buf.tobytes() if ok else None), time.perf_counter() - t0
+
+
+def _worker_main(conn: Connection) -> None:
+    """A worker process: build its cameras, then serve ticks until told to stop."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides when a run ends
+    cv2.setNumThreads(1)  # one core per process: OpenCV's own threads would fight the others
+    try:
+        cfg, specs = conn.recv()
+        cams = _Cameras(cfg, specs)
+        conn.send(("ready", None))
+        while True:
+            msg = conn.recv()
+            if msg is None:
+                break
+            t_s, world, jobs = msg
+            conn.send(("ok", cams.run(t_s, world, jobs, keep_frames=False)))
+        cams.close()
+    except (EOFError, BrokenPipeError):
+        return  # the main process went away
+    except Exception:  # everything goes back to the main process, which raises it
+        conn.send(("error", traceback.format_exc()))
+
+
+class CameraPool:
+    """Every follower's camera, spread over this process and ``workers`` worker processes.
+
+    ``specs`` are (follower, seed) pairs; follower k goes to process k mod (workers + 1),
+    with 0 this one.
+    """
+
+    def __init__(self, cfg: Config, specs: list[tuple[str, int]], workers: int = 0) -> None:
+        self.cfg = cfg
+        self.workers = max(0, min(workers, len(specs) - 1))
+        groups: list[list[tuple[str, int]]] = [[] for _ in range(self.workers + 1)]
+        for k, spec in enumerate(specs):
+            groups[k % len(groups)].append(spec)
+        self.where = {name: k % len(groups) for k, (name, _seed) in enumerate(specs)}
+        self.render_s = dict.fromkeys(self.where, 0.0)
+        self.vision_s = dict.fromkeys(self.where, 0.0)
+        self.encode_s = dict.fromkeys(self.where, 0.0)
+        self.latest: dict[str, CameraSample] = {}
+        self.cam = CameraModel.from_config(cfg.camera)
+        self._procs: list[tuple[subprocess.Popen[bytes], Connection]] = []
+        self._cv_threads = cv2.getNumThreads()
+        if self.workers:
+            cv2.setNumThreads(1)  # a core per process: OpenCV's own threads would only fight them
+        try:
+            for group in groups[1:]:
+                # a fresh interpreter running this module (no fork: the parent has threads;
+                # not multiprocessing's spawn, which re-imports the caller's __main__)
+                ours, theirs = socket.socketpair()
+                env = dict(os.environ)
+                env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
+                with theirs:
+                    proc = subprocess.Popen(
+                        [sys.executable, "-m", "lfctl.sim.camera_pool", str(theirs.fileno())],
+                        pass_fds=(theirs.fileno(),),
+                        env=env,
+                        stdin=subprocess.DEVNULL,
+                    )
+                conn = Connection(ours.detach())
+                self._procs.append((proc, conn))
+                self._send(len(self._procs), proc, conn, (cfg, group))
+            self._local = _Cameras(cfg, groups[0])
+            for k, (proc, conn) in enumerate(self._procs):
+                self._reply(k + 1, proc, conn)  # wait until its renderers are built
+        except BaseException:
+            self.close()
+            raise
+
+    def _names(self, k: int) -> str:
+        return ", ".join(n for n, w in self.where.items() if w == k)
+
+    def _died(self, k: int, proc: subprocess.Popen[bytes]) -> CameraWorkerError:
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            proc.wait(1.0)
+        return CameraWorkerError(
+            f"camera worker for {self._names(k)} died (exit code {proc.returncode}); "
+            "set [sim] camera_workers = 0 to run every camera in the main process"
+        )
+
+    def _send(self, k: int, proc: subprocess.Popen[bytes], conn: Connection, msg: Any) -> None:
+        try:
+            conn.send(msg)
+        except OSError:  # broken pipe, reset
+            raise self._died(k, proc) from None
+
+    def _reply(self, k: int, proc: subprocess.Popen[bytes], conn: Connection) -> Any:
+        try:
+            kind, payload = conn.recv()
+        except (EOFError, OSError):
+            raise self._died(k, proc) from None
+        if kind == "error":
+            raise CameraWorkerError(f"camera worker for {self._names(k)} failed:\n{payload}")
+        return payload
+
+    def capture(self, t_s: float, world: WorldState, jobs: list[CameraJob]) -> list[CameraResult]:
+        """Run every job of this tick; results in the order of ``jobs``."""
+        remote: list[list[CameraJob]] = [[] for _ in self._procs]
+        local = []
+        for job in jobs:
+            w = self.where[job.follower]
+            (local if w == 0 else remote[w - 1]).append(job)
+        for k, ((proc, conn), group) in enumerate(zip(self._procs, remote, strict=True)):
+            if group:
+                self._send(k + 1, proc, conn, (t_s, world, group))
+        by_name = {j.follower: r for j, r in zip(local, self._local.run(t_s, world, local, True), strict=True)}
+        for k, ((proc, conn), group) in enumerate(zip(self._procs, remote, strict=True)):
+            if group:
+                for job, res in zip(group, self._reply(k + 1, proc, conn), strict=True):
+                    by_name[job.follower] = res
+        out = [by_name[j.follower] for j in jobs]
+        for job, res in zip(jobs, out, strict=True):
+            self.render_s[job.follower] += res.render_s
+            self.vision_s[job.follower] += res.vision_s
+            self.encode_s[job.follower] += res.encode_s
+            self.latest[job.follower] = res.sample
+        return out
+
+    def measurement(self, follower: str) -> RelativeMeasurement | None:
+        """The follower's newest measurement (None before its first frame)."""
+        s = self.latest.get(follower)
+        return s.measurement if s is not None else None
+
+    def close(self) -> None:
+        """Stop the workers (politely, then firmly)."""
+        if getattr(self, "_local", None) is not None:
+            self._local.close()
+        for _proc, conn in self._procs:
+            with contextlib.suppress(BrokenPipeError, OSError):
+                conn.send(None)
+        deadline = time.monotonic() + 5.0
+        for proc, conn in self._procs:
+            try:
+                proc.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+            conn.close()
+        self._procs = []
+        cv2.setNumThreads(self._cv_threads)
+
+    def __enter__(self) -> CameraPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+if __name__ == "__main__":
+    # run the worker from the module under its real name, so what it pickles names
+    # lfctl.sim.camera_pool classes, not __main__ ones
+    from lfctl.sim import camera_pool
+
+    camera_pool._worker_main(Connection(int(sys.argv[1])))
