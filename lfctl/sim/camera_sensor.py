@@ -47,9 +47,33 @@ class CameraSensor:
             )
         )
         self.started = False
+        self.expected_box = self._slot_box()
         self.latest: CameraSample | None = None
         self.render_s = 0.0  # seconds spent rendering, and tracking + pose (the cost split)
         self.vision_s = 0.0
+
+    def _slot_box(self) -> tuple[int, int, int, int] | None:
+        """Where the target's banner shows when the follower holds its slot (the target
+        heading the same way): the tracker starts on the banner nearest it, not on another
+        vehicle's banner that happens to be squarer."""
+        slot = self.cfg.slots().get(self.follower)
+        if slot is None:
+            return None
+        ban = self.cfg.banner
+        body = np.array(
+            [
+                slot.range_m * math.cos(slot.bearing_rad) + BANNER_BACK_M,
+                slot.range_m * math.sin(slot.bearing_rad),
+                -ban.centre_height_m,
+            ]
+        )
+        p = self.cam.R_body_from_cam.T @ (body - self.cam.mount_body_m)
+        if p[2] <= 0.05:
+            return None
+        K = self.cam.K
+        u, v = K[0, 0] * p[0] / p[2] + K[0, 2], K[1, 1] * p[1] / p[2] + K[1, 2]
+        side = K[0, 0] * ban.panel_size_m / p[2]
+        return int(round(u - side / 2)), int(round(v - side / 2)), max(1, int(round(side))), max(1, int(round(side)))
 
     def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
         """Bearing only, from the tracked window's centre column (its size says too little)."""
@@ -93,7 +117,7 @@ class CameraSensor:
             t1 = time.perf_counter()
         track: TrackState | None
         if not self.started:
-            track = self.tracker.init_from_markers(frame)
+            track = self.tracker.init_from_markers(frame, self.expected_box)
             self.started = track is not None
         else:
             track = self.tracker.update(frame)

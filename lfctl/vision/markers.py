@@ -91,25 +91,57 @@ def find_constellation(
     v_min: int = 40,
 ) -> Constellation | None:
     """The best four-marker constellation in an HSV image (or region at ``origin``), or None."""
+    found = find_constellations(hsv, hue_deg, origin, min_score, tolerance_deg, s_min, v_min, limit=1)
+    return refine(found[0], hsv, hue_deg, origin, tolerance_deg) if found else None
+
+
+def find_constellations(
+    hsv: np.ndarray,
+    hue_deg: float,
+    origin: tuple[int, int] = (0, 0),
+    min_score: float = 0.45,
+    tolerance_deg: float = 18.0,
+    s_min: int = 90,
+    v_min: int = 40,
+    limit: int = 6,
+) -> list[Constellation]:
+    """Up to ``limit`` candidate constellations, best first, with blob-centroid centres
+    (:func:`refine` the one you keep).
+
+    In a formation every vehicle carries the same banner, so a follower whose target drives
+    ahead of another vehicle sees two, and the two can mix: a target's left markers with the
+    farther banner's markers peeking out beside it look like one banner turned 70 deg, and
+    may score higher than the target seen head-on. Which is the target is for the caller to
+    decide from where it expects it; candidates may share markers.
+    """
     mask = hue_window_mask(hsv, hue_deg, tolerance_deg, s_min, v_min)
     mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
     cands = [b for b in blobs(mask, min_area_px=4.0) if b.is_square(0.6, 3.5)]  # foreshortened up to ~70 deg
     if len(cands) < 4:
-        return None
+        return []
     cands.sort(key=lambda b: -b.area_px)
-    cands = cands[:10]  # the banner's markers are among the larger square blobs
+    cands = cands[:10]  # the banners' markers are among the larger square blobs
     combos = np.array(list(itertools.combinations(range(len(cands)), 4)))
     pts = np.array([b.centroid for b in cands])[combos]  # (M, 4, 2)
     areas = np.array([b.area_px for b in cands])[combos]
     ordered, idx = _order_many(pts)
     sizes = np.take_along_axis(areas, idx, axis=1)
     scores = constellation_scores(ordered, sizes)
-    best = int(np.argmax(scores))
-    if scores[best] < min_score:
-        return None
-    chosen = tuple(cands[combos[best][j]] for j in idx[best])
-    refined = np.array([refine_centre(hsv, b, hue_deg, tolerance_deg) for b in chosen])
-    return Constellation(refined + np.array(origin, float), chosen, float(scores[best]))
+    out: list[Constellation] = []
+    for k in np.argsort(-scores, kind="stable")[:limit]:
+        if scores[k] < min_score:
+            break
+        chosen = tuple(cands[int(combos[k][j])] for j in idx[k])
+        out.append(Constellation(ordered[k] + np.array(origin, float), chosen, float(scores[k])))
+    return out
+
+
+def refine(
+    c: Constellation, hsv: np.ndarray, hue_deg: float, origin: tuple[int, int] = (0, 0), tolerance_deg: float = 18.0
+) -> Constellation:
+    """The constellation with sub-pixel marker centres (see :func:`refine_centre`)."""
+    refined = np.array([refine_centre(hsv, b, hue_deg, tolerance_deg) for b in c.blobs])
+    return Constellation(refined + np.array(origin, float), c.blobs, c.score)
 
 
 def refine_centre(

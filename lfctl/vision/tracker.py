@@ -24,7 +24,7 @@ from lfctl.vision.camshift import camshift_in_roi
 from lfctl.vision.frames import FrameError, check_bgr, check_roi
 from lfctl.vision.histogram import FeatureSpace, back_project, bhattacharyya, histogram, ratio_lut
 from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
-from lfctl.vision.markers import Constellation, find_constellation
+from lfctl.vision.markers import Constellation, find_constellations, refine
 from lfctl.vision.track_state import TrackStatus
 
 Box = tuple[int, int, int, int]
@@ -132,6 +132,16 @@ def _overlap(a: Box, b: Box) -> float:
     return inter / union if union > 0 else 0.0
 
 
+def _mismatch(box: Box, expect: Box) -> float:
+    """How far a box is from where and how big it was expected: centre distance in expected
+    sizes plus the log of the size ratio."""
+    x, y, w, h = box
+    ex, ey, ew, eh = expect
+    size, esize = max(1.0, float(np.sqrt(w * h))), max(1.0, float(np.sqrt(ew * eh)))
+    shift = float(np.hypot(x + w / 2.0 - ex - ew / 2.0, y + h / 2.0 - ey - eh / 2.0)) / esize
+    return shift + abs(float(np.log(size / esize)))
+
+
 class Tracker:
     """Track one target in a stream of BGR frames; see the module docstring."""
 
@@ -162,17 +172,23 @@ class Tracker:
         self.frame_index = 0
         self._learn(frame, roi)
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
-        c = self._markers_near(hsv, _scaled(roi, 1.5), roi) if self.s.use_markers and self.s.kind == "full" else None
+        c = (
+            self._markers_near(hsv, _scaled(roi, 1.5), roi, strict=True)
+            if self.s.use_markers and self.s.kind == "full"
+            else None
+        )
         self._markers_seen = c is not None
         self._start_filters(roi)
         self.status = TrackStatus.TRACKING
         return TrackState(0, self.status, roi, 1.0, 0.0, c.centres if c else None, None, "init")
 
-    def init_from_markers(self, frame: np.ndarray) -> TrackState | None:
-        """Start on the banner found by its marker constellation anywhere in the frame."""
+    def init_from_markers(self, frame: np.ndarray, expect: Box | None = None) -> TrackState | None:
+        """Start on the banner found by its marker constellation anywhere in the frame: the
+        one nearest ``expect`` (where the target should appear) when several banners show,
+        else the squarest."""
         frame = check_bgr(frame)
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
-        c = find_constellation(hsv, self.s.marker_hue_deg)
+        c = self._markers_near(hsv, (0, 0, frame.shape[1], frame.shape[0]), expect)
         if c is None:
             return None
         box = _clip(c.banner_bbox(self.s.panel_over_side), frame.shape)
@@ -264,7 +280,7 @@ class Tracker:
         planes, hsv = self.space.features(region)
         prob = back_project(self.space, planes, self._lut)
         win, mass = camshift_in_roi(prob, (sx, sy), pred_win)
-        constellation = self._markers_near(hsv, search, None, origin=(sx, sy)) if s.use_markers else None
+        constellation = self._markers_near(hsv, search, pred_win, origin=(sx, sy)) if s.use_markers else None
         if constellation is None and self._markers_seen:
             self._markers_missing += 1
             if self._markers_missing % 3 == 0:
@@ -273,7 +289,7 @@ class Tracker:
                 if wide is not None:
                     wx, wy, ww, wh = wide
                     whsv = cv2.cvtColor(frame[wy : wy + wh, wx : wx + ww], cv2.COLOR_BGR2HSV)
-                    constellation = self._markers_near(whsv, wide, None, origin=(wx, wy))
+                    constellation = self._markers_near(whsv, wide, pred_win, origin=(wx, wy))
         if constellation is not None:
             self._markers_seen = True
             self._markers_missing = 0
@@ -337,7 +353,7 @@ class Tracker:
             if hsv_region is not None:
                 rx, ry, rw, rh = hsv_region
                 hsv = cv2.cvtColor(frame[ry : ry + rh, rx : rx + rw], cv2.COLOR_BGR2HSV)
-                c = self._markers_near(hsv, hsv_region, None, origin=(rx, ry))
+                c = self._markers_near(hsv, hsv_region, pred_win, origin=(rx, ry))
                 if c is not None:
                     box = _clip(c.banner_bbox(self.s.panel_over_side), frame.shape)
                     if box is not None:
@@ -359,12 +375,25 @@ class Tracker:
         )
 
     def _markers_near(
-        self, hsv: np.ndarray, region: Box, expect: Box | None, origin: tuple[int, int] = (0, 0)
+        self,
+        hsv: np.ndarray,
+        region: Box,
+        expect: Box | None,
+        origin: tuple[int, int] = (0, 0),
+        strict: bool = False,
     ) -> Constellation | None:
-        """The banner's constellation in ``hsv`` (an image of ``region``), if plausible."""
-        c = find_constellation(hsv, self.s.marker_hue_deg, origin=origin)
-        if c is None:
+        """The target's constellation in ``hsv`` (an image of ``region``).
+
+        Of several banners in view (a formation: every vehicle carries one), the one whose
+        box is nearest ``expect`` in place and size; with ``strict`` it must also overlap it.
+        """
+        found = find_constellations(hsv, self.s.marker_hue_deg, origin=origin)
+        if not found:
             return None
-        if expect is not None and _overlap(c.banner_bbox(self.s.panel_over_side), expect) < 0.2:
-            return None
-        return c
+        c = found[0]
+        if expect is not None:
+            pos = self.s.panel_over_side
+            c = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
+            if strict and _overlap(c.banner_bbox(pos), expect) < 0.2:
+                return None
+        return refine(c, hsv, self.s.marker_hue_deg, origin)

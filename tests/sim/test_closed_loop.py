@@ -167,3 +167,14 @@ def test_camera_sensing_formation_errors_within_targets(seed: int) -> None:
     assert m.min_separation_m >= 0.3
     assert m.time_in_state_s["lost"] < 1.0  # only before the first frame
     assert m.time_in_state_s["occluded"] > 0.5  # the occluder was noticed
+
+
+@pytest.mark.slow
+def test_vee_on_camera_each_follower_tracks_its_own_target() -> None:
+    """Second-rank followers see their target with the leader's banner right behind it: they
+    must hold on their target, not on the banner behind or a mix of the two."""
+    cfg = load_config(EXAMPLES / "vee.toml")
+    rep = run_scenario(dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, sensing="camera")), duration_s=30.0)
+    for m in rep.metrics:
+        assert m.range_err_rms_m <= 0.10 * m.range_cmd_m, m
+        assert math.degrees(m.bearing_err_rms_rad) <= 5.0, m
