@@ -56,7 +56,7 @@ def test_paper_claim_hue_only_loses_to_a_same_hue_distractor_that_hs_lbp_rejects
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("seed", [0, 1, 2])  # the benchmark's seeds: 2 once let a sliver pass for the banner
 def test_occlusion_is_flagged_within_3_frames_and_recovered_within_10(seed: int) -> None:
     records = run("occlusion", seed, "full", 300)
     vis = np.array([tr.visible_fraction for _, tr in records])
