@@ -59,7 +59,9 @@ def print_report(report: RunReport) -> None:
         f"scenario     {cfg.name}  (seed {cfg.sim.seed}, {cfg.sim.clock}, sensing {cfg.sim.sensing}, controller {cfg.guidance.controller})"
     )
     print(f"sim time     {result.sim_time_s:.2f} s in {result.ticks} steps of {cfg.sim.dt_s * 1000:g} ms")
-    print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time)")
+    workers = result.extra.get("camera_workers")
+    spread = f", cameras in {workers + 1} processes" if workers else ""
+    print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time{spread})")
     if report.leader_mode == "auto":
         reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
         print(f"leader       AUTO: {len(report.waypoints_reached)}/{report.n_waypoints} waypoints reached ({reached})")
