@@ -9,7 +9,9 @@ import logging
 import math
 import os
 import runpy
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -141,16 +143,30 @@ def cmd_sim(args: argparse.Namespace) -> int:
                 f"\r[{bar:<30}] {t_s:6.1f}/{cfg.sim.duration_s:.1f} s  x{rtf:7.1f} real time", end="", file=sys.stderr
             )
 
-    if cfg.recording.enabled and not args.no_record:
-        from lfctl.record.writer import Recorder, run_path
+    # Ctrl-C / SIGTERM ask the run to stop after the current step, so the interrupt never
+    # lands inside a write and the log is finished; a second one stops at once
+    requested = threading.Event()
 
-        path = run_path(cfg)
-        with Recorder(path, cfg) as rec:
-            report = run_scenario(cfg, progress=progress, recorder=rec, on_links=announce)
-        log.info("recorded %d messages to %s", rec.messages, path)
-    else:
-        path = None
-        report = run_scenario(cfg, progress=progress, on_links=announce)
+    def ask_stop(signum: int, frame: object) -> None:
+        if requested.is_set():
+            raise KeyboardInterrupt
+        requested.set()
+
+    handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        if cfg.recording.enabled and not args.no_record:
+            from lfctl.record.writer import Recorder, run_path
+
+            path = run_path(cfg)
+            with Recorder(path, cfg) as rec:
+                report = run_scenario(cfg, progress=progress, recorder=rec, on_links=announce, stop=requested.is_set)
+            log.info("recorded %d messages to %s", rec.messages, path)
+        else:
+            path = None
+            report = run_scenario(cfg, progress=progress, on_links=announce, stop=requested.is_set)
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
     if show:
         print(file=sys.stderr)
     print_report(report)
@@ -848,9 +864,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
-    # SIGTERM ends a run like Ctrl-C: the recorder's `with` block finishes the log file
-    import signal
 
+    # SIGTERM ends a run like Ctrl-C: the recorder's `with` block finishes the log file
     def _terminate(signum: int, frame: object) -> None:
         raise KeyboardInterrupt
 

@@ -230,6 +230,7 @@ class Simulation:
         duration_s: float | None = None,
         *,
         progress: Callable[[float, float], None] | None = None,
+        stop: Callable[[], bool] | None = None,
     ) -> RunResult:
         """Run for ``duration_s`` (default the scenario's) and return the trajectory and timing.
 
@@ -237,6 +238,10 @@ class Simulation:
         ----------
         progress : callable, optional
             Called as ``progress(t_s, wall_s)`` about once per simulated second.
+        stop : callable, optional
+            Asked after every step; when it says True the run ends with KeyboardInterrupt,
+            between steps (a signal handler that only sets a flag, so an interrupt never
+            lands inside a recorder's write).
         """
         if not self._opened:
             raise FmuError("Simulation.run() before open(): use `with Simulation(cfg) as sim:`", call="run")
@@ -255,6 +260,8 @@ class Simulation:
                 yaw.append(st.yaw_rad)
                 spd.append(st.speed_mps)
             self.step()
+            if stop is not None and stop():
+                raise KeyboardInterrupt(f"stopped at t = {self.t_s:.2f} s")
             if self.realtime:
                 lag = (self.tick - start_tick) * self.dt_s - (time.perf_counter() - wall0)
                 if lag > 0:

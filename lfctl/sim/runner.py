@@ -181,6 +181,7 @@ def run_scenario(
     on_frame: Callable[[str, CameraSample], None] | None = None,
     recorder: Recorder | None = None,
     on_links: Callable[[Links], None] | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -193,6 +194,9 @@ def run_scenario(
     ----------
     controller : "smc" or "p", optional
         Follower control law (default ``guidance.controller``).
+    stop : callable, optional
+        Asked after every physics step; True ends the run with KeyboardInterrupt at that
+        point (see :meth:`Simulation.run`).
     """
     law = controller or cfg.guidance.controller
     if law not in ("smc", "p"):
@@ -212,7 +216,9 @@ def run_scenario(
         try:
             if on_links is not None:
                 on_links(links)
-            report = _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder)
+            report = _closed_loop(
+                cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder, stop
+            )
         finally:
             links.close()
     return report
@@ -228,7 +234,9 @@ class _LeaderState:
     reached: list[tuple[int, float]] = dataclasses.field(default_factory=list)
 
 
-def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder) -> RunReport:
+def _closed_loop(
+    cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress, on_frame, recorder, stop
+) -> RunReport:
     idx = sim.index
     camera = cfg.sim.sensing == "camera"
     leader_ep = links.endpoints[0]
@@ -402,7 +410,7 @@ def _closed_loop(cfg, sim, links, law, slots, dt_guid, rng, duration_s, progress
     sim.add_task("guidance", cfg.sim.guidance_rate_hz, guidance)
     sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), link)
     try:
-        result = sim.run(duration_s, progress=progress)
+        result = sim.run(duration_s, progress=progress, stop=stop)
     finally:
         if pool is not None:
             pool.close()

@@ -254,3 +254,46 @@ def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_r
     gaps = np.diff(taken)
     # evenly spread: within a camera period plus a physics step of each other
     assert gaps.max() - gaps.min() <= 1 / 30 + 0.011
+
+
+def _children(pid: int) -> set[int]:
+    out: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*/children"):
+        out.update(int(c) for c in task.read_text().split())
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.integration
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_sigterm_ends_a_camera_run_with_a_whole_log_and_no_workers_left(tmp_path: Path, sig) -> None:
+    # the signal only asks the run to stop after the current step: it must never land in the
+    # middle of a record (which left a truncated file), and camera workers must go too
+    scen = tmp_path / "s.toml"
+    text = (
+        (EXAMPLES / "column5.toml").read_text().replace("[sim]\n", '[sim]\nsensing = "camera"\ncamera_workers = 1\n', 1)
+    )
+    scen.write_text(text + f'\n[recording]\ndir = "{tmp_path}"\n')
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfctl", "sim", str(scen), "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
+    )
+    try:
+        deadline = time.time() + 60
+        while time.time() < deadline and not (list(tmp_path.glob("*.mcap")) and _children(proc.pid)):
+            time.sleep(0.2)
+        time.sleep(3.0)
+        workers = _children(proc.pid)
+        assert workers, "the run should have a camera worker"
+        proc.send_signal(sig)
+        assert proc.wait(timeout=30) == 130
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert not any(Path(f"/proc/{w}").exists() for w in workers)
+    (log,) = tmp_path.glob("*.mcap")
+    rep = audit(log)
+    assert not [f for f in rep.findings if f.level == "error"], rep.findings
+    assert rep.figures["messages"] > 100
