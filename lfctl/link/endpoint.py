@@ -163,7 +163,7 @@ class VehicleEndpoint:
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
-        data = msg.pack(self.mav)
+        data = pack_next(msg, self.mav)
         self.link.send(data)
         if self.tap is not None:
             self.tap("out", msg, data)
@@ -657,6 +657,17 @@ class VehicleEndpoint:
                     caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
+
+
+def pack_next(msg: Any, m: Any) -> bytes:
+    """``msg`` packed by the MAVLink object ``m``, which then moves to its next sequence
+    number, as ``MAVLink.send`` does (``pack`` alone leaves it: every packet would carry the
+    same seq, and a ground station counts all but one of them lost)."""
+    data = msg.pack(m)
+    m.seq = (m.seq + 1) % 256
+    m.total_packets_sent += 1
+    m.total_bytes_sent += len(data)
+    return data
 
 
 def signing_key_from_passphrase(passphrase: str | None) -> bytes | None:

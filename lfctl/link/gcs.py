@@ -13,7 +13,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
-from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES, setup_signing
+from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES, pack_next, setup_signing
 from lfctl.link.mission import MissionItem
 
 GCS_SYSID = 255
@@ -79,7 +79,7 @@ class GroundStation:
         if self.conn is not None:
             self.conn.mav.send(msg)
         else:
-            self.link.send(msg.pack(self.mav))
+            self.link.send(pack_next(msg, self.mav))
 
     def heartbeat(self, force: bool = False) -> None:
         """The GCS heartbeat (at most once a second unless forced)."""

@@ -400,7 +400,8 @@ def _link_figures(c: Contents) -> dict[str, Any]:
         lost = 0
         for seqs in seq_by_src.values():
             for a, b in itertools.pairwise(seqs):
-                lost += (b - a - 1) % 256
+                if b != a:  # the same seq again is a duplicate, not 255 lost
+                    lost += (b - a - 1) % 256
         links[topic] = {
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),

@@ -17,6 +17,7 @@ from lfctl.link.endpoint import (
     MODES,
     TYPE_MASK_SPEED_YAWRATE,
     VehicleEndpoint,
+    pack_next,
     signing_key_from_passphrase,
 )
 from lfctl.link.gcs import GroundStation
@@ -34,7 +35,7 @@ class Companion:
         self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=COMPANION_COMPID)
 
     def _send(self, msg: Any) -> None:
-        self.link.send(msg.pack(self.mav))
+        self.link.send(pack_next(msg, self.mav))
         self.link.recv()  # the vehicle's replies to us (acks): read and dropped
 
     def start(self) -> None:

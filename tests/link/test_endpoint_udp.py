@@ -77,6 +77,17 @@ def test_heartbeat_identifies_an_ardupilot_rover(live: LiveEndpoint) -> None:
     g.close()
 
 
+def test_packets_carry_consecutive_sequence_numbers_so_a_gcs_counts_no_loss(live: LiveEndpoint) -> None:
+    # pymavlink's pack() leaves the sequence number alone (send() advances it): a vehicle
+    # that only packed sent every packet as seq 0, and a GCS counted all but one as lost
+    g = live.gcs()
+    seqs = [g.wait(("HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "SYS_STATUS")).get_seq() for _ in range(40)]
+    assert len(set(seqs)) > 30
+    conn = g.conn
+    assert conn is not None and conn.mav_loss == 0 and conn.mav_count >= 40
+    g.close()
+
+
 def test_mission_round_trip_upload_download_clear(live: LiveEndpoint, tmp_path: Path) -> None:
     g = live.gcs()
     items = local_mission(SQUARE, HOME)
