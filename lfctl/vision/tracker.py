@@ -160,7 +160,7 @@ class Tracker:
         self._area: AreaFilter | None = None
         self._coaster: OcclusionCoaster | None = None
         self._occluded_frames = 0
-        self._hidden_size_px: float | None = None  # window size when the target was last seen
+        self._hidden_height_px: float | None = None  # window height when the target was last seen
         self._relearn_count = 0
         self._markers_seen = False
         self._markers_missing = 0
@@ -307,11 +307,12 @@ class Tracker:
         d = bhattacharyya(cand, self._ref_hist) if self._ref_hist is not None else 1.0
         size = float(np.sqrt(win[2] * win[3]))
         area_ok = self._area.consistent(size)
-        if self._coaster is not None and self._hidden_size_px is not None:
+        if self._coaster is not None and self._hidden_height_px is not None:
             # back from an occlusion the size filter has coasted as long as the centre, and its
             # gate is wide open: a sliver of the banner (CAMShift on the part already in view)
-            # must not pass for the target. Hold the window to the size it had when hidden.
-            area_ok = area_ok and 0.6 <= size / self._hidden_size_px <= 1.6
+            # must not pass for the target. Hold the window to the height it had when hidden:
+            # an upright banner turning away narrows, but keeps its height at a given range.
+            area_ok = area_ok and 0.6 <= win[3] / self._hidden_height_px <= 1.6
         good = constellation is not None or (d < s.d_same and mass >= s.min_mass and area_ok)
         if not good:
             why = "area jump" if not area_ok else ("histogram distance" if d >= s.d_same else "weak back-projection")
@@ -349,7 +350,7 @@ class Tracker:
         if self._coaster is None:
             x, P = self._centre.state
             self._coaster = OcclusionCoaster(x, P)
-            self._hidden_size_px = self._area.size_px if self._area is not None else None
+            self._hidden_height_px = float(self.window[3]) if self.window is not None else None
         self._occluded_frames += 1
         self.status = TrackStatus.LOST if self._occluded_frames > self.s.lost_after_frames else TrackStatus.OCCLUDED
         # reacquire: look for the constellation in the (widened) search region, or everywhere when lost
