@@ -167,10 +167,9 @@ class CameraPool:
     def __init__(self, cfg: Config, specs: list[tuple[str, int]], workers: int = 0) -> None:
         self.cfg = cfg
         self.workers = max(0, min(workers, len(specs) - 1))
-        groups: list[list[tuple[str, int]]] = [[] for _ in range(self.workers + 1)]
-        for k, spec in enumerate(specs):
-            groups[k % len(groups)].append(spec)
-        self.where = {name: k % len(groups) for k, (name, _seed) in enumerate(specs)}
+        n = self.workers + 1
+        self.where = {name: k % n for k, (name, _seed) in enumerate(specs)}  # follower -> process
+        groups = [[s for s in specs if self.where[s[0]] == g] for g in range(n)]
         self.render_s = dict.fromkeys(self.where, 0.0)
         self.vision_s = dict.fromkeys(self.where, 0.0)
         self.encode_s = dict.fromkeys(self.where, 0.0)
