@@ -81,18 +81,11 @@ def constellation_scores(c: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     return np.where(ok, score, 0.0)
 
 
-def find_constellation(
-    hsv: np.ndarray,
-    hue_deg: float,
-    origin: tuple[int, int] = (0, 0),
-    min_score: float = 0.45,
-    tolerance_deg: float = 18.0,
-    s_min: int = 90,
-    v_min: int = 40,
-) -> Constellation | None:
-    """The best four-marker constellation in an HSV image (or region at ``origin``), or None."""
-    found = find_constellations(hsv, hue_deg, origin, min_score, tolerance_deg, s_min, v_min, limit=1)
-    return refine(found[0], hsv, hue_deg, origin, tolerance_deg) if found else None
+def find_constellation(hsv: np.ndarray, hue_deg: float, origin: tuple[int, int] = (0, 0)) -> Constellation | None:
+    """The best-scoring four-marker constellation in an HSV image (or region at ``origin``),
+    refined, or None (:func:`find_constellations` has the thresholds and the other candidates)."""
+    found = find_constellations(hsv, hue_deg, origin, limit=1)
+    return refine(found[0], hsv, hue_deg, origin) if found else None
 
 
 def find_constellations(
