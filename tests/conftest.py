@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from lfctl.sim.fmu_build import BuiltModel, build_model
+from lfctl.fmu.build import BuiltModel, build_model
 
 
 @pytest.fixture(scope="session")

@@ -20,9 +20,9 @@ import numpy as np
 
 from lfctl.config import Config, VehicleConfig
 from lfctl.errors import ConfigError, FmuError
+from lfctl.fmu.build import build_model
+from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuInstance, FmuLibrary, RoleMap
 from lfctl.frames import wrap_pi
-from lfctl.sim.fmu import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuInstance, FmuLibrary, RoleMap
-from lfctl.sim.fmu_build import build_model
 from lfctl.sim.world import WorldState
 
 log = logging.getLogger(__name__)

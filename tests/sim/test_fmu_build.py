@@ -11,9 +11,10 @@ import fmpy
 import pytest
 from fmpy.validation import validate_fmu
 
+from lfctl import data
 from lfctl.errors import BuildToolError, FmuError
-from lfctl.sim import fmu_build
-from lfctl.sim.fmu_build import available_models, build_model, parse_model_source
+from lfctl.fmu import build as fmu_build
+from lfctl.fmu.build import available_models, build_model, parse_model_source
 
 pytestmark = pytest.mark.fmu
 
@@ -47,7 +48,7 @@ def test_archive_carries_sources_binary_and_description(rover, fmi: int) -> None
 
 
 def test_variable_table_matches_description(rover) -> None:
-    src = parse_model_source(fmu_build.MODELS_DIR / "SkidSteerRover")
+    src = parse_model_source(data.models_dir() / "SkidSteerRover")
     md = fmpy.read_model_description(str(rover.fmi2))
     assert [(v.name, v.valueReference) for v in md.modelVariables] == [
         (v.name, v.value_reference) for v in src.variables
@@ -64,7 +65,7 @@ def test_second_build_is_a_cache_hit(tmp_path: Path) -> None:
 
 
 def test_cache_key_changes_with_compiler_version() -> None:
-    src = parse_model_source(fmu_build.MODELS_DIR / "SkidSteerRover")
+    src = parse_model_source(data.models_dir() / "SkidSteerRover")
     assert fmu_build.cache_key(src, "gcc 12.2.0") != fmu_build.cache_key(src, "gcc 13.1.0")
 
 
@@ -84,7 +85,7 @@ def test_unknown_model_is_named() -> None:
 def test_c_harness_is_clean_under_address_and_leak_sanitizers(tmp_path: Path, fmi: int) -> None:
     cc = fmu_build.find_compiler()
     headers = Path(fmpy.__file__).parent / "c-code"
-    repo = fmu_build.MODELS_DIR
+    repo = data.models_dir()
     exe = tmp_path / "harness"
     cmd = [
         cc, "-std=c99", "-g", "-fsanitize=address,undefined", "-fno-omit-frame-pointer", f"-DFMI_VERSION={fmi}",

@@ -12,7 +12,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from lfctl.errors import ConfigError, FmuError
-from lfctl.sim.fmu import OUTPUT_ROLES, FmuLibrary
+from lfctl.fmu.load import OUTPUT_ROLES, FmuLibrary
 
 pytestmark = pytest.mark.fmu
 

@@ -24,13 +24,11 @@ from pathlib import Path
 import fmpy
 import platformdirs
 
+from lfctl.data import models_dir
 from lfctl.errors import BuildToolError, FmuError
 
 log = logging.getLogger(__name__)
 
-#: Repository folder with the C sources (editable install: next to the package).
-MODELS_DIR = Path(__file__).resolve().parents[2] / "fmu_models"
-COMMON_DIR = MODELS_DIR / "common"
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fvisibility=hidden", "-fPIC", "-shared")
 #: Bump when the generated XML or archive layout changes, to invalidate old caches.
 GENERATOR_VERSION = "3"
@@ -124,9 +122,10 @@ def parse_model_source(folder: Path) -> ModelSource:
 
 def available_models() -> list[str]:
     """Names of the built-in models (folders of fmu_models/ with a config.h)."""
-    if not MODELS_DIR.is_dir():
+    folder = models_dir()
+    if not folder.is_dir():
         return []
-    return sorted(p.name for p in MODELS_DIR.iterdir() if (p / "config.h").is_file())
+    return sorted(p.name for p in folder.iterdir() if (p / "config.h").is_file())
 
 
 def _units_element(parent: ET.Element, units: set[str], fmi_version: int) -> None:
@@ -275,9 +274,9 @@ def _compiler_version(compiler: str) -> str:
 
 def _source_files(src_folder: Path, fmi_version: int) -> list[Path]:
     return [
-        COMMON_DIR / "model_core.h",
-        COMMON_DIR / "model_core.c",
-        COMMON_DIR / f"fmi{fmi_version}_wrapper.c",
+        models_dir() / "common" / "model_core.h",
+        models_dir() / "common" / "model_core.c",
+        models_dir() / "common" / f"fmi{fmi_version}_wrapper.c",
         src_folder / "config.h",
         src_folder / "model.c",
     ]
@@ -348,10 +347,11 @@ def build_model(name: str, cache_dir: Path | None = None, *, force: bool = False
     force : bool
         Rebuild even when the cache has this content hash.
     """
-    folder = MODELS_DIR / name
-    if not (folder / "config.h").is_file():
-        known = ", ".join(available_models()) or "none"
-        raise FmuError(f"unknown built-in model {name!r} (known: {known})", model=name, call="build")
+    known = available_models()
+    if name not in known:  # a plain folder name: never a path out of the models folder
+        where = f"known: {', '.join(known)}" if known else f"none found in {models_dir()}"
+        raise FmuError(f"unknown built-in model {name!r} ({where})", model=name, call="build")
+    folder = models_dir() / name
     src = parse_model_source(folder)
     compiler = find_compiler()
     key = cache_key(src, _compiler_version(compiler))

@@ -85,6 +85,20 @@ class RoleMap:
 BUILTIN_ROLE_MAP = RoleMap()
 
 
+@dataclass(frozen=True)
+class FmuVariable:
+    """One model variable as `lfctl fmu info` lists it."""
+
+    name: str
+    value_reference: int
+    causality: str
+    variability: str
+    type: str
+    unit: str
+    start: str
+    description: str
+
+
 def _status_text(status: int) -> str:
     return FMI_STATUS[status] if 0 <= status < len(FMI_STATUS) else f"illegal status {status}"
 
@@ -133,6 +147,25 @@ class FmuLibrary:
             raise FmuError(f"{p} is not an FMU: not a readable zip archive ({exc})", model=str(p), call="load") from exc
         except Exception as exc:
             raise FmuError(f"{p} has no valid modelDescription.xml: {exc}", model=str(p), call="load") from exc
+
+    @staticmethod
+    def variables_of(md: Any) -> list[FmuVariable]:
+        """Every variable of a model description, with its unit (declared or by its type)."""
+        rows = []
+        for v in md.modelVariables:
+            rows.append(
+                FmuVariable(
+                    v.name,
+                    int(v.valueReference),
+                    v.causality or "",
+                    v.variability or "",
+                    v.type,
+                    FmuLibrary._unit_of(v) or "",
+                    "" if v.start is None else str(v.start),
+                    v.description or "",
+                )
+            )
+        return rows
 
     # -- role mapping ---------------------------------------------------------------------
     def _resolve_roles(self, role_map: RoleMap) -> tuple[dict[str, int], dict[str, float], bool]:

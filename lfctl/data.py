@@ -1,0 +1,81 @@
+"""Files that travel with lfctl: the vehicle models' C sources (``fmu_models/``) and the
+example scenarios (``examples/``).
+
+Both live at the top of the source tree, where a reader looks for them; the wheel and the
+sdist carry them inside the package (``lfctl/fmu_models``, ``lfctl/examples``, see
+``setup.py``). These functions find them in either place, so a source checkout, an editable
+install, ``pip install .`` and a wheel behave alike.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from lfctl.errors import ConfigError
+
+__all__ = ["example_names", "examples_dir", "find_example", "models_dir", "resolve_scenario"]
+
+_PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _folder(name: str) -> Path:
+    inside = _PACKAGE_DIR / name  # installed from a wheel or sdist
+    if inside.is_dir():
+        return inside
+    return _PACKAGE_DIR.parent / name  # a source checkout (editable install)
+
+
+def models_dir() -> Path:
+    """The folder of vehicle model C sources: one sub-folder per model, plus ``common/``."""
+    return _folder("fmu_models")
+
+
+def examples_dir() -> Path:
+    """The folder of shipped example scenarios (``convoy.toml``, ...) and missions."""
+    return _folder("examples")
+
+
+def example_names() -> list[str]:
+    """Names of the shipped example scenarios (file stems), sorted."""
+    folder = examples_dir()
+    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
+
+
+def find_example(name: str) -> Path | None:
+    """The shipped example file called ``name`` (``convoy``, ``convoy.toml``,
+    ``square.waypoints``), or None.
+
+    Parameters
+    ----------
+    name : str
+        A file name in the examples folder, with or without the ``.toml`` suffix.
+    """
+    folder = examples_dir()
+    for candidate in (name, f"{name}.toml"):
+        p = folder / candidate
+        if "/" not in candidate and p.is_file():
+            return p
+    return None
+
+
+def resolve_scenario(arg: str | Path) -> Path:
+    """A scenario argument as a path: an existing file, else a shipped example by name.
+
+    Parameters
+    ----------
+    arg : str or Path
+        A path to a TOML file, or an example's name (``convoy``).
+
+    Raises
+    ------
+    ConfigError
+        Neither an existing file nor a shipped example; the message lists the examples.
+    """
+    p = Path(arg)
+    if p.is_file():
+        return p
+    found = find_example(str(arg)) if p.name == str(arg) else None
+    if found is not None:
+        return found
+    known = ", ".join(example_names()) or "none found"
+    raise ConfigError(f"scenario {str(arg)!r} is neither a file nor a shipped example (examples: {known})")
