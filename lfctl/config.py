@@ -45,6 +45,8 @@ class SimConfig:
     guidance_rate_hz: float = 20.0
     camera_rate_hz: float = 30.0
     telemetry_rate_hz: float = 10.0
+    #: each follower's formation status (NAMED_VALUE_FLOAT) to the ground station
+    status_rate_hz: float = 2.0
     sensing: Literal["truth", "camera"] = "truth"
     #: processes besides the main one that render and track followers' cameras: -1 one per
     #: spare core (at most one per follower beyond the first), 0 none
@@ -59,7 +61,7 @@ class SimConfig:
         _positive("sim.duration_s", self.duration_s)
         if self.seed < 0:
             raise ConfigError(f"sim.seed must be >= 0, got {self.seed!r}")
-        for name in ("guidance_rate_hz", "camera_rate_hz", "telemetry_rate_hz"):
+        for name in ("guidance_rate_hz", "camera_rate_hz", "telemetry_rate_hz", "status_rate_hz"):
             rate = getattr(self, name)
             _positive(f"sim.{name}", rate)
             if rate > 1.0 / self.dt_s + 1e-9:
@@ -270,7 +272,6 @@ class CameraConfig:
     pitch_rad: float = 0.0
     noise_sigma: float = 2.0  # sensor noise, digital numbers (0..255)
     motion_blur: bool = False
-    jpeg_quality: int = 85  # for recording
 
     def __post_init__(self) -> None:
         if not (16 <= self.width_px <= 8192 and 16 <= self.height_px <= 8192):
@@ -283,8 +284,6 @@ class CameraConfig:
             _non_negative(f"camera.{name}", getattr(self, name))
         if not -math.pi / 3 <= self.pitch_rad <= math.pi / 3:
             raise ConfigError(f"camera.pitch_deg must be within [-60, 60], got {math.degrees(self.pitch_rad):.6g}")
-        if not 1 <= self.jpeg_quality <= 100:
-            raise ConfigError(f"camera.jpeg_quality must be within 1..100, got {self.jpeg_quality!r}")
 
 
 @dataclass(frozen=True)
@@ -296,6 +295,9 @@ class BannerConfig:
     marker_size_m: float = 0.035
     panel_size_m: float = 0.22
     centre_height_m: float = 0.2
+    #: the banner's plane is this far behind the vehicle's reference point (its centre of
+    #: rotation), m: a follower measures the banner and adds this to reach the vehicle
+    back_m: float = 0.155
     marker_hue_deg: float = 0.0  # red; HSV hue in degrees (0..360)
     marker_saturation: float = 0.85
     panel_bgr: tuple[int, ...] = (215, 218, 222)  # near white: the markers carry the hue
@@ -303,6 +305,7 @@ class BannerConfig:
     def __post_init__(self) -> None:
         for name in ("side_m", "marker_size_m", "panel_size_m", "centre_height_m"):
             _positive(f"banner.{name}", getattr(self, name))
+        _non_negative("banner.back_m", self.back_m)
         if self.side_m + self.marker_size_m > self.panel_size_m:
             raise ConfigError(
                 f"banner.side_m + marker_size_m ({self.side_m + self.marker_size_m:g}) must fit on panel_size_m ({self.panel_size_m:g})"

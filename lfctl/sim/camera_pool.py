@@ -29,9 +29,9 @@ import numpy as np
 
 from lfctl.config import Config
 from lfctl.errors import LfctlError
-from lfctl.sim.camera import CameraModel
 from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.world import WorldState
+from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import RelativeMeasurement
 
 _PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -20,14 +20,13 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from lfctl.vision.boxes import Box, clip_box, iou
 from lfctl.vision.camshift import camshift_in_roi
 from lfctl.vision.frames import FrameError, check_bgr, check_roi
 from lfctl.vision.histogram import FeatureSpace, back_project, bhattacharyya, histogram, ratio_lut
 from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
 from lfctl.vision.markers import Constellation, find_constellations, refine
 from lfctl.vision.track_state import TrackStatus
-
-Box = tuple[int, int, int, int]
 
 
 @dataclass(frozen=True)
@@ -94,15 +93,6 @@ class TrackState:
         return x + w / 2.0, y + h / 2.0
 
 
-def _clip(box: Box, shape: tuple[int, ...]) -> Box | None:
-    x, y, w, h = box
-    H, W = shape[:2]
-    x0, y0, x1, y1 = max(0, x), max(0, y), min(W, x + w), min(H, y + h)
-    if x1 <= x0 or y1 <= y0:
-        return None
-    return x0, y0, x1 - x0, y1 - y0
-
-
 def _scaled(box: Box, scale: float, centre: tuple[float, float] | None = None) -> Box:
     x, y, w, h = box
     cx, cy = centre if centre is not None else (x + w / 2.0, y + h / 2.0)
@@ -120,16 +110,6 @@ def _square(box: Box, scale: float) -> Box:
 
 def _inner(box: Box, frac: float = 0.7) -> Box:
     return _scaled(box, frac)
-
-
-def _overlap(a: Box, b: Box) -> float:
-    ax, ay, aw, ah = a
-    bx, by, bw, bh = b
-    ix = max(0, min(ax + aw, bx + bw) - max(ax, bx))
-    iy = max(0, min(ay + ah, by + bh) - max(ay, by))
-    inter = ix * iy
-    union = aw * ah + bw * bh - inter
-    return inter / union if union > 0 else 0.0
 
 
 def _mismatch(box: Box, expect: Box) -> float:
@@ -192,7 +172,7 @@ class Tracker:
         c = self._markers_near(hsv, (0, 0, frame.shape[1], frame.shape[0]), expect)
         if c is None:
             return None
-        box = _clip(c.banner_bbox(self.s.panel_over_side), frame.shape)
+        box = clip_box(c.banner_bbox(self.s.panel_over_side), frame.shape)
         if box is None:
             return None
         st = self.init(frame, box)
@@ -200,7 +180,7 @@ class Tracker:
 
     def _learn(self, frame: np.ndarray, roi: Box) -> None:
         """Model = target histogram weighted by a ring around it."""
-        ring = _clip(_scaled(roi, self.s.ring_scale), frame.shape) or roi
+        ring = clip_box(_scaled(roi, self.s.ring_scale), frame.shape) or roi
         rx, ry, rw, rh = ring
         region = frame[ry : ry + rh, rx : rx + rw]
         planes, hsv = self.space.features(region)
@@ -273,7 +253,7 @@ class Tracker:
             scale += 2.0 * self._coaster.sigma_px / max(pw, ph)  # widen while hidden
         if self.status is TrackStatus.LOST:
             scale = max(scale, 4.0)
-        search = _clip(_scaled(pred_win, scale, pred_c), frame.shape)
+        search = clip_box(_scaled(pred_win, scale, pred_c), frame.shape)
         if search is None:
             return self._miss(frame, pred_win, None, 1.0, "prediction left the frame")
         sx, sy, sw, sh = search
@@ -286,7 +266,7 @@ class Tracker:
             self._markers_missing += 1
             if self._markers_missing % 3 == 0:
                 # the histogram window may have shrunk onto part of the banner: look wider
-                wide = _clip(_square(win if win[2] > 0 else pred_win, 4.0), frame.shape)
+                wide = clip_box(_square(win if win[2] > 0 else pred_win, 4.0), frame.shape)
                 if wide is not None:
                     wx, wy, ww, wh = wide
                     whsv = cv2.cvtColor(frame[wy : wy + wh, wx : wx + ww], cv2.COLOR_BGR2HSV)
@@ -294,7 +274,7 @@ class Tracker:
         if constellation is not None:
             self._markers_seen = True
             self._markers_missing = 0
-            mbox = _clip(constellation.banner_bbox(s.panel_over_side), frame.shape)
+            mbox = clip_box(constellation.banner_bbox(s.panel_over_side), frame.shape)
             if mbox is not None:
                 win, mass = mbox, max(mass, 0.5)
         if win[2] <= 0 or win[3] <= 0:
@@ -363,14 +343,14 @@ class Tracker:
                 hsv = cv2.cvtColor(frame[ry : ry + rh, rx : rx + rw], cv2.COLOR_BGR2HSV)
                 c = self._markers_near(hsv, hsv_region, pred_win, origin=(rx, ry))
                 if c is not None:
-                    box = _clip(c.banner_bbox(self.s.panel_over_side), frame.shape)
+                    box = clip_box(c.banner_bbox(self.s.panel_over_side), frame.shape)
                     if box is not None:
                         self._start_filters(box)
                         self.status = TrackStatus.TRACKING
                         return TrackState(
                             self.frame_index, self.status, box, 0.8, d, c.centres, search, "reacquired from markers"
                         )
-        box = _clip(pred_win, frame.shape)
+        box = clip_box(pred_win, frame.shape)
         return TrackState(
             self.frame_index,
             self.status,
@@ -402,6 +382,6 @@ class Tracker:
         if expect is not None:
             pos = self.s.panel_over_side
             c = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
-            if strict and _overlap(c.banner_bbox(pos), expect) < 0.2:
+            if strict and iou(c.banner_bbox(pos), expect) < 0.2:
                 return None
         return refine(c, hsv, self.s.marker_hue_deg, origin)

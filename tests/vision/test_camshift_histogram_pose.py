@@ -12,7 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lfctl.config import BannerConfig, CameraConfig, SceneConfig
-from lfctl.sim.camera import BANNER_BACK_M, CameraModel, Renderer, VehiclePose
+from lfctl.render.renderer import Renderer, VehiclePose
+from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.camshift import camshift_in_roi, window_moments
 from lfctl.vision.histogram import bhattacharyya, ratio_lut
 from lfctl.vision.markers import find_constellation, order_corners
@@ -113,7 +114,7 @@ def test_pose_of_a_rendered_banner_within_tolerance(renderer: Renderer, rng: flo
     cam = CameraModel.from_config(CameraConfig())
     est = pnp_pose(c.centres, cam.K, None, 0.14)
     assert est is not None
-    r, b, rel = to_vehicle_frame(est, cam.mount_body_m, cam.R_body_from_cam, -BANNER_BACK_M)
+    r, b, rel = to_vehicle_frame(est, cam.mount_body_m, cam.R_body_from_cam, BannerConfig().back_m)
     assert r == pytest.approx(truth.range_m, rel=0.02)
     assert math.degrees(abs(b - truth.bearing_rad)) < 1.0
     # IPPE's two mirror solutions are close for a small banner: the heading is the weak part

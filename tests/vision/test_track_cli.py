@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from lfctl.cli import main
-from lfctl.sim.sequences import make_sequence
+from lfctl.render.sequences import make_sequence
 
 
 def sample_video(name: str) -> Path:

@@ -9,23 +9,16 @@ import numpy as np
 import pytest
 
 from lfctl.config import load_config
-from lfctl.sim.camera import VehiclePose
+from lfctl.render.renderer import VehiclePose
+from lfctl.render.sequences import make_sequence
 from lfctl.sim.camera_sensor import CameraSensor
-from lfctl.sim.sequences import make_sequence
+from lfctl.vision.boxes import iou
 from lfctl.vision.frames import FrameError
 from lfctl.vision.markers import find_constellations
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
-
-
-def iou(a, b) -> float:
-    ax, ay, aw, ah = a
-    bx, by, bw, bh = b
-    ix = max(0, min(ax + aw, bx + bw) - max(ax, bx))
-    iy = max(0, min(ay + ah, by + bh) - max(ay, by))
-    return ix * iy / (aw * ah + bw * bh - ix * iy)
 
 
 def run(tier: str, seed: int, kind: str, n: int = 150):
@@ -113,11 +106,11 @@ def test_in_a_vee_the_follower_starts_on_its_target_not_on_a_mix_with_the_banner
     sensor = CameraSensor(cfg, "l2", 3)
     others = [VehiclePose(0, 0, 0), VehiclePose(-1.299, 0.75, 0), VehiclePose(-1.299, -0.75, 0)]
     frame, truth = sensor.renderer.render(0.0, VehiclePose(-2.598, -1.5, 0.0, False), others, 2, "l2")
-    settings = sensor.tracker.s
+    settings = sensor.perception.tracker.s
     cands = find_constellations(cv2.cvtColor(frame, cv2.COLOR_BGR2HSV), settings.marker_hue_deg)
     assert len(cands) >= 2
     assert iou(cands[0].banner_bbox(settings.panel_over_side), truth.bbox) < 0.5  # the squarest is the mix
     # the slot (1.5 m at 30 deg) says where the target should be; the tracker takes the nearest
-    assert sensor.expected_box is not None and iou(sensor.expected_box, truth.bbox) >= 0.8
-    st = Tracker(settings).init_from_markers(frame, sensor.expected_box)
+    assert sensor.perception.expected_box is not None and iou(sensor.perception.expected_box, truth.bbox) >= 0.8
+    st = Tracker(settings).init_from_markers(frame, sensor.perception.expected_box)
     assert st is not None and iou(st.bbox, truth.bbox) >= 0.8

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig, LightKey, PropConfig, SceneConfig
-from lfctl.sim.camera import FrameTruth, Renderer, VehiclePose
+from lfctl.render.renderer import FrameTruth, Renderer, VehiclePose
 
 TIERS = ("clear", "distractor", "lighting", "occlusion", "textured_distractor", "panel_clutter", "range")
 FPS = 30.0

@@ -14,7 +14,6 @@ and relative heading.
 
 from __future__ import annotations
 
-import colorsys
 import itertools
 import math
 from collections.abc import Sequence
@@ -24,147 +23,16 @@ from functools import cached_property
 import cv2
 import numpy as np
 
-from lfctl.config import BannerConfig, CameraConfig, LightKey, PropConfig, SceneConfig
+from lfctl.config import BannerConfig, CameraConfig, LightKey, SceneConfig
 from lfctl.frames import rot_z, wrap_pi
+from lfctl.render.textures import banner_texture, ground_texture, noise_texture, periodic_pyramid, prop_texture
+from lfctl.vision.banner import BannerGeometry
+from lfctl.vision.camera_model import CameraModel
 
 NEAR_M = 0.05
 GROUND_TILES = 3  # the floor texture tiled GROUND_TILES x GROUND_TILES for the fast warp path
 GROUND_LEVELS = 4  # floor mip levels: full, 1/2, 1/4, 1/8 of the texture's resolution
 BODY_LENGTH_M, BODY_WIDTH_M, BODY_BOTTOM_M, BODY_TOP_M = 0.30, 0.22, 0.03, 0.14
-#: where the banner panel sits, behind the vehicle's reference point (body frame x), m
-BANNER_BACK_M = -BODY_LENGTH_M / 2 - 0.005
-TEX_PX_PER_M = 800.0  # banner texture resolution
-
-
-# ---------------------------------------------------------------------------------------
-# Camera model
-
-
-@dataclass(frozen=True)
-class CameraModel:
-    """Intrinsics (pixels) and mount of a follower's camera."""
-
-    width: int
-    height: int
-    K: np.ndarray  # 3x3
-    dist: np.ndarray  # k1, k2, p1, p2
-    mount_body_m: np.ndarray  # camera centre in the vehicle body frame (FRD)
-    R_body_from_cam: np.ndarray
-
-    @staticmethod
-    def from_config(cfg: CameraConfig) -> CameraModel:
-        fx = cfg.fx_px or (cfg.width_px / 2) / math.tan(cfg.hfov_rad / 2)
-        fy = cfg.fy_px or fx
-        cx = cfg.cx_px or (cfg.width_px - 1) / 2
-        cy = cfg.cy_px or (cfg.height_px - 1) / 2
-        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-        c, s = math.cos(cfg.pitch_rad), math.sin(cfg.pitch_rad)
-        # columns: camera x (right), y (down), z (forward, pitched up by pitch_rad) in FRD
-        R = np.array([[0.0, s, c], [1.0, 0.0, 0.0], [0.0, c, -s]])
-        return CameraModel(
-            cfg.width_px,
-            cfg.height_px,
-            K,
-            np.array([cfg.k1, cfg.k2, 0.0, 0.0]),
-            np.array([cfg.mount_forward_m, 0.0, -cfg.mount_height_m]),
-            R,
-        )
-
-    def pose(self, north_m: float, east_m: float, yaw_rad: float) -> tuple[np.ndarray, np.ndarray]:
-        """(R_cam_from_ned, camera centre in NED) for a vehicle pose."""
-        Rz = rot_z(yaw_rad)
-        R_ned_from_cam = Rz @ self.R_body_from_cam
-        centre = np.array([north_m, east_m, 0.0]) + Rz @ self.mount_body_m
-        return R_ned_from_cam.T, centre
-
-
-# ---------------------------------------------------------------------------------------
-# Textures (procedural, seeded)
-
-
-def hue_bgr(hue_deg: float, saturation: float, value: float) -> tuple[int, int, int]:
-    """BGR of an HSV colour (hue in degrees)."""
-    r, g, b = colorsys.hsv_to_rgb((hue_deg % 360) / 360.0, saturation, value)
-    return int(round(b * 255)), int(round(g * 255)), int(round(r * 255))
-
-
-def _noise_texture(
-    rng: np.random.Generator, h: int, w: int, base: Sequence[int], amplitude: float, blur: int
-) -> np.ndarray:
-    n = rng.normal(0.0, amplitude, (h, w)).astype(np.float32)
-    if blur > 1:
-        # blur a 3x3 tiling and keep the middle: the texture stays periodic (no seams when tiled)
-        n = cv2.GaussianBlur(np.tile(n, (3, 3)), (0, 0), blur)[h : 2 * h, w : 2 * w].copy()
-        n *= amplitude / max(float(n.std()), 1e-6)
-    tex = np.empty((h, w, 3), np.uint8)
-    for c in range(3):
-        tex[:, :, c] = np.clip(base[c] + n, 0, 255).astype(np.uint8)
-    return tex
-
-
-def banner_texture(cfg: BannerConfig, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """The banner panel texture and its four marker centres in texture pixels (TL, TR, BR, BL)."""
-    size = int(round(cfg.panel_size_m * TEX_PX_PER_M))
-    tex = _noise_texture(rng, size, size, cfg.panel_bgr, 10.0, 1)
-    # a printed pattern: fine diagonal hatching, the texture LBP keys on
-    for k in range(-size, size, 9):
-        cv2.line(tex, (k, 0), (k + size, size), tuple(int(c * 0.8) for c in cfg.panel_bgr), 2, cv2.LINE_AA)
-    half = cfg.side_m / 2 * TEX_PX_PER_M
-    m = cfg.marker_size_m / 2 * TEX_PX_PER_M
-    c0 = size / 2
-    centres = np.array([[c0 - half, c0 - half], [c0 + half, c0 - half], [c0 + half, c0 + half], [c0 - half, c0 + half]])
-    colour = hue_bgr(cfg.marker_hue_deg, cfg.marker_saturation, 0.85)
-    for cx, cy in centres:
-        cv2.rectangle(
-            tex, (int(round(cx - m)), int(round(cy - m))), (int(round(cx + m)), int(round(cy + m))), colour, -1
-        )
-    return tex, centres
-
-
-def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-    """A tileable ground texture and its resolution (px per m)."""
-    if kind == "checker":
-        tile = np.kron((np.indices((8, 8)).sum(axis=0) % 2), np.ones((64, 64))).astype(np.uint8)
-        tex = np.dstack([90 + 60 * tile] * 3).astype(np.uint8)
-        return tex, 128.0  # 0.5 m squares
-    if kind == "carpet":
-        return _noise_texture(rng, 512, 512, (70, 60, 110), 25.0, 2), 256.0
-    return _noise_texture(rng, 512, 512, (128, 130, 132), 18.0, 3), 128.0
-
-
-def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generator) -> np.ndarray:
-    """Texture of a prop panel by kind."""
-    w = max(8, int(prop.width_m * 200))
-    h = max(8, int(prop.height_m * 200))
-    marker = hue_bgr(banner.marker_hue_deg, banner.marker_saturation, 0.85)
-    if prop.kind == "distractor":
-        # the markers' hue, flat, at a lower saturation (a red box is rarely the markers' red)
-        return _noise_texture(rng, h, w, hue_bgr(banner.marker_hue_deg, 0.6, 0.8), 3.0, 1)
-    if prop.kind == "textured_distractor":
-        # the markers' hue and saturation exactly; only its texture (hatching) differs
-        tex = _noise_texture(rng, h, w, marker, 6.0, 1)
-        dark = tuple(int(c * 0.6) for c in marker)
-        for k in range(0, w + h, 10):
-            cv2.line(tex, (k, 0), (k - h, h), dark, 2, cv2.LINE_AA)
-        return tex
-    if prop.kind == "panel_clutter":
-        return _noise_texture(rng, h, w, banner.panel_bgr, 4.0, 1)
-    if prop.kind == "wall":
-        return _noise_texture(rng, h, w, (150, 160, 170), 20.0, 4)
-    return _noise_texture(rng, h, w, (60, 110, 150), 15.0, 2)  # box: cardboard
-
-
-def _periodic_pyramid(tex: np.ndarray, levels: int) -> list[np.ndarray]:
-    """Mip levels of a periodic texture that stay periodic (each pyrDown sees the wrap)."""
-    out = [tex]
-    while len(out) < levels:
-        h, w = out[-1].shape[:2]
-        if h % 2 or w % 2 or min(h, w) < 16:
-            break
-        # filter a 3 x 3 tiling and keep the middle tile: no reflected border at the seams
-        down = cv2.pyrDown(np.tile(out[-1], (3, 3, 1)))
-        out.append(down[h // 2 : h, w // 2 : w].copy())
-    return out
 
 
 # ---------------------------------------------------------------------------------------
@@ -257,17 +125,6 @@ class FrameTruth:
     banner_cam_m: np.ndarray  # banner centre in the camera frame
 
 
-def banner_geometry(target: VehiclePose, banner: BannerConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """World centre of the banner and its axes (right, down), unit vectors, seen from behind."""
-    Rz = rot_z(target.yaw_rad)
-    centre = np.array([target.north_m, target.east_m, 0.0]) + Rz @ np.array(
-        [BANNER_BACK_M, 0.0, -banner.centre_height_m]
-    )
-    right = Rz @ np.array([0.0, 1.0, 0.0])
-    down = np.array([0.0, 0.0, 1.0])
-    return centre, right, down
-
-
 class Renderer:
     """Renders one follower's camera view. Build once per follower; call :meth:`render`."""
 
@@ -275,11 +132,12 @@ class Renderer:
         self.cfg = camera
         self.cam = CameraModel.from_config(camera)
         self.banner = banner
+        self.geometry = BannerGeometry.from_config(banner)
         self.scene = scene
         rng = np.random.default_rng(seed)
         self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
-        self._ground_levels = _periodic_pyramid(self.ground_tex, GROUND_LEVELS)
+        self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
         # source image, and wrapping costs ~5x per pixel; centred on the visible floor, most
         # samples land inside and the picture is the same (the texture is periodic)
@@ -287,7 +145,7 @@ class Renderer:
         self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
         occ_rng = np.random.default_rng(seed + 1)
         self.occluder_tex = [
-            _noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
+            noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
             for o in scene.occluders
         ]
         w, h = camera.width_px, camera.height_px
@@ -466,7 +324,7 @@ class Renderer:
             p = pts[k]
             out.append((float(dist[k]), Plane(p[0], p[1] - p[0], p[3] - p[0], None, _BOX_COLOURS[k]), _BOX_NAMES[k]))
         if v.banner:
-            centre, right, down = banner_geometry(v, self.banner)
+            centre, right, down = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
             if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
                 size = self.banner_tex.shape[0]
                 half = self.banner.panel_size_m / 2
@@ -617,16 +475,8 @@ class Renderer:
         nearer: list[np.ndarray],
     ) -> FrameTruth:
         K = self.cam.K
-        centre, right, down = banner_geometry(target, self.banner)
-        half = self.banner.side_m / 2
-        marks_w = np.array(
-            [
-                centre - right * half - down * half,
-                centre + right * half - down * half,
-                centre + right * half + down * half,
-                centre - right * half + down * half,
-            ]
-        )
+        centre, _right, _down = self.geometry.frame_ned(target.north_m, target.east_m, target.yaw_rad)
+        marks_w = self.geometry.markers_ned(target.north_m, target.east_m, target.yaw_rad)
         cam = (R @ (marks_w - c).T).T
         with np.errstate(divide="ignore", invalid="ignore"):
             uv = (K @ cam.T).T

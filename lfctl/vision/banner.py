@@ -1,0 +1,105 @@
+"""The leader's banner: a light square panel on the vehicle's back with four square markers
+of one hue at the corners of a square of side E (the paper's marker constellation).
+
+Geometry only, shared by the renderer (which draws it) and perception (which measures it):
+where the banner sits on its vehicle, where its markers are in the world, and the range
+between the two vehicles' reference points once the banner's pose is known.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lfctl.config import BannerConfig
+from lfctl.frames import rot_z
+
+__all__ = ["BannerGeometry"]
+
+
+@dataclass(frozen=True)
+class BannerGeometry:
+    """Where a banner is and how big.
+
+    Parameters
+    ----------
+    side_m : float
+        Side of the square the four marker centres sit on (the paper's E), m.
+    marker_size_m : float
+        Side of one marker, m.
+    panel_size_m : float
+        Side of the square panel, m.
+    centre_height_m : float
+        Height of the banner's centre above the ground, m.
+    back_m : float
+        How far the banner's plane is behind the vehicle's reference point, m (> 0).
+    """
+
+    side_m: float
+    marker_size_m: float
+    panel_size_m: float
+    centre_height_m: float
+    back_m: float
+
+    @staticmethod
+    def from_config(cfg: BannerConfig) -> BannerGeometry:
+        """The geometry a scenario's ``[banner]`` describes.
+
+        Parameters
+        ----------
+        cfg : BannerConfig
+            The ``[banner]`` section.
+        """
+        return BannerGeometry(cfg.side_m, cfg.marker_size_m, cfg.panel_size_m, cfg.centre_height_m, cfg.back_m)
+
+    @property
+    def panel_over_side(self) -> float:
+        """Panel side / marker square side: the banner's box from its markers' box."""
+        return self.panel_size_m / self.side_m
+
+    @property
+    def offset_body_m(self) -> float:
+        """The banner centre's position along the body x axis (negative: behind), m."""
+        return -self.back_m
+
+    def centre_body_m(self) -> np.ndarray:
+        """The banner centre in its vehicle's body frame (FRD), m."""
+        return np.array([self.offset_body_m, 0.0, -self.centre_height_m])
+
+    def frame_ned(self, north_m: float, east_m: float, yaw_rad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The banner's centre and its unit axes (right and down, as seen from behind) in NED.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The carrying vehicle's reference point, m.
+        yaw_rad : float
+            The carrying vehicle's heading, rad.
+        """
+        Rz = rot_z(yaw_rad)
+        centre = np.array([north_m, east_m, 0.0]) + Rz @ np.array([self.offset_body_m, 0.0, -self.centre_height_m])
+        right = Rz @ np.array([0.0, 1.0, 0.0])
+        down = np.array([0.0, 0.0, 1.0])
+        return centre, right, down
+
+    def markers_ned(self, north_m: float, east_m: float, yaw_rad: float) -> np.ndarray:
+        """The four marker centres in NED, (4, 3): TL, TR, BR, BL as seen from behind.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The carrying vehicle's reference point, m.
+        yaw_rad : float
+            The carrying vehicle's heading, rad.
+        """
+        centre, right, down = self.frame_ned(north_m, east_m, yaw_rad)
+        half = self.side_m / 2
+        return np.array(
+            [
+                centre - right * half - down * half,
+                centre + right * half - down * half,
+                centre + right * half + down * half,
+                centre - right * half + down * half,
+            ]
+        )

@@ -1,0 +1,224 @@
+"""Perception: camera frames in, the target's range and bearing out. The one pipeline the
+simulated camera (`lfctl sim`, camera sensing), a real rover (`lfctl follow`) and
+`lfctl track` all run:
+
+    frame -> tracker (CAMShift on H x S x LBP, Kalman filters, marker constellation)
+          -> marker pose (solvePnP IPPE_SQUARE, else the paper's eq. 9-11)
+          -> the banner's offset on its vehicle -> RelativeMeasurement
+
+When the markers are hidden but the histogram tracker holds its window, the window's centre
+column still gives a bearing: a bearing-only measurement (no range) that the formation
+filter fuses. Pure: frames and times in, values out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from lfctl.config import BannerConfig, CameraConfig
+from lfctl.vision.banner import BannerGeometry
+from lfctl.vision.boxes import Box
+from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.pose import MarkerPose, paper_pose, pnp_pose, to_vehicle_frame
+from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState
+
+__all__ = ["BannerPerception", "Perception", "slot_box"]
+
+#: a bearing-only measurement from the tracked window counts for this much of the window's quality
+WINDOW_QUALITY = 0.3
+
+
+@dataclass(frozen=True)
+class Perception:
+    """One frame, perceived.
+
+    Parameters
+    ----------
+    t_s : float
+        The frame's time, s.
+    track : TrackState or None
+        The tracker's result; None before the target was first found.
+    pose : MarkerPose or None
+        The banner's pose from its markers, when all four were seen.
+    measurement : RelativeMeasurement
+        What the formation controller gets: range and bearing (TRACKING with a pose), a
+        bearing only (TRACKING from the window), or OCCLUDED / LOST with no values.
+    """
+
+    t_s: float
+    track: TrackState | None
+    pose: MarkerPose | None
+    measurement: RelativeMeasurement
+
+
+def slot_box(camera: CameraModel, banner: BannerGeometry, range_m: float, bearing_rad: float) -> Box | None:
+    """Where the target's banner shows in the image when the follower holds its slot (the
+    target at ``range_m``, ``bearing_rad``, heading the same way), or None when out of view.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        The follower's camera.
+    banner : BannerGeometry
+        The target's banner.
+    range_m, bearing_rad : float
+        The slot: range (m) and bearing (rad, clockwise positive) of the target.
+    """
+    body = np.array(
+        [
+            range_m * math.cos(bearing_rad) + banner.offset_body_m,
+            range_m * math.sin(bearing_rad),
+            -banner.centre_height_m,
+        ]
+    )
+    seen = camera.project_body(body)
+    if seen is None:
+        return None
+    u, v, depth = seen
+    side = camera.K[0, 0] * banner.panel_size_m / depth
+    return int(round(u - side / 2)), int(round(v - side / 2)), max(1, int(round(side))), max(1, int(round(side)))
+
+
+class BannerPerception:
+    """The tracker, the marker pose and the banner's offset, frame after frame.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        Intrinsics, distortion and mount of the camera the frames come from.
+    banner : BannerGeometry
+        The target's banner.
+    settings : TrackerSettings
+        The tracker's settings (kind, marker hue, ...).
+    expected_box : Box, optional
+        Where the target should appear at the start (see :func:`slot_box`): with several
+        banners in view, the tracker starts on the one nearest it.
+    """
+
+    def __init__(
+        self,
+        camera: CameraModel,
+        banner: BannerGeometry,
+        settings: TrackerSettings,
+        expected_box: Box | None = None,
+    ) -> None:
+        self.camera = camera
+        self.banner = banner
+        self.tracker = Tracker(settings)
+        self.expected_box = expected_box
+        self.started = False
+
+    @staticmethod
+    def from_config(
+        camera: CameraConfig,
+        banner: BannerConfig,
+        slot: tuple[float, float] | None = None,
+        *,
+        kind: str = "full",
+        use_markers: bool = True,
+        marker_hue_deg: float | None = None,
+    ) -> BannerPerception:
+        """Perception as a scenario's ``[camera]`` and ``[banner]`` describe it.
+
+        Parameters
+        ----------
+        camera, banner : CameraConfig, BannerConfig
+            The scenario's sections.
+        slot : (range_m, bearing_rad), optional
+            The follower's slot: the tracker starts on the banner nearest where it shows.
+        kind : "full", "hs-lbp" or "hue"
+            The tracker (see :class:`TrackerSettings`).
+        use_markers : bool
+            Use the banner's markers (pose, reacquisition); False tracks any object by its
+            histogram only.
+        marker_hue_deg : float, optional
+            The markers' hue, degrees (default the banner's).
+        """
+        cam = CameraModel.from_config(camera)
+        geometry = BannerGeometry.from_config(banner)
+        settings = TrackerSettings(
+            kind=kind,  # type: ignore[arg-type]
+            marker_hue_deg=banner.marker_hue_deg if marker_hue_deg is None else marker_hue_deg,
+            panel_over_side=geometry.panel_over_side,
+            use_markers=use_markers,
+        )
+        expected = slot_box(cam, geometry, *slot) if slot is not None else None
+        return BannerPerception(cam, geometry, settings, expected)
+
+    def step(self, t_s: float, frame: np.ndarray, roi: Box | None = None) -> Perception:
+        """Perceive one frame.
+
+        Until the target is found, each frame is searched for the banner's markers (or, with
+        ``roi``, the tracker starts on that window); after that the tracker follows it.
+
+        Parameters
+        ----------
+        t_s : float
+            The frame's time, s.
+        frame : np.ndarray
+            BGR image, uint8, H x W x 3.
+        roi : Box, optional
+            Start on this window (x, y, w, h) instead of searching for the markers; used
+            only while not started.
+        """
+        track: TrackState | None
+        if not self.started:
+            if roi is not None:
+                track = self.tracker.init(frame, roi)
+            else:
+                track = self.tracker.init_from_markers(frame, self.expected_box)
+            self.started = track is not None
+        else:
+            track = self.tracker.update(frame)
+        pose = self.marker_pose(track.markers) if track is not None and track.markers is not None else None
+        return Perception(t_s, track, pose, self._measurement(t_s, track, pose))
+
+    def marker_pose(self, markers: np.ndarray) -> MarkerPose | None:
+        """The banner's pose from its four marker centres (TL, TR, BR, BL, pixels): PnP,
+        else the paper's two-pair estimate.
+
+        Parameters
+        ----------
+        markers : np.ndarray
+            (4, 2) marker centres in raw (distorted) pixels.
+        """
+        side = self.banner.side_m
+        return pnp_pose(markers, self.camera.K, self.camera.dist, side) or paper_pose(markers, self.camera.K, side)
+
+    def vehicle_relative(self, pose: MarkerPose) -> tuple[float, float, float]:
+        """Range (m), bearing (rad) and relative heading (rad) between the two vehicles'
+        reference points, from the banner's pose.
+
+        Parameters
+        ----------
+        pose : MarkerPose
+            The banner in the camera frame.
+        """
+        cam = self.camera
+        return to_vehicle_frame(pose, cam.mount_body_m, cam.R_body_from_cam, self.banner.back_m)
+
+    def _measurement(self, t_s: float, track: TrackState | None, pose: MarkerPose | None) -> RelativeMeasurement:
+        if track is not None and track.status is TrackStatus.TRACKING:
+            if pose is not None:
+                rng, brg, _ = self.vehicle_relative(pose)
+                return RelativeMeasurement(t_s, TrackStatus.TRACKING, rng, brg, min(pose.quality, track.quality))
+            if track.bbox is not None:
+                # markers hidden (banner turned edge-on, partly covered) but the histogram
+                # tracker holds the window: a bearing-only measurement the formation filter fuses
+                return self._window_measurement(t_s, track)
+        status = track.status if track is not None else TrackStatus.LOST
+        return RelativeMeasurement(t_s, status if status is not TrackStatus.TRACKING else TrackStatus.OCCLUDED)
+
+    def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
+        """Bearing only, from the tracked window's centre column (its size says too little)."""
+        assert track.bbox is not None
+        x, y, w, h = track.bbox
+        K = self.camera.K
+        ray_cam = np.array([(x + w / 2.0 - K[0, 2]) / K[0, 0], (y + h / 2.0 - K[1, 2]) / K[1, 1], 1.0])
+        ray_body = self.camera.R_body_from_cam @ ray_cam
+        bearing = math.atan2(ray_body[1], ray_body[0])
+        return RelativeMeasurement(t_s, TrackStatus.TRACKING, math.nan, bearing, WINDOW_QUALITY * track.quality)
