@@ -53,9 +53,73 @@ class BuildToolError(FmuError):
     """The C compiler needed to build the FMUs is missing or failed."""
 
 
+class LinkError(LfctlError, OSError):
+    """A MAVLink connection could not be opened.
+
+    Parameters
+    ----------
+    connect : str
+        The connection string.
+    reason : str
+        What the operating system or pymavlink said.
+    """
+
+    def __init__(self, connect: str, reason: str) -> None:
+        self.connect = connect
+        self.reason = reason
+        super().__init__(f"cannot open MAVLink connection {connect!r}: {reason}")
+
+
 class LinkTimeoutError(LfctlError, TimeoutError):
-    """A MAVLink peer did not answer in time."""
+    """A MAVLink peer did not answer in time.
+
+    Parameters
+    ----------
+    expected : str
+        What was awaited (a message name, or a description of it).
+    sysid : int or None
+        The system it was awaited from.
+    timeout_s : float or None
+        How long was waited, s.
+    detail : str
+        A hint for the user (what to check).
+    """
+
+    def __init__(
+        self, expected: str, *, sysid: int | None = None, timeout_s: float | None = None, detail: str = ""
+    ) -> None:
+        self.expected = expected
+        self.sysid = sysid
+        self.timeout_s = timeout_s
+        self.detail = detail
+        who = f" from system {sysid}" if sysid is not None else ""
+        within = f" within {timeout_s:g} s" if timeout_s is not None else ""
+        super().__init__(f"no {expected}{who}{within}" + (f" ({detail})" if detail else ""))
 
 
 class MissionProtocolError(LfctlError):
-    """The mission protocol went out of sequence or was refused."""
+    """The mission protocol went out of sequence or was refused.
+
+    Parameters
+    ----------
+    message : str
+        What happened.
+    expected_seq, received_seq : int or None
+        The item sequence number that was expected and the one that came, where that is
+        what went wrong.
+    result : str or None
+        The vehicle's MAV_MISSION_RESULT name, when it refused.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        expected_seq: int | None = None,
+        received_seq: int | None = None,
+        result: str | None = None,
+    ) -> None:
+        self.expected_seq = expected_seq
+        self.received_seq = received_seq
+        self.result = result
+        super().__init__(message)

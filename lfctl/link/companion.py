@@ -1,15 +1,19 @@
-"""`lfctl follow`: the follower stack on a real rover. A camera (or video) gives the leader's
-range and bearing through the tracker and marker pose; the rover's own LOCAL_POSITION_NED and
-ATTITUDE give odometry; the formation controller's speed and yaw rate go to the rover as
-GUIDED setpoints (SET_POSITION_TARGET_LOCAL_NED, BODY_NED, type_mask 1479) from component 191,
-with the formation status (NAMED_VALUE_FLOAT) and STATUSTEXT on track lost/reacquired."""
+"""The follower's companion computer on its vehicle's MAVLink: component 191 of the vehicle's
+system, as on an ArduPilot Rover with a companion board.
+
+It puts the vehicle in GUIDED and arms it, streams setpoints
+(SET_POSITION_TARGET_LOCAL_NED, frame BODY_NED, type_mask 1479: forward speed and yaw
+rate), reports the formation status to the ground station (NAMED_VALUE_FLOAT ``rng_err``,
+``brg_err``, ``trk_q``) and says when the leader is lost or found again (STATUSTEXT). It
+reads back the vehicle's HEARTBEAT, LOCAL_POSITION_NED and ATTITUDE (its odometry on a real
+rover). One class for both worlds: on a :class:`MavPort` over UDP or serial to a real
+rover, or over the in-memory link to a simulated vehicle's endpoint.
+"""
 
 from __future__ import annotations
 
-import logging
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,147 +21,166 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
-from lfctl.link.gcs import open_connection
+from lfctl.link.port import CHECK_LINK, MavPort
 
-log = logging.getLogger(__name__)
+__all__ = ["COMPANION_COMPID", "Companion", "VehicleReport"]
+
+#: the formation status names a ground station shows (NAMED_VALUE_FLOAT, 10 characters at most)
+STATUS_NAMES = (b"rng_err", b"brg_err", b"trk_q")
 
 
 @dataclass
-class RoverOdometry:
-    """What the rover reports about itself (local NED, heading, speed)."""
+class VehicleReport:
+    """What the vehicle last said about itself (local NED, heading, speed, mode).
 
-    t_s: float = 0.0
-    north_m: float = 0.0
-    east_m: float = 0.0
-    yaw_rad: float = 0.0
-    speed_mps: float = 0.0
-    mode: int = -1
-    armed: bool = False
+    ``t_s`` is when its LOCAL_POSITION_NED arrived, on the companion's clock; ``None`` for
+    what has not been heard yet.
+    """
+
     heard: bool = False
+    mode: int | None = None
+    armed: bool | None = None
+    t_s: float | None = None
+    north_m: float | None = None
+    east_m: float | None = None
+    speed_mps: float | None = None
+    yaw_rad: float | None = None
 
 
-class RoverLink:
-    """A MAVLink connection to the rover as its companion computer (component 191)."""
+def _time_ms(t_s: float) -> int:
+    return int(t_s * 1000) & 0xFFFFFFFF
 
-    def __init__(
-        self, connect: str, target_system: int = 1, timeout_s: float = 10.0, signing_key: bytes | None = None
-    ) -> None:
-        self.conn = open_connection(connect, target_system, COMPANION_COMPID, signing_key)
+
+class Companion:
+    """A follower's companion on its vehicle's link.
+
+    Parameters
+    ----------
+    port : MavPort
+        Our identity (the vehicle's system id, component 191) and the way to the vehicle.
+    target_system : int
+        The vehicle's system id.
+    """
+
+    def __init__(self, port: MavPort, target_system: int) -> None:
+        self.port = port
         self.target = target_system
-        self.timeout_s = timeout_s
-        self.odom = RoverOdometry()
-        self._t0 = time.monotonic()
+        self.vehicle = VehicleReport()
 
-    def start(self) -> None:
-        """Say hello and wait for the rover's heartbeat; ask for position and attitude at 20 Hz."""
-        deadline = time.monotonic() + self.timeout_s
-        while time.monotonic() < deadline:
-            self.conn.mav.heartbeat_send(
-                mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID, 0, 0, mav.MAV_STATE_ACTIVE
-            )
-            self.poll(0.2)
-            if self.odom.heard:
-                for msg_id in (mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, mav.MAVLINK_MSG_ID_ATTITUDE):
-                    self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 50_000)
-                return
-        raise LinkTimeoutError(f"no HEARTBEAT from rover system {self.target} within {self.timeout_s:g} s")
+    @staticmethod
+    def open(connect: str, target_system: int, signing_key: bytes | None = None) -> Companion:
+        """A companion on a pymavlink connection string (a real rover, or ``lfctl sim --realtime``).
 
-    def command(self, cmd: int, *p: float) -> None:
-        params = [*p, *([0.0] * (7 - len(p)))]
-        self.conn.mav.command_long_send(self.target, 1, cmd, 0, *params)
+        Parameters
+        ----------
+        connect : str
+            ``udpout:ROVER_IP:14550``, ``/dev/ttyUSB0,921600``, ...
+        target_system : int
+            The rover's system id.
+        signing_key : bytes, optional
+            MAVLink 2 signing key, when the rover signs its link.
+        """
+        return Companion(MavPort.open(connect, target_system, COMPANION_COMPID, signing_key), target_system)
+
+    # -- to the vehicle ---------------------------------------------------------------------
+    def command(self, cmd: int, *params: float) -> None:
+        """A COMMAND_LONG to the vehicle's autopilot (its COMMAND_ACK is not awaited)."""
+        p = [*params, *([0.0] * (7 - len(params)))]
+        self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, 0, *p))
 
     def set_guided(self) -> None:
+        """Ask for GUIDED mode."""
         self.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["GUIDED"])
 
-    def arm(self) -> None:
-        self.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+    def arm(self, on: bool = True) -> None:
+        """Ask to arm (or disarm)."""
+        self.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if on else 0.0)
 
-    def poll(self, timeout_s: float = 0.0) -> None:
-        """Read everything waiting (up to ``timeout_s`` for the first message)."""
-        m = self.conn.recv_match(blocking=timeout_s > 0, timeout=timeout_s)
+    def setpoint(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
+        """A GUIDED setpoint: forward speed (m/s) and yaw rate (rad/s, positive right)."""
+        self.port.send(
+            mav.MAVLink_set_position_target_local_ned_message(
+                _time_ms(t_s), self.target, 1, mav.MAV_FRAME_BODY_NED, TYPE_MASK_SPEED_YAWRATE,
+                0, 0, 0, speed_mps, 0, 0, 0, 0, 0, 0, yaw_rate_radps,
+            )
+        )  # fmt: skip
+
+    def report(
+        self, t_s: float, range_err_m: float | None, bearing_err_deg: float | None, track_quality: float
+    ) -> None:
+        """The formation status a ground station shows: range error (m), bearing error (deg)
+        and track quality (0..1); an unknown error goes as NaN, MAVLink's "no value"."""
+        for name, value in zip(STATUS_NAMES, (range_err_m, bearing_err_deg, track_quality), strict=True):
+            v = float(value) if value is not None and math.isfinite(value) else math.nan
+            self.port.send(mav.MAVLink_named_value_float_message(_time_ms(t_s), name, v))
+
+    def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
+        """A STATUSTEXT (50 characters at most) for the ground station."""
+        self.port.send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
+
+    # -- from the vehicle -------------------------------------------------------------------
+    def poll(self, t_s: float, timeout_s: float = 0.0) -> int:
+        """Read everything waiting (up to ``timeout_s`` for the first message) and keep what
+        the vehicle's autopilot says about itself; returns the messages read.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, on the companion's clock (stamps the odometry), s.
+        timeout_s : float
+            Longest wait for the first message, s.
+        """
+        n = 0
+        m = self.port.recv(timeout_s)
         while m is not None:
-            if m.get_srcSystem() == self.target and m.get_srcComponent() == 1:
-                kind = m.get_type()
-                o = self.odom
-                if kind == "HEARTBEAT":
-                    o.heard, o.mode, o.armed = True, m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
-                elif kind == "LOCAL_POSITION_NED":
-                    o.north_m, o.east_m, o.speed_mps = m.x, m.y, math.hypot(m.vx, m.vy)
-                    o.t_s = time.monotonic() - self._t0
-                elif kind == "ATTITUDE":
-                    o.yaw_rad = m.yaw
-            m = self.conn.recv_match(blocking=False)
+            n += 1
+            self._take(m, t_s)
+            m = self.port.recv()
+        return n
 
-    def setpoint(self, speed_mps: float, yaw_rate_radps: float) -> None:
-        t_ms = int((time.monotonic() - self._t0) * 1000) & 0xFFFFFFFF
-        self.conn.mav.set_position_target_local_ned_send(
-            t_ms,
-            self.target,
-            1,
-            mav.MAV_FRAME_BODY_NED,
-            TYPE_MASK_SPEED_YAWRATE,
-            0,
-            0,
-            0,
-            speed_mps,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-            yaw_rate_radps,
-        )
+    def _take(self, m: Any, t_s: float) -> None:
+        if m.get_srcSystem() != self.target or m.get_srcComponent() != 1:
+            return
+        kind, v = m.get_type(), self.vehicle
+        if kind == "HEARTBEAT":
+            v.heard, v.mode, v.armed = True, m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+        elif kind == "LOCAL_POSITION_NED":
+            v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
+        elif kind == "ATTITUDE":
+            v.yaw_rad = m.yaw
 
-    def report(self, range_err_m: float, bearing_err_deg: float, quality: float) -> None:
-        t_ms = int((time.monotonic() - self._t0) * 1000) & 0xFFFFFFFF
-        for name, value in ((b"rng_err", range_err_m), (b"brg_err", bearing_err_deg), (b"trk_q", quality)):
-            self.conn.mav.named_value_float_send(t_ms, name, float(value))
+    def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> None:
+        """Say hello until the vehicle's heartbeat is heard, then ask for its position and
+        attitude at ``odometry_rate_hz``.
 
-    def statustext(self, text: str) -> None:
-        self.conn.mav.statustext_send(mav.MAV_SEVERITY_WARNING, text.encode()[:50])
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait for the vehicle, s.
+        odometry_rate_hz : float
+            Rate of LOCAL_POSITION_NED and ATTITUDE to ask for, Hz.
+
+        Raises
+        ------
+        LinkTimeoutError
+            No heartbeat from the vehicle within ``timeout_s``.
+        """
+        start = time.monotonic()
+        deadline = start + timeout_s
+        while time.monotonic() < deadline:
+            self.port.send(
+                mav.MAVLink_heartbeat_message(
+                    mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID, 0, 0, mav.MAV_STATE_ACTIVE, 3
+                )
+            )
+            self.poll(time.monotonic() - start, 0.2)
+            if self.vehicle.heard:
+                interval_us = 1e6 / odometry_rate_hz
+                for msg_id in (mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, mav.MAVLINK_MSG_ID_ATTITUDE):
+                    self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us)
+                return
+        raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=CHECK_LINK)
 
     def close(self) -> None:
-        self.conn.close()
-
-
-def follow_loop(
-    rover: RoverLink,
-    next_measurement: Callable[[float], Any],
-    controller: Any,
-    period_s: float = 0.05,
-    max_steps: int | None = None,
-) -> int:
-    """Run: measurement -> controller -> setpoint, every ``period_s``; stop (zero) at the end."""
-    from lfctl.guidance.formation import Odometry
-    from lfctl.vision.track_state import TrackStatus
-
-    steps, last = 0, None
-    try:
-        while max_steps is None or steps < max_steps:
-            t_s = time.monotonic() - rover._t0
-            rover.poll()
-            meas = next_measurement(t_s)
-            if meas is None:
-                break
-            o = rover.odom
-            out = controller.step(meas, Odometry(t_s, o.north_m, o.east_m, o.yaw_rad, o.speed_mps))
-            rover.setpoint(out.speed_mps, out.yaw_rate_radps)
-            if steps % 10 == 0:
-                st = controller.settings
-                rover.report(
-                    out.range_est_m - st.range_cmd_m if math.isfinite(out.range_est_m) else math.nan,
-                    math.degrees(out.bearing_est_rad - st.bearing_cmd_rad)
-                    if math.isfinite(out.bearing_est_rad)
-                    else math.nan,
-                    1.0 if out.status is TrackStatus.TRACKING else 0.0,
-                )
-            if last is not None and out.status is not last and TrackStatus.LOST in (out.status, last):
-                rover.statustext("Leader lost, stopping" if out.status is TrackStatus.LOST else "Leader reacquired")
-            last = out.status
-            steps += 1
-            time.sleep(max(0.0, period_s - ((time.monotonic() - rover._t0) - t_s)))
-    finally:
-        for _ in range(3):
-            rover.setpoint(0.0, 0.0)  # leave the rover stopped
-    return steps
+        """Close the connection."""
+        self.port.close()

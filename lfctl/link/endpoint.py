@@ -12,10 +12,8 @@ and failsafes (GCS heartbeat lost -> HOLD; companion silent -> stop). Time comes
 from __future__ import annotations
 
 import base64
-import hashlib
 import logging
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -24,6 +22,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link.mission import MissionItem, validate_item
+from lfctl.link.port import pack_next
+from lfctl.link.signing import setup_signing
 
 log = logging.getLogger(__name__)
 
@@ -657,33 +657,6 @@ class VehicleEndpoint:
                     caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
-
-
-def pack_next(msg: Any, m: Any) -> bytes:
-    """``msg`` packed by the MAVLink object ``m``, which then moves to its next sequence
-    number, as ``MAVLink.send`` does (``pack`` alone leaves it: every packet would carry the
-    same seq, and a ground station counts all but one of them lost)."""
-    data = msg.pack(m)
-    m.seq = (m.seq + 1) % 256
-    m.total_packets_sent += 1
-    m.total_bytes_sent += len(data)
-    return data
-
-
-def signing_key_from_passphrase(passphrase: str | None) -> bytes | None:
-    """The 32-byte MAVLink 2 signing key of a passphrase (SHA-256, as MAVProxy's `signing setup`);
-    None (no signing) for no or an empty passphrase."""
-    return hashlib.sha256(passphrase.encode()).digest() if passphrase else None
-
-
-def setup_signing(m: Any, key: bytes) -> None:
-    """Sign outgoing packets with ``key`` and reject unsigned incoming ones on ``m``."""
-    m.signing.secret_key = key
-    m.signing.sign_outgoing = True
-    m.signing.link_id = 0
-    # 10 us units since 2015-01-01, as the specification asks
-    m.signing.timestamp = int((time.time() - 1420070400) * 1e5)
-    m.signing.allow_unsigned_callback = lambda _mav, _msgid: False
 
 
 def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:

@@ -4,20 +4,19 @@ pymavlink, system 255, component 190. Every wait has a timeout and a clear error
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
-from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES, pack_next, setup_signing
+from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.mission import MissionItem
+from lfctl.link.port import CHECK_LINK, MavPort
 
 GCS_SYSID = 255
-RESULT_NAMES = {v.name: k for k, v in mav.enums["MAV_RESULT"].items()}
 
 
 def _result_name(enum: str, value: int) -> str:
@@ -25,61 +24,44 @@ def _result_name(enum: str, value: int) -> str:
     return e.name if e is not None else str(value)
 
 
-def open_connection(connect: str, sysid: int, compid: int, signing_key: bytes | None = None) -> Any:
-    """A pymavlink connection (ardupilotmega dialect) as ``sysid``/``compid``, signing with
-    ``signing_key`` when given, or LinkTimeoutError."""
-    # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
-    # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
-    os.environ["MAVLINK20"] = "1"
-    try:
-        conn = mavutil.mavlink_connection(
-            connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
-        )
-    except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
-        raise LinkTimeoutError(f"cannot open MAVLink connection {connect!r}: {exc}") from exc
-    if signing_key is not None:
-        setup_signing(conn.mav, signing_key)
-    return conn
-
-
 class GroundStation:
-    """A MAVLink ground station on a pymavlink connection string (``udpout:127.0.0.1:14561``)
-    or on any object with ``send(bytes)`` / ``recv()`` (an in-memory link) plus a ``pump``
-    callable that lets the other side run."""
+    """A MAVLink ground station (system 255, component 190) on a pymavlink connection string
+    (``udpout:127.0.0.1:14561``) or on a :class:`MavPort` (an in-memory link in lockstep runs).
+
+    Parameters
+    ----------
+    connect : str or MavPort
+        Where the vehicle is.
+    target_system : int
+        The vehicle's system id.
+    timeout_s : float
+        Longest wait for each answer, s.
+    heartbeats : bool
+        Send the ground station's heartbeat (once a second) while waiting.
+    signing_key : bytes, optional
+        MAVLink 2 signing key, for a connection string.
+    """
 
     def __init__(
         self,
-        connect: str | Any,
+        connect: str | MavPort,
         target_system: int = 1,
         timeout_s: float = 3.0,
-        pump: Callable[[], None] | None = None,
         heartbeats: bool = True,
         signing_key: bytes | None = None,
     ) -> None:
         self.target = target_system
         self.heartbeats = heartbeats
         self.timeout_s = timeout_s
-        self.pump = pump
         self._hb_at = -math.inf
-        if isinstance(connect, str):
-            self.conn: Any = open_connection(connect, GCS_SYSID, GCS_COMPID, signing_key)
-            self.mav = self.conn.mav
-            self.link = None
-        else:
-            self.conn = None
-            self.link = connect
-            self.mav = mav.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
-            self.mav.robust_parsing = True
-            self._parser = mav.MAVLink(None)
-            self._parser.robust_parsing = True
-            self._queue: list[Any] = []
+        self.port = (
+            connect if isinstance(connect, MavPort) else MavPort.open(connect, GCS_SYSID, GCS_COMPID, signing_key)
+        )
 
     # -- plumbing ---------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
-        if self.conn is not None:
-            self.conn.mav.send(msg)
-        else:
-            self.link.send(pack_next(msg, self.mav))
+        """Send one message to the vehicle."""
+        self.port.send(msg)
 
     def heartbeat(self, force: bool = False) -> None:
         """The GCS heartbeat (at most once a second unless forced)."""
@@ -92,15 +74,9 @@ class GroundStation:
                 )
             )
 
-    def _next(self, timeout_s: float) -> Any | None:
-        if self.conn is not None:
-            return self.conn.recv_match(blocking=True, timeout=timeout_s)
-        if not self._queue:
-            if self.pump is not None:
-                self.pump()
-            for data, _addr in self.link.recv():
-                self._queue.extend(m for m in (self._parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA")
-        return self._queue.pop(0) if self._queue else None
+    def next_message(self, timeout_s: float) -> Any | None:
+        """The next message from anyone, waiting up to ``timeout_s``, or None."""
+        return self.port.recv(timeout_s)
 
     def wait(
         self, kinds: tuple[str, ...], timeout_s: float | None = None, where: Callable[[Any], bool] | None = None
@@ -112,17 +88,15 @@ class GroundStation:
         while time.monotonic() < deadline and spins < 100_000:
             spins += 1
             self.heartbeat()
-            m = self._next(min(0.1, max(0.0, deadline - time.monotonic())))
+            m = self.next_message(min(0.1, max(0.0, deadline - time.monotonic())))
             if m is None:
                 continue
             if m.get_type() in kinds and m.get_srcSystem() == self.target and (where is None or where(m)):
                 return m
-        raise LinkTimeoutError(
-            f"no {'/'.join(kinds)} from system {self.target} within {limit:g} s (is the vehicle up, the address "
-            "right, and, if it signs its link, the passphrase the same?)"
-        )
+        raise LinkTimeoutError("/".join(kinds), sysid=self.target, timeout_s=limit, detail=CHECK_LINK)
 
     def wait_heartbeat(self) -> Any:
+        """The vehicle's next HEARTBEAT (from its autopilot, component 1)."""
         self.heartbeat(force=True)
         return self.wait(("HEARTBEAT",), where=lambda m: m.get_srcComponent() == 1)
 
@@ -138,7 +112,10 @@ class GroundStation:
             except LinkTimeoutError:
                 continue
         raise LinkTimeoutError(
-            f"no COMMAND_ACK for command {_result_name('MAV_CMD', cmd)} from system {self.target} after {retries} tries"
+            f"COMMAND_ACK for {_result_name('MAV_CMD', cmd)}",
+            sysid=self.target,
+            timeout_s=self.timeout_s,
+            detail=f"{retries} tries",
         )
 
     def set_mode(self, name: str) -> int:
@@ -187,16 +164,18 @@ class GroundStation:
                     break  # restart from MISSION_COUNT
                 if m.get_type() == "MISSION_ACK":
                     if m.type != mav.MAV_MISSION_ACCEPTED:
-                        raise MissionProtocolError(
-                            f"mission refused by system {self.target}: {_result_name('MAV_MISSION_RESULT', m.type)}"
-                        )
+                        result = _result_name("MAV_MISSION_RESULT", m.type)
+                        raise MissionProtocolError(f"mission refused by system {self.target}: {result}", result=result)
                     return
                 if not 0 <= m.seq < len(items):
                     raise MissionProtocolError(
-                        f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})"
+                        f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})",
+                        received_seq=m.seq,
                     )
                 self._send_item(items[m.seq])
-        raise LinkTimeoutError(f"mission upload to system {self.target}: no answer after {restarts + 1} attempts")
+        raise LinkTimeoutError(
+            "answer to the mission upload", sysid=self.target, detail=f"{restarts + 1} attempts from MISSION_COUNT"
+        )
 
     def _send_item(self, it: MissionItem) -> None:
         self.send(
@@ -217,7 +196,9 @@ class GroundStation:
             except LinkTimeoutError:
                 continue
         if count is None:
-            raise LinkTimeoutError(f"no MISSION_COUNT from system {self.target} after {retries} requests")
+            raise LinkTimeoutError(
+                "MISSION_COUNT", sysid=self.target, timeout_s=self.timeout_s, detail=f"{retries} requests"
+            )
         items: list[MissionItem] = []
         while len(items) < count:
             seq = len(items)
@@ -232,7 +213,8 @@ class GroundStation:
                     continue
             else:
                 raise MissionProtocolError(
-                    f"mission download: expected item {seq}, received none after {retries} requests"
+                    f"mission download: expected item {seq}, received none after {retries} requests",
+                    expected_seq=seq,
                 )
             items.append(
                 MissionItem(
@@ -248,17 +230,62 @@ class GroundStation:
         self.send(mav.MAVLink_mission_clear_all_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
         m = self.wait(("MISSION_ACK",))
         if m.type != mav.MAV_MISSION_ACCEPTED:
-            raise MissionProtocolError(f"mission clear refused: {_result_name('MAV_MISSION_RESULT', m.type)}")
+            result = _result_name("MAV_MISSION_RESULT", m.type)
+            raise MissionProtocolError(f"mission clear refused: {result}", result=result)
 
     def close(self) -> None:
-        if self.conn is not None:
-            self.conn.close()
+        """Close the connection."""
+        self.port.close()
 
 
 def _pid(m: Any) -> str:
-    pid = m.param_id
-    return (pid.decode(errors="replace") if isinstance(pid, bytes) else pid).rstrip("\x00")
+    return text_field(m.param_id)
 
 
 def mode_name(custom_mode: int) -> str:
+    """The Rover mode's name (``AUTO``), or ``mode N`` for a number Rover does not define."""
     return MODE_NAMES.get(custom_mode, f"mode {custom_mode}")
+
+
+def text_field(value: str | bytes) -> str:
+    """A MAVLink char[] field as text (pymavlink gives bytes or str, NUL-padded)."""
+    return (value.decode(errors="replace") if isinstance(value, bytes) else value).rstrip("\x00")
+
+
+@dataclass
+class VehicleRow:
+    """What a ground station last heard from one vehicle (``None``: not heard yet)."""
+
+    sysid: int
+    mode: str | None = None
+    armed: bool | None = None
+    lat_deg: float | None = None
+    lon_deg: float | None = None
+    speed_mps: float | None = None
+    formation: dict[str, float] = field(default_factory=dict)  # the companion's NAMED_VALUE_FLOATs
+    text: str = ""
+    last_heard_s: float = -math.inf
+
+
+class FleetTable:
+    """Every vehicle a ground station hears: mode, arming, position, speed and its
+    companion's formation status (``lfctl gcs watch``)."""
+
+    def __init__(self) -> None:
+        self.rows: dict[int, VehicleRow] = {}
+
+    def add(self, m: Any, t_s: float) -> None:
+        """Take one received message, heard at ``t_s`` (the watcher's clock, s)."""
+        row = self.rows.setdefault(m.get_srcSystem(), VehicleRow(m.get_srcSystem()))
+        row.last_heard_s = t_s
+        kind = m.get_type()
+        if kind == "HEARTBEAT" and m.get_srcComponent() == 1:
+            row.mode = mode_name(m.custom_mode)
+            row.armed = bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+        elif kind == "GLOBAL_POSITION_INT":
+            row.lat_deg, row.lon_deg = m.lat / 1e7, m.lon / 1e7
+            row.speed_mps = math.hypot(m.vx, m.vy) / 100
+        elif kind == "NAMED_VALUE_FLOAT":
+            row.formation[text_field(m.name)] = float(m.value)
+        elif kind == "STATUSTEXT":
+            row.text = text_field(m.text)

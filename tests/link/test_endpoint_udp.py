@@ -12,9 +12,10 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
-from lfctl.link.endpoint import MODES, VehicleEndpoint, setup_signing, signing_key_from_passphrase
+from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import load_mission, local_mission, save_mission
+from lfctl.link.signing import setup_signing, signing_key_from_passphrase
 from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
 
 pytestmark = pytest.mark.integration
@@ -83,7 +84,7 @@ def test_packets_carry_consecutive_sequence_numbers_so_a_gcs_counts_no_loss(live
     g = live.gcs()
     seqs = [g.wait(("HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "SYS_STATUS")).get_seq() for _ in range(40)]
     assert len(set(seqs)) > 30
-    conn = g.conn
+    conn = g.port.connection
     assert conn is not None and conn.mav_loss == 0 and conn.mav_count >= 40
     g.close()
 

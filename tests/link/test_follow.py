@@ -11,9 +11,10 @@ import cv2
 import pytest
 
 from lfctl.cli import main
-from lfctl.link.endpoint import MODES, VehicleEndpoint, signing_key_from_passphrase
+from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import UdpLink
-from lfctl.sim.sequences import make_sequence
+from lfctl.render.sequences import make_sequence
 
 pytestmark = pytest.mark.integration
 

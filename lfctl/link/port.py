@@ -1,0 +1,163 @@
+"""One MAVLink identity (system, component) sending and receiving messages, over a pymavlink
+connection (UDP, TCP, serial: what a real rover or ground station uses) or over an in-memory
+link (the lockstep simulation). The ground station and the companion both talk through it,
+so their protocol code does not care which."""
+
+from __future__ import annotations
+
+import os
+from collections import deque
+from collections.abc import Callable
+from typing import Any, Protocol
+
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.errors import LinkError
+from lfctl.link.signing import setup_signing
+
+__all__ = ["CHECK_LINK", "DatagramLink", "MavPort", "pack_next"]
+
+#: what to check when a vehicle does not answer
+CHECK_LINK = "is the vehicle up, the address right, and, if it signs its link, the passphrase the same?"
+
+
+class DatagramLink(Protocol):
+    """What carries MAVLink bytes: ``send`` a datagram, ``recv`` the waiting ones."""
+
+    def send(self, data: bytes) -> None:
+        """Send one datagram."""
+
+    def recv(self, max_datagrams: int = ...) -> list[tuple[bytes, tuple[str, int]]]:
+        """Every datagram waiting (with its sender), without blocking."""
+
+
+def pack_next(msg: Any, m: Any) -> bytes:
+    """``msg`` packed by the MAVLink object ``m``, which then moves to its next sequence
+    number, as ``MAVLink.send`` does (``pack`` alone leaves it: every packet would carry the
+    same seq, and a ground station counts all but one of them lost).
+
+    Parameters
+    ----------
+    msg : pymavlink message
+        The message to pack.
+    m : pymavlink MAVLink object
+        The sender's codec (system, component, sequence, signing).
+    """
+    data = msg.pack(m)
+    m.seq = (m.seq + 1) % 256
+    m.total_packets_sent += 1
+    m.total_bytes_sent += len(data)
+    return data
+
+
+class MavPort:
+    """Send and receive MAVLink messages as ``sysid``/``compid``.
+
+    Build one with :meth:`open` (a pymavlink connection string) or :meth:`memory` (an
+    in-memory link and a ``pump`` that lets the other end run).
+    """
+
+    def __init__(
+        self,
+        sysid: int,
+        compid: int,
+        *,
+        connection: Any = None,
+        link: DatagramLink | None = None,
+        pump: Callable[[], None] | None = None,
+    ) -> None:
+        if (connection is None) == (link is None):
+            raise ValueError("MavPort needs a connection or a link, not both")
+        self.sysid = sysid
+        self.compid = compid
+        self.connection = connection
+        self.link = link
+        self.pump = pump
+        if connection is not None:
+            self.mav = connection.mav
+        else:
+            self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+            self.mav.robust_parsing = True
+            self._parser = mav.MAVLink(None)
+            self._parser.robust_parsing = True
+        self._queue: deque[Any] = deque()
+
+    @staticmethod
+    def open(connect: str, sysid: int, compid: int, signing_key: bytes | None = None) -> MavPort:
+        """A port on a pymavlink connection string (``udpout:HOST:PORT``, ``udpin:...``,
+        ``tcp:...``, ``/dev/ttyUSB0,921600``), signing with ``signing_key`` when given.
+
+        Parameters
+        ----------
+        connect : str
+            The pymavlink connection string.
+        sysid, compid : int
+            Who we are.
+        signing_key : bytes, optional
+            MAVLink 2 signing key (see :mod:`lfctl.link.signing`).
+
+        Raises
+        ------
+        LinkError
+            The connection could not be opened (bad string, port in use, no such device).
+        """
+        # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
+        # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
+        os.environ["MAVLINK20"] = "1"
+        try:
+            conn = mavutil.mavlink_connection(
+                connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
+            )
+        except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
+            raise LinkError(connect, str(exc)) from exc
+        if signing_key is not None:
+            setup_signing(conn.mav, signing_key)
+        return MavPort(sysid, compid, connection=conn)
+
+    @staticmethod
+    def memory(link: DatagramLink, sysid: int, compid: int, pump: Callable[[], None] | None = None) -> MavPort:
+        """A port on an in-memory link; ``pump`` runs the other end before each read.
+
+        Parameters
+        ----------
+        link : DatagramLink
+            Our end of the link.
+        sysid, compid : int
+            Who we are.
+        pump : callable, optional
+            Lets the other end handle what we sent and answer.
+        """
+        return MavPort(sysid, compid, link=link, pump=pump)
+
+    def send(self, msg: Any) -> None:
+        """Send one message (sequence number and signature as the codec says)."""
+        if self.connection is not None:
+            self.connection.mav.send(msg)
+        else:
+            assert self.link is not None
+            self.link.send(pack_next(msg, self.mav))
+
+    def recv(self, timeout_s: float = 0.0) -> Any | None:
+        """The next message received, waiting up to ``timeout_s`` (in memory: none after a
+        pump of the other end), or None.
+
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait, s; 0 returns at once.
+        """
+        if self.connection is not None:
+            return self.connection.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
+        if not self._queue:
+            if self.pump is not None:
+                self.pump()
+            assert self.link is not None
+            for data, _addr in self.link.recv():
+                self._queue.extend(m for m in (self._parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA")
+        return self._queue.popleft() if self._queue else None
+
+    def close(self) -> None:
+        """Close the connection (an in-memory link is its owner's to close)."""
+        if self.connection is not None:
+            self.connection.close()
