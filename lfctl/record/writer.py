@@ -254,10 +254,6 @@ class Recorder:
             with zipfile.ZipFile(p) as z:
                 self._attach(f"{p.name}/modelDescription.xml", "application/xml", z.read("modelDescription.xml"))
 
-    def attach(self, name: str, media_type: str, data: bytes) -> None:
-        """Attach another file (a mission, say)."""
-        self._attach(name, media_type, data)
-
     # -- channels --------------------------------------------------------------------------
     def _proto_channel(self, topic: str, message_type: Any) -> int:
         if topic in self._channels:
@@ -419,21 +415,55 @@ class Recorder:
                 },
             )
 
-    def close(self) -> None:
-        """Finish the file: hashes, summary, indexes, footer."""
+    def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
+        """One guidance step of a follower (``/<follower>/controller``)."""
+        self.json(f"/{follower}/controller", "lfctl.Controller", t_s, payload)
+
+    def mavlink(self, t_s: float, vehicle: str, packet: dict[str, Any]) -> None:
+        """One MAVLink packet in or out of a vehicle's endpoint (``/mavlink/<vehicle>``)."""
+        self.json(f"/mavlink/{vehicle}", "lfctl.MavlinkPacket", t_s, packet)
+
+    def mission_reached(self, t_s: float, index: int, active: int, count: int) -> None:
+        """The leader reached waypoint ``index`` (from 0); ``active`` is the item now current."""
+        self.json(
+            "/leader/mission",
+            "lfctl.Mission",
+            t_s,
+            {"event": "reached", "index": index, "active": active, "count": count},
+        )
+
+    def close(self, reason: str = "completed", t_s: float | None = None) -> None:
+        """Finish the file: why the run ended (metadata ``end``), summary, indexes, footer.
+
+        Parameters
+        ----------
+        reason : str
+            ``completed``, ``interrupted`` or ``error: ...``.
+        t_s : float, optional
+            The simulation time it ended at, s.
+        """
         if self._closed:
             return
         self._closed = True
         try:
+            end = {"reason": reason} | ({"t_s": repr(t_s)} if t_s is not None else {})
+            self._w.add_metadata("end", end)
             self._w.finish()
         finally:
             self._f.close()
+
+    def discard(self) -> None:
+        """Close and delete the file (a run that never started has nothing to keep)."""
+        if not self._closed:
+            self._closed = True
+            self._f.close()
+        self.path.unlink(missing_ok=True)
 
     def __enter__(self) -> Recorder:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.close()
+        self.close("completed" if exc[0] is None else f"error: {exc[0].__name__}")  # type: ignore[union-attr]
 
 
 def _jsonable(value: Any) -> Any:

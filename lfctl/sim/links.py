@@ -9,75 +9,17 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from pymavlink.dialects.v20 import ardupilotmega as mav
-
 from lfctl.config import Config
-from lfctl.link.endpoint import (
-    COMPANION_COMPID,
-    MODES,
-    TYPE_MASK_SPEED_YAWRATE,
-    VehicleEndpoint,
-    pack_next,
-    signing_key_from_passphrase,
-)
-from lfctl.link.gcs import GroundStation
+from lfctl.link.companion import Companion
+from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, MODES, VehicleEndpoint
+from lfctl.link.gcs import GCS_SYSID, GroundStation
 from lfctl.link.mission import local_mission
+from lfctl.link.port import MavPort
+from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
 from lfctl.sim.world import WorldState
 
-
-class Companion:
-    """The follower's vision + guidance as MAVLink component 191 of the follower's system."""
-
-    def __init__(self, link: MemoryLink, sysid: int) -> None:
-        self.link = link
-        self.sysid = sysid
-        self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=COMPANION_COMPID)
-
-    def _send(self, msg: Any) -> None:
-        self.link.send(pack_next(msg, self.mav))
-        self.link.recv()  # the vehicle's replies to us (acks): read and dropped
-
-    def start(self) -> None:
-        """GUIDED and armed, as a companion computer does at start-up."""
-        self._send(
-            mav.MAVLink_command_long_message(
-                self.sysid,
-                1,
-                mav.MAV_CMD_DO_SET_MODE,
-                0,
-                mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                MODES["GUIDED"],
-                0,
-                0,
-                0,
-                0,
-                0,
-            )
-        )
-        self._send(
-            mav.MAVLink_command_long_message(self.sysid, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-        )
-
-    def setpoint(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
-        self._send(
-            mav.MAVLink_set_position_target_local_ned_message(
-                int(t_s * 1000) & 0xFFFFFFFF, self.sysid, 1, mav.MAV_FRAME_BODY_NED, TYPE_MASK_SPEED_YAWRATE,
-                0, 0, 0, speed_mps, 0, 0, 0, 0, 0, 0, yaw_rate_radps,
-            )
-        )  # fmt: skip
-
-    def report(self, t_s: float, range_err_m: float, bearing_err_deg: float, quality: float) -> None:
-        t_ms = int(t_s * 1000) & 0xFFFFFFFF
-        for name, value in ((b"rng_err", range_err_m), (b"brg_err", bearing_err_deg), (b"trk_q", quality)):
-            self._send(
-                mav.MAVLink_named_value_float_message(
-                    t_ms, name, float(value) if math.isfinite(value) else float("nan")
-                )
-            )
-
-    def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
-        self._send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
+__all__ = ["Links"]
 
 
 class Links:
@@ -107,7 +49,11 @@ class Links:
                 ep.forward = udp.send
             self.endpoints.append(ep)
             self.peers.append(peer)
-        self.companions = [Companion(self.peers[i], 1 + i) for i in range(1, len(cfg.vehicles))]
+        # each follower's companion (component 191 of its system) on the in-memory link
+        self.companions = [
+            Companion(MavPort.memory(self.peers[i], 1 + i, COMPANION_COMPID), 1 + i)
+            for i in range(1, len(cfg.vehicles))
+        ]
         leader = self.endpoints[0]
         if cfg.mission.waypoints:
             items = local_mission(list(cfg.mission.waypoints), self.home)
@@ -116,13 +62,8 @@ class Links:
             else:
                 # lockstep: upload through the mission protocol at t = 0, then AUTO and arm
                 # no heartbeats: a one-shot set-up is not a ground station whose loss is a failsafe
-                gcs = GroundStation(
-                    self.peers[0],
-                    target_system=1,
-                    timeout_s=2.0,
-                    pump=lambda: leader.tick(0.0, leader.state),
-                    heartbeats=False,
-                )
+                port = MavPort.memory(self.peers[0], GCS_SYSID, GCS_COMPID, pump=lambda: leader.tick(0.0, leader.state))
+                gcs = GroundStation(port, target_system=1, timeout_s=2.0, heartbeats=False)
                 gcs.upload(items)
                 gcs.set_mode("AUTO")
                 gcs.arm(True)
@@ -136,7 +77,8 @@ class Links:
             ep.params["LFC_RANGE"].value = slots[v.name].range_m
             ep.params["LFC_BEARING"].value = math.degrees(slots[v.name].bearing_rad)
             ep.params["LFC_COAST"].value = cfg.guidance.coast_s
-            comp.start()
+            comp.set_guided()  # as a companion computer does at start-up
+            comp.arm()
 
     @property
     def ports(self) -> dict[str, int]:

@@ -50,8 +50,7 @@ def small_chunks(cfg, tmp: Path, sensing: str = "truth", duration: float = 12.0)
 def recorded_run(tmp: Path, sensing: str, duration: float):
     cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp, sensing, duration)
     path = tmp / "run.mcap"
-    with Recorder(path, cfg) as rec:
-        report = run_scenario(cfg, recorder=rec)
+    report = run_scenario(cfg, record_to=path)
     return path, report
 
 
@@ -177,8 +176,7 @@ def test_strict_fails_on_the_scenarios_limits(truth_log, tmp_path: Path) -> None
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = small_chunks(dataclasses.replace(cfg, source=text), tmp_path, "truth", 8.0)
     p = tmp_path / "strict.mcap"
-    with Recorder(p, cfg) as rec:
-        run_scenario(cfg, recorder=rec)
+    run_scenario(cfg, record_to=p)
     assert main(["audit", str(p), "--strict"]) == 1
 
 

@@ -1,0 +1,2 @@
+"""The follower stack, the same code in the simulation and on a real rover (see
+:mod:`lfctl.follower.stack`), and what runs it on a real rover (:mod:`lfctl.follower.rover`)."""

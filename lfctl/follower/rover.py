@@ -1,0 +1,100 @@
+"""The follower stack on a real rover (`lfctl follow`): frames from a camera, the rover's
+own odometry over MAVLink, setpoints back to it as its companion computer, paced by the
+wall clock. The stack (:class:`~lfctl.follower.stack.Follower`) and the perception
+(:class:`~lfctl.vision.perception.BannerPerception`) are the ones `lfctl sim` runs."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from lfctl.follower.stack import Follower
+from lfctl.guidance.formation import FormationSettings, Odometry
+from lfctl.link.companion import Companion
+from lfctl.video import VideoSource
+from lfctl.vision.perception import BannerPerception
+
+__all__ = ["RoverRun", "follow_rover"]
+
+#: setpoints of zero sent when the run ends, so the rover is left standing
+STOP_SETPOINTS = 3
+
+
+@dataclass(frozen=True)
+class RoverRun:
+    """How a run on a rover went: setpoints sent and frames used."""
+
+    steps: int
+    frames: int
+
+
+def follow_rover(
+    companion: Companion,
+    video: VideoSource,
+    perception: BannerPerception,
+    settings: FormationSettings,
+    *,
+    rate_hz: float,
+    status_rate_hz: float,
+    arm: bool = False,
+    timeout_s: float = 10.0,
+    max_frames: int | None = None,
+    max_steps: int | None = None,
+    name: str = "rover",
+) -> RoverRun:
+    """Follow the leader with a real rover until the video ends (or the limits are reached).
+
+    Waits for the rover's heartbeat, asks for its odometry at ``rate_hz``, puts it in GUIDED
+    (and arms it with ``arm``), then each period: read the rover's messages, take a frame,
+    perceive it, run the stack. The rover is sent zero setpoints at the end, however it ends.
+
+    Parameters
+    ----------
+    companion : Companion
+        The connection to the rover, as its companion computer.
+    video : VideoSource
+        The camera.
+    perception : BannerPerception
+        The camera's perception (intrinsics, banner, tracker).
+    settings : FormationSettings
+        The slot and control law.
+    rate_hz : float
+        Control rate: setpoints and frames per second.
+    status_rate_hz : float
+        Formation status reports per second.
+    arm : bool
+        Also arm the rover.
+    timeout_s : float
+        Longest wait for the rover's heartbeat, s.
+    max_frames, max_steps : int, optional
+        Stop after this many frames or setpoints.
+    name : str
+        The follower's name in its STATUSTEXT lines.
+    """
+    companion.wait_vehicle(timeout_s, rate_hz)
+    companion.set_guided()
+    if arm:
+        companion.arm()
+    stack = Follower(name, settings, companion, step_rate_hz=rate_hz, status_rate_hz=status_rate_hz)
+    period = 1.0 / rate_hz
+    t0 = time.monotonic()
+    steps = frames = 0
+    t_s = 0.0
+    try:
+        while max_steps is None or steps < max_steps:
+            t_s = time.monotonic() - t0
+            companion.poll(t_s)
+            frame = video.read() if max_frames is None or frames < max_frames else None
+            if frame is None:
+                break
+            frames += 1
+            seen = perception.step(t_s, frame)
+            v = companion.vehicle
+            odom = Odometry(t_s, v.north_m or 0.0, v.east_m or 0.0, v.yaw_rad or 0.0, v.speed_mps or 0.0)
+            stack.step(t_s, seen.measurement, odom)
+            steps += 1
+            time.sleep(max(0.0, period - ((time.monotonic() - t0) - t_s)))
+    finally:
+        for _ in range(STOP_SETPOINTS):
+            companion.setpoint(t_s, 0.0, 0.0)
+    return RoverRun(steps, frames)

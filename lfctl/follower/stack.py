@@ -1,0 +1,189 @@
+"""One follower's stack, the same in `lfctl sim` and `lfctl follow`:
+
+    measurement (perception: camera or truth sensor) + odometry
+      -> target estimator (Kalman filter) -> formation law (sliding mode, or the P baseline)
+      -> companion: GUIDED setpoint every step, formation status at the status rate,
+         STATUSTEXT when the target is lost or found again
+
+Only where the measurement and the odometry come from, and what the companion's port is
+connected to, differ between the simulation and a rover (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+from lfctl.config import Config
+from lfctl.frames import wrap_pi
+from lfctl.guidance.formation import FormationController, FormationOutput, FormationSettings, Odometry
+from lfctl.guidance.smc import BearingGains, RangeGains
+from lfctl.schedule import RateSchedule
+from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+
+__all__ = ["CompanionPort", "Follower", "FollowerEvent", "formation_settings"]
+
+
+class CompanionPort(Protocol):
+    """What the stack says to its vehicle and ground station (see :class:`lfctl.link.companion.Companion`)."""
+
+    def setpoint(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
+        """A GUIDED setpoint."""
+
+    def report(
+        self, t_s: float, range_err_m: float | None, bearing_err_deg: float | None, track_quality: float
+    ) -> None:
+        """The formation status."""
+
+    def statustext(self, text: str) -> None:
+        """A line of text for the ground station."""
+
+
+@dataclass(frozen=True)
+class FollowerEvent:
+    """The target lost (``"lost"``) or found again (``"reacquired"``) at ``t_s``."""
+
+    t_s: float
+    kind: str
+    text: str
+
+
+def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, controller: str) -> FormationSettings:
+    """The formation controller settings a scenario asks for.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario (``[guidance]`` gains, ``[sensing]`` noise).
+    range_cmd_m, bearing_cmd_rad : float
+        The slot: range (m) and bearing (rad, clockwise positive) to the target.
+    controller : "smc" or "p"
+        The control law.
+    """
+    g = cfg.guidance
+    return FormationSettings(
+        range_cmd_m=range_cmd_m,
+        bearing_cmd_rad=bearing_cmd_rad,
+        controller=controller,  # type: ignore[arg-type]
+        range=RangeGains(
+            eta_mps=g.range_eta_mps,
+            phi_m=g.range_phi_m,
+            min_speed_mps=-g.reverse_speed_mps,
+            max_speed_mps=g.max_speed_mps,
+            min_cos_bearing=g.min_cos_bearing,
+        ),
+        bearing=BearingGains(
+            eta_radps=g.bearing_eta_radps,
+            lam_s=g.bearing_lambda_s,
+            phi_rad=g.bearing_phi_rad,
+            max_yaw_rate_radps=g.max_yaw_rate_radps,
+        ),
+        p_gain_per_s=g.p_gain,
+        coast_s=g.coast_s,
+        slowdown_s=g.slowdown_s,
+        meas_sigma_m=max(0.02, cfg.sensing.range_noise_m * 2),
+    )
+
+
+class Follower:
+    """A follower's stack: formation controller, companion, events and status reports.
+
+    Parameters
+    ----------
+    name : str
+        The follower's name (in its STATUSTEXT lines).
+    settings : FormationSettings
+        Its slot and control law.
+    companion : CompanionPort
+        Where its setpoints, reports and text go.
+    step_rate_hz : float
+        How often :meth:`step` is called, Hz (the guidance rate).
+    status_rate_hz : float
+        How often the formation status goes to the ground station, Hz.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        settings: FormationSettings,
+        companion: CompanionPort,
+        *,
+        step_rate_hz: float,
+        status_rate_hz: float,
+    ) -> None:
+        self.name = name
+        self.controller = FormationController(settings)
+        self.companion = companion
+        self.events: list[FollowerEvent] = []
+        self._status = RateSchedule(status_rate_hz, 1.0 / step_rate_hz)
+        self._last: TrackStatus | None = None
+
+    @property
+    def settings(self) -> FormationSettings:
+        """The controller's settings now (the slot may change while running)."""
+        return self.controller.settings
+
+    def set_slot(self, range_m: float, bearing_rad: float) -> None:
+        """Move to another slot (a ground station changed it), keeping everything else.
+
+        Parameters
+        ----------
+        range_m, bearing_rad : float
+            The new range (m) and bearing (rad) to the target.
+        """
+        st = self.controller.settings
+        if abs(range_m - st.range_cmd_m) > 1e-9 or abs(bearing_rad - st.bearing_cmd_rad) > 1e-9:
+            self.controller.settings = dataclasses.replace(st, range_cmd_m=range_m, bearing_cmd_rad=bearing_rad)
+
+    def step(self, t_s: float, measurement: RelativeMeasurement | None, odometry: Odometry) -> FormationOutput:
+        """One guidance step: the formation law on the newest measurement, the setpoint to
+        the vehicle, the status report when one is due and an event when the track is lost
+        or regained.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        measurement : RelativeMeasurement or None
+            The newest measurement of the target (None before the first).
+        odometry : Odometry
+            The follower's own pose and speed now.
+        """
+        out = self.controller.step(measurement, odometry)
+        self.companion.setpoint(t_s, out.speed_mps, out.yaw_rate_radps)
+        self._track_events(t_s, out.status)
+        if self._status.due(t_s):
+            st = self.controller.settings
+            range_err = out.range_est_m - st.range_cmd_m if math.isfinite(out.range_est_m) else None
+            bearing_err = (
+                math.degrees(wrap_pi(out.bearing_est_rad - st.bearing_cmd_rad))
+                if math.isfinite(out.bearing_est_rad)
+                else None
+            )
+            self.companion.report(t_s, range_err, bearing_err, 1.0 if out.status is TrackStatus.TRACKING else 0.0)
+        return out
+
+    def command(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
+        """An open-loop setpoint instead of the formation law (scripted test runs): sent as
+        :meth:`step` sends its own, reported as tracking, with no formation status.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        speed_mps, yaw_rate_radps : float
+            The setpoint.
+        """
+        self.companion.setpoint(t_s, speed_mps, yaw_rate_radps)
+        self._track_events(t_s, TrackStatus.TRACKING)
+
+    def _track_events(self, t_s: float, status: TrackStatus) -> None:
+        last, self._last = self._last, status
+        if last is None or status is last or TrackStatus.LOST not in (status, last):
+            return
+        kind = "lost" if status is TrackStatus.LOST else "reacquired"
+        text = f"{self.name}: leader {'lost, stopping' if kind == 'lost' else 'reacquired'}"
+        self.events.append(FollowerEvent(t_s, kind, text))
+        self.companion.statustext(text)

@@ -1,0 +1,84 @@
+"""Replay: run a tracker on a log's recorded camera frames and score it, beside the tracker
+that ran live, against the renderer's truth (`lfctl replay`)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from lfctl.errors import ConfigError
+from lfctl.record.audit import audit
+from lfctl.vision.boxes import iou
+from lfctl.vision.tracker import Tracker, TrackerSettings
+
+__all__ = ["ReplayResult", "replay"]
+
+#: a frame is scored when at least this much of the banner shows
+MIN_VISIBLE = 0.5
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """Success rates (IoU >= 0.5 against the truth) of the recorded and the replayed tracker."""
+
+    follower: str
+    frames: int
+    scored: int
+    recorded_success: float
+    replayed_success: float
+
+
+def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
+    """Re-run a tracker on the recorded frames of one follower and score both.
+
+    Parameters
+    ----------
+    path : Path
+        An MCAP log recorded with camera sensing and images.
+    kind : "full", "hs-lbp" or "hue"
+        The tracker to replay.
+    follower : str, optional
+        Whose camera (default the first follower).
+
+    Raises
+    ------
+    ConfigError
+        The log holds no images for the follower, or no frame with a truth box.
+    """
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+
+    report = audit(path)
+    c = report.contents
+    followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
+    name = follower or (followers[0] if followers else "")
+    images = c.messages.get(f"/{name}/camera/image/compressed", [])
+    if not images:
+        raise ConfigError(
+            f"{path} has no recorded camera images for follower {name!r} "
+            "(was it run with sensing = 'camera' and recording.images = true?)"
+        )
+    recorded = {t: json.loads(d) for t, d in c.messages.get(f"/{name}/tracker", [])}
+    tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
+    ok_new = ok_old = n = 0
+    started = False
+    for t, data in images:
+        frame = cv2.imdecode(np.frombuffer(CompressedImage.FromString(data).data, np.uint8), cv2.IMREAD_COLOR)
+        rec = recorded.get(t, {})
+        truth = rec.get("truth_bbox")
+        if not started:
+            if truth:
+                tracker.init(frame, tuple(truth))
+                started = True
+            continue
+        st = tracker.update(frame)
+        if truth and rec.get("truth_visible_fraction", 0) >= MIN_VISIBLE:
+            n += 1
+            ok_new += iou(st.bbox, truth) >= 0.5
+            ok_old += iou(rec.get("bbox"), truth) >= 0.5
+    if n == 0:
+        raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
+    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n)
