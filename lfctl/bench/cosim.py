@@ -13,15 +13,13 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import print_json, print_table
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from lfctl.bench.common import print_json, print_table
 from lfctl.config import parse_config
+from lfctl.fmu.build import build_model
 from lfctl.sim.cosim import Simulation
-from lfctl.sim.fmu_build import build_model
 from lfctl.sim.scripted import scripted_command
 
 DT_S = 0.01
@@ -87,8 +85,8 @@ def run_baseline(fmu: Path, n: int, duration_s: float) -> float:
         shutil.rmtree(unzipdir, ignore_errors=True)
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     fmu = build_model("SkidSteerRover").fmi2
     rows, results = [], []
     for n in (1, 2, 10, 50):
@@ -119,4 +117,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main("--quick" in sys.argv)

@@ -11,26 +11,22 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import print_json, print_table
-
+from lfctl.bench.common import print_json, print_table
 from lfctl.config import load_config
+from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SCENARIOS = ("convoy", "column5", "vee")
 SENSING = ("truth", "camera")
 CAMERA_DURATION_S = 40.0  # camera runs render and track every frame: the first 40 s of each route
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     rows, results = [], []
     for name in SCENARIOS:
-        cfg = load_config(EXAMPLES / f"{name}.toml")
+        cfg = load_config(examples_dir() / f"{name}.toml")
         for sensing in SENSING:
             cfg_s = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, sensing=sensing))
             for law in ("smc", "p"):
@@ -97,4 +93,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main("--quick" in sys.argv)

@@ -15,14 +15,11 @@ import statistics
 import sys
 import threading
 import time
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import print_json, print_table
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.bench.common import print_json, print_table
 from lfctl.link.endpoint import VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import local_mission
@@ -105,8 +102,8 @@ def pct(values: list[float], q: float) -> float:
     return sorted(values)[min(len(values) - 1, int(q * len(values)))]
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     n_rt = 200 if quick else 1000
     rows, results = [], {}
     # (a) our endpoint, two vehicles streaming telemetry
@@ -186,4 +183,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main("--quick" in sys.argv)

@@ -23,15 +23,10 @@ from pathlib import Path
 
 import cv2
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from _common import print_json, print_table
-
+from lfctl.bench.common import print_json, print_table
 from lfctl.config import load_config
-from lfctl.record.writer import Recorder
+from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
-
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 @contextlib.contextmanager
@@ -49,7 +44,7 @@ def one_core() -> Iterator[None]:
 
 
 def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
-    cfg = load_config(EXAMPLES / f"{name}.toml")
+    cfg = load_config(examples_dir() / f"{name}.toml")
     cfg = dataclasses.replace(
         cfg,
         sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration),
@@ -58,8 +53,7 @@ def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
     with one_core() if pinned else contextlib.nullcontext():
         cores = len(os.sched_getaffinity(0))
         t0 = time.perf_counter()
-        with Recorder(Path(tmp) / f"{name}.mcap", cfg) as rec:
-            report = run_scenario(cfg, recorder=rec)
+        report = run_scenario(cfg, record_to=Path(tmp) / f"{name}.mcap")
         wall = time.perf_counter() - t0
     extra = report.result.extra
     tasks = extra["task_time_s"]
@@ -87,8 +81,8 @@ def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
     }
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     duration = 10.0 if quick else 40.0
     with tempfile.TemporaryDirectory() as tmp:
         runs = [
@@ -151,4 +145,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main("--quick" in sys.argv)

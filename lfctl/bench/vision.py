@@ -1,7 +1,7 @@
 """lfctl bench vision: the paper's tracker and its baselines against OpenCV's trackers on
 rendered sequences with ground truth, and the renderer's own cost.
 
-Tiers (lfctl/sim/sequences.py) x seeds x 300 frames; every frame is rendered once and fed to
+Tiers (lfctl/render/sequences.py) x seeds x 300 frames; every frame is rendered once and fed to
 every tracker: hue-only CAMShift (the paper's baseline), H+S+LBP CAMShift without filters,
 the full lfctl tracker, and OpenCV's TrackerMIL, TrackerKCF and TrackerCSRT (KCF and CSRT
 need opencv-contrib-python-headless; see the README for the environment that has them).
@@ -20,17 +20,15 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
-
-import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import cv2
-from _common import print_json, print_table
+import numpy as np
 
-from lfctl.sim.camera import BANNER_BACK_M, CameraModel
-from lfctl.sim.sequences import TIERS, make_sequence
+from lfctl.bench.common import print_json, print_table
+from lfctl.render.sequences import TIERS, make_sequence
+from lfctl.vision.banner import BannerGeometry
+from lfctl.vision.boxes import iou
+from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings
@@ -53,15 +51,6 @@ def make_peer(name: str):
         "KCF": lambda: cv2.TrackerKCF.create(),
         "CSRT": lambda: cv2.TrackerCSRT.create(),
     }[name]()
-
-
-def iou(a, b) -> float:
-    ax, ay, aw, ah = a
-    bx, by, bw, bh = b
-    ix = max(0, min(ax + aw, bx + bw) - max(ax, bx))
-    iy = max(0, min(ay + ah, by + bh) - max(ay, by))
-    u = aw * ah + bw * bh - ix * iy
-    return ix * iy / u if u > 0 else 0.0
 
 
 def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
@@ -122,7 +111,9 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
                 ):
                     if est is None:
                         continue
-                    r, b_, _ = to_vehicle_frame(est, cam.mount_body_m, cam.R_body_from_cam, -BANNER_BACK_M)
+                    r, b_, _ = to_vehicle_frame(
+                        est, cam.mount_body_m, cam.R_body_from_cam, BannerGeometry.from_config(seq.banner).back_m
+                    )
                     pose_err[est.method].append(
                         ((r - truth.range_m) / truth.range_m, math.degrees(b_ - truth.bearing_rad))
                     )
@@ -186,8 +177,8 @@ def recovery_frames(vis: list[float], ious: list[float]) -> list[int]:
     return out
 
 
-def main() -> None:
-    quick = "--quick" in sys.argv
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     n_frames = 90 if quick else 300
     seeds = (0,) if quick else (0, 1, 2)
     peers = tuple(peer_names())
@@ -290,4 +281,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main("--quick" in sys.argv)

@@ -1,0 +1,75 @@
+"""The `lfctl` command line: one module per command, each parsing its arguments, calling the
+library and printing; nothing else. Exit codes: 0 success, 1 the run or check failed, 2 bad
+input (usage, scenario, file). Errors print as one line naming the bad input; ``--debug``
+shows tracebacks."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import os
+import signal
+import sys
+from collections.abc import Sequence
+
+from lfctl import __version__
+from lfctl.errors import ConfigError, LfctlError
+
+__all__ = ["build_parser", "main"]
+
+#: the commands, in the order `lfctl --help` lists them; each is a module here
+COMMANDS = ("sim", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every command."""
+    p = argparse.ArgumentParser(
+        prog="lfctl", description="Vision-guided leader-follower ground robots: co-simulation, tools, benchmarks."
+    )
+    p.add_argument("--version", action="version", version=f"lfctl {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks and debug logging")
+    p.add_argument("-v", "--verbose", action="store_true", help="log progress messages (INFO)")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(f"lfctl.cli.{name}").register(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; returns its exit code.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (default ``sys.argv[1:]``).
+    """
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
+
+    # SIGTERM ends a command like Ctrl-C (`lfctl sim` turns both into a stop between steps)
+    def _terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, _terminate)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        print("lfctl: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:  # `lfctl ... | head`: the reader left; not an error of ours
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except (ConfigError, FileNotFoundError) as exc:
+        if args.debug:
+            raise
+        print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, LfctlError) as exc:  # a port in use, a directory not writable, an FMU error
+        if args.debug:
+            raise
+        print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 1

@@ -1,0 +1,41 @@
+"""`lfctl bench`: run the benchmarks (all, or one by name)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from lfctl.bench import NAMES
+
+
+def register(sub: Any) -> None:
+    """Add the ``bench`` command to the parser."""
+    b = sub.add_parser(
+        "bench",
+        help="run benchmarks (all, or one by name)",
+        description=f"Run the benchmarks ({', '.join(NAMES)}); each prints a table and a JSON line. "
+        "All of them also write bench-results.md and bench-results.json here.",
+    )
+    b.add_argument("name", nargs="?", metavar="NAME", help=f"one benchmark: {', '.join(NAMES)}")
+    b.add_argument("--quick", action="store_true", help="shorter runs (for a smoke check)")
+    b.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """One benchmark here, or every one in its own process."""
+    from lfctl.bench import run_all, run_one
+    from lfctl.errors import ConfigError, LfctlError
+
+    if args.name and args.name not in NAMES:
+        raise ConfigError(f"unknown benchmark {args.name!r} (known: {', '.join(NAMES)})")
+    if args.name:
+        print(f"== lfctl bench {args.name}", flush=True)
+        run_one(args.name, args.quick)
+        return 0
+    outcomes = run_all(NAMES, args.quick, Path())
+    print("wrote bench-results.md and bench-results.json")
+    failed = [o.name for o in outcomes if o.result is None]
+    if failed:
+        raise LfctlError(f"benchmarks failed: {', '.join(failed)}")
+    return 0

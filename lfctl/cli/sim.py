@@ -1,0 +1,176 @@
+"""`lfctl sim`: run a scenario closed loop, print the summary, record the log."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import logging
+import math
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lfctl.config import Config
+    from lfctl.sim.runner import RunReport
+
+log = logging.getLogger("lfctl")
+
+
+def register(sub: Any) -> None:
+    """Add the ``sim`` command to the parser."""
+    s = sub.add_parser(
+        "sim",
+        help="run a scenario and print a summary",
+        description="Run a scenario (a TOML file, or a shipped example by name: convoy, column5, vee) "
+        "in the co-simulation and print a summary.",
+    )
+    s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example (convoy)")
+    s.add_argument(
+        "--duration", type=float, metavar="S", help="simulated seconds (default: the scenario's sim.duration_s)"
+    )
+    s.add_argument("--seed", type=int, metavar="N", help="random seed (default: the scenario's sim.seed)")
+    s.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
+    s.add_argument(
+        "--sensing", choices=("truth", "camera"), help="where followers' range/bearing come from (default: sim.sensing)"
+    )
+    s.add_argument(
+        "--controller",
+        choices=("smc", "p"),
+        help="follower control law: sliding mode or the P baseline (default: guidance.controller)",
+    )
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    s.add_argument("--no-record", action="store_true", help="do not write the MCAP log (default: [recording] enabled)")
+    s.set_defaults(func=run)
+
+
+def apply_options(cfg: Config, args: argparse.Namespace) -> Config:
+    """The scenario with the command line's overrides."""
+    sim_cfg = cfg.sim
+    if args.seed is not None:
+        sim_cfg = dataclasses.replace(sim_cfg, seed=args.seed)
+    if args.duration is not None:
+        sim_cfg = dataclasses.replace(sim_cfg, duration_s=args.duration)
+    if args.realtime:
+        sim_cfg = dataclasses.replace(sim_cfg, clock="realtime")
+    if args.sensing is not None:
+        sim_cfg = dataclasses.replace(sim_cfg, sensing=args.sensing)
+    guidance = cfg.guidance
+    if args.controller is not None:
+        guidance = dataclasses.replace(guidance, controller=args.controller)
+    return dataclasses.replace(cfg, sim=sim_cfg, guidance=guidance)
+
+
+def print_report(report: RunReport) -> None:
+    """The run summary: run facts, mission progress, one row per follower, final poses."""
+    from lfctl.metrics import SETTLE_S
+
+    cfg, result = report.config, report.result
+    print(
+        f"scenario     {cfg.name}  (seed {cfg.sim.seed}, {cfg.sim.clock}, sensing {cfg.sim.sensing}, controller {cfg.guidance.controller})"
+    )
+    print(f"sim time     {result.sim_time_s:.2f} s in {result.ticks} steps of {cfg.sim.dt_s * 1000:g} ms")
+    workers = result.extra.get("camera_workers")
+    spread = f", cameras in {workers + 1} processes" if isinstance(workers, int) and workers else ""
+    print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time{spread})")
+    if report.leader_mode == "auto":
+        reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
+        print(f"leader       AUTO: {len(report.waypoints_reached)}/{report.n_waypoints} waypoints reached ({reached})")
+    else:
+        print("leader       scripted speed / yaw-rate profile (no [mission] waypoints)")
+    if report.metrics and cfg.script.followers == "formation":
+        print()
+        print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")
+        head = (
+            "follower", "target", "range_m", "bearing", "rng RMS m", "rng max m", "brg RMS deg", "brg max deg",
+            "min sep m", "tracking s", "occluded s", "lost s",
+        )  # fmt: skip
+
+        def num(value: float | None, fmt: str, scale: float = 1.0) -> str:
+            return "-" if value is None else format(value * scale, fmt)
+
+        deg = math.degrees(1.0)
+        rows = []
+        for m in report.metrics:
+            st = m.time_in_state_s
+            rows.append((
+                m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
+                num(m.range_err_rms_m, ".3f"), num(m.range_err_max_m, ".3f"), num(m.bearing_err_rms_rad, ".2f", deg),
+                num(m.bearing_err_max_rad, ".2f", deg), num(m.min_separation_m, ".2f"),
+                f"{st['tracking']:.1f}", f"{st['occluded']:.1f}", f"{st['lost']:.1f}",
+            ))  # fmt: skip
+        widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
+        for r in [head, *rows]:
+            print(
+                "  ".join(
+                    str(c).rjust(w) if i > 1 else str(c).ljust(w)
+                    for i, (c, w) in enumerate(zip(r, widths, strict=True))
+                )
+            )
+    print()
+    print(f"{'vehicle':<12} {'north_m':>9} {'east_m':>9} {'yaw_deg':>8} {'speed_mps':>10}")
+    for i, name in enumerate(result.names):
+        st = result.final.vehicle(i)
+        print(f"{name:<12} {st.north_m:9.3f} {st.east_m:9.3f} {math.degrees(st.yaw_rad):8.2f} {st.speed_mps:10.3f}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the scenario; print the summary and where the log went."""
+    from lfctl.config import load_config
+    from lfctl.data import resolve_scenario
+    from lfctl.record.writer import run_path
+    from lfctl.sim.runner import run_scenario
+
+    cfg = apply_options(load_config(resolve_scenario(args.scenario)), args)
+    log.info(
+        "scenario %s: %d vehicles, %.1f s, dt %.3g s, %s clock",
+        cfg.name,
+        len(cfg.vehicles),
+        cfg.sim.duration_s,
+        cfg.sim.dt_s,
+        cfg.sim.clock,
+    )
+    show = not args.quiet and sys.stderr.isatty()
+
+    def announce(links: Any) -> None:
+        for name, port in links.ports.items():
+            print(
+                f"mavlink      {name}: udpin {cfg.link.udp_host}:{port}"
+                + (f", udpout {cfg.link.gcs_udpout}" if cfg.link.gcs_udpout else ""),
+                flush=True,
+            )
+
+    def progress(t_s: float, wall_s: float) -> None:
+        if show:
+            rtf = t_s / wall_s if wall_s > 0 else math.inf
+            bar = "#" * int(30 * t_s / cfg.sim.duration_s)
+            print(
+                f"\r[{bar:<30}] {t_s:6.1f}/{cfg.sim.duration_s:.1f} s  x{rtf:7.1f} real time", end="", file=sys.stderr
+            )
+
+    # Ctrl-C / SIGTERM ask the run to stop after the current step, so the interrupt never
+    # lands inside a write and the log is finished; a second one stops at once
+    requested = threading.Event()
+
+    def ask_stop(signum: int, frame: object) -> None:
+        if requested.is_set():
+            raise KeyboardInterrupt
+        requested.set()
+
+    path: Path | None = run_path(cfg) if cfg.recording.enabled and not args.no_record else None
+    handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        report = run_scenario(cfg, progress=progress, record_to=path, on_links=announce, stop=requested.is_set)
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+    if show:
+        print(file=sys.stderr)
+    print_report(report)
+    if report.log_path is not None:
+        log.info("recorded %d messages to %s", report.log_messages, report.log_path)
+        size_mb = report.log_path.stat().st_size / 1e6
+        print(f"\nlog          {report.log_path}  ({size_mb:.1f} MB; check it with `lfctl audit {report.log_path}`)")
+    return 0

@@ -1,0 +1,115 @@
+"""`lfctl track`: the follower's perception on any video, camera or stream; a JSON line per frame."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+
+def register(sub: Any) -> None:
+    """Add the ``track`` command to the parser."""
+    t = sub.add_parser(
+        "track",
+        help="run the tracker on a video file, camera index or stream; JSON line per frame",
+        description="Track the leader's banner (or any object from --roi) in a video; prints one JSON line per frame and can write an annotated video.",
+    )
+    t.add_argument("source", help="video file, camera index (0) or stream URL")
+    t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
+    t.add_argument("--out", type=Path, help="write an annotated video here (.mp4 or .avi)")
+    t.add_argument("--tracker", choices=("full", "hs-lbp", "hue"), default="full", help="tracker kind (default: full)")
+    t.add_argument("--no-markers", action="store_true", help="histogram path only (objects without the banner)")
+    t.add_argument("--marker-hue-deg", type=float, help="marker hue, degrees (default: the scenario's, else red 0)")
+    t.add_argument("--scenario", type=Path, help="take camera intrinsics and banner geometry from this scenario")
+    t.add_argument("--max-frames", type=int, help="stop after this many frames")
+    t.set_defaults(func=run)
+
+
+def parse_roi(text: str) -> tuple[int, int, int, int]:
+    """``x,y,w,h`` as four whole numbers."""
+    from lfctl.errors import ConfigError
+
+    try:
+        parts = [int(p) for p in text.split(",")]
+    except ValueError:
+        raise ConfigError(f"--roi must be x,y,w,h in whole pixels, got {text!r}") from None
+    if len(parts) != 4:
+        raise ConfigError(f"--roi must be x,y,w,h (four numbers), got {text!r}")
+    return parts[0], parts[1], parts[2], parts[3]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Perceive every frame; print a JSON line each; write the annotated video."""
+    import cv2
+    import numpy as np
+
+    from lfctl.config import BannerConfig, CameraConfig, load_config
+    from lfctl.errors import ConfigError
+    from lfctl.video import VideoSource
+    from lfctl.vision.draw import annotate
+    from lfctl.vision.frames import FrameError
+    from lfctl.vision.perception import BannerPerception
+
+    roi = parse_roi(args.roi) if args.roi else None
+    scen = load_config(args.scenario) if args.scenario else None
+    n = 0
+    writer = None
+    with VideoSource(args.source) as video:
+        perception = None
+        try:
+            while args.max_frames is None or n < args.max_frames:
+                frame = video.read()
+                if frame is None:
+                    break
+                if perception is None:
+                    h, w = frame.shape[:2]
+                    camera = dataclasses.replace(scen.camera if scen else CameraConfig(), width_px=w, height_px=h)
+                    perception = BannerPerception.from_config(
+                        camera,
+                        scen.banner if scen else BannerConfig(),
+                        kind=args.tracker,
+                        use_markers=not args.no_markers,
+                        marker_hue_deg=args.marker_hue_deg,
+                    )
+                    if args.out:
+                        writer = cv2.VideoWriter(str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), video.fps, (w, h))
+                        if not writer.isOpened():
+                            raise ConfigError(
+                                f"cannot write {args.out} (check the directory and the .mp4/.avi extension)"
+                            )
+                seen = perception.step(n / video.fps, frame, roi)
+                st = seen.track
+                if st is None and n == 0:
+                    raise ConfigError("no banner (four-marker constellation) in the first frame: give --roi x,y,w,h")
+                rec: dict[str, object] = {
+                    "frame": n,
+                    "t_s": round(n / video.fps, 4),
+                    "state": st.status.value if st is not None else "lost",
+                    "bbox": list(st.bbox) if st is not None and st.bbox else None,
+                    "quality": round(st.quality, 3) if st is not None else 0.0,
+                }
+                if st is not None and st.markers is not None:
+                    rec["markers"] = np.round(st.markers, 2).tolist()
+                if seen.pose is not None:
+                    rng, brg, rel = perception.vehicle_relative(seen.pose)
+                    rec["pose"] = {
+                        "range_m": round(rng, 4),
+                        "bearing_deg": round(math.degrees(brg), 3),
+                        "rel_heading_deg": round(math.degrees(rel), 2),
+                        "method": seen.pose.method,
+                    }
+                print(json.dumps(rec), flush=True)
+                if writer is not None:
+                    writer.write(annotate(frame, st, f"{n} {rec['state']}"))
+                n += 1
+        except FrameError as exc:
+            raise ConfigError(f"frame {n} of {args.source}: {exc}") from exc
+        finally:
+            if writer is not None:
+                writer.release()
+    if n == 0:
+        raise ConfigError(f"video source {args.source!r} gave no frames")
+    return 0
