@@ -1,4 +1,4 @@
-/* Shared model core: state machine, checked access, RK4 sub-stepping. See model_core.h. */
+/* Shared model core: state check, checked access, RK4 sub-stepping. See model_core.h. */
 #include "model_core.h"
 
 #include <math.h>
@@ -30,7 +30,7 @@ double core_clamp(double value, double limit) {
     return value > limit ? limit : (value < -limit ? -limit : value);
 }
 
-static const char *state_name(ModelState s) {
+static const char *state_name(unsigned int s) {
     switch (s) {
     case STATE_INSTANTIATED: return "Instantiated";
     case STATE_INITIALIZATION: return "InitializationMode";
@@ -39,6 +39,11 @@ static const char *state_name(ModelState s) {
     case STATE_ERROR: return "Error";
     }
     return "?";
+}
+
+/* Exactly one state bit, and one of `mask`. */
+static int is_state_in(unsigned int s, unsigned int mask) {
+    return s != 0 && (s & (s - 1)) == 0 && (s & mask) == s;
 }
 
 static const char *causality_name(Causality c) {
@@ -78,6 +83,35 @@ static int fail(ModelInstance *m, const char *fmt, ...) {
     core_log(m, CORE_ERROR, "logStatusError", "%s", message);
     m->state = STATE_ERROR;
     return CORE_ERROR;
+}
+
+int core_check_state(ModelInstance *m, const char *call, unsigned int allowed) {
+    char names[96];
+    size_t len = 0;
+    unsigned int bit;
+    if (!m) return 0; /* no instance, so no logger to tell: the Error status is all we have */
+    if (is_state_in((unsigned int)m->state, allowed)) return 1;
+    if (allowed == STATE_NONE) {
+        core_unsupported(m, call);
+        return 0;
+    }
+    names[0] = '\0';
+    for (bit = 1; bit <= STATE_ERROR; bit <<= 1) {
+        if (!(allowed & bit)) continue;
+        if (bit == STATE_ERROR && m->error_is_terminated) continue; /* listed as Terminated */
+        len += (size_t)snprintf(names + len, sizeof names - len, "%s%s", len ? ", " : "",
+                                state_name(bit));
+        if (len >= sizeof names) break;
+    }
+    core_log(m, CORE_ERROR, "logStatusError", "%s: not allowed in state %s (allowed in: %s)%s",
+             call,
+             m->state == STATE_ERROR && m->error_is_terminated ? "Terminated"
+                                                                : state_name((unsigned int)m->state),
+             names,
+             m->state == STATE_ERROR ? "; an earlier call failed: reset or free the instance"
+                                     : "");
+    m->state = STATE_ERROR;
+    return 0;
 }
 
 static void set_start_values(ModelInstance *m) {
@@ -140,9 +174,6 @@ int core_reset(ModelInstance *m) {
 }
 
 int core_enter_initialization(ModelInstance *m, const char *call, double start_time) {
-    if (m->state != STATE_INSTANTIATED)
-        return fail(m, "%s: not allowed in state %s (expected Instantiated)", call,
-                    state_name(m->state));
     if (!isfinite(start_time))
         return fail(m, "%s: startTime must be finite, got %g", call, start_time);
     m->v[VR_time] = start_time;
@@ -153,9 +184,6 @@ int core_enter_initialization(ModelInstance *m, const char *call, double start_t
 int core_exit_initialization(ModelInstance *m, const char *call) {
     char message[256];
     int bad;
-    if (m->state != STATE_INITIALIZATION)
-        return fail(m, "%s: not allowed in state %s (expected InitializationMode)", call,
-                    state_name(m->state));
     message[0] = '\0';
     bad = model_check_parameters(m->v, message, sizeof message);
     if (bad) return fail(m, "%s: parameter %s: %s", call, lfctl_variables[bad].name, message);
@@ -165,10 +193,7 @@ int core_exit_initialization(ModelInstance *m, const char *call) {
     return CORE_OK;
 }
 
-int core_terminate(ModelInstance *m, const char *call) {
-    if (m->state != STATE_STEP)
-        return fail(m, "%s: not allowed in state %s (expected StepMode)", call,
-                    state_name(m->state));
+int core_terminate(ModelInstance *m) {
     m->state = STATE_TERMINATED;
     return CORE_OK;
 }
@@ -176,8 +201,6 @@ int core_terminate(ModelInstance *m, const char *call) {
 int core_set_real(ModelInstance *m, const char *call, const unsigned int *vr, size_t nvr,
                   const double *value) {
     size_t i;
-    if (m->state == STATE_TERMINATED || m->state == STATE_ERROR)
-        return fail(m, "%s: not allowed in state %s", call, state_name(m->state));
     if (nvr > 0 && (!vr || !value)) return fail(m, "%s: NULL array with nvr = %zu", call, nvr);
     /* Check every value before writing any, so a rejected call changes nothing. */
     for (i = 0; i < nvr; i++) {
@@ -233,9 +256,6 @@ static void rk4(const double *v, double *x, double h) {
 int core_do_step(ModelInstance *m, const char *call, double current_time, double step_size) {
     double internal, h, tolerance;
     long n, k;
-    if (m->state != STATE_STEP)
-        return fail(m, "%s: not allowed in state %s (expected StepMode)", call,
-                    state_name(m->state));
     if (!(step_size > 0.0) || !isfinite(step_size))
         return fail(m, "%s: communicationStepSize must be > 0, got %g", call, step_size);
     tolerance = 1e-9 * fmax(1.0, fabs(current_time));
@@ -275,9 +295,10 @@ CoreSnapshot *core_snapshot_new(const ModelInstance *m) {
 
 int core_snapshot_restore(ModelInstance *m, const char *call, const CoreSnapshot *s) {
     if (!s) return fail(m, "%s: FMU state is NULL", call);
-    if (s->state != STATE_INSTANTIATED && s->state != STATE_INITIALIZATION &&
-        s->state != STATE_STEP && s->state != STATE_TERMINATED)
-        return fail(m, "%s: FMU state is corrupt (state %d)", call, (int)s->state);
+    /* A snapshot taken in the Error state is refused: restoring it would not recover. */
+    if (!is_state_in((unsigned int)s->state, STATE_ANY & ~(unsigned int)STATE_ERROR))
+        return fail(m, "%s: FMU state is corrupt or was taken in state Error (state %u)", call,
+                    (unsigned int)s->state);
     m->state = s->state;
     memcpy(m->v, s->v, sizeof m->v);
     memcpy(m->x, s->x, sizeof m->x);
