@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+import ctypes
 import math
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.load import OUTPUT_ROLES, FmuLibrary
@@ -210,3 +213,119 @@ def test_fmu_state_get_set_rolls_back(rover) -> None:
     s.freeFMUstate(saved)
     s.terminate()
     s.freeInstance()
+
+
+def _raw_slave(path: Path, fmi: int, tmp: Path) -> tuple[Any, list[str], dict[str, int]]:
+    """A bare fmpy slave, only instantiated; its log messages land in the returned list."""
+    md = read_model_description(str(path))
+    unzip = extract(str(path), unzipdir=tmp / f"fmi{fmi}")
+    messages: list[str] = []
+    common = dict(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="m")
+    if fmi == 2:
+        s: Any = FMU2Slave(**common)
+
+        def log2(env: object, name: bytes, status: int, category: bytes, message: bytes) -> None:
+            messages.append(message.decode().replace("%%", "%"))
+
+        s._test_callbacks = fmi2CallbackFunctions()  # keep the ctypes callback alive with the slave
+        s._test_callbacks.logger = fmi2CallbackLoggerTYPE(log2)
+        s.instantiate(callbacks=s._test_callbacks)
+    else:
+        s = FMU3Slave(**common)
+        s.instantiate(logMessage=lambda env, status, category, message: messages.append(message.decode()))
+    return s, messages, {v.name: v.valueReference for v in md.modelVariables}
+
+
+def _free(s: Any, fmi: int) -> None:
+    (s.fmi2FreeInstance if fmi == 2 else s.fmi3FreeInstance)(s.component)
+    s.freeLibrary()
+
+
+def test_fmi2_calls_in_a_wrong_state_are_errors_naming_call_and_state(rover, tmp_path: Path) -> None:
+    """One allowed-state mask per FMI 2 call (FMI 2.0 Co-Simulation state machine)."""
+    s, log, vrs = _raw_slave(rover.fmi2, 2, tmp_path)
+    dll, c = s.dll, s.component
+    vr = (ctypes.c_uint32 * 1)(vrs["north"])  # an output
+    vr_in = (ctypes.c_uint32 * 1)(vrs["speed_cmd"])
+    val = (ctypes.c_double * 1)(1.0)
+    try:
+        # doStep before initialization: Error, and the instance is in the Error state after it
+        assert dll.fmi2DoStep(c, 0.0, 0.01, 1) == 3
+        assert log[-1] == "fmi2DoStep: not allowed in state Instantiated (allowed in: StepMode)"
+        assert dll.fmi2EnterInitializationMode(c) == 3
+        assert log[-1].startswith("fmi2EnterInitializationMode: not allowed in state Error")
+        assert "an earlier call failed" in log[-1]
+        # getReal before fmi2EnterInitializationMode is not allowed in FMI 2 either
+        assert dll.fmi2Reset(c) == 0
+        assert dll.fmi2GetReal(c, vr, 1, val) == 3
+        assert log[-1] == (
+            "fmi2GetReal: not allowed in state Instantiated (allowed in: InitializationMode, StepMode, Terminated, Error)"
+        )
+        # reset recovers; setReal on an output is refused by the per-variable check
+        assert dll.fmi2Reset(c) == 0
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        assert dll.fmi2SetReal(c, vr, 1, val) == 3
+        assert log[-1] == "fmi2SetReal: variable north (causality output) cannot be set"
+        assert dll.fmi2DoStep(c, 0.0, 0.01, 1) == 3
+        assert log[-1].startswith("fmi2DoStep: not allowed in state Error (allowed in: StepMode)")
+        # after fmi2Terminate the standard allows getReal (final values), not doStep or setReal
+        assert dll.fmi2Reset(c) == 0
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        s.doStep(0.0, 0.01)
+        s.terminate()
+        assert dll.fmi2GetReal(c, vr, 1, val) == 0
+        assert dll.fmi2SetReal(c, vr_in, 1, val) == 3
+        assert (
+            log[-1]
+            == "fmi2SetReal: not allowed in state Terminated (allowed in: Instantiated, InitializationMode, StepMode)"
+        )
+        # a NULL instance is an Error without a crash (and without a logger to tell)
+        n = len(log)
+        assert dll.fmi2DoStep(None, 0.0, 0.01, 1) == 3
+        assert len(log) == n
+    finally:
+        _free(s, 2)
+
+
+def test_fmi3_calls_in_a_wrong_state_are_errors_naming_call_and_state(rover, tmp_path: Path) -> None:
+    """One allowed-state mask per FMI 3 call (FMI 3.0 Co-Simulation state machine)."""
+    s, log, vrs = _raw_slave(rover.fmi3, 3, tmp_path)
+    dll, c = s.dll, s.component
+    vr = (ctypes.c_uint32 * 1)(vrs["north"])  # an output
+    vr_in = (ctypes.c_uint32 * 1)(vrs["speed_cmd"])
+    val = (ctypes.c_double * 1)(1.0)
+    flags = [fmi3Boolean() for _ in range(3)]
+    last = fmi3Float64()
+
+    def do_step(t: float) -> int:
+        return dll.fmi3DoStep(c, t, 0.01, True, *(ctypes.byref(f) for f in flags), ctypes.byref(last))
+
+    try:
+        # FMI 3 allows getting (start) values in Instantiated
+        assert dll.fmi3GetFloat64(c, vr, 1, val, 1) == 0 and val[0] == 0.0
+        assert do_step(0.0) == 3
+        assert log[-1] == "fmi3DoStep: not allowed in state Instantiated (allowed in: StepMode)"
+        assert dll.fmi3Reset(c) == 0
+        s.enterInitializationMode(startTime=0.0)
+        s.exitInitializationMode()
+        # Event Mode is not declared: refused as unsupported in every state, the state unchanged
+        assert dll.fmi3EnterEventMode(c) == 3
+        assert log[-1] == "fmi3EnterEventMode: not supported by SkidSteerRover"
+        assert do_step(0.0) == 0
+        s.terminate()
+        assert dll.fmi3GetFloat64(c, vr, 1, val, 1) == 0
+        assert dll.fmi3SetFloat64(c, vr_in, 1, val, 1) == 3
+        assert log[-1] == (
+            "fmi3SetFloat64: not allowed in state Terminated (allowed in: Instantiated, InitializationMode, StepMode)"
+        )
+        assert dll.fmi3Terminate(c) == 3
+        assert log[-1].startswith(
+            "fmi3Terminate: not allowed in state Terminated (allowed in: StepMode); an earlier call failed"
+        )
+        assert dll.fmi3Reset(c) == 0
+    finally:
+        _free(s, 3)
