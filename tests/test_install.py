@@ -1,0 +1,93 @@
+"""lfctl as a user installs it: a wheel into a fresh virtual environment, used from an empty
+directory (no checkout on the path), builds its FMUs, runs a shipped example by name and
+audits the log. The sdist carries the C sources and the examples too."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tarfile
+import zipfile
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _source_copy(dest: Path) -> Path:
+    """The repository's files as git sees them (tracked, and new ones not ignored), without
+    build leftovers that could slip into a wheel."""
+    listed = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", "-z"],
+        cwd=REPO,
+        capture_output=True,
+        check=True,
+    ).stdout.decode()
+    for name in filter(None, listed.split("\0")):
+        src = REPO / name
+        if src.is_file():
+            (dest / name).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dest / name)
+    return dest
+
+
+def _run(cmd: list[str], cwd: Path, env: dict[str, str] | None = None, timeout: float = 600) -> str:
+    proc = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout)
+    assert proc.returncode == 0, (
+        f"{' '.join(cmd)} exited {proc.returncode}:\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}"
+    )
+    return proc.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.integration
+def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_directory(tmp_path: Path) -> None:
+    dist = tmp_path / "dist"
+    src = _source_copy(tmp_path / "src")
+    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", str(src), "-w", str(dist)], tmp_path)
+    (wheel,) = dist.glob("lfctl-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "lfctl/fmu_models/common/model_core.c" in names and "lfctl/examples/convoy.toml" in names
+    assert "lfctl/bench/cosim.py" in names and not any(n.startswith("tests/") for n in names)
+
+    venv = tmp_path / "venv"
+    _run([sys.executable, "-m", "venv", str(venv)], tmp_path)
+    py = venv / "bin" / "python"
+    _run([str(py), "-m", "pip", "install", "-q", str(wheel)], tmp_path, timeout=900)
+
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env["PATH"] = f"{venv / 'bin'}{os.pathsep}{env.get('PATH', '')}"
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")  # a real build, not the test session's cache
+    where = _run([str(py), "-c", "import lfctl; print(lfctl.__file__)"], empty, env)
+    assert where.strip().startswith(str(venv)), where
+
+    built = _run(["lfctl", "fmu", "build"], empty, env)
+    assert "SkidSteerRover" in built and (tmp_path / "cache").is_dir()
+    out = _run(["lfctl", "sim", "convoy", "--duration", "2", "-q"], empty, env)
+    assert "sim time     2.00 s" in out
+    (log,) = (empty / "logs").glob("*.mcap")
+    audit = _run(["lfctl", "audit", str(log)], empty, env)
+    assert "integrity: OK" in audit and "(installed)" in audit
+
+
+@pytest.mark.slow
+def test_sdist_carries_the_c_sources_and_the_examples(tmp_path: Path) -> None:
+    src = _source_copy(tmp_path / "src")
+    _run(
+        [sys.executable, "-c", f"from setuptools import build_meta; build_meta.build_sdist({str(tmp_path)!r})"],
+        src,
+    )
+    (sdist,) = tmp_path.glob("lfctl-*.tar.gz")
+    with tarfile.open(sdist) as tf:
+        names = {n.split("/", 1)[1] for n in tf.getnames() if "/" in n}
+    assert {
+        "fmu_models/common/model_core.c",
+        "fmu_models/SkidSteerRover/model.c",
+        "examples/convoy.toml",
+        "setup.py",
+    } <= names
