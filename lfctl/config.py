@@ -89,7 +89,7 @@ class VehicleConfig:
     parameters: Mapping[str, float] = field(default_factory=dict)
     map: Mapping[str, str] = field(default_factory=dict)
     units: Mapping[str, str] = field(default_factory=dict)
-    # follower only: whom to follow and where (the Guidance issue drives these)
+    # follower only: whom to follow and where (the formation controller holds this slot)
     target: str | None = None
     range_m: float | None = None
     bearing_rad: float | None = None

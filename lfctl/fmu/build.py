@@ -371,8 +371,3 @@ def build_model(name: str, cache_dir: Path | None = None, *, force: bool = False
             shutil.rmtree(root)
         os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
     return built
-
-
-def build_all(cache_dir: Path | None = None, *, force: bool = False) -> list[BuiltModel]:
-    """Build every built-in model; see :func:`build_model`."""
-    return [build_model(name, cache_dir, force=force) for name in available_models()]

@@ -410,15 +410,6 @@ class FmuInstance:
         fn = self._slave.setReal if v == 2 else self._slave.setFloat64
         self._checked("fmi2SetReal" if v == 2 else "fmi3SetFloat64", fn, vrs, [float(v) for v in values.values()])
 
-    def get_real(self, names: list[str]) -> list[float]:
-        """Get FMU variables by name (slow path)."""
-        vrs = [int(self.lib.variables[n].valueReference) for n in names]
-        fn = self._slave.getReal if self.lib.fmi_version == 2 else self._slave.getFloat64
-        try:
-            return list(fn(vrs))
-        except FMICallException as exc:
-            raise self._error(f"{self.lib.identifier} ({self.name}): GetReal failed", "GetReal", exc.status) from exc
-
     def read(self) -> None:
         """Refresh the output row without stepping."""
         status = self._get(*self._get_args)

@@ -73,7 +73,6 @@ class LeaderAutopilot:
             [(w[0], w[1]) for w in waypoints], settings.acceptance_radius_m, settings.lookahead_m, start_ned_m
         )
         self.heading = SlidingModeController(settings.heading)
-        self.reached_log: list[tuple[int, float]] = []
         self._hold_until = -math.inf
         self._prev_cmd: float | None = None
         self._last_los: LosOutput | None = None
@@ -92,7 +91,6 @@ class LeaderAutopilot:
         los = self.follower.step(north_m, east_m, yaw_rad)
         self._last_los = los
         for i in los.reached:
-            self.reached_log.append((i, t_s))
             if self.holds[i] > 0:
                 self._hold_until = t_s + self.holds[i]
         if los.done or t_s < self._hold_until:

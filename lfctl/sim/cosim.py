@@ -1,6 +1,6 @@
 """The co-simulation master: lockstep FMU stepping, one scheduler for every subsystem rate.
 
-One physics tick (DESIGN.md): the tasks due at ``t`` run first (sensing, guidance, link,
+One physics tick (docs/architecture.md): the tasks due at ``t`` run first (sensing, guidance, link,
 recording) and read the world state at ``t``; they leave commands; then every vehicle FMU
 steps from ``t`` to ``t + dt`` with those commands. Lockstep runs as fast as the CPU allows
 and is bit-for-bit deterministic for a scenario and seed; realtime paces ticks to the wall
@@ -188,11 +188,6 @@ class Simulation:
             )
         self._cmd_raw[i, 0] = speed_mps * self._in_scale[i, 0]
         self._cmd_raw[i, 1] = yaw_rate_radps * self._in_scale[i, 1]
-
-    def command(self, vehicle: int | str) -> tuple[float, float]:
-        """The command a vehicle holds now (SI)."""
-        i = self.index[vehicle] if isinstance(vehicle, str) else vehicle
-        return float(self._cmd_raw[i, 0] / self._in_scale[i, 0]), float(self._cmd_raw[i, 1] / self._in_scale[i, 1])
 
     def state(self) -> WorldState:
         """The world truth now (SI, NED)."""

@@ -19,11 +19,6 @@ class VehicleState:
     speed_mps: float
     yaw_rate_radps: float
 
-    @property
-    def vel_ned_mps(self) -> tuple[float, float]:
-        """Velocity over ground in NED (a ground rover moves along its heading)."""
-        return self.speed_mps * float(np.cos(self.yaw_rad)), self.speed_mps * float(np.sin(self.yaw_rad))
-
 
 @dataclass(frozen=True)
 class WorldState:
@@ -47,8 +42,3 @@ class WorldState:
             float(self.speed_mps[i]),
             float(self.yaw_rate_radps[i]),
         )
-
-    @property
-    def vel_ned_mps(self) -> np.ndarray:
-        """(N, 2) velocity over ground in NED."""
-        return self.speed_mps[:, None] * np.stack([np.cos(self.yaw_rad), np.sin(self.yaw_rad)], axis=1)

@@ -16,7 +16,6 @@ import numpy as np
 
 #: (dx, dy) in image coordinates (x right, y down) -> Freeman code, as in fig. 2
 FREEMAN = {(1, 0): 0, (1, -1): 1, (0, -1): 2, (-1, -1): 3, (-1, 0): 4, (-1, 1): 5, (0, 1): 6, (1, 1): 7}
-STEP = {code: d for d, code in FREEMAN.items()}
 
 
 _LUT = np.full(9, -1, np.int8)  # index (dx + 1) * 3 + (dy + 1) -> code

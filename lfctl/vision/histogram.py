@@ -12,7 +12,6 @@ import numpy as np
 from lfctl.vision.lbp import N_CODES, lbp_ri36
 
 HUE_BINS, SAT_BINS, LBP_BINS = 32, 16, N_CODES
-FULL_BINS = (HUE_BINS, SAT_BINS, LBP_BINS)
 
 
 @dataclass(frozen=True)
@@ -54,10 +53,6 @@ class FeatureSpace:
         if self.use_lbp:
             planes.append(lbp_ri36(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY), self.lbp_threshold))
         return planes, hsv
-
-    def planes(self, frame_bgr: np.ndarray) -> list[np.ndarray]:
-        """The feature planes only (see :meth:`features`)."""
-        return self.features(frame_bgr)[0]
 
 
 def histogram(space: FeatureSpace, planes: list[np.ndarray], mask: np.ndarray | None) -> np.ndarray:

@@ -47,20 +47,16 @@ def _order_many(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.take_along_axis(quads, idx[:, :, None], axis=1), idx
 
 
-def constellation_score(centres: np.ndarray, sizes: np.ndarray) -> float:
-    """0..1: how well four points (TL, TR, BR, BL) with blob areas fit a square's corners seen
-    in perspective on an upright banner that may be turned up to ~70 deg.
+def constellation_scores(c: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """0..1 for each of M ordered quads (M, 4, 2) of marker centres (TL, TR, BR, BL) with
+    their blob areas (M, 4): how well four points fit a square's corners seen in perspective
+    on an upright banner that may be turned up to ~70 deg.
 
     Checks: the vertical sides stay upright; the top and bottom sides match (they lie at the
     same depths); each side's markers match each other; the nearer side's markers are larger
     by the square of the side-height ratio (perspective); markers are a plausible fraction of
     the square.
     """
-    return float(constellation_scores(np.asarray(centres, float)[None], np.asarray(sizes, float)[None])[0])
-
-
-def constellation_scores(c: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """Vectorised :func:`constellation_score` over M ordered quads (M, 4, 2) and (M, 4)."""
     tl, tr, br, bl = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
     left, right = np.linalg.norm(bl - tl, axis=1), np.linalg.norm(br - tr, axis=1)
     top, bottom = np.linalg.norm(tr - tl, axis=1), np.linalg.norm(br - bl, axis=1)
