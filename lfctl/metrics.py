@@ -8,7 +8,6 @@ Pure: arrays in, figures out.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -180,8 +179,3 @@ def track_episodes(
         else:
             i += 1
     return episodes
-
-
-def finite_or_none(value: float) -> float | None:
-    """``value``, or None where it is NaN or infinite (for tables and JSON)."""
-    return value if math.isfinite(value) else None

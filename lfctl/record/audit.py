@@ -14,6 +14,7 @@ import hashlib
 import io
 import itertools
 import json
+import math
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,8 @@ from mcap.records import Attachment, Channel, DataEnd, Footer, Header, Message, 
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
+from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
+
 MAGIC = b"\x89MCAP0\r\n"
 KNOWN_SIGNATURES = {
     b"\x89PNG": "a PNG image",
@@ -33,7 +36,6 @@ KNOWN_SIGNATURES = {
     b"%PDF": "a PDF",
     b"\x7fELF": "an ELF binary",
 }
-SETTLE_S = 5.0
 
 
 class _CountingStream(io.RawIOBase):
@@ -283,6 +285,10 @@ def audit(path: str | Path) -> AuditReport:
         k: v for k, v in c.metadata.get("lfctl", {}).items() if k in ("version", "git_revision", "python")
     }
     figures["run"] = run
+    end = c.metadata.get("end")
+    figures["end"] = end
+    if end is not None and end.get("reason") != "completed":
+        findings.append(Finding("warning", f"the run ended early{_at(end)}: {end.get('reason')}"))
     # -- content ----------------------------------------------------------------------------
     figures["followers"] = _formation_figures(c, run)
     figures["mission"] = [
@@ -319,48 +325,63 @@ def _expected_topics(run: dict[str, str]) -> dict[str, float]:
     return out
 
 
+def _at(end: dict[str, str]) -> str:
+    """`` at t = 12.34 s`` from an ``end`` metadata record ("" when it has no usable time)."""
+    try:
+        return f" at t = {float(end['t_s']):.2f} s"
+    except (KeyError, ValueError):
+        return ""
+
+
+def _rounded(value: float | None, digits: int, scale: float = 1.0) -> float | None:
+    return None if value is None else round(value * scale, digits)
+
+
 def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]:
     out = []
-    guid = 1.0 / float(run.get("guidance_rate_hz", "20") or 20)
+    step_s = 1.0 / float(run.get("guidance_rate_hz", "20") or 20)
+    deg = math.degrees(1.0)
     for f in filter(None, run.get("followers", "").split(",")):
         msgs = _json_messages(c, f"/{f}/controller")
         if not msgs:
             continue
-        t = np.array([m[0] for m in msgs])
-        r_err = np.array([m[1]["range_error_m"] for m in msgs])
-        b_err = np.array([m[1]["bearing_error_deg"] for m in msgs])
-        keep = t >= SETTLE_S
+        t = [m[0] for m in msgs]
         status = [m[1]["status"] for m in msgs]
-        states = {s: round(status.count(s) * guid, 2) for s in ("tracking", "occluded", "lost")}
-        episodes = []
-        i = 0
-        while i < len(status):
-            if status[i] != "tracking" and t[i] > 0.5:
-                j = i
-                while j < len(status) and status[j] != "tracking":
-                    j += 1
-                episodes.append(
-                    {
-                        "start_s": round(float(t[i]), 2),
-                        "duration_s": round(float((j - i) * guid), 2),
-                        "recovered": j < len(status),
-                        "worst": "lost" if "lost" in status[i:j] else "occluded",
-                    }
-                )
-                i = j
-            else:
-                i += 1
+        first = msgs[0][1]
+        m = formation_metrics(
+            f,
+            first.get("target", ""),
+            first["range_cmd_m"],
+            math.radians(first.get("bearing_cmd_deg", 0.0)),
+            t,
+            [x[1]["range_error_m"] for x in msgs],
+            [math.radians(x[1]["bearing_error_deg"]) for x in msgs],
+            [x[1]["separation_m"] for x in msgs],
+            status,
+            [math.radians(x[1]["yaw_rate_cmd_degps"]) for x in msgs],
+            step_s,
+        )
         fig: dict[str, Any] = {
             "follower": f,
-            "target": msgs[0][1].get("target", ""),
-            "range_cmd_m": msgs[0][1]["range_cmd_m"],
-            "range_err_rms_m": round(float(np.sqrt(np.mean(r_err[keep] ** 2))), 4) if keep.any() else None,
-            "range_err_max_m": round(float(np.max(np.abs(r_err[keep]))), 4) if keep.any() else None,
-            "bearing_err_rms_deg": round(float(np.sqrt(np.mean(b_err[keep] ** 2))), 3) if keep.any() else None,
-            "bearing_err_max_deg": round(float(np.max(np.abs(b_err[keep]))), 3) if keep.any() else None,
-            "min_separation_m": round(float(min(m[1]["separation_m"] for m in msgs)), 3),
-            "time_in_state_s": states,
-            "occlusion_episodes": episodes,
+            "target": m.target,
+            "range_cmd_m": m.range_cmd_m,
+            "range_err_rms_m": _rounded(m.range_err_rms_m, 4),
+            "range_err_max_m": _rounded(m.range_err_max_m, 4),
+            "bearing_err_rms_deg": _rounded(m.bearing_err_rms_rad, 3, deg),
+            "bearing_err_max_deg": _rounded(m.bearing_err_max_rad, 3, deg),
+            "min_separation_m": _rounded(m.min_separation_m, 3),
+            "time_in_state_s": {k: round(v, 2) for k, v in m.time_in_state_s.items()},
+            "control_effort_rad": round(m.control_effort_rad, 4),
+            "chattering_per_s": round(m.chattering_per_s, 4),
+            "occlusion_episodes": [
+                {
+                    "start_s": round(e.start_s, 2),
+                    "duration_s": round(e.duration_s, 2),
+                    "recovered": e.recovered,
+                    "worst": e.worst,
+                }
+                for e in track_episodes(t, status, step_s)
+            ],
         }
         poses = _json_messages(c, f"/{f}/pose_estimate")
         if poses:
@@ -485,6 +506,10 @@ def recover(report: AuditReport, out_path: Path) -> int:
     return n
 
 
+def _cell(value: object) -> str:
+    return "-" if value is None else str(value)
+
+
 def format_report(report: AuditReport) -> str:
     """The readable table."""
     fig = report.figures
@@ -502,18 +527,31 @@ def format_report(report: AuditReport) -> str:
         lines.append(
             f"  lfctl {p.get('version')} ({p.get('git_revision')}), python {p.get('python')}; attachments: {', '.join(fig.get('attachments', []))}"
         )
+    if fig.get("end"):
+        e = fig["end"]
+        lines.append(f"  ended: {e.get('reason')}{_at(e)}")
     lines.append("integrity: " + ("OK" if report.ok else "FAILED"))
     lines += [f"  {f.line()}" for f in report.findings] or ["  no findings"]
     if fig.get("followers"):
-        lines.append("formation (after 5 s settling):")
+        lines.append(f"formation (after {SETTLE_S:g} s settling):")
         lines.append(
             f"  {'follower':<10} {'target':<8} {'rng RMS m':>9} {'rng max m':>9} {'brg RMS deg':>11} {'brg max deg':>11} {'min sep m':>9} {'tracking s':>10} {'occluded s':>10} {'lost s':>6} {'pose rng %':>10} {'pose brg deg':>12}"
         )
         for f in fig["followers"]:
             st = f["time_in_state_s"]
+            cells = [
+                _cell(f[k])
+                for k in (
+                    "range_err_rms_m",
+                    "range_err_max_m",
+                    "bearing_err_rms_deg",
+                    "bearing_err_max_deg",
+                    "min_separation_m",
+                )
+            ]
             lines.append(
-                f"  {f['follower']:<10} {f['target']:<8} {f['range_err_rms_m']!s:>9} {f['range_err_max_m']!s:>9} {f['bearing_err_rms_deg']!s:>11} {f['bearing_err_max_deg']!s:>11} "
-                f"{f['min_separation_m']!s:>9} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {f.get('pose_range_err_rms_pct', '-')!s:>10} {f.get('pose_bearing_err_rms_deg', '-')!s:>12}"
+                f"  {f['follower']:<10} {f['target']:<8} {cells[0]:>9} {cells[1]:>9} {cells[2]:>11} {cells[3]:>11} "
+                f"{cells[4]:>9} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
             )
             for e in f["occlusion_episodes"]:
                 lines.append(

@@ -130,8 +130,11 @@ def sha256(data: bytes) -> str:
 
 
 def git_revision() -> str:
-    """The source tree's git revision (with ``-dirty``), or ``unknown``."""
+    """The source tree's git revision (with ``-dirty``) when lfctl runs from a checkout (an
+    editable install); ``installed`` for a wheel, ``unknown`` when git cannot tell."""
     root = Path(__file__).resolve().parents[2]
+    if not (root / "pyproject.toml").is_file() or not (root / "fmu_models").is_dir():
+        return "installed"  # site-packages: any git repository around it is not lfctl's
     try:
         rev = subprocess.run(
             ["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
