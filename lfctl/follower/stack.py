@@ -156,10 +156,10 @@ class Follower:
         self._track_events(t_s, out.status)
         if self._status.due(t_s):
             st = self.controller.settings
-            range_err = out.range_est_m - st.range_cmd_m if math.isfinite(out.range_est_m) else None
+            range_err = out.range_est_m - st.range_cmd_m if out.range_est_m is not None else None
             bearing_err = (
                 math.degrees(wrap_pi(out.bearing_est_rad - st.bearing_cmd_rad))
-                if math.isfinite(out.bearing_est_rad)
+                if out.bearing_est_rad is not None
                 else None
             )
             self.companion.report(t_s, range_err, bearing_err, 1.0 if out.status is TrackStatus.TRACKING else 0.0)

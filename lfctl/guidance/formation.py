@@ -83,18 +83,26 @@ class FormationOutput:
     speed_mps: float
     yaw_rate_radps: float
     status: TrackStatus
-    range_est_m: float  # filter estimate of the range to the target now
-    bearing_est_rad: float
+    range_est_m: float | None  # filter estimate of the range to the target now (None: no estimate yet)
+    bearing_est_rad: float | None
     target_vel_ned_mps: tuple[float, float]
     since_measurement_s: float
+
+
+def _value(x: float | None) -> float | None:
+    """A measured value, or None where there is none (or it is not a number)."""
+    return x if x is not None and math.isfinite(x) else None
 
 
 class TargetEstimator:
     """Constant-velocity Kalman filter on the target's local NED position (filterpy)."""
 
     def __init__(self, meas_sigma_m: float, accel_sigma_mps2: float) -> None:
+        # state x = [north, east, v_north, v_east] (m, m/s); measurement z = [north, east]
         self.kf = KalmanFilter(dim_x=4, dim_z=2)
+        # H = [I, 0]
         self.kf.H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
+        # R = meas_sigma^2 I
         self.kf.R = np.eye(2) * meas_sigma_m**2
         self.accel_var = accel_sigma_mps2**2
         self.initialised = False
@@ -102,6 +110,7 @@ class TargetEstimator:
     def init(self, north_m: float, east_m: float) -> None:
         """Start at a first fix, velocity unknown (0 with a wide variance)."""
         self.kf.x = np.array([north_m, east_m, 0.0, 0.0])
+        # P0 = diag(R, 0.5^2): the position as measured, the velocity within about 0.5 m/s
         self.kf.P = np.diag([self.kf.R[0, 0], self.kf.R[1, 1], 0.5**2, 0.5**2])
         self.initialised = True
 
@@ -109,12 +118,21 @@ class TargetEstimator:
         """Advance the estimate by ``dt_s``."""
         if dt_s <= 0:
             return
+        # F = [[I, dt I], [0, I]]
         self.kf.F = np.array([[1.0, 0.0, dt_s, 0.0], [0.0, 1.0, 0.0, dt_s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+        # Q = accel_sigma^2 [[dt^4/4 I, dt^3/2 I], [dt^3/2 I, dt^2 I]] (white acceleration noise)
         self.kf.Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=self.accel_var, block_size=2, order_by_dim=False)
+        # x = F x
+        # P = F P F' + Q
         self.kf.predict()
 
     def update(self, north_m: float, east_m: float, R: np.ndarray | None = None) -> None:
         """Fuse a position fix (``R``: its 2x2 covariance, default the filter's)."""
+        # y = z - H x
+        # S = H P H' + R
+        # K = P H' S^-1
+        # x = x + K y
+        # P = (I - K H) P (I - K H)' + K R K'  (Joseph form)
         self.kf.update(np.array([north_m, east_m]), R=R)
 
     @property
@@ -178,26 +196,26 @@ class FormationController:
         est = self.estimator
         if est.initialised:
             est.predict(dt)
-        seen = meas is not None and meas.status is TrackStatus.TRACKING and math.isfinite(meas.bearing_rad)
+        bearing = _value(meas.bearing_rad) if meas is not None and meas.status is TrackStatus.TRACKING else None
+        measured_range = _value(meas.range_m) if meas is not None and bearing is not None else None
         stale = odom.t_s - self._t_last_meas > st.coast_s + st.slowdown_s
-        has_range = seen and meas is not None and math.isfinite(meas.range_m)
         # a bearing-only sighting can keep a running filter alive, not start one
-        fresh = has_range or (seen and est.initialised and not stale)
-        if fresh and meas is not None:
+        fresh = measured_range is not None or (bearing is not None and est.initialised and not stale)
+        if fresh and meas is not None and bearing is not None:
             at = self._odometry_at(meas.t_s)
             R = None
-            if has_range:
-                rng = meas.range_m
+            if measured_range is not None:
+                rng = measured_range
             else:
                 # bearing only: place the fix at the filter's own range along the measured
                 # bearing, with a large variance along the line of sight and a small one across
                 pn, pe = est.position
                 rng = max(0.1, math.hypot(pn - at.north_m, pe - at.east_m))
-                los = at.yaw_rad + meas.bearing_rad
+                los = at.yaw_rad + bearing
                 u = np.array([math.cos(los), math.sin(los)])
                 v = np.array([-u[1], u[0]])
                 R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * (rng * 0.02) ** 2
-            fwd, right = rng * math.cos(meas.bearing_rad), rng * math.sin(meas.bearing_rad)
+            fwd, right = rng * math.cos(bearing), rng * math.sin(bearing)
             dn, de = body_to_ned(fwd, right, at.yaw_rad)
             n, e = at.north_m + dn, at.east_m + de
             if not est.initialised or stale:
@@ -220,10 +238,10 @@ class FormationController:
         if self.status is TrackStatus.LOST:
             self.bearing_smc.reset()
             self._prev_los = None
-            rng, brg = self._relative(odom) if est.initialised else (math.nan, math.nan)
-            return FormationOutput(
-                0.0, 0.0, self.status, rng, brg, est.velocity if est.initialised else (0.0, 0.0), since
-            )
+            if est.initialised:
+                rng, brg = self._relative(odom)
+                return FormationOutput(0.0, 0.0, self.status, rng, brg, est.velocity, since)
+            return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since)
 
         (tn, te), (vn, ve) = est.position, est.significant_velocity()
         dx, dy = tn - odom.north_m, te - odom.east_m

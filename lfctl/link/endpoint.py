@@ -52,26 +52,37 @@ ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 
 @dataclass
 class Param:
+    """A vehicle parameter: its value now, the range a ground station may set it within
+    (``lo``..``hi``, in ``unit``), its unit and what it does; ``readonly`` ones refuse any set."""
+
     value: float
     lo: float
     hi: float
+    unit: str
     description: str
     readonly: bool = False
 
 
 def default_params(sysid: int) -> dict[str, Param]:
-    """Parameters with real effect, ArduPilot names where ArduPilot has one."""
+    """Parameters with real effect, ArduPilot names where ArduPilot has one (``LFC_*`` are
+    lfctl's formation slot).
+
+    Parameters
+    ----------
+    sysid : int
+        This vehicle's system id (``SYSID_THISMAV``).
+    """
     return {
-        "SYSID_THISMAV": Param(sysid, 1, 255, "this vehicle's MAVLink system id", readonly=True),
-        "WP_SPEED": Param(0.3, 0.05, 2.0, "AUTO cruise speed, m/s"),
-        "WP_RADIUS": Param(0.3, 0.05, 10.0, "waypoint acceptance radius, m"),
-        "CRUISE_SPEED": Param(0.5, 0.05, 2.0, "speed limit in AUTO and GUIDED, m/s"),
-        "GUID_TIMEOUT": Param(1.0, 0.1, 10.0, "GUIDED: stop when no setpoint arrives for this long, s"),
-        "FS_GCS_ENABLE": Param(1, 0, 1, "1: HOLD when the ground station's heartbeat is lost"),
-        "FS_GCS_TIMEOUT": Param(5.0, 1.0, 60.0, "ground station heartbeat timeout, s"),
-        "LFC_RANGE": Param(1.5, 0.3, 10.0, "formation: commanded range to the target, m"),
-        "LFC_BEARING": Param(0.0, -180.0, 180.0, "formation: commanded bearing to the target, deg"),
-        "LFC_COAST": Param(2.0, 0.0, 10.0, "formation: coast this long on the filter when the target is hidden, s"),
+        "SYSID_THISMAV": Param(sysid, 1, 255, "", "this vehicle's MAVLink system id", readonly=True),
+        "WP_SPEED": Param(0.3, 0.05, 2.0, "m/s", "AUTO cruise speed"),
+        "WP_RADIUS": Param(0.3, 0.05, 10.0, "m", "waypoint acceptance radius"),
+        "CRUISE_SPEED": Param(0.5, 0.05, 2.0, "m/s", "speed limit in AUTO and GUIDED"),
+        "GUID_TIMEOUT": Param(1.0, 0.1, 10.0, "s", "GUIDED: stop when no setpoint arrives for this long"),
+        "FS_GCS_ENABLE": Param(1, 0, 1, "", "1: HOLD when the ground station's heartbeat is lost"),
+        "FS_GCS_TIMEOUT": Param(5.0, 1.0, 60.0, "s", "ground station heartbeat timeout"),
+        "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
+        "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
+        "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),
     }
 
 
@@ -351,7 +362,7 @@ class VehicleEndpoint:
             return
         if p.readonly or not (p.lo <= m.param_value <= p.hi) or not math.isfinite(m.param_value):
             self.statustext(
-                f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g}"
+                f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
                 if not p.readonly
                 else f"{name} is read-only"
             )

@@ -97,7 +97,11 @@ def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_se
     speed: float | None = None
     jumps_left: dict[int, int] = {}
     i = start_seq
-    while 0 < i < len(items) and len(legs) < MAX_EXPANDED:
+    # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
+    # at each other) add no legs: the walk is bounded too, not only the legs it yields
+    steps = 0
+    while 0 < i < len(items) and len(legs) < MAX_EXPANDED and steps < MAX_EXPANDED * len(items):
+        steps += 1
         it = items[i]
         if it.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
             n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)

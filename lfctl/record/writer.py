@@ -402,15 +402,16 @@ class Recorder:
                 "truth_visible_fraction": round(float(truth.visible_fraction), 4),
             },
         )
-        if sample.pose is not None and math.isfinite(sample.measurement.range_m):
+        meas = sample.measurement
+        if sample.pose is not None and meas.range_m is not None and meas.bearing_rad is not None:
             self.json(
                 f"/{follower}/pose_estimate",
                 "lfctl.PoseEstimate",
                 t_s,
                 {
                     "method": sample.pose.method,
-                    "range_m": round(sample.measurement.range_m, 5),
-                    "bearing_deg": round(math.degrees(sample.measurement.bearing_rad), 4),
+                    "range_m": round(meas.range_m, 5),
+                    "bearing_deg": round(math.degrees(meas.bearing_rad), 4),
                     "rel_heading_deg": round(math.degrees(sample.pose.rel_heading_rad), 3),
                     "truth_range_m": round(truth.range_m, 5),
                     "truth_bearing_deg": round(math.degrees(truth.bearing_rad), 4),

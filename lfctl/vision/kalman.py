@@ -18,41 +18,87 @@ import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
 
+__all__ = ["AreaFilter", "CentreFilter", "OcclusionCoaster"]
+
 
 def _cv_filter(dim: int, accel_var: float, meas_var: float) -> KalmanFilter:
+    """A constant-velocity filter on ``dim`` coordinates, one step per frame: state
+    x = [p_1 .. p_dim, v_1 .. v_dim] (px, px/frame), measurement z = [p_1 .. p_dim]."""
     kf = KalmanFilter(dim_x=2 * dim, dim_z=dim)
+    # F = [[I, dt I], [0, I]], dt = 1 frame: p' = p + v, v' = v
     F = np.eye(2 * dim)
     for i in range(dim):
-        F[i, dim + i] = 1.0  # one frame
+        F[i, dim + i] = 1.0
     kf.F = F
+    # H = [I, 0]: the window gives the position only
     kf.H = np.hstack([np.eye(dim), np.zeros((dim, dim))])
+    # R = meas_var I
     kf.R = np.eye(dim) * meas_var
+    # Q = accel_var [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] per coordinate (white acceleration noise)
     kf.Q = Q_discrete_white_noise(dim=2, dt=1.0, var=accel_var, block_size=dim, order_by_dim=False)
     return kf
 
 
+def _predict(kf: KalmanFilter) -> None:
+    # x = F x
+    # P = F P F' + Q
+    kf.predict()
+
+
+def _update(kf: KalmanFilter, z: np.ndarray) -> None:
+    # y = z - H x
+    # S = H P H' + R
+    # K = P H' S^-1
+    # x = x + K y
+    # P = (I - K H) P (I - K H)' + K R K'  (Joseph form)
+    kf.update(z)
+
+
 class CentreFilter:
-    """Constant-velocity filter on the window centre (u, v), px and px/frame."""
+    """Constant-velocity filter on the window centre (u, v), px and px/frame.
+
+    Parameters
+    ----------
+    u, v : float
+        The first centre, px (the velocity starts at 0, with a 5 px/frame sigma).
+    accel_var : float
+        Process noise: variance of the centre's acceleration, (px/frame^2)^2.
+    meas_var : float
+        Variance of a measured centre, px^2.
+    """
 
     def __init__(self, u: float, v: float, accel_var: float = 2.0, meas_var: float = 4.0) -> None:
         self.kf = _cv_filter(2, accel_var, meas_var)
         self.kf.x = np.array([u, v, 0.0, 0.0])
+        # P0 = diag(R, 5^2): the centre as measured, the velocity unknown
         self.kf.P = np.diag([meas_var, meas_var, 25.0, 25.0])
 
     def predict(self) -> tuple[float, float]:
-        self.kf.predict()
+        """Advance one frame; the predicted centre (where CAMShift searches), px."""
+        _predict(self.kf)
         return float(self.kf.x[0]), float(self.kf.x[1])
 
     def update(self, u: float, v: float) -> None:
-        self.kf.update(np.array([u, v]))
+        """Fuse a measured centre (u, v), px."""
+        _update(self.kf, np.array([u, v]))
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Copies of the state x = [u, v, du, dv] and its covariance P."""
         return self.kf.x.copy(), self.kf.P.copy()
 
 
 class OcclusionCoaster:
-    """Coasts the hidden target's centre; its uncertainty widens the search region."""
+    """Coasts the hidden target's centre; its uncertainty widens the search region.
+
+    Parameters
+    ----------
+    x, P : np.ndarray
+        The centre filter's state [u, v, du, dv] and covariance when the target was hidden.
+    accel_var : float
+        Process noise while coasting, (px/frame^2)^2: larger than the centre filter's, as a
+        hidden target may do anything.
+    """
 
     def __init__(self, x: np.ndarray, P: np.ndarray, accel_var: float = 6.0) -> None:
         self.kf = _cv_filter(2, accel_var, 4.0)
@@ -60,7 +106,8 @@ class OcclusionCoaster:
         self.kf.P = P.copy()
 
     def predict(self) -> tuple[float, float]:
-        self.kf.predict()
+        """Advance one frame with no measurement; the coasted centre, px."""
+        _predict(self.kf)
         return float(self.kf.x[0]), float(self.kf.x[1])
 
     @property
@@ -70,30 +117,60 @@ class OcclusionCoaster:
 
 
 class AreaFilter:
-    """Constant-velocity filter on sqrt(window area); the gate flags collapses and jumps."""
+    """Constant-velocity filter on sqrt(window area); the gate flags collapses and jumps.
+
+    Parameters
+    ----------
+    size_px : float
+        The first window's size, sqrt(w h), px.
+    accel_var : float
+        Process noise: variance of the size's acceleration, (px/frame^2)^2.
+    meas_var : float
+        Variance of a measured size, px^2.
+    gate_sigma : float
+        A size further than this many innovation sigmas from the prediction is flagged.
+    """
 
     def __init__(self, size_px: float, accel_var: float = 0.3, meas_var: float = 4.0, gate_sigma: float = 3.5) -> None:
         self.kf = _cv_filter(1, accel_var, meas_var)
         self.kf.x = np.array([size_px, 0.0])
+        # P0 = diag(R, 2^2): the size as measured, its rate unknown
         self.kf.P = np.diag([meas_var, 4.0])
         self.gate_sigma = gate_sigma
 
     def predict(self) -> float:
-        self.kf.predict()
+        """Advance one frame; the predicted size, px."""
+        _predict(self.kf)
         return float(self.kf.x[0])
 
     def innovation_sigma(self, size_px: float) -> float:
-        """|measurement - prediction| in standard deviations of the innovation."""
+        """|measurement - prediction| in standard deviations of the innovation.
+
+        Parameters
+        ----------
+        size_px : float
+            A measured size, px.
+        """
+        # S = H P H' + R
         S = float((self.kf.H @ self.kf.P @ self.kf.H.T + self.kf.R)[0, 0])
+        # |y| / sqrt(S), y = z - H x
         return abs(size_px - float(self.kf.x[0])) / math.sqrt(S)
 
     def consistent(self, size_px: float) -> bool:
-        """Within the gate (no occlusion or jump flagged)."""
+        """Within the gate (no occlusion or jump flagged).
+
+        Parameters
+        ----------
+        size_px : float
+            A measured size, px.
+        """
         return self.innovation_sigma(size_px) <= self.gate_sigma
 
     def update(self, size_px: float) -> None:
-        self.kf.update(np.array([size_px]))
+        """Fuse a measured size, px."""
+        _update(self.kf, np.array([size_px]))
 
     @property
     def size_px(self) -> float:
+        """The filtered size, px."""
         return float(self.kf.x[0])

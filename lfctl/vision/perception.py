@@ -221,4 +221,4 @@ class BannerPerception:
         ray_cam = np.array([(x + w / 2.0 - K[0, 2]) / K[0, 0], (y + h / 2.0 - K[1, 2]) / K[1, 1], 1.0])
         ray_body = self.camera.R_body_from_cam @ ray_cam
         bearing = math.atan2(ray_body[1], ray_body[0])
-        return RelativeMeasurement(t_s, TrackStatus.TRACKING, math.nan, bearing, WINDOW_QUALITY * track.quality)
+        return RelativeMeasurement(t_s, TrackStatus.TRACKING, None, bearing, WINDOW_QUALITY * track.quality)

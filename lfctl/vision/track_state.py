@@ -28,16 +28,17 @@ class RelativeMeasurement:
         Time the measurement describes (image time, not arrival time), s.
     status : TrackStatus
         TRACKING when ``range_m`` and ``bearing_rad`` are valid.
-    range_m : float
-        Horizontal distance to the target, m; NaN for a bearing-only measurement.
-    bearing_rad : float
-        Bearing of the target from the follower's heading, clockwise positive, rad.
+    range_m : float or None
+        Horizontal distance to the target, m; None for a bearing-only measurement.
+    bearing_rad : float or None
+        Bearing of the target from the follower's heading, clockwise positive, rad; None
+        when the target was not seen.
     quality : float
         0..1 confidence (1 for truth sensing).
     """
 
     t_s: float
     status: TrackStatus
-    range_m: float = float("nan")
-    bearing_rad: float = float("nan")
+    range_m: float | None = None
+    bearing_rad: float | None = None
     quality: float = 0.0

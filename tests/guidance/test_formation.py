@@ -99,3 +99,20 @@ def test_a_waypoint_with_a_wait_is_reported_reached_once() -> None:
     for k in range(100):  # at the waypoint, waiting out its 5 s
         reached.extend(ap.step(k * 0.05, 1.0, 0.0, 0.0, 0.05).los.reached)
     assert reached == [0]
+
+
+def test_target_estimator_one_predict_and_update_by_hand() -> None:
+    from lfctl.guidance.formation import TargetEstimator
+
+    est = TargetEstimator(meas_sigma_m=0.1, accel_sigma_mps2=0.3)
+    est.init(1.0, 2.0)  # P0 = diag(0.01, 0.01, 0.25, 0.25)
+    est.predict(0.5)
+    # Q = 0.09 [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] = [[0.00140625, 0.005625], [0.005625, 0.0225]]
+    # P_pp = 0.01 + dt^2 0.25 + 0.00140625, P_pv = dt 0.25 + 0.005625, P_vv = 0.25 + 0.0225
+    P = est.kf.P
+    assert (P[0, 0], P[0, 2], P[2, 2]) == pytest.approx((0.07390625, 0.130625, 0.2725))
+    est.update(1.2, 2.0)
+    # S = P_pp + 0.01; K = (P_pp, P_pv) / S; x = x + K 0.2
+    S = 0.07390625 + 0.01
+    assert est.position == pytest.approx((1.0 + 0.2 * 0.07390625 / S, 2.0))
+    assert est.velocity == pytest.approx((0.2 * 0.130625 / S, 0.0))
