@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+__all__ = ["WindowMoments", "camshift_in_roi", "window_moments"]
+
 TERM = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 10, 1.0)
 
 
@@ -15,12 +17,12 @@ TERM = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 10, 1.0)
 class WindowMoments:
     """Moments of a probability image inside a window and the equivalent ellipse."""
 
-    m00: float
-    xc: float
-    yc: float
-    a: float
-    b: float
-    c: float
+    m00: float  # eq. 3: sum of the probability image inside the window
+    xc: float  # eq. 5: centroid column, px (full-image coordinates)
+    yc: float  # eq. 5: centroid row, px
+    a: float  # eq. 7: M20/M00 - xc^2, px^2
+    b: float  # eq. 7: 2 (M11/M00 - xc yc), px^2
+    c: float  # eq. 7: M02/M00 - yc^2, px^2
     major: float  # eq. 8 "w": standard deviation along the major axis, px
     minor: float  # eq. 8 "h": along the minor axis, px
     angle_rad: float  # of the major axis from the image x axis
@@ -32,6 +34,14 @@ def window_moments(prob: np.ndarray, window: tuple[int, int, int, int]) -> Windo
     Eq. 3 ``M00 = sum I``; eq. 4 first moments; eq. 5 ``(xc, yc) = (M10/M00, M01/M00)``;
     eq. 6 second moments; eq. 7 corrected: ``a = M20/M00 - xc^2``, ``b = 2 (M11/M00 - xc yc)``,
     ``c = M02/M00 - yc^2``; eq. 8 the axes ``sqrt(((a + c) -+ sqrt(b^2 + (a - c)^2)) / 2)``.
+    An empty window (``M00 = 0``) gives its centre and zero moments.
+
+    Parameters
+    ----------
+    prob : np.ndarray
+        Probability image (a back-projection), H x W.
+    window : Box
+        (x, y, w, h), pixels, inside ``prob``.
     """
     x, y, w, h = window
     roi = prob[y : y + h, x : x + w].astype(np.float64)
@@ -57,7 +67,17 @@ def camshift_in_roi(
     """cv2.CamShift on a back-projection of a region of interest.
 
     ``window`` and the result are in full-image coordinates; returns the new window and the
-    mean probability (0..1) inside it.
+    mean probability (0..1) inside it: ``window`` and 0 when it starts outside the region, a
+    zero-size window and 0 when CamShift loses it.
+
+    Parameters
+    ----------
+    prob_roi : np.ndarray
+        8-bit back-projection (0..255) of the region of interest only.
+    roi_origin : (int, int)
+        The region's top-left corner (x, y) in the full image, px.
+    window : Box
+        Where to start: (x, y, w, h) in full-image pixels.
     """
     ox, oy = roi_origin
     x, y, w, h = window

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+__all__ = ["Blob", "blobs", "chain_code", "chain_perimeter"]
+
 #: (dx, dy) in image coordinates (x right, y down) -> Freeman code, as in fig. 2
 FREEMAN = {(1, 0): 0, (1, -1): 1, (0, -1): 2, (-1, -1): 3, (-1, 0): 4, (-1, 1): 5, (0, 1): 6, (1, 1): 7}
 
@@ -24,10 +26,17 @@ for (_dx, _dy), _code in FREEMAN.items():
 
 
 def chain_code(contour: np.ndarray, check: bool = True) -> list[int]:
-    """Freeman codes of a closed 8-connected contour ((N, 1, 2) or (N, 2) points x, y).
+    """Freeman codes of a closed 8-connected contour, one per step (the last one back to the
+    first point); empty for fewer than two points.
 
-    ``check=False`` skips the connectivity check for contours from findContours with
-    CHAIN_APPROX_NONE, which are 8-connected by construction.
+    Parameters
+    ----------
+    contour : np.ndarray
+        Points (x, y) in order, (N, 1, 2) as findContours gives them or (N, 2), px.
+    check : bool
+        Raise ValueError when two successive points are not 8-neighbours; False skips the
+        check for contours from findContours with CHAIN_APPROX_NONE, which are 8-connected
+        by construction.
     """
     pts = np.asarray(contour).reshape(-1, 2)
     if len(pts) < 2:
@@ -42,14 +51,36 @@ def chain_code(contour: np.ndarray, check: bool = True) -> list[int]:
 
 
 def chain_perimeter(codes: list[int]) -> float:
-    """Freeman perimeter: 1 per even (axis) step, sqrt(2) per odd (diagonal) step."""
+    """Freeman perimeter: 1 per even (axis) step, sqrt(2) per odd (diagonal) step, px.
+
+    Parameters
+    ----------
+    codes : list of int
+        Freeman codes 0..7 (see :func:`chain_code`).
+    """
     odd = sum(c & 1 for c in codes)
     return (len(codes) - odd) + odd * math.sqrt(2.0)
 
 
 @dataclass(frozen=True)
 class Blob:
-    """A segmented blob: its outer border and shape measures (pixels)."""
+    """A segmented blob: its outer border and shape measures (pixels).
+
+    Parameters
+    ----------
+    codes : tuple of int
+        Freeman chain code of the outer border (see :func:`chain_code`).
+    start : (int, int)
+        The border pixel the chain code starts from, (x, y).
+    area_px : float
+        Pixels the blob covers, estimated from its border, px^2.
+    perimeter_px : float
+        Freeman perimeter of the outer edge of the border pixels, px.
+    centroid : (float, float)
+        Centre of the area its border encloses (x, y), px (the box centre when that area is 0).
+    bbox : (int, int, int, int)
+        Bounding box x, y, w, h, px.
+    """
 
     codes: tuple[int, ...]
     start: tuple[int, int]
@@ -64,14 +95,31 @@ class Blob:
         return 4.0 * math.sqrt(self.area_px) / self.perimeter_px if self.perimeter_px > 0 else 0.0
 
     def is_square(self, min_squareness: float = 0.75, max_aspect: float = 2.0) -> bool:
-        """A square marker seen in perspective: compact, not much longer than wide."""
+        """A square marker seen in perspective: compact, not much longer than wide.
+
+        Parameters
+        ----------
+        min_squareness : float
+            Smallest :attr:`squareness` accepted (1 for an axis-aligned square).
+        max_aspect : float
+            Largest ratio of the bounding box's longer side to its shorter side.
+        """
         _, _, w, h = self.bbox
         aspect = max(w, h) / max(1, min(w, h))
         return self.squareness >= min_squareness and aspect <= max_aspect
 
 
 def blobs(mask: np.ndarray, min_area_px: float = 4.0) -> list[Blob]:
-    """Outer blobs of a binary mask with their chain codes and shape measures."""
+    """Outer blobs of a binary mask with their chain codes and shape measures (holes are
+    ignored).
+
+    Parameters
+    ----------
+    mask : np.ndarray
+        Binary image, uint8, non-zero inside.
+    min_area_px : float
+        Blobs covering fewer pixels are dropped, px^2.
+    """
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     out = []
     for c in contours:

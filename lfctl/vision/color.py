@@ -7,11 +7,18 @@ import numpy as np
 
 from lfctl.vision.frames import check_bgr
 
+__all__ = ["hsv_of_rgb", "hue_window_mask", "to_hsv"]
+
 
 def hsv_of_rgb(r: float, g: float, b: float) -> tuple[float, float, float]:
     """Eq. 1-2 for one colour: hue in degrees [0, 360), saturation and value in [0, 1].
 
-    ``r, g, b`` in [0, 1]. ``h = 0`` when ``max = min`` (grey: hue has no meaning).
+    ``h = 0`` when ``max = min`` (grey: hue has no meaning).
+
+    Parameters
+    ----------
+    r, g, b : float
+        The colour's red, green and blue, each in [0, 1].
     """
     mx, mn = max(r, g, b), min(r, g, b)
     if mx == mn:
@@ -27,7 +34,13 @@ def hsv_of_rgb(r: float, g: float, b: float) -> tuple[float, float, float]:
 
 
 def to_hsv(frame_bgr: np.ndarray) -> np.ndarray:
-    """BGR -> HSV with OpenCV's 8-bit scale: hue 0..179 (degrees / 2), S and V 0..255."""
+    """BGR -> HSV with OpenCV's 8-bit scale: hue 0..179 (degrees / 2), S and V 0..255.
+
+    Parameters
+    ----------
+    frame_bgr : np.ndarray
+        BGR image, uint8, H x W x 3 (else :class:`~lfctl.vision.frames.FrameError`).
+    """
     return cv2.cvtColor(check_bgr(frame_bgr), cv2.COLOR_BGR2HSV)
 
 
@@ -39,6 +52,17 @@ def hue_window_mask(
 
     The paper's "within 10 %" of the hue circle is +-18 deg. Red wraps around 0, so the window
     may be two ranges.
+
+    Parameters
+    ----------
+    hsv : np.ndarray
+        HSV image on OpenCV's 8-bit scale (see :func:`to_hsv`).
+    hue_deg : float
+        The wanted hue, degrees (0..360).
+    tolerance_deg : float
+        Half-width of the hue window, degrees.
+    s_min, v_min : int
+        Smallest saturation and value (0..255) a pixel needs for its hue to count.
     """
     h = hue_deg / 2.0
     tol = tolerance_deg / 2.0

@@ -6,13 +6,21 @@ import numpy as np
 
 from lfctl.errors import LfctlError
 
+__all__ = ["FrameError", "check_bgr", "check_roi"]
+
 
 class FrameError(LfctlError, ValueError):
     """A frame or region of interest is not usable; the message says what was wrong."""
 
 
 def check_bgr(frame: object) -> np.ndarray:
-    """The frame as a non-empty uint8 H x W x 3 array, or :class:`FrameError`."""
+    """The frame as a non-empty uint8 H x W x 3 array, or :class:`FrameError`.
+
+    Parameters
+    ----------
+    frame : object
+        What a video source or caller handed over (None when the source gave no image).
+    """
     if frame is None:
         raise FrameError("frame is None (the source returned no image)")
     if not isinstance(frame, np.ndarray):
@@ -27,7 +35,16 @@ def check_bgr(frame: object) -> np.ndarray:
 
 
 def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[int, int, int, int]:
-    """An (x, y, w, h) window with positive size that overlaps the frame, clipped to it."""
+    """An (x, y, w, h) window with positive size that overlaps the frame, clipped to it, or
+    :class:`FrameError`.
+
+    Parameters
+    ----------
+    roi : tuple of 4 numbers
+        (x, y, w, h), pixels; rounded to integers.
+    shape : tuple of int
+        The frame's shape; only H and W are read.
+    """
     if len(roi) != 4:
         raise FrameError(f"ROI must be x, y, w, h; got {roi!r}")
     x, y, w, h = (int(round(v)) for v in roi)

@@ -11,13 +11,27 @@ import numpy as np
 
 from lfctl.vision.lbp import N_CODES, lbp_ri36
 
+__all__ = ["FeatureSpace", "back_project", "bhattacharyya", "histogram", "ratio_lut"]
+
 HUE_BINS, SAT_BINS, LBP_BINS = 32, 16, N_CODES
 
 
 @dataclass(frozen=True)
 class FeatureSpace:
     """Which channels the model uses: the paper's hue + saturation + LBP, or hue alone (the
-    baseline CAMShift)."""
+    baseline CAMShift).
+
+    Parameters
+    ----------
+    use_saturation : bool
+        Add saturation (16 bins) to hue (32 bins); without it the model is hue alone.
+    use_lbp : bool
+        Add the 36 rotation-invariant LBP codes (needs ``use_saturation``).
+    lbp_threshold : int
+        The LBP noise threshold, grey levels (see :func:`~lfctl.vision.lbp.lbp_ri36`).
+    achromatic_s : int
+        Pixels with a saturation (0..255) at or below this count as grey: their hue goes to 0.
+    """
 
     use_saturation: bool = True
     use_lbp: bool = True
@@ -26,14 +40,17 @@ class FeatureSpace:
 
     @property
     def bins(self) -> list[int]:
+        """Bins per channel, in plane order (as cv2.calcHist takes them)."""
         return [HUE_BINS] + ([SAT_BINS] if self.use_saturation else []) + ([LBP_BINS] if self.use_lbp else [])
 
     @property
     def ranges(self) -> list[int]:
+        """Value range of each channel, flattened ``[lo, hi, lo, hi, ...]`` (hi exclusive)."""
         return [0, 180] + ([0, 256] if self.use_saturation else []) + ([0, N_CODES] if self.use_lbp else [])
 
     @property
     def channels(self) -> list[int]:
+        """Indices of the planes the histogram reads: all of them, 0..n-1."""
         return list(range(len(self.bins)))
 
     def features(self, frame_bgr: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
@@ -43,6 +60,11 @@ class FeatureSpace:
         model, the hue of nearly grey pixels (below ``achromatic_s``) is set to 0: their hue
         is noise, and scattered over 32 bins a white panel would vanish from the model;
         saturation keeps them apart from real red.
+
+        Parameters
+        ----------
+        frame_bgr : np.ndarray
+            BGR image or region, uint8, H x W x 3.
         """
         hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
         h, sat, _ = cv2.split(hsv)
@@ -56,7 +78,17 @@ class FeatureSpace:
 
 
 def histogram(space: FeatureSpace, planes: list[np.ndarray], mask: np.ndarray | None) -> np.ndarray:
-    """Raw counts over the feature space inside ``mask`` (None: everything)."""
+    """Raw counts over the feature space inside ``mask``.
+
+    Parameters
+    ----------
+    space : FeatureSpace
+        The channels and bins.
+    planes : list of np.ndarray
+        The feature planes of one image (see :meth:`FeatureSpace.features`).
+    mask : np.ndarray or None
+        uint8, non-zero where pixels count; None counts every pixel.
+    """
     return cv2.calcHist(planes, space.channels, mask, space.bins, space.ranges)
 
 
@@ -69,7 +101,14 @@ def ratio_lut(target: np.ndarray, background: np.ndarray | None) -> np.ndarray:
     ``o_u`` is the background's share of bin ``u`` and ``o*`` its smallest non-zero share: a
     bin the background never shows keeps its weight, a bin common around the target all but
     disappears. Bins the target shows only a handful of times are dropped as noise. The table
-    is scaled so its largest entry is 255.
+    is scaled so its largest entry is 255 (all zeros for an empty target histogram).
+
+    Parameters
+    ----------
+    target : np.ndarray
+        Counts inside the target's window (see :func:`histogram`).
+    background : np.ndarray or None
+        Counts around it; None (or empty) weights nothing down.
     """
     t = target.astype(np.float32)
     t_sum = float(t.sum())
@@ -88,13 +127,29 @@ def ratio_lut(target: np.ndarray, background: np.ndarray | None) -> np.ndarray:
 
 
 def back_project(space: FeatureSpace, planes: list[np.ndarray], lut: np.ndarray) -> np.ndarray:
-    """The 8-bit probability image of ``planes`` under the look-up table."""
+    """The 8-bit probability image of ``planes`` under the look-up table.
+
+    Parameters
+    ----------
+    space : FeatureSpace
+        The channels and bins the table was made for.
+    planes : list of np.ndarray
+        The feature planes of the image to back-project.
+    lut : np.ndarray
+        0..255 per bin (see :func:`ratio_lut`).
+    """
     return cv2.calcBackProject(planes, space.channels, lut, space.ranges, scale=1.0)
 
 
 def bhattacharyya(a: np.ndarray, b: np.ndarray) -> float:
     """Bhattacharyya distance of two histograms: 0 identical, 1 disjoint (OpenCV's
-    HISTCMP_BHATTACHARYYA, which normalises them itself)."""
+    HISTCMP_BHATTACHARYYA, which normalises them itself); 1 when either is empty.
+
+    Parameters
+    ----------
+    a, b : np.ndarray
+        Histograms over the same bins (raw counts will do).
+    """
     if float(a.sum()) <= 0 or float(b.sum()) <= 0:
         return 1.0
     return float(cv2.compareHist(a.astype(np.float32), b.astype(np.float32), cv2.HISTCMP_BHATTACHARYYA))

@@ -79,7 +79,13 @@ class CentreFilter:
         return float(self.kf.x[0]), float(self.kf.x[1])
 
     def update(self, u: float, v: float) -> None:
-        """Fuse a measured centre (u, v), px."""
+        """Fuse a measured centre.
+
+        Parameters
+        ----------
+        u, v : float
+            The window centre measured this frame, px.
+        """
         _update(self.kf, np.array([u, v]))
 
     @property
@@ -167,7 +173,13 @@ class AreaFilter:
         return self.innovation_sigma(size_px) <= self.gate_sigma
 
     def update(self, size_px: float) -> None:
-        """Fuse a measured size, px."""
+        """Fuse a measured size.
+
+        Parameters
+        ----------
+        size_px : float
+            The window's size measured this frame, sqrt(w h), px.
+        """
         _update(self.kf, np.array([size_px]))
 
     @property

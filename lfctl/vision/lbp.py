@@ -11,6 +11,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+__all__ = ["N_CODES", "RI_CODES", "RI_LUT", "lbp_ri36", "lbp_ri36_reference"]
+
 # neighbour offsets (dy, dx), in circular order starting east, going round
 NEIGHBOURS = ((0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1), (-1, 0), (-1, 1))
 
@@ -23,12 +25,22 @@ RI_MIN = np.array([min(_rotations(b)) for b in range(256)], np.uint8)
 RI_CODES = np.unique(RI_MIN)  # the 36 rotation-invariant patterns
 #: 256 -> 0..35 look-up table
 RI_LUT = np.searchsorted(RI_CODES, RI_MIN).astype(np.uint8)
+#: number of rotation-invariant codes: the LBP axis of the histogram
 N_CODES = len(RI_CODES)
 assert N_CODES == 36
 
 
 def lbp_ri36(gray: np.ndarray, threshold: int = 0) -> np.ndarray:
-    """The 0..35 rotation-invariant LBP code of every pixel (OpenCV element-wise ops + LUT)."""
+    """The 0..35 rotation-invariant LBP code of every pixel (OpenCV element-wise ops + LUT).
+
+    Parameters
+    ----------
+    gray : np.ndarray
+        Grey image, uint8, H x W (else ValueError).
+    threshold : int
+        Noise threshold: a neighbour's bit is set when it is at least the centre plus this,
+        grey levels.
+    """
     if gray.dtype != np.uint8 or gray.ndim != 2:
         raise ValueError(f"lbp_ri36 needs a 2-D uint8 image, got {gray.dtype} {gray.shape}")
     g = cv2.copyMakeBorder(gray, 1, 1, 1, 1, cv2.BORDER_REPLICATE).astype(np.int16)
@@ -43,7 +55,15 @@ def lbp_ri36(gray: np.ndarray, threshold: int = 0) -> np.ndarray:
 
 
 def lbp_ri36_reference(gray: np.ndarray, threshold: int = 0) -> np.ndarray:
-    """Plain numpy version of :func:`lbp_ri36`: the test oracle."""
+    """Plain numpy version of :func:`lbp_ri36`: the test oracle.
+
+    Parameters
+    ----------
+    gray : np.ndarray
+        Grey image, H x W.
+    threshold : int
+        Noise threshold, grey levels (as in :func:`lbp_ri36`).
+    """
     g = np.pad(gray.astype(np.int32), 1, mode="edge")
     h, w = gray.shape
     centre = g[1 : h + 1, 1 : w + 1] + threshold

@@ -12,17 +12,26 @@ import numpy as np
 from lfctl.vision.chaincode import Blob, blobs
 from lfctl.vision.color import hue_window_mask
 
+__all__ = ["Constellation", "find_constellation", "find_constellations", "order_corners", "refine"]
+
 
 @dataclass(frozen=True)
 class Constellation:
     """Four marker centres in image order TL, TR, BR, BL, and how square they look (0..1)."""
 
-    centres: np.ndarray  # (4, 2)
-    blobs: tuple[Blob, ...]
-    score: float
+    centres: np.ndarray  # (4, 2), pixels
+    blobs: tuple[Blob, ...]  # the four markers' blobs, in the order of ``centres``
+    score: float  # 0..1, see constellation_scores
 
     def banner_bbox(self, panel_over_side: float) -> tuple[int, int, int, int]:
-        """Bounding box of the whole banner panel, from the markers (x, y, w, h)."""
+        """Bounding box of the whole banner panel, from the markers (x, y, w, h), pixels.
+
+        Parameters
+        ----------
+        panel_over_side : float
+            Panel side / marker square side (see
+            :attr:`~lfctl.vision.banner.BannerGeometry.panel_over_side`).
+        """
         c = self.centres.mean(axis=0)
         corners = c + (self.centres - c) * panel_over_side
         x0, y0 = np.floor(corners.min(axis=0)).astype(int)
@@ -31,7 +40,14 @@ class Constellation:
 
 
 def order_corners(pts: np.ndarray) -> np.ndarray:
-    """Order four points TL, TR, BR, BL (image y down)."""
+    """Order four points TL, TR, BR, BL (image y down): the upper two left to right, then
+    the lower two right to left.
+
+    Parameters
+    ----------
+    pts : array-like
+        Four points (x, y), (4, 2), pixels.
+    """
     return _order_many(np.asarray(pts, float)[None])[0][0]
 
 
@@ -79,7 +95,18 @@ def constellation_scores(c: np.ndarray, sizes: np.ndarray) -> np.ndarray:
 
 def find_constellation(hsv: np.ndarray, hue_deg: float, origin: tuple[int, int] = (0, 0)) -> Constellation | None:
     """The best-scoring four-marker constellation in an HSV image (or region at ``origin``),
-    refined, or None (:func:`find_constellations` has the thresholds and the other candidates)."""
+    refined, or None (:func:`find_constellations` has the thresholds and the other candidates).
+
+    Parameters
+    ----------
+    hsv : np.ndarray
+        HSV image (OpenCV's 8-bit scale) of the frame or of a region of it.
+    hue_deg : float
+        The markers' hue, degrees.
+    origin : (int, int)
+        The region's top-left corner (x, y) in the frame, px: the centres come back in
+        frame pixels.
+    """
     found = find_constellations(hsv, hue_deg, origin, limit=1)
     return refine(found[0], hsv, hue_deg, origin) if found else None
 
@@ -102,6 +129,24 @@ def find_constellations(
     farther banner's markers peeking out beside it look like one banner turned 70 deg, and
     may score higher than the target seen head-on. Which is the target is for the caller to
     decide from where it expects it; candidates may share markers.
+
+    Parameters
+    ----------
+    hsv : np.ndarray
+        HSV image (OpenCV's 8-bit scale) of the frame or of a region of it.
+    hue_deg : float
+        The markers' hue, degrees.
+    origin : (int, int)
+        The region's top-left corner (x, y) in the frame, px: the centres come back in
+        frame pixels.
+    min_score : float
+        Candidates scoring less (0..1) are dropped.
+    tolerance_deg : float
+        Half-width of the markers' hue window, degrees.
+    s_min, v_min : int
+        Smallest saturation and value (0..255) of a marker pixel.
+    limit : int
+        Most candidates returned.
     """
     mask = hue_window_mask(hsv, hue_deg, tolerance_deg, s_min, v_min)
     mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
@@ -128,7 +173,21 @@ def find_constellations(
 def refine(
     c: Constellation, hsv: np.ndarray, hue_deg: float, origin: tuple[int, int] = (0, 0), tolerance_deg: float = 18.0
 ) -> Constellation:
-    """The constellation with sub-pixel marker centres (see :func:`refine_centre`)."""
+    """The constellation with sub-pixel marker centres (see :func:`refine_centre`).
+
+    Parameters
+    ----------
+    c : Constellation
+        A candidate from :func:`find_constellations` on the same image.
+    hsv : np.ndarray
+        The HSV image it was found in.
+    hue_deg : float
+        The markers' hue, degrees.
+    origin : (int, int)
+        The image's top-left corner (x, y) in the frame, px.
+    tolerance_deg : float
+        Half-width of the markers' hue window, degrees.
+    """
     refined = np.array([refine_centre(hsv, b, hue_deg, tolerance_deg) for b in c.blobs])
     return Constellation(refined + np.array(origin, float), c.blobs, c.score)
 

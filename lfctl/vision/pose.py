@@ -24,14 +24,28 @@ import numpy as np
 
 from lfctl.frames import wrap_pi
 
+__all__ = ["MarkerPose", "paper_pose", "pnp_pose", "to_vehicle_frame"]
+
 
 @dataclass(frozen=True)
 class MarkerPose:
     """The banner seen from the camera.
 
-    ``centre_cam_m``: banner centre (x right, y down, z forward), m. ``bearing_rad``:
-    clockwise positive. ``rel_heading_rad``: the leader's heading minus the camera's
-    (clockwise positive). ``quality``: 0..1.
+    Parameters
+    ----------
+    centre_cam_m : np.ndarray
+        Banner centre in the camera frame (x right, y down, z forward), m.
+    range_m : float
+        Horizontal distance from the camera to the banner centre (x-z plane), m.
+    bearing_rad : float
+        Bearing of the banner centre from the camera's axis, clockwise positive, rad.
+    rel_heading_rad : float
+        The leader's heading minus the camera's, clockwise positive, rad.
+    quality : float
+        0..1: from the reprojection error (PnP) or from how far the two marker pairs'
+        spacing is from the square's side (the paper's estimator).
+    method : str
+        The estimator: ``"pnp"`` or ``"paper"``.
     """
 
     centre_cam_m: np.ndarray
@@ -43,7 +57,17 @@ class MarkerPose:
 
 
 def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose | None:
-    """Eq. 9-11 with the pinhole correction; ``centres`` TL, TR, BR, BL in undistorted pixels."""
+    """Eq. 9-11 with the pinhole correction; None when a marker pair is under a pixel tall.
+
+    Parameters
+    ----------
+    centres : np.ndarray
+        The four marker centres TL, TR, BR, BL, (4, 2), undistorted pixels.
+    K : np.ndarray
+        3x3 camera intrinsic matrix, pixels.
+    side_m : float
+        Side of the markers' square (the paper's E), m.
+    """
     tl, tr, br, bl = np.asarray(centres, float)
     f = float((K[0, 0] + K[1, 1]) / 2)
     cx, cy = float(K[0, 2]), float(K[1, 2])
@@ -67,7 +91,20 @@ def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose 
 
 
 def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m: float) -> MarkerPose | None:
-    """``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``; ``centres`` TL, TR, BR, BL in raw pixels."""
+    """``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``; None when it fails or puts the banner
+    behind the camera.
+
+    Parameters
+    ----------
+    centres : np.ndarray
+        The four marker centres TL, TR, BR, BL, (4, 2), raw (distorted) pixels.
+    K : np.ndarray
+        3x3 camera intrinsic matrix, pixels.
+    dist : np.ndarray or None
+        OpenCV distortion coefficients; None for none.
+    side_m : float
+        Side of the markers' square (the paper's E), m.
+    """
     s = side_m / 2
     # IPPE_SQUARE's fixed object points, matched to the image corners BL, BR, TR, TL: the
     # object frame is x right, y down the banner, z away from the camera. This order is exact
@@ -97,6 +134,17 @@ def to_vehicle_frame(
 
     The banner centre is moved from the camera frame into the follower's body frame (FRD),
     then ``banner_offset_m`` forward along the leader's heading to its reference point.
+
+    Parameters
+    ----------
+    pose : MarkerPose
+        The banner in the camera frame.
+    mount_body_m : np.ndarray
+        The camera centre in the follower's body frame (FRD), m.
+    R_body_from_cam : np.ndarray
+        3x3 rotation from the camera frame to the body frame.
+    banner_offset_m : float
+        How far the banner is behind the leader's reference point, m.
     """
     p = mount_body_m + R_body_from_cam @ pose.centre_cam_m
     fwd = p[0] + banner_offset_m * math.cos(pose.rel_heading_rad)

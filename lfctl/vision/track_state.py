@@ -9,6 +9,8 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+__all__ = ["RelativeMeasurement", "TrackStatus"]
+
 
 class TrackStatus(enum.Enum):
     """State of a follower's track on its target."""

@@ -28,6 +28,8 @@ from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
 from lfctl.vision.markers import Constellation, find_constellations, refine
 from lfctl.vision.track_state import TrackStatus
 
+__all__ = ["TrackState", "Tracker", "TrackerSettings"]
+
 
 @dataclass(frozen=True)
 class TrackerSettings:
@@ -36,10 +38,13 @@ class TrackerSettings:
     Parameters
     ----------
     kind : "full", "hs-lbp" or "hue"
+        Which tracker (see the module docstring).
     marker_hue_deg : float
         Hue of the banner's markers, degrees.
     panel_over_side : float
         Banner panel size / marker square side: the banner box from the markers.
+    lbp_threshold : int
+        LBP noise threshold, grey levels (see :func:`~lfctl.vision.lbp.lbp_ri36`).
     d_same : float
         Bhattacharyya distance below which the window still holds the target.
     d_update : float
@@ -50,11 +55,16 @@ class TrackerSettings:
         Smallest mean back-projection (0..1) inside a window that still counts.
     search_scale : float
         Search region / predicted window (about 2x).
+    ring_scale : float
+        The background ring the model is weighted against / the target's window.
     lost_after_frames : int
         Frames OCCLUDED before the track is LOST.
     relearn_after_frames : int
         Frames of marker-confirmed target with a large histogram distance (lighting changed)
         after which the model is learnt afresh from the markers' window.
+    use_markers : bool
+        Use the banner's marker constellation (start, confirmation, reacquisition); False
+        tracks any object by its histogram only.
     """
 
     kind: Literal["full", "hs-lbp", "hue"] = "full"
@@ -76,9 +86,9 @@ class TrackerSettings:
 class TrackState:
     """One frame's tracking result (pixels)."""
 
-    frame: int
-    status: TrackStatus
-    bbox: Box | None
+    frame: int  # index of the frame since init (0 for the first)
+    status: TrackStatus  # TRACKING, OCCLUDED (coasting) or LOST
+    bbox: Box | None  # the target's window; while OCCLUDED the predicted one; None when LOST
     quality: float  # 0..1
     distance: float  # Bhattacharyya distance of the window to the model (1 when unknown)
     markers: np.ndarray | None  # (4, 2) TL, TR, BR, BL when the constellation was seen
@@ -87,6 +97,7 @@ class TrackState:
 
     @property
     def centre(self) -> tuple[float, float] | None:
+        """Centre of :attr:`bbox` (x, y), px; None without a window."""
         if self.bbox is None:
             return None
         x, y, w, h = self.bbox
@@ -123,7 +134,16 @@ def _mismatch(box: Box, expect: Box) -> float:
 
 
 class Tracker:
-    """Track one target in a stream of BGR frames; see the module docstring."""
+    """Track one target in a stream of BGR frames; see the module docstring.
+
+    Start with :meth:`init` or :meth:`init_from_markers`, then call :meth:`update` on every
+    following frame.
+
+    Parameters
+    ----------
+    settings : TrackerSettings, optional
+        The tracker's kind and parameters (default :class:`TrackerSettings`'s).
+    """
 
     def __init__(self, settings: TrackerSettings | None = None) -> None:
         self.s = settings or TrackerSettings()
@@ -147,7 +167,20 @@ class Tracker:
 
     # -- initialisation ----------------------------------------------------------------
     def init(self, frame: np.ndarray, roi: Box) -> TrackState:
-        """Start on a window the user chose (x, y, w, h)."""
+        """Start on a window the user chose: learn the model there (the state is TRACKING).
+
+        Parameters
+        ----------
+        frame : np.ndarray
+            BGR image, uint8, H x W x 3.
+        roi : Box
+            The target's window (x, y, w, h), pixels; clipped to the frame.
+
+        Raises
+        ------
+        FrameError
+            A bad frame, or a window that does not overlap it.
+        """
         frame = check_bgr(frame)
         roi = check_roi(roi, frame.shape)
         self.frame_index = 0
@@ -166,7 +199,15 @@ class Tracker:
     def init_from_markers(self, frame: np.ndarray, expect: Box | None = None) -> TrackState | None:
         """Start on the banner found by its marker constellation anywhere in the frame: the
         one nearest ``expect`` (where the target should appear) when several banners show,
-        else the squarest."""
+        else the squarest; None (still not started) when no constellation is found.
+
+        Parameters
+        ----------
+        frame : np.ndarray
+            BGR image, uint8, H x W x 3.
+        expect : Box, optional
+            Where the target's banner should appear (x, y, w, h), pixels.
+        """
         frame = check_bgr(frame)
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
         c = self._markers_near(hsv, (0, 0, frame.shape[1], frame.shape[0]), expect)
@@ -212,7 +253,18 @@ class Tracker:
 
     # -- per frame -----------------------------------------------------------------------
     def update(self, frame: np.ndarray) -> TrackState:
-        """Track into the next frame."""
+        """Track into the next frame.
+
+        Parameters
+        ----------
+        frame : np.ndarray
+            BGR image, uint8, H x W x 3, the same size as the previous ones.
+
+        Raises
+        ------
+        FrameError
+            A bad frame, or the tracker was never started.
+        """
         frame = check_bgr(frame)
         if self._lut is None or self.window is None:
             raise FrameError("tracker not initialised: call init(frame, roi) or init_from_markers(frame) first")
