@@ -28,16 +28,18 @@ from lfctl.frames import body_to_ned, wrap_pi
 from lfctl.guidance.smc import BearingGains, RangeGains, SlidingModeController, clamp, smc_speed_mps
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 
+__all__ = ["FormationController", "FormationOutput", "FormationSettings", "Odometry", "TargetEstimator"]
+
 
 @dataclass(frozen=True)
 class Odometry:
     """The follower's own pose and speed (its odometry / local position), SI, NED."""
 
-    t_s: float
-    north_m: float
-    east_m: float
-    yaw_rad: float
-    speed_mps: float
+    t_s: float  # when it was taken, s (the clock measurements are stamped with)
+    north_m: float  # position in the local NED frame
+    east_m: float  # position in the local NED frame
+    yaw_rad: float  # heading from north, clockwise positive
+    speed_mps: float  # forward speed
 
 
 @dataclass(frozen=True)
@@ -52,8 +54,9 @@ class FormationSettings:
         The paper's sliding-mode laws or the AP_Follow-style proportional baseline.
     range, bearing : RangeGains, BearingGains
         Sliding-mode gains.
-    p_gain_per_s : float
-        Baseline position gain (FOLL_POS_P), 1/s; ``p_heading_gain_per_s`` its heading gain.
+    p_gain_per_s, p_heading_gain_per_s : float
+        Baseline position gain (FOLL_POS_P) and heading gain (yaw rate per rad of heading
+        error), 1/s.
     coast_s, slowdown_s : float
         Coast on the filter this long after the last measurement, then slow to a stop over
         ``slowdown_s``; after both the track is LOST.
@@ -80,13 +83,13 @@ class FormationSettings:
 class FormationOutput:
     """One step of the formation controller."""
 
-    speed_mps: float
-    yaw_rate_radps: float
-    status: TrackStatus
+    speed_mps: float  # forward speed command
+    yaw_rate_radps: float  # yaw-rate command, positive right
+    status: TrackStatus  # the controller's track state (see the module docstring)
     range_est_m: float | None  # filter estimate of the range to the target now (None: no estimate yet)
-    bearing_est_rad: float | None
-    target_vel_ned_mps: tuple[float, float]
-    since_measurement_s: float
+    bearing_est_rad: float | None  # and of its bearing, clockwise positive (None: no estimate yet)
+    target_vel_ned_mps: tuple[float, float]  # the target's estimated velocity, north and east
+    since_measurement_s: float  # since the last measurement was fused (inf before the first)
 
 
 def _value(x: float | None) -> float | None:
@@ -95,7 +98,15 @@ def _value(x: float | None) -> float | None:
 
 
 class TargetEstimator:
-    """Constant-velocity Kalman filter on the target's local NED position (filterpy)."""
+    """Constant-velocity Kalman filter on the target's local NED position (filterpy).
+
+    Parameters
+    ----------
+    meas_sigma_m : float
+        Position noise of a fix, m (R).
+    accel_sigma_mps2 : float
+        The target's acceleration noise, m/s^2 (Q).
+    """
 
     def __init__(self, meas_sigma_m: float, accel_sigma_mps2: float) -> None:
         # state x = [north, east, v_north, v_east] (m, m/s); measurement z = [north, east]
@@ -108,14 +119,26 @@ class TargetEstimator:
         self.initialised = False
 
     def init(self, north_m: float, east_m: float) -> None:
-        """Start at a first fix, velocity unknown (0 with a wide variance)."""
+        """Start at a first fix, velocity unknown (0 with a wide variance).
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The target's position, local NED, m.
+        """
         self.kf.x = np.array([north_m, east_m, 0.0, 0.0])
         # P0 = diag(R, 0.5^2): the position as measured, the velocity within about 0.5 m/s
         self.kf.P = np.diag([self.kf.R[0, 0], self.kf.R[1, 1], 0.5**2, 0.5**2])
         self.initialised = True
 
     def predict(self, dt_s: float) -> None:
-        """Advance the estimate by ``dt_s``."""
+        """Advance the estimate by ``dt_s``.
+
+        Parameters
+        ----------
+        dt_s : float
+            Time step, s; nothing happens for <= 0.
+        """
         if dt_s <= 0:
             return
         # F = [[I, dt I], [0, I]]
@@ -127,7 +150,15 @@ class TargetEstimator:
         self.kf.predict()
 
     def update(self, north_m: float, east_m: float, R: np.ndarray | None = None) -> None:
-        """Fuse a position fix (``R``: its 2x2 covariance, default the filter's)."""
+        """Fuse a position fix.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The target's measured position, local NED, m.
+        R : np.ndarray, optional
+            The fix's 2x2 covariance, m^2; None uses the filter's (``meas_sigma_m``).
+        """
         # y = z - H x
         # S = H P H' + R
         # K = P H' S^-1
@@ -137,14 +168,23 @@ class TargetEstimator:
 
     @property
     def position(self) -> tuple[float, float]:
+        """Estimated target position (north, east), m."""
         return float(self.kf.x[0]), float(self.kf.x[1])
 
     @property
     def velocity(self) -> tuple[float, float]:
+        """Estimated target velocity (north, east), m/s."""
         return float(self.kf.x[2]), float(self.kf.x[3])
 
     def range_bearing_sigma(self, dx_m: float, dy_m: float) -> tuple[float, float]:
-        """1-sigma range (m) and bearing (rad) uncertainty of the target seen along (dx, dy)."""
+        """1-sigma range (m) and bearing (rad) uncertainty of the target seen along (dx, dy)
+        (infinite when the offset is zero).
+
+        Parameters
+        ----------
+        dx_m, dy_m : float
+            Target minus observer, north and east, m.
+        """
         s = math.hypot(dx_m, dy_m)
         if s == 0.0:
             return math.inf, math.inf
@@ -159,6 +199,11 @@ class TargetEstimator:
         A still target's estimate wanders with the measurement noise; feeding that forward
         makes the follower hunt. A velocity the filter cannot tell from zero is taken as zero
         (a chi-square test on the 2-D velocity, ``n_sigma`` standard deviations).
+
+        Parameters
+        ----------
+        n_sigma : float
+            How many standard deviations from zero a velocity must be to count.
         """
         v = self.kf.x[2:4]
         cov = self.kf.P[2:4, 2:4]
@@ -170,7 +215,14 @@ class TargetEstimator:
 
 
 class FormationController:
-    """Thin stateful shell: filter, bearing SMC memory, odometry history, track timers."""
+    """Thin stateful shell: filter, bearing SMC memory, odometry history, track timers.
+
+    Parameters
+    ----------
+    settings : FormationSettings
+        The slot, control law, gains and filter noise; :attr:`settings` may be replaced
+        between steps (a new slot).
+    """
 
     def __init__(self, settings: FormationSettings) -> None:
         self.settings = settings
@@ -188,7 +240,16 @@ class FormationController:
         return min(self._odom, key=lambda o: abs(o.t_s - t_s))
 
     def step(self, meas: RelativeMeasurement | None, odom: Odometry) -> FormationOutput:
-        """Commands for this guidance step from the latest measurement (or none)."""
+        """Commands for this guidance step from the latest measurement (or none).
+
+        Parameters
+        ----------
+        meas : RelativeMeasurement or None
+            The newest measurement of the target (None before the first); one older than
+            ``odom`` is placed with the odometry of its own time.
+        odom : Odometry
+            The follower's pose and speed now.
+        """
         st = self.settings
         dt = 0.0 if self._t_prev is None else odom.t_s - self._t_prev
         self._t_prev = odom.t_s

@@ -12,6 +12,8 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.los import LosOutput, WaypointFollower
 from lfctl.guidance.smc import BearingGains, SlidingModeController, clamp
 
+__all__ = ["AutopilotOutput", "AutopilotSettings", "LeaderAutopilot"]
+
 
 @dataclass(frozen=True)
 class AutopilotSettings:
@@ -50,14 +52,27 @@ class AutopilotSettings:
 class AutopilotOutput:
     """One step of the leader autopilot."""
 
-    speed_mps: float
-    yaw_rate_radps: float
-    los: LosOutput
+    speed_mps: float  # forward speed command
+    yaw_rate_radps: float  # yaw-rate command, positive right
+    los: LosOutput  # the waypoint guidance behind it (reached waypoints, distance to go)
     holding_s: float  # remaining wait at a waypoint (0 when driving)
 
 
 class LeaderAutopilot:
-    """Drives a list of waypoints: ``(north_m, east_m)`` or ``(north_m, east_m, hold_s)``."""
+    """Drives a list of waypoints: ``(north_m, east_m)`` or ``(north_m, east_m, hold_s)``.
+
+    Parameters
+    ----------
+    waypoints : sequence of sequences of float
+        The route in local NED, m; a third value is a wait at that waypoint, s.
+    settings : AutopilotSettings
+        Speeds, radii and heading gains.
+    start_ned_m : (north_m, east_m)
+        Where the leader starts: the first segment's start, m.
+    speeds : sequence of (float or None), optional
+        Speed on the way to each waypoint, m/s (DO_CHANGE_SPEED); None (for all, or for one)
+        is the cruise speed.
+    """
 
     def __init__(
         self,
@@ -83,7 +98,19 @@ class LeaderAutopilot:
         return self.follower.done
 
     def step(self, t_s: float, north_m: float, east_m: float, yaw_rad: float, dt_s: float) -> AutopilotOutput:
-        """Commands for this guidance step."""
+        """Commands for this guidance step: zero while waiting at a waypoint and once done.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        north_m, east_m : float
+            The leader's position, NED, m.
+        yaw_rad : float
+            The leader's heading, rad.
+        dt_s : float
+            Time since the previous step, s.
+        """
         st = self.settings
         if t_s < self._hold_until and self._last_los is not None:  # waiting at a waypoint
             # the waypoint was reached once, when the wait began: not again on every tick

@@ -13,11 +13,29 @@ from dataclasses import dataclass
 
 from lfctl.frames import wrap_pi
 
+__all__ = [
+    "LosOutput",
+    "WaypointFollower",
+    "cross_track_m",
+    "distance_to_go_m",
+    "heading_error_rad",
+    "los_angle_rad",
+    "los_heading_rad",
+    "path_angle_rad",
+]
+
 
 def los_angle_rad(north_m: float, east_m: float, wp_north_m: float, wp_east_m: float) -> float:
     """Eq. 12: angle of the line of sight from the vehicle to waypoint i.
 
-    ``psi_los = atan2(Y_i - y, X_i - x)``.
+    ``psi_los = atan2(Y_i - y, X_i - x)``, rad.
+
+    Parameters
+    ----------
+    north_m, east_m : float
+        The vehicle's position, NED, m.
+    wp_north_m, wp_east_m : float
+        Waypoint i, NED, m.
     """
     return math.atan2(wp_east_m - east_m, wp_north_m - north_m)
 
@@ -25,18 +43,41 @@ def los_angle_rad(north_m: float, east_m: float, wp_north_m: float, wp_east_m: f
 def path_angle_rad(prev_north_m: float, prev_east_m: float, wp_north_m: float, wp_east_m: float) -> float:
     """Eq. 13: angle of the active path segment from waypoint i-1 to waypoint i.
 
-    ``psi_d = atan2(Y_i - Y_{i-1}, X_i - X_{i-1})``.
+    ``psi_d = atan2(Y_i - Y_{i-1}, X_i - X_{i-1})``, rad.
+
+    Parameters
+    ----------
+    prev_north_m, prev_east_m : float
+        Waypoint i-1 (the segment's start), NED, m.
+    wp_north_m, wp_east_m : float
+        Waypoint i, NED, m.
     """
     return math.atan2(wp_east_m - prev_east_m, wp_north_m - prev_north_m)
 
 
 def heading_error_rad(path_angle: float, heading_rad: float) -> float:
-    """Eq. 14 (named correctly): ``psi_d - psi``, wrapped to (-pi, pi]."""
+    """Eq. 14 (named correctly): ``psi_d - psi``, wrapped to (-pi, pi], rad.
+
+    Parameters
+    ----------
+    path_angle : float
+        The path angle ``psi_d`` (see :func:`path_angle_rad`), rad.
+    heading_rad : float
+        The vehicle's heading ``psi``, rad.
+    """
     return wrap_pi(path_angle - heading_rad)
 
 
 def distance_to_go_m(north_m: float, east_m: float, wp_north_m: float, wp_east_m: float) -> float:
-    """Eq. 15: ``S = sqrt((X_i - x)^2 + (Y_i - y)^2)``."""
+    """Eq. 15: ``S = sqrt((X_i - x)^2 + (Y_i - y)^2)``, m.
+
+    Parameters
+    ----------
+    north_m, east_m : float
+        The vehicle's position, NED, m.
+    wp_north_m, wp_east_m : float
+        Waypoint i, NED, m.
+    """
     return math.hypot(wp_north_m - north_m, wp_east_m - east_m)
 
 
@@ -46,6 +87,15 @@ def cross_track_m(distance_to_go: float, los_angle: float, path_angle: float) ->
     The paper's ``e = S sin(psi_los - psi_d)`` is positive when the vehicle is *left* of the
     path (the line of sight then points right of the path); we return ``S sin(psi_d -
     psi_los)`` so that positive means right, the convention of :func:`los_heading_rad`.
+
+    Parameters
+    ----------
+    distance_to_go : float
+        ``S``, the distance to waypoint i (see :func:`distance_to_go_m`), m.
+    los_angle : float
+        ``psi_los`` (see :func:`los_angle_rad`), rad.
+    path_angle : float
+        ``psi_d`` (see :func:`path_angle_rad`), rad.
     """
     return distance_to_go * math.sin(wrap_pi(path_angle - los_angle))
 
@@ -76,13 +126,13 @@ def along_track_m(north_m: float, east_m: float, prev: tuple[float, float], wp: 
 
 @dataclass(frozen=True)
 class LosOutput:
-    """One step of waypoint guidance."""
+    """One step of waypoint guidance (NED angles from north, clockwise positive)."""
 
-    heading_cmd_rad: float
-    path_angle_rad: float
-    los_angle_rad: float
-    cross_track_m: float
-    distance_to_go_m: float
+    heading_cmd_rad: float  # the heading to steer
+    path_angle_rad: float  # of the active segment (eq. 13)
+    los_angle_rad: float  # to the active waypoint (eq. 12)
+    cross_track_m: float  # from the active segment, positive right of it (eq. 16, sign flipped)
+    distance_to_go_m: float  # to the active waypoint, or to the last one when done (eq. 15)
     active_index: int  # index of the waypoint being approached
     reached: tuple[int, ...]  # waypoints reached in this step
     done: bool  # the last waypoint has been reached
@@ -102,6 +152,8 @@ class WaypointFollower:
         Switching radius, > 0, m.
     lookahead_m : float or None
         Lookahead distance for LOS on the path (None: pure pursuit of the waypoint, eq. 12).
+    start_ned_m : (north_m, east_m)
+        Where the vehicle starts: the first segment's start.
     """
 
     def __init__(
@@ -127,14 +179,31 @@ class WaypointFollower:
         return self.index >= len(self.waypoints)
 
     def set_current(self, index: int, north_m: float, east_m: float) -> None:
-        """Make waypoint ``index`` the active one, from the vehicle's position (MISSION_SET_CURRENT)."""
+        """Make waypoint ``index`` the active one, from the vehicle's position (MISSION_SET_CURRENT).
+
+        Parameters
+        ----------
+        index : int
+            The waypoint, from 0 (ValueError outside the route).
+        north_m, east_m : float
+            The vehicle's position now, NED, m: the new segment's start.
+        """
         if not 0 <= index < len(self.waypoints):
             raise ValueError(f"waypoint index must be in [0, {len(self.waypoints) - 1}], got {index}")
         self.index = index
         self.prev = (north_m, east_m)
 
     def step(self, north_m: float, east_m: float, heading_rad: float) -> LosOutput:
-        """Advance past reached waypoints and return the heading command."""
+        """Advance past reached waypoints and return the heading command (the current
+        heading once the route is done).
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The vehicle's position, NED, m.
+        heading_rad : float
+            The vehicle's heading, rad.
+        """
         reached: list[int] = []
         while not self.done:
             wp = self.waypoints[self.index]

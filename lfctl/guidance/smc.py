@@ -12,14 +12,39 @@ from dataclasses import dataclass
 
 from lfctl.frames import wrap_pi
 
+__all__ = [
+    "BearingGains",
+    "RangeGains",
+    "SlidingModeController",
+    "clamp",
+    "range_rate_mps",
+    "sat",
+    "smc_speed_mps",
+    "smc_yaw_rate_radps",
+]
+
 
 def sat(x: float) -> float:
-    """Unit saturation: ``x`` clipped to [-1, 1] (the boundary-layer ``sgn``)."""
+    """Unit saturation: ``x`` clipped to [-1, 1] (the boundary-layer ``sgn``).
+
+    Parameters
+    ----------
+    x : float
+        The sliding variable over its boundary-layer width.
+    """
     return 1.0 if x > 1.0 else (-1.0 if x < -1.0 else x)
 
 
 def clamp(x: float, lo: float, hi: float) -> float:
-    """``x`` clipped to [lo, hi]."""
+    """``x`` clipped to [lo, hi].
+
+    Parameters
+    ----------
+    x : float
+        The value.
+    lo, hi : float
+        The limits, lo <= hi.
+    """
     return lo if x < lo else (hi if x > hi else x)
 
 
@@ -90,7 +115,18 @@ def range_rate_mps(
     ``dS/dt = ((x0 - x)(x0' - U cos psi) + (y0 - y)(y0' - U sin psi)) / S`` with ``dx = x0 - x``,
     ``dy = y0 - y`` (leader minus follower, north and east), the leader's velocity
     ``(x0', y0')`` and the follower moving at ``U`` along ``psi``. The printed eq. 20-22 use
-    ``sin`` for the north component and ``z`` for ``S``.
+    ``sin`` for the north component and ``z`` for ``S``. 0 when the two coincide.
+
+    Parameters
+    ----------
+    dx_m, dy_m : float
+        Leader minus follower position, north and east, m.
+    leader_vx_mps, leader_vy_mps : float
+        Leader velocity, north and east, m/s.
+    speed_mps : float
+        Follower speed ``U``, m/s.
+    heading_rad : float
+        Follower heading ``psi``, rad.
     """
     s = math.hypot(dx_m, dy_m)
     if s == 0.0:
@@ -132,6 +168,8 @@ def smc_speed_mps(
         Follower heading, rad.
     range_cmd_m : float
         Commanded range ``S_com``, m.
+    gains : RangeGains
+        Reaching rate, boundary layer, speed limits and the ``|cos beta|`` floor.
     """
     s_range = math.hypot(dx_m, dy_m)
     if s_range == 0.0:
@@ -159,6 +197,18 @@ def smc_yaw_rate_radps(
     (``r > 0``) moves the target left in view (``d beta/dt = -r + ...``), so ``r = +eta sat``
     makes ``ds/dt = -eta sat(s/Phi)``. The printed ``-eta sgn`` holds for counter-clockwise
     bearings. For heading control use ``e = psi_cmd - psi`` (positive: turn right).
+
+    Parameters
+    ----------
+    err_rad : float
+        The error ``e``: bearing minus commanded bearing, or commanded heading minus heading,
+        rad.
+    err_rate_radps : float
+        Its rate of change ``de/dt``, rad/s.
+    gains : BearingGains
+        ``eta``, ``lambda``, ``Phi`` and the yaw-rate limit.
+    feedforward_radps : float
+        The equivalent control ``r_eq``, rad/s (0: none).
     """
     sigma = err_rad + gains.lam_s * err_rate_radps
     r = feedforward_radps + gains.eta_radps * sat(sigma / gains.phi_rad)
@@ -166,7 +216,13 @@ def smc_yaw_rate_radps(
 
 
 class SlidingModeController:
-    """Keeps the previous error between steps and calls :func:`smc_yaw_rate_radps`."""
+    """Keeps the previous error between steps and calls :func:`smc_yaw_rate_radps`.
+
+    Parameters
+    ----------
+    gains : BearingGains
+        The sliding-mode gains and yaw-rate limit.
+    """
 
     def __init__(self, gains: BearingGains) -> None:
         self.gains = gains
@@ -177,7 +233,18 @@ class SlidingModeController:
         self._prev_err = None
 
     def step(self, err_rad: float, dt_s: float, feedforward_radps: float = 0.0) -> float:
-        """Yaw-rate command for this error; the error rate is a backward difference."""
+        """Yaw-rate command for this error, rad/s; the error rate is a backward difference
+        (0 on the first step after a reset).
+
+        Parameters
+        ----------
+        err_rad : float
+            The error now (see :func:`smc_yaw_rate_radps`), rad.
+        dt_s : float
+            Time since the previous step, s (<= 0: the rate is taken as 0).
+        feedforward_radps : float
+            The equivalent control, rad/s.
+        """
         rate = 0.0 if self._prev_err is None or dt_s <= 0 else wrap_pi(err_rad - self._prev_err) / dt_s
         self._prev_err = err_rad
         return smc_yaw_rate_radps(err_rad, rate, self.gains, feedforward_radps)
