@@ -20,6 +20,29 @@ from typing import Any, Literal
 
 from lfctl.errors import ConfigError
 
+__all__ = [
+    "AuditConfig",
+    "BannerConfig",
+    "CameraConfig",
+    "Config",
+    "FormationConfig",
+    "GuidanceConfig",
+    "LightKey",
+    "LinkConfig",
+    "MissionConfig",
+    "OccluderConfig",
+    "PropConfig",
+    "RecordingConfig",
+    "SceneConfig",
+    "ScriptConfig",
+    "SensingConfig",
+    "SimConfig",
+    "Slot",
+    "VehicleConfig",
+    "load_config",
+    "parse_config",
+]
+
 # ----------------------------------------------------------------------------------------
 # Sections
 
@@ -38,15 +61,19 @@ def _non_negative(key: str, value: float) -> None:
 class SimConfig:
     """[sim]: the co-simulation clock and the rates of each subsystem."""
 
-    dt_s: float = 0.01
-    duration_s: float = 60.0
-    seed: int = 0
+    dt_s: float = 0.01  # physics step: every FMU advances by this much per tick, s (<= 1)
+    duration_s: float = 60.0  # simulated time, s
+    seed: int = 0  # seeds every random stream (sensor noise, renderers): same seed, same run
+    #: "lockstep" runs as fast as the CPU allows, deterministic; "realtime" paces to the wall
+    #: clock and opens a UDP port per vehicle
     clock: Literal["lockstep", "realtime"] = "lockstep"
-    guidance_rate_hz: float = 20.0
-    camera_rate_hz: float = 30.0
-    telemetry_rate_hz: float = 10.0
+    guidance_rate_hz: float = 20.0  # the leader's autopilot and each follower's stack
+    camera_rate_hz: float = 30.0  # rendered frames per follower (camera sensing)
+    telemetry_rate_hz: float = 10.0  # vehicle poses to the log and the trajectory kept for the summary
     #: each follower's formation status (NAMED_VALUE_FLOAT) to the ground station
     status_rate_hz: float = 2.0
+    #: "truth": range and bearing from the world truth with noise ([sensing]); "camera": each
+    #: follower's view rendered and perceived
     sensing: Literal["truth", "camera"] = "truth"
     #: processes besides the main one that render and track followers' cameras: -1 one per
     #: spare core (at most one per follower beyond the first), 0 none
@@ -74,25 +101,27 @@ class SimConfig:
 class VehicleConfig:
     """One [[vehicles]] entry.
 
-    ``model`` names a built-in model (fmu_models/); ``fmu`` a user FMU file instead, with
-    ``map`` (role -> variable name) and ``units`` (role -> unit) where its names differ.
+    ``name`` (letters, digits, ``-``, ``_``) is unique; ``role`` is ``"leader"`` (exactly one,
+    first) or ``"follower"``. ``model`` names a built-in model (fmu_models/); ``fmu`` a user
+    FMU file instead, with ``map`` (role -> variable name) and ``units`` (role -> unit) where
+    its names differ.
     """
 
     name: str
     role: Literal["leader", "follower"]
     model: str = "SkidSteerRover"
     fmu: str | None = None
-    fmi_version: int = 2
-    north_m: float = 0.0
-    east_m: float = 0.0
-    yaw_rad: float = 0.0
-    parameters: Mapping[str, float] = field(default_factory=dict)
+    fmi_version: int = 2  # which build of a built-in model to load: 2 or 3
+    north_m: float = 0.0  # initial position north, local NED, m
+    east_m: float = 0.0  # initial position east, m
+    yaw_rad: float = 0.0  # initial heading, rad (TOML yaw_deg)
+    parameters: Mapping[str, float] = field(default_factory=dict)  # FMU parameter name -> value
     map: Mapping[str, str] = field(default_factory=dict)
     units: Mapping[str, str] = field(default_factory=dict)
     # follower only: whom to follow and where (the formation controller holds this slot)
-    target: str | None = None
-    range_m: float | None = None
-    bearing_rad: float | None = None
+    target: str | None = None  # the vehicle it follows (None: as [formation] says)
+    range_m: float | None = None  # commanded range to the target, m (None: as [formation] says)
+    bearing_rad: float | None = None  # commanded bearing, clockwise positive (TOML bearing_deg)
 
     def __post_init__(self) -> None:
         key = f"vehicles[{self.name}]"
@@ -149,9 +178,9 @@ class MissionConfig:
     """
 
     waypoints: tuple[tuple[float, ...], ...] = ()
-    acceptance_radius_m: float = 0.3
-    cruise_speed_mps: float = 0.3
-    lookahead_m: float = 0.8  # 0: pure pursuit of the waypoint (eq. 12)
+    acceptance_radius_m: float = 0.3  # a waypoint is reached within this distance, m
+    cruise_speed_mps: float = 0.3  # the leader's speed on straight legs, m/s
+    lookahead_m: float = 0.8  # LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
 
     def __post_init__(self) -> None:
         _positive("mission.acceptance_radius_m", self.acceptance_radius_m)
@@ -170,23 +199,26 @@ class MissionConfig:
 class GuidanceConfig:
     """[guidance]: controller choice, gains and limits (leader heading, follower formation)."""
 
-    controller: Literal["smc", "p"] = "smc"
-    max_speed_mps: float = 0.5
+    controller: Literal["smc", "p"] = "smc"  # followers' law: sliding mode, or the P baseline
+    max_speed_mps: float = 0.5  # followers' speed limit; also caps the leader's cruise speed
     reverse_speed_mps: float = 0.15  # followers may back up this fast to restore the range
-    max_yaw_rate_radps: float = math.radians(90.0)
-    range_eta_mps: float = 0.25
-    range_phi_m: float = 0.25
-    min_cos_bearing: float = 0.2
-    bearing_eta_radps: float = math.radians(70.0)
-    bearing_lambda_s: float = 0.1
-    bearing_phi_rad: float = math.radians(15.0)
-    heading_eta_radps: float = math.radians(60.0)
-    heading_lambda_s: float = 0.1
-    heading_phi_rad: float = math.radians(20.0)
-    turn_slowdown: float = 0.6
-    p_gain: float = 0.8
-    coast_s: float = 2.0
-    slowdown_s: float = 1.0
+    max_yaw_rate_radps: float = math.radians(90.0)  # every vehicle's yaw-rate limit (TOML max_yaw_rate_degps)
+    # followers' sliding-mode range law (RangeGains)
+    range_eta_mps: float = 0.25  # reaching rate outside the boundary layer, m/s
+    range_phi_m: float = 0.25  # boundary-layer half-width, m
+    min_cos_bearing: float = 0.2  # floor on |cos(bearing)| (the broadside singularity)
+    # followers' sliding-mode bearing law (BearingGains); TOML *_degps, *_deg
+    bearing_eta_radps: float = math.radians(70.0)  # yaw rate outside the boundary layer
+    bearing_lambda_s: float = 0.1  # weight of the error rate in the sliding variable, s
+    bearing_phi_rad: float = math.radians(15.0)  # boundary-layer half-width
+    # the leader's sliding-mode heading law in AUTO (BearingGains); TOML *_degps, *_deg
+    heading_eta_radps: float = math.radians(60.0)  # yaw rate outside the boundary layer
+    heading_lambda_s: float = 0.1  # weight of the error rate in the sliding variable, s
+    heading_phi_rad: float = math.radians(20.0)  # boundary-layer half-width
+    turn_slowdown: float = 0.6  # fraction of its speed the leader sheds for a 180 deg turn (0..1)
+    p_gain: float = 0.8  # the P baseline's position gain (FOLL_POS_P), 1/s
+    coast_s: float = 2.0  # followers coast on their filter this long without a measurement, s
+    slowdown_s: float = 1.0  # then slow to a stop over this long before the track is LOST, s
 
     def __post_init__(self) -> None:
         for name in (
@@ -209,11 +241,11 @@ class SensingConfig:
     ``dropouts`` are ``[start_s, end_s]`` windows with no measurement: an occluder crossing.
     """
 
-    range_noise_m: float = 0.01
-    bearing_noise_rad: float = math.radians(0.3)
-    delay_s: float = 0.05
-    fov_rad: float = math.radians(360.0)
-    max_range_m: float = 10.0
+    range_noise_m: float = 0.01  # 1-sigma Gaussian noise on the range, m
+    bearing_noise_rad: float = math.radians(0.3)  # 1-sigma noise on the bearing (TOML bearing_noise_deg)
+    delay_s: float = 0.05  # age of a measurement when the follower gets it, s (<= 1)
+    fov_rad: float = math.radians(360.0)  # full field of view; outside it the target is hidden (TOML fov_deg)
+    max_range_m: float = 10.0  # the target is hidden beyond this range, m
     dropouts: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
@@ -240,8 +272,8 @@ class FormationConfig:
 
     shape: Literal["none", "column", "echelon", "vee"] = "none"
     targets: Literal["chain", "leader"] = "chain"
-    spacing_m: float = 1.5
-    angle_rad: float = math.radians(30.0)
+    spacing_m: float = 1.5  # range to the target, m; with targets = "leader", times the place in line or arm
+    angle_rad: float = math.radians(30.0)  # echelon, vee: how far off straight behind a follower sits (TOML angle_deg)
 
     def __post_init__(self) -> None:
         _positive("formation.spacing_m", self.spacing_m)
@@ -258,20 +290,20 @@ class CameraConfig:
     point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
     """
 
-    width_px: int = 640
-    height_px: int = 480
-    hfov_rad: float = math.radians(62.0)
-    fx_px: float = 0.0
-    fy_px: float = 0.0
-    cx_px: float = 0.0
-    cy_px: float = 0.0
+    width_px: int = 640  # image width, px (16..8192)
+    height_px: int = 480  # image height, px (16..8192)
+    hfov_rad: float = math.radians(62.0)  # horizontal field of view, sets fx (TOML hfov_deg)
+    fx_px: float = 0.0  # focal length, px; 0: from hfov
+    fy_px: float = 0.0  # focal length, px; 0: fx
+    cx_px: float = 0.0  # principal point, px; 0: the image centre
+    cy_px: float = 0.0  # principal point, px; 0: the image centre
     k1: float = 0.0  # radial distortion (OpenCV model)
-    k2: float = 0.0
-    mount_forward_m: float = 0.12
-    mount_height_m: float = 0.2
-    pitch_rad: float = 0.0
+    k2: float = 0.0  # radial distortion, second coefficient
+    mount_forward_m: float = 0.12  # camera ahead of the vehicle's reference point, m
+    mount_height_m: float = 0.2  # camera above the ground, m
+    pitch_rad: float = 0.0  # positive: nose up (TOML pitch_deg)
     noise_sigma: float = 2.0  # sensor noise, digital numbers (0..255)
-    motion_blur: bool = False
+    motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
 
     def __post_init__(self) -> None:
         if not (16 <= self.width_px <= 8192 and 16 <= self.height_px <= 8192):
@@ -291,15 +323,15 @@ class BannerConfig:
     """[banner]: the leader's marker banner: four markers on a square of side ``side_m``
     (the paper's E) on a textured panel on the vehicle's back."""
 
-    side_m: float = 0.14
-    marker_size_m: float = 0.035
-    panel_size_m: float = 0.22
-    centre_height_m: float = 0.2
+    side_m: float = 0.14  # side of the square the marker centres sit on, m
+    marker_size_m: float = 0.035  # side of one square marker, m
+    panel_size_m: float = 0.22  # side of the square panel, m
+    centre_height_m: float = 0.2  # height of the banner's centre above the ground, m
     #: the banner's plane is this far behind the vehicle's reference point (its centre of
     #: rotation), m: a follower measures the banner and adds this to reach the vehicle
     back_m: float = 0.155
     marker_hue_deg: float = 0.0  # red; HSV hue in degrees (0..360)
-    marker_saturation: float = 0.85
+    marker_saturation: float = 0.85  # the markers' HSV saturation (0..1) in the rendered scene
     panel_bgr: tuple[int, ...] = (215, 218, 222)  # near white: the markers carry the hue
 
     def __post_init__(self) -> None:
@@ -326,14 +358,14 @@ class PropConfig:
     """
 
     kind: Literal["wall", "box", "distractor", "textured_distractor", "panel_clutter"]
-    north_m: float
-    east_m: float
+    north_m: float  # the panel's centre at t = 0, local NED, m
+    east_m: float  # the panel's centre at t = 0, m
     yaw_rad: float = 0.0  # the panel's normal, from north
-    width_m: float = 0.5
-    height_m: float = 0.5
+    width_m: float = 0.5  # the panel's size, m
+    height_m: float = 0.5  # the panel's size, m
     base_m: float = 0.0  # height of the lower edge above ground
-    vel_north_mps: float = 0.0
-    vel_east_mps: float = 0.0
+    vel_north_mps: float = 0.0  # constant velocity of the panel, north, m/s
+    vel_east_mps: float = 0.0  # constant velocity of the panel, east, m/s
 
     def __post_init__(self) -> None:
         _positive("scene.props.width_m", self.width_m)
@@ -349,9 +381,9 @@ class OccluderConfig:
     """
 
     t_s: float
-    follower: str = ""
-    width_m: float = 0.6
-    height_m: float = 0.6
+    follower: str = ""  # whose view it crosses ("": every follower's)
+    width_m: float = 0.6  # the panel's size, m
+    height_m: float = 0.6  # the panel's size, m
     speed_mps: float = 0.4
     fraction: float = 0.5
     lateral_m: float = 1.2
@@ -368,9 +400,9 @@ class OccluderConfig:
 class LightKey:
     """One [[scene.lighting]] key frame; gain and tint are interpolated between keys."""
 
-    t_s: float
-    gain: float = 1.0
-    tint_bgr: tuple[float, ...] = (1.0, 1.0, 1.0)
+    t_s: float  # when this key holds, s (keys in time order)
+    gain: float = 1.0  # brightness factor, > 0
+    tint_bgr: tuple[float, ...] = (1.0, 1.0, 1.0)  # per-channel factors (B, G, R), > 0
 
     def __post_init__(self) -> None:
         _non_negative("scene.lighting.t_s", self.t_s)
@@ -383,14 +415,14 @@ class LightKey:
 class SceneConfig:
     """[scene]: what the simulated camera sees besides the vehicles."""
 
-    ground: Literal["concrete", "checker", "carpet"] = "concrete"
-    props: tuple[PropConfig, ...] = ()
-    occluders: tuple[OccluderConfig, ...] = ()
-    lighting: tuple[LightKey, ...] = ()
-    flicker_amplitude: float = 0.0
-    flicker_hz: float = 0.0
+    ground: Literal["concrete", "checker", "carpet"] = "concrete"  # the floor's texture
+    props: tuple[PropConfig, ...] = ()  # [[scene.props]]: still or moving panels
+    occluders: tuple[OccluderConfig, ...] = ()  # [[scene.occluders]]: panels crossing a line of sight
+    lighting: tuple[LightKey, ...] = ()  # [[scene.lighting]] key frames (none: constant light)
+    flicker_amplitude: float = 0.0  # relative brightness swing of a flicker, 0..1
+    flicker_hz: float = 0.0  # its frequency, Hz (0: none)
     shadow_gain: float = 1.0  # < 1: a shadow band sweeps across the image
-    shadow_period_s: float = 20.0
+    shadow_period_s: float = 20.0  # period of the shadow band's sweep across the image, s
 
     def __post_init__(self) -> None:
         if not 0 <= self.flicker_amplitude < 1:
@@ -408,9 +440,9 @@ class SceneConfig:
 class AuditConfig:
     """[audit]: limits `lfctl audit --strict` enforces on this scenario's logs."""
 
-    max_range_err_rms_frac: float = 0.10
-    max_bearing_err_rms_deg: float = 5.0
-    min_separation_m: float = 0.3
+    max_range_err_rms_frac: float = 0.10  # largest range error RMS, as a fraction of the commanded range
+    max_bearing_err_rms_deg: float = 5.0  # largest bearing error RMS, degrees
+    min_separation_m: float = 0.3  # closest any follower may come to another vehicle, m
 
     def __post_init__(self) -> None:
         _positive("audit.max_range_err_rms_frac", self.max_range_err_rms_frac)
@@ -424,13 +456,13 @@ class LinkConfig:
     ``--realtime`` and sends telemetry to ``gcs_udpout`` too; home is the geodetic origin of
     the local NED frame (GLOBAL_POSITION_INT, missions)."""
 
-    udp_host: str = "127.0.0.1"
+    udp_host: str = "127.0.0.1"  # address the vehicles' UDP ports bind to
     udp_base_port: int = 14561
     gcs_udpout: str = "127.0.0.1:14550"  # "" for none
     home_lat_deg: float = 12.9602  # CSIR-NAL, Bengaluru
-    home_lon_deg: float = 77.6690
-    home_alt_m: float = 900.0
-    rate_hz: float = 50.0
+    home_lon_deg: float = 77.6690  # home longitude, degrees
+    home_alt_m: float = 900.0  # home altitude, m
+    rate_hz: float = 50.0  # how often the endpoints read their links and stream telemetry, Hz
     signing_passphrase: str = ""  # non-empty: MAVLink 2 signing on the UDP links (key = SHA-256)
 
     def __post_init__(self) -> None:
@@ -449,13 +481,13 @@ class LinkConfig:
 class RecordingConfig:
     """[recording]: the run's MCAP log (``<dir>/<UTC time>-<scenario>-<seed>.mcap``)."""
 
-    enabled: bool = True
+    enabled: bool = True  # record the run (`lfctl sim --no-record` turns it off too)
     dir: str = "logs"
-    images: bool = True
+    images: bool = True  # record the camera frames as JPEG (camera sensing only)
     image_rate_hz: float = 30.0  # at most the camera rate
-    jpeg_quality: int = 85
-    compression: Literal["zstd", "lz4", "none"] = "zstd"
-    chunk_size_bytes: int = 1024 * 1024
+    jpeg_quality: int = 85  # 1..100
+    compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the MCAP chunks
+    chunk_size_bytes: int = 1024 * 1024  # MCAP chunk size, bytes (>= 1024)
 
     def __post_init__(self) -> None:
         _positive("recording.image_rate_hz", self.image_rate_hz)
@@ -467,16 +499,31 @@ class RecordingConfig:
 
 @dataclass(frozen=True)
 class Slot:
-    """Where a follower keeps itself: its target, commanded range (m) and bearing (rad)."""
+    """Where a follower keeps itself."""
 
-    target: str
-    range_m: float
-    bearing_rad: float
+    target: str  # the vehicle it follows
+    range_m: float  # commanded range to it, m
+    bearing_rad: float  # commanded bearing to it, clockwise positive, rad
 
 
 @dataclass(frozen=True)
 class Config:
-    """A whole scenario."""
+    """A whole scenario, as :func:`load_config` reads it.
+
+    Parameters
+    ----------
+    name : str
+        The scenario's name (the file's stem unless the file sets ``name``).
+    sim : SimConfig
+        ``[sim]``.
+    vehicles : tuple of VehicleConfig
+        ``[[vehicles]]``: the leader first, then the followers; names unique, follower targets
+        leading back to the leader without a cycle.
+    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, audit
+        The other sections (``[script]``, ``[mission]``, ...), defaults where absent.
+    source : str
+        The TOML text, kept for the run record.
+    """
 
     name: str
     sim: SimConfig
@@ -654,7 +701,20 @@ def _toml_key(field_name: str) -> str:
 
 
 def parse_config(text: str, name: str = "scenario") -> Config:
-    """Parse scenario TOML text; see :func:`load_config`."""
+    """Parse and validate scenario TOML text; see :func:`load_config`.
+
+    Parameters
+    ----------
+    text : str
+        The TOML.
+    name : str
+        The scenario's name when the text sets none; error messages start with it.
+
+    Raises
+    ------
+    ConfigError
+        Bad TOML, unknown key, wrong type or out-of-range value.
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -6,6 +6,16 @@ Messages name the bad value and what was expected.
 
 from __future__ import annotations
 
+__all__ = [
+    "BuildToolError",
+    "ConfigError",
+    "FmuError",
+    "LfctlError",
+    "LinkError",
+    "LinkTimeoutError",
+    "MissionProtocolError",
+]
+
 
 class LfctlError(Exception):
     """Base of every error lfctl raises on purpose."""

@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+__all__ = ["body_to_ned", "geodetic_to_ned", "ned_to_body", "ned_to_geodetic", "range_bearing", "rot_z", "wrap_pi"]
+
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius
 
 
@@ -33,13 +35,29 @@ def wrap_pi(angle_rad: float) -> float:
 
 
 def ned_to_body(north_m: float, east_m: float, yaw_rad: float) -> tuple[float, float]:
-    """Rotate a horizontal NED vector into body FRD (forward, right)."""
+    """Rotate a horizontal NED vector into body FRD (forward, right).
+
+    Parameters
+    ----------
+    north_m, east_m : float
+        The vector in NED, m.
+    yaw_rad : float
+        The body's heading, rad.
+    """
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     return c * north_m + s * east_m, -s * north_m + c * east_m
 
 
 def body_to_ned(forward_m: float, right_m: float, yaw_rad: float) -> tuple[float, float]:
-    """Rotate a horizontal body FRD vector (forward, right) into NED (north, east)."""
+    """Rotate a horizontal body FRD vector (forward, right) into NED (north, east).
+
+    Parameters
+    ----------
+    forward_m, right_m : float
+        The vector in the body frame, m.
+    yaw_rad : float
+        The body's heading, rad.
+    """
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     return c * forward_m - s * right_m, s * forward_m + c * right_m
 
@@ -47,7 +65,17 @@ def body_to_ned(forward_m: float, right_m: float, yaw_rad: float) -> tuple[float
 def range_bearing(
     from_north_m: float, from_east_m: float, from_yaw_rad: float, to_north_m: float, to_east_m: float
 ) -> tuple[float, float]:
-    """Range (m) and body-relative bearing (rad, clockwise positive) from one pose to a point."""
+    """Range (m) and body-relative bearing (rad, clockwise positive) from one pose to a point.
+
+    Parameters
+    ----------
+    from_north_m, from_east_m : float
+        The observer's position, NED, m.
+    from_yaw_rad : float
+        The observer's heading, rad.
+    to_north_m, to_east_m : float
+        The point's position, NED, m.
+    """
     dn, de = to_north_m - from_north_m, to_east_m - from_east_m
     return math.hypot(dn, de), wrap_pi(math.atan2(de, dn) - from_yaw_rad)
 
@@ -58,6 +86,17 @@ def geodetic_to_ned(
     """Local tangent-plane NED (m) of a geodetic point relative to home (equirectangular).
 
     Accurate to a few millimetres over the hundreds of metres a ground-robot mission spans.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : float
+        The point's latitude and longitude, degrees.
+    alt_m : float
+        The point's altitude, m (same datum as ``home_alt_m``).
+    home_lat_deg, home_lon_deg : float
+        Home (the local frame's origin) latitude and longitude, degrees.
+    home_alt_m : float
+        Home altitude, m (the local frame's z = 0).
     """
     dlat = math.radians(lat_deg - home_lat_deg)
     dlon = math.radians(lon_deg - home_lon_deg)
@@ -69,13 +108,29 @@ def geodetic_to_ned(
 def ned_to_geodetic(
     north_m: float, east_m: float, down_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
 ) -> tuple[float, float, float]:
-    """Inverse of :func:`geodetic_to_ned`: (lat_deg, lon_deg, alt_m)."""
+    """Inverse of :func:`geodetic_to_ned`: (lat_deg, lon_deg, alt_m).
+
+    Parameters
+    ----------
+    north_m, east_m, down_m : float
+        The point in the local NED frame, m.
+    home_lat_deg, home_lon_deg : float
+        Home (the local frame's origin) latitude and longitude, degrees.
+    home_alt_m : float
+        Home altitude, m (the local frame's z = 0).
+    """
     lat = home_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
     lon = home_lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(home_lat_deg))))
     return lat, lon, home_alt_m - down_m
 
 
 def rot_z(yaw_rad: float) -> np.ndarray:
-    """3x3 rotation about z (NED down): body-to-NED for a vehicle with this yaw."""
+    """3x3 rotation about z (NED down): body-to-NED for a vehicle with this yaw.
+
+    Parameters
+    ----------
+    yaw_rad : float
+        The heading, rad.
+    """
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -35,10 +35,25 @@ CHATTER_DEADBAND_RADPS = 0.02
 class FormationMetrics:
     """How well one follower held its slot.
 
-    Errors are RMS and largest absolute values after ``SETTLE_S``; ``None`` when the run was
-    shorter than that. ``time_in_state_s`` maps each track state (``tracking``,
-    ``occluded``, ``lost``) to seconds; ``control_effort_rad`` integrates the absolute yaw-rate
-    command; ``chattering_per_s`` counts its sign changes per second.
+    Parameters
+    ----------
+    name, target : str
+        The follower and what it follows.
+    range_cmd_m, bearing_cmd_rad : float
+        Its slot: range (m) and bearing (rad, clockwise positive).
+    range_err_rms_m, range_err_max_m : float or None
+        RMS and largest absolute range error after the settling time, m; None when the run
+        was shorter than that.
+    bearing_err_rms_rad, bearing_err_max_rad : float or None
+        The same for the bearing error, rad.
+    min_separation_m : float or None
+        Closest approach to any other vehicle over the run, m; None without samples.
+    time_in_state_s : dict of str to float
+        Seconds in each track state (``tracking``, ``occluded``, ``lost``).
+    control_effort_rad : float
+        The absolute yaw-rate command integrated over the run, rad.
+    chattering_per_s : float
+        Sign changes of the yaw-rate command (outside ``CHATTER_DEADBAND_RADPS``) per second.
     """
 
     name: str
@@ -57,13 +72,12 @@ class FormationMetrics:
 
 @dataclass(frozen=True)
 class TrackEpisode:
-    """A stretch without tracking: when it began, how long, whether tracking came back, and
-    the worst state in it (``occluded`` or ``lost``)."""
+    """A stretch without tracking."""
 
-    start_s: float
-    duration_s: float
-    recovered: bool
-    worst: str
+    start_s: float  # when it began, s
+    duration_s: float  # how long it lasted, s
+    recovered: bool  # whether tracking came back before the run ended
+    worst: str  # the worst state in it: "occluded" or "lost"
 
 
 def sign_changes(values: np.ndarray, deadband: float) -> int:
