@@ -37,14 +37,14 @@ class VehicleReport:
     what has not been heard yet.
     """
 
-    heard: bool = False
-    mode: int | None = None
-    armed: bool | None = None
+    heard: bool = False  # a HEARTBEAT from the vehicle's autopilot has come
+    mode: int | None = None  # its custom mode (Rover mode number, see endpoint.MODES)
+    armed: bool | None = None  # its HEARTBEAT's safety-armed flag
     t_s: float | None = None
-    north_m: float | None = None
-    east_m: float | None = None
-    speed_mps: float | None = None
-    yaw_rad: float | None = None
+    north_m: float | None = None  # position, local NED, m (LOCAL_POSITION_NED)
+    east_m: float | None = None  # position, local NED, m
+    speed_mps: float | None = None  # horizontal speed, m/s
+    yaw_rad: float | None = None  # heading, rad (ATTITUDE)
 
 
 def _time_ms(t_s: float) -> int:
@@ -84,7 +84,15 @@ class Companion:
 
     # -- to the vehicle ---------------------------------------------------------------------
     def command(self, cmd: int, *params: float) -> None:
-        """A COMMAND_LONG to the vehicle's autopilot (its COMMAND_ACK is not awaited)."""
+        """A COMMAND_LONG to the vehicle's autopilot (its COMMAND_ACK is not awaited).
+
+        Parameters
+        ----------
+        cmd : int
+            The MAV_CMD.
+        *params : float
+            param1, param2, ... (up to 7; the rest are 0).
+        """
         p = [*params, *([0.0] * (7 - len(params)))]
         self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, 0, *p))
 
@@ -93,11 +101,27 @@ class Companion:
         self.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["GUIDED"])
 
     def arm(self, on: bool = True) -> None:
-        """Ask to arm (or disarm)."""
+        """Ask to arm (or disarm).
+
+        Parameters
+        ----------
+        on : bool
+            True to arm, False to disarm.
+        """
         self.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if on else 0.0)
 
     def setpoint(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
-        """A GUIDED setpoint: forward speed (m/s) and yaw rate (rad/s, positive right)."""
+        """A GUIDED setpoint: forward speed and yaw rate (SET_POSITION_TARGET_LOCAL_NED).
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s (the message's time_boot_ms).
+        speed_mps : float
+            Forward speed, m/s.
+        yaw_rate_radps : float
+            Yaw rate, rad/s, positive right.
+        """
         self.port.send(
             mav.MAVLink_set_position_target_local_ned_message(
                 _time_ms(t_s), self.target, 1, mav.MAV_FRAME_BODY_NED, TYPE_MASK_SPEED_YAWRATE,
@@ -108,14 +132,35 @@ class Companion:
     def report(
         self, t_s: float, range_err_m: float | None, bearing_err_deg: float | None, track_quality: float
     ) -> None:
-        """The formation status a ground station shows: range error (m), bearing error (deg)
-        and track quality (0..1); an unknown error goes as NaN, MAVLink's "no value"."""
+        """The formation status a ground station shows (three NAMED_VALUE_FLOAT); an unknown
+        error goes as NaN, MAVLink's "no value".
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s (the messages' time_boot_ms).
+        range_err_m : float or None
+            Range error, m (``rng_err``); None when unknown.
+        bearing_err_deg : float or None
+            Bearing error, degrees (``brg_err``): MAVLink's unit at the ground station; None
+            when unknown.
+        track_quality : float
+            0..1 (``trk_q``).
+        """
         for name, value in zip(STATUS_NAMES, (range_err_m, bearing_err_deg, track_quality), strict=True):
             v = float(value) if value is not None and math.isfinite(value) else math.nan
             self.port.send(mav.MAVLink_named_value_float_message(_time_ms(t_s), name, v))
 
     def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
-        """A STATUSTEXT (50 characters at most) for the ground station."""
+        """A STATUSTEXT for the ground station.
+
+        Parameters
+        ----------
+        text : str
+            The line; cut to 50 bytes.
+        severity : int
+            MAV_SEVERITY (default WARNING).
+        """
         self.port.send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
 
     # -- from the vehicle -------------------------------------------------------------------

@@ -25,12 +25,27 @@ from lfctl.link.mission import MissionItem, validate_item
 from lfctl.link.port import pack_next
 from lfctl.link.signing import setup_signing
 
+__all__ = [
+    "COMPANION_COMPID",
+    "GCS_COMPID",
+    "MODES",
+    "MODE_NAMES",
+    "TYPE_MASK_SPEED_YAWRATE",
+    "LinkStats",
+    "Param",
+    "VehicleEndpoint",
+    "packet_record",
+]
+
 log = logging.getLogger(__name__)
 
+#: ArduPilot Rover custom mode numbers by name (the modes the endpoint knows)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "GUIDED": 15}
 MODE_NAMES = {v: k for k, v in MODES.items()}
+#: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
 GCS_COMPID = 190
 COMPANION_COMPID = 191
+#: SET_POSITION_TARGET_LOCAL_NED type_mask using only the velocity and the yaw rate
 TYPE_MASK_SPEED_YAWRATE = 1479
 MISSION_ITEM_TIMEOUT_S = 0.25
 MISSION_RETRIES = 10  # at 20 % loss each way a round trip fails 36 % of the time
@@ -52,8 +67,21 @@ ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 
 @dataclass
 class Param:
-    """A vehicle parameter: its value now, the range a ground station may set it within
-    (``lo``..``hi``, in ``unit``), its unit and what it does; ``readonly`` ones refuse any set."""
+    """A vehicle parameter.
+
+    Parameters
+    ----------
+    value : float
+        Its value now, in ``unit``.
+    lo, hi : float
+        The range a ground station may set it within, in ``unit``.
+    unit : str
+        Its unit as a ground station shows it (``""`` for none).
+    description : str
+        What it does.
+    readonly : bool
+        Refuse any set.
+    """
 
     value: float
     lo: float
@@ -88,8 +116,10 @@ def default_params(sysid: int) -> dict[str, Param]:
 
 @dataclass
 class LinkStats:
-    datagrams: int = 0
-    messages: int = 0
+    """What an endpoint has read from its link."""
+
+    datagrams: int = 0  # datagrams read
+    messages: int = 0  # messages parsed and dispatched
     bad: int = 0  # garbage, truncated frames, bad CRC
     other_sysid: int = 0  # addressed to another vehicle
     unknown: int = 0  # message ids we do not handle
@@ -107,7 +137,29 @@ class _Upload:
 
 
 class VehicleEndpoint:
-    """One vehicle's MAVLink face. Feed it datagrams with :meth:`receive`, call :meth:`tick`."""
+    """One vehicle's MAVLink face. Feed it datagrams with :meth:`receive`, call :meth:`tick`.
+
+    Parameters
+    ----------
+    name : str
+        The vehicle's name (in logs).
+    sysid : int
+        Its MAVLink system id; the autopilot is component 1.
+    link : DatagramLink
+        Where its bytes go and come from (a UDP, in-memory or fan-out link).
+    home : (lat_deg, lon_deg, alt_m)
+        The local NED frame's origin, for global positions and missions.
+    mode : str
+        The Rover mode to start in (a key of :data:`MODES`).
+    armed : bool
+        Start armed.
+    tap : callable, optional
+        Sees every packet: ``tap(direction, msg, raw)`` with ``"in"`` or ``"out"``, the
+        pymavlink message and its bytes (the recorder).
+    signing_key : bytes, optional
+        MAVLink 2 signing key: sign what is sent, and accept only signed packets except from
+        the in-memory link.
+    """
 
     def __init__(
         self,
@@ -174,18 +226,40 @@ class VehicleEndpoint:
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
+        """Send one message from the autopilot (component 1).
+
+        Parameters
+        ----------
+        msg : pymavlink message
+            The message.
+        """
         data = pack_next(msg, self.mav)
         self.link.send(data)
         if self.tap is not None:
             self.tap("out", msg, data)
 
     def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
-        """A STATUSTEXT a ground station shows (also logged)."""
+        """A STATUSTEXT a ground station shows (also logged, and kept in :attr:`statustexts`).
+
+        Parameters
+        ----------
+        text : str
+            The line; cut to 50 bytes.
+        severity : int
+            MAV_SEVERITY (default WARNING).
+        """
         self.statustexts.append((self.t_s, text))
         log.log(logging.WARNING if severity <= mav.MAV_SEVERITY_WARNING else logging.INFO, "%s: %s", self.name, text)
         self.send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
 
     def param(self, name: str) -> float:
+        """A parameter's value now.
+
+        Parameters
+        ----------
+        name : str
+            The parameter (KeyError for an unknown one).
+        """
         return self.params[name].value
 
     # -- incoming --------------------------------------------------------------------------
@@ -252,6 +326,14 @@ class VehicleEndpoint:
             self.set_mode(m.custom_mode)
 
     def set_mode(self, custom_mode: int) -> bool:
+        """Switch mode (the next HEARTBEAT goes out at once); False for a mode Rover does not
+        have, and for FOLLOW, which lfctl does through GUIDED.
+
+        Parameters
+        ----------
+        custom_mode : int
+            The Rover mode number (a value of :data:`MODES`).
+        """
         if custom_mode not in MODE_NAMES:
             return False
         if custom_mode == MODES["FOLLOW"]:
@@ -506,6 +588,13 @@ class VehicleEndpoint:
             self.send(mav.MAVLink_mission_current_message(self.current_seq))
 
     def set_current(self, seq: int) -> bool:
+        """Make mission item ``seq`` the current one; False when there is no such item.
+
+        Parameters
+        ----------
+        seq : int
+            The item, 1 or more (0 is home).
+        """
         if not 0 < seq < len(self.mission):
             return False
         self.current_seq = seq
@@ -513,7 +602,13 @@ class VehicleEndpoint:
         return True
 
     def reached(self, seq: int) -> None:
-        """The autopilot reached mission item ``seq``: tell the ground station."""
+        """The autopilot reached mission item ``seq``: tell the ground station and move on.
+
+        Parameters
+        ----------
+        seq : int
+            The item reached.
+        """
         self.send(mav.MAVLink_mission_item_reached_message(seq))
         self.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
 
@@ -546,7 +641,16 @@ class VehicleEndpoint:
 
     # -- the tick -----------------------------------------------------------------------------
     def tick(self, t_s: float, state: dict[str, float]) -> None:
-        """Advance to ``t_s``: handle input, run timeouts and failsafes, stream telemetry."""
+        """Advance to ``t_s``: handle input, run timeouts and failsafes, stream telemetry.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        state : dict of str to float
+            The vehicle's truth now: ``north_m``, ``east_m``, ``yaw_rad``, ``speed_mps`` and
+            ``yaw_rate_radps``.
+        """
         self.t_s = t_s
         self.state = state
         self.receive()
@@ -671,7 +775,18 @@ class VehicleEndpoint:
 
 
 def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
-    """A packet as the /mavlink/<link> recording topic carries it."""
+    """A packet as the /mavlink/<link> recording topic carries it: ids, name, sequence,
+    fields (text decoded, non-finite numbers as strings) and the raw bytes in base64.
+
+    Parameters
+    ----------
+    direction : str
+        ``"in"`` or ``"out"`` of the endpoint.
+    msg : pymavlink message
+        The parsed message.
+    raw : bytes
+        The packet as it travelled.
+    """
     fields = {}
     for k in msg.get_fieldnames():
         v = getattr(msg, k)

@@ -16,6 +16,9 @@ from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.mission import MissionItem
 from lfctl.link.port import CHECK_LINK, MavPort
 
+__all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow"]
+
+#: the ground station's system id, as QGroundControl and MAVProxy use
 GCS_SYSID = 255
 
 
@@ -60,11 +63,24 @@ class GroundStation:
 
     # -- plumbing ---------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
-        """Send one message to the vehicle."""
+        """Send one message to the vehicle.
+
+        Parameters
+        ----------
+        msg : pymavlink message
+            The message (addressed to :attr:`target` where it has a target).
+        """
         self.port.send(msg)
 
     def heartbeat(self, force: bool = False) -> None:
-        """The GCS heartbeat (at most once a second unless forced)."""
+        """The GCS heartbeat (at most once a second unless forced; never with
+        ``heartbeats=False``).
+
+        Parameters
+        ----------
+        force : bool
+            Send now even if one went out less than a second ago.
+        """
         now = time.monotonic()
         if self.heartbeats and (force or now - self._hb_at >= 1.0):
             self._hb_at = now
@@ -75,13 +91,34 @@ class GroundStation:
             )
 
     def next_message(self, timeout_s: float) -> Any | None:
-        """The next message from anyone, waiting up to ``timeout_s``, or None."""
+        """The next message from anyone, or None.
+
+        Parameters
+        ----------
+        timeout_s : float
+            Longest wait, s; 0 returns at once.
+        """
         return self.port.recv(timeout_s)
 
     def wait(
         self, kinds: tuple[str, ...], timeout_s: float | None = None, where: Callable[[Any], bool] | None = None
     ) -> Any:
-        """The next message of one of ``kinds`` from the target (LinkTimeoutError if none)."""
+        """The next message of one of ``kinds`` from the target, sending heartbeats meanwhile.
+
+        Parameters
+        ----------
+        kinds : tuple of str
+            Message names, e.g. ``("COMMAND_ACK",)``.
+        timeout_s : float, optional
+            Longest wait, s (default :attr:`timeout_s`).
+        where : callable, optional
+            Only a message for which ``where(msg)`` is true counts.
+
+        Raises
+        ------
+        LinkTimeoutError
+            None came in time.
+        """
         limit = self.timeout_s if timeout_s is None else timeout_s
         deadline = time.monotonic() + limit
         spins = 0
@@ -102,7 +139,22 @@ class GroundStation:
 
     # -- commands ------------------------------------------------------------------------------
     def command(self, cmd: int, *params: float, retries: int = 3) -> int:
-        """COMMAND_LONG with retries; returns the MAV_RESULT of its COMMAND_ACK."""
+        """COMMAND_LONG with retries; returns the MAV_RESULT of its COMMAND_ACK.
+
+        Parameters
+        ----------
+        cmd : int
+            The MAV_CMD.
+        *params : float
+            param1, param2, ... (up to 7; the rest are 0).
+        retries : int
+            Sends (confirmation 0, 1, ...), sharing :attr:`timeout_s` between them.
+
+        Raises
+        ------
+        LinkTimeoutError
+            No COMMAND_ACK after every try.
+        """
         p = [*params, *([0.0] * (7 - len(params)))]
         for attempt in range(retries):
             self.send(mav.MAVLink_command_long_message(self.target, 1, cmd, attempt, *p))
@@ -119,25 +171,56 @@ class GroundStation:
         )
 
     def set_mode(self, name: str) -> int:
+        """Ask for a Rover mode (MAV_CMD_DO_SET_MODE); returns the MAV_RESULT.
+
+        Parameters
+        ----------
+        name : str
+            ``AUTO``, ``GUIDED``, ``HOLD``, ... (any case; MissionProtocolError for another).
+        """
         if name.upper() not in MODES:
             raise MissionProtocolError(f"unknown mode {name!r} (known: {', '.join(MODES)})")
         return self.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES[name.upper()])
 
     def arm(self, on: bool = True) -> int:
+        """Ask to arm (or disarm); returns the MAV_RESULT.
+
+        Parameters
+        ----------
+        on : bool
+            True to arm, False to disarm.
+        """
         return self.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0 if on else 0.0)
 
     # -- parameters -----------------------------------------------------------------------------
     def param_get(self, name: str) -> float:
+        """A parameter's value (PARAM_REQUEST_READ).
+
+        Parameters
+        ----------
+        name : str
+            The parameter, e.g. ``WP_SPEED``.
+        """
         self.send(mav.MAVLink_param_request_read_message(self.target, 1, name.encode(), -1))
         m = self.wait(("PARAM_VALUE",), where=lambda m: _pid(m) == name)
         return float(m.param_value)
 
     def param_set(self, name: str, value: float) -> float:
+        """Set a parameter; returns the value now in force (the old one if refused).
+
+        Parameters
+        ----------
+        name : str
+            The parameter.
+        value : float
+            The new value, in the parameter's unit.
+        """
         self.send(mav.MAVLink_param_set_message(self.target, 1, name.encode(), float(value), mav.MAV_PARAM_TYPE_REAL32))
         m = self.wait(("PARAM_VALUE",), where=lambda m: _pid(m) == name)
         return float(m.param_value)
 
     def param_list(self) -> dict[str, float]:
+        """Every parameter and its value (PARAM_REQUEST_LIST)."""
         self.send(mav.MAVLink_param_request_list_message(self.target, 1))
         first = self.wait(("PARAM_VALUE",))
         out = {_pid(first): float(first.param_value)}
@@ -152,6 +235,22 @@ class GroundStation:
 
         The vehicle drives the transfer (it re-requests a lost item); when the vehicle falls
         silent (our MISSION_COUNT or its final MISSION_ACK lost) the upload starts again.
+
+        Parameters
+        ----------
+        items : list of MissionItem
+            The mission, item 0 = home.
+        item_timeout_s : float
+            The vehicle is taken as silent after three times this with no request, s.
+        restarts : int
+            How many times the upload may start again from MISSION_COUNT.
+
+        Raises
+        ------
+        MissionProtocolError
+            The vehicle refused the mission or asked for an item it does not have.
+        LinkTimeoutError
+            It stayed silent through every restart.
         """
         for _attempt in range(restarts + 1):
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mav.MAV_MISSION_TYPE_MISSION))
@@ -186,7 +285,20 @@ class GroundStation:
         )  # fmt: skip
 
     def download(self, retries: int = 5) -> list[MissionItem]:
-        """Mission download, re-requesting what is lost."""
+        """Mission download, re-requesting what is lost; item 0 = home.
+
+        Parameters
+        ----------
+        retries : int
+            Requests for the count and for each item, sharing :attr:`timeout_s`.
+
+        Raises
+        ------
+        LinkTimeoutError
+            No MISSION_COUNT came.
+        MissionProtocolError
+            An item never came.
+        """
         count = None
         for _ in range(retries):
             self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
@@ -227,6 +339,7 @@ class GroundStation:
         return items
 
     def clear(self) -> None:
+        """Clear the vehicle's mission (MissionProtocolError if it refuses)."""
         self.send(mav.MAVLink_mission_clear_all_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
         m = self.wait(("MISSION_ACK",))
         if m.type != mav.MAV_MISSION_ACCEPTED:
@@ -256,15 +369,15 @@ def text_field(value: str | bytes) -> str:
 class VehicleRow:
     """What a ground station last heard from one vehicle (``None``: not heard yet)."""
 
-    sysid: int
-    mode: str | None = None
-    armed: bool | None = None
-    lat_deg: float | None = None
-    lon_deg: float | None = None
-    speed_mps: float | None = None
+    sysid: int  # the vehicle's system id
+    mode: str | None = None  # its Rover mode's name (HEARTBEAT)
+    armed: bool | None = None  # its HEARTBEAT's safety-armed flag
+    lat_deg: float | None = None  # latitude, degrees (GLOBAL_POSITION_INT)
+    lon_deg: float | None = None  # longitude, degrees
+    speed_mps: float | None = None  # horizontal speed, m/s
     formation: dict[str, float] = field(default_factory=dict)  # the companion's NAMED_VALUE_FLOATs
-    text: str = ""
-    last_heard_s: float = -math.inf
+    text: str = ""  # the last STATUSTEXT
+    last_heard_s: float = -math.inf  # when anything last came from it, on the watcher's clock, s
 
 
 class FleetTable:
@@ -275,7 +388,15 @@ class FleetTable:
         self.rows: dict[int, VehicleRow] = {}
 
     def add(self, m: Any, t_s: float) -> None:
-        """Take one received message, heard at ``t_s`` (the watcher's clock, s)."""
+        """Take one received message into its vehicle's row.
+
+        Parameters
+        ----------
+        m : pymavlink message
+            Any message; its source system picks the row.
+        t_s : float
+            When it was heard, on the watcher's clock, s.
+        """
         row = self.rows.setdefault(m.get_srcSystem(), VehicleRow(m.get_srcSystem()))
         row.last_heard_s = t_s
         kind = m.get_type()

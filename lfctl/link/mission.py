@@ -12,6 +12,19 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
 
+__all__ = [
+    "DO_CHANGE_SPEED",
+    "DO_JUMP",
+    "MAX_EXPANDED",
+    "Leg",
+    "MissionItem",
+    "load_mission",
+    "local_mission",
+    "save_mission",
+    "to_legs",
+    "validate_item",
+]
+
 NAV_WAYPOINT = mav.MAV_CMD_NAV_WAYPOINT  # 16
 NAV_LOITER_TIME = mav.MAV_CMD_NAV_LOITER_TIME  # 19
 DO_JUMP = mav.MAV_CMD_DO_JUMP  # 177
@@ -28,7 +41,25 @@ MAX_EXPANDED = 2000  # DO_JUMP repeats are unrolled up to this many legs
 
 @dataclass(frozen=True)
 class MissionItem:
-    """One item as MISSION_ITEM_INT carries it (x, y in degE7, z in m)."""
+    """One item as MISSION_ITEM_INT carries it (x, y in degE7, z in m).
+
+    Parameters
+    ----------
+    seq : int
+        Its place in the mission; 0 is home.
+    frame : int
+        MAV_FRAME of its position.
+    command : int
+        MAV_CMD: NAV_WAYPOINT, NAV_LOITER_TIME, DO_JUMP or DO_CHANGE_SPEED are supported.
+    param1, param2, param3, param4 : float
+        The command's parameters (a waypoint's param1 is its hold time, s).
+    x, y : int
+        Latitude and longitude, degE7.
+    z : float
+        Altitude, m.
+    autocontinue : int
+        1: go on to the next item when this one is done.
+    """
 
     seq: int
     frame: int
@@ -44,10 +75,12 @@ class MissionItem:
 
     @property
     def lat_deg(self) -> float:
+        """Latitude, degrees."""
         return self.x / 1e7
 
     @property
     def lon_deg(self) -> float:
+        """Longitude, degrees."""
         return self.y / 1e7
 
 
@@ -59,7 +92,15 @@ def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
 
 
 def validate_item(item: MissionItem, count: int) -> int:
-    """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home)."""
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home).
+
+    Parameters
+    ----------
+    item : MissionItem
+        The item as uploaded.
+    count : int
+        Items in the whole mission, home included (a DO_JUMP must land inside it).
+    """
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
     if item.command in (NAV_WAYPOINT, NAV_LOITER_TIME) or item.seq == 0:
@@ -85,14 +126,26 @@ class Leg:
     """One leg for the leader's autopilot: local target, wait there, speed on the way."""
 
     seq: int  # the mission item this leg ends at
-    north_m: float
-    east_m: float
-    hold_s: float
-    speed_mps: float | None
+    north_m: float  # the target, local NED, m
+    east_m: float  # the target, local NED, m
+    hold_s: float  # wait there, s
+    speed_mps: float | None  # speed on the way (DO_CHANGE_SPEED); None: the cruise speed
 
 
 def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_seq: int = 1) -> list[Leg]:
-    """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP and applying DO_CHANGE_SPEED."""
+    """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP and applying DO_CHANGE_SPEED.
+
+    At most :data:`MAX_EXPANDED` legs: a DO_JUMP repeated for ever (-1) stops there.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    home : (lat_deg, lon_deg, alt_m)
+        The local NED frame's origin.
+    start_seq : int
+        The item to start from (the current item).
+    """
     legs: list[Leg] = []
     speed: float | None = None
     jumps_left: dict[int, int] = {}
@@ -120,7 +173,15 @@ def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_se
 
 
 def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, float]) -> list[MissionItem]:
-    """A scenario's local waypoints (north, east[, hold]) as mission items, item 0 = home."""
+    """A scenario's local waypoints (north, east[, hold]) as mission items, item 0 = home.
+
+    Parameters
+    ----------
+    waypoints : list of tuples of float
+        ``(north_m, east_m)`` or ``(north_m, east_m, hold_s)`` in the local NED frame.
+    home : (lat_deg, lon_deg, alt_m)
+        The local NED frame's origin.
+    """
     from lfctl.frames import ned_to_geodetic
 
     items = [home_item(*home)]
@@ -145,7 +206,18 @@ def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, 
 
 
 def load_mission(path: str | Path) -> list[MissionItem]:
-    """Read a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file; item 0 = home."""
+    """Read a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file; item 0 = home.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file; a ``.plan`` suffix or JSON text is read as a .plan.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, or not one of the two formats (the message names the line).
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -216,7 +288,15 @@ def _load_plan(p: Path, text: str) -> list[MissionItem]:
 
 
 def save_mission(items: list[MissionItem], path: str | Path) -> None:
-    """Write QGC WPL 110 (default) or .plan (by extension)."""
+    """Write QGC WPL 110 (default) or .plan (by extension).
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    path : str or Path
+        The file; a ``.plan`` suffix writes a QGroundControl plan.
+    """
     p = Path(path)
     if p.suffix == ".plan":
         home = items[0] if items else MissionItem(0, 0, NAV_WAYPOINT)

@@ -26,10 +26,22 @@ class DatagramLink(Protocol):
     """What carries MAVLink bytes: ``send`` a datagram, ``recv`` the waiting ones."""
 
     def send(self, data: bytes) -> None:
-        """Send one datagram."""
+        """Send one datagram.
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        """
 
     def recv(self, max_datagrams: int = ...) -> list[tuple[bytes, tuple[str, int]]]:
-        """Every datagram waiting (with its sender), without blocking."""
+        """Every datagram waiting (with its sender's address), without blocking.
+
+        Parameters
+        ----------
+        max_datagrams : int
+            Return at most this many (the rest wait for the next call).
+        """
 
 
 def pack_next(msg: Any, m: Any) -> bytes:
@@ -56,6 +68,17 @@ class MavPort:
 
     Build one with :meth:`open` (a pymavlink connection string) or :meth:`memory` (an
     in-memory link and a ``pump`` that lets the other end run).
+
+    Parameters
+    ----------
+    sysid, compid : int
+        Who we are.
+    connection : pymavlink connection, optional
+        A ``mavutil`` connection to talk through; give it or ``link``, not both.
+    link : DatagramLink, optional
+        An in-memory link to talk through instead.
+    pump : callable, optional
+        With ``link``: called before reading, so the other end can answer.
     """
 
     def __init__(
@@ -131,7 +154,13 @@ class MavPort:
         return MavPort(sysid, compid, link=link, pump=pump)
 
     def send(self, msg: Any) -> None:
-        """Send one message (sequence number and signature as the codec says)."""
+        """Send one message (sequence number and signature as the codec says).
+
+        Parameters
+        ----------
+        msg : pymavlink message
+            The message, from our system and component.
+        """
         if self.connection is not None:
             self.connection.mav.send(msg)
         else:

@@ -8,6 +8,9 @@ import socket
 from collections import deque
 from collections.abc import Callable
 
+__all__ = ["Address", "Fanout", "LossyLink", "MemoryLink", "UdpLink"]
+
+#: a datagram's peer: (host, port); in memory ("memory", 0)
 Address = tuple[str, int]
 
 
@@ -17,6 +20,13 @@ class UdpLink:
     pymavlink's ``udpin`` replies to the last sender, so a stray datagram redirects the
     stream; this link replies only to peers that sent *valid* MAVLink (the endpoint says so
     with :meth:`accept_peer`), plus fixed ``udpout`` targets.
+
+    Parameters
+    ----------
+    bind : Address or None
+        Where to listen (``udpin``); None: a free port on 127.0.0.1.
+    outs : list of Address, optional
+        Fixed ``udpout`` targets that get everything sent.
     """
 
     def __init__(self, bind: Address | None, outs: list[Address] | None = None) -> None:
@@ -33,15 +43,30 @@ class UdpLink:
 
     @property
     def port(self) -> int:
+        """The UDP port it listens on."""
         return int(self.sock.getsockname()[1])
 
     def accept_peer(self, addr: Address) -> None:
-        """A sender whose datagram parsed as MAVLink: reply to it from now on."""
+        """A sender whose datagram parsed as MAVLink: reply to it from now on (the last eight
+        such peers are kept).
+
+        Parameters
+        ----------
+        addr : Address
+            The sender, (host, port).
+        """
         if addr not in self.peers and addr not in self.outs:
             self.peers.append(addr)
             del self.peers[:-8]  # a handful of ground stations at most
 
     def send(self, data: bytes) -> None:
+        """Send to every ``udpout`` target and accepted peer (a refused send is skipped).
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        """
         for addr in (*self.outs, *self.peers):
             try:
                 self.sock.sendto(data, addr)
@@ -50,6 +75,13 @@ class UdpLink:
                 pass
 
     def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
+        """Every datagram waiting on the socket, with its sender, without blocking.
+
+        Parameters
+        ----------
+        max_datagrams : int
+            Return at most this many (the rest wait for the next call); default 2048.
+        """
         out = []
         for _ in range(max_datagrams):
             try:
@@ -63,40 +95,83 @@ class UdpLink:
         return out
 
     def close(self) -> None:
+        """Close the socket."""
         self.sock.close()
 
 
 class LossyLink:
     """A link that drops a fraction of datagrams both ways (seeded): for loss tests and the
-    link benchmark."""
+    link benchmark.
+
+    Parameters
+    ----------
+    inner : UdpLink
+        The link that carries what is not dropped.
+    loss : float
+        Probability (0..1) that a datagram is dropped, each way.
+    seed : int
+        Seed of the drops.
+    """
 
     def __init__(self, inner: UdpLink, loss: float, seed: int = 7) -> None:
         self.inner, self.loss, self.rng = inner, loss, random.Random(seed)
 
     @property
     def port(self) -> int:
+        """The inner link's UDP port."""
         return self.inner.port
 
     @property
     def sock(self) -> socket.socket:
+        """The inner link's socket."""
         return self.inner.sock
 
     def accept_peer(self, addr: Address) -> None:
+        """Reply to this sender from now on (see :meth:`UdpLink.accept_peer`).
+
+        Parameters
+        ----------
+        addr : Address
+            The sender, (host, port).
+        """
         self.inner.accept_peer(addr)
 
     def send(self, data: bytes) -> None:
+        """Send, unless this datagram is dropped.
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        """
         if self.rng.random() >= self.loss:
             self.inner.send(data)
 
     def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
+        """The datagrams waiting that are not dropped, with their senders.
+
+        Parameters
+        ----------
+        max_datagrams : int
+            Return at most this many (the rest wait for the next call); default 2048.
+        """
         return [d for d in self.inner.recv(max_datagrams) if self.rng.random() >= self.loss]
 
     def close(self) -> None:
+        """Close the inner link."""
         self.inner.close()
 
 
 class MemoryLink:
-    """One end of an in-memory pair: what one end sends, the other receives, in order."""
+    """One end of an in-memory pair: what one end sends, the other receives, in order.
+
+    Make both ends with :meth:`pair`.
+
+    Parameters
+    ----------
+    name : str
+        This end's name (for logs and debugging).
+    """
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -108,19 +183,46 @@ class MemoryLink:
 
     @staticmethod
     def pair(a: str, b: str) -> tuple[MemoryLink, MemoryLink]:
+        """Two connected ends.
+
+        Parameters
+        ----------
+        a, b : str
+            The two ends' names.
+        """
         x, y = MemoryLink(a), MemoryLink(b)
         x.other, y.other = y, x
         return x, y
 
     def accept_peer(self, addr: Address) -> None:
-        pass
+        """Nothing to do: the other end is the only peer.
+
+        Parameters
+        ----------
+        addr : Address
+            The sender, (host, port).
+        """
 
     def send(self, data: bytes) -> None:
+        """Queue a datagram for the other end.
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        """
         assert self.other is not None
         self.tx_datagrams += 1
         self.other.inbox.append((data, ("memory", 0)))
 
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
+        """What the other end sent, oldest first, each from ``("memory", 0)``.
+
+        Parameters
+        ----------
+        max_datagrams : int
+            Return at most this many (the rest wait for the next call); default 256.
+        """
         out = []
         while self.inbox and len(out) < max_datagrams:
             out.append(self.inbox.popleft())
@@ -128,30 +230,59 @@ class MemoryLink:
         return out
 
     def close(self) -> None:
+        """Drop what is waiting."""
         self.inbox.clear()
 
 
 class Fanout:
-    """Several links as one (an endpoint reachable over UDP and in memory at once)."""
+    """Several links as one (an endpoint reachable over UDP and in memory at once).
+
+    Parameters
+    ----------
+    *links : UdpLink or MemoryLink
+        The links, all sent to and read from.
+    """
 
     def __init__(self, *links: UdpLink | MemoryLink) -> None:
         self.links = list(links)
 
     def accept_peer(self, addr: Address) -> None:
+        """Tell the UDP links to reply to a UDP sender (in-memory senders need nothing).
+
+        Parameters
+        ----------
+        addr : Address
+            The sender, (host, port).
+        """
         for link in self.links:
             if isinstance(link, UdpLink) and addr[0] != "memory":
                 link.accept_peer(addr)
 
     def send(self, data: bytes) -> None:
+        """Send on every link.
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        """
         for link in self.links:
             link.send(data)
 
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
+        """What every link has waiting, link by link.
+
+        Parameters
+        ----------
+        max_datagrams : int
+            At most this many from each link.
+        """
         out = []
         for link in self.links:
             out.extend(link.recv(max_datagrams))
         return out
 
     def close(self) -> None:
+        """Close every link."""
         for link in self.links:
             link.close()
