@@ -27,6 +27,8 @@ import platformdirs
 from lfctl.data import models_dir
 from lfctl.errors import BuildToolError, FmuError
 
+__all__ = ["BuiltModel", "ModelSource", "ModelVariable", "available_models", "build_model", "parse_model_source"]
+
 log = logging.getLogger(__name__)
 
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fvisibility=hidden", "-fPIC", "-shared")
@@ -52,37 +54,43 @@ _VAR_RE = re.compile(
 class ModelVariable:
     """One variable of a built-in model, as declared in its config.h."""
 
-    value_reference: int
-    name: str
+    value_reference: int  # its FMI value reference: its place in the table, 0 for time
+    name: str  # the variable's name in the FMU
     causality: str  # "input" | "output" | "parameter" | "independent"
     variability: str  # "fixed" | "tunable" | "continuous"
-    start: float
-    unit: str
-    description: str
+    start: float  # start value (inputs and parameters)
+    unit: str  # e.g. "m/s"; m, s, rad and their rates are declared with a <BaseUnit>
+    description: str  # the variable's description in the XML
 
 
 @dataclass(frozen=True)
 class ModelSource:
     """A built-in model's identity and variable table, parsed from config.h."""
 
-    identifier: str
-    token: str
-    description: str
-    n_states: int
-    variables: tuple[ModelVariable, ...]
-    folder: Path
+    identifier: str  # MODEL_IDENTIFIER: the FMU's model identifier and library name
+    token: str  # INSTANTIATION_TOKEN: FMI 2 guid, FMI 3 instantiationToken
+    description: str  # MODEL_DESCRIPTION_TEXT
+    n_states: int  # N_STATES: continuous states of the model
+    variables: tuple[ModelVariable, ...]  # time first, then the X(...) table in order
+    folder: Path  # the model's source folder
 
 
 @dataclass(frozen=True)
 class BuiltModel:
     """Paths of one model's built FMUs."""
 
-    identifier: str
-    fmi2: Path
-    fmi3: Path
+    identifier: str  # the model identifier
+    fmi2: Path  # the FMI 2.0 Co-Simulation FMU
+    fmi3: Path  # the FMI 3.0 Co-Simulation FMU
 
     def path(self, fmi_version: int) -> Path:
-        """The FMU for FMI ``fmi_version`` (2 or 3)."""
+        """The FMU for one FMI version.
+
+        Parameters
+        ----------
+        fmi_version : int
+            2 or 3 (FmuError for another).
+        """
         if fmi_version == 2:
             return self.fmi2
         if fmi_version == 3:
@@ -98,7 +106,18 @@ def _define(text: str, name: str, config: Path) -> str:
 
 
 def parse_model_source(folder: Path) -> ModelSource:
-    """Parse a model folder's config.h into a :class:`ModelSource`."""
+    """Parse a model folder's config.h into a :class:`ModelSource`.
+
+    Parameters
+    ----------
+    folder : Path
+        A model folder of fmu_models/ (``config.h``, ``model.c``).
+
+    Raises
+    ------
+    FmuError
+        config.h unreadable, a ``#define`` missing, or no ``X(...)`` variables.
+    """
     config = folder / "config.h"
     try:
         text = config.read_text()

@@ -31,10 +31,15 @@ from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
 
+__all__ = ["INPUT_ROLES", "OUTPUT_ROLES", "POSE_ROLES", "FmuInstance", "FmuLibrary", "FmuVariable", "RoleMap"]
+
 log = logging.getLogger(__name__)
 
+#: what lfctl sets every step: forward-speed and yaw-rate commands
 INPUT_ROLES = ("speed_cmd", "yaw_rate_cmd")
+#: what lfctl reads every step: the vehicle's pose, speed and yaw rate
 OUTPUT_ROLES = ("north", "east", "yaw", "speed", "yaw_rate")
+#: optional initial-pose parameters
 POSE_ROLES = ("north_0", "east_0", "yaw_0")
 ROLE_SI_UNIT = {
     "speed_cmd": "m/s",
@@ -87,16 +92,16 @@ BUILTIN_ROLE_MAP = RoleMap()
 
 @dataclass(frozen=True)
 class FmuVariable:
-    """One model variable as `lfctl fmu info` lists it."""
+    """One model variable as `lfctl fmu info` lists it (``""`` where the FMU declares none)."""
 
-    name: str
-    value_reference: int
-    causality: str
-    variability: str
-    type: str
-    unit: str
-    start: str
-    description: str
+    name: str  # the variable's name
+    value_reference: int  # its FMI value reference
+    causality: str  # "input", "output", "parameter", ...
+    variability: str  # "fixed", "tunable", "continuous", ...
+    type: str  # "Real", "Float64", "Integer", ...
+    unit: str  # declared on the variable or on its type
+    start: str  # start value as text
+    description: str  # the FMU's description of it
 
 
 def _status_text(status: int) -> str:
@@ -108,6 +113,20 @@ class FmuLibrary:
 
     Use as a context manager, or call :meth:`close`; closing frees every instance and removes
     the extracted folder.
+
+    Parameters
+    ----------
+    path : str or Path
+        The FMU file (FMI 2.0 or 3.0, Co-Simulation).
+    role_map : RoleMap
+        Which variables play lfctl's roles (default: the built-in models' names).
+
+    Raises
+    ------
+    FmuError
+        No such file, not an FMU, an unsupported FMI version, or extraction failed.
+    ConfigError
+        A role is unmapped, or mapped to a variable of the wrong causality, type or unit.
     """
 
     def __init__(self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP) -> None:
@@ -137,7 +156,13 @@ class FmuLibrary:
 
     @staticmethod
     def describe(path: str | Path) -> Any:
-        """Read only the model description of an FMU file (errors as FmuError)."""
+        """Read only the model description of an FMU file (errors as FmuError).
+
+        Parameters
+        ----------
+        path : str or Path
+            The FMU file.
+        """
         p = Path(path)
         try:
             return read_model_description(str(p))
@@ -150,7 +175,13 @@ class FmuLibrary:
 
     @staticmethod
     def variables_of(md: Any) -> list[FmuVariable]:
-        """Every variable of a model description, with its unit (declared or by its type)."""
+        """Every variable of a model description, with its unit (declared or by its type).
+
+        Parameters
+        ----------
+        md : fmpy ModelDescription
+            As :meth:`describe` returns it.
+        """
         rows = []
         for v in md.modelVariables:
             rows.append(
@@ -222,7 +253,24 @@ class FmuLibrary:
         out_row: np.ndarray,
         start_time_s: float = 0.0,
     ) -> FmuInstance:
-        """Create, parameterise and initialise one instance (see :class:`FmuInstance`)."""
+        """Create, parameterise and initialise one instance (see :class:`FmuInstance`).
+
+        Parameters
+        ----------
+        instance_name : str
+            The instance's name (the vehicle's).
+        parameters : Mapping[str, float]
+            FMU parameter name -> value, set before initialisation, FMU units.
+        pose : (north_m, east_m, yaw_rad)
+            The vehicle's initial pose, SI; set through the FMU's initial-pose parameters
+            when it has them (see :data:`POSE_ROLES`), else ignored here.
+        cmd_row : np.ndarray
+            Contiguous float64 (2,) the caller writes: speed and yaw-rate commands, FMU units.
+        out_row : np.ndarray
+            Contiguous float64 (5,) each step fills: north, east, yaw, speed, yaw rate, FMU units.
+        start_time_s : float
+            The simulation's start time, s.
+        """
         if self._unzipdir is None:
             raise FmuError(f"{self.path}: library is closed", model=self.identifier, call="instantiate")
         inst = FmuInstance(self, instance_name, parameters, pose, cmd_row, out_row, start_time_s)
@@ -250,7 +298,23 @@ class FmuInstance:
 
     ``cmd_row`` (2 floats: speed, yaw rate, in the FMU's units) and ``out_row`` (5 floats:
     north, east, yaw, speed, yaw rate, in the FMU's units) are views into arrays the caller
-    owns; :meth:`step` sends the first and fills the second.
+    owns; :meth:`step` sends the first and fills the second. Build it with
+    :meth:`FmuLibrary.instantiate`.
+
+    Parameters
+    ----------
+    lib : FmuLibrary
+        The loaded FMU file it is an instance of.
+    name : str
+        The instance's name (the vehicle's).
+    parameters : Mapping[str, float]
+        FMU parameter name -> value, set before initialisation, FMU units.
+    pose : (north_m, east_m, yaw_rad)
+        The vehicle's initial pose, SI (used when the FMU has initial-pose parameters).
+    cmd_row, out_row : np.ndarray
+        The command and output rows (contiguous float64, (2,) and (5,)).
+    start_time_s : float
+        The simulation's start time, s.
     """
 
     def __init__(
@@ -376,7 +440,13 @@ class FmuInstance:
 
     # -- hot path ------------------------------------------------------------------------
     def step(self, dt_s: float) -> None:
-        """Send the command row, advance ``dt_s``, read the output row. Raises FmuError."""
+        """Send the command row, advance ``dt_s``, read the output row. Raises FmuError.
+
+        Parameters
+        ----------
+        dt_s : float
+            The communication step, s.
+        """
         status = self._set(*self._set_args)
         if status == 0:
             status = self._do(self._c, self.t_s, dt_s, *self._step_args)
@@ -404,7 +474,13 @@ class FmuInstance:
         )
 
     def set_real(self, values: Mapping[str, float]) -> None:
-        """Set FMU variables by name (slow path: tests, tunable parameters)."""
+        """Set FMU variables by name (slow path: tests, tunable parameters).
+
+        Parameters
+        ----------
+        values : Mapping[str, float]
+            Variable name -> value, FMU units (KeyError for an unknown name).
+        """
         vrs = [int(self.lib.variables[n].valueReference) for n in values]
         v = self.lib.fmi_version
         fn = self._slave.setReal if v == 2 else self._slave.setFloat64
@@ -417,7 +493,15 @@ class FmuInstance:
             self._raise_status("GetReal", status)
 
     def reset(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
-        """FMI Reset, then parameterise and initialise again at the start time."""
+        """FMI Reset, then parameterise and initialise again at the start time.
+
+        Parameters
+        ----------
+        parameters : Mapping[str, float]
+            FMU parameter name -> value, FMU units.
+        pose : (north_m, east_m, yaw_rad)
+            The initial pose, SI (used when the FMU has initial-pose parameters).
+        """
         self._checked("Reset", self._slave.reset)
         self.t_s = self._start_time_s
         self._set_parameters(parameters, pose)
