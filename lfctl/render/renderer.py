@@ -29,6 +29,8 @@ from lfctl.render.textures import banner_texture, ground_texture, noise_texture,
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.camera_model import CameraModel
 
+__all__ = ["FrameTruth", "Renderer", "VehiclePose"]
+
 NEAR_M = 0.05
 GROUND_TILES = 3  # the floor texture tiled GROUND_TILES x GROUND_TILES for the fast warp path
 GROUND_LEVELS = 4  # floor mip levels: full, 1/2, 1/4, 1/8 of the texture's resolution
@@ -102,31 +104,43 @@ _BOX_FACES, _BOX_NORMALS, _BOX_COLOURS, _BOX_NAMES = _box_faces()
 
 @dataclass(frozen=True)
 class VehiclePose:
-    """A vehicle to draw: pose in NED; the banner on its back when ``banner``."""
+    """A vehicle to draw."""
 
-    north_m: float
-    east_m: float
-    yaw_rad: float
-    banner: bool = True
+    north_m: float  # reference point, local NED
+    east_m: float  # reference point, local NED
+    yaw_rad: float  # heading
+    banner: bool = True  # draw the banner on its back
 
 
 @dataclass(frozen=True)
 class FrameTruth:
     """What the frame shows of the target, from the world truth."""
 
-    t_s: float
+    t_s: float  # the frame's time, s
     bbox: tuple[int, int, int, int] | None  # banner x, y, w, h in pixels (clipped), None if off-image
     markers_px: np.ndarray  # (4, 2) projected marker centres TL, TR, BR, BL as seen
     visible_fraction: float  # of the banner's in-image area not hidden by nearer things
     in_view: bool  # banner in front of the camera and at least partly inside the image
     range_m: float  # follower reference point to target reference point
-    bearing_rad: float
+    bearing_rad: float  # of the target's reference point from the follower's heading, clockwise positive
     rel_heading_rad: float  # target yaw - follower yaw
     banner_cam_m: np.ndarray  # banner centre in the camera frame
 
 
 class Renderer:
-    """Renders one follower's camera view. Build once per follower; call :meth:`render`."""
+    """Renders one follower's camera view. Build once per follower; call :meth:`render`.
+
+    Parameters
+    ----------
+    camera : CameraConfig
+        The follower's camera: intrinsics, distortion, mount, noise, motion blur.
+    banner : BannerConfig
+        The banner drawn on the vehicles that carry one (see :class:`VehiclePose`).
+    scene : SceneConfig
+        Ground, props, occluders and lighting.
+    seed : int
+        Seeds every texture and the sensor noise: same seed, same frames.
+    """
 
     def __init__(self, camera: CameraConfig, banner: BannerConfig, scene: SceneConfig, seed: int) -> None:
         self.cfg = camera
@@ -380,7 +394,13 @@ class Renderer:
 
     # -- lighting -----------------------------------------------------------------------
     def light(self, t_s: float) -> tuple[float, np.ndarray]:
-        """Global gain and BGR tint at ``t_s`` (key frames interpolated, then flicker)."""
+        """Global gain and BGR tint at ``t_s`` (key frames interpolated, then flicker).
+
+        Parameters
+        ----------
+        t_s : float
+            Scene time, s.
+        """
         keys: tuple[LightKey, ...] = self.scene.lighting
         gain, tint = 1.0, np.ones(3)
         if keys:
@@ -409,7 +429,23 @@ class Renderer:
         follower_name: str = "",
         yaw_rate_radps: float = 0.0,
     ) -> tuple[np.ndarray, FrameTruth]:
-        """Render the follower's view at ``t_s``; ``others[target_index]`` is the tracked target."""
+        """Render the follower's view at ``t_s``: the BGR frame and its ground truth.
+
+        Parameters
+        ----------
+        t_s : float
+            Scene time, s (moving props, occluders, lighting).
+        follower : VehiclePose
+            The camera's vehicle.
+        others : sequence of VehiclePose
+            Every other vehicle in the scene.
+        target_index : int
+            Which of ``others`` is the tracked target (the truth describes it).
+        follower_name : str
+            The follower's name: occluders meant for another follower are not drawn.
+        yaw_rate_radps : float
+            The follower's yaw rate, rad/s: motion blur, when the camera has it.
+        """
         R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
         layer = self._sky_half.copy()
         self._paint_ground(layer, R, c)

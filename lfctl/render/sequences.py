@@ -21,6 +21,9 @@ import numpy as np
 from lfctl.config import BannerConfig, CameraConfig, LightKey, PropConfig, SceneConfig
 from lfctl.render.renderer import FrameTruth, Renderer, VehiclePose
 
+__all__ = ["TIERS", "Sequence", "make_sequence"]
+
+#: the tiers, easiest first (see the module docstring)
 TIERS = ("clear", "distractor", "lighting", "occlusion", "textured_distractor", "panel_clutter", "range")
 FPS = 30.0
 GAPS_PX = (0, 30, 60)
@@ -28,7 +31,22 @@ GAPS_PX = (0, 30, 60)
 
 @dataclass(frozen=True)
 class Sequence:
-    """A tier at a seed: render it frame by frame with :meth:`frames`."""
+    """A tier at a seed: render it frame by frame with :meth:`frames` (30 frames per second).
+
+    Parameters
+    ----------
+    tier : str
+        One of :data:`TIERS`.
+    seed : int
+        Seeds the leader's motion and the renderer.
+    n_frames : int
+        Length of the sequence.
+    camera, banner, scene : CameraConfig, BannerConfig, SceneConfig
+        What the renderer draws.
+    gap_px : int or None
+        Distractor tiers: the image gap between the banner and the distractor, px; None for
+        the other tiers.
+    """
 
     tier: str
     seed: int
@@ -39,7 +57,13 @@ class Sequence:
     gap_px: int | None = None
 
     def leader(self, t_s: float) -> VehiclePose:
-        """The leader's pose at ``t_s`` (relative to the camera vehicle at the origin)."""
+        """The leader's pose at ``t_s`` (relative to the camera vehicle at the origin).
+
+        Parameters
+        ----------
+        t_s : float
+            Time from the first frame, s.
+        """
         rng = np.random.default_rng(self.seed)
         phase = float(rng.uniform(0, 2 * math.pi))
         if self.tier == "range":
@@ -71,7 +95,22 @@ class Sequence:
 def make_sequence(
     tier: str, seed: int, n_frames: int = 300, camera: CameraConfig | None = None, banner: BannerConfig | None = None
 ) -> Sequence:
-    """The tier's sequence for a seed (deterministic)."""
+    """The tier's sequence for a seed (deterministic).
+
+    Parameters
+    ----------
+    tier : str
+        One of :data:`TIERS` (ValueError for another).
+    seed : int
+        Picks the props' places, the leader's motion phase and, for the distractor tiers,
+        the gap (0, 30 or 60 px).
+    n_frames : int
+        Length, frames at 30 per second.
+    camera : CameraConfig, optional
+        The camera (default :class:`~lfctl.config.CameraConfig`'s).
+    banner : BannerConfig, optional
+        The banner (default :class:`~lfctl.config.BannerConfig`'s).
+    """
     if tier not in TIERS:
         raise ValueError(f"unknown tier {tier!r} (known: {', '.join(TIERS)})")
     cam = camera or CameraConfig()

@@ -22,11 +22,19 @@ __all__ = [
     "prop_texture",
 ]
 
-TEX_PX_PER_M = 800.0  # banner texture resolution
+TEX_PX_PER_M = 800.0  # banner texture resolution, px per m
 
 
 def hue_bgr(hue_deg: float, saturation: float, value: float) -> tuple[int, int, int]:
-    """BGR of an HSV colour (hue in degrees)."""
+    """BGR (0..255 each) of an HSV colour.
+
+    Parameters
+    ----------
+    hue_deg : float
+        Hue, degrees (wrapped to 0..360).
+    saturation, value : float
+        Saturation and value, 0..1.
+    """
     r, g, b = colorsys.hsv_to_rgb((hue_deg % 360) / 360.0, saturation, value)
     return int(round(b * 255)), int(round(g * 255)), int(round(r * 255))
 
@@ -34,6 +42,21 @@ def hue_bgr(hue_deg: float, saturation: float, value: float) -> tuple[int, int, 
 def noise_texture(
     rng: np.random.Generator, h: int, w: int, base: Sequence[int], amplitude: float, blur: int
 ) -> np.ndarray:
+    """A BGR texture: a flat colour plus grey Gaussian noise, periodic (it tiles without seams).
+
+    Parameters
+    ----------
+    rng : np.random.Generator
+        The noise's random stream.
+    h, w : int
+        Size, px.
+    base : sequence of 3 int
+        The colour, BGR 0..255.
+    amplitude : float
+        Standard deviation of the noise, digital numbers (kept after blurring).
+    blur : int
+        Gaussian blur sigma of the noise, px: the grain size (1 or less: none).
+    """
     n = rng.normal(0.0, amplitude, (h, w)).astype(np.float32)
     if blur > 1:
         # blur a 3x3 tiling and keep the middle: the texture stays periodic (no seams when tiled)
@@ -46,7 +69,15 @@ def noise_texture(
 
 
 def banner_texture(cfg: BannerConfig, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """The banner panel texture and its four marker centres in texture pixels (TL, TR, BR, BL)."""
+    """The banner panel texture and its four marker centres in texture pixels (TL, TR, BR, BL).
+
+    Parameters
+    ----------
+    cfg : BannerConfig
+        Sizes and colours of the panel and markers.
+    rng : np.random.Generator
+        The panel noise's random stream.
+    """
     size = int(round(cfg.panel_size_m * TEX_PX_PER_M))
     tex = noise_texture(rng, size, size, cfg.panel_bgr, 10.0, 1)
     # a printed pattern: fine diagonal hatching, the texture LBP keys on
@@ -65,7 +96,15 @@ def banner_texture(cfg: BannerConfig, rng: np.random.Generator) -> tuple[np.ndar
 
 
 def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-    """A tileable ground texture and its resolution (px per m)."""
+    """A tileable ground texture and its resolution (px per m).
+
+    Parameters
+    ----------
+    kind : str
+        ``"checker"`` (0.5 m squares), ``"carpet"``, or anything else for concrete.
+    rng : np.random.Generator
+        The texture's random stream.
+    """
     if kind == "checker":
         tile = np.kron((np.indices((8, 8)).sum(axis=0) % 2), np.ones((64, 64))).astype(np.uint8)
         tex = np.dstack([90 + 60 * tile] * 3).astype(np.uint8)
@@ -76,7 +115,17 @@ def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, flo
 
 
 def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generator) -> np.ndarray:
-    """Texture of a prop panel by kind."""
+    """Texture of a prop panel by kind (see :class:`~lfctl.config.PropConfig`), 200 px per m.
+
+    Parameters
+    ----------
+    prop : PropConfig
+        The prop: its kind and size.
+    banner : BannerConfig
+        The banner, whose marker hue and panel colour distractors copy.
+    rng : np.random.Generator
+        The texture's random stream.
+    """
     w = max(8, int(prop.width_m * 200))
     h = max(8, int(prop.height_m * 200))
     marker = hue_bgr(banner.marker_hue_deg, banner.marker_saturation, 0.85)
@@ -98,7 +147,16 @@ def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generato
 
 
 def periodic_pyramid(tex: np.ndarray, levels: int) -> list[np.ndarray]:
-    """Mip levels of a periodic texture that stay periodic (each pyrDown sees the wrap)."""
+    """Mip levels of a periodic texture that stay periodic (each pyrDown sees the wrap).
+
+    Parameters
+    ----------
+    tex : np.ndarray
+        The full-resolution texture, level 0.
+    levels : int
+        How many levels at most, level 0 included; fewer when a side becomes odd or smaller
+        than 16 px.
+    """
     out = [tex]
     while len(out) < levels:
         h, w = out[-1].shape[:2]
