@@ -22,10 +22,10 @@ STOP_SETPOINTS = 3
 
 @dataclass(frozen=True)
 class RoverRun:
-    """How a run on a rover went: setpoints sent and frames used."""
+    """How a run on a rover went."""
 
-    steps: int
-    frames: int
+    steps: int  # guidance steps run (setpoints sent, not counting the final stops)
+    frames: int  # frames read from the camera
 
 
 def follow_rover(

@@ -30,24 +30,53 @@ class CompanionPort(Protocol):
     """What the stack says to its vehicle and ground station (see :class:`lfctl.link.companion.Companion`)."""
 
     def setpoint(self, t_s: float, speed_mps: float, yaw_rate_radps: float) -> None:
-        """A GUIDED setpoint."""
+        """A GUIDED setpoint.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        speed_mps : float
+            Forward speed, m/s.
+        yaw_rate_radps : float
+            Yaw rate, rad/s, positive right.
+        """
 
     def report(
         self, t_s: float, range_err_m: float | None, bearing_err_deg: float | None, track_quality: float
     ) -> None:
-        """The formation status."""
+        """The formation status.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        range_err_m : float or None
+            Estimated range minus commanded range, m; None without an estimate.
+        bearing_err_deg : float or None
+            Estimated minus commanded bearing, degrees (the ground station's unit); None
+            without an estimate.
+        track_quality : float
+            1 while tracking, else 0.
+        """
 
     def statustext(self, text: str) -> None:
-        """A line of text for the ground station."""
+        """A line of text for the ground station.
+
+        Parameters
+        ----------
+        text : str
+            The line (a STATUSTEXT carries 50 characters).
+        """
 
 
 @dataclass(frozen=True)
 class FollowerEvent:
-    """The target lost (``"lost"``) or found again (``"reacquired"``) at ``t_s``."""
+    """The target lost or found again."""
 
-    t_s: float
-    kind: str
-    text: str
+    t_s: float  # when, s
+    kind: str  # "lost" or "reacquired"
+    text: str  # the STATUSTEXT sent for it
 
 
 def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, controller: str) -> FormationSettings:
