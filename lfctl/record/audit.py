@@ -28,6 +28,8 @@ from mcap.writer import CompressionType, Writer
 
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
 
+__all__ = ["AuditReport", "Contents", "Finding", "audit", "check_thresholds", "format_report", "plot", "recover"]
+
 MAGIC = b"\x89MCAP0\r\n"
 KNOWN_SIGNATURES = {
     b"\x89PNG": "a PNG image",
@@ -65,11 +67,12 @@ class _CountingStream(io.RawIOBase):
 class Finding:
     """One problem: ``error`` fails the audit, ``warning`` is reported."""
 
-    level: str
-    what: str
-    offset: int | None = None
+    level: str  # "error" or "warning"
+    what: str  # what is wrong, for a person
+    offset: int | None = None  # byte offset in the file where it was found (None: not at one place)
 
     def line(self) -> str:
+        """The finding as one report line: ``ERROR: what (byte N)``."""
         at = f" (byte {self.offset})" if self.offset is not None else ""
         return f"{self.level.upper()}: {self.what}{at}"
 
@@ -78,28 +81,34 @@ class Finding:
 class Contents:
     """Everything read from the file, up to a fault if there was one."""
 
-    header_library: str = ""
-    schemas: dict[int, Schema] = field(default_factory=dict)
-    channels: dict[int, Channel] = field(default_factory=dict)
+    header_library: str = ""  # the header's library field (who wrote the file)
+    schemas: dict[int, Schema] = field(default_factory=dict)  # by schema id
+    channels: dict[int, Channel] = field(default_factory=dict)  # by channel id
+    #: topic -> (log_time in ns, payload) of every message, in file order
     messages: dict[str, list[tuple[int, bytes]]] = field(default_factory=lambda: defaultdict(list))
-    metadata: dict[str, dict[str, str]] = field(default_factory=dict)
-    attachments: dict[str, bytes] = field(default_factory=dict)
-    statistics: Statistics | None = None
-    footer: bool = False
-    data_end: bool = False
-    bytes_read: int = 0
-    file_size: int = 0
+    metadata: dict[str, dict[str, str]] = field(default_factory=dict)  # by metadata record name
+    attachments: dict[str, bytes] = field(default_factory=dict)  # by attachment name
+    statistics: Statistics | None = None  # the summary's statistics record (None: not reached)
+    footer: bool = False  # the footer was read: the file is complete
+    data_end: bool = False  # the data section's end record was read
+    bytes_read: int = 0  # bytes read intact, up to the first fault
+    file_size: int = 0  # the file's size, bytes
 
 
 @dataclass
 class AuditReport:
-    path: str
-    findings: list[Finding]
-    contents: Contents
+    """What :func:`audit` found in one file."""
+
+    path: str  # the file audited
+    findings: list[Finding]  # integrity and provenance problems, in the order found
+    contents: Contents  # everything read from it
+    #: the recomputed figures (sizes, run metadata, formation, mission, links, topics), as
+    #: :func:`format_report` prints them and ``lfctl audit --json`` writes them
     figures: dict[str, Any]
 
     @property
     def ok(self) -> bool:
+        """No finding is an error."""
         return not any(f.level == "error" for f in self.findings)
 
 
@@ -219,7 +228,13 @@ def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]
 
 
 def audit(path: str | Path) -> AuditReport:
-    """Audit a log file; never raises for a bad file (the findings say what is wrong)."""
+    """Audit a log file; never raises for a bad file (the findings say what is wrong).
+
+    Parameters
+    ----------
+    path : str or Path
+        An MCAP log written by :class:`~lfctl.record.writer.Recorder` (or a damaged one).
+    """
     p = Path(path)
     c, findings = read_contents(p)
     figures: dict[str, Any] = {
@@ -433,7 +448,14 @@ def _link_figures(c: Contents) -> dict[str, Any]:
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
-    """--strict: the scenario's [audit] limits (from the attached scenario.toml)."""
+    """--strict: the scenario's [audit] limits (from the attached scenario.toml), as
+    findings (an error for each limit a follower broke).
+
+    Parameters
+    ----------
+    report : AuditReport
+        What :func:`audit` found.
+    """
     from lfctl.config import AuditConfig, ConfigError, parse_config
 
     text = report.contents.attachments.get("scenario.toml")
@@ -476,7 +498,15 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
 
 
 def recover(report: AuditReport, out_path: Path) -> int:
-    """Write every record that was read intact into a new, finished file; returns messages."""
+    """Write every record that was read intact into a new, finished file; returns messages.
+
+    Parameters
+    ----------
+    report : AuditReport
+        The audit of the damaged file (its contents are what is written).
+    out_path : Path
+        The new file.
+    """
     c = report.contents
     with out_path.open("wb") as f:
         w = Writer(f, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
@@ -511,7 +541,13 @@ def _cell(value: object) -> str:
 
 
 def format_report(report: AuditReport) -> str:
-    """The readable table."""
+    """The readable report: file and run, findings, formation, mission and link figures.
+
+    Parameters
+    ----------
+    report : AuditReport
+        What :func:`audit` found.
+    """
     fig = report.figures
     lines = [
         f"{report.path}",
@@ -569,7 +605,16 @@ def format_report(report: AuditReport) -> str:
 
 
 def plot(report: AuditReport, out_dir: Path) -> list[Path]:
-    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline."""
+    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline;
+    returns the files written.
+
+    Parameters
+    ----------
+    report : AuditReport
+        What :func:`audit` found.
+    out_dir : Path
+        Where the PNGs go (made if missing).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

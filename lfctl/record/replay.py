@@ -25,11 +25,11 @@ MIN_VISIBLE = 0.5
 class ReplayResult:
     """Success rates (IoU >= 0.5 against the truth) of the recorded and the replayed tracker."""
 
-    follower: str
-    frames: int
-    scored: int
-    recorded_success: float
-    replayed_success: float
+    follower: str  # whose camera
+    frames: int  # recorded images
+    scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
+    recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
+    replayed_success: float  # the same for the replayed tracker
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:

@@ -42,6 +42,8 @@ from lfctl import __version__
 from lfctl.config import Config
 from lfctl.errors import LfctlError
 
+__all__ = ["RecordError", "Recorder", "run_path"]
+
 WORLD_FRAME = "ned"
 PACKAGES = (
     "fmpy",
@@ -165,7 +167,15 @@ def package_versions() -> dict[str, str]:
 
 
 def run_path(cfg: Config, now: dt.datetime | None = None) -> Path:
-    """``<dir>/<UTC time>-<scenario>-<seed>.mcap``."""
+    """``<dir>/<UTC time>-<scenario>-<seed>.mcap``: where a run's log goes.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario (``[recording] dir``, name, seed).
+    now : datetime, optional
+        The time in the name (default now, UTC).
+    """
     stamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%dT%H%M%SZ")
     return Path(cfg.recording.dir) / f"{stamp}-{cfg.name}-{cfg.sim.seed}.mcap"
 
@@ -181,7 +191,22 @@ def _ts(msg_time: Any, t_ns: int) -> None:
 
 
 class Recorder:
-    """Writes one run. Use as a context manager; closing finishes the file (summary, CRCs)."""
+    """Writes one run. Use as a context manager; closing finishes the file (summary, CRCs).
+
+    The metadata and the scenario attachment are written on creation.
+
+    Parameters
+    ----------
+    path : str or Path
+        The MCAP file to write (its folder is made if missing).
+    cfg : Config
+        The run's scenario: ``[recording]`` settings, rates and names for the metadata.
+
+    Raises
+    ------
+    RecordError
+        The file cannot be created.
+    """
 
     def __init__(self, path: str | Path, cfg: Config) -> None:
         self.path = Path(path)
@@ -252,7 +277,13 @@ class Recorder:
         self._f.flush()
 
     def attach_fmus(self, fmu_paths: list[Path]) -> None:
-        """Attach each FMU's modelDescription.xml (before any message)."""
+        """Attach each FMU's modelDescription.xml (before any message).
+
+        Parameters
+        ----------
+        fmu_paths : list of Path
+            The FMU files the run loaded.
+        """
         for p in fmu_paths:
             with zipfile.ZipFile(p) as z:
                 self._attach(f"{p.name}/modelDescription.xml", "application/xml", z.read("modelDescription.xml"))
@@ -290,7 +321,19 @@ class Recorder:
         self.bytes_payload += len(data)
 
     def json(self, topic: str, schema: str, t_s: float, payload: dict[str, Any]) -> None:
-        """A JSON message on a JSON-schema channel."""
+        """A JSON message on a JSON-schema channel (made on first use).
+
+        Parameters
+        ----------
+        topic : str
+            The channel's topic.
+        schema : str
+            One of the ``lfctl.*`` JSON schemas (``lfctl.Tracker``, ``lfctl.Controller``, ...).
+        t_s : float
+            Simulation time, s (the message's log time).
+        payload : dict
+            The message; numpy values and bytes (base64) are converted, NaN is refused.
+        """
         self._write(
             self._json_channel(topic, schema),
             t_s,
@@ -299,7 +342,19 @@ class Recorder:
 
     # -- topics ----------------------------------------------------------------------------
     def poses(self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray) -> None:
-        """``/<vehicle>/pose`` for each vehicle and one ``/tf`` per vehicle (ned -> vehicle)."""
+        """``/<vehicle>/pose`` for each vehicle and one ``/tf`` per vehicle (ned -> vehicle).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        names : tuple of str
+            The vehicles, in the order of the arrays.
+        pos_ned_m : np.ndarray
+            (N, 2) north, east, m.
+        yaw_rad : np.ndarray
+            (N,) headings, rad.
+        """
         t_ns = int(round(t_s * 1e9))
         for i, name in enumerate(names):
             qx, qy, qz, qw = _quat_yaw(float(yaw_rad[i]))
@@ -320,6 +375,21 @@ class Recorder:
             self._write(self._proto_channel("/tf", FrameTransform), t_s, tf.SerializeToString())
 
     def calibration(self, t_s: float, follower: str, K: np.ndarray, dist: np.ndarray, width: int, height: int) -> None:
+        """A follower's camera calibration (``/<follower>/camera/calibration``).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        follower : str
+            Whose camera.
+        K : np.ndarray
+            3x3 intrinsic matrix, pixels.
+        dist : np.ndarray
+            OpenCV distortion coefficients k1, k2, p1, p2.
+        width, height : int
+            Image size, pixels.
+        """
         cal = CameraCalibration(frame_id=f"{follower}/camera", width=width, height=height, distortion_model="plumb_bob")
         _ts(cal.timestamp, int(round(t_s * 1e9)))
         cal.D.extend([float(dist[0]), float(dist[1]), float(dist[2]), float(dist[3]), 0.0])
@@ -338,6 +408,13 @@ class Recorder:
         Camera ticks fall on physics steps, so their spacing jitters by a step (30 Hz on a
         100 Hz step is 0.03 or 0.04 s): a tick is taken when it is within half a camera
         period of the schedule, and the schedule advances by whole periods.
+
+        Parameters
+        ----------
+        t_s : float
+            The camera tick's simulation time, s.
+        follower : str
+            Whose camera (each has its own schedule).
         """
         rec = self.cfg.recording
         if not rec.images:
@@ -352,7 +429,20 @@ class Recorder:
 
     def camera(self, t_s: float, follower: str, sample: Any, jpeg: bytes | None = None) -> None:
         """One camera tick: the image (``jpeg``, encoded by the camera when :meth:`image_due`
-        said so), annotations, tracker state, pose vs truth."""
+        said so), annotations, tracker state, pose vs truth.
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        follower : str
+            Whose camera.
+        sample : CameraSample
+            The tick's track, pose, measurement and truth (see
+            :class:`~lfctl.sim.camera_sensor.CameraSample`).
+        jpeg : bytes, optional
+            The frame as JPEG; None records no image this tick.
+        """
         t_ns = int(round(t_s * 1e9))
         if jpeg is not None:
             img = CompressedImage(frame_id=f"{follower}/camera", format="jpeg", data=jpeg)
@@ -420,15 +510,47 @@ class Recorder:
             )
 
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
-        """One guidance step of a follower (``/<follower>/controller``)."""
+        """One guidance step of a follower (``/<follower>/controller``).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        follower : str
+            Whose step.
+        payload : dict
+            The ``lfctl.Controller`` fields: status, commands, slot, truth and errors.
+        """
         self.json(f"/{follower}/controller", "lfctl.Controller", t_s, payload)
 
     def mavlink(self, t_s: float, vehicle: str, packet: dict[str, Any]) -> None:
-        """One MAVLink packet in or out of a vehicle's endpoint (``/mavlink/<vehicle>``)."""
+        """One MAVLink packet in or out of a vehicle's endpoint (``/mavlink/<vehicle>``).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        vehicle : str
+            Whose endpoint.
+        packet : dict
+            As :func:`~lfctl.link.endpoint.packet_record` makes it.
+        """
         self.json(f"/mavlink/{vehicle}", "lfctl.MavlinkPacket", t_s, packet)
 
     def mission_reached(self, t_s: float, index: int, active: int, count: int) -> None:
-        """The leader reached waypoint ``index`` (from 0); ``active`` is the item now current."""
+        """The leader reached a waypoint (``/leader/mission``).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s (the message's log time).
+        index : int
+            The waypoint reached, from 0.
+        active : int
+            The mission item now current.
+        count : int
+            Waypoints in the mission (home not counted).
+        """
         self.json(
             "/leader/mission",
             "lfctl.Mission",
