@@ -34,6 +34,8 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import RelativeMeasurement
 
+__all__ = ["CameraJob", "CameraPool", "CameraResult", "CameraWorkerError", "default_workers"]
+
 _PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
@@ -43,11 +45,11 @@ class CameraWorkerError(LfctlError, RuntimeError):
 
 @dataclass(frozen=True)
 class CameraJob:
-    """One follower's camera tick: ``me`` and ``target`` index the world state."""
+    """One follower's camera tick."""
 
-    follower: str
-    me: int
-    target: int
+    follower: str  # whose camera
+    me: int  # the follower's index in the world state
+    target: int  # its target's index in the world state
     jpeg_quality: int | None  # encode the frame at this quality (None: no image is due)
 
 
@@ -56,16 +58,22 @@ class CameraResult:
     """What a camera tick hands back: the sample, the JPEG if one was due, and the seconds
     each stage took (for the cost split)."""
 
-    sample: CameraSample
-    jpeg: bytes | None
-    render_s: float
+    sample: CameraSample  # the tick's sample (its frame None when it came from a worker)
+    jpeg: bytes | None  # None when no image was due
+    render_s: float  # rendering, s
     vision_s: float  # tracking and pose
     encode_s: float  # JPEG
 
 
 def default_workers(cfg: Config) -> int:
     """``sim.camera_workers`` resolved: -1 is one worker per usable core beyond this one, at
-    most one per follower beyond the first (this process runs cameras too)."""
+    most one per follower beyond the first (this process runs cameras too).
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario (``[sim] camera_workers``, its followers).
+    """
     n = cfg.sim.camera_workers
     if n >= 0:
         return min(n, max(0, len(cfg.followers) - 1))
@@ -161,7 +169,22 @@ class CameraPool:
     """Every follower's camera, spread over this process and ``workers`` worker processes.
 
     ``specs`` are (follower, seed) pairs; follower k goes to process k mod (workers + 1),
-    with 0 this one.
+    with 0 this one. Use as a context manager, or call :meth:`close`.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario every camera renders (camera, banner, scene, slots).
+    specs : list of (str, int)
+        Each follower's name and its renderer's seed.
+    workers : int
+        Worker processes to start (at most one per follower beyond the first; 0: every
+        camera in this process).
+
+    Raises
+    ------
+    CameraWorkerError
+        A worker failed to start or to build its cameras.
     """
 
     def __init__(self, cfg: Config, specs: list[tuple[str, int]], workers: int = 0) -> None:
@@ -231,7 +254,22 @@ class CameraPool:
         return payload
 
     def capture(self, t_s: float, world: WorldState, jobs: list[CameraJob]) -> list[CameraResult]:
-        """Run every job of this tick; results in the order of ``jobs``."""
+        """Run every job of this tick; results in the order of ``jobs``.
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        world : WorldState
+            The truth every camera renders.
+        jobs : list of CameraJob
+            One per follower whose camera ticks now.
+
+        Raises
+        ------
+        CameraWorkerError
+            A worker failed or died.
+        """
         remote: list[list[CameraJob]] = [[] for _ in self._procs]
         local = []
         for job in jobs:
@@ -254,7 +292,13 @@ class CameraPool:
         return out
 
     def measurement(self, follower: str) -> RelativeMeasurement | None:
-        """The follower's newest measurement (None before its first frame)."""
+        """The follower's newest measurement (None before its first frame).
+
+        Parameters
+        ----------
+        follower : str
+            The follower's name.
+        """
         s = self.latest.get(follower)
         return s.measurement if s is not None else None
 

@@ -25,12 +25,12 @@ __all__ = ["CameraSample", "CameraSensor"]
 class CameraSample:
     """One camera tick: what was seen, how it was tracked, the pose and the truth."""
 
-    t_s: float
+    t_s: float  # simulation time of the frame, s
     frame: np.ndarray | None  # None when it came from a camera worker process (see camera_pool)
-    track: TrackState | None
-    pose: MarkerPose | None
-    measurement: RelativeMeasurement
-    truth: FrameTruth
+    track: TrackState | None  # the tracker's result (None before the target was found)
+    pose: MarkerPose | None  # the banner's pose from its markers, when seen
+    measurement: RelativeMeasurement  # what the follower's stack is fed
+    truth: FrameTruth  # what the frame really shows (the renderer's ground truth)
 
 
 class CameraSensor:

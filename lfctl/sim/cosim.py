@@ -25,8 +25,11 @@ from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuInstance, F
 from lfctl.frames import wrap_pi
 from lfctl.sim.world import WorldState
 
+__all__ = ["RunResult", "Simulation", "TaskFn"]
+
 log = logging.getLogger(__name__)
 
+#: a scheduled task: called with the simulation time, s
 TaskFn = Callable[[float], None]
 
 
@@ -45,16 +48,16 @@ class _Task:
 class RunResult:
     """What a run leaves behind for summaries and tests."""
 
-    sim_time_s: float
-    wall_time_s: float
-    ticks: int
-    names: tuple[str, ...]
-    final: WorldState
+    sim_time_s: float  # simulated time the run covered, s
+    wall_time_s: float  # wall-clock time it took, s
+    ticks: int  # physics steps taken
+    names: tuple[str, ...]  # the vehicles, in the order of the arrays
+    final: WorldState  # the truth at the end
     t_s: np.ndarray  # (K,) sample times of the trajectory
     pos_ned_m: np.ndarray  # (K, N, 2)
     yaw_rad: np.ndarray  # (K, N)
     speed_mps: np.ndarray  # (K, N)
-    extra: dict[str, object] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)  # timings and counts callers add (cost split)
 
     @property
     def real_time_factor(self) -> float:
@@ -170,7 +173,19 @@ class Simulation:
 
     # -- scheduling ----------------------------------------------------------------------
     def add_task(self, name: str, rate_hz: float, fn: TaskFn) -> None:
-        """Call ``fn(t_s)`` at ``rate_hz`` (ticks rounded to the physics step), before physics."""
+        """Call ``fn(t_s)`` at ``rate_hz`` (ticks rounded to the physics step), before physics.
+
+        Tasks due on the same tick run in the order they were added.
+
+        Parameters
+        ----------
+        name : str
+            The task's name (in errors and in :attr:`task_time_s`).
+        rate_hz : float
+            How often, Hz; at most the physics rate (ConfigError otherwise).
+        fn : TaskFn
+            The task, called with the simulation time.
+        """
         if not rate_hz > 0:
             raise ConfigError(f"task {name!r}: rate_hz must be > 0, got {rate_hz!r}")
         ticks = 1.0 / (rate_hz * self.dt_s)
@@ -180,7 +195,17 @@ class Simulation:
 
     # -- commands and state --------------------------------------------------------------
     def set_command(self, vehicle: int | str, speed_mps: float, yaw_rate_radps: float) -> None:
-        """Command a vehicle (SI); held until the next command."""
+        """Command a vehicle; held until the next command.
+
+        Parameters
+        ----------
+        vehicle : int or str
+            Its index in :attr:`names` or its name.
+        speed_mps : float
+            Forward speed, m/s (finite, else ValueError).
+        yaw_rate_radps : float
+            Yaw rate, rad/s, positive right (finite).
+        """
         i = self.index[vehicle] if isinstance(vehicle, str) else vehicle
         if not (math.isfinite(speed_mps) and math.isfinite(yaw_rate_radps)):
             raise ValueError(
@@ -231,6 +256,8 @@ class Simulation:
 
         Parameters
         ----------
+        duration_s : float, optional
+            Simulated seconds, rounded to whole physics steps.
         progress : callable, optional
             Called as ``progress(t_s, wall_s)`` about once per simulated second.
         stop : callable, optional

@@ -23,7 +23,24 @@ __all__ = ["Links"]
 
 
 class Links:
-    """Every vehicle's endpoint and the in-memory peers that drive them."""
+    """Every vehicle's endpoint and the in-memory peers that drive them.
+
+    Vehicle i is system i + 1 (the leader 1). In lockstep the leader is put in AUTO and armed
+    at once (its mission, if any, uploaded first through the mission protocol); with
+    ``realtime`` a mission is only stored, for a ground station to start. Each follower's
+    companion asks for GUIDED and arms.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario: vehicles, ``[link]``, ``[mission]``, slots.
+    realtime : bool
+        Also give each vehicle a UDP port (``link.udp_base_port + i``), signed with
+        ``link.signing_passphrase`` if one is set.
+    tap : callable, optional
+        Sees every packet of every endpoint: ``tap(vehicle, direction, msg, raw)`` (the
+        recorder).
+    """
 
     def __init__(self, cfg: Config, realtime: bool, tap: Callable[[str, str, Any, bytes], None] | None = None) -> None:
         lc = cfg.link
@@ -82,9 +99,20 @@ class Links:
 
     @property
     def ports(self) -> dict[str, int]:
+        """Each vehicle's UDP port, by name (empty in lockstep)."""
         return {ep.name: udp.port for ep, udp in zip(self.endpoints, self.udp, strict=False)}
 
     def tick(self, t_s: float, world: WorldState) -> None:
+        """Advance every endpoint to ``t_s`` with its vehicle's truth (see
+        :meth:`~lfctl.link.endpoint.VehicleEndpoint.tick`).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        world : WorldState
+            The truth now; vehicle i feeds endpoint i.
+        """
         for i, ep in enumerate(self.endpoints):
             st = world.vehicle(i)
             ep.tick(
@@ -100,5 +128,6 @@ class Links:
             self.peers[i].recv()  # telemetry to the in-memory peer: nobody reads it in a run
 
     def close(self) -> None:
+        """Close the UDP sockets."""
         for udp in self.udp:
             udp.close()

@@ -48,20 +48,20 @@ __all__ = ["FollowerTrace", "RunReport", "run_scenario"]
 class FollowerTrace:
     """What one follower did, sampled at the guidance rate (errors against the truth)."""
 
-    name: str
-    target: str
-    range_cmd_m: float
-    bearing_cmd_rad: float
-    t_s: list[float] = dataclasses.field(default_factory=list)
+    name: str  # the follower
+    target: str  # the vehicle it follows
+    range_cmd_m: float  # its slot now (a ground station may move it): range, m
+    bearing_cmd_rad: float  # and bearing, clockwise positive
+    t_s: list[float] = dataclasses.field(default_factory=list)  # sample times
     range_m: list[float] = dataclasses.field(default_factory=list)  # truth
     bearing_rad: list[float] = dataclasses.field(default_factory=list)  # truth
     range_err_m: list[float] = dataclasses.field(default_factory=list)  # truth - the slot then
-    bearing_err_rad: list[float] = dataclasses.field(default_factory=list)
+    bearing_err_rad: list[float] = dataclasses.field(default_factory=list)  # truth - the slot, wrapped
     separation_m: list[float] = dataclasses.field(default_factory=list)  # to the nearest vehicle
-    status: list[TrackStatus] = dataclasses.field(default_factory=list)
-    speed_cmd_mps: list[float] = dataclasses.field(default_factory=list)
-    yaw_rate_cmd_radps: list[float] = dataclasses.field(default_factory=list)
-    speed_mps: list[float] = dataclasses.field(default_factory=list)
+    status: list[TrackStatus] = dataclasses.field(default_factory=list)  # the stack's track state
+    speed_cmd_mps: list[float] = dataclasses.field(default_factory=list)  # the commands sent
+    yaw_rate_cmd_radps: list[float] = dataclasses.field(default_factory=list)  # positive right
+    speed_mps: list[float] = dataclasses.field(default_factory=list)  # the follower's true speed
 
     def metrics(self, step_s: float) -> FormationMetrics:
         """The formation figures of this trace (see :mod:`lfctl.metrics`).
@@ -90,15 +90,15 @@ class FollowerTrace:
 class RunReport:
     """A closed-loop run: the co-simulation result, follower traces and metrics, mission progress."""
 
-    config: Config
-    result: RunResult
-    traces: list[FollowerTrace]
-    metrics: list[FormationMetrics]
-    waypoints_reached: list[tuple[int, float]]
-    n_waypoints: int
+    config: Config  # the scenario run
+    result: RunResult  # trajectories and timing
+    traces: list[FollowerTrace]  # one per follower, in scenario order
+    metrics: list[FormationMetrics]  # the traces' figures, same order
+    waypoints_reached: list[tuple[int, float]]  # (waypoint index from 0, t_s) as reached
+    n_waypoints: int  # waypoints in the leader's mission
     leader_mode: str  # "auto" (mission) or "script"
-    log_path: Path | None = None
-    log_messages: int = 0
+    log_path: Path | None = None  # the MCAP log written (None: not recorded)
+    log_messages: int = 0  # messages in it
 
 
 @dataclass

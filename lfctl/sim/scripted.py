@@ -6,6 +6,8 @@ import math
 
 from lfctl.config import ScriptConfig
 
+__all__ = ["scripted_command"]
+
 
 def scripted_command(script: ScriptConfig, t_s: float) -> tuple[float, float]:
     """(speed_mps, yaw_rate_radps) of the leader's script at ``t_s``; the profile repeats.
@@ -15,7 +17,7 @@ def scripted_command(script: ScriptConfig, t_s: float) -> tuple[float, float]:
     script : ScriptConfig
         Segments of ``(duration_s, speed_mps, yaw_rate_deg_s)``.
     t_s : float
-        Simulation time, >= 0.
+        Simulation time, s, >= 0.
     """
     period = sum(seg[0] for seg in script.leader)
     t = math.fmod(t_s, period)

@@ -14,9 +14,19 @@ from lfctl.frames import range_bearing
 from lfctl.sim.world import WorldState
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 
+__all__ = ["TruthSensor"]
+
 
 class TruthSensor:
-    """One follower's simulated sensor on one target."""
+    """One follower's simulated sensor on one target.
+
+    Parameters
+    ----------
+    cfg : SensingConfig
+        Noise, delay, field of view, range limit and dropouts.
+    rng : np.random.Generator
+        The noise's random stream (one per follower: runs repeat for a seed).
+    """
 
     def __init__(self, cfg: SensingConfig, rng: np.random.Generator) -> None:
         self.cfg = cfg
@@ -43,7 +53,18 @@ class TruthSensor:
         )
 
     def measure(self, t_s: float, world: WorldState, me: int, target: int) -> RelativeMeasurement | None:
-        """The newest measurement at least ``delay_s`` old (None before the first one)."""
+        """Take a measurement now; return the newest one at least ``delay_s`` old (None
+        before the first one). Hidden targets give OCCLUDED measurements.
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        world : WorldState
+            The truth now.
+        me, target : int
+            Indices of this follower and its target in ``world``.
+        """
         self._queue.append(self._capture(t_s, world, me, target))
         while self._queue and self._queue[0].t_s <= t_s - self.cfg.delay_s + 1e-9:
             self._latest = self._queue.popleft()
