@@ -21,10 +21,10 @@ NAMES = ("cosim", "vision", "formation", "link", "record", "e2e")
 class BenchOutcome:
     """One benchmark run as a child process: its table, its JSON result or why it failed."""
 
-    name: str
-    table: list[str]
-    result: dict[str, object] | None
-    error: str = ""
+    name: str  # the benchmark (one of NAMES)
+    table: list[str]  # what it printed before its JSON line (its Markdown table)
+    result: dict[str, object] | None  # its JSON line, parsed; None when it failed
+    error: str = ""  # why it failed ("" when it did not)
 
 
 def run_one(name: str, quick: bool = False) -> None:

@@ -6,9 +6,20 @@ import json
 import platform
 from collections.abc import Sequence
 
+__all__ = ["print_json", "print_table"]
+
 
 def print_table(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """Print a Markdown table (readable in a terminal and pasteable into notes)."""
+    """Print a Markdown table (readable in a terminal and pasteable into notes).
+
+    Parameters
+    ----------
+    headers : sequence of str
+        Column titles.
+    rows : sequence of sequences
+        One sequence of cells per row, as many as ``headers``; floats get 3 significant
+        digits.
+    """
     cells = [[str(h) for h in headers], *[[_fmt(c) for c in r] for r in rows]]
     widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
     print("| " + " | ".join(c.rjust(w) for c, w in zip(cells[0], widths, strict=True)) + " |")
@@ -24,7 +35,15 @@ def _fmt(value: object) -> str:
 
 
 def print_json(benchmark: str, results: object) -> None:
-    """The last line of every benchmark: one JSON object."""
+    """The last line of every benchmark: one JSON object (with the machine and Python).
+
+    Parameters
+    ----------
+    benchmark : str
+        The benchmark's name.
+    results : object
+        Its figures, JSON-serialisable.
+    """
     print(
         json.dumps(
             {

@@ -22,6 +22,8 @@ from lfctl.fmu.build import build_model
 from lfctl.sim.cosim import Simulation
 from lfctl.sim.scripted import scripted_command
 
+__all__ = ["main"]
+
 DT_S = 0.01
 
 

@@ -28,6 +28,8 @@ from lfctl.config import load_config
 from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
 
+__all__ = ["main"]
+
 
 @contextlib.contextmanager
 def one_core() -> Iterator[None]:

@@ -17,6 +17,8 @@ from lfctl.config import load_config
 from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
 
+__all__ = ["main"]
+
 SCENARIOS = ("convoy", "column5", "vee")
 SENSING = ("truth", "camera")
 CAMERA_DURATION_S = 40.0  # camera runs render and track every frame: the first 40 s of each route

@@ -25,6 +25,8 @@ from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import local_mission
 from lfctl.link.transport import LossyLink, UdpLink
 
+__all__ = ["main"]
+
 HOME = (12.9602, 77.6690, 900.0)
 STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
 

@@ -19,6 +19,8 @@ from lfctl.config import load_config
 from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
 
+__all__ = ["main"]
+
 
 def main(quick: bool = False) -> None:
     """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""

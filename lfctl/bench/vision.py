@@ -33,6 +33,8 @@ from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
+__all__ = ["main"]
+
 OURS = ("hue", "hs-lbp", "full")
 
 
