@@ -1,4 +1,4 @@
-"""Scenario TOML -> frozen dataclasses, validated; every error names the key (STYLE.md 4).
+"""Scenario TOML -> frozen dataclasses, validated; every error names the key.
 
 ``load_config(path)`` is the only reader of scenario files. Keys ending in ``_deg`` (and
 ``_degps`` for rates) fill the ``_rad`` (``_radps``) field of the same stem, converted once

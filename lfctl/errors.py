@@ -1,4 +1,4 @@
-"""One exception hierarchy for lfctl (STYLE.md section 5).
+"""One exception hierarchy for lfctl (docs/architecture.md, "Errors").
 
 Each class also subclasses the fitting builtin, so callers may catch either.
 Messages name the bad value and what was expected.

@@ -35,7 +35,6 @@ class VideoSource:
         self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
             raise ConfigError(f"cannot open video source {source!r} with OpenCV (unsupported format or no such camera)")
-        self.frames_read = 0
 
     @property
     def fps(self) -> float:
@@ -47,7 +46,6 @@ class VideoSource:
         ok, frame = self._cap.read()
         if not ok or frame is None:
             return None
-        self.frames_read += 1
         return frame
 
     def close(self) -> None:

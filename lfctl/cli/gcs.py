@@ -47,17 +47,9 @@ def register(sub: Any) -> None:
     g.set_defaults(func=run)
 
 
-def result_name(result: int) -> str:
-    """A MAV_RESULT's name."""
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
-    e = mav.enums["MAV_RESULT"].get(result)
-    return e.name if e else str(result)
-
-
 def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
-    from lfctl.link.gcs import GroundStation
+    from lfctl.link.gcs import GroundStation, result_name
     from lfctl.link.mission import load_mission, save_mission
     from lfctl.link.signing import signing_key_from_passphrase
 

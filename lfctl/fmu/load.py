@@ -1,5 +1,5 @@
 """Load vehicle FMUs with fmpy and step them fast; the only module that imports fmpy's
-runtime (with fmu_build, which imports it for paths and headers).
+runtime (:mod:`lfctl.fmu.build` imports it for paths and headers).
 
 A vehicle FMU is any FMI 2.0 or 3.0 Co-Simulation FMU with, by some name, the roles lfctl
 needs: forward-speed and yaw-rate command inputs, and north, east, yaw, speed and yaw-rate

@@ -231,7 +231,6 @@ class FormationController:
         self._odom: deque[Odometry] = deque(maxlen=64)
         self._t_last_meas = -math.inf
         self._t_prev: float | None = None
-        self._prev_los: float | None = None
         self._target_heading: float | None = None
         self.status = TrackStatus.LOST
 
@@ -298,7 +297,6 @@ class FormationController:
 
         if self.status is TrackStatus.LOST:
             self.bearing_smc.reset()
-            self._prev_los = None
             if est.initialised:
                 rng, brg = self._relative(odom)
                 return FormationOutput(0.0, 0.0, self.status, rng, brg, est.velocity, since)

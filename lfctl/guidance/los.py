@@ -178,21 +178,6 @@ class WaypointFollower:
         """True once the last waypoint has been reached."""
         return self.index >= len(self.waypoints)
 
-    def set_current(self, index: int, north_m: float, east_m: float) -> None:
-        """Make waypoint ``index`` the active one, from the vehicle's position (MISSION_SET_CURRENT).
-
-        Parameters
-        ----------
-        index : int
-            The waypoint, from 0 (ValueError outside the route).
-        north_m, east_m : float
-            The vehicle's position now, NED, m: the new segment's start.
-        """
-        if not 0 <= index < len(self.waypoints):
-            raise ValueError(f"waypoint index must be in [0, {len(self.waypoints) - 1}], got {index}")
-        self.index = index
-        self.prev = (north_m, east_m)
-
     def step(self, north_m: float, east_m: float, heading_rad: float) -> LosOutput:
         """Advance past reached waypoints and return the heading command (the current
         heading once the route is done).

@@ -197,7 +197,7 @@ class VehicleEndpoint:
         self.stats = LinkStats()
         self.tap = tap
         self.statustexts: list[tuple[float, str]] = []
-        self._intervals = {STREAMS_ID: 1.0 / rate for STREAMS_ID, rate in ((MSG_IDS[n], r) for n, r in STREAMS.items())}
+        self._intervals = {MSG_IDS[name]: 1.0 / rate for name, rate in STREAMS.items()}
         self._next_due: dict[int, float] = {}
         self._once: list[int] = []
         self._upload: _Upload | None = None
@@ -463,7 +463,7 @@ class VehicleEndpoint:
             self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_UNSUPPORTED)
             return
         if m.count == 0:
-            self._accept_mission([])
+            self.store_mission([])
             self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_ACCEPTED)
             return
         if m.count > 2000:
@@ -502,7 +502,7 @@ class VehicleEndpoint:
         up.retries = 0
         if up.next_seq >= up.count:
             self._upload = None
-            self._accept_mission([up.items[i] for i in range(up.count)])
+            self.store_mission([up.items[i] for i in range(up.count)])
             self._mission_ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED)
         else:
             self._request_next()
@@ -531,7 +531,15 @@ class VehicleEndpoint:
         m2._header = m._header
         self._on_mission_item_int(m2)
 
-    def _accept_mission(self, items: list[MissionItem]) -> None:
+    def store_mission(self, items: list[MissionItem]) -> None:
+        """Make ``items`` (item 0 = home) the mission in force, item 1 current, as a finished
+        upload does; a stored mission on a real rover is loaded this way at boot.
+
+        Parameters
+        ----------
+        items : list of MissionItem
+            The validated mission.
+        """
         self.mission = items
         self.current_seq = 1 if len(items) > 1 else 0
         self.mission_version += 1
@@ -580,7 +588,7 @@ class VehicleEndpoint:
 
     def _on_mission_clear_all(self, m: Any) -> None:
         if self._for_me(m):
-            self._accept_mission([])
+            self.store_mission([])
             self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_ACCEPTED)
 
     def _on_mission_set_current(self, m: Any) -> None:

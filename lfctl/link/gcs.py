@@ -16,7 +16,7 @@ from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.mission import MissionItem
 from lfctl.link.port import CHECK_LINK, MavPort
 
-__all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow"]
+__all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_name"]
 
 #: the ground station's system id, as QGroundControl and MAVProxy use
 GCS_SYSID = 255
@@ -25,6 +25,17 @@ GCS_SYSID = 255
 def _result_name(enum: str, value: int) -> str:
     e = mav.enums[enum].get(value)
     return e.name if e is not None else str(value)
+
+
+def result_name(result: int) -> str:
+    """A COMMAND_ACK result's name (``MAV_RESULT_ACCEPTED``), or the number if MAVLink has none.
+
+    Parameters
+    ----------
+    result : int
+        A MAV_RESULT value.
+    """
+    return _result_name("MAV_RESULT", result)
 
 
 class GroundStation:

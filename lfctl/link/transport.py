@@ -6,7 +6,6 @@ from __future__ import annotations
 import random
 import socket
 from collections import deque
-from collections.abc import Callable
 
 __all__ = ["Address", "Fanout", "LossyLink", "MemoryLink", "UdpLink"]
 
@@ -177,7 +176,6 @@ class MemoryLink:
         self.name = name
         self.inbox: deque[tuple[bytes, Address]] = deque()
         self.other: MemoryLink | None = None
-        self.tap: Callable[[bytes], None] | None = None
         self.tx_datagrams = 0
         self.rx_datagrams = 0
 

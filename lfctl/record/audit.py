@@ -456,7 +456,8 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
     report : AuditReport
         What :func:`audit` found.
     """
-    from lfctl.config import AuditConfig, ConfigError, parse_config
+    from lfctl.config import AuditConfig, parse_config
+    from lfctl.errors import ConfigError
 
     text = report.contents.attachments.get("scenario.toml")
     try:

@@ -134,16 +134,16 @@ def make_sequence(
     occluders = ()
     flicker, shadow = 0.0, 1.0
     gap = None
-    fy = (cam.width_px / 2) / math.tan(cam.hfov_rad / 2)
+    fx = (cam.width_px / 2) / math.tan(cam.hfov_rad / 2)
     if tier in ("distractor", "textured_distractor"):
         gap = GAPS_PX[seed % len(GAPS_PX)]
-        depth = 2.0 - 0.155 - cam.mount_forward_m  # the banner's distance from the camera
+        depth = 2.0 - ban.back_m - cam.mount_forward_m  # the banner's distance from the camera
         size = 0.2
         top_of_banner = ban.centre_height_m + ban.panel_size_m / 2
-        base = top_of_banner + gap * depth / fy  # the gap, as seen in the image, above the banner
+        base = top_of_banner + gap * depth / fx  # the gap, as seen in the image, above the banner
         kind = "distractor" if tier == "distractor" else "textured_distractor"
         speed = 1.6 / duration  # crosses 1.6 m of the view during the sequence
-        props += (PropConfig(kind, 2.0 - 0.16, -0.8, math.pi, width_m=size, height_m=size, base_m=base - cam.mount_height_m * 0 , vel_east_mps=speed),)  # fmt: skip
+        props += (PropConfig(kind, 2.0 - 0.16, -0.8, math.pi, width_m=size, height_m=size, base_m=base, vel_east_mps=speed),)  # fmt: skip
     elif tier == "lighting":
         lighting = (
             # drops to 40 % and turns warm between 30 % and 50 % of the run

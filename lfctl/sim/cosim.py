@@ -9,7 +9,6 @@ clock. The master owns every FMU handle and frees them on exit.
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 from collections.abc import Callable
@@ -27,7 +26,6 @@ from lfctl.sim.world import WorldState
 
 __all__ = ["RunResult", "Simulation", "TaskFn"]
 
-log = logging.getLogger(__name__)
 
 #: a scheduled task: called with the simulation time, s
 TaskFn = Callable[[float], None]
@@ -81,7 +79,7 @@ class Simulation:
     realtime : bool, optional
         Pace to the wall clock; default from ``config.sim.clock``.
     cache_dir : Path, optional
-        Where built-in FMUs are built (see ``fmu_build.default_cache_dir``).
+        Where built-in FMUs are built (default: ``~/.cache/lfctl/fmu``, see :func:`lfctl.fmu.build.build_model`).
     sample_rate_hz : float, optional
         Rate at which the trajectory is kept for the result; default the telemetry rate.
     """

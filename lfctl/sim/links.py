@@ -75,7 +75,7 @@ class Links:
         if cfg.mission.waypoints:
             items = local_mission(list(cfg.mission.waypoints), self.home)
             if realtime:
-                leader._accept_mission(items)  # a stored mission, as on a real rover; GCS starts it
+                leader.store_mission(items)  # a stored mission, as on a real rover; GCS starts it
             else:
                 # lockstep: upload through the mission protocol at t = 0, then AUTO and arm
                 # no heartbeats: a one-shot set-up is not a ground station whose loss is a failsafe

@@ -2,8 +2,9 @@
 of one hue at the corners of a square of side E (the paper's marker constellation).
 
 Geometry only, shared by the renderer (which draws it) and perception (which measures it):
-where the banner sits on its vehicle, where its markers are in the world, and the range
-between the two vehicles' reference points once the banner's pose is known.
+where the banner sits on its vehicle (``back_m`` behind its reference point, which
+perception adds to the measured banner to reach the vehicle) and where its markers are in
+the world.
 """
 
 from __future__ import annotations
@@ -62,10 +63,6 @@ class BannerGeometry:
     def offset_body_m(self) -> float:
         """The banner centre's position along the body x axis (negative: behind), m."""
         return -self.back_m
-
-    def centre_body_m(self) -> np.ndarray:
-        """The banner centre in its vehicle's body frame (FRD), m."""
-        return np.array([self.offset_body_m, 0.0, -self.centre_height_m])
 
     def frame_ned(self, north_m: float, east_m: float, yaw_rad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The banner's centre and its unit axes (right and down, as seen from behind) in NED.

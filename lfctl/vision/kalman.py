@@ -181,8 +181,3 @@ class AreaFilter:
             The window's size measured this frame, sqrt(w h), px.
         """
         _update(self.kf, np.array([size_px]))
-
-    @property
-    def size_px(self) -> float:
-        """The filtered size, px."""
-        return float(self.kf.x[0])

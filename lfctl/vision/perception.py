@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig
@@ -187,7 +188,14 @@ class BannerPerception:
             (4, 2) marker centres in raw (distorted) pixels.
         """
         side = self.banner.side_m
-        return pnp_pose(markers, self.camera.K, self.camera.dist, side) or paper_pose(markers, self.camera.K, side)
+        cam = self.camera
+        found = pnp_pose(markers, cam.K, cam.dist, side)
+        if found is not None:
+            return found
+        if np.any(cam.dist != 0):  # the paper's estimate is a pinhole one: take the lens out first
+            pts = np.asarray(markers, np.float64).reshape(-1, 1, 2)
+            markers = cv2.undistortPoints(pts, cam.K, cam.dist, P=cam.K).reshape(-1, 2)
+        return paper_pose(markers, cam.K, side)
 
     def vehicle_relative(self, pose: MarkerPose) -> tuple[float, float, float]:
         """Range (m), bearing (rad) and relative heading (rad) between the two vehicles'
