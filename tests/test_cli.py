@@ -97,3 +97,43 @@ def test_bench_cosim_prints_table_and_json_line() -> None:
 def test_python_dash_m_help() -> None:
     out = subprocess.run([sys.executable, "-m", "lfctl", "--help"], capture_output=True, text=True, check=True).stdout
     assert "sim" in out and "fmu" in out and "bench" in out
+
+
+def test_examples_run_by_name_from_any_directory(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "column5", "--duration", "1", "-q", "--no-record"]) == 0
+    assert "scenario     column5" in capsys.readouterr().out
+    assert main(["sim", "nosuchexample", "-q"]) == 2
+    assert "neither a file nor a shipped example (examples: column5, convoy, vee)" in capsys.readouterr().err
+
+
+def test_a_run_that_fails_before_its_first_step_leaves_no_log(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "nofmu.toml"
+    bad.write_text('[[vehicles]]\nname = "leader"\nrole = "leader"\nfmu = "missing.fmu"\n')
+    assert main(["sim", str(bad), "-q"]) == 1
+    assert "missing.fmu does not exist" in capsys.readouterr().err
+    assert not list(tmp_path.glob("logs/*.mcap"))
+
+
+def test_a_run_that_fails_later_leaves_a_finished_log_that_says_why(tmp_path: Path) -> None:
+    from lfctl.config import load_config
+    from lfctl.record.audit import audit
+    from lfctl.sim.runner import run_scenario
+
+    cfg = load_config(ROOT / "examples" / "convoy.toml")
+    path = tmp_path / "broken.mcap"
+    calls = [0]
+
+    def stop() -> bool:
+        calls[0] += 1
+        if calls[0] > 150:
+            raise RuntimeError("the disk went away")
+        return False
+
+    with pytest.raises(RuntimeError):
+        run_scenario(cfg, record_to=path, stop=stop, duration_s=5.0)
+    report = audit(path)
+    assert report.figures["end"]["reason"] == "error: RuntimeError: the disk went away"
+    assert float(report.figures["end"]["t_s"]) == pytest.approx(1.51)  # stop is asked after step 151
+    assert any("ended early at t = 1.51 s" in f.what for f in report.findings)

@@ -15,15 +15,16 @@ import io
 import itertools
 import json
 import math
+import struct
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mcap.exceptions import McapError
+from mcap.exceptions import EndOfFile, McapError
 from mcap.records import Attachment, Channel, DataEnd, Footer, Header, Message, Metadata, Schema, Statistics
-from mcap.stream_reader import StreamReader
+from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
@@ -180,8 +181,14 @@ def read_contents(path: Path) -> tuple[Contents, list[Finding]]:
                     c.data_end = True
                 elif isinstance(rec, Footer):
                     c.footer = True
-        except (McapError, ValueError, struct_error(), EOFError, OSError) as exc:  # every way a damaged stream fails
-            what = _describe(exc, stream.pos, c.file_size)
+        except EndOfFile:
+            findings.append(Finding("error", _truncated(c.file_size), stream.pos))
+        except CRCValidationError as exc:
+            findings.append(Finding("error", f"CRC mismatch: {exc}", stream.pos))
+        except (McapError, ValueError, struct.error, EOFError, OSError) as exc:  # the other ways a damaged stream fails
+            what = (
+                _truncated(c.file_size) if stream.pos >= c.file_size else f"corrupt record: {type(exc).__name__}: {exc}"
+            )
             findings.append(Finding("error", what, stream.pos))
         c.bytes_read = stream.pos
     if not c.footer and not any(f.level == "error" for f in findings):
@@ -193,7 +200,6 @@ def read_contents(path: Path) -> tuple[Contents, list[Finding]]:
 
 def _check_summary_crc(path: Path) -> list[Finding]:
     """The footer's CRC over the summary section (the stream reader does not check it)."""
-    import struct
     import zlib
 
     data = path.read_bytes()
@@ -208,19 +214,8 @@ def _check_summary_crc(path: Path) -> list[Finding]:
     return []
 
 
-def struct_error() -> type[Exception]:
-    import struct
-
-    return struct.error
-
-
-def _describe(exc: Exception, pos: int, size: int) -> str:
-    text = str(exc) or type(exc).__name__
-    if type(exc).__name__ == "EndOfFile" or pos >= size:
-        return f"truncated: the file ends inside a record ({size} bytes; {type(exc).__name__})"
-    if "crc" in text.lower():
-        return f"CRC mismatch: {text}"
-    return f"corrupt record: {type(exc).__name__}: {text}"
+def _truncated(size: int) -> str:
+    return f"truncated: the file ends inside a record ({size} bytes)"
 
 
 def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
