@@ -968,7 +968,12 @@ class VehicleEndpoint:
                 )
             )
         elif name == "SYS_STATUS":
-            self.send(mav.MAVLink_sys_status_message(SENSORS, SENSORS, SENSORS, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0))
+            # the geofence as Rover reports it: present, enabled with FENCE_ENABLE, healthy
+            # unless breached (MAVProxy says "fence breach" when the health bit drops)
+            fence = mav.MAV_SYS_STATUS_GEOFENCE
+            enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
+            health = SENSORS | (fence if self.fence_breach is None else 0)
+            self.send(mav.MAVLink_sys_status_message(SENSORS | fence, enabled, health, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0))
         elif name == "GPS_RAW_INT":
             self.send(
                 mav.MAVLink_gps_raw_int_message(

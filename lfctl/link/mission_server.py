@@ -98,7 +98,7 @@ class MissionServer:
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
         self.changes: list[ListChange] = []
         self.current_seq = 0
-        self._upload: _Upload | None = None
+        self._uploads: dict[int, _Upload] = {}  # by mission type: a fence and a mission may come at once
         self._t_s = 0.0
 
     # -- helpers ---------------------------------------------------------------------------
@@ -141,7 +141,7 @@ class MissionServer:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
         if m.count == 0:
-            self._upload = None
+            self._uploads.pop(mtype, None)
             self.store(mtype, [], *src)
             self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
             return
@@ -149,12 +149,10 @@ class MissionServer:
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             self.statustext(f"Mission upload refused: {m.count} items, room for {CAPACITY[mtype]}")
             return
-        self._upload = _Upload(mtype, m.count, *src)
-        self._request_next(t_s)
+        self._uploads[mtype] = up = _Upload(mtype, m.count, *src)
+        self._request_next(up, t_s)
 
-    def _request_next(self, t_s: float) -> None:
-        up = self._upload
-        assert up is not None
+    def _request_next(self, up: _Upload, t_s: float) -> None:
         up.sent_at = t_s
         self.send(mav.MAVLink_mission_request_int_message(up.sysid, up.compid, up.next_seq, up.mission_type))
 
@@ -173,15 +171,11 @@ class MissionServer:
             Now, s.
         """
         self._t_s = t_s
-        up = self._upload
+        up = self._uploads.get(mission_type)
         if up is None or (sysid, compid) != (up.sysid, up.compid):
             return  # not part of an upload this vehicle is running
-        if mission_type != up.mission_type:
-            self._upload = None
-            self._ack(sysid, compid, mav.MAV_MISSION_INVALID_SEQUENCE, mission_type)
-            return
         if item.seq != up.next_seq:
-            self._request_next(t_s)  # a duplicate or reordered item: ask again for the one we need
+            self._request_next(up, t_s)  # a duplicate or reordered item: ask again for the one we need
             return
         result = self._check_item(item, up)
         if result != mav.MAV_MISSION_ACCEPTED:
@@ -191,9 +185,9 @@ class MissionServer:
         up.next_seq += 1
         up.retries = 0
         if up.next_seq < up.count:
-            self._request_next(t_s)
+            self._request_next(up, t_s)
             return
-        self._upload = None
+        del self._uploads[mission_type]
         items = [up.items[i] for i in range(up.count)]
         if up.mission_type == FENCE and (bad := validate_fence(items)) is not None:
             self._refuse(up, *bad)
@@ -214,7 +208,7 @@ class MissionServer:
         return mav.MAV_MISSION_ACCEPTED
 
     def _refuse(self, up: _Upload, seq: int, result: int) -> None:
-        self._upload = None  # the list in force stays as it was
+        self._uploads.pop(up.mission_type, None)  # the list in force stays as it was
         self._ack(up.sysid, up.compid, result, up.mission_type)
         name = mav.enums["MAV_MISSION_RESULT"][result].name
         self.statustext(f"{MISSION_TYPES[up.mission_type].capitalize()} rejected at item {seq}: {name}")
@@ -228,16 +222,16 @@ class MissionServer:
             Now, s.
         """
         self._t_s = t_s
-        up = self._upload
-        if up is None or t_s - up.sent_at <= ITEM_TIMEOUT_S:
-            return
-        if up.retries >= RETRIES:
-            self._upload = None
-            self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
-            self.statustext(f"Mission upload timed out waiting for item {up.next_seq}")
-        else:
-            up.retries += 1
-            self._request_next(t_s)
+        for mtype, up in list(self._uploads.items()):
+            if t_s - up.sent_at <= ITEM_TIMEOUT_S:
+                continue
+            if up.retries >= RETRIES:
+                del self._uploads[mtype]
+                self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
+                self.statustext(f"{MISSION_TYPES[mtype].capitalize()} upload timed out waiting for item {up.next_seq}")
+            else:
+                up.retries += 1
+                self._request_next(up, t_s)
 
     # -- download, clear, current ----------------------------------------------------------
     def on_request_list(self, m: Any) -> None:

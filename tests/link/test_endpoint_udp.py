@@ -305,3 +305,68 @@ def test_a_replayed_signed_packet_is_refused_even_after_garbage() -> None:
     finally:
         sock.close()
         live.close()
+
+
+@pytest.mark.parametrize("fmt", ["mavproxy", "qgc"])
+def test_param_files_save_and_load_through_the_cli(live: LiveEndpoint, tmp_path: Path, fmt: str) -> None:
+    from lfctl.cli import main
+
+    f = tmp_path / "rover.parm"
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3", "param"]
+    assert main([*connect, "save", str(f), "--format", fmt]) == 0
+    text = f.read_text()
+    assert "WP_SPEED" in text and "FENCE_ACTION" in text
+    if fmt == "qgc":
+        assert text.startswith("# Onboard parameters") and "\t1\tWP_SPEED\t" in text
+    edited = text.replace("WP_SPEED", "WP_SPEED_OLD") + (
+        "1\t1\tWP_SPEED\t0.75\t9\n" if fmt == "qgc" else "WP_SPEED 0.75\n"
+    )
+    edited += "" if fmt == "qgc" else "SOME_OTHER_PARAM 3\n"
+    f.write_text(edited)
+    assert main([*connect, "load", str(f)]) == 0
+    assert live.ep.param("WP_SPEED") == pytest.approx(0.75)
+
+
+def test_a_refused_param_set_exits_1(live: LiveEndpoint, capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.cli import main
+
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3", "param", "set"]
+    assert main([*connect, "WP_SPEED", "nan"]) == 1
+    assert main([*connect, "WP_SPEED", "1000"]) == 1
+    assert "refused" in capsys.readouterr().err
+    assert main([*connect, "WP_SPEED", "0.5"]) == 0
+
+
+def test_the_vehicle_port_is_its_own() -> None:
+    from lfctl.errors import LinkError
+
+    link = UdpLink(("127.0.0.1", 0))
+    try:
+        with pytest.raises(LinkError, match="in use"):
+            UdpLink(("127.0.0.1", link.port))  # a second run on the same port
+        thief = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        thief.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        with pytest.raises(OSError):
+            thief.bind(("127.0.0.1", link.port))  # another program, hoping to read the commands
+        thief.close()
+    finally:
+        link.close()
+
+
+def test_a_crowd_of_new_senders_does_not_evict_the_ground_station_in_use() -> None:
+    now = [0.0]
+    link = UdpLink(("127.0.0.1", 0), clock=lambda: now[0])
+    try:
+        gcs = ("127.0.0.1", 40001)
+        link.accept_peer(gcs)
+        for k in range(100):  # a flood of one-heartbeat senders from other ports
+            now[0] += 0.01
+            link.accept_peer(("127.0.0.1", 41000 + k))
+            link.accept_peer(gcs) if k % 20 == 0 else None
+        assert gcs in link.peers and link.refused_peers > 0
+        now[0] += 31.0  # they all fall silent for longer than the peer timeout
+        link.accept_peer(gcs)
+        link.accept_peer(("127.0.0.1", 50000))
+        assert set(link.peers) == {gcs, ("127.0.0.1", 50000)}
+    finally:
+        link.close()
