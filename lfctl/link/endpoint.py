@@ -973,7 +973,9 @@ class VehicleEndpoint:
             fence = mav.MAV_SYS_STATUS_GEOFENCE
             enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
             health = SENSORS | (fence if self.fence_breach is None else 0)
-            self.send(mav.MAVLink_sys_status_message(SENSORS | fence, enabled, health, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0))
+            self.send(
+                mav.MAVLink_sys_status_message(SENSORS | fence, enabled, health, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0)
+            )
         elif name == "GPS_RAW_INT":
             self.send(
                 mav.MAVLink_gps_raw_int_message(
