@@ -27,7 +27,7 @@ class BenchOutcome:
     error: str = ""  # why it failed ("" when it did not)
 
 
-def run_one(name: str, quick: bool = False) -> None:
+def run_one(name: str, quick: bool = False, fuzz: bool = False, soak_s: float | None = None) -> None:
     """Run one benchmark in this process (its output is the result).
 
     Parameters
@@ -36,7 +36,16 @@ def run_one(name: str, quick: bool = False) -> None:
         One of :data:`NAMES`.
     quick : bool
         Shorter runs, for a smoke check.
+    fuzz : bool
+        ``link`` only: the fuzz and soak benchmark (:mod:`lfctl.bench.link_fuzz`) instead.
+    soak_s : float, optional
+        With ``fuzz``: the soak's length, s.
     """
+    if fuzz:
+        from lfctl.bench import link_fuzz
+
+        link_fuzz.main(quick, soak_s)
+        return
     importlib.import_module(f"lfctl.bench.{name}").main(quick)
 
 

@@ -19,6 +19,12 @@ def register(sub: Any) -> None:
     )
     b.add_argument("name", nargs="?", metavar="NAME", help=f"one benchmark: {', '.join(NAMES)}")
     b.add_argument("--quick", action="store_true", help="shorter runs (for a smoke check)")
+    b.add_argument(
+        "--fuzz",
+        action="store_true",
+        help="with link: 100,000 hostile datagrams and a soak against a recording --realtime run",
+    )
+    b.add_argument("--soak-s", type=float, metavar="S", help="with --fuzz: the soak's length (default 600 s)")
     b.set_defaults(func=run)
 
 
@@ -29,9 +35,13 @@ def run(args: argparse.Namespace) -> int:
 
     if args.name and args.name not in NAMES:
         raise ConfigError(f"unknown benchmark {args.name!r} (known: {', '.join(NAMES)})")
+    if args.fuzz and args.name != "link":
+        raise ConfigError("--fuzz goes with the link benchmark: lfctl bench link --fuzz")
+    if args.soak_s is not None and not (args.fuzz and 0 < args.soak_s <= 86400):
+        raise ConfigError(f"--soak-s goes with --fuzz and must be within (0, 86400] s, got {args.soak_s:g}")
     if args.name:
-        print(f"== lfctl bench {args.name}", flush=True)
-        run_one(args.name, args.quick)
+        print(f"== lfctl bench {args.name}{' --fuzz' if args.fuzz else ''}", flush=True)
+        run_one(args.name, args.quick, args.fuzz, args.soak_s)
         return 0
     outcomes = run_all(NAMES, args.quick, Path())
     print("wrote bench-results.md and bench-results.json")

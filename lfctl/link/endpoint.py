@@ -104,6 +104,7 @@ class LinkStats:
     """What an endpoint has read from its link, and what it refused."""
 
     datagrams: int = 0  # datagrams read
+    remote: int = 0  # of them from the network (not the in-memory link)
     messages: int = 0  # messages parsed and dispatched
     bad: int = 0  # garbage, truncated frames, bad CRC, bad or missing signature
     other_sysid: int = 0  # addressed to another vehicle
@@ -305,6 +306,7 @@ class VehicleEndpoint:
             read += len(batch)
             for data, addr in batch:
                 self.stats.datagrams += 1
+                self.stats.remote += addr[0] != "memory"
                 if len(data) > MAX_DATAGRAM_BYTES or len(data) > budget:
                     self.stats.dropped += 1
                     continue

@@ -509,6 +509,18 @@ class Recorder:
                 },
             )
 
+    def metadata(self, name: str, values: dict[str, str]) -> None:
+        """A metadata record (after the run's start: what the run found, e.g. link statistics).
+
+        Parameters
+        ----------
+        name : str
+            The record's name.
+        values : dict of str
+            Its key-value pairs.
+        """
+        self._w.add_metadata(name, values)
+
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
         """One guidance step of a follower (``/<follower>/controller``).
 

@@ -338,6 +338,11 @@ def run_scenario(
                     on_links(links)
                 report = _closed_loop(cfg, sim, links, law, duration_s, progress, on_frame, recorder, stop)
             finally:
+                if recorder is not None and sim.tick > 0:
+                    for ep in links.endpoints:  # what each link read and refused, for the audit
+                        recorder.metadata(
+                            f"link.{ep.name}", {k: str(v) for k, v in dataclasses.asdict(ep.stats).items()}
+                        )
                 links.close()
         if recorder is not None:
             report.log_path, report.log_messages = recorder.path, recorder.messages

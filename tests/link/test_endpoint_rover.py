@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import json
 import math
-import random
 import struct
 import time
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.bench.fuzz import datagrams
 from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MODES, VehicleEndpoint, packet_record
 from lfctl.link.signing import setup_signing, signing_clock
 from lfctl.link.transport import MemoryLink
@@ -208,48 +208,10 @@ def test_unknown_message_ids_and_nan_fields_are_logged_not_fatal(bench: Bench) -
     assert any('"nan"' in r for r in bench.records)
 
 
-def fuzz_datagrams(seed: int, n: int) -> list[bytes]:
-    """Random bytes; valid frames of many message ids with hostile field values; mutated,
-    truncated and re-CRC'd frames; MAVLink 1 and 2."""
-    rnd = random.Random(seed)
-    m2 = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    m1 = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    m1.WIRE_PROTOCOL_VERSION = "1.0"
-    hostile = [NAN, INF, -INF, 1e38, -1e38, 0.0, -1.0, 1.0, 65535.0, 2.0**31]
-    classes = [c for c in mav.mavlink_map.values() if hasattr(c, "fieldnames")]
-    out = []
-    for k in range(n):
-        kind = k % 5
-        if kind == 0:
-            out.append(bytes(rnd.randrange(256) for _ in range(rnd.randrange(1, 300))))
-            continue
-        cls = rnd.choice(classes)
-        args = []
-        for name, typ, length in zip(cls.fieldnames, cls.fieldtypes, cls.array_lengths, strict=False):
-            del name
-            if typ in ("float", "double"):
-                v: object = rnd.choice(hostile)
-            elif typ == "char":
-                v = bytes(rnd.randrange(256) for _ in range(max(1, length)))
-            else:
-                v = rnd.choice([0, 1, 2, 255, rnd.randrange(256)])
-            args.append([v] * length if length and typ != "char" else v)
-        try:
-            frame = bytearray(cls(*args).pack(m1 if kind == 1 else m2))
-        except Exception:  # a value the packer cannot pack (too large for its field)
-            continue
-        if kind == 3 and len(frame) > 12:  # mutate a payload byte, then fix the CRC so it parses
-            frame[rnd.randrange(10, len(frame) - 2)] ^= 1 << rnd.randrange(8)
-        if kind == 4:
-            frame = frame[: rnd.randrange(1, len(frame))]  # truncated
-        out.append(bytes(frame))
-    return out
-
-
 def test_thousands_of_fuzzed_datagrams_crash_nothing_and_the_vehicle_still_answers(bench: Bench) -> None:
     sent = 0
     for chunk_start in range(0, 3000, 200):
-        for d in fuzz_datagrams(chunk_start, 200):
+        for d in datagrams(chunk_start, 200):
             bench.raw(d)
             sent += 1
         bench.tick()
