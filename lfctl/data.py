@@ -1,5 +1,5 @@
-"""Files that travel with lfctl: the vehicle models' C sources (``fmu_models/``) and the
-example scenarios (``examples/``).
+"""Files that travel with lfctl: the vehicle models' C sources (``fmu_models/``), the
+example scenarios (``examples/``) and labelled real video (``footage/``).
 
 Both live at the top of the source tree, where a reader looks for them; the wheel and the
 sdist carry them inside the package (``lfctl/fmu_models``, ``lfctl/examples``, see
@@ -13,7 +13,7 @@ from pathlib import Path
 
 from lfctl.errors import ConfigError
 
-__all__ = ["example_names", "examples_dir", "find_example", "models_dir", "resolve_scenario"]
+__all__ = ["example_names", "examples_dir", "find_example", "footage_dir", "models_dir", "resolve_scenario"]
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -33,6 +33,11 @@ def models_dir() -> Path:
 def examples_dir() -> Path:
     """The folder of shipped example scenarios (``convoy.toml``, ...) and missions."""
     return _folder("examples")
+
+
+def footage_dir() -> Path:
+    """The folder of labelled real video (its ``README.md`` says where each file comes from)."""
+    return _folder("footage")
 
 
 def example_names() -> list[str]:
