@@ -40,7 +40,7 @@ def test_bad_scenario_exits_2_with_one_line(tmp_path: Path, capsys: pytest.Captu
     bad.write_text('[sim]\ndt_s = -1\n[[vehicles]]\nname = "a"\nrole = "leader"\n')
     assert main(["sim", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "sim.dt_s must be > 0, got -1.0" in err and "Traceback" not in err
+    assert err.count("\n") == 0 and "sim.dt_s must be within [0.0001, 1], got -1.0" in err and "Traceback" not in err
 
 
 def test_corrupt_user_fmu_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -10,7 +10,7 @@ import lfctl
 
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
-    "errors", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
+    "errors", "checks", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
     "link", "follower", "record", "sim", "bench", "cli",
 }  # fmt: skip
 
@@ -19,8 +19,9 @@ ALLOWED = {
     "__init__": set(),
     "__main__": {"cli"},
     "errors": set(),
+    "checks": {"errors"},
     "frames": set(),
-    "config": {"errors"},
+    "config": {"checks", "errors"},
     "data": {"errors"},
     "schedule": set(),
     "video": {"errors"},
@@ -29,9 +30,9 @@ ALLOWED = {
     "metrics": {"vision.track_state"},
     "render": {"config", "errors", "frames", "vision", "render"},
     "fmu": {"data", "errors", "fmu"},
-    "link": {"errors", "frames", "link"},
+    "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"config", "errors", "metrics", "vision", "record"},
+    "record": {"checks", "config", "errors", "metrics", "vision", "record"},
     "sim": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,
@@ -45,6 +46,7 @@ FORBIDDEN = {
     "render": PURE,
     "frames": PURE,
     "schedule": PURE,
+    "checks": PURE | {"cv2"},
     "config": {"fmpy", "pymavlink", "mcap", "cv2"},
     "fmu": {"pymavlink", "mcap"},
     "link": {"fmpy", "mcap", "cv2"},

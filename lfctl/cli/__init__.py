@@ -14,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from lfctl import __version__
+from lfctl.cli.options import OneLineParser
 from lfctl.errors import ConfigError, LfctlError
 
 __all__ = ["build_parser", "main"]
@@ -24,7 +25,7 @@ COMMANDS = ("sim", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every command."""
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="lfctl", description="Vision-guided leader-follower ground robots: co-simulation, tools, benchmarks."
     )
     p.add_argument("--version", action="version", version=f"lfctl {__version__}")
@@ -72,4 +73,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.debug:
             raise
         print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # a bug of ours: still one line, and how to see the rest
+        if args.debug:
+            raise
+        print(
+            f"lfctl: internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)",
+            file=sys.stderr,
+        )
         return 1

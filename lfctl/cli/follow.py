@@ -8,6 +8,11 @@ import math
 from pathlib import Path
 from typing import Any
 
+from lfctl.cli.options import connection, integer, number
+
+#: the setpoint rates `lfctl follow` takes, Hz
+RATE_HZ = (1.0, 100.0)
+
 #: the rover `lfctl follow` runs without a scenario
 DEFAULT_SCENARIO = '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "rover"\nrole = "follower"\n'
 
@@ -20,21 +25,42 @@ def register(sub: Any) -> None:
         description="Run the follower's vision and guidance against a real ArduPilot rover (or lfctl sim --realtime) as its companion computer (component 191).",
     )
     fo.add_argument(
-        "--mavlink", required=True, help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600"
+        "--mavlink",
+        required=True,
+        type=connection,
+        help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600",
     )
     fo.add_argument("--camera", default="0", help="camera index, video file or stream URL (default 0)")
-    fo.add_argument("--target", type=int, default=1, help="the rover's system id (default 1)")
+    fo.add_argument("--target", type=integer(1, 255), default=1, help="the rover's system id (default 1)")
     fo.add_argument(
         "--scenario", type=Path, help="camera intrinsics and mount, banner, gains and rates from this scenario"
     )
-    fo.add_argument("--range", type=float, help="commanded range to the leader, m (default: the scenario's slot, 1.5)")
-    fo.add_argument("--bearing", type=float, help="commanded bearing to the leader, deg (default: the scenario's, 0)")
-    fo.add_argument("--rate", type=float, help="setpoint rate, Hz (default: the scenario's sim.guidance_rate_hz, 20)")
+    fo.add_argument(
+        "--range",
+        type=number(0, 1000, lo_open=True, unit="m"),
+        help="commanded range to the leader, m (default: the scenario's slot, 1.5)",
+    )
+    fo.add_argument(
+        "--bearing",
+        type=number(-180, 180, unit="deg"),
+        help="commanded bearing to the leader, deg (default: the scenario's, 0)",
+    )
+    fo.add_argument(
+        "--rate",
+        type=number(*RATE_HZ, unit="Hz"),
+        help="setpoint rate, 1-100 Hz (default: the scenario's sim.guidance_rate_hz, 20); the rover stops "
+        "when setpoints are more than GUID_TIMEOUT (3 s) apart",
+    )
     fo.add_argument("--arm", action="store_true", help="also arm the rover (default: you arm it)")
-    fo.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the rover's heartbeat")
+    fo.add_argument(
+        "--timeout",
+        type=number(0, 3600, lo_open=True, unit="s"),
+        default=10.0,
+        help="seconds to wait for the rover's heartbeat",
+    )
     fo.add_argument("--signing-passphrase", help="MAVLink 2 signing: the passphrase the rover's key was set up with")
-    fo.add_argument("--max-frames", type=int, help="stop after this many camera frames")
-    fo.add_argument("--steps", type=int, help="stop after this many setpoints")
+    fo.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many camera frames")
+    fo.add_argument("--steps", type=integer(1, 10**9), help="stop after this many setpoints")
     fo.set_defaults(func=run)
 
 
@@ -54,8 +80,8 @@ def run(args: argparse.Namespace) -> int:
     range_m = slot.range_m if args.range is None else args.range
     bearing_rad = slot.bearing_rad if args.bearing is None else math.radians(args.bearing)
     rate_hz = cfg.sim.guidance_rate_hz if args.rate is None else args.rate
-    if not 0 < rate_hz <= 100:
-        raise ConfigError(f"--rate must be within (0, 100] Hz, got {rate_hz:g}")
+    if not RATE_HZ[0] <= rate_hz <= RATE_HZ[1]:  # the scenario's guidance rate may be outside
+        raise ConfigError(f"--rate must be within [{RATE_HZ[0]:g}, {RATE_HZ[1]:g}] Hz, got {rate_hz:g}")
     with VideoSource(args.camera) as video:
         first = video.read()
         if first is None:

@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from lfctl.cli.options import connection, integer, number, param_name
+
 
 def register(sub: Any) -> None:
     """Add the ``gcs`` command to the parser."""
@@ -20,10 +22,13 @@ def register(sub: Any) -> None:
     g.add_argument(
         "--connect",
         default="udpout:127.0.0.1:14561",
+        type=connection,
         help="pymavlink connection (default: the leader of lfctl sim --realtime)",
     )
-    g.add_argument("--target", type=int, default=1, help="target system id (leader 1, follower n: 1+n)")
-    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer")
+    g.add_argument("--target", type=integer(1, 255), default=1, help="target system id (leader 1, follower n: 1+n)")
+    g.add_argument(
+        "--timeout", type=number(0, 3600, lo_open=True, unit="s"), default=5.0, help="seconds to wait for each answer"
+    )
     g.add_argument("--signing-passphrase", help="MAVLink 2 signing: the vehicle's [link] signing_passphrase")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     gu = gsub.add_parser("upload", help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan)")
@@ -39,17 +44,17 @@ def register(sub: Any) -> None:
     gps = gp.add_subparsers(dest="param_action", required=True, metavar="OP")
     gps.add_parser("list")
     gpg = gps.add_parser("get")
-    gpg.add_argument("name")
+    gpg.add_argument("name", type=param_name)
     gpsv = gps.add_parser("set")
-    gpsv.add_argument("name")
-    gpsv.add_argument("value", type=float)
+    gpsv.add_argument("name", type=param_name)
+    gpsv.add_argument("value", type=number(-3.4e38, 3.4e38))  # what a MAVLink float carries
     gpsave = gps.add_parser("save", help="write every parameter to FILE (MAVProxy's NAME VALUE, or QGroundControl's)")
     gpsave.add_argument("file", type=Path)
     gpsave.add_argument("--format", choices=("mavproxy", "qgc"), default="mavproxy", help="file format")
     gpload = gps.add_parser("load", help="set every parameter FILE names (MAVProxy's or QGroundControl's format)")
     gpload.add_argument("file", type=Path)
     gw = gsub.add_parser("watch", help="live table of every vehicle heard (Ctrl-C to stop)")
-    gw.add_argument("--count", type=int, help="stop after this many refreshes")
+    gw.add_argument("--count", type=integer(1, 10**9), help="stop after this many refreshes")
     g.set_defaults(func=run)
 
 
@@ -57,15 +62,18 @@ def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
     from lfctl.link.gcs import GroundStation, result_name
     from lfctl.link.mission import load_mission, save_mission
+    from lfctl.link.params import load_param_file
     from lfctl.link.signing import signing_key_from_passphrase
 
+    # files are read before connecting: a bad one is named as such, not as a silent vehicle
+    items = load_mission(args.file) if args.action == "upload" else None
+    wanted = load_param_file(args.file) if args.action == "param" and args.param_action == "load" else None
     key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         gcs.wait_heartbeat()
         action = args.action
-        if action == "upload":
-            items = load_mission(args.file)
+        if items is not None:  # upload
             gcs.upload(items)
             print(f"uploaded {len(items) - 1} items (+ home) to system {args.target}")
         elif action == "download":
@@ -88,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
             if name != "MAV_RESULT_ACCEPTED":
                 return 1
         elif action == "param":
-            return _param(gcs, args)
+            return _param(gcs, args, wanted)
         elif action == "watch":
             watch(gcs, args.count)
         return 0
@@ -96,9 +104,9 @@ def run(args: argparse.Namespace) -> int:
         gcs.close()
 
 
-def _param(gcs: Any, args: argparse.Namespace) -> int:
-    """The ``param`` actions; 1 when the vehicle refused a value."""
-    from lfctl.link.params import load_param_file, save_param_file
+def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | None) -> int:
+    """The ``param`` actions (``from_file``: what ``param load`` read); 1 when the vehicle refused a value."""
+    from lfctl.link.params import save_param_file
 
     if args.param_action == "list":
         for k, v in gcs.param_list().items():
@@ -110,7 +118,7 @@ def _param(gcs: Any, args: argparse.Namespace) -> int:
         save_param_file(values, args.file, args.format, args.target)
         print(f"saved {len(values)} parameters to {args.file}")
     else:
-        wanted = {args.name: args.value} if args.param_action == "set" else load_param_file(args.file)
+        wanted = {args.name: args.value} if from_file is None else from_file
         skipped = []
         if args.param_action == "load":  # a file from another vehicle names parameters this one has not
             known = gcs.param_list()

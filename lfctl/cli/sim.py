@@ -12,6 +12,8 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lfctl.cli.options import integer, number
+
 if TYPE_CHECKING:
     from lfctl.config import Config
     from lfctl.sim.runner import RunReport
@@ -29,9 +31,14 @@ def register(sub: Any) -> None:
     )
     s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example (convoy)")
     s.add_argument(
-        "--duration", type=float, metavar="S", help="simulated seconds (default: the scenario's sim.duration_s)"
+        "--duration",
+        type=number(0, 1e6, lo_open=True, unit="s"),
+        metavar="S",
+        help="simulated seconds (default: the scenario's sim.duration_s)",
     )
-    s.add_argument("--seed", type=int, metavar="N", help="random seed (default: the scenario's sim.seed)")
+    s.add_argument(
+        "--seed", type=integer(0, 2**63 - 1), metavar="N", help="random seed (default: the scenario's sim.seed)"
+    )
     s.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
     s.add_argument(
         "--sensing", choices=("truth", "camera"), help="where followers' range/bearing come from (default: sim.sensing)"

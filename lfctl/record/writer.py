@@ -24,6 +24,7 @@ import json
 import math
 import platform
 import subprocess
+import time
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,13 @@ from lfctl import __version__
 from lfctl.config import Config
 from lfctl.errors import LfctlError
 
-__all__ = ["RecordError", "Recorder", "run_path"]
+__all__ = ["FLUSH_INTERVAL_S", "RecordError", "Recorder", "run_path"]
+
+#: the recorder ends a chunk and hands it to the OS at least this often (wall time, s), so a
+#: run killed outright loses at most about this much of its log
+FLUSH_INTERVAL_S = 1.0
+#: how many ``-2``, ``-3`` ... suffixes a log name tries before giving up
+_MAX_SUFFIX = 1000
 
 WORLD_FRAME = "ned"
 PACKAGES = (
@@ -166,8 +173,27 @@ def package_versions() -> dict[str, str]:
     return out
 
 
+def _create_new(path: Path) -> tuple[Path, Any]:
+    """Create ``path`` for writing, never over an existing file: a name taken (two runs in
+    the same second) gets ``-2``, ``-3``, ... before the suffix. Returns the path and the file."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RecordError(f"cannot create the log folder {path.parent}: {exc}") from exc
+    for n in range(1, _MAX_SUFFIX + 1):
+        candidate = path if n == 1 else path.with_name(f"{path.stem}-{n}{path.suffix}")
+        try:
+            return candidate, candidate.open("xb")  # exclusive: a concurrent run cannot take it too
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise RecordError(f"cannot create the run log {candidate}: {exc}") from exc
+    raise RecordError(f"cannot create the run log {path}: it and {_MAX_SUFFIX - 1} suffixed names exist")
+
+
 def run_path(cfg: Config, now: dt.datetime | None = None) -> Path:
-    """``<dir>/<UTC time>-<scenario>-<seed>.mcap``: where a run's log goes.
+    """``<dir>/<UTC time>-<scenario>-<seed>.mcap``: where a run's log goes (the recorder adds
+    ``-2``, ``-3`` ... when that file exists).
 
     Parameters
     ----------
@@ -209,13 +235,8 @@ class Recorder:
     """
 
     def __init__(self, path: str | Path, cfg: Config) -> None:
-        self.path = Path(path)
         self.cfg = cfg
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._f = self.path.open("wb")
-        except OSError as exc:
-            raise RecordError(f"cannot create the run log {self.path}: {exc}") from exc
+        self.path, self._f = _create_new(Path(path))
         comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[
             cfg.recording.compression
         ]
@@ -246,6 +267,7 @@ class Recorder:
                 **{f"package.{k}": v for k, v in package_versions().items()},
             },
         )
+        self._flushed_at = time.monotonic()
         self._w.add_metadata(
             "run",
             {
@@ -319,6 +341,14 @@ class Recorder:
         self._w.add_message(channel_id=cid, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
         self.messages += 1
         self.bytes_payload += len(data)
+        now = time.monotonic()
+        if now - self._flushed_at >= FLUSH_INTERVAL_S:  # a killed run loses at most this much
+            self.flush()
+
+    def flush(self) -> None:
+        """End the chunk in progress and hand everything written so far to the OS."""
+        self._w.flush()
+        self._flushed_at = time.monotonic()
 
     def json(self, topic: str, schema: str, t_s: float, payload: dict[str, Any]) -> None:
         """A JSON message on a JSON-schema channel (made on first use).

@@ -25,7 +25,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from lfctl.cli import main
 from lfctl.config import load_config
 from lfctl.record.audit import audit, recover
-from lfctl.record.writer import Recorder
+from lfctl.record.writer import FLUSH_INTERVAL_S, Recorder
 from lfctl.sim.runner import run_scenario
 
 pytestmark = pytest.mark.fmu
@@ -200,8 +200,8 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
     scen = tmp_path / "s.toml"
     scen.write_text(
         (EXAMPLES / "convoy.toml").read_text().replace('sensing = "camera"   # or "truth"', 'sensing = "truth"')
-        + f'\n[recording]\ndir = "{tmp_path}"\nchunk_size_bytes = 4096\n'
-    )
+        + f'\n[recording]\ndir = "{tmp_path}"\n[link]\ngcs_udpout = ""\nudp_base_port = {_free_udp_port()}\n'
+    )  # default 1 MiB chunks: what reaches the disk is the recorder's once-a-second flush
     proc = subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scen), "--realtime", "-q"],
         stdout=subprocess.DEVNULL,
@@ -211,7 +211,7 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
         deadline = time.time() + 60
         while time.time() < deadline and not list(tmp_path.glob("*.mcap")):
             time.sleep(0.2)
-        time.sleep(4.0)  # a few seconds of simulated time, several 4 KiB chunks
+        time.sleep(5.0)  # five seconds of simulated time: a few kB, far from a full chunk
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
     finally:
@@ -221,6 +221,8 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
     rep = audit(log)
     assert not rep.ok and any("truncated" in f.what or "no footer" in f.what for f in rep.findings)
     assert rep.figures["messages"] > 50
+    last_s = max(t for t, _ in rep.contents.messages["/leader/pose"]) / 1e9
+    assert last_s >= 5.0 - FLUSH_INTERVAL_S - 1.5, f"lost the log after t = {last_s:.2f} s of about 5 s"
     assert {"scenario.toml", "SkidSteerRover.fmi2.fmu/modelDescription.xml"} <= set(rep.contents.attachments)
     out = tmp_path / "fixed.mcap"
     assert recover(rep, out) == rep.figures["messages"]
@@ -252,6 +254,14 @@ def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_r
     gaps = np.diff(taken)
     # evenly spread: within a camera period plus a physics step of each other
     assert gaps.max() - gaps.min() <= 1 / 30 + 0.011
+
+
+def _free_udp_port() -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def _children(pid: int) -> set[int]:
@@ -295,3 +305,38 @@ def test_ctrl_c_or_sigterm_ends_a_camera_run_with_a_whole_log_and_no_workers_lef
     rep = audit(log)
     assert not [f for f in rep.findings if f.level == "error"], rep.findings
     assert rep.figures["messages"] > 100
+
+
+def test_two_runs_in_the_same_second_keep_both_logs(tmp_path: Path) -> None:
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path)
+    with Recorder(tmp_path / "same.mcap", cfg) as first, Recorder(tmp_path / "same.mcap", cfg) as second:
+        first.metadata("which", {"run": "first"})
+        second.metadata("which", {"run": "second"})
+    assert (first.path.name, second.path.name) == ("same.mcap", "same-2.mcap")
+    assert audit(first.path).contents.metadata["which"] == {"run": "first"}
+    assert audit(second.path).contents.metadata["which"] == {"run": "second"}
+
+
+def test_the_recorder_hands_a_chunk_to_the_os_every_second(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import lfctl.record.writer as writer
+
+    clock = [100.0]
+    monkeypatch.setattr(writer.time, "monotonic", lambda: clock[0])
+    cfg = load_config(EXAMPLES / "convoy.toml")  # 1 MiB chunks
+    rec = Recorder(tmp_path / "r.mcap", cfg)
+    try:
+        for k in range(50):
+            rec.json(
+                "/leader/mission", "lfctl.Mission", k * 0.1, {"event": "reached", "index": k, "active": k, "count": 50}
+            )
+        early = tmp_path / "early.mcap"
+        early.write_bytes(rec.path.read_bytes())
+        assert audit(early).figures["messages"] == 0  # all 50 still in the open chunk
+        clock[0] += FLUSH_INTERVAL_S
+        rec.json("/leader/mission", "lfctl.Mission", 5.0, {"event": "reached", "index": 50, "active": 50, "count": 51})
+        data = rec.path.read_bytes()
+    finally:
+        rec.close()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data)  # what a SIGKILL at this moment leaves
+    assert audit(cut).figures["messages"] == 51
