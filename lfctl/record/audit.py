@@ -368,11 +368,15 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
                 kind="provenance",
             )
         )
+    lacking = []
     for topic, period in _expected_topics(info).items():
         msgs = c.messages.get(topic)
         if not msgs:
-            level = "error" if c.footer and not recovered else "warning"
-            findings.append(Finding(level, f"expected topic {topic} is missing", kind="content"))
+            if recovered:  # a recovered log holds what was read before the fault
+                lacking.append(topic)
+            else:
+                level = "error" if c.footer else "warning"
+                findings.append(Finding(level, f"expected topic {topic} is missing", kind="content"))
             continue
         times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
         times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float) / 1e9
@@ -387,6 +391,10 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
                     kind="content",
                 )
             )
+    if lacking:
+        findings.append(
+            Finding("warning", f"the recovered log has no messages on {', '.join(lacking)}", kind="recovery")
+        )
     findings.extend(_bad_json_findings(c))
     # -- provenance -------------------------------------------------------------------------
     hashes = {m.get("name", ""): m.get("sha256", "") for k, m in c.metadata.items() if k.startswith("sha256:")}

@@ -113,6 +113,7 @@ FOOTER_BYTES = 9 + 20  # opcode, length, summary_start, summary_offset_start, su
 DATA_END_BYTES = 9 + 4
 
 _RECORD = struct.Struct("<BQ")
+_U32 = "I" if array("I").itemsize >= 4 else "L"  # 4 bytes where it can (32 bytes a message kept)
 _MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 
 
@@ -169,10 +170,10 @@ class MessageStore(Sequence[tuple[int, bytes]]):
         self._offsets = offsets
         self.log_times = array("Q")  # log time of each message, ns
         self.publish_times = array("Q")  # publish time of each message, ns
-        self.sequences = array("L")  # sequence number of each message
-        self._block = array("L")
-        self._start = array("L")
-        self._size = array("L")
+        self.sequences = array(_U32)  # sequence number of each message
+        self._block = array(_U32)
+        self._start = array(_U32)
+        self._size = array(_U32)
 
     def append(self, log_time: int, publish_time: int, sequence: int, block: int, start: int, size: int) -> None:
         """Keep one message: its times, sequence and where its payload lies.
@@ -533,6 +534,10 @@ class _Reader:
         """A record that runs past the end of the file: the file is cut short, or the length is
         damaged (in a file that ends with MCAP's magic)."""
         have = self.size - start
+        if kind == "closing magic":
+            return self.fail(
+                start, f"truncated: the file ends inside the closing magic ({have} of 8 bytes)", "truncated"
+            )
         if self.c.complete:
             return self.fail(
                 start, f"corrupt {kind} record: it declares {declared} bytes, the file ends {have} bytes on"
@@ -669,7 +674,7 @@ class _Reader:
             cur.u64("uncompressed_size")
         elif op == ATTACHMENT:
             self.keep_other(len(body), start)
-            self.attachment(cur, body)
+            self.attachment(cur, body, start)
         elif op == ATTACHMENT_INDEX:
             for name in ("offset", "length", "log_time", "create_time", "data_size"):
                 cur.u64(name)
@@ -764,8 +769,8 @@ class _Reader:
         self.block_offsets.append(start)
         return len(self.blocks) - 1
 
-    def message(self, buf: Any, pos: int, length: int, block: int, start: int) -> None:
-        """One message record's body at ``buf[pos:pos+length]``."""
+    def message(self, buf: Any, pos: int, length: int, block: int, start: int) -> int:
+        """One message record's body at ``buf[pos:pos+length]``; returns its log time."""
         c = self.c
         if self.messages >= self.lim.messages:
             raise self.fail(
@@ -777,7 +782,7 @@ class _Reader:
         store = c.by_channel.get(cid)
         if store is None:
             self.anomaly("channel undefined", cid, start, f"message on channel {cid} before the channel is defined")
-            return
+            return log_time
         prev = self.last_time.get(cid)
         if prev is not None and log_time < prev:
             self.anomaly(
@@ -786,10 +791,11 @@ class _Reader:
         self.last_time[cid] = log_time
         if block < 0:
             c.payloads_dropped += 1
-            return
-        store.append(log_time, publish_time, seq, block, pos + 22, length - 22)
+        else:
+            store.append(log_time, publish_time, seq, block, pos + 22, length - 22)
+        return log_time
 
-    def attachment(self, cur: _Cursor, body: bytes) -> None:
+    def attachment(self, cur: _Cursor, body: bytes, start: int) -> None:
         cur.u64("log_time")
         cur.u64("create_time")
         name = cur.string("name")
@@ -799,8 +805,13 @@ class _Reader:
         crc = cur.u32("crc")
         if crc:
             got = zlib.crc32(memoryview(body)[:end])
-            if got != crc:
-                raise _Bad(f"{name!r}: CRC mismatch (computed {got:#010x}, the record says {crc:#010x})")
+            if got != crc:  # the framing is intact: skip it, read on
+                raise self.fail(
+                    start,
+                    f"CRC mismatch in the Attachment {name!r}: computed {got:#010x}, the record says {crc:#010x}",
+                    "crc",
+                    skip=True,
+                )
         self.c.attachments[name] = data
         self.c.attachment_types[name] = media
 
@@ -843,9 +854,7 @@ class _Reader:
         out_of_range = 0
         for op, pos, ln in zip(ops, positions, lengths, strict=True):
             if op == MESSAGE:
-                log_time = int.from_bytes(records[pos + 6 : pos + 14], "little")
-                out_of_range += not t0 <= log_time <= t1
-                self.message(records, pos, ln, block, start)
+                out_of_range += not t0 <= self.message(records, pos, ln, block, start) <= t1
             else:
                 sub = _Cursor(records, KINDS[op], pos, pos + ln)
                 try:  # framing checked; a bad field here is damage that passed the CRC
@@ -887,8 +896,10 @@ class _Reader:
         tail = self.read(8, self.pos)
         if tail != MAGIC:
             raise self.fail(self.pos - 8, f"corrupt: the closing magic is {tail!r}, not {MAGIC!r}")
-        if left > 8:
-            raise self.fail(self.pos, f"corrupt: {left - 8} bytes after the closing magic")
+        if left > 8:  # the file itself is whole: say so, and check it
+            self.findings.append(
+                Finding("error", f"corrupt: {left - 8} bytes after the closing magic", self.pos, "corrupt")
+            )
         c.footer = True
         if self.summary_start is None:
             self.findings.append(Finding("error", "corrupt: the file has no DataEnd record", start, "corrupt"))
@@ -993,12 +1004,14 @@ class _Reader:
         if hit is None:
             return
         byte, bit = first + hit[0], hit[1]
-        if byte > fault.offset:
+        if byte > fault.offset + 9:  # not before the fault, nor in its record's header
             return
-        at, name = self.record_at(byte)
         finding = next(x for x in reversed(self.findings) if x.offset == fault.offset and x.what == fault.what)
+        if byte < fault.offset:  # in a record read before: that is the damaged one
+            finding.offset, name = self.record_at(byte)
+        else:
+            name = f", in the record header at byte {fault.offset}"
         finding.what += f" -- one flipped bit explains it: byte {byte} bit {bit}{name}"
-        finding.offset = at
         finding.kind = "corrupt"
 
 
@@ -1036,7 +1049,7 @@ def _frame_chunk(records: bytes | memoryview) -> tuple[array, array, array]:
     """The opcode, body offset and body length of each record in an inflated chunk (arrays:
     no object per record); raises _Bad for a record that runs past the chunk or has no place
     in one."""
-    ops, positions, lengths = array("B"), array("L"), array("L")
+    ops, positions, lengths = array("B"), array(_U32), array(_U32)
     pos, n = 0, len(records)
     unpack = _RECORD.unpack_from
     while pos < n:
@@ -1076,7 +1089,7 @@ def _inflate(compression: str, data: memoryview, size: int, limit: int) -> bytes
         except zstandard.ZstdError as exc:
             raise _Bad(f"not a zstd frame: {exc}") from None
         if declared not in (zstandard.CONTENTSIZE_UNKNOWN, size):
-            raise _Bad(f"the zstd frame inflates to {declared} bytes, the chunk declares {size}")
+            raise _Bad(f"the zstd frame says it inflates to {declared} bytes, the chunk declares {size}")
         try:  # with a declared size the output is that size; without one, at most ``size``
             out = zstandard.ZstdDecompressor(max_window_size=_window(limit)).decompress(
                 data, max_output_size=size, allow_extra_data=False
@@ -1089,7 +1102,7 @@ def _inflate(compression: str, data: memoryview, size: int, limit: int) -> bytes
         try:
             declared = lz4.frame.get_frame_info(data)["content_size"]
             if declared and declared != size:
-                raise _Bad(f"the lz4 frame inflates to {declared} bytes, the chunk declares {size}")
+                raise _Bad(f"the lz4 frame says it inflates to {declared} bytes, the chunk declares {size}")
             d = lz4.frame.LZ4FrameDecompressor()
             out = d.decompress(data, max_length=size + 1)
         except RuntimeError as exc:  # how lz4.frame reports a bad frame
