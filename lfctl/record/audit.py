@@ -619,13 +619,14 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
         What :func:`audit` found.
     """
     from lfctl.config import AuditConfig, parse_config
-    from lfctl.errors import ConfigError
 
     text = report.contents.attachments.get("scenario.toml")
     try:
         a = parse_config(text.decode()).audit if text else AuditConfig()
     except (ConfigError, UnicodeDecodeError) as exc:
-        return [Finding("error", f"the attached scenario.toml does not load: {exc}")]
+        return [Finding("error", f"the attached scenario.toml does not load: {exc}", kind="provenance")]
+    except RecursionError:  # tomllib on arrays nested thousands deep
+        return [Finding("error", "the attached scenario.toml does not load: nested too deeply", kind="provenance")]
     limits = {
         "max_range_err_rms_frac": a.max_range_err_rms_frac,
         "max_bearing_err_rms_deg": a.max_bearing_err_rms_deg,
