@@ -997,7 +997,7 @@ class _Reader:
             stored, first, end = summary_crc, summary_start, size - 8 - 4
         else:
             return
-        if not stored:
+        if not stored or end - first > LOCATE_MAX_BYTES:  # nothing to locate with, or too long to
             return
         got = _crc_range(f, first, end)
         hit = locate_flip(stored, got, end - first) if got != stored else None

@@ -465,6 +465,25 @@ def test_crafted_lengths_inside_a_chunk_with_a_valid_crc(tmp_path: Path, length:
     assert err.offset == 8 + len(header()) and "corrupt Chunk" in err.what and "declares" in err.what
 
 
+@pytest.mark.parametrize(
+    ("compression", "compressed", "size"),
+    [
+        ("zstd", random.Random(1).randbytes(4000), 9000),
+        ("zstd", b"\x28\xb5\x2f\xfd" + random.Random(2).randbytes(4000), 9000),  # a zstd magic, then garbage
+        ("lz4", random.Random(3).randbytes(4000), 9000),
+        ("lz4", b"\x04\x22\x4d\x18\x60\x40\x82" + random.Random(4).randbytes(4000), 9000),  # lz4 magic
+        ("brotli", b"whatever", 8),
+        ("", b"short", 9000),
+    ],
+)
+def test_garbage_in_a_chunk_is_a_corrupt_chunk(tmp_path: Path, compression: str, compressed: bytes, size: int) -> None:
+    p = tmp_path / "garbage.mcap"
+    p.write_bytes(finish([header(), chunk(b"", compression, compressed, size, crc=0)]))
+    rep = audit(p)
+    (err,) = rep.findings
+    assert err.offset == 8 + len(header()) and err.kind == "corrupt" and "Chunk" in err.what
+
+
 # -- bombs, zeros, floods ---------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def bombs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
