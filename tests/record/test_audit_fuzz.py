@@ -292,7 +292,9 @@ def message_keys(path: Path) -> collections.Counter:
 
 
 @pytest.mark.parametrize("compression", ["zstd", "lz4"])
-def test_a_log_cut_anywhere_is_truncated_and_recovers_each_message_once(logs, tmp_path: Path, compression: str) -> None:
+def test_a_log_cut_anywhere_is_truncated_and_recovers_each_message_once(
+    logs, tmp_path: Path, capsys: pytest.CaptureFixture[str], compression: str
+) -> None:
     data = logs[compression].read_bytes()
     original = message_keys(logs[compression])
     first_chunk = records_of(data, 6)[0][0]
@@ -308,6 +310,9 @@ def test_a_log_cut_anywhere_is_truncated_and_recovers_each_message_once(logs, tm
         if n:
             assert errors[0].kind == "truncated", (n, errors)
         assert all(f.offset is None or f.offset <= n for f in rep.findings), (n, rep.findings)
+        if n % 10 == 0:
+            rc, text = run_cli(["audit", str(cut), "--json"], capsys)
+            assert rc == 1 and json.loads(text)["ok"] is False
         if n < first_chunk:
             continue
         assert recover(rep, out) == rep.figures["messages"]
@@ -316,6 +321,7 @@ def test_a_log_cut_anywhere_is_truncated_and_recovers_each_message_once(logs, tm
         got = message_keys(out)
         assert max(got.values(), default=1) == 1 and not got - original  # once each, none made up
         assert sum(got.values()) == rep.figures["messages"]
+    assert {q.name for q in tmp_path.iterdir()} == {"cut.mcap", "recovered.mcap"}  # no partial file left
 
 
 @pytest.mark.integration
@@ -435,7 +441,9 @@ def crafted_lengths(data: bytes) -> list[tuple[str, bytearray, int]]:
     return out
 
 
-def test_crafted_record_and_field_lengths_are_refused_at_their_record(logs, tmp_path: Path) -> None:
+def test_crafted_record_and_field_lengths_are_refused_at_their_record(
+    logs, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     data = logs["zstd"].read_bytes()
     bad = tmp_path / "crafted.mcap"
     cases = crafted_lengths(data)
@@ -452,6 +460,10 @@ def test_crafted_record_and_field_lengths_are_refused_at_their_record(logs, tmp_
     finally:
         tracemalloc.stop()
     assert peak < 32 * MiB
+    for _, d, _ in cases[::5]:
+        bad.write_bytes(d)
+        rc, out = run_cli(["audit", str(bad)], capsys)
+        assert rc == 1 and "integrity: FAILED" in out
 
 
 @pytest.mark.parametrize("length", [2**62, 2**64 - 1, MAX_CHUNK_BYTES + 1])
