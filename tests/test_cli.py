@@ -136,4 +136,4 @@ def test_a_run_that_fails_later_leaves_a_finished_log_that_says_why(tmp_path: Pa
     report = audit(path)
     assert report.figures["end"]["reason"] == "error: RuntimeError: the disk went away"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(1.51)  # stop is asked after step 151
-    assert any("ended early at t = 1.51 s" in f.what for f in report.findings)
+    assert any("ended abnormally at t = 1.51 s" in f.what and f.level == "error" for f in report.findings)

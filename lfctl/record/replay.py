@@ -3,7 +3,6 @@ that ran live, against the renderer's truth (`lfctl replay`)."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,14 +10,17 @@ import cv2
 import numpy as np
 
 from lfctl.errors import ConfigError
-from lfctl.record.audit import audit
+from lfctl.record.audit import _json_messages, audit
 from lfctl.vision.boxes import iou
+from lfctl.vision.frames import FrameError
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
 __all__ = ["ReplayResult", "replay"]
 
 #: a frame is scored when at least this much of the banner shows
 MIN_VISIBLE = 0.5
+#: recorded frames larger than this many pixels are not decoded (a damaged or crafted size)
+MAX_FRAME_PIXELS = 4096 * 4096
 
 
 @dataclass(frozen=True)
@@ -30,6 +32,7 @@ class ReplayResult:
     scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
     recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
     replayed_success: float  # the same for the replayed tracker
+    unreadable: int = 0  # recorded images skipped: not a CompressedImage, not a JPEG that decodes, or another size
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -47,11 +50,13 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     Raises
     ------
     ConfigError
-        The log holds no images for the follower, or no frame with a truth box.
+        The path is not a regular file, the log holds no images for the follower (or none
+        that decodes), or no frame with a truth box.
     """
-    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-
     report = audit(path)
+    unusable = next((f for f in report.findings if f.kind == "file"), None)
+    if unusable is not None:
+        raise ConfigError(unusable.what)
     c = report.contents
     followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
     name = follower or (followers[0] if followers else "")
@@ -61,17 +66,25 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             f"{path} has no recorded camera images for follower {name!r} "
             "(was it run with sensing = 'camera' and recording.images = true?)"
         )
-    recorded = {t: json.loads(d) for t, d in c.messages.get(f"/{name}/tracker", [])}
+    recorded = dict(_json_messages(c, f"/{name}/tracker"))  # valid messages only, by t in s
     tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
-    ok_new = ok_old = n = 0
+    ok_new = ok_old = n = unreadable = 0
     started = False
+    shape: tuple[int, ...] | None = None
     for t, data in images:
-        frame = cv2.imdecode(np.frombuffer(CompressedImage.FromString(data).data, np.uint8), cv2.IMREAD_COLOR)
-        rec = recorded.get(t, {})
+        frame = _decode(data)
+        if frame is None or (shape is not None and frame.shape != shape):
+            unreadable += 1
+            continue
+        shape = frame.shape
+        rec = recorded.get(t / 1e9, {})
         truth = rec.get("truth_bbox")
         if not started:
             if truth:
-                tracker.init(frame, tuple(truth))
+                try:
+                    tracker.init(frame, tuple(truth))
+                except FrameError:  # a truth box outside the frame: wait for the next
+                    continue
                 started = True
             continue
         st = tracker.update(frame)
@@ -79,6 +92,49 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             n += 1
             ok_new += iou(st.bbox, truth) >= 0.5
             ok_old += iou(rec.get("bbox"), truth) >= 0.5
+    if unreadable == len(images):
+        raise ConfigError(f"{path}: none of the {len(images)} recorded images of {name!r} decodes")
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
-    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n)
+    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n, unreadable)
+
+
+def _decode(data: bytes) -> np.ndarray | None:
+    """A recorded foxglove.CompressedImage as a BGR frame; None when it is not one, is empty,
+    is not a JPEG or PNG OpenCV decodes, or is larger than MAX_FRAME_PIXELS."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from google.protobuf.message import DecodeError
+
+    try:
+        jpeg = CompressedImage.FromString(data).data
+    except DecodeError:
+        return None
+    size = _image_size(jpeg)
+    if size is None or not 0 < size[0] * size[1] <= MAX_FRAME_PIXELS:
+        return None
+    try:
+        frame = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    except cv2.error:
+        return None
+    return frame if frame is not None and frame.ndim == 3 and frame.size else None
+
+
+def _image_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's frame header or a PNG's IHDR; None when there is none."""
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
+        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    if data[:2] != b"\xff\xd8":
+        return None
+    i = 2
+    while i + 4 <= len(data):
+        if data[i] != 0xFF:
+            return None
+        marker, length = data[i + 1], int.from_bytes(data[i + 2 : i + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # start of frame
+            if i + 9 > len(data):
+                return None
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+        if length < 2:
+            return None
+        i += 2 + length
+    return None
