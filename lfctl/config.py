@@ -29,6 +29,7 @@ __all__ = [
     "GuidanceConfig",
     "LightKey",
     "LinkConfig",
+    "LiveConfig",
     "MissionConfig",
     "OccluderConfig",
     "PropConfig",
@@ -41,6 +42,7 @@ __all__ = [
     "VehicleConfig",
     "load_config",
     "parse_config",
+    "parse_host_port",
 ]
 
 # ----------------------------------------------------------------------------------------
@@ -483,9 +485,12 @@ class RecordingConfig:
 
     enabled: bool = True  # record the run (`lfctl sim --no-record` turns it off too)
     dir: str = "logs"
-    images: bool = True  # record the camera frames as JPEG (camera sensing only)
+    images: bool = True  # record the camera frames (camera sensing only)
+    image_format: Literal["h264", "jpeg"] = "h264"  # H.264 video (foxglove.CompressedVideo) or JPEG images
     image_rate_hz: float = 30.0  # at most the camera rate
     jpeg_quality: int = 85  # 1..100
+    video_bitrate_kbps: int = 800  # H.264 target bitrate, kbit/s
+    video_gop: int = 30  # H.264 frames from one keyframe to the next
     compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the MCAP chunks
     chunk_size_bytes: int = 1024 * 1024  # MCAP chunk size, bytes (>= 1024)
 
@@ -493,8 +498,44 @@ class RecordingConfig:
         _positive("recording.image_rate_hz", self.image_rate_hz)
         if not 1 <= self.jpeg_quality <= 100:
             raise ConfigError(f"recording.jpeg_quality must be within 1..100, got {self.jpeg_quality!r}")
+        if not 50 <= self.video_bitrate_kbps <= 50_000:
+            raise ConfigError(f"recording.video_bitrate_kbps must be within 50..50000, got {self.video_bitrate_kbps!r}")
+        if not 1 <= self.video_gop <= 600:
+            raise ConfigError(f"recording.video_gop must be within 1..600, got {self.video_gop!r}")
         if self.chunk_size_bytes < 1024:
             raise ConfigError(f"recording.chunk_size_bytes must be >= 1024, got {self.chunk_size_bytes!r}")
+
+
+@dataclass(frozen=True)
+class LiveConfig:
+    """[live]: what `--live` and `--video` serve while a run goes on."""
+
+    foxglove: str = "127.0.0.1:8765"  # host:port of the Foxglove WebSocket (`--live` without a value)
+    video: str = "127.0.0.1:5600"  # host:port the RTP/UDP H.264 stream goes to (`--video` without a value)
+    video_annotated: bool = True  # draw the tracked window, markers and state on the streamed view
+    video_bitrate_kbps: int = 1500  # the stream's H.264 target bitrate, kbit/s
+
+    def __post_init__(self) -> None:
+        for key in ("foxglove", "video"):
+            parse_host_port(getattr(self, key), f"live.{key}")
+        if not 50 <= self.video_bitrate_kbps <= 50_000:
+            raise ConfigError(f"live.video_bitrate_kbps must be within 50..50000, got {self.video_bitrate_kbps!r}")
+
+
+def parse_host_port(text: str, what: str) -> tuple[str, int]:
+    """``HOST:PORT`` as (host, port); ConfigError naming ``what`` and the value otherwise.
+
+    Parameters
+    ----------
+    text : str
+        ``127.0.0.1:8765``; port 0 asks for a free port where the server allows it.
+    what : str
+        The option or key it came from, for the error.
+    """
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
+        raise ConfigError(f"{what} must be HOST:PORT with a port within 0..65535, got {text!r}")
+    return host, int(port)
 
 
 @dataclass(frozen=True)
@@ -519,7 +560,7 @@ class Config:
     vehicles : tuple of VehicleConfig
         ``[[vehicles]]``: the leader first, then the followers; names unique, follower targets
         leading back to the leader without a cycle.
-    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, audit
+    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, live, audit
         The other sections (``[script]``, ``[mission]``, ...), defaults where absent.
     source : str
         The TOML text, kept for the run record.
@@ -538,6 +579,7 @@ class Config:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
     source: str = ""  # the TOML text, kept for the run record
 
@@ -757,6 +799,7 @@ class _ConfigTable:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
 
 

@@ -31,7 +31,7 @@ ALLOWED = {
     "fmu": {"data", "errors", "fmu"},
     "link": {"errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"config", "errors", "metrics", "vision", "record"},
+    "record": {"config", "errors", "frames", "metrics", "vision", "record"},
     "sim": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,

@@ -28,6 +28,7 @@ from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
+from lfctl.record.writer import image_topic
 
 __all__ = ["AuditReport", "Contents", "Finding", "audit", "check_thresholds", "format_report", "plot", "recover"]
 
@@ -94,6 +95,25 @@ class Contents:
     data_end: bool = False  # the data section's end record was read
     bytes_read: int = 0  # bytes read intact, up to the first fault
     file_size: int = 0  # the file's size, bytes
+
+    @property
+    def start_ns(self) -> int:
+        """The run's start on the epoch clock, ns (metadata ``run.start_time_ns``); 0 for a
+        log whose times are the simulation time itself."""
+        try:
+            return int(self.metadata.get("run", {}).get("start_time_ns", "0"))
+        except ValueError:
+            return 0
+
+    def sim_s(self, log_time_ns: int) -> float:
+        """A log time as simulation time, s.
+
+        Parameters
+        ----------
+        log_time_ns : int
+            A message's ``log_time``, ns.
+        """
+        return (log_time_ns - self.start_ns) / 1e9
 
 
 @dataclass
@@ -219,7 +239,7 @@ def _truncated(size: int) -> str:
 
 
 def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
-    return [(t / 1e9, json.loads(d)) for t, d in c.messages.get(topic, [])]
+    return [(c.sim_s(t), json.loads(d)) for t, d in c.messages.get(topic, [])]
 
 
 def audit(path: str | Path) -> AuditReport:
@@ -268,7 +288,7 @@ def audit(path: str | Path) -> AuditReport:
         if not msgs:
             findings.append(Finding("error" if c.footer else "warning", f"expected topic {topic} is missing"))
             continue
-        times = np.array([t for t, _ in msgs]) / 1e9
+        times = np.array([c.sim_s(t) for t, _ in msgs])
         gaps = np.diff(times)
         big = gaps > 3 * period + 1e-6
         if big.any():
@@ -307,7 +327,8 @@ def audit(path: str | Path) -> AuditReport:
         if m.get("event") == "reached"
     ]
     figures["waypoints"] = int(run.get("waypoints", "0") or 0)
-    figures["links"] = _link_figures(c)
+    link = _link_figures(c)
+    figures["links"], figures["link_senders"] = link["links"], link["senders"]
     figures["topics"] = {
         ch.topic: counted[ch_id] for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic)
     }
@@ -331,7 +352,7 @@ def _expected_topics(run: dict[str, str]) -> dict[str, float]:
             out[f"/{f}/tracker"] = cam
             out[f"/{f}/camera/annotations"] = cam
             if run.get("images") == "true":
-                out[f"/{f}/camera/image/compressed"] = 1.0 / float(run.get("image_rate_hz", "30"))
+                out[image_topic(f, run.get("image_format", "jpeg"))] = 1.0 / float(run.get("image_rate_hz", "30"))
     return out
 
 
@@ -410,36 +431,75 @@ def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]
     return out
 
 
+#: a sender silent this long, then heard again, started a new session (a new process,
+#: a reconnect): its sequence restarts, which is not loss
+SESSION_GAP_S = 2.5
+COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
+
+
 def _link_figures(c: Contents) -> dict[str, Any]:
+    """Per link: packets each way, message rates, commands and their acks; per sender: loss.
+
+    Loss is counted on each sender's own sequence numbers over every packet the run's
+    endpoints heard from it (a ground station's one counter serves every vehicle it talks
+    to, so a gap on one vehicle's link is often a packet sent to another). A repeated
+    number is a duplicate; a sender silent for :data:`SESSION_GAP_S` starts afresh. An ack
+    is matched to the oldest unanswered command of the same number from the system and
+    component it is addressed to; its latency is on the log's clock.
+    """
     links: dict[str, Any] = {}
-    for topic, msgs in c.messages.items():
+    heard: dict[str, list[tuple[float, int]]] = defaultdict(list)  # sender "sys/comp" -> (t, seq)
+    for topic, msgs in sorted(c.messages.items()):
         if not topic.startswith("/mavlink/"):
             continue
         dirs = {"in": 0, "out": 0}
-        seq_by_src: dict[tuple[int, int], list[int]] = defaultdict(list)
-        pending: dict[int, float] = {}
-        latencies = []
-        for t, d in msgs:
+        rates: dict[str, int] = defaultdict(int)
+        pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)  # (dir, sys, comp, cmd) -> times
+        latencies: list[float] = []
+        commands = 0
+        span = [math.inf, -math.inf]
+        for t_ns, d in msgs:
             m = json.loads(d)
-            dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
-            if m["direction"] == "in" and "seq" in m:
-                seq_by_src[(m["sysid"], m["compid"])].append(m["seq"])
-            if m["name"] == "COMMAND_LONG" and m["direction"] == "in":
-                pending[m["fields"].get("command", -1)] = t / 1e9
-            if m["name"] == "COMMAND_ACK" and m["direction"] == "out" and m["fields"].get("command") in pending:
-                latencies.append(t / 1e9 - pending.pop(m["fields"]["command"]))
-        lost = 0
-        for seqs in seq_by_src.values():
-            for a, b in itertools.pairwise(seqs):
-                if b != a:  # the same seq again is a duplicate, not 255 lost
-                    lost += (b - a - 1) % 256
+            t = c.sim_s(t_ns)
+            span = [min(span[0], t), max(span[1], t)]
+            direction, name = m["direction"], m["name"]
+            dirs[direction] = dirs.get(direction, 0) + 1
+            rates[f"{direction} {name}"] += 1
+            if direction == "in" and "seq" in m:
+                heard[f"{m['sysid']}/{m['compid']}"].append((t, m["seq"]))
+            fields = m.get("fields", {})
+            if name in COMMANDS:
+                commands += 1
+                pending[(direction, m["sysid"], m["compid"], fields.get("command", -1))].append(t)
+            elif name == "COMMAND_ACK":
+                other = "out" if direction == "in" else "in"
+                key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
+                waiting = pending.get(key)
+                if not waiting:  # an ack without its commander's address: match on the command alone
+                    key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
+                    waiting = pending.get(key)
+                if waiting:
+                    latencies.append(t - waiting.pop(0))
+        duration = max(span[1] - span[0], 1e-9) if math.isfinite(span[0]) else 0.0
         links[topic] = {
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
-            "lost_in_by_seq": lost,
+            "duration_s": round(duration, 3),
+            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration else {},
+            "commands": commands,
+            "commands_acked": len(latencies),
             "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
+            "command_ack_latency_ms_median": round(float(np.median(latencies)) * 1000, 2) if latencies else None,
         }
-    return links
+    senders = {}
+    for sender, got in sorted(heard.items()):
+        got.sort()
+        lost = 0
+        for (ta, a), (tb, b) in itertools.pairwise(got):
+            if b != a and tb - ta < SESSION_GAP_S:  # the same number again is a duplicate, not 255 lost
+                lost += (b - a - 1) % 256
+        senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
+    return {"links": links, "senders": senders}
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
@@ -595,7 +655,13 @@ def format_report(report: AuditReport) -> str:
         lines.append(f"mission: {len(fig['mission'])}/{fig['waypoints']} waypoints reached ({reached})")
     for topic, link in fig.get("links", {}).items():
         lines.append(
-            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out, {link['lost_in_by_seq']} lost (by sequence), max command ack {link['command_ack_latency_ms_max']} ms"
+            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out; {link['commands']} commands, "
+            f"{link['commands_acked']} acked (ack latency median {_cell(link['command_ack_latency_ms_median'])} ms, "
+            f"max {_cell(link['command_ack_latency_ms_max'])} ms on the log's clock)"
+        )
+    for sender, s in fig.get("link_senders", {}).items():
+        lines.append(
+            f"  sender {sender}: {s['packets']} packets heard, {s['lost']} lost by its sequence ({s['loss_pct']} %)"
         )
     return "\n".join(lines)
 

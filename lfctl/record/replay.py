@@ -12,10 +12,12 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 from lfctl.record.audit import audit
+from lfctl.record.video import decode_h264
+from lfctl.record.writer import image_topic
 from lfctl.vision.boxes import iou
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
-__all__ = ["ReplayResult", "replay"]
+__all__ = ["ReplayResult", "recorded_frames", "replay"]
 
 #: a frame is scored when at least this much of the banner shows
 MIN_VISIBLE = 0.5
@@ -49,13 +51,11 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     ConfigError
         The log holds no images for the follower, or no frame with a truth box.
     """
-    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-
     report = audit(path)
     c = report.contents
     followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
     name = follower or (followers[0] if followers else "")
-    images = c.messages.get(f"/{name}/camera/image/compressed", [])
+    images = recorded_frames(c.messages, name)
     if not images:
         raise ConfigError(
             f"{path} has no recorded camera images for follower {name!r} "
@@ -65,8 +65,7 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
     ok_new = ok_old = n = 0
     started = False
-    for t, data in images:
-        frame = cv2.imdecode(np.frombuffer(CompressedImage.FromString(data).data, np.uint8), cv2.IMREAD_COLOR)
+    for t, frame in images:
         rec = recorded.get(t, {})
         truth = rec.get("truth_bbox")
         if not started:
@@ -82,3 +81,28 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
     return ReplayResult(name, len(images), n, ok_old / n, ok_new / n)
+
+
+def recorded_frames(messages: dict[str, list[tuple[int, bytes]]], follower: str) -> list[tuple[int, np.ndarray]]:
+    """A follower's recorded camera frames, decoded: (log_time ns, BGR image) in order, from
+    its H.264 video or its JPEG images (whichever the log holds).
+
+    Parameters
+    ----------
+    messages : dict
+        Topic -> (log_time ns, payload) of every message (as :class:`~lfctl.record.audit.Contents` holds them).
+    follower : str
+        Whose camera.
+    """
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
+
+    video = messages.get(image_topic(follower, "h264"), [])
+    if video:
+        times = [t for t, _ in video]
+        units = (CompressedVideo.FromString(d).data for _, d in video)
+        return [(times[k], frame) for k, frame in decode_h264(units)]
+    return [
+        (t, cv2.imdecode(np.frombuffer(CompressedImage.FromString(d).data, np.uint8), cv2.IMREAD_COLOR))
+        for t, d in messages.get(image_topic(follower, "jpeg"), [])
+    ]
