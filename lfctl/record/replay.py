@@ -32,6 +32,8 @@ class ReplayResult:
     scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
     recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
     replayed_success: float  # the same for the replayed tracker
+    recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
+    replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -63,7 +65,7 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
         )
     recorded = {t: json.loads(d) for t, d in c.messages.get(f"/{name}/tracker", [])}
     tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
-    ok_new = ok_old = n = 0
+    ok_new = ok_old = n = markers_new = markers_old = 0
     started = False
     for t, frame in images:
         rec = recorded.get(t, {})
@@ -78,9 +80,11 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             n += 1
             ok_new += iou(st.bbox, truth) >= 0.5
             ok_old += iou(rec.get("bbox"), truth) >= 0.5
+            markers_new += st.markers is not None
+            markers_old += rec.get("markers") is not None
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
-    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n)
+    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n, markers_old / n, markers_new / n)
 
 
 def recorded_frames(messages: dict[str, list[tuple[int, bytes]]], follower: str) -> list[tuple[int, np.ndarray]]:

@@ -20,7 +20,7 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 
-__all__ = ["EncodedFrame", "H264Encoder", "decode_h264", "psnr"]
+__all__ = ["EncodedFrame", "H264Decoder", "H264Encoder", "decode_h264", "psnr"]
 
 
 @dataclass(frozen=True)
@@ -35,7 +35,7 @@ class EncodedFrame:
 class H264Encoder:
     """libx264 at a target bitrate for a live or recorded camera.
 
-    ``veryfast`` with ``zerolatency`` (no lookahead, no B-frames): every frame put in comes
+    ``ultrafast`` with ``zerolatency`` (no lookahead, no B-frames): every frame put in comes
     out at once as one access unit. The rate is held by x264's VBV at ``bitrate_kbps`` over
     one second, so a file's size follows from its length.
 
@@ -59,7 +59,7 @@ class H264Encoder:
     """
 
     def __init__(
-        self, width: int, height: int, fps: float, bitrate_kbps: int, gop: int = 30, preset: str = "veryfast"
+        self, width: int, height: int, fps: float, bitrate_kbps: int, gop: int = 30, preset: str = "ultrafast"
     ) -> None:
         if width <= 0 or height <= 0 or width % 2 or height % 2:
             raise ConfigError(f"H.264 needs an even, positive frame size, got {width}x{height}")
@@ -114,6 +114,31 @@ class H264Encoder:
         self.frames += 1
         self.bytes += len(data)
         return out
+
+
+class H264Decoder:
+    """Decodes Annex B access units one by one (as a live receiver or a log reader gets them)."""
+
+    def __init__(self) -> None:
+        self._dec = av.CodecContext.create("h264", "r")
+        self._dec.thread_count = 1
+        self.units = 0  # access units given
+
+    def decode(self, unit: bytes) -> list[np.ndarray]:
+        """The BGR frames this access unit completes (none before the first keyframe).
+
+        Parameters
+        ----------
+        unit : bytes
+            One access unit.
+        """
+        packet = av.Packet(unit)
+        packet.pts = self.units
+        self.units += 1
+        try:
+            return [f.to_ndarray(format="bgr24") for f in self._dec.decode(packet)]
+        except av.error.InvalidDataError:
+            return []  # a delta frame before any keyframe: nothing to decode against
 
 
 def decode_h264(units: Iterable[bytes]) -> Iterator[tuple[int, np.ndarray]]:

@@ -107,6 +107,10 @@ class _Cameras:
     def __init__(self, cfg: Config, specs: list[tuple[str, int]], threaded: bool) -> None:
         self.cfg = cfg
         self.sensors = {name: CameraSensor(cfg, name, seed) for name, seed in specs}
+        # x264 through PyAV takes and gives back the interpreter lock several times a frame:
+        # beside a busy tracker thread each hand-over waits for a switch interval, which made
+        # a thread 4x slower than encoding in line; JPEG (one call, lock released) gains
+        threaded = threaded and cfg.recording.image_format == "jpeg"
         self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-encode") if threaded else None
         self._video: dict[str, H264Encoder] = {}  # the log's H.264, per follower
         self._stream: dict[str, H264Encoder] = {}  # the live stream's H.264, per follower
