@@ -303,6 +303,7 @@ class CameraRouter:
                 if camera is None:
                     rest.append(bytes(m.get_msgbuf()))
                 else:
+                    self.inner.accept_peer(addr)  # a valid command: its sender gets the answer
                     camera.handle(m)
                     taken = True
             if not taken:

@@ -1038,7 +1038,7 @@ def _annotations(stamp: fm.Timestamp, track: Any, measurement: Any) -> fm.ImageA
             background_color=_colour(0.0, 0.0, 0.0, 0.5),
         )
     )
-    return fm.ImageAnnotations(points=points, texts=texts)
+    return fm.ImageAnnotations(timestamp=stamp, points=points, texts=texts)
 
 
 def _jsonable(value: Any) -> Any:

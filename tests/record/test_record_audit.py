@@ -67,28 +67,63 @@ def truth_log(tmp_path_factory: pytest.TempPathFactory):
 def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None:
     path, _ = camera_log
     seen: dict[str, int] = {}
+    start_ns = None
+    stamps: dict[str, set[int]] = {"video": set(), "annotations": set()}
+    tf_children: dict[str, str] = {}
     with path.open("rb") as f:
         reader = NonSeekingReader(f, validate_crcs=True, decoder_factories=[DecoderFactory(), JsonDecoders()])
         for schema, channel, message, decoded in reader.iter_decoded_messages():
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
             if channel.message_encoding == "json":
                 assert isinstance(decoded, dict) and decoded == json.loads(message.data)
+                # epoch log time = the run's start + the simulation time the message carries
+                start = message.log_time - round(decoded["t_s"] * 1e9)
+                start_ns = start if start_ns is None else start_ns
+                assert abs(start - start_ns) <= 1000 and start_ns > 1.6e18  # after 2020: not 1970
             else:
                 assert decoded.DESCRIPTOR.full_name == schema.name
+                if hasattr(decoded, "timestamp"):
+                    stamp = decoded.timestamp.seconds * 10**9 + decoded.timestamp.nanos
+                    assert stamp == message.log_time, channel.topic
             if channel.topic == "/leader/pose":
                 assert (
                     type(decoded).DESCRIPTOR.full_name == PoseInFrame.DESCRIPTOR.full_name and decoded.frame_id == "ned"
                 )
-            if channel.topic.endswith("image/compressed"):
-                assert type(decoded).DESCRIPTOR.full_name == CompressedImage.DESCRIPTOR.full_name
-                assert decoded.format == "jpeg" and decoded.data[:2] == b"\xff\xd8"
+            if channel.topic == "/follower1/camera/video":
+                assert decoded.format == "h264" and decoded.frame_id == "follower1/camera"
+                stamps["video"].add(message.log_time)
+            if channel.topic == "/follower1/camera/annotations":
+                for p in decoded.points:
+                    assert p.timestamp.seconds * 10**9 + p.timestamp.nanos == message.log_time
+                stamps["annotations"].add(message.log_time)
+            if channel.topic == "/tf":
+                tf_children |= {t.child_frame_id: t.parent_frame_id for t in decoded.transforms}
+            if channel.topic == "/leader/fix":
+                assert 12 < decoded.latitude < 14 and 77 < decoded.longitude < 78  # CSIR-NAL, Bengaluru
+            if channel.topic == "/follower1/camera/calibration":
+                assert decoded.frame_id == "follower1/camera"
     expected = {
-        "/leader/pose", "/follower1/pose", "/tf", "/follower1/controller", "/follower1/tracker",
-        "/follower1/pose_estimate", "/follower1/camera/image/compressed", "/follower1/camera/annotations",
-        "/follower1/camera/calibration",
+        "/leader/pose", "/follower1/pose", "/leader/fix", "/follower1/fix", "/tf", "/scene", "/log",
+        "/follower1/controller", "/follower1/tracker", "/follower1/pose_estimate", "/follower1/camera/video",
+        "/follower1/camera/annotations", "/follower1/camera/calibration",
     }  # fmt: skip
     assert expected <= set(seen)
-    assert seen["/follower1/camera/image/compressed"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    assert seen["/follower1/camera/video"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    # every image has annotations stamped with its time; the calibration's frame is in /tf
+    assert stamps["video"] <= stamps["annotations"]
+    assert tf_children["follower1/camera"] == "follower1" and tf_children["follower1"] == "ned"
+    assert tf_children["ned"] == "map"
+
+
+def test_a_jpeg_log_keeps_jpeg_images(tmp_path: Path) -> None:
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path, "camera", 1.0)
+    cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_format="jpeg"))
+    run_scenario(cfg, record_to=tmp_path / "j.mcap")
+    rep = audit(tmp_path / "j.mcap")
+    assert rep.ok, [f.line() for f in rep.findings]
+    images = rep.contents.messages["/follower1/camera/image/compressed"]
+    assert images and all(CompressedImage.FromString(d).data[:2] == b"\xff\xd8" for _, d in images)
+    assert "/follower1/camera/video" not in rep.contents.messages
 
 
 def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:

@@ -1,0 +1,360 @@
+"""Live: the Foxglove WebSocket of a running `lfctl sim --live`, the RTP/UDP H.264 stream,
+H.264 in the MCAP, the MAVLink camera component, and the audit's link figures."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+import math
+import os
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+import websockets
+from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
+from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from mcap.reader import NonSeekingReader
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.cli import main
+from lfctl.config import load_config
+from lfctl.link.camera import CameraComponent, CameraRouter
+from lfctl.link.transport import UdpLink
+from lfctl.record.audit import audit
+from lfctl.record.rtp import nal_units, sdp
+from lfctl.record.video import H264Encoder, psnr
+from lfctl.record.writer import Recorder
+from lfctl.sim.runner import run_scenario
+
+pytestmark = pytest.mark.fmu
+EXAMPLES = Path(__file__).parents[2] / "examples"
+ROOT = Path(__file__).parents[2]
+
+
+def free_udp_ports(n: int) -> int:
+    """A base port with ``n`` free consecutive UDP ports after it (found free, then let go)."""
+    for _ in range(50):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
+            a.bind(("127.0.0.1", 0))
+            base = a.getsockname()[1]
+        if base > 65000:
+            continue
+        try:
+            socks = []
+            for k in range(n):
+                s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+                socks.append(s)
+                s.bind(("127.0.0.1", base + k))
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+        return base
+    raise RuntimeError(f"no {n} free consecutive UDP ports")
+
+
+def short_camera_cfg(duration_s: float, **recording: object):
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    return dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration_s),
+        recording=dataclasses.replace(cfg.recording, **recording),
+    )
+
+
+# -- the Foxglove WebSocket ---------------------------------------------------------------------
+async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[bytes]]:
+    """Connect as Foxglove does, subscribe to every advertised channel, keep payloads per topic
+    until every wanted topic has sent a message (or 30 s passed)."""
+    got: dict[str, list[bytes]] = {}
+    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+        assert ws.subprotocol == "foxglove.sdk.v1"
+        topic_of_sub: dict[int, str] = {}
+
+        async def loop() -> None:
+            async for frame in ws:
+                if isinstance(frame, str):
+                    msg = json.loads(frame)
+                    if msg["op"] == "advertise":
+                        subs = []
+                        for ch in msg["channels"]:
+                            sub_id = len(topic_of_sub) + 1
+                            topic_of_sub[sub_id] = ch["topic"]
+                            subs.append({"id": sub_id, "channelId": ch["id"]})
+                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                elif frame[0] == 1:  # messageData: op, subscription id, log time, payload
+                    sub_id, _log_time = struct.unpack_from("<IQ", frame, 1)
+                    got.setdefault(topic_of_sub[sub_id], []).append(bytes(frame[13:]))
+                    if wanted <= set(got):
+                        return
+
+        await asyncio.wait_for(loop(), timeout=30)
+    return got
+
+
+@pytest.mark.integration
+def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp_path: Path) -> None:
+    base = free_udp_ports(2)
+    scen = tmp_path / "live.toml"
+    scen.write_text(
+        (EXAMPLES / "convoy.toml").read_text()
+        + f'\n[link]\nudp_base_port = {base}\ngcs_udpout = ""\n[recording]\ndir = "{tmp_path}"\n'
+    )
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "lfctl",
+            "sim",
+            str(scen),
+            "--realtime",
+            "--duration",
+            "20",
+            "-q",
+            "--live",
+            "127.0.0.1:0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        env=env,
+    )
+    try:
+        assert proc.stdout is not None
+        port = None
+        for line in proc.stdout:
+            if line.startswith("foxglove"):
+                port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+                break
+        assert port, "lfctl sim --live did not say where it serves"
+        wanted = {"/leader/pose", "/follower1/camera/video", "/leader/fix", "/tf", "/follower1/controller"}
+        got = asyncio.run(subscribe_and_collect(port, wanted))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    pose = PoseInFrame.FromString(got["/leader/pose"][0])
+    assert pose.frame_id == "ned" and pose.timestamp.seconds > 1_600_000_000
+    video = CompressedVideo.FromString(got["/follower1/camera/video"][0])
+    assert video.format == "h264" and nal_units(video.data)
+    fix = LocationFix.FromString(got["/leader/fix"][0])
+    assert 12 < fix.latitude < 14 and 77 < fix.longitude < 78
+    assert "range_error_m" in json.loads(got["/follower1/controller"][0])
+    assert proc.returncode == 130  # stopped by the interrupt, its log finished
+    (log,) = tmp_path.glob("*.mcap")
+    assert audit(log).ok
+
+
+def test_live_on_a_port_in_use_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code = main(["sim", "convoy", "--duration", "1", "--no-record", "--live", f"127.0.0.1:{port}", "-q"])
+    err = capsys.readouterr().err
+    assert code == 1 and f"127.0.0.1:{port}" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("value", ["nohost", "127.0.0.1:99999", ":80"])
+def test_a_bad_live_address_names_the_value(value: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "convoy", "--duration", "1", "--no-record", "--live", value]) == 2
+    err = capsys.readouterr().err
+    assert repr(value) in err and "Traceback" not in err
+
+
+# -- RTP/UDP H.264 ----------------------------------------------------------------------------
+@pytest.mark.integration
+def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(tmp_path: Path) -> None:
+    port = free_udp_ports(2)  # RTP and its RTCP port, as the receiver binds both
+    cfg = short_camera_cfg(4.0)
+    cfg = dataclasses.replace(cfg, live=dataclasses.replace(cfg.live, video_annotated=False))
+    rendered: list[np.ndarray] = []
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_scenario(
+                cfg,
+                realtime=True,
+                video=("127.0.0.1", port),
+                on_frame=lambda _f, s: rendered.append(s.frame),
+            )
+        except BaseException as exc:
+            errors.append(exc)
+
+    (tmp_path / "s.sdp").write_text(sdp("127.0.0.1", port))
+    # the stream starts at once: frames sent before the receiver binds are lost, and it
+    # begins at the next keyframe (one a second)
+    sim = threading.Thread(target=run, daemon=True)
+    sim.start()
+    decoded = []
+    container = av.open(
+        str(tmp_path / "s.sdp"),
+        format="sdp",
+        options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "reorder_queue_size": "0"},
+        timeout=20,
+    )
+    try:
+        for frame in container.decode(video=0):
+            decoded.append(frame.to_ndarray(format="bgr24"))
+            if len(decoded) >= 40:
+                break
+    finally:
+        container.close()
+        sim.join(30)
+    assert not errors, errors
+    assert len(decoded) >= 40
+    # the first decoded frame is one of the rendered ones; the rest follow it in order
+    first = max(range(len(rendered)), key=lambda k: psnr(decoded[0], rendered[k]))
+    scores = [psnr(d, rendered[first + k]) for k, d in enumerate(decoded)]
+    assert min(scores) > 30.0, scores
+
+
+@pytest.mark.integration
+def test_the_camera_component_answers_a_ground_stations_requests() -> None:
+    udp = UdpLink(None)
+    camera = CameraComponent(
+        2,
+        udp.send,
+        video_port=5600,
+        width=640,
+        height=480,
+        fps=30.0,
+        bitrate_kbps=1500,
+        hfov_deg=62.0,
+        name="follower1 camera",
+    )
+    router = CameraRouter(udp, [camera])
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{udp.port}", source_system=255, source_component=190)
+    try:
+        # the autopilot's command on the same link passes through; the camera's are taken
+        gcs.mav.command_long_send(2, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_CAMERA_INFORMATION, 0, 0, 0, 0, 0, 0
+        )
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION, 1, 0, 0, 0, 0, 0
+        )
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_BATTERY_STATUS, 0, 0, 0, 0, 0, 0
+        )
+        passed: list[bytes] = []
+        received = []
+        for _ in range(200):
+            for data, addr in router.recv():
+                udp.accept_peer(addr)
+                passed.append(data)
+            if camera.requests == 3:
+                break
+            camera.tick(camera.t_s + 0.01)
+            received.append(gcs.recv_match(timeout=0.01))
+        camera.tick(camera.t_s + 1.0)
+        received += [gcs.recv_match(timeout=0.2) for _ in range(8)]
+        heard: dict[str, object] = {}
+        acks: dict[int, list[int]] = {}
+        for m in received:
+            if m is not None and m.get_srcComponent() == 100:
+                heard[m.get_type()] = m
+                if m.get_type() == "COMMAND_ACK":
+                    acks[m.command] = [*acks.get(m.command, []), m.result]
+    finally:
+        gcs.close()
+        udp.close()
+    (arm,) = [mav.MAVLink(None).parse_buffer(d)[0] for d in passed]
+    assert arm.get_type() == "COMMAND_LONG" and arm.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
+    assert heard["HEARTBEAT"].type == mav.MAV_TYPE_CAMERA
+    assert heard["CAMERA_INFORMATION"].flags & mav.CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM
+    info = heard["VIDEO_STREAM_INFORMATION"]
+    assert info.type == mav.VIDEO_STREAM_TYPE_RTPUDP and info.uri == "5600" and info.resolution_h == 640
+    assert acks[mav.MAV_CMD_REQUEST_MESSAGE] == [mav.MAV_RESULT_ACCEPTED] * 2 + [mav.MAV_RESULT_UNSUPPORTED]
+
+
+# -- H.264 in the MCAP ------------------------------------------------------------------------------
+def test_h264_in_the_mcap_reads_in_the_official_reader_and_decodes_to_the_rendered_frames(tmp_path: Path) -> None:
+    cfg = short_camera_cfg(2.0, image_rate_hz=10.0, dir=str(tmp_path))
+    rendered: dict[int, np.ndarray] = {}
+    run_scenario(
+        cfg, record_to=tmp_path / "v.mcap", on_frame=lambda _f, s: rendered.__setitem__(round(s.t_s * 100), s.frame)
+    )
+    start_ns = int(audit(tmp_path / "v.mcap").contents.metadata["run"]["start_time_ns"])
+    decoder = av.CodecContext.create("h264", "r")
+    scores = []
+    with (tmp_path / "v.mcap").open("rb") as f:
+        for _schema, channel, message in NonSeekingReader(f, validate_crcs=True).iter_messages(
+            topics=["/follower1/camera/video"]
+        ):
+            del channel
+            video = CompressedVideo.FromString(message.data)
+            t_cs = round((message.log_time - start_ns) / 1e7)  # the frame's simulation time, 10 ms steps
+            for frame in decoder.decode(av.Packet(video.data)):
+                scores.append(psnr(frame.to_ndarray(format="bgr24"), rendered[t_cs]))
+    assert len(scores) == pytest.approx(20, abs=1)
+    assert min(scores) > 30.0, scores
+
+
+def test_the_encoder_holds_its_bitrate_and_gop() -> None:
+    rng = np.random.default_rng(3)
+    base = (rng.random((240, 320, 3)) * 255).astype(np.uint8)
+    enc = H264Encoder(320, 240, 30.0, 400, gop=15)
+    units = [enc.encode(np.roll(base, 4 * k, axis=1)) for k in range(60)]
+    assert [u.index for u in units if u.keyframe] == [0, 15, 30, 45]
+    assert all(nal_units(u.data)[0][0] & 0x1F == 7 for u in units if u.keyframe)  # SPS first
+    kbps = sum(len(u.data) for u in units) * 8 / 2.0 / 1000
+    assert kbps < 400 * 1.5  # random noise is the worst case for a rate-controlled encoder
+
+
+# -- the audit's link figures --------------------------------------------------------------------------
+def packet(direction: str, sysid: int, compid: int, seq: int, name: str = "HEARTBEAT", **fields: object) -> dict:
+    return {
+        "direction": direction,
+        "sysid": sysid,
+        "compid": compid,
+        "msgid": 0,
+        "name": name,
+        "seq": seq,
+        "fields": fields,
+        "raw": "",
+    }
+
+
+def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(tmp_path: Path) -> None:
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    path = tmp_path / "l.mcap"
+    with Recorder(path, cfg, start_ns=1_700_000_000 * 10**9) as rec:
+        # one ground station (255/190) talks to both vehicles with one counter: 0..9 alternate
+        for seq in range(10):
+            rec.mavlink(seq * 0.1, "leader" if seq % 2 else "follower1", packet("in", 255, 190, seq))
+        rec.mavlink(1.05, "leader", packet("in", 255, 190, 13))  # 10, 11, 12 lost
+        rec.mavlink(9.0, "leader", packet("in", 255, 190, 0))  # a new process 8 s later: not loss
+        rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))
+        rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))  # a duplicate
+        rec.mavlink(
+            9.12, "leader", packet("out", 1, 1, 40, "COMMAND_ACK", command=400, target_system=255, target_component=190)
+        )
+        rec.mavlink(9.2, "leader", packet("in", 250, 1, 0, "COMMAND_LONG", command=176))
+        rec.mavlink(
+            9.5, "leader", packet("out", 1, 1, 41, "COMMAND_ACK", command=176, target_system=250, target_component=1)
+        )
+    rep = audit(path)  # a log of MAVLink only: the missing topics are findings, the figures are what counts
+    assert rep.figures["link_senders"]["255/190"] == {"packets": 14, "lost": 3, "loss_pct": 17.65}
+    leader = rep.figures["links"]["/mavlink/leader"]
+    assert leader["commands"] == 3 and leader["commands_acked"] == 2
+    assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)
+    assert leader["command_ack_latency_ms_median"] == pytest.approx(160.0)
+    assert not math.isnan(leader["rates_hz"]["in HEARTBEAT"])
