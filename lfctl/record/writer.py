@@ -490,7 +490,9 @@ class Recorder:
         self.messages += 1
 
     # -- vehicles ----------------------------------------------------------------------------
-    def poses(self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray) -> None:
+    def poses(
+        self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray, fix: bool = True
+    ) -> None:
         """``/<vehicle>/pose`` and ``/<vehicle>/fix`` for each vehicle, and one ``/tf``: map ->
         ned -> each vehicle -> each recorded camera.
 
@@ -504,6 +506,8 @@ class Recorder:
             (N, 2) north, east, m.
         yaw_rad : np.ndarray
             (N,) headings, rad.
+        fix : bool
+            Also the LocationFix (from ``[link]`` home: a local frame whose origin is known).
         """
         stamp = self._stamp(t_s)
         lat0, lon0, alt0 = self.cfg.link.home_lat_deg, self.cfg.link.home_lon_deg, self.cfg.link.home_alt_m
@@ -536,6 +540,8 @@ class Recorder:
                     rotation=orientation,
                 )
             )
+            if not fix:
+                continue
             lat, lon, alt = ned_to_geodetic(north, east, 0.0, lat0, lon0, alt0)
             self._log(
                 f"/{name}/fix",

@@ -14,6 +14,7 @@ import struct
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import av
@@ -358,3 +359,76 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
     assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)
     assert leader["command_ack_latency_ms_median"] == pytest.approx(160.0)
     assert not math.isnan(leader["rates_hz"]["in HEARTBEAT"])
+
+
+# -- lfctl follow --live ---------------------------------------------------------------------------
+@pytest.mark.integration
+def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path: Path) -> None:
+    import cv2
+
+    from lfctl.link.endpoint import VehicleEndpoint
+    from lfctl.render.sequences import make_sequence
+
+    video = tmp_path / "leader.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
+    for _t, frame, _truth in make_sequence("clear", 1, 400).frames():
+        writer.write(frame)
+    writer.release()
+    udp = UdpLink(("127.0.0.1", 0))
+    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0))
+    rtp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rtp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)  # read after the run: keep it all
+    rtp.bind(("127.0.0.1", 0))
+    rtp.settimeout(0.05)
+    stop = threading.Event()
+    t0 = time.monotonic()
+
+    def vehicle() -> None:
+        while not stop.is_set():
+            rover.tick(
+                time.monotonic() - t0,
+                {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0},
+            )
+            stop.wait(0.005)
+
+    th = threading.Thread(target=vehicle, daemon=True)
+    th.start()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen(
+        [
+            sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{udp.port}", "--camera", str(video),
+            "--timeout", "10", "--live", "127.0.0.1:0", "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
+        ],
+        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
+    )  # fmt: skip
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        assert line.startswith("foxglove"), line
+        port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+        got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+            stop.set()
+            th.join(timeout=5)
+            udp.close()
+    datagrams = []
+    while True:
+        try:
+            datagrams.append(rtp.recv(2048))
+        except TimeoutError:
+            break
+    rtp.close()
+    assert proc.returncode == 130
+    assert CompressedVideo.FromString(got["/rover/camera/video"][0]).format == "h264"
+    assert PoseInFrame.FromString(got["/rover/pose"][0]).frame_id == "ned"
+    # RTP version 2, payload type 96, the last packet of each frame marked
+    assert datagrams and all(d[0] >> 6 == 2 and d[1] & 0x7F == 96 for d in datagrams)
+    assert sum(d[1] >> 7 for d in datagrams) >= 1
+    # stopped by the interrupt, the rover was left with a zero setpoint
+    assert rover._setpoint is not None and rover._setpoint[1:] == (0.0, 0.0)
