@@ -108,7 +108,12 @@ def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str]) -> Non
         link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
     )
     done = threading.Event()
-    sim = threading.Thread(target=lambda: run_scenario(cfg, realtime=True, stop=done.is_set), daemon=True)
+
+    def run() -> None:
+        with contextlib.suppress(KeyboardInterrupt):  # how a stopped run ends
+            run_scenario(cfg, realtime=True, stop=done.is_set)
+
+    sim = threading.Thread(target=run, daemon=True)
     sim.start()
     try:
         rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "6"])
