@@ -30,7 +30,20 @@ from mcap.writer import CompressionType, Writer
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
 from lfctl.record.writer import image_topic
 
-__all__ = ["AuditReport", "Contents", "Finding", "audit", "check_thresholds", "format_report", "plot", "recover"]
+__all__ = [
+    "AuditReport",
+    "Contents",
+    "Finding",
+    "ack_latencies",
+    "audit",
+    "check_thresholds",
+    "format_report",
+    "heard_by_sender",
+    "lost_by_sequence",
+    "mavlink_packets",
+    "plot",
+    "recover",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 KNOWN_SIGNATURES = {
@@ -434,70 +447,117 @@ def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]
 #: a sender silent this long, then heard again, started a new session (a new process,
 #: a reconnect): its sequence restarts, which is not loss
 SESSION_GAP_S = 2.5
+#: a sender's sequence jumping this far (mod 256) restarted: a new process, not 128+ packets lost
+RESTART_JUMP = 128
 COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
 
 
-def _link_figures(c: Contents) -> dict[str, Any]:
-    """Per link: packets each way, message rates, commands and their acks; per sender: loss.
+def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]]:
+    """Every ``/mavlink/<vehicle>`` topic's packets, decoded: (simulation time, packet).
 
-    Loss is counted on each sender's own sequence numbers over every packet the run's
-    endpoints heard from it (a ground station's one counter serves every vehicle it talks
-    to, so a gap on one vehicle's link is often a packet sent to another). A repeated
-    number is a duplicate; a sender silent for :data:`SESSION_GAP_S` starts afresh. An ack
-    is matched to the oldest unanswered command of the same number from the system and
-    component it is addressed to; its latency is on the log's clock.
+    Parameters
+    ----------
+    c : Contents
+        What was read from the log.
     """
+    return {t: _json_messages(c, t) for t in sorted(c.messages) if t.startswith("/mavlink/")}
+
+
+def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, list[tuple[float, float]]]:
+    """Commands on one link and their acks: (commands, [(ack time, latency s)]).
+
+    An ack is matched to the oldest unanswered command of the same number from the system and
+    component it is addressed to, going the other way (commands in and acks out at a vehicle;
+    out and in at a companion); an ack without that address, on the command number alone.
+
+    Parameters
+    ----------
+    packets : list of (t_s, packet)
+        One link's packets in log order.
+    """
+    pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)
+    out = []
+    commands = 0
+    for t, m in packets:
+        fields = m.get("fields", {})
+        if m["name"] in COMMANDS:
+            commands += 1
+            pending[(m["direction"], m["sysid"], m["compid"], fields.get("command", -1))].append(t)
+        elif m["name"] == "COMMAND_ACK":
+            other = "out" if m["direction"] == "in" else "in"
+            key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
+            if not pending.get(key):
+                key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
+            if pending.get(key):
+                out.append((t, t - pending[key].pop(0)))
+    return commands, out
+
+
+def heard_by_sender(links: dict[str, list[tuple[float, dict[str, Any]]]]) -> dict[str, list[tuple[float, int]]]:
+    """Every packet the run's endpoints heard, by sender (``sysid/compid``): (t_s, seq) in
+    time order, over all links (a ground station's one counter serves every vehicle).
+
+    Parameters
+    ----------
+    links : dict
+        As :func:`mavlink_packets` gives them.
+    """
+    heard: dict[str, list[tuple[float, int]]] = defaultdict(list)
+    for packets in links.values():
+        for t, m in packets:
+            if m["direction"] == "in" and "seq" in m:
+                heard[f"{m['sysid']}/{m['compid']}"].append((t, m["seq"]))
+    # by time only: packets of one tick keep the order they were heard in (a sort on the
+    # sequence number too would put 0 before 255 where the counter wraps)
+    return {k: sorted(v, key=lambda x: x[0]) for k, v in sorted(heard.items())}
+
+
+def lost_by_sequence(got: list[tuple[float, int]]) -> list[int]:
+    """Packets lost before each packet of one sender, cumulative: the gaps in its sequence
+    numbers. A repeated number is a duplicate. A sender that started afresh (a new process,
+    a reconnect: its counter restarts) is not loss: after :data:`SESSION_GAP_S` of silence,
+    or a jump of half the counter or more (:data:`RESTART_JUMP`; that many packets lost in
+    a row without a pause does not happen on a live link).
+
+    Parameters
+    ----------
+    got : list of (t_s, seq)
+        One sender's packets in time order.
+    """
+    lost = [0] * min(1, len(got))
+    for (ta, a), (tb, b) in itertools.pairwise(got):
+        gap = (b - a - 1) % 256
+        lost.append(lost[-1] + (gap if b != a and gap < RESTART_JUMP and tb - ta < SESSION_GAP_S else 0))
+    return lost
+
+
+def _link_figures(c: Contents) -> dict[str, Any]:
+    """Per link: packets each way, message rates, commands and their acks (latency on the
+    log's clock); per sender: loss by its own sequence numbers over every link."""
     links: dict[str, Any] = {}
-    heard: dict[str, list[tuple[float, int]]] = defaultdict(list)  # sender "sys/comp" -> (t, seq)
-    for topic, msgs in sorted(c.messages.items()):
-        if not topic.startswith("/mavlink/"):
-            continue
+    packets = mavlink_packets(c)
+    for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
         rates: dict[str, int] = defaultdict(int)
-        pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)  # (dir, sys, comp, cmd) -> times
-        latencies: list[float] = []
-        commands = 0
-        span = [math.inf, -math.inf]
-        for t_ns, d in msgs:
-            m = json.loads(d)
-            t = c.sim_s(t_ns)
-            span = [min(span[0], t), max(span[1], t)]
-            direction, name = m["direction"], m["name"]
-            dirs[direction] = dirs.get(direction, 0) + 1
-            rates[f"{direction} {name}"] += 1
-            if direction == "in" and "seq" in m:
-                heard[f"{m['sysid']}/{m['compid']}"].append((t, m["seq"]))
-            fields = m.get("fields", {})
-            if name in COMMANDS:
-                commands += 1
-                pending[(direction, m["sysid"], m["compid"], fields.get("command", -1))].append(t)
-            elif name == "COMMAND_ACK":
-                other = "out" if direction == "in" else "in"
-                key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
-                waiting = pending.get(key)
-                if not waiting:  # an ack without its commander's address: match on the command alone
-                    key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
-                    waiting = pending.get(key)
-                if waiting:
-                    latencies.append(t - waiting.pop(0))
-        duration = max(span[1] - span[0], 1e-9) if math.isfinite(span[0]) else 0.0
+        for _t, m in msgs:
+            dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
+            rates[f"{m['direction']} {m['name']}"] += 1
+        duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
+        commands, acks = ack_latencies(msgs)
+        latencies = [lat for _, lat in acks]
         links[topic] = {
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
             "duration_s": round(duration, 3),
-            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration else {},
+            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration > 0 else {},
             "commands": commands,
             "commands_acked": len(latencies),
             "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
             "command_ack_latency_ms_median": round(float(np.median(latencies)) * 1000, 2) if latencies else None,
         }
     senders = {}
-    for sender, got in sorted(heard.items()):
-        got.sort()
-        lost = 0
-        for (ta, a), (tb, b) in itertools.pairwise(got):
-            if b != a and tb - ta < SESSION_GAP_S:  # the same number again is a duplicate, not 255 lost
-                lost += (b - a - 1) % 256
+    for sender, got in heard_by_sender(packets).items():
+        lost = lost_by_sequence(got)[-1]
         senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
     return {"links": links, "senders": senders}
 
@@ -667,8 +727,8 @@ def format_report(report: AuditReport) -> str:
 
 
 def plot(report: AuditReport, out_dir: Path) -> list[Path]:
-    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline;
-    returns the files written.
+    """PNG plots to review the run by (see :mod:`lfctl.record.plots`); returns the files
+    written.
 
     Parameters
     ----------
@@ -677,49 +737,6 @@ def plot(report: AuditReport, out_dir: Path) -> list[Path]:
     out_dir : Path
         Where the PNGs go (made if missing).
     """
-    import matplotlib
+    from lfctl.record.plots import plot_all
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    c = report.contents
-    made = []
-    fig, ax = plt.subplots(figsize=(6, 6))
-    for topic, msgs in sorted(c.messages.items()):
-        if topic.endswith("/pose") and topic.count("/") == 2:
-            pts = []
-            for _t, d in msgs:
-                p = PoseInFrame.FromString(d)
-                pts.append((p.pose.position.y, p.pose.position.x))  # east right, north up
-            a = np.array(pts)
-            ax.plot(a[:, 0], a[:, 1], label=topic.split("/")[1])
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal")
-    ax.legend()
-    ax.set_title("trajectories (top view)")
-    made.append(out_dir / "trajectories.png")
-    fig.savefig(made[-1], dpi=100)
-    plt.close(fig)
-    run = c.metadata.get("run", {})
-    for f in filter(None, run.get("followers", "").split(",")):
-        msgs = _json_messages(c, f"/{f}/controller")
-        if not msgs:
-            continue
-        t = np.array([m[0] for m in msgs])
-        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-        a1.plot(t, [m[1]["range_error_m"] for m in msgs])
-        a1.set_ylabel("range error (m)")
-        a2.plot(t, [m[1]["bearing_error_deg"] for m in msgs])
-        a2.set_ylabel("bearing error (deg)")
-        code = {"tracking": 2, "occluded": 1, "lost": 0}
-        a3.step(t, [code[m[1]["status"]] for m in msgs], where="post")
-        a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
-        a3.set_xlabel("simulation time (s)")
-        a1.set_title(f"{f}: formation errors and track state")
-        made.append(out_dir / f"{f}_errors.png")
-        fig.savefig(made[-1], dpi=100)
-        plt.close(fig)
-    return made
+    return plot_all(report, out_dir)

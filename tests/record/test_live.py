@@ -342,6 +342,7 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
         for seq in range(10):
             rec.mavlink(seq * 0.1, "leader" if seq % 2 else "follower1", packet("in", 255, 190, seq))
         rec.mavlink(1.05, "leader", packet("in", 255, 190, 13))  # 10, 11, 12 lost
+        rec.mavlink(1.3, "leader", packet("in", 255, 190, 0))  # `lfctl gcs` run again at once: a restart
         rec.mavlink(9.0, "leader", packet("in", 255, 190, 0))  # a new process 8 s later: not loss
         rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))
         rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))  # a duplicate
@@ -353,7 +354,7 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
             9.5, "leader", packet("out", 1, 1, 41, "COMMAND_ACK", command=176, target_system=250, target_component=1)
         )
     rep = audit(path)  # a log of MAVLink only: the missing topics are findings, the figures are what counts
-    assert rep.figures["link_senders"]["255/190"] == {"packets": 14, "lost": 3, "loss_pct": 17.65}
+    assert rep.figures["link_senders"]["255/190"] == {"packets": 15, "lost": 3, "loss_pct": 16.67}
     leader = rep.figures["links"]["/mavlink/leader"]
     assert leader["commands"] == 3 and leader["commands_acked"] == 2
     assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)

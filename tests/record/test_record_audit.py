@@ -219,8 +219,16 @@ def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["audit", str(truth_log[0]), "--json", "--plot", str(tmp_path / "plots")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] and out["figures"]["followers"][0]["follower"] == "follower1"
-    assert (tmp_path / "plots" / "trajectories.png").stat().st_size > 1000
-    assert (tmp_path / "plots" / "follower1_errors.png").stat().st_size > 1000
+    for name in ("trajectories", "follower1_errors", "link"):
+        assert (tmp_path / "plots" / f"{name}.png").stat().st_size > 1000
+    assert not (tmp_path / "plots" / "follower1_pose.png").exists()  # truth sensing: no camera pose to plot
+
+
+def test_plots_of_a_camera_run_include_the_pose_against_truth(camera_log, tmp_path: Path) -> None:
+    from lfctl.record.audit import plot
+
+    made = plot(audit(camera_log[0]), tmp_path)
+    assert [p.name for p in made] == ["trajectories.png", "follower1_errors.png", "follower1_pose.png", "link.png"]
 
 
 def test_replay_reruns_a_tracker_on_recorded_frames(camera_log, capsys: pytest.CaptureFixture[str]) -> None:
