@@ -129,7 +129,7 @@ def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp
             "127.0.0.1:0",
         ],
         stdout=subprocess.PIPE,
-        stderr=subprocess.DEVNULL,
+        stderr=(tmp_path / "stderr").open("w"),
         text=True,
         env=env,
     )
@@ -150,6 +150,7 @@ def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp
         finally:
             if proc.poll() is None:
                 proc.kill()
+    assert wanted <= set(got), (sorted(got), (tmp_path / "stderr").read_text())
     pose = PoseInFrame.FromString(got["/leader/pose"][0])
     assert pose.frame_id == "ned" and pose.timestamp.seconds > 1_600_000_000
     video = CompressedVideo.FromString(got["/follower1/camera/video"][0])
@@ -208,7 +209,7 @@ def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(tmp_path: Path)
     container = av.open(
         str(tmp_path / "s.sdp"),
         format="sdp",
-        options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "reorder_queue_size": "0"},
+        options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "buffer_size": str(8 << 20)},
         timeout=20,
     )
     try:
@@ -400,7 +401,7 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path
             sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{udp.port}", "--camera", str(video),
             "--timeout", "10", "--live", "127.0.0.1:0", "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
         ],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
+        stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
     )  # fmt: skip
     try:
         assert proc.stdout is not None
@@ -425,7 +426,8 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path
         except TimeoutError:
             break
     rtp.close()
-    assert proc.returncode == 130
+    assert proc.returncode == 130, (tmp_path / "stderr").read_text()
+    assert {"/rover/pose", "/rover/camera/video", "/rover/controller"} <= set(got), sorted(got)
     assert CompressedVideo.FromString(got["/rover/camera/video"][0]).format == "h264"
     assert PoseInFrame.FromString(got["/rover/pose"][0]).frame_id == "ned"
     # RTP version 2, payload type 96, the last packet of each frame marked
