@@ -8,6 +8,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import signal
 import socket
 import struct
@@ -33,6 +34,7 @@ from lfctl.config import load_config
 from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.transport import UdpLink
 from lfctl.record.audit import audit
+from lfctl.record.layout import layout_json
 from lfctl.record.rtp import nal_units, sdp
 from lfctl.record.video import H264Encoder, psnr
 from lfctl.record.writer import Recorder
@@ -308,6 +310,12 @@ def test_h264_in_the_mcap_reads_in_the_official_reader_and_decodes_to_the_render
                 scores.append(psnr(frame.to_ndarray(format="bgr24"), rendered[t_cs]))
     assert len(scores) == pytest.approx(20, abs=1)
     assert min(scores) > 30.0, scores
+    # the shipped layout is the one the code builds, and every topic it shows is in such a log
+    shipped = json.loads((EXAMPLES / "foxglove-layout.json").read_text())
+    assert shipped == json.loads(layout_json())
+    text = json.dumps(shipped)
+    named = {t.split(".")[0] for t in re.findall(r'"(/[\w/]+(?:\.\w+)?)"', text)}
+    assert named and named <= set(audit(tmp_path / "v.mcap").contents.messages), named
 
 
 def test_the_encoder_holds_its_bitrate_and_gop() -> None:
