@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -34,7 +35,7 @@ def register(sub: Any) -> None:
     gm.add_argument("mode", type=str.upper, choices=("MANUAL", "HOLD", "AUTO", "GUIDED"))
     gsub.add_parser("arm", help="arm")
     gsub.add_parser("disarm", help="disarm")
-    gp = gsub.add_parser("param", help="parameters: list, get NAME, set NAME VALUE")
+    gp = gsub.add_parser("param", help="parameters: list, get NAME, set NAME VALUE, save FILE, load FILE")
     gps = gp.add_subparsers(dest="param_action", required=True, metavar="OP")
     gps.add_parser("list")
     gpg = gps.add_parser("get")
@@ -42,6 +43,11 @@ def register(sub: Any) -> None:
     gpsv = gps.add_parser("set")
     gpsv.add_argument("name")
     gpsv.add_argument("value", type=float)
+    gpsave = gps.add_parser("save", help="write every parameter to FILE (MAVProxy's NAME VALUE, or QGroundControl's)")
+    gpsave.add_argument("file", type=Path)
+    gpsave.add_argument("--format", choices=("mavproxy", "qgc"), default="mavproxy", help="file format")
+    gpload = gps.add_parser("load", help="set every parameter FILE names (MAVProxy's or QGroundControl's format)")
+    gpload.add_argument("file", type=Path)
     gw = gsub.add_parser(
         "watch",
         help="every vehicle heard: a screen that redraws in place, or one JSON object per update on a pipe (Ctrl-C to stop)",
@@ -85,25 +91,50 @@ def run(args: argparse.Namespace) -> int:
             if name != "MAV_RESULT_ACCEPTED":
                 return 1
         elif action == "param":
-            if args.param_action == "list":
-                for k, v in gcs.param_list().items():
-                    print(f"{k:<16} {v:g}")
-            elif args.param_action == "get":
-                print(f"{args.name} = {gcs.param_get(args.name):g}")
-            else:
-                got = gcs.param_set(args.name, args.value)
-                print(f"{args.name} = {got:g}")
-                if abs(got - args.value) > 1e-6:
-                    print(
-                        f"lfctl: error: {args.name} kept {got:g} (refused {args.value:g}; see the vehicle's STATUSTEXT)",
-                        file=sys.stderr,
-                    )
-                    return 1
+            return _param(gcs, args)
         elif action == "watch":
             watch(gcs, args.count)
         return 0
     finally:
         gcs.close()
+
+
+def _param(gcs: Any, args: argparse.Namespace) -> int:
+    """The ``param`` actions; 1 when the vehicle refused a value."""
+    from lfctl.link.params import load_param_file, save_param_file
+
+    if args.param_action == "list":
+        for k, v in gcs.param_list().items():
+            print(f"{k:<16} {v:g}")
+    elif args.param_action == "get":
+        print(f"{args.name} = {gcs.param_get(args.name):g}")
+    elif args.param_action == "save":
+        values = gcs.param_list()
+        save_param_file(values, args.file, args.format, args.target)
+        print(f"saved {len(values)} parameters to {args.file}")
+    else:
+        wanted = {args.name: args.value} if args.param_action == "set" else load_param_file(args.file)
+        skipped = []
+        if args.param_action == "load":  # a file from another vehicle names parameters this one has not
+            known = gcs.param_list()
+            skipped = sorted(n for n in wanted if n not in known)
+            wanted = {n: v for n, v in wanted.items() if n in known}
+            if skipped:
+                print(f"skipped {len(skipped)} parameters this vehicle does not have: {', '.join(skipped[:8])}"
+                      + (", ..." if len(skipped) > 8 else ""))  # fmt: skip
+        refused = []
+        for name, value in wanted.items():
+            got = gcs.param_set(name, value)
+            if args.param_action == "set":
+                print(f"{name} = {got:g}")
+            if not (math.isfinite(value) and math.isclose(got, value, rel_tol=1e-6, abs_tol=1e-6)):
+                refused.append(f"{name} kept {got:g} (refused {value:g})")
+        if args.param_action == "load":
+            print(f"set {len(wanted) - len(refused)} of {len(wanted)} parameters from {args.file}")
+        if refused:
+            print(f"lfctl: error: {'; '.join(refused)}; see the vehicle's STATUSTEXT", file=sys.stderr)
+            return 1
+    return 0
 
 
 #: a vehicle not heard for this long is shown stale, s

@@ -125,11 +125,16 @@ def print_report(report: RunReport) -> None:
     workers = result.extra.get("camera_workers")
     spread = f", cameras in {workers + 1} processes" if isinstance(workers, int) and workers else ""
     print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time{spread})")
+    modes = ", ".join(f"{name} {secs:.1f} s" for name, secs in report.leader_modes) or "none"
     if report.leader_mode == "auto":
+        distinct = len({i for i, _t in report.waypoints_reached})
         reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
-        print(f"leader       AUTO: {len(report.waypoints_reached)}/{report.n_waypoints} waypoints reached ({reached})")
+        print(f"leader       {modes}; {distinct}/{report.n_waypoints} waypoints reached ({reached})")
     else:
-        print("leader       scripted speed / yaw-rate profile (no [mission] waypoints)")
+        print(f"leader       {modes}; scripted speed / yaw-rate profile (no [mission] waypoints)")
+    for c in report.mission_changes:
+        what = f"replaced ({c.items} items)" if c.items else "cleared"
+        print(f"             {c.kind} {what} by system {c.sysid} at {c.t_s:.1f} s")
     if report.metrics and cfg.script.followers == "formation":
         print()
         print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")

@@ -2,11 +2,18 @@
 
 HEARTBEAT (GROUND_ROVER, ARDUPILOTMEGA, Rover mode numbers), streamed telemetry at rates a
 ground station may change (SET_MESSAGE_INTERVAL), REQUEST_MESSAGE, COMMAND_LONG/INT with
-COMMAND_ACK, parameters with real effect, the mission protocol (*_INT, mission_type MISSION:
-upload with per-item timeouts and retries, download, clear, set current), GUIDED setpoints
-from a companion (SET_POSITION_TARGET_LOCAL_NED, BODY_NED, type_mask 1479) with a timeout,
-and failsafes (GCS heartbeat lost -> HOLD; companion silent -> stop). Time comes in as
-``t_s``; bytes go out through the link it is given.
+COMMAND_ACK as Rover answers them, parameters with real effect, the mission protocol for the
+MISSION, FENCE and RALLY lists (:mod:`lfctl.link.mission_server`), GUIDED targets in every
+form Rover takes (:mod:`lfctl.link.guided`), the geofence with its breach action, RTL and
+SmartRTL, and the GCS failsafe. Time comes in as ``t_s``; bytes go out through the link it is
+given. What the vehicle then does with its mode and targets is the simulation's
+(:mod:`lfctl.sim.driver`).
+
+Nothing a peer sends can end or stall it: every datagram is bounded in size and number per
+tick (the rest is dropped and counted), every field is checked before use (NaN, inf, out of
+range: refused with the result Rover gives, state kept), a handler that fails anyway is
+counted (:attr:`LinkStats.handler_errors`) and logged, never raised, and signed links check
+signatures before any replay state changes (:mod:`lfctl.link.signing`).
 """
 
 from __future__ import annotations
@@ -14,16 +21,21 @@ from __future__ import annotations
 import base64
 import logging
 import math
+import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import ned_to_geodetic, wrap_pi
-from lfctl.link.mission import MissionItem, validate_item
+from lfctl.link.fence import Fence, rally_points
+from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
+from lfctl.link.mission import MissionItem
+from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
+from lfctl.link.params import Param, default_params
 from lfctl.link.port import pack_next
-from lfctl.link.signing import setup_signing
+from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
 
 __all__ = [
     "COMPANION_COMPID",
@@ -40,15 +52,24 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 #: ArduPilot Rover custom mode numbers by name (the modes the endpoint knows)
-MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "GUIDED": 15}
+MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
 GCS_COMPID = 190
 COMPANION_COMPID = 191
 #: SET_POSITION_TARGET_LOCAL_NED type_mask using only the velocity and the yaw rate
 TYPE_MASK_SPEED_YAWRATE = 1479
-MISSION_ITEM_TIMEOUT_S = 0.25
-MISSION_RETRIES = 10  # at 20 % loss each way a round trip fails 36 % of the time
+#: inbound work per tick: the most datagrams and bytes read (more are dropped and counted)
+MAX_DATAGRAMS_PER_TICK = 256
+MAX_BYTES_PER_TICK = 32 * 1024
+#: a datagram longer than this is not what a ground station sends (one frame is <= 280 bytes)
+MAX_DATAGRAM_BYTES = 4 * 1024
+#: the longest STATUSTEXT sent, in chunks (four of MAVLink's 50 bytes)
+STATUSTEXT_MAX_BYTES = 200
+#: SmartRTL keeps at most this many points of the way back (the oldest are thinned out)
+SRTL_POINTS = 300
+#: MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
+REPOSITION_CHANGE_MODE = 1
 
 #: default stream rates (Hz), as ArduPilot's SRx_ parameters would set them
 STREAMS = {
@@ -60,80 +81,47 @@ STREAMS = {
     "ATTITUDE": 10.0,
     "MISSION_CURRENT": 1.0,
     "HOME_POSITION": 0.5,
+    "FENCE_STATUS": 1.0,
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
-
-
-@dataclass
-class Param:
-    """A vehicle parameter.
-
-    Parameters
-    ----------
-    value : float
-        Its value now, in ``unit``.
-    lo, hi : float
-        The range a ground station may set it within, in ``unit``.
-    unit : str
-        Its unit as a ground station shows it (``""`` for none).
-    description : str
-        What it does.
-    readonly : bool
-        Refuse any set.
-    """
-
-    value: float
-    lo: float
-    hi: float
-    unit: str
-    description: str
-    readonly: bool = False
-
-
-def default_params(sysid: int) -> dict[str, Param]:
-    """Parameters with real effect, ArduPilot names where ArduPilot has one (``LFC_*`` are
-    lfctl's formation slot).
-
-    Parameters
-    ----------
-    sysid : int
-        This vehicle's system id (``SYSID_THISMAV``).
-    """
-    return {
-        "SYSID_THISMAV": Param(sysid, 1, 255, "", "this vehicle's MAVLink system id", readonly=True),
-        "WP_SPEED": Param(0.3, 0.05, 2.0, "m/s", "AUTO cruise speed"),
-        "WP_RADIUS": Param(0.3, 0.05, 10.0, "m", "waypoint acceptance radius"),
-        "CRUISE_SPEED": Param(0.5, 0.05, 2.0, "m/s", "speed limit in AUTO and GUIDED"),
-        "GUID_TIMEOUT": Param(1.0, 0.1, 10.0, "s", "GUIDED: stop when no setpoint arrives for this long"),
-        "FS_GCS_ENABLE": Param(1, 0, 1, "", "1: HOLD when the ground station's heartbeat is lost"),
-        "FS_GCS_TIMEOUT": Param(5.0, 1.0, 60.0, "s", "ground station heartbeat timeout"),
-        "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
-        "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
-        "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),
-    }
+#: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
+SENSORS = (
+    mav.MAV_SYS_STATUS_SENSOR_3D_GYRO
+    | mav.MAV_SYS_STATUS_SENSOR_3D_ACCEL
+    | mav.MAV_SYS_STATUS_SENSOR_3D_MAG
+    | mav.MAV_SYS_STATUS_SENSOR_GPS
+    | mav.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
+    | mav.MAV_SYS_STATUS_AHRS
+    | mav.MAV_SYS_STATUS_PREARM_CHECK
+)
+#: FENCE_ACTION values (Rover's FailsafeAction)
+FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
 
 
 @dataclass
 class LinkStats:
-    """What an endpoint has read from its link."""
+    """What an endpoint has read from its link, and what it refused."""
 
     datagrams: int = 0  # datagrams read
     messages: int = 0  # messages parsed and dispatched
-    bad: int = 0  # garbage, truncated frames, bad CRC
+    bad: int = 0  # garbage, truncated frames, bad CRC, bad or missing signature
     other_sysid: int = 0  # addressed to another vehicle
     unknown: int = 0  # message ids we do not handle
+    dropped: int = 0  # datagrams too long, or over the per-tick byte budget
+    over_budget: int = 0  # ticks that stopped reading at the wall-time budget
+    handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
 
 
-@dataclass
-class _Upload:
-    count: int
-    items: dict[int, MissionItem] = field(default_factory=dict)
-    next_seq: int = 0
-    sent_at: float = -math.inf
-    retries: int = 0
-    sysid: int = 0
-    compid: int = 0
+def _finite(*values: float) -> bool:
+    return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+
+
+def _as_int(value: float, lo: int, hi: int) -> int | None:
+    """A float parameter as a whole number in [lo, hi], or None."""
+    if not _finite(value) or value != int(value) or not lo <= value <= hi:
+        return None
+    return int(value)
 
 
 class VehicleEndpoint:
@@ -148,7 +136,7 @@ class VehicleEndpoint:
     link : DatagramLink
         Where its bytes go and come from (a UDP, in-memory or fan-out link).
     home : (lat_deg, lon_deg, alt_m)
-        The local NED frame's origin, for global positions and missions.
+        The local NED frame's origin (the EKF origin), for global positions and missions.
     mode : str
         The Rover mode to start in (a key of :data:`MODES`).
     armed : bool
@@ -179,9 +167,8 @@ class VehicleEndpoint:
         self.home = home
         self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=1)
         self.mav.robust_parsing = True
-        self._signing_key = signing_key
         self.parser = self._parser(None)
-        self.signed_parser: Any = None
+        self.signed_parser: VerifyingMAVLink | None = None
         if signing_key is not None:
             # MAVLink 2 signing for the links that leave the machine (UDP): sign what we send,
             # accept only correctly signed packets from there; the in-memory companion link
@@ -191,23 +178,34 @@ class VehicleEndpoint:
         self.mode = MODES[mode]
         self.armed = armed
         self.params = default_params(sysid)
-        self.mission: list[MissionItem] = []
+        self.missions = MissionServer(self.send, self.statustext, self._list_changed)
         self.mission_version = 0  # bumps when the mission or the current item changes
-        self.current_seq = 0
+        self.fence = Fence()
+        self.rally: list[tuple[float, float]] = []
+        self.home_ned: tuple[float, float] | None = None  # set where the vehicle first arms
+        self.guided: GuidedTarget | None = None  # None: GUIDED stops
+        self.reversed = False  # MAV_CMD_DO_SET_REVERSE
+        self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
+        self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
+        self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
+        self.fence_breach: str | None = None
+        self.fence_breaches = 0
+        self._fence_breach_ms = 0
         self.stats = LinkStats()
         self.tap = tap
         self.statustexts: list[tuple[float, str]] = []
+        self._text_id = 0
         self._intervals = {MSG_IDS[name]: 1.0 / rate for name, rate in STREAMS.items()}
         self._next_due: dict[int, float] = {}
         self._once: list[int] = []
-        self._upload: _Upload | None = None
-        self._download_to: tuple[int, int] | None = None
-        self._setpoint: tuple[float, float, float] | None = None  # t, speed, yaw rate
         self._gcs_seen: float | None = None
         self._guided_stale_reported = False
         self._gcs_failsafe = False
         self.t_s = 0.0
         self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
+        #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
+        #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
+        self.time_budget_s: float | None = None
         self.state: dict[str, float] = {
             "north_m": 0.0,
             "east_m": 0.0,
@@ -218,11 +216,41 @@ class VehicleEndpoint:
 
     @staticmethod
     def _parser(signing_key: bytes | None) -> Any:
-        p = mav.MAVLink(None)
+        p = VerifyingMAVLink(None)
         p.robust_parsing = True
         if signing_key is not None:
             setup_signing(p, signing_key)
         return p
+
+    # -- views the simulation reads ---------------------------------------------------------
+    @property
+    def mission(self) -> list[MissionItem]:
+        """The mission in force (item 0 = home; empty when there is none)."""
+        return self.missions.lists[MISSION]
+
+    @property
+    def current_seq(self) -> int:
+        """The mission item the vehicle is heading for (0: none)."""
+        return self.missions.current_seq
+
+    def param(self, name: str) -> float:
+        """A parameter's value now.
+
+        Parameters
+        ----------
+        name : str
+            The parameter (KeyError for an unknown one).
+        """
+        return self.params[name].value
+
+    @property
+    def speed_mps(self) -> float:
+        """The speed AUTO, GUIDED and RTL drive at: a DO_CHANGE_SPEED, else WP_SPEED, m/s."""
+        return self.desired_speed_mps if self.desired_speed_mps is not None else self.param("WP_SPEED")
+
+    def home_point(self) -> tuple[float, float]:
+        """Home in local NED (where the vehicle first armed; the origin before that), m."""
+        return self.home_ned if self.home_ned is not None else (0.0, 0.0)
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
@@ -244,51 +272,87 @@ class VehicleEndpoint:
         Parameters
         ----------
         text : str
-            The line; cut to 50 bytes.
+            The line (longer than 50 bytes: sent in chunks, as ArduPilot does; at most 200).
         severity : int
             MAV_SEVERITY (default WARNING).
         """
         self.statustexts.append((self.t_s, text))
         log.log(logging.WARNING if severity <= mav.MAV_SEVERITY_WARNING else logging.INFO, "%s: %s", self.name, text)
-        self.send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
-
-    def param(self, name: str) -> float:
-        """A parameter's value now.
-
-        Parameters
-        ----------
-        name : str
-            The parameter (KeyError for an unknown one).
-        """
-        return self.params[name].value
+        data = text.encode()[:STATUSTEXT_MAX_BYTES]
+        if len(data) <= 50:
+            self.send(mav.MAVLink_statustext_message(severity, data))
+            return
+        # MAVLink 2: a longer text goes in 50-byte chunks sharing an id; a short chunk ends it
+        self._text_id = self._text_id % 65535 + 1
+        chunks = [data[k : k + 50] for k in range(0, len(data), 50)]
+        if len(chunks[-1]) == 50:
+            chunks.append(b"")
+        for seq, chunk in enumerate(chunks):
+            self.send(mav.MAVLink_statustext_message(severity, chunk, self._text_id, seq))
 
     # -- incoming --------------------------------------------------------------------------
     def receive(self) -> int:
-        """Read and handle every datagram waiting on the link; returns messages handled."""
-        n = 0
-        for data, addr in self.link.recv():
-            self.stats.datagrams += 1
-            parser = self.signed_parser if (self.signed_parser is not None and addr[0] != "memory") else self.parser
-            msgs = parser.parse_buffer(data) or []
-            good = [m for m in msgs if m.get_type() != "BAD_DATA"]
-            self.stats.bad += len(msgs) - len(good)
-            if not good and not msgs:
-                self.stats.bad += 1  # a fragment (or a rejected, unsigned packet): drop it
-                if parser is self.signed_parser:
-                    self.signed_parser = self._parser(self._signing_key)
-                    # keep the replay protection: streams' last timestamps and our clock
-                    self.signed_parser.signing.stream_timestamps = parser.signing.stream_timestamps
-                    self.signed_parser.signing.timestamp = parser.signing.timestamp
-                else:
-                    self.parser = self._parser(None)
-            if good:
-                self.link.accept_peer(addr)
-            for m in good:
-                if self.tap is not None:
-                    self.tap("in", m, bytes(m.get_msgbuf()))
-                self._dispatch(m)
-                n += 1
+        """Read and handle the datagrams waiting on the link, within the per-tick budget
+        (:data:`MAX_DATAGRAMS_PER_TICK`, :data:`MAX_BYTES_PER_TICK`, and :attr:`time_budget_s`
+        of wall time when set); what is over it waits in the socket. Returns the messages handled."""
+        n = read = 0
+        budget = MAX_BYTES_PER_TICK
+        deadline = time.perf_counter() + self.time_budget_s if self.time_budget_s else None
+        while read < MAX_DATAGRAMS_PER_TICK and budget > 0:
+            batch = self.link.recv(min(32, MAX_DATAGRAMS_PER_TICK - read))
+            if not batch:
+                break
+            read += len(batch)
+            for data, addr in batch:
+                self.stats.datagrams += 1
+                if len(data) > MAX_DATAGRAM_BYTES or len(data) > budget:
+                    self.stats.dropped += 1
+                    continue
+                budget -= len(data)
+                n += self._datagram(data, addr)
+            if deadline is not None and time.perf_counter() > deadline:
+                self.stats.over_budget += 1
+                break
         return n
+
+    def _datagram(self, data: bytes, addr: tuple[str, int]) -> int:
+        """Every MAVLink frame in one datagram: frames are cut out by their header's length
+        (junk between them is skipped at C speed) and each is decoded on its own."""
+        signed = self.signed_parser is not None and addr[0] != "memory"
+        parser = self.signed_parser if signed else self.parser
+        good: list[Any] = []
+        i, size = 0, len(data)
+        while i < size:
+            j = _first_frame(data, i)
+            if j < 0:
+                break
+            end = j + _frame_length(data, j)
+            if end > size or end == j:
+                i = j + 1  # a marker byte in junk, or a frame cut short
+                continue
+            msgs = parser.parse_buffer(data[j:end]) or []
+            _reset(parser)
+            ok = [m for m in msgs if m.get_type() != "BAD_DATA"]
+            if ok:
+                good += ok
+                i = end
+            else:
+                i = j + 1
+        self.stats.bad += 0 if good else 1
+        if good:
+            self.link.accept_peer(addr)
+        for m in good:
+            self._handle(m, signed)
+        return len(good)
+
+    def _handle(self, m: Any, signed: bool) -> None:
+        try:
+            if self.tap is not None:
+                self.tap("in", m, bytes(m.get_msgbuf()))
+            self._dispatch(m, signed)
+        except Exception:  # a bug in a handler: counted and logged, the run goes on
+            self.stats.handler_errors += 1
+            log.exception("%s: handling %s failed", self.name, m.get_type())
 
     def _for_me(self, m: Any, field: str = "target_system") -> bool:
         target = getattr(m, field, self.sysid)
@@ -297,14 +361,37 @@ class VehicleEndpoint:
             return False
         return True
 
-    def _dispatch(self, m: Any) -> None:
+    def _dispatch(self, m: Any, signed: bool = False) -> None:
         self.stats.messages += 1
         kind = m.get_type()
+        if kind == "SETUP_SIGNING":
+            self._setup_signing(m, signed)
+            return
         handler = getattr(self, f"_on_{kind.lower()}", None)
         if handler is None:
             self.stats.unknown += 1
             return
         handler(m)
+
+    def _setup_signing(self, m: Any, signed: bool) -> None:
+        """SETUP_SIGNING: a new key, taken only over a link already signed and while disarmed
+        (an all-zero key and timestamp would turn signing off: refused, the UDP links stay signed)."""
+        if not self._for_me(m) or self.signed_parser is None or not signed:
+            self.statustext("Signing: SETUP_SIGNING only over a signed link")
+            return
+        if self.armed:
+            self.statustext("ERROR: Won't setup signing when armed")
+            return
+        key = bytes(m.secret_key)
+        if len(key) != 32 or not any(key):
+            self.statustext("Signing: refused an empty key")
+            return
+        setup_signing(self.mav, key)
+        old = self.signed_parser
+        self.signed_parser = self._parser(key)
+        self.signed_parser.signing.timestamp = max(old.signing.timestamp, int(m.initial_timestamp))
+        self.mav.signing.timestamp = self.signed_parser.signing.timestamp
+        self.statustext("Signing: new key in use", mav.MAV_SEVERITY_INFO)
 
     def _on_named_value_float(self, m: Any) -> None:
         if self.forward is not None and m.get_srcComponent() != 1:
@@ -321,13 +408,15 @@ class VehicleEndpoint:
                 self._gcs_failsafe = False
                 self.statustext("Failsafe cleared: ground station heartbeat back", mav.MAV_SEVERITY_INFO)
 
+    # -- modes --------------------------------------------------------------------------------
     def _on_set_mode(self, m: Any) -> None:
-        if self._for_me(m) and m.custom_mode in MODE_NAMES:
+        if self._for_me(m) and m.base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             self.set_mode(m.custom_mode)
 
     def set_mode(self, custom_mode: int) -> bool:
-        """Switch mode (the next HEARTBEAT goes out at once); False for a mode Rover does not
-        have, and for FOLLOW, which lfctl does through GUIDED.
+        """Switch mode as Rover would (the next HEARTBEAT goes out at once); False, with a
+        STATUSTEXT, when the mode is unknown or cannot start: FOLLOW (lfctl follows through
+        GUIDED), AUTO without a mission, SmartRTL with no way back recorded.
 
         Parameters
         ----------
@@ -335,45 +424,72 @@ class VehicleEndpoint:
             The Rover mode number (a value of :data:`MODES`).
         """
         if custom_mode not in MODE_NAMES:
+            self.statustext(f"Unknown mode {custom_mode}")
             return False
         if custom_mode == MODES["FOLLOW"]:
             # ArduPilot's FOLLOW chases another vehicle's GLOBAL_POSITION_INT; lfctl follows by
             # camera, through GUIDED and the companion: refuse rather than accept and do nothing
             self.statustext("FOLLOW mode not supported: use GUIDED", mav.MAV_SEVERITY_WARNING)
             return False
-        if custom_mode != self.mode:
-            log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
-        self.mode = custom_mode
-        self._guided_stale_reported = False
-        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
+        if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
+            self.statustext("No Mission. Can't set AUTO.")
+            return False
+        if custom_mode == MODES["SMART_RTL"] and not self.path:
+            self.statustext("SmartRTL unavailable: no path recorded")
+            return False
+        self._enter(custom_mode)
         return True
 
+    def _enter(self, custom_mode: int) -> None:
+        if custom_mode != self.mode:
+            log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
+            self.modes.append((self.t_s, custom_mode))
+        self.mode = custom_mode
+        if custom_mode == MODES["GUIDED"]:
+            self.guided = None  # entering GUIDED stops until a target comes
+        self._guided_stale_reported = False
+        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
+
+    def force_mode(self, name: str) -> None:
+        """Put the vehicle in a mode without Rover's checks (the simulation's own set-up,
+        e.g. AUTO for a scripted leader that has no mission).
+
+        Parameters
+        ----------
+        name : str
+            A key of :data:`MODES`.
+        """
+        self._enter(MODES[name])
+
+    # -- commands -------------------------------------------------------------------------
     def _ack(self, m: Any, result: int) -> None:
         self.send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
 
     def _on_command_long(self, m: Any) -> None:
         if not self._for_me(m):
             return
-        self._ack(m, self._command(m.command, [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]))
+        p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
+        self._ack(m, self._command(m.command, p, None))
 
     def _on_command_int(self, m: Any) -> None:
         if not self._for_me(m):
             return
-        self._ack(m, self._command(m.command, [m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z]))
+        p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
+        self._ack(m, self._command(m.command, p, (m.x, m.y)))
 
-    def _command(self, cmd: int, p: list[float]) -> int:
+    def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
+        """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7)."""
         if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM:
-            if p[0] not in (0.0, 1.0):
-                return mav.MAV_RESULT_DENIED
-            self.armed = p[0] == 1.0
-            self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
-            self.statustext("Armed" if self.armed else "Disarmed", mav.MAV_SEVERITY_INFO)
-            return mav.MAV_RESULT_ACCEPTED
+            return self._arm_command(p[0])
         if cmd == mav.MAV_CMD_DO_SET_MODE:
-            ok = int(p[0]) & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED and self.set_mode(int(p[1]))
-            return mav.MAV_RESULT_ACCEPTED if ok else mav.MAV_RESULT_DENIED
+            base, custom = _as_int(p[0], 0, 255), _as_int(p[1], 0, 2**31 - 1)
+            if base is None or custom is None or not base & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+                return mav.MAV_RESULT_DENIED
+            return mav.MAV_RESULT_ACCEPTED if self.set_mode(custom) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
-            msg_id = int(p[0])
+            msg_id = _as_int(p[0], 0, 2**24 - 1)
+            if msg_id is None:
+                return mav.MAV_RESULT_DENIED
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_UNSUPPORTED
             self._once.append(msg_id)
@@ -385,30 +501,117 @@ class VehicleEndpoint:
             self._once.append(MSG_IDS["HOME_POSITION"])
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
-            msg_id, interval_us = int(p[0]), p[1]
-            if msg_id not in self._intervals:
-                return mav.MAV_RESULT_UNSUPPORTED
-            if interval_us == -1:
-                self._intervals[msg_id] = math.inf
-            elif interval_us == 0:
-                self._intervals[msg_id] = 1.0 / STREAMS[ID_NAMES[msg_id]]
-            elif interval_us > 0:
-                self._intervals[msg_id] = interval_us / 1e6
-            else:
-                return mav.MAV_RESULT_DENIED
-            self._next_due[msg_id] = self.t_s
-            return mav.MAV_RESULT_ACCEPTED
+            return self._set_interval(p[0], p[1])
         if cmd == mav.MAV_CMD_MISSION_START:
-            if len(self.mission) < 2:
-                return mav.MAV_RESULT_DENIED
-            first = int(p[0])
-            if first > 0 and not self.set_current(first):
-                return mav.MAV_RESULT_DENIED
-            self.set_mode(MODES["AUTO"])
-            return mav.MAV_RESULT_ACCEPTED
+            if not (_finite(p[0], p[1]) and p[0] == 0 and p[1] == 0):
+                return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover
+            return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["AUTO"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
-            return mav.MAV_RESULT_ACCEPTED if self.set_current(int(p[0])) else mav.MAV_RESULT_DENIED
+            seq = _as_int(p[0], 0, 65535)
+            return mav.MAV_RESULT_ACCEPTED if seq is not None and self.set_current(seq) else mav.MAV_RESULT_DENIED
+        if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
+        if cmd == mav.MAV_CMD_DO_REPOSITION:
+            return self._reposition(p, latlon_e7)
+        if cmd == mav.MAV_CMD_DO_SET_REVERSE:
+            if not _finite(p[0]):
+                return mav.MAV_RESULT_DENIED
+            self.reversed = p[0] == 1.0
+            return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
+            return self._change_speed(p[0], p[1])
+        if cmd == mav.MAV_CMD_NAV_SET_YAW_SPEED:
+            return self._set_yaw_speed(p[0], p[1], p[2])
+        if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
+            on = _as_int(p[0], 0, 1)
+            if on is None:
+                return mav.MAV_RESULT_DENIED
+            self.params["FENCE_ENABLE"].value = on
+            return mav.MAV_RESULT_ACCEPTED
         return mav.MAV_RESULT_UNSUPPORTED
+
+    def _arm_command(self, arm: float) -> int:
+        if not _finite(arm) or arm not in (0.0, 1.0):
+            return mav.MAV_RESULT_DENIED
+        self.set_armed(arm == 1.0)
+        return mav.MAV_RESULT_ACCEPTED
+
+    def set_armed(self, armed: bool) -> None:
+        """Arm or disarm; home is set where the vehicle first arms, as Rover does.
+
+        Parameters
+        ----------
+        armed : bool
+            Arm (True) or disarm.
+        """
+        if armed and self.home_ned is None:
+            self.home_ned = (self.state["north_m"], self.state["east_m"])
+        if armed != self.armed:
+            self.armed = armed
+            self.statustext("Armed" if armed else "Disarmed", mav.MAV_SEVERITY_INFO)
+        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
+
+    def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
+        msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
+        if msg_id is None or not _finite(interval_us):
+            return mav.MAV_RESULT_DENIED
+        if msg_id not in self._intervals:
+            return mav.MAV_RESULT_UNSUPPORTED
+        if interval_us == -1:
+            self._intervals[msg_id] = math.inf
+        elif interval_us == 0:
+            self._intervals[msg_id] = 1.0 / STREAMS[ID_NAMES[msg_id]]
+        elif interval_us >= 1000:  # at most 1 kHz
+            self._intervals[msg_id] = interval_us / 1e6
+        else:
+            return mav.MAV_RESULT_DENIED
+        self._next_due[msg_id] = self.t_s
+        return mav.MAV_RESULT_ACCEPTED
+
+    def _change_speed(self, speed_type: float, speed: float) -> int:
+        kind = _as_int(speed_type, 0, 3)
+        if kind is None or kind in (mav.SPEED_TYPE_CLIMB_SPEED, mav.SPEED_TYPE_DESCENT_SPEED):
+            return mav.MAV_RESULT_DENIED
+        if not (_finite(speed) and 0 < speed <= 100.0):
+            return mav.MAV_RESULT_DENIED
+        if self.mode not in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
+            return mav.MAV_RESULT_FAILED  # Rover: the mode has no speed to set
+        if self.mode == MODES["GUIDED"] and self.guided is not None and self.guided.kind != "location":
+            return mav.MAV_RESULT_FAILED  # rate and heading targets carry their own speed
+        self.desired_speed_mps = float(speed)
+        return mav.MAV_RESULT_ACCEPTED
+
+    def _set_yaw_speed(self, angle_deg: float, speed: float, relative: float) -> int:
+        if self.mode != MODES["GUIDED"]:
+            return mav.MAV_RESULT_FAILED
+        if not _finite(angle_deg, speed, relative):
+            return mav.MAV_RESULT_DENIED
+        limit = self.param("WP_SPEED")
+        base = self.state["yaw_rad"] if relative > 0 else 0.0
+        heading = wrap_pi(base + math.radians(angle_deg))
+        self.guided = GuidedTarget("heading", self.t_s, speed_mps=max(-limit, min(limit, speed)), heading_rad=heading)
+        return mav.MAV_RESULT_ACCEPTED
+
+    def _reposition(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
+        change_modes = _finite(p[1]) and int(p[1]) & REPOSITION_CHANGE_MODE
+        if self.mode != MODES["GUIDED"] and not change_modes:
+            return mav.MAV_RESULT_DENIED
+        if latlon_e7 is not None:
+            lat_e7, lon_e7 = latlon_e7
+        else:  # COMMAND_LONG: degrees in param5, param6
+            if not _finite(p[4], p[5]):
+                return mav.MAV_RESULT_DENIED
+            lat_e7, lon_e7 = int(round(p[4] * 1e7)), int(round(p[5] * 1e7))
+        if not (-90e7 <= lat_e7 <= 90e7 and -180e7 <= lon_e7 <= 180e7) or (lat_e7 == 0 and lon_e7 == 0):
+            return mav.MAV_RESULT_DENIED
+        n, e = global_to_local(lat_e7, lon_e7, self.home)
+        if not self._within_fence(n, e):
+            return mav.MAV_RESULT_FAILED
+        if self.mode != MODES["GUIDED"] and not self.set_mode(MODES["GUIDED"]):
+            return mav.MAV_RESULT_FAILED
+        speed = p[0] if _finite(p[0]) and p[0] > 0 else 0.0
+        self.guided = GuidedTarget("location", self.t_s, speed_mps=speed, north_m=n, east_m=e)
+        return mav.MAV_RESULT_ACCEPTED
 
     # -- parameters -------------------------------------------------------------------------
     def _param_value(self, name: str) -> Any:
@@ -426,9 +629,9 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         names = list(self.params)
-        name = m.param_id if m.param_index < 0 else (names[m.param_index] if 0 <= m.param_index < len(names) else None)
-        if isinstance(name, bytes):
-            name = name.decode(errors="replace")
+        name = (
+            _text(m.param_id) if m.param_index < 0 else (names[m.param_index] if m.param_index < len(names) else None)
+        )
         if name in self.params:
             self.send(self._param_value(name))
         else:
@@ -437,99 +640,30 @@ class VehicleEndpoint:
     def _on_param_set(self, m: Any) -> None:
         if not self._for_me(m):
             return
-        name = m.param_id.decode(errors="replace") if isinstance(m.param_id, bytes) else m.param_id
+        name = _text(m.param_id)
         p = self.params.get(name)
         if p is None:
             self.statustext(f"Unknown parameter {name}")
             return
-        if p.readonly or not (p.lo <= m.param_value <= p.hi) or not math.isfinite(m.param_value):
-            self.statustext(
-                f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
-                if not p.readonly
-                else f"{name} is read-only"
-            )
-        else:
+        if p.accepts(m.param_value):
             p.value = float(m.param_value)
+        elif p.readonly:
+            self.statustext(f"{name} is read-only")
+        else:
+            self.statustext(f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip())
         self.send(self._param_value(name))  # the value now in force, as ArduPilot answers
 
-    # -- mission protocol -----------------------------------------------------------------
-    def _mission_ack(self, sysid: int, compid: int, result: int) -> None:
-        self.send(mav.MAVLink_mission_ack_message(sysid, compid, result, mav.MAV_MISSION_TYPE_MISSION))
-
-    def _on_mission_count(self, m: Any) -> None:
-        if not self._for_me(m):
-            return
-        if getattr(m, "mission_type", 0) != mav.MAV_MISSION_TYPE_MISSION:
-            self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_UNSUPPORTED)
-            return
-        if m.count == 0:
-            self.store_mission([])
-            self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_ACCEPTED)
-            return
-        if m.count > 2000:
-            self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_NO_SPACE)
-            return
-        self._upload = _Upload(m.count, sysid=m.get_srcSystem(), compid=m.get_srcComponent())
-        self._request_next()
-
-    def _request_next(self) -> None:
-        up = self._upload
-        assert up is not None
-        up.sent_at = self.t_s
-        self.send(
-            mav.MAVLink_mission_request_int_message(up.sysid, up.compid, up.next_seq, mav.MAV_MISSION_TYPE_MISSION)
-        )
-
-    def _on_mission_item_int(self, m: Any) -> None:
-        up = self._upload
-        if up is None or not self._for_me(m):
-            return
-        if m.seq != up.next_seq:
-            # a duplicate or reordered item: ask again for the one we need
-            self._request_next()
-            return
-        item = MissionItem(
-            m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z, m.autocontinue
-        )
-        result = validate_item(item, up.count)
-        if result != mav.MAV_MISSION_ACCEPTED:
-            self._upload = None  # the mission in force stays as it was
-            self._mission_ack(up.sysid, up.compid, result)
-            self.statustext(f"Mission rejected at item {m.seq}: {mav.enums['MAV_MISSION_RESULT'][result].name}")
-            return
-        up.items[m.seq] = item
-        up.next_seq += 1
-        up.retries = 0
-        if up.next_seq >= up.count:
-            self._upload = None
-            self.store_mission([up.items[i] for i in range(up.count)])
-            self._mission_ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED)
-        else:
-            self._request_next()
-
-    def _on_mission_item(self, m: Any) -> None:
-        # the float (non-_INT) item: ArduPilot still takes it; convert
-        if self._upload is None or not self._for_me(m):
-            return
-        m2 = mav.MAVLink_mission_item_int_message(
-            m.target_system,
-            m.target_component,
-            m.seq,
-            m.frame,
-            m.command,
-            m.current,
-            m.autocontinue,
-            m.param1,
-            m.param2,
-            m.param3,
-            m.param4,
-            int(round(m.x * 1e7)),
-            int(round(m.y * 1e7)),
-            m.z,
-            getattr(m, "mission_type", 0),
-        )
-        m2._header = m._header
-        self._on_mission_item_int(m2)
+    # -- missions, fence, rally -------------------------------------------------------------
+    def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
+        if mission_type == MISSION:
+            self.mission_version += 1
+            self.statustext(f"Mission accepted: {max(0, len(items) - 1)} items", mav.MAV_SEVERITY_INFO)
+        elif mission_type == FENCE:
+            self.fence = Fence.from_items(items, self.home)
+            self.statustext(f"Fence accepted: {len(items)} items", mav.MAV_SEVERITY_INFO)
+        elif mission_type == RALLY:
+            self.rally = rally_points(items, self.home)
+            self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
 
     def store_mission(self, items: list[MissionItem]) -> None:
         """Make ``items`` (item 0 = home) the mission in force, item 1 current, as a finished
@@ -540,46 +674,64 @@ class VehicleEndpoint:
         items : list of MissionItem
             The validated mission.
         """
-        self.mission = items
-        self.current_seq = 1 if len(items) > 1 else 0
-        self.mission_version += 1
-        self.statustext(f"Mission accepted: {max(0, len(items) - 1)} items", mav.MAV_SEVERITY_INFO)
+        self.missions.store(MISSION, items)
+
+    def _on_mission_count(self, m: Any) -> None:
+        if self._for_me(m):
+            self.missions.on_count(m, self.t_s)
+
+    def _on_mission_item_int(self, m: Any) -> None:
+        if not self._for_me(m):
+            return
+        item = MissionItem(
+            m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z, m.autocontinue
+        )
+        self._mission_item(m, item)
+
+    def _on_mission_item(self, m: Any) -> None:
+        # the float (non-_INT) item: ArduPilot still takes it; convert, refusing what is not a number
+        if not self._for_me(m):
+            return
+        mtype = getattr(m, "mission_type", MISSION)
+        if not _finite(m.x) or abs(m.x) > 90.0:
+            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_INVALID_PARAM5_X, mtype)
+            return
+        if not _finite(m.y) or abs(m.y) > 180.0:
+            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_INVALID_PARAM6_Y, mtype)
+            return
+        item = MissionItem(
+            m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4,
+            int(round(m.x * 1e7)), int(round(m.y * 1e7)), m.z, m.autocontinue,
+        )  # fmt: skip
+        self._mission_item(m, item)
+
+    def _mission_item(self, m: Any, item: MissionItem) -> None:
+        mtype = getattr(m, "mission_type", MISSION)
+        if m.current == 2 and mtype == MISSION:  # a guided "go here"
+            ok = self._guided_location(item)
+            result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
+            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
+            return
+        self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)
+
+    def _guided_location(self, item: MissionItem) -> bool:
+        if self.mode != MODES["GUIDED"]:
+            return False  # only in GUIDED, as Rover
+        if not (-90.0 <= item.lat_deg <= 90.0 and -180.0 <= item.lon_deg <= 180.0):
+            return False
+        n, e = global_to_local(item.x, item.y, self.home)
+        if not self._within_fence(n, e):
+            return False
+        self.guided = GuidedTarget("location", self.t_s, north_m=n, east_m=e)
+        return True
 
     def _on_mission_request_list(self, m: Any) -> None:
-        if not self._for_me(m):
-            return
-        self.send(
-            mav.MAVLink_mission_count_message(
-                m.get_srcSystem(), m.get_srcComponent(), len(self.mission), mav.MAV_MISSION_TYPE_MISSION
-            )
-        )
+        if self._for_me(m):
+            self.missions.on_request_list(m)
 
     def _on_mission_request_int(self, m: Any) -> None:
-        if not self._for_me(m):
-            return
-        if not 0 <= m.seq < len(self.mission):
-            self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_INVALID_SEQUENCE)
-            return
-        it = self.mission[m.seq]
-        self.send(
-            mav.MAVLink_mission_item_int_message(
-                m.get_srcSystem(),
-                m.get_srcComponent(),
-                it.seq,
-                it.frame,
-                it.command,
-                int(it.seq == self.current_seq),
-                it.autocontinue,
-                it.param1,
-                it.param2,
-                it.param3,
-                it.param4,
-                it.x,
-                it.y,
-                it.z,
-                mav.MAV_MISSION_TYPE_MISSION,
-            )
-        )
+        if self._for_me(m):
+            self.missions.on_request_item(m)
 
     _on_mission_request = _on_mission_request_int  # old clients ask with MISSION_REQUEST
 
@@ -588,29 +740,27 @@ class VehicleEndpoint:
 
     def _on_mission_clear_all(self, m: Any) -> None:
         if self._for_me(m):
-            self.store_mission([])
-            self._mission_ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_ACCEPTED)
+            self.missions.on_clear(m, self.t_s)
 
     def _on_mission_set_current(self, m: Any) -> None:
         if self._for_me(m) and self.set_current(m.seq):
             self.send(mav.MAVLink_mission_current_message(self.current_seq))
 
     def set_current(self, seq: int) -> bool:
-        """Make mission item ``seq`` the current one; False when there is no such item.
+        """Make mission item ``seq`` the one to head for (False when there is no such item).
 
         Parameters
         ----------
         seq : int
-            The item, 1 or more (0 is home).
+            The item, 1 .. count - 1.
         """
-        if not 0 < seq < len(self.mission):
+        if not self.missions.set_current(seq):
             return False
-        self.current_seq = seq
         self.mission_version += 1
         return True
 
     def reached(self, seq: int) -> None:
-        """The autopilot reached mission item ``seq``: tell the ground station and move on.
+        """The autopilot reached mission item ``seq``: tell the ground station.
 
         Parameters
         ----------
@@ -618,69 +768,119 @@ class VehicleEndpoint:
             The item reached.
         """
         self.send(mav.MAVLink_mission_item_reached_message(seq))
-        self.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
+        self.missions.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
 
-    # -- GUIDED setpoints from the companion --------------------------------------------------
+    def _within_fence(self, north_m: float, east_m: float) -> bool:
+        """A destination the fence allows (Rover refuses guided targets outside it)."""
+        if not self.param("FENCE_ENABLE"):
+            return True
+        return self.fence.breach(north_m, east_m, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")) is None
+
+    # -- GUIDED ---------------------------------------------------------------------------------
+    def _pose(self) -> Pose:
+        return Pose(self.state["north_m"], self.state["east_m"], self.state["yaw_rad"])
+
     def _on_set_position_target_local_ned(self, m: Any) -> None:
-        if not self._for_me(m):
+        if not self._for_me(m) or self.mode != MODES["GUIDED"]:
+            return  # Rover takes setpoints in GUIDED only
+        frames = {
+            mav.MAV_FRAME_LOCAL_NED: "local",
+            mav.MAV_FRAME_LOCAL_OFFSET_NED: "local_offset",
+            mav.MAV_FRAME_BODY_NED: "body",
+            mav.MAV_FRAME_BODY_OFFSET_NED: "body",
+        }
+        frame = frames.get(m.coordinate_frame)
+        if frame is None:
             return
-        if m.coordinate_frame != mav.MAV_FRAME_BODY_NED or m.type_mask != TYPE_MASK_SPEED_YAWRATE:
-            self.statustext(
-                f"Setpoint ignored: frame {m.coordinate_frame} type_mask {m.type_mask} (want BODY_NED, 1479)"
-            )
-            return
-        if not (math.isfinite(m.vx) and math.isfinite(m.yaw_rate)):
-            return
-        self._setpoint = (self.t_s, float(m.vx), float(m.yaw_rate))
+        target = position_target(
+            self.t_s, frame, m.type_mask, m.x, m.y, m.vx, m.vy, m.yaw, m.yaw_rate, self._pose(), self.param("WP_SPEED")
+        )
+        self._take_target(target, "SET_POSITION_TARGET_LOCAL_NED")
 
-    def guided_command(self) -> tuple[float, float] | None:
-        """The companion's (speed, yaw rate) if fresh, else None (and a STATUSTEXT once)."""
-        if self._setpoint is None:
+    def _on_set_position_target_global_int(self, m: Any) -> None:
+        if not self._for_me(m) or self.mode != MODES["GUIDED"]:
+            return
+        if m.coordinate_frame not in (
+            mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+        ):  # fmt: skip
+            return
+        n, e = 0.0, 0.0
+        if not m.type_mask & 0b111:
+            if not (-90e7 <= m.lat_int <= 90e7 and -180e7 <= m.lon_int <= 180e7):
+                return
+            n, e = global_to_local(m.lat_int, m.lon_int, self.home)
+        target = position_target(
+            self.t_s, "global", m.type_mask, n, e, m.vx, m.vy, m.yaw, m.yaw_rate, self._pose(), self.param("WP_SPEED")
+        )
+        self._take_target(target, "SET_POSITION_TARGET_GLOBAL_INT")
+
+    def _on_set_attitude_target(self, m: Any) -> None:
+        if not self._for_me(m) or self.mode != MODES["GUIDED"]:
+            return
+        q = tuple(float(v) for v in m.q)
+        target = attitude_target(self.t_s, m.type_mask, q, m.body_yaw_rate, m.thrust, self.param("WP_SPEED"))  # type: ignore[arg-type]
+        self._take_target(target, "SET_ATTITUDE_TARGET")
+
+    def _take_target(self, target: GuidedTarget | str, message: str) -> None:
+        if isinstance(target, str):
+            if "ACC_IGNORE" in target:
+                self.statustext(f"Ignoring {message}; set ACC_IGNORE in mask", mav.MAV_SEVERITY_INFO)
+            return
+        if target.kind == "location" and not self._within_fence(target.north_m, target.east_m):
+            return
+        self.guided = target
+        self._guided_stale_reported = False
+
+    def guided_target(self) -> GuidedTarget | None:
+        """The GUIDED target in force; a rate or heading target not renewed within
+        ``GUID_TIMEOUT`` is dropped (the vehicle stops) with Rover's STATUSTEXT, once."""
+        g = self.guided
+        if g is None:
             return None
-        t, v, r = self._setpoint
-        if self.t_s - t > self.param("GUID_TIMEOUT"):
+        timeout = max(0.1, self.param("GUID_TIMEOUT"))
+        if g.times_out and self.t_s - g.t_s > timeout:
             if not self._guided_stale_reported:
                 self._guided_stale_reported = True
-                self.statustext("Failsafe: companion setpoints stopped, stopping")
+                self.statustext(f"target not received last {timeout:.1f} secs, stopping")
             return None
-        self._guided_stale_reported = False
-        limit = self.param("CRUISE_SPEED")
-        return max(-limit, min(limit, v)), r
+        return g
+
+    def guided_command(self) -> tuple[float, float] | None:
+        """The (speed, yaw rate) of a fresh rate target (a companion's setpoint), else None."""
+        g = self.guided_target()
+        if g is None or g.kind != "rate":
+            return None
+        return g.speed_mps, g.yaw_rate_radps
+
+    def guided_reached(self) -> None:
+        """The vehicle reached its GUIDED location: tell the ground station (item 0), once."""
+        if self.guided is not None and self.guided.kind == "location":
+            self.send(mav.MAVLink_mission_item_reached_message(0))
+            self.guided = None  # stop there
 
     # -- the tick -----------------------------------------------------------------------------
     def tick(self, t_s: float, state: dict[str, float]) -> None:
-        """Advance to ``t_s``: handle input, run timeouts and failsafes, stream telemetry.
+        """Advance to ``t_s``: handle input, run timeouts, the fence and the failsafes, keep
+        the way back for SmartRTL, stream telemetry.
 
         Parameters
         ----------
         t_s : float
             Now, s.
-        state : dict of str to float
-            The vehicle's truth now: ``north_m``, ``east_m``, ``yaw_rad``, ``speed_mps`` and
-            ``yaw_rate_radps``.
+        state : dict
+            The vehicle now: ``north_m``, ``east_m``, ``yaw_rad``, ``speed_mps``,
+            ``yaw_rate_radps`` (local NED, SI).
         """
         self.t_s = t_s
         self.state = state
+        if self.signed_parser is not None:
+            advance_signing_clock(self.signed_parser.signing, time.time())
         self.receive()
-        up = self._upload
-        if up is not None and t_s - up.sent_at > MISSION_ITEM_TIMEOUT_S:
-            if up.retries >= MISSION_RETRIES:
-                self._upload = None
-                self._mission_ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED)
-                self.statustext(f"Mission upload timed out waiting for item {up.next_seq}")
-            else:
-                up.retries += 1
-                self._request_next()
-        if (
-            self.param("FS_GCS_ENABLE")
-            and self._gcs_seen is not None
-            and not self._gcs_failsafe
-            and t_s - self._gcs_seen > self.param("FS_GCS_TIMEOUT")
-        ):
-            self._gcs_failsafe = True
-            if self.mode != MODES["HOLD"]:
-                self.set_mode(MODES["HOLD"])
-            self.statustext("Failsafe: ground station heartbeat lost, HOLD")
+        self.missions.tick(t_s)
+        self._check_gcs_failsafe(t_s)
+        self._check_fence()
+        self._record_path()
         for msg_id in list(self._once):
             self._send_by_id(msg_id)
         self._once.clear()
@@ -688,6 +888,63 @@ class VehicleEndpoint:
             if t_s >= self._next_due.get(msg_id, 0.0):
                 self._send_by_id(msg_id)
                 self._next_due[msg_id] = t_s + period if math.isfinite(period) else math.inf
+
+    def _check_gcs_failsafe(self, t_s: float) -> None:
+        if (
+            self.param("FS_GCS_ENABLE")
+            and self._gcs_seen is not None
+            and not self._gcs_failsafe
+            and t_s - self._gcs_seen > self.param("FS_GCS_TIMEOUT")
+        ):
+            self._gcs_failsafe = True
+            if self.armed and self.mode != MODES["HOLD"]:
+                self._enter(MODES["HOLD"])
+            self.statustext("Failsafe: ground station heartbeat lost, HOLD")
+
+    def _check_fence(self) -> None:
+        if not self.param("FENCE_ENABLE"):
+            self.fence_breach = None
+            return
+        n, e = self.state["north_m"], self.state["east_m"]
+        breach = self.fence.breach(n, e, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS"))
+        if breach is not None and self.fence_breach is None:
+            self.fence_breaches += 1
+            self._fence_breach_ms = int(self.t_s * 1000)
+            self.statustext(f"Fence breached: {breach}", mav.MAV_SEVERITY_CRITICAL)
+            if self.armed:
+                self._fence_action()
+            self._next_due[MSG_IDS["FENCE_STATUS"]] = self.t_s
+        elif breach is None and self.fence_breach is not None:
+            self.statustext("Fence breach cleared", mav.MAV_SEVERITY_INFO)
+        self.fence_breach = breach
+
+    def _fence_action(self) -> None:
+        action = int(self.param("FENCE_ACTION"))
+        if action == FENCE_REPORT:
+            return
+        if action == FENCE_DISARM:
+            self.set_armed(False)
+            return
+        chain = {
+            FENCE_RTL: ("RTL", "HOLD"),
+            FENCE_HOLD: ("HOLD",),
+            FENCE_SMARTRTL: ("SMART_RTL", "RTL", "HOLD"),
+            FENCE_SMARTRTL_HOLD: ("SMART_RTL", "HOLD"),
+        }.get(action, ("HOLD",))
+        for name in chain:
+            if self.mode == MODES[name] or self.set_mode(MODES[name]):
+                return
+
+    def _record_path(self) -> None:
+        """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes."""
+        if not self.armed or self.mode in (MODES["RTL"], MODES["SMART_RTL"]):
+            return
+        here = (self.state["north_m"], self.state["east_m"])
+        spacing = max(0.05, self.param("WP_RADIUS"))
+        if not self.path or math.hypot(here[0] - self.path[-1][0], here[1] - self.path[-1][1]) >= spacing:
+            self.path.append(here)
+            if len(self.path) > SRTL_POINTS:
+                self.path = self.path[::2]  # keep the whole way back, coarser
 
     def _send_by_id(self, msg_id: int) -> None:
         name = ID_NAMES.get(msg_id)
@@ -698,10 +955,8 @@ class VehicleEndpoint:
         hdg = int(round(math.degrees(s["yaw_rad"]) % 360 * 100)) % 36000
         if name == "HEARTBEAT":
             base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (mav.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
-            if self.mode == MODES["AUTO"]:
-                base |= mav.MAV_MODE_FLAG_AUTO_ENABLED
-            if self.mode == MODES["GUIDED"]:
-                base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED
+            if self.mode in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
+                base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED  # Rover: an autopilot mode
             self.send(
                 mav.MAVLink_heartbeat_message(
                     mav.MAV_TYPE_GROUND_ROVER,
@@ -713,37 +968,28 @@ class VehicleEndpoint:
                 )
             )
         elif name == "SYS_STATUS":
-            sensors = mav.MAV_SYS_STATUS_SENSOR_GPS | mav.MAV_SYS_STATUS_SENSOR_3D_GYRO
-            self.send(mav.MAVLink_sys_status_message(sensors, sensors, sensors, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0))
+            # the geofence as Rover reports it: present, enabled with FENCE_ENABLE, healthy
+            # unless breached (MAVProxy says "fence breach" when the health bit drops)
+            fence = mav.MAV_SYS_STATUS_GEOFENCE
+            enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
+            health = SENSORS | (fence if self.fence_breach is None else 0)
+            self.send(
+                mav.MAVLink_sys_status_message(SENSORS | fence, enabled, health, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0)
+            )
         elif name == "GPS_RAW_INT":
             self.send(
                 mav.MAVLink_gps_raw_int_message(
-                    int(self.t_s * 1e6),
-                    3,
-                    int(round(lat * 1e7)),
-                    int(round(lon * 1e7)),
-                    int(round(alt * 1000)),
-                    100,
-                    100,
-                    int(round(abs(s["speed_mps"]) * 100)),
-                    hdg,
-                    12,
+                    int(self.t_s * 1e6), 3, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                    100, 100, int(round(abs(s["speed_mps"]) * 100)), hdg, 12,
                 )
-            )
+            )  # fmt: skip
         elif name == "GLOBAL_POSITION_INT":
             self.send(
                 mav.MAVLink_global_position_int_message(
-                    t_ms,
-                    int(round(lat * 1e7)),
-                    int(round(lon * 1e7)),
-                    int(round(alt * 1000)),
-                    0,
-                    int(round(vn * 100)),
-                    int(round(ve * 100)),
-                    0,
-                    hdg,
+                    t_ms, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)), 0,
+                    int(round(vn * 100)), int(round(ve * 100)), 0, hdg,
                 )
-            )
+            )  # fmt: skip
         elif name == "LOCAL_POSITION_NED":
             self.send(mav.MAVLink_local_position_ned_message(t_ms, s["north_m"], s["east_m"], 0.0, vn, ve, 0.0))
         elif name == "ATTITUDE":
@@ -755,26 +1001,33 @@ class VehicleEndpoint:
             total = len(self.mission) - 1 if len(self.mission) > 1 else 0xFFFF
             self.send(mav.MAVLink_mission_current_message(self.current_seq, total))
         elif name == "HOME_POSITION":
+            hn, he = self.home_point()
+            hlat, hlon, halt = ned_to_geodetic(hn, he, 0.0, *self.home)
             self.send(
                 mav.MAVLink_home_position_message(
-                    int(round(self.home[0] * 1e7)),
-                    int(round(self.home[1] * 1e7)),
-                    int(round(self.home[2] * 1000)),
-                    0,
-                    0,
-                    0,
-                    [1, 0, 0, 0],
-                    0,
-                    0,
-                    0,
+                    int(round(hlat * 1e7)), int(round(hlon * 1e7)), int(round(halt * 1000)),
+                    hn, he, 0.0, [1, 0, 0, 0], 0, 0, 0,
                 )
-            )
+            )  # fmt: skip
+        elif name == "FENCE_STATUS":
+            if self.param("FENCE_ENABLE"):
+                breach_type = mav.FENCE_BREACH_BOUNDARY if self.fence_breach else mav.FENCE_BREACH_NONE
+                self.send(
+                    mav.MAVLink_fence_status_message(
+                        int(self.fence_breach is not None), self.fence_breaches, breach_type, self._fence_breach_ms
+                    )
+                )
         elif name == "AUTOPILOT_VERSION":
             caps = (
-                mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+                mav.MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
+                | mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
                 | mav.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | mav.MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
+                | mav.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+                | mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
+                | mav.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+                | mav.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
                 | mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2
             )
             self.send(
@@ -784,34 +1037,87 @@ class VehicleEndpoint:
             )
 
 
+def _text(value: str | bytes) -> str:
+    return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
+
+
+def _first_frame(data: bytes, start: int = 0) -> int:
+    """Offset of the first MAVLink frame marker (0xFD, 0xFE) at or after ``start``, or -1
+    (found in C, so a long run of junk costs nothing in Python)."""
+    found = [i for i in (data.find(b"\xfd", start), data.find(b"\xfe", start)) if i >= 0]
+    return min(found) if found else -1
+
+
+def _frame_length(data: bytes, j: int) -> int:
+    """The length the frame starting at ``j`` declares (0 when its header is cut short)."""
+    if data[j] == 0xFD:  # MAVLink 2: 10-byte header, payload, CRC, 13-byte signature if flagged
+        if j + 3 > len(data):
+            return 0
+        return 10 + data[j + 1] + 2 + (13 if data[j + 2] & 0x01 else 0)
+    if j + 2 > len(data):  # MAVLink 1: 6-byte header, payload, CRC
+        return 0
+    return 6 + data[j + 1] + 2
+
+
+def _reset(parser: Any) -> None:
+    """Forget any partial frame the parser holds."""
+    parser.buf = bytearray()
+    parser.buf_index = 0
+    parser.expected_length = mav.HEADER_LEN_V1 + 2
+
+
+def _jsonable(value: Any) -> Any:
+    """A decoded MAVLink field as a JSON value: text for char arrays, base64 for bytes, a
+    string for NaN and infinities, lists element by element; never raises."""
+    if isinstance(value, bool) or value is None:
+        return value
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, str):
+        return value.rstrip("\x00")
+    if isinstance(value, (bytes, bytearray, memoryview)):
+        raw = bytes(value)
+        try:
+            return raw.decode("ascii").rstrip("\x00")
+        except UnicodeDecodeError:
+            return "base64:" + base64.b64encode(raw).decode()
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return repr(value)
+
+
 def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
-    """A packet as the /mavlink/<link> recording topic carries it: ids, name, sequence,
-    fields (text decoded, non-finite numbers as strings) and the raw bytes in base64.
+    """A packet as the /mavlink/<link> recording topic carries it: the raw bytes always,
+    the fields decoded as far as they decode (JSON-safe, whatever the values).
 
     Parameters
     ----------
-    direction : str
-        ``"in"`` or ``"out"`` of the endpoint.
+    direction : "in" or "out"
+        Received by the endpoint, or sent by it.
     msg : pymavlink message
-        The parsed message.
+        The decoded message.
     raw : bytes
         The packet as it travelled.
     """
-    fields = {}
-    for k in msg.get_fieldnames():
-        v = getattr(msg, k)
-        if isinstance(v, bytes):
-            v = v.decode(errors="replace").rstrip("\x00")
-        elif isinstance(v, float) and not math.isfinite(v):
-            v = str(v)
-        fields[k] = v
+    fields: dict[str, Any] = {}
+    try:
+        names = list(msg.get_fieldnames())
+    except Exception:  # an unknown message id decodes with no field list
+        names = []
+    for k in names:
+        try:
+            fields[k] = _jsonable(getattr(msg, k))
+        except Exception as exc:
+            fields[k] = f"<not decodable: {type(exc).__name__}>"
     return {
         "direction": direction,
-        "sysid": msg.get_srcSystem(),
-        "compid": msg.get_srcComponent(),
-        "msgid": msg.get_msgId(),
-        "name": msg.get_type(),
-        "seq": msg.get_seq(),
+        "sysid": int(msg.get_srcSystem()),
+        "compid": int(msg.get_srcComponent()),
+        "msgid": int(msg.get_msgId()),
+        "name": str(msg.get_type()),
+        "seq": int(msg.get_seq()),
         "fields": fields,
-        "raw": base64.b64encode(raw).decode(),
+        "raw": base64.b64encode(bytes(raw)).decode(),
     }

@@ -4,6 +4,7 @@ waypoints, and the QGC WPL 110 / QGroundControl .plan file formats."""
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,6 +19,8 @@ __all__ = [
     "MAX_EXPANDED",
     "Leg",
     "MissionItem",
+    "home_item",
+    "is_nav",
     "load_mission",
     "local_mission",
     "save_mission",
@@ -85,21 +88,42 @@ class MissionItem:
 
 
 def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
-    """Item 0: home, as ArduPilot keeps it."""
+    """Item 0: home, as ArduPilot keeps it.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : float
+        Home's position, degrees.
+    alt_m : float
+        Home's altitude, m.
+    """
     return MissionItem(
         0, mav.MAV_FRAME_GLOBAL_INT, NAV_WAYPOINT, x=int(round(lat_deg * 1e7)), y=int(round(lon_deg * 1e7)), z=alt_m
     )
 
 
+#: DO_JUMP repeat counts ArduPilot keeps (-1: for ever)
+JUMP_REPEAT_MAX = 32767
+#: the fastest DO_CHANGE_SPEED lfctl takes, m/s
+SPEED_MAX_MPS = 100.0
+
+
+def _whole(x: float) -> bool:
+    return math.isfinite(x) and x == int(x)
+
+
 def validate_item(item: MissionItem, count: int) -> int:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home).
+
+    Parameters the command uses must be finite and in range; the ones it does not use may be
+    anything (QGroundControl sends NaN for "unset"), as ArduPilot takes them.
 
     Parameters
     ----------
     item : MissionItem
         The item as uploaded.
     count : int
-        Items in the whole mission, home included (a DO_JUMP must land inside it).
+        The mission's item count (DO_JUMP must land inside it).
     """
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
@@ -110,15 +134,29 @@ def validate_item(item: MissionItem, count: int) -> int:
             return mav.MAV_MISSION_INVALID_PARAM5_X
         if not -180.0 <= item.lon_deg <= 180.0:
             return mav.MAV_MISSION_INVALID_PARAM6_Y
-    if item.command == NAV_LOITER_TIME and not item.param1 >= 0:
-        return mav.MAV_MISSION_INVALID_PARAM1
-    if item.command == NAV_WAYPOINT and not item.param1 >= 0:  # hold time, s
-        return mav.MAV_MISSION_INVALID_PARAM1
-    if item.command == DO_JUMP and not (1 <= int(item.param1) < count):
-        return mav.MAV_MISSION_INVALID_PARAM1
-    if item.command == DO_CHANGE_SPEED and not item.param2 > 0 and item.param2 != -1:
+    if item.command in (NAV_WAYPOINT, NAV_LOITER_TIME) and not (math.isfinite(item.param1) and item.param1 >= 0):
+        return mav.MAV_MISSION_INVALID_PARAM1  # hold / loiter time, s
+    if item.command == DO_JUMP:
+        if not (_whole(item.param1) and 1 <= item.param1 < count):
+            return mav.MAV_MISSION_INVALID_PARAM1
+        if not (_whole(item.param2) and -1 <= item.param2 <= JUMP_REPEAT_MAX):
+            return mav.MAV_MISSION_INVALID_PARAM2
+    if item.command == DO_CHANGE_SPEED and not (
+        item.param2 == -1 or (math.isfinite(item.param2) and 0 < item.param2 <= SPEED_MAX_MPS)
+    ):
         return mav.MAV_MISSION_INVALID_PARAM2
     return mav.MAV_MISSION_ACCEPTED
+
+
+def is_nav(item: MissionItem) -> bool:
+    """Whether an item is a place to go (a waypoint the vehicle reaches), not a DO command.
+
+    Parameters
+    ----------
+    item : MissionItem
+        A mission item.
+    """
+    return item.command in (NAV_WAYPOINT, NAV_LOITER_TIME)
 
 
 @dataclass(frozen=True)
@@ -160,9 +198,9 @@ def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_se
             n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
             hold = it.param1
             legs.append(Leg(it.seq, n, e, hold, speed))
-        elif it.command == DO_CHANGE_SPEED and it.param2 > 0:
+        elif it.command == DO_CHANGE_SPEED and math.isfinite(it.param2) and it.param2 > 0:
             speed = it.param2
-        elif it.command == DO_JUMP:
+        elif it.command == DO_JUMP and _whole(it.param1) and _whole(it.param2):
             left = jumps_left.setdefault(i, int(it.param2))
             if left != 0:
                 jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)

@@ -3,14 +3,23 @@
 
 from __future__ import annotations
 
+import errno
 import random
 import socket
+import time
 from collections import deque
+from collections.abc import Callable
+
+from lfctl.errors import LinkError
 
 __all__ = ["Address", "Fanout", "LossyLink", "MemoryLink", "UdpLink"]
 
 #: a datagram's peer: (host, port); in memory ("memory", 0)
 Address = tuple[str, int]
+#: a ground station that has sent nothing valid for this long stops getting telemetry, s
+PEER_TIMEOUT_S = 30.0
+#: ground stations a vehicle talks to at once
+MAX_PEERS = 16
 
 
 class UdpLink:
@@ -18,7 +27,11 @@ class UdpLink:
 
     pymavlink's ``udpin`` replies to the last sender, so a stray datagram redirects the
     stream; this link replies only to peers that sent *valid* MAVLink (the endpoint says so
-    with :meth:`accept_peer`), plus fixed ``udpout`` targets.
+    with :meth:`accept_peer`), plus fixed ``udpout`` targets. A peer silent for
+    :data:`PEER_TIMEOUT_S` is forgotten; when :data:`MAX_PEERS` are all still talking, a new
+    one is refused (counted), so a flood of new source ports cannot evict a ground station
+    that is in use. The port is bound exclusively: a second program (or a second run)
+    cannot share it.
 
     Parameters
     ----------
@@ -26,60 +39,90 @@ class UdpLink:
         Where to listen (``udpin``); None: a free port on 127.0.0.1.
     outs : list of Address, optional
         Fixed ``udpout`` targets that get everything sent.
+    clock : callable
+        Seconds, monotonic (tests pass their own).
+
+    Raises
+    ------
+    LinkError
+        The port is in use or cannot be bound.
     """
 
-    def __init__(self, bind: Address | None, outs: list[Address] | None = None) -> None:
+    def __init__(
+        self, bind: Address | None, outs: list[Address] | None = None, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        where = bind or ("127.0.0.1", 0)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        # a burst from a ground station (a 100-item mission, a parameter dump) must not overflow
-        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 * 1024 * 1024)
-        self.sock.bind(bind or ("127.0.0.1", 0))
+        try:
+            # a burst from a ground station (a 100-item mission, a parameter dump) must not overflow
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4 * 1024 * 1024)
+            self.sock.bind(where)  # no SO_REUSEADDR: nobody else may receive this vehicle's commands
+        except (OSError, OverflowError) as exc:
+            self.sock.close()
+            reason = getattr(exc, "strerror", None) or str(exc)
+            if isinstance(exc, OSError) and exc.errno == errno.EADDRINUSE:
+                reason += " (another program, or another lfctl run, holds it)"
+            raise LinkError(f"udpin:{where[0]}:{where[1]}", reason) from exc
         self.sock.setblocking(False)
         self.outs = list(outs or [])
-        self.peers: list[Address] = []
+        self.peers: dict[Address, float] = {}  # peer -> when it last sent valid MAVLink
+        self.refused_peers = 0
         self.tx_datagrams = 0
         self.rx_datagrams = 0
+        self._clock = clock
 
     @property
     def port(self) -> int:
         """The UDP port it listens on."""
         return int(self.sock.getsockname()[1])
 
+    def _forget_silent(self, now: float) -> None:
+        for addr, heard in list(self.peers.items()):
+            if now - heard > PEER_TIMEOUT_S:
+                del self.peers[addr]
+
     def accept_peer(self, addr: Address) -> None:
-        """A sender whose datagram parsed as MAVLink: reply to it from now on (the last eight
-        such peers are kept).
+        """A sender whose datagram parsed as MAVLink: reply to it from now on (while it keeps
+        sending; a new peer is refused when the table is full of active ones).
 
         Parameters
         ----------
         addr : Address
             The sender, (host, port).
         """
-        if addr not in self.peers and addr not in self.outs:
-            self.peers.append(addr)
-            del self.peers[:-8]  # a handful of ground stations at most
+        if addr in self.outs:
+            return
+        now = self._clock()
+        if addr not in self.peers:
+            self._forget_silent(now)
+            if len(self.peers) >= MAX_PEERS:
+                self.refused_peers += 1
+                return
+        self.peers[addr] = now
 
     def send(self, data: bytes) -> None:
-        """Send to every ``udpout`` target and accepted peer (a refused send is skipped).
+        """Send to every ``udpout`` target and every peer heard lately (a refused send is skipped).
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
         """
-        for addr in (*self.outs, *self.peers):
+        now = self._clock()
+        for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S)):
             try:
                 self.sock.sendto(data, addr)
                 self.tx_datagrams += 1
             except OSError:  # nobody listening on a udpout port yet: not an error
                 pass
 
-    def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
-        """Every datagram waiting on the socket, with its sender, without blocking.
+    def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
+        """Datagrams waiting on the socket, with their senders, without blocking.
 
         Parameters
         ----------
         max_datagrams : int
-            Return at most this many (the rest wait for the next call); default 2048.
+            Return at most this many (the rest wait in the socket for the next call).
         """
         out = []
         for _ in range(max_datagrams):

@@ -13,7 +13,7 @@ from typing import Any
 from lfctl.config import Config
 from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.companion import Companion
-from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, MODES, VehicleEndpoint
+from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, VehicleEndpoint
 from lfctl.link.gcs import GCS_SYSID, GroundStation
 from lfctl.link.mission import local_mission
 from lfctl.link.port import MavPort
@@ -22,6 +22,10 @@ from lfctl.link.transport import Fanout, MemoryLink, UdpLink
 from lfctl.sim.world import WorldState
 
 __all__ = ["Links"]
+
+#: wall seconds an endpoint may spend on inbound UDP per tick in --realtime (the rest waits):
+#: a flood of junk must not slow the simulation below real time
+REALTIME_RECEIVE_BUDGET_S = 0.002
 
 
 class Links:
@@ -90,8 +94,14 @@ class Links:
                 self.cameras.append(camera)
                 link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
-            if realtime and gcs_out:
-                ep.forward = udp.send
+            # the scenario's speeds and radii: AUTO's for the leader, the formation's speed
+            # limit for followers' GUIDED setpoints (both Rover's WP_SPEED)
+            ep.params["WP_SPEED"].value = cfg.mission.cruise_speed_mps if i == 0 else cfg.guidance.max_speed_mps
+            ep.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
+            if realtime:
+                ep.time_budget_s = REALTIME_RECEIVE_BUDGET_S
+                if gcs_out:
+                    ep.forward = udp.send
             self.endpoints.append(ep)
             self.peers.append(peer)
         # each follower's companion (component 191 of its system) on the in-memory link
@@ -113,10 +123,8 @@ class Links:
                 gcs.set_mode("AUTO")
                 gcs.arm(True)
         elif not realtime:
-            leader.set_mode(MODES["AUTO"])
-            leader.armed = True  # the scripted profile drives it
-        leader.params["WP_SPEED"].value = cfg.mission.cruise_speed_mps
-        leader.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
+            leader.force_mode("AUTO")  # no mission: the scripted profile drives it
+            leader.set_armed(True)
         slots = cfg.slots()
         for ep, comp, v in zip(self.endpoints[1:], self.companions, cfg.followers, strict=True):
             ep.params["LFC_RANGE"].value = slots[v.name].range_m

@@ -5,7 +5,8 @@ their rates put them on (docs/architecture.md):
 
 - ``camera`` (``sim.camera_rate_hz``, camera sensing): render and perceive each follower's view;
 - ``record`` (``sim.telemetry_rate_hz``, when recording): every vehicle's pose to the log;
-- ``guidance`` (``sim.guidance_rate_hz``): the leader's autopilot, each follower's stack;
+- ``guidance`` (``sim.guidance_rate_hz``): every vehicle's autopilot (its mode and targets),
+  each follower's stack;
 - ``link`` (``link.rate_hz``): endpoints read their links and stream telemetry; each vehicle
   obeys its endpoint (AUTO commands, GUIDED setpoints).
 """
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import itertools
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -28,15 +30,16 @@ from lfctl.errors import ConfigError
 from lfctl.follower.stack import Follower, formation_settings
 from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import Odometry
-from lfctl.link.endpoint import MODE_NAMES, MODES, packet_record
-from lfctl.link.mission import to_legs
+from lfctl.link.endpoint import MODE_NAMES, packet_record
+from lfctl.link.mission import is_nav, to_legs
+from lfctl.link.mission_server import ListChange
 from lfctl.metrics import FormationMetrics, formation_metrics
 from lfctl.record.rtp import RtpH264Sender
 from lfctl.record.writer import EVENT_MODE, Recorder, scenario_events
 from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
 from lfctl.sim.camera_sensor import CameraSample
 from lfctl.sim.cosim import RunResult, Simulation
-from lfctl.sim.leader import LeaderDriver
+from lfctl.sim.driver import VehicleDriver
 from lfctl.sim.links import Links
 from lfctl.sim.truth_sensor import TruthSensor
 from lfctl.sim.world import WorldState
@@ -97,8 +100,10 @@ class RunReport:
     traces: list[FollowerTrace]  # one per follower, in scenario order
     metrics: list[FormationMetrics]  # the traces' figures, same order
     waypoints_reached: list[tuple[int, float]]  # (waypoint index from 0, t_s) as reached
-    n_waypoints: int  # waypoints in the leader's mission
-    leader_mode: str  # "auto" (mission) or "script"
+    n_waypoints: int  # waypoints (NAV items) in the leader's mission at the end
+    leader_mode: str  # "auto" (a mission) or "script" (the scenario's speed / yaw-rate profile)
+    leader_modes: list[tuple[str, float]] = dataclasses.field(default_factory=list)  # (mode, seconds in it)
+    mission_changes: list[ListChange] = dataclasses.field(default_factory=list)  # by clients, after the start
     log_path: Path | None = None  # the MCAP log written (None: not recorded)
     log_messages: int = 0  # messages in it
 
@@ -202,20 +207,20 @@ class TelemetryTask:
 
 
 class GuidanceTask:
-    """The leader's autopilot and every follower's stack, on the world state at ``t_s``."""
+    """Every vehicle's autopilot, and every follower's stack, on the world state at ``t_s``."""
 
     def __init__(
         self,
         sim: Simulation,
         links: Links,
-        leader: LeaderDriver,
+        drivers: list[VehicleDriver],
         followers: list[SimFollower],
         pool: CameraPool | None,
         recorder: Recorder | None,
     ) -> None:
         self.sim = sim
         self.links = links
-        self.leader = leader
+        self.drivers = drivers
         self.followers = followers
         self.pool = pool
         self.recorder = recorder
@@ -223,7 +228,8 @@ class GuidanceTask:
 
     def __call__(self, t_s: float) -> None:
         world = self.sim.state()
-        self.leader.update(t_s, world)
+        for driver in self.drivers:
+            driver.update(t_s, world)
         for f in self.followers:
             self._follower(t_s, world, f)
 
@@ -240,7 +246,7 @@ class GuidanceTask:
             out = f.stack.step(t_s, meas, Odometry(t_s, me.north_m, me.east_m, me.yaw_rad, me.speed_mps))
             cmd, status = (out.speed_mps, out.yaw_rate_radps), out.status
         else:  # scripted runs: copy the leader's command, or stand still
-            cmd = self.leader.command if self.open_loop == "copy" else (0.0, 0.0)
+            cmd = self.drivers[0].command if self.open_loop == "copy" else (0.0, 0.0)
             f.stack.command(t_s, *cmd)
             status = TrackStatus.TRACKING
         self._trace(t_s, world, f, me.speed_mps, cmd, status)
@@ -299,27 +305,18 @@ class LinkTask:
     vehicle's mode or arming changing is an event in the log."""
 
     def __init__(
-        self,
-        sim: Simulation,
-        links: Links,
-        leader: LeaderDriver,
-        followers: list[SimFollower],
-        recorder: Recorder | None = None,
+        self, sim: Simulation, links: Links, drivers: list[VehicleDriver], recorder: Recorder | None = None
     ) -> None:
         self.sim = sim
         self.links = links
-        self.leader = leader
-        self.followers = followers
+        self.drivers = drivers
         self.recorder = recorder
         self._states: dict[str, tuple[int, bool]] = {}
 
     def __call__(self, t_s: float) -> None:
         self.links.tick(t_s, self.sim.state())
-        self.sim.set_command(0, *self.leader.command)
-        for f in self.followers:
-            ep = self.links.endpoints[f.index]
-            cmd = ep.guided_command() if (ep.armed and ep.mode == MODES["GUIDED"]) else None
-            self.sim.set_command(f.index, *(cmd or (0.0, 0.0)))
+        for driver in self.drivers:
+            self.sim.set_command(driver.index, *driver.link_command())
         if self.recorder is not None:
             for ep in self.links.endpoints:
                 now = (ep.mode, ep.armed)
@@ -470,7 +467,10 @@ def _closed_loop(
     idx = sim.index
     step_s = 1.0 / cfg.sim.guidance_rate_hz
     on_reached = recorder.mission_reached if recorder is not None else None
-    leader = LeaderDriver(cfg, links.endpoints[0], links.home, step_s, on_reached)
+    drivers = [
+        VehicleDriver(cfg, ep, i, links.home, step_s, scripted=i == 0, on_reached=on_reached if i == 0 else None)
+        for i, ep in enumerate(links.endpoints)
+    ]
     rng = np.random.default_rng(cfg.sim.seed)
     slots = cfg.slots()
     camera = cfg.sim.sensing == "camera"
@@ -506,10 +506,8 @@ def _closed_loop(
                 for f in followers:
                     recorder.calibration(0.0, f.name, cam)
             sim.add_task("record", cfg.sim.telemetry_rate_hz, TelemetryTask(sim, recorder, links, followers))
-        sim.add_task("guidance", cfg.sim.guidance_rate_hz, GuidanceTask(sim, links, leader, followers, pool, recorder))
-        sim.add_task(
-            "link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), LinkTask(sim, links, leader, followers, recorder)
-        )
+        sim.add_task("guidance", cfg.sim.guidance_rate_hz, GuidanceTask(sim, links, drivers, followers, pool, recorder))
+        sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), LinkTask(sim, links, drivers, recorder))
         result = sim.run(duration_s, progress=progress, stop=stop)
     finally:
         if pool is not None:
@@ -523,12 +521,19 @@ def _closed_loop(
         result.extra["camera_workers"] = pool.workers
     traces = [f.trace for f in followers]
     leader_ep = links.endpoints[0]
+    modes: dict[str, float] = {}
+    marks = [*leader_ep.modes, (result.sim_time_s, -1)]
+    for (t0, mode), (t1, _next) in itertools.pairwise(marks):
+        name = MODE_NAMES.get(mode, str(mode))
+        modes[name] = modes.get(name, 0.0) + max(0.0, t1 - t0)
     return RunReport(
         config=cfg,
         result=result,
         traces=traces,
         metrics=[tr.metrics(step_s) for tr in traces],
-        waypoints_reached=leader.reached,
-        n_waypoints=max(0, len(leader_ep.mission) - 1),
-        leader_mode="auto" if leader_ep.mission else "script",
+        waypoints_reached=drivers[0].reached,
+        n_waypoints=sum(1 for it in leader_ep.mission[1:] if is_nav(it)),
+        leader_mode="script" if not cfg.mission.waypoints and not leader_ep.missions.changes else "auto",
+        leader_modes=[(name, secs) for name, secs in modes.items() if secs > 0],
+        mission_changes=[c for c in leader_ep.missions.changes if c.t_s > 0 or c.sysid not in (0, 255)],
     )

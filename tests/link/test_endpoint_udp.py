@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import random
 import socket
 import threading
@@ -197,10 +198,14 @@ def test_garbage_is_dropped_and_counted_and_the_endpoint_keeps_serving(live: Liv
 def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None:
     g = live.gcs()
     assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED and live.ep.mode == MODES["GUIDED"]
-    assert g.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 99) == mav.MAV_RESULT_DENIED
+    # an unknown mode, or one that cannot start, is FAILED (GCS_Common's _set_mode_common);
+    # a mode without the custom-mode flag, or a parameter that is not a number, DENIED
+    assert g.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 99) == mav.MAV_RESULT_FAILED
+    assert g.command(mav.MAV_CMD_DO_SET_MODE, 0, MODES["HOLD"]) == mav.MAV_RESULT_DENIED
+    assert g.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, math.nan) == mav.MAV_RESULT_DENIED
     assert g.command(mav.MAV_CMD_NAV_TAKEOFF) == mav.MAV_RESULT_UNSUPPORTED
     # FOLLOW (6) is a Rover mode lfctl does not fly: refused with a reason, GUIDED kept
-    assert g.set_mode("FOLLOW") == mav.MAV_RESULT_DENIED and live.ep.mode == MODES["GUIDED"]
+    assert g.set_mode("FOLLOW") == mav.MAV_RESULT_FAILED and live.ep.mode == MODES["GUIDED"]
     assert g.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == mav.MAV_RESULT_ACCEPTED
     assert g.wait(("AUTOPILOT_VERSION",)).capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
     # SET_MESSAGE_INTERVAL: ATTITUDE at 50 Hz instead of 10 Hz
@@ -211,14 +216,16 @@ def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None
         n += 1
     assert n > 25
     assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
-    assert g.param_set("WP_SPEED", 55.0) == pytest.approx(0.42)  # out of range: refused, value kept
+    assert g.param_set("WP_SPEED", 550.0) == pytest.approx(0.42)  # out of range: refused, value kept
+    assert g.param_set("WP_SPEED", math.nan) == pytest.approx(0.42)
     assert len(g.param_list()) == len(live.ep.params)
     g.close()
 
 
-def test_gcs_heartbeat_lost_puts_the_vehicle_in_hold() -> None:
+def test_gcs_heartbeat_lost_puts_the_vehicle_in_hold_when_the_failsafe_is_on() -> None:
     a, b = MemoryLink.pair("ep", "gcs")
     ep = VehicleEndpoint("v", 1, a, HOME, mode="AUTO", armed=True)
+    ep.params["FS_GCS_ENABLE"].value = 1  # ArduPilot Rover ships with it off
     m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     b.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m))
     ep.tick(0.0, STATE)
@@ -226,6 +233,16 @@ def test_gcs_heartbeat_lost_puts_the_vehicle_in_hold() -> None:
     assert ep.mode == MODES["AUTO"]
     ep.tick(5.1, STATE)
     assert ep.mode == MODES["HOLD"] and any("heartbeat lost" in t for _, t in ep.statustexts)
+
+
+def test_by_default_a_lost_gcs_heartbeat_changes_nothing_as_on_a_rover() -> None:
+    a, b = MemoryLink.pair("ep", "gcs")
+    ep = VehicleEndpoint("v", 1, a, HOME, mode="AUTO", armed=True)
+    m = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    b.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m))
+    ep.tick(0.0, STATE)
+    ep.tick(30.0, STATE)
+    assert ep.mode == MODES["AUTO"] and ep.param("FS_GCS_ENABLE") == 0
 
 
 def test_companion_silence_stops_the_follower_within_the_timeout() -> None:
@@ -242,7 +259,7 @@ def test_companion_silence_stops_the_follower_within_the_timeout() -> None:
     ep.tick(10.0 + ep.param("GUID_TIMEOUT") - 0.05, STATE)
     assert ep.guided_command() is not None
     ep.tick(10.0 + ep.param("GUID_TIMEOUT") + 0.2, STATE)
-    assert ep.guided_command() is None and any("setpoints stopped" in t for _, t in ep.statustexts)
+    assert ep.guided_command() is None and any("target not received last" in t for _, t in ep.statustexts)
 
 
 def test_signed_link_obeys_the_key_holder_and_ignores_everyone_else() -> None:
@@ -288,3 +305,68 @@ def test_a_replayed_signed_packet_is_refused_even_after_garbage() -> None:
     finally:
         sock.close()
         live.close()
+
+
+@pytest.mark.parametrize("fmt", ["mavproxy", "qgc"])
+def test_param_files_save_and_load_through_the_cli(live: LiveEndpoint, tmp_path: Path, fmt: str) -> None:
+    from lfctl.cli import main
+
+    f = tmp_path / "rover.parm"
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3", "param"]
+    assert main([*connect, "save", str(f), "--format", fmt]) == 0
+    text = f.read_text()
+    assert "WP_SPEED" in text and "FENCE_ACTION" in text
+    if fmt == "qgc":
+        assert text.startswith("# Onboard parameters") and "\t1\tWP_SPEED\t" in text
+    edited = text.replace("WP_SPEED", "WP_SPEED_OLD") + (
+        "1\t1\tWP_SPEED\t0.75\t9\n" if fmt == "qgc" else "WP_SPEED 0.75\n"
+    )
+    edited += "" if fmt == "qgc" else "SOME_OTHER_PARAM 3\n"
+    f.write_text(edited)
+    assert main([*connect, "load", str(f)]) == 0
+    assert live.ep.param("WP_SPEED") == pytest.approx(0.75)
+
+
+def test_a_refused_param_set_exits_1(live: LiveEndpoint, capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.cli import main
+
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3", "param", "set"]
+    assert main([*connect, "WP_SPEED", "nan"]) == 1
+    assert main([*connect, "WP_SPEED", "1000"]) == 1
+    assert "refused" in capsys.readouterr().err
+    assert main([*connect, "WP_SPEED", "0.5"]) == 0
+
+
+def test_the_vehicle_port_is_its_own() -> None:
+    from lfctl.errors import LinkError
+
+    link = UdpLink(("127.0.0.1", 0))
+    try:
+        with pytest.raises(LinkError, match="in use"):
+            UdpLink(("127.0.0.1", link.port))  # a second run on the same port
+        thief = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        thief.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        with pytest.raises(OSError):
+            thief.bind(("127.0.0.1", link.port))  # another program, hoping to read the commands
+        thief.close()
+    finally:
+        link.close()
+
+
+def test_a_crowd_of_new_senders_does_not_evict_the_ground_station_in_use() -> None:
+    now = [0.0]
+    link = UdpLink(("127.0.0.1", 0), clock=lambda: now[0])
+    try:
+        gcs = ("127.0.0.1", 40001)
+        link.accept_peer(gcs)
+        for k in range(100):  # a flood of one-heartbeat senders from other ports
+            now[0] += 0.01
+            link.accept_peer(("127.0.0.1", 41000 + k))
+            link.accept_peer(gcs) if k % 20 == 0 else None
+        assert gcs in link.peers and link.refused_peers > 0
+        now[0] += 31.0  # they all fall silent for longer than the peer timeout
+        link.accept_peer(gcs)
+        link.accept_peer(("127.0.0.1", 50000))
+        assert set(link.peers) == {gcs, ("127.0.0.1", 50000)}
+    finally:
+        link.close()

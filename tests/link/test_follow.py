@@ -76,4 +76,5 @@ def test_follow_drives_a_guided_rover_from_video(
     assert rover.mode == MODES["GUIDED"] and rover.armed
     assert {"SET_POSITION_TARGET_LOCAL_NED", "NAMED_VALUE_FLOAT"} <= names
     assert max(v for v, _ in received) > 0.05  # the leader is ~1.8 m away: drive towards the slot
-    assert rover._setpoint is not None and rover._setpoint[1:] == (0.0, 0.0)  # left stopped
+    g = rover.guided  # left stopped: the last target is zero speed and zero turn rate
+    assert g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)

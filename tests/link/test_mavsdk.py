@@ -149,3 +149,96 @@ def test_mavsdk_uploads_starts_watches_pauses_and_disarms() -> None:
     assert out["home"] == pytest.approx((cfg.link.home_lat_deg, cfg.link.home_lon_deg), abs=1e-6)
     assert out["mode_after_pause"] == FlightMode.HOLD
     assert out["armed_after"] is False
+
+
+async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> dict:
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.action.action import ActionAsync
+    from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
+    from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
+    from mavsdk.plugins.mission_raw import MissionItem
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    from lfctl.frames import ned_to_geodetic
+
+    def item(seq: int, command: int, n: float, e: float, p1: float, mission_type: int) -> MissionItem:
+        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
+        return MissionItem(
+            seq=seq, frame=mav.MAV_FRAME_GLOBAL_INT, command=command, current=0, autocontinue=1, param1=p1, param2=0.0,
+            param3=0.0, param4=0.0, x=int(round(lat * 1e7)), y=int(round(lon * 1e7)), z=0.0, mission_type=mission_type,
+        )  # fmt: skip
+
+    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    out: dict = {}
+    try:
+        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=15.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        mission, telemetry, action = MissionRawAsync(system), TelemetryAsync(system), ActionAsync(system)
+        square = [(20, 20), (20, -20), (-20, -20), (-20, 20)]
+        fence = [item(k, 5001, n, e, 4, 1) for k, (n, e) in enumerate(square)]
+        await mission.upload_geofence(fence)
+        rally = [item(0, 5100, 2.0, 2.0, 0, 2)]
+        await mission.upload_rally_points(rally)
+        out["fence"] = [(it.command, it.x, it.y) for it in await mission.download_geofence()]
+        out["fence_sent"] = [(it.command, it.x, it.y) for it in fence]
+        out["rally"] = [(it.command, it.x, it.y) for it in await mission.download_rallypoints()]
+        out["mission"] = await mission.download_mission()  # untouched by the fence and rally uploads
+        for _ in range(25):  # health needs a SYS_STATUS and a HOME_POSITION (streamed at 0.5 Hz)
+            out["health_all_ok"] = await telemetry.health_all_ok()
+            if out["health_all_ok"]:
+                break
+            await asyncio.sleep(0.2)
+        await action.arm()
+        lat, lon, _ = ned_to_geodetic(-4.0, 3.0, 0.0, *home)
+        await action.goto_location(lat, lon, home[2], 0.0)
+        for _ in range(100):  # the leader drives to (-4, 3)
+            await asyncio.sleep(0.2)
+            pos = await telemetry.position()
+            out["goto_err_m"] = math.hypot((pos.latitude_deg - lat) * 111_319.5, (pos.longitude_deg - lon) * 108_500.0)
+            if out["goto_err_m"] < 0.6:
+                break
+        out["mode_goto"] = await telemetry.flight_mode()
+        await action.return_to_launch()
+        await asyncio.sleep(0.5)
+        out["mode_rtl"] = await telemetry.flight_mode()
+    finally:
+        sdk.destroy()
+    return out
+
+
+def test_mavsdk_fence_rally_goto_rtl_and_health() -> None:
+    from mavsdk.plugins.telemetry import FlightMode
+
+    base = free_port_pair()
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=60.0),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+    done = threading.Event()
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_scenario(cfg, realtime=True, stop=done.is_set)
+        except KeyboardInterrupt:
+            pass
+        except BaseException as exc:
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    try:
+        home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
+        out = asyncio.run(asyncio.wait_for(fence_rally_goto_rtl(base, home), timeout=50))
+    finally:
+        done.set()
+        thread.join(timeout=10)
+    assert not errors, errors
+    assert out["fence"] == out["fence_sent"] and len(out["rally"]) == 1 and out["rally"][0][0] == 5100
+    assert len(out["mission"]) == 5  # the stored convoy mission: home + 4 waypoints
+    assert out["health_all_ok"] is True
+    assert out["goto_err_m"] < 0.6, out  # goto_location drove the rover there
+    assert out["mode_rtl"] == FlightMode.RETURN_TO_LAUNCH

@@ -442,4 +442,5 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path
     assert datagrams and all(d[0] >> 6 == 2 and d[1] & 0x7F == 96 for d in datagrams)
     assert sum(d[1] >> 7 for d in datagrams) >= 1
     # stopped by the interrupt, the rover was left with a zero setpoint
-    assert rover._setpoint is not None and rover._setpoint[1:] == (0.0, 0.0)
+    g = rover.guided
+    assert g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)

@@ -1,0 +1,195 @@
+"""Geofence and rally points as ArduPilot Rover keeps them (AC_Fence, AP_Rally), from the items
+of the FENCE and RALLY mission types.
+
+Fence items: NAV_FENCE_POLYGON_VERTEX_INCLUSION / _EXCLUSION (param1: the polygon's vertex
+count, one item per vertex), NAV_FENCE_CIRCLE_INCLUSION / _EXCLUSION (param1: radius, m) and
+NAV_FENCE_RETURN_POINT. With ``FENCE_TYPE`` bit 2 the vehicle must also stay within
+``FENCE_RADIUS`` of home. Rally items: NAV_RALLY_POINT. Everything is turned into local NED
+metres from home once, when a list is stored. Pure: positions in, breaches out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.frames import geodetic_to_ned
+from lfctl.link.mission import MissionItem
+
+__all__ = [
+    "FENCE_COMMANDS",
+    "FENCE_TYPE_CIRCLE",
+    "FENCE_TYPE_POLYGON",
+    "RALLY_COMMANDS",
+    "Fence",
+    "rally_points",
+    "validate_fence",
+]
+
+POLY_INCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION  # 5001
+POLY_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
+CIRCLE_INCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION  # 5003
+CIRCLE_EXCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION  # 5004
+RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT  # 5000
+FENCE_COMMANDS = {POLY_INCLUSION, POLY_EXCLUSION, CIRCLE_INCLUSION, CIRCLE_EXCLUSION, RETURN_POINT}
+RALLY_COMMANDS = {mav.MAV_CMD_NAV_RALLY_POINT}
+#: FENCE_TYPE bits a rover uses
+FENCE_TYPE_CIRCLE = 2
+FENCE_TYPE_POLYGON = 4
+#: the most vertices in one polygon (ArduPilot's fence storage holds about this many)
+MAX_VERTICES = 100
+
+
+def _local(it: MissionItem, home: tuple[float, float, float]) -> tuple[float, float]:
+    n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
+    return n, e
+
+
+def validate_fence(items: list[MissionItem]) -> tuple[int, int] | None:
+    """The first problem of a fence list as (item index, MAV_MISSION_RESULT), or None.
+
+    Polygon vertices must come in runs of exactly the count their param1 gives (3 to
+    :data:`MAX_VERTICES`), circles need a positive radius, positions must be on the Earth.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The whole fence, item 0 first (a fence has no home item).
+    """
+    i = 0
+    while i < len(items):
+        it = items[i]
+        if it.command not in FENCE_COMMANDS:
+            return i, mav.MAV_MISSION_UNSUPPORTED
+        if not (-90.0 <= it.lat_deg <= 90.0):
+            return i, mav.MAV_MISSION_INVALID_PARAM5_X
+        if not (-180.0 <= it.lon_deg <= 180.0):
+            return i, mav.MAV_MISSION_INVALID_PARAM6_Y
+        if it.command in (POLY_INCLUSION, POLY_EXCLUSION):
+            if not (math.isfinite(it.param1) and 3 <= it.param1 <= MAX_VERTICES and it.param1 == int(it.param1)):
+                return i, mav.MAV_MISSION_INVALID_PARAM1
+            count = int(it.param1)
+            run = items[i : i + count]
+            if len(run) < count or any(r.command != it.command or r.param1 != it.param1 for r in run):
+                return i, mav.MAV_MISSION_INVALID_PARAM1
+            for k, r in enumerate(run):
+                if not (-90.0 <= r.lat_deg <= 90.0 and -180.0 <= r.lon_deg <= 180.0):
+                    return i + k, mav.MAV_MISSION_INVALID_PARAM5_X
+            i += count
+            continue
+        if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION) and not (math.isfinite(it.param1) and it.param1 > 0):
+            return i, mav.MAV_MISSION_INVALID_PARAM1
+        i += 1
+    return None
+
+
+def _inside_polygon(n: float, e: float, poly: list[tuple[float, float]]) -> bool:
+    """Even-odd rule on a polygon of (north, east) vertices."""
+    inside = False
+    j = len(poly) - 1
+    for i in range(len(poly)):
+        ni, ei = poly[i]
+        nj, ej = poly[j]
+        if (ei > e) != (ej > e) and n < (nj - ni) * (e - ei) / (ej - ei) + ni:
+            inside = not inside
+        j = i
+    return inside
+
+
+@dataclass
+class Fence:
+    """A stored fence, in local NED metres.
+
+    Parameters
+    ----------
+    inclusion_polygons, exclusion_polygons : list of list of (north, east)
+        The vehicle must be inside every inclusion polygon and outside every exclusion one.
+    inclusion_circles, exclusion_circles : list of (north, east, radius)
+        Likewise for circles, m.
+    return_point : (north, east) or None
+        Where a breach sends the vehicle, if given.
+    """
+
+    inclusion_polygons: list[list[tuple[float, float]]] = field(default_factory=list)
+    exclusion_polygons: list[list[tuple[float, float]]] = field(default_factory=list)
+    inclusion_circles: list[tuple[float, float, float]] = field(default_factory=list)
+    exclusion_circles: list[tuple[float, float, float]] = field(default_factory=list)
+    return_point: tuple[float, float] | None = None
+
+    @staticmethod
+    def from_items(items: list[MissionItem], home: tuple[float, float, float]) -> Fence:
+        """The fence a validated FENCE list describes (see :func:`validate_fence`).
+
+        Parameters
+        ----------
+        items : list of MissionItem
+            The fence items.
+        home : (lat_deg, lon_deg, alt_m)
+            The local origin.
+        """
+        f = Fence()
+        i = 0
+        while i < len(items):
+            it = items[i]
+            if it.command in (POLY_INCLUSION, POLY_EXCLUSION):
+                count = int(it.param1)
+                poly = [_local(r, home) for r in items[i : i + count]]
+                (f.inclusion_polygons if it.command == POLY_INCLUSION else f.exclusion_polygons).append(poly)
+                i += count
+                continue
+            if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
+                n, e = _local(it, home)
+                (f.inclusion_circles if it.command == CIRCLE_INCLUSION else f.exclusion_circles).append(
+                    (n, e, float(it.param1))
+                )
+            elif it.command == RETURN_POINT:
+                f.return_point = _local(it, home)
+            i += 1
+        return f
+
+    @property
+    def empty(self) -> bool:
+        """No polygon and no circle."""
+        return not (
+            self.inclusion_polygons or self.exclusion_polygons or self.inclusion_circles or self.exclusion_circles
+        )
+
+    def breach(self, north_m: float, east_m: float, fence_type: int, radius_m: float) -> str | None:
+        """What the vehicle at (north, east) breaches, or None.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The vehicle, local NED from home, m.
+        fence_type : int
+            FENCE_TYPE: bit 2 the circle of ``radius_m`` around home, bit 4 the stored shapes.
+        radius_m : float
+            FENCE_RADIUS, m.
+        """
+        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m, east_m) > radius_m:
+            return "circle"
+        if fence_type & FENCE_TYPE_POLYGON:
+            if any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons):
+                return "polygon"
+            if any(_inside_polygon(north_m, east_m, p) for p in self.exclusion_polygons):
+                return "polygon"
+            if any(math.hypot(north_m - n, east_m - e) > r for n, e, r in self.inclusion_circles):
+                return "polygon"
+            if any(math.hypot(north_m - n, east_m - e) < r for n, e, r in self.exclusion_circles):
+                return "polygon"
+        return None
+
+
+def rally_points(items: list[MissionItem], home: tuple[float, float, float]) -> list[tuple[float, float]]:
+    """The rally points of a RALLY list, local NED metres from home.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The rally items.
+    home : (lat_deg, lon_deg, alt_m)
+        The local origin.
+    """
+    return [_local(it, home) for it in items if it.command in RALLY_COMMANDS]

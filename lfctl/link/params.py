@@ -1,0 +1,188 @@
+"""Vehicle parameters: ArduPilot Rover's names, defaults, units and ranges where Rover has the
+parameter (``LFC_*`` are lfctl's formation slot), and parameter files as MAVProxy and
+QGroundControl write them."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from lfctl.errors import ConfigError
+
+__all__ = ["Param", "ParamFileError", "default_params", "load_param_file", "save_param_file"]
+
+#: a parameter name: ArduPilot's 16-character limit, letters, digits and underscores
+MAX_NAME_LEN = 16
+#: the most lines a parameter file may have (ArduPilot has about 1,500 parameters)
+MAX_FILE_LINES = 20_000
+
+
+@dataclass
+class Param:
+    """A vehicle parameter.
+
+    Parameters
+    ----------
+    value : float
+        Its value now, in ``unit``.
+    lo, hi : float
+        The range a ground station may set it within, in ``unit``.
+    unit : str
+        Its unit as a ground station shows it (``""`` for none).
+    description : str
+        What it does.
+    readonly : bool
+        Refuse any set.
+    """
+
+    value: float
+    lo: float
+    hi: float
+    unit: str
+    description: str
+    readonly: bool = False
+
+    def accepts(self, value: float) -> bool:
+        """Whether a ground station may set ``value`` (finite, in range, not read-only).
+
+        Parameters
+        ----------
+        value : float
+            The value asked for.
+        """
+        return not self.readonly and math.isfinite(value) and self.lo <= value <= self.hi
+
+
+def default_params(sysid: int) -> dict[str, Param]:
+    """Every parameter with real effect, at ArduPilot Rover's defaults.
+
+    Parameters
+    ----------
+    sysid : int
+        This vehicle's system id (``SYSID_THISMAV``).
+    """
+    return {
+        "SYSID_THISMAV": Param(sysid, 1, 255, "", "this vehicle's MAVLink system id", readonly=True),
+        "WP_SPEED": Param(2.0, 0.0, 100.0, "m/s", "AUTO, GUIDED and RTL speed; GUIDED setpoints are limited to it"),
+        "WP_RADIUS": Param(2.0, 0.0, 100.0, "m", "waypoint acceptance radius"),
+        "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
+        "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
+        "GUID_TIMEOUT": Param(
+            3.0, 0.1, 5.0, "s", "GUIDED: stop when no velocity or turn-rate setpoint arrives for this long"
+        ),
+        "FS_GCS_ENABLE": Param(0, 0, 2, "", "1 or 2: HOLD when the ground station's heartbeat is lost"),
+        "FS_GCS_TIMEOUT": Param(5.0, 2.0, 120.0, "s", "ground station heartbeat timeout"),
+        "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence"),
+        "FENCE_TYPE": Param(
+            6, 0, 15, "", "bitmask: 2 circle of FENCE_RADIUS around home, 4 polygons and circles uploaded"
+        ),
+        "FENCE_ACTION": Param(
+            1,
+            0,
+            5,
+            "",
+            "on breach: 0 report, 1 RTL or HOLD, 2 HOLD, 3 SmartRTL or RTL or HOLD, 4 SmartRTL or HOLD, 5 disarm",
+        ),
+        "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),
+        "FENCE_MARGIN": Param(2.0, 1.0, 10.0, "m", "distance inside the fence that counts as near it"),
+        "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
+        "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
+        "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),
+    }
+
+
+class ParamFileError(ConfigError):
+    """A parameter file does not parse.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    line : int
+        The 1-based line number (0 for the whole file).
+    reason : str
+        What is wrong there.
+    """
+
+    def __init__(self, path: Path, line: int, reason: str) -> None:
+        self.path = path
+        self.line = line
+        self.reason = reason
+        where = f"{path}:{line}" if line else str(path)
+        super().__init__(f"{where}: {reason}")
+
+
+def _valid_name(name: str) -> bool:
+    return 0 < len(name) <= MAX_NAME_LEN and all(c.isalnum() or c == "_" for c in name) and name.isascii()
+
+
+def load_param_file(path: str | Path) -> dict[str, float]:
+    """Read a parameter file: MAVProxy's ``NAME VALUE`` (or ``NAME,VALUE``) lines, or
+    QGroundControl's tab-separated ``sysid compid NAME VALUE type`` lines; ``#`` starts a comment.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Raises
+    ------
+    ParamFileError
+        A line that is neither form, a bad name, a value that is not a finite number, or a
+        file too long.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParamFileError(p, 0, f"cannot read: {exc}") from exc
+    out: dict[str, float] = {}
+    for k, raw in enumerate(text.splitlines(), start=1):
+        if k > MAX_FILE_LINES:
+            raise ParamFileError(p, k, f"more than {MAX_FILE_LINES} lines: not a parameter file")
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        parts = line.split("\t") if "\t" in line else line.replace(",", " ").split()
+        parts = [s.strip() for s in parts if s.strip()]
+        if len(parts) == 5:  # QGroundControl: vehicle id, component id, name, value, type
+            name, value_text = parts[2], parts[3]
+        elif len(parts) == 2:  # MAVProxy / Mission Planner
+            name, value_text = parts
+        else:
+            raise ParamFileError(p, k, f"expected 'NAME VALUE' or QGroundControl's 5 columns, got {raw.strip()!r}")
+        if not _valid_name(name):
+            raise ParamFileError(p, k, f"bad parameter name {name!r} (letters, digits, _; at most {MAX_NAME_LEN})")
+        try:
+            value = float(value_text)
+        except ValueError:
+            raise ParamFileError(p, k, f"{name}: value {value_text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise ParamFileError(p, k, f"{name}: value {value_text!r} is not finite")
+        out[name] = value
+    return out
+
+
+def save_param_file(values: dict[str, float], path: str | Path, fmt: str = "mavproxy", sysid: int = 1) -> None:
+    """Write a parameter file.
+
+    Parameters
+    ----------
+    values : dict
+        Parameter name -> value.
+    path : str or Path
+        The file to write.
+    fmt : "mavproxy" or "qgc"
+        MAVProxy's ``NAME VALUE`` lines, or QGroundControl's tab-separated table.
+    sysid : int
+        The vehicle's system id (the QGroundControl format names it).
+    """
+    if fmt == "mavproxy":
+        lines = [f"{name:<16} {value:g}" for name, value in sorted(values.items())]
+    elif fmt == "qgc":
+        lines = ["# Onboard parameters for Vehicle " + str(sysid), "#", "# Vehicle-Id Component-Id Name Value Type"]
+        lines += [f"{sysid}\t1\t{name}\t{value!r}\t9" for name, value in sorted(values.items())]
+    else:
+        raise ConfigError(f"parameter file format must be 'mavproxy' or 'qgc', got {fmt!r}")
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")

@@ -1,0 +1,149 @@
+"""MAVProxy against `lfctl sim --realtime`, as a user types it: a mission, a fence and rally
+points loaded from files, GUIDED with `guided LAT LON`, and `mode RTL`.
+
+MAVProxy is installed (without its GUI dependencies, which these commands do not use) into
+a virtual environment the test makes; where it cannot be installed the test says so and skips.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.config import load_config
+from lfctl.frames import ned_to_geodetic
+from lfctl.link.endpoint import MODES
+from lfctl.sim.links import Links
+from lfctl.sim.runner import run_scenario
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
+EXAMPLES = Path(__file__).parents[2] / "examples"
+sys.path.insert(0, str(Path(__file__).parent))
+from test_mavsdk import free_port_pair  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def mavproxy(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    venv = tmp_path_factory.mktemp("mavproxy") / "venv"
+    made = subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], capture_output=True)
+    pip = subprocess.run(
+        [str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "MAVProxy==1.8.75", "pyserial"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    exe = venv / "bin" / "mavproxy.py"
+    if made.returncode or pip.returncode or not exe.exists():
+        pytest.skip(f"MAVProxy does not install here: {pip.stderr.strip()[-300:]}")
+    return exe
+
+
+def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
+    """A QGC WPL 110 file: (command, param1, param2, lat, lon) per row."""
+    lines = ["QGC WPL 110"]
+    for k, (cmd, p1, p2, lat, lon) in enumerate(rows):
+        lines.append(f"{k}\t0\t{mav.MAV_FRAME_GLOBAL}\t{cmd}\t{p1}\t{p2}\t0\t0\t{lat:.7f}\t{lon:.7f}\t0\t1")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(mavproxy: Path, tmp_path: Path) -> None:
+    base = free_port_pair()
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=120.0),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+    home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
+
+    def at(n: float, e: float) -> tuple[float, float]:
+        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
+        return lat, lon
+
+    mission = wpl(
+        tmp_path / "mission.txt",
+        [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (178, 1, 0.4, 0, 0), (16, 0, 0, *at(3, 3))],
+    )
+    square = [at(15, 15), at(15, -15), at(-15, -15), at(-15, 15)]
+    fence = wpl(tmp_path / "fence.txt", [(5001, 4, 0, lat, lon) for lat, lon in square])
+    rally = wpl(tmp_path / "rally.txt", [(5100, 0, 0, *at(-2, 1))])
+    goal = at(-3.0, 2.0)
+
+    links: list[Links] = []
+    done = threading.Event()
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            run_scenario(cfg, realtime=True, on_links=links.append, stop=done.is_set)
+        except KeyboardInterrupt:
+            pass
+        except BaseException as exc:
+            errors.append(exc)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    cmds = "; ".join(
+        [
+            f"wp load {mission}",
+            f"fence load {fence}",
+            f"rally load {rally}",
+            "mode GUIDED",
+            "arm throttle",
+            f"guided {goal[0]:.7f} {goal[1]:.7f} 0",
+        ]
+    )
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    try:
+        while not links:
+            time.sleep(0.05)
+        proc = subprocess.Popen(
+            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
+             "--non-interactive", f"--cmd={cmds}"],
+            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        )  # fmt: skip
+        ep = links[0].endpoints[0]
+        deadline = time.monotonic() + 40
+
+        def loaded() -> bool:
+            lists = ep.missions.lists
+            return len(lists[0]) == 4 and len(lists[1]) == 4 and len(lists[2]) == 1
+
+        while time.monotonic() < deadline and not (loaded() and ep.guided is not None and ep.guided.kind == "location"):
+            time.sleep(0.1)
+        guided_target = ep.guided
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+        second = subprocess.Popen(
+            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
+             "--non-interactive", "--cmd=mode RTL"],
+            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        )  # fmt: skip
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and ep.mode != MODES["RTL"]:
+            time.sleep(0.1)
+        mode_after = ep.mode
+        second.send_signal(signal.SIGINT)
+        out2, _ = second.communicate(timeout=20)
+    finally:
+        done.set()
+        thread.join(timeout=10)
+    assert not errors, errors
+    lists = ep.missions.lists
+    assert [it.command for it in lists[0]] == [16, 16, 178, 16], out  # the mission, DO_CHANGE_SPEED kept
+    assert [it.command for it in lists[1]] == [5001] * 4, out  # the fence, apart from the mission
+    assert [it.command for it in lists[2]] == [5100], out  # the rally point
+    assert guided_target is not None and guided_target.kind == "location", out
+    assert abs(guided_target.north_m + 3.0) < 0.05 and abs(guided_target.east_m - 2.0) < 0.05
+    assert mode_after == MODES["RTL"], out2
+    assert "fence breach" not in out and "ACCEPTED" in out

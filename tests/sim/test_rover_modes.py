@@ -1,0 +1,158 @@
+"""A ground station's commands move the simulated vehicles as they would move ArduPilot
+Rovers: "go here" in GUIDED (DO_REPOSITION, a MISSION_ITEM with current = 2), RTL to home
+or the nearest rally point, SmartRTL back along the way, a fence breach sending the leader
+home. Closed loop in lockstep, commands sent mid-run through the leader's link."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.config import parse_config
+from lfctl.frames import ned_to_geodetic
+from lfctl.sim.links import Links
+from lfctl.sim.runner import RunReport, run_scenario
+
+pytestmark = pytest.mark.fmu
+
+SCENARIO = """
+name = "modes"
+[sim]
+duration_s = 40.0
+[[vehicles]]
+name = "leader"
+role = "leader"
+[[vehicles]]
+name = "f1"
+role = "follower"
+north_m = -1.5
+[mission]
+waypoints = [[6.0, 0.0], [6.0, 6.0]]
+cruise_speed_mps = 0.4
+[guidance]
+max_speed_mps = 0.5
+"""
+
+
+def run_with(commands: dict[float, Callable[[Links], None]], duration_s: float = 40.0) -> tuple[RunReport, Links]:
+    """Run the scenario, sending ``commands[t]`` from a ground station at simulation time t."""
+    cfg = parse_config(SCENARIO, "modes")
+    cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=duration_s))
+    links: list[Links] = []
+    pending = sorted(commands.items())
+    steps = [0]
+
+    def stop() -> bool:
+        steps[0] += 1
+        t = steps[0] * cfg.sim.dt_s
+        while pending and t >= pending[0][0]:
+            pending.pop(0)[1](links[0])
+        return False
+
+    return run_scenario(cfg, on_links=links.append, stop=stop), links[0]
+
+
+GCS = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+
+
+def send(links: Links, msg: object) -> None:
+    links.peers[0].send(msg.pack(GCS))  # type: ignore[attr-defined]
+
+
+def mode(name: str) -> Callable[[Links], None]:
+    from lfctl.link.endpoint import MODES
+
+    return lambda links: send(
+        links,
+        mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, MODES[name], 0, 0, 0, 0, 0),
+    )
+
+
+def latlon(links: Links, north_m: float, east_m: float) -> tuple[int, int]:
+    lat, lon, _ = ned_to_geodetic(north_m, east_m, 0.0, *links.home)
+    return int(round(lat * 1e7)), int(round(lon * 1e7))
+
+
+def leader_at(rep: RunReport, t_s: float) -> np.ndarray:
+    k = int(np.argmin(np.abs(rep.result.t_s - t_s)))
+    return rep.result.pos_ned_m[k, 0]
+
+
+def test_reposition_in_guided_drives_the_leader_there_and_it_stops() -> None:
+    def goto(links: Links) -> None:
+        x, y = latlon(links, -3.0, 4.0)
+        send(
+            links,
+            mav.MAVLink_command_int_message(
+                1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 1, 0, 0, x, y, 0
+            ),
+        )
+
+    rep, _links = run_with({5.0: goto}, duration_s=45.0)
+    assert rep.leader_modes[0][0] == "AUTO" and any(name == "GUIDED" for name, _s in rep.leader_modes)
+    end = leader_at(rep, 45.0)
+    assert math.hypot(end[0] + 3.0, end[1] - 4.0) <= 0.5  # within WP_RADIUS-ish of the target
+    assert rep.result.final.vehicle(0).speed_mps == pytest.approx(0.0, abs=0.02)  # and stopped there
+
+
+def test_a_guided_mission_item_is_a_go_here_too() -> None:
+    def goto(links: Links) -> None:
+        x, y = latlon(links, 2.0, -3.0)
+        send(
+            links,
+            mav.MAVLink_mission_item_int_message(
+                1, 1, 0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 16, 2, 1, 0, 0, 0, 0, x, y, 0, 0
+            ),
+        )
+
+    rep, _links = run_with({4.0: mode("GUIDED"), 4.5: goto}, duration_s=40.0)
+    end = leader_at(rep, 40.0)
+    assert math.hypot(end[0] - 2.0, end[1] + 3.0) <= 0.5
+
+
+def test_rtl_returns_to_the_nearest_of_home_and_the_rally_points() -> None:
+    def rally(links: Links) -> None:
+        x, y = latlon(links, 6.0, 2.0)  # nearer than home once the leader is at the first waypoint
+        ep = links.endpoints[0]
+        from lfctl.link.mission import MissionItem
+        from lfctl.link.mission_server import RALLY
+
+        ep.missions.store(RALLY, [MissionItem(0, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_NAV_RALLY_POINT, x=x, y=y)])
+
+    def rtl(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    home_run, _links = run_with({12.0: rtl}, duration_s=45.0)
+    end = leader_at(home_run, 45.0)
+    assert math.hypot(*end) <= 0.5  # home: where it armed
+    rally_run, _links = run_with({1.0: rally, 16.0: rtl}, duration_s=40.0)
+    end = leader_at(rally_run, 40.0)
+    assert math.hypot(end[0] - 6.0, end[1] - 2.0) <= 0.5
+
+
+def test_smart_rtl_goes_back_the_way_it_came() -> None:
+    rep, _links = run_with({34.0: mode("SMART_RTL")}, duration_s=80.0)
+    assert any(name == "SMART_RTL" for name, _s in rep.leader_modes)
+    track = rep.result.pos_ned_m[:, 0]
+    after = rep.result.t_s >= 40.0
+    # on the way back it passes the first waypoint (6, 0) again, unlike a straight RTL
+    assert np.min(np.hypot(track[after, 0] - 6.0, track[after, 1])) <= 0.6
+    assert math.hypot(*track[-1]) <= 0.8
+
+
+def test_a_fence_breach_sends_the_leader_home() -> None:
+    def fence(links: Links) -> None:
+        ep = links.endpoints[0]
+        ep.params["FENCE_ENABLE"].value = 1
+        ep.params["FENCE_TYPE"].value = 2  # the circle around home
+        ep.params["FENCE_RADIUS"].value = 4.0  # a test yard (below Rover's 30 m minimum): the route leaves it
+
+    rep, links = run_with({0.5: fence}, duration_s=60.0)
+    assert "RTL" in [name for name, _s in rep.leader_modes]
+    assert any(text == "Fence breached: circle" for _t, text in links.endpoints[0].statustexts)
+    assert math.hypot(*leader_at(rep, 60.0)) <= 0.8
