@@ -106,14 +106,7 @@ class CameraComponent:
         self._heartbeat_at = -math.inf
         self.requests = 0  # requests answered (accepted or not)
 
-    def send(self, msg: Any) -> None:
-        """Send one message from the camera.
-
-        Parameters
-        ----------
-        msg : pymavlink message
-            The message.
-        """
+    def _send(self, msg: Any) -> None:
         data = pack_next(msg, self.mav)
         self._send_raw(data)
         if self.tap is not None:
@@ -130,7 +123,7 @@ class CameraComponent:
         self.t_s = t_s
         if t_s - self._heartbeat_at >= 1.0:
             self._heartbeat_at = t_s
-            self.send(
+            self._send(
                 mav.MAVLink_heartbeat_message(
                     mav.MAV_TYPE_CAMERA, mav.MAV_AUTOPILOT_INVALID, 0, 0, mav.MAV_STATE_ACTIVE, 3
                 )
@@ -169,9 +162,9 @@ class CameraComponent:
             msg_id = int(m.param1)
         answer = _ANSWERS.get(msg_id) if msg_id is not None else None
         result = mav.MAV_RESULT_ACCEPTED if answer is not None else mav.MAV_RESULT_UNSUPPORTED
-        self.send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
+        self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
         if answer is not None:
-            self.send(getattr(self, f"_{answer}")())
+            self._send(getattr(self, f"_{answer}")())
 
     def _camera_information(self) -> Any:
         vendor = list(_text("lfctl", 32).ljust(32, b"\0"))
@@ -192,34 +185,25 @@ class CameraComponent:
             b"",
         )
 
+    def _stream(self) -> tuple[float, int, int, int, int, int]:
+        """What VIDEO_STREAM_INFORMATION and _STATUS both say: frame rate, size, bitrate
+        (bit/s), rotation, horizontal field of view (deg)."""
+        return float(self.fps), self.width, self.height, self.bitrate_kbps * 1000, 0, int(round(self.hfov_deg))
+
     def _video_stream_information(self) -> Any:
         return mav.MAVLink_video_stream_information_message(
             1,
             1,
             mav.VIDEO_STREAM_TYPE_RTPUDP,
             mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING,
-            float(self.fps),
-            self.width,
-            self.height,
-            self.bitrate_kbps * 1000,
-            0,
-            int(round(self.hfov_deg)),
+            *self._stream(),
             _text(self.name, 32),
             str(self.video_port).encode(),  # RTPUDP: the URI is the port the ground station listens on
             mav.VIDEO_STREAM_ENCODING_H264,
         )
 
     def _video_stream_status(self) -> Any:
-        return mav.MAVLink_video_stream_status_message(
-            1,
-            mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING,
-            float(self.fps),
-            self.width,
-            self.height,
-            self.bitrate_kbps * 1000,
-            0,
-            int(round(self.hfov_deg)),
-        )
+        return mav.MAVLink_video_stream_status_message(1, mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING, *self._stream())
 
     def _camera_settings(self) -> Any:
         return mav.MAVLink_camera_settings_message(
@@ -230,6 +214,7 @@ class CameraComponent:
 class CameraRouter:
     """A vehicle's link with camera components on it: commands addressed to a camera go to
     it, everything else to whoever reads the link (the vehicle's endpoint), unchanged.
+    ``send`` and ``accept_peer`` are the inner link's.
 
     Only datagrams from the network are looked at (in-memory ones pass straight on).
 
@@ -247,6 +232,9 @@ class CameraRouter:
         self.inner = inner
         self.cameras = cameras
         self._key = signing_key
+        # what goes out, and which senders get answers, is the inner link's business
+        self.send = inner.send
+        self.accept_peer = inner.accept_peer
         self._parser = self._new_parser()
 
     def _new_parser(self) -> Any:
@@ -255,26 +243,6 @@ class CameraRouter:
         if self._key is not None:
             setup_signing(p, self._key)
         return p
-
-    def accept_peer(self, addr: tuple[str, int]) -> None:
-        """Pass on: reply to this sender from now on.
-
-        Parameters
-        ----------
-        addr : (host, port)
-            The sender.
-        """
-        self.inner.accept_peer(addr)
-
-    def send(self, data: bytes) -> None:
-        """Pass on: send one packet.
-
-        Parameters
-        ----------
-        data : bytes
-            One packed MAVLink packet.
-        """
-        self.inner.send(data)
 
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, tuple[str, int]]]:
         """What is waiting on the link, less the commands the cameras took.
@@ -303,7 +271,7 @@ class CameraRouter:
                 if camera is None:
                     rest.append(bytes(m.get_msgbuf()))
                 else:
-                    self.inner.accept_peer(addr)  # a valid command: its sender gets the answer
+                    self.accept_peer(addr)  # a valid command: its sender gets the answer
                     camera.handle(m)
                     taken = True
             if not taken:

@@ -59,34 +59,26 @@ def layout_json(follower: str = "follower1", leader: str = "leader", image_forma
         ),
     )
     layout = fl.Layout(
-        content=fl.SplitContainer(
-            direction="row",
-            items=[
-                fl.SplitItem(
-                    proportion=3,
-                    content=fl.SplitContainer(
-                        direction="column",
-                        items=[
-                            fl.SplitItem(proportion=3, content=scene),
-                            fl.SplitItem(proportion=2, content=errors),
-                        ],
-                    ),
+        content=_split(
+            "row",
+            (3, _split("column", (3, scene), (2, errors))),
+            (
+                2,
+                _split(
+                    "column",
+                    (3, camera),
+                    (2, fl.MapPanel(title="map", config=fl.MapConfig())),
+                    (2, fl.LogPanel(title="log", config=fl.LogConfig(topic_to_render="/log"))),
                 ),
-                fl.SplitItem(
-                    proportion=2,
-                    content=fl.SplitContainer(
-                        direction="column",
-                        items=[
-                            fl.SplitItem(proportion=3, content=camera),
-                            fl.SplitItem(proportion=2, content=fl.MapPanel(title="map", config=fl.MapConfig())),
-                            fl.SplitItem(
-                                proportion=2,
-                                content=fl.LogPanel(title="log", config=fl.LogConfig(topic_to_render="/log")),
-                            ),
-                        ],
-                    ),
-                ),
-            ],
+            ),
         )
     )
     return layout.to_json()
+
+
+def _split(direction: str, *items: tuple[float, object]) -> fl.SplitContainer:
+    """A split of (proportion, content) items, side by side (``row``) or stacked (``column``)."""
+    return fl.SplitContainer(
+        direction=direction,  # type: ignore[arg-type]
+        items=[fl.SplitItem(proportion=k, content=c) for k, c in items],  # type: ignore[arg-type]
+    )

@@ -53,6 +53,12 @@ def _colour(k: int) -> tuple[float, float, float]:
     return PALETTE[0 if k == 0 else 1 + (k - 1) % (len(PALETTE) - 1)]
 
 
+def _save(plt: Any, fig: Any, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
 def _mode_changes(c: Contents) -> list[tuple[float, str, str]]:
     """(t_s, vehicle, mode) from the log's ``/log`` events."""
     from foxglove_schemas_protobuf.Log_pb2 import Log
@@ -115,9 +121,7 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(f"{run.get('scenario', '')} seed {run.get('seed', '')}: trajectories (top view)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(plt, fig, path)
 
 
 def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> None:
@@ -174,9 +178,7 @@ def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
     a1.legend(loc="lower right", fontsize=8)
     a2.legend(loc="lower right", fontsize=8)
     a1.set_title(f"{follower}: formation errors (truth) and track state")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(plt, fig, path)
     return True
 
 
@@ -197,9 +199,7 @@ def _pose(plt: Any, c: Contents, follower: str, path: Path) -> bool:
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
     a1.set_title(f"{follower}: camera pose estimate against the truth ({len(msgs)} frames with the markers seen)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(plt, fig, path)
     return True
 
 
@@ -260,9 +260,7 @@ def _link(plt: Any, c: Contents, path: Path) -> bool:
     a3.set_xlabel("simulation time (s)")
     for ax in (a1, a2, a3):
         ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    _save(plt, fig, path)
     return True
 
 

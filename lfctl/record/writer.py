@@ -278,6 +278,15 @@ def _quat_matrix(R: np.ndarray) -> fm.Quaternion:
     return fm.Quaternion(x=float(x), y=float(y), z=float(z), w=float(w))
 
 
+def _transform(
+    stamp: fm.Timestamp, parent: str, child: str, translation: fm.Vector3, rotation: fm.Quaternion
+) -> fm.FrameTransform:
+    """``child``'s origin and orientation in ``parent``."""
+    return fm.FrameTransform(
+        timestamp=stamp, parent_frame_id=parent, child_frame_id=child, translation=translation, rotation=rotation
+    )
+
+
 def _colour(r: float, g: float, b: float, a: float = 1.0) -> fm.Color:
     return fm.Color(r=r, g=g, b=b, a=a)
 
@@ -512,12 +521,12 @@ class Recorder:
         stamp = self._stamp(t_s)
         lat0, lon0, alt0 = self.cfg.link.home_lat_deg, self.cfg.link.home_lon_deg, self.cfg.link.home_alt_m
         tfs = [
-            fm.FrameTransform(
-                timestamp=stamp,
-                parent_frame_id=MAP_FRAME,
-                child_frame_id=WORLD_FRAME,
-                translation=fm.Vector3(x=0.0, y=0.0, z=0.0),
-                rotation=fm.Quaternion(x=NED_IN_MAP[0], y=NED_IN_MAP[1], z=NED_IN_MAP[2], w=NED_IN_MAP[3]),
+            _transform(
+                stamp,
+                MAP_FRAME,
+                WORLD_FRAME,
+                fm.Vector3(x=0.0, y=0.0, z=0.0),
+                fm.Quaternion(x=NED_IN_MAP[0], y=NED_IN_MAP[1], z=NED_IN_MAP[2], w=NED_IN_MAP[3]),
             )
         ]
         for i, name in enumerate(names):
@@ -531,15 +540,7 @@ class Recorder:
                     timestamp=stamp, frame_id=WORLD_FRAME, pose=fm.Pose(position=position, orientation=orientation)
                 ),
             )
-            tfs.append(
-                fm.FrameTransform(
-                    timestamp=stamp,
-                    parent_frame_id=WORLD_FRAME,
-                    child_frame_id=name,
-                    translation=position,
-                    rotation=orientation,
-                )
-            )
+            tfs.append(_transform(stamp, WORLD_FRAME, name, position, orientation))
             if not fix:
                 continue
             lat, lon, alt = ned_to_geodetic(north, east, 0.0, lat0, lon0, alt0)
@@ -559,15 +560,8 @@ class Recorder:
             )
         for follower, cam in self._mounts.items():
             m = cam.mount_body_m
-            tfs.append(
-                fm.FrameTransform(
-                    timestamp=stamp,
-                    parent_frame_id=follower,
-                    child_frame_id=f"{follower}/camera",
-                    translation=fm.Vector3(x=float(m[0]), y=float(m[1]), z=float(m[2])),
-                    rotation=_quat_matrix(cam.R_body_from_cam),
-                )
-            )
+            mount = fm.Vector3(x=float(m[0]), y=float(m[1]), z=float(m[2]))
+            tfs.append(_transform(stamp, follower, f"{follower}/camera", mount, _quat_matrix(cam.R_body_from_cam)))
         self._log("/tf", fc.FrameTransformsChannel, t_s, fm.FrameTransforms(transforms=tfs))
 
     def set_mission(self, t_s: float, waypoints_ned_m: list[tuple[float, float]], radius_m: float) -> None:

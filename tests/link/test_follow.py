@@ -5,30 +5,23 @@ from __future__ import annotations
 
 import threading
 import time
-from pathlib import Path
 
-import cv2
 import pytest
 
 from lfctl.cli import main
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import UdpLink
-from lfctl.render.sequences import make_sequence
 
 pytestmark = pytest.mark.integration
 
 
 @pytest.mark.parametrize("passphrase", [None, "convoy-7"])
 def test_follow_drives_a_guided_rover_from_video(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], passphrase: str | None
+    banner_video, capsys: pytest.CaptureFixture[str], passphrase: str | None
 ) -> None:
     # with a passphrase the rover signs and takes only signed packets: the companion must sign
-    video = tmp_path / "leader.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
-    for _t, frame, _truth in make_sequence("clear", 1, 40).frames():
-        writer.write(frame)
-    writer.release()
+    video = banner_video(40)
     udp = UdpLink(("127.0.0.1", 0))
     key = signing_key_from_passphrase(passphrase)
     rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=key)

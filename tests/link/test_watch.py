@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import io
 import json
 import socket
-import threading
 from pathlib import Path
 
 import pytest
@@ -17,7 +15,6 @@ from lfctl.cli import main
 from lfctl.cli.gcs import fleet_rows, render_fleet, watch
 from lfctl.config import load_config
 from lfctl.link.gcs import FleetTable
-from lfctl.sim.runner import run_scenario
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -96,7 +93,7 @@ def test_on_a_pipe_each_update_is_one_json_object() -> None:
 
 @pytest.mark.integration
 @pytest.mark.fmu
-def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str]) -> None:
+def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run) -> None:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))
         gcs_port = probe.getsockname()[1]
@@ -107,19 +104,9 @@ def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str]) -> Non
         sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=30.0),
         link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
     )
-    done = threading.Event()
-
-    def run() -> None:
-        with contextlib.suppress(KeyboardInterrupt):  # how a stopped run ends
-            run_scenario(cfg, realtime=True, stop=done.is_set)
-
-    sim = threading.Thread(target=run, daemon=True)
-    sim.start()
-    try:
+    with background_run(cfg, realtime=True) as errors:
         rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "6"])
-    finally:
-        done.set()
-        sim.join(timeout=30)
+    assert not errors, errors
     assert rc == 0
     updates = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert len(updates) == 6

@@ -45,29 +45,6 @@ EXAMPLES = Path(__file__).parents[2] / "examples"
 ROOT = Path(__file__).parents[2]
 
 
-def free_udp_ports(n: int) -> int:
-    """A base port with ``n`` free consecutive UDP ports after it (found free, then let go)."""
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-        if base > 65000:
-            continue
-        try:
-            socks = []
-            for k in range(n):
-                s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-                socks.append(s)
-                s.bind(("127.0.0.1", base + k))
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-        return base
-    raise RuntimeError(f"no {n} free consecutive UDP ports")
-
-
 def short_camera_cfg(duration_s: float, **recording: object):
     cfg = load_config(EXAMPLES / "convoy.toml")
     return dataclasses.replace(
@@ -75,6 +52,16 @@ def short_camera_cfg(duration_s: float, **recording: object):
         sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration_s),
         recording=dataclasses.replace(cfg.recording, **recording),
     )
+
+
+def interrupt(proc: subprocess.Popen) -> None:
+    """Ctrl-C for a run in another process; killed if it has not ended 30 s later."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
 
 
 # -- the Foxglove WebSocket ---------------------------------------------------------------------
@@ -108,7 +95,7 @@ async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[b
 
 
 @pytest.mark.integration
-def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp_path: Path) -> None:
+def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp_path: Path, free_udp_ports) -> None:
     base = free_udp_ports(2)
     scen = tmp_path / "live.toml"
     scen.write_text(
@@ -146,12 +133,7 @@ def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp
         wanted = {"/leader/pose", "/follower1/camera/video", "/leader/fix", "/tf", "/follower1/controller"}
         got = asyncio.run(subscribe_and_collect(port, wanted))
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=30)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
+        interrupt(proc)
     assert wanted <= set(got), (sorted(got), (tmp_path / "stderr").read_text())
     pose = PoseInFrame.FromString(got["/leader/pose"][0])
     assert pose.frame_id == "ned" and pose.timestamp.seconds > 1_600_000_000
@@ -184,44 +166,33 @@ def test_a_bad_live_address_names_the_value(value: str, capsys: pytest.CaptureFi
 
 # -- RTP/UDP H.264 ----------------------------------------------------------------------------
 @pytest.mark.integration
-def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(tmp_path: Path) -> None:
+def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(
+    tmp_path: Path, free_udp_ports, background_run
+) -> None:
     port = free_udp_ports(2)  # RTP and its RTCP port, as the receiver binds both
     cfg = short_camera_cfg(4.0)
     cfg = dataclasses.replace(cfg, live=dataclasses.replace(cfg.live, video_annotated=False))
     rendered: list[np.ndarray] = []
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            run_scenario(
-                cfg,
-                realtime=True,
-                video=("127.0.0.1", port),
-                on_frame=lambda _f, s: rendered.append(s.frame),
-            )
-        except BaseException as exc:
-            errors.append(exc)
-
     (tmp_path / "s.sdp").write_text(sdp("127.0.0.1", port))
+    decoded = []
     # the stream starts at once: frames sent before the receiver binds are lost, and it
     # begins at the next keyframe (one a second)
-    sim = threading.Thread(target=run, daemon=True)
-    sim.start()
-    decoded = []
-    container = av.open(
-        str(tmp_path / "s.sdp"),
-        format="sdp",
-        options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "buffer_size": str(8 << 20)},
-        timeout=20,
-    )
-    try:
-        for frame in container.decode(video=0):
-            decoded.append(frame.to_ndarray(format="bgr24"))
-            if len(decoded) >= 40:
-                break
-    finally:
-        container.close()
-        sim.join(30)
+    with background_run(
+        cfg, realtime=True, video=("127.0.0.1", port), on_frame=lambda _f, s: rendered.append(s.frame)
+    ) as errors:
+        container = av.open(
+            str(tmp_path / "s.sdp"),
+            format="sdp",
+            options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "buffer_size": str(8 << 20)},
+            timeout=20,
+        )
+        try:
+            for frame in container.decode(video=0):
+                decoded.append(frame.to_ndarray(format="bgr24"))
+                if len(decoded) >= 40:
+                    break
+        finally:
+            container.close()
     assert not errors, errors
     assert len(decoded) >= 40
     # the first decoded frame is one of the rendered ones; the rest follow it in order
@@ -373,17 +344,10 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
 
 # -- lfctl follow --live ---------------------------------------------------------------------------
 @pytest.mark.integration
-def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path: Path) -> None:
-    import cv2
-
+def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path: Path, banner_video) -> None:
     from lfctl.link.endpoint import VehicleEndpoint
-    from lfctl.render.sequences import make_sequence
 
-    video = tmp_path / "leader.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
-    for _t, frame, _truth in make_sequence("clear", 1, 400).frames():
-        writer.write(frame)
-    writer.release()
+    video = banner_video(400)
     udp = UdpLink(("127.0.0.1", 0))
     rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0))
     rtp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -418,15 +382,10 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path
         port = int(line.split("ws://127.0.0.1:")[1].split()[0])
         got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=30)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-            stop.set()
-            th.join(timeout=5)
-            udp.close()
+        interrupt(proc)
+        stop.set()
+        th.join(timeout=5)
+        udp.close()
     datagrams = []
     while True:
         try:
