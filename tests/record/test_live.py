@@ -67,28 +67,41 @@ def interrupt(proc: subprocess.Popen) -> None:
 # -- the Foxglove WebSocket ---------------------------------------------------------------------
 async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[bytes]]:
     """Connect as Foxglove does, subscribe to every advertised channel, keep payloads per topic
-    until every wanted topic has sent a message (or 30 s passed)."""
+    until every wanted topic has sent a message (or 30 s passed).
+
+    A wanted channel silent for a second is subscribed again: foxglove-sdk may advertise a
+    channel a moment before it takes subscriptions to it ("subscribe to unknown channel"
+    when the machine is busy), and a client that asks once then waits for ever."""
     got: dict[str, list[bytes]] = {}
     async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
         assert ws.subprotocol == "foxglove.sdk.v1"
         topic_of_sub: dict[int, str] = {}
+        channel_of_topic: dict[str, int] = {}
+
+        async def subscribe(channels: dict[str, int]) -> None:
+            subs = []
+            for topic, channel_id in channels.items():
+                sub_id = len(topic_of_sub) + 1
+                topic_of_sub[sub_id] = topic
+                subs.append({"id": sub_id, "channelId": channel_id})
+            await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
         async def loop() -> None:
-            async for frame in ws:
+            while not wanted <= set(got):
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), timeout=1.0)
+                except TimeoutError:
+                    await subscribe({t: c for t, c in channel_of_topic.items() if t in wanted and t not in got})
+                    continue
                 if isinstance(frame, str):
                     msg = json.loads(frame)
                     if msg["op"] == "advertise":
-                        subs = []
-                        for ch in msg["channels"]:
-                            sub_id = len(topic_of_sub) + 1
-                            topic_of_sub[sub_id] = ch["topic"]
-                            subs.append({"id": sub_id, "channelId": ch["id"]})
-                        await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                        new = {ch["topic"]: ch["id"] for ch in msg["channels"]}
+                        channel_of_topic.update(new)
+                        await subscribe(new)
                 elif frame[0] == 1:  # messageData: op, subscription id, log time, payload
                     sub_id, _log_time = struct.unpack_from("<IQ", frame, 1)
                     got.setdefault(topic_of_sub[sub_id], []).append(bytes(frame[13:]))
-                    if wanted <= set(got):
-                        return
 
         await asyncio.wait_for(loop(), timeout=30)
     return got
