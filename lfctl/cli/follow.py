@@ -6,7 +6,12 @@ import argparse
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lfctl.config import Config
+    from lfctl.follower.rover import RoverStep
+    from lfctl.vision.camera_model import CameraModel
 
 #: the rover `lfctl follow` runs without a scenario
 DEFAULT_SCENARIO = '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "rover"\nrole = "follower"\n'
@@ -73,7 +78,7 @@ class LiveView:
     """
 
     def __init__(
-        self, cfg: Any, name: str, camera: Any, live: tuple[str, int] | None, video: tuple[str, int] | None
+        self, cfg: Config, name: str, camera: CameraModel, live: tuple[str, int] | None, video: tuple[str, int] | None
     ) -> None:
         from lfctl.record.rtp import RtpH264Sender
         from lfctl.record.video import H264Encoder
@@ -94,7 +99,7 @@ class LiveView:
         """The Foxglove WebSocket's port (None without ``--live``)."""
         return self.rec.live_port if self.rec is not None else None
 
-    def __call__(self, step: Any) -> None:
+    def __call__(self, step: RoverStep) -> None:
         """Show one step.
 
         Parameters

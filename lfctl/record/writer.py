@@ -51,6 +51,9 @@ from lfctl.config import Config
 from lfctl.errors import LfctlError
 from lfctl.frames import ned_to_geodetic
 from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.pose import MarkerPose
+from lfctl.vision.track_state import RelativeMeasurement
+from lfctl.vision.tracker import TrackState
 
 __all__ = ["EVENT_MODE", "RecordError", "Recorder", "image_topic", "run_path", "scenario_events"]
 
@@ -803,9 +806,9 @@ class Recorder:
         self,
         t_s: float,
         follower: str,
-        track: Any,
-        pose: Any = None,
-        measurement: Any = None,
+        track: TrackState | None,
+        pose: MarkerPose | None = None,
+        measurement: RelativeMeasurement | None = None,
         truth: Any = None,
         image: bytes | None = None,
     ) -> None:
@@ -994,7 +997,9 @@ class Recorder:
         self.close("completed" if exc[0] is None else f"error: {exc[0].__name__}")  # type: ignore[union-attr]
 
 
-def _annotations(stamp: fm.Timestamp, track: Any, measurement: Any) -> fm.ImageAnnotations:
+def _annotations(
+    stamp: fm.Timestamp, track: TrackState | None, measurement: RelativeMeasurement | None
+) -> fm.ImageAnnotations:
     """The tracked window (green tracking, orange coasting), the markers (magenta) and a line
     of state, each stamped with the frame's time."""
     points, texts = [], []
