@@ -87,11 +87,15 @@ async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[b
             await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
         async def loop() -> None:
+            loop_clock = asyncio.get_running_loop()
+            asked_at = loop_clock.time()
             while not wanted <= set(got):
+                if loop_clock.time() - asked_at > 1.0:
+                    asked_at = loop_clock.time()
+                    await subscribe({t: c for t, c in channel_of_topic.items() if t in wanted and t not in got})
                 try:
                     frame = await asyncio.wait_for(ws.recv(), timeout=1.0)
                 except TimeoutError:
-                    await subscribe({t: c for t, c in channel_of_topic.items() if t in wanted and t not in got})
                     continue
                 if isinstance(frame, str):
                     msg = json.loads(frame)
