@@ -1,11 +1,13 @@
 """Shared fixtures: the built-in FMUs, built once per session into the normal cache; free
-UDP ports on loopback; a video of the leader's banner; a run in a background thread."""
+UDP ports on loopback; a video of the leader's banner; a run in a background thread; a
+standing rover (a vehicle endpoint on loopback UDP) for `lfctl follow`."""
 
 from __future__ import annotations
 
 import contextlib
 import socket
 import threading
+import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -72,13 +74,25 @@ def banner_video(tmp_path: Path) -> Callable[[int], Path]:
 
 
 @contextlib.contextmanager
+def _worker(work: Callable[[threading.Event], None]) -> Iterator[None]:
+    """``work(stop)`` in a thread while the block runs; ``stop`` is set when it ends."""
+    stop = threading.Event()
+    thread = threading.Thread(target=work, args=(stop,), daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=30)
+
+
+@contextlib.contextmanager
 def _background(cfg: Any, **kwargs: Any) -> Iterator[list[BaseException]]:
     from lfctl.sim.runner import run_scenario
 
-    stop = threading.Event()
     errors: list[BaseException] = []
 
-    def run() -> None:
+    def run(stop: threading.Event) -> None:
         try:
             run_scenario(cfg, stop=stop.is_set, **kwargs)
         except KeyboardInterrupt:  # how a stopped run ends
@@ -86,13 +100,8 @@ def _background(cfg: Any, **kwargs: Any) -> Iterator[list[BaseException]]:
         except BaseException as exc:
             errors.append(exc)
 
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
+    with _worker(run):
         yield errors
-    finally:
-        stop.set()
-        thread.join(timeout=30)
 
 
 @pytest.fixture
@@ -101,3 +110,35 @@ def background_run() -> Callable[..., contextlib.AbstractContextManager[list[Bas
     thread while the block runs, is stopped when it ends, and leaves its exceptions in
     ``errors``."""
     return _background
+
+
+@contextlib.contextmanager
+def _standing_rover(signing_key: bytes | None = None, on_tick: Callable[[Any], None] | None = None) -> Iterator[Any]:
+    from lfctl.link.endpoint import VehicleEndpoint
+    from lfctl.link.transport import UdpLink
+
+    udp = UdpLink(("127.0.0.1", 0))
+    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=signing_key)
+    still = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+    t0 = time.monotonic()
+
+    def run(stop: threading.Event) -> None:
+        while not stop.is_set():
+            rover.tick(time.monotonic() - t0, still)
+            if on_tick is not None:
+                on_tick(rover)
+            stop.wait(0.005)
+
+    try:
+        with _worker(run):
+            yield rover
+    finally:
+        udp.close()
+
+
+@pytest.fixture
+def standing_rover() -> Callable[..., contextlib.AbstractContextManager[Any]]:
+    """``with standing_rover(signing_key=None, on_tick=None) as rover:``: a rover (system 1)
+    standing still at home, ticking on the wall clock on a loopback UDP port
+    (``rover.link.port``) while the block runs; ``on_tick(rover)`` after each tick."""
+    return _standing_rover

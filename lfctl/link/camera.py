@@ -113,12 +113,12 @@ class CameraComponent:
             self.tap("out", msg, data)
 
     def tick(self, t_s: float) -> None:
-        """The camera's HEARTBEAT, once a second.
+        """Send the camera's HEARTBEAT when a second has passed since the last one.
 
         Parameters
         ----------
         t_s : float
-            Now, s.
+            The vehicle's clock (the run's simulation time), s.
         """
         self.t_s = t_s
         if t_s - self._heartbeat_at >= 1.0:

@@ -14,8 +14,6 @@ import socket
 import struct
 import subprocess
 import sys
-import threading
-import time
 from pathlib import Path
 
 import av
@@ -361,48 +359,32 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
 
 # -- lfctl follow --live ---------------------------------------------------------------------------
 @pytest.mark.integration
-def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(tmp_path: Path, banner_video) -> None:
-    from lfctl.link.endpoint import VehicleEndpoint
-
+def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
+    tmp_path: Path, banner_video, standing_rover
+) -> None:
     video = banner_video(400)
-    udp = UdpLink(("127.0.0.1", 0))
-    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0))
     rtp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rtp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)  # read after the run: keep it all
     rtp.bind(("127.0.0.1", 0))
     rtp.settimeout(0.05)
-    stop = threading.Event()
-    t0 = time.monotonic()
-
-    def vehicle() -> None:
-        while not stop.is_set():
-            rover.tick(
-                time.monotonic() - t0,
-                {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0},
-            )
-            stop.wait(0.005)
-
-    th = threading.Thread(target=vehicle, daemon=True)
-    th.start()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
-    proc = subprocess.Popen(
-        [
-            sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{udp.port}", "--camera", str(video),
-            "--timeout", "10", "--live", "127.0.0.1:0", "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
-        ],
-        stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
-    )  # fmt: skip
-    try:
-        assert proc.stdout is not None
-        line = proc.stdout.readline()
-        assert line.startswith("foxglove"), line
-        port = int(line.split("ws://127.0.0.1:")[1].split()[0])
-        got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
-    finally:
-        interrupt(proc)
-        stop.set()
-        th.join(timeout=5)
-        udp.close()
+    with standing_rover() as rover:
+        proc = subprocess.Popen(
+            [
+                sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}",
+                "--camera", str(video), "--timeout", "10", "--live", "127.0.0.1:0",
+                "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
+            ],
+            stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
+        )  # fmt: skip
+        try:
+            assert proc.stdout is not None
+            line = proc.stdout.readline()
+            assert line.startswith("foxglove"), line
+            port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+            got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
+        finally:
+            interrupt(proc)
     datagrams = []
     while True:
         try:
