@@ -32,7 +32,7 @@ ALLOWED = {
     "fmu": {"data", "errors", "fmu"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"checks", "config", "errors", "metrics", "vision", "record"},
+    "record": {"checks", "config", "errors", "frames", "metrics", "vision", "record"},
     "sim": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,

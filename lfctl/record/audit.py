@@ -39,9 +39,23 @@ from lfctl.record.mcap_read import (
     read_contents,
     regular_file_problem,
 )
+from lfctl.record.writer import image_topic
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["AuditReport", "Contents", "Finding", "audit", "check_thresholds", "format_report", "plot", "recover"]
+__all__ = [
+    "AuditReport",
+    "Contents",
+    "Finding",
+    "ack_latencies",
+    "audit",
+    "check_thresholds",
+    "format_report",
+    "heard_by_sender",
+    "lost_by_sequence",
+    "mavlink_packets",
+    "plot",
+    "recover",
+]
 
 #: a rate in the run metadata must lie in (0, this], Hz
 MAX_RATE_HZ = 1e6
@@ -106,7 +120,11 @@ def _box(v: Any) -> bool:
 
 
 def _mav_fields(v: Any) -> bool:
-    return isinstance(v, dict) and ("command" not in v or _int(v["command"]))
+    return isinstance(v, dict) and all(k not in v or _int(v[k]) for k in _MAV_ADDRESSING)
+
+
+#: the packet fields the link figures read (commands matched to their acks by these)
+_MAV_ADDRESSING = ("command", "target_system", "target_component")
 
 
 _STATUSES = frozenset(s.value for s in TrackStatus)
@@ -122,7 +140,7 @@ _WANTS: dict[_Check, str] = {
     _status: f"one of {sorted(_STATUSES)}",
     _direction: "'in' or 'out'",
     _box: "null or [x, y, w, h]",
-    _mav_fields: "an object (with an integer 'command', if any)",
+    _mav_fields: "an object (with integer 'command', 'target_system', 'target_component', if any)",
 }
 #: field -> (check, required), for each JSON topic lfctl writes
 _CONTROLLER = {
@@ -203,9 +221,9 @@ def _decoded(c: Contents, topic: str) -> tuple[list[tuple[float, dict[str, Any]]
         for i, (t, d) in enumerate(c.messages.get(topic, [])):
             m = _check_json(d, spec[1]) if spec else _check_json(d, {})
             if isinstance(m, str):
-                bad.append((i, t / 1e9, m))
+                bad.append((i, c.sim_s(t), m))
             else:
-                good.append((t / 1e9, m))
+                good.append((c.sim_s(t), m))
         c.decoded[topic] = (good, bad)
     return c.decoded[topic]
 
@@ -251,6 +269,7 @@ class _Run:
     followers: list[str] = field(default_factory=list)
     camera: bool = False
     images: bool = False
+    image_format: str = "jpeg"  # "h264" or "jpeg": which image topic the followers have
     waypoints: int = 0
     problems: list[str] = field(default_factory=list)
 
@@ -290,6 +309,11 @@ def _parse_run(run: dict[str, str]) -> _Run:
     r.followers = _names(run, "followers", p)
     r.camera = run.get("sensing") == "camera"
     r.images = run.get("images") == "true"
+    fmt = run.get("image_format", "jpeg")
+    if fmt in ("h264", "jpeg"):
+        r.image_format = fmt
+    else:
+        p.append(f"image_format = {fmt!r} ('h264' or 'jpeg')")
     raw = run.get("waypoints", "0") or "0"
     if raw.isdigit() and len(raw) <= 6:
         r.waypoints = int(raw)
@@ -379,7 +403,8 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
                 findings.append(Finding(level, f"expected topic {topic} is missing", kind="content"))
             continue
         times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
-        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float) / 1e9
+        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
+        times = (times - float(c.start_ns)) / 1e9  # simulation time, s
         gaps = np.diff(times)
         big = gaps > 3 * period + 1e-6
         if big.any():
@@ -432,7 +457,8 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
         if m.get("event") == "reached"
     ]
     figures["waypoints"] = info.waypoints
-    figures["links"] = _link_figures(c)
+    link = _link_figures(c)
+    figures["links"], figures["link_senders"] = link["links"], link["senders"]
     figures["topics"] = {
         ch.topic: counted[ch_id] for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic)
     }
@@ -477,7 +503,7 @@ def _expected_topics(run: _Run) -> dict[str, float]:
             out[f"/{f}/tracker"] = run.camera_s
             out[f"/{f}/camera/annotations"] = run.camera_s
             if run.images:
-                out[f"/{f}/camera/image/compressed"] = run.image_s
+                out[image_topic(f, run.image_format)] = run.image_s
     return out
 
 
@@ -555,58 +581,122 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
     return out
 
 
-def _trajectories(c: Contents) -> Iterator[tuple[str, np.ndarray]]:
-    """(vehicle, (N, 2) east/north points) of each ``/<vehicle>/pose`` topic: messages that do
-    not decode, and points that are not finite or lie beyond MAX_JSON_NUMBER m, left out."""
-    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-    from google.protobuf.message import DecodeError
+#: a sender silent this long, then heard again, started a new session (a new process,
+#: a reconnect): its sequence restarts, which is not loss
+SESSION_GAP_S = 2.5
+#: a sender's sequence jumping this far (mod 256) restarted: a new process, not 128+ packets lost
+RESTART_JUMP = 128
+COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
 
-    for topic, msgs in sorted(c.messages.items()):
-        name = topic[1:-5]
-        if not (topic.endswith("/pose") and topic.count("/") == 2 and NAME.fullmatch(name)):
-            continue
-        pts = []
-        for _t, d in msgs:
-            try:
-                p = PoseInFrame.FromString(d)
-            except DecodeError:
-                continue
-            e, n = p.pose.position.y, p.pose.position.x  # east right, north up
-            if abs(e) <= MAX_JSON_NUMBER and abs(n) <= MAX_JSON_NUMBER:  # NaN fails too
-                pts.append((e, n))
-        if pts:
-            yield name, np.array(pts)
+
+def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]]:
+    """Every ``/mavlink/<vehicle>`` topic's packets, decoded: (simulation time, packet).
+
+    Parameters
+    ----------
+    c : Contents
+        What was read from the log.
+    """
+    return {t: _json_messages(c, t) for t in sorted(c.messages) if t.startswith("/mavlink/")}
+
+
+def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, list[tuple[float, float]]]:
+    """Commands on one link and their acks: (commands, [(ack time, latency s)]).
+
+    An ack is matched to the oldest unanswered command of the same number from the system and
+    component it is addressed to, going the other way (commands in and acks out at a vehicle;
+    out and in at a companion); an ack without that address, on the command number alone.
+
+    Parameters
+    ----------
+    packets : list of (t_s, packet)
+        One link's packets in log order.
+    """
+    pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)
+    out = []
+    commands = 0
+    for t, m in packets:
+        fields = m.get("fields", {})
+        if m["name"] in COMMANDS:
+            commands += 1
+            pending[(m["direction"], m["sysid"], m["compid"], fields.get("command", -1))].append(t)
+        elif m["name"] == "COMMAND_ACK":
+            other = "out" if m["direction"] == "in" else "in"
+            key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
+            if not pending.get(key):
+                key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
+            if pending.get(key):
+                out.append((t, t - pending[key].pop(0)))
+    return commands, out
+
+
+def heard_by_sender(links: dict[str, list[tuple[float, dict[str, Any]]]]) -> dict[str, list[tuple[float, int]]]:
+    """Every packet the run's endpoints heard, by sender (``sysid/compid``): (t_s, seq) in
+    time order, over all links (a ground station's one counter serves every vehicle).
+
+    Parameters
+    ----------
+    links : dict
+        As :func:`mavlink_packets` gives them.
+    """
+    heard: dict[str, list[tuple[float, int]]] = defaultdict(list)
+    for packets in links.values():
+        for t, m in packets:
+            if m["direction"] == "in" and "seq" in m:
+                heard[f"{m['sysid']}/{m['compid']}"].append((t, m["seq"]))
+    # by time only: packets of one tick keep the order they were heard in (a sort on the
+    # sequence number too would put 0 before 255 where the counter wraps)
+    return {k: sorted(v, key=lambda x: x[0]) for k, v in sorted(heard.items())}
+
+
+def lost_by_sequence(got: list[tuple[float, int]]) -> list[int]:
+    """Packets lost before each packet of one sender, cumulative: the gaps in its sequence
+    numbers. A repeated number is a duplicate. A sender that started afresh (a new process,
+    a reconnect: its counter restarts) is not loss: after :data:`SESSION_GAP_S` of silence,
+    or a jump of half the counter or more (:data:`RESTART_JUMP`; that many packets lost in
+    a row without a pause does not happen on a live link).
+
+    Parameters
+    ----------
+    got : list of (t_s, seq)
+        One sender's packets in time order.
+    """
+    lost = [0] * min(1, len(got))
+    for (ta, a), (tb, b) in itertools.pairwise(got):
+        gap = (b - a - 1) % 256
+        lost.append(lost[-1] + (gap if b != a and gap < RESTART_JUMP and tb - ta < SESSION_GAP_S else 0))
+    return lost
 
 
 def _link_figures(c: Contents) -> dict[str, Any]:
+    """Per link: packets each way, message rates, commands and their acks (latency on the
+    log's clock); per sender: loss by its own sequence numbers over every link."""
     links: dict[str, Any] = {}
-    for topic in list(c.messages):
-        if not topic.startswith("/mavlink/"):
-            continue
+    packets = mavlink_packets(c)
+    for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
-        seq_by_src: dict[tuple[int, int], list[int]] = defaultdict(list)
-        pending: dict[int, float] = {}
-        latencies = []
-        for t, m in _json_messages(c, topic):  # valid packets only; t in s
+        rates: dict[str, int] = defaultdict(int)
+        for _t, m in msgs:
             dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
-            if m["direction"] == "in" and "seq" in m:
-                seq_by_src[(m["sysid"], m["compid"])].append(m["seq"])
-            if m["name"] == "COMMAND_LONG" and m["direction"] == "in":
-                pending[m["fields"].get("command", -1)] = t
-            if m["name"] == "COMMAND_ACK" and m["direction"] == "out" and m["fields"].get("command") in pending:
-                latencies.append(t - pending.pop(m["fields"]["command"]))
-        lost = 0
-        for seqs in seq_by_src.values():
-            for a, b in itertools.pairwise(seqs):
-                if b != a:  # the same seq again is a duplicate, not 255 lost
-                    lost += (b - a - 1) % 256
+            rates[f"{m['direction']} {m['name']}"] += 1
+        duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
+        commands, acks = ack_latencies(msgs)
+        latencies = [lat for _, lat in acks]
         links[topic] = {
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
-            "lost_in_by_seq": lost,
+            "duration_s": round(duration, 3),
+            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration > 0 else {},
+            "commands": commands,
+            "commands_acked": len(latencies),
             "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
+            "command_ack_latency_ms_median": round(float(np.median(latencies)) * 1000, 2) if latencies else None,
         }
-    return links
+    senders = {}
+    for sender, got in heard_by_sender(packets).items():
+        lost = lost_by_sequence(got)[-1]
+        senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
+    return {"links": links, "senders": senders}
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
@@ -800,7 +890,13 @@ def format_report(report: AuditReport) -> str:
         lines.append(f"mission: {len(fig['mission'])}/{fig['waypoints']} waypoints reached ({reached})")
     for topic, link in fig.get("links", {}).items():
         lines.append(
-            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out, {link['lost_in_by_seq']} lost (by sequence), max command ack {link['command_ack_latency_ms_max']} ms"
+            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out; {link['commands']} commands, "
+            f"{link['commands_acked']} acked (ack latency median {_cell(link['command_ack_latency_ms_median'])} ms, "
+            f"max {_cell(link['command_ack_latency_ms_max'])} ms on the log's clock)"
+        )
+    for sender, s in fig.get("link_senders", {}).items():
+        lines.append(
+            f"  sender {sender}: {s['packets']} packets heard, {s['lost']} lost by its sequence ({s['loss_pct']} %)"
         )
     return _printable("\n".join(lines))
 
@@ -812,8 +908,8 @@ def _printable(text: str) -> str:
 
 
 def plot(report: AuditReport, out_dir: Path) -> list[Path]:
-    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline;
-    returns the files written.
+    """PNG plots to review the run by (see :mod:`lfctl.record.plots`); returns the files
+    written.
 
     Parameters
     ----------
@@ -822,41 +918,6 @@ def plot(report: AuditReport, out_dir: Path) -> list[Path]:
     out_dir : Path
         Where the PNGs go (made if missing).
     """
-    import matplotlib
+    from lfctl.record.plots import plot_all
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    c = report.contents
-    made = []
-    fig, ax = plt.subplots(figsize=(6, 6))
-    for name, a in _trajectories(c):
-        ax.plot(a[:, 0], a[:, 1], label=name)
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal")
-    ax.legend()
-    ax.set_title("trajectories (top view)")
-    made.append(out_dir / "trajectories.png")
-    fig.savefig(made[-1], dpi=100)
-    plt.close(fig)
-    for f in _followers(c):  # names of letters, digits, '-', '_': the file stays in out_dir
-        msgs = _json_messages(c, f"/{f}/controller")
-        if not msgs:
-            continue
-        t = np.array([m[0] for m in msgs])
-        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-        a1.plot(t, [m[1]["range_error_m"] for m in msgs])
-        a1.set_ylabel("range error (m)")
-        a2.plot(t, [m[1]["bearing_error_deg"] for m in msgs])
-        a2.set_ylabel("bearing error (deg)")
-        code = {"tracking": 2, "occluded": 1, "lost": 0}
-        a3.step(t, [code[m[1]["status"]] for m in msgs], where="post")
-        a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
-        a3.set_xlabel("simulation time (s)")
-        a1.set_title(f"{f}: formation errors and track state")
-        made.append(out_dir / f"{f}_errors.png")
-        fig.savefig(made[-1], dpi=100)
-        plt.close(fig)
-    return made
+    return plot_all(report, out_dir)

@@ -291,6 +291,23 @@ class Contents:
     #: decoded JSON topics, filled by the audit on first use (topic -> good and bad messages)
     decoded: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
+    @property
+    def start_ns(self) -> int:
+        """The run's start on the epoch clock, ns (metadata ``run.start_time_ns``); 0 for a
+        log whose times are the simulation time itself, or whose value is not a time."""
+        text = self.metadata.get("run", {}).get("start_time_ns", "0")
+        return int(text) if isinstance(text, str) and text.isdigit() and len(text) <= 19 else 0
+
+    def sim_s(self, log_time_ns: int) -> float:
+        """A log time as simulation time, s.
+
+        Parameters
+        ----------
+        log_time_ns : int
+            A message's ``log_time``, ns.
+        """
+        return (log_time_ns - self.start_ns) / 1e9
+
 
 class _Bad(Exception):
     """A record's content does not parse (becomes a finding at the record's offset)."""
@@ -987,25 +1004,26 @@ class _Reader:
         if op != FOOTER or length != 20:
             return
         data_end = (summary_start or size - 8 - FOOTER_BYTES) - DATA_END_BYTES
-        if fault.offset < data_end and data_end > 8:
+        sections = []  # (stored CRC, first byte, end) of the sections that may hold the flip
+        if data_end > 8:  # the data section, also for a fault past it: a flipped length can jump there
             f.seek(data_end)
             raw = f.read(DATA_END_BYTES)
-            if len(raw) != DATA_END_BYTES or raw[:9] != _RECORD.pack(DATA_END, 4):
-                return
-            stored, first, end = int.from_bytes(raw[9:], "little"), 0, data_end
-        elif summary_start and fault.offset >= summary_start:
-            stored, first, end = summary_crc, summary_start, size - 8 - 4
-        else:
-            return
-        if not stored or end - first > LOCATE_MAX_BYTES:  # nothing to locate with, or too long to
-            return
-        got = _crc_range(f, first, end)
-        hit = locate_flip(stored, got, end - first) if got != stored else None
+            if len(raw) == DATA_END_BYTES and raw[:9] == _RECORD.pack(DATA_END, 4):
+                sections.append((int.from_bytes(raw[9:], "little"), 0, data_end))
+        if summary_start and fault.offset >= summary_start:
+            sections.append((summary_crc, summary_start, size - 8 - 4))
+        hit = None
+        for stored, first, end in sections:
+            if not stored or end - first > LOCATE_MAX_BYTES:  # nothing to locate with, or too long to
+                continue
+            got = _crc_range(f, first, end)
+            found = locate_flip(stored, got, end - first) if got != stored else None
+            if found is not None and first + found[0] <= fault.offset + 9:  # before the fault, or in its header
+                hit = (first + found[0], found[1])
+                break
         if hit is None:
             return
-        byte, bit = first + hit[0], hit[1]
-        if byte > fault.offset + 9:  # not before the fault, nor in its record's header
-            return
+        byte, bit = hit
         finding = next(x for x in reversed(self.findings) if x.offset == fault.offset and x.what == fault.what)
         if byte < fault.offset:  # in a record read before: that is the damaged one
             finding.offset, name = self.record_at(byte)

@@ -3,6 +3,7 @@ that ran live, against the renderer's truth (`lfctl replay`)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,14 +12,18 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 from lfctl.record.audit import _json_messages, audit
+from lfctl.record.video import decode_h264
+from lfctl.record.writer import image_topic
 from lfctl.vision.boxes import iou
 from lfctl.vision.frames import FrameError
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
-__all__ = ["ReplayResult", "replay"]
+__all__ = ["ReplayResult", "recorded_frames", "replay"]
 
 #: a frame is scored when at least this much of the banner shows
 MIN_VISIBLE = 0.5
+#: an H.264 NAL unit that carries no picture (stands in for a unit that does not parse)
+_ACCESS_UNIT_DELIMITER = b"\x00\x00\x00\x01\x09\xf0"
 #: recorded frames larger than this many pixels are not decoded (a damaged or crafted size)
 MAX_FRAME_PIXELS = 4096 * 4096
 
@@ -32,7 +37,9 @@ class ReplayResult:
     scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
     recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
     replayed_success: float  # the same for the replayed tracker
-    unreadable: int = 0  # recorded images skipped: not a CompressedImage, not a JPEG that decodes, or another size
+    unreadable: int = 0  # recorded images skipped: they do not decode, or differ in size from the first
+    recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
+    replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -60,24 +67,25 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     c = report.contents
     followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
     name = follower or (followers[0] if followers else "")
-    images = c.messages.get(f"/{name}/camera/image/compressed", [])
-    if not images:
+    count = len(c.messages.get(image_topic(name, "h264"), []) or c.messages.get(image_topic(name, "jpeg"), []))
+    images = recorded_frames(c.messages, name)
+    if not count:
         raise ConfigError(
             f"{path} has no recorded camera images for follower {name!r} "
             "(was it run with sensing = 'camera' and recording.images = true?)"
         )
     recorded = dict(_json_messages(c, f"/{name}/tracker"))  # valid messages only, by t in s
     tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
-    ok_new = ok_old = n = unreadable = 0
+    ok_new = ok_old = n = markers_new = markers_old = 0
+    unreadable = count - len(images)
     started = False
     shape: tuple[int, ...] | None = None
-    for t, data in images:
-        frame = _decode(data)
-        if frame is None or (shape is not None and frame.shape != shape):
+    for t, frame in images:
+        if shape is not None and frame.shape != shape:
             unreadable += 1
             continue
         shape = frame.shape
-        rec = recorded.get(t / 1e9, {})
+        rec = recorded.get(c.sim_s(t), {})
         truth = rec.get("truth_bbox")
         if not started:
             if truth:
@@ -92,11 +100,48 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             n += 1
             ok_new += iou(st.bbox, truth) >= 0.5
             ok_old += iou(rec.get("bbox"), truth) >= 0.5
-    if unreadable == len(images):
-        raise ConfigError(f"{path}: none of the {len(images)} recorded images of {name!r} decodes")
+            markers_new += st.markers is not None
+            markers_old += rec.get("markers") is not None
+    if not images:
+        raise ConfigError(f"{path}: none of the {count} recorded images of {name!r} decodes")
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
-    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n, unreadable)
+    return ReplayResult(name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n)
+
+
+def recorded_frames(messages: dict[str, Sequence[tuple[int, bytes]]], follower: str) -> list[tuple[int, np.ndarray]]:
+    """A follower's recorded camera frames that decode: (log_time ns, BGR image) in order,
+    from its H.264 video or its JPEG images (whichever the log holds). Frames that do not
+    decode, or claim more than :data:`MAX_FRAME_PIXELS`, are left out.
+
+    Parameters
+    ----------
+    messages : dict
+        Topic -> (log_time ns, payload) of every message (as :class:`~lfctl.record.audit.Contents` holds them).
+    follower : str
+        Whose camera.
+    """
+    from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
+    from google.protobuf.message import DecodeError
+
+    video = messages.get(image_topic(follower, "h264"), [])
+    if video:
+        times = [t for t, _ in video]
+
+        def units() -> Iterator[bytes]:
+            for _, d in video:
+                try:
+                    yield CompressedVideo.FromString(d).data
+                except DecodeError:
+                    yield _ACCESS_UNIT_DELIMITER  # decodes to nothing, and keeps frame k at unit k
+
+        return [(times[k], frame) for k, frame in decode_h264(units(), MAX_FRAME_PIXELS) if k < len(times)]
+    out = []
+    for t, d in messages.get(image_topic(follower, "jpeg"), []):
+        frame = _decode(d)
+        if frame is not None:
+            out.append((t, frame))
+    return out
 
 
 def _decode(data: bytes) -> np.ndarray | None:
