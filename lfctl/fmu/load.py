@@ -7,6 +7,9 @@ outputs. :class:`RoleMap` names them; declared units are converted to SI. Each F
 extracted once and its library loaded once (:class:`FmuLibrary`); every instance of it shares
 that library. Stepping calls the FMI functions through ctypes with arrays preallocated over
 rows of numpy arrays the co-simulation master owns, so no list is built per step.
+
+A vehicle FMU's outputs are checked (:meth:`FmuInstance.check_outputs`: finite and within
+:data:`OUTPUT_BOUNDS`; docs/architecture.md, "Containing FMUs").
 """
 
 from __future__ import annotations
@@ -31,7 +34,16 @@ from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
 
-__all__ = ["INPUT_ROLES", "OUTPUT_ROLES", "POSE_ROLES", "FmuInstance", "FmuLibrary", "FmuVariable", "RoleMap"]
+__all__ = [
+    "INPUT_ROLES",
+    "OUTPUT_BOUNDS",
+    "OUTPUT_ROLES",
+    "POSE_ROLES",
+    "FmuInstance",
+    "FmuLibrary",
+    "FmuVariable",
+    "RoleMap",
+]
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +79,11 @@ UNIT_TO_SI = {
     "deg/s": ("rad/s", math.pi / 180.0),
 }
 FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+#: largest magnitude each output may have, SI: past it, or not finite (NaN, inf), the FMU has
+#: failed and stepping stops with an FmuError. Far beyond any ground vehicle, and within what
+#: every consumer of the world state can carry: 1000 km from home stays a valid degE7 latitude
+#: and longitude in MAVLink telemetry, 300 m/s fits GLOBAL_POSITION_INT's int16 cm/s.
+OUTPUT_BOUNDS = {"north": 1e6, "east": 1e6, "yaw": 1e6, "speed": 300.0, "yaw_rate": 1e3}
 
 
 @dataclass(frozen=True)
@@ -145,6 +162,9 @@ class FmuLibrary:
             raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
         self.identifier: str = self.md.coSimulation.modelIdentifier
         self.variables = {v.name: v for v in self.md.modelVariables}
+        #: role -> FMU variable name and declared (or overridden) unit, for messages
+        self.role_names: dict[str, str] = {}
+        self.role_units: dict[str, str] = {}
         self.vr, self.scale, self.pose_mapped = self._resolve_roles(role_map)
         self._unzipdir: str | None = None
         self._instances: list[FmuInstance] = []
@@ -232,6 +252,8 @@ class FmuLibrary:
                 )
             vr[role] = int(var.valueReference)
             scale[role] = factor
+            self.role_names[role] = name
+            self.role_units[role] = unit
         return vr, scale, all(r in vr for r in POSE_ROLES)
 
     @staticmethod
@@ -300,6 +322,11 @@ class FmuInstance:
     north, east, yaw, speed, yaw rate, in the FMU's units) are views into arrays the caller
     owns; :meth:`step` sends the first and fills the second. Build it with
     :meth:`FmuLibrary.instantiate`.
+
+    :meth:`step` does not check the outputs it reads, so that a master stepping many
+    vehicles checks them all in one vector operation (``Simulation.step``) and calls
+    :meth:`check_outputs` only on a suspect; :meth:`read` (after initialisation and reset)
+    checks them.
 
     Parameters
     ----------
@@ -442,6 +469,8 @@ class FmuInstance:
     def step(self, dt_s: float) -> None:
         """Send the command row, advance ``dt_s``, read the output row. Raises FmuError.
 
+        The outputs are not checked here (see the class); call :meth:`check_outputs`.
+
         Parameters
         ----------
         dt_s : float
@@ -461,6 +490,30 @@ class FmuInstance:
         else:
             call = "SetReal"
         self._raise_status(call, status)
+
+    def check_outputs(self) -> None:
+        """Raise FmuError if an output read last is not finite or beyond :data:`OUTPUT_BOUNDS`.
+
+        The message names the FMU (model identifier and file), the instance, the variable
+        and its role, the value and the simulation time it is the output at.
+        """
+        lib = self.lib
+        for k, role in enumerate(OUTPUT_ROLES):
+            raw = self._out[k]
+            si = raw * lib.scale[role]
+            if math.isfinite(si) and abs(si) <= OUTPUT_BOUNDS[role]:
+                continue
+            unit = lib.role_units.get(role, "")
+            if not math.isfinite(raw):
+                why = "is not a finite number"
+            else:
+                why = f"is beyond the bound |{role}| <= {OUTPUT_BOUNDS[role]:g} {ROLE_SI_UNIT[role]}"
+            raise FmuError(
+                f"FMU {lib.identifier} ({lib.path}), instance {self.name!r}: output {lib.role_names[role]!r} "
+                f"(role {role}) = {raw!r} {unit} at t = {self.t_s:.6g} s {why}",
+                model=lib.identifier,
+                call=f"fmi{lib.fmi_version}Get{'Real' if lib.fmi_version == 2 else 'Float64'}",
+            )
 
     def _raise_status(self, call: str, status: int) -> None:
         prefix = "fmi2" if self.lib.fmi_version == 2 else "fmi3"
@@ -487,10 +540,11 @@ class FmuInstance:
         self._checked("fmi2SetReal" if v == 2 else "fmi3SetFloat64", fn, vrs, [float(v) for v in values.values()])
 
     def read(self) -> None:
-        """Refresh the output row without stepping."""
+        """Refresh the output row without stepping, and check it (:meth:`check_outputs`)."""
         status = self._get(*self._get_args)
         if status != 0:
             self._raise_status("GetReal", status)
+        self.check_outputs()
 
     def reset(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
         """FMI Reset, then parameterise and initialise again at the start time.
