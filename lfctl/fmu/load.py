@@ -8,8 +8,9 @@ extracted once and its library loaded once (:class:`FmuLibrary`); every instance
 that library. Stepping calls the FMI functions through ctypes with arrays preallocated over
 rows of numpy arrays the co-simulation master owns, so no list is built per step.
 
-A vehicle FMU's outputs are checked (:meth:`FmuInstance.check_outputs`: finite and within
-:data:`OUTPUT_BOUNDS`; docs/architecture.md, "Containing FMUs").
+An FMU is foreign code and data (docs/architecture.md, "Containing FMUs"): its archive is
+checked and unpacked within limits (:mod:`lfctl.fmu.archive`), and its outputs are checked
+(:meth:`FmuInstance.check_outputs`: finite and within :data:`OUTPUT_BOUNDS`).
 """
 
 from __future__ import annotations
@@ -18,8 +19,7 @@ import contextlib
 import ctypes
 import logging
 import math
-import shutil
-import tempfile
+import re
 import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -27,12 +27,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
+from lfctl.fmu.archive import ExtractionDir, extract_archive, read_member, remove_stale_extractions
 
 __all__ = [
     "INPUT_ROLES",
@@ -84,6 +85,8 @@ FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 #: every consumer of the world state can carry: 1000 km from home stays a valid degE7 latitude
 #: and longitude in MAVLink telemetry, 300 m/s fits GLOBAL_POSITION_INT's int16 cm/s.
 OUTPUT_BOUNDS = {"north": 1e6, "east": 1e6, "yaw": 1e6, "speed": 300.0, "yaw_rate": 1e3}
+
+_swept = False  # stale extraction folders removed (once per process)
 
 
 @dataclass(frozen=True)
@@ -141,13 +144,17 @@ class FmuLibrary:
     Raises
     ------
     FmuError
-        No such file, not an FMU, an unsupported FMI version, or extraction failed.
+        No such file, not an FMU, an unsupported FMI version, an archive beyond the limits of
+        :mod:`lfctl.fmu.archive`, or extraction failed.
     ConfigError
         A role is unmapped, or mapped to a variable of the wrong causality, type or unit.
     """
 
     def __init__(self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP) -> None:
         self.path = Path(path)
+        self._dir: ExtractionDir | None = None
+        self._unzipdir: str | None = None
+        self._instances: list[FmuInstance] = []
         if not self.path.is_file():
             raise FmuError(f"FMU file {self.path} does not exist", model=str(self.path), call="load")
         self.md = self.describe(self.path)
@@ -161,17 +168,30 @@ class FmuLibrary:
         if self.md.coSimulation is None:
             raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
         self.identifier: str = self.md.coSimulation.modelIdentifier
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.identifier or ""):
+            # it names the library file and our folder: never a path
+            raise FmuError(
+                f"{self.path}: modelIdentifier {self.identifier!r} is not a C identifier",
+                model=str(self.path),
+                call="load",
+            )
         self.variables = {v.name: v for v in self.md.modelVariables}
         #: role -> FMU variable name and declared (or overridden) unit, for messages
         self.role_names: dict[str, str] = {}
         self.role_units: dict[str, str] = {}
         self.vr, self.scale, self.pose_mapped = self._resolve_roles(role_map)
-        self._unzipdir: str | None = None
-        self._instances: list[FmuInstance] = []
+        global _swept
+        if not _swept:  # once per process: folders left by runs that were killed
+            _swept = True
+            remove_stale_extractions()
         try:
-            self._unzipdir = extract(str(self.path), unzipdir=tempfile.mkdtemp(prefix=f"lfctl-{self.identifier}-"))
-        except Exception as exc:
+            self._dir = ExtractionDir(self.identifier)
+            extract_archive(self.path, self._dir.files)
+            self._unzipdir = str(self._dir.files)
+        except BaseException as exc:
             self.close()
+            if isinstance(exc, (FmuError, KeyboardInterrupt, SystemExit)):
+                raise
             raise FmuError(f"{self.path}: cannot extract: {exc}", model=self.identifier, call="extract") from exc
 
     @staticmethod
@@ -184,6 +204,7 @@ class FmuLibrary:
             The FMU file.
         """
         p = Path(path)
+        read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
         try:
             return read_model_description(str(p))
         except FileNotFoundError as exc:
@@ -300,13 +321,16 @@ class FmuLibrary:
         return inst
 
     def close(self) -> None:
-        """Free every instance and remove the extracted folder."""
-        for inst in self._instances:
-            inst.free()
-        self._instances.clear()
-        if self._unzipdir:
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
+        """Free every instance and remove the extracted folder; safe to call twice."""
+        try:
+            for inst in self._instances:
+                inst.free()
+        finally:
+            self._instances.clear()
             self._unzipdir = None
+            if self._dir is not None:
+                self._dir.remove()
+                self._dir = None
 
     def __enter__(self) -> FmuLibrary:
         return self
