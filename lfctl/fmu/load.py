@@ -9,8 +9,10 @@ that library. Stepping calls the FMI functions through ctypes with arrays preall
 rows of numpy arrays the co-simulation master owns, so no list is built per step.
 
 An FMU is foreign code and data (docs/architecture.md, "Containing FMUs"): its archive is
-checked and unpacked within limits (:mod:`lfctl.fmu.archive`), and its outputs are checked
-(:meth:`FmuInstance.check_outputs`: finite and within :data:`OUTPUT_BOUNDS`).
+checked and unpacked within limits (:mod:`lfctl.fmu.archive`); its outputs are checked
+(:meth:`FmuInstance.check_outputs`: finite and within :data:`OUTPUT_BOUNDS`); and every FMI
+call it is inside is visible to another thread (:func:`calls_in_progress`), so a watchdog can
+end a run whose FMU never returns (:mod:`lfctl.sim.watchdog`).
 """
 
 from __future__ import annotations
@@ -20,8 +22,9 @@ import ctypes
 import logging
 import math
 import re
+import threading
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -44,6 +47,9 @@ __all__ = [
     "FmuLibrary",
     "FmuVariable",
     "RoleMap",
+    "calls_in_progress",
+    "discard_extractions",
+    "hold_returns",
 ]
 
 log = logging.getLogger(__name__)
@@ -86,7 +92,59 @@ FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 #: and longitude in MAVLink telemetry, 300 m/s fits GLOBAL_POSITION_INT's int16 cm/s.
 OUTPUT_BOUNDS = {"north": 1e6, "east": 1e6, "yaw": 1e6, "speed": 300.0, "yaw_rate": 1e3}
 
-_swept = False  # stale extraction folders removed (once per process)
+# Live libraries and instances by id (plain dicts: another thread takes a snapshot of their
+# values atomically under the GIL), and the gate a thread returning from an FMI call passes
+# while a watchdog holds it (hold_returns).
+_LIBRARIES: dict[int, FmuLibrary] = {}
+_INSTANCES: dict[int, FmuInstance] = {}
+_gate_lock = threading.Lock()
+_gate_closed = False
+_swept = False
+
+
+def _pass_gate() -> None:
+    with _gate_lock:
+        pass
+
+
+@contextlib.contextmanager
+def hold_returns() -> Iterator[None]:
+    """While inside, a thread returning from an FMI call waits before it goes on.
+
+    A watchdog that finds an FMU stuck in a call (:func:`calls_in_progress`) holds this
+    while it decides and finishes the run, so the stepping thread cannot come back and touch
+    what the watchdog is closing; an FMI call returns to lfctl in a few instructions, so
+    holding it costs the stepping thread nothing while it computes.
+    """
+    global _gate_closed
+    with _gate_lock:
+        _gate_closed = True  # after taking the lock: a returning thread that sees it waits
+        try:
+            yield
+        finally:
+            _gate_closed = False
+
+
+def calls_in_progress() -> list[tuple[FmuInstance, str, tuple[object, ...]]]:
+    """Every FMI call some thread is inside now: (instance, FMI function, key).
+
+    The key is the same for as long as the same call goes on, so a watchdog polling this
+    sees how long a call has lasted. Safe to call from any thread.
+    """
+    out = []
+    for inst in tuple(_INSTANCES.values()):
+        call, t_s, serial = inst.busy, inst.t_s, inst.calls
+        if call is not None:
+            out.append((inst, call, (id(inst), call, t_s, serial)))
+    return out
+
+
+def discard_extractions() -> None:
+    """Remove every loaded FMU's extracted folder without calling the FMUs (a process that
+    is about to ``os._exit`` while an FMU is stuck; its code stays mapped until then)."""
+    for lib in tuple(_LIBRARIES.values()):
+        if lib._dir is not None:
+            lib._dir.remove()
 
 
 @dataclass(frozen=True)
@@ -184,6 +242,7 @@ class FmuLibrary:
         if not _swept:  # once per process: folders left by runs that were killed
             _swept = True
             remove_stale_extractions()
+        _LIBRARIES[id(self)] = self
         try:
             self._dir = ExtractionDir(self.identifier)
             extract_archive(self.path, self._dir.files)
@@ -331,6 +390,7 @@ class FmuLibrary:
             if self._dir is not None:
                 self._dir.remove()
                 self._dir = None
+            _LIBRARIES.pop(id(self), None)
 
     def __enter__(self) -> FmuLibrary:
         return self
@@ -350,7 +410,8 @@ class FmuInstance:
     :meth:`step` does not check the outputs it reads, so that a master stepping many
     vehicles checks them all in one vector operation (``Simulation.step``) and calls
     :meth:`check_outputs` only on a suspect; :meth:`read` (after initialisation and reset)
-    checks them.
+    checks them. While a thread is inside an FMI call of this instance, :attr:`busy` names
+    the call (see :func:`calls_in_progress`).
 
     Parameters
     ----------
@@ -384,17 +445,41 @@ class FmuInstance:
         self.t_s = start_time_s
         self._start_time_s = start_time_s
         self._freed = False
+        #: the FMI call a thread is inside now (None between calls), and how many slow-path
+        #: calls were made (with t_s, it tells one call from the next)
+        self.busy: str | None = None
+        self.calls = 0
+        self._slave: Any = None
+        _INSTANCES[id(self)] = self
+        try:
+            self._setup(parameters, pose, cmd_row, out_row)
+        except BaseException:
+            self.free()
+            raise
+
+    def _setup(
+        self,
+        parameters: Mapping[str, float],
+        pose: tuple[float, float, float],
+        cmd_row: np.ndarray,
+        out_row: np.ndarray,
+    ) -> None:
+        lib, name = self.lib, self.name
         md = lib.md
         common = dict(guid=md.guid, modelIdentifier=lib.identifier, unzipDirectory=lib._unzipdir, instanceName=name)
+        prefix = "fmi2" if lib.fmi_version == 2 else "fmi3"
         try:
             if lib.fmi_version == 2:
-                self._slave: Any = FMU2Slave(**common)
+                slave: Any = FMU2Slave(**common)
                 self._callbacks = fmi2CallbackFunctions()
                 self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
-                self._slave.instantiate(callbacks=self._callbacks)
+                with self._in_call("fmi2Instantiate"):
+                    slave.instantiate(callbacks=self._callbacks)
             else:
-                self._slave = FMU3Slave(**common)
-                self._slave.instantiate(logMessage=self._log3)
+                slave = FMU3Slave(**common)
+                with self._in_call("fmi3InstantiateCoSimulation"):
+                    slave.instantiate(logMessage=self._log3)
+            self._slave = slave
         except FmuError:
             raise
         except Exception as exc:
@@ -412,6 +497,7 @@ class FmuInstance:
             raise ValueError(f"out_row must be a contiguous float64 array of shape ({n_out},)")
         self._in = (ctypes.c_double * n_in).from_buffer(cmd_row)
         self._out = (ctypes.c_double * n_out).from_buffer(out_row)
+        self._do_name = prefix + "DoStep"
         if lib.fmi_version == 2:
             self._set = dll.fmi2SetReal
             self._get = dll.fmi2GetReal
@@ -428,6 +514,18 @@ class FmuInstance:
         self._nin, self._nout = n_in, n_out
         self._setup_calls()
         self.read()
+
+    @contextlib.contextmanager
+    def _in_call(self, call: str) -> Iterator[None]:
+        """Mark the slow-path FMI call ``call`` as in progress (the hot path does it inline)."""
+        self.calls += 1
+        self.busy = call
+        try:
+            yield
+        finally:
+            self.busy = None
+            if _gate_closed:
+                _pass_gate()
 
     # FMU log callbacks: keep messages (errors name the variable), forward to logging.
     def _log2(self, env: object, instance: bytes, status: int, category: bytes, message: bytes) -> None:
@@ -457,7 +555,8 @@ class FmuInstance:
 
     def _checked(self, call: str, fn: Any, *args: Any, **kwargs: Any) -> None:
         try:
-            fn(*args, **kwargs)
+            with self._in_call(call):
+                fn(*args, **kwargs)
         except FMICallException as exc:
             raise self._error(
                 f"{self.lib.identifier} ({self.name}): {call} returned {_status_text(exc.status)}", call, exc.status
@@ -502,7 +601,11 @@ class FmuInstance:
         """
         status = self._set(*self._set_args)
         if status == 0:
+            self.busy = self._do_name  # visible to a watchdog while the FMU computes
             status = self._do(self._c, self.t_s, dt_s, *self._step_args)
+            self.busy = None
+            if _gate_closed:  # a watchdog is finishing the run: wait for it
+                _pass_gate()
             if status == 0:
                 status = self._get(*self._get_args)
                 if status == 0:
@@ -590,8 +693,16 @@ class FmuInstance:
         if self._freed:
             return
         self._freed = True
-        with contextlib.suppress(Exception):  # already in an error state: freeing is still right
-            self._slave.terminate()
-        fn = self._slave.fmi2FreeInstance if self.lib.fmi_version == 2 else self._slave.fmi3FreeInstance
-        fn(self._slave.component)
-        # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.
+        try:
+            if self._slave is None:  # instantiation failed: nothing to free
+                return
+            v = self.lib.fmi_version
+            # already in an error state: freeing is still right
+            with contextlib.suppress(Exception), self._in_call(f"fmi{v}Terminate"):
+                self._slave.terminate()
+            fn = self._slave.fmi2FreeInstance if v == 2 else self._slave.fmi3FreeInstance
+            with self._in_call(f"fmi{v}FreeInstance"):
+                fn(self._slave.component)
+            # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.
+        finally:
+            _INSTANCES.pop(id(self), None)
