@@ -24,6 +24,7 @@ import math
 import re
 import threading
 import zipfile
+from collections import deque
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,6 +41,7 @@ from lfctl.fmu.archive import ExtractionDir, extract_archive, read_member, remov
 
 __all__ = [
     "INPUT_ROLES",
+    "KEPT_MESSAGES",
     "OUTPUT_BOUNDS",
     "OUTPUT_ROLES",
     "POSE_ROLES",
@@ -91,6 +93,9 @@ FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 #: every consumer of the world state can carry: 1000 km from home stays a valid degE7 latitude
 #: and longitude in MAVLink telemetry, 300 m/s fits GLOBAL_POSITION_INT's int16 cm/s.
 OUTPUT_BOUNDS = {"north": 1e6, "east": 1e6, "yaw": 1e6, "speed": 300.0, "yaw_rate": 1e3}
+#: messages an instance keeps of what its FMU logged (the newest; an FMU logging in a loop
+#: must not fill the memory)
+KEPT_MESSAGES = 100
 
 # Live libraries and instances by id (plain dicts: another thread takes a snapshot of their
 # values atomically under the GIL), and the gate a thread returning from an FMI call passes
@@ -441,7 +446,7 @@ class FmuInstance:
     ) -> None:
         self.lib = lib
         self.name = name
-        self.messages: list[str] = []
+        self.messages: deque[str] = deque(maxlen=KEPT_MESSAGES)  # the newest the FMU logged
         self.t_s = start_time_s
         self._start_time_s = start_time_s
         self._freed = False

@@ -14,7 +14,7 @@ from lfctl.cli import main
 from lfctl.config import parse_config
 from lfctl.errors import FmuError
 from lfctl.fmu.build import BuiltModel
-from lfctl.fmu.load import OUTPUT_BOUNDS, FmuInstance, FmuLibrary, RoleMap
+from lfctl.fmu.load import KEPT_MESSAGES, OUTPUT_BOUNDS, FmuInstance, FmuLibrary, RoleMap
 from lfctl.record.audit import audit
 from lfctl.sim.cosim import Simulation
 
@@ -112,3 +112,12 @@ def test_sim_exits_1_with_one_line_and_the_log_says_why(
     report = audit(log)
     assert report.figures["end"]["reason"] == f"error: FmuError: {expected} is not a finite number"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(1.23)
+
+
+def test_an_fmu_that_logs_without_end_keeps_only_the_newest_messages(faulty: BuiltModel) -> None:
+    with FmuLibrary(faulty.fmi3) as lib:
+        inst, _cmd, _out = _instance(lib, 0, 0.0)
+        for _ in range(KEPT_MESSAGES + 50):  # a fixed parameter after initialisation: refused, logged
+            with pytest.raises(FmuError):
+                inst.set_real({"fault_at": 1.0})
+        assert len(inst.messages) == KEPT_MESSAGES
