@@ -503,6 +503,8 @@ class FmuInstance:
         self._in = (ctypes.c_double * n_in).from_buffer(cmd_row)
         self._out = (ctypes.c_double * n_out).from_buffer(out_row)
         self._do_name = prefix + "DoStep"
+        self._set_name = "fmi2SetReal" if lib.fmi_version == 2 else "fmi3SetFloat64"
+        self._get_name = "fmi2GetReal" if lib.fmi_version == 2 else "fmi3GetFloat64"
         if lib.fmi_version == 2:
             self._set = dll.fmi2SetReal
             self._get = dll.fmi2GetReal
@@ -604,23 +606,21 @@ class FmuInstance:
         dt_s : float
             The communication step, s.
         """
+        # busy names the FMI call the FMU is in, for a watchdog (calls_in_progress)
+        self.busy = self._set_name
         status = self._set(*self._set_args)
         if status == 0:
-            self.busy = self._do_name  # visible to a watchdog while the FMU computes
+            self.busy = self._do_name
             status = self._do(self._c, self.t_s, dt_s, *self._step_args)
-            self.busy = None
-            if _gate_closed:  # a watchdog is finishing the run: wait for it
-                _pass_gate()
             if status == 0:
+                self.busy = self._get_name
                 status = self._get(*self._get_args)
-                if status == 0:
-                    self.t_s += dt_s
-                    return
-                call = "GetReal"
-            else:
-                call = "DoStep"
-        else:
-            call = "SetReal"
+        call, self.busy = self.busy, None
+        if _gate_closed:  # a watchdog is finishing the run: wait for it
+            _pass_gate()
+        if status == 0:
+            self.t_s += dt_s
+            return
         self._raise_status(call, status)
 
     def check_outputs(self) -> None:
@@ -644,17 +644,15 @@ class FmuInstance:
                 f"FMU {lib.identifier} ({lib.path}), instance {self.name!r}: output {lib.role_names[role]!r} "
                 f"(role {role}) = {raw!r} {unit} at t = {self.t_s:.6g} s {why}",
                 model=lib.identifier,
-                call=f"fmi{lib.fmi_version}Get{'Real' if lib.fmi_version == 2 else 'Float64'}",
+                call=self._get_name,
             )
 
     def _raise_status(self, call: str, status: int) -> None:
-        prefix = "fmi2" if self.lib.fmi_version == 2 else "fmi3"
         if status == 1:  # warning: keep going, it was logged
             return
-        full = prefix + (call if prefix == "fmi2" else call.replace("Real", "Float64"))
         raise self._error(
-            f"{self.lib.identifier} ({self.name}): {full} at t={self.t_s:.6g} s returned {_status_text(status)}",
-            full,
+            f"{self.lib.identifier} ({self.name}): {call} at t={self.t_s:.6g} s returned {_status_text(status)}",
+            call,
             status,
         )
 
@@ -673,9 +671,10 @@ class FmuInstance:
 
     def read(self) -> None:
         """Refresh the output row without stepping, and check it (:meth:`check_outputs`)."""
-        status = self._get(*self._get_args)
+        with self._in_call(self._get_name):
+            status = self._get(*self._get_args)
         if status != 0:
-            self._raise_status("GetReal", status)
+            self._raise_status(self._get_name, status)
         self.check_outputs()
 
     def reset(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
