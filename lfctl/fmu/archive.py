@@ -195,7 +195,7 @@ def _checked_zip(path: Path) -> Iterator[tuple[zipfile.ZipFile, list[tuple[zipfi
             zf = zipfile.ZipFile(f)
         except FmuError:
             raise
-        except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError) as exc:
+        except Exception as exc:  # BadZipFile mostly; whatever a damaged directory raises
             raise FmuError(
                 f"{path} is not an FMU: not a readable zip archive ({exc})", model=str(path), call="load"
             ) from exc
