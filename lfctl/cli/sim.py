@@ -184,6 +184,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.data import resolve_scenario
     from lfctl.record.writer import run_path
     from lfctl.sim.runner import run_scenario
+    from lfctl.sim.watchdog import BlockedCallWatchdog
 
     cfg = apply_options(load_config(resolve_scenario(args.scenario)), args)
     log.info(
@@ -228,17 +229,18 @@ def run(args: argparse.Namespace) -> int:
             print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)
     path: Path | None = run_path(cfg) if cfg.recording.enabled and not args.no_record else None
     handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        report = run_scenario(
-            cfg,
-            progress=progress,
-            record_to=path,
-            on_links=announce,
-            stop=requested.is_set,
-            live=live,
-            video=video,
-            on_live=lambda port: announce_live(port, live[0]) if live is not None else None,
-        )
+    try:  # an FMU stuck in a step ignores the handlers: the watchdog ends the run instead
+        with BlockedCallWatchdog():
+            report = run_scenario(
+                cfg,
+                progress=progress,
+                record_to=path,
+                on_links=announce,
+                stop=requested.is_set,
+                live=live,
+                video=video,
+                on_live=lambda port: announce_live(port, live[0]) if live is not None else None,
+            )
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)

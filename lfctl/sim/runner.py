@@ -42,6 +42,7 @@ from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.driver import VehicleDriver
 from lfctl.sim.links import Links
 from lfctl.sim.truth_sensor import TruthSensor
+from lfctl.sim.watchdog import finish_on_abandon
 from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
@@ -445,15 +446,17 @@ def _recording(
         yield None
         return
     rec = Recorder(path, cfg, live=live)
-    try:
-        yield rec
-    except BaseException as exc:
-        if sim.tick == 0:
-            rec.discard()
-        else:
-            reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"error: {type(exc).__name__}: {exc}"
-            rec.close(reason, sim.t_s)
-        raise
+    # an FMU stuck in a call when the run is told to stop: the watchdog finishes the log
+    with finish_on_abandon(lambda message: rec.close(f"error: {message}", sim.t_s)):
+        try:
+            yield rec
+        except BaseException as exc:
+            if sim.tick == 0:
+                rec.discard()
+            else:
+                reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"error: {type(exc).__name__}: {exc}"
+                rec.close(reason, sim.t_s)
+            raise
     rec.close("completed", sim.t_s)
 
 
