@@ -65,6 +65,7 @@ __all__ = [
     "regular_file_problem",
 ]
 
+KiB = 1 << 10
 MiB = 1 << 20
 #: the largest record body read into memory, bytes
 MAX_RECORD_BYTES = 64 * MiB
@@ -113,6 +114,7 @@ FOOTER_BYTES = 9 + 20  # opcode, length, summary_start, summary_offset_start, su
 DATA_END_BYTES = 9 + 4
 
 _RECORD = struct.Struct("<BQ")
+UNFINISHED = (1 << 64) - 1  # the length a streaming writer puts in a Chunk until it is finished
 _U32 = "I" if array("I").itemsize >= 4 else "L"  # 4 bytes where it can (32 bytes a message kept)
 _MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 
@@ -621,6 +623,8 @@ class _Reader:
         kind = KINDS.get(op)
         if kind is None:
             raise self.fail(start, f"corrupt record: unknown opcode {op:#04x} (length field {length})")
+        if op == CHUNK and length == UNFINISHED and not c.complete:
+            raise self.unfinished_chunk(start)
         if length > lim.record_bytes:
             if length > self.size - self.pos:
                 raise self.fail(
@@ -864,6 +868,21 @@ class _Reader:
             ops, positions, lengths = _frame_chunk(records)
         except _Bad as exc:
             raise self.fail(start, f"corrupt Chunk: {exc}", skip=True) from None
+        out_of_range = self.chunk_records(records, ops, positions, lengths, start, t0, t1)
+        if out_of_range:
+            self.findings.append(
+                Finding(
+                    "error",
+                    f"corrupt Chunk: {out_of_range} of its messages lie outside its time range {t0}..{t1} ns",
+                    start,
+                    "corrupt",
+                )
+            )
+
+    def chunk_records(
+        self, records: Any, ops: array, positions: array, lengths: array, start: int, t0: int, t1: int
+    ) -> int:
+        """Read a chunk's framed records; the number of messages outside ``t0..t1``."""
         others = [i for i, op in enumerate(ops) if op != MESSAGE]
         if others:
             self.keep_other(sum(lengths[i] for i in others), start)
@@ -881,15 +900,37 @@ class _Reader:
                         self.define_channel(_channel(sub), start)
                 except _Bad as exc:
                     raise self.fail(start, f"corrupt Chunk: {exc}") from None
-        if out_of_range:
-            self.findings.append(
-                Finding(
-                    "error",
-                    f"corrupt Chunk: {out_of_range} of its messages lie outside its time range {t0}..{t1} ns",
-                    start,
-                    "corrupt",
-                )
-            )
+        return out_of_range
+
+    def unfinished_chunk(self, start: int) -> _Fault:
+        """A Chunk whose length still holds the writer's placeholder: the writer streams a chunk
+        to the file and fills its lengths in when the chunk is finished, so a writer killed in
+        between leaves this. The messages whose records reached the file in full are kept."""
+        rest = self.size - self.pos
+        body = self.read(min(rest, self.lim.record_bytes), start)
+        cur = _Cursor(body, "Chunk")
+        kept, note = 0, ""
+        try:
+            for name in ("message_start_time", "message_end_time", "uncompressed_size"):
+                cur.u64(name)
+            cur.u32("uncompressed_crc")
+            compression = cur.string("compression")
+            cur.u64("records length")
+            records = _inflate_prefix(compression, memoryview(body)[cur.pos :], self.lim.chunk_bytes)
+            ops, positions, lengths, used = _frame_prefix(records)
+            before = self.messages
+            self.chunk_records(records, ops, positions, lengths, start, 0, UNFINISHED)
+            kept = self.messages - before
+            if used < len(records):
+                note = f"; {len(records) - used} bytes of a record cut off"
+        except _Bad as exc:
+            note = f"; nothing recovered from it: {exc}"
+        return self.fail(
+            start,
+            f"truncated: the file ends inside a Chunk the writer had not finished (its length is still the "
+            f"writer's placeholder; {rest} bytes of it present, {kept} whole messages recovered{note})",
+            "truncated",
+        )
 
     def data_end(self, cur: _Cursor, start: int) -> None:
         crc = cur.u32("data_section_crc")
@@ -1087,6 +1128,47 @@ def _frame_chunk(records: bytes | memoryview) -> tuple[array, array, array]:
         lengths.append(length)
         pos = body + length
     return ops, positions, lengths
+
+
+def _frame_prefix(records: bytes | memoryview) -> tuple[array, array, array, int]:
+    """Like _frame_chunk for the records of a chunk cut short: the records that are there in
+    full, and the bytes they take."""
+    n, pos = len(records), 0
+    while n - pos >= 9:
+        op, length = _RECORD.unpack_from(records, pos)
+        if op not in (SCHEMA, CHANNEL, MESSAGE) or length > n - pos - 9:
+            break
+        pos += 9 + length
+    ops, positions, lengths = _frame_chunk(memoryview(records)[:pos])
+    return ops, positions, lengths, pos
+
+
+def _inflate_prefix(compression: str, data: memoryview, limit: int) -> bytes | memoryview:
+    """What a compressed stream cut short inflates to (at most ``limit`` bytes); raises _Bad.
+    The input goes in a KiB at a time, so a bomb cannot inflate far past ``limit``."""
+    if compression == "":
+        return data[:limit]
+    if compression == "zstd":
+        import zstandard
+
+        d: Any = zstandard.ZstdDecompressor(max_window_size=_window(limit)).decompressobj()
+        error: type[Exception] = zstandard.ZstdError
+    elif compression == "lz4":
+        import lz4.frame
+
+        d, error = lz4.frame.LZ4FrameDecompressor(), RuntimeError
+    else:
+        raise _Bad(f"unknown compression {compression!r}")
+    out = bytearray()
+    try:
+        for at in range(0, len(data), KiB):
+            out += d.decompress(data[at : at + KiB])
+            if len(out) >= limit or getattr(d, "eof", False):
+                break
+    except error as exc:
+        if not out:
+            raise _Bad(f"{compression}: {exc}") from None
+    return bytes(out[:limit])
 
 
 def _window(limit: int) -> int:

@@ -370,6 +370,44 @@ def test_a_log_killed_with_sigkill_is_recovered_without_duplicates(tmp_path: Pat
     assert max(got.values()) == 1 and sum(got.values()) == rep.figures["messages"]
 
 
+@pytest.mark.parametrize("compression", ["zstd", "lz4", ""])
+def test_a_chunk_the_writer_never_finished_keeps_its_whole_messages(tmp_path: Path, compression: str) -> None:
+    """A streaming writer puts a placeholder (all ones) in a chunk's lengths and fills them in
+    when the chunk is finished; a kill in between leaves the placeholder and part of the
+    compressed records. The messages that reached the file in full are kept; the cut one is not."""
+    rng = random.Random(7)
+    records = channel(1, "/x") + b"".join(
+        message(1, k, 1000 + k, bytes(rng.getrandbits(8) for _ in range(300))) for k in range(400)
+    )
+    if compression == "zstd":
+        c, step = zstandard.ZstdCompressor().compressobj(), 40 * 331  # a block out every 40 messages
+        compressed = b"".join(
+            c.compress(records[i : i + step]) + c.flush(zstandard.COMPRESSOBJ_FLUSH_BLOCK)
+            for i in range(0, len(records), step)
+        )
+    elif compression == "lz4":
+        compressed = lz4.frame.compress(records, block_size=lz4.frame.BLOCKSIZE_MAX64KB)
+    else:
+        compressed = records
+    cut = compressed[: len(compressed) * 3 // 5]
+    head = struct.pack("<QQQI", 0, 2**64 - 1, 2**64 - 1, 0) + string(compression) + struct.pack("<Q", 2**64 - 1)
+    path = tmp_path / "unfinished.mcap"
+    path.write_bytes(MAGIC + header() + struct.pack("<BQ", 6, 2**64 - 1) + head + cut)
+    rep = audit(path)
+    (f,) = [f for f in rep.findings if f.level == "error" and "Chunk" in f.what]
+    assert f.kind == "truncated" and "the writer had not finished" in f.what, f.what
+    kept = rep.figures["messages"]
+    assert f"{kept} whole messages recovered" in f.what
+    assert 100 < kept < 400  # some, not all: the rest never reached the file
+    out = tmp_path / "fixed.mcap"
+    assert recover(rep, out) == kept
+    got = [(m.sequence, m.data) for _, _, m in NonSeekingReader(out.open("rb")).iter_messages()]
+    want = [
+        (k, records[i + 9 + 22 : i + 9 + 322]) for k, i in enumerate(range(len(channel(1, "/x")), len(records), 331))
+    ]
+    assert got == want[:kept]
+
+
 def test_two_channels_on_one_topic_are_recovered_once_each(tmp_path: Path) -> None:
     src = tmp_path / "shared.mcap"
     with src.open("wb") as f:
