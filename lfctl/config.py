@@ -39,6 +39,7 @@ __all__ = [
     "SimConfig",
     "Slot",
     "VehicleConfig",
+    "config_from_table",
     "load_config",
     "parse_config",
 ]
@@ -719,6 +720,28 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{name}: not valid TOML: {exc}") from exc
+    return config_from_table(data, name, text)
+
+
+def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: str = "") -> Config:
+    """Build and validate a scenario from its TOML tables as :mod:`tomllib` reads them (a
+    sweep edits a scenario's tables, then builds each variant with this).
+
+    Parameters
+    ----------
+    table : mapping
+        The scenario's top-level table; not modified.
+    name : str
+        The scenario's name when the table sets none.
+    source : str
+        The TOML text the table stands for, kept as :attr:`Config.source`.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type or out-of-range value.
+    """
+    data = dict(table)
     data.setdefault("name", name)
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])
@@ -736,9 +759,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         label = f"vehicles[{v.get('name', i)}]"
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
-    table = _build(_ConfigTable, rest, "")
-    sections = {f.name: getattr(table, f.name) for f in dataclasses.fields(_ConfigTable)}
-    return Config(**sections, vehicles=tuple(built), source=text)
+    top = _build(_ConfigTable, rest, "")
+    sections = {f.name: getattr(top, f.name) for f in dataclasses.fields(_ConfigTable)}
+    return Config(**sections, vehicles=tuple(built), source=source)
 
 
 @dataclass(frozen=True)

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import tomllib
 from pathlib import Path
 
 import pytest
 
-from lfctl.config import load_config, parse_config
+from lfctl.config import config_from_table, load_config, parse_config
 from lfctl.errors import ConfigError
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
 
 LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
 FOLLOWER = '[[vehicles]]\nname = "f{n}"\nrole = "follower"\n'
@@ -102,3 +106,14 @@ def test_file_errors_carry_the_path(tmp_path: Path) -> None:
 def test_config_error_is_a_value_error() -> None:
     with pytest.raises(ValueError):
         parse_config("")
+
+
+def test_config_from_table_builds_what_parse_config_builds_and_leaves_the_table_alone() -> None:
+    text = (EXAMPLES / "convoy.toml").read_text()
+    table = tomllib.loads(text)
+    before = copy.deepcopy(table)
+    assert config_from_table(table, "convoy", text) == parse_config(text, "convoy")
+    assert table == before
+    table["sensing"]["range_noise_m"] = -1.0
+    with pytest.raises(ConfigError, match=r"sensing\.range_noise_m must be >= 0, got -1\.0"):
+        config_from_table(table)
