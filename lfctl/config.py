@@ -287,7 +287,8 @@ class CameraConfig:
     """[camera]: the pinhole camera on each follower (and the real camera for `lfctl follow`).
 
     Intrinsics come from ``hfov_deg`` unless ``fx_px`` (and optionally ``fy_px``, ``cx_px``,
-    ``cy_px``) are given. The mount is ``mount_forward_m`` ahead of the vehicle's reference
+    ``cy_px``) are given. ``tracker`` picks the tracker the frames feed (the ablation's
+    baselines ``"hue"`` and ``"hs-lbp"``, or lfctl's ``"full"``). The mount is ``mount_forward_m`` ahead of the vehicle's reference
     point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
     """
 
@@ -305,6 +306,9 @@ class CameraConfig:
     pitch_rad: float = 0.0  # positive: nose up (TOML pitch_deg)
     noise_sigma: float = 2.0  # sensor noise, digital numbers (0..255)
     motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
+    #: the tracker the camera feeds: "full" (lfctl's), "hs-lbp" (the paper's features, no
+    #: filters) or "hue" (the paper's hue-only CAMShift baseline); see lfctl.vision.tracker
+    tracker: Literal["full", "hs-lbp", "hue"] = "full"
 
     def __post_init__(self) -> None:
         if not (16 <= self.width_px <= 8192 and 16 <= self.height_px <= 8192):

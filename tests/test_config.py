@@ -84,6 +84,7 @@ def test_defaults_fill_the_sim_section() -> None:
         ),
         (LEADER + "[script]\nleader = [[-1.0, 0.3, 0]]\n", r"script\.leader\[0\]\[0\] \(duration_s\) must be > 0"),
         ("[sim\n", r"not valid TOML"),
+        (LEADER + "[camera]\ntracker = 'kcf'\n", r"camera\.tracker must be one of 'full', 'hs-lbp', 'hue', got 'kcf'"),
     ],
 )
 def test_bad_scenarios_name_the_key(text: str, message: str) -> None:

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
         h, w = first.shape[:2]
         camera = dataclasses.replace(cfg.camera, width_px=w, height_px=h)
-        perception = BannerPerception.from_config(camera, cfg.banner, (range_m, bearing_rad))
+        perception = BannerPerception.from_config(camera, cfg.banner, (range_m, bearing_rad), kind=camera.tracker)
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         try:
             done = follow_rover(
