@@ -11,7 +11,7 @@ import lfctl
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
     "errors", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
-    "link", "follower", "record", "sim", "bench", "cli",
+    "link", "follower", "record", "sim", "sweep", "bench", "cli",
 }  # fmt: skip
 
 #: layer -> what it may import from lfctl (a package, or one module of it)
@@ -32,7 +32,8 @@ ALLOWED = {
     "link": {"errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
     "record": {"config", "errors", "metrics", "vision", "record"},
-    "sim": EVERYTHING - {"bench", "cli"},
+    "sim": EVERYTHING - {"sweep", "bench", "cli"},
+    "sweep": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,
 }
@@ -50,6 +51,7 @@ FORBIDDEN = {
     "link": {"fmpy", "mcap", "cv2"},
     "follower": {"fmpy", "mcap"},
     "record": {"fmpy", "pymavlink"},
+    "sweep": {"fmpy", "pymavlink"},  # runs go through sim.runner
     "cli": {"fmpy", "pymavlink"},  # commands call the library; only link/ speaks MAVLink
 }
 

@@ -19,7 +19,7 @@ from lfctl.errors import ConfigError, LfctlError
 __all__ = ["build_parser", "main"]
 
 #: the commands, in the order `lfctl --help` lists them; each is a module here
-COMMANDS = ("sim", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
+COMMANDS = ("sim", "sweep", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

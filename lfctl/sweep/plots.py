@@ -1,0 +1,117 @@
+"""Plots of a sweep: every figure against every swept key that takes more than one value.
+
+One PNG per swept key (and per follower when there are several), a panel per figure: the
+mean over the ``ok`` runs at each value of the key with its 95 % confidence interval (as
+:func:`lfctl.sweep.results.mean_ci`), one line per combination of the other swept keys'
+values when there are at most :data:`MAX_LINES`, else pooled over them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from lfctl.sweep.results import mean_ci
+from lfctl.sweep.task import FIGURES
+
+__all__ = ["MAX_LINES", "plot_sweep"]
+
+#: at most this many lines per panel (combinations of the other keys); more are pooled
+MAX_LINES = 6
+_SLOT = {"range_cmd_m", "bearing_cmd_deg"}  # the slot is an input, not a result
+
+
+def _key(value: Any) -> Any:
+    return json.dumps(value, sort_keys=True) if isinstance(value, (list, dict)) else value
+
+
+def _numeric(values: Sequence[Any]) -> bool:
+    return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+
+
+def _file_name(key: str, follower: str | None) -> str:
+    slug = re.sub(r"[^A-Za-z0-9_.\-]+", "_", key).strip("_")
+    return f"{slug}--{follower}.png" if follower else f"{slug}.png"
+
+
+def plot_sweep(
+    plot_dir: Path, rows: Sequence[dict[str, Any]], keys: Sequence[str], followers: Sequence[str]
+) -> list[Path]:
+    """Draw the plots; returns the files written (none when no key varies or no run finished).
+
+    Parameters
+    ----------
+    plot_dir : Path
+        Where the PNGs go (made if missing).
+    rows : sequence of dict
+        The runs' rows.
+    keys : sequence of str
+        The swept keys.
+    followers : sequence of str
+        The followers.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in rows if r.get("status") == "ok"]
+    varied = [k for k in keys if len({_key(r.get(k)) for r in rows}) > 1]
+    if not ok or not varied:
+        return []
+    plot_dir.mkdir(parents=True, exist_ok=True)
+    made = []
+    for key in varied:
+        others = [k for k in varied if k != key]
+        combos = sorted({tuple(_key(r.get(k)) for k in others) for r in ok}, key=str)
+        pooled = len(combos) > MAX_LINES
+        series = (
+            {(): ok} if pooled else {c: [r for r in ok if tuple(_key(r.get(k)) for k in others) == c] for c in combos}
+        )
+        xs_all = sorted({_key(r.get(key)) for r in ok}, key=lambda v: (isinstance(v, str), v))
+        numeric = _numeric(xs_all)
+        for follower in followers:
+            figures = [
+                fig for fig in FIGURES if fig not in _SLOT and any(r.get(f"{follower}.{fig}") is not None for r in ok)
+            ]
+            if not figures:
+                continue
+            ncols = min(4, len(figures))
+            nrows = math.ceil(len(figures) / ncols)
+            fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.2 * nrows), squeeze=False)
+            for ax, name in zip(axes.flat, figures, strict=False):
+                column = f"{follower}.{name}"
+                for i, (combo, members) in enumerate(series.items()):
+                    px, py, lo, hi = [], [], [], []
+                    for j, x in enumerate(xs_all):
+                        mean, a, b = mean_ci(r.get(column) for r in members if _key(r.get(key)) == x)
+                        if mean is None:
+                            continue
+                        shift = (i - (len(series) - 1) / 2) * 0.08 if not numeric else 0.0
+                        px.append(x if numeric else j + shift)
+                        py.append(mean)
+                        lo.append(mean - a if a is not None else 0.0)
+                        hi.append(b - mean if b is not None else 0.0)
+                    label = ", ".join(f"{k} = {v}" for k, v in zip(others, combo, strict=True)) or None
+                    ax.errorbar(px, py, yerr=[lo, hi], marker="o", ms=4, capsize=3, label=label)
+                ax.set_title(name, fontsize=10)
+                ax.set_xlabel(key, fontsize=9)
+                if not numeric:
+                    ax.set_xticks(range(len(xs_all)), [str(x) for x in xs_all], fontsize=8)
+                ax.grid(alpha=0.3)
+            for ax in list(axes.flat)[len(figures) :]:
+                ax.set_visible(False)
+            if not pooled and others:
+                axes.flat[0].legend(fontsize=7)
+            who = f"{follower}: " if len(followers) > 1 else ""
+            note = f" (pooled over {', '.join(others)})" if pooled else ""
+            fig.suptitle(f"{who}mean and 95 % CI over ok runs against {key}{note}", fontsize=11)
+            fig.tight_layout()
+            made.append(plot_dir / _file_name(key, follower if len(followers) > 1 else None))
+            fig.savefig(made[-1], dpi=90)
+            plt.close(fig)
+    return made
