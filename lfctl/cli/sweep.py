@@ -115,12 +115,19 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"folder       {out_dir}", file=human, flush=True)
 
-    announced = threading.Event()
+    announced, stopping = threading.Event(), threading.Event()
 
     def progress(state: SweepProgress, row: dict[str, Any] | None) -> None:
         if not announced.is_set():
             announced.set()
             print(f"engine       {state.engine}", file=human, flush=True)
+        if state.stopping and not stopping.is_set() and not show_bar:  # the bar says it itself
+            stopping.set()
+            print(
+                f"stopping     no more runs start; {state.running} running finish (Ctrl-C again cancels them)",
+                file=sys.stderr,
+                flush=True,
+            )
         if row is not None and pipe:
             print(json.dumps(row, default=str), flush=True)
         if show_bar:

@@ -195,8 +195,6 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
     import dask
     from distributed import Client, LocalCluster
 
-    if workers is not None and workers < 1:
-        raise ConfigError(f"--workers must be >= 1, got {workers}")
     if scheduler is None:
         n = workers or usable_cores()
         with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
@@ -211,8 +209,6 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
         client = Client(cluster)
         client.register_plugin(_IgnoreSigint())
         return client, cluster, f"Dask LocalCluster, {n} worker processes x 1 thread; a crashed run is retried once"
-    if not scheduler.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
-        raise ConfigError(f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}")
     try:
         client = Client(scheduler, timeout="10s")
     except (OSError, TimeoutError) as exc:
@@ -302,6 +298,10 @@ def run_sweep(
 
     if logs not in LOG_MODES:
         raise ConfigError(f"--logs must be one of {', '.join(LOG_MODES)}, got {logs!r}")
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers must be >= 1, got {workers}")
+    if scheduler is not None and not scheduler.startswith(("tcp://", "tls://")):
+        raise ConfigError(f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}")
     p = sweep if isinstance(sweep, SweepPlan) else plan(sweep if isinstance(sweep, SweepSpec) else load_sweep(sweep))
     folder = Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name
     code = code_digest()

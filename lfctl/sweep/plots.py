@@ -3,7 +3,8 @@
 One PNG per swept key (and per follower when there are several), a panel per figure: the
 mean over the ``ok`` runs at each value of the key with its 95 % confidence interval (as
 :func:`lfctl.sweep.results.mean_ci`), one line per combination of the other swept keys'
-values when there are at most :data:`MAX_LINES`, else pooled over them.
+values when there are at most :data:`MAX_LINES`, else pooled over them. Numeric keys are
+drawn on a number line, others as categories in the sweep's order.
 """
 
 from __future__ import annotations
@@ -67,13 +68,15 @@ def plot_sweep(
     made = []
     for key in varied:
         others = [k for k in varied if k != key]
-        combos = sorted({tuple(_key(r.get(k)) for k in others) for r in ok}, key=str)
+        combos = list(dict.fromkeys(tuple(_key(r.get(k)) for k in others) for r in ok))  # in plan order
         pooled = len(combos) > MAX_LINES
         series = (
             {(): ok} if pooled else {c: [r for r in ok if tuple(_key(r.get(k)) for k in others) == c] for c in combos}
         )
-        xs_all = sorted({_key(r.get(key)) for r in ok}, key=lambda v: (isinstance(v, str), v))
+        xs_all = list(dict.fromkeys(_key(r.get(key)) for r in ok))
         numeric = _numeric(xs_all)
+        if numeric:
+            xs_all.sort()
         for follower in followers:
             figures = [
                 fig for fig in FIGURES if fig not in _SLOT and any(r.get(f"{follower}.{fig}") is not None for r in ok)
@@ -97,11 +100,13 @@ def plot_sweep(
                         lo.append(mean - a if a is not None else 0.0)
                         hi.append(b - mean if b is not None else 0.0)
                     label = ", ".join(f"{k} = {v}" for k, v in zip(others, combo, strict=True)) or None
-                    ax.errorbar(px, py, yerr=[lo, hi], marker="o", ms=4, capsize=3, label=label)
+                    style = "-" if numeric else "none"  # categories have no order to draw a line along
+                    ax.errorbar(px, py, yerr=[lo, hi], marker="o", ms=4, capsize=3, ls=style, label=label)
                 ax.set_title(name, fontsize=10)
                 ax.set_xlabel(key, fontsize=9)
                 if not numeric:
                     ax.set_xticks(range(len(xs_all)), [str(x) for x in xs_all], fontsize=8)
+                    ax.set_xlim(-0.5, len(xs_all) - 0.5)
                 ax.grid(alpha=0.3)
             for ax in list(axes.flat)[len(figures) :]:
                 ax.set_visible(False)

@@ -119,6 +119,8 @@ class SweepSpec:
         The sweep file's text.
     description : str
         What the sweep is for (free text).
+    path : Path or None
+        The sweep file (None when parsed from text); errors name it.
     """
 
     name: str
@@ -134,6 +136,7 @@ class SweepSpec:
     images: bool = False
     source: str = ""
     description: str = ""
+    path: Path | None = None
 
     @property
     def keys(self) -> list[str]:
@@ -357,7 +360,7 @@ def load_sweep(path: str | Path) -> SweepSpec:
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"cannot read sweep {p}: {exc}") from exc
     try:
-        return parse_sweep(text, name=p.stem, base_dir=p.parent)
+        return dataclasses.replace(parse_sweep(text, name=p.stem, base_dir=p.parent), path=p)
     except ConfigError as exc:
         raise ConfigError(f"{p}: {exc}") from None
 
@@ -464,7 +467,7 @@ def _random(table: Any) -> tuple[list[tuple[str, str, tuple[Any, ...]]], int, in
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"random.seed must be an integer >= 0, got {seed!r}")
     out = []
-    for key, dist in _flatten(table, "", lambda v: len(v) == 1 and next(iter(v)) in DISTRIBUTIONS):
+    for key, dist in _flatten(table, "", lambda v: not any(isinstance(x, dict) for x in v.values())):
         if not isinstance(dist, dict) or len(dist) != 1 or next(iter(dist)) not in DISTRIBUTIONS:
             allowed = ", ".join(f"{k} = {v}" for k, v in DISTRIBUTIONS.items())
             raise ConfigError(f"random.{key!r} must be one distribution ({allowed}), got {dist!r}")
@@ -578,7 +581,8 @@ def plan(spec: SweepSpec) -> SweepPlan:
                     f"sim.clock must be 'lockstep' in a sweep (runs side by side cannot share UDP ports), got {cfg.sim.clock!r}"
                 )
         except ConfigError as exc:
-            raise ConfigError(f"{_label(index, values)}: {exc}") from None
+            where = f"{spec.path}: " if spec.path is not None else ""
+            raise ConfigError(f"{where}{_label(index, values)}: {exc}") from None
         variants.append(Variant(index, values, cfg, source))
     runs = [
         Run(
