@@ -25,13 +25,19 @@ cluster that folder must be on a shared file system.
 from __future__ import annotations
 
 import collections
+import contextlib
 import hashlib
+import json
 import logging
+import os
 import shutil
 import signal
+import subprocess
+import sys
+import tempfile
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,7 +52,7 @@ from lfctl.sweep.results import SweepSummary, append_row, read_journal, read_met
 from lfctl.sweep.spec import SweepPlan, SweepSpec, load_sweep, plan
 from lfctl.sweep.task import LOG_MODES, execute, failed_row
 
-__all__ = ["SweepProgress", "SweepResult", "code_digest", "run_sweep"]
+__all__ = ["SweepProgress", "SweepResult", "code_digest", "run_sweep", "scheduler_processes"]
 
 log = logging.getLogger("lfctl.sweep")
 
@@ -68,9 +74,80 @@ def code_digest() -> str:
     return h.hexdigest()
 
 
+@contextlib.contextmanager
+def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: float = 60.0) -> Iterator[str]:
+    """A ``dask scheduler`` and ``dask worker`` processes (``n_workers``, one thread each) on
+    127.0.0.1, started as a cluster's would be; yields the scheduler's address and stops
+    them on exit. They end by themselves if this process dies (idle and death timeouts).
+    For trying ``--scheduler`` on one machine, and for the tests and the benchmark.
+
+    Parameters
+    ----------
+    n_workers : int
+        Worker processes.
+    allowed_failures : int
+        The scheduler's ``distributed.scheduler.allowed-failures``: retries of a task whose
+        worker died.
+    timeout_s : float
+        How long to wait for the scheduler and every worker, s.
+
+    Raises
+    ------
+    LfctlError
+        They did not come up in time.
+    """
+    from distributed import Client
+
+    env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": str(allowed_failures)}
+    dask = [sys.executable, "-m", "dask"]
+    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs: list[subprocess.Popen[bytes]] = []
+    with tempfile.TemporaryDirectory(prefix="lfctl-dask-") as tmp:
+        file = Path(tmp) / "scheduler.json"
+        try:
+            procs.append(
+                subprocess.Popen(
+                    [*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                     "--scheduler-file", str(file), "--idle-timeout", "600"],
+                    **quiet,
+                )
+            )  # fmt: skip
+            deadline = time.monotonic() + timeout_s
+            while not (file.exists() and file.stat().st_size):
+                if time.monotonic() > deadline or procs[0].poll() is not None:
+                    raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s")
+                time.sleep(0.05)
+            address = str(json.loads(file.read_text())["address"])
+            procs.append(
+                subprocess.Popen(
+                    [*dask, "worker", address, "--nworkers", str(n_workers), "--nthreads", "1",
+                     "--host", "127.0.0.1", "--no-dashboard", "--death-timeout", "60"],
+                    **quiet,
+                )
+            )  # fmt: skip
+            with Client(address, timeout=f"{timeout_s}s") as client:
+                try:
+                    client.wait_for_workers(n_workers, timeout=timeout_s)
+                except TimeoutError:
+                    raise LfctlError(f"{n_workers} dask workers did not join within {timeout_s:g} s") from None
+            yield address
+        finally:
+            for p in reversed(procs):
+                p.terminate()
+            for p in reversed(procs):
+                try:
+                    p.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
 def _worker_identity() -> tuple[str, str]:
-    """On a worker: lfctl's version and code digest (importing the runner warms it up)."""
-    import lfctl.sim.runner  # noqa: F401
+    """On a worker: lfctl's version and code digest. Importing what a run needs here keeps
+    the imports out of the first run's time."""
+    import cv2  # noqa: F401
+
+    import lfctl.sweep.task  # noqa: F401
 
     return __version__, code_digest()
 

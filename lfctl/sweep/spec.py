@@ -312,7 +312,7 @@ def sweeps_dir() -> Path:
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps (file stems), sorted."""
     folder = sweeps_dir()
-    return sorted(p.stem for p in folder.glob("*.toml") if not p.stem.startswith("base-")) if folder.is_dir() else []
+    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
 
 
 def find_sweep(arg: str | Path) -> Path:

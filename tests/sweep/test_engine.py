@@ -7,12 +7,8 @@ worker are rows, and do not stop the sweep."""
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
 import sys
-import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import cloudpickle
@@ -20,6 +16,7 @@ import pytest
 
 from lfctl.errors import ConfigError
 from lfctl.sweep import run_sweep
+from lfctl.sweep.engine import scheduler_processes
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
 from lfctl.sweep.task import execute
@@ -146,50 +143,13 @@ def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path) -> Non
     assert log.suffix == ".mcap" and log.stat().st_size > 0
 
 
-@pytest.fixture
-def tcp_scheduler(tmp_path: Path) -> Iterator[str]:
-    """`dask scheduler` and `dask worker` (two processes, one thread each) on 127.0.0.1; they
-    end by themselves if this test dies (idle and death timeouts)."""
-    file = tmp_path / "scheduler.json"
-    env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"}
-    dask = [sys.executable, "-m", "dask"]
-    procs = [
-        subprocess.Popen(
-            [*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-             "--scheduler-file", str(file), "--idle-timeout", "120"],
-            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )
-    ]  # fmt: skip
-    try:
-        for _ in range(300):
-            if file.exists() and file.stat().st_size:
-                break
-            time.sleep(0.1)
-        address = json.loads(file.read_text())["address"]
-        assert address.startswith("tcp://127.0.0.1:")
-        procs.append(
-            subprocess.Popen(
-                [*dask, "worker", address, "--nworkers", "2", "--nthreads", "1", "--host", "127.0.0.1",
-                 "--no-dashboard", "--death-timeout", "60"],
-                env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            )
-        )  # fmt: skip
-        yield address
-    finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
-
-
 def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
-    reference: tuple[Path, list[dict]], tcp_scheduler: str, tmp_path: Path
+    reference: tuple[Path, list[dict]], tmp_path: Path
 ) -> None:
     folder, rows = reference
-    result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=tcp_scheduler, workers=2)
-    assert f"Dask scheduler {tcp_scheduler}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
+    # `dask scheduler` and `dask worker --nworkers 2` processes on 127.0.0.1, stopped on leaving
+    with scheduler_processes(2) as address:
+        assert address.startswith("tcp://127.0.0.1:")
+        result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=2)
+    assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
     assert _table(result.rows) == _table(rows)
