@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from lfctl.sweep.engine import SweepProgress, SweepResult, run_sweep, scheduler_processes
 from lfctl.sweep.results import SweepSummary, read_rows, report
-from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, Variant, load_sweep, parse_sweep, plan, set_key
+from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, Variant, load_sweep, parse_sweep, plan, set_key, with_keys
 
 __all__ = [
     "Run",
@@ -30,4 +30,5 @@ __all__ = [
     "run_sweep",
     "scheduler_processes",
     "set_key",
+    "with_keys",
 ]

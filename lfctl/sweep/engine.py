@@ -394,6 +394,7 @@ def run_sweep(
     started = time.perf_counter()
     done = failed = 0
     pending: dict[Any, Any] = {}
+    lost: list[int] = []  # runs the scheduler cancelled (it restarted, or the connection broke)
 
     def state() -> SweepProgress:
         return SweepProgress(
@@ -424,14 +425,18 @@ def run_sweep(
                 finished = set()
             for fut in finished:
                 run = pending.pop(fut)
+                if fut.status == "cancelled":  # not by us: the scheduler lost it. No row: --resume runs it
+                    lost.append(run.run)
+                    stopping = True
+                    continue
                 if fut.status == "finished":
                     row = fut.result()
                 else:
-                    exc = fut.exception() if fut.status == "error" else None
+                    exc = fut.exception()
                     if isinstance(exc, KilledWorker):
                         row = failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})")
                     else:
-                        row = failed_row(run, "error", f"{type(exc).__name__}: {exc}" if exc else f"task {fut.status}")
+                        row = failed_row(run, "error", f"{type(exc).__name__}: {exc}")
                 fut.release()
                 append_row(folder, row)
                 done += 1
@@ -452,6 +457,11 @@ def run_sweep(
             cluster.close()
     wall = time.perf_counter() - started
     rows, summary = _finish(folder, p, plots)
+    if lost:
+        raise LfctlError(
+            f"the Dask scheduler cancelled {len(lost)} runs (runs {', '.join(map(str, lost[:10]))}): it restarted or "
+            f"the connection broke; the {len(rows)} finished rows are in {folder}, --resume runs the rest"
+        )
     return SweepResult(folder, p, rows, summary, bool(todo), wall, engine, summary.files)
 
 

@@ -46,7 +46,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -72,6 +72,7 @@ __all__ = [
     "set_key",
     "sweep_names",
     "sweeps_dir",
+    "with_keys",
 ]
 
 #: the distributions ``[random]`` draws from, and their two parameters
@@ -550,6 +551,39 @@ def _combinations(spec: SweepSpec) -> list[dict[str, Any]]:
     return [g | s for g in grid for s in samples]
 
 
+def _with_keys(base: dict[str, Any], keys: Iterable[tuple[str, Any]], name: str) -> Config:
+    table = copy.deepcopy(base)
+    for key, value in keys:
+        set_key(table, key, value)
+    return config_from_table(table, name, tomli_w.dumps(table))
+
+
+def with_keys(cfg: Config, keys: Mapping[str, Any]) -> Config:
+    """A scenario with keys changed as a sweep changes them: dotted keys set on the tables
+    of its TOML (:attr:`Config.source`), then built and validated as a scenario file is, so
+    ``_deg`` keys and every check work as in a file. The result's ``source`` is its TOML.
+
+    Parameters
+    ----------
+    cfg : Config
+        A scenario as :func:`lfctl.config.load_config` read it (changes made to the
+        dataclasses since are not in its ``source`` and are not kept).
+    keys : mapping of str to value
+        Dotted key (see :func:`set_key`) -> TOML value, for example
+        ``{"sensing.bearing_noise_deg": 2.0, "vehicles[follower1].range_m": 2.0}``.
+
+    Raises
+    ------
+    ConfigError
+        A key that does not reach into the scenario, or a value it rejects.
+    """
+    try:
+        base = tomllib.loads(cfg.source)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{cfg.name}: its source is not TOML ({exc}): was it built by load_config?") from None
+    return _with_keys(base, keys.items(), cfg.name)
+
+
 def plan(spec: SweepSpec) -> SweepPlan:
     """Build and validate every variant and list every run, before anything runs.
 
@@ -569,13 +603,9 @@ def plan(spec: SweepSpec) -> SweepPlan:
     """
     variants = []
     for index, values in enumerate(_combinations(spec)):
-        table = copy.deepcopy(spec.base)
         try:
-            for key, value in [*spec.fixed, *values.items()]:
-                set_key(table, key, value)
-            set_key(table, "recording.images", spec.images)
-            source = tomli_w.dumps(table)
-            cfg = config_from_table(table, spec.scenario.stem, source)
+            keys = [*spec.fixed, *values.items(), ("recording.images", spec.images)]
+            cfg = _with_keys(spec.base, keys, spec.scenario.stem)
             if cfg.sim.clock != "lockstep":
                 raise ConfigError(
                     f"sim.clock must be 'lockstep' in a sweep (runs side by side cannot share UDP ports), got {cfg.sim.clock!r}"
@@ -583,7 +613,7 @@ def plan(spec: SweepSpec) -> SweepPlan:
         except ConfigError as exc:
             where = f"{spec.path}: " if spec.path is not None else ""
             raise ConfigError(f"{where}{_label(index, values)}: {exc}") from None
-        variants.append(Variant(index, values, cfg, source))
+        variants.append(Variant(index, values, cfg, cfg.source))
     runs = [
         Run(
             n,

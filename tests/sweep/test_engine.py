@@ -13,8 +13,9 @@ from pathlib import Path
 
 import cloudpickle
 import pytest
+from distributed import Client
 
-from lfctl.errors import ConfigError
+from lfctl.errors import ConfigError, LfctlError
 from lfctl.sweep import run_sweep
 from lfctl.sweep.engine import scheduler_processes
 from lfctl.sweep.results import read_rows
@@ -151,5 +152,20 @@ def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
     with scheduler_processes(2) as address:
         assert address.startswith("tcp://127.0.0.1:")
         result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=2)
-    assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
-    assert _table(result.rows) == _table(rows)
+        assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
+        assert _table(result.rows) == _table(rows)
+
+        # someone restarts the cluster mid-sweep: the runs it cancels get no row, and --resume runs them
+        restarted: list[int] = []
+
+        def restart(state: object, row: dict | None) -> None:
+            if row is not None and not restarted:
+                restarted.append(row["run"])
+                with Client(address) as other:
+                    other.restart()
+
+        with pytest.raises(LfctlError, match=r"the Dask scheduler cancelled \d+ runs .* --resume runs the rest"):
+            run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, progress=restart)
+        assert 1 <= len(read_rows(tmp_path / "again")) < 8
+        resumed = run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, resume=True)
+    assert _table(resumed.rows) == _table(rows)

@@ -8,9 +8,19 @@ from pathlib import Path
 
 import pytest
 
-from lfctl.config import parse_config
+from lfctl.config import load_config, parse_config
+from lfctl.data import resolve_scenario
 from lfctl.errors import ConfigError
-from lfctl.sweep.spec import load_sweep, parse_key, parse_sweep, plan, set_key, sweep_names, sweeps_dir
+from lfctl.sweep.spec import (
+    load_sweep,
+    parse_key,
+    parse_sweep,
+    plan,
+    set_key,
+    sweep_names,
+    sweeps_dir,
+    with_keys,
+)
 
 HEAD = 'scenario = "convoy"\n'
 
@@ -163,3 +173,13 @@ def test_shipped_sweeps_plan(name: str) -> None:
     p = plan(load_sweep(name))  # by name, as `lfctl sweep NAME` finds them
     assert p.spec.scenario.is_file() and len(p.runs) >= 20
     assert load_sweep(sweeps_dir() / f"{name}.toml").name == p.spec.name
+
+
+def test_with_keys_changes_a_loaded_scenario_as_a_sweep_would() -> None:
+    cfg = load_config(resolve_scenario("convoy"))
+    changed = with_keys(cfg, {"sensing.bearing_noise_deg": 2.0, "vehicles[follower1].range_m": 2.0})
+    assert math.isclose(changed.sensing.bearing_noise_rad, math.radians(2.0))
+    assert changed.slots()["follower1"].range_m == 2.0 and changed.mission == cfg.mission
+    assert parse_config(changed.source, "convoy") == changed
+    with pytest.raises(ConfigError, match=r"guidance\.controller must be one of 'smc', 'p', got 'pid'"):
+        with_keys(cfg, {"guidance.controller": "pid"})
