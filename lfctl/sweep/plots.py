@@ -3,8 +3,9 @@
 One PNG per swept key (and per follower when there are several), a panel per figure: the
 mean over the ``ok`` runs at each value of the key with its 95 % confidence interval (as
 :func:`lfctl.sweep.results.mean_ci`), one line per combination of the other swept keys'
-values when there are at most :data:`MAX_LINES`, else pooled over them. Numeric keys are
-drawn on a number line, others as categories in the sweep's order.
+values while they make at most :data:`MAX_LINES` lines (in the sweep's order), pooled over
+the keys after that. Numeric keys are drawn on a number line, others as categories in the
+sweep's order.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from typing import Any
 from lfctl.sweep.results import mean_ci
 from lfctl.sweep.task import FIGURES
 
-__all__ = ["MAX_LINES", "plot_sweep"]
+__all__ = ["MAX_LINES", "line_keys", "plot_sweep"]
 
 #: at most this many lines per panel (combinations of the other keys); more are pooled
 MAX_LINES = 6
@@ -37,6 +38,27 @@ def _numeric(values: Sequence[Any]) -> bool:
 def _file_name(key: str, follower: str | None) -> str:
     slug = re.sub(r"[^A-Za-z0-9_.\-]+", "_", key).strip("_")
     return f"{slug}--{follower}.png" if follower else f"{slug}.png"
+
+
+def line_keys(rows: Sequence[dict[str, Any]], key: str, keys: Sequence[str]) -> tuple[list[str], list[str]]:
+    """Which of the other swept keys get a line each in a plot against ``key``, and which are
+    pooled: the others in the sweep's order, each kept while the combinations of the kept
+    ones stay within :data:`MAX_LINES`.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The runs' rows.
+    key : str
+        The key on the x axis.
+    keys : sequence of str
+        The swept keys that vary.
+    """
+    lines: list[str] = []
+    for k in keys:
+        if k != key and len({tuple(_key(r.get(o)) for o in [*lines, k]) for r in rows}) <= MAX_LINES:
+            lines.append(k)
+    return lines, [k for k in keys if k != key and k not in lines]
 
 
 def plot_sweep(
@@ -67,12 +89,9 @@ def plot_sweep(
     plot_dir.mkdir(parents=True, exist_ok=True)
     made = []
     for key in varied:
-        others = [k for k in varied if k != key]
+        others, pooled = line_keys(ok, key, varied)
         combos = list(dict.fromkeys(tuple(_key(r.get(k)) for k in others) for r in ok))  # in plan order
-        pooled = len(combos) > MAX_LINES
-        series = (
-            {(): ok} if pooled else {c: [r for r in ok if tuple(_key(r.get(k)) for k in others) == c] for c in combos}
-        )
+        series = {c: [r for r in ok if tuple(_key(r.get(k)) for k in others) == c] for c in combos}
         xs_all = list(dict.fromkeys(_key(r.get(key)) for r in ok))
         numeric = _numeric(xs_all)
         if numeric:
@@ -110,10 +129,10 @@ def plot_sweep(
                 ax.grid(alpha=0.3)
             for ax in list(axes.flat)[len(figures) :]:
                 ax.set_visible(False)
-            if not pooled and others:
+            if others:
                 axes.flat[0].legend(fontsize=7)
             who = f"{follower}: " if len(followers) > 1 else ""
-            note = f" (pooled over {', '.join(others)})" if pooled else ""
+            note = f" (pooled over {', '.join(pooled)})" if pooled else ""
             fig.suptitle(f"{who}mean and 95 % CI over ok runs against {key}{note}", fontsize=11)
             fig.tight_layout()
             made.append(plot_dir / _file_name(key, follower if len(followers) > 1 else None))

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from lfctl.errors import ConfigError
+from lfctl.sweep.plots import MAX_LINES, line_keys, plot_sweep
 from lfctl.sweep.results import (
     append_row,
     mean_ci,
@@ -93,3 +94,14 @@ def test_report_of_a_folder_without_a_sweep_says_so(tmp_path: Path) -> None:
     write_meta(tmp_path, {"name": "t", "keys": [], "followers": []})
     with pytest.raises(ConfigError, match="has no results table"):
         report(tmp_path)
+
+
+def test_plots_pool_the_other_keys_when_they_make_too_many_lines(tmp_path: Path) -> None:
+    keys = ["a", "b"]
+    rows = [_row(n, n // 2, 0.01 * n, a=n % 2, b=n // 2) for n in range(2 * (MAX_LINES + 1) * 2)]
+    made = plot_sweep(tmp_path, rows, keys, ["f1"])
+    assert [p.name for p in made] == ["a.png", "b.png"]  # a: b has 14 values, pooled; b: two lines of a
+    rows = [dict(r, c=r["run"] % 3) for r in rows]
+    assert line_keys(rows, "a", ["a", "b", "c"]) == (["c"], ["b"])  # b alone makes 14 lines: pooled
+    assert line_keys(rows, "b", ["a", "b", "c"]) == (["a", "c"], [])  # 2 x 3 lines
+    assert len(plot_sweep(tmp_path / "c", rows, ["a", "b", "c"], ["f1"])) == 3
