@@ -15,10 +15,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from lfctl.metrics import FormationMetrics
+from lfctl.metrics import FormationMetrics, variation_per_s
 from lfctl.record.replay import MIN_VISIBLE
 from lfctl.sim.camera_sensor import CameraSample
-from lfctl.sim.runner import run_scenario
+from lfctl.sim.runner import FollowerTrace, run_scenario
 from lfctl.sweep.spec import Run
 from lfctl.vision.boxes import iou
 
@@ -42,6 +42,7 @@ FIGURES = (
     "lost_s",
     "control_effort_rad",  # |yaw-rate command| integrated over the run
     "chattering_per_s",  # yaw-rate command sign changes per second
+    "speed_cmd_variation_mps2",  # the speed command's absolute changes summed, per second (the range law's chattering)
     "track_success",  # camera: share of frames showing half the banner or more whose window has IoU >= 0.5
     "target_in_view",  # camera: share of frames with the target's banner in the picture
 )
@@ -98,7 +99,7 @@ def log_name(run: int) -> str:
     return f"logs/run-{run:05d}.mcap"
 
 
-def _figures(m: FormationMetrics, score: TrackScore | None) -> dict[str, Any]:
+def _figures(m: FormationMetrics, trace: FollowerTrace, step_s: float, score: TrackScore | None) -> dict[str, Any]:
     def deg(rad: float | None) -> float | None:
         return None if rad is None else math.degrees(rad)
 
@@ -116,6 +117,7 @@ def _figures(m: FormationMetrics, score: TrackScore | None) -> dict[str, Any]:
         st["lost"],
         m.control_effort_rad,
         m.chattering_per_s,
+        variation_per_s(trace.speed_cmd_mps, step_s),
         score.success if score is not None else None,
         score.view if score is not None else None,
     )
@@ -195,8 +197,9 @@ def execute(run: Run, out_dir: str, logs: str = "none") -> dict[str, Any]:
         path.unlink(missing_ok=True)
         rel = ""
     row = _identity(run)
-    for m in report.metrics:
-        row.update(_figures(m, scores.get(m.name)))
+    step_s = 1.0 / run.config.sim.guidance_rate_hz
+    for m, trace in zip(report.metrics, report.traces, strict=True):
+        row.update(_figures(m, trace, step_s, scores.get(m.name)))
     row.update(
         waypoints_reached=len(report.waypoints_reached),
         sim_time_s=report.result.sim_time_s,
