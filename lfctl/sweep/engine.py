@@ -49,7 +49,7 @@ from lfctl.data import models_dir
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sweep.results import SweepSummary, append_row, read_journal, read_meta, report, write_meta, write_tables
-from lfctl.sweep.spec import SweepPlan, SweepSpec, load_sweep, plan
+from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, load_sweep, plan
 from lfctl.sweep.task import LOG_MODES, execute, failed_row
 
 __all__ = ["SweepProgress", "SweepResult", "code_digest", "run_sweep", "scheduler_processes"]
@@ -371,7 +371,6 @@ def run_sweep(
         The scheduler cannot be reached, or its workers run other lfctl code.
     """
     from distributed import wait
-    from distributed.scheduler import KilledWorker
 
     if logs not in LOG_MODES:
         raise ConfigError(f"--logs must be one of {', '.join(LOG_MODES)}, got {logs!r}")
@@ -429,14 +428,7 @@ def run_sweep(
                     lost.append(run.run)
                     stopping = True
                     continue
-                if fut.status == "finished":
-                    row = fut.result()
-                else:
-                    exc = fut.exception()
-                    if isinstance(exc, KilledWorker):
-                        row = failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})")
-                    else:
-                        row = failed_row(run, "error", f"{type(exc).__name__}: {exc}")
+                row = _row(fut, run)
                 fut.release()
                 append_row(folder, row)
                 done += 1
@@ -463,6 +455,20 @@ def run_sweep(
             f"the connection broke; the {len(rows)} finished rows are in {folder}, --resume runs the rest"
         )
     return SweepResult(folder, p, rows, summary, bool(todo), wall, engine, summary.files)
+
+
+def _row(fut: Any, run: Run) -> dict[str, Any]:
+    """A finished future's row: the task's, or one saying why there is none (the task
+    catches the run's own errors, so these are the engine's: a dead worker, a task that did
+    not unpickle)."""
+    from distributed.scheduler import KilledWorker
+
+    if fut.status == "finished":
+        return dict(fut.result())
+    exc = fut.exception()
+    if isinstance(exc, KilledWorker):
+        return failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})")
+    return failed_row(run, "error", f"{type(exc).__name__}: {exc}")
 
 
 def _finish(folder: Path, p: SweepPlan, plots: bool) -> tuple[list[dict[str, Any]], SweepSummary]:
