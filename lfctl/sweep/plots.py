@@ -70,12 +70,9 @@ def plot_sweep(
     ----------
     plot_dir : Path
         Where the PNGs go (made if missing).
-    rows : sequence of dict
-        The runs' rows.
-    keys : sequence of str
-        The swept keys.
-    followers : sequence of str
-        The followers.
+    rows, keys, followers : sequence
+        The runs' rows (dicts), the swept keys and the followers' names, as
+        :func:`lfctl.sweep.results.write_tables` takes them.
     """
     import matplotlib
 
