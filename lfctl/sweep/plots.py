@@ -124,14 +124,21 @@ def plot_sweep(
                     ax.set_xticks(range(len(xs_all)), [str(x) for x in xs_all], fontsize=8)
                     ax.set_xlim(-0.5, len(xs_all) - 0.5)
                 ax.grid(alpha=0.3)
-            for ax in list(axes.flat)[len(figures) :]:
-                ax.set_visible(False)
-            if others:
-                axes.flat[0].legend(fontsize=7)
+            spare = list(axes.flat)[len(figures) :]
+            for ax in spare:
+                ax.axis("off")
             who = f"{follower}: " if len(followers) > 1 else ""
             note = f" (pooled over {', '.join(pooled)})" if pooled else ""
             fig.suptitle(f"{who}mean and 95 % CI over ok runs against {key}{note}", fontsize=11)
-            fig.tight_layout()
+            handles, labels = axes.flat[0].get_legend_handles_labels()
+            if others and spare:  # the legend in an empty panel, off the data
+                spare[0].legend(handles, labels, loc="center", fontsize=8)
+                fig.tight_layout()
+            elif others:  # below the panels
+                fig.legend(handles, labels, loc="lower center", ncol=min(3, len(labels)), fontsize=8)
+                fig.tight_layout(rect=(0, 0.04 * math.ceil(len(labels) / 3), 1, 1))
+            else:
+                fig.tight_layout()
             made.append(plot_dir / _file_name(key, follower if len(followers) > 1 else None))
             fig.savefig(made[-1], dpi=90)
             plt.close(fig)
