@@ -50,6 +50,7 @@ __all__ = [
     "SimConfig",
     "Slot",
     "VehicleConfig",
+    "config_from_table",
     "load_config",
     "parse_config",
     "parse_host_port",
@@ -390,7 +391,8 @@ class CameraConfig(_Section):
     """[camera]: the pinhole camera on each follower (and the real camera for `lfctl follow`).
 
     Intrinsics come from ``hfov_deg`` unless ``fx_px`` (and optionally ``fy_px``, ``cx_px``,
-    ``cy_px``) are given. The mount is ``mount_forward_m`` ahead of the vehicle's reference
+    ``cy_px``) are given. ``tracker`` picks the tracker the frames feed (the ablation's
+    baselines ``"hue"`` and ``"hs-lbp"``, or lfctl's ``"full"``). The mount is ``mount_forward_m`` ahead of the vehicle's reference
     point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
     An image holds at most :data:`MAX_CAMERA_PIXELS`.
     """
@@ -411,6 +413,9 @@ class CameraConfig(_Section):
     pitch_rad: float = _f(0.0, Bound(-60, 60))  # positive: nose up (TOML pitch_deg)
     noise_sigma: float = _f(2.0, Bound(0, 255))  # sensor noise, digital numbers
     motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
+    #: the tracker the camera feeds: "full" (lfctl's), "hs-lbp" (the paper's features, no
+    #: filters) or "hue" (the paper's hue-only CAMShift baseline); see lfctl.vision.tracker
+    tracker: Literal["full", "hs-lbp", "hue"] = "full"
 
     def _check(self) -> None:
         if self.width_px * self.height_px > MAX_CAMERA_PIXELS:
@@ -857,6 +862,28 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         raise ConfigError(f"{name}: not valid TOML: {exc}") from exc
     except RecursionError:
         raise ConfigError(f"{name}: arrays or tables nested too deeply to read") from None
+    return config_from_table(data, name, text)
+
+
+def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: str = "") -> Config:
+    """Build and validate a scenario from its TOML tables as :mod:`tomllib` reads them (a
+    sweep edits a scenario's tables, then builds each variant with this).
+
+    Parameters
+    ----------
+    table : mapping
+        The scenario's top-level table; not modified.
+    name : str
+        The scenario's name when the table sets none.
+    source : str
+        The TOML text the table stands for, kept as :attr:`Config.source`.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type or out-of-range value.
+    """
+    data = dict(table)
     data.setdefault("name", re.sub(r"[^A-Za-z0-9_-]", "_", name)[:64] or "scenario")
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])
@@ -874,9 +901,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         label = f"vehicles[{v.get('name', i)}]"
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
-    table = _build(_ConfigTable, rest, "")
-    sections = {f.name: getattr(table, f.name) for f in dataclasses.fields(_ConfigTable)}
-    return Config(**sections, vehicles=tuple(built), source=text)
+    top = _build(_ConfigTable, rest, "")
+    sections = {f.name: getattr(top, f.name) for f in dataclasses.fields(_ConfigTable)}
+    return Config(**sections, vehicles=tuple(built), source=source)
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ __all__ = ["build_parser", "main"]
 #: FmuError.call values that mean the FMU file itself is unusable (exit 2, like a bad scenario)
 FMU_FILE_CALLS = ("load", "extract")
 #: the commands, in the order `lfctl --help` lists them; each is a module here
-COMMANDS = ("sim", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
+COMMANDS = ("sim", "sweep", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:
