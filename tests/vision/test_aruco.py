@@ -152,7 +152,9 @@ def test_bad_aruco_keys_name_the_key(text: str, message: str) -> None:
 
 
 def test_aruco_keys_load() -> None:
-    cfg = parse_config(LEADER + "[banner]\nkind = 'aruco'\naruco_dictionary = '5X5_50'\naruco_id = 7\ntag_size_m = 0.1\n")
+    cfg = parse_config(
+        LEADER + "[banner]\nkind = 'aruco'\naruco_dictionary = '5X5_50'\naruco_id = 7\ntag_size_m = 0.1\n"
+    )
     assert (cfg.banner.kind, cfg.banner.aruco_dictionary, cfg.banner.aruco_id) == ("aruco", "5X5_50", 7)
     # a markers banner ignores the tag's size (it need not fit the panel)
     assert parse_config(LEADER + "[banner]\ntag_size_m = 0.3\n").banner.kind == "markers"
