@@ -30,6 +30,7 @@ __all__ = [
     "MAX_STEPS",
     "MAX_VEHICLES",
     "MAX_WAYPOINTS",
+    "TAG_DICTIONARIES",
     "VEHICLE_ROLES",
     "AuditConfig",
     "BannerConfig",
@@ -73,6 +74,16 @@ MAX_CAMERA_PIXELS = 4096 * 2160
 MAX_SCENARIO_BYTES = 1024 * 1024
 #: the most simulation steps in one run (duration_s / dt_s)
 MAX_STEPS = 100_000_000
+#: the ArUco / AprilTag dictionaries a banner may print its tag from (``banner.aruco_dictionary``,
+#: cv2.aruco's ``DICT_<name>``): bits along a side inside the black border, and how many ids
+TAG_DICTIONARIES: dict[str, tuple[int, int]] = {
+    "4X4_50": (4, 50),
+    "4X4_100": (4, 100),
+    "5X5_50": (5, 50),
+    "6X6_50": (6, 50),
+    "APRILTAG_16h5": (4, 30),
+    "APRILTAG_36h11": (6, 587),
+}
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -427,8 +438,10 @@ class CameraConfig(_Section):
 
 @dataclass(frozen=True)
 class BannerConfig(_Section):
-    """[banner]: the leader's marker banner: four markers on a square of side ``side_m``
-    (the paper's E) on a textured panel on the vehicle's back."""
+    """[banner]: the leader's banner, a textured panel on the vehicle's back carrying either
+    four markers of one hue on a square of side ``side_m`` (the paper's E; ``kind =
+    "markers"``) or one ArUco tag of side ``tag_size_m`` at its centre (``kind = "aruco"``).
+    The panel's size, height and place on the vehicle are the same for both."""
 
     _key = "banner"
     side_m: float = _f(0.14, Bound(0, 10, lo_open=True))  # side of the square the marker centres sit on, m
@@ -443,6 +456,14 @@ class BannerConfig(_Section):
     marker_saturation: float = _f(0.85, Bound(0, 1))  # the markers' HSV saturation in the rendered scene
     #: near white: the markers carry the hue
     panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True))
+    #: what the panel carries: "markers" (the paper's four) or "aruco" (one tag; every
+    #: vehicle's banner prints the same id, told apart as the markers are, by where it shows)
+    kind: Literal["markers", "aruco"] = "markers"
+    #: the tag's dictionary (cv2.aruco's DICT_<name>)
+    aruco_dictionary: Literal["4X4_50", "4X4_100", "5X5_50", "6X6_50", "APRILTAG_16h5", "APRILTAG_36h11"] = "4X4_50"
+    aruco_id: int = _f(0, Bound(0, 586, integer=True), note="< the dictionary's size")  # the tag's id
+    #: side of the tag's black square, m (a one-cell white margin must fit around it)
+    tag_size_m: float = _f(0.165, Bound(0, 10, lo_open=True), note="+ 2 cells <= panel_size_m")
 
     def _check(self) -> None:
         if len(self.panel_bgr) != 3:
@@ -450,6 +471,18 @@ class BannerConfig(_Section):
         if self.side_m + self.marker_size_m > self.panel_size_m:
             raise ConfigError(
                 f"banner.side_m + marker_size_m ({self.side_m + self.marker_size_m:g}) must fit on panel_size_m ({self.panel_size_m:g})"
+            )
+        bits, ids = TAG_DICTIONARIES[self.aruco_dictionary]
+        if self.aruco_id >= ids:
+            raise ConfigError(f"banner.aruco_id must be below {ids} for {self.aruco_dictionary}, got {self.aruco_id}")
+        # the tag is bits + 2 cells wide (its black border included); the detector needs a
+        # light margin of at least one cell around it
+        with_margin = self.tag_size_m * (bits + 4) / (bits + 2)
+        if self.kind == "aruco" and with_margin > self.panel_size_m + 1e-9:
+            raise ConfigError(
+                f"banner.tag_size_m with a one-cell margin each side ({with_margin:g}) must fit on "
+                f"panel_size_m ({self.panel_size_m:g}): tag_size_m at most "
+                f"{self.panel_size_m * (bits + 2) / (bits + 4):g} for {self.aruco_dictionary}"
             )
 
 

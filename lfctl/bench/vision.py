@@ -11,6 +11,9 @@ Per tier and tracker: success rate (IoU >= 0.5 over frames whose banner is at le
 visible), median centre error, frames to recover after a full occlusion, frames reported as
 tracking while fully hidden, median ms per frame; for the full tracker also the pose error
 of both estimators (range %, bearing deg; within 3 m).
+
+Then the ArUco section (:mod:`lfctl.bench.vision_aruco`): an ArUco banner against the
+paper's, detection and pose error against range and angle under the same tiers.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ import cv2
 import numpy as np
 
 from lfctl.bench.common import print_json, print_table
+from lfctl.bench.vision_aruco import compare as aruco_compare
 from lfctl.render.sequences import TIERS, make_sequence
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.boxes import iou
@@ -276,9 +280,18 @@ def main(quick: bool = False) -> None:
             "KCF/CSRT: not in this OpenCV build (opencv-python-headless); run in an environment with opencv-contrib-python-headless (README)"
         )
     print("summary:", summary)
+    print()
+    aruco = aruco_compare(quick)
     print_json(
         "vision",
-        {"frames_per_sequence": n_frames, "seeds": list(seeds), "peers": list(peers), "tiers": out, "summary": summary},
+        {
+            "frames_per_sequence": n_frames,
+            "seeds": list(seeds),
+            "peers": list(peers),
+            "tiers": out,
+            "summary": summary,
+            "aruco": aruco,
+        },
     )
 
 

@@ -25,6 +25,7 @@ import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig, LightKey, SceneConfig
 from lfctl.frames import rot_z, wrap_pi
+from lfctl.render.tag_texture import tag_banner_texture
 from lfctl.render.textures import banner_texture, ground_texture, noise_texture, periodic_pyramid, prop_texture
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.camera_model import CameraModel
@@ -150,6 +151,8 @@ class Renderer:
         self.scene = scene
         rng = np.random.default_rng(seed)
         self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
+        if banner.kind == "aruco":  # the same panel with a tag instead (the rest of the scene unchanged)
+            self.banner_tex, self.banner_marks_tex = tag_banner_texture(banner, np.random.default_rng(seed + 4))
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
         self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
