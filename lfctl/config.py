@@ -541,8 +541,10 @@ class SceneConfig(_Section):
     #: resolution, photographed textures and the camera's sensor effects; "off": the old flat look
     realism: Literal["on", "off"] = "on"
     #: "footage": ground, walls and background photographed (frames of footage/, chosen per
-    #: seed); "procedural": drawn from noise (realism "on" only)
-    textures: Literal["footage", "procedural"] = "footage"
+    #: seed; the vision benchmark's tiers use them); "procedural": drawn from noise, the
+    #: default, as the tracker loses the banner against the footage's red-brown brick
+    #: (docs/rendering.md); realism "on" only
+    textures: Literal["footage", "procedural"] = "procedural"
     #: where the sun is, from north, clockwise (TOML sun_azimuth_deg)
     sun_azimuth_rad: float = _f(math.radians(140.0), Bound(-360, 360))
     #: the sun's height above the horizon (TOML sun_elevation_deg)

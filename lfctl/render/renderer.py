@@ -69,6 +69,15 @@ def _clip_near(points_cam: np.ndarray) -> np.ndarray:
     return np.array(out) if out else np.empty((0, 3))
 
 
+def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b, normalised (np.cross costs ~20 us a call)."""
+    x = float(a[1] * b[2] - a[2] * b[1])
+    y = float(a[2] * b[0] - a[0] * b[2])
+    z = float(a[0] * b[1] - a[1] * b[0])
+    n = math.sqrt(x * x + y * y + z * z) or 1.0
+    return np.array([x / n, y / n, z / n])
+
+
 @dataclass(frozen=True)
 class Plane:
     """A textured rectangle: origin (top-left), axes along texture x and y (world m per px)."""
@@ -941,8 +950,7 @@ class Renderer:
         for _d, kind, obj in items:
             if kind != "vehicle":
                 assert isinstance(obj, Plane)
-                normal = np.cross(obj.ax, obj.ay)  # towards a viewer who sees the texture unmirrored
-                normal /= max(float(np.linalg.norm(normal)), 1e-12)
+                normal = _unit_cross(obj.ax, obj.ay)  # towards a viewer who sees the texture unmirrored
                 poly = self._paint_textured(img, R, c, obj, self._light_at(obj.centre, normal, cloud))
                 if poly is not None and target_poly is not None:
                     nearer.append(poly)
@@ -1040,8 +1048,7 @@ class Renderer:
     ) -> np.ndarray | None:
         tl, tr, _br, bl = corners
         size = self.banner_tex.shape[0]
-        normal = np.cross(bl - tl, tr - tl)  # towards the viewer behind the vehicle
-        normal /= np.linalg.norm(normal)
+        normal = _unit_cross(bl - tl, tr - tl)  # towards the viewer behind the vehicle
         plane = Plane(tl, (tr - tl) / size, (bl - tl) / size, self.banner_tex)
         light = sun_light(normal, self.sun, self.scene.ambient, direct)
         glare = self._banner_glare(corners, normal, c, direct)

@@ -55,7 +55,8 @@ class Sensor:
         for _ in range(frames):
             if self.sigma_b > 0 or camera.vignetting > 0:
                 n = rng.standard_normal((h, w, 3), dtype=np.float32) if self.sigma_b > 0 else 0.0
-                self._mult.append(np.clip(np.round(128.0 * vmap * (1.0 + self.sigma_b * n)), 0, 255).astype(np.uint8))
+                m = np.broadcast_to(128.0 * vmap * (1.0 + self.sigma_b * n), (h, w, 3))
+                self._mult.append(np.clip(np.round(m), 0, 255).astype(np.uint8))
             if self.sigma_a > 0:
                 n = np.round(rng.standard_normal((h, w, 3), dtype=np.float32) * self.sigma_a)
                 self._read.append((np.clip(n, 0, 255).astype(np.uint8), np.clip(-n, 0, 255).astype(np.uint8)))
