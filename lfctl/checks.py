@@ -161,9 +161,10 @@ def check_port(key: str, value: object) -> int:
     return int(PORT.check(key, value))  # type: ignore[arg-type]
 
 
-def check_host_port(key: str, value: str) -> tuple[str, int]:
+def check_host_port(key: str, value: str, *, allow_any_port: bool = False) -> tuple[str, int]:
     """``HOST:PORT`` split and checked: a host of letters, digits, ``.``, ``-``, ``:`` (IPv6 in
-    brackets) and a port within 1..65535.
+    brackets) and a port within 1..65535 (0..65535 with ``allow_any_port``: 0 asks a server
+    for a free port).
 
     Parameters
     ----------
@@ -171,6 +172,8 @@ def check_host_port(key: str, value: str) -> tuple[str, int]:
         What it is (for the message).
     value : str
         The text given.
+    allow_any_port : bool
+        Accept port 0.
     """
     host, sep, port = value.rpartition(":")
     if not sep or not host or not port.isdigit() or len(port) > 5:
@@ -178,7 +181,10 @@ def check_host_port(key: str, value: str) -> tuple[str, int]:
     bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
     if not re.fullmatch(r"[A-Za-z0-9.:_-]{1,253}", bare):
         raise ConfigError(f"{key}: host must be a name or an address, got {_show(host)}")
-    return host, check_port(f"{key} port", int(port))
+    lowest = 0 if allow_any_port else 1
+    if not lowest <= int(port) <= 65535:
+        raise ConfigError(f"{key} must be HOST:PORT with a port within {lowest}..65535, got {_show(value)}")
+    return host, int(port)
 
 
 #: pymavlink connection prefixes taking HOST:PORT

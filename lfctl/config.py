@@ -39,6 +39,7 @@ __all__ = [
     "GuidanceConfig",
     "LightKey",
     "LinkConfig",
+    "LiveConfig",
     "MissionConfig",
     "OccluderConfig",
     "PropConfig",
@@ -49,8 +50,10 @@ __all__ = [
     "SimConfig",
     "Slot",
     "VehicleConfig",
+    "config_from_table",
     "load_config",
     "parse_config",
+    "parse_host_port",
 ]
 
 # ----------------------------------------------------------------------------------------
@@ -388,7 +391,8 @@ class CameraConfig(_Section):
     """[camera]: the pinhole camera on each follower (and the real camera for `lfctl follow`).
 
     Intrinsics come from ``hfov_deg`` unless ``fx_px`` (and optionally ``fy_px``, ``cx_px``,
-    ``cy_px``) are given. The mount is ``mount_forward_m`` ahead of the vehicle's reference
+    ``cy_px``) are given. ``tracker`` picks the tracker the frames feed (the ablation's
+    baselines ``"hue"`` and ``"hs-lbp"``, or lfctl's ``"full"``). The mount is ``mount_forward_m`` ahead of the vehicle's reference
     point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
     An image holds at most :data:`MAX_CAMERA_PIXELS`.
     """
@@ -424,6 +428,9 @@ class CameraConfig(_Section):
     jpeg_quality: int = _f(0, Bound(0, 100, integer=True))
     #: rolling shutter: the time the sensor takes to read from the top row to the bottom one, s (0: global shutter)
     rolling_shutter_s: float = _f(0.0, Bound(0, 0.2))
+    #: the tracker the camera feeds: "full" (lfctl's), "hs-lbp" (the paper's features, no
+    #: filters) or "hue" (the paper's hue-only CAMShift baseline); see lfctl.vision.tracker
+    tracker: Literal["full", "hs-lbp", "hue"] = "full"
 
     def _check(self) -> None:
         if self.width_px * self.height_px > MAX_CAMERA_PIXELS:
@@ -606,11 +613,45 @@ class RecordingConfig(_Section):
     _key = "recording"
     enabled: bool = True  # record the run (`lfctl sim --no-record` turns it off too)
     dir: str = _f("logs", text=4096)
-    images: bool = True  # record the camera frames as JPEG (camera sensing only)
+    images: bool = True  # record the camera frames (camera sensing only)
+    image_format: Literal["h264", "jpeg"] = "h264"  # H.264 video (foxglove.CompressedVideo) or JPEG images
     image_rate_hz: float = _f(30.0, _RATE)  # at most the camera rate
     jpeg_quality: int = _f(85, Bound(1, 100, integer=True))  # JPEG quality of recorded frames
+    video_bitrate_kbps: int = _f(800, Bound(50, 50_000, integer=True))  # H.264 target bitrate, kbit/s
+    video_gop: int = _f(30, Bound(1, 600, integer=True))  # H.264 frames from one keyframe to the next
     compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the MCAP chunks
     chunk_size_bytes: int = _f(1024 * 1024, Bound(1024, 256 * 1024 * 1024, integer=True))  # MCAP chunk size
+
+
+@dataclass(frozen=True)
+class LiveConfig(_Section):
+    """[live]: what `--live` and `--video` serve while a run goes on."""
+
+    _key = "live"
+    #: host:port of the Foxglove WebSocket (`--live` without a value); port 0: a free one
+    foxglove: str = _f("127.0.0.1:8765", text=260, note="HOST:PORT, port 0..65535 (0: a free one)")
+    #: host:port the RTP/UDP H.264 stream goes to (`--video` without a value)
+    video: str = _f("127.0.0.1:5600", text=260, note="HOST:PORT, port 1..65535")
+    video_annotated: bool = True  # draw the tracked window, markers and state on the streamed view
+    video_bitrate_kbps: int = _f(1500, Bound(50, 50_000, integer=True))  # the stream's H.264 target bitrate, kbit/s
+
+    def _check(self) -> None:
+        parse_host_port(self.foxglove, "live.foxglove")
+        check_host_port("live.video", self.video)
+
+
+def parse_host_port(text: str, what: str) -> tuple[str, int]:
+    """``HOST:PORT`` of a server lfctl starts, as (host, port): port 0 asks for a free port.
+    :class:`ConfigError` naming ``what`` and the value otherwise.
+
+    Parameters
+    ----------
+    text : str
+        ``127.0.0.1:8765``.
+    what : str
+        The option or key it came from, for the error.
+    """
+    return check_host_port(what, text, allow_any_port=True)
 
 
 @dataclass(frozen=True)
@@ -635,7 +676,7 @@ class Config:
     vehicles : tuple of VehicleConfig
         ``[[vehicles]]``: the leader first, then the followers; names unique, follower targets
         leading back to the leader without a cycle.
-    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, audit
+    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, live, audit
         The other sections (``[script]``, ``[mission]``, ...), defaults where absent.
     source : str
         The TOML text, kept for the run record.
@@ -654,6 +695,7 @@ class Config:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
     source: str = ""  # the TOML text, kept for the run record
 
@@ -856,6 +898,28 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         raise ConfigError(f"{name}: not valid TOML: {exc}") from exc
     except RecursionError:
         raise ConfigError(f"{name}: arrays or tables nested too deeply to read") from None
+    return config_from_table(data, name, text)
+
+
+def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: str = "") -> Config:
+    """Build and validate a scenario from its TOML tables as :mod:`tomllib` reads them (a
+    sweep edits a scenario's tables, then builds each variant with this).
+
+    Parameters
+    ----------
+    table : mapping
+        The scenario's top-level table; not modified.
+    name : str
+        The scenario's name when the table sets none.
+    source : str
+        The TOML text the table stands for, kept as :attr:`Config.source`.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type or out-of-range value.
+    """
+    data = dict(table)
     data.setdefault("name", re.sub(r"[^A-Za-z0-9_-]", "_", name)[:64] or "scenario")
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])
@@ -873,9 +937,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         label = f"vehicles[{v.get('name', i)}]"
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
-    table = _build(_ConfigTable, rest, "")
-    sections = {f.name: getattr(table, f.name) for f in dataclasses.fields(_ConfigTable)}
-    return Config(**sections, vehicles=tuple(built), source=text)
+    top = _build(_ConfigTable, rest, "")
+    sections = {f.name: getattr(top, f.name) for f in dataclasses.fields(_ConfigTable)}
+    return Config(**sections, vehicles=tuple(built), source=source)
 
 
 @dataclass(frozen=True)
@@ -894,6 +958,7 @@ class _ConfigTable:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
 
 
@@ -938,7 +1003,7 @@ def reference() -> str:
         ("guidance", GuidanceConfig), ("sensing", SensingConfig), ("formation", FormationConfig),
         ("camera", CameraConfig), ("banner", BannerConfig), ("scene", SceneConfig), ("scene.props", PropConfig),
         ("scene.occluders", OccluderConfig), ("scene.lighting", LightKey), ("recording", RecordingConfig),
-        ("link", LinkConfig), ("audit", AuditConfig),
+        ("link", LinkConfig), ("live", LiveConfig), ("audit", AuditConfig),
     ]  # fmt: skip
     for prefix, cls in sections:
         hints = typing.get_type_hints(cls)

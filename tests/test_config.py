@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import tomllib
 from pathlib import Path
 
 import pytest
 
-from lfctl.config import load_config, parse_config
+from lfctl.config import config_from_table, load_config, parse_config
 from lfctl.errors import ConfigError
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
 
 LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
 FOLLOWER = '[[vehicles]]\nname = "f{n}"\nrole = "follower"\n'
@@ -86,6 +90,7 @@ def test_defaults_fill_the_sim_section() -> None:
             r"script\.leader\[0\] duration_s must be within \(0, 1e6\], got -1\.0",
         ),
         ("[sim\n", r"not valid TOML"),
+        (LEADER + "[camera]\ntracker = 'kcf'\n", r"camera\.tracker must be one of 'full', 'hs-lbp', 'hue', got 'kcf'"),
     ],
 )
 def test_bad_scenarios_name_the_key(text: str, message: str) -> None:
@@ -147,3 +152,14 @@ def test_vehicle_roles_are_the_fmu_roles() -> None:
     from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES
 
     assert set(VEHICLE_ROLES) == {*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES}
+
+
+def test_config_from_table_builds_what_parse_config_builds_and_leaves_the_table_alone() -> None:
+    text = (EXAMPLES / "convoy.toml").read_text()
+    table = tomllib.loads(text)
+    before = copy.deepcopy(table)
+    assert config_from_table(table, "convoy", text) == parse_config(text, "convoy")
+    assert table == before
+    table["sensing"]["range_noise_m"] = -1.0
+    with pytest.raises(ConfigError, match=r"sensing\.range_noise_m must be within \[0, 100\], got -1\.0"):
+        config_from_table(table)

@@ -177,7 +177,10 @@ LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
         ("[camera]\nmount_forward_m = nan\n" + LEADER, r"camera\.mount_forward_m must be within \[-10, 10\], got nan"),
         ("[banner]\nmarker_saturation = 5\n" + LEADER, r"banner\.marker_saturation must be within \[0, 1\], got 5"),
         ("[link]\nhome_alt_m = nan\n" + LEADER, r"link\.home_alt_m must be within"),
-        ("[link]\ngcs_udpout = '127.0.0.1:99999'\n" + LEADER, r"link\.gcs_udpout port must be within 1\.\.65535"),
+        (
+            "[link]\ngcs_udpout = '127.0.0.1:99999'\n" + LEADER,
+            r"link\.gcs_udpout must be HOST:PORT with a port within 1\.\.65535, got '127\.0\.0\.1:99999'",
+        ),
         (
             "[link]\nudp_base_port = 65535\n"
             + LEADER

@@ -11,7 +11,7 @@ import lfctl
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
     "errors", "checks", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
-    "link", "follower", "record", "sim", "bench", "cli",
+    "link", "follower", "record", "sim", "sweep", "bench", "cli",
 }  # fmt: skip
 
 #: layer -> what it may import from lfctl (a package, or one module of it)
@@ -32,8 +32,9 @@ ALLOWED = {
     "fmu": {"data", "errors", "fmu"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"checks", "config", "errors", "metrics", "vision", "record"},
-    "sim": EVERYTHING - {"bench", "cli"},
+    "record": {"checks", "config", "errors", "frames", "metrics", "vision", "record"},
+    "sim": EVERYTHING - {"sweep", "bench", "cli"},
+    "sweep": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,
 }
@@ -52,6 +53,7 @@ FORBIDDEN = {
     "link": {"fmpy", "mcap", "cv2"},
     "follower": {"fmpy", "mcap"},
     "record": {"fmpy", "pymavlink"},
+    "sweep": {"fmpy", "pymavlink"},  # runs go through sim.runner
     "cli": {"fmpy", "pymavlink"},  # commands call the library; only link/ speaks MAVLink
 }
 

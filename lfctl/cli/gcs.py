@@ -53,8 +53,11 @@ def register(sub: Any) -> None:
     gpsave.add_argument("--format", choices=("mavproxy", "qgc"), default="mavproxy", help="file format")
     gpload = gps.add_parser("load", help="set every parameter FILE names (MAVProxy's or QGroundControl's format)")
     gpload.add_argument("file", type=Path)
-    gw = gsub.add_parser("watch", help="live table of every vehicle heard (Ctrl-C to stop)")
-    gw.add_argument("--count", type=integer(1, 10**9), help="stop after this many refreshes")
+    gw = gsub.add_parser(
+        "watch",
+        help="every vehicle heard: a screen that redraws in place, or one JSON object per update on a pipe (Ctrl-C to stop)",
+    )
+    gw.add_argument("--count", type=integer(1, 10**9), help="stop after this many updates")
     g.set_defaults(func=run)
 
 
@@ -142,35 +145,130 @@ def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | Non
     return 0
 
 
+#: a vehicle not heard for this long is shown stale, s
+STALE_S = 3.0
+#: redraws per second
+WATCH_HZ = 2.0
+
+
 def _cell(value: object, fmt: str) -> str:
-    return "?" if value is None else format(value, fmt)
+    return "-" if value is None else format(value, fmt)
 
 
-def watch(gcs: Any, count: int | None) -> None:
-    """Print the fleet table once a second (``count`` times, or until Ctrl-C)."""
+def fleet_rows(table: Any, now_s: float) -> list[dict[str, Any]]:
+    """One dict per vehicle whose autopilot has been heard, by system id: what ``watch``
+    shows (and prints as JSON on a pipe).
+
+    Parameters
+    ----------
+    table : FleetTable
+        What the ground station has heard.
+    now_s : float
+        Now, on the table's clock, s.
+    """
+    out = []
+    for sysid, r in sorted(table.rows.items()):
+        if not r.autopilot:
+            continue  # a companion or a camera before its vehicle: no row of "?" yet
+        f = r.formation
+        age = now_s - r.last_heard_s
+        track = None if "trk_q" not in f else ("tracking" if f["trk_q"] >= 0.5 else "lost")
+        out.append(
+            {
+                "sysid": sysid,
+                "mode": r.mode,
+                "armed": r.armed,
+                "north_m": None if r.north_m is None else round(r.north_m, 2),
+                "east_m": None if r.east_m is None else round(r.east_m, 2),
+                "speed_mps": None if r.speed_mps is None else round(r.speed_mps, 2),
+                "link_age_s": round(age, 1),
+                "stale": age > STALE_S,
+                "mission_seq": r.mission_seq,
+                "mission_total": r.mission_total,
+                "range_err_m": None if "rng_err" not in f else round(f["rng_err"], 3),
+                "bearing_err_deg": None if "brg_err" not in f else round(f["brg_err"], 2),
+                "track": track,
+                "text": r.text,
+            }
+        )
+    return out
+
+
+def render_fleet(rows: list[dict[str, Any]]) -> list[str]:
+    """The watch screen's lines: a header and one line per vehicle (a stale one says so).
+
+    Parameters
+    ----------
+    rows : list of dict
+        As :func:`fleet_rows` makes them.
+    """
+    lines = [
+        f"{'sys':>3} {'mode':<7} {'armed':<8} {'north m':>8} {'east m':>8} {'m/s':>5} {'link':>7} "
+        f"{'mission':>7} {'rng err m':>9} {'brg err':>7} {'track':<8} last message"
+    ]
+    for r in rows:
+        armed = "-" if r["armed"] is None else ("armed" if r["armed"] else "disarmed")
+        mission = "-"
+        if r["mission_seq"] is not None:
+            total = r["mission_total"]
+            mission = f"{r['mission_seq']}/{total}" if total else ("none" if total == 0 else str(r["mission_seq"]))
+        link = f"{r['link_age_s']:.1f}s" + ("!" if r["stale"] else "")
+        lines.append(
+            f"{r['sysid']:>3} {(r['mode'] or '-'):<7} {armed:<8} {_cell(r['north_m'], '8.2f'):>8} {_cell(r['east_m'], '8.2f'):>8} "
+            f"{_cell(r['speed_mps'], '5.2f'):>5} {link:>7} {mission:>7} {_cell(r['range_err_m'], '9.3f'):>9} "
+            f"{_cell(r['bearing_err_deg'], '7.2f'):>7} {(r['track'] or '-'):<8} "
+            + ("STALE: not heard for more than 3 s" if r["stale"] else r["text"])
+        )
+    if not rows:
+        lines.append("(waiting for a vehicle's heartbeat)")
+    return lines
+
+
+def watch(gcs: Any, count: int | None, out: Any = None) -> None:
+    """Every vehicle heard, until Ctrl-C (or ``count`` updates): on a terminal a screen that
+    redraws in place; on a pipe one JSON object per update.
+
+    Parameters
+    ----------
+    gcs : GroundStation
+        The connection (its heartbeat goes out once a second).
+    count : int, optional
+        Stop after this many updates.
+    out : text stream, optional
+        Where to write (default standard output).
+    """
+    import json
+
     from lfctl.link.gcs import FleetTable
 
+    out = out or sys.stdout
+    screen = out.isatty()
     table = FleetTable()
     shown = 0
-    next_draw = time.monotonic()
-    while count is None or shown < count:
-        gcs.heartbeat()
-        m = gcs.next_message(0.1)
-        if m is not None:
-            table.add(m, time.monotonic())
-        if time.monotonic() < next_draw:
-            continue
-        next_draw = time.monotonic() + 1.0
-        shown += 1
-        print(
-            f"{'sys':>3} {'mode':<7} {'armed':<8} {'lat':>12} {'lon':>12} {'m/s':>5} {'rng_err':>7} {'brg_err':>7} {'trk_q':>5}  last message"
-        )
-        for sysid, r in sorted(table.rows.items()):
-            armed = "?" if r.armed is None else ("armed" if r.armed else "disarmed")
-            f = r.formation
-            print(
-                f"{sysid:>3} {r.mode or '?':<7} {armed:<8} {_cell(r.lat_deg, '12.7f'):>12} {_cell(r.lon_deg, '12.7f'):>12} "
-                f"{_cell(r.speed_mps, '5.2f'):>5} {_cell(f.get('rng_err'), '.2f'):>7} {_cell(f.get('brg_err'), '.2f'):>7} "
-                f"{_cell(f.get('trk_q'), '.2f'):>5}  {r.text}"
-            )
-        print(flush=True)
+    t0 = time.monotonic()
+    next_draw = t0
+    if screen:
+        out.write("\x1b[?25l\x1b[2J")  # hide the cursor, clear once
+    try:
+        while count is None or shown < count:
+            gcs.heartbeat()
+            m = gcs.next_message(0.05)
+            now = time.monotonic()
+            if m is not None:
+                table.add(m, now)
+            if now < next_draw:
+                continue
+            next_draw = now + 1.0 / WATCH_HZ
+            shown += 1
+            rows = fleet_rows(table, now)
+            if screen:
+                head = f"lfctl gcs watch  {time.strftime('%H:%M:%S')}  {len(rows)} vehicles  (Ctrl-C to stop)"
+                body = "".join(line + "\x1b[K\n" for line in [head, "", *render_fleet(rows)])
+                out.write("\x1b[H" + body + "\x1b[J")  # home, lines over the old ones, clear the rest
+            else:
+                out.write(json.dumps({"t_s": round(now - t0, 2), "vehicles": rows}) + "\n")
+            out.flush()
+    finally:
+        if screen:
+            out.write("\x1b[?25h")
+            out.flush()

@@ -43,19 +43,7 @@ def number(
     unit : str
         For the message.
     """
-    bound = Bound(lo, hi, lo_open, hi_open)
-
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-        if not bound.contains(value):
-            raise argparse.ArgumentTypeError(f"must be {bound.text()}{' ' + unit if unit else ''}, got {text}")
-        return value
-
-    parse.__name__ = "number"  # argparse names the type in its "invalid ... value" message
-    return parse
+    return _ranged(Bound(lo, hi, lo_open, hi_open), float, "a number", unit)
 
 
 def integer(lo: int, hi: int) -> Callable[[str], int]:
@@ -66,18 +54,20 @@ def integer(lo: int, hi: int) -> Callable[[str], int]:
     lo, hi : int
         The range.
     """
-    bound = Bound(lo, hi, integer=True)
+    return _ranged(Bound(lo, hi, integer=True), int, "a whole number", "")
 
-    def parse(text: str) -> int:
+
+def _ranged(bound: Bound, convert: Callable[[str], Any], kind: str, unit: str) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
         try:
-            value = int(text)
+            value = convert(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"must be {kind}, got {text!r}") from None
         if not bound.contains(value):
-            raise argparse.ArgumentTypeError(f"must be {bound.text()}, got {text}")
+            raise argparse.ArgumentTypeError(f"must be {bound.text()}{' ' + unit if unit else ''}, got {text}")
         return value
 
-    parse.__name__ = "integer"
+    parse.__name__ = kind.split()[-1]  # argparse names the type in its "invalid ... value" message
     return parse
 
 

@@ -35,4 +35,7 @@ def run(args: argparse.Namespace) -> int:
         f"(IoU >= 0.5 on {r.scored} frames with at least {MIN_VISIBLE:.0%} of the banner visible)"
     )
     print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
+    print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
+    if r.unreadable:
+        print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     return 0

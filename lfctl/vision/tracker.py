@@ -274,7 +274,9 @@ class Tracker:
         return self._update_plain(frame)
 
     def _update_plain(self, frame: np.ndarray) -> TrackState:
-        """The baselines: CamShift over the whole frame from the last window, nothing else."""
+        """The baselines: CamShift over the whole frame from the last window. The markers
+        inside the window are reported for the pose (the paper's pipeline: track, then
+        measure the markers the window holds) but play no part in tracking."""
         assert self._lut is not None and self.window is not None
         planes, hsv = self.space.features(frame)
         prob = back_project(self.space, planes, self._lut)
@@ -286,7 +288,15 @@ class Tracker:
             return TrackState(self.frame_index, self.status, None, 0.0, 1.0, None, None, "window vanished")
         self.window = win
         self.status = TrackStatus.TRACKING
-        return TrackState(self.frame_index, self.status, win, mass, 1.0, None, (0, 0, frame.shape[1], frame.shape[0]))
+        markers = None
+        region = clip_box(_scaled(win, 1.5), frame.shape) if self.s.use_markers else None
+        if region is not None:
+            rx, ry, rw, rh = region
+            c = self._markers_near(hsv[ry : ry + rh, rx : rx + rw], region, win, origin=(rx, ry), strict=True)
+            markers = c.centres if c is not None else None
+        return TrackState(
+            self.frame_index, self.status, win, mass, 1.0, markers, (0, 0, frame.shape[1], frame.shape[0])
+        )
 
     def _update_full(self, frame: np.ndarray) -> TrackState:
         assert self._centre is not None and self._area is not None and self.window is not None and self._lut is not None

@@ -67,28 +67,63 @@ def truth_log(tmp_path_factory: pytest.TempPathFactory):
 def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None:
     path, _ = camera_log
     seen: dict[str, int] = {}
+    start_ns = None
+    stamps: dict[str, set[int]] = {"video": set(), "annotations": set()}
+    tf_children: dict[str, str] = {}
     with path.open("rb") as f:
         reader = NonSeekingReader(f, validate_crcs=True, decoder_factories=[DecoderFactory(), JsonDecoders()])
         for schema, channel, message, decoded in reader.iter_decoded_messages():
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
             if channel.message_encoding == "json":
                 assert isinstance(decoded, dict) and decoded == json.loads(message.data)
+                # epoch log time = the run's start + the simulation time the message carries
+                start = message.log_time - round(decoded["t_s"] * 1e9)
+                start_ns = start if start_ns is None else start_ns
+                assert abs(start - start_ns) <= 1000 and start_ns > 1.6e18  # after 2020: not 1970
             else:
                 assert decoded.DESCRIPTOR.full_name == schema.name
+                if hasattr(decoded, "timestamp"):
+                    stamp = decoded.timestamp.seconds * 10**9 + decoded.timestamp.nanos
+                    assert stamp == message.log_time, channel.topic
             if channel.topic == "/leader/pose":
                 assert (
                     type(decoded).DESCRIPTOR.full_name == PoseInFrame.DESCRIPTOR.full_name and decoded.frame_id == "ned"
                 )
-            if channel.topic.endswith("image/compressed"):
-                assert type(decoded).DESCRIPTOR.full_name == CompressedImage.DESCRIPTOR.full_name
-                assert decoded.format == "jpeg" and decoded.data[:2] == b"\xff\xd8"
+            if channel.topic == "/follower1/camera/video":
+                assert decoded.format == "h264" and decoded.frame_id == "follower1/camera"
+                stamps["video"].add(message.log_time)
+            if channel.topic == "/follower1/camera/annotations":
+                for p in decoded.points:
+                    assert p.timestamp.seconds * 10**9 + p.timestamp.nanos == message.log_time
+                stamps["annotations"].add(message.log_time)
+            if channel.topic == "/tf":
+                tf_children |= {t.child_frame_id: t.parent_frame_id for t in decoded.transforms}
+            if channel.topic == "/leader/fix":
+                assert 12 < decoded.latitude < 14 and 77 < decoded.longitude < 78  # CSIR-NAL, Bengaluru
+            if channel.topic == "/follower1/camera/calibration":
+                assert decoded.frame_id == "follower1/camera"
     expected = {
-        "/leader/pose", "/follower1/pose", "/tf", "/follower1/controller", "/follower1/tracker",
-        "/follower1/pose_estimate", "/follower1/camera/image/compressed", "/follower1/camera/annotations",
-        "/follower1/camera/calibration",
+        "/leader/pose", "/follower1/pose", "/leader/fix", "/follower1/fix", "/tf", "/scene", "/log",
+        "/follower1/controller", "/follower1/tracker", "/follower1/pose_estimate", "/follower1/camera/video",
+        "/follower1/camera/annotations", "/follower1/camera/calibration",
     }  # fmt: skip
     assert expected <= set(seen)
-    assert seen["/follower1/camera/image/compressed"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    assert seen["/follower1/camera/video"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    # every image has annotations stamped with its time; the calibration's frame is in /tf
+    assert stamps["video"] <= stamps["annotations"]
+    assert tf_children["follower1/camera"] == "follower1" and tf_children["follower1"] == "ned"
+    assert tf_children["ned"] == "map"
+
+
+def test_a_jpeg_log_keeps_jpeg_images(tmp_path: Path) -> None:
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path, "camera", 1.0)
+    cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_format="jpeg"))
+    run_scenario(cfg, record_to=tmp_path / "j.mcap")
+    rep = audit(tmp_path / "j.mcap")
+    assert rep.ok, [f.line() for f in rep.findings]
+    images = rep.contents.messages["/follower1/camera/image/compressed"]
+    assert images and all(CompressedImage.FromString(d).data[:2] == b"\xff\xd8" for _, d in images)
+    assert "/follower1/camera/video" not in rep.contents.messages
 
 
 def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:
@@ -184,8 +219,16 @@ def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["audit", str(truth_log[0]), "--json", "--plot", str(tmp_path / "plots")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] and out["figures"]["followers"][0]["follower"] == "follower1"
-    assert (tmp_path / "plots" / "trajectories.png").stat().st_size > 1000
-    assert (tmp_path / "plots" / "follower1_errors.png").stat().st_size > 1000
+    for name in ("trajectories", "follower1_errors", "link"):
+        assert (tmp_path / "plots" / f"{name}.png").stat().st_size > 1000
+    assert not (tmp_path / "plots" / "follower1_pose.png").exists()  # truth sensing: no camera pose to plot
+
+
+def test_plots_of_a_camera_run_include_the_pose_against_truth(camera_log, tmp_path: Path) -> None:
+    from lfctl.record.audit import plot
+
+    made = plot(audit(camera_log[0]), tmp_path)
+    assert [p.name for p in made] == ["trajectories.png", "follower1_errors.png", "follower1_pose.png", "link.png"]
 
 
 def test_replay_reruns_a_tracker_on_recorded_frames(camera_log, capsys: pytest.CaptureFixture[str]) -> None:
