@@ -413,8 +413,8 @@ class CameraConfig(_Section):
     pitch_rad: float = _f(0.0, Bound(-60, 60))  # positive: nose up (TOML pitch_deg)
     noise_sigma: float = _f(2.0, Bound(0, 255))  # sensor read noise (signal-independent), digital numbers
     motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
-    # The sensor effects below apply with scene.realism = "on" (the default); "off" draws the
-    # old look, with only noise_sigma and motion_blur. docs/rendering.md gives each one's cost.
+    # The sensor effects below apply with scene.realism = "on"; "off" (the default) draws the
+    # flat look, with only noise_sigma and motion_blur. docs/rendering.md gives each one's cost.
     #: shot noise: the noise variance added per digital number of signal (0: read noise only)
     shot_noise: float = _f(0.06, Bound(0, 10))
     auto_exposure: bool = True  # the gain follows the scene's brightness, with a lag
@@ -545,8 +545,10 @@ class SceneConfig(_Section):
     #: period of that shadow's sweep, s
     shadow_period_s: float = _f(20.0, Bound(0, 1e6, lo_open=True))
     #: "on": a shaded rover with wheels and shadows, a printed banner, sun and cast shadows, full
-    #: resolution, photographed textures and the camera's sensor effects; "off": the old flat look
-    realism: Literal["on", "off"] = "on"
+    #: resolution, photographed textures and the camera's sensor effects (about 3 ms more per
+    #: 640 x 480 frame: a camera run slows from about 5x to about 3x real time, docs/rendering.md);
+    #: "off", the default: the flat look, fast (the vision benchmark's tiers render "on")
+    realism: Literal["on", "off"] = "off"
     #: "footage": ground, walls and background photographed (frames of footage/, chosen per
     #: seed; the vision benchmark's tiers use them); "procedural": drawn from noise, the
     #: default, as the tracker loses the banner against the footage's red-brown brick

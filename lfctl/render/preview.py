@@ -2,7 +2,7 @@
 
 For a few views of the vision benchmark's rendered tiers (:mod:`lfctl.render.sequences`) it
 writes ``<view>-before.png`` (``scene.realism = "off"``: the flat look lfctl drew before),
-``<view>-after.png`` (the default, realistic look) and ``<view>-compare.png`` (both, side by
+``<view>-after.png`` (``scene.realism = "on"``, the realistic look the tiers use) and ``<view>-compare.png`` (both, side by
 side). Deterministic for a seed.
 """
 

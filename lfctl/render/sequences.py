@@ -176,6 +176,7 @@ def make_sequence(
             )
     scene = SceneConfig(
         ground="concrete",
+        realism="on",  # the realistic camera, not the fast default
         textures="footage",  # photographed ground, walls and background, picked per seed
         props=props,
         occluders=occluders,

@@ -16,7 +16,7 @@ from lfctl.render.renderer import Renderer, VehiclePose
 from lfctl.render.sensor import Sensor
 
 QUIET = CameraConfig(noise_sigma=0.0, shot_noise=0.0, auto_exposure=False, white_balance_drift=0.0, vignetting=0.0)
-SCENE = SceneConfig(textures="procedural")
+SCENE = SceneConfig(realism="on", textures="procedural")
 ME = VehiclePose(0.0, 0.0, 0.0, banner=False)
 
 
@@ -38,7 +38,7 @@ def window(img: np.ndarray, x: int, y: int, half: int = 2) -> float:
 
 def test_same_seed_same_frames_and_seeds_vary_the_photographs() -> None:
     cam = CameraConfig()  # every sensor effect on
-    scene = SceneConfig(textures="footage")
+    scene = SceneConfig(realism="on", textures="footage")
     a = Renderer(cam, BannerConfig(), scene, 3)
     b = Renderer(cam, BannerConfig(), scene, 3)
     c = Renderer(cam, BannerConfig(), scene, 4)
