@@ -785,7 +785,7 @@ class Renderer:
             pad = int(3 * sigma) + 1
             px0, py0 = np.floor(poly.min(axis=0)).astype(int) - pad
             px1, py1 = np.ceil(poly.max(axis=0)).astype(int) + pad
-            px0, py0, px1, py1 = max(px0, 0), max(py0, 0), min(px1, W), min(py1, H)
+            px0, py0, px1, py1 = max(px0, 0), max(py0, self._floor_top()), min(px1, W), min(py1, H)
             if px1 <= px0 or py1 <= py0:
                 continue
             contact = np.full((py1 - py0, px1 - px0), 255, np.uint8)
@@ -796,6 +796,11 @@ class Renderer:
             psub = img[py0:py1, px0:px1]
             cv2.multiply(psub, cv2.cvtColor(contact, cv2.COLOR_GRAY2BGR), dst=psub, scale=1.0 / 255.0)
 
+    def _floor_top(self) -> int:
+        """The first image row the floor is drawn on: shadows fall on the floor, so none
+        reaches above it (the rows above show the sky and the distant background)."""
+        return self._ground_bands[0][0] if self._ground_bands else self.cfg.height_px
+
     def _shade(
         self, img: np.ndarray, every: list[np.ndarray], band: np.ndarray | None, casts: list[np.ndarray]
     ) -> None:
@@ -805,7 +810,7 @@ class Renderer:
         pts = np.vstack(every)
         x0, y0 = np.floor(pts.min(axis=0)).astype(int) - 2
         x1, y1 = np.ceil(pts.max(axis=0)).astype(int) + 2
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, self._floor_top()), min(x1, W), min(y1, H)
         if x1 <= x0 or y1 <= y0:
             return
         mask = np.full((y1 - y0, x1 - x0), 255, np.uint8)

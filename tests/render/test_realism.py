@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from lfctl.config import BannerConfig, CameraConfig, SceneConfig
+from lfctl.config import BannerConfig, CameraConfig, PropConfig, SceneConfig
 from lfctl.render.footage import make_periodic
 from lfctl.render.renderer import Renderer, VehiclePose
 from lfctl.render.sensor import Sensor
@@ -205,3 +205,17 @@ def test_realism_off_keeps_the_old_look() -> None:
     assert truth_old.bbox is not None and truth_new.bbox is not None
     assert abs(truth_old.bbox[0] - truth_new.bbox[0]) <= 2  # the same banner, where it was
     assert np.abs(old.astype(int) - new.astype(int)).mean() > 5  # drawn differently
+
+
+def test_a_long_shadow_stays_on_the_floor_not_on_the_sky() -> None:
+    # a tall pole near the floor's far end, a low sun: its shadow runs on past where the
+    # floor is drawn; past there the frame shows sky (or the background photograph)
+    pole = PropConfig(kind="box", north_m=25.0, east_m=3.0, yaw_rad=math.pi, width_m=0.5, height_m=6.0)
+    low_sun = dataclasses.replace(
+        SCENE, props=(pole,), sun_azimuth_rad=math.radians(120), sun_elevation_rad=math.radians(5)
+    )
+    shaded, _t, r = frame(scene=low_sun, leader=VehiclePose(-3.0, 0.0, 0.0))
+    lit, _t, _r = frame(scene=dataclasses.replace(low_sun, shadows=False), leader=VehiclePose(-3.0, 0.0, 0.0))
+    floor_top = r._ground_bands[0][0]
+    assert not np.array_equal(shaded[floor_top:], lit[floor_top:])  # the shadow is there, on the floor
+    assert np.array_equal(shaded[:floor_top], lit[:floor_top])  # and nowhere above it
