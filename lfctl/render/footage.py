@@ -25,10 +25,10 @@ import numpy as np
 
 from lfctl.data import footage_dir
 
-__all__ = ["VERSION", "Plates", "cache_dir", "make_periodic", "plates"]
+__all__ = ["VERSION", "Plates", "cache_dir", "close_loop", "make_periodic", "plates"]
 
 #: bump when the crops or their processing change, to invalidate cached plates
-VERSION = 1
+VERSION = 2
 
 # crops of the vtest median plate (768 x 576): x0, y0, x1, y1
 _ASPHALT = ((480, 245, 690, 340), (300, 255, 420, 330), (540, 345, 700, 420))
@@ -147,7 +147,26 @@ def _cut(folder: Path) -> dict[str, np.ndarray]:
         s = s.astype(np.float32)
         mixed = pano[:, -fade:] * (1 - ramp) + s[:, :fade] * ramp
         pano = np.concatenate([pano[:, :-fade], mixed, s[:, fade:]], axis=1)
-    out["background"] = make_periodic(np.clip(pano, 0, 255).astype(np.uint8), (1,))
+    out["background"] = close_loop(np.clip(pano, 0, 255).astype(np.uint8), fade)
+    return out
+
+
+def close_loop(strip: np.ndarray, fade: int) -> np.ndarray:
+    """A strip made to tile along x by cross-fading its last ``fade`` columns into its first
+    ones (and dropping them): only the join is blended, the rest stays the photograph
+    (:func:`make_periodic` would blend the whole strip with itself: ghosts everywhere).
+
+    Parameters
+    ----------
+    strip : np.ndarray
+        A BGR image wider than ``2 * fade``.
+    fade : int
+        Width of the cross-fade, px.
+    """
+    ramp = np.linspace(0, 1, fade, dtype=np.float32)[None, :, None]
+    out = strip[:, :-fade].copy()
+    mixed = strip[:, -fade:].astype(np.float32) * (1 - ramp) + strip[:, :fade].astype(np.float32) * ramp
+    out[:, :fade] = np.clip(np.round(mixed), 0, 255).astype(np.uint8)
     return out
 
 

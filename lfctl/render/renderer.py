@@ -612,6 +612,7 @@ class Renderer:
         # the distant background: a 360-degree strip, one pixel per pixel of the image at the
         # focal length, its foot on the horizon; doubled so any slice of it is contiguous
         fx = float(self.cam.K[0, 0])
+        self._ground_bands = self._ground_band_levels_full()
         self._background = None
         if plates is not None:
             pano = plates.background
@@ -619,9 +620,26 @@ class Renderer:
             height = max(1, int(round(pano.shape[0] * width / pano.shape[1])))
             pano = cv2.resize(pano, (width, height), interpolation=cv2.INTER_AREA)
             pano = np.roll(pano, int(rng.integers(width)), axis=1)
-            self._background = np.concatenate([pano, pano[:, :w]], axis=1)
-        self._ground_bands = self._ground_band_levels_full()
+            self._background = self._fade_into_sky(np.concatenate([pano, pano[:, :w]], axis=1))
         self.sensor = Sensor(camera, seed)
+
+    def _background_foot(self) -> int:
+        """The image row the background stands on: the floor's first row (or the horizon)."""
+        return self._ground_bands[0][0] if self._ground_bands else int(round(self._horizon_row()))
+
+    def _fade_into_sky(self, bg: np.ndarray) -> np.ndarray:
+        """The background's top quarter faded into the sky behind it (a photograph's cut
+        edge is a hard line across the sky otherwise); the rows it lands on never change, so
+        this is done once."""
+        rows = max(1, bg.shape[0] // 4)
+        top = self._background_foot() - bg.shape[0]
+        sky_rows = np.clip(np.arange(top, top + rows), 0, self.cfg.height_px - 1)
+        sky = self._sky[sky_rows, :1].astype(np.float32)  # (rows, 1, 3): the sky is the same along a row
+        x = (np.arange(rows, dtype=np.float32) + 0.5) / rows
+        weight = (x * x * (3 - 2 * x))[:, None, None]  # smoothstep: 0 at the cut, 1 a quarter down
+        out = bg.copy()
+        out[:rows] = np.round(sky + (bg[:rows].astype(np.float32) - sky) * weight).astype(np.uint8)
+        return out
 
     def _horizon_row(self) -> float:
         """The image row of the horizon straight ahead (the camera moves in the plane at a
@@ -699,7 +717,7 @@ class Renderer:
             return img
         h, w = img.shape[:2]
         # its foot on the horizon, or on the farthest row the floor is drawn on
-        horizon = self._ground_bands[0][0] if self._ground_bands else int(round(self._horizon_row()))
+        horizon = self._background_foot()
         bg = self._background
         width = bg.shape[1] - w
         x0 = int(round(yaw_rad * float(self.cam.K[0, 0]) - float(self.cam.K[0, 2]))) % width

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from lfctl.config import BannerConfig, CameraConfig, PropConfig, SceneConfig
-from lfctl.render.footage import make_periodic
+from lfctl.render.footage import close_loop, make_periodic
 from lfctl.render.renderer import Renderer, VehiclePose
 from lfctl.render.sensor import Sensor
 
@@ -219,3 +219,28 @@ def test_a_long_shadow_stays_on_the_floor_not_on_the_sky() -> None:
     floor_top = r._ground_bands[0][0]
     assert not np.array_equal(shaded[floor_top:], lit[floor_top:])  # the shadow is there, on the floor
     assert np.array_equal(shaded[:floor_top], lit[:floor_top])  # and nowhere above it
+
+
+def test_the_background_loop_blends_only_its_join() -> None:
+    rng = np.random.default_rng(1)
+    strip = cv2.resize(rng.integers(0, 255, (4, 40, 3), np.uint8), (400, 40), interpolation=cv2.INTER_CUBIC)
+    loop = close_loop(strip, 48)
+    assert loop.shape == (40, 352, 3)
+    assert np.array_equal(loop[:, 48:], strip[:, 48:352])  # the photograph itself, no ghost
+    wrapped = np.concatenate([loop, loop], axis=1).astype(float)
+    seam = np.abs(wrapped[:, 352] - wrapped[:, 351]).mean()
+    inside = np.abs(np.diff(loop.astype(float), axis=1)).mean()
+    assert seam < 2 * inside
+
+
+def test_the_background_fades_into_the_sky_at_its_top() -> None:
+    r = Renderer(QUIET, BannerConfig(), dataclasses.replace(SCENE, textures="footage"), 0)
+    if r._background is None:
+        pytest.skip("the footage is not installed")
+    img, _t, _r = frame(scene=dataclasses.replace(SCENE, textures="footage"), leader=VehiclePose(-3.0, 0.0, 0.0))
+    top = r._background_foot() - r._background.shape[0]
+    assert top > 2
+    cut = np.abs(img[top].astype(float) - img[top - 1].astype(float)).mean()  # across the cut edge
+    assert cut < 3.0
+    middle = img[top + r._background.shape[0] // 2].astype(float)
+    assert np.abs(middle - img[top - 1].astype(float)).mean() > 10  # the photograph shows lower down
