@@ -244,3 +244,19 @@ def test_the_background_fades_into_the_sky_at_its_top() -> None:
     assert cut < 3.0
     middle = img[top + r._background.shape[0] // 2].astype(float)
     assert np.abs(middle - img[top - 1].astype(float)).mean() > 10  # the photograph shows lower down
+
+
+@pytest.mark.slow  # builds seventeen renderers
+def test_the_cost_table_measures_every_effect_against_its_reference(capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.bench import render_cost
+
+    result = render_cost.effect_costs(frames=2, block=1)
+    ms, costs = result["median_ms"], result["cost_ms"]
+    assert set(costs) == set(render_cost.EFFECTS)
+    for name, (default, _change) in render_cost.EFFECTS.items():
+        expected = ms["on"] - ms[name] if default else ms[name] - ms["on"]
+        assert costs[name] == pytest.approx(expected, abs=2e-3)
+    assert all(v > 0 for v in ms.values())
+    render_cost.print_costs(result)
+    out = capsys.readouterr().out
+    assert 'realism "off" (baseline)' in out and "JPEG (quality 80)" in out
