@@ -55,6 +55,29 @@ def free_udp_ports() -> Callable[[int], int]:
     return _free_udp_ports
 
 
+def _truth_convoy(duration_s: float) -> Any:
+    import dataclasses
+
+    from lfctl.config import load_config
+    from lfctl.data import examples_dir
+
+    cfg = load_config(examples_dir() / "convoy.toml")
+    base = _free_udp_ports(2)
+    return dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=duration_s),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+
+
+@pytest.fixture
+def truth_convoy() -> Callable[[float], Any]:
+    """``truth_convoy(duration_s)``: the shipped convoy with truth sensing, its vehicles on
+    free loopback ports (``cfg.link.udp_base_port`` on), no ground-station output: what a
+    client test runs with ``background_run(cfg, realtime=True)``."""
+    return _truth_convoy
+
+
 @pytest.fixture
 def banner_video(tmp_path: Path) -> Callable[[int], Path]:
     """``banner_video(frames)``: an MJPG file of the rendered leader's banner, 640x480, 30 fps."""
