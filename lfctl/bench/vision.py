@@ -62,7 +62,7 @@ def make_peer(name: str):
 def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
     """One tier at one seed: per-tracker frame records and the renderer's cost."""
     tier, seed, n_frames, peers = job
-    seq = make_sequence(tier, seed, n_frames)
+    seq = make_sequence(tier, seed, n_frames, realism="on")  # the realistic camera, photographed textures
     cam = CameraModel.from_config(seq.camera)
     trackers: dict[str, object] = {k: Tracker(TrackerSettings(kind=k)) for k in OURS}
     for p in peers:
@@ -138,7 +138,7 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
 def timing_pass(tier: str, n_frames: int, peers: tuple[str, ...]) -> dict[str, float]:
     """Median ms per frame of the renderer and of each tracker alone on the same pre-rendered
     frames, in one process (the accuracy runs share the cores, which inflates their timings)."""
-    seq = make_sequence(tier, 0, n_frames)
+    seq = make_sequence(tier, 0, n_frames, realism="on")
     frames, render = [], []
     it = seq.frames()
     for _ in range(n_frames):
