@@ -49,6 +49,16 @@ def test_pose_of_a_tag_at_a_hand_worked_range_and_bearing(renderer: Renderer) ->
     assert math.degrees(seen.pose.rel_heading_rad) == pytest.approx(11.459, abs=3.0)
 
 
+def test_the_realistic_camera_prints_the_tag_on_its_board() -> None:
+    # scene.realism "on": the board, lighting and sensor change, the tag and its pose do not
+    real = Renderer(CAMERA, ARUCO, SceneConfig(realism="on"), 7)
+    frame, truth = real.render(0.0, ME, [VehiclePose(2.0, 0.3, 0.2)], 0)
+    seen = BannerPerception.from_config(CAMERA, ARUCO).step(0.0, frame)
+    assert seen.measurement.status is TrackStatus.TRACKING and seen.pose is not None
+    assert np.max(np.abs(seen.track.markers - truth.markers_px)) < 1.5
+    assert seen.measurement.range_m == pytest.approx(truth.range_m, rel=0.02)
+
+
 def test_pose_uses_the_tag_side_not_the_marker_square() -> None:
     # the same four corners give twice the depth for a twice larger square
     cam = CameraModel.from_config(CAMERA)
