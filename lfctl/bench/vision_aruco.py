@@ -25,6 +25,7 @@ import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -138,65 +139,17 @@ def compare(quick: bool = False) -> dict:
             sel = [c for c in cells if c["range_m"] == r and c["angle_deg"] == a]
             s = {k: _stats(sel, k) for k in METHODS}
             by_pose[f"{r:g}m_{a:g}deg"] = s
-            rows.append(
-                (
-                    r,
-                    a,
-                    s["markers"]["detection"],
-                    s["aruco"]["detection"],
-                    s["markers"]["range_err_median_pct"],
-                    s["aruco"]["range_err_median_pct"],
-                    s["markers"]["bearing_err_median_deg"],
-                    s["aruco"]["bearing_err_median_deg"],
-                )
-            )
+            rows.append((r, a, *_side_by_side(s, _ACCURACY)))
     print("ArUco banner vs CAMShift + markers (tiers clear, lighting, occlusion pooled; the leader still)")
-    print_table(
-        (
-            "range m",
-            "angle deg",
-            "detect markers",
-            "detect aruco",
-            "range err % markers",
-            "range err % aruco",
-            "bearing err deg markers",
-            "bearing err deg aruco",
-        ),
-        rows,
-    )
+    print_table(("range m", "angle deg", *_side_by_side_names(_ACCURACY)), rows)
     print()
     by_tier, rows = {}, []
     for t in TIERS:
         sel = [c for c in cells if c["tier"] == t]
         s = {k: _stats(sel, k) for k in METHODS}
         by_tier[t] = s
-        rows.append(
-            (
-                t,
-                s["markers"]["detection"],
-                s["aruco"]["detection"],
-                s["markers"]["range_err_median_pct"],
-                s["aruco"]["range_err_median_pct"],
-                s["markers"]["bearing_err_median_deg"],
-                s["aruco"]["bearing_err_median_deg"],
-                s["markers"]["ms_median"],
-                s["aruco"]["ms_median"],
-            )
-        )
-    print_table(
-        (
-            "tier",
-            "detect markers",
-            "detect aruco",
-            "range err % markers",
-            "range err % aruco",
-            "bearing err deg markers",
-            "bearing err deg aruco",
-            "ms/frame markers",
-            "ms/frame aruco",
-        ),
-        rows,
-    )
+        rows.append((t, *_side_by_side(s, _PER_TIER)))
+    print_table(("tier", *_side_by_side_names(_PER_TIER)), rows)
     print(
         f"detect: frames with a pose of those whose banner is >= 50 % in view; errors: medians over those "
         f"poses; {n_frames} frames per cell over the tier's {SCENE_S:g} s; ms/frame: perception only, "
@@ -210,6 +163,23 @@ def compare(quick: bool = False) -> dict:
         "by_pose": by_pose,
         "by_tier": by_tier,
     }
+
+
+#: the figures shown for both methods side by side: (key in _stats, column name)
+_ACCURACY = (
+    ("detection", "detect"),
+    ("range_err_median_pct", "range err %"),
+    ("bearing_err_median_deg", "bearing err deg"),
+)
+_PER_TIER = (*_ACCURACY, ("ms_median", "ms/frame"))
+
+
+def _side_by_side(stats: dict[str, dict[str, Any]], figures: tuple[tuple[str, str], ...]) -> list[Any]:
+    return [stats[m][key] for key, _ in figures for m in METHODS]
+
+
+def _side_by_side_names(figures: tuple[tuple[str, str], ...]) -> list[str]:
+    return [f"{name} {m}" for _, name in figures for m in METHODS]
 
 
 def main(quick: bool = False) -> None:
