@@ -44,7 +44,7 @@ from lfctl.vision.frames import FrameError, check_bgr, check_roi
 from lfctl.vision.gates import DistanceGate, colour_distance, ring_boxes, separating_level
 from lfctl.vision.histogram import FeatureSpace, back_project, histogram, ratio_lut
 from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
-from lfctl.vision.markers import Constellation, find_constellations, refine
+from lfctl.vision.markers import BannerLook, Constellation, find_constellations, refine
 from lfctl.vision.track_state import TrackStatus
 
 __all__ = ["TrackState", "Tracker", "TrackerSettings"]
@@ -64,6 +64,11 @@ class TrackerSettings:
         Which tracker (see the module docstring).
     marker_hue_deg : float
         Hue of the banner's markers, degrees.
+    marker_saturation : float
+        Saturation (0..1) of the banner's printed markers: a constellation's must be near it
+        (see :func:`~lfctl.vision.markers.check_constellation`).
+    marker_over_side : float
+        Marker side / marker square side.
     panel_over_side : float
         Banner panel size / marker square side: the banner box from the markers.
     lbp_threshold : int
@@ -105,6 +110,8 @@ class TrackerSettings:
 
     kind: Literal["full", "hs-lbp", "hue"] = "full"
     marker_hue_deg: float = 0.0
+    marker_saturation: float = 0.85
+    marker_over_side: float = 0.035 / 0.14
     panel_over_side: float = 0.22 / 0.14
     lbp_threshold: int = 3
     grey_levels: int = 4
@@ -236,6 +243,7 @@ class Tracker:
         self._aspect = 1.0  # the window's height / width, a slow average (full tracker)
         self._markers_seen = False
         self._markers_missing = 0
+        self._look = BannerLook(self.s.marker_saturation, self.s.marker_over_side, self.s.panel_over_side)
 
     # -- initialisation ----------------------------------------------------------------
     def init(self, frame: np.ndarray, roi: Box) -> TrackState:
@@ -615,16 +623,27 @@ class Tracker:
         """The target's constellation in ``hsv`` (an image whose top-left is ``origin``).
 
         Of several banners in view (a formation: every vehicle carries one), the one whose
-        box is nearest ``expect`` in place and size; with ``must="start"`` it must also
-        overlap it.
+        box is nearest ``expect`` in place and size. It must also agree with the track
+        (``must``): ``"start"``, overlap the box the track starts on; ``"track"``, sit where
+        the tracked window is and be as big (within half a window and 1.6x in size: on the
+        rendered tiers the banner's box is within 0.3 of the window by this measure while it is
+        tracked); ``"return"``, be within 2x the size the target had when hidden (it may be
+        anywhere in the widened search region); ``"nearest"``, nothing more.
         """
-        found = find_constellations(hsv, self.s.marker_hue_deg, origin=origin)
+        found = find_constellations(hsv, self.s.marker_hue_deg, origin=origin, look=self._look)
         if not found:
             return None
         c = found[0]
         if expect is not None:
             pos = self.s.panel_over_side
             c = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
-            if must == "start" and iou(c.banner_bbox(pos), expect) < 0.2:
+            box = c.banner_bbox(pos)
+            if must == "start" and iou(box, expect) < 0.2:
+                return None
+            if must == "track" and _mismatch(box, expect) > 1.0:
+                return None
+            if must == "return" and abs(np.log(np.sqrt(box[2] * box[3]) / np.sqrt(expect[2] * expect[3]))) > np.log(
+                2.0
+            ):
                 return None
         return refine(c, hsv, self.s.marker_hue_deg, origin)
