@@ -88,8 +88,9 @@ class FeatureSpace:
         chromatic = cv2.compare(sat, self.achromatic_s, cv2.CMP_GT)
         if self.grey_levels:
             chromatic = cv2.bitwise_and(chromatic, cv2.compare(hsv[:, :, 2], self.dark_v, cv2.CMP_GE))
-            grey = cv2.LUT(hsv[:, :, 2], _grey_lut(self.grey_levels))
-            planes = [np.where(chromatic > 0, h, grey).astype(np.uint8), sat]
+            first = cv2.LUT(hsv[:, :, 2], _grey_lut(self.grey_levels))  # the brightness bins...
+            cv2.copyTo(h, chromatic, first)  # ...where the hue means nothing
+            planes = [first, sat]
         else:
             planes = [cv2.bitwise_and(h, chromatic), sat]
         if self.use_lbp:

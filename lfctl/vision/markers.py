@@ -7,6 +7,7 @@ perspective."""
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -227,9 +228,9 @@ def find_constellations(
 
 
 def _hue_off_deg(hue: np.ndarray, target: int) -> np.ndarray:
-    """|hue - target| in degrees on the circle (OpenCV hue: degrees / 2, 0..179)."""
+    """|hue - target| in whole degrees on the circle (OpenCV hue: degrees / 2, 0..179), int16."""
     d = np.abs(hue.astype(np.int16) - target)
-    return np.minimum(d, 180 - d) * 2.0
+    return np.minimum(d, 180 - d) * 2
 
 
 def check_constellation(
@@ -286,45 +287,51 @@ def check_constellation(
     look = look or BannerLook()
     H, W = hsv.shape[:2]
     pts = np.asarray(c.centres, np.float64)
-    tl, tr, br, bl = pts
-    aspect = (np.linalg.norm(tr - tl) + np.linalg.norm(br - bl)) / max(
-        1e-9, np.linalg.norm(bl - tl) + np.linalg.norm(br - tr)
-    )
+    (x_tl, y_tl), (x_tr, y_tr), (x_br, y_br), (x_bl, y_bl) = pts.tolist()
+    across = math.hypot(x_tr - x_tl, y_tr - y_tl) + math.hypot(x_br - x_bl, y_br - y_bl)
+    down = math.hypot(x_bl - x_tl, y_bl - y_tl) + math.hypot(x_br - x_tr, y_br - y_tr)
+    aspect = across / max(1e-9, down)
     target = int(round(hue_deg / 2.0)) % 180
     sats, vals = [], []
     for b in c.blobs:
         x, y, w, h = b.bbox
-        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3)
-        on = px[(_hue_off_deg(px[:, 0], target) <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
-        if on.shape[0] == 0:
-            return "marker colour"
-        sat = float(np.median(on[:, 1]))
-        if float(np.median(_hue_off_deg(on[:, 0], target))) > tolerance_deg / 2.0:
-            return "marker colour"
-        if sat < 0.7 * look.marker_saturation * 255.0:
-            return "marker colour"
         if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
             return "marker shape"
+        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
+        px[:, 0] = _hue_off_deg(px[:, 0], target)
+        on = px[(px[:, 0] <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
+        if on.shape[0] == 0:
+            return "marker colour"
+        k = on.shape[0] // 2
+        hue_off, sat, val = np.partition(on, k, axis=0)[k].tolist()  # the medians (upper of an even count)
+        if hue_off > tolerance_deg / 2.0 or sat < 0.7 * look.marker_saturation * 255.0:
+            return "marker colour"
         sats.append(sat)
-        vals.append(float(np.median(on[:, 2])))
+        vals.append(val)
     square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
     homography = cv2.getPerspectiveTransform(square, pts.astype(np.float32))
     if np.hypot(homography[2, 0], homography[2, 1]) / max(abs(homography[2, 2]), 1e-9) > 0.6:
         return "perspective"
     centre = pts.mean(axis=0)
     quad = np.round(centre + (pts - centre) * look.panel_over_side * 0.95).astype(np.int32)
-    panel = np.zeros((H, W), np.uint8)
-    cv2.fillConvexPoly(panel, quad, 255)
+    # the panel's pixels, within its bounding box in the image
+    x0, y0 = max(0, int(quad[:, 0].min())), max(0, int(quad[:, 1].min()))
+    x1, y1 = min(W, int(quad[:, 0].max()) + 1), min(H, int(quad[:, 1].max()) + 1)
+    if x1 <= x0 or y1 <= y0:
+        return "panel"
+    panel = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    cv2.fillConvexPoly(panel, quad - np.array([x0, y0], np.int32), 255)
     for b in c.blobs:  # the markers and their blurred rims are not panel
         x, y, w, h = b.bbox
+        x, y = x - x0, y - y0
         cv2.rectangle(panel, (x - 1 - w // 3, y - 1 - h // 3), (x + w + w // 3, y + h + h // 3), 0, -1)
-    px = hsv[panel > 0]
+    px = hsv[y0:y1, x0:x1][panel > 0]
     expected = cv2.contourArea(quad.astype(np.float32)) * (
         1.0 - 4.0 * (look.marker_over_side / look.panel_over_side) ** 2
     )
     if px.shape[0] < 0.3 * expected:
         return "panel"  # mostly outside the image: too little of it to tell
-    light = (px[:, 1] < 0.5 * np.median(sats)) & (px[:, 2] >= 0.5 * np.median(vals))
+    light = (px[:, 1] < 0.5 * sorted(sats)[2]) & (px[:, 2] >= 0.5 * sorted(vals)[2])
     if float(np.mean(light)) < 0.6:
         return "panel"
     return ""
