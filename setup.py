@@ -10,5 +10,9 @@ DATA = {"lfctl.fmu_models": "fmu_models", "lfctl.examples": "examples", "lfctl.f
 setup(
     packages=[*find_packages(include=["lfctl", "lfctl.*"]), *DATA],
     package_dir=DATA,
-    package_data={"lfctl.fmu_models": ["**/*"], "lfctl.examples": ["*"], "lfctl.footage": ["**/*"]},
+    package_data={
+        "lfctl.fmu_models": ["**/*"],
+        "lfctl.examples": ["*", "sweeps/*", "sweeps/scenarios/*"],
+        "lfctl.footage": ["**/*"],
+    },
 )

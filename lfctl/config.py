@@ -9,7 +9,9 @@ the dotted key, the value and what was expected.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import re
 import tomllib
 import types
 import typing
@@ -18,9 +20,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+from lfctl.checks import NAME_PATTERN, Bound, check_host_port, check_inside, check_name, check_text, read_text_file
 from lfctl.errors import ConfigError
 
 __all__ = [
+    "MAX_CAMERA_PIXELS",
+    "MAX_LIST",
+    "MAX_SCENARIO_BYTES",
+    "MAX_STEPS",
+    "MAX_VEHICLES",
+    "MAX_WAYPOINTS",
+    "VEHICLE_ROLES",
     "AuditConfig",
     "BannerConfig",
     "CameraConfig",
@@ -29,6 +39,7 @@ __all__ = [
     "GuidanceConfig",
     "LightKey",
     "LinkConfig",
+    "LiveConfig",
     "MissionConfig",
     "OccluderConfig",
     "PropConfig",
@@ -39,114 +50,210 @@ __all__ = [
     "SimConfig",
     "Slot",
     "VehicleConfig",
+    "config_from_table",
     "load_config",
     "parse_config",
+    "parse_host_port",
 ]
+
+# ----------------------------------------------------------------------------------------
+# Declared ranges: every number in a scenario has one, checked on construction (from TOML,
+# from the Python API and from `dataclasses.replace` alike) and listed by `reference()`.
+
+#: the most [[vehicles]] a scenario may hold (each gets a UDP port and a MAVLink system id)
+MAX_VEHICLES = 64
+#: the most [mission] waypoints: the endpoints hold 2000 mission items, home included
+MAX_WAYPOINTS = 1999
+#: the most entries in any other list (props, occluders, lighting keys, script segments, dropouts)
+MAX_LIST = 1000
+#: the most pixels in a camera image (4096 x 2160, DCI 4K): rendering takes about 100 bytes
+#: a pixel (0.9 GB at this size, per camera)
+MAX_CAMERA_PIXELS = 4096 * 2160
+#: the largest scenario file read, bytes
+MAX_SCENARIO_BYTES = 1024 * 1024
+#: the most simulation steps in one run (duration_s / dt_s)
+MAX_STEPS = 100_000_000
+
+#: a position or distance in the local frame, m (100 km each way)
+_POS = Bound(-1e5, 1e5)
+#: a positive length of a thing in the scene, m
+_SIZE = Bound(0, 100, lo_open=True)
+#: a rate of a subsystem, Hz
+_RATE = Bound(0, 1000, lo_open=True)
+#: a time in the run, s
+_TIME = Bound(0, 1e6)
+
+
+def _f(default: Any = dataclasses.MISSING, bound: Bound | None = None, *, factory: Any = None, **more: Any) -> Any:
+    """A dataclass field with its declared range (``bound``; for ``_rad`` fields in degrees)
+    and, for lists, ``max_items`` and per-position ``items`` bounds with the allowed ``arity``."""
+    meta = {"bound": bound, **more}
+    if factory is not None:
+        return field(default_factory=factory, metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+def _shown(field_name: str, value: float) -> float:
+    """A value in the unit its TOML key has (degrees for ``_rad`` fields)."""
+    if field_name.endswith(("_rad", "_radps")) and isinstance(value, float):
+        return round(math.degrees(value), 9)  # 200 deg, not 200.00000000000003
+    return value
+
+
+def _check_fields(obj: Any, prefix: str) -> None:
+    """Each field against what its metadata declares: range, list length, entries, name rules."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{prefix}.{_toml_key(f.name)}"
+        md = f.metadata
+        bound: Bound | None = md.get("bound")
+        if bound is not None and value is not None:
+            bound.check(key, _shown(f.name, value))
+        if md.get("name") and value is not None and (value or not md.get("optional")):
+            check_name(key, value)
+        if md.get("text") and value is not None:
+            check_text(key, value, md["text"])
+        limit = md.get("max_items")
+        if limit is not None and len(value) > limit:
+            raise ConfigError(f"{key} may hold at most {limit} entries, got {len(value)}")
+        each: Bound | None = md.get("each")
+        if each is not None:
+            for i, x in enumerate(value):
+                each.check(f"{key}[{i}]", x)
+        items: tuple[Bound, ...] | None = md.get("items")
+        if items is not None:
+            arity = md.get("arity", (len(items),))
+            for i, entry in enumerate(value):
+                if len(entry) not in arity:
+                    raise ConfigError(f"{key}[{i}] must be {md['shape']}, got {list(entry)!r}")
+                for j, x in enumerate(entry):
+                    items[j].check(f"{key}[{i}] {md['names'][j]}", x)
+        choices = _literals(type(obj)).get(f.name)
+        if choices is not None and value not in choices:
+            raise ConfigError(f"{key} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+
+
+@functools.cache
+def _literals(cls: type) -> dict[str, tuple[Any, ...]]:
+    """Field -> the values a ``Literal`` field takes."""
+    hints = typing.get_type_hints(cls)
+    return {n: typing.get_args(t) for n, t in hints.items() if typing.get_origin(t) is Literal}
+
+
+class _Section:
+    """Base of every section: checks the declared ranges, then the section's own rules."""
+
+    _key: typing.ClassVar[str] = ""
+
+    def __post_init__(self) -> None:
+        _check_fields(self, self._prefix())
+        self._check()
+
+    def _prefix(self) -> str:
+        return self._key
+
+    def _check(self) -> None:
+        """Rules across fields (none by default)."""
+
 
 # ----------------------------------------------------------------------------------------
 # Sections
 
 
-def _positive(key: str, value: float) -> None:
-    if not (value > 0 and math.isfinite(value)):
-        raise ConfigError(f"{key} must be > 0, got {value!r}")
-
-
-def _non_negative(key: str, value: float) -> None:
-    if not (value >= 0 and math.isfinite(value)):
-        raise ConfigError(f"{key} must be >= 0, got {value!r}")
-
-
 @dataclass(frozen=True)
-class SimConfig:
+class SimConfig(_Section):
     """[sim]: the co-simulation clock and the rates of each subsystem."""
 
-    dt_s: float = 0.01  # physics step: every FMU advances by this much per tick, s (<= 1)
-    duration_s: float = 60.0  # simulated time, s
-    seed: int = 0  # seeds every random stream (sensor noise, renderers): same seed, same run
+    _key = "sim"
+    #: physics step: every FMU advances by this much per tick, s
+    dt_s: float = _f(0.01, Bound(1e-4, 1.0))
+    duration_s: float = _f(60.0, Bound(0, 1e6, lo_open=True), note="at most 1e8 steps of dt_s")  # simulated time, s
+    #: seeds every random stream (sensor noise, renderers): same seed, same run
+    seed: int = _f(0, Bound(0, 2**63 - 1, integer=True))
     #: "lockstep" runs as fast as the CPU allows, deterministic; "realtime" paces to the wall
     #: clock and opens a UDP port per vehicle
     clock: Literal["lockstep", "realtime"] = "lockstep"
-    guidance_rate_hz: float = 20.0  # the leader's autopilot and each follower's stack
-    camera_rate_hz: float = 30.0  # rendered frames per follower (camera sensing)
-    telemetry_rate_hz: float = 10.0  # vehicle poses to the log and the trajectory kept for the summary
+    guidance_rate_hz: float = _f(20.0, _RATE, note="<= 1 / dt_s")  # the leader's autopilot and each follower's stack
+    camera_rate_hz: float = _f(30.0, _RATE, note="<= 1 / dt_s")  # rendered frames per follower (camera sensing)
+    #: vehicle poses to the log and the trajectory kept for the summary
+    telemetry_rate_hz: float = _f(10.0, _RATE, note="<= 1 / dt_s")
     #: each follower's formation status (NAMED_VALUE_FLOAT) to the ground station
-    status_rate_hz: float = 2.0
+    status_rate_hz: float = _f(2.0, _RATE, note="<= 1 / dt_s")
     #: "truth": range and bearing from the world truth with noise ([sensing]); "camera": each
     #: follower's view rendered and perceived
     sensing: Literal["truth", "camera"] = "truth"
     #: processes besides the main one that render and track followers' cameras: -1 one per
     #: spare core (at most one per follower beyond the first), 0 none
-    camera_workers: int = -1
+    camera_workers: int = _f(-1, Bound(-1, 64, integer=True))
 
-    def __post_init__(self) -> None:
-        _positive("sim.dt_s", self.dt_s)
-        if self.camera_workers < -1:
-            raise ConfigError(f"sim.camera_workers must be -1 (auto), 0 or more, got {self.camera_workers!r}")
-        if self.dt_s > 1.0:
-            raise ConfigError(f"sim.dt_s must be <= 1 s, got {self.dt_s!r}")
-        _positive("sim.duration_s", self.duration_s)
-        if self.seed < 0:
-            raise ConfigError(f"sim.seed must be >= 0, got {self.seed!r}")
+    def _check(self) -> None:
+        if self.duration_s / self.dt_s > MAX_STEPS:
+            raise ConfigError(
+                f"sim.duration_s / dt_s = {self.duration_s / self.dt_s:.3g} steps; at most {MAX_STEPS:.0e} in one run"
+            )
         for name in ("guidance_rate_hz", "camera_rate_hz", "telemetry_rate_hz", "status_rate_hz"):
             rate = getattr(self, name)
-            _positive(f"sim.{name}", rate)
             if rate > 1.0 / self.dt_s + 1e-9:
                 raise ConfigError(
                     f"sim.{name} = {rate!r} Hz is faster than the physics rate 1/dt = {1.0 / self.dt_s:g} Hz"
                 )
 
 
+#: the roles a vehicle FMU's variables play ([vehicles.map], [vehicles.units] keys)
+VEHICLE_ROLES = ("speed_cmd", "yaw_rate_cmd", "north", "east", "yaw", "speed", "yaw_rate", "north_0", "east_0", "yaw_0")
+
+
 @dataclass(frozen=True)
-class VehicleConfig:
+class VehicleConfig(_Section):
     """One [[vehicles]] entry.
 
     ``name`` (letters, digits, ``-``, ``_``) is unique; ``role`` is ``"leader"`` (exactly one,
     first) or ``"follower"``. ``model`` names a built-in model (fmu_models/); ``fmu`` a user
-    FMU file instead, with ``map`` (role -> variable name) and ``units`` (role -> unit) where
-    its names differ.
+    FMU file instead (absolute, or relative to the scenario file's folder and inside it), with
+    ``map`` (role -> variable name) and ``units`` (role -> unit) where its names differ.
     """
 
-    name: str
-    role: Literal["leader", "follower"]
-    model: str = "SkidSteerRover"
-    fmu: str | None = None
-    fmi_version: int = 2  # which build of a built-in model to load: 2 or 3
-    north_m: float = 0.0  # initial position north, local NED, m
-    east_m: float = 0.0  # initial position east, m
-    yaw_rad: float = 0.0  # initial heading, rad (TOML yaw_deg)
-    parameters: Mapping[str, float] = field(default_factory=dict)  # FMU parameter name -> value
-    map: Mapping[str, str] = field(default_factory=dict)
-    units: Mapping[str, str] = field(default_factory=dict)
+    name: str = _f(name=True)
+    role: Literal["leader", "follower"] = _f()
+    model: str = _f("SkidSteerRover", name=True)  # a built-in model's name
+    fmu: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
+    fmi_version: int = _f(2, Bound(2, 3, integer=True))  # which build of a built-in model to load: 2 or 3
+    north_m: float = _f(0.0, _POS)  # initial position north, local NED, m
+    east_m: float = _f(0.0, _POS)  # initial position east, m
+    yaw_rad: float = _f(0.0, Bound(-360, 360))  # initial heading, rad (TOML yaw_deg)
+    #: FMU parameter name -> value
+    parameters: Mapping[str, float] = _f(factory=dict, max_items=MAX_LIST)
+    map: Mapping[str, str] = _f(factory=dict, note="keys: the roles (see below)")
+    units: Mapping[str, str] = _f(factory=dict, note="keys: the roles (see below)")
     # follower only: whom to follow and where (the formation controller holds this slot)
-    target: str | None = None  # the vehicle it follows (None: as [formation] says)
-    range_m: float | None = None  # commanded range to the target, m (None: as [formation] says)
-    bearing_rad: float | None = None  # commanded bearing, clockwise positive (TOML bearing_deg)
+    target: str | None = _f(None, name=True)  # the vehicle it follows (None: as [formation] says)
+    #: commanded range to the target, m (None: as [formation] says)
+    range_m: float | None = _f(None, Bound(0, 1000, lo_open=True))
+    #: commanded bearing, clockwise positive (TOML bearing_deg)
+    bearing_rad: float | None = _f(None, Bound(-180, 180))
 
-    def __post_init__(self) -> None:
-        key = f"vehicles[{self.name}]"
-        if not self.name or not self.name.replace("_", "").replace("-", "").isalnum():
-            raise ConfigError(f"vehicles.name must be letters, digits, '-' or '_', got {self.name!r}")
-        if self.fmi_version not in (2, 3):
-            raise ConfigError(f"{key}.fmi_version must be 2 or 3, got {self.fmi_version!r}")
-        for k in ("north_m", "east_m", "yaw_rad"):
-            if not math.isfinite(getattr(self, k)):
-                raise ConfigError(f"{key}.{k} must be finite, got {getattr(self, k)!r}")
-        if self.range_m is not None:
-            _positive(f"{key}.range_m", self.range_m)
-        if self.bearing_rad is not None and not -math.pi <= self.bearing_rad <= math.pi:
-            raise ConfigError(f"{key}.bearing_deg must be within [-180, 180], got {math.degrees(self.bearing_rad):.6g}")
+    def _prefix(self) -> str:
+        ok = isinstance(self.name, str) and NAME_PATTERN.fullmatch(self.name)
+        return f"vehicles[{self.name}]" if ok else "vehicles"
+
+    def _check(self) -> None:
+        key = self._prefix()
         if self.role == "leader":
             for k in ("target", "range_m", "bearing_rad"):
                 if getattr(self, k) is not None:
                     raise ConfigError(f"{key}.{_toml_key(k)}: a leader follows nobody, got {getattr(self, k)!r}")
         for p, v in self.parameters.items():
-            if not math.isfinite(v):
-                raise ConfigError(f"{key}.parameters.{p} must be finite, got {v!r}")
+            check_text(f"{key}.parameters key", p)
+            Bound(-math.inf, math.inf).check(f"{key}.parameters.{p}", v)
+        for table in ("map", "units"):
+            for role, text in getattr(self, table).items():
+                if role not in VEHICLE_ROLES:
+                    raise ConfigError(f"{key}.{table}: unknown role {role!r} (roles: {', '.join(VEHICLE_ROLES)})")
+                check_text(f"{key}.{table}.{role}", text)
 
 
 @dataclass(frozen=True)
-class ScriptConfig:
+class ScriptConfig(_Section):
     """[script]: open-loop inputs for runs without guidance.
 
     ``leader`` is a list of ``[duration_s, speed_mps, yaw_rate_deg_s]`` segments, repeated
@@ -155,113 +262,113 @@ class ScriptConfig:
     ``"copy"`` (the leader's commands, open loop).
     """
 
-    leader: tuple[tuple[float, float, float], ...] = ((4.0, 0.3, 0.0), (3.0, 0.3, 30.0))
+    _key = "script"
+    leader: tuple[tuple[float, float, float], ...] = _f(
+        ((4.0, 0.3, 0.0), (3.0, 0.3, 30.0)),
+        max_items=MAX_LIST,
+        items=(Bound(0, 1e6, lo_open=True), Bound(-100, 100), Bound(-3600, 3600)),
+        names=("duration_s", "speed_mps", "yaw_rate_deg_s"),
+        shape="[duration_s, speed_mps, yaw_rate_deg_s]",
+    )
     followers: Literal["formation", "stand", "copy"] = "formation"
 
-    def __post_init__(self) -> None:
+    def _check(self) -> None:
         if not self.leader:
             raise ConfigError("script.leader must have at least one [duration_s, speed_mps, yaw_rate_deg_s] segment")
-        for i, seg in enumerate(self.leader):
-            if len(seg) != 3:
-                raise ConfigError(
-                    f"script.leader[{i}] must be [duration_s, speed_mps, yaw_rate_deg_s], got {list(seg)!r}"
-                )
-            _positive(f"script.leader[{i}][0] (duration_s)", seg[0])
 
 
 @dataclass(frozen=True)
-class MissionConfig:
+class MissionConfig(_Section):
     """[mission]: the leader's route in local NED, flown in AUTO.
 
     ``waypoints`` holds ``[north_m, east_m]`` or ``[north_m, east_m, hold_s]`` (wait there).
     Without waypoints the leader follows ``[script]``.
     """
 
-    waypoints: tuple[tuple[float, ...], ...] = ()
-    acceptance_radius_m: float = 0.3  # a waypoint is reached within this distance, m
-    cruise_speed_mps: float = 0.3  # the leader's speed on straight legs, m/s
-    lookahead_m: float = 0.8  # LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
+    _key = "mission"
+    waypoints: tuple[tuple[float, ...], ...] = _f(
+        (),
+        max_items=MAX_WAYPOINTS,
+        items=(_POS, _POS, Bound(0, 86400)),
+        arity=(2, 3),
+        names=("north_m", "east_m", "hold_s"),
+        shape="[north_m, east_m] or [north_m, east_m, hold_s]",
+    )
+    #: a waypoint is reached within this distance, m
+    acceptance_radius_m: float = _f(0.3, Bound(0, 1000, lo_open=True))
+    cruise_speed_mps: float = _f(0.3, Bound(0, 100, lo_open=True))  # the leader's speed on straight legs, m/s
+    #: LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
+    lookahead_m: float = _f(0.8, Bound(0, 1000))
 
-    def __post_init__(self) -> None:
-        _positive("mission.acceptance_radius_m", self.acceptance_radius_m)
-        _positive("mission.cruise_speed_mps", self.cruise_speed_mps)
-        _non_negative("mission.lookahead_m", self.lookahead_m)
-        for i, wp in enumerate(self.waypoints):
-            if len(wp) not in (2, 3) or not all(math.isfinite(c) for c in wp):
-                raise ConfigError(
-                    f"mission.waypoints[{i}] must be [north_m, east_m] or [north_m, east_m, hold_s] of finite numbers, got {list(wp)!r}"
-                )
-            if len(wp) == 3 and wp[2] < 0:
-                raise ConfigError(f"mission.waypoints[{i}] hold_s must be >= 0, got {wp[2]!r}")
+
+_GAIN = Bound(0, 1000, lo_open=True)
+_YAW_RATE = Bound(0, 3600, lo_open=True)  # deg/s
+_ANGLE = Bound(0, 180, lo_open=True)  # deg
 
 
 @dataclass(frozen=True)
-class GuidanceConfig:
+class GuidanceConfig(_Section):
     """[guidance]: controller choice, gains and limits (leader heading, follower formation)."""
 
+    _key = "guidance"
     controller: Literal["smc", "p"] = "smc"  # followers' law: sliding mode, or the P baseline
-    max_speed_mps: float = 0.5  # followers' speed limit; also caps the leader's cruise speed
-    reverse_speed_mps: float = 0.15  # followers may back up this fast to restore the range
-    max_yaw_rate_radps: float = math.radians(90.0)  # every vehicle's yaw-rate limit (TOML max_yaw_rate_degps)
+    #: followers' speed limit; also caps the leader's cruise speed
+    max_speed_mps: float = _f(0.5, Bound(0, 100, lo_open=True))
+    #: followers may back up this fast to restore the range
+    reverse_speed_mps: float = _f(0.15, Bound(0, 100))
+    #: every vehicle's yaw-rate limit (TOML max_yaw_rate_degps)
+    max_yaw_rate_radps: float = _f(math.radians(90.0), _YAW_RATE)
     # followers' sliding-mode range law (RangeGains)
-    range_eta_mps: float = 0.25  # reaching rate outside the boundary layer, m/s
-    range_phi_m: float = 0.25  # boundary-layer half-width, m
-    min_cos_bearing: float = 0.2  # floor on |cos(bearing)| (the broadside singularity)
+    range_eta_mps: float = _f(0.25, Bound(0, 100, lo_open=True))  # reaching rate outside the boundary layer, m/s
+    range_phi_m: float = _f(0.25, Bound(0, 100, lo_open=True))  # boundary-layer half-width, m
+    min_cos_bearing: float = _f(0.2, Bound(0, 1, lo_open=True))  # floor on |cos(bearing)| (the broadside singularity)
     # followers' sliding-mode bearing law (BearingGains); TOML *_degps, *_deg
-    bearing_eta_radps: float = math.radians(70.0)  # yaw rate outside the boundary layer
-    bearing_lambda_s: float = 0.1  # weight of the error rate in the sliding variable, s
-    bearing_phi_rad: float = math.radians(15.0)  # boundary-layer half-width
+    bearing_eta_radps: float = _f(math.radians(70.0), _YAW_RATE)  # yaw rate outside the boundary layer
+    bearing_lambda_s: float = _f(0.1, Bound(0, 100))  # weight of the error rate in the sliding variable, s
+    bearing_phi_rad: float = _f(math.radians(15.0), _ANGLE)  # boundary-layer half-width
     # the leader's sliding-mode heading law in AUTO (BearingGains); TOML *_degps, *_deg
-    heading_eta_radps: float = math.radians(60.0)  # yaw rate outside the boundary layer
-    heading_lambda_s: float = 0.1  # weight of the error rate in the sliding variable, s
-    heading_phi_rad: float = math.radians(20.0)  # boundary-layer half-width
-    turn_slowdown: float = 0.6  # fraction of its speed the leader sheds for a 180 deg turn (0..1)
-    p_gain: float = 0.8  # the P baseline's position gain (FOLL_POS_P), 1/s
-    coast_s: float = 2.0  # followers coast on their filter this long without a measurement, s
-    slowdown_s: float = 1.0  # then slow to a stop over this long before the track is LOST, s
-
-    def __post_init__(self) -> None:
-        for name in (
-            "max_speed_mps", "max_yaw_rate_radps", "range_eta_mps", "range_phi_m", "min_cos_bearing",
-            "bearing_eta_radps", "bearing_phi_rad", "heading_eta_radps", "heading_phi_rad", "p_gain", "slowdown_s",
-        ):  # fmt: skip
-            _positive(f"guidance.{_toml_key(name)}", getattr(self, name))
-        for name in ("bearing_lambda_s", "heading_lambda_s", "coast_s", "reverse_speed_mps"):
-            _non_negative(f"guidance.{name}", getattr(self, name))
-        if not 0 <= self.turn_slowdown <= 1:
-            raise ConfigError(f"guidance.turn_slowdown must be within [0, 1], got {self.turn_slowdown!r}")
-        if self.min_cos_bearing > 1:
-            raise ConfigError(f"guidance.min_cos_bearing must be <= 1, got {self.min_cos_bearing!r}")
+    heading_eta_radps: float = _f(math.radians(60.0), _YAW_RATE)  # yaw rate outside the boundary layer
+    heading_lambda_s: float = _f(0.1, Bound(0, 100))  # weight of the error rate in the sliding variable, s
+    heading_phi_rad: float = _f(math.radians(20.0), _ANGLE)  # boundary-layer half-width
+    #: fraction of its speed the leader sheds for a 180 deg turn
+    turn_slowdown: float = _f(0.6, Bound(0, 1))
+    p_gain: float = _f(0.8, _GAIN)  # the P baseline's position gain (FOLL_POS_P), 1/s
+    coast_s: float = _f(2.0, Bound(0, 3600))  # followers coast on their filter this long without a measurement, s
+    slowdown_s: float = _f(1.0, Bound(0, 3600, lo_open=True))  # then slow to a stop over this long before LOST, s
 
 
 @dataclass(frozen=True)
-class SensingConfig:
+class SensingConfig(_Section):
     """[sensing]: the truth sensor (``--sensing truth``): noise, delay, field of view, dropouts.
 
     ``dropouts`` are ``[start_s, end_s]`` windows with no measurement: an occluder crossing.
     """
 
-    range_noise_m: float = 0.01  # 1-sigma Gaussian noise on the range, m
-    bearing_noise_rad: float = math.radians(0.3)  # 1-sigma noise on the bearing (TOML bearing_noise_deg)
-    delay_s: float = 0.05  # age of a measurement when the follower gets it, s (<= 1)
-    fov_rad: float = math.radians(360.0)  # full field of view; outside it the target is hidden (TOML fov_deg)
-    max_range_m: float = 10.0  # the target is hidden beyond this range, m
-    dropouts: tuple[tuple[float, float], ...] = ()
+    _key = "sensing"
+    range_noise_m: float = _f(0.01, Bound(0, 100))  # 1-sigma Gaussian noise on the range, m
+    #: 1-sigma noise on the bearing (TOML bearing_noise_deg)
+    bearing_noise_rad: float = _f(math.radians(0.3), Bound(0, 180))
+    delay_s: float = _f(0.05, Bound(0, 1))  # age of a measurement when the follower gets it, s
+    #: full field of view; outside it the target is hidden (TOML fov_deg)
+    fov_rad: float = _f(math.radians(360.0), Bound(0, 360, lo_open=True))
+    max_range_m: float = _f(10.0, Bound(0, 1e4, lo_open=True))  # the target is hidden beyond this range, m
+    dropouts: tuple[tuple[float, float], ...] = _f(
+        (),
+        max_items=MAX_LIST,
+        items=(_TIME, _TIME),
+        names=("start_s", "end_s"),
+        note="start_s < end_s",
+        shape="[start_s, end_s]",
+    )
 
-    def __post_init__(self) -> None:
-        for name in ("range_noise_m", "bearing_noise_rad", "delay_s"):
-            _non_negative(f"sensing.{_toml_key(name)}", getattr(self, name))
-        _positive("sensing.fov_deg", self.fov_rad)
-        _positive("sensing.max_range_m", self.max_range_m)
-        if self.delay_s > 1.0:
-            raise ConfigError(f"sensing.delay_s must be <= 1 s, got {self.delay_s!r}")
+    def _check(self) -> None:
         for i, w in enumerate(self.dropouts):
-            if len(w) != 2 or not w[0] < w[1]:
+            if not w[0] < w[1]:
                 raise ConfigError(f"sensing.dropouts[{i}] must be [start_s, end_s] with start < end, got {list(w)!r}")
 
 
 @dataclass(frozen=True)
-class FormationConfig:
+class FormationConfig(_Section):
     """[formation]: a shipped shape that fills each follower's target, range and bearing.
 
     ``shape``: ``"column"`` (one behind the other), ``"echelon"`` (a diagonal line back to the
@@ -270,86 +377,84 @@ class FormationConfig:
     ``target``/``range_m``/``bearing_deg`` override the shape.
     """
 
+    _key = "formation"
     shape: Literal["none", "column", "echelon", "vee"] = "none"
     targets: Literal["chain", "leader"] = "chain"
-    spacing_m: float = 1.5  # range to the target, m; with targets = "leader", times the place in line or arm
-    angle_rad: float = math.radians(30.0)  # echelon, vee: how far off straight behind a follower sits (TOML angle_deg)
-
-    def __post_init__(self) -> None:
-        _positive("formation.spacing_m", self.spacing_m)
-        if not 0 <= self.angle_rad < math.pi / 2:
-            raise ConfigError(f"formation.angle_deg must be within [0, 90), got {math.degrees(self.angle_rad):.6g}")
+    #: range to the target, m; with targets = "leader", times the place in line or arm
+    spacing_m: float = _f(1.5, Bound(0, 1000, lo_open=True))
+    #: echelon, vee: how far off straight behind a follower sits (TOML angle_deg)
+    angle_rad: float = _f(math.radians(30.0), Bound(0, 90, hi_open=True))
 
 
 @dataclass(frozen=True)
-class CameraConfig:
+class CameraConfig(_Section):
     """[camera]: the pinhole camera on each follower (and the real camera for `lfctl follow`).
 
     Intrinsics come from ``hfov_deg`` unless ``fx_px`` (and optionally ``fy_px``, ``cx_px``,
-    ``cy_px``) are given. The mount is ``mount_forward_m`` ahead of the vehicle's reference
+    ``cy_px``) are given. ``tracker`` picks the tracker the frames feed (the ablation's
+    baselines ``"hue"`` and ``"hs-lbp"``, or lfctl's ``"full"``). The mount is ``mount_forward_m`` ahead of the vehicle's reference
     point at ``mount_height_m`` above the ground, pitched ``pitch_deg`` (positive: nose up).
+    An image holds at most :data:`MAX_CAMERA_PIXELS`.
     """
 
-    width_px: int = 640  # image width, px (16..8192)
-    height_px: int = 480  # image height, px (16..8192)
-    hfov_rad: float = math.radians(62.0)  # horizontal field of view, sets fx (TOML hfov_deg)
-    fx_px: float = 0.0  # focal length, px; 0: from hfov
-    fy_px: float = 0.0  # focal length, px; 0: fx
-    cx_px: float = 0.0  # principal point, px; 0: the image centre
-    cy_px: float = 0.0  # principal point, px; 0: the image centre
-    k1: float = 0.0  # radial distortion (OpenCV model)
-    k2: float = 0.0  # radial distortion, second coefficient
-    mount_forward_m: float = 0.12  # camera ahead of the vehicle's reference point, m
-    mount_height_m: float = 0.2  # camera above the ground, m
-    pitch_rad: float = 0.0  # positive: nose up (TOML pitch_deg)
-    noise_sigma: float = 2.0  # sensor noise, digital numbers (0..255)
+    _key = "camera"
+    width_px: int = _f(640, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image width, px
+    height_px: int = _f(480, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image height, px
+    #: horizontal field of view, sets fx (TOML hfov_deg)
+    hfov_rad: float = _f(math.radians(62.0), Bound(0, 170, lo_open=True, hi_open=True))
+    fx_px: float = _f(0.0, Bound(0, 1e5))  # focal length, px; 0: from hfov
+    fy_px: float = _f(0.0, Bound(0, 1e5))  # focal length, px; 0: fx
+    cx_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
+    cy_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
+    k1: float = _f(0.0, Bound(-10, 10))  # radial distortion (OpenCV model)
+    k2: float = _f(0.0, Bound(-10, 10))  # radial distortion, second coefficient
+    mount_forward_m: float = _f(0.12, Bound(-10, 10))  # camera ahead of the vehicle's reference point, m
+    mount_height_m: float = _f(0.2, Bound(0, 100))  # camera above the ground, m
+    pitch_rad: float = _f(0.0, Bound(-60, 60))  # positive: nose up (TOML pitch_deg)
+    noise_sigma: float = _f(2.0, Bound(0, 255))  # sensor noise, digital numbers
     motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
+    #: the tracker the camera feeds: "full" (lfctl's), "hs-lbp" (the paper's features, no
+    #: filters) or "hue" (the paper's hue-only CAMShift baseline); see lfctl.vision.tracker
+    tracker: Literal["full", "hs-lbp", "hue"] = "full"
 
-    def __post_init__(self) -> None:
-        if not (16 <= self.width_px <= 8192 and 16 <= self.height_px <= 8192):
+    def _check(self) -> None:
+        if self.width_px * self.height_px > MAX_CAMERA_PIXELS:
             raise ConfigError(
-                f"camera.width_px/height_px must be within 16..8192, got {self.width_px}x{self.height_px}"
+                f"camera.width_px x height_px must be at most {MAX_CAMERA_PIXELS} pixels, "
+                f"got {self.width_px}x{self.height_px} = {self.width_px * self.height_px}"
             )
-        if not 0 < self.hfov_rad < math.radians(170):
-            raise ConfigError(f"camera.hfov_deg must be within (0, 170), got {math.degrees(self.hfov_rad):.6g}")
-        for name in ("fx_px", "fy_px", "cx_px", "cy_px", "noise_sigma", "mount_height_m"):
-            _non_negative(f"camera.{name}", getattr(self, name))
-        if not -math.pi / 3 <= self.pitch_rad <= math.pi / 3:
-            raise ConfigError(f"camera.pitch_deg must be within [-60, 60], got {math.degrees(self.pitch_rad):.6g}")
 
 
 @dataclass(frozen=True)
-class BannerConfig:
+class BannerConfig(_Section):
     """[banner]: the leader's marker banner: four markers on a square of side ``side_m``
     (the paper's E) on a textured panel on the vehicle's back."""
 
-    side_m: float = 0.14  # side of the square the marker centres sit on, m
-    marker_size_m: float = 0.035  # side of one square marker, m
-    panel_size_m: float = 0.22  # side of the square panel, m
-    centre_height_m: float = 0.2  # height of the banner's centre above the ground, m
+    _key = "banner"
+    side_m: float = _f(0.14, Bound(0, 10, lo_open=True))  # side of the square the marker centres sit on, m
+    marker_size_m: float = _f(0.035, Bound(0, 10, lo_open=True))  # side of one square marker, m
+    #: side of the square panel, m
+    panel_size_m: float = _f(0.22, Bound(0, 10, lo_open=True), note=">= side_m + marker_size_m")
+    centre_height_m: float = _f(0.2, Bound(0, 100, lo_open=True))  # height of the banner's centre above the ground, m
     #: the banner's plane is this far behind the vehicle's reference point (its centre of
     #: rotation), m: a follower measures the banner and adds this to reach the vehicle
-    back_m: float = 0.155
-    marker_hue_deg: float = 0.0  # red; HSV hue in degrees (0..360)
-    marker_saturation: float = 0.85  # the markers' HSV saturation (0..1) in the rendered scene
-    panel_bgr: tuple[int, ...] = (215, 218, 222)  # near white: the markers carry the hue
+    back_m: float = _f(0.155, Bound(0, 100))
+    marker_hue_deg: float = _f(0.0, Bound(0, 360, hi_open=True))  # red; HSV hue in degrees
+    marker_saturation: float = _f(0.85, Bound(0, 1))  # the markers' HSV saturation in the rendered scene
+    #: near white: the markers carry the hue
+    panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True))
 
-    def __post_init__(self) -> None:
-        for name in ("side_m", "marker_size_m", "panel_size_m", "centre_height_m"):
-            _positive(f"banner.{name}", getattr(self, name))
-        _non_negative("banner.back_m", self.back_m)
+    def _check(self) -> None:
+        if len(self.panel_bgr) != 3:
+            raise ConfigError(f"banner.panel_bgr must be [b, g, r] within 0..255, got {list(self.panel_bgr)!r}")
         if self.side_m + self.marker_size_m > self.panel_size_m:
             raise ConfigError(
                 f"banner.side_m + marker_size_m ({self.side_m + self.marker_size_m:g}) must fit on panel_size_m ({self.panel_size_m:g})"
             )
-        if not 0 <= self.marker_hue_deg < 360:
-            raise ConfigError(f"banner.marker_hue_deg must be within [0, 360), got {self.marker_hue_deg!r}")
-        if len(self.panel_bgr) != 3 or not all(0 <= c <= 255 for c in self.panel_bgr):
-            raise ConfigError(f"banner.panel_bgr must be [b, g, r] within 0..255, got {list(self.panel_bgr)!r}")
 
 
 @dataclass(frozen=True)
-class PropConfig:
+class PropConfig(_Section):
     """One [[scene.props]]: a vertical panel in the world, still or moving.
 
     ``kind``: ``"wall"`` / ``"box"`` (textured clutter), ``"distractor"`` (flat, the markers'
@@ -357,144 +462,160 @@ class PropConfig:
     hatched), ``"panel_clutter"`` (flat, the banner panel's colour).
     """
 
-    kind: Literal["wall", "box", "distractor", "textured_distractor", "panel_clutter"]
-    north_m: float  # the panel's centre at t = 0, local NED, m
-    east_m: float  # the panel's centre at t = 0, m
-    yaw_rad: float = 0.0  # the panel's normal, from north
-    width_m: float = 0.5  # the panel's size, m
-    height_m: float = 0.5  # the panel's size, m
-    base_m: float = 0.0  # height of the lower edge above ground
-    vel_north_mps: float = 0.0  # constant velocity of the panel, north, m/s
-    vel_east_mps: float = 0.0  # constant velocity of the panel, east, m/s
-
-    def __post_init__(self) -> None:
-        _positive("scene.props.width_m", self.width_m)
-        _positive("scene.props.height_m", self.height_m)
+    _key = "scene.props"
+    kind: Literal["wall", "box", "distractor", "textured_distractor", "panel_clutter"] = _f()
+    north_m: float = _f(bound=_POS)  # the panel's centre at t = 0, local NED, m
+    east_m: float = _f(bound=_POS)  # the panel's centre at t = 0, m
+    yaw_rad: float = _f(0.0, Bound(-360, 360))  # the panel's normal, from north
+    width_m: float = _f(0.5, _SIZE)  # the panel's size, m
+    height_m: float = _f(0.5, _SIZE)  # the panel's size, m
+    base_m: float = _f(0.0, Bound(0, 100))  # height of the lower edge above ground
+    vel_north_mps: float = _f(0.0, Bound(-100, 100))  # constant velocity of the panel, north, m/s
+    vel_east_mps: float = _f(0.0, Bound(-100, 100))  # constant velocity of the panel, east, m/s
 
 
 @dataclass(frozen=True)
-class OccluderConfig:
+class OccluderConfig(_Section):
     """One [[scene.occluders]]: a panel that crosses between a follower and its target.
 
     At ``t_s`` it appears ``lateral_m`` to the side of the line of sight, ``fraction`` of the
     way from the follower to the target, and moves across it at ``speed_mps``.
     """
 
-    t_s: float
-    follower: str = ""  # whose view it crosses ("": every follower's)
-    width_m: float = 0.6  # the panel's size, m
-    height_m: float = 0.6  # the panel's size, m
-    speed_mps: float = 0.4
-    fraction: float = 0.5
-    lateral_m: float = 1.2
-
-    def __post_init__(self) -> None:
-        _non_negative("scene.occluders.t_s", self.t_s)
-        for name in ("width_m", "height_m", "speed_mps", "lateral_m"):
-            _positive(f"scene.occluders.{name}", getattr(self, name))
-        if not 0 < self.fraction < 1:
-            raise ConfigError(f"scene.occluders.fraction must be within (0, 1), got {self.fraction!r}")
+    _key = "scene.occluders"
+    t_s: float = _f(bound=_TIME)
+    follower: str = _f("", name=True, optional=True)  # whose view it crosses ("": every follower's)
+    width_m: float = _f(0.6, _SIZE)  # the panel's size, m
+    height_m: float = _f(0.6, _SIZE)  # the panel's size, m
+    speed_mps: float = _f(0.4, Bound(0, 100, lo_open=True))
+    fraction: float = _f(0.5, Bound(0, 1, lo_open=True, hi_open=True))
+    lateral_m: float = _f(1.2, Bound(0, 1000, lo_open=True))
 
 
 @dataclass(frozen=True)
-class LightKey:
+class LightKey(_Section):
     """One [[scene.lighting]] key frame; gain and tint are interpolated between keys."""
 
-    t_s: float  # when this key holds, s (keys in time order)
-    gain: float = 1.0  # brightness factor, > 0
-    tint_bgr: tuple[float, ...] = (1.0, 1.0, 1.0)  # per-channel factors (B, G, R), > 0
+    _key = "scene.lighting"
+    t_s: float = _f(bound=_TIME, note="keys in time order")  # when this key holds, s
+    gain: float = _f(1.0, Bound(0, 100, lo_open=True))  # brightness factor
+    #: per-channel factors (B, G, R)
+    tint_bgr: tuple[float, ...] = _f((1.0, 1.0, 1.0), each=Bound(0, 100, lo_open=True))
 
-    def __post_init__(self) -> None:
-        _non_negative("scene.lighting.t_s", self.t_s)
-        _positive("scene.lighting.gain", self.gain)
-        if len(self.tint_bgr) != 3 or not all(c > 0 for c in self.tint_bgr):
+    def _check(self) -> None:
+        if len(self.tint_bgr) != 3:
             raise ConfigError(f"scene.lighting.tint_bgr must be three positive factors, got {list(self.tint_bgr)!r}")
 
 
 @dataclass(frozen=True)
-class SceneConfig:
+class SceneConfig(_Section):
     """[scene]: what the simulated camera sees besides the vehicles."""
 
+    _key = "scene"
     ground: Literal["concrete", "checker", "carpet"] = "concrete"  # the floor's texture
-    props: tuple[PropConfig, ...] = ()  # [[scene.props]]: still or moving panels
-    occluders: tuple[OccluderConfig, ...] = ()  # [[scene.occluders]]: panels crossing a line of sight
-    lighting: tuple[LightKey, ...] = ()  # [[scene.lighting]] key frames (none: constant light)
-    flicker_amplitude: float = 0.0  # relative brightness swing of a flicker, 0..1
-    flicker_hz: float = 0.0  # its frequency, Hz (0: none)
-    shadow_gain: float = 1.0  # < 1: a shadow band sweeps across the image
-    shadow_period_s: float = 20.0  # period of the shadow band's sweep across the image, s
+    props: tuple[PropConfig, ...] = _f((), max_items=MAX_LIST)  # [[scene.props]]: still or moving panels
+    #: [[scene.occluders]]: panels crossing a line of sight
+    occluders: tuple[OccluderConfig, ...] = _f((), max_items=MAX_LIST)
+    #: [[scene.lighting]] key frames (none: constant light)
+    lighting: tuple[LightKey, ...] = _f((), max_items=MAX_LIST)
+    flicker_amplitude: float = _f(0.0, Bound(0, 1, hi_open=True))  # relative brightness swing of a flicker
+    flicker_hz: float = _f(0.0, Bound(0, 1000))  # its frequency, Hz (0: none)
+    shadow_gain: float = _f(1.0, Bound(0, 1, lo_open=True))  # < 1: a shadow band sweeps across the image
+    #: period of the shadow band's sweep across the image, s
+    shadow_period_s: float = _f(20.0, Bound(0, 1e6, lo_open=True))
 
-    def __post_init__(self) -> None:
-        if not 0 <= self.flicker_amplitude < 1:
-            raise ConfigError(f"scene.flicker_amplitude must be within [0, 1), got {self.flicker_amplitude!r}")
-        _non_negative("scene.flicker_hz", self.flicker_hz)
-        if not 0 < self.shadow_gain <= 1:
-            raise ConfigError(f"scene.shadow_gain must be within (0, 1], got {self.shadow_gain!r}")
-        _positive("scene.shadow_period_s", self.shadow_period_s)
+    def _check(self) -> None:
         times = [k.t_s for k in self.lighting]
         if times != sorted(times):
             raise ConfigError(f"scene.lighting key frames must be in time order, got t_s {times!r}")
 
 
 @dataclass(frozen=True)
-class AuditConfig:
+class AuditConfig(_Section):
     """[audit]: limits `lfctl audit --strict` enforces on this scenario's logs."""
 
-    max_range_err_rms_frac: float = 0.10  # largest range error RMS, as a fraction of the commanded range
-    max_bearing_err_rms_deg: float = 5.0  # largest bearing error RMS, degrees
-    min_separation_m: float = 0.3  # closest any follower may come to another vehicle, m
-
-    def __post_init__(self) -> None:
-        _positive("audit.max_range_err_rms_frac", self.max_range_err_rms_frac)
-        _positive("audit.max_bearing_err_rms_deg", self.max_bearing_err_rms_deg)
-        _non_negative("audit.min_separation_m", self.min_separation_m)
+    _key = "audit"
+    #: largest range error RMS, as a fraction of the commanded range
+    max_range_err_rms_frac: float = _f(0.10, Bound(0, 100, lo_open=True))
+    max_bearing_err_rms_deg: float = _f(5.0, _ANGLE)  # largest bearing error RMS, degrees
+    min_separation_m: float = _f(0.3, Bound(0, 1000))  # closest any follower may come to another vehicle, m
 
 
 @dataclass(frozen=True)
-class LinkConfig:
+class LinkConfig(_Section):
     """[link]: MAVLink. Vehicle n (leader 0) listens on ``udp_base_port + n`` with
     ``--realtime`` and sends telemetry to ``gcs_udpout`` too; home is the geodetic origin of
     the local NED frame (GLOBAL_POSITION_INT, missions)."""
 
-    udp_host: str = "127.0.0.1"  # address the vehicles' UDP ports bind to
-    udp_base_port: int = 14561
-    gcs_udpout: str = "127.0.0.1:14550"  # "" for none
-    home_lat_deg: float = 12.9602  # CSIR-NAL, Bengaluru
-    home_lon_deg: float = 77.6690  # home longitude, degrees
-    home_alt_m: float = 900.0  # home altitude, m
-    rate_hz: float = 50.0  # how often the endpoints read their links and stream telemetry, Hz
-    signing_passphrase: str = ""  # non-empty: MAVLink 2 signing on the UDP links (key = SHA-256)
+    _key = "link"
+    #: address the vehicles' UDP ports bind to
+    udp_host: str = _f("127.0.0.1", text=253, note="a host name or an address")
+    #: the leader's port; vehicle n listens on this + n
+    udp_base_port: int = _f(14561, Bound(1, 65535, integer=True), note="+ vehicles - 1 <= 65535")
+    #: where every vehicle also sends its telemetry: HOST:PORT, or "" for none
+    gcs_udpout: str = _f("127.0.0.1:14550", text=260, note="HOST:PORT (port 1..65535) or empty")
+    home_lat_deg: float = _f(12.9602, Bound(-90, 90))  # CSIR-NAL, Bengaluru
+    home_lon_deg: float = _f(77.6690, Bound(-180, 180))  # home longitude, degrees
+    home_alt_m: float = _f(900.0, Bound(-1000, 1e5))  # home altitude, m
+    #: how often the endpoints read their links and stream telemetry, Hz
+    rate_hz: float = _f(50.0, _RATE)
+    #: non-empty: MAVLink 2 signing on the UDP links (key = SHA-256)
+    signing_passphrase: str = _f("", text=1024)
 
-    def __post_init__(self) -> None:
-        if not 1 <= self.udp_base_port <= 65000:
-            raise ConfigError(f"link.udp_base_port must be within 1..65000, got {self.udp_base_port!r}")
-        if self.gcs_udpout and (":" not in self.gcs_udpout or not self.gcs_udpout.rsplit(":", 1)[1].isdigit()):
-            raise ConfigError(f"link.gcs_udpout must be host:port or empty, got {self.gcs_udpout!r}")
-        if not -90 <= self.home_lat_deg <= 90:
-            raise ConfigError(f"link.home_lat_deg must be within [-90, 90], got {self.home_lat_deg!r}")
-        if not -180 <= self.home_lon_deg <= 180:
-            raise ConfigError(f"link.home_lon_deg must be within [-180, 180], got {self.home_lon_deg!r}")
-        _positive("link.rate_hz", self.rate_hz)
+    def _check(self) -> None:
+        if not re.fullmatch(r"[A-Za-z0-9.:_-]{1,253}", self.udp_host):
+            raise ConfigError(f"link.udp_host must be a host name or an address, got {self.udp_host!r}")
+        if self.gcs_udpout:
+            check_host_port("link.gcs_udpout", self.gcs_udpout)
 
 
 @dataclass(frozen=True)
-class RecordingConfig:
-    """[recording]: the run's MCAP log (``<dir>/<UTC time>-<scenario>-<seed>.mcap``)."""
+class RecordingConfig(_Section):
+    """[recording]: the run's MCAP log (``<dir>/<UTC time>-<scenario>-<seed>.mcap``; ``dir``
+    relative to the working folder)."""
 
+    _key = "recording"
     enabled: bool = True  # record the run (`lfctl sim --no-record` turns it off too)
-    dir: str = "logs"
-    images: bool = True  # record the camera frames as JPEG (camera sensing only)
-    image_rate_hz: float = 30.0  # at most the camera rate
-    jpeg_quality: int = 85  # 1..100
+    dir: str = _f("logs", text=4096)
+    images: bool = True  # record the camera frames (camera sensing only)
+    image_format: Literal["h264", "jpeg"] = "h264"  # H.264 video (foxglove.CompressedVideo) or JPEG images
+    image_rate_hz: float = _f(30.0, _RATE)  # at most the camera rate
+    jpeg_quality: int = _f(85, Bound(1, 100, integer=True))  # JPEG quality of recorded frames
+    video_bitrate_kbps: int = _f(800, Bound(50, 50_000, integer=True))  # H.264 target bitrate, kbit/s
+    video_gop: int = _f(30, Bound(1, 600, integer=True))  # H.264 frames from one keyframe to the next
     compression: Literal["zstd", "lz4", "none"] = "zstd"  # of the MCAP chunks
-    chunk_size_bytes: int = 1024 * 1024  # MCAP chunk size, bytes (>= 1024)
+    chunk_size_bytes: int = _f(1024 * 1024, Bound(1024, 256 * 1024 * 1024, integer=True))  # MCAP chunk size
 
-    def __post_init__(self) -> None:
-        _positive("recording.image_rate_hz", self.image_rate_hz)
-        if not 1 <= self.jpeg_quality <= 100:
-            raise ConfigError(f"recording.jpeg_quality must be within 1..100, got {self.jpeg_quality!r}")
-        if self.chunk_size_bytes < 1024:
-            raise ConfigError(f"recording.chunk_size_bytes must be >= 1024, got {self.chunk_size_bytes!r}")
+
+@dataclass(frozen=True)
+class LiveConfig(_Section):
+    """[live]: what `--live` and `--video` serve while a run goes on."""
+
+    _key = "live"
+    #: host:port of the Foxglove WebSocket (`--live` without a value); port 0: a free one
+    foxglove: str = _f("127.0.0.1:8765", text=260, note="HOST:PORT, port 0..65535 (0: a free one)")
+    #: host:port the RTP/UDP H.264 stream goes to (`--video` without a value)
+    video: str = _f("127.0.0.1:5600", text=260, note="HOST:PORT, port 1..65535")
+    video_annotated: bool = True  # draw the tracked window, markers and state on the streamed view
+    video_bitrate_kbps: int = _f(1500, Bound(50, 50_000, integer=True))  # the stream's H.264 target bitrate, kbit/s
+
+    def _check(self) -> None:
+        parse_host_port(self.foxglove, "live.foxglove")
+        check_host_port("live.video", self.video)
+
+
+def parse_host_port(text: str, what: str) -> tuple[str, int]:
+    """``HOST:PORT`` of a server lfctl starts, as (host, port): port 0 asks for a free port.
+    :class:`ConfigError` naming ``what`` and the value otherwise.
+
+    Parameters
+    ----------
+    text : str
+        ``127.0.0.1:8765``.
+    what : str
+        The option or key it came from, for the error.
+    """
+    return check_host_port(what, text, allow_any_port=True)
 
 
 @dataclass(frozen=True)
@@ -519,7 +640,7 @@ class Config:
     vehicles : tuple of VehicleConfig
         ``[[vehicles]]``: the leader first, then the followers; names unique, follower targets
         leading back to the leader without a cycle.
-    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, audit
+    script, mission, guidance, sensing, formation, camera, banner, scene, recording, link, live, audit
         The other sections (``[script]``, ``[mission]``, ...), defaults where absent.
     source : str
         The TOML text, kept for the run record.
@@ -538,12 +659,22 @@ class Config:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
     source: str = ""  # the TOML text, kept for the run record
 
     def __post_init__(self) -> None:
+        check_name("name", self.name)
         if not self.vehicles:
             raise ConfigError("vehicles: need at least one [[vehicles]] entry, got none")
+        if len(self.vehicles) > MAX_VEHICLES:
+            raise ConfigError(f"vehicles: at most {MAX_VEHICLES} [[vehicles]], got {len(self.vehicles)}")
+        last_port = self.link.udp_base_port + len(self.vehicles) - 1
+        if last_port > 65535:
+            raise ConfigError(
+                f"link.udp_base_port = {self.link.udp_base_port}: vehicle {len(self.vehicles) - 1} would listen on "
+                f"port {last_port}, past 65535"
+            )
         names = [v.name for v in self.vehicles]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
@@ -654,7 +785,17 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         if not isinstance(value, list):
             raise ConfigError(f"{key} must be an array, got {value!r}")
         item = args[0]
-        return tuple(_convert(v, item, f"{key}[{i}]") for i, v in enumerate(value))
+        out = []
+        for i, v in enumerate(value):
+            try:
+                out.append(_convert(v, item, f"{key}[{i}]"))
+            except ConfigError as exc:  # a table's own checks name its section: add the index
+                section = getattr(item, "_key", None)
+                text = str(exc)
+                if section and text.startswith(f"{section}."):
+                    raise ConfigError(f"{key}[{i}].{text[len(section) + 1 :]}") from None
+                raise
+        return tuple(out)
     if origin in (Mapping, dict, typing.Mapping):
         if not isinstance(value, dict):
             raise ConfigError(f"{key} must be a table, got {value!r}")
@@ -719,7 +860,31 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{name}: not valid TOML: {exc}") from exc
-    data.setdefault("name", name)
+    except RecursionError:
+        raise ConfigError(f"{name}: arrays or tables nested too deeply to read") from None
+    return config_from_table(data, name, text)
+
+
+def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: str = "") -> Config:
+    """Build and validate a scenario from its TOML tables as :mod:`tomllib` reads them (a
+    sweep edits a scenario's tables, then builds each variant with this).
+
+    Parameters
+    ----------
+    table : mapping
+        The scenario's top-level table; not modified.
+    name : str
+        The scenario's name when the table sets none.
+    source : str
+        The TOML text the table stands for, kept as :attr:`Config.source`.
+
+    Raises
+    ------
+    ConfigError
+        Unknown key, wrong type or out-of-range value.
+    """
+    data = dict(table)
+    data.setdefault("name", re.sub(r"[^A-Za-z0-9_-]", "_", name)[:64] or "scenario")
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])
     if not isinstance(vehicles, list):
@@ -736,9 +901,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
         label = f"vehicles[{v.get('name', i)}]"
         built.append(_build(VehicleConfig, v, label))
     rest = {k: v for k, v in data.items() if k != "vehicles"}
-    table = _build(_ConfigTable, rest, "")
-    sections = {f.name: getattr(table, f.name) for f in dataclasses.fields(_ConfigTable)}
-    return Config(**sections, vehicles=tuple(built), source=text)
+    top = _build(_ConfigTable, rest, "")
+    sections = {f.name: getattr(top, f.name) for f in dataclasses.fields(_ConfigTable)}
+    return Config(**sections, vehicles=tuple(built), source=source)
 
 
 @dataclass(frozen=True)
@@ -757,6 +922,7 @@ class _ConfigTable:
     scene: SceneConfig = field(default_factory=SceneConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
     link: LinkConfig = field(default_factory=LinkConfig)
+    live: LiveConfig = field(default_factory=LiveConfig)
     audit: AuditConfig = field(default_factory=AuditConfig)
 
 
@@ -771,14 +937,105 @@ def load_config(path: str | Path) -> Config:
     Raises
     ------
     ConfigError
-        Unreadable file, bad TOML, unknown key, wrong type or out-of-range value.
+        Unreadable file (or not a regular file, or over :data:`MAX_SCENARIO_BYTES`), bad TOML,
+        unknown key, wrong type or out-of-range value; a relative ``fmu`` path leading out of the
+        scenario's folder.
     """
     p = Path(path)
+    text = read_text_file(p, "scenario", MAX_SCENARIO_BYTES)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read scenario {p}: {exc}") from exc
-    try:
-        return parse_config(text, name=p.stem)
+        cfg = parse_config(text, name=p.stem)
+        # a user FMU named by a relative path is looked for beside the scenario, and stays there
+        vehicles = tuple(
+            dataclasses.replace(v, fmu=str(check_inside(f"vehicles[{v.name}].fmu", p.parent, Path(v.fmu))))
+            if v.fmu is not None and not Path(v.fmu).expanduser().is_absolute()
+            else v
+            for v in cfg.vehicles
+        )
     except ConfigError as exc:
         raise ConfigError(f"{p}: {exc}") from None
+    return dataclasses.replace(cfg, vehicles=vehicles)
+
+
+def reference() -> str:
+    """Every scenario key with its type, default and accepted range, as a Markdown table
+    (``docs/scenario-reference.md`` is this text; a test keeps the two equal)."""
+    rows = ["| key | type | default | accepted |", "| --- | --- | --- | --- |"]
+    rows.append("| `name` | string | the file's stem | 1-64 letters, digits, `-`, `_` |")
+    sections: list[tuple[str, type]] = [
+        ("sim", SimConfig), ("vehicles", VehicleConfig), ("script", ScriptConfig), ("mission", MissionConfig),
+        ("guidance", GuidanceConfig), ("sensing", SensingConfig), ("formation", FormationConfig),
+        ("camera", CameraConfig), ("banner", BannerConfig), ("scene", SceneConfig), ("scene.props", PropConfig),
+        ("scene.occluders", OccluderConfig), ("scene.lighting", LightKey), ("recording", RecordingConfig),
+        ("link", LinkConfig), ("live", LiveConfig), ("audit", AuditConfig),
+    ]  # fmt: skip
+    for prefix, cls in sections:
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            rows.append(
+                f"| `{prefix}.{_toml_key(f.name)}` | {_ref_type(hints[f.name])} | {_ref_default(f)} | {_ref_accepted(f, hints[f.name])} |"
+            )
+    rows += [
+        "",
+        f"At most {MAX_VEHICLES} `[[vehicles]]`; the leader first. The roles of `[vehicles.map]` and "
+        f"`[vehicles.units]`: {', '.join(f'`{r}`' for r in VEHICLE_ROLES)}. A scenario file is at most "
+        f"{MAX_SCENARIO_BYTES} bytes.",
+    ]
+    return "\n".join(rows) + "\n"
+
+
+def _ref_type(tp: Any) -> str:
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        return _ref_type(next(a for a in args if a is not type(None)))
+    if origin is Literal:
+        return "string"
+    if origin is tuple:
+        inner = args[0]
+        return "array of tables" if dataclasses.is_dataclass(inner) else "array"
+    if origin in (Mapping, dict, typing.Mapping):
+        return "table"
+    return {float: "number", int: "integer", str: "string", bool: "boolean"}.get(tp, _type_name(tp))
+
+
+def _ref_default(f: dataclasses.Field[Any]) -> str:
+    if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+        return "(required)"
+    value = f.default if f.default is not dataclasses.MISSING else f.default_factory()  # type: ignore[misc]
+    if value is None:
+        return "(none)"
+    if isinstance(value, float):
+        return f"{_shown(f.name, value):g}"
+    if isinstance(value, tuple):
+        return "`" + str([list(v) if isinstance(v, tuple) else v for v in value]).replace("'", '"') + "`"
+    if isinstance(value, dict):
+        return "{}"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, str):
+        return f'`"{value}"`'
+    return str(value)
+
+
+def _ref_accepted(f: dataclasses.Field[Any], tp: Any) -> str:
+    md = f.metadata
+    parts = []
+    if typing.get_origin(tp) is Literal:
+        parts.append(", ".join(f'`"{a}"`' for a in typing.get_args(tp)))
+    if md.get("bound") is not None:
+        parts.append(md["bound"].text())
+    if md.get("name"):
+        parts.append("1-64 letters, digits, `-`, `_`" + (' or `""`' if md.get("optional") else ""))
+    if md.get("text"):
+        parts.append(f"printable text, at most {md['text']} characters")
+    if md.get("items") is not None:
+        names = md["names"]
+        each = "; ".join(f"{n} {b.text()}" for n, b in zip(names, md["items"], strict=True))
+        parts.append(f"entries {md['shape']}: {each}")
+    if md.get("each") is not None:
+        parts.append(f"each {md['each'].text()}")
+    if md.get("max_items") is not None:
+        parts.append(f"at most {md['max_items']} entries")
+    if md.get("note"):
+        parts.append(md["note"])
+    return "; ".join(parts) or "-"

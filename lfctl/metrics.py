@@ -23,6 +23,7 @@ __all__ = [
     "formation_metrics",
     "sign_changes",
     "track_episodes",
+    "variation_per_s",
 ]
 
 #: errors count from this simulation time on, s
@@ -92,6 +93,22 @@ def sign_changes(values: np.ndarray, deadband: float) -> int:
     """
     outside = np.sign(values[np.abs(values) > deadband])
     return int(np.count_nonzero(outside[1:] != outside[:-1])) if outside.size > 1 else 0
+
+
+def variation_per_s(values: Sequence[float], step_s: float) -> float:
+    """How much a command moves per second: the sum of its absolute step-to-step changes over
+    the run's duration (a chattering law's command moves a lot while going nowhere). For a
+    speed command in m/s, m/s^2.
+
+    Parameters
+    ----------
+    values : sequence of float
+        The command, sampled every ``step_s``.
+    step_s : float
+        The sample period, s.
+    """
+    a = np.asarray(values, float)
+    return float(np.sum(np.abs(np.diff(a))) / (a.size * step_s)) if a.size > 1 else 0.0
 
 
 def _rms(a: np.ndarray) -> float | None:

@@ -1,6 +1,16 @@
-"""Shared fixtures: the built-in FMUs, built once per session into the normal cache."""
+"""Shared fixtures: the built-in FMUs, built once per session into the normal cache; free
+UDP ports on loopback; a video of the leader's banner; a run in a background thread; a
+standing rover (a vehicle endpoint on loopback UDP) for `lfctl follow`."""
 
 from __future__ import annotations
+
+import contextlib
+import socket
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -15,3 +25,120 @@ def rover() -> BuiltModel:
 @pytest.fixture(scope="session")
 def unicycle() -> BuiltModel:
     return build_model("KinematicUnicycle")
+
+
+def _free_udp_ports(n: int) -> int:
+    """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let go)."""
+    for _ in range(50):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
+            a.bind(("127.0.0.1", 0))
+            base = a.getsockname()[1]
+        if base + n > 65000:
+            continue
+        socks = []
+        try:
+            for k in range(n):
+                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                socks[-1].bind(("127.0.0.1", base + k))
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+        return base
+    raise RuntimeError(f"no {n} free consecutive UDP ports")
+
+
+@pytest.fixture
+def free_udp_ports() -> Callable[[int], int]:
+    """``free_udp_ports(n)``: a base port with ``n`` free consecutive UDP ports after it."""
+    return _free_udp_ports
+
+
+@pytest.fixture
+def banner_video(tmp_path: Path) -> Callable[[int], Path]:
+    """``banner_video(frames)``: an MJPG file of the rendered leader's banner, 640x480, 30 fps."""
+    import cv2
+
+    from lfctl.render.sequences import make_sequence
+
+    def write(frames: int) -> Path:
+        path = tmp_path / f"leader-{frames}.avi"
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
+        for _t, frame, _truth in make_sequence("clear", 1, frames).frames():
+            writer.write(frame)
+        writer.release()
+        return path
+
+    return write
+
+
+@contextlib.contextmanager
+def _worker(work: Callable[[threading.Event], None]) -> Iterator[None]:
+    """``work(stop)`` in a thread while the block runs; ``stop`` is set when it ends."""
+    stop = threading.Event()
+    thread = threading.Thread(target=work, args=(stop,), daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join(timeout=30)
+
+
+@contextlib.contextmanager
+def _background(cfg: Any, **kwargs: Any) -> Iterator[list[BaseException]]:
+    from lfctl.sim.runner import run_scenario
+
+    errors: list[BaseException] = []
+
+    def run(stop: threading.Event) -> None:
+        try:
+            run_scenario(cfg, stop=stop.is_set, **kwargs)
+        except KeyboardInterrupt:  # how a stopped run ends
+            pass
+        except BaseException as exc:
+            errors.append(exc)
+
+    with _worker(run):
+        yield errors
+
+
+@pytest.fixture
+def background_run() -> Callable[..., contextlib.AbstractContextManager[list[BaseException]]]:
+    """``with background_run(cfg, **run_scenario_args) as errors:``: the run goes on in a
+    thread while the block runs, is stopped when it ends, and leaves its exceptions in
+    ``errors``."""
+    return _background
+
+
+@contextlib.contextmanager
+def _standing_rover(signing_key: bytes | None = None, on_tick: Callable[[Any], None] | None = None) -> Iterator[Any]:
+    from lfctl.link.endpoint import VehicleEndpoint
+    from lfctl.link.transport import UdpLink
+
+    udp = UdpLink(("127.0.0.1", 0))
+    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=signing_key)
+    still = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+    t0 = time.monotonic()
+
+    def run(stop: threading.Event) -> None:
+        while not stop.is_set():
+            rover.tick(time.monotonic() - t0, still)
+            if on_tick is not None:
+                on_tick(rover)
+            stop.wait(0.005)
+
+    try:
+        with _worker(run):
+            yield rover
+    finally:
+        udp.close()
+
+
+@pytest.fixture
+def standing_rover() -> Callable[..., contextlib.AbstractContextManager[Any]]:
+    """``with standing_rover(signing_key=None, on_tick=None) as rover:``: a rover (system 1)
+    standing still at home, ticking on the wall clock on a loopback UDP port
+    (``rover.link.port``) while the block runs; ``on_tick(rover)`` after each tick."""
+    return _standing_rover

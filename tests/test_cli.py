@@ -40,15 +40,15 @@ def test_bad_scenario_exits_2_with_one_line(tmp_path: Path, capsys: pytest.Captu
     bad.write_text('[sim]\ndt_s = -1\n[[vehicles]]\nname = "a"\nrole = "leader"\n')
     assert main(["sim", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.count("\n") == 0 and "sim.dt_s must be > 0, got -1.0" in err and "Traceback" not in err
+    assert err.count("\n") == 0 and "sim.dt_s must be within [0.0001, 1], got -1.0" in err and "Traceback" not in err
 
 
-def test_corrupt_user_fmu_exits_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_corrupt_user_fmu_is_bad_input_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     fmu = tmp_path / "broken.fmu"
     fmu.write_bytes(b"PK\x03\x04 not really")
     scen = tmp_path / "s.toml"
     scen.write_text(f'[[vehicles]]\nname = "a"\nrole = "leader"\nfmu = "{fmu}"\n')
-    assert main(["sim", str(scen), "--duration", "1"]) == 1
+    assert main(["sim", str(scen), "--duration", "1"]) == 2
     assert "broken.fmu is not an FMU" in capsys.readouterr().err
 
 
@@ -111,7 +111,7 @@ def test_a_run_that_fails_before_its_first_step_leaves_no_log(
 ) -> None:
     bad = tmp_path / "nofmu.toml"
     bad.write_text('[[vehicles]]\nname = "leader"\nrole = "leader"\nfmu = "missing.fmu"\n')
-    assert main(["sim", str(bad), "-q"]) == 1
+    assert main(["sim", str(bad), "-q"]) == 2  # a file the scenario names is missing: bad input
     assert "missing.fmu does not exist" in capsys.readouterr().err
     assert not list(tmp_path.glob("logs/*.mcap"))
 
@@ -136,4 +136,4 @@ def test_a_run_that_fails_later_leaves_a_finished_log_that_says_why(tmp_path: Pa
     report = audit(path)
     assert report.figures["end"]["reason"] == "error: RuntimeError: the disk went away"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(1.51)  # stop is asked after step 151
-    assert any("ended early at t = 1.51 s" in f.what for f in report.findings)
+    assert any("ended abnormally at t = 1.51 s" in f.what and f.level == "error" for f in report.findings)

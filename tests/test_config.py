@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import tomllib
 from pathlib import Path
 
 import pytest
 
-from lfctl.config import load_config, parse_config
+from lfctl.config import config_from_table, load_config, parse_config
 from lfctl.errors import ConfigError
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
 
 LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
 FOLLOWER = '[[vehicles]]\nname = "f{n}"\nrole = "follower"\n'
@@ -36,8 +40,8 @@ def test_defaults_fill_the_sim_section() -> None:
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("[sim]\ndt_s = -0.01\n" + LEADER, r"sim\.dt_s must be > 0, got -0\.01"),
-        ("[sim]\ndt_s = 0\n" + LEADER, r"sim\.dt_s must be > 0, got 0"),
+        ("[sim]\ndt_s = -0.01\n" + LEADER, r"sim\.dt_s must be within \[0\.0001, 1\], got -0\.01"),
+        ("[sim]\ndt_s = 0\n" + LEADER, r"sim\.dt_s must be within \[0\.0001, 1\], got 0\.0"),
         ("[sim]\nduration_s = 'long'\n" + LEADER, r"sim\.duration_s must be a number, got 'long'"),
         ("[sim]\nclock = 'fast'\n" + LEADER, r"sim\.clock must be one of 'lockstep', 'realtime', got 'fast'"),
         (
@@ -57,10 +61,13 @@ def test_defaults_fill_the_sim_section() -> None:
         (LEADER + 'role2 = "x"\n', r"unknown key 'vehicles\[leader\]\.role2'"),
         (LEADER + "yaw_rad = 1.0\n", r"unknown key 'vehicles\[leader\]\.yaw_rad'.*yaw_deg"),
         (LEADER + "north_m = true\n", r"vehicles\[leader\]\.north_m must be a number, got True"),
-        (LEADER + "fmi_version = 1\n", r"vehicles\[leader\]\.fmi_version must be 2 or 3, got 1"),
+        (LEADER + "fmi_version = 1\n", r"vehicles\[leader\]\.fmi_version must be within 2\.\.3, got 1"),
         ('[[vehicles]]\nrole = "leader"\n', r"vehicles\[0\]: missing required key\(s\) 'name'"),
-        ('[[vehicles]]\nname = "a b"\nrole = "leader"\n', r"vehicles\.name must be letters, digits"),
-        (LEADER + FOLLOWER.format(n=1) + "range_m = -1.5\n", r"vehicles\[f1\]\.range_m must be > 0, got -1\.5"),
+        ('[[vehicles]]\nname = "a b"\nrole = "leader"\n', r"vehicles\.name must be 1-64 letters, digits"),
+        (
+            LEADER + FOLLOWER.format(n=1) + "range_m = -1.5\n",
+            r"vehicles\[f1\]\.range_m must be within \(0, 1000\], got -1\.5",
+        ),
         (
             LEADER + FOLLOWER.format(n=1) + "bearing_deg = 200\n",
             r"vehicles\[f1\]\.bearing_deg must be within \[-180, 180\], got 200",
@@ -78,8 +85,12 @@ def test_defaults_fill_the_sim_section() -> None:
             LEADER + "[script]\nleader = [[1.0, 0.3]]\n",
             r"script\.leader\[0\] must be \[duration_s, speed_mps, yaw_rate_deg_s\]",
         ),
-        (LEADER + "[script]\nleader = [[-1.0, 0.3, 0]]\n", r"script\.leader\[0\]\[0\] \(duration_s\) must be > 0"),
+        (
+            LEADER + "[script]\nleader = [[-1.0, 0.3, 0]]\n",
+            r"script\.leader\[0\] duration_s must be within \(0, 1e6\], got -1\.0",
+        ),
         ("[sim\n", r"not valid TOML"),
+        (LEADER + "[camera]\ntracker = 'kcf'\n", r"camera\.tracker must be one of 'full', 'hs-lbp', 'hue', got 'kcf'"),
     ],
 )
 def test_bad_scenarios_name_the_key(text: str, message: str) -> None:
@@ -95,10 +106,60 @@ def test_unreadable_file_is_named(tmp_path: Path) -> None:
 def test_file_errors_carry_the_path(tmp_path: Path) -> None:
     p = tmp_path / "bad.toml"
     p.write_text("[sim]\ndt_s = -1\n" + LEADER)
-    with pytest.raises(ConfigError, match=r"bad\.toml: sim\.dt_s must be > 0"):
+    with pytest.raises(ConfigError, match=r"bad\.toml: sim\.dt_s must be within \[0\.0001, 1\]"):
         load_config(p)
 
 
 def test_config_error_is_a_value_error() -> None:
     with pytest.raises(ValueError):
         parse_config("")
+
+
+def test_the_reference_page_lists_every_key_with_its_range() -> None:
+    from lfctl.config import reference
+
+    page = (Path(__file__).parents[1] / "docs" / "scenario-reference.md").read_text()
+    assert page.endswith(reference()), (
+        "docs/scenario-reference.md is stale: regenerate it from lfctl.config.reference()"
+    )
+
+
+def test_every_number_in_a_scenario_has_a_declared_range() -> None:
+    import dataclasses
+    import typing
+
+    import lfctl.config as c
+
+    missing = []
+    for name in c.__all__:
+        cls = getattr(c, name)
+        if not (isinstance(cls, type) and dataclasses.is_dataclass(cls) and issubclass(cls, c._Section)):
+            continue
+        hints = typing.get_type_hints(cls)
+        for f in dataclasses.fields(cls):
+            tp = hints[f.name]
+            numeric = tp in (int, float, int | None, float | None)
+            listed = typing.get_origin(tp) is tuple and not dataclasses.is_dataclass(typing.get_args(tp)[0])
+            if numeric and f.metadata.get("bound") is None:
+                missing.append(f"{name}.{f.name}")
+            if listed and not (f.metadata.get("items") or f.metadata.get("each")):
+                missing.append(f"{name}.{f.name} (entries)")
+    assert not missing
+
+
+def test_vehicle_roles_are_the_fmu_roles() -> None:
+    from lfctl.config import VEHICLE_ROLES
+    from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES
+
+    assert set(VEHICLE_ROLES) == {*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES}
+
+
+def test_config_from_table_builds_what_parse_config_builds_and_leaves_the_table_alone() -> None:
+    text = (EXAMPLES / "convoy.toml").read_text()
+    table = tomllib.loads(text)
+    before = copy.deepcopy(table)
+    assert config_from_table(table, "convoy", text) == parse_config(text, "convoy")
+    assert table == before
+    table["sensing"]["range_noise_m"] = -1.0
+    with pytest.raises(ConfigError, match=r"sensing\.range_noise_m must be within \[0, 100\], got -1\.0"):
+        config_from_table(table)

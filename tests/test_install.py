@@ -52,6 +52,7 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     names = zipfile.ZipFile(wheel).namelist()
     assert "lfctl/fmu_models/common/model_core.c" in names and "lfctl/examples/convoy.toml" in names
     assert "lfctl/bench/cosim.py" in names and not any(n.startswith("tests/") for n in names)
+    assert "lfctl/examples/sweeps/noise.toml" in names and "lfctl/examples/sweeps/scenarios/ablation.toml" in names
 
     venv = tmp_path / "venv"
     _run([sys.executable, "-m", "venv", str(venv)], tmp_path)

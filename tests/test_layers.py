@@ -10,8 +10,8 @@ import lfctl
 
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
-    "errors", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
-    "link", "follower", "record", "sim", "bench", "cli",
+    "errors", "checks", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
+    "link", "follower", "record", "sim", "sweep", "bench", "cli",
 }  # fmt: skip
 
 #: layer -> what it may import from lfctl (a package, or one module of it)
@@ -19,8 +19,9 @@ ALLOWED = {
     "__init__": set(),
     "__main__": {"cli"},
     "errors": set(),
+    "checks": {"errors"},
     "frames": set(),
-    "config": {"errors"},
+    "config": {"checks", "errors"},
     "data": {"errors"},
     "schedule": set(),
     "video": {"errors"},
@@ -29,10 +30,11 @@ ALLOWED = {
     "metrics": {"vision.track_state"},
     "render": {"config", "errors", "frames", "vision", "render"},
     "fmu": {"data", "errors", "fmu"},
-    "link": {"errors", "frames", "link"},
+    "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"config", "errors", "metrics", "vision", "record"},
-    "sim": EVERYTHING - {"bench", "cli"},
+    "record": {"checks", "config", "errors", "frames", "metrics", "vision", "record"},
+    "sim": EVERYTHING - {"sweep", "bench", "cli"},
+    "sweep": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},
     "cli": EVERYTHING,
 }
@@ -45,11 +47,13 @@ FORBIDDEN = {
     "render": PURE,
     "frames": PURE,
     "schedule": PURE,
+    "checks": PURE | {"cv2"},
     "config": {"fmpy", "pymavlink", "mcap", "cv2"},
     "fmu": {"pymavlink", "mcap"},
     "link": {"fmpy", "mcap", "cv2"},
     "follower": {"fmpy", "mcap"},
     "record": {"fmpy", "pymavlink"},
+    "sweep": {"fmpy", "pymavlink"},  # runs go through sim.runner
     "cli": {"fmpy", "pymavlink"},  # commands call the library; only link/ speaks MAVLink
 }
 

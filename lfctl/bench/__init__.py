@@ -14,7 +14,7 @@ from pathlib import Path
 __all__ = ["NAMES", "BenchOutcome", "run_all", "run_one"]
 
 #: every benchmark, in the order `lfctl bench` runs them
-NAMES = ("cosim", "vision", "formation", "link", "record", "e2e")
+NAMES = ("cosim", "vision", "formation", "link", "record", "e2e", "sweep")
 
 
 @dataclass(frozen=True)

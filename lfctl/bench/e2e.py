@@ -1,10 +1,10 @@
 """lfctl bench e2e: the whole product, lockstep, as `lfctl sim` runs it.
 
 Camera sensing with the full tracker at 30 Hz, MAVLink in the loop, recording with 30 Hz
-JPEG images: real-time factor for leader + 1 (examples/convoy.toml) pinned to one core
+images as the scenario says (H.264 by default): real-time factor for leader + 1 (examples/convoy.toml) pinned to one core
 and on every core, and leader + 4 (examples/column5.toml with camera sensing) on every
 core, and where the time goes: physics (FMU stepping), render, vision (tracker + pose),
-guidance, link (MAVLink endpoints), recording (JPEG encoding, poses, messages), other
+guidance, link (MAVLink endpoints), recording (image encoding, poses, messages), other
 (the master's own loop). Render, vision and encoding are CPU seconds summed over the
 camera processes (sim.camera_workers), so with workers the split adds up to more than
 the wall time.
@@ -59,7 +59,7 @@ def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
         wall = time.perf_counter() - t0
     extra = report.result.extra
     tasks = extra["task_time_s"]
-    # render, vision and JPEG encoding are summed over the camera processes (CPU seconds);
+    # render, vision and image encoding are summed over the camera processes (CPU seconds);
     # the rest runs in the main process
     split = {
         "physics": tasks.get("physics", 0.0),

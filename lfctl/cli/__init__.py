@@ -1,6 +1,6 @@
 """The `lfctl` command line: one module per command, each parsing its arguments, calling the
 library and printing; nothing else. Exit codes: 0 success, 1 the run or check failed, 2 bad
-input (usage, scenario, file). Errors print as one line naming the bad input; ``--debug``
+input (usage, scenario, mission, parameter or FMU file). Errors print as one line naming the bad input; ``--debug``
 shows tracebacks."""
 
 from __future__ import annotations
@@ -14,17 +14,20 @@ import sys
 from collections.abc import Sequence
 
 from lfctl import __version__
-from lfctl.errors import ConfigError, LfctlError
+from lfctl.cli.options import OneLineParser
+from lfctl.errors import ConfigError, FmuError, LfctlError
 
 __all__ = ["build_parser", "main"]
 
+#: FmuError.call values that mean the FMU file itself is unusable (exit 2, like a bad scenario)
+FMU_FILE_CALLS = ("load", "extract")
 #: the commands, in the order `lfctl --help` lists them; each is a module here
-COMMANDS = ("sim", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
+COMMANDS = ("sim", "sweep", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every command."""
-    p = argparse.ArgumentParser(
+    p = OneLineParser(
         prog="lfctl", description="Vision-guided leader-follower ground robots: co-simulation, tools, benchmarks."
     )
     p.add_argument("--version", action="version", version=f"lfctl {__version__}")
@@ -68,8 +71,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"lfctl: error: {exc}", file=sys.stderr)
         return 2
+    except FmuError as exc:  # a file the user named that is no FMU lfctl can load is bad input
+        if args.debug:
+            raise
+        print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 2 if exc.call in FMU_FILE_CALLS else 1
     except (OSError, LfctlError) as exc:  # a port in use, a directory not writable, an FMU error
         if args.debug:
             raise
         print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 1
+    except Exception as exc:  # a bug of ours: still one line, and how to see the rest
+        if args.debug:
+            raise
+        print(
+            f"lfctl: internal error: {type(exc).__name__}: {exc} (run with --debug for the traceback; please report it)",
+            file=sys.stderr,
+        )
         return 1

@@ -14,7 +14,8 @@ def register(sub: Any) -> None:
     a = sub.add_parser(
         "audit",
         help="check a run's MCAP log: integrity, provenance, formation/link/mission figures",
-        description="Audit an MCAP run log. Exit 0 when intact (and, with --strict, within the scenario's limits), 1 otherwise.",
+        description="Audit an MCAP run log. Exit 0 when intact (and, with --strict, within the scenario's limits), "
+        "1 otherwise, 2 when the path is not a regular file. Reading is bounded (docs/audit.md).",
     )
     a.add_argument("file", type=Path, help="an .mcap log (logs/<run>.mcap)")
     a.add_argument("--json", action="store_true", help="machine-readable report")
@@ -28,9 +29,21 @@ def run(args: argparse.Namespace) -> int:
     """Audit the file; print the report (or JSON); plot and recover when asked."""
     from lfctl.errors import ConfigError
     from lfctl.record.audit import audit, check_thresholds, format_report, plot, recover
+    from lfctl.record.mcap_read import regular_file_problem
 
-    if not args.file.exists():
+    if not args.file.exists() and not args.file.is_symlink():
         raise ConfigError(f"{args.file} does not exist")
+    problem = regular_file_problem(args.file)  # a FIFO would block, a directory cannot be read
+    if problem:
+        raise ConfigError(problem)
+    if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
+        raise ConfigError(f"--plot {args.plot}: not a directory")
+    if args.recover is not None and (args.recover.exists() or args.recover.is_symlink()):
+        problem = regular_file_problem(args.recover)
+        if problem:
+            raise ConfigError(f"--recover {args.recover}: {problem}")
+        if args.recover.samefile(args.file):
+            raise ConfigError(f"--recover {args.recover}: that is the log being audited")
     report = audit(args.file)
     if args.strict:
         report.findings.extend(check_thresholds(report))

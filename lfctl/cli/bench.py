@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from lfctl.bench import NAMES
+from lfctl.cli.options import number
 
 
 def register(sub: Any) -> None:
@@ -24,7 +25,12 @@ def register(sub: Any) -> None:
         action="store_true",
         help="with link: 100,000 hostile datagrams and a soak against a recording --realtime run",
     )
-    b.add_argument("--soak-s", type=float, metavar="S", help="with --fuzz: the soak's length (default 600 s)")
+    b.add_argument(
+        "--soak-s",
+        type=number(0, 86400, lo_open=True, unit="s"),
+        metavar="S",
+        help="with --fuzz: the soak's length (default 600 s)",
+    )
     b.set_defaults(func=run)
 
 
@@ -37,8 +43,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"unknown benchmark {args.name!r} (known: {', '.join(NAMES)})")
     if args.fuzz and args.name != "link":
         raise ConfigError("--fuzz goes with the link benchmark: lfctl bench link --fuzz")
-    if args.soak_s is not None and not (args.fuzz and 0 < args.soak_s <= 86400):
-        raise ConfigError(f"--soak-s goes with --fuzz and must be within (0, 86400] s, got {args.soak_s:g}")
+    if args.soak_s is not None and not args.fuzz:
+        raise ConfigError("--soak-s goes with --fuzz: lfctl bench link --fuzz --soak-s S")
     if args.name:
         print(f"== lfctl bench {args.name}{' --fuzz' if args.fuzz else ''}", flush=True)
         run_one(args.name, args.quick, args.fuzz, args.soak_s)

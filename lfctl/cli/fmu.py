@@ -32,12 +32,16 @@ def register(sub: Any) -> None:
 def run_build(args: argparse.Namespace) -> int:
     """Build the named models (or all); print where each FMU is."""
     from lfctl.data import models_dir
-    from lfctl.errors import FmuError
+    from lfctl.errors import ConfigError, FmuError
     from lfctl.fmu.build import available_models, build_model
 
-    names = args.models or available_models()
-    if not names:
+    known = available_models()
+    if not known:
         raise FmuError(f"no vehicle models to build: {models_dir()} holds none (is lfctl installed whole?)")
+    unknown = [n for n in args.models if n not in known]
+    if unknown:
+        raise ConfigError(f"unknown model {unknown[0]!r}: the built-in models are {', '.join(known)}")
+    names = args.models or known
     for name in names:
         built = build_model(name, args.cache_dir, force=args.force)
         print(f"{built.identifier:<20} FMI 2.0  {built.fmi2}")

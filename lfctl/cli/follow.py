@@ -6,7 +6,17 @@ import argparse
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from lfctl.config import Config
+    from lfctl.follower.rover import RoverStep
+    from lfctl.vision.camera_model import CameraModel
+
+from lfctl.cli.options import connection, integer, number
+
+#: the setpoint rates `lfctl follow` takes, Hz
+RATE_HZ = (1.0, 100.0)
 
 #: the rover `lfctl follow` runs without a scenario
 DEFAULT_SCENARIO = '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "rover"\nrole = "follower"\n'
@@ -20,26 +30,155 @@ def register(sub: Any) -> None:
         description="Run the follower's vision and guidance against a real ArduPilot rover (or lfctl sim --realtime) as its companion computer (component 191).",
     )
     fo.add_argument(
-        "--mavlink", required=True, help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600"
+        "--mavlink",
+        required=True,
+        type=connection,
+        help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600",
     )
     fo.add_argument("--camera", default="0", help="camera index, video file or stream URL (default 0)")
-    fo.add_argument("--target", type=int, default=1, help="the rover's system id (default 1)")
+    fo.add_argument("--target", type=integer(1, 255), default=1, help="the rover's system id (default 1)")
     fo.add_argument(
         "--scenario", type=Path, help="camera intrinsics and mount, banner, gains and rates from this scenario"
     )
-    fo.add_argument("--range", type=float, help="commanded range to the leader, m (default: the scenario's slot, 1.5)")
-    fo.add_argument("--bearing", type=float, help="commanded bearing to the leader, deg (default: the scenario's, 0)")
-    fo.add_argument("--rate", type=float, help="setpoint rate, Hz (default: the scenario's sim.guidance_rate_hz, 20)")
+    fo.add_argument(
+        "--range",
+        type=number(0, 1000, lo_open=True, unit="m"),
+        help="commanded range to the leader, m (default: the scenario's slot, 1.5)",
+    )
+    fo.add_argument(
+        "--bearing",
+        type=number(-180, 180, unit="deg"),
+        help="commanded bearing to the leader, deg (default: the scenario's, 0)",
+    )
+    fo.add_argument(
+        "--rate",
+        type=number(*RATE_HZ, unit="Hz"),
+        help="setpoint rate, 1-100 Hz (default: the scenario's sim.guidance_rate_hz, 20); the rover stops "
+        "when setpoints are more than GUID_TIMEOUT (3 s) apart",
+    )
     fo.add_argument("--arm", action="store_true", help="also arm the rover (default: you arm it)")
-    fo.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the rover's heartbeat")
+    fo.add_argument(
+        "--timeout",
+        type=number(0, 3600, lo_open=True, unit="s"),
+        default=10.0,
+        help="seconds to wait for the rover's heartbeat",
+    )
     fo.add_argument("--signing-passphrase", help="MAVLink 2 signing: the passphrase the rover's key was set up with")
-    fo.add_argument("--max-frames", type=int, help="stop after this many camera frames")
-    fo.add_argument("--steps", type=int, help="stop after this many setpoints")
+    fo.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many camera frames")
+    fo.add_argument("--steps", type=integer(1, 10**9), help="stop after this many setpoints")
+    fo.add_argument(
+        "--live",
+        nargs="?",
+        const="",
+        metavar="HOST:PORT",
+        help="serve the rover's view on a Foxglove WebSocket: pose, camera video with the track, formation "
+        "errors, events (default: [live] foxglove, 127.0.0.1:8765; port 0: any free port)",
+    )
+    fo.add_argument(
+        "--video",
+        nargs="?",
+        const="",
+        metavar="HOST:PORT",
+        help="stream the camera (annotated as [live] video_annotated says) as RTP/UDP H.264 to a ground station "
+        "(default: [live] video, 127.0.0.1:5600)",
+    )
     fo.set_defaults(func=run)
+
+
+class LiveView:
+    """What `lfctl follow --live` / `--video` show of each step: the rover's pose and the
+    slot, the camera (H.264) with its annotations, the stack's state and events on the
+    Foxglove WebSocket (the topics of a simulated follower's log); the camera as RTP/UDP
+    H.264 to a ground station.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario (camera, rates, [live]).
+    name : str
+        The rover's name in the topics.
+    camera : CameraModel
+        The camera, at the frames' size.
+    live, video : (host, port) or None
+        Where to serve Foxglove, and where to send the video.
+    """
+
+    def __init__(
+        self, cfg: Config, name: str, camera: CameraModel, live: tuple[str, int] | None, video: tuple[str, int] | None
+    ) -> None:
+        from lfctl.record.rtp import RtpH264Sender
+        from lfctl.record.video import H264Encoder
+        from lfctl.record.writer import Recorder
+
+        self.cfg, self.name, self.camera = cfg, name, camera
+        self.rec = Recorder(None, cfg, live=live) if live is not None else None
+        self.sender = RtpH264Sender(*video) if video is not None else None
+        rate = cfg.sim.guidance_rate_hz
+        self.image = H264Encoder(
+            camera.width, camera.height, rate, cfg.recording.video_bitrate_kbps, cfg.recording.video_gop
+        )
+        self.stream = H264Encoder(camera.width, camera.height, rate, cfg.live.video_bitrate_kbps, max(1, round(rate)))
+        self._calibrated = False
+
+    @property
+    def port(self) -> int | None:
+        """The Foxglove WebSocket's port (None without ``--live``)."""
+        return self.rec.live_port if self.rec is not None else None
+
+    def __call__(self, step: RoverStep) -> None:
+        """Show one step.
+
+        Parameters
+        ----------
+        step : RoverStep
+            What the step saw and did.
+        """
+        import numpy as np
+
+        from lfctl.vision.draw import annotate
+
+        t, seen, out, slot = step.t_s, step.seen, step.output, step.settings
+        m = seen.measurement
+        if self.sender is not None:
+            frame = step.frame
+            if self.cfg.live.video_annotated:
+                frame = annotate(frame, seen.track, f"{self.name} {m.status.value}")
+            self.sender.send(self.stream.encode(frame).data, t)
+        rec = self.rec
+        if rec is None:
+            return
+        if not self._calibrated:
+            rec.calibration(t, self.name, self.camera)
+            self._calibrated = True
+        odo = step.odometry
+        rec.poses(t, (self.name,), np.array([[odo.north_m, odo.east_m]]), np.array([odo.yaw_rad]), fix=False)
+        rec.camera(t, self.name, seen.track, seen.pose, m, None, self.image.encode(step.frame).data)
+        payload = {
+            "status": out.status.value,
+            "speed_cmd_mps": round(out.speed_mps, 5),
+            "yaw_rate_cmd_degps": round(math.degrees(out.yaw_rate_radps), 4),
+            "range_cmd_m": slot.range_cmd_m,
+            "bearing_cmd_deg": round(math.degrees(slot.bearing_cmd_rad), 4),
+        }
+        if out.range_est_m is not None and out.bearing_est_rad is not None:
+            # a rover has no truth: its errors are the stack's own estimate
+            payload["range_error_m"] = round(out.range_est_m - slot.range_cmd_m, 5)
+            payload["bearing_error_deg"] = round(math.degrees(out.bearing_est_rad - slot.bearing_cmd_rad), 4)
+        rec.controller(t, self.name, payload)
+        for e in step.events:
+            rec.event(e.t_s, self.name, e.text, "warning" if e.kind == "lost" else "info")
+
+    def close(self) -> None:
+        """Stop serving and sending."""
+        if self.rec is not None:
+            self.rec.close()
+        if self.sender is not None:
+            self.sender.close()
 
 
 def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
+    from lfctl.cli.sim import announce_live, live_address
     from lfctl.config import load_config, parse_config
     from lfctl.errors import ConfigError
     from lfctl.follower.rover import follow_rover
@@ -47,22 +186,30 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
     from lfctl.video import VideoSource
+    from lfctl.vision.camera_model import CameraModel
     from lfctl.vision.perception import BannerPerception
 
     cfg = load_config(args.scenario) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
+    live = live_address(args.live, cfg.live.foxglove, "--live")
+    stream_to = live_address(args.video, cfg.live.video, "--video")
     slot = cfg.slots()[cfg.followers[0].name]
     range_m = slot.range_m if args.range is None else args.range
     bearing_rad = slot.bearing_rad if args.bearing is None else math.radians(args.bearing)
     rate_hz = cfg.sim.guidance_rate_hz if args.rate is None else args.rate
-    if not 0 < rate_hz <= 100:
-        raise ConfigError(f"--rate must be within (0, 100] Hz, got {rate_hz:g}")
+    if not RATE_HZ[0] <= rate_hz <= RATE_HZ[1]:  # the scenario's guidance rate may be outside
+        raise ConfigError(f"--rate must be within [{RATE_HZ[0]:g}, {RATE_HZ[1]:g}] Hz, got {rate_hz:g}")
     with VideoSource(args.camera) as video:
         first = video.read()
         if first is None:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
         h, w = first.shape[:2]
         camera = dataclasses.replace(cfg.camera, width_px=w, height_px=h)
-        perception = BannerPerception.from_config(camera, cfg.banner, (range_m, bearing_rad))
+        perception = BannerPerception.from_config(camera, cfg.banner, (range_m, bearing_rad), kind=camera.tracker)
+        view = None
+        if live is not None or stream_to is not None:
+            view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)
+            if view.port is not None and live is not None:
+                announce_live(view.port, live[0])
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         try:
             done = follow_rover(
@@ -77,8 +224,11 @@ def run(args: argparse.Namespace) -> int:
                 max_frames=args.max_frames,
                 max_steps=args.steps,
                 name=cfg.followers[0].name,
+                on_step=view,
             )
         finally:
             companion.close()
+            if view is not None:
+                view.close()
     print(f"sent {done.steps} setpoints; {done.frames} frames")
     return 0

@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from lfctl.cli.options import connection, integer, number, param_name
+
 
 def register(sub: Any) -> None:
     """Add the ``gcs`` command to the parser."""
@@ -20,10 +22,13 @@ def register(sub: Any) -> None:
     g.add_argument(
         "--connect",
         default="udpout:127.0.0.1:14561",
+        type=connection,
         help="pymavlink connection (default: the leader of lfctl sim --realtime)",
     )
-    g.add_argument("--target", type=int, default=1, help="target system id (leader 1, follower n: 1+n)")
-    g.add_argument("--timeout", type=float, default=5.0, help="seconds to wait for each answer")
+    g.add_argument("--target", type=integer(1, 255), default=1, help="target system id (leader 1, follower n: 1+n)")
+    g.add_argument(
+        "--timeout", type=number(0, 3600, lo_open=True, unit="s"), default=5.0, help="seconds to wait for each answer"
+    )
     g.add_argument("--signing-passphrase", help="MAVLink 2 signing: the vehicle's [link] signing_passphrase")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     gu = gsub.add_parser("upload", help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan)")
@@ -39,17 +44,20 @@ def register(sub: Any) -> None:
     gps = gp.add_subparsers(dest="param_action", required=True, metavar="OP")
     gps.add_parser("list")
     gpg = gps.add_parser("get")
-    gpg.add_argument("name")
+    gpg.add_argument("name", type=param_name)
     gpsv = gps.add_parser("set")
-    gpsv.add_argument("name")
-    gpsv.add_argument("value", type=float)
+    gpsv.add_argument("name", type=param_name)
+    gpsv.add_argument("value", type=number(-3.4e38, 3.4e38))  # what a MAVLink float carries
     gpsave = gps.add_parser("save", help="write every parameter to FILE (MAVProxy's NAME VALUE, or QGroundControl's)")
     gpsave.add_argument("file", type=Path)
     gpsave.add_argument("--format", choices=("mavproxy", "qgc"), default="mavproxy", help="file format")
     gpload = gps.add_parser("load", help="set every parameter FILE names (MAVProxy's or QGroundControl's format)")
     gpload.add_argument("file", type=Path)
-    gw = gsub.add_parser("watch", help="live table of every vehicle heard (Ctrl-C to stop)")
-    gw.add_argument("--count", type=int, help="stop after this many refreshes")
+    gw = gsub.add_parser(
+        "watch",
+        help="every vehicle heard: a screen that redraws in place, or one JSON object per update on a pipe (Ctrl-C to stop)",
+    )
+    gw.add_argument("--count", type=integer(1, 10**9), help="stop after this many updates")
     g.set_defaults(func=run)
 
 
@@ -57,15 +65,18 @@ def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
     from lfctl.link.gcs import GroundStation, result_name
     from lfctl.link.mission import load_mission, save_mission
+    from lfctl.link.params import load_param_file
     from lfctl.link.signing import signing_key_from_passphrase
 
+    # files are read before connecting: a bad one is named as such, not as a silent vehicle
+    items = load_mission(args.file) if args.action == "upload" else None
+    wanted = load_param_file(args.file) if args.action == "param" and args.param_action == "load" else None
     key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         gcs.wait_heartbeat()
         action = args.action
-        if action == "upload":
-            items = load_mission(args.file)
+        if items is not None:  # upload
             gcs.upload(items)
             print(f"uploaded {len(items) - 1} items (+ home) to system {args.target}")
         elif action == "download":
@@ -88,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
             if name != "MAV_RESULT_ACCEPTED":
                 return 1
         elif action == "param":
-            return _param(gcs, args)
+            return _param(gcs, args, wanted)
         elif action == "watch":
             watch(gcs, args.count)
         return 0
@@ -96,9 +107,9 @@ def run(args: argparse.Namespace) -> int:
         gcs.close()
 
 
-def _param(gcs: Any, args: argparse.Namespace) -> int:
-    """The ``param`` actions; 1 when the vehicle refused a value."""
-    from lfctl.link.params import load_param_file, save_param_file
+def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | None) -> int:
+    """The ``param`` actions (``from_file``: what ``param load`` read); 1 when the vehicle refused a value."""
+    from lfctl.link.params import save_param_file
 
     if args.param_action == "list":
         for k, v in gcs.param_list().items():
@@ -110,7 +121,7 @@ def _param(gcs: Any, args: argparse.Namespace) -> int:
         save_param_file(values, args.file, args.format, args.target)
         print(f"saved {len(values)} parameters to {args.file}")
     else:
-        wanted = {args.name: args.value} if args.param_action == "set" else load_param_file(args.file)
+        wanted = {args.name: args.value} if from_file is None else from_file
         skipped = []
         if args.param_action == "load":  # a file from another vehicle names parameters this one has not
             known = gcs.param_list()
@@ -134,35 +145,130 @@ def _param(gcs: Any, args: argparse.Namespace) -> int:
     return 0
 
 
+#: a vehicle not heard for this long is shown stale, s
+STALE_S = 3.0
+#: redraws per second
+WATCH_HZ = 2.0
+
+
 def _cell(value: object, fmt: str) -> str:
-    return "?" if value is None else format(value, fmt)
+    return "-" if value is None else format(value, fmt)
 
 
-def watch(gcs: Any, count: int | None) -> None:
-    """Print the fleet table once a second (``count`` times, or until Ctrl-C)."""
+def fleet_rows(table: Any, now_s: float) -> list[dict[str, Any]]:
+    """One dict per vehicle whose autopilot has been heard, by system id: what ``watch``
+    shows (and prints as JSON on a pipe).
+
+    Parameters
+    ----------
+    table : FleetTable
+        What the ground station has heard.
+    now_s : float
+        Now, on the table's clock, s.
+    """
+    out = []
+    for sysid, r in sorted(table.rows.items()):
+        if not r.autopilot:
+            continue  # a companion or a camera before its vehicle: no row of "?" yet
+        f = r.formation
+        age = now_s - r.last_heard_s
+        track = None if "trk_q" not in f else ("tracking" if f["trk_q"] >= 0.5 else "lost")
+        out.append(
+            {
+                "sysid": sysid,
+                "mode": r.mode,
+                "armed": r.armed,
+                "north_m": None if r.north_m is None else round(r.north_m, 2),
+                "east_m": None if r.east_m is None else round(r.east_m, 2),
+                "speed_mps": None if r.speed_mps is None else round(r.speed_mps, 2),
+                "link_age_s": round(age, 1),
+                "stale": age > STALE_S,
+                "mission_seq": r.mission_seq,
+                "mission_total": r.mission_total,
+                "range_err_m": None if "rng_err" not in f else round(f["rng_err"], 3),
+                "bearing_err_deg": None if "brg_err" not in f else round(f["brg_err"], 2),
+                "track": track,
+                "text": r.text,
+            }
+        )
+    return out
+
+
+def render_fleet(rows: list[dict[str, Any]]) -> list[str]:
+    """The watch screen's lines: a header and one line per vehicle (a stale one says so).
+
+    Parameters
+    ----------
+    rows : list of dict
+        As :func:`fleet_rows` makes them.
+    """
+    lines = [
+        f"{'sys':>3} {'mode':<7} {'armed':<8} {'north m':>8} {'east m':>8} {'m/s':>5} {'link':>7} "
+        f"{'mission':>7} {'rng err m':>9} {'brg err':>7} {'track':<8} last message"
+    ]
+    for r in rows:
+        armed = "-" if r["armed"] is None else ("armed" if r["armed"] else "disarmed")
+        mission = "-"
+        if r["mission_seq"] is not None:
+            total = r["mission_total"]
+            mission = f"{r['mission_seq']}/{total}" if total else ("none" if total == 0 else str(r["mission_seq"]))
+        link = f"{r['link_age_s']:.1f}s" + ("!" if r["stale"] else "")
+        lines.append(
+            f"{r['sysid']:>3} {(r['mode'] or '-'):<7} {armed:<8} {_cell(r['north_m'], '8.2f'):>8} {_cell(r['east_m'], '8.2f'):>8} "
+            f"{_cell(r['speed_mps'], '5.2f'):>5} {link:>7} {mission:>7} {_cell(r['range_err_m'], '9.3f'):>9} "
+            f"{_cell(r['bearing_err_deg'], '7.2f'):>7} {(r['track'] or '-'):<8} "
+            + ("STALE: not heard for more than 3 s" if r["stale"] else r["text"])
+        )
+    if not rows:
+        lines.append("(waiting for a vehicle's heartbeat)")
+    return lines
+
+
+def watch(gcs: Any, count: int | None, out: Any = None) -> None:
+    """Every vehicle heard, until Ctrl-C (or ``count`` updates): on a terminal a screen that
+    redraws in place; on a pipe one JSON object per update.
+
+    Parameters
+    ----------
+    gcs : GroundStation
+        The connection (its heartbeat goes out once a second).
+    count : int, optional
+        Stop after this many updates.
+    out : text stream, optional
+        Where to write (default standard output).
+    """
+    import json
+
     from lfctl.link.gcs import FleetTable
 
+    out = out or sys.stdout
+    screen = out.isatty()
     table = FleetTable()
     shown = 0
-    next_draw = time.monotonic()
-    while count is None or shown < count:
-        gcs.heartbeat()
-        m = gcs.next_message(0.1)
-        if m is not None:
-            table.add(m, time.monotonic())
-        if time.monotonic() < next_draw:
-            continue
-        next_draw = time.monotonic() + 1.0
-        shown += 1
-        print(
-            f"{'sys':>3} {'mode':<7} {'armed':<8} {'lat':>12} {'lon':>12} {'m/s':>5} {'rng_err':>7} {'brg_err':>7} {'trk_q':>5}  last message"
-        )
-        for sysid, r in sorted(table.rows.items()):
-            armed = "?" if r.armed is None else ("armed" if r.armed else "disarmed")
-            f = r.formation
-            print(
-                f"{sysid:>3} {r.mode or '?':<7} {armed:<8} {_cell(r.lat_deg, '12.7f'):>12} {_cell(r.lon_deg, '12.7f'):>12} "
-                f"{_cell(r.speed_mps, '5.2f'):>5} {_cell(f.get('rng_err'), '.2f'):>7} {_cell(f.get('brg_err'), '.2f'):>7} "
-                f"{_cell(f.get('trk_q'), '.2f'):>5}  {r.text}"
-            )
-        print(flush=True)
+    t0 = time.monotonic()
+    next_draw = t0
+    if screen:
+        out.write("\x1b[?25l\x1b[2J")  # hide the cursor, clear once
+    try:
+        while count is None or shown < count:
+            gcs.heartbeat()
+            m = gcs.next_message(0.05)
+            now = time.monotonic()
+            if m is not None:
+                table.add(m, now)
+            if now < next_draw:
+                continue
+            next_draw = now + 1.0 / WATCH_HZ
+            shown += 1
+            rows = fleet_rows(table, now)
+            if screen:
+                head = f"lfctl gcs watch  {time.strftime('%H:%M:%S')}  {len(rows)} vehicles  (Ctrl-C to stop)"
+                body = "".join(line + "\x1b[K\n" for line in [head, "", *render_fleet(rows)])
+                out.write("\x1b[H" + body + "\x1b[J")  # home, lines over the old ones, clear the rest
+            else:
+                out.write(json.dumps({"t_s": round(now - t0, 2), "vehicles": rows}) + "\n")
+            out.flush()
+    finally:
+        if screen:
+            out.write("\x1b[?25h")
+            out.flush()

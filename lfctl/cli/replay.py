@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from lfctl.cli.options import name
+
 KINDS = {"hue-only": "hue", "hue": "hue", "hs-lbp": "hs-lbp", "full": "full"}
 
 
@@ -18,7 +20,7 @@ def register(sub: Any) -> None:
     )
     rp.add_argument("file", type=Path, help="an .mcap log recorded with sensing = 'camera'")
     rp.add_argument("--tracker", choices=tuple(KINDS), default="full", help="tracker to replay (default: full)")
-    rp.add_argument("--follower", help="which follower's camera (default: the first)")
+    rp.add_argument("--follower", type=name, help="which follower's camera (default: the first)")
     rp.set_defaults(func=run)
 
 
@@ -33,4 +35,7 @@ def run(args: argparse.Namespace) -> int:
         f"(IoU >= 0.5 on {r.scored} frames with at least {MIN_VISIBLE:.0%} of the banner visible)"
     )
     print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
+    print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
+    if r.unreadable:
+        print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     return 0

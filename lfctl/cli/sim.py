@@ -12,6 +12,8 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lfctl.cli.options import integer, number
+
 if TYPE_CHECKING:
     from lfctl.config import Config
     from lfctl.sim.runner import RunReport
@@ -29,9 +31,14 @@ def register(sub: Any) -> None:
     )
     s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example (convoy)")
     s.add_argument(
-        "--duration", type=float, metavar="S", help="simulated seconds (default: the scenario's sim.duration_s)"
+        "--duration",
+        type=number(0, 1e6, lo_open=True, unit="s"),
+        metavar="S",
+        help="simulated seconds (default: the scenario's sim.duration_s)",
     )
-    s.add_argument("--seed", type=int, metavar="N", help="random seed (default: the scenario's sim.seed)")
+    s.add_argument(
+        "--seed", type=integer(0, 2**63 - 1), metavar="N", help="random seed (default: the scenario's sim.seed)"
+    )
     s.add_argument("--realtime", action="store_true", help="pace the run to the wall clock")
     s.add_argument(
         "--sensing", choices=("truth", "camera"), help="where followers' range/bearing come from (default: sim.sensing)"
@@ -43,6 +50,26 @@ def register(sub: Any) -> None:
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.add_argument("--no-record", action="store_true", help="do not write the MCAP log (default: [recording] enabled)")
+    s.add_argument(
+        "--live",
+        nargs="?",
+        const="",
+        metavar="HOST:PORT",
+        help="serve the run on a Foxglove WebSocket while it runs, with the log's messages "
+        "(default: [live] foxglove, 127.0.0.1:8765; port 0: any free port)",
+    )
+    s.add_argument(
+        "--video",
+        nargs="?",
+        const="",
+        metavar="HOST:PORT",
+        help="stream each follower's camera as RTP/UDP H.264 to a ground station, follower k to PORT + k - 1 "
+        "(default: [live] video, 127.0.0.1:5600, QGroundControl's; camera sensing); with --realtime a MAVLink "
+        "camera component announces it",
+    )
+    s.add_argument(
+        "--image-format", choices=("h264", "jpeg"), help="how the log records camera frames (default: [recording])"
+    )
     s.set_defaults(func=run)
 
 
@@ -60,7 +87,37 @@ def apply_options(cfg: Config, args: argparse.Namespace) -> Config:
     guidance = cfg.guidance
     if args.controller is not None:
         guidance = dataclasses.replace(guidance, controller=args.controller)
-    return dataclasses.replace(cfg, sim=sim_cfg, guidance=guidance)
+    recording = cfg.recording
+    if getattr(args, "image_format", None) is not None:
+        recording = dataclasses.replace(recording, image_format=args.image_format)
+    return dataclasses.replace(cfg, sim=sim_cfg, guidance=guidance, recording=recording)
+
+
+def live_address(value: str | None, default: str, option: str) -> tuple[str, int] | None:
+    """``--live`` / ``--video``'s address: None when the option was not given, the scenario's
+    default when it was given without a value; ConfigError for a value that is not HOST:PORT.
+
+    Parameters
+    ----------
+    value : str or None
+        What the command line said (``""`` for the option alone).
+    default : str
+        The scenario's ``[live]`` address.
+    option : str
+        The option's name, for the error.
+    """
+    from lfctl.config import parse_host_port
+
+    if value is None:
+        return None
+    return parse_host_port(value or default, option)
+
+
+def announce_live(port: int, host: str) -> None:
+    """Say where Foxglove connects, and which layout to open."""
+    from lfctl.data import examples_dir
+
+    print(f"foxglove     ws://{host}:{port}  (layout: {examples_dir() / 'foxglove-layout.json'})", flush=True)
 
 
 def print_report(report: RunReport) -> None:
@@ -127,6 +184,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.data import resolve_scenario
     from lfctl.record.writer import run_path
     from lfctl.sim.runner import run_scenario
+    from lfctl.sim.watchdog import BlockedCallWatchdog
 
     cfg = apply_options(load_config(resolve_scenario(args.scenario)), args)
     log.info(
@@ -164,10 +222,25 @@ def run(args: argparse.Namespace) -> int:
             raise KeyboardInterrupt
         requested.set()
 
+    live = live_address(args.live, cfg.live.foxglove, "--live")
+    video = live_address(args.video, cfg.live.video, "--video")
+    if video is not None:
+        for k, v in enumerate(cfg.followers):
+            print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)
     path: Path | None = run_path(cfg) if cfg.recording.enabled and not args.no_record else None
     handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        report = run_scenario(cfg, progress=progress, record_to=path, on_links=announce, stop=requested.is_set)
+    try:  # an FMU stuck in a step ignores the handlers: the watchdog ends the run instead
+        with BlockedCallWatchdog():
+            report = run_scenario(
+                cfg,
+                progress=progress,
+                record_to=path,
+                on_links=announce,
+                stop=requested.is_set,
+                live=live,
+                video=video,
+                on_live=lambda port: announce_live(port, live[0]) if live is not None else None,
+            )
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)

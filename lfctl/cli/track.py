@@ -9,6 +9,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from lfctl.cli.options import integer, number
+
 
 def register(sub: Any) -> None:
     """Add the ``track`` command to the parser."""
@@ -22,9 +24,13 @@ def register(sub: Any) -> None:
     t.add_argument("--out", type=Path, help="write an annotated video here (.mp4 or .avi)")
     t.add_argument("--tracker", choices=("full", "hs-lbp", "hue"), default="full", help="tracker kind (default: full)")
     t.add_argument("--no-markers", action="store_true", help="histogram path only (objects without the banner)")
-    t.add_argument("--marker-hue-deg", type=float, help="marker hue, degrees (default: the scenario's, else red 0)")
+    t.add_argument(
+        "--marker-hue-deg",
+        type=number(0, 360, hi_open=True, unit="deg"),
+        help="marker hue, degrees (default: the scenario's, else red 0)",
+    )
     t.add_argument("--scenario", type=Path, help="take camera intrinsics and banner geometry from this scenario")
-    t.add_argument("--max-frames", type=int, help="stop after this many frames")
+    t.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many frames")
     t.set_defaults(func=run)
 
 

@@ -27,7 +27,15 @@ import platformdirs
 from lfctl.data import models_dir
 from lfctl.errors import BuildToolError, FmuError
 
-__all__ = ["BuiltModel", "ModelSource", "ModelVariable", "available_models", "build_model", "parse_model_source"]
+__all__ = [
+    "BuiltModel",
+    "ModelSource",
+    "ModelVariable",
+    "available_models",
+    "build_model",
+    "build_model_folder",
+    "parse_model_source",
+]
 
 log = logging.getLogger(__name__)
 
@@ -370,7 +378,26 @@ def build_model(name: str, cache_dir: Path | None = None, *, force: bool = False
     if name not in known:  # a plain folder name: never a path out of the models folder
         where = f"known: {', '.join(known)}" if known else f"none found in {models_dir()}"
         raise FmuError(f"unknown built-in model {name!r} ({where})", model=name, call="build")
-    folder = models_dir() / name
+    return build_model_folder(models_dir() / name, cache_dir, force=force)
+
+
+def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bool = False) -> BuiltModel:
+    """Build (or fetch from the cache) FMI 2 and FMI 3 FMUs of the model in any folder.
+
+    The folder holds ``config.h`` and ``model.c`` as a folder of fmu_models/ does; the
+    shared core and wrappers come from fmu_models/common. :func:`build_model` calls this
+    for the built-in models; the tests build their own models with it (a model whose
+    outputs go NaN, one whose doStep never returns).
+
+    Parameters
+    ----------
+    folder : Path
+        The model's folder.
+    cache_dir : Path, optional
+        Cache root; default :func:`default_cache_dir`.
+    force : bool
+        Rebuild even when the cache has this content hash.
+    """
     src = parse_model_source(folder)
     compiler = find_compiler()
     key = cache_key(src, _compiler_version(compiler))

@@ -7,6 +7,12 @@ outputs. :class:`RoleMap` names them; declared units are converted to SI. Each F
 extracted once and its library loaded once (:class:`FmuLibrary`); every instance of it shares
 that library. Stepping calls the FMI functions through ctypes with arrays preallocated over
 rows of numpy arrays the co-simulation master owns, so no list is built per step.
+
+An FMU is foreign code and data (docs/architecture.md, "Containing FMUs"): its archive is
+checked and unpacked within limits (:mod:`lfctl.fmu.archive`); its outputs are checked
+(:meth:`FmuInstance.check_outputs`: finite and within :data:`OUTPUT_BOUNDS`); and every FMI
+call it is inside is visible to another thread (:func:`calls_in_progress`), so a watchdog can
+end a run whose FMU never returns (:mod:`lfctl.sim.watchdog`).
 """
 
 from __future__ import annotations
@@ -15,23 +21,38 @@ import contextlib
 import ctypes
 import logging
 import math
-import shutil
-import tempfile
+import re
+import threading
 import zipfile
-from collections.abc import Mapping
+from collections import deque
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
+from lfctl.fmu.archive import ExtractionDir, extract_archive, read_member, remove_stale_extractions
 
-__all__ = ["INPUT_ROLES", "OUTPUT_ROLES", "POSE_ROLES", "FmuInstance", "FmuLibrary", "FmuVariable", "RoleMap"]
+__all__ = [
+    "INPUT_ROLES",
+    "KEPT_MESSAGES",
+    "OUTPUT_BOUNDS",
+    "OUTPUT_ROLES",
+    "POSE_ROLES",
+    "FmuInstance",
+    "FmuLibrary",
+    "FmuVariable",
+    "RoleMap",
+    "calls_in_progress",
+    "discard_extractions",
+    "hold_returns",
+]
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +88,68 @@ UNIT_TO_SI = {
     "deg/s": ("rad/s", math.pi / 180.0),
 }
 FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
+#: largest magnitude each output may have, SI: past it, or not finite (NaN, inf), the FMU has
+#: failed and stepping stops with an FmuError. Far beyond any ground vehicle, and within what
+#: every consumer of the world state can carry: 1000 km from home stays a valid degE7 latitude
+#: and longitude in MAVLink telemetry, 300 m/s fits GLOBAL_POSITION_INT's int16 cm/s.
+OUTPUT_BOUNDS = {"north": 1e6, "east": 1e6, "yaw": 1e6, "speed": 300.0, "yaw_rate": 1e3}
+#: messages an instance keeps of what its FMU logged (the newest; an FMU logging in a loop
+#: must not fill the memory)
+KEPT_MESSAGES = 100
+
+# Live libraries and instances by id (plain dicts: another thread takes a snapshot of their
+# values atomically under the GIL), and the gate a thread returning from an FMI call passes
+# while a watchdog holds it (hold_returns).
+_LIBRARIES: dict[int, FmuLibrary] = {}
+_INSTANCES: dict[int, FmuInstance] = {}
+_gate_lock = threading.Lock()
+_gate_closed = False
+_swept = False
+
+
+def _pass_gate() -> None:
+    with _gate_lock:
+        pass
+
+
+@contextlib.contextmanager
+def hold_returns() -> Iterator[None]:
+    """While inside, a thread returning from an FMI call waits before it goes on.
+
+    A watchdog that finds an FMU stuck in a call (:func:`calls_in_progress`) holds this
+    while it decides and finishes the run, so the stepping thread cannot come back and touch
+    what the watchdog is closing; an FMI call returns to lfctl in a few instructions, so
+    holding it costs the stepping thread nothing while it computes.
+    """
+    global _gate_closed
+    with _gate_lock:
+        _gate_closed = True  # after taking the lock: a returning thread that sees it waits
+        try:
+            yield
+        finally:
+            _gate_closed = False
+
+
+def calls_in_progress() -> list[tuple[FmuInstance, str, tuple[object, ...]]]:
+    """Every FMI call some thread is inside now: (instance, FMI function, key).
+
+    The key is the same for as long as the same call goes on, so a watchdog polling this
+    sees how long a call has lasted. Safe to call from any thread.
+    """
+    out = []
+    for inst in tuple(_INSTANCES.values()):
+        call, t_s, serial = inst.busy, inst.t_s, inst.calls
+        if call is not None:
+            out.append((inst, call, (id(inst), call, t_s, serial)))
+    return out
+
+
+def discard_extractions() -> None:
+    """Remove every loaded FMU's extracted folder without calling the FMUs (a process that
+    is about to ``os._exit`` while an FMU is stuck; its code stays mapped until then)."""
+    for lib in tuple(_LIBRARIES.values()):
+        if lib._dir is not None:
+            lib._dir.remove()
 
 
 @dataclass(frozen=True)
@@ -124,13 +207,17 @@ class FmuLibrary:
     Raises
     ------
     FmuError
-        No such file, not an FMU, an unsupported FMI version, or extraction failed.
+        No such file, not an FMU, an unsupported FMI version, an archive beyond the limits of
+        :mod:`lfctl.fmu.archive`, or extraction failed.
     ConfigError
         A role is unmapped, or mapped to a variable of the wrong causality, type or unit.
     """
 
     def __init__(self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP) -> None:
         self.path = Path(path)
+        self._dir: ExtractionDir | None = None
+        self._unzipdir: str | None = None
+        self._instances: list[FmuInstance] = []
         if not self.path.is_file():
             raise FmuError(f"FMU file {self.path} does not exist", model=str(self.path), call="load")
         self.md = self.describe(self.path)
@@ -144,14 +231,31 @@ class FmuLibrary:
         if self.md.coSimulation is None:
             raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
         self.identifier: str = self.md.coSimulation.modelIdentifier
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.identifier or ""):
+            # it names the library file and our folder: never a path
+            raise FmuError(
+                f"{self.path}: modelIdentifier {self.identifier!r} is not a C identifier",
+                model=str(self.path),
+                call="load",
+            )
         self.variables = {v.name: v for v in self.md.modelVariables}
+        #: role -> FMU variable name and declared (or overridden) unit, for messages
+        self.role_names: dict[str, str] = {}
+        self.role_units: dict[str, str] = {}
         self.vr, self.scale, self.pose_mapped = self._resolve_roles(role_map)
-        self._unzipdir: str | None = None
-        self._instances: list[FmuInstance] = []
+        global _swept
+        if not _swept:  # once per process: folders left by runs that were killed
+            _swept = True
+            remove_stale_extractions()
+        _LIBRARIES[id(self)] = self
         try:
-            self._unzipdir = extract(str(self.path), unzipdir=tempfile.mkdtemp(prefix=f"lfctl-{self.identifier}-"))
-        except Exception as exc:
+            self._dir = ExtractionDir(self.identifier)
+            extract_archive(self.path, self._dir.files)
+            self._unzipdir = str(self._dir.files)
+        except BaseException as exc:
             self.close()
+            if isinstance(exc, (FmuError, KeyboardInterrupt, SystemExit)):
+                raise
             raise FmuError(f"{self.path}: cannot extract: {exc}", model=self.identifier, call="extract") from exc
 
     @staticmethod
@@ -164,6 +268,7 @@ class FmuLibrary:
             The FMU file.
         """
         p = Path(path)
+        read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
         try:
             return read_model_description(str(p))
         except FileNotFoundError as exc:
@@ -232,6 +337,8 @@ class FmuLibrary:
                 )
             vr[role] = int(var.valueReference)
             scale[role] = factor
+            self.role_names[role] = name
+            self.role_units[role] = unit
         return vr, scale, all(r in vr for r in POSE_ROLES)
 
     @staticmethod
@@ -278,13 +385,17 @@ class FmuLibrary:
         return inst
 
     def close(self) -> None:
-        """Free every instance and remove the extracted folder."""
-        for inst in self._instances:
-            inst.free()
-        self._instances.clear()
-        if self._unzipdir:
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
+        """Free every instance and remove the extracted folder; safe to call twice."""
+        try:
+            for inst in self._instances:
+                inst.free()
+        finally:
+            self._instances.clear()
             self._unzipdir = None
+            if self._dir is not None:
+                self._dir.remove()
+                self._dir = None
+            _LIBRARIES.pop(id(self), None)
 
     def __enter__(self) -> FmuLibrary:
         return self
@@ -300,6 +411,12 @@ class FmuInstance:
     north, east, yaw, speed, yaw rate, in the FMU's units) are views into arrays the caller
     owns; :meth:`step` sends the first and fills the second. Build it with
     :meth:`FmuLibrary.instantiate`.
+
+    :meth:`step` does not check the outputs it reads, so that a master stepping many
+    vehicles checks them all in one vector operation (``Simulation.step``) and calls
+    :meth:`check_outputs` only on a suspect; :meth:`read` (after initialisation and reset)
+    checks them. While a thread is inside an FMI call of this instance, :attr:`busy` names
+    the call (see :func:`calls_in_progress`).
 
     Parameters
     ----------
@@ -329,21 +446,45 @@ class FmuInstance:
     ) -> None:
         self.lib = lib
         self.name = name
-        self.messages: list[str] = []
+        self.messages: deque[str] = deque(maxlen=KEPT_MESSAGES)  # the newest the FMU logged
         self.t_s = start_time_s
         self._start_time_s = start_time_s
         self._freed = False
+        #: the FMI call a thread is inside now (None between calls), and how many slow-path
+        #: calls were made (with t_s, it tells one call from the next)
+        self.busy: str | None = None
+        self.calls = 0
+        self._slave: Any = None
+        _INSTANCES[id(self)] = self
+        try:
+            self._setup(parameters, pose, cmd_row, out_row)
+        except BaseException:
+            self.free()
+            raise
+
+    def _setup(
+        self,
+        parameters: Mapping[str, float],
+        pose: tuple[float, float, float],
+        cmd_row: np.ndarray,
+        out_row: np.ndarray,
+    ) -> None:
+        lib, name = self.lib, self.name
         md = lib.md
         common = dict(guid=md.guid, modelIdentifier=lib.identifier, unzipDirectory=lib._unzipdir, instanceName=name)
+        prefix = "fmi2" if lib.fmi_version == 2 else "fmi3"
         try:
             if lib.fmi_version == 2:
-                self._slave: Any = FMU2Slave(**common)
+                slave: Any = FMU2Slave(**common)
                 self._callbacks = fmi2CallbackFunctions()
                 self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
-                self._slave.instantiate(callbacks=self._callbacks)
+                with self._in_call("fmi2Instantiate"):
+                    slave.instantiate(callbacks=self._callbacks)
             else:
-                self._slave = FMU3Slave(**common)
-                self._slave.instantiate(logMessage=self._log3)
+                slave = FMU3Slave(**common)
+                with self._in_call("fmi3InstantiateCoSimulation"):
+                    slave.instantiate(logMessage=self._log3)
+            self._slave = slave
         except FmuError:
             raise
         except Exception as exc:
@@ -361,6 +502,9 @@ class FmuInstance:
             raise ValueError(f"out_row must be a contiguous float64 array of shape ({n_out},)")
         self._in = (ctypes.c_double * n_in).from_buffer(cmd_row)
         self._out = (ctypes.c_double * n_out).from_buffer(out_row)
+        self._do_name = prefix + "DoStep"
+        self._set_name = "fmi2SetReal" if lib.fmi_version == 2 else "fmi3SetFloat64"
+        self._get_name = "fmi2GetReal" if lib.fmi_version == 2 else "fmi3GetFloat64"
         if lib.fmi_version == 2:
             self._set = dll.fmi2SetReal
             self._get = dll.fmi2GetReal
@@ -377,6 +521,18 @@ class FmuInstance:
         self._nin, self._nout = n_in, n_out
         self._setup_calls()
         self.read()
+
+    @contextlib.contextmanager
+    def _in_call(self, call: str) -> Iterator[None]:
+        """Mark the slow-path FMI call ``call`` as in progress (the hot path does it inline)."""
+        self.calls += 1
+        self.busy = call
+        try:
+            yield
+        finally:
+            self.busy = None
+            if _gate_closed:
+                _pass_gate()
 
     # FMU log callbacks: keep messages (errors name the variable), forward to logging.
     def _log2(self, env: object, instance: bytes, status: int, category: bytes, message: bytes) -> None:
@@ -406,7 +562,8 @@ class FmuInstance:
 
     def _checked(self, call: str, fn: Any, *args: Any, **kwargs: Any) -> None:
         try:
-            fn(*args, **kwargs)
+            with self._in_call(call):
+                fn(*args, **kwargs)
         except FMICallException as exc:
             raise self._error(
                 f"{self.lib.identifier} ({self.name}): {call} returned {_status_text(exc.status)}", call, exc.status
@@ -442,34 +599,60 @@ class FmuInstance:
     def step(self, dt_s: float) -> None:
         """Send the command row, advance ``dt_s``, read the output row. Raises FmuError.
 
+        The outputs are not checked here (see the class); call :meth:`check_outputs`.
+
         Parameters
         ----------
         dt_s : float
             The communication step, s.
         """
+        # busy names the FMI call the FMU is in, for a watchdog (calls_in_progress)
+        self.busy = self._set_name
         status = self._set(*self._set_args)
         if status == 0:
+            self.busy = self._do_name
             status = self._do(self._c, self.t_s, dt_s, *self._step_args)
             if status == 0:
+                self.busy = self._get_name
                 status = self._get(*self._get_args)
-                if status == 0:
-                    self.t_s += dt_s
-                    return
-                call = "GetReal"
-            else:
-                call = "DoStep"
-        else:
-            call = "SetReal"
+        call, self.busy = self.busy, None
+        if _gate_closed:  # a watchdog is finishing the run: wait for it
+            _pass_gate()
+        if status == 0:
+            self.t_s += dt_s
+            return
         self._raise_status(call, status)
 
+    def check_outputs(self) -> None:
+        """Raise FmuError if an output read last is not finite or beyond :data:`OUTPUT_BOUNDS`.
+
+        The message names the FMU (model identifier and file), the instance, the variable
+        and its role, the value and the simulation time it is the output at.
+        """
+        lib = self.lib
+        for k, role in enumerate(OUTPUT_ROLES):
+            raw = self._out[k]
+            si = raw * lib.scale[role]
+            if math.isfinite(si) and abs(si) <= OUTPUT_BOUNDS[role]:
+                continue
+            unit = lib.role_units.get(role, "")
+            if not math.isfinite(raw):
+                why = "is not a finite number"
+            else:
+                why = f"is beyond the bound |{role}| <= {OUTPUT_BOUNDS[role]:g} {ROLE_SI_UNIT[role]}"
+            raise FmuError(
+                f"FMU {lib.identifier} ({lib.path}), instance {self.name!r}: output {lib.role_names[role]!r} "
+                f"(role {role}) = {raw!r} {unit} at t = {self.t_s:.6g} s {why}",
+                model=lib.identifier,
+                call=self._get_name,
+            )
+
     def _raise_status(self, call: str, status: int) -> None:
-        prefix = "fmi2" if self.lib.fmi_version == 2 else "fmi3"
         if status == 1:  # warning: keep going, it was logged
             return
-        full = prefix + (call if prefix == "fmi2" else call.replace("Real", "Float64"))
         raise self._error(
-            f"{self.lib.identifier} ({self.name}): {full} at t={self.t_s:.6g} s returned {_status_text(status)}",
-            full,
+            f"{self.lib.identifier} ({self.name}): {call} at t={self.t_s:.6g} s returned {_status_text(status)}",
+            call,
             status,
         )
 
@@ -487,10 +670,12 @@ class FmuInstance:
         self._checked("fmi2SetReal" if v == 2 else "fmi3SetFloat64", fn, vrs, [float(v) for v in values.values()])
 
     def read(self) -> None:
-        """Refresh the output row without stepping."""
-        status = self._get(*self._get_args)
+        """Refresh the output row without stepping, and check it (:meth:`check_outputs`)."""
+        with self._in_call(self._get_name):
+            status = self._get(*self._get_args)
         if status != 0:
-            self._raise_status("GetReal", status)
+            self._raise_status(self._get_name, status)
+        self.check_outputs()
 
     def reset(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
         """FMI Reset, then parameterise and initialise again at the start time.
@@ -512,8 +697,16 @@ class FmuInstance:
         if self._freed:
             return
         self._freed = True
-        with contextlib.suppress(Exception):  # already in an error state: freeing is still right
-            self._slave.terminate()
-        fn = self._slave.fmi2FreeInstance if self.lib.fmi_version == 2 else self._slave.fmi3FreeInstance
-        fn(self._slave.component)
-        # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.
+        try:
+            if self._slave is None:  # instantiation failed: nothing to free
+                return
+            v = self.lib.fmi_version
+            # already in an error state: freeing is still right
+            with contextlib.suppress(Exception), self._in_call(f"fmi{v}Terminate"):
+                self._slave.terminate()
+            fn = self._slave.fmi2FreeInstance if v == 2 else self._slave.fmi3FreeInstance
+            with self._in_call(f"fmi{v}FreeInstance"):
+                fn(self._slave.component)
+            # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.
+        finally:
+            _INSTANCES.pop(id(self), None)

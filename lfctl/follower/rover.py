@@ -6,18 +6,34 @@ wall clock. The stack (:class:`~lfctl.follower.stack.Follower`) and the percepti
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from lfctl.follower.stack import Follower
-from lfctl.guidance.formation import FormationSettings, Odometry
+import numpy as np
+
+from lfctl.follower.stack import Follower, FollowerEvent
+from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
 from lfctl.link.companion import Companion
 from lfctl.video import VideoSource
-from lfctl.vision.perception import BannerPerception
+from lfctl.vision.perception import BannerPerception, Perception
 
-__all__ = ["RoverRun", "follow_rover"]
+__all__ = ["RoverRun", "RoverStep", "follow_rover"]
 
 #: setpoints of zero sent when the run ends, so the rover is left standing
 STOP_SETPOINTS = 3
+
+
+@dataclass(frozen=True)
+class RoverStep:
+    """One guidance step on the rover, for whoever shows or logs it (`lfctl follow --live`)."""
+
+    t_s: float  # since the run started, s
+    frame: np.ndarray  # the camera frame, BGR
+    seen: Perception  # what perception made of it
+    odometry: Odometry  # the rover's own position and heading then
+    output: FormationOutput  # the stack's command and estimate
+    settings: FormationSettings  # the slot it held
+    events: list[FollowerEvent]  # target lost or found in this step
 
 
 @dataclass(frozen=True)
@@ -41,6 +57,7 @@ def follow_rover(
     max_frames: int | None = None,
     max_steps: int | None = None,
     name: str = "rover",
+    on_step: Callable[[RoverStep], None] | None = None,
 ) -> RoverRun:
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
@@ -70,6 +87,8 @@ def follow_rover(
         Stop after this many frames or setpoints.
     name : str
         The follower's name in its STATUSTEXT lines.
+    on_step : callable, optional
+        Sees every step (:class:`RoverStep`) after its setpoint went out.
     """
     companion.wait_vehicle(timeout_s, rate_hz)
     companion.set_guided()
@@ -91,8 +110,11 @@ def follow_rover(
             seen = perception.step(t_s, frame)
             v = companion.vehicle
             odom = Odometry(t_s, v.north_m or 0.0, v.east_m or 0.0, v.yaw_rad or 0.0, v.speed_mps or 0.0)
-            stack.step(t_s, seen.measurement, odom)
+            n_events = len(stack.events)
+            out = stack.step(t_s, seen.measurement, odom)
             steps += 1
+            if on_step is not None:
+                on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:]))
             time.sleep(max(0.0, period - ((time.monotonic() - t0) - t_s)))
     finally:
         for _ in range(STOP_SETPOINTS):

@@ -999,7 +999,9 @@ class VehicleEndpoint:
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])
             )
         elif name == "MISSION_CURRENT":
-            self.send(mav.MAVLink_mission_current_message(self.current_seq))
+            # total: the last item's number (home, item 0, not counted); UINT16_MAX without a mission
+            total = len(self.mission) - 1 if len(self.mission) > 1 else 0xFFFF
+            self.send(mav.MAVLink_mission_current_message(self.current_seq, total))
         elif name == "HOME_POSITION":
             hn, he = self.home_point()
             hlat, hlon, halt = ned_to_geodetic(hn, he, 0.0, *self.home)

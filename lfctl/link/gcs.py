@@ -389,6 +389,11 @@ class VehicleRow:
     formation: dict[str, float] = field(default_factory=dict)  # the companion's NAMED_VALUE_FLOATs
     text: str = ""  # the last STATUSTEXT
     last_heard_s: float = -math.inf  # when anything last came from it, on the watcher's clock, s
+    autopilot: bool = False  # its autopilot (component 1) has sent a HEARTBEAT: a vehicle, not a stray
+    north_m: float | None = None  # position north of home, m (LOCAL_POSITION_NED)
+    east_m: float | None = None  # position east of home, m
+    mission_seq: int | None = None  # the current mission item (MISSION_CURRENT)
+    mission_total: int | None = None  # the last item's number (None: the vehicle does not say)
 
 
 class FleetTable:
@@ -412,8 +417,15 @@ class FleetTable:
         row.last_heard_s = t_s
         kind = m.get_type()
         if kind == "HEARTBEAT" and m.get_srcComponent() == 1:
+            row.autopilot = True
             row.mode = mode_name(m.custom_mode)
             row.armed = bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+        elif kind == "LOCAL_POSITION_NED":
+            row.north_m, row.east_m = float(m.x), float(m.y)
+        elif kind == "MISSION_CURRENT":
+            total = int(getattr(m, "total", 0))
+            row.mission_seq = int(m.seq)
+            row.mission_total = total if 0 < total < 0xFFFF else (0 if total == 0xFFFF else None)
         elif kind == "GLOBAL_POSITION_INT":
             row.lat_deg, row.lon_deg = m.lat / 1e7, m.lon / 1e7
             row.speed_mps = math.hypot(m.vx, m.vy) / 100

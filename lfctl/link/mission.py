@@ -10,6 +10,7 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
 
@@ -17,6 +18,8 @@ __all__ = [
     "DO_CHANGE_SPEED",
     "DO_JUMP",
     "MAX_EXPANDED",
+    "MAX_FILE_BYTES",
+    "MAX_FILE_ITEMS",
     "Leg",
     "MissionItem",
     "home_item",
@@ -40,6 +43,12 @@ NAV_FRAMES = {
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
 }
 MAX_EXPANDED = 2000  # DO_JUMP repeats are unrolled up to this many legs
+#: the most items a mission file may hold, home included (MISSION_COUNT is 16 bits)
+MAX_FILE_ITEMS = 65535
+#: the largest mission file read, bytes (a full WPL file of MAX_FILE_ITEMS lines fits)
+MAX_FILE_BYTES = 16 * 1024 * 1024
+#: the largest magnitude a MAVLink float carries
+_FLOAT32_MAX = 3.4028234663852886e38
 
 
 @dataclass(frozen=True)
@@ -257,13 +266,44 @@ def load_mission(path: str | Path) -> list[MissionItem]:
         Unreadable file, or not one of the two formats (the message names the line).
     """
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read mission {p}: {exc}") from exc
-    if p.suffix == ".plan" or text.lstrip().startswith("{"):
-        return _load_plan(p, text)
-    return _load_wpl(p, text)
+    text = read_text_file(p, "mission", MAX_FILE_BYTES)
+    items = _load_plan(p, text) if p.suffix == ".plan" or text.lstrip().startswith("{") else _load_wpl(p, text)
+    if len(items) > MAX_FILE_ITEMS:
+        raise ConfigError(f"{p}: {len(items)} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
+    return items
+
+
+def _item(
+    where: str,
+    seq: int,
+    frame: int,
+    command: int,
+    params: list[float],
+    lat: float,
+    lon: float,
+    alt: float,
+    autocontinue: int,
+) -> MissionItem:
+    """One item from a file, each field checked against what MISSION_ITEM_INT carries.
+
+    Parameters 1-4 may be NaN (QGroundControl's "unset"); the vehicle decides whether the
+    command accepts them. ``where`` names the line or item for the message.
+    """
+    if not 0 <= command <= 65535:
+        raise ConfigError(f"{where}: command {command} is not a MAV_CMD (0..65535)")
+    if not 0 <= frame <= 255:
+        raise ConfigError(f"{where}: frame {frame} is not a MAV_FRAME (0..255)")
+    if autocontinue not in (0, 1):
+        raise ConfigError(f"{where}: autocontinue must be 0 or 1, got {autocontinue}")
+    for i, v in enumerate(params, start=1):
+        if not (math.isnan(v) or abs(v) <= _FLOAT32_MAX):
+            raise ConfigError(f"{where}: param{i} = {v!r} does not fit a MAVLink float (NaN for unset)")
+    for label, v, limit in (("latitude", lat, 90.0), ("longitude", lon, 180.0)):
+        if not (math.isfinite(v) and abs(v) <= limit):
+            raise ConfigError(f"{where}: {label} must be within [-{limit:g}, {limit:g}] degrees, got {v!r}")
+    if not (math.isfinite(alt) and abs(alt) <= _FLOAT32_MAX):
+        raise ConfigError(f"{where}: altitude must be a finite number, got {alt!r}")
+    return MissionItem(seq, frame, command, *params, int(round(lat * 1e7)), int(round(lon * 1e7)), alt, autocontinue)
 
 
 def _load_wpl(p: Path, text: str) -> list[MissionItem]:
@@ -272,6 +312,8 @@ def _load_wpl(p: Path, text: str) -> list[MissionItem]:
         raise ConfigError(
             f"{p}: not a QGC WPL 110 file (first line must be 'QGC WPL 110', got {lines[0][:40] if lines else ''!r})"
         )
+    if len(lines) - 1 > MAX_FILE_ITEMS:
+        raise ConfigError(f"{p}: {len(lines) - 1} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
     items = []
     for n, ln in enumerate(lines[1:], start=2):
         f = ln.replace("\t", " ").split()
@@ -281,14 +323,12 @@ def _load_wpl(p: Path, text: str) -> list[MissionItem]:
             seq, _cur, frame, cmd = int(f[0]), int(f[1]), int(f[2]), int(f[3])
             p1, p2, p3, p4, lat, lon, alt = (float(v) for v in f[4:11])
             auto = int(float(f[11]))
-        except ValueError as exc:
-            raise ConfigError(f"{p}:{n}: bad number ({exc})") from exc
+        except (ValueError, OverflowError) as exc:
+            raise ConfigError(f"{p}:{n}: bad number ({exc})") from None
         if seq != len(items):
             raise ConfigError(f"{p}:{n}: sequence {seq} out of order (expected {len(items)})")
         frame = {0: mav.MAV_FRAME_GLOBAL_INT, 3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT}.get(frame, frame)
-        items.append(
-            MissionItem(seq, frame, cmd, p1, p2, p3, p4, int(round(lat * 1e7)), int(round(lon * 1e7)), alt, auto)
-        )
+        items.append(_item(f"{p}:{n}", seq, frame, cmd, [p1, p2, p3, p4], lat, lon, alt, auto))
     if not items:
         raise ConfigError(f"{p}: no mission items")
     return items
@@ -297,32 +337,49 @@ def _load_wpl(p: Path, text: str) -> list[MissionItem]:
 def _load_plan(p: Path, text: str) -> list[MissionItem]:
     try:
         plan = json.loads(text)
-        mission = plan["mission"]
-        home = mission["plannedHomePosition"]
-        raw = mission["items"]
-    except (json.JSONDecodeError, KeyError, TypeError) as exc:
-        raise ConfigError(f"{p}: not a QGroundControl .plan file ({exc})") from exc
-    items = [home_item(float(home[0]), float(home[1]), float(home[2]))]
-    for it in raw:
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise ConfigError(f"{p}: not a QGroundControl .plan file (not JSON: {str(exc)[:80]})") from None
+    mission = plan.get("mission") if isinstance(plan, dict) else None
+    if not isinstance(mission, dict):
+        raise ConfigError(f"{p}: not a QGroundControl .plan file (no 'mission' object)")
+    home, raw = mission.get("plannedHomePosition"), mission.get("items")
+    if not (isinstance(home, list) and len(home) == 3 and all(_is_number(v) for v in home)):
+        raise ConfigError(f"{p}: mission.plannedHomePosition must be [lat, lon, alt], got {str(home)[:60]}")
+    if not isinstance(raw, list):
+        raise ConfigError(f"{p}: mission.items must be a list, got {type(raw).__name__}")
+    if len(raw) >= MAX_FILE_ITEMS:
+        raise ConfigError(f"{p}: {len(raw) + 1} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
+    items = [_item(f"{p}: plannedHomePosition", 0, mav.MAV_FRAME_GLOBAL_INT, NAV_WAYPOINT, [0.0] * 4, *home, 1)]
+    for k, it in enumerate(raw):
+        where = f"{p}: mission.items[{k}]"
+        if not isinstance(it, dict):
+            raise ConfigError(f"{where} must be an object, got {type(it).__name__}")
         if it.get("type") != "SimpleItem":
-            raise ConfigError(f"{p}: item type {it.get('type')!r} is not supported (only SimpleItem)")
-        prm = [0.0 if v is None else float(v) for v in it.get("params", [0] * 7)]
+            raise ConfigError(f"{where}: item type {str(it.get('type'))[:40]!r} is not supported (only SimpleItem)")
+        prm = it.get("params", [0] * 7)
+        if not (isinstance(prm, list) and len(prm) == 7 and all(v is None or _is_number(v) for v in prm)):
+            raise ConfigError(f"{where}.params must be 7 numbers (null for unset), got {str(prm)[:60]}")
+        values = [0.0 if v is None else float(v) for v in prm]  # QGroundControl's null: unused
+        command, frame, auto = it.get("command"), it.get("frame", 3), it.get("autoContinue", True)
+        if not _is_int(command):
+            raise ConfigError(f"{where}.command must be a whole number, got {str(command)[:40]}")
+        if not _is_int(frame):
+            raise ConfigError(f"{where}.frame must be a whole number, got {str(frame)[:40]}")
+        if not isinstance(auto, bool):
+            raise ConfigError(f"{where}.autoContinue must be true or false, got {str(auto)[:40]}")
         frame = {3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0: mav.MAV_FRAME_GLOBAL_INT, 2: mav.MAV_FRAME_MISSION}.get(
-            int(it.get("frame", 3)), int(it.get("frame", 3))
+            frame, frame
         )
-        items.append(
-            MissionItem(
-                len(items),
-                frame,
-                int(it["command"]),
-                *prm[:4],
-                int(round(prm[4] * 1e7)),
-                int(round(prm[5] * 1e7)),
-                prm[6],
-                int(bool(it.get("autoContinue", True))),
-            )
-        )
+        items.append(_item(where, len(items), frame, command, values[:4], *values[4:], int(auto)))
     return items
+
+
+def _is_number(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _is_int(v: object) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
 
 
 def save_mission(items: list[MissionItem], path: str | Path) -> None:

@@ -135,8 +135,7 @@ class MissionServer:
             Now, s.
         """
         self._t_s = t_s
-        mtype = getattr(m, "mission_type", MISSION)
-        src = (m.get_srcSystem(), m.get_srcComponent())
+        mtype, src = _addressed(m)
         if mtype not in MISSION_TYPES:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
@@ -242,8 +241,7 @@ class MissionServer:
         m : pymavlink message
             The message as received.
         """
-        mtype = getattr(m, "mission_type", MISSION)
-        src = (m.get_srcSystem(), m.get_srcComponent())
+        mtype, src = _addressed(m)
         if mtype not in MISSION_TYPES:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
@@ -257,8 +255,7 @@ class MissionServer:
         m : pymavlink message
             The message as received.
         """
-        mtype = getattr(m, "mission_type", MISSION)
-        src = (m.get_srcSystem(), m.get_srcComponent())
+        mtype, src = _addressed(m)
         items = self.lists.get(mtype)
         if items is None:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
@@ -281,8 +278,7 @@ class MissionServer:
             Now, s.
         """
         self._t_s = t_s
-        mtype = getattr(m, "mission_type", MISSION)
-        src = (m.get_srcSystem(), m.get_srcComponent())
+        mtype, src = _addressed(m)
         if mtype == mav.MAV_MISSION_TYPE_ALL:
             for t in MISSION_TYPES:
                 self.store(t, [], *src)
@@ -305,3 +301,8 @@ class MissionServer:
             return False
         self.current_seq = seq
         return True
+
+
+def _addressed(m: Any) -> tuple[int, tuple[int, int]]:
+    """A mission message's list (MISSION when the sender speaks MAVLink 1) and its sender."""
+    return getattr(m, "mission_type", MISSION), (m.get_srcSystem(), m.get_srcComponent())

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 
 __all__ = ["Param", "ParamFileError", "default_params", "load_param_file", "save_param_file"]
@@ -16,6 +17,8 @@ __all__ = ["Param", "ParamFileError", "default_params", "load_param_file", "save
 MAX_NAME_LEN = 16
 #: the most lines a parameter file may have (ArduPilot has about 1,500 parameters)
 MAX_FILE_LINES = 20_000
+#: the largest parameter file read, bytes
+MAX_FILE_BYTES = 2 * 1024 * 1024
 
 
 @dataclass
@@ -134,9 +137,9 @@ def load_param_file(path: str | Path) -> dict[str, float]:
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParamFileError(p, 0, f"cannot read: {exc}") from exc
+        text = read_text_file(p, "parameter file", MAX_FILE_BYTES)
+    except ConfigError as exc:
+        raise ParamFileError(p, 0, str(exc)) from None
     out: dict[str, float] = {}
     for k, raw in enumerate(text.splitlines(), start=1):
         if k > MAX_FILE_LINES:

@@ -1,99 +1,68 @@
 """`lfctl audit`: integrity, provenance and content of a run's MCAP log.
 
-Integrity reads every record with CRC validation on (chunk and data-section CRCs) through a
-stream that counts bytes, so a fault is reported with its byte offset: bad magic, a flipped
-byte, a file cut short (after SIGKILL). Everything read before the fault is still audited,
-and ``recover`` writes it to a new, complete file. Provenance checks the metadata and the
-attachments' SHA-256. Content recomputes formation, tracking, pose, mission and link figures
-from the recorded topics.
+Integrity: :mod:`lfctl.record.mcap_read` reads every record within fixed limits (memory and
+time stay bounded whatever the file holds), checks the chunk, data-section and summary CRCs,
+and reports each fault with the byte offset of the record it is in: bad magic, a flipped
+bit, a file cut short (after SIGKILL). Everything read before a fault is still audited, and
+``recover`` writes it to a new, complete file. Provenance checks the metadata (the run, why
+it ended) and the attachments' SHA-256. Content recomputes formation, tracking, pose,
+mission and link figures from the recorded topics; every value read from the file is
+checked for its type and range first, and a bad one is a finding, never an exception.
+docs/audit.md lists the limits and what each finding means.
 """
 
 from __future__ import annotations
 
 import hashlib
-import io
+import heapq
 import itertools
 import json
 import math
-import struct
+import os
+import re
 from collections import defaultdict
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Attachment, Channel, DataEnd, Footer, Header, Message, Metadata, Schema, Statistics
-from mcap.stream_reader import CRCValidationError, StreamReader
 from mcap.writer import CompressionType, Writer
 
+from lfctl.errors import ConfigError
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
+from lfctl.record.mcap_read import (
+    Contents,
+    Finding,
+    MessageStore,
+    ReadLimits,
+    read_contents,
+    regular_file_problem,
+)
+from lfctl.record.writer import image_topic
+from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["AuditReport", "Contents", "Finding", "audit", "check_thresholds", "format_report", "plot", "recover"]
+__all__ = [
+    "AuditReport",
+    "Contents",
+    "Finding",
+    "ack_latencies",
+    "audit",
+    "check_thresholds",
+    "format_report",
+    "heard_by_sender",
+    "lost_by_sequence",
+    "mavlink_packets",
+    "plot",
+    "recover",
+]
 
-MAGIC = b"\x89MCAP0\r\n"
-KNOWN_SIGNATURES = {
-    b"\x89PNG": "a PNG image",
-    b"\xff\xd8\xff": "a JPEG image",
-    b"PK\x03\x04": "a zip archive",
-    b"%PDF": "a PDF",
-    b"\x7fELF": "an ELF binary",
-}
-
-
-class _CountingStream(io.RawIOBase):
-    """Wraps a file, counting the bytes read (the offset of a fault)."""
-
-    def __init__(self, f: Any) -> None:
-        self.f = f
-        self.pos = 0
-
-    def readable(self) -> bool:
-        return True
-
-    def readinto(self, b: Any) -> int:
-        data = self.f.read(len(b))
-        n = len(data)
-        b[:n] = data
-        self.pos += n
-        return n
-
-    def read(self, n: int = -1) -> bytes:
-        data = self.f.read(n)
-        self.pos += len(data)
-        return data
-
-
-@dataclass
-class Finding:
-    """One problem: ``error`` fails the audit, ``warning`` is reported."""
-
-    level: str  # "error" or "warning"
-    what: str  # what is wrong, for a person
-    offset: int | None = None  # byte offset in the file where it was found (None: not at one place)
-
-    def line(self) -> str:
-        """The finding as one report line: ``ERROR: what (byte N)``."""
-        at = f" (byte {self.offset})" if self.offset is not None else ""
-        return f"{self.level.upper()}: {self.what}{at}"
-
-
-@dataclass
-class Contents:
-    """Everything read from the file, up to a fault if there was one."""
-
-    header_library: str = ""  # the header's library field (who wrote the file)
-    schemas: dict[int, Schema] = field(default_factory=dict)  # by schema id
-    channels: dict[int, Channel] = field(default_factory=dict)  # by channel id
-    #: topic -> (log_time in ns, payload) of every message, in file order
-    messages: dict[str, list[tuple[int, bytes]]] = field(default_factory=lambda: defaultdict(list))
-    metadata: dict[str, dict[str, str]] = field(default_factory=dict)  # by metadata record name
-    attachments: dict[str, bytes] = field(default_factory=dict)  # by attachment name
-    statistics: Statistics | None = None  # the summary's statistics record (None: not reached)
-    footer: bool = False  # the footer was read: the file is complete
-    data_end: bool = False  # the data section's end record was read
-    bytes_read: int = 0  # bytes read intact, up to the first fault
-    file_size: int = 0  # the file's size, bytes
+#: a rate in the run metadata must lie in (0, this], Hz
+MAX_RATE_HZ = 1e6
+#: numbers in a JSON message must lie within +-this (finite); larger is damage
+MAX_JSON_NUMBER = 1e12
+#: vehicle names as the scenario allows them (and as file names of plots)
+NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
 
 
 @dataclass
@@ -113,162 +82,329 @@ class AuditReport:
         return not any(f.level == "error" for f in self.findings)
 
 
-def read_contents(path: Path) -> tuple[Contents, list[Finding]]:
-    """Read every record with CRC validation; stop at the first fault and say where."""
-    c = Contents()
-    findings: list[Finding] = []
+# -- JSON messages, checked field by field --------------------------------------------------------
+def _num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and -MAX_JSON_NUMBER <= v <= MAX_JSON_NUMBER
+
+
+def _positive(v: Any) -> bool:
+    return _num(v) and v > 0
+
+
+def _int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and -(2**63) <= v < 2**64
+
+
+def _index(v: Any) -> bool:
+    return _int(v) and 0 <= v < 2**31
+
+
+def _byte(v: Any) -> bool:
+    return _int(v) and 0 <= v <= 255
+
+
+def _text(v: Any) -> bool:
+    return isinstance(v, str) and len(v) <= 256 and v.isprintable()
+
+
+def _status(v: Any) -> bool:
+    return isinstance(v, str) and v in _STATUSES
+
+
+def _direction(v: Any) -> bool:
+    return v in ("in", "out") and isinstance(v, str)
+
+
+def _box(v: Any) -> bool:
+    return v is None or (isinstance(v, list) and len(v) == 4 and all(_num(x) for x in v))
+
+
+def _mav_fields(v: Any) -> bool:
+    return isinstance(v, dict) and all(k not in v or _int(v[k]) for k in _MAV_ADDRESSING)
+
+
+#: the packet fields the link figures read (commands matched to their acks by these)
+_MAV_ADDRESSING = ("command", "target_system", "target_component")
+
+
+_STATUSES = frozenset(s.value for s in TrackStatus)
+_Check = Callable[[Any], bool]
+#: what each checker wants, for the finding
+_WANTS: dict[_Check, str] = {
+    _num: f"a finite number within +-{MAX_JSON_NUMBER:g}",
+    _positive: "a positive number",
+    _int: "an integer",
+    _index: "a non-negative integer",
+    _byte: "an integer 0..255",
+    _text: "printable text",
+    _status: f"one of {sorted(_STATUSES)}",
+    _direction: "'in' or 'out'",
+    _box: "null or [x, y, w, h]",
+    _mav_fields: "an object (with integer 'command', 'target_system', 'target_component', if any)",
+}
+#: field -> (check, required), for each JSON topic lfctl writes
+_CONTROLLER = {
+    "status": (_status, True),
+    "range_cmd_m": (_num, True),
+    "bearing_cmd_deg": (_num, False),
+    "range_error_m": (_num, True),
+    "bearing_error_deg": (_num, True),
+    "separation_m": (_num, True),
+    "yaw_rate_cmd_degps": (_num, True),
+    "target": (_text, False),
+}
+_POSE_ESTIMATE = {
+    "range_m": (_num, True),
+    "bearing_deg": (_num, True),
+    "truth_range_m": (_positive, True),
+    "truth_bearing_deg": (_num, True),
+}
+_MISSION = {"event": (_text, True), "index": (_index, True)}
+_MAVLINK = {
+    "direction": (_direction, True),
+    "sysid": (_int, True),
+    "compid": (_int, True),
+    "name": (_text, True),
+    "seq": (_byte, False),
+    "fields": (_mav_fields, True),
+}
+_TRACKER = {"bbox": (_box, False), "truth_bbox": (_box, False), "truth_visible_fraction": (_num, False)}
+
+
+def _spec(topic: str) -> tuple[str, dict[str, tuple[_Check, bool]]] | None:
+    """The JSON schema name and field checks of a topic (None: not a JSON topic the audit reads)."""
+    if topic.startswith("/mavlink/"):
+        return "lfctl.MavlinkPacket", _MAVLINK
+    if topic == "/leader/mission":
+        return "lfctl.Mission", _MISSION
+    for suffix, name, spec in (
+        ("/controller", "lfctl.Controller", _CONTROLLER),
+        ("/pose_estimate", "lfctl.PoseEstimate", _POSE_ESTIMATE),
+        ("/tracker", "lfctl.Tracker", _TRACKER),
+    ):
+        if topic.endswith(suffix) and topic.count("/") == 2:
+            return name, spec
+    return None
+
+
+def _check_json(data: bytes, spec: dict[str, tuple[_Check, bool]]) -> dict[str, Any] | str:
+    """The message as a dict when it is a JSON object whose fields pass ``spec``; else why not."""
     try:
-        c.file_size = path.stat().st_size
-        f = path.open("rb")
-    except OSError as exc:
-        return c, [Finding("error", f"cannot read {path}: {exc}")]
-    with f:
-        head = f.read(8)
-        if head != MAGIC:
-            kind = next((name for sig, name in KNOWN_SIGNATURES.items() if head.startswith(sig)), None)
-            what = f"not an MCAP file: bad magic {head[:8]!r}" + (f" (looks like {kind})" if kind else "")
-            if not head:
-                what = "not an MCAP file: the file is empty"
-            return c, [Finding("error", what, 0)]
-        f.seek(0)
-        stream = _CountingStream(f)
-        last_time: dict[int, int] = {}
-        try:
-            for rec in StreamReader(stream, validate_crcs=True).records:
-                if isinstance(rec, Header):
-                    c.header_library = rec.library
-                elif isinstance(rec, Schema):
-                    c.schemas[rec.id] = rec
-                elif isinstance(rec, Channel):
-                    if rec.schema_id != 0 and rec.schema_id not in c.schemas:
-                        findings.append(
-                            Finding(
-                                "error",
-                                f"channel {rec.topic!r} refers to schema {rec.schema_id} before it is defined",
-                                stream.pos,
-                            )
-                        )
-                    c.channels[rec.id] = rec
-                elif isinstance(rec, Message):
-                    ch = c.channels.get(rec.channel_id)
-                    if ch is None:
-                        findings.append(
-                            Finding(
-                                "error",
-                                f"message on channel {rec.channel_id} before the channel is defined",
-                                stream.pos,
-                            )
-                        )
-                        continue
-                    prev = last_time.get(rec.channel_id)
-                    if prev is not None and rec.log_time < prev:
-                        findings.append(
-                            Finding(
-                                "error",
-                                f"log_time goes back on {ch.topic}: {rec.log_time} ns after {prev} ns",
-                                stream.pos,
-                            )
-                        )
-                    last_time[rec.channel_id] = rec.log_time
-                    c.messages[ch.topic].append((rec.log_time, rec.data))
-                elif isinstance(rec, Metadata):
-                    c.metadata[rec.name] = dict(rec.metadata)
-                elif isinstance(rec, Attachment):
-                    c.attachments[rec.name] = rec.data
-                elif isinstance(rec, Statistics):
-                    c.statistics = rec
-                elif isinstance(rec, DataEnd):
-                    c.data_end = True
-                elif isinstance(rec, Footer):
-                    c.footer = True
-        except EndOfFile:
-            findings.append(Finding("error", _truncated(c.file_size), stream.pos))
-        except CRCValidationError as exc:
-            findings.append(Finding("error", f"CRC mismatch: {exc}", stream.pos))
-        except (McapError, ValueError, struct.error, EOFError, OSError) as exc:  # the other ways a damaged stream fails
-            what = (
-                _truncated(c.file_size) if stream.pos >= c.file_size else f"corrupt record: {type(exc).__name__}: {exc}"
-            )
-            findings.append(Finding("error", what, stream.pos))
-        c.bytes_read = stream.pos
-    if not c.footer and not any(f.level == "error" for f in findings):
-        findings.append(Finding("error", "no footer: the file was not finished", c.bytes_read))
-    if c.footer:
-        findings.extend(_check_summary_crc(path))
-    return c, findings
+        m = json.loads(data)
+    except RecursionError:
+        return "JSON nested too deeply"
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, too many digits
+        return f"not JSON ({type(exc).__name__}: {str(exc)[:80]})"
+    if not isinstance(m, dict):
+        return f"a JSON {type(m).__name__}, not an object"
+    for name, (check, required) in spec.items():
+        if name not in m:
+            if required:
+                return f"no field {name!r}"
+        elif not check(m[name]):
+            return f"field {name!r} is {_short(m[name])}, not {_WANTS[check]}"
+    return m
 
 
-def _check_summary_crc(path: Path) -> list[Finding]:
-    """The footer's CRC over the summary section (the stream reader does not check it)."""
-    import zlib
-
-    data = path.read_bytes()
-    # footer record: opcode, length, summary_start, summary_offset_start, summary_crc; magic
-    footer = len(data) - 8 - (1 + 8 + 8 + 8 + 4)
-    summary_start, _offsets, crc = struct.unpack_from("<QQI", data, footer + 9)
-    if summary_start == 0 or crc == 0:
-        return []
-    got = zlib.crc32(data[summary_start : len(data) - 8 - 4]) & 0xFFFFFFFF
-    if got != crc:
-        return [Finding("error", f"summary CRC mismatch: computed {got:#010x}, footer says {crc:#010x}", summary_start)]
-    return []
+def _short(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
-def _truncated(size: int) -> str:
-    return f"truncated: the file ends inside a record ({size} bytes)"
+def _decoded(c: Contents, topic: str) -> tuple[list[tuple[float, dict[str, Any]]], list[tuple[int, float, str]]]:
+    """The messages of a JSON topic that pass its checks, as (t in s, dict), and the others
+    as (index, t in s, why); computed once per topic."""
+    if topic not in c.decoded:
+        good: list[tuple[float, dict[str, Any]]] = []
+        bad: list[tuple[int, float, str]] = []
+        spec = _spec(topic)
+        for i, (t, d) in enumerate(c.messages.get(topic, [])):
+            m = _check_json(d, spec[1]) if spec else _check_json(d, {})
+            if isinstance(m, str):
+                bad.append((i, c.sim_s(t), m))
+            else:
+                good.append((c.sim_s(t), m))
+        c.decoded[topic] = (good, bad)
+    return c.decoded[topic]
 
 
 def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
-    return [(t / 1e9, json.loads(d)) for t, d in c.messages.get(topic, [])]
+    """(t in s, message) of each message on ``topic`` that is valid (see ``_spec``)."""
+    return _decoded(c, topic)[0]
 
 
-def audit(path: str | Path) -> AuditReport:
+def _bad_json_findings(c: Contents) -> list[Finding]:
+    out = []
+    for topic in sorted(c.messages):
+        spec = _spec(topic)
+        if spec is None:
+            continue
+        bad = _decoded(c, topic)[1]
+        if bad:
+            i, t, why = bad[0]
+            msgs = c.messages[topic]
+            at = msgs.offset(i) if hasattr(msgs, "offset") else None
+            out.append(
+                Finding(
+                    "error",
+                    f"{len(bad)} of {len(msgs)} messages on {topic} are not valid {spec[0]} "
+                    f"(first: message {i} at t = {t:.3f} s: {why}); figures leave them out",
+                    at,
+                    "content",
+                )
+            )
+    return out
+
+
+# -- the run metadata --------------------------------------------------------------------------------
+@dataclass
+class _Run:
+    """The run metadata, checked: bad values are replaced by the defaults and listed."""
+
+    telemetry_s: float = 0.1  # periods, s
+    guidance_s: float = 0.05
+    camera_s: float = 1 / 30
+    image_s: float = 1 / 30
+    vehicles: list[str] = field(default_factory=list)
+    followers: list[str] = field(default_factory=list)
+    camera: bool = False
+    images: bool = False
+    image_format: str = "jpeg"  # "h264" or "jpeg": which image topic the followers have
+    waypoints: int = 0
+    problems: list[str] = field(default_factory=list)
+
+
+def _names(run: dict[str, str], key: str, problems: list[str]) -> list[str]:
+    out = []
+    for name in filter(None, run.get(key, "").split(",")):
+        if NAME.fullmatch(name):
+            out.append(name)
+        else:
+            problems.append(f"{key} names {name!r} (a vehicle name is letters, digits, '-' or '_')")
+    return out
+
+
+def _period(run: dict[str, str], key: str, default_hz: float, problems: list[str]) -> float:
+    raw = run.get(key)
+    if raw is None:
+        return 1.0 / default_hz
+    try:
+        hz = float(raw)
+    except ValueError:
+        hz = math.nan
+    if not 0 < hz <= MAX_RATE_HZ:  # NaN fails too
+        problems.append(f"{key} = {raw!r} (a rate in (0, {MAX_RATE_HZ:g}] Hz)")
+        return 1.0 / default_hz
+    return 1.0 / hz
+
+
+def _parse_run(run: dict[str, str]) -> _Run:
+    r = _Run()
+    p = r.problems
+    r.telemetry_s = _period(run, "telemetry_rate_hz", 10.0, p)
+    r.guidance_s = _period(run, "guidance_rate_hz", 20.0, p)
+    r.camera_s = _period(run, "camera_rate_hz", 30.0, p)
+    r.image_s = _period(run, "image_rate_hz", 30.0, p)
+    r.vehicles = _names(run, "vehicles", p)
+    r.followers = _names(run, "followers", p)
+    r.camera = run.get("sensing") == "camera"
+    r.images = run.get("images") == "true"
+    fmt = run.get("image_format", "jpeg")
+    if fmt in ("h264", "jpeg"):
+        r.image_format = fmt
+    else:
+        p.append(f"image_format = {fmt!r} ('h264' or 'jpeg')")
+    raw = run.get("waypoints", "0") or "0"
+    if raw.isdigit() and len(raw) <= 6:
+        r.waypoints = int(raw)
+    else:
+        p.append(f"waypoints = {raw!r} (a count)")
+    return r
+
+
+def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
     """Audit a log file; never raises for a bad file (the findings say what is wrong).
 
     Parameters
     ----------
     path : str or Path
-        An MCAP log written by :class:`~lfctl.record.writer.Recorder` (or a damaged one).
+        An MCAP log written by :class:`~lfctl.record.writer.Recorder` (or a damaged one). A
+        path that is not a regular file (a FIFO, a directory, a device) is a finding; it is
+        not opened for reading.
+    limits : ReadLimits, optional
+        What the reading refuses (default :mod:`lfctl.record.mcap_read`'s constants).
     """
     p = Path(path)
-    c, findings = read_contents(p)
+    c, findings = read_contents(p, limits)
+    counted = {ch_id: c.counts.get(ch_id, 0) for ch_id in c.channels}
     figures: dict[str, Any] = {
         "file_bytes": c.file_size,
         "bytes_read": c.bytes_read,
-        "messages": sum(len(v) for v in c.messages.values()),
+        "messages": sum(c.counts.values()),
     }
-    if not c.channels and findings:
+    if not c.footer and not any(f.level == "error" for f in findings):  # never "OK" without a footer
+        findings.append(Finding("error", "no footer: the file was not finished", c.bytes_read, "truncated"))
+    if not c.channels and not c.metadata and findings:
         return AuditReport(str(p), findings, c, figures)
+    recovered = "recovery" in c.metadata
     # -- integrity: counts against the statistics, expected topics, gaps --------------------
-    counted = {ch_id: len(c.messages.get(ch.topic, [])) for ch_id, ch in c.channels.items()}
     if c.statistics is not None:
-        if c.statistics.message_count != sum(counted.values()):
+        total = sum(c.counts.values())
+        if c.statistics.message_count != total:
             findings.append(
                 Finding(
                     "error",
-                    f"statistics say {c.statistics.message_count} messages, the file holds {sum(counted.values())}",
+                    f"statistics say {c.statistics.message_count} messages, the file holds {total} readable ones",
+                    kind="corrupt",
                 )
             )
-        for ch_id, n in c.statistics.channel_message_counts.items():
-            if counted.get(ch_id, 0) != n:
+        for ch_id, n in sorted(c.statistics.channel_message_counts.items()):
+            ch = c.channels.get(ch_id)
+            if ch is None:
                 findings.append(
                     Finding(
                         "error",
-                        f"statistics say {n} messages on {c.channels[ch_id].topic}, the file holds {counted.get(ch_id, 0)}",
+                        f"statistics count {n} messages on channel {ch_id}, which is not defined",
+                        kind="corrupt",
+                    )
+                )
+            elif counted.get(ch_id, 0) != n:
+                findings.append(
+                    Finding(
+                        "error",
+                        f"statistics say {n} messages on {ch.topic}, the file holds {counted.get(ch_id, 0)} readable ones",
+                        kind="corrupt",
                     )
                 )
     run = c.metadata.get("run", {})
     if not run:
-        findings.append(Finding("error", "metadata 'run' missing (scenario, seed, clock)"))
+        findings.append(Finding("error", "metadata 'run' missing (scenario, seed, clock)", kind="provenance"))
     if "lfctl" not in c.metadata:
-        findings.append(Finding("error", "metadata 'lfctl' missing (version, git revision, packages)"))
-    expected = _expected_topics(run)
-    for topic, period in expected.items():
+        findings.append(
+            Finding("error", "metadata 'lfctl' missing (version, git revision, packages)", kind="provenance")
+        )
+    info = _parse_run(run)
+    if info.problems:
+        findings.append(
+            Finding(
+                "error",
+                "metadata 'run' has bad values: " + "; ".join(info.problems) + " (figures use the defaults)",
+                kind="provenance",
+            )
+        )
+    lacking = []
+    for topic, period in _expected_topics(info).items():
         msgs = c.messages.get(topic)
         if not msgs:
-            findings.append(Finding("error" if c.footer else "warning", f"expected topic {topic} is missing"))
+            if recovered:  # a recovered log holds what was read before the fault
+                lacking.append(topic)
+            else:
+                level = "error" if c.footer else "warning"
+                findings.append(Finding(level, f"expected topic {topic} is missing", kind="content"))
             continue
-        times = np.array([t for t, _ in msgs]) / 1e9
+        times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
+        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
+        times = (times - float(c.start_ns)) / 1e9  # simulation time, s
         gaps = np.diff(times)
         big = gaps > 3 * period + 1e-6
         if big.any():
@@ -277,18 +413,33 @@ def audit(path: str | Path) -> AuditReport:
                 Finding(
                     "warning",
                     f"{topic}: {int(big.sum())} gaps longer than 3x its {period * 1000:.0f} ms period (longest {gaps[i]:.3f} s at t={times[i]:.2f} s)",
+                    kind="content",
                 )
             )
+    if lacking:
+        findings.append(
+            Finding("warning", f"the recovered log has no messages on {', '.join(lacking)}", kind="recovery")
+        )
+    findings.extend(_bad_json_findings(c))
     # -- provenance -------------------------------------------------------------------------
-    hashes = {m["name"]: m["sha256"] for k, m in c.metadata.items() if k.startswith("sha256:")}
+    hashes = {m.get("name", ""): m.get("sha256", "") for k, m in c.metadata.items() if k.startswith("sha256:")}
     for name, data in c.attachments.items():
         want = hashes.get(name)
         got = hashlib.sha256(data).hexdigest()
         if want is None:
-            findings.append(Finding("warning", f"attachment {name} has no recorded SHA-256"))
+            findings.append(Finding("warning", f"attachment {name!r} has no recorded SHA-256", kind="provenance"))
         elif want != got:
             findings.append(
-                Finding("error", f"attachment {name}: SHA-256 {got[:12]}... does not match the recorded {want[:12]}...")
+                Finding(
+                    "error",
+                    f"attachment {name!r}: SHA-256 {got[:12]}... does not match the recorded {want[:12]}...",
+                    kind="provenance",
+                )
+            )
+    for name in sorted(set(hashes) - set(c.attachments)):
+        if c.footer:
+            findings.append(
+                Finding("error", f"attachment {name!r} is missing (its SHA-256 is recorded)", kind="provenance")
             )
     figures["attachments"] = sorted(c.attachments)
     figures["provenance"] = {
@@ -297,61 +448,88 @@ def audit(path: str | Path) -> AuditReport:
     figures["run"] = run
     end = c.metadata.get("end")
     figures["end"] = end
-    if end is not None and end.get("reason") != "completed":
-        findings.append(Finding("warning", f"the run ended early{_at(end)}: {end.get('reason')}"))
+    findings.extend(_end_findings(c, end, recovered))
     # -- content ----------------------------------------------------------------------------
-    figures["followers"] = _formation_figures(c, run)
+    figures["followers"] = _formation_figures(c, info)
     figures["mission"] = [
         {"index": m["index"] + 1, "t_s": round(t, 2)}
         for t, m in _json_messages(c, "/leader/mission")
         if m.get("event") == "reached"
     ]
-    figures["waypoints"] = int(run.get("waypoints", "0") or 0)
-    figures["links"] = _link_figures(c)
+    figures["waypoints"] = info.waypoints
+    link = _link_figures(c)
+    figures["links"], figures["link_senders"] = link["links"], link["senders"]
     figures["topics"] = {
         ch.topic: counted[ch_id] for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic)
     }
     return AuditReport(str(p), findings, c, figures)
 
 
-def _expected_topics(run: dict[str, str]) -> dict[str, float]:
-    """Topic -> expected period (s) from the run metadata."""
-    if not run:
-        return {}
+def _end_findings(c: Contents, end: dict[str, str] | None, recovered: bool) -> list[Finding]:
+    """Why the run ended (metadata ``end``): an error ends it abnormally, an interruption early."""
+    if recovered:
+        r = c.metadata["recovery"]
+        return [
+            Finding(
+                "warning",
+                f"recovered by lfctl audit from {r.get('source', '?')} ({r.get('bytes_read', '?')} of "
+                f"{r.get('file_bytes', '?')} bytes read); the original's findings: {r.get('findings', '')}",
+                kind="recovery",
+            )
+        ]
+    if end is None:
+        if c.footer:  # finished by something other than the Recorder (without a footer: an error already)
+            return [Finding("warning", "no 'end' metadata: the log does not say why the run ended", kind="run")]
+        return []
+    reason = end.get("reason", "")
+    if reason == "completed":
+        return []
+    if reason.startswith("error"):
+        return [Finding("error", f"the run ended abnormally{_at(end)}: {reason}", kind="run")]
+    return [Finding("warning", f"the run ended early{_at(end)}: {reason or '(no reason given)'}", kind="run")]
+
+
+def _expected_topics(run: _Run) -> dict[str, float]:
+    """Topic -> expected period (s) from the checked run metadata."""
     out: dict[str, float] = {}
-    tel = 1.0 / float(run.get("telemetry_rate_hz", "10"))
-    guid = 1.0 / float(run.get("guidance_rate_hz", "20"))
-    cam = 1.0 / float(run.get("camera_rate_hz", "30"))
-    for v in filter(None, run.get("vehicles", "").split(",")):
-        out[f"/{v}/pose"] = tel
-    out["/tf"] = tel
-    for f in filter(None, run.get("followers", "").split(",")):
-        out[f"/{f}/controller"] = guid
-        if run.get("sensing") == "camera":
-            out[f"/{f}/tracker"] = cam
-            out[f"/{f}/camera/annotations"] = cam
-            if run.get("images") == "true":
-                out[f"/{f}/camera/image/compressed"] = 1.0 / float(run.get("image_rate_hz", "30"))
+    if not run.vehicles and not run.followers:
+        return out
+    for v in run.vehicles:
+        out[f"/{v}/pose"] = run.telemetry_s
+    out["/tf"] = run.telemetry_s
+    for f in run.followers:
+        out[f"/{f}/controller"] = run.guidance_s
+        if run.camera:
+            out[f"/{f}/tracker"] = run.camera_s
+            out[f"/{f}/camera/annotations"] = run.camera_s
+            if run.images:
+                out[image_topic(f, run.image_format)] = run.image_s
     return out
 
 
 def _at(end: dict[str, str]) -> str:
     """`` at t = 12.34 s`` from an ``end`` metadata record ("" when it has no usable time)."""
     try:
-        return f" at t = {float(end['t_s']):.2f} s"
-    except (KeyError, ValueError):
+        t = float(end.get("t_s", ""))
+    except ValueError:
         return ""
+    return f" at t = {t:.2f} s" if math.isfinite(t) else ""
 
 
 def _rounded(value: float | None, digits: int, scale: float = 1.0) -> float | None:
     return None if value is None else round(value * scale, digits)
 
 
-def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]:
+def _followers(c: Contents) -> list[str]:
+    """The followers the run metadata names (valid names only)."""
+    return _parse_run(c.metadata.get("run", {})).followers
+
+
+def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
     out = []
-    step_s = 1.0 / float(run.get("guidance_rate_hz", "20") or 20)
+    step_s = run.guidance_s
     deg = math.degrees(1.0)
-    for f in filter(None, run.get("followers", "").split(",")):
+    for f in run.followers:
         msgs = _json_messages(c, f"/{f}/controller")
         if not msgs:
             continue
@@ -393,53 +571,132 @@ def _formation_figures(c: Contents, run: dict[str, str]) -> list[dict[str, Any]]
                 for e in track_episodes(t, status, step_s)
             ],
         }
-        poses = _json_messages(c, f"/{f}/pose_estimate")
+        poses = [m for _, m in _json_messages(c, f"/{f}/pose_estimate") if m["truth_range_m"] <= 3.0]
         if poses:
-            pr = np.array(
-                [
-                    (m["range_m"] - m["truth_range_m"]) / m["truth_range_m"]
-                    for _, m in poses
-                    if m["truth_range_m"] <= 3.0
-                ]
-            )
-            pb = np.array([m["bearing_deg"] - m["truth_bearing_deg"] for _, m in poses if m["truth_range_m"] <= 3.0])
-            if pr.size:
-                fig["pose_range_err_rms_pct"] = round(float(np.sqrt(np.mean(pr**2)) * 100), 3)
-                fig["pose_bearing_err_rms_deg"] = round(float(np.sqrt(np.mean(pb**2))), 3)
+            pr = np.array([(m["range_m"] - m["truth_range_m"]) / m["truth_range_m"] for m in poses])
+            pb = np.array([m["bearing_deg"] - m["truth_bearing_deg"] for m in poses])
+            fig["pose_range_err_rms_pct"] = round(float(np.sqrt(np.mean(pr**2)) * 100), 3)
+            fig["pose_bearing_err_rms_deg"] = round(float(np.sqrt(np.mean(pb**2))), 3)
         out.append(fig)
     return out
 
 
-def _link_figures(c: Contents) -> dict[str, Any]:
-    links: dict[str, Any] = {}
-    for topic, msgs in c.messages.items():
-        if not topic.startswith("/mavlink/"):
-            continue
-        dirs = {"in": 0, "out": 0}
-        seq_by_src: dict[tuple[int, int], list[int]] = defaultdict(list)
-        pending: dict[int, float] = {}
-        latencies = []
-        for t, d in msgs:
-            m = json.loads(d)
-            dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
+#: a sender silent this long, then heard again, started a new session (a new process,
+#: a reconnect): its sequence restarts, which is not loss
+SESSION_GAP_S = 2.5
+#: a sender's sequence jumping this far (mod 256) restarted: a new process, not 128+ packets lost
+RESTART_JUMP = 128
+COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
+
+
+def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]]:
+    """Every ``/mavlink/<vehicle>`` topic's packets, decoded: (simulation time, packet).
+
+    Parameters
+    ----------
+    c : Contents
+        What was read from the log.
+    """
+    return {t: _json_messages(c, t) for t in sorted(c.messages) if t.startswith("/mavlink/")}
+
+
+def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, list[tuple[float, float]]]:
+    """Commands on one link and their acks: (commands, [(ack time, latency s)]).
+
+    An ack is matched to the oldest unanswered command of the same number from the system and
+    component it is addressed to, going the other way (commands in and acks out at a vehicle;
+    out and in at a companion); an ack without that address, on the command number alone.
+
+    Parameters
+    ----------
+    packets : list of (t_s, packet)
+        One link's packets in log order.
+    """
+    pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)
+    out = []
+    commands = 0
+    for t, m in packets:
+        fields = m.get("fields", {})
+        if m["name"] in COMMANDS:
+            commands += 1
+            pending[(m["direction"], m["sysid"], m["compid"], fields.get("command", -1))].append(t)
+        elif m["name"] == "COMMAND_ACK":
+            other = "out" if m["direction"] == "in" else "in"
+            key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
+            if not pending.get(key):
+                key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
+            if pending.get(key):
+                out.append((t, t - pending[key].pop(0)))
+    return commands, out
+
+
+def heard_by_sender(links: dict[str, list[tuple[float, dict[str, Any]]]]) -> dict[str, list[tuple[float, int]]]:
+    """Every packet the run's endpoints heard, by sender (``sysid/compid``): (t_s, seq) in
+    time order, over all links (a ground station's one counter serves every vehicle).
+
+    Parameters
+    ----------
+    links : dict
+        As :func:`mavlink_packets` gives them.
+    """
+    heard: dict[str, list[tuple[float, int]]] = defaultdict(list)
+    for packets in links.values():
+        for t, m in packets:
             if m["direction"] == "in" and "seq" in m:
-                seq_by_src[(m["sysid"], m["compid"])].append(m["seq"])
-            if m["name"] == "COMMAND_LONG" and m["direction"] == "in":
-                pending[m["fields"].get("command", -1)] = t / 1e9
-            if m["name"] == "COMMAND_ACK" and m["direction"] == "out" and m["fields"].get("command") in pending:
-                latencies.append(t / 1e9 - pending.pop(m["fields"]["command"]))
-        lost = 0
-        for seqs in seq_by_src.values():
-            for a, b in itertools.pairwise(seqs):
-                if b != a:  # the same seq again is a duplicate, not 255 lost
-                    lost += (b - a - 1) % 256
+                heard[f"{m['sysid']}/{m['compid']}"].append((t, m["seq"]))
+    # by time only: packets of one tick keep the order they were heard in (a sort on the
+    # sequence number too would put 0 before 255 where the counter wraps)
+    return {k: sorted(v, key=lambda x: x[0]) for k, v in sorted(heard.items())}
+
+
+def lost_by_sequence(got: list[tuple[float, int]]) -> list[int]:
+    """Packets lost before each packet of one sender, cumulative: the gaps in its sequence
+    numbers. A repeated number is a duplicate. A sender that started afresh (a new process,
+    a reconnect: its counter restarts) is not loss: after :data:`SESSION_GAP_S` of silence,
+    or a jump of half the counter or more (:data:`RESTART_JUMP`; that many packets lost in
+    a row without a pause does not happen on a live link).
+
+    Parameters
+    ----------
+    got : list of (t_s, seq)
+        One sender's packets in time order.
+    """
+    lost = [0] * min(1, len(got))
+    for (ta, a), (tb, b) in itertools.pairwise(got):
+        gap = (b - a - 1) % 256
+        lost.append(lost[-1] + (gap if b != a and gap < RESTART_JUMP and tb - ta < SESSION_GAP_S else 0))
+    return lost
+
+
+def _link_figures(c: Contents) -> dict[str, Any]:
+    """Per link: packets each way, message rates, commands and their acks (latency on the
+    log's clock); per sender: loss by its own sequence numbers over every link."""
+    links: dict[str, Any] = {}
+    packets = mavlink_packets(c)
+    for topic, msgs in packets.items():
+        dirs = {"in": 0, "out": 0}
+        rates: dict[str, int] = defaultdict(int)
+        for _t, m in msgs:
+            dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
+            rates[f"{m['direction']} {m['name']}"] += 1
+        duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
+        commands, acks = ack_latencies(msgs)
+        latencies = [lat for _, lat in acks]
         links[topic] = {
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
-            "lost_in_by_seq": lost,
+            "duration_s": round(duration, 3),
+            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration > 0 else {},
+            "commands": commands,
+            "commands_acked": len(latencies),
             "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
+            "command_ack_latency_ms_median": round(float(np.median(latencies)) * 1000, 2) if latencies else None,
         }
-    return links
+    senders = {}
+    for sender, got in heard_by_sender(packets).items():
+        lost = lost_by_sequence(got)[-1]
+        senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
+    return {"links": links, "senders": senders}
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
@@ -452,13 +709,14 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
         What :func:`audit` found.
     """
     from lfctl.config import AuditConfig, parse_config
-    from lfctl.errors import ConfigError
 
     text = report.contents.attachments.get("scenario.toml")
     try:
         a = parse_config(text.decode()).audit if text else AuditConfig()
     except (ConfigError, UnicodeDecodeError) as exc:
-        return [Finding("error", f"the attached scenario.toml does not load: {exc}")]
+        return [Finding("error", f"the attached scenario.toml does not load: {exc}", kind="provenance")]
+    except RecursionError:  # tomllib on arrays nested thousands deep
+        return [Finding("error", "the attached scenario.toml does not load: nested too deeply", kind="provenance")]
     limits = {
         "max_range_err_rms_frac": a.max_range_err_rms_frac,
         "max_bearing_err_rms_deg": a.max_bearing_err_rms_deg,
@@ -483,7 +741,7 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
                     f"{f['follower']}: bearing error RMS {f['bearing_err_rms_deg']} deg exceeds {limits['max_bearing_err_rms_deg']} deg",
                 )
             )
-        if f["min_separation_m"] < limits["min_separation_m"]:
+        if f["min_separation_m"] is not None and f["min_separation_m"] < limits["min_separation_m"]:
             out.append(
                 Finding(
                     "error",
@@ -496,39 +754,76 @@ def check_thresholds(report: AuditReport) -> list[Finding]:
 def recover(report: AuditReport, out_path: Path) -> int:
     """Write every record that was read intact into a new, finished file; returns messages.
 
+    Each message is written once, on its own channel (channels that share a topic stay
+    apart), with its log time, publish time and sequence number. The file is written beside
+    ``out_path`` and renamed into place when finished.
+
     Parameters
     ----------
     report : AuditReport
         The audit of the damaged file (its contents are what is written).
     out_path : Path
         The new file.
+
+    Raises
+    ------
+    ConfigError
+        ``out_path`` is the audited file itself, or exists and is not a regular file.
+    OSError
+        The file cannot be written.
     """
+    out_path = Path(out_path)
+    if out_path.exists() or out_path.is_symlink():
+        problem = regular_file_problem(out_path)
+        if problem:
+            raise ConfigError(f"cannot recover into {out_path}: {problem}")
+        if Path(report.path).exists() and out_path.samefile(report.path):
+            raise ConfigError(f"cannot recover into {out_path}: it is the audited file itself")
+    tmp = out_path.with_name(f".{out_path.name}.{os.getpid()}.partial")
+    try:
+        with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644), "wb") as f:
+            n = _write_recovered(report, f)
+        os.replace(tmp, out_path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return n
+
+
+def _write_recovered(report: AuditReport, f: Any) -> int:
     c = report.contents
-    with out_path.open("wb") as f:
-        w = Writer(f, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
-        w.start(profile="", library=(c.header_library or "unknown") + " (recovered by lfctl audit)")
-        for name, data in c.attachments.items():
-            w.add_attachment(0, 0, name, "application/octet-stream", data)
-        for name, md in c.metadata.items():
+    w = Writer(f, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
+    w.start(profile="", library=(c.header_library or "unknown") + " (recovered by lfctl audit)")
+    for name, data in c.attachments.items():
+        w.add_attachment(0, 0, name, c.attachment_types.get(name, "application/octet-stream"), data)
+    for name, md in c.metadata.items():
+        if name != "recovery":
             w.add_metadata(name, md)
-        w.add_metadata(
-            "recovery",
-            {
-                "source": report.path,
-                "bytes_read": str(c.bytes_read),
-                "file_bytes": str(c.file_size),
-                "findings": " | ".join(x.line() for x in report.findings),
-            },
-        )
-        schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in c.schemas.items()}
-        n = 0
-        for cid, ch in c.channels.items():
-            new = w.register_channel(ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), dict(ch.metadata))
-            for seq, (t, data) in enumerate(c.messages.get(ch.topic, [])):
-                w.add_message(new, t, data, t, seq)
-                n += 1
-            del cid
-        w.finish()
+    w.add_metadata(
+        "recovery",
+        {
+            "source": report.path,
+            "bytes_read": str(c.bytes_read),
+            "file_bytes": str(c.file_size),
+            "findings": " | ".join(x.line() for x in report.findings),
+        },
+    )
+    schema_ids = {sid: w.register_schema(s.name, s.encoding, s.data) for sid, s in c.schemas.items()}
+    channels = {
+        cid: w.register_channel(ch.topic, ch.message_encoding, schema_ids.get(ch.schema_id, 0), dict(ch.metadata))
+        for cid, ch in c.channels.items()
+    }
+
+    def rows(cid: int, store: MessageStore) -> Iterator[tuple[int, int, int]]:
+        for i in range(len(store)):
+            yield store.log_times[i], cid, i
+
+    n = 0
+    stores = {cid: s for cid, s in c.by_channel.items() if cid in channels}
+    for _t, cid, i in heapq.merge(*(rows(cid, s) for cid, s in stores.items())):  # by log time
+        s = stores[cid]
+        w.add_message(channels[cid], s.log_times[i], s.payload(i), s.publish_times[i], s.sequences[i])
+        n += 1
+    w.finish()
     return n
 
 
@@ -595,14 +890,26 @@ def format_report(report: AuditReport) -> str:
         lines.append(f"mission: {len(fig['mission'])}/{fig['waypoints']} waypoints reached ({reached})")
     for topic, link in fig.get("links", {}).items():
         lines.append(
-            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out, {link['lost_in_by_seq']} lost (by sequence), max command ack {link['command_ack_latency_ms_max']} ms"
+            f"link {topic}: {link['packets_in']} in, {link['packets_out']} out; {link['commands']} commands, "
+            f"{link['commands_acked']} acked (ack latency median {_cell(link['command_ack_latency_ms_median'])} ms, "
+            f"max {_cell(link['command_ack_latency_ms_max'])} ms on the log's clock)"
         )
-    return "\n".join(lines)
+    for sender, s in fig.get("link_senders", {}).items():
+        lines.append(
+            f"  sender {sender}: {s['packets']} packets heard, {s['lost']} lost by its sequence ({s['loss_pct']} %)"
+        )
+    return _printable("\n".join(lines))
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters (but newlines) and lone surrogates escaped."""
+    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return "".join(ch if ch == "\n" or ch.isprintable() else repr(ch)[1:-1] for ch in text)
 
 
 def plot(report: AuditReport, out_dir: Path) -> list[Path]:
-    """PNG plots: top-view trajectories, range/bearing error over time, track-state timeline;
-    returns the files written.
+    """PNG plots to review the run by (see :mod:`lfctl.record.plots`); returns the files
+    written.
 
     Parameters
     ----------
@@ -611,49 +918,6 @@ def plot(report: AuditReport, out_dir: Path) -> list[Path]:
     out_dir : Path
         Where the PNGs go (made if missing).
     """
-    import matplotlib
+    from lfctl.record.plots import plot_all
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    c = report.contents
-    made = []
-    fig, ax = plt.subplots(figsize=(6, 6))
-    for topic, msgs in sorted(c.messages.items()):
-        if topic.endswith("/pose") and topic.count("/") == 2:
-            pts = []
-            for _t, d in msgs:
-                p = PoseInFrame.FromString(d)
-                pts.append((p.pose.position.y, p.pose.position.x))  # east right, north up
-            a = np.array(pts)
-            ax.plot(a[:, 0], a[:, 1], label=topic.split("/")[1])
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal")
-    ax.legend()
-    ax.set_title("trajectories (top view)")
-    made.append(out_dir / "trajectories.png")
-    fig.savefig(made[-1], dpi=100)
-    plt.close(fig)
-    run = c.metadata.get("run", {})
-    for f in filter(None, run.get("followers", "").split(",")):
-        msgs = _json_messages(c, f"/{f}/controller")
-        if not msgs:
-            continue
-        t = np.array([m[0] for m in msgs])
-        fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
-        a1.plot(t, [m[1]["range_error_m"] for m in msgs])
-        a1.set_ylabel("range error (m)")
-        a2.plot(t, [m[1]["bearing_error_deg"] for m in msgs])
-        a2.set_ylabel("bearing error (deg)")
-        code = {"tracking": 2, "occluded": 1, "lost": 0}
-        a3.step(t, [code[m[1]["status"]] for m in msgs], where="post")
-        a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
-        a3.set_xlabel("simulation time (s)")
-        a1.set_title(f"{f}: formation errors and track state")
-        made.append(out_dir / f"{f}_errors.png")
-        fig.savefig(made[-1], dpi=100)
-        plt.close(fig)
-    return made
+    return plot_all(report, out_dir)

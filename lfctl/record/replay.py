@@ -3,7 +3,7 @@ that ran live, against the renderer's truth (`lfctl replay`)."""
 
 from __future__ import annotations
 
-import json
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,14 +11,21 @@ import cv2
 import numpy as np
 
 from lfctl.errors import ConfigError
-from lfctl.record.audit import audit
+from lfctl.record.audit import _json_messages, audit
+from lfctl.record.video import decode_h264
+from lfctl.record.writer import image_topic
 from lfctl.vision.boxes import iou
+from lfctl.vision.frames import FrameError
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
-__all__ = ["ReplayResult", "replay"]
+__all__ = ["ReplayResult", "recorded_frames", "replay"]
 
 #: a frame is scored when at least this much of the banner shows
 MIN_VISIBLE = 0.5
+#: an H.264 NAL unit that carries no picture (stands in for a unit that does not parse)
+_ACCESS_UNIT_DELIMITER = b"\x00\x00\x00\x01\x09\xf0"
+#: recorded frames larger than this many pixels are not decoded (a damaged or crafted size)
+MAX_FRAME_PIXELS = 4096 * 4096
 
 
 @dataclass(frozen=True)
@@ -30,6 +37,9 @@ class ReplayResult:
     scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
     recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
     replayed_success: float  # the same for the replayed tracker
+    unreadable: int = 0  # recorded images skipped: they do not decode, or differ in size from the first
+    recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
+    replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -47,31 +57,42 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     Raises
     ------
     ConfigError
-        The log holds no images for the follower, or no frame with a truth box.
+        The path is not a regular file, the log holds no images for the follower (or none
+        that decodes), or no frame with a truth box.
     """
-    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-
     report = audit(path)
+    unusable = next((f for f in report.findings if f.kind == "file"), None)
+    if unusable is not None:
+        raise ConfigError(unusable.what)
     c = report.contents
     followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
     name = follower or (followers[0] if followers else "")
-    images = c.messages.get(f"/{name}/camera/image/compressed", [])
-    if not images:
+    count = len(c.messages.get(image_topic(name, "h264"), []) or c.messages.get(image_topic(name, "jpeg"), []))
+    images = recorded_frames(c.messages, name)
+    if not count:
         raise ConfigError(
             f"{path} has no recorded camera images for follower {name!r} "
             "(was it run with sensing = 'camera' and recording.images = true?)"
         )
-    recorded = {t: json.loads(d) for t, d in c.messages.get(f"/{name}/tracker", [])}
+    recorded = dict(_json_messages(c, f"/{name}/tracker"))  # valid messages only, by t in s
     tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
-    ok_new = ok_old = n = 0
+    ok_new = ok_old = n = markers_new = markers_old = 0
+    unreadable = count - len(images)
     started = False
-    for t, data in images:
-        frame = cv2.imdecode(np.frombuffer(CompressedImage.FromString(data).data, np.uint8), cv2.IMREAD_COLOR)
-        rec = recorded.get(t, {})
+    shape: tuple[int, ...] | None = None
+    for t, frame in images:
+        if shape is not None and frame.shape != shape:
+            unreadable += 1
+            continue
+        shape = frame.shape
+        rec = recorded.get(c.sim_s(t), {})
         truth = rec.get("truth_bbox")
         if not started:
             if truth:
-                tracker.init(frame, tuple(truth))
+                try:
+                    tracker.init(frame, tuple(truth))
+                except FrameError:  # a truth box outside the frame: wait for the next
+                    continue
                 started = True
             continue
         st = tracker.update(frame)
@@ -79,6 +100,86 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             n += 1
             ok_new += iou(st.bbox, truth) >= 0.5
             ok_old += iou(rec.get("bbox"), truth) >= 0.5
+            markers_new += st.markers is not None
+            markers_old += rec.get("markers") is not None
+    if not images:
+        raise ConfigError(f"{path}: none of the {count} recorded images of {name!r} decodes")
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
-    return ReplayResult(name, len(images), n, ok_old / n, ok_new / n)
+    return ReplayResult(name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n)
+
+
+def recorded_frames(messages: dict[str, Sequence[tuple[int, bytes]]], follower: str) -> list[tuple[int, np.ndarray]]:
+    """A follower's recorded camera frames that decode: (log_time ns, BGR image) in order,
+    from its H.264 video or its JPEG images (whichever the log holds). Frames that do not
+    decode, or claim more than :data:`MAX_FRAME_PIXELS`, are left out.
+
+    Parameters
+    ----------
+    messages : dict
+        Topic -> (log_time ns, payload) of every message (as :class:`~lfctl.record.audit.Contents` holds them).
+    follower : str
+        Whose camera.
+    """
+    from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
+    from google.protobuf.message import DecodeError
+
+    video = messages.get(image_topic(follower, "h264"), [])
+    if video:
+        times = [t for t, _ in video]
+
+        def units() -> Iterator[bytes]:
+            for _, d in video:
+                try:
+                    yield CompressedVideo.FromString(d).data
+                except DecodeError:
+                    yield _ACCESS_UNIT_DELIMITER  # decodes to nothing, and keeps frame k at unit k
+
+        return [(times[k], frame) for k, frame in decode_h264(units(), MAX_FRAME_PIXELS) if k < len(times)]
+    out = []
+    for t, d in messages.get(image_topic(follower, "jpeg"), []):
+        frame = _decode(d)
+        if frame is not None:
+            out.append((t, frame))
+    return out
+
+
+def _decode(data: bytes) -> np.ndarray | None:
+    """A recorded foxglove.CompressedImage as a BGR frame; None when it is not one, is empty,
+    is not a JPEG or PNG OpenCV decodes, or is larger than MAX_FRAME_PIXELS."""
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from google.protobuf.message import DecodeError
+
+    try:
+        jpeg = CompressedImage.FromString(data).data
+    except DecodeError:
+        return None
+    size = _image_size(jpeg)
+    if size is None or not 0 < size[0] * size[1] <= MAX_FRAME_PIXELS:
+        return None
+    try:
+        frame = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+    except cv2.error:
+        return None
+    return frame if frame is not None and frame.ndim == 3 and frame.size else None
+
+
+def _image_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a JPEG's frame header or a PNG's IHDR; None when there is none."""
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
+        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    if data[:2] != b"\xff\xd8":
+        return None
+    i = 2
+    while i + 4 <= len(data):
+        if data[i] != 0xFF:
+            return None
+        marker, length = data[i + 1], int.from_bytes(data[i + 2 : i + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # start of frame
+            if i + 9 > len(data):
+                return None
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(data[i + 5 : i + 7], "big")
+        if length < 2:
+            return None
+        i += 2 + length
+    return None

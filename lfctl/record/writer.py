@@ -1,17 +1,28 @@
-"""The run recorder: one MCAP file per run, Foxglove schemas where one fits.
+"""The run's log: an MCAP file and, with ``--live``, a Foxglove WebSocket, fed by one call.
 
-Written first, so a crash cannot lose them: metadata (lfctl version and git revision,
-package versions, the run's scenario, seed, clock, dt) and attachments (the scenario TOML,
-each FMU's modelDescription.xml) with their SHA-256 in the metadata. Then messages, in
-zstd (or lz4) chunks of about 1 MiB with chunk and data-section CRCs, ``log_time`` = the
-simulation time in ns.
+Every message is logged once, through foxglove-sdk channels on the run's own context; the
+context's sinks are the MCAP file (foxglove-sdk's MCAP writer: zstd or lz4 chunks with
+chunk, data-section and summary CRCs) and the live WebSocket server. So the file and the
+live view carry the same topics, schemas and messages, and there is no second list of
+either. Written first, so a crash cannot lose them: metadata (lfctl version and git
+revision, package versions, the run's scenario, seed, clock, dt, its start time) and
+attachments (the scenario TOML, each FMU's modelDescription.xml) with their SHA-256.
 
-Topics: ``/<vehicle>/pose`` (foxglove.PoseInFrame), ``/tf`` (foxglove.FrameTransform),
-``/<follower>/camera/image/compressed`` (foxglove.CompressedImage, JPEG),
-``/<follower>/camera/calibration`` (foxglove.CameraCalibration),
-``/<follower>/camera/annotations`` (foxglove.ImageAnnotations), and JSON-schema channels
-``/<follower>/tracker``, ``/<follower>/pose_estimate``, ``/<follower>/controller``,
-``/leader/mission`` and ``/mavlink/<link>``.
+Times: ``log_time`` and every message's ``timestamp`` are on the epoch clock, the run's
+start wall time (metadata ``run.start_time_ns``) plus the simulation time; JSON messages
+also carry the simulation time as ``t_s``. An image, its annotations and its tracker
+message share one timestamp.
+
+Topics: ``/<vehicle>/pose`` (foxglove.PoseInFrame), ``/<vehicle>/fix`` (foxglove.LocationFix,
+the Map panel), ``/tf`` (foxglove.FrameTransforms: map (ENU) -> ned -> each vehicle -> each
+follower's ``<follower>/camera``), ``/scene`` (foxglove.SceneUpdate: vehicles with their
+banners, the mission's waypoints and acceptance circles, each follower's commanded slot),
+``/log`` (foxglove.Log: STATUSTEXT and lfctl's events), ``/<follower>/camera/video``
+(foxglove.CompressedVideo, H.264) or ``/<follower>/camera/image/compressed``
+(foxglove.CompressedImage, JPEG), ``/<follower>/camera/calibration``
+(foxglove.CameraCalibration), ``/<follower>/camera/annotations`` (foxglove.ImageAnnotations),
+and JSON-schema channels ``/<follower>/tracker``, ``/<follower>/pose_estimate``,
+``/<follower>/controller``, ``/leader/mission`` and ``/mavlink/<vehicle>``.
 """
 
 from __future__ import annotations
@@ -24,43 +35,77 @@ import json
 import math
 import platform
 import subprocess
+import time
 import zipfile
 from pathlib import Path
 from typing import Any
 
+import foxglove
 import numpy as np
-from foxglove_schemas_protobuf.CameraCalibration_pb2 import CameraCalibration
-from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
-from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
-from foxglove_schemas_protobuf.ImageAnnotations_pb2 import ImageAnnotations
-from foxglove_schemas_protobuf.PointsAnnotation_pb2 import PointsAnnotation
-from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
-from mcap.writer import CompressionType, Writer
-from mcap_protobuf.schema import build_file_descriptor_set
+from foxglove import channels as fc
+from foxglove import messages as fm
+from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from lfctl import __version__
 from lfctl.config import Config
 from lfctl.errors import LfctlError
+from lfctl.frames import ned_to_geodetic
+from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.pose import MarkerPose
+from lfctl.vision.track_state import RelativeMeasurement
+from lfctl.vision.tracker import TrackState
 
-__all__ = ["RecordError", "Recorder", "run_path"]
+__all__ = ["EVENT_MODE", "FLUSH_INTERVAL_S", "RecordError", "Recorder", "image_topic", "run_path", "scenario_events"]
+
+#: the recorder ends a chunk and hands it to the OS at least this often (wall time, s), so a
+#: run killed outright loses at most about this much of its log
+FLUSH_INTERVAL_S = 1.0
+#: how many ``-2``, ``-3`` ... suffixes a log name tries before giving up
+_MAX_SUFFIX = 1000
 
 WORLD_FRAME = "ned"
+#: the 3D panel's fixed frame: east, north, up, so the scene is drawn the right way up
+MAP_FRAME = "map"
+#: (x, y, z, w) of the ned frame in map: 180 deg about (1, 1, 0) / sqrt 2 swaps x, y and flips z
+NED_IN_MAP = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
+#: a /log event that says a vehicle's mode changed starts with this (``mode GUIDED``)
+EVENT_MODE = "mode "
+#: the whole scene (vehicles, mission) is sent again this often, s, for viewers that join late
+SCENE_REPEAT_S = 5.0
 PACKAGES = (
     "fmpy",
     "numpy",
     "opencv-python-headless",
     "filterpy",
     "mcap",
-    "mcap-protobuf-support",
-    "foxglove-schemas-protobuf",
+    "foxglove-sdk",
+    "av",
     "pymavlink",
-    "protobuf",
 )
+#: MAV_SEVERITY 0..7 -> Foxglove log level
+SEVERITY_LEVEL = (
+    fm.LogLevel.Fatal,
+    fm.LogLevel.Fatal,
+    fm.LogLevel.Error,
+    fm.LogLevel.Error,
+    fm.LogLevel.Warning,
+    fm.LogLevel.Info,
+    fm.LogLevel.Info,
+    fm.LogLevel.Debug,
+)
+LEVELS = {
+    "debug": fm.LogLevel.Debug,
+    "info": fm.LogLevel.Info,
+    "warning": fm.LogLevel.Warning,
+    "error": fm.LogLevel.Error,
+}
+COMPRESSION = {"zstd": MCAPCompression.Zstd, "lz4": MCAPCompression.Lz4, "none": None}
 
 JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "lfctl.Tracker": {
         "type": "object",
         "properties": {
+            "t_s": {"type": "number", "description": "simulation time, s"},
             "state": {"type": "string"},
             "bbox": {"type": ["array", "null"], "items": {"type": "integer"}},
             "quality": {"type": "number"},
@@ -74,6 +119,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "lfctl.PoseEstimate": {
         "type": "object",
         "properties": {
+            "t_s": {"type": "number", "description": "simulation time, s"},
             "method": {"type": "string"},
             "range_m": {"type": "number"},
             "bearing_deg": {"type": "number"},
@@ -86,6 +132,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "lfctl.Controller": {
         "type": "object",
         "properties": {
+            "t_s": {"type": "number", "description": "simulation time, s"},
             "status": {"type": "string"},
             "speed_cmd_mps": {"type": "number"},
             "yaw_rate_cmd_degps": {"type": "number"},
@@ -102,6 +149,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "lfctl.Mission": {
         "type": "object",
         "properties": {
+            "t_s": {"type": "number", "description": "simulation time, s"},
             "event": {"type": "string"},
             "index": {"type": "integer"},
             "active": {"type": "integer"},
@@ -111,6 +159,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "lfctl.MavlinkPacket": {
         "type": "object",
         "properties": {
+            "t_s": {"type": "number", "description": "simulation time, s"},
             "direction": {"type": "string", "enum": ["in", "out"]},
             "sysid": {"type": "integer"},
             "compid": {"type": "integer"},
@@ -124,7 +173,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
 
 
 class RecordError(LfctlError, OSError):
-    """The log could not be written; the message names the file."""
+    """The log could not be written or served; the message names the file or address."""
 
 
 def sha256(data: bytes) -> str:
@@ -180,63 +229,211 @@ def run_path(cfg: Config, now: dt.datetime | None = None) -> Path:
     return Path(cfg.recording.dir) / f"{stamp}-{cfg.name}-{cfg.sim.seed}.mcap"
 
 
-def _quat_yaw(yaw_rad: float) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation by ``yaw_rad`` about z (NED down: clockwise from above)."""
-    return 0.0, 0.0, math.sin(yaw_rad / 2), math.cos(yaw_rad / 2)
+def image_topic(follower: str, image_format: str) -> str:
+    """The topic a follower's camera frames go to: ``/<follower>/camera/video`` (H.264) or
+    ``/<follower>/camera/image/compressed`` (JPEG).
+
+    Parameters
+    ----------
+    follower : str
+        Whose camera.
+    image_format : str
+        ``h264`` or ``jpeg`` (``[recording] image_format``).
+    """
+    return f"/{follower}/camera/video" if image_format == "h264" else f"/{follower}/camera/image/compressed"
 
 
-def _ts(msg_time: Any, t_ns: int) -> None:
-    msg_time.seconds = t_ns // 1_000_000_000
-    msg_time.nanos = t_ns % 1_000_000_000
+def scenario_events(cfg: Config) -> list[tuple[float, str]]:
+    """The scenario's scheduled events, in time order: occluders crossing and lighting key
+    frames (camera sensing), or the truth sensor's dropouts (truth sensing). ``/log`` carries them as they
+    happen; ``lfctl audit --plot`` marks them on the error plots.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+    """
+    if cfg.sim.sensing == "camera":
+        out = [(o.t_s, f"occluder crosses {o.follower or 'every follower'}") for o in cfg.scene.occluders]
+        out += [(k.t_s, f"lighting key: gain {k.gain:g}") for k in cfg.scene.lighting if k.t_s > 0]
+    else:
+        out = [(a, f"sensor dropout until {b:g} s") for a, b in cfg.sensing.dropouts]
+    return sorted(out)
+
+
+def _quat_yaw(yaw_rad: float) -> fm.Quaternion:
+    """A rotation by ``yaw_rad`` about z (NED down: clockwise from above)."""
+    return fm.Quaternion(x=0.0, y=0.0, z=math.sin(yaw_rad / 2), w=math.cos(yaw_rad / 2))
+
+
+def _quat_matrix(R: np.ndarray) -> fm.Quaternion:
+    """The unit quaternion of a 3x3 rotation matrix (Shepperd's method: the largest of the
+    four candidates keeps it well conditioned)."""
+    tr = float(np.trace(R))
+    cands = (tr, R[0, 0], R[1, 1], R[2, 2])
+    k = int(np.argmax(cands))
+    if k == 0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        w, x, y, z = s / 4, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s
+    elif k == 1:
+        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        w, x, y, z = (R[2, 1] - R[1, 2]) / s, s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s
+    elif k == 2:
+        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
+        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s
+    else:
+        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
+        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4
+    return fm.Quaternion(x=float(x), y=float(y), z=float(z), w=float(w))
+
+
+def _transform(
+    stamp: fm.Timestamp, parent: str, child: str, translation: fm.Vector3, rotation: fm.Quaternion
+) -> fm.FrameTransform:
+    """``child``'s origin and orientation in ``parent``."""
+    return fm.FrameTransform(
+        timestamp=stamp, parent_frame_id=parent, child_frame_id=child, translation=translation, rotation=rotation
+    )
+
+
+def _colour(r: float, g: float, b: float, a: float = 1.0) -> fm.Color:
+    return fm.Color(r=r, g=g, b=b, a=a)
+
+
+#: the leader orange, followers in turn blue, green, purple, teal (r, g, b)
+PALETTE = ((1.0, 0.55, 0.1), (0.2, 0.45, 0.95), (0.2, 0.7, 0.3), (0.6, 0.35, 0.8), (0.1, 0.65, 0.65))
+
+
+def _vehicle_colour(index: int, alpha: float = 1.0) -> fm.Color:
+    """Vehicle ``index``'s colour (the leader's is 0)."""
+    return _colour(*PALETTE[0 if index == 0 else 1 + (index - 1) % (len(PALETTE) - 1)], alpha)
+
+
+def _pose(north_m: float = 0.0, east_m: float = 0.0, down_m: float = 0.0, yaw_rad: float = 0.0) -> fm.Pose:
+    return fm.Pose(position=fm.Vector3(x=north_m, y=east_m, z=down_m), orientation=_quat_yaw(yaw_rad))
 
 
 class Recorder:
-    """Writes one run. Use as a context manager; closing finishes the file (summary, CRCs).
+    """Logs one run to an MCAP file, a live Foxglove WebSocket, or both, with one call per
+    message. Use as a context manager; closing finishes the file (summary, CRCs) and stops
+    the server.
 
     The metadata and the scenario attachment are written on creation.
 
     Parameters
     ----------
-    path : str or Path
-        The MCAP file to write (its folder is made if missing).
+    path : str or Path or None
+        The MCAP file to write (its folder is made if missing; a name taken gets `-2`, `-3` ...:
+        :attr:`path` says where it went); None writes no file.
     cfg : Config
         The run's scenario: ``[recording]`` settings, rates and names for the metadata.
+    live : (host, port), optional
+        Also serve the messages on a Foxglove WebSocket there (port 0: any free port; see
+        :attr:`live_port`).
+    start_ns : int, optional
+        The run's start on the epoch clock, ns: log times are this plus the simulation
+        time (default: now).
 
     Raises
     ------
     RecordError
-        The file cannot be created.
+        The file cannot be created, or the server cannot listen there.
     """
 
-    def __init__(self, path: str | Path, cfg: Config) -> None:
-        self.path = Path(path)
+    def __init__(
+        self,
+        path: str | Path | None,
+        cfg: Config,
+        *,
+        live: tuple[str, int] | None = None,
+        start_ns: int | None = None,
+    ) -> None:
+        self.path = Path(path) if path is not None else None
         self.cfg = cfg
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._f = self.path.open("wb")
-        except OSError as exc:
-            raise RecordError(f"cannot create the run log {self.path}: {exc}") from exc
-        comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[
-            cfg.recording.compression
-        ]
-        self._w = Writer(
-            self._f,
-            chunk_size=cfg.recording.chunk_size_bytes,
-            compression=comp,
-            enable_crcs=True,
-            enable_data_crcs=True,
-        )
-        self._w.start(profile="", library=f"lfctl {__version__}")
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
-        self._seq: dict[int, int] = {}
+        self.start_ns = time.time_ns() if start_ns is None else start_ns
+        self._ctx = foxglove.Context()
+        self._mcap: Any = None
+        self._server: Any = None
+        self._channels: dict[str, Any] = {}
         self._next_image: dict[str, float] = {}  # per follower: when the next image is due, sim s
+        self._mounts: dict[str, CameraModel] = {}  # followers whose camera is in /tf
+        self._waypoints: list[tuple[float, float]] = []
+        self._radius_m = cfg.mission.acceptance_radius_m
+        self._scene_at = -math.inf
         self.messages = 0
-        self.bytes_payload = 0
         self._closed = False
         self._hashes: dict[str, str] = {}
+        self._flushed_at = time.monotonic()
+        if self.path is not None:
+            rec = cfg.recording
+            options = MCAPWriteOptions(
+                compression=COMPRESSION[rec.compression],
+                chunk_size=rec.chunk_size_bytes,
+                calculate_chunk_crcs=True,
+                calculate_data_section_crc=True,
+                calculate_summary_section_crc=True,
+                calculate_attachment_crcs=True,
+                compression_threads=0,  # compress in the writer's thread: the cores belong to the cameras
+            )
+            self.path, self._mcap = self._open_new(self.path, options)
+        if live is not None:
+            host, port = live
+            try:
+                self._server = foxglove.start_server(name=f"lfctl {cfg.name}", host=host, port=port, context=self._ctx)
+            except RuntimeError as exc:
+                self._close_file()
+                raise RecordError(f"cannot serve Foxglove on {host}:{port}: {exc}") from exc
+        if self._mcap is not None:
+            self._provenance()
+
+    def _open_new(self, path: Path, options: MCAPWriteOptions) -> tuple[Path, Any]:
+        """Create the log, never over an existing file: a name taken (two runs in the same
+        second) gets ``-2``, ``-3``, ... before the suffix. Returns the path and the writer."""
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise RecordError(f"cannot create the log folder {path.parent}: {exc}") from exc
+        for n in range(1, _MAX_SUFFIX + 1):
+            candidate = path if n == 1 else path.with_name(f"{path.stem}-{n}{path.suffix}")
+            try:  # created exclusively: a concurrent run cannot take the same name
+                writer = foxglove.open_mcap(str(candidate), context=self._ctx, writer_options=options)
+            except FileExistsError:
+                continue
+            except (OSError, RuntimeError) as exc:
+                raise RecordError(f"cannot create the run log {candidate}: {exc}") from exc
+            return candidate, writer
+        raise RecordError(f"cannot create the run log {path}: it and {_MAX_SUFFIX - 1} suffixed names exist")
+
+    def flush(self) -> None:
+        """End the chunk in progress and hand everything written so far to the OS."""
+        if self._mcap is not None:
+            self._mcap.flush()
+        self._flushed_at = time.monotonic()
+
+    def _written(self) -> None:
+        """Count a message; flush when a second of wall time has passed (a killed run loses
+        at most about that much)."""
+        self.messages += 1
+        if time.monotonic() - self._flushed_at >= FLUSH_INTERVAL_S:
+            self.flush()
+
+    @property
+    def live_port(self) -> int | None:
+        """The Foxglove WebSocket's port (None without ``live``)."""
+        return int(self._server.port) if self._server is not None else None
+
+    def _ns(self, t_s: float) -> int:
+        return self.start_ns + int(round(t_s * 1e9))
+
+    def _stamp(self, t_s: float) -> fm.Timestamp:
+        ns = self._ns(t_s)
+        return fm.Timestamp(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
+
+    # -- provenance -----------------------------------------------------------------------
+    def _provenance(self) -> None:
+        cfg = self.cfg
         self._attach("scenario.toml", "application/toml", cfg.source.encode())
-        self._w.add_metadata(
+        self._mcap.write_metadata(
             "lfctl",
             {
                 "version": __version__,
@@ -246,7 +443,8 @@ class Recorder:
                 **{f"package.{k}": v for k, v in package_versions().items()},
             },
         )
-        self._w.add_metadata(
+        images = cfg.recording.images and cfg.sim.sensing == "camera"
+        self._mcap.write_metadata(
             "run",
             {
                 "scenario": cfg.name,
@@ -261,67 +459,55 @@ class Recorder:
                 "telemetry_rate_hz": repr(cfg.sim.telemetry_rate_hz),
                 "guidance_rate_hz": repr(cfg.sim.guidance_rate_hz),
                 "camera_rate_hz": repr(cfg.sim.camera_rate_hz),
-                "images": str(cfg.recording.images and cfg.sim.sensing == "camera").lower(),
+                "images": str(images).lower(),
+                "image_format": cfg.recording.image_format,
                 "image_rate_hz": repr(min(cfg.recording.image_rate_hz, cfg.sim.camera_rate_hz)),
+                "video_bitrate_kbps": str(cfg.recording.video_bitrate_kbps),
+                "video_gop": str(cfg.recording.video_gop),
                 "waypoints": str(len(cfg.mission.waypoints)),
+                "start_time_ns": str(self.start_ns),
             },
         )
-        self._f.flush()
+        self._mcap.flush()
 
-    # -- provenance -----------------------------------------------------------------------
     def _attach(self, name: str, media_type: str, data: bytes) -> None:
         """An attachment and, right after it, its SHA-256 (both outside chunks, on disk now)."""
-        self._w.add_attachment(create_time=0, log_time=0, name=name, media_type=media_type, data=data)
+        self._mcap.attach(
+            log_time=self.start_ns, create_time=self.start_ns, name=name, media_type=media_type, data=data
+        )
         self._hashes[name] = sha256(data)
-        self._w.add_metadata(f"sha256:{name}", {"name": name, "sha256": self._hashes[name], "bytes": str(len(data))})
-        self._f.flush()
+        self._mcap.write_metadata(
+            f"sha256:{name}", {"name": name, "sha256": self._hashes[name], "bytes": str(len(data))}
+        )
+        self._mcap.flush()
 
     def attach_fmus(self, fmu_paths: list[Path]) -> None:
-        """Attach each FMU's modelDescription.xml (before any message).
+        """Attach each FMU's modelDescription.xml (before any message; nothing without a file).
 
         Parameters
         ----------
         fmu_paths : list of Path
             The FMU files the run loaded.
         """
+        if self._mcap is None:
+            return
         for p in fmu_paths:
             with zipfile.ZipFile(p) as z:
                 self._attach(f"{p.name}/modelDescription.xml", "application/xml", z.read("modelDescription.xml"))
 
     # -- channels --------------------------------------------------------------------------
-    def _proto_channel(self, topic: str, message_type: Any) -> int:
-        if topic in self._channels:
-            return self._channels[topic]
-        name = message_type.DESCRIPTOR.full_name
-        if name not in self._schemas:
-            self._schemas[name] = self._w.register_schema(
-                name, "protobuf", build_file_descriptor_set(message_type).SerializeToString()
-            )
-        cid = self._w.register_channel(topic, "protobuf", self._schemas[name])
-        self._channels[topic] = cid
-        return cid
+    def _typed(self, topic: str, kind: Any) -> Any:
+        ch = self._channels.get(topic)
+        if ch is None:
+            ch = self._channels[topic] = kind(topic, context=self._ctx)
+        return ch
 
-    def _json_channel(self, topic: str, schema_name: str) -> int:
-        if topic in self._channels:
-            return self._channels[topic]
-        if schema_name not in self._schemas:
-            self._schemas[schema_name] = self._w.register_schema(
-                schema_name, "jsonschema", json.dumps(JSON_SCHEMAS[schema_name]).encode()
-            )
-        cid = self._w.register_channel(topic, "json", self._schemas[schema_name])
-        self._channels[topic] = cid
-        return cid
-
-    def _write(self, cid: int, t_s: float, data: bytes) -> None:
-        t_ns = int(round(t_s * 1e9))
-        seq = self._seq.get(cid, 0)
-        self._seq[cid] = seq + 1
-        self._w.add_message(channel_id=cid, log_time=t_ns, data=data, publish_time=t_ns, sequence=seq)
-        self.messages += 1
-        self.bytes_payload += len(data)
+    def _log(self, topic: str, kind: Any, t_s: float, msg: Any) -> None:
+        self._typed(topic, kind).log(msg, log_time=self._ns(t_s))
+        self._written()
 
     def json(self, topic: str, schema: str, t_s: float, payload: dict[str, Any]) -> None:
-        """A JSON message on a JSON-schema channel (made on first use).
+        """A JSON message on a JSON-schema channel (made on first use); ``t_s`` is added to it.
 
         Parameters
         ----------
@@ -330,77 +516,299 @@ class Recorder:
         schema : str
             One of the ``lfctl.*`` JSON schemas (``lfctl.Tracker``, ``lfctl.Controller``, ...).
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
         payload : dict
             The message; numpy values and bytes (base64) are converted, NaN is refused.
         """
-        self._write(
-            self._json_channel(topic, schema),
-            t_s,
-            json.dumps(payload, separators=(",", ":"), allow_nan=False, default=_jsonable).encode(),
-        )
+        ch = self._channels.get(topic)
+        if ch is None:
+            ch = self._channels[topic] = foxglove.Channel(
+                topic,
+                message_encoding="json",
+                schema=foxglove.Schema(
+                    name=schema, encoding="jsonschema", data=json.dumps(JSON_SCHEMAS[schema]).encode()
+                ),
+                context=self._ctx,
+            )
+        data = json.dumps({"t_s": round(t_s, 6), **payload}, separators=(",", ":"), allow_nan=False, default=_jsonable)
+        ch.log(data.encode(), log_time=self._ns(t_s))
+        self._written()
 
-    # -- topics ----------------------------------------------------------------------------
-    def poses(self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray) -> None:
-        """``/<vehicle>/pose`` for each vehicle and one ``/tf`` per vehicle (ned -> vehicle).
+    # -- vehicles ----------------------------------------------------------------------------
+    def poses(
+        self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray, fix: bool = True
+    ) -> None:
+        """``/<vehicle>/pose`` and ``/<vehicle>/fix`` for each vehicle, and one ``/tf``: map ->
+        ned -> each vehicle -> each recorded camera.
 
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
         names : tuple of str
             The vehicles, in the order of the arrays.
         pos_ned_m : np.ndarray
             (N, 2) north, east, m.
         yaw_rad : np.ndarray
             (N,) headings, rad.
+        fix : bool
+            Also the LocationFix (from ``[link]`` home: a local frame whose origin is known).
         """
-        t_ns = int(round(t_s * 1e9))
-        for i, name in enumerate(names):
-            qx, qy, qz, qw = _quat_yaw(float(yaw_rad[i]))
-            pose = PoseInFrame(frame_id=WORLD_FRAME)
-            _ts(pose.timestamp, t_ns)
-            pose.pose.position.x, pose.pose.position.y = float(pos_ned_m[i, 0]), float(pos_ned_m[i, 1])
-            pose.pose.orientation.x, pose.pose.orientation.y, pose.pose.orientation.z, pose.pose.orientation.w = (
-                qx,
-                qy,
-                qz,
-                qw,
+        stamp = self._stamp(t_s)
+        lat0, lon0, alt0 = self.cfg.link.home_lat_deg, self.cfg.link.home_lon_deg, self.cfg.link.home_alt_m
+        tfs = [
+            _transform(
+                stamp,
+                MAP_FRAME,
+                WORLD_FRAME,
+                fm.Vector3(x=0.0, y=0.0, z=0.0),
+                fm.Quaternion(x=NED_IN_MAP[0], y=NED_IN_MAP[1], z=NED_IN_MAP[2], w=NED_IN_MAP[3]),
             )
-            self._write(self._proto_channel(f"/{name}/pose", PoseInFrame), t_s, pose.SerializeToString())
-            tf = FrameTransform(parent_frame_id=WORLD_FRAME, child_frame_id=name)
-            _ts(tf.timestamp, t_ns)
-            tf.translation.x, tf.translation.y = float(pos_ned_m[i, 0]), float(pos_ned_m[i, 1])
-            tf.rotation.x, tf.rotation.y, tf.rotation.z, tf.rotation.w = qx, qy, qz, qw
-            self._write(self._proto_channel("/tf", FrameTransform), t_s, tf.SerializeToString())
+        ]
+        for i, name in enumerate(names):
+            north, east, yaw = float(pos_ned_m[i, 0]), float(pos_ned_m[i, 1]), float(yaw_rad[i])
+            position, orientation = fm.Vector3(x=north, y=east, z=0.0), _quat_yaw(yaw)
+            self._log(
+                f"/{name}/pose",
+                fc.PoseInFrameChannel,
+                t_s,
+                fm.PoseInFrame(
+                    timestamp=stamp, frame_id=WORLD_FRAME, pose=fm.Pose(position=position, orientation=orientation)
+                ),
+            )
+            tfs.append(_transform(stamp, WORLD_FRAME, name, position, orientation))
+            if not fix:
+                continue
+            lat, lon, alt = ned_to_geodetic(north, east, 0.0, lat0, lon0, alt0)
+            self._log(
+                f"/{name}/fix",
+                fc.LocationFixChannel,
+                t_s,
+                fm.LocationFix(
+                    timestamp=stamp,
+                    frame_id=name,
+                    latitude=lat,
+                    longitude=lon,
+                    altitude=alt,
+                    heading=yaw % (2 * math.pi),
+                    color=_vehicle_colour(i),
+                ),
+            )
+        for follower, cam in self._mounts.items():
+            m = cam.mount_body_m
+            mount = fm.Vector3(x=float(m[0]), y=float(m[1]), z=float(m[2]))
+            tfs.append(_transform(stamp, follower, f"{follower}/camera", mount, _quat_matrix(cam.R_body_from_cam)))
+        self._log("/tf", fc.FrameTransformsChannel, t_s, fm.FrameTransforms(transforms=tfs))
 
-    def calibration(self, t_s: float, follower: str, K: np.ndarray, dist: np.ndarray, width: int, height: int) -> None:
-        """A follower's camera calibration (``/<follower>/camera/calibration``).
+    def set_mission(self, t_s: float, waypoints_ned_m: list[tuple[float, float]], radius_m: float) -> None:
+        """The leader's mission changed: its waypoints and acceptance circles go to ``/scene``
+        now (and with every full scene after).
 
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
+        waypoints_ned_m : list of (north, east)
+            The waypoints in the local frame, m (home not included).
+        radius_m : float
+            The acceptance radius, m.
+        """
+        self._waypoints, self._radius_m = list(waypoints_ned_m), radius_m
+        self._scene_at = -math.inf
+
+    def scene(self, t_s: float, slots: dict[str, tuple[float, float, float, float]]) -> None:
+        """``/scene``: each follower's commanded slot now, and every :data:`SCENE_REPEAT_S`
+        (and after a mission change) the vehicles with their banners and the mission (and each
+        camera's calibration again, for viewers that join late).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        slots : dict
+            Follower -> (slot north, slot east, target north, target east), m: where its
+            slot puts it, and its target.
+        """
+        stamp = self._stamp(t_s)
+        entities = []
+        for k, (follower, (sn, se, tn, te)) in enumerate(slots.items()):
+            ghost = _vehicle_colour(1 + k, 0.45)
+            entities.append(
+                fm.SceneEntity(
+                    timestamp=stamp,
+                    frame_id=WORLD_FRAME,
+                    id=f"slot/{follower}",
+                    spheres=[
+                        fm.SpherePrimitive(
+                            pose=_pose(sn, se, -0.05), size=fm.Vector3(x=0.12, y=0.12, z=0.12), color=ghost
+                        )
+                    ],
+                    lines=[
+                        fm.LinePrimitive(
+                            type=fm.LinePrimitiveLineType.LineStrip,
+                            pose=_pose(),
+                            thickness=2.0,
+                            scale_invariant=True,
+                            points=[fm.Point3(x=tn, y=te, z=-0.05), fm.Point3(x=sn, y=se, z=-0.05)],
+                            color=ghost,
+                        )
+                    ],
+                )
+            )
+        if t_s - self._scene_at >= SCENE_REPEAT_S:
+            self._scene_at = t_s
+            entities += [*self._vehicle_entities(stamp), self._mission_entity(stamp)]
+            for follower, cam in list(self._mounts.items()):
+                if t_s > 0:  # the calibration again, for viewers that joined after the start
+                    self.calibration(t_s, follower, cam)
+        self._log("/scene", fc.SceneUpdateChannel, t_s, fm.SceneUpdate(entities=entities))
+
+    def _vehicle_entities(self, stamp: fm.Timestamp) -> list[fm.SceneEntity]:
+        """Each vehicle as a body with its banner (panel and four markers) and its name,
+        locked to its own frame (FRD: x forward, z down)."""
+        b = self.cfg.banner
+        out = []
+        for i, v in enumerate(self.cfg.vehicles):
+            marker = _colour(0.9, 0.1, 0.1)
+            h, half = b.centre_height_m, b.side_m / 2
+            cubes = [
+                fm.CubePrimitive(
+                    pose=_pose(0.0, 0.0, -0.07), size=fm.Vector3(x=0.3, y=0.24, z=0.12), color=_vehicle_colour(i)
+                ),
+                fm.CubePrimitive(
+                    pose=_pose(-b.back_m, 0.0, -h),
+                    size=fm.Vector3(x=0.01, y=b.panel_size_m, z=b.panel_size_m),
+                    color=_colour(0.95, 0.95, 0.92),
+                ),
+            ]
+            for dy, dz in ((-half, -half), (half, -half), (half, half), (-half, half)):
+                cubes.append(
+                    fm.CubePrimitive(
+                        pose=_pose(-b.back_m - 0.008, dy, -h + dz),
+                        size=fm.Vector3(x=0.005, y=b.marker_size_m, z=b.marker_size_m),
+                        color=marker,
+                    )
+                )
+            out.append(
+                fm.SceneEntity(
+                    timestamp=stamp,
+                    frame_id=v.name,
+                    id=f"vehicle/{v.name}",
+                    frame_locked=True,
+                    cubes=cubes,
+                    texts=[
+                        fm.TextPrimitive(
+                            pose=_pose(0.0, 0.0, -0.45),
+                            billboard=True,
+                            font_size=14.0,
+                            scale_invariant=True,
+                            color=_colour(1.0, 1.0, 1.0),
+                            text=v.name,
+                        )
+                    ],
+                )
+            )
+        return out
+
+    def _mission_entity(self, stamp: fm.Timestamp) -> fm.SceneEntity:
+        """The waypoints (numbered spheres), the route through them and each acceptance circle."""
+        wps, r = self._waypoints, self._radius_m
+        blue = _colour(0.3, 0.8, 1.0)
+        circle = [(r * math.cos(a), r * math.sin(a)) for a in np.linspace(0.0, 2 * math.pi, 33)]
+        lines = [
+            fm.LinePrimitive(
+                type=fm.LinePrimitiveLineType.LineLoop,
+                pose=_pose(n, e, -0.01),
+                thickness=2.0,
+                scale_invariant=True,
+                points=[fm.Point3(x=dx, y=dy, z=0.0) for dx, dy in circle],
+                color=blue,
+            )
+            for n, e in wps
+        ]
+        if len(wps) > 1:
+            lines.append(
+                fm.LinePrimitive(
+                    type=fm.LinePrimitiveLineType.LineStrip,
+                    pose=_pose(),
+                    thickness=1.0,
+                    scale_invariant=True,
+                    points=[fm.Point3(x=n, y=e, z=-0.01) for n, e in wps],
+                    color=_colour(0.3, 0.8, 1.0, 0.5),
+                )
+            )
+        return fm.SceneEntity(
+            timestamp=stamp,
+            frame_id=WORLD_FRAME,
+            id="mission",
+            spheres=[
+                fm.SpherePrimitive(pose=_pose(n, e, -0.03), size=fm.Vector3(x=0.08, y=0.08, z=0.08), color=blue)
+                for n, e in wps
+            ],
+            lines=lines,
+            texts=[
+                fm.TextPrimitive(
+                    pose=_pose(n, e, -0.2),
+                    billboard=True,
+                    font_size=12.0,
+                    scale_invariant=True,
+                    color=blue,
+                    text=str(k + 1),
+                )
+                for k, (n, e) in enumerate(wps)
+            ],
+        )
+
+    # -- events ------------------------------------------------------------------------------
+    def event(self, t_s: float, source: str, text: str, level: str = "info") -> None:
+        """One line in ``/log`` (Foxglove's Log panel): lfctl's events, a vehicle's STATUSTEXT.
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        source : str
+            Who says it: a vehicle's name, or ``lfctl``.
+        text : str
+            The line (a mode change starts with :data:`EVENT_MODE`).
+        level : str
+            ``debug``, ``info``, ``warning`` or ``error``.
+        """
+        self._log(
+            "/log",
+            fc.LogChannel,
+            t_s,
+            fm.Log(timestamp=self._stamp(t_s), level=LEVELS[level], message=text, name=source),
+        )
+
+    # -- the camera --------------------------------------------------------------------------
+    def calibration(self, t_s: float, follower: str, camera: CameraModel) -> None:
+        """A follower's camera calibration (``/<follower>/camera/calibration``); from now on
+        its mount is in ``/tf`` too, so the 3D panel can place the camera.
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
         follower : str
             Whose camera.
-        K : np.ndarray
-            3x3 intrinsic matrix, pixels.
-        dist : np.ndarray
-            OpenCV distortion coefficients k1, k2, p1, p2.
-        width, height : int
-            Image size, pixels.
+        camera : CameraModel
+            Its intrinsics, distortion and mount.
         """
-        cal = CameraCalibration(frame_id=f"{follower}/camera", width=width, height=height, distortion_model="plumb_bob")
-        _ts(cal.timestamp, int(round(t_s * 1e9)))
-        cal.D.extend([float(dist[0]), float(dist[1]), float(dist[2]), float(dist[3]), 0.0])
-        cal.K.extend([float(v) for v in K.ravel()])
-        cal.R.extend([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0])
-        cal.P.extend(
-            [float(K[0, 0]), 0.0, float(K[0, 2]), 0.0, 0.0, float(K[1, 1]), float(K[1, 2]), 0.0, 0.0, 0.0, 1.0, 0.0]
+        K, dist = camera.K, camera.dist
+        self._mounts[follower] = camera
+        cal = fm.CameraCalibration(
+            timestamp=self._stamp(t_s),
+            frame_id=f"{follower}/camera",
+            width=camera.width,
+            height=camera.height,
+            distortion_model="plumb_bob",
+            D=[float(dist[0]), float(dist[1]), float(dist[2]), float(dist[3]), 0.0],
+            K=[float(v) for v in K.ravel()],
+            R=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
+            P=[float(K[0, 0]), 0.0, float(K[0, 2]), 0.0, 0.0, float(K[1, 1]), float(K[1, 2]), 0.0, 0.0, 0.0, 1.0, 0.0],
         )
-        self._write(
-            self._proto_channel(f"/{follower}/camera/calibration", CameraCalibration), t_s, cal.SerializeToString()
-        )
+        self._log(f"/{follower}/camera/calibration", fc.CameraCalibrationChannel, t_s, cal)
 
     def image_due(self, t_s: float, follower: str) -> bool:
         """Whether this camera tick's frame is recorded: ``image_rate_hz`` on average, no drift.
@@ -427,88 +835,90 @@ class Recorder:
         self._next_image[follower] = due + period if t_s - due < period else t_s + period
         return True
 
-    def camera(self, t_s: float, follower: str, sample: Any, jpeg: bytes | None = None) -> None:
-        """One camera tick: the image (``jpeg``, encoded by the camera when :meth:`image_due`
-        said so), annotations, tracker state, pose vs truth.
+    def camera(
+        self,
+        t_s: float,
+        follower: str,
+        track: TrackState | None,
+        pose: MarkerPose | None = None,
+        measurement: RelativeMeasurement | None = None,
+        truth: Any = None,
+        image: bytes | None = None,
+    ) -> None:
+        """One camera tick: the image (H.264 access unit or JPEG, as ``[recording]
+        image_format`` says, encoded by the camera when :meth:`image_due` said so), its
+        annotations, the tracker state and the pose against the truth, all stamped with the
+        frame's time.
 
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            The frame's simulation time, s.
         follower : str
             Whose camera.
-        sample : CameraSample
-            The tick's track, pose, measurement and truth (see
-            :class:`~lfctl.sim.camera_sensor.CameraSample`).
-        jpeg : bytes, optional
-            The frame as JPEG; None records no image this tick.
+        track : TrackState or None
+            The tracker's result (None before the target was found).
+        pose : MarkerPose, optional
+            The banner's pose from its markers, when seen.
+        measurement : RelativeMeasurement, optional
+            What the follower's stack was fed.
+        truth : FrameTruth, optional
+            What the frame really shows (the renderer's ground truth; none on a real rover).
+        image : bytes, optional
+            The frame encoded; None records no image this tick.
         """
-        t_ns = int(round(t_s * 1e9))
-        if jpeg is not None:
-            img = CompressedImage(frame_id=f"{follower}/camera", format="jpeg", data=jpeg)
-            _ts(img.timestamp, t_ns)
-            self._write(
-                self._proto_channel(f"/{follower}/camera/image/compressed", CompressedImage),
-                t_s,
-                img.SerializeToString(),
-            )
-        track, truth = sample.track, sample.truth
-        ann = ImageAnnotations()
-        if track is not None and track.bbox is not None:
-            x, y, w, h = track.bbox
-            box = PointsAnnotation(type=PointsAnnotation.Type.LINE_LOOP, thickness=2)
-            _ts(box.timestamp, t_ns)
-            for px, py in ((x, y), (x + w, y), (x + w, y + h), (x, y + h)):
-                p = box.points.add()
-                p.x, p.y = float(px), float(py)
-            colour = (0.1, 0.8, 0.1) if track.status.value == "tracking" else (1.0, 0.65, 0.0)
-            box.outline_color.r, box.outline_color.g, box.outline_color.b, box.outline_color.a = (*colour, 1.0)
-            ann.points.append(box)
-        if track is not None and track.markers is not None:
-            pts = PointsAnnotation(type=PointsAnnotation.Type.POINTS, thickness=6)
-            _ts(pts.timestamp, t_ns)
-            for u, v in track.markers:
-                p = pts.points.add()
-                p.x, p.y = float(u), float(v)
-            pts.outline_color.r, pts.outline_color.b, pts.outline_color.a = 1.0, 1.0, 1.0
-            ann.points.append(pts)
-        self._write(
-            self._proto_channel(f"/{follower}/camera/annotations", ImageAnnotations), t_s, ann.SerializeToString()
+        stamp = self._stamp(t_s)
+        if image is not None:
+            frame_id = f"{follower}/camera"
+            topic = image_topic(follower, self.cfg.recording.image_format)
+            if self.cfg.recording.image_format == "h264":
+                self._log(
+                    topic,
+                    fc.CompressedVideoChannel,
+                    t_s,
+                    fm.CompressedVideo(timestamp=stamp, frame_id=frame_id, data=image, format="h264"),
+                )
+            else:
+                self._log(
+                    topic,
+                    fc.CompressedImageChannel,
+                    t_s,
+                    fm.CompressedImage(timestamp=stamp, frame_id=frame_id, data=image, format="jpeg"),
+                )
+        self._log(
+            f"/{follower}/camera/annotations", fc.ImageAnnotationsChannel, t_s, _annotations(stamp, track, measurement)
         )
-        self.json(
-            f"/{follower}/tracker",
-            "lfctl.Tracker",
-            t_s,
-            {
-                "state": track.status.value if track else "lost",
-                "bbox": list(track.bbox) if track and track.bbox else None,
-                "quality": float(track.quality) if track else 0.0,
-                "distance": float(track.distance) if track else 1.0,
-                "markers": np.round(track.markers, 2).tolist()
-                if track is not None and track.markers is not None
-                else None,
-                "reason": track.reason if track else "not started",
-                "truth_bbox": list(truth.bbox) if truth.bbox else None,
-                "truth_visible_fraction": round(float(truth.visible_fraction), 4),
-            },
-        )
-        meas = sample.measurement
-        if sample.pose is not None and meas.range_m is not None and meas.bearing_rad is not None:
-            self.json(
-                f"/{follower}/pose_estimate",
-                "lfctl.PoseEstimate",
-                t_s,
-                {
-                    "method": sample.pose.method,
-                    "range_m": round(meas.range_m, 5),
-                    "bearing_deg": round(math.degrees(meas.bearing_rad), 4),
-                    "rel_heading_deg": round(math.degrees(sample.pose.rel_heading_rad), 3),
-                    "truth_range_m": round(truth.range_m, 5),
-                    "truth_bearing_deg": round(math.degrees(truth.bearing_rad), 4),
-                    "truth_rel_heading_deg": round(math.degrees(truth.rel_heading_rad), 3),
-                },
-            )
+        payload: dict[str, Any] = {
+            "state": track.status.value if track else "lost",
+            "bbox": list(track.bbox) if track and track.bbox else None,
+            "quality": float(track.quality) if track else 0.0,
+            "distance": float(track.distance) if track else 1.0,
+            "markers": np.round(track.markers, 2).tolist() if track is not None and track.markers is not None else None,
+            "reason": track.reason if track else "not started",
+        }
+        if truth is not None:
+            payload["truth_bbox"] = list(truth.bbox) if truth.bbox else None
+            payload["truth_visible_fraction"] = round(float(truth.visible_fraction), 4)
+        self.json(f"/{follower}/tracker", "lfctl.Tracker", t_s, payload)
+        if (
+            pose is not None
+            and measurement is not None
+            and measurement.range_m is not None
+            and measurement.bearing_rad is not None
+        ):
+            est: dict[str, Any] = {
+                "method": pose.method,
+                "range_m": round(measurement.range_m, 5),
+                "bearing_deg": round(math.degrees(measurement.bearing_rad), 4),
+                "rel_heading_deg": round(math.degrees(pose.rel_heading_rad), 3),
+            }
+            if truth is not None:
+                est["truth_range_m"] = round(truth.range_m, 5)
+                est["truth_bearing_deg"] = round(math.degrees(truth.bearing_rad), 4)
+                est["truth_rel_heading_deg"] = round(math.degrees(truth.rel_heading_rad), 3)
+            self.json(f"/{follower}/pose_estimate", "lfctl.PoseEstimate", t_s, est)
 
+    # -- guidance, link, mission ----------------------------------------------------------------
     def metadata(self, name: str, values: dict[str, str]) -> None:
         """A metadata record (after the run's start: what the run found, e.g. link statistics).
 
@@ -519,7 +929,8 @@ class Recorder:
         values : dict of str
             Its key-value pairs.
         """
-        self._w.add_metadata(name, values)
+        if self._mcap is not None:
+            self._mcap.write_metadata(name, values)
 
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
         """One guidance step of a follower (``/<follower>/controller``).
@@ -527,7 +938,7 @@ class Recorder:
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
         follower : str
             Whose step.
         payload : dict
@@ -536,26 +947,42 @@ class Recorder:
         self.json(f"/{follower}/controller", "lfctl.Controller", t_s, payload)
 
     def mavlink(self, t_s: float, vehicle: str, packet: dict[str, Any]) -> None:
-        """One MAVLink packet in or out of a vehicle's endpoint (``/mavlink/<vehicle>``).
+        """One MAVLink packet in or out of a vehicle's endpoint (``/mavlink/<vehicle>``); a
+        STATUSTEXT also goes to ``/log``.
 
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
         vehicle : str
             Whose endpoint.
         packet : dict
             As :func:`~lfctl.link.endpoint.packet_record` makes it.
         """
         self.json(f"/mavlink/{vehicle}", "lfctl.MavlinkPacket", t_s, packet)
+        if packet["name"] == "STATUSTEXT":
+            fields = packet["fields"]
+            sev = int(fields.get("severity", 6))
+            src = vehicle if packet["direction"] == "out" else f"{vehicle} <- {packet['sysid']}/{packet['compid']}"
+            self._log(
+                "/log",
+                fc.LogChannel,
+                t_s,
+                fm.Log(
+                    timestamp=self._stamp(t_s),
+                    level=SEVERITY_LEVEL[max(0, min(7, sev))],
+                    message=str(fields.get("text", "")),
+                    name=src,
+                ),
+            )
 
     def mission_reached(self, t_s: float, index: int, active: int, count: int) -> None:
-        """The leader reached a waypoint (``/leader/mission``).
+        """The leader reached a waypoint (``/leader/mission``, and a line in ``/log``).
 
         Parameters
         ----------
         t_s : float
-            Simulation time, s (the message's log time).
+            Simulation time, s.
         index : int
             The waypoint reached, from 0.
         active : int
@@ -569,9 +996,16 @@ class Recorder:
             t_s,
             {"event": "reached", "index": index, "active": active, "count": count},
         )
+        self.event(t_s, self.cfg.vehicles[0].name, f"reached waypoint {index + 1}/{count}")
+
+    # -- the end ---------------------------------------------------------------------------------
+    def _close_file(self) -> None:
+        if self._mcap is not None:
+            self._mcap.close()
 
     def close(self, reason: str = "completed", t_s: float | None = None) -> None:
-        """Finish the file: why the run ended (metadata ``end``), summary, indexes, footer.
+        """Finish the file (why the run ended: metadata ``end``; summary, indexes, footer) and
+        stop the server.
 
         Parameters
         ----------
@@ -584,24 +1018,78 @@ class Recorder:
             return
         self._closed = True
         try:
-            end = {"reason": reason} | ({"t_s": repr(t_s)} if t_s is not None else {})
-            self._w.add_metadata("end", end)
-            self._w.finish()
+            if self._mcap is not None:
+                end = {"reason": reason} | ({"t_s": repr(t_s)} if t_s is not None else {})
+                self._mcap.write_metadata("end", end)
+                self._close_file()
         finally:
-            self._f.close()
+            if self._server is not None:
+                self._server.stop()
 
     def discard(self) -> None:
         """Close and delete the file (a run that never started has nothing to keep)."""
         if not self._closed:
             self._closed = True
-            self._f.close()
-        self.path.unlink(missing_ok=True)
+            self._close_file()
+            if self._server is not None:
+                self._server.stop()
+        if self.path is not None:
+            self.path.unlink(missing_ok=True)
 
     def __enter__(self) -> Recorder:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close("completed" if exc[0] is None else f"error: {exc[0].__name__}")  # type: ignore[union-attr]
+
+
+def _annotations(
+    stamp: fm.Timestamp, track: TrackState | None, measurement: RelativeMeasurement | None
+) -> fm.ImageAnnotations:
+    """The tracked window (green tracking, orange coasting), the markers (magenta) and a line
+    of state, each stamped with the frame's time."""
+    points, texts = [], []
+    label = "not started"
+    if track is not None:
+        label = f"{track.status.value}  q {track.quality:.2f}"
+        if track.bbox is not None:
+            x, y, w, h = track.bbox
+            tracking = track.status.value == "tracking"
+            points.append(
+                fm.PointsAnnotation(
+                    timestamp=stamp,
+                    type=fm.PointsAnnotationType.LineLoop,
+                    points=[
+                        fm.Point2(x=float(px), y=float(py))
+                        for px, py in ((x, y), (x + w, y), (x + w, y + h), (x, y + h))
+                    ],
+                    outline_color=_colour(0.1, 0.8, 0.1) if tracking else _colour(1.0, 0.65, 0.0),
+                    thickness=2.0,
+                )
+            )
+        if track.markers is not None:
+            points.append(
+                fm.PointsAnnotation(
+                    timestamp=stamp,
+                    type=fm.PointsAnnotationType.Points,
+                    points=[fm.Point2(x=float(u), y=float(v)) for u, v in track.markers],
+                    outline_color=_colour(1.0, 0.0, 1.0),
+                    thickness=6.0,
+                )
+            )
+    if measurement is not None and measurement.range_m is not None and measurement.bearing_rad is not None:
+        label += f"  range {measurement.range_m:.2f} m  bearing {math.degrees(measurement.bearing_rad):+.1f} deg"
+    texts.append(
+        fm.TextAnnotation(
+            timestamp=stamp,
+            position=fm.Point2(x=8.0, y=24.0),
+            text=label,
+            font_size=16.0,
+            text_color=_colour(1.0, 1.0, 1.0),
+            background_color=_colour(0.0, 0.0, 0.0, 0.5),
+        )
+    )
+    return fm.ImageAnnotations(timestamp=stamp, points=points, texts=texts)
 
 
 def _jsonable(value: Any) -> Any:

@@ -1,17 +1,19 @@
-"""Followers' cameras across processes: render, track, estimate the pose and encode the JPEG
-of every follower in lockstep, some in this process and the rest in worker processes.
+"""Followers' cameras across processes: render, track, estimate the pose and encode the image
+(JPEG or H.264 for the log, H.264 for the live stream) of every follower in lockstep, some in this process and the rest in worker processes.
 
 Rendering and tracking are numpy and OpenCV driven from Python, so threads would share one
 interpreter lock; processes do not. Each follower's camera (renderer, tracker, their random
 streams) lives in exactly one process for the whole run and sees the same world states in
 the same order, so a run gives the same result with any number of workers. Per camera tick
 the main process sends the world state (a few hundred bytes) to every worker, runs its own
-followers meanwhile, then collects the workers' samples (no image: the JPEG if one is due).
+followers meanwhile, then collects the workers' samples (no raw image: the encoded ones that are due). A camera's
+H.264 encoders live in its process, so their streams stay whole whichever process it is.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import signal
 import socket
@@ -29,9 +31,11 @@ import numpy as np
 
 from lfctl.config import Config
 from lfctl.errors import LfctlError
+from lfctl.record.video import H264Encoder
 from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.draw import annotate
 from lfctl.vision.track_state import RelativeMeasurement
 
 __all__ = ["CameraJob", "CameraPool", "CameraResult", "CameraWorkerError", "default_workers"]
@@ -50,19 +54,21 @@ class CameraJob:
     follower: str  # whose camera
     me: int  # the follower's index in the world state
     target: int  # its target's index in the world state
-    jpeg_quality: int | None  # encode the frame at this quality (None: no image is due)
+    image: bool  # an image is due for the log (encoded as ``[recording] image_format`` says)
+    stream: bool = False  # encode the frame for the live RTP stream too (annotated if ``[live] video_annotated``)
 
 
 @dataclass(frozen=True)
 class CameraResult:
-    """What a camera tick hands back: the sample, the JPEG if one was due, and the seconds
-    each stage took (for the cost split)."""
+    """What a camera tick hands back: the sample, the encoded images that were due, and the
+    seconds each stage took (for the cost split)."""
 
     sample: CameraSample  # the tick's sample (its frame None when it came from a worker)
-    jpeg: bytes | None  # None when no image was due
+    image: bytes | None  # the log's JPEG or H.264 access unit; None when no image was due
     render_s: float  # rendering, s
     vision_s: float  # tracking and pose
-    encode_s: float  # JPEG
+    encode_s: float  # encoding the log's image
+    stream: bytes | None = None  # the live stream's H.264 access unit, when asked for
 
 
 def default_workers(cfg: Config) -> int:
@@ -89,20 +95,60 @@ def usable_cores() -> int:
 
 
 class _Cameras:
-    """The cameras one process runs.
+    """The cameras one process runs, with their encoders.
 
-    With a core to spare (``threaded``), one JPEG encoder thread encodes a frame while its
-    tracker runs (imencode releases the interpreter lock). Without one the thread only
-    costs: handing the lock back and forth on one core made a leader + 1 run ~20 % slower
-    than encoding in line, so then the frame is encoded in line.
+    With a core to spare (``threaded``), one encoder thread encodes a frame for the log while
+    its tracker runs (imencode and x264 release the interpreter lock). Without one the
+    thread only costs: handing the lock back and forth on one core made a leader + 1 run
+    ~20 % slower than encoding in line, so then the frame is encoded in line. The single
+    thread keeps each H.264 encoder's frames in order.
     """
 
     def __init__(self, cfg: Config, specs: list[tuple[str, int]], threaded: bool) -> None:
+        self.cfg = cfg
         self.sensors = {name: CameraSensor(cfg, name, seed) for name, seed in specs}
-        self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-jpeg") if threaded else None
+        # x264 through PyAV takes and gives back the interpreter lock several times a frame:
+        # beside a busy tracker thread each hand-over waits for a switch interval, which made
+        # a thread 4x slower than encoding in line; JPEG (one call, lock released) gains
+        threaded = threaded and cfg.recording.image_format == "jpeg"
+        self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-encode") if threaded else None
+        self._video: dict[str, H264Encoder] = {}  # the log's H.264, per follower
+        self._stream: dict[str, H264Encoder] = {}  # the live stream's H.264, per follower
+
+    def _encode_image(self, follower: str, frame: np.ndarray) -> tuple[bytes | None, float]:
+        """The frame for the log, as ``[recording] image_format`` says, and the seconds it took."""
+        rec = self.cfg.recording
+        t0 = time.perf_counter()
+        if rec.image_format == "jpeg":
+            ok, buf = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, rec.jpeg_quality])
+            return (buf.tobytes() if ok else None), time.perf_counter() - t0
+        enc = self._video.get(follower)
+        if enc is None:
+            fps = min(rec.image_rate_hz, self.cfg.sim.camera_rate_hz)
+            h, w = frame.shape[:2]
+            enc = self._video[follower] = H264Encoder(w, h, fps, rec.video_bitrate_kbps, rec.video_gop)
+        return enc.encode(frame).data, time.perf_counter() - t0
+
+    def _encode_stream(self, follower: str, frame: np.ndarray, sample: CameraSample) -> bytes:
+        """The frame for the live stream (annotated when ``[live] video_annotated``)."""
+        live = self.cfg.live
+        enc = self._stream.get(follower)
+        if enc is None:
+            fps = self.cfg.sim.camera_rate_hz
+            h, w = frame.shape[:2]
+            enc = self._stream[follower] = H264Encoder(w, h, fps, live.video_bitrate_kbps, max(1, round(fps)))
+        if live.video_annotated:
+            m = sample.measurement
+            label = f"{follower} t {sample.t_s:.1f} s " + (
+                f"{m.status.value} r {m.range_m:.2f} m b {math.degrees(m.bearing_rad):+.1f} deg"
+                if m.range_m is not None and m.bearing_rad is not None
+                else m.status.value
+            )
+            frame = annotate(frame, sample.track, label)
+        return enc.encode(frame).data
 
     def run(self, t_s: float, world: WorldState, jobs: list[CameraJob], keep_frames: bool) -> list[CameraResult]:
-        pending: list[tuple[CameraSample, Future[tuple[bytes | None, float]] | None, float, float]] = []
+        pending: list[tuple[CameraJob, CameraSample, Future[tuple[bytes | None, float]] | None, float, float]] = []
         for job in jobs:
             sensor = self.sensors[job.follower]
             started: list[Future[tuple[bytes | None, float]]] = []
@@ -110,38 +156,36 @@ class _Cameras:
             def encode(
                 _t: float,
                 frame: np.ndarray,
-                quality: int | None = job.jpeg_quality,
+                job: CameraJob = job,
                 started: list[Future[tuple[bytes | None, float]]] = started,
             ) -> None:
-                if quality is None:
+                if not job.image:
                     return
                 if self._encoder is not None:
-                    started.append(self._encoder.submit(_jpeg, frame, quality))
+                    started.append(self._encoder.submit(self._encode_image, job.follower, frame))
                 else:
                     done: Future[tuple[bytes | None, float]] = Future()
-                    done.set_result(_jpeg(frame, quality))
+                    done.set_result(self._encode_image(job.follower, frame))
                     started.append(done)
 
             r0, v0 = sensor.render_s, sensor.vision_s
             sample = sensor.capture(t_s, world, job.me, job.target, encode)
-            pending.append((sample, started[0] if started else None, sensor.render_s - r0, sensor.vision_s - v0))
+            pending.append((job, sample, started[0] if started else None, sensor.render_s - r0, sensor.vision_s - v0))
         out = []
-        for sample, fut, render_s, vision_s in pending:
-            jpeg, encode_s = fut.result() if fut is not None else (None, 0.0)
+        for job, sample, fut, render_s, vision_s in pending:
+            image, encode_s = fut.result() if fut is not None else (None, 0.0)
+            stream = (
+                self._encode_stream(job.follower, sample.frame, sample)
+                if job.stream and sample.frame is not None
+                else None
+            )
             kept = sample if keep_frames else replace(sample, frame=None)
-            out.append(CameraResult(kept, jpeg, render_s, vision_s, encode_s))
+            out.append(CameraResult(kept, image, render_s, vision_s, encode_s, stream))
         return out
 
     def close(self) -> None:
         if self._encoder is not None:
             self._encoder.shutdown(wait=True, cancel_futures=True)
-
-
-def _jpeg(frame: np.ndarray, quality: int) -> tuple[bytes | None, float]:
-    """JPEG of a frame and the seconds it took."""
-    t0 = time.perf_counter()
-    ok, buf = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, quality])
-    return (buf.tobytes() if ok else None), time.perf_counter() - t0
 
 
 def _worker_main(conn: Connection) -> None:

@@ -51,7 +51,10 @@ class CameraSensor:
         self.renderer = Renderer(cfg.camera, cfg.banner, cfg.scene, seed)
         slot = cfg.slots().get(follower)
         self.perception = BannerPerception.from_config(
-            cfg.camera, cfg.banner, (slot.range_m, slot.bearing_rad) if slot is not None else None
+            cfg.camera,
+            cfg.banner,
+            (slot.range_m, slot.bearing_rad) if slot is not None else None,
+            kind=cfg.camera.tracker,
         )
         self.render_s = 0.0  # seconds spent rendering, and tracking + pose (the cost split)
         self.vision_s = 0.0

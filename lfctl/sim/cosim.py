@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,11 +21,22 @@ import numpy as np
 from lfctl.config import Config, VehicleConfig
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.build import build_model
-from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuInstance, FmuLibrary, RoleMap
+from lfctl.fmu.load import (
+    INPUT_ROLES,
+    OUTPUT_BOUNDS,
+    OUTPUT_ROLES,
+    POSE_ROLES,
+    FmuInstance,
+    FmuLibrary,
+    RoleMap,
+)
 from lfctl.frames import wrap_pi
 from lfctl.sim.world import WorldState
 
 __all__ = ["RunResult", "Simulation", "TaskFn"]
+
+# The output check squares outputs; a huge one overflows to inf, which is what it looks for.
+warnings.filterwarnings("ignore", "overflow encountered", RuntimeWarning, r"lfctl\.sim\.cosim")
 
 
 #: a scheduled task: called with the simulation time, s
@@ -101,6 +113,10 @@ class Simulation:
         # FMU-unit rows the instances read and write directly (no copies per step)
         self._cmd_raw = np.zeros((n, len(INPUT_ROLES)))
         self._out_raw = np.zeros((n, len(OUTPUT_ROLES)))
+        # the output check (step()): raw outputs times 1 / (their bound in FMU units)
+        self._out_flat = self._out_raw.reshape(-1)  # a view: the outputs as one vector
+        self._out_weight = np.ones_like(self._out_flat)
+        self._out_scratch = np.zeros_like(self._out_flat)
         self._in_scale = np.ones((n, len(INPUT_ROLES)))
         self._out_scale = np.ones((n, len(OUTPUT_ROLES)))
         self._origin = np.zeros((n, 3))  # north, east, yaw of the FMU origin (unmapped pose)
@@ -123,6 +139,9 @@ class Simulation:
                 lib = self._library(v)
                 self._in_scale[i] = [1.0 / lib.scale[r] for r in INPUT_ROLES]
                 self._out_scale[i] = [lib.scale[r] for r in OUTPUT_ROLES]
+                self._out_weight.reshape(self._out_raw.shape)[i] = [
+                    lib.scale[r] / OUTPUT_BOUNDS[r] for r in OUTPUT_ROLES
+                ]
                 if not lib.pose_mapped:
                     self._origin[i] = (v.north_m, v.east_m, v.yaw_rad)
                 inst = lib.instantiate(
@@ -224,7 +243,15 @@ class Simulation:
 
     # -- running -------------------------------------------------------------------------
     def step(self) -> None:
-        """One tick: due tasks at t, then every FMU from t to t + dt."""
+        """One tick: due tasks at t, then every FMU from t to t + dt, then the outputs checked.
+
+        The check (docs/architecture.md, "Containing FMUs") is two vector operations over
+        every vehicle's raw outputs, each divided by its bound
+        (:data:`~lfctl.fmu.load.OUTPUT_BOUNDS`), and the sum of their squares: NaN and inf make
+        it NaN or inf, and any output beyond its bound makes it exceed 1; only then is each
+        instance checked (:meth:`~lfctl.fmu.load.FmuInstance.check_outputs`), which raises
+        FmuError naming the FMU, the variable, the value and the time.
+        """
         tick = self.tick
         clock = time.perf_counter
         for task in self._tasks:
@@ -239,6 +266,10 @@ class Simulation:
         t0 = clock()
         for inst in self._instances:
             inst.step(dt)
+        w = np.multiply(self._out_flat, self._out_weight, out=self._out_scratch)
+        if not w.dot(w) <= 1.0:  # False for NaN too
+            for inst in self._instances:
+                inst.check_outputs()
         self.task_time_s["physics"] = self.task_time_s.get("physics", 0.0) + clock() - t0
         self.tick = tick + 1
         self.t_s = self.tick * dt

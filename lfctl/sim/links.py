@@ -1,7 +1,8 @@
 """The run's MAVLink side: one endpoint per vehicle, the leader's mission set-up, and each
 follower's companion. Lockstep runs talk in memory through the real codec and handlers;
 ``--realtime`` adds a UDP port per vehicle for QGroundControl, MAVProxy, MAVSDK or
-`lfctl gcs`. Owns its sockets; close() releases them."""
+`lfctl gcs`, and, with live video, a MAVLink camera component per follower that announces
+its stream. Owns its sockets; close() releases them."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from collections.abc import Callable
 from typing import Any
 
 from lfctl.config import Config
+from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.companion import Companion
 from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, VehicleEndpoint
 from lfctl.link.gcs import GCS_SYSID, GroundStation
@@ -44,14 +46,24 @@ class Links:
     tap : callable, optional
         Sees every packet of every endpoint: ``tap(vehicle, direction, msg, raw)`` (the
         recorder).
+    video_ports : dict, optional
+        Follower -> the UDP port its camera's RTP stream goes to: with ``realtime`` each such
+        follower's system gets a camera component (100) on its UDP port that announces it.
     """
 
-    def __init__(self, cfg: Config, realtime: bool, tap: Callable[[str, str, Any, bytes], None] | None = None) -> None:
+    def __init__(
+        self,
+        cfg: Config,
+        realtime: bool,
+        tap: Callable[[str, str, Any, bytes], None] | None = None,
+        video_ports: dict[str, int] | None = None,
+    ) -> None:
         lc = cfg.link
         self.home = (lc.home_lat_deg, lc.home_lon_deg, lc.home_alt_m)
         self.endpoints: list[VehicleEndpoint] = []
         self.peers: list[MemoryLink] = []  # the in-memory other ends (GCS for the leader, companion for followers)
         self.udp: list[UdpLink] = []
+        self.cameras: list[CameraComponent] = []  # the followers' camera components (live video)
         gcs_out = []
         if lc.gcs_udpout:
             host, port = lc.gcs_udpout.rsplit(":", 1)
@@ -65,6 +77,22 @@ class Links:
                 link = Fanout(udp, end)
             ep_tap = (lambda d, m, raw, _n=v.name: tap(_n, d, m, raw)) if tap is not None else None
             key = signing_key_from_passphrase(lc.signing_passphrase) if realtime else None
+            if realtime and video_ports is not None and v.name in video_ports:
+                camera = CameraComponent(
+                    1 + i,
+                    udp.send,
+                    video_port=video_ports[v.name],
+                    width=cfg.camera.width_px,
+                    height=cfg.camera.height_px,
+                    fps=cfg.sim.camera_rate_hz,
+                    bitrate_kbps=cfg.live.video_bitrate_kbps,
+                    hfov_deg=math.degrees(cfg.camera.hfov_rad),
+                    name=f"{v.name} camera",
+                    signing_key=key,
+                    tap=ep_tap,
+                )
+                self.cameras.append(camera)
+                link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
             # the scenario's speeds and radii: AUTO's for the leader, the formation's speed
             # limit for followers' GUIDED setpoints (both Rover's WP_SPEED)
@@ -134,6 +162,8 @@ class Links:
                 },
             )
             self.peers[i].recv()  # telemetry to the in-memory peer: nobody reads it in a run
+        for camera in self.cameras:
+            camera.tick(t_s)
 
     def close(self) -> None:
         """Close the UDP sockets."""

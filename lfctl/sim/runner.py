@@ -31,16 +31,18 @@ from lfctl.follower.stack import Follower, formation_settings
 from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import Odometry
 from lfctl.link.endpoint import MODE_NAMES, packet_record
-from lfctl.link.mission import is_nav
+from lfctl.link.mission import is_nav, to_legs
 from lfctl.link.mission_server import ListChange
 from lfctl.metrics import FormationMetrics, formation_metrics
-from lfctl.record.writer import Recorder
+from lfctl.record.rtp import RtpH264Sender
+from lfctl.record.writer import EVENT_MODE, Recorder, scenario_events
 from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
 from lfctl.sim.camera_sensor import CameraSample
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.driver import VehicleDriver
 from lfctl.sim.links import Links
 from lfctl.sim.truth_sensor import TruthSensor
+from lfctl.sim.watchdog import finish_on_abandon
 from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
@@ -121,7 +123,8 @@ class SimFollower:
 
 
 class CameraTask:
-    """Render and perceive every follower's view; hand frames to the recorder."""
+    """Render and perceive every follower's view; hand the frames to the log and the live
+    video stream."""
 
     def __init__(
         self,
@@ -130,41 +133,78 @@ class CameraTask:
         followers: list[SimFollower],
         recorder: Recorder | None,
         on_frame: Callable[[str, CameraSample], None] | None,
+        video: dict[str, RtpH264Sender] | None = None,
     ) -> None:
         self.sim = sim
         self.pool = pool
         self.followers = followers
         self.recorder = recorder
         self.on_frame = on_frame
+        self.video = video or {}
         self.record_s = 0.0  # wall time the recorder spends on camera ticks (annotations, messages)
 
     def __call__(self, t_s: float) -> None:
         world = self.sim.state()
         rec = self.recorder
-        quality = self.sim.config.recording.jpeg_quality
         jobs = [
-            CameraJob(f.name, f.index, f.target, quality if rec is not None and rec.image_due(t_s, f.name) else None)
+            CameraJob(
+                f.name,
+                f.index,
+                f.target,
+                image=rec is not None and rec.image_due(t_s, f.name),
+                stream=f.name in self.video,
+            )
             for f in self.followers
         ]
         for job, res in zip(jobs, self.pool.capture(t_s, world, jobs), strict=True):
             if self.on_frame is not None:
                 self.on_frame(job.follower, res.sample)
+            if res.stream is not None:
+                self.video[job.follower].send(res.stream, t_s)
             if rec is not None:
                 t0 = time.perf_counter()
-                rec.camera(t_s, job.follower, res.sample, res.jpeg)
+                s = res.sample
+                rec.camera(t_s, job.follower, s.track, s.pose, s.measurement, s.truth, res.image)
                 self.record_s += time.perf_counter() - t0
 
 
 class TelemetryTask:
-    """Every vehicle's pose to the log."""
+    """Every vehicle's pose, position and place in the scene to the log; the leader's
+    mission when it changes; the scenario's events as they happen."""
 
-    def __init__(self, sim: Simulation, recorder: Recorder) -> None:
+    def __init__(self, sim: Simulation, recorder: Recorder, links: Links, followers: list[SimFollower]) -> None:
         self.sim = sim
         self.recorder = recorder
+        self.links = links
+        self.followers = followers
+        self._mission_version = -1
+        self._events = scenario_events(sim.config)
 
     def __call__(self, t_s: float) -> None:
         st = self.sim.state()
-        self.recorder.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
+        rec = self.recorder
+        rec.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
+        leader = self.links.endpoints[0]
+        if leader.mission_version != self._mission_version:
+            self._mission_version = leader.mission_version
+            seen: dict[int, tuple[float, float]] = {}
+            for leg in to_legs(leader.mission, self.links.home):
+                seen.setdefault(leg.seq, (leg.north_m, leg.east_m))
+            rec.set_mission(t_s, list(seen.values()), leader.param("WP_RADIUS"))
+        while self._events and self._events[0][0] <= t_s:
+            rec.event(t_s, "scenario", self._events.pop(0)[1])
+        slots = {}
+        for f in self.followers:
+            me, tgt = st.vehicle(f.index), st.vehicle(f.target)
+            settings = f.stack.settings
+            heading = me.yaw_rad + settings.bearing_cmd_rad
+            slots[f.name] = (
+                tgt.north_m - settings.range_cmd_m * math.cos(heading),
+                tgt.east_m - settings.range_cmd_m * math.sin(heading),
+                tgt.north_m,
+                tgt.east_m,
+            )
+        rec.scene(t_s, slots)
 
 
 class GuidanceTask:
@@ -262,17 +302,32 @@ class GuidanceTask:
 
 
 class LinkTask:
-    """Endpoints read their links and stream telemetry; each vehicle obeys its endpoint."""
+    """Endpoints read their links and stream telemetry; each vehicle obeys its endpoint; a
+    vehicle's mode or arming changing is an event in the log."""
 
-    def __init__(self, sim: Simulation, links: Links, drivers: list[VehicleDriver]) -> None:
+    def __init__(
+        self, sim: Simulation, links: Links, drivers: list[VehicleDriver], recorder: Recorder | None = None
+    ) -> None:
         self.sim = sim
         self.links = links
         self.drivers = drivers
+        self.recorder = recorder
+        self._states: dict[str, tuple[int, bool]] = {}
 
     def __call__(self, t_s: float) -> None:
         self.links.tick(t_s, self.sim.state())
         for driver in self.drivers:
             self.sim.set_command(driver.index, *driver.link_command())
+        if self.recorder is not None:
+            for ep in self.links.endpoints:
+                now = (ep.mode, ep.armed)
+                was = self._states.get(ep.name)
+                if was != now:
+                    self._states[ep.name] = now
+                    if was is None or was[0] != now[0]:
+                        self.recorder.event(t_s, ep.name, EVENT_MODE + MODE_NAMES.get(ep.mode, str(ep.mode)))
+                    if was is None or was[1] != now[1]:
+                        self.recorder.event(t_s, ep.name, "armed" if ep.armed else "disarmed")
 
 
 def run_scenario(
@@ -287,6 +342,9 @@ def run_scenario(
     record_to: Path | None = None,
     on_links: Callable[[Links], None] | None = None,
     stop: Callable[[], bool] | None = None,
+    live: tuple[str, int] | None = None,
+    video: tuple[str, int] | None = None,
+    on_live: Callable[[int], None] | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -319,53 +377,86 @@ def run_scenario(
     stop : callable, optional
         Asked after every physics step; True ends the run with KeyboardInterrupt at that
         point (see :meth:`Simulation.run`).
+    live : (host, port), optional
+        Serve the run on a Foxglove WebSocket there while it runs (port 0: a free one), with
+        the same messages as the log.
+    video : (host, port), optional
+        Stream each follower's camera as RTP/UDP H.264 there, follower k to ``port + k - 1``
+        (camera sensing only); with ``realtime`` each follower's system also gets a MAVLink
+        camera component that announces its stream.
+    on_live : callable, optional
+        Told the Foxglove WebSocket's port once it listens.
+
+    Raises
+    ------
+    ConfigError
+        A bad controller, or ``video`` without camera sensing.
+    RecordError
+        The log cannot be created, or the WebSocket cannot listen there.
     """
     law = controller or cfg.guidance.controller
     if law not in ("smc", "p"):
         raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
+    if video is not None and cfg.sim.sensing != "camera":
+        raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
-        with _recording(record_to, cfg, sim) as recorder:
+        with _recording(record_to, cfg, sim, live) as recorder:
             tap = None
             if recorder is not None:
                 recorder.attach_fmus(sim.fmu_paths)  # provenance first: before any message
+                if on_live is not None and recorder.live_port is not None:
+                    on_live(recorder.live_port)
 
                 def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
                     recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw))
 
-            links = Links(cfg, sim.realtime, tap)
+            video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
+            links = Links(cfg, sim.realtime, tap, video_ports)
+            senders: dict[str, RtpH264Sender] = {}
             try:
+                if video is not None and video_ports is not None:
+                    for name, port in video_ports.items():
+                        senders[name] = RtpH264Sender(video[0], port)
                 if on_links is not None:
                     on_links(links)
-                report = _closed_loop(cfg, sim, links, law, duration_s, progress, on_frame, recorder, stop)
+                report = _closed_loop(
+                    cfg, sim, links, law, duration_s, progress, on_frame, recorder, stop, senders or None
+                )
             finally:
+                for sender in senders.values():
+                    sender.close()
                 if recorder is not None and sim.tick > 0:
                     for ep in links.endpoints:  # what each link read and refused, for the audit
                         recorder.metadata(
                             f"link.{ep.name}", {k: str(v) for k, v in dataclasses.asdict(ep.stats).items()}
                         )
                 links.close()
-        if recorder is not None:
+        if recorder is not None and recorder.path is not None:
             report.log_path, report.log_messages = recorder.path, recorder.messages
     return report
 
 
 @contextlib.contextmanager
-def _recording(path: Path | None, cfg: Config, sim: Simulation) -> Iterator[Recorder | None]:
-    """The run's recorder, finished with the reason the run ended; removed when the run
-    ended before its first step (nothing to audit)."""
-    if path is None:
+def _recording(
+    path: Path | None, cfg: Config, sim: Simulation, live: tuple[str, int] | None
+) -> Iterator[Recorder | None]:
+    """The run's log (a file, a live server, or both), finished with the reason the run
+    ended; the file is removed when the run ended before its first step (nothing to audit)."""
+    if path is None and live is None:
         yield None
         return
-    rec = Recorder(path, cfg)
-    try:
-        yield rec
-    except BaseException as exc:
-        if sim.tick == 0:
-            rec.discard()
-        else:
-            reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"error: {type(exc).__name__}: {exc}"
-            rec.close(reason, sim.t_s)
-        raise
+    rec = Recorder(path, cfg, live=live)
+    # an FMU stuck in a call when the run is told to stop: the watchdog finishes the log
+    with finish_on_abandon(lambda message: rec.close(f"error: {message}", sim.t_s)):
+        try:
+            yield rec
+        except BaseException as exc:
+            if sim.tick == 0:
+                rec.discard()
+            else:
+                reason = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"error: {type(exc).__name__}: {exc}"
+                rec.close(reason, sim.t_s)
+            raise
     rec.close("completed", sim.t_s)
 
 
@@ -379,6 +470,7 @@ def _closed_loop(
     on_frame: Callable[[str, CameraSample], None] | None,
     recorder: Recorder | None,
     stop: Callable[[], bool] | None,
+    video: dict[str, RtpH264Sender] | None = None,
 ) -> RunReport:
     idx = sim.index
     step_s = 1.0 / cfg.sim.guidance_rate_hz
@@ -411,16 +503,19 @@ def _closed_loop(
     try:
         camera_task = None
         if pool is not None:
-            camera_task = CameraTask(sim, pool, followers, recorder, on_frame)
+            camera_task = CameraTask(sim, pool, followers, recorder, on_frame, video)
             sim.add_task("camera", cfg.sim.camera_rate_hz, camera_task)
         if recorder is not None:
+            recorder.event(
+                0.0, "lfctl", f"run {cfg.name} seed {cfg.sim.seed}: {cfg.sim.clock}, sensing {cfg.sim.sensing}"
+            )
             if pool is not None:
                 cam = CameraModel.from_config(cfg.camera)
                 for f in followers:
-                    recorder.calibration(0.0, f.name, cam.K, cam.dist, cam.width, cam.height)
-            sim.add_task("record", cfg.sim.telemetry_rate_hz, TelemetryTask(sim, recorder))
+                    recorder.calibration(0.0, f.name, cam)
+            sim.add_task("record", cfg.sim.telemetry_rate_hz, TelemetryTask(sim, recorder, links, followers))
         sim.add_task("guidance", cfg.sim.guidance_rate_hz, GuidanceTask(sim, links, drivers, followers, pool, recorder))
-        sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), LinkTask(sim, links, drivers))
+        sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), LinkTask(sim, links, drivers, recorder))
         result = sim.run(duration_s, progress=progress, stop=stop)
     finally:
         if pool is not None:

@@ -268,7 +268,7 @@ class Tracker:
         if self.s.kind == "full":
             self._calibrate(frame, roi)
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
-        c = self._markers_near(hsv, roi, must="start") if self.s.use_markers and self.s.kind == "full" else None
+        c = self._markers_near(hsv, roi, must="overlap") if self.s.use_markers and self.s.kind == "full" else None
         self._markers_seen = c is not None
         self._start_filters(roi)
         self.status = TrackStatus.TRACKING
@@ -377,7 +377,9 @@ class Tracker:
         return self._update_plain(frame)
 
     def _update_plain(self, frame: np.ndarray) -> TrackState:
-        """The baselines: CamShift over the whole frame from the last window, nothing else."""
+        """The baselines: CamShift over the whole frame from the last window. The markers
+        inside the window are reported for the pose (the paper's pipeline: track, then
+        measure the markers the window holds) but play no part in tracking."""
         assert self._lut is not None and self.window is not None
         planes, hsv = self.space.features(frame)
         prob = back_project(self.space, planes, self._lut)
@@ -389,7 +391,15 @@ class Tracker:
             return TrackState(self.frame_index, self.status, None, 0.0, 1.0, None, None, "window vanished")
         self.window = win
         self.status = TrackStatus.TRACKING
-        return TrackState(self.frame_index, self.status, win, mass, 1.0, None, (0, 0, frame.shape[1], frame.shape[0]))
+        markers = None
+        region = clip_box(_scaled(win, 1.5), frame.shape) if self.s.use_markers else None
+        if region is not None:
+            rx, ry, rw, rh = region
+            c = self._markers_near(hsv[ry : ry + rh, rx : rx + rw], win, origin=(rx, ry), must="overlap")
+            markers = c.centres if c is not None else None
+        return TrackState(
+            self.frame_index, self.status, win, mass, 1.0, markers, (0, 0, frame.shape[1], frame.shape[0])
+        )
 
     def _update_full(self, frame: np.ndarray) -> TrackState:
         assert self._centre is not None and self._area is not None and self.window is not None and self._lut is not None
@@ -624,7 +634,7 @@ class Tracker:
 
         Of several banners in view (a formation: every vehicle carries one), the one whose
         box is nearest ``expect`` in place and size. It must also agree with the track
-        (``must``): ``"start"``, overlap the box the track starts on; ``"track"``, sit where
+        (``must``): ``"overlap"``, overlap it (the box the track starts on, a baseline's window); ``"track"``, sit where
         the tracked window is and be as big (within half a window and 1.6x in size: on the
         rendered tiers the banner's box is within 0.3 of the window by this measure while it is
         tracked); ``"return"``, be within 2x the size the target had when hidden (it may be
@@ -638,7 +648,7 @@ class Tracker:
             pos = self.s.panel_over_side
             c = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
             box = c.banner_bbox(pos)
-            if must == "start" and iou(box, expect) < 0.2:
+            if must == "overlap" and iou(box, expect) < 0.2:
                 return None
             if must == "track" and _mismatch(box, expect) > 1.0:
                 return None

@@ -331,7 +331,9 @@ def test_a_refused_param_set_exits_1(live: LiveEndpoint, capsys: pytest.CaptureF
     from lfctl.cli import main
 
     connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3", "param", "set"]
-    assert main([*connect, "WP_SPEED", "nan"]) == 1
+    with pytest.raises(SystemExit) as stop:  # NaN is refused before anything is sent
+        main([*connect, "WP_SPEED", "nan"])
+    assert stop.value.code == 2
     assert main([*connect, "WP_SPEED", "1000"]) == 1
     assert "refused" in capsys.readouterr().err
     assert main([*connect, "WP_SPEED", "0.5"]) == 0

@@ -3,60 +3,38 @@ camera, GUIDED setpoints out, formation status reported."""
 
 from __future__ import annotations
 
-import threading
 import time
-from pathlib import Path
 
-import cv2
 import pytest
 
 from lfctl.cli import main
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.signing import signing_key_from_passphrase
-from lfctl.link.transport import UdpLink
-from lfctl.render.sequences import make_sequence
 
 pytestmark = pytest.mark.integration
 
 
 @pytest.mark.parametrize("passphrase", [None, "convoy-7"])
 def test_follow_drives_a_guided_rover_from_video(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], passphrase: str | None
+    banner_video, standing_rover, capsys: pytest.CaptureFixture[str], passphrase: str | None
 ) -> None:
     # with a passphrase the rover signs and takes only signed packets: the companion must sign
-    video = tmp_path / "leader.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
-    for _t, frame, _truth in make_sequence("clear", 1, 40).frames():
-        writer.write(frame)
-    writer.release()
-    udp = UdpLink(("127.0.0.1", 0))
-    key = signing_key_from_passphrase(passphrase)
-    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=key)
+    video = banner_video(40)
     received: list[tuple[float, float]] = []
     names: set[str] = set()
-    rover.tap = lambda d, m, raw: names.add(m.get_type()) if d == "in" else None
-    stop = threading.Event()
-    t0 = time.monotonic()
 
-    def run() -> None:
-        while not stop.is_set():
-            rover.tick(
-                time.monotonic() - t0,
-                {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0},
-            )
-            cmd = rover.guided_command()
-            if cmd is not None:
-                received.append(cmd)
-            time.sleep(0.005)
+    def commanded(rover: VehicleEndpoint) -> None:
+        cmd = rover.guided_command()
+        if cmd is not None:
+            received.append(cmd)
 
-    th = threading.Thread(target=run, daemon=True)
-    th.start()
-    try:
+    with standing_rover(signing_key_from_passphrase(passphrase), commanded) as rover:
+        rover.tap = lambda d, m, raw: names.add(m.get_type()) if d == "in" else None
         rc = main(
             [
                 "follow",
                 "--mavlink",
-                f"udpout:127.0.0.1:{udp.port}",
+                f"udpout:127.0.0.1:{rover.link.port}",
                 "--camera",
                 str(video),
                 "--arm",
@@ -67,11 +45,7 @@ def test_follow_drives_a_guided_rover_from_video(
                 *(["--signing-passphrase", passphrase] if passphrase else []),
             ]
         )
-    finally:
-        time.sleep(0.2)
-        stop.set()
-        th.join(timeout=2)
-        udp.close()
+        time.sleep(0.2)  # the last setpoints reach the rover
     assert rc == 0 and "sent" in capsys.readouterr().out
     assert rover.mode == MODES["GUIDED"] and rover.armed
     assert {"SET_POSITION_TARGET_LOCAL_NED", "NAMED_VALUE_FLOAT"} <= names

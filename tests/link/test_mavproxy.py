@@ -12,7 +12,6 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
@@ -23,12 +22,9 @@ from lfctl.config import load_config
 from lfctl.frames import ned_to_geodetic
 from lfctl.link.endpoint import MODES
 from lfctl.sim.links import Links
-from lfctl.sim.runner import run_scenario
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
 EXAMPLES = Path(__file__).parents[2] / "examples"
-sys.path.insert(0, str(Path(__file__).parent))
-from test_mavsdk import free_port_pair  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -56,8 +52,10 @@ def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
     return path
 
 
-def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(mavproxy: Path, tmp_path: Path) -> None:
-    base = free_port_pair()
+def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
+    mavproxy: Path, tmp_path: Path, free_udp_ports, background_run
+) -> None:
+    base = free_udp_ports(2)
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = dataclasses.replace(
         cfg,
@@ -80,19 +78,6 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(mavproxy: Pa
     goal = at(-3.0, 2.0)
 
     links: list[Links] = []
-    done = threading.Event()
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            run_scenario(cfg, realtime=True, on_links=links.append, stop=done.is_set)
-        except KeyboardInterrupt:
-            pass
-        except BaseException as exc:
-            errors.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
     cmds = "; ".join(
         [
             f"wp load {mission}",
@@ -104,7 +89,7 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(mavproxy: Pa
         ]
     )
     env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
-    try:
+    with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             time.sleep(0.05)
         proc = subprocess.Popen(
@@ -135,9 +120,6 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(mavproxy: Pa
         mode_after = ep.mode
         second.send_signal(signal.SIGINT)
         out2, _ = second.communicate(timeout=20)
-    finally:
-        done.set()
-        thread.join(timeout=10)
     assert not errors, errors
     lists = ep.missions.lists
     assert [it.command for it in lists[0]] == [16, 16, 178, 16], out  # the mission, DO_CHANGE_SPEED kept

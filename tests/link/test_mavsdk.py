@@ -6,35 +6,16 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import math
-import socket
-import threading
 from pathlib import Path
 
 import pytest
 
 from lfctl.config import load_config
 from lfctl.link.mission import local_mission
-from lfctl.sim.runner import run_scenario
 
 mavsdk = pytest.importorskip("mavsdk")
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
 EXAMPLES = Path(__file__).parents[2] / "examples"
-
-
-def free_port_pair() -> int:
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-            if base > 65000:
-                continue
-            try:
-                with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
-                    b.bind(("127.0.0.1", base + 1))
-            except OSError:
-                continue
-        return base
-    raise RuntimeError("no two free consecutive UDP ports")
 
 
 async def session(port: int, home: tuple[float, float, float]) -> dict:
@@ -106,42 +87,22 @@ async def session(port: int, home: tuple[float, float, float]) -> dict:
     return out
 
 
-def test_mavsdk_uploads_starts_watches_pauses_and_disarms() -> None:
+def test_mavsdk_uploads_starts_watches_pauses_and_disarms(free_udp_ports, background_run) -> None:
     from mavsdk.plugins.telemetry import FlightMode
 
-    base = free_port_pair()
+    base = free_udp_ports(2)
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = dataclasses.replace(
         cfg,
         sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=40.0),
         link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
     )
-    done = threading.Event()
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            run_scenario(
-                cfg,
-                realtime=True,
-                progress=lambda t, w: None if not done.is_set() else (_ for _ in ()).throw(KeyboardInterrupt()),
-            )
-        except KeyboardInterrupt:
-            pass
-        except BaseException as exc:
-            errors.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
+    with background_run(cfg, realtime=True) as errors:
         out = asyncio.run(
             asyncio.wait_for(
                 session(base, (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)), timeout=45
             )
         )
-    finally:
-        done.set()
-        thread.join(timeout=10)
     assert not errors, errors
     assert out["downloaded"] == out["uploaded"]
     assert out["mode"] == FlightMode.MISSION and out["armed"]
@@ -207,35 +168,19 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
     return out
 
 
-def test_mavsdk_fence_rally_goto_rtl_and_health() -> None:
+def test_mavsdk_fence_rally_goto_rtl_and_health(free_udp_ports, background_run) -> None:
     from mavsdk.plugins.telemetry import FlightMode
 
-    base = free_port_pair()
+    base = free_udp_ports(2)
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = dataclasses.replace(
         cfg,
         sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=60.0),
         link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
     )
-    done = threading.Event()
-    errors: list[BaseException] = []
-
-    def run() -> None:
-        try:
-            run_scenario(cfg, realtime=True, stop=done.is_set)
-        except KeyboardInterrupt:
-            pass
-        except BaseException as exc:
-            errors.append(exc)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    try:
+    with background_run(cfg, realtime=True) as errors:
         home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
         out = asyncio.run(asyncio.wait_for(fence_rally_goto_rtl(base, home), timeout=50))
-    finally:
-        done.set()
-        thread.join(timeout=10)
     assert not errors, errors
     assert out["fence"] == out["fence_sent"] and len(out["rally"]) == 1 and out["rally"][0][0] == 5100
     assert len(out["mission"]) == 5  # the stored convoy mission: home + 4 waypoints

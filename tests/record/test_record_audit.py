@@ -25,7 +25,7 @@ from mcap_protobuf.decoder import DecoderFactory
 from lfctl.cli import main
 from lfctl.config import load_config
 from lfctl.record.audit import audit, recover
-from lfctl.record.writer import Recorder
+from lfctl.record.writer import FLUSH_INTERVAL_S, Recorder
 from lfctl.sim.runner import run_scenario
 
 pytestmark = pytest.mark.fmu
@@ -67,28 +67,63 @@ def truth_log(tmp_path_factory: pytest.TempPathFactory):
 def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None:
     path, _ = camera_log
     seen: dict[str, int] = {}
+    start_ns = None
+    stamps: dict[str, set[int]] = {"video": set(), "annotations": set()}
+    tf_children: dict[str, str] = {}
     with path.open("rb") as f:
         reader = NonSeekingReader(f, validate_crcs=True, decoder_factories=[DecoderFactory(), JsonDecoders()])
         for schema, channel, message, decoded in reader.iter_decoded_messages():
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
             if channel.message_encoding == "json":
                 assert isinstance(decoded, dict) and decoded == json.loads(message.data)
+                # epoch log time = the run's start + the simulation time the message carries
+                start = message.log_time - round(decoded["t_s"] * 1e9)
+                start_ns = start if start_ns is None else start_ns
+                assert abs(start - start_ns) <= 1000 and start_ns > 1.6e18  # after 2020: not 1970
             else:
                 assert decoded.DESCRIPTOR.full_name == schema.name
+                if hasattr(decoded, "timestamp"):
+                    stamp = decoded.timestamp.seconds * 10**9 + decoded.timestamp.nanos
+                    assert stamp == message.log_time, channel.topic
             if channel.topic == "/leader/pose":
                 assert (
                     type(decoded).DESCRIPTOR.full_name == PoseInFrame.DESCRIPTOR.full_name and decoded.frame_id == "ned"
                 )
-            if channel.topic.endswith("image/compressed"):
-                assert type(decoded).DESCRIPTOR.full_name == CompressedImage.DESCRIPTOR.full_name
-                assert decoded.format == "jpeg" and decoded.data[:2] == b"\xff\xd8"
+            if channel.topic == "/follower1/camera/video":
+                assert decoded.format == "h264" and decoded.frame_id == "follower1/camera"
+                stamps["video"].add(message.log_time)
+            if channel.topic == "/follower1/camera/annotations":
+                for p in decoded.points:
+                    assert p.timestamp.seconds * 10**9 + p.timestamp.nanos == message.log_time
+                stamps["annotations"].add(message.log_time)
+            if channel.topic == "/tf":
+                tf_children |= {t.child_frame_id: t.parent_frame_id for t in decoded.transforms}
+            if channel.topic == "/leader/fix":
+                assert 12 < decoded.latitude < 14 and 77 < decoded.longitude < 78  # CSIR-NAL, Bengaluru
+            if channel.topic == "/follower1/camera/calibration":
+                assert decoded.frame_id == "follower1/camera"
     expected = {
-        "/leader/pose", "/follower1/pose", "/tf", "/follower1/controller", "/follower1/tracker",
-        "/follower1/pose_estimate", "/follower1/camera/image/compressed", "/follower1/camera/annotations",
-        "/follower1/camera/calibration",
+        "/leader/pose", "/follower1/pose", "/leader/fix", "/follower1/fix", "/tf", "/scene", "/log",
+        "/follower1/controller", "/follower1/tracker", "/follower1/pose_estimate", "/follower1/camera/video",
+        "/follower1/camera/annotations", "/follower1/camera/calibration",
     }  # fmt: skip
     assert expected <= set(seen)
-    assert seen["/follower1/camera/image/compressed"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    assert seen["/follower1/camera/video"] == pytest.approx(8 * 5, abs=2)  # image_rate_hz = 5
+    # every image has annotations stamped with its time; the calibration's frame is in /tf
+    assert stamps["video"] <= stamps["annotations"]
+    assert tf_children["follower1/camera"] == "follower1" and tf_children["follower1"] == "ned"
+    assert tf_children["ned"] == "map"
+
+
+def test_a_jpeg_log_keeps_jpeg_images(tmp_path: Path) -> None:
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path, "camera", 1.0)
+    cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_format="jpeg"))
+    run_scenario(cfg, record_to=tmp_path / "j.mcap")
+    rep = audit(tmp_path / "j.mcap")
+    assert rep.ok, [f.line() for f in rep.findings]
+    images = rep.contents.messages["/follower1/camera/image/compressed"]
+    assert images and all(CompressedImage.FromString(d).data[:2] == b"\xff\xd8" for _, d in images)
+    assert "/follower1/camera/video" not in rep.contents.messages
 
 
 def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:
@@ -184,8 +219,16 @@ def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["audit", str(truth_log[0]), "--json", "--plot", str(tmp_path / "plots")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] and out["figures"]["followers"][0]["follower"] == "follower1"
-    assert (tmp_path / "plots" / "trajectories.png").stat().st_size > 1000
-    assert (tmp_path / "plots" / "follower1_errors.png").stat().st_size > 1000
+    for name in ("trajectories", "follower1_errors", "link"):
+        assert (tmp_path / "plots" / f"{name}.png").stat().st_size > 1000
+    assert not (tmp_path / "plots" / "follower1_pose.png").exists()  # truth sensing: no camera pose to plot
+
+
+def test_plots_of_a_camera_run_include_the_pose_against_truth(camera_log, tmp_path: Path) -> None:
+    from lfctl.record.audit import plot
+
+    made = plot(audit(camera_log[0]), tmp_path)
+    assert [p.name for p in made] == ["trajectories.png", "follower1_errors.png", "follower1_pose.png", "link.png"]
 
 
 def test_replay_reruns_a_tracker_on_recorded_frames(camera_log, capsys: pytest.CaptureFixture[str]) -> None:
@@ -200,8 +243,8 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
     scen = tmp_path / "s.toml"
     scen.write_text(
         (EXAMPLES / "convoy.toml").read_text().replace('sensing = "camera"   # or "truth"', 'sensing = "truth"')
-        + f'\n[recording]\ndir = "{tmp_path}"\nchunk_size_bytes = 4096\n'
-    )
+        + f'\n[recording]\ndir = "{tmp_path}"\n[link]\ngcs_udpout = ""\nudp_base_port = {_free_udp_port()}\n'
+    )  # default 1 MiB chunks: what reaches the disk is the recorder's once-a-second flush
     proc = subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scen), "--realtime", "-q"],
         stdout=subprocess.DEVNULL,
@@ -211,7 +254,7 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
         deadline = time.time() + 60
         while time.time() < deadline and not list(tmp_path.glob("*.mcap")):
             time.sleep(0.2)
-        time.sleep(4.0)  # a few seconds of simulated time, several 4 KiB chunks
+        time.sleep(5.0)  # five seconds of simulated time: a few kB, far from a full chunk
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=10)
     finally:
@@ -221,6 +264,8 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
     rep = audit(log)
     assert not rep.ok and any("truncated" in f.what or "no footer" in f.what for f in rep.findings)
     assert rep.figures["messages"] > 50
+    last_s = max(t for t, _ in rep.contents.messages["/leader/pose"]) / 1e9
+    assert last_s >= 5.0 - FLUSH_INTERVAL_S - 1.5, f"lost the log after t = {last_s:.2f} s of about 5 s"
     assert {"scenario.toml", "SkidSteerRover.fmi2.fmu/modelDescription.xml"} <= set(rep.contents.attachments)
     out = tmp_path / "fixed.mcap"
     assert recover(rep, out) == rep.figures["messages"]
@@ -252,6 +297,14 @@ def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_r
     gaps = np.diff(taken)
     # evenly spread: within a camera period plus a physics step of each other
     assert gaps.max() - gaps.min() <= 1 / 30 + 0.011
+
+
+def _free_udp_port() -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 def _children(pid: int) -> set[int]:
@@ -295,3 +348,38 @@ def test_ctrl_c_or_sigterm_ends_a_camera_run_with_a_whole_log_and_no_workers_lef
     rep = audit(log)
     assert not [f for f in rep.findings if f.level == "error"], rep.findings
     assert rep.figures["messages"] > 100
+
+
+def test_two_runs_in_the_same_second_keep_both_logs(tmp_path: Path) -> None:
+    cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path)
+    with Recorder(tmp_path / "same.mcap", cfg) as first, Recorder(tmp_path / "same.mcap", cfg) as second:
+        first.metadata("which", {"run": "first"})
+        second.metadata("which", {"run": "second"})
+    assert (first.path.name, second.path.name) == ("same.mcap", "same-2.mcap")
+    assert audit(first.path).contents.metadata["which"] == {"run": "first"}
+    assert audit(second.path).contents.metadata["which"] == {"run": "second"}
+
+
+def test_the_recorder_hands_a_chunk_to_the_os_every_second(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import lfctl.record.writer as writer
+
+    clock = [100.0]
+    monkeypatch.setattr(writer.time, "monotonic", lambda: clock[0])
+    cfg = load_config(EXAMPLES / "convoy.toml")  # 1 MiB chunks
+    rec = Recorder(tmp_path / "r.mcap", cfg)
+    try:
+        for k in range(50):
+            rec.json(
+                "/leader/mission", "lfctl.Mission", k * 0.1, {"event": "reached", "index": k, "active": k, "count": 50}
+            )
+        early = tmp_path / "early.mcap"
+        early.write_bytes(rec.path.read_bytes())
+        assert audit(early).figures["messages"] == 0  # all 50 still in the open chunk
+        clock[0] += FLUSH_INTERVAL_S
+        rec.json("/leader/mission", "lfctl.Mission", 5.0, {"event": "reached", "index": 50, "active": 50, "count": 51})
+        data = rec.path.read_bytes()
+    finally:
+        rec.close()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data)  # what a SIGKILL at this moment leaves
+    assert audit(cut).figures["messages"] == 51

@@ -55,3 +55,16 @@ def test_seed_1_gives_the_pinned_run(name: str, sensing: str, duration_s: float 
     got = digest(run_scenario(dataclasses.replace(cfg, sim=sim)))
     print(f"{name} {sensing} {duration_s}: {got}")
     assert got == PINNED[(name, sensing, duration_s)]
+
+
+def test_recording_live_view_and_video_change_nothing_the_simulation_computes(tmp_path) -> None:
+    cfg = load_config(examples_dir() / "convoy.toml")
+    sim = dataclasses.replace(cfg.sim, seed=1, sensing="camera", duration_s=12.0)
+    report = run_scenario(
+        dataclasses.replace(cfg, sim=sim),
+        record_to=tmp_path / "r.mcap",
+        live=("127.0.0.1", 0),
+        video=("127.0.0.1", 9),  # the discard port: nobody listens, datagrams are dropped
+    )
+    assert report.log_messages > 1000
+    assert digest(report) == PINNED[("convoy", "camera", 12.0)]

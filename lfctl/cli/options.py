@@ -1,0 +1,101 @@
+"""Argument types for the commands' options: each checks its value when the command line is
+parsed, with the same rules and messages as scenario keys (:mod:`lfctl.checks`), so a bad
+option is one line naming it, the value and what was expected, and exit code 2."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from collections.abc import Callable
+from typing import Any
+
+from lfctl.checks import Bound, check_connection, check_name
+from lfctl.errors import ConfigError
+
+__all__ = ["OneLineParser", "connection", "integer", "name", "number", "param_name"]
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr, exit code 2."""
+
+    def error(self, message: str) -> Any:  # argparse's signature says NoReturn
+        """Print ``<prog>: error: <message> (see <prog> --help)`` and exit 2.
+
+        Parameters
+        ----------
+        message : str
+            What argparse found wrong.
+        """
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def number(
+    lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = False, unit: str = ""
+) -> Callable[[str], float]:
+    """A finite number within ``[lo, hi]`` (ends open where asked).
+
+    Parameters
+    ----------
+    lo, hi : float
+        The range.
+    lo_open, hi_open : bool
+        Exclude the end itself.
+    unit : str
+        For the message.
+    """
+    return _ranged(Bound(lo, hi, lo_open, hi_open), float, "a number", unit)
+
+
+def integer(lo: int, hi: int) -> Callable[[str], int]:
+    """A whole number within ``lo..hi``.
+
+    Parameters
+    ----------
+    lo, hi : int
+        The range.
+    """
+    return _ranged(Bound(lo, hi, integer=True), int, "a whole number", "")
+
+
+def _ranged(bound: Bound, convert: Callable[[str], Any], kind: str, unit: str) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {kind}, got {text!r}") from None
+        if not bound.contains(value):
+            raise argparse.ArgumentTypeError(f"must be {bound.text()}{' ' + unit if unit else ''}, got {text}")
+        return value
+
+    parse.__name__ = kind.split()[-1]  # argparse names the type in its "invalid ... value" message
+    return parse
+
+
+def _wrap(check: Callable[[str, str], str], what: str) -> Callable[[str], str]:
+    def parse(text: str) -> str:
+        try:
+            return check(what, text)
+        except ConfigError as exc:
+            raise argparse.ArgumentTypeError(str(exc).removeprefix(f"{what} ")) from None
+
+    parse.__name__ = what
+    return parse
+
+
+#: a pymavlink connection string, checked (udpin:/udpout:/tcp:/tcpin:HOST:PORT, or a serial device)
+connection = _wrap(check_connection, "connection")
+#: a vehicle name: letters, digits, '-', '_'
+name = _wrap(check_name, "name")
+
+
+def param_name(text: str) -> str:
+    """A parameter name as MAVLink carries it: 1-16 letters, digits or ``_``.
+
+    Parameters
+    ----------
+    text : str
+        The name given.
+    """
+    if not re.fullmatch(r"[A-Za-z0-9_]{1,16}", text):
+        raise argparse.ArgumentTypeError(f"must be 1-16 letters, digits or '_', got {text!r}")
+    return text

@@ -1,0 +1,182 @@
+"""`lfctl sweep`: run a sweep of many runs on Dask; `lfctl sweep report DIR` rebuilds its
+summary and plots from its results table."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from lfctl.sweep.engine import SweepProgress
+    from lfctl.sweep.results import SweepSummary
+
+
+def register(sub: Any) -> None:
+    """Add the ``sweep`` command to the parser."""
+    s = sub.add_parser(
+        "sweep",
+        help="run many variants of a scenario on Dask (local cores or a cluster); `sweep report DIR`",
+        description="Run a sweep file (or a shipped sweep by name: see examples/sweeps) on a Dask LocalCluster "
+        "(one worker process per core) or a running scheduler, writing one row per run (Parquet and CSV), a "
+        "summary per variant with 95 %% confidence intervals, and plots. `lfctl sweep report DIR` rebuilds the "
+        "summary and plots of a sweep's folder from its rows.",
+    )
+    s.add_argument("sweep", metavar="SWEEP", help="sweep TOML file or a shipped sweep's name; or `report`")
+    s.add_argument("dir", nargs="?", metavar="DIR", help="with `report`: the sweep's folder")
+    s.add_argument(
+        "--scheduler", metavar="ADDR", help="a running Dask scheduler, tcp://HOST:8786 (default: a local cluster)"
+    )
+    s.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="local worker processes (default: one per core); with --scheduler, wait for N workers to join",
+    )
+    s.add_argument("--out", metavar="DIR", help="the sweep's folder (default: sweeps/<name>)")
+    s.add_argument("--resume", action="store_true", help="finish the sweep in --out: skip runs it has rows for")
+    s.add_argument(
+        "--logs",
+        choices=("none", "failed", "all"),
+        default="none",
+        help="MCAP logs to keep in DIR/logs: none (default), failed (every run records, the logs of runs that "
+        "succeed are deleted), all",
+    )
+    s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=run)
+
+
+def _duration(seconds: float | None) -> str:
+    if seconds is None:
+        return "?"
+    m, s = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return f"{h}h{m:02d}m" if h else (f"{m}m{s:02d}s" if m else f"{s}s")
+
+
+def _bar(state: SweepProgress) -> str:
+    finished = state.skipped + state.done
+    width = 24
+    filled = int(width * finished / state.total) if state.total else width
+    line = (
+        f"\r[{'#' * filled}{'.' * (width - filled)}] {finished}/{state.total} runs  {state.failed} failed  "
+        f"{state.rate_per_min:.1f} runs/min  ETA {_duration(state.eta_s)}"
+    )
+    if state.stopping:
+        line += f"  stopping: {state.running} running (Ctrl-C again cancels them)"
+    return line + "\033[K"
+
+
+def _print_summary(summary: SweepSummary, out: TextIO) -> None:
+    print(summary.markdown, file=out)
+    plots = [f for f in summary.files if f.suffix == ".png"]
+    tables = [f.name for f in summary.files if f.suffix != ".png"]
+    if summary.files:
+        folder = summary.files[0].parent
+        print(f"results      {folder}/: {', '.join(tables)}", file=out)
+        if plots:
+            print(f"plots        {plots[0].parent}/ ({len(plots)} PNG)", file=out)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep (or rebuild a report); print the summary."""
+    from lfctl.errors import ConfigError
+
+    if args.sweep == "report":
+        if args.dir is None:
+            raise ConfigError("lfctl sweep report needs the sweep's folder: lfctl sweep report DIR")
+        from lfctl.sweep.results import report
+
+        _print_summary(report(args.dir), sys.stdout)
+        return 0
+    if args.dir is not None:
+        raise ConfigError(f"unexpected argument {args.dir!r}: a sweep's folder is given with --out")
+    from lfctl.sweep.engine import run_sweep
+    from lfctl.sweep.spec import load_sweep, plan
+
+    if not args.debug:  # Dask reports each worker's start and stop; a dead one is the sweep's to report, as a row
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+
+    p = plan(load_sweep(args.sweep))  # every variant is built and checked before anything runs
+    out_dir = Path(args.out) if args.out else Path("sweeps") / p.spec.name
+    pipe = not sys.stdout.isatty()  # a pipe gets one JSON line per run; people get the text
+    human = sys.stderr if pipe else sys.stdout
+    show_bar = not args.quiet and sys.stderr.isatty()
+    spec = p.spec
+    print(
+        f"sweep        {spec.name}: {len(p.variants)} variants x {len(spec.seeds)} seeds x {spec.repetitions} "
+        f"repetitions = {len(p.runs)} runs  ({spec.scenario.name})",
+        file=human,
+    )
+    print(f"folder       {out_dir}", file=human, flush=True)
+
+    announced, stopping = threading.Event(), threading.Event()
+
+    def progress(state: SweepProgress, row: dict[str, Any] | None) -> None:
+        if not announced.is_set():
+            announced.set()
+            print(f"engine       {state.engine}", file=human, flush=True)
+        if state.stopping and not stopping.is_set() and not show_bar:  # the bar says it itself
+            stopping.set()
+            print(
+                f"stopping     no more runs start; {state.running} running finish (Ctrl-C again cancels them)",
+                file=sys.stderr,
+                flush=True,
+            )
+        if row is not None and pipe:
+            print(json.dumps(row, default=str), flush=True)
+        if show_bar:
+            print(_bar(state), end="", file=sys.stderr, flush=True)
+
+    # Ctrl-C / SIGTERM: stop submitting and let running runs finish; a second one cancels them
+    requested = threading.Event()
+
+    def ask_stop(signum: int, frame: object) -> None:
+        if requested.is_set():
+            raise KeyboardInterrupt
+        requested.set()
+
+    handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        result = run_sweep(
+            p,
+            out_dir,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            resume=args.resume,
+            logs=args.logs,
+            progress=progress,
+            stop=requested.is_set,
+        )
+    except KeyboardInterrupt:
+        if show_bar:
+            print(file=sys.stderr)
+        print(f"cancelled the running runs; the finished ones are in {out_dir} (--resume goes on)", file=sys.stderr)
+        raise
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
+    if show_bar:
+        print(file=sys.stderr)
+    print(file=human)
+    _print_summary(result.summary, human)
+    for r in result.failed[:10]:
+        print(
+            f"failed       run {r['run']} (variant {r['variant']}, seed {r['seed']}): {r['status']}: {r['error']}",
+            file=human,
+        )
+    if len(result.failed) > 10:
+        print(f"failed       ... {len(result.failed) - 10} more (runs.csv: status, error)", file=human)
+    if result.stopped:
+        print(
+            f"stopped      {len(result.rows)} of {len(p.runs)} runs have rows; "
+            f"`lfctl sweep {args.sweep} --out {out_dir} --resume` finishes the sweep",
+            file=human,
+        )
+        return 130
+    return 1 if result.failed else 0

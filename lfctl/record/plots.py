@@ -1,0 +1,317 @@
+"""`lfctl audit --plot`: the PNGs to review a run by.
+
+- ``trajectories.png``: every vehicle's path (top view, east right, north up), start (circle)
+  and end (square), a numbered mark every 10 s of simulation time; the mission's waypoints
+  with their acceptance circles and the time each was reached.
+- ``<follower>_errors.png``: range and bearing error and the track state over time, with the
+  scenario's events (occluders, lighting keys, sensor dropouts), every mode change and the
+  ``--strict`` limits (RMS limits, drawn as a band the error's RMS must stay inside).
+- ``<follower>_pose.png``: the camera's range and bearing estimate against the truth.
+- ``link.png``: message rates each way per vehicle, packets lost per sender (by its
+  sequence) and each command's ack latency.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfctl.config import AuditConfig, Config, parse_config
+from lfctl.errors import ConfigError
+from lfctl.record.audit import (
+    MAX_JSON_NUMBER,
+    AuditReport,
+    Contents,
+    _followers,
+    _json_messages,
+    ack_latencies,
+    heard_by_sender,
+    lost_by_sequence,
+    mavlink_packets,
+)
+from lfctl.record.writer import EVENT_MODE, PALETTE, scenario_events
+
+__all__ = ["TIME_MARK_S", "plot_all"]
+
+#: a time mark on every trajectory this often, s of simulation time
+TIME_MARK_S = 10.0
+
+
+def _scenario(c: Contents) -> Config | None:
+    """The attached scenario as run (the sensing the command line chose, from the run's
+    metadata), or None when it is missing or does not load."""
+    text = c.attachments.get("scenario.toml")
+    try:
+        cfg = parse_config(text.decode()) if text else None
+    except (ConfigError, UnicodeDecodeError):
+        return None
+    sensing = c.metadata.get("run", {}).get("sensing")
+    if cfg is not None and sensing in ("truth", "camera"):
+        cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, sensing=sensing))
+    return cfg
+
+
+def _json(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
+    """The topic's messages that pass the audit's checks (the others are findings there)."""
+    return _json_messages(c, topic)
+
+
+def _colour(k: int) -> tuple[float, float, float]:
+    return PALETTE[0 if k == 0 else 1 + (k - 1) % (len(PALETTE) - 1)]
+
+
+def _save(plt: Any, fig: Any, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _mode_changes(c: Contents) -> list[tuple[float, str, str]]:
+    """(t_s, vehicle, mode) from the log's ``/log`` events."""
+    from foxglove_schemas_protobuf.Log_pb2 import Log
+    from google.protobuf.message import DecodeError
+
+    out = []
+    for t, d in c.messages.get("/log", []):
+        try:
+            m = Log.FromString(d)
+        except DecodeError:
+            continue
+        if m.message.startswith(EVENT_MODE):
+            out.append((c.sim_s(t), m.name, m.message[len(EVENT_MODE) :]))
+    return out
+
+
+def _track(c: Contents, vehicle: str) -> tuple[np.ndarray, np.ndarray]:
+    """A vehicle's ``/<vehicle>/pose`` as simulation times and (N, 2) east/north points:
+    messages that do not decode, and points not finite or beyond MAX_JSON_NUMBER m, left out."""
+    from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+    from google.protobuf.message import DecodeError
+
+    times, pts = [], []
+    for ts, d in c.messages.get(f"/{vehicle}/pose", []):
+        try:
+            p = PoseInFrame.FromString(d).pose.position
+        except DecodeError:
+            continue
+        if abs(p.x) <= MAX_JSON_NUMBER and abs(p.y) <= MAX_JSON_NUMBER:  # NaN fails too
+            times.append(c.sim_s(ts))
+            pts.append((p.y, p.x))  # east right, north up
+    return np.array(times), np.array(pts).reshape(-1, 2)
+
+
+def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
+    c = report.contents
+    run = c.metadata.get("run", {})
+    vehicles = [v for v in run.get("vehicles", "").split(",") if v] or sorted(
+        t.split("/")[1] for t in c.messages if t.endswith("/pose") and t.count("/") == 2
+    )
+    fig, ax = plt.subplots(figsize=(8, 8))
+    cfg = _scenario(c)
+    if cfg is not None and cfg.mission.waypoints:
+        reached = {m["index"]: m["t_s"] for m in report.figures.get("mission", [])}
+        r = cfg.mission.acceptance_radius_m
+        for k, wp in enumerate(cfg.mission.waypoints, start=1):
+            n, e = wp[0], wp[1]
+            ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
+            ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
+            when = f" @{reached[k]:.1f} s" if k in reached else " (not reached)"
+            ax.annotate(f"WP{k}{when}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
+        ax.plot([], [], "x", color="tab:cyan", label=f"waypoints (acceptance {r:g} m)")
+    for k, v in enumerate(vehicles):
+        t, a = _track(c, v)
+        if not len(t):
+            continue
+        col = _colour(k)
+        ax.plot(a[:, 0], a[:, 1], color=col, lw=1.5, label=v)
+        ax.plot(a[0, 0], a[0, 1], "o", color=col, ms=9, mfc="white", mew=2)
+        ax.plot(a[-1, 0], a[-1, 1], "s", color=col, ms=8)
+        for mark in np.arange(TIME_MARK_S, t[-1] + 1e-9, TIME_MARK_S):
+            i = int(np.searchsorted(t, mark))
+            if i < len(t):
+                ax.plot(a[i, 0], a[i, 1], ".", color="black", ms=6)
+                ax.annotate(
+                    f"{mark:g}", (a[i, 0], a[i, 1]), xytext=(3, -10), textcoords="offset points", fontsize=7, color=col
+                )
+    ax.plot([], [], "o", color="grey", mfc="white", label="start")
+    ax.plot([], [], "s", color="grey", label="end")
+    ax.plot([], [], ".", color="black", label=f"every {TIME_MARK_S:g} s (labelled in s)")
+    ax.set_xlabel("east of home (m)")
+    ax.set_ylabel("north of home (m)")
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(f"{run.get('scenario', '')} seed {run.get('seed', '')}: trajectories (top view)")
+    _save(plt, fig, path)
+
+
+def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> None:
+    """Scenario events (red dotted) and mode changes (grey dashed) as vertical lines."""
+    top = ax.get_ylim()[1]
+    for t, text in events:
+        ax.axvline(t, color="tab:red", ls=":", lw=1.2)
+        if label:
+            ax.text(t, top, " " + text, rotation=90, va="top", ha="left", fontsize=7, color="tab:red")
+    for t, vehicle, mode in modes:
+        ax.axvline(t, color="grey", ls="--", lw=0.8)
+        if label:
+            ax.text(t, top, f" {vehicle}: {mode}", rotation=90, va="top", ha="right", fontsize=7, color="dimgrey")
+
+
+def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
+    msgs = _json(c, f"/{follower}/controller")
+    msgs = [(t, m) for t, m in msgs if "range_error_m" in m]
+    if not msgs:
+        return False
+    cfg = _scenario(c)
+    limits = cfg.audit if cfg is not None else AuditConfig()
+    t = np.array([x[0] for x in msgs])
+    events = [e for e in (scenario_events(cfg) if cfg is not None else []) if e[0] <= t[-1]]
+    modes = [m for m in _mode_changes(c) if 0 < m[0] <= t[-1]]
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(11, 8), sharex=True, gridspec_kw={"height_ratios": [3, 3, 1.2]})
+    rng = np.array([m["range_error_m"] for _, m in msgs])
+    brg = np.array([m["bearing_error_deg"] for _, m in msgs])
+    range_cmd = float(msgs[-1][1].get("range_cmd_m", 1.0))
+    r_lim = limits.max_range_err_rms_frac * range_cmd
+    a1.plot(t, rng, color="tab:blue", lw=1)
+    a1.axhspan(-r_lim, r_lim, color="tab:green", alpha=0.08)
+    for s in (-1, 1):
+        a1.axhline(s * r_lim, color="tab:green", ls="--", lw=1)
+    a1.set_ylabel("range error (m)")
+    a1.plot([], [], color="tab:green", ls="--", label=f"--strict: RMS within {r_lim:.3g} m")
+    a2.plot(t, brg, color="tab:purple", lw=1)
+    b_lim = limits.max_bearing_err_rms_deg
+    a2.axhspan(-b_lim, b_lim, color="tab:green", alpha=0.08)
+    for s in (-1, 1):
+        a2.axhline(s * b_lim, color="tab:green", ls="--", lw=1)
+    a2.set_ylabel("bearing error (deg)")
+    a2.plot([], [], color="tab:green", ls="--", label=f"--strict: RMS within {b_lim:g} deg")
+    code = {"tracking": 2, "occluded": 1, "lost": 0}
+    a3.step(t, [code.get(m["status"], 0) for _, m in msgs], where="post", color="black", lw=1)
+    a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
+    a3.set_ylim(-0.3, 2.3)
+    a3.set_xlabel("simulation time (s)")
+    for ax, label in ((a1, True), (a2, False), (a3, False)):
+        _marks(ax, events, modes, label)
+        ax.grid(alpha=0.3)
+    a1.plot([], [], color="tab:red", ls=":", label="scenario event")
+    a1.plot([], [], color="grey", ls="--", label="mode change")
+    a1.legend(loc="lower right", fontsize=8)
+    a2.legend(loc="lower right", fontsize=8)
+    a1.set_title(f"{follower}: formation errors (truth) and track state")
+    _save(plt, fig, path)
+    return True
+
+
+def _pose(plt: Any, c: Contents, follower: str, path: Path) -> bool:
+    msgs = [(t, m) for t, m in _json(c, f"/{follower}/pose_estimate") if "truth_range_m" in m]
+    if not msgs:
+        return False
+    t = np.array([x[0] for x in msgs])
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
+    a1.plot(t, [m["truth_range_m"] for _, m in msgs], color="black", lw=1.5, label="truth")
+    a1.plot(t, [m["range_m"] for _, m in msgs], ".", color="tab:orange", ms=2.5, label="estimate (markers)")
+    a1.set_ylabel("range (m)")
+    a2.plot(t, [m["truth_bearing_deg"] for _, m in msgs], color="black", lw=1.5, label="truth")
+    a2.plot(t, [m["bearing_deg"] for _, m in msgs], ".", color="tab:orange", ms=2.5, label="estimate (markers)")
+    a2.set_ylabel("bearing (deg)")
+    a2.set_xlabel("simulation time (s)")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+    a1.set_title(f"{follower}: camera pose estimate against the truth ({len(msgs)} frames with the markers seen)")
+    _save(plt, fig, path)
+    return True
+
+
+def _link(plt: Any, c: Contents, path: Path) -> bool:
+    links = mavlink_packets(c)
+    if not links:
+        return False
+    fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
+    end = max((msgs[-1][0] for msgs in links.values() if msgs), default=1.0)
+    bins = np.arange(0.0, max(end, 1.0) + 1.0, 1.0)
+    any_ack = False
+    most_latency_ms = 0.0
+    order = [v for v in c.metadata.get("run", {}).get("vehicles", "").split(",") if v]
+    for topic, msgs in links.items():
+        vehicle = topic.split("/")[2]
+        k = order.index(vehicle) if vehicle in order else len(order)  # the vehicle's colour, as in trajectories
+        for direction, ls in (("out", "-"), ("in", "--")):
+            times = [t for t, m in msgs if m["direction"] == direction]
+            if times:
+                counts, edges = np.histogram(times, bins=bins)
+                a1.step(edges[:-1], counts, where="post", color=_colour(k), ls=ls, label=f"{vehicle} {direction}")
+        _commands, acks = ack_latencies(msgs)
+        if acks:
+            any_ack = True
+            most_latency_ms = max(most_latency_ms, *(lat * 1000 for _, lat in acks))
+            a3.plot(
+                [t for t, _ in acks],
+                [lat * 1000 for _, lat in acks],
+                "o",
+                ms=4,
+                color=_colour(k),
+                label=f"{vehicle}: {len(acks)} acks",
+            )
+    a1.set_ylabel("packets per second")
+    a1.legend(loc="upper right", fontsize=8, ncol=2)
+    a1.set_title("MAVLink: packets each way per vehicle, loss per sender (its sequence numbers), command acks")
+    most_lost = 0
+    for k, (sender, got) in enumerate(heard_by_sender(links).items()):
+        lost = lost_by_sequence(got)
+        most_lost = max(most_lost, lost[-1])
+        a2.step(
+            [t for t, _ in got],
+            lost,
+            where="post",
+            color=f"C{k}",
+            lw=max(1.0, 3.0 - k),  # senders with the same count stay visible under each other
+            label=f"sender {sender}: {len(got)} heard, {lost[-1]} lost",
+        )
+    a2.set_ylim(-0.5, max(3.0, most_lost * 1.15))
+    a2.set_ylabel("packets lost (cumulative)")
+    a2.legend(loc="upper left", fontsize=8)
+    if any_ack:
+        a3.legend(loc="upper right", fontsize=8)
+    else:
+        a3.text(0.5, 0.5, "no command was acknowledged", transform=a3.transAxes, ha="center", color="grey")
+    a3.set_ylim(-1.0, max(5.0, most_latency_ms * 1.2))
+    a3.set_ylabel("ack latency (ms, log clock)")
+    a3.set_xlabel("simulation time (s)")
+    for ax in (a1, a2, a3):
+        ax.grid(alpha=0.3)
+    _save(plt, fig, path)
+    return True
+
+
+def plot_all(report: AuditReport, out_dir: Path) -> list[Path]:
+    """Write every plot the log has data for; returns the files written.
+
+    Parameters
+    ----------
+    report : AuditReport
+        What :func:`~lfctl.record.audit.audit` found.
+    out_dir : Path
+        Where the PNGs go (made if missing).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    c = report.contents
+    made = [out_dir / "trajectories.png"]
+    _trajectories(plt, report, made[0])
+    for f in _followers(c):  # names of letters, digits, '-', '_': every file stays in out_dir
+        for suffix, fn in (("errors", _errors), ("pose", _pose)):
+            p = out_dir / f"{f}_{suffix}.png"
+            if fn(plt, c, f, p):
+                made.append(p)
+    if _link(plt, c, out_dir / "link.png"):
+        made.append(out_dir / "link.png")
+    return made

@@ -1,0 +1,482 @@
+"""Running a sweep on Dask: a ``LocalCluster`` (one worker process per core, one thread each)
+or a running scheduler (``tcp://HOST:8786``).
+
+Runs are submitted as workers free up (as many in flight as the cluster has threads), so a
+stop request holds back everything not yet started. Each finished run's row is appended to
+the folder's journal at once; at the end (or on a stop, or a cancel) the results table,
+summary and plots are written from every row in the folder.
+
+- A run that raises is a row with status ``error`` (the task catches it; the sweep goes on).
+- A run whose worker dies is retried on another worker by the scheduler; the local cluster
+  retries once (``distributed.scheduler.allowed-failures = 1``), a scheduler of your own as
+  its configuration says (Dask's default is 3). When the retries are spent the row says
+  ``crashed``.
+- ``stop()`` true: nothing more is submitted, running runs finish, their rows are written.
+  ``KeyboardInterrupt`` (a second Ctrl-C): running runs are cancelled, finished rows written,
+  and the interrupt goes on up.
+- ``resume``: runs with a row in the folder's journal are skipped; the folder must hold the
+  same sweep (same plan digest) run by the same lfctl code.
+
+Every worker must import the same lfctl as this process (checked by a digest of its code
+and vehicle models); logs are written by the workers under the sweep's folder, so on a
+cluster that folder must be on a shared file system.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import hashlib
+import json
+import logging
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from concurrent.futures import CancelledError
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from distributed import WorkerPlugin
+
+from lfctl import __version__
+from lfctl.data import models_dir
+from lfctl.errors import ConfigError, LfctlError
+from lfctl.sim.camera_pool import usable_cores
+from lfctl.sweep.results import SweepSummary, append_row, read_journal, read_meta, report, write_meta, write_tables
+from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, load_sweep, plan
+from lfctl.sweep.task import LOG_MODES, execute, failed_row
+
+__all__ = ["SweepProgress", "SweepResult", "code_digest", "run_sweep", "scheduler_processes"]
+
+log = logging.getLogger("lfctl.sweep")
+
+_PACKAGE = Path(__file__).resolve().parents[1]
+#: how often the loop wakes without a finished run (progress, stop requests), s
+_TICK_S = 0.5
+
+
+def code_digest() -> str:
+    """SHA-256 over lfctl's Python sources (but the command line and the benchmarks) and the
+    vehicle models' C sources: two processes with the same digest run the same simulation."""
+    h = hashlib.sha256()
+    files = [p for p in sorted(_PACKAGE.rglob("*.py")) if p.relative_to(_PACKAGE).parts[0] not in ("cli", "bench")]
+    models = models_dir()
+    files += sorted(p for p in models.rglob("*") if p.suffix in (".c", ".h"))
+    for p in files:
+        h.update(str(p.relative_to(_PACKAGE if p.is_relative_to(_PACKAGE) else models)).encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+@contextlib.contextmanager
+def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: float = 60.0) -> Iterator[str]:
+    """A ``dask scheduler`` and ``dask worker`` processes (``n_workers``, one thread each) on
+    127.0.0.1, started as a cluster's would be; yields the scheduler's address and stops
+    them on exit. They end by themselves if this process dies (idle and death timeouts).
+    For trying ``--scheduler`` on one machine, and for the tests and the benchmark.
+
+    Parameters
+    ----------
+    n_workers : int
+        Worker processes.
+    allowed_failures : int
+        The scheduler's ``distributed.scheduler.allowed-failures``: retries of a task whose
+        worker died.
+    timeout_s : float
+        How long to wait for the scheduler and every worker, s.
+
+    Raises
+    ------
+    LfctlError
+        They did not come up in time.
+    """
+    from distributed import Client
+
+    env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": str(allowed_failures)}
+    dask = [sys.executable, "-m", "dask"]
+    quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs: list[subprocess.Popen[bytes]] = []
+    with tempfile.TemporaryDirectory(prefix="lfctl-dask-") as tmp:
+        file = Path(tmp) / "scheduler.json"
+        try:
+            procs.append(
+                subprocess.Popen(
+                    [*dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                     "--scheduler-file", str(file), "--idle-timeout", "600"],
+                    **quiet,
+                )
+            )  # fmt: skip
+            deadline = time.monotonic() + timeout_s
+            while not (file.exists() and file.stat().st_size):
+                if time.monotonic() > deadline or procs[0].poll() is not None:
+                    raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s")
+                time.sleep(0.05)
+            address = str(json.loads(file.read_text())["address"])
+            procs.append(
+                subprocess.Popen(
+                    [*dask, "worker", address, "--nworkers", str(n_workers), "--nthreads", "1",
+                     "--host", "127.0.0.1", "--no-dashboard", "--death-timeout", "60"],
+                    **quiet,
+                )
+            )  # fmt: skip
+            with Client(address, timeout=f"{timeout_s}s") as client:
+                try:
+                    client.wait_for_workers(n_workers, timeout=timeout_s)
+                except TimeoutError:
+                    raise LfctlError(f"{n_workers} dask workers did not join within {timeout_s:g} s") from None
+            yield address
+        finally:
+            for p in reversed(procs):
+                p.terminate()
+            for p in reversed(procs):
+                try:
+                    p.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
+def _worker_identity() -> tuple[str, str]:
+    """On a worker: lfctl's version and code digest. Importing what a run needs here keeps
+    the imports out of the first run's time."""
+    import cv2  # noqa: F401
+
+    import lfctl.sweep.task  # noqa: F401
+
+    return __version__, code_digest()
+
+
+@dataclass(frozen=True)
+class SweepProgress:
+    """Where a sweep stands, as the progress callback sees it."""
+
+    total: int  # runs in the plan
+    skipped: int  # runs with a row already (resume)
+    done: int  # runs finished in this session, failed ones included
+    failed: int  # of those, status error or crashed
+    running: int  # submitted and not finished
+    elapsed_s: float  # since the first submission
+    stopping: bool  # a stop was asked: nothing more is submitted
+    engine: str  # what runs the sweep (cluster, workers)
+
+    @property
+    def rate_per_min(self) -> float:
+        """Runs finished per minute in this session."""
+        return 60.0 * self.done / self.elapsed_s if self.elapsed_s > 0 else 0.0
+
+    @property
+    def eta_s(self) -> float | None:
+        """Seconds to the end at the rate so far (None before the first run finishes)."""
+        left = self.total - self.skipped - self.done
+        return left * self.elapsed_s / self.done if self.done else None
+
+
+@dataclass
+class SweepResult:
+    """A sweep that ran (to its end, to a stop, or as far as it went before a cancel)."""
+
+    out_dir: Path  # the sweep's folder
+    plan: SweepPlan  # what was planned
+    rows: list[dict[str, Any]]  # every row in the folder, by run number (resumed ones too)
+    summary: SweepSummary  # per variant, as report() wrote it
+    stopped: bool  # a stop was asked before every run was submitted
+    wall_s: float  # this session, from the first submission to the last row
+    engine: str  # what ran it
+    files: list[Path] = field(default_factory=list)  # tables, summary, plots written
+
+    @property
+    def complete(self) -> bool:
+        """Every planned run has a row."""
+        return len(self.rows) == len(self.plan.runs)
+
+    @property
+    def failed(self) -> list[dict[str, Any]]:
+        """The rows of runs that failed (status ``error`` or ``crashed``)."""
+        return [r for r in self.rows if r["status"] != "ok"]
+
+
+class _IgnoreSigint(WorkerPlugin):
+    """Local workers share the terminal's process group, so Ctrl-C would reach them too;
+    they ignore it (set up again in a worker that replaces a dead one) and the sweep decides
+    what stops."""
+
+    name = "lfctl-ignore-sigint"
+
+    def setup(self, worker: Any) -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _followers(p: SweepPlan) -> list[str]:
+    names: list[str] = []
+    for v in p.variants:
+        names += [f.name for f in v.config.followers if f.name not in names]
+    return names
+
+
+def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[str, Any]]:
+    """Make or check the sweep's folder; returns the rows already there."""
+    if (folder / "sweep.json").exists():
+        meta = read_meta(folder)
+        if not resume:
+            raise ConfigError(
+                f"{folder} already holds sweep {meta.get('name')!r}: pass --resume to finish it, or another --out"
+            )
+        if meta.get("digest") != p.digest:
+            raise ConfigError(
+                f"{folder} holds a different sweep (plan {str(meta.get('digest'))[:12]}, this one {p.digest[:12]}): "
+                "its rows would not match; use another --out"
+            )
+        if meta.get("code") != code:
+            raise ConfigError(
+                f"{folder} was run by other lfctl code (digest {str(meta.get('code'))[:12]}, now {code[:12]}): "
+                "resuming would mix two versions' results; use another --out"
+            )
+        return read_journal(folder)
+    if folder.exists() and any(folder.iterdir()):
+        raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
+    (folder / "variants").mkdir(parents=True, exist_ok=True)
+    spec = p.spec
+    write_meta(
+        folder,
+        {
+            "name": spec.name,
+            "description": spec.description,
+            "digest": p.digest,
+            "code": code,
+            "lfctl": __version__,
+            "scenario": str(spec.scenario),
+            "keys": spec.keys,
+            "followers": _followers(p),
+            "variants": len(p.variants),
+            "seeds": list(spec.seeds),
+            "repetitions": spec.repetitions,
+            "runs": len(p.runs),
+            "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        },
+    )
+    (folder / "sweep.toml").write_text(spec.source)
+    shutil.copyfile(spec.scenario, folder / "scenario.toml")
+    for v in p.variants:
+        (folder / "variants" / f"variant-{v.index:04d}.toml").write_text(v.source)
+    return []
+
+
+def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]:
+    """A client and its cluster (None for a scheduler of one's own) and their description."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler is None:
+        n = workers or usable_cores()
+        with dask.config.set({"distributed.scheduler.allowed-failures": 1}):
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
+                silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
+            )
+        client = Client(cluster)
+        client.register_plugin(_IgnoreSigint())
+        return client, cluster, f"Dask LocalCluster, {n} worker processes x 1 thread; a crashed run is retried once"
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    want = workers or 1
+    try:
+        client.wait_for_workers(want, timeout=60)
+    except TimeoutError:
+        have = len(client.scheduler_info(n_workers=-1)["workers"])
+        client.close()
+        raise LfctlError(f"the scheduler at {scheduler} has {have} workers after 60 s, waiting for {want}") from None
+    retries = client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.allowed_failures)
+    threads = sum(client.nthreads().values())
+    desc = (
+        f"Dask scheduler {scheduler}, {len(client.nthreads())} workers, {threads} threads; "
+        f"a crashed run is retried {retries} times (distributed.scheduler.allowed-failures)"
+    )
+    return client, None, desc
+
+
+def _check_workers(client: Any, code: str) -> None:
+    try:
+        seen = client.run(_worker_identity)
+    except Exception as exc:  # the worker could not unpickle or import lfctl
+        raise LfctlError(
+            f"Dask workers cannot run lfctl ({type(exc).__name__}: {exc}): install this lfctl on every worker"
+        ) from None
+    wrong = {w: v for w, v in seen.items() if v != (__version__, code)}
+    if wrong:
+        listed = ", ".join(f"{w} (lfctl {v[0]}, code {v[1][:12]})" for w, v in sorted(wrong.items()))
+        raise LfctlError(
+            f"workers run other lfctl code than this process (lfctl {__version__}, code {code[:12]}): {listed}; "
+            "install the same lfctl everywhere (PYTHONPATH reaches local workers)"
+        )
+
+
+def run_sweep(
+    sweep: SweepSpec | SweepPlan | str | Path,
+    out_dir: str | Path | None = None,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    logs: str = "none",
+    progress: Callable[[SweepProgress, dict[str, Any] | None], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+    task: Callable[[Any, str, str], dict[str, Any]] | None = None,
+    plots: bool = True,
+) -> SweepResult:
+    """Run a sweep and write its folder; returns the rows and summary.
+
+    Parameters
+    ----------
+    sweep : SweepSpec, SweepPlan, str or Path
+        The sweep: a file, a shipped sweep's name, or one already read or planned.
+    out_dir : str or Path, optional
+        The sweep's folder (default ``sweeps/<name>``).
+    scheduler : str, optional
+        A running Dask scheduler (``tcp://HOST:8786``); default a ``LocalCluster`` here.
+    workers : int, optional
+        Local cluster: worker processes (default one per usable core). With ``scheduler``:
+        wait (up to 60 s) until that many workers have joined (default 1).
+    resume : bool
+        Finish the sweep in ``out_dir``: skip the runs it has rows for.
+    logs : "none", "failed" or "all"
+        Which runs' MCAP logs to keep in ``<out_dir>/logs``.
+    progress : callable, optional
+        ``progress(state, row)``: at the start (row None), after each finished run (its
+        row), and about twice a second (row None).
+    stop : callable, optional
+        Asked in the loop; True stops submitting and lets running runs finish.
+    task : callable, optional
+        What a worker runs per run: ``task(run, out_dir, logs) -> row`` (default
+        :func:`lfctl.sweep.task.execute`); it must be importable by the workers.
+    plots : bool
+        Draw the plots at the end.
+
+    Raises
+    ------
+    ConfigError
+        A bad sweep file or variant, a folder that holds another sweep, bad options.
+    LfctlError
+        The scheduler cannot be reached, or its workers run other lfctl code.
+    """
+    from distributed import wait
+
+    if logs not in LOG_MODES:
+        raise ConfigError(f"--logs must be one of {', '.join(LOG_MODES)}, got {logs!r}")
+    if workers is not None and workers < 1:
+        raise ConfigError(f"--workers must be >= 1, got {workers}")
+    if scheduler is not None and not scheduler.startswith(("tcp://", "tls://")):
+        raise ConfigError(f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}")
+    p = sweep if isinstance(sweep, SweepPlan) else plan(sweep if isinstance(sweep, SweepSpec) else load_sweep(sweep))
+    folder = Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name
+    code = code_digest()
+    done_rows = _prepare(folder, p, resume, code)
+    have = {int(r["run"]) for r in done_rows}
+    todo = collections.deque(r for r in p.runs if r.run not in have)
+    fn = task or execute
+    where = str(folder.resolve())
+    session = uuid.uuid4().hex[:8]
+    client = cluster = None
+    engine = "nothing to run"
+    stopping = False
+    started = time.perf_counter()
+    done = failed = 0
+    pending: dict[Any, Any] = {}
+    lost: list[int] = []  # runs the scheduler cancelled (it restarted, or the connection broke)
+
+    def state() -> SweepProgress:
+        return SweepProgress(
+            len(p.runs), len(have), done, failed, len(pending), time.perf_counter() - started, stopping, engine
+        )
+
+    try:
+        if todo:
+            client, cluster, engine = _connect(scheduler, workers)
+            _check_workers(client, code)
+            log.info("sweep %s: %d runs to do on %s", p.spec.name, len(todo), engine)
+        started = time.perf_counter()
+        if progress is not None:
+            progress(state(), None)
+        while todo or pending:
+            stopping = stopping or (stop is not None and stop())
+            if not stopping and todo:
+                slots = max(1, sum(client.nthreads().values()))
+                while todo and len(pending) < slots:
+                    run = todo.popleft()
+                    key = f"lfctl-sweep-{p.spec.name}-{session}-run{run.run}"
+                    pending[client.submit(fn, run, where, logs, key=key, pure=False)] = run
+            if not pending:
+                break
+            try:
+                finished = wait(list(pending), timeout=_TICK_S, return_when="FIRST_COMPLETED").done
+            except TimeoutError:
+                finished = set()
+            except CancelledError:  # distributed's wait raises when a future was cancelled
+                finished = {f for f in pending if f.done()}
+            for fut in finished:
+                run = pending.pop(fut)
+                if fut.status == "cancelled":  # not by us: the scheduler lost it. No row: --resume runs it
+                    lost.append(run.run)
+                    stopping = True
+                    continue
+                row = _row(fut, run)
+                fut.release()
+                append_row(folder, row)
+                done += 1
+                failed += row["status"] != "ok"
+                if progress is not None:
+                    progress(state(), row)
+            if not finished and progress is not None:
+                progress(state(), None)
+    except KeyboardInterrupt:
+        if client is not None and pending:
+            client.cancel(list(pending), force=True)
+        _finish(folder, p, plots)
+        raise
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    wall = time.perf_counter() - started
+    rows, summary = _finish(folder, p, plots)
+    if lost:
+        raise LfctlError(
+            f"the Dask scheduler cancelled {len(lost)} runs (runs {', '.join(map(str, lost[:10]))}): it restarted or "
+            f"the connection broke; the {len(rows)} finished rows are in {folder}, --resume runs the rest"
+        )
+    return SweepResult(folder, p, rows, summary, bool(todo), wall, engine, summary.files)
+
+
+def _row(fut: Any, run: Run) -> dict[str, Any]:
+    """A finished future's row: the task's, or one saying why there is none (the task
+    catches the run's own errors, so these are the engine's: a dead worker, a task that did
+    not unpickle)."""
+    from distributed.scheduler import KilledWorker
+
+    if fut.status == "finished":
+        return dict(fut.result())
+    exc = fut.exception()
+    if isinstance(exc, KilledWorker):
+        return failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})")
+    return failed_row(run, "error", f"{type(exc).__name__}: {exc}")
+
+
+def _finish(folder: Path, p: SweepPlan, plots: bool) -> tuple[list[dict[str, Any]], SweepSummary]:
+    """Write the results table, summary and plots from every row in the folder."""
+    rows = read_journal(folder)
+    tables = write_tables(folder, rows, p.spec.keys, _followers(p))
+    summary = report(folder, plots=plots)
+    return rows, SweepSummary(summary.rows, summary.markdown, [*tables, *summary.files])

@@ -1,0 +1,343 @@
+"""A sweep's folder: what it is (``sweep.json``), its runs as they finish (``runs.jsonl``),
+the results table (``runs.parquet``, ``runs.csv``: one row per run), the summary per variant
+with mean and 95 % confidence interval (``summary.parquet``, ``summary.csv``, ``summary.md``)
+and the plots (``plots/``). :func:`report` rebuilds the summary and plots from the table
+(``lfctl sweep report DIR``).
+
+The interval is Student's t on the runs that finished (``ok``) of each variant: mean +-
+t(0.975, n - 1) s / sqrt(n). It needs two runs; with one the bounds are empty.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from lfctl.errors import ConfigError
+from lfctl.sweep.task import FIGURES, ID_COLUMNS, STATUS_COLUMNS
+
+__all__ = [
+    "HEADLINE",
+    "JOURNAL",
+    "META",
+    "SweepSummary",
+    "append_row",
+    "mean_ci",
+    "metric_columns",
+    "read_journal",
+    "read_meta",
+    "read_rows",
+    "report",
+    "summarise",
+    "summary_markdown",
+    "write_meta",
+    "write_tables",
+]
+
+#: what the sweep is: name, plan digest, code, keys, followers, runs planned
+META = "sweep.json"
+#: one JSON row per finished run, appended as runs finish (what ``--resume`` reads)
+JOURNAL = "runs.jsonl"
+#: the figures the printed summary shows per follower (all of them are in summary.csv)
+HEADLINE = ("range_err_rms_m", "bearing_err_rms_deg", "lost_s", "chattering_per_s", "track_success")
+
+
+@dataclass(frozen=True)
+class SweepSummary:
+    """The summary of a sweep's rows: one row per variant, its Markdown, the files written."""
+
+    rows: list[dict[str, Any]]  # per variant: keys, runs, ok, failed, <metric>.mean / .ci95_lo / .ci95_hi
+    markdown: str  # the headline figures as a Markdown table
+    files: list[Path]  # summary tables and plots written
+
+
+def write_meta(out_dir: Path, meta: dict[str, Any]) -> None:
+    """Write ``sweep.json``.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+    meta : dict
+        ``name``, ``digest``, ``code``, ``keys``, ``followers``, ``runs`` and anything else
+        JSON can hold.
+    """
+    (out_dir / META).write_text(json.dumps(meta, indent=1, default=str) + "\n")
+
+
+def read_meta(out_dir: Path) -> dict[str, Any]:
+    """Read ``sweep.json``.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+
+    Raises
+    ------
+    ConfigError
+        The folder holds no sweep (or a damaged ``sweep.json``).
+    """
+    try:
+        return dict(json.loads((out_dir / META).read_text()))
+    except FileNotFoundError:
+        raise ConfigError(f"{out_dir} holds no sweep (no {META})") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{out_dir / META}: cannot read it: {exc}") from None
+
+
+def append_row(out_dir: Path, row: dict[str, Any]) -> None:
+    """Append one finished run to the journal (``runs.jsonl``), flushed at once.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+    row : dict
+        The run's row.
+    """
+    with open(out_dir / JOURNAL, "a", encoding="utf-8") as f:
+        f.write(json.dumps(row, default=str) + "\n")
+
+
+def read_journal(out_dir: Path) -> list[dict[str, Any]]:
+    """The rows in the journal, one per run (the last one written wins), by run number.
+    A last line cut short by a crash is skipped.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+    """
+    path = out_dir / JOURNAL
+    if not path.exists():
+        return []
+    rows: dict[int, dict[str, Any]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            row = json.loads(line)
+        except ValueError:
+            continue
+        rows[int(row["run"])] = row
+    return [rows[k] for k in sorted(rows)]
+
+
+def metric_columns(followers: Sequence[str]) -> list[str]:
+    """Every figure column of a sweep with these followers, in table order.
+
+    Parameters
+    ----------
+    followers : sequence of str
+        The followers' names.
+    """
+    return [f"{f}.{fig}" for f in followers for fig in FIGURES]
+
+
+def _cell(value: Any) -> Any:
+    """A table cell: arrays and tables as JSON text, the rest as is."""
+    return json.dumps(value) if isinstance(value, (list, dict, tuple)) else value
+
+
+def _column(values: list[Any]) -> pa.Array:
+    """One column, numbers widened to float when mixed with floats, anything else mixed as text."""
+    present = [v for v in values if v is not None]
+    kinds = {type(v) for v in present}
+    if kinds <= {int, float} and float in kinds:
+        return pa.array([None if v is None else float(v) for v in values], pa.float64())
+    if len(kinds) > 1:
+        return pa.array([None if v is None else str(v) for v in values], pa.string())
+    if not present:
+        return pa.array(values, pa.float64())
+    return pa.array(values)
+
+
+def _table(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> pa.Table:
+    return pa.table({c: _column([_cell(r.get(c)) for r in rows]) for c in columns})
+
+
+def write_tables(
+    out_dir: Path, rows: Sequence[dict[str, Any]], keys: Sequence[str], followers: Sequence[str]
+) -> list[Path]:
+    """Write the results table, one row per run by run number: ``runs.parquet`` and
+    ``runs.csv``. Columns: the identity, the swept keys, every follower's figures, then
+    ``waypoints_reached``, ``sim_time_s``, ``wall_time_s``, ``status``, ``error``,
+    ``log_path``.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The sweep's folder.
+    rows : sequence of dict
+        The runs' rows.
+    keys : sequence of str
+        The swept keys.
+    followers : sequence of str
+        The followers.
+    """
+    columns = [*ID_COLUMNS, *keys, *metric_columns(followers), *STATUS_COLUMNS]
+    table = _table(sorted(rows, key=lambda r: int(r["run"])), columns)
+    out = [out_dir / "runs.parquet", out_dir / "runs.csv"]
+    pq.write_table(table, out[0])
+    pacsv.write_csv(table, out[1])
+    return out
+
+
+def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
+    """The results table of a sweep's folder (``runs.parquet``), one dict per run.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The sweep's folder.
+
+    Raises
+    ------
+    ConfigError
+        No results table there.
+    """
+    path = Path(out_dir) / "runs.parquet"
+    try:
+        return list(pq.read_table(path).to_pylist())
+    except FileNotFoundError:
+        raise ConfigError(f"{out_dir} has no results table (runs.parquet): has the sweep run there?") from None
+    except (OSError, pa.ArrowException) as exc:
+        raise ConfigError(f"{path}: cannot read it: {exc}") from None
+
+
+def mean_ci(values: Iterable[float | None]) -> tuple[float | None, float | None, float | None]:
+    """Mean and 95 % confidence interval (Student's t) of the values present.
+
+    Parameters
+    ----------
+    values : iterable of float or None
+        One figure over runs; None and non-finite values are left out.
+
+    Returns
+    -------
+    (mean, lo, hi)
+        None for each that cannot be had (no values; one value: no interval).
+    """
+    from scipy.stats import t
+
+    a = np.array([v for v in values if v is not None and math.isfinite(v)], float)
+    if a.size == 0:
+        return None, None, None
+    mean = float(a.mean())
+    if a.size < 2:
+        return mean, None, None
+    half = float(t.ppf(0.975, a.size - 1) * a.std(ddof=1) / math.sqrt(a.size))
+    return mean, mean - half, mean + half
+
+
+def summarise(rows: Sequence[dict[str, Any]], keys: Sequence[str], metrics: Sequence[str]) -> list[dict[str, Any]]:
+    """One row per variant: its swept values, runs, ``ok``, ``failed``, and per metric
+    ``<metric>.mean``, ``.ci95_lo``, ``.ci95_hi`` over its ``ok`` runs.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        The runs' rows.
+    keys : sequence of str
+        The swept keys.
+    metrics : sequence of str
+        The figure columns to summarise.
+    """
+    by_variant: dict[int, list[dict[str, Any]]] = {}
+    for r in rows:
+        by_variant.setdefault(int(r["variant"]), []).append(r)
+    out = []
+    for variant in sorted(by_variant):
+        runs = by_variant[variant]
+        ok = [r for r in runs if r["status"] == "ok"]
+        s: dict[str, Any] = {"variant": variant, **{k: runs[0].get(k) for k in keys}}
+        s.update(runs=len(runs), ok=len(ok), failed=len(runs) - len(ok))
+        for m in metrics:
+            s[f"{m}.mean"], s[f"{m}.ci95_lo"], s[f"{m}.ci95_hi"] = mean_ci(r.get(m) for r in ok)
+        out.append(s)
+    return out
+
+
+def _num(value: float | None) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
+
+
+def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], followers: Sequence[str]) -> str:
+    """The headline figures (:data:`HEADLINE`) per variant as a Markdown table: ``mean [lo, hi]``.
+
+    Parameters
+    ----------
+    summary : sequence of dict
+        What :func:`summarise` gave.
+    keys : sequence of str
+        The swept keys.
+    followers : sequence of str
+        The followers.
+    """
+    shown = [
+        f"{f}.{fig}"
+        for f in followers
+        for fig in HEADLINE
+        if any(s.get(f"{f}.{fig}.mean") is not None for s in summary)
+    ]
+    prefix = len(followers) > 1
+    head = ["variant", *keys, "ok/runs", *[(m if prefix else m.split(".", 1)[1]) for m in shown]]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+    for s in summary:
+        cells = [str(s["variant"]), *[str(_cell(s.get(k))) for k in keys], f"{s['ok']}/{s['runs']}"]
+        for m in shown:
+            mean, lo, hi = s.get(f"{m}.mean"), s.get(f"{m}.ci95_lo"), s.get(f"{m}.ci95_hi")
+            cells.append(_num(mean) + (f" [{_num(lo)}, {_num(hi)}]" if lo is not None else ""))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def report(out_dir: str | Path, plots: bool = True) -> SweepSummary:
+    """Rebuild a sweep's summary (and plots) from its results table.
+
+    Writes ``summary.parquet``, ``summary.csv``, ``summary.md`` and, with ``plots``, one PNG
+    per swept key and follower in ``plots/``.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The sweep's folder (what ``lfctl sweep`` wrote).
+    plots : bool
+        Draw the plots too.
+
+    Raises
+    ------
+    ConfigError
+        The folder holds no sweep or no results table.
+    """
+    from lfctl.sweep.plots import plot_sweep
+
+    folder = Path(out_dir)
+    meta = read_meta(folder)
+    rows = read_rows(folder)
+    keys, followers = list(meta["keys"]), list(meta["followers"])
+    metrics = [*metric_columns(followers), "waypoints_reached", "wall_time_s"]
+    summary = summarise(rows, keys, metrics)
+    files = [folder / "summary.parquet", folder / "summary.csv", folder / "summary.md"]
+    columns = ["variant", *keys, "runs", "ok", "failed"] + [
+        f"{m}.{s}" for m in metrics for s in ("mean", "ci95_lo", "ci95_hi")
+    ]
+    table = _table(summary, columns)
+    pq.write_table(table, files[0])
+    pacsv.write_csv(table, files[1])
+    md = summary_markdown(summary, keys, followers)
+    title = f"# sweep {meta['name']}: {len(rows)} runs, {sum(r['status'] != 'ok' for r in rows)} failed\n\n"
+    files[2].write_text(title + md)
+    if plots:
+        files += plot_sweep(folder / "plots", rows, keys, followers)
+    return SweepSummary(summary, md, files)

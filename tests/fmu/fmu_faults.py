@@ -1,0 +1,33 @@
+"""What the tests tell FaultyRover (FaultyRover/config.h) to do, and a scenario that runs it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: FaultyRover's `fault` parameter
+NAN, INF, HUGE, HANG, FAR = 1, 2, 3, 4, 5
+
+
+def faulty_scenario(fmu: Path, fault: int, fault_at: float, log_dir: Path, duration_s: float = 3.0) -> str:
+    """A leader and a follower, both FaultyRover; only the follower has the fault."""
+    return f"""name = "faulty"
+[sim]
+duration_s = {duration_s}
+sensing = "truth"
+[recording]
+dir = "{log_dir}"
+[[vehicles]]
+name = "leader"
+role = "leader"
+fmu = "{fmu}"
+[[vehicles]]
+name = "f1"
+role = "follower"
+fmu = "{fmu}"
+north_m = -1.5
+target = "leader"
+range_m = 1.5
+[vehicles.parameters]
+fault = {fault}
+fault_at = {fault_at}
+"""

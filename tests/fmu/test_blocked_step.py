@@ -1,0 +1,94 @@
+"""SIGTERM or Ctrl-C while an FMU is stuck in doStep (an endless loop in C) ends `lfctl sim`
+within about a second, with a finished log that says why, one line on stderr, and no
+extracted folder left; a run whose FMU returns still stops between steps, as before."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from fmu_faults import HANG, faulty_scenario
+
+from lfctl.fmu.build import BuiltModel
+from lfctl.record.audit import audit
+
+pytestmark = [pytest.mark.fmu, pytest.mark.integration]
+
+
+def start_sim(scenario: Path, tmp: Path, mark: Path) -> subprocess.Popen[str]:
+    env = dict(os.environ, TMPDIR=str(tmp), LFCTL_TEST_FMU_MARK=str(mark))
+    return subprocess.Popen(
+        [sys.executable, "-m", "lfctl", "sim", str(scenario), "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
+    )
+
+
+@pytest.mark.parametrize(("fmi", "sig", "code"), [(2, signal.SIGTERM, 143), (3, signal.SIGINT, 130)])
+def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
+    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int
+) -> None:
+    scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
+    tmp.mkdir()
+    scen.write_text(faulty_scenario(faulty.path(fmi), HANG, 0.5, logs, duration_s=5.0))
+    proc = start_sim(scen, tmp, mark)
+    try:
+        deadline = time.monotonic() + 60
+        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert mark.exists(), "the FMU never got stuck"
+        time.sleep(0.3)
+        assert proc.poll() is None  # stuck
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        rc = proc.wait(timeout=10)
+        took = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    assert rc == code and took < 2.0, (rc, took, err)
+    call = "fmi2DoStep" if fmi == 2 else "fmi3DoStep"
+    assert err == f"lfctl: error: FMU FaultyRover (f1) blocked in {call} at t = 0.5 s; terminated by {sig.name}\n"
+    (log,) = logs.glob("*.mcap")
+    report = audit(log)
+    # a whole, finished file: its one error is the run's abnormal end
+    assert [f.kind for f in report.findings if f.level == "error"] == ["run"], report.findings
+    assert report.figures["end"]["reason"] == f"error: FMU FaultyRover (f1) blocked in {call} at t = 0.5 s; terminated"
+    assert float(report.figures["end"]["t_s"]) == pytest.approx(0.5)
+    assert list(tmp.iterdir()) == []  # the extracted FMU went too
+
+
+def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tmp_path: Path) -> None:
+    scen, tmp, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "logs"
+    tmp.mkdir()
+    scen.write_text(
+        faulty_scenario(faulty.fmi2, 0, 0.0, logs, duration_s=600.0).replace("[sim]", "[sim]\nclock = 'realtime'")
+    )
+    proc = start_sim(scen, tmp, tmp_path / "unused")
+    try:
+        deadline = time.monotonic() + 60
+        while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(1.0)
+        proc.send_signal(signal.SIGTERM)
+        rc = proc.wait(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.stderr is not None
+    assert (rc, proc.stderr.read()) == (130, "lfctl: interrupted\n")
+    (log,) = logs.glob("*.mcap")
+    assert audit(log).figures["end"]["reason"] == "interrupted"
+    assert list(tmp.iterdir()) == []

@@ -1,0 +1,116 @@
+"""`lfctl gcs watch`: a screen that redraws in place on a terminal, JSON lines on a pipe."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import socket
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.cli import main
+from lfctl.cli.gcs import fleet_rows, render_fleet, watch
+from lfctl.config import load_config
+from lfctl.link.gcs import FleetTable
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+
+
+def message(msg: object, sysid: int, compid: int = 1) -> object:
+    """A message as received: packed and parsed by a sender with these ids."""
+    sender = mav.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    return mav.MAVLink(None).parse_buffer(msg.pack(sender))[0]
+
+
+def heartbeat(custom_mode: int, armed: bool) -> object:
+    return mav.MAVLink_heartbeat_message(
+        mav.MAV_TYPE_GROUND_ROVER,
+        mav.MAV_AUTOPILOT_ARDUPILOTMEGA,
+        mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (mav.MAV_MODE_FLAG_SAFETY_ARMED if armed else 0),
+        custom_mode,
+        mav.MAV_STATE_ACTIVE,
+        3,
+    )
+
+
+def test_rows_wait_for_the_autopilot_and_go_stale_after_3_s() -> None:
+    table = FleetTable()
+    table.add(message(mav.MAVLink_named_value_float_message(0, b"rng_err", 0.2), 2, 191), 0.0)
+    assert fleet_rows(table, 0.0) == []  # the companion alone: no row of unknowns
+    table.add(message(heartbeat(15, True), 2), 0.5)
+    table.add(message(mav.MAVLink_local_position_ned_message(0, 3.25, -1.5, 0, 0.3, 0.0, 0), 2), 0.5)
+    table.add(message(mav.MAVLink_named_value_float_message(0, b"brg_err", -4.0), 2, 191), 0.5)
+    table.add(message(mav.MAVLink_named_value_float_message(0, b"trk_q", 1.0), 2, 191), 0.5)
+    table.add(message(mav.MAVLink_mission_current_message(2, 4), 2), 0.5)
+    (row,) = fleet_rows(table, 1.0)
+    assert row | {"text": ""} == {
+        "sysid": 2, "mode": "GUIDED", "armed": True, "north_m": 3.25, "east_m": -1.5, "speed_mps": None,
+        "link_age_s": 0.5, "stale": False, "mission_seq": 2, "mission_total": 4, "range_err_m": 0.2,
+        "bearing_err_deg": -4.0, "track": "tracking", "text": "",
+    }  # fmt: skip
+    line = render_fleet([row])[1]
+    assert "GUIDED" in line and "3.25" in line and "2/4" in line and "tracking" in line
+    (old,) = fleet_rows(table, 3.6)
+    assert old["stale"] and "STALE" in render_fleet([old])[1]
+
+
+class FakeStation:
+    """Gives the scripted messages, one per call, then nothing."""
+
+    def __init__(self, msgs: list[object]) -> None:
+        self.msgs = msgs
+
+    def heartbeat(self) -> None:
+        pass
+
+    def next_message(self, timeout_s: float) -> object | None:
+        return self.msgs.pop(0) if self.msgs else None
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_on_a_terminal_every_update_redraws_from_the_top() -> None:
+    out = Terminal()
+    watch(FakeStation([message(heartbeat(10, True), 1)]), 3, out)
+    text = out.getvalue()
+    assert text.count("\x1b[H") == 3 and text.count("\x1b[J") == 3  # home, draw, clear below: no scrolling
+    assert "AUTO" in text and text.endswith("\x1b[?25h")  # the cursor is given back
+
+
+def test_on_a_pipe_each_update_is_one_json_object() -> None:
+    out = io.StringIO()
+    watch(FakeStation([message(heartbeat(4, False), 1)]), 2, out)
+    lines = out.getvalue().splitlines()
+    assert len(lines) == 2 and "\x1b" not in out.getvalue()
+    assert json.loads(lines[-1])["vehicles"][0]["mode"] == "HOLD"
+
+
+@pytest.mark.integration
+@pytest.mark.fmu
+def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        gcs_port = probe.getsockname()[1]
+    base = gcs_port + 7 if gcs_port < 65000 else gcs_port - 20
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=30.0),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
+    )
+    with background_run(cfg, realtime=True) as errors:
+        rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "6"])
+    assert not errors, errors
+    assert rc == 0
+    updates = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert len(updates) == 6
+    last = {v["sysid"]: v for v in updates[-1]["vehicles"]}
+    assert set(last) == {1, 2}
+    assert last[1]["mode"] == "HOLD" and last[1]["mission_total"] == 4  # stored, waiting for a ground station
+    assert last[2]["mode"] == "GUIDED" and last[2]["armed"] and last[2]["north_m"] == pytest.approx(-1.5, abs=0.1)

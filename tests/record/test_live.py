@@ -1,0 +1,404 @@
+"""Live: the Foxglove WebSocket of a running `lfctl sim --live`, the RTP/UDP H.264 stream,
+H.264 in the MCAP, the MAVLink camera component, and the audit's link figures."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import json
+import math
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import av
+import numpy as np
+import pytest
+import websockets
+from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
+from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
+from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
+from mcap.reader import NonSeekingReader
+from pymavlink import mavutil
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.cli import main
+from lfctl.config import load_config
+from lfctl.link.camera import CameraComponent, CameraRouter
+from lfctl.link.transport import UdpLink
+from lfctl.record.audit import audit
+from lfctl.record.layout import layout_json
+from lfctl.record.rtp import nal_units, sdp
+from lfctl.record.video import H264Encoder, psnr
+from lfctl.record.writer import Recorder
+from lfctl.sim.runner import run_scenario
+
+pytestmark = pytest.mark.fmu
+EXAMPLES = Path(__file__).parents[2] / "examples"
+ROOT = Path(__file__).parents[2]
+
+
+def short_camera_cfg(duration_s: float, **recording: object):
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    return dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration_s),
+        recording=dataclasses.replace(cfg.recording, **recording),
+    )
+
+
+def interrupt(proc: subprocess.Popen) -> None:
+    """Ctrl-C for a run in another process; killed if it has not ended 30 s later."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+
+
+# -- the Foxglove WebSocket ---------------------------------------------------------------------
+async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[bytes]]:
+    """Connect as Foxglove does, subscribe to every advertised channel, keep payloads per topic
+    until every wanted topic has sent a message (or 30 s passed).
+
+    A wanted channel silent for a second is subscribed again: foxglove-sdk may advertise a
+    channel a moment before it takes subscriptions to it ("subscribe to unknown channel"
+    when the machine is busy), and a client that asks once then waits for ever."""
+    got: dict[str, list[bytes]] = {}
+    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+        assert ws.subprotocol == "foxglove.sdk.v1"
+        topic_of_sub: dict[int, str] = {}
+        channel_of_topic: dict[str, int] = {}
+
+        async def subscribe(channels: dict[str, int]) -> None:
+            subs = []
+            for topic, channel_id in channels.items():
+                sub_id = len(topic_of_sub) + 1
+                topic_of_sub[sub_id] = topic
+                subs.append({"id": sub_id, "channelId": channel_id})
+            await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+
+        async def loop() -> None:
+            loop_clock = asyncio.get_running_loop()
+            asked_at = loop_clock.time()
+            while not wanted <= set(got):
+                if loop_clock.time() - asked_at > 1.0:
+                    asked_at = loop_clock.time()
+                    await subscribe({t: c for t, c in channel_of_topic.items() if t in wanted and t not in got})
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), timeout=1.0)
+                except TimeoutError:
+                    continue
+                if isinstance(frame, str):
+                    msg = json.loads(frame)
+                    if msg["op"] == "advertise":
+                        new = {ch["topic"]: ch["id"] for ch in msg["channels"]}
+                        channel_of_topic.update(new)
+                        await subscribe(new)
+                elif frame[0] == 1:  # messageData: op, subscription id, log time, payload
+                    sub_id, _log_time = struct.unpack_from("<IQ", frame, 1)
+                    got.setdefault(topic_of_sub[sub_id], []).append(bytes(frame[13:]))
+
+        await asyncio.wait_for(loop(), timeout=30)
+    return got
+
+
+@pytest.mark.integration
+def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp_path: Path, free_udp_ports) -> None:
+    base = free_udp_ports(2)
+    scen = tmp_path / "live.toml"
+    scen.write_text(
+        (EXAMPLES / "convoy.toml").read_text()
+        + f'\n[link]\nudp_base_port = {base}\ngcs_udpout = ""\n[recording]\ndir = "{tmp_path}"\n'
+    )
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "lfctl",
+            "sim",
+            str(scen),
+            "--realtime",
+            "--duration",
+            "20",
+            "-q",
+            "--live",
+            "127.0.0.1:0",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=(tmp_path / "stderr").open("w"),
+        text=True,
+        env=env,
+    )
+    try:
+        assert proc.stdout is not None
+        port = None
+        for line in proc.stdout:
+            if line.startswith("foxglove"):
+                port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+                break
+        assert port, "lfctl sim --live did not say where it serves"
+        wanted = {"/leader/pose", "/follower1/camera/video", "/leader/fix", "/tf", "/follower1/controller"}
+        got = asyncio.run(subscribe_and_collect(port, wanted))
+    finally:
+        interrupt(proc)
+    assert wanted <= set(got), (sorted(got), (tmp_path / "stderr").read_text())
+    pose = PoseInFrame.FromString(got["/leader/pose"][0])
+    assert pose.frame_id == "ned" and pose.timestamp.seconds > 1_600_000_000
+    video = CompressedVideo.FromString(got["/follower1/camera/video"][0])
+    assert video.format == "h264" and nal_units(video.data)
+    fix = LocationFix.FromString(got["/leader/fix"][0])
+    assert 12 < fix.latitude < 14 and 77 < fix.longitude < 78
+    assert "range_error_m" in json.loads(got["/follower1/controller"][0])
+    assert proc.returncode == 130  # stopped by the interrupt, its log finished
+    (log,) = tmp_path.glob("*.mcap")
+    assert audit(log).ok
+
+
+def test_live_on_a_port_in_use_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code = main(["sim", "convoy", "--duration", "1", "--no-record", "--live", f"127.0.0.1:{port}", "-q"])
+    err = capsys.readouterr().err
+    assert code == 1 and f"127.0.0.1:{port}" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("value", ["nohost", "127.0.0.1:99999", ":80"])
+def test_a_bad_live_address_names_the_value(value: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "convoy", "--duration", "1", "--no-record", "--live", value]) == 2
+    err = capsys.readouterr().err
+    assert repr(value) in err and "Traceback" not in err
+
+
+# -- RTP/UDP H.264 ----------------------------------------------------------------------------
+@pytest.mark.integration
+def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(
+    tmp_path: Path, free_udp_ports, background_run
+) -> None:
+    port = free_udp_ports(2)  # RTP and its RTCP port, as the receiver binds both
+    cfg = short_camera_cfg(4.0)
+    cfg = dataclasses.replace(cfg, live=dataclasses.replace(cfg.live, video_annotated=False))
+    rendered: list[np.ndarray] = []
+    (tmp_path / "s.sdp").write_text(sdp("127.0.0.1", port))
+    decoded = []
+    # the stream starts at once: frames sent before the receiver binds are lost, and it
+    # begins at the next keyframe (one a second)
+    with background_run(
+        cfg, realtime=True, video=("127.0.0.1", port), on_frame=lambda _f, s: rendered.append(s.frame)
+    ) as errors:
+        container = av.open(
+            str(tmp_path / "s.sdp"),
+            format="sdp",
+            options={"protocol_whitelist": "file,udp,rtp", "timeout": "10000000", "buffer_size": str(8 << 20)},
+            timeout=20,
+        )
+        try:
+            for frame in container.decode(video=0):
+                decoded.append(frame.to_ndarray(format="bgr24"))
+                if len(decoded) >= 40:
+                    break
+        finally:
+            container.close()
+    assert not errors, errors
+    assert len(decoded) >= 40
+    # the first decoded frame is one of the rendered ones; the rest follow it in order
+    first = max(range(len(rendered)), key=lambda k: psnr(decoded[0], rendered[k]))
+    scores = [psnr(d, rendered[first + k]) for k, d in enumerate(decoded)]
+    assert min(scores) > 30.0, scores
+
+
+@pytest.mark.integration
+def test_the_camera_component_answers_a_ground_stations_requests() -> None:
+    udp = UdpLink(None)
+    camera = CameraComponent(
+        2,
+        udp.send,
+        video_port=5600,
+        width=640,
+        height=480,
+        fps=30.0,
+        bitrate_kbps=1500,
+        hfov_deg=62.0,
+        name="follower1 camera",
+    )
+    router = CameraRouter(udp, [camera])
+    gcs = mavutil.mavlink_connection(f"udpout:127.0.0.1:{udp.port}", source_system=255, source_component=190)
+    try:
+        # the autopilot's command on the same link passes through; the camera's are taken
+        gcs.mav.command_long_send(2, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_CAMERA_INFORMATION, 0, 0, 0, 0, 0, 0
+        )
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION, 1, 0, 0, 0, 0, 0
+        )
+        gcs.mav.command_long_send(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_BATTERY_STATUS, 0, 0, 0, 0, 0, 0
+        )
+        passed: list[bytes] = []
+        received = []
+        for _ in range(200):
+            for data, addr in router.recv():
+                udp.accept_peer(addr)
+                passed.append(data)
+            if camera.requests == 3:
+                break
+            camera.tick(camera.t_s + 0.01)
+            received.append(gcs.recv_match(timeout=0.01))
+        camera.tick(camera.t_s + 1.0)
+        received += [gcs.recv_match(timeout=0.2) for _ in range(8)]
+        heard: dict[str, object] = {}
+        acks: dict[int, list[int]] = {}
+        for m in received:
+            if m is not None and m.get_srcComponent() == 100:
+                heard[m.get_type()] = m
+                if m.get_type() == "COMMAND_ACK":
+                    acks[m.command] = [*acks.get(m.command, []), m.result]
+    finally:
+        gcs.close()
+        udp.close()
+    (arm,) = [mav.MAVLink(None).parse_buffer(d)[0] for d in passed]
+    assert arm.get_type() == "COMMAND_LONG" and arm.command == mav.MAV_CMD_COMPONENT_ARM_DISARM
+    assert heard["HEARTBEAT"].type == mav.MAV_TYPE_CAMERA
+    assert heard["CAMERA_INFORMATION"].flags & mav.CAMERA_CAP_FLAGS_HAS_VIDEO_STREAM
+    info = heard["VIDEO_STREAM_INFORMATION"]
+    assert info.type == mav.VIDEO_STREAM_TYPE_RTPUDP and info.uri == "5600" and info.resolution_h == 640
+    assert acks[mav.MAV_CMD_REQUEST_MESSAGE] == [mav.MAV_RESULT_ACCEPTED] * 2 + [mav.MAV_RESULT_UNSUPPORTED]
+
+
+# -- H.264 in the MCAP ------------------------------------------------------------------------------
+def test_h264_in_the_mcap_reads_in_the_official_reader_and_decodes_to_the_rendered_frames(tmp_path: Path) -> None:
+    cfg = short_camera_cfg(2.0, image_rate_hz=10.0, dir=str(tmp_path))
+    rendered: dict[int, np.ndarray] = {}
+    run_scenario(
+        cfg, record_to=tmp_path / "v.mcap", on_frame=lambda _f, s: rendered.__setitem__(round(s.t_s * 100), s.frame)
+    )
+    start_ns = int(audit(tmp_path / "v.mcap").contents.metadata["run"]["start_time_ns"])
+    decoder = av.CodecContext.create("h264", "r")
+    scores = []
+    with (tmp_path / "v.mcap").open("rb") as f:
+        for _schema, channel, message in NonSeekingReader(f, validate_crcs=True).iter_messages(
+            topics=["/follower1/camera/video"]
+        ):
+            del channel
+            video = CompressedVideo.FromString(message.data)
+            t_cs = round((message.log_time - start_ns) / 1e7)  # the frame's simulation time, 10 ms steps
+            for frame in decoder.decode(av.Packet(video.data)):
+                scores.append(psnr(frame.to_ndarray(format="bgr24"), rendered[t_cs]))
+    assert len(scores) == pytest.approx(20, abs=1)
+    assert min(scores) > 30.0, scores
+    # the shipped layout is the one the code builds, and every topic it shows is in such a log
+    shipped = json.loads((EXAMPLES / "foxglove-layout.json").read_text())
+    assert shipped == json.loads(layout_json())
+    text = json.dumps(shipped)
+    named = {t.split(".")[0] for t in re.findall(r'"(/[\w/]+(?:\.\w+)?)"', text)}
+    assert named and named <= set(audit(tmp_path / "v.mcap").contents.messages), named
+
+
+def test_the_encoder_holds_its_bitrate_and_gop() -> None:
+    rng = np.random.default_rng(3)
+    base = (rng.random((240, 320, 3)) * 255).astype(np.uint8)
+    enc = H264Encoder(320, 240, 30.0, 400, gop=15)
+    units = [enc.encode(np.roll(base, 4 * k, axis=1)) for k in range(60)]
+    assert [u.index for u in units if u.keyframe] == [0, 15, 30, 45]
+    assert all(nal_units(u.data)[0][0] & 0x1F == 7 for u in units if u.keyframe)  # SPS first
+    kbps = sum(len(u.data) for u in units) * 8 / 2.0 / 1000
+    assert kbps < 400 * 1.5  # random noise is the worst case for a rate-controlled encoder
+
+
+# -- the audit's link figures --------------------------------------------------------------------------
+def packet(direction: str, sysid: int, compid: int, seq: int, name: str = "HEARTBEAT", **fields: object) -> dict:
+    return {
+        "direction": direction,
+        "sysid": sysid,
+        "compid": compid,
+        "msgid": 0,
+        "name": name,
+        "seq": seq,
+        "fields": fields,
+        "raw": "",
+    }
+
+
+def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(tmp_path: Path) -> None:
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    path = tmp_path / "l.mcap"
+    with Recorder(path, cfg, start_ns=1_700_000_000 * 10**9) as rec:
+        # one ground station (255/190) talks to both vehicles with one counter: 0..9 alternate
+        for seq in range(10):
+            rec.mavlink(seq * 0.1, "leader" if seq % 2 else "follower1", packet("in", 255, 190, seq))
+        rec.mavlink(1.05, "leader", packet("in", 255, 190, 13))  # 10, 11, 12 lost
+        rec.mavlink(1.3, "leader", packet("in", 255, 190, 0))  # `lfctl gcs` run again at once: a restart
+        rec.mavlink(9.0, "leader", packet("in", 255, 190, 0))  # a new process 8 s later: not loss
+        rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))
+        rec.mavlink(9.1, "leader", packet("in", 255, 190, 1, "COMMAND_LONG", command=400))  # a duplicate
+        rec.mavlink(
+            9.12, "leader", packet("out", 1, 1, 40, "COMMAND_ACK", command=400, target_system=255, target_component=190)
+        )
+        rec.mavlink(9.2, "leader", packet("in", 250, 1, 0, "COMMAND_LONG", command=176))
+        rec.mavlink(
+            9.5, "leader", packet("out", 1, 1, 41, "COMMAND_ACK", command=176, target_system=250, target_component=1)
+        )
+    rep = audit(path)  # a log of MAVLink only: the missing topics are findings, the figures are what counts
+    assert rep.figures["link_senders"]["255/190"] == {"packets": 15, "lost": 3, "loss_pct": 16.67}
+    leader = rep.figures["links"]["/mavlink/leader"]
+    assert leader["commands"] == 3 and leader["commands_acked"] == 2
+    assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)
+    assert leader["command_ack_latency_ms_median"] == pytest.approx(160.0)
+    assert not math.isnan(leader["rates_hz"]["in HEARTBEAT"])
+
+
+# -- lfctl follow --live ---------------------------------------------------------------------------
+@pytest.mark.integration
+def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
+    tmp_path: Path, banner_video, standing_rover
+) -> None:
+    video = banner_video(400)
+    rtp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rtp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)  # read after the run: keep it all
+    rtp.bind(("127.0.0.1", 0))
+    rtp.settimeout(0.05)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    with standing_rover() as rover:
+        proc = subprocess.Popen(
+            [
+                sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}",
+                "--camera", str(video), "--timeout", "10", "--live", "127.0.0.1:0",
+                "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
+            ],
+            stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
+        )  # fmt: skip
+        try:
+            assert proc.stdout is not None
+            line = proc.stdout.readline()
+            assert line.startswith("foxglove"), line
+            port = int(line.split("ws://127.0.0.1:")[1].split()[0])
+            got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
+        finally:
+            interrupt(proc)
+    datagrams = []
+    while True:
+        try:
+            datagrams.append(rtp.recv(2048))
+        except TimeoutError:
+            break
+    rtp.close()
+    assert proc.returncode == 130, (tmp_path / "stderr").read_text()
+    assert {"/rover/pose", "/rover/camera/video", "/rover/controller"} <= set(got), sorted(got)
+    assert CompressedVideo.FromString(got["/rover/camera/video"][0]).format == "h264"
+    assert PoseInFrame.FromString(got["/rover/pose"][0]).frame_id == "ned"
+    # RTP version 2, payload type 96, the last packet of each frame marked
+    assert datagrams and all(d[0] >> 6 == 2 and d[1] & 0x7F == 96 for d in datagrams)
+    assert sum(d[1] >> 7 for d in datagrams) >= 1
+    # stopped by the interrupt, the rover was left with a zero setpoint
+    g = rover.guided
+    assert g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)

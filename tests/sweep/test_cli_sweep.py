@@ -1,0 +1,112 @@
+"""`lfctl sweep` as a user runs it: bad input is one line naming the variant and the key
+(exit 2), a pipe gets one JSON line per run, `report` rebuilds the summary, and Ctrl-C in a
+terminal stops submitting and lets running runs finish (a second one cancels them)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from lfctl.cli import main
+
+TRUTH = 'scenario = "convoy"\n{top}[set]\n"sim.duration_s" = {duration}\n"sim.sensing" = "truth"\n'
+
+
+def test_bad_variants_and_arguments_are_one_line_naming_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)  # where sweeps/<name> would go
+    bad = tmp_path / "bad.toml"
+    bad.write_text(TRUTH.format(top="", duration=2.0) + '[grid]\n"sensing.range_noise_m" = [0.1, -0.5]\n')
+    assert main(["sweep", str(bad), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [
+        f"lfctl: error: {bad}: variant 1 (sensing.range_noise_m = -0.5): sensing.range_noise_m must be within [0, 100], got -0.5"
+    ]
+    assert not (tmp_path / "out").exists()  # nothing ran, nothing was made
+    assert main(["sweep", "no-such-sweep"]) == 2
+    assert "is neither a file nor a shipped sweep (shipped: " in capsys.readouterr().err
+    assert main(["sweep", "report"]) == 2
+    assert "lfctl sweep report needs the sweep's folder" in capsys.readouterr().err
+    assert main(["sweep", "report", str(tmp_path)]) == 2
+    assert "holds no sweep" in capsys.readouterr().err
+    ok = tmp_path / "ok.toml"
+    ok.write_text(TRUTH.format(top="", duration=2.0))
+    with pytest.raises(SystemExit, match="2"):
+        main(["sweep", str(ok), "--logs", "some"])
+    assert "invalid choice: 'some'" in capsys.readouterr().err  # argparse names the choices
+    assert main(["sweep", str(ok), "--scheduler", "127.0.0.1:8786"]) == 2
+    assert "--scheduler must be an address such as tcp://HOST:8786" in capsys.readouterr().err
+    assert main(["sweep", str(ok), "--workers", "0"]) == 2
+    assert "--workers must be >= 1, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "sweeps").exists()  # options are checked before the folder is made
+
+
+def test_a_pipe_gets_a_json_line_per_run_and_report_rebuilds_the_summary(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(
+        TRUTH.format(top="seeds = [5, 6]\n", duration=6.0) + '[grid]\n"guidance.controller" = ["smc", "p"]\n'
+    )
+    assert main(["sweep", str(sweep), "--out", str(tmp_path / "out"), "--workers", "1"]) == 0
+    captured = capsys.readouterr()
+    rows = [json.loads(line) for line in captured.out.splitlines()]  # stdout is not a terminal here
+    assert sorted(r["run"] for r in rows) == [0, 1, 2, 3] and {r["seed"] for r in rows} == {5, 6}
+    assert "engine       Dask LocalCluster, 1 worker processes x 1 thread" in captured.err
+    assert "| variant | guidance.controller | ok/runs | range_err_rms_m |" in captured.err
+    assert main(["sweep", "report", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "| 1 | p | 2/2 |" in out and "plots        " in out
+
+
+def _start(sweep: Path, out: Path) -> subprocess.Popen[str]:
+    """`lfctl sweep` in its own process group, as a terminal's foreground job is."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "lfctl", "sweep", str(sweep), "--out", str(out), "--workers", "2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+
+
+@pytest.mark.integration
+@pytest.mark.parametrize("presses", [1, 2])
+def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_path: Path, presses: int) -> None:
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(TRUTH.format(top="seeds = 12\n", duration=150.0))  # runs of about a second
+    proc = _start(sweep, tmp_path / "out")
+    try:
+        assert proc.stdout is not None
+        assert proc.stderr is not None
+        first = json.loads(proc.stdout.readline())  # a run has finished: others are running
+        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers too
+        said = ""
+        while "stopping" not in said:  # the sweep took the first Ctrl-C
+            said = proc.stderr.readline()
+            assert said, "lfctl sweep ended without saying it is stopping"
+        if presses == 2:
+            os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, err
+    lines = [first] + [json.loads(line) for line in out.splitlines()]
+    table = (tmp_path / "out" / "runs.csv").read_text().splitlines()
+    if presses == 1:
+        # the runs in flight finished (their workers ignored the Ctrl-C): every row is ok
+        assert all(r["status"] == "ok" for r in lines) and 2 <= len(lines) < 12
+        assert len(table) == 1 + len(lines)
+        assert f"--out {tmp_path / 'out'} --resume` finishes the sweep" in err
+    else:
+        assert "cancelled the running runs" in err and "lfctl: interrupted" in err
+        assert len(table) == 1 + len(lines) and len(lines) < 12

@@ -1,0 +1,171 @@
+"""The sweep engine on real Dask clusters (127.0.0.1 only): a LocalCluster, and a `dask
+scheduler` with two `dask worker` processes started here. Runs are a few simulated seconds.
+
+The same sweep file gives the same table with 2 local workers, with 1 worker stopped
+halfway and resumed, and on the tcp scheduler; runs that raise and runs that kill their
+worker are rows, and do not stop the sweep."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import cloudpickle
+import pytest
+from distributed import Client
+
+from lfctl.errors import ConfigError, LfctlError
+from lfctl.sweep import run_sweep
+from lfctl.sweep.engine import scheduler_processes
+from lfctl.sweep.results import read_rows
+from lfctl.sweep.spec import Run
+from lfctl.sweep.task import execute
+
+pytestmark = [pytest.mark.integration, pytest.mark.fmu]
+
+cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import this test module
+
+SWEEP = """
+scenario = "convoy"
+seeds = 2
+[set]
+"sim.duration_s" = 2.0
+[grid]
+"sim.sensing" = ["truth", "camera"]
+"camera.tracker" = ["hue", "full"]
+"""
+
+
+def _table(rows: list[dict]) -> list[dict]:
+    """The rows without what may differ between two runs of a sweep: the wall time."""
+    return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in rows]
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[dict]]:
+    """The sweep on a LocalCluster of two workers."""
+    folder = tmp_path_factory.mktemp("sweep")
+    (folder / "s.toml").write_text(SWEEP)
+    result = run_sweep(folder / "s.toml", folder / "out", workers=2)
+    assert "LocalCluster, 2 worker processes" in result.engine
+    return folder, result.rows
+
+
+def test_a_local_cluster_runs_every_run_and_writes_table_summary_and_plots(reference: tuple[Path, list[dict]]) -> None:
+    folder, rows = reference
+    assert [r["run"] for r in rows] == list(range(8)) and all(r["status"] == "ok" for r in rows)
+    assert read_rows(folder / "out") == rows
+    camera = [r for r in rows if r["sim.sensing"] == "camera"]
+    truth = [r for r in rows if r["sim.sensing"] == "truth"]
+    assert all(0.0 <= r["follower1.track_success"] <= 1.0 for r in camera)
+    assert all(r["follower1.track_success"] is None for r in truth)
+    assert all(r["sim_time_s"] == pytest.approx(2.0) for r in rows)
+    out = folder / "out"
+    for name in ("runs.parquet", "runs.csv", "summary.csv", "summary.parquet", "summary.md", "sweep.json"):
+        assert (out / name).stat().st_size > 0, name
+    assert sorted(p.name for p in (out / "plots").glob("*.png")) == ["camera.tracker.png", "sim.sensing.png"]
+    assert len(list((out / "variants").glob("*.toml"))) == 4
+
+
+def test_the_same_sweep_gives_the_same_table_stopped_and_resumed_on_one_worker(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    folder, rows = reference
+    seen: list[dict] = []
+
+    def progress(state: object, row: dict | None) -> None:
+        if row is not None:
+            seen.append(row)
+
+    first = run_sweep(folder / "s.toml", tmp_path / "out", workers=1, progress=progress, stop=lambda: bool(seen))
+    assert first.stopped and 1 <= len(first.rows) < 8 and not first.complete
+    assert len(read_rows(tmp_path / "out")) == len(first.rows)  # what finished is written
+    with pytest.raises(ConfigError, match="already holds sweep 's': pass --resume"):
+        run_sweep(folder / "s.toml", tmp_path / "out", workers=1)
+    seen.clear()
+    second = run_sweep(folder / "s.toml", tmp_path / "out", workers=1, resume=True, progress=progress)
+    assert second.complete and not second.stopped
+    assert sorted(r["run"] for r in seen) == sorted(set(range(8)) - {r["run"] for r in first.rows})
+    assert _table(second.rows) == _table(rows)
+    changed = (folder / "s.toml").read_text().replace("seeds = 2", "seeds = 3")
+    (tmp_path / "s.toml").write_text(changed)
+    with pytest.raises(ConfigError, match="holds a different sweep"):
+        run_sweep(tmp_path / "s.toml", tmp_path / "out", resume=True)
+
+
+def _crashing_task(run: Run, out_dir: str, logs: str) -> dict:
+    """Seed 2 kills its worker once, then runs; seed 3 kills every worker that runs it."""
+    marker = Path(out_dir) / f"killed-run-{run.run}"
+    if run.seed == 2 and not marker.exists():
+        marker.touch()
+        os._exit(3)
+    if run.seed == 3:
+        os._exit(3)
+    return execute(run, out_dir, logs)
+
+
+def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(
+        'scenario = "convoy"\nseeds = 3\n[set]\n"sim.duration_s" = 2.0\n"sim.sensing" = "truth"\n'
+        '[grid]\n"vehicles[follower1].model" = ["SkidSteerRover", "NoSuchModel"]\n'
+    )
+    # one worker: one run in flight, so a dying worker takes no other run with it
+    result = run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, task=_crashing_task, logs="failed")
+    by_run = {r["run"]: r for r in result.rows}
+    assert [by_run[n]["status"] for n in range(6)] == ["ok", "ok", "crashed", "error", "error", "crashed"]
+    assert (tmp_path / "out" / "killed-run-1").exists()  # run 1 (seed 2) did die once, then ran again
+    assert by_run[1]["follower1.tracking_s"] > 1.0 and by_run[1]["sim_time_s"] == pytest.approx(2.0)
+    assert by_run[2]["error"].startswith("KilledWorker: every worker that ran it died")
+    assert (
+        by_run[3]["error"]
+        == "FmuError: unknown built-in model 'NoSuchModel' (known: KinematicUnicycle, SkidSteerRover)"
+    )
+    assert by_run[0]["log_path"] == "" and not list((tmp_path / "out" / "logs").glob("*.mcap"))  # ok: deleted
+    assert [s["failed"] for s in result.summary.rows] == [1, 3]
+
+
+def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(
+        'scenario = "convoy"\nseeds = 6\n[set]\n"sim.duration_s" = 3.0\n"sim.sensing" = "truth"\n'
+    )
+    rows: list[dict] = []
+
+    def progress(state: object, row: dict | None) -> None:
+        if row is not None:
+            rows.append(row)
+            raise KeyboardInterrupt  # as the CLI's handler raises on a second Ctrl-C
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, progress=progress, logs="all")
+    written = read_rows(tmp_path / "out")
+    assert [r["run"] for r in written] == [rows[0]["run"]] and written[0]["status"] == "ok"
+    log = tmp_path / "out" / written[0]["log_path"]
+    assert log.suffix == ".mcap" and log.stat().st_size > 0
+
+
+def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    folder, rows = reference
+    # `dask scheduler` and `dask worker --nworkers 2` processes on 127.0.0.1, stopped on leaving
+    with scheduler_processes(2) as address:
+        assert address.startswith("tcp://127.0.0.1:")
+        result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=2)
+        assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
+        assert _table(result.rows) == _table(rows)
+
+        # someone restarts the cluster mid-sweep: the runs it cancels get no row, and --resume runs them
+        restarted: list[int] = []
+
+        def restart(state: object, row: dict | None) -> None:
+            if row is not None and not restarted:
+                restarted.append(row["run"])
+                with Client(address) as other:
+                    other.restart()
+
+        with pytest.raises(LfctlError, match=r"the Dask scheduler cancelled \d+ runs .* --resume runs the rest"):
+            run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, progress=restart)
+        assert 1 <= len(read_rows(tmp_path / "again")) < 8
+        resumed = run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, resume=True)
+    assert _table(resumed.rows) == _table(rows)

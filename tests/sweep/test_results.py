@@ -1,0 +1,107 @@
+"""A sweep's tables, summary and plots from rows (no simulation, no Dask)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from lfctl.errors import ConfigError
+from lfctl.sweep.plots import MAX_LINES, line_keys, plot_sweep
+from lfctl.sweep.results import (
+    append_row,
+    mean_ci,
+    metric_columns,
+    read_journal,
+    read_rows,
+    report,
+    summarise,
+    write_meta,
+    write_tables,
+)
+
+
+def test_mean_ci_is_students_t_by_hand() -> None:
+    mean, lo, hi = mean_ci([1.0, 2.0, 3.0, 4.0, None, math.nan])  # None and NaN are left out
+    # s = sqrt(5/3) = 1.29099; t(0.975, 3) = 3.18245; half = 3.18245 * 1.29099 / 2 = 2.05426
+    assert mean == 2.5 and lo == pytest.approx(2.5 - 2.05426, abs=1e-5) and hi == pytest.approx(4.55426, abs=1e-5)
+    assert mean_ci([7.0]) == (7.0, None, None)
+    assert mean_ci([None]) == (None, None, None)
+
+
+def _row(run: int, variant: int, value: float | None, status: str = "ok", **extra: object) -> dict:
+    row = {"run": run, "variant": variant, "seed": run, "repetition": 0, "sensing.range_noise_m": 0.1 * variant}
+    row.update({c: None for c in metric_columns(["f1"])})
+    row.update({"f1.range_err_rms_m": value, "f1.lost_s": 0.0 if value is not None else None})
+    row.update(waypoints_reached=None, sim_time_s=3.0, wall_time_s=0.5, status=status, error="", log_path="")
+    row.update(extra)
+    return row
+
+
+def test_summary_counts_failures_and_takes_figures_from_ok_runs_only() -> None:
+    rows = [_row(0, 0, 1.0), _row(1, 0, 3.0), _row(2, 0, None, "error", error="FmuError: x"), _row(3, 1, 2.0)]
+    s = summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m"])
+    assert [(v["variant"], v["runs"], v["ok"], v["failed"]) for v in s] == [(0, 3, 2, 1), (1, 1, 1, 0)]
+    assert s[0]["f1.range_err_rms_m.mean"] == 2.0 and s[0]["f1.range_err_rms_m.ci95_lo"] < 2.0
+    assert s[1]["f1.range_err_rms_m.ci95_lo"] is None  # one run: no interval
+    assert s[1]["sensing.range_noise_m"] == 0.1
+
+
+def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summary_and_plots(tmp_path: Path) -> None:
+    keys = ["sensing.range_noise_m", "guidance.controller", "scene.lighting[1].tint_bgr"]
+    rows = []
+    for run in range(8):
+        variant = run // 2
+        row = _row(run, variant, 0.01 * (run + 1))
+        row["sensing.range_noise_m"] = 0 if variant % 2 == 0 else 0.05  # an int beside floats
+        row["guidance.controller"] = "smc" if variant < 2 else "p"
+        row["scene.lighting[1].tint_bgr"] = [1.0, 1.0, 1.2]
+        rows.append(row)
+    rows[7] = _row(7, 3, None, "crashed", error="KilledWorker: ...")
+    rows[7].update({k: rows[6][k] for k in keys})
+    for r in reversed(rows):  # the journal is in the order runs finish
+        append_row(tmp_path, r)
+    append_row(tmp_path, rows[0])  # written twice (a resumed session): one row per run
+    with open(tmp_path / "runs.jsonl", "a") as f:
+        f.write('{"run": 9, "varia')  # a line cut short by a crash
+    journal = read_journal(tmp_path)
+    assert [r["run"] for r in journal] == list(range(8))
+    write_meta(tmp_path, {"name": "t", "keys": keys, "followers": ["f1"]})
+    write_tables(tmp_path, journal, keys, ["f1"])
+    back = read_rows(tmp_path)
+    assert [r["run"] for r in back] == list(range(8))
+    assert [r["sensing.range_noise_m"] for r in back[:4]] == [0.0, 0.0, 0.05, 0.05]
+    assert back[0]["scene.lighting[1].tint_bgr"] == "[1.0, 1.0, 1.2]" and back[7]["status"] == "crashed"
+    with open(tmp_path / "runs.csv") as f:
+        table = list(csv.DictReader(f))
+    assert len(table) == 8 and table[7]["error"] == "KilledWorker: ..." and table[7]["f1.range_err_rms_m"] == ""
+    summary = report(tmp_path)
+    assert [s["ok"] for s in summary.rows] == [2, 2, 2, 1]
+    assert "| variant | sensing.range_noise_m | guidance.controller" in summary.markdown
+    pngs = sorted(p.name for p in summary.files if p.suffix == ".png")
+    assert pngs == ["guidance.controller.png", "sensing.range_noise_m.png"]  # the tint does not vary
+    assert all((tmp_path / "plots" / p).stat().st_size > 10_000 for p in pngs)
+    assert (tmp_path / "summary.md").read_text().startswith("# sweep t: 8 runs, 1 failed")
+    assert json.loads((tmp_path / "sweep.json").read_text())["name"] == "t"
+
+
+def test_report_of_a_folder_without_a_sweep_says_so(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="holds no sweep"):
+        report(tmp_path)
+    write_meta(tmp_path, {"name": "t", "keys": [], "followers": []})
+    with pytest.raises(ConfigError, match="has no results table"):
+        report(tmp_path)
+
+
+def test_plots_pool_the_other_keys_when_they_make_too_many_lines(tmp_path: Path) -> None:
+    keys = ["a", "b"]
+    rows = [_row(n, n // 2, 0.01 * n, a=n % 2, b=n // 2) for n in range(2 * (MAX_LINES + 1) * 2)]
+    made = plot_sweep(tmp_path, rows, keys, ["f1"])
+    assert [p.name for p in made] == ["a.png", "b.png"]  # a: b has 14 values, pooled; b: two lines of a
+    rows = [dict(r, c=r["run"] % 3) for r in rows]
+    assert line_keys(rows, "a", ["a", "b", "c"]) == (["c"], ["b"])  # b alone makes 14 lines: pooled
+    assert line_keys(rows, "b", ["a", "b", "c"]) == (["a", "c"], [])  # 2 x 3 lines
+    assert len(plot_sweep(tmp_path / "c", rows, ["a", "b", "c"], ["f1"])) == 3
