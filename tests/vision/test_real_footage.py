@@ -82,8 +82,10 @@ def success(seq: LabelledSequence, run: Run) -> float:
             n,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="0.85 measured (CSRT 0.95): beside a woman in a black coat CAMShift's size "
-                "of the navy jacket runs 20-50 % large and the window sits high on 3 of 20 frames",
+                reason="0.85 measured (CSRT 0.95), IoU 0.496, 0.44, 0.44 on frames 25, 30, 40: "
+                "CAMShift's calibrated size runs 20-50 % over the labelled jacket from frame 15 (the "
+                "calibration is learnt on frame 0's side view; he then turns his back, beside a woman "
+                "in a black coat) and the window takes in his head",
             ),
         )
         if n == "vtest_navyred"
@@ -117,9 +119,10 @@ def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
             n,
             marks=pytest.mark.xfail(
                 strict=True,
-                reason="frames 20 and 25 OCCLUDED: in this 176x144 video the window overshoots "
-                "the print as the camera pans (frames 11-15) and the print comes back above the "
-                "stricter return gate",
+                reason="frames 20 and 25 OCCLUDED: while the camera pans (frames 10-24) the print's "
+                "box (the labels, interpolated between labelled frames) is 0.50-0.64 from the model, "
+                "against the gate learnt on frames 1-5 (0.56; 0.45 to come back); the search region "
+                "holds the print on both frames",
             ),
         )
         if n == "iscc_shirtprint"
