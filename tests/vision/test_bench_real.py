@@ -26,7 +26,7 @@ def test_a_labelled_sequence_is_scored_and_a_missing_peer_is_named(capsys: pytes
     assert cells[-2][:3] == ["carphone_bowtie", "KCF", "n/a (needs opencv-contrib)"]
     assert cells[-1][:3] == ["carphone_bowtie", "CSRT", "n/a (needs opencv-contrib)"]
     assert cells[-3][:3] == ["carphone_bowtie", "MIL", "not run"]
-    assert "criteria (issue 14)" in text
+    assert "full tracker on real footage, what breaks each rule:" in text
     assert out["criteria"]["banner_pose_frames"] == 0
     assert "csrt_at_least_0.9_on" not in out["criteria"]  # no CSRT, no claim about where it holds
     json.dumps(out)

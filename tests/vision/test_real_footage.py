@@ -1,6 +1,6 @@
-"""The tracker on lfctl's labelled real footage (footage/labels), whole sequences, as the
-issue asks: the full tracker, with its default settings and markers on, through the pose
-pipeline, from the label's frame-0 box (as `lfctl track VIDEO --roi` starts it).
+"""The tracker on lfctl's labelled real footage (footage/labels), whole sequences: the full
+tracker, with its default settings and markers on, through the pose pipeline, from the
+label's frame-0 box (as `lfctl track VIDEO --roi` starts it).
 
 The footage and the trackers are deterministic (no seeds): each rule is checked on every
 labelled frame. A rule lfctl does not meet yet is an xfail with the measured figure, strict,
