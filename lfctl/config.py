@@ -30,6 +30,7 @@ __all__ = [
     "MAX_STEPS",
     "MAX_VEHICLES",
     "MAX_WAYPOINTS",
+    "TAG_DICTIONARIES",
     "VEHICLE_ROLES",
     "AuditConfig",
     "BannerConfig",
@@ -73,6 +74,16 @@ MAX_CAMERA_PIXELS = 4096 * 2160
 MAX_SCENARIO_BYTES = 1024 * 1024
 #: the most simulation steps in one run (duration_s / dt_s)
 MAX_STEPS = 100_000_000
+#: the ArUco / AprilTag dictionaries a banner may print its tag from (``banner.aruco_dictionary``,
+#: cv2.aruco's ``DICT_<name>``): bits along a side inside the black border, and how many ids
+TAG_DICTIONARIES: dict[str, tuple[int, int]] = {
+    "4X4_50": (4, 50),
+    "4X4_100": (4, 100),
+    "5X5_50": (5, 50),
+    "6X6_50": (6, 50),
+    "APRILTAG_16h5": (4, 30),
+    "APRILTAG_36h11": (6, 587),
+}
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -411,8 +422,23 @@ class CameraConfig(_Section):
     mount_forward_m: float = _f(0.12, Bound(-10, 10))  # camera ahead of the vehicle's reference point, m
     mount_height_m: float = _f(0.2, Bound(0, 100))  # camera above the ground, m
     pitch_rad: float = _f(0.0, Bound(-60, 60))  # positive: nose up (TOML pitch_deg)
-    noise_sigma: float = _f(2.0, Bound(0, 255))  # sensor noise, digital numbers
+    noise_sigma: float = _f(2.0, Bound(0, 255))  # sensor read noise (signal-independent), digital numbers
     motion_blur: bool = False  # blur rendered frames along the image rows while the follower turns
+    # The sensor effects below apply with scene.realism = "on"; "off" (the default) draws the
+    # flat look, with only noise_sigma and motion_blur. docs/rendering.md gives each one's cost.
+    #: shot noise: the noise variance added per digital number of signal (0: read noise only)
+    shot_noise: float = _f(0.06, Bound(0, 10))
+    auto_exposure: bool = True  # the gain follows the scene's brightness, with a lag
+    #: the auto-exposure's time constant: how slowly the gain follows a change of light, s
+    exposure_lag_s: float = _f(0.4, Bound(0, 60))
+    exposure_target: float = _f(0.45, Bound(0, 1, lo_open=True, hi_open=True))  # mean level it aims at, of full scale
+    #: white balance drift: relative swing of the red and blue gains against green (0: none)
+    white_balance_drift: float = _f(0.03, Bound(0, 0.5))
+    vignetting: float = _f(0.3, Bound(0, 1, hi_open=True))  # light lost in the image corners, fraction
+    #: JPEG compression of every frame at this quality, as a compressed stream delivers it (0: none)
+    jpeg_quality: int = _f(0, Bound(0, 100, integer=True))
+    #: rolling shutter: the time the sensor takes to read from the top row to the bottom one, s (0: global shutter)
+    rolling_shutter_s: float = _f(0.0, Bound(0, 0.2))
     #: the tracker the camera feeds: "full" (lfctl's), "hs-lbp" (the paper's features, no
     #: filters) or "hue" (the paper's hue-only CAMShift baseline); see lfctl.vision.tracker
     tracker: Literal["full", "hs-lbp", "hue"] = "full"
@@ -427,8 +453,10 @@ class CameraConfig(_Section):
 
 @dataclass(frozen=True)
 class BannerConfig(_Section):
-    """[banner]: the leader's marker banner: four markers on a square of side ``side_m``
-    (the paper's E) on a textured panel on the vehicle's back."""
+    """[banner]: the leader's banner, a textured panel on the vehicle's back carrying either
+    four markers of one hue on a square of side ``side_m`` (the paper's E; ``kind =
+    "markers"``) or one ArUco tag of side ``tag_size_m`` at its centre (``kind = "aruco"``).
+    The panel's size, height and place on the vehicle are the same for both."""
 
     _key = "banner"
     side_m: float = _f(0.14, Bound(0, 10, lo_open=True))  # side of the square the marker centres sit on, m
@@ -443,6 +471,18 @@ class BannerConfig(_Section):
     marker_saturation: float = _f(0.85, Bound(0, 1))  # the markers' HSV saturation in the rendered scene
     #: near white: the markers carry the hue
     panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True))
+    #: what the panel carries: "markers" (the paper's four) or "aruco" (one tag; every
+    #: vehicle's banner prints the same id, told apart as the markers are, by where it shows)
+    kind: Literal["markers", "aruco"] = "markers"
+    #: the tag's dictionary (cv2.aruco's DICT_<name>)
+    aruco_dictionary: Literal["4X4_50", "4X4_100", "5X5_50", "6X6_50", "APRILTAG_16h5", "APRILTAG_36h11"] = "4X4_50"
+    aruco_id: int = _f(0, Bound(0, 586, integer=True), note="< the dictionary's size")  # the tag's id
+    #: side of the tag's black square, m (a one-cell white margin must fit around it)
+    tag_size_m: float = _f(0.165, Bound(0, 10, lo_open=True), note="+ 2 cells <= panel_size_m")
+    #: the panel's thickness, m: its edges show when it is seen at an angle (scene.realism "on")
+    thickness_m: float = _f(0.005, Bound(0, 1))
+    #: how glossy the print is: the strength of the sun's glare on it, 0 matte (scene.realism "on")
+    gloss: float = _f(0.3, Bound(0, 1))
 
     def _check(self) -> None:
         if len(self.panel_bgr) != 3:
@@ -450,6 +490,18 @@ class BannerConfig(_Section):
         if self.side_m + self.marker_size_m > self.panel_size_m:
             raise ConfigError(
                 f"banner.side_m + marker_size_m ({self.side_m + self.marker_size_m:g}) must fit on panel_size_m ({self.panel_size_m:g})"
+            )
+        bits, ids = TAG_DICTIONARIES[self.aruco_dictionary]
+        if self.aruco_id >= ids:
+            raise ConfigError(f"banner.aruco_id must be below {ids} for {self.aruco_dictionary}, got {self.aruco_id}")
+        # the tag is bits + 2 cells wide (its black border included); the detector needs a
+        # light margin of at least one cell around it
+        with_margin = self.tag_size_m * (bits + 4) / (bits + 2)
+        if self.kind == "aruco" and with_margin > self.panel_size_m + 1e-9:
+            raise ConfigError(
+                f"banner.tag_size_m with a one-cell margin each side ({with_margin:g}) must fit on "
+                f"panel_size_m ({self.panel_size_m:g}): tag_size_m at most "
+                f"{self.panel_size_m * (bits + 2) / (bits + 4):g} for {self.aruco_dictionary}"
             )
 
 
@@ -520,9 +572,28 @@ class SceneConfig(_Section):
     lighting: tuple[LightKey, ...] = _f((), max_items=MAX_LIST)
     flicker_amplitude: float = _f(0.0, Bound(0, 1, hi_open=True))  # relative brightness swing of a flicker
     flicker_hz: float = _f(0.0, Bound(0, 1000))  # its frequency, Hz (0: none)
-    shadow_gain: float = _f(1.0, Bound(0, 1, lo_open=True))  # < 1: a shadow band sweeps across the image
-    #: period of the shadow band's sweep across the image, s
+    #: < 1: a shadow sweeps across (realism "on": a cloud's shadow crossing the ground and the
+    #: vehicles on it, which keep this fraction of their light; "off": a band across the image)
+    shadow_gain: float = _f(1.0, Bound(0, 1, lo_open=True))
+    #: period of that shadow's sweep, s
     shadow_period_s: float = _f(20.0, Bound(0, 1e6, lo_open=True))
+    #: "on": a shaded rover with wheels and shadows, a printed banner, sun and cast shadows, full
+    #: resolution, photographed textures and the camera's sensor effects (about 3 ms more per
+    #: 640 x 480 frame: a camera run slows from about 5x to about 3x real time, docs/rendering.md);
+    #: "off", the default: the flat look, fast (the vision benchmark's tiers render "on")
+    realism: Literal["on", "off"] = "off"
+    #: "footage": ground, walls and background photographed (frames of footage/, chosen per
+    #: seed; the vision benchmark's tiers use them); "procedural": drawn from noise, the
+    #: default, as the tracker loses the banner against the footage's red-brown brick
+    #: (docs/rendering.md); realism "on" only
+    textures: Literal["footage", "procedural"] = "procedural"
+    #: where the sun is, from north, clockwise (TOML sun_azimuth_deg)
+    sun_azimuth_rad: float = _f(math.radians(140.0), Bound(-360, 360))
+    #: the sun's height above the horizon (TOML sun_elevation_deg)
+    sun_elevation_rad: float = _f(math.radians(35.0), Bound(5, 90))
+    #: the share of the light that is not direct sun: what a shadow keeps (1: overcast, no shadows)
+    ambient: float = _f(0.45, Bound(0, 1))
+    shadows: bool = True  # vehicles and props cast shadows on the ground from the sun
 
     def _check(self) -> None:
         times = [k.t_s for k in self.lighting]

@@ -16,6 +16,9 @@ import pytest
 
 from lfctl.fmu.build import BuiltModel, build_model
 
+#: where the standing rover stands (its local origin): lat deg, lon deg, alt m
+ROVER_HOME = (12.96, 77.67, 900.0)
+
 
 @pytest.fixture(scope="session")
 def rover() -> BuiltModel:
@@ -53,6 +56,29 @@ def _free_udp_ports(n: int) -> int:
 def free_udp_ports() -> Callable[[int], int]:
     """``free_udp_ports(n)``: a base port with ``n`` free consecutive UDP ports after it."""
     return _free_udp_ports
+
+
+def _truth_convoy(duration_s: float) -> Any:
+    import dataclasses
+
+    from lfctl.config import load_config
+    from lfctl.data import examples_dir
+
+    cfg = load_config(examples_dir() / "convoy.toml")
+    base = _free_udp_ports(2)
+    return dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=duration_s),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+
+
+@pytest.fixture
+def truth_convoy() -> Callable[[float], Any]:
+    """``truth_convoy(duration_s)``: the shipped convoy with truth sensing, its vehicles on
+    free loopback ports (``cfg.link.udp_base_port`` on), no ground-station output: what a
+    client test runs with ``background_run(cfg, realtime=True)``."""
+    return _truth_convoy
 
 
 @pytest.fixture
@@ -113,12 +139,16 @@ def background_run() -> Callable[..., contextlib.AbstractContextManager[list[Bas
 
 
 @contextlib.contextmanager
-def _standing_rover(signing_key: bytes | None = None, on_tick: Callable[[Any], None] | None = None) -> Iterator[Any]:
+def _standing_rover(
+    signing_key: bytes | None = None,
+    on_tick: Callable[[Any], None] | None = None,
+    home: tuple[float, float, float] = ROVER_HOME,
+) -> Iterator[Any]:
     from lfctl.link.endpoint import VehicleEndpoint
     from lfctl.link.transport import UdpLink
 
     udp = UdpLink(("127.0.0.1", 0))
-    rover = VehicleEndpoint("rover", 1, udp, (12.96, 77.67, 900.0), signing_key=signing_key)
+    rover = VehicleEndpoint("rover", 1, udp, home, signing_key=signing_key)
     still = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
     t0 = time.monotonic()
 
@@ -138,7 +168,9 @@ def _standing_rover(signing_key: bytes | None = None, on_tick: Callable[[Any], N
 
 @pytest.fixture
 def standing_rover() -> Callable[..., contextlib.AbstractContextManager[Any]]:
-    """``with standing_rover(signing_key=None, on_tick=None) as rover:``: a rover (system 1)
-    standing still at home, ticking on the wall clock on a loopback UDP port
-    (``rover.link.port``) while the block runs; ``on_tick(rover)`` after each tick."""
+    """``with standing_rover(signing_key=None, on_tick=None, home=ROVER_HOME) as rover:``: a
+    rover (system 1) standing still at home (its local origin, lat deg, lon deg, alt m; at
+    0, 0 its GLOBAL_POSITION_INT says what an ArduPilot rover without a global position
+    does), ticking on the wall clock on a loopback UDP port (``rover.link.port``) while the
+    block runs; ``on_tick(rover)`` after each tick."""
     return _standing_rover

@@ -103,7 +103,9 @@ def test_examples_run_by_name_from_any_directory(capsys: pytest.CaptureFixture[s
     assert main(["sim", "column5", "--duration", "1", "-q", "--no-record"]) == 0
     assert "scenario     column5" in capsys.readouterr().out
     assert main(["sim", "nosuchexample", "-q"]) == 2
-    assert "neither a file nor a shipped example (examples: column5, convoy, vee)" in capsys.readouterr().err
+    assert (
+        "neither a file nor a shipped example (examples: column5, convoy, convoy-aruco, vee)" in capsys.readouterr().err
+    )
 
 
 def test_a_run_that_fails_before_its_first_step_leaves_no_log(

@@ -28,7 +28,7 @@ ALLOWED = {
     "vision": {"config", "errors", "frames", "vision"},
     "guidance": {"frames", "guidance", "vision.track_state"},
     "metrics": {"vision.track_state"},
-    "render": {"config", "errors", "frames", "vision", "render"},
+    "render": {"config", "data", "errors", "frames", "vision", "render"},
     "fmu": {"data", "errors", "fmu"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},

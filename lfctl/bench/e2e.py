@@ -7,7 +7,9 @@ core, and where the time goes: physics (FMU stepping), render, vision (tracker +
 guidance, link (MAVLink endpoints), recording (image encoding, poses, messages), other
 (the master's own loop). Render, vision and encoding are CPU seconds summed over the
 camera processes (sim.camera_workers), so with workers the split adds up to more than
-the wall time.
+the wall time. Leader + 1 on one core runs twice: with the scenario's (default, fast)
+renderer and with ``scene.realism = "on"``; a last section measures what each realistic
+effect costs per frame (:mod:`lfctl.bench.render_cost`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pathlib import Path
 
 import cv2
 
+from lfctl.bench import render_cost
 from lfctl.bench.common import print_json, print_table
 from lfctl.config import load_config
 from lfctl.data import examples_dir
@@ -45,13 +48,15 @@ def one_core() -> Iterator[None]:
         cv2.setNumThreads(threads)
 
 
-def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
+def measure(name: str, duration: float, tmp: str, pinned: bool = False, realism: str | None = None) -> dict:
     cfg = load_config(examples_dir() / f"{name}.toml")
     cfg = dataclasses.replace(
         cfg,
         sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration),
         recording=dataclasses.replace(cfg.recording, dir=tmp),
     )
+    if realism is not None:
+        cfg = dataclasses.replace(cfg, scene=dataclasses.replace(cfg.scene, realism=realism))
     with one_core() if pinned else contextlib.nullcontext():
         cores = len(os.sched_getaffinity(0))
         t0 = time.perf_counter()
@@ -72,7 +77,8 @@ def measure(name: str, duration: float, tmp: str, pinned: bool = False) -> dict:
     main_process = sum(split.values()) - extra["render_s"] - extra["vision_s"] - extra["encode_s"]
     split["other"] = max(0.0, wall - main_process - (tasks.get("camera", 0.0) - extra["record_camera_s"]))
     return {
-        "scenario": name,
+        "scenario": name if realism is None else f"{name} (realism {realism})",
+        "realism": cfg.scene.realism,
         "followers": len(cfg.followers),
         "sim_s": duration,
         "wall_s": wall,
@@ -91,6 +97,8 @@ def main(quick: bool = False) -> None:
             measure("convoy", duration, tmp, pinned=True),
             measure("convoy", duration, tmp),
             measure("column5", duration, tmp),
+            # the realistic camera (not the default): what it costs the whole product
+            measure("convoy", duration, tmp, pinned=True, realism="on"),
         ]
     rows = []
     for r in runs:
@@ -126,7 +134,7 @@ def main(quick: bool = False) -> None:
         ),
         rows,
     )
-    one, one_all, four = runs
+    one, one_all, four, real = runs
     # cost: CPU seconds of every stage (over all processes) per simulated second per follower
     per_follower = [sum(r["split_s"].values()) / r["sim_s"] / r["followers"] for r in (one_all, four)]
     print(
@@ -134,10 +142,16 @@ def main(quick: bool = False) -> None:
     )
     biggest = max(one["split_s"], key=one["split_s"].get)
     print(f"largest stage for leader + 1: {biggest}")
+    print(f"load average (1 min) at the end of the runs: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    print("\nWhat each realistic effect of the renderer costs (lfctl.bench.render_cost):\n")
+    costs = render_cost.effect_costs(frames=60 if quick else 240)
+    render_cost.print_costs(costs)
     print_json(
         "e2e",
         {
             "leader_plus_1_one_core_real_time_factor": round(one["real_time_factor"], 3),
+            "leader_plus_1_one_core_realism_on_real_time_factor": round(real["real_time_factor"], 3),
+            "render_cost": costs,
             "leader_plus_1_real_time_factor": round(one_all["real_time_factor"], 3),
             "leader_plus_4_real_time_factor": round(four["real_time_factor"], 3),
             "per_follower_cost_ratio_4_over_1": round(per_follower[1] / per_follower[0], 3),

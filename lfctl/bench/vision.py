@@ -25,6 +25,9 @@ while the tracker claims TRACKING, as on real footage), median centre error, fra
 recover after a full occlusion, frames reported as tracking while fully hidden, median ms
 per frame; for the full tracker also the pose error of both estimators (range %, bearing
 deg; within 3 m).
+
+Then the ArUco section (:mod:`lfctl.bench.vision_aruco`): an ArUco banner against the
+paper's, detection and pose error against range and angle under the same tiers.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ import numpy as np
 
 from lfctl.bench.common import print_json, print_table
 from lfctl.bench.footage import LabelledSequence, load_sequences
+from lfctl.bench.vision_aruco import compare as aruco_compare
 from lfctl.config import BannerConfig, CameraConfig
 from lfctl.render.sequences import TIERS, make_sequence
 from lfctl.vision.banner import BannerGeometry
@@ -80,7 +84,7 @@ def make_peer(name: str):
 def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
     """One tier at one seed: per-tracker frame records and the renderer's cost."""
     tier, seed, n_frames, peers = job
-    seq = make_sequence(tier, seed, n_frames)
+    seq = make_sequence(tier, seed, n_frames, realism="on")  # the realistic camera, photographed textures
     cam = CameraModel.from_config(seq.camera)
     trackers: dict[str, object] = {k: Tracker(TrackerSettings(kind=k)) for k in OURS}
     for p in peers:
@@ -304,7 +308,7 @@ def labelled_get(results: list[dict], name: str, tracker: str) -> float:
 def timing_pass(tier: str, n_frames: int, peers: tuple[str, ...]) -> dict[str, float]:
     """Median ms per frame of the renderer and of each tracker alone on the same pre-rendered
     frames, in one process (the accuracy runs share the cores, which inflates their timings)."""
-    seq = make_sequence(tier, 0, n_frames)
+    seq = make_sequence(tier, 0, n_frames, realism="on")
     frames, render = [], []
     it = seq.frames()
     for _ in range(n_frames):
@@ -452,6 +456,8 @@ def main(quick: bool = False) -> None:
             "KCF/CSRT: not in this OpenCV build (opencv-python-headless); run in an environment with opencv-contrib-python-headless (README)"
         )
     print("summary:", summary)
+    print()
+    aruco = aruco_compare(quick)
     print_json(
         "vision",
         {
@@ -461,6 +467,7 @@ def main(quick: bool = False) -> None:
             "real": real,
             "tiers": out,
             "summary": summary,
+            "aruco": aruco,
         },
     )
 

@@ -5,18 +5,26 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from lfctl.config import Config
     from lfctl.follower.rover import RoverStep
+    from lfctl.link.port import MavPort
     from lfctl.vision.camera_model import CameraModel
 
 from lfctl.cli.options import connection, integer, number
 
 #: the setpoint rates `lfctl follow` takes, Hz
 RATE_HZ = (1.0, 100.0)
+
+#: a rover without a global position this long after the first step has none: said once in /log, s
+NO_FIX_AFTER_S = 2.0
+#: the most MAVLink packets ``/mavlink/<rover>`` logs per second (STATUSTEXT always); the rest
+#: are counted, and the count goes to /log
+MAVLINK_MAX_PER_S = 500
 
 #: the rover `lfctl follow` runs without a scenario
 DEFAULT_SCENARIO = '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "rover"\nrole = "follower"\n'
@@ -71,8 +79,8 @@ def register(sub: Any) -> None:
         nargs="?",
         const="",
         metavar="HOST:PORT",
-        help="serve the rover's view on a Foxglove WebSocket: pose, camera video with the track, formation "
-        "errors, events (default: [live] foxglove, 127.0.0.1:8765; port 0: any free port)",
+        help="serve the rover's view on a Foxglove WebSocket: pose, map position, camera video with the track, "
+        "formation errors, events, MAVLink packets (default: [live] foxglove, 127.0.0.1:8765; port 0: any free port)",
     )
     fo.add_argument(
         "--video",
@@ -86,10 +94,14 @@ def register(sub: Any) -> None:
 
 
 class LiveView:
-    """What `lfctl follow --live` / `--video` show of each step: the rover's pose and the
-    slot, the camera (H.264) with its annotations, the stack's state and events on the
+    """What `lfctl follow --live` / `--video` show of each step: the rover's pose, its
+    LocationFix from its own global position, the camera (H.264) with its annotations, the
+    stack's state and events, and the MAVLink packets of the companion's link on the
     Foxglove WebSocket (the topics of a simulated follower's log); the camera as RTP/UDP
     H.264 to a ground station.
+
+    Its clock (:meth:`clock`) starts with the view, as the log's times do: give it to
+    :func:`~lfctl.follower.rover.follow_rover` so steps and packets share it.
 
     Parameters
     ----------
@@ -111,7 +123,10 @@ class LiveView:
         from lfctl.record.writer import Recorder
 
         self.cfg, self.name, self.camera = cfg, name, camera
-        self.rec = Recorder(None, cfg, live=live) if live is not None else None
+        start_ns, self._t0 = time.time_ns(), time.monotonic()  # the log's epoch and the run's clock, paired
+        self.rec = Recorder(None, cfg, live=live, start_ns=start_ns) if live is not None else None
+        if self.rec is not None:  # /log from the start: a viewer subscribed to it sees the first event
+            self.rec.event(0.0, "lfctl", f"follow: {name}'s companion computer (component 191)")
         self.sender = RtpH264Sender(*video) if video is not None else None
         rate = cfg.sim.guidance_rate_hz
         self.image = H264Encoder(
@@ -119,11 +134,73 @@ class LiveView:
         )
         self.stream = H264Encoder(camera.width, camera.height, rate, cfg.live.video_bitrate_kbps, max(1, round(rate)))
         self._calibrated = False
+        self._watching = False
+        self._first_step_s: float | None = None
+        self._has_fix: bool | None = None  # what /log last said: None before it said anything
+        self._window_end_s = -math.inf
+        self._in_window = 0
+        #: packets /mavlink/<name> did not log (over :data:`MAVLINK_MAX_PER_S`)
+        self.skipped_packets = 0
 
     @property
     def port(self) -> int | None:
         """The Foxglove WebSocket's port (None without ``--live``)."""
         return self.rec.live_port if self.rec is not None else None
+
+    def clock(self) -> float:
+        """Seconds since the view opened: the run's clock, on which the log is stamped."""
+        return time.monotonic() - self._t0
+
+    def watch(self, port: MavPort) -> None:
+        """Log every packet through the companion's ``port`` on ``/mavlink/<name>`` (nothing
+        without ``--live``); the companion's STATUSTEXT (target lost, found) then reaches
+        /log that way, as a simulated follower's does.
+
+        Parameters
+        ----------
+        port : MavPort
+            The companion's port to the rover.
+        """
+        if self.rec is not None:
+            port.tap = self.mavlink
+            self._watching = True
+
+    def mavlink(self, direction: str, msg: Any, raw: bytes) -> None:
+        """One packet of the companion's link on ``/mavlink/<name>``, as the simulator logs a
+        vehicle endpoint's: ``direction`` as the rover sees it (``in``: the companion sent it
+        to the rover; ``out``: it came from the rover's side of the link), the raw bytes, the
+        fields decoded as far as they decode. At most :data:`MAVLINK_MAX_PER_S` a second
+        (STATUSTEXT always): the rest are counted in :attr:`skipped_packets`.
+
+        Parameters
+        ----------
+        direction : str
+            As the port's tap says it: ``out`` sent by the companion, ``in`` received.
+        msg : pymavlink message
+            The packet decoded.
+        raw : bytes
+            The packet as it travelled.
+        """
+        from lfctl.link.endpoint import packet_record
+
+        rec = self.rec
+        if rec is None:
+            return
+        t = self.clock()
+        if t >= self._window_end_s:
+            self._window_end_s, self._in_window = t + 1.0, 0
+        if self._in_window >= MAVLINK_MAX_PER_S and msg.get_type() != "STATUSTEXT":
+            if self.skipped_packets == 0:
+                rec.event(
+                    t,
+                    self.name,
+                    f"over {MAVLINK_MAX_PER_S} MAVLink packets/s: /mavlink/{self.name} skips the rest (counted)",
+                    "warning",
+                )
+            self.skipped_packets += 1
+            return
+        self._in_window += 1
+        rec.mavlink(t, self.name, packet_record("in" if direction == "out" else "out", msg, raw))
 
     def __call__(self, step: RoverStep) -> None:
         """Show one step.
@@ -150,8 +227,9 @@ class LiveView:
         if not self._calibrated:
             rec.calibration(t, self.name, self.camera)
             self._calibrated = True
+        self._say_fix(t, step.fix is not None)
         odo = step.odometry
-        rec.poses(t, (self.name,), np.array([[odo.north_m, odo.east_m]]), np.array([odo.yaw_rad]), fix=False)
+        rec.poses(t, (self.name,), np.array([[odo.north_m, odo.east_m]]), np.array([odo.yaw_rad]), fix=[step.fix])
         rec.camera(t, self.name, seen.track, seen.pose, m, None, self.image.encode(step.frame).data)
         payload = {
             "status": out.status.value,
@@ -165,12 +243,44 @@ class LiveView:
             payload["range_error_m"] = round(out.range_est_m - slot.range_cmd_m, 5)
             payload["bearing_error_deg"] = round(math.degrees(out.bearing_est_rad - slot.bearing_cmd_rad), 4)
         rec.controller(t, self.name, payload)
-        for e in step.events:
-            rec.event(e.t_s, self.name, e.text, "warning" if e.kind == "lost" else "info")
+        if not self._watching:  # watched, the companion's STATUSTEXT says it
+            for e in step.events:
+                rec.event(e.t_s, self.name, e.text, "warning" if e.kind == "lost" else "info")
+
+    def _say_fix(self, t_s: float, has_fix: bool) -> None:
+        """/log says, once each time it changes, whether the rover has a global position (a
+        rover that never had one: after :data:`NO_FIX_AFTER_S`, its GLOBAL_POSITION_INT may be
+        on its way)."""
+        assert self.rec is not None
+        if self._first_step_s is None:
+            self._first_step_s = t_s
+        if has_fix == self._has_fix or (
+            self._has_fix is None and not has_fix and t_s - self._first_step_s < NO_FIX_AFTER_S
+        ):
+            return
+        if has_fix:
+            if self._has_fix is not None:  # a first fix in time is no news
+                self.rec.event(t_s, self.name, f"global position now known: LocationFix on /{self.name}/fix")
+        else:
+            self.rec.event(
+                t_s,
+                self.name,
+                f"no global position from the rover (no GPS, or no EKF origin; GLOBAL_POSITION_INT "
+                f"{'lost' if self._has_fix else 'at 0, 0 or not sent'}): no LocationFix on /{self.name}/fix",
+                "warning",
+            )
+        self._has_fix = has_fix
 
     def close(self) -> None:
-        """Stop serving and sending."""
+        """Stop serving and sending (saying first how many packets /mavlink skipped, if any)."""
         if self.rec is not None:
+            if self.skipped_packets:
+                self.rec.event(
+                    self.clock(),
+                    self.name,
+                    f"/mavlink/{self.name} skipped {self.skipped_packets} packets (over {MAVLINK_MAX_PER_S}/s)",
+                    "warning",
+                )
             self.rec.close()
         if self.sender is not None:
             self.sender.close()
@@ -211,6 +321,8 @@ def run(args: argparse.Namespace) -> int:
             if view.port is not None and live is not None:
                 announce_live(view.port, live[0])
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
+        if view is not None:
+            view.watch(companion.port)
         try:
             done = follow_rover(
                 companion,
@@ -225,6 +337,7 @@ def run(args: argparse.Namespace) -> int:
                 max_steps=args.steps,
                 name=cfg.followers[0].name,
                 on_step=view,
+                clock=view.clock if view is not None else None,
             )
         finally:
             companion.close()

@@ -89,7 +89,9 @@ def run(args: argparse.Namespace) -> int:
                 seen = perception.step(n / video.fps, frame, roi)
                 st = seen.track
                 if st is None and n == 0:
-                    raise ConfigError("no banner (four-marker constellation) in the first frame: give --roi x,y,w,h")
+                    raise ConfigError(
+                        "no banner (its four markers, or its ArUco tag) in the first frame: give --roi x,y,w,h"
+                    )
                 rec: dict[str, object] = {
                     "frame": n,
                     "t_s": round(n / video.fps, 4),

@@ -197,19 +197,8 @@ def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
         ET.SubElement(root, "DefaultExperiment", startTime="0", stopTime="10", stepSize="0.01")
         mvars = ET.SubElement(root, "ModelVariables")
         for v in src.variables:
-            attrs = {
-                "name": v.name,
-                "valueReference": str(v.value_reference),
-                "causality": v.causality,
-                "variability": v.variability,
-                "description": v.description,
-            }
-            real = {"unit": v.unit} if v.unit in _UNIT_BASE else {}
-            if v.causality in ("input", "parameter"):
-                real["start"] = _fmt(v.start)
-            if v.causality == "output":
-                attrs["initial"] = "calculated"
-            sv = ET.SubElement(mvars, "ScalarVariable", attrs)
+            attrs, real, initial = _variable_attributes(v)
+            sv = ET.SubElement(mvars, "ScalarVariable", attrs | initial)  # FMI 2: unit and start on <Real>
             ET.SubElement(sv, "Real", real)
         ms = ET.SubElement(root, "ModelStructure")
         outputs = ET.SubElement(ms, "Outputs")
@@ -242,20 +231,8 @@ def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
         ET.SubElement(root, "DefaultExperiment", startTime="0", stopTime="10", stepSize="0.01")
         mvars = ET.SubElement(root, "ModelVariables")
         for v in src.variables:
-            attrs = {
-                "name": v.name,
-                "valueReference": str(v.value_reference),
-                "causality": v.causality,
-                "variability": v.variability,
-                "description": v.description,
-            }
-            if v.unit in _UNIT_BASE:
-                attrs["unit"] = v.unit
-            if v.causality in ("input", "parameter"):
-                attrs["start"] = _fmt(v.start)
-            if v.causality == "output":
-                attrs["initial"] = "calculated"
-            ET.SubElement(mvars, "Float64", attrs)
+            attrs, real, initial = _variable_attributes(v)
+            ET.SubElement(mvars, "Float64", attrs | real | initial)  # FMI 3: all on the variable
         ms = ET.SubElement(root, "ModelStructure")
         for v in src.variables:
             if v.causality == "output":
@@ -265,6 +242,22 @@ def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
                 ET.SubElement(ms, "InitialUnknown", valueReference=str(v.value_reference))
     ET.indent(root)
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+def _variable_attributes(v: ModelVariable) -> tuple[dict[str, str], dict[str, str], dict[str, str]]:
+    """A model variable's XML attributes, its type's (``unit``, ``start``: FMI 2 puts them on
+    a ``<Real>`` child, FMI 3 on the variable itself) and ``initial`` (outputs)."""
+    attrs = {
+        "name": v.name,
+        "valueReference": str(v.value_reference),
+        "causality": v.causality,
+        "variability": v.variability,
+        "description": v.description,
+    }
+    real = {"unit": v.unit} if v.unit in _UNIT_BASE else {}
+    if v.causality in ("input", "parameter"):
+        real["start"] = _fmt(v.start)
+    return attrs, real, {"initial": "calculated"} if v.causality == "output" else {}
 
 
 def build_description_xml(src: ModelSource) -> bytes:

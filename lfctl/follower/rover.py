@@ -27,13 +27,16 @@ STOP_SETPOINTS = 3
 class RoverStep:
     """One guidance step on the rover, for whoever shows or logs it (`lfctl follow --live`)."""
 
-    t_s: float  # since the run started, s
+    t_s: float  # on the run's clock (default: since the loop started), s
     frame: np.ndarray  # the camera frame, BGR
     seen: Perception  # what perception made of it
     odometry: Odometry  # the rover's own position and heading then
     output: FormationOutput  # the stack's command and estimate
     settings: FormationSettings  # the slot it held
     events: list[FollowerEvent]  # target lost or found in this step
+    #: the rover's global position then, (latitude deg, longitude deg, altitude m above mean
+    #: sea level), from its GLOBAL_POSITION_INT; None while it has none (no GPS) or sent none
+    fix: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -58,6 +61,7 @@ def follow_rover(
     max_steps: int | None = None,
     name: str = "rover",
     on_step: Callable[[RoverStep], None] | None = None,
+    clock: Callable[[], float] | None = None,
 ) -> RoverRun:
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
@@ -89,6 +93,9 @@ def follow_rover(
         The follower's name in its STATUSTEXT lines.
     on_step : callable, optional
         Sees every step (:class:`RoverStep`) after its setpoint went out.
+    clock : callable, optional
+        The run's clock, s, for the steps' ``t_s`` (default: seconds since the loop
+        started); give the one the steps are logged on, so they and the link's packets share it.
     """
     companion.wait_vehicle(timeout_s, rate_hz)
     companion.set_guided()
@@ -97,11 +104,12 @@ def follow_rover(
     stack = Follower(name, settings, companion, step_rate_hz=rate_hz, status_rate_hz=status_rate_hz)
     period = 1.0 / rate_hz
     t0 = time.monotonic()
+    now = clock if clock is not None else lambda: time.monotonic() - t0
     steps = frames = 0
-    t_s = 0.0
+    t_s = now()
     try:
         while max_steps is None or steps < max_steps:
-            t_s = time.monotonic() - t0
+            t_s = now()
             companion.poll(t_s)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
@@ -110,12 +118,13 @@ def follow_rover(
             seen = perception.step(t_s, frame)
             v = companion.vehicle
             odom = Odometry(t_s, v.north_m or 0.0, v.east_m or 0.0, v.yaw_rad or 0.0, v.speed_mps or 0.0)
+            fix = (v.lat_deg, v.lon_deg, v.alt_m or 0.0) if v.lat_deg is not None and v.lon_deg is not None else None
             n_events = len(stack.events)
             out = stack.step(t_s, seen.measurement, odom)
             steps += 1
             if on_step is not None:
-                on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:]))
-            time.sleep(max(0.0, period - ((time.monotonic() - t0) - t_s)))
+                on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:], fix))
+            time.sleep(max(0.0, period - (now() - t_s)))
     finally:
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)

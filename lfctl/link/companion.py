@@ -6,8 +6,9 @@ It puts the vehicle in GUIDED and arms it, streams setpoints
 rate), reports the formation status to the ground station (NAMED_VALUE_FLOAT ``rng_err``,
 ``brg_err``, ``trk_q``) and says when the leader is lost or found again (STATUSTEXT). It
 reads back the vehicle's HEARTBEAT, LOCAL_POSITION_NED and ATTITUDE (its odometry on a real
-rover). One class for both worlds: on a :class:`MavPort` over UDP or serial to a real
-rover, or over the in-memory link to a simulated vehicle's endpoint.
+rover) and GLOBAL_POSITION_INT (where it is on the map, when it knows). One class for both
+worlds: on a :class:`MavPort` over UDP or serial to a real rover, or over the in-memory link
+to a simulated vehicle's endpoint.
 """
 
 from __future__ import annotations
@@ -27,14 +28,22 @@ __all__ = ["COMPANION_COMPID", "Companion", "VehicleReport"]
 
 #: the formation status names a ground station shows (NAMED_VALUE_FLOAT, 10 characters at most)
 STATUS_NAMES = (b"rng_err", b"brg_err", b"trk_q")
+#: what the companion asks the vehicle to stream at the control rate (MAV_CMD_SET_MESSAGE_INTERVAL)
+ODOMETRY_MSG_IDS = (
+    mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+    mav.MAVLINK_MSG_ID_ATTITUDE,
+    mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
+)
 
 
 @dataclass
 class VehicleReport:
-    """What the vehicle last said about itself (local NED, heading, speed, mode).
+    """What the vehicle last said about itself (local NED, heading, speed, mode, global position).
 
     ``t_s`` is when its LOCAL_POSITION_NED arrived, on the companion's clock; ``None`` for
-    what has not been heard yet.
+    what has not been heard yet. An ArduPilot vehicle whose EKF has no global position (no
+    GPS, no origin set) still sends GLOBAL_POSITION_INT, at latitude and longitude 0: that
+    leaves ``lat_deg``, ``lon_deg`` and ``alt_m`` None.
     """
 
     heard: bool = False  # a HEARTBEAT from the vehicle's autopilot has come
@@ -45,6 +54,10 @@ class VehicleReport:
     east_m: float | None = None  # position, local NED, m
     speed_mps: float | None = None  # horizontal speed, m/s
     yaw_rad: float | None = None  # heading, rad (ATTITUDE)
+    global_t_s: float | None = None  # when its GLOBAL_POSITION_INT last arrived, s
+    lat_deg: float | None = None  # latitude, deg (GLOBAL_POSITION_INT); None without a global position
+    lon_deg: float | None = None  # longitude, deg
+    alt_m: float | None = None  # altitude above mean sea level, m
 
 
 def _time_ms(t_s: float) -> int:
@@ -193,17 +206,21 @@ class Companion:
             v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
         elif kind == "ATTITUDE":
             v.yaw_rad = m.yaw
+        elif kind == "GLOBAL_POSITION_INT":
+            v.global_t_s = t_s
+            known = (m.lat, m.lon) != (0, 0) and abs(m.lat) <= 900_000_000 and abs(m.lon) <= 1_800_000_000
+            v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
 
     def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> None:
-        """Say hello until the vehicle's heartbeat is heard, then ask for its position and
-        attitude at ``odometry_rate_hz``.
+        """Say hello until the vehicle's heartbeat is heard, then ask for its position (local
+        and global) and attitude at ``odometry_rate_hz``.
 
         Parameters
         ----------
         timeout_s : float
             Longest wait for the vehicle, s.
         odometry_rate_hz : float
-            Rate of LOCAL_POSITION_NED and ATTITUDE to ask for, Hz.
+            Rate of LOCAL_POSITION_NED, ATTITUDE and GLOBAL_POSITION_INT to ask for, Hz.
 
         Raises
         ------
@@ -221,7 +238,7 @@ class Companion:
             self.poll(time.monotonic() - start, 0.2)
             if self.vehicle.heard:
                 interval_us = 1e6 / odometry_rate_hz
-                for msg_id in (mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, mav.MAVLINK_MSG_ID_ATTITUDE):
+                for msg_id in ODOMETRY_MSG_IDS:
                     self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us)
                 return
         raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=CHECK_LINK)

@@ -1113,13 +1113,30 @@ def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
             fields[k] = _jsonable(getattr(msg, k))
         except Exception as exc:
             fields[k] = f"<not decodable: {type(exc).__name__}>"
+    seq, sysid, compid, msgid = (
+        int(msg.get_seq()),
+        int(msg.get_srcSystem()),
+        int(msg.get_srcComponent()),
+        int(msg.get_msgId()),
+    )
+    if msgid < 0:  # a message id the dialect does not know: pymavlink keeps no header, the bytes do
+        seq, sysid, compid, msgid = _raw_header(bytes(raw)) or (seq, sysid, compid, msgid)
     return {
         "direction": direction,
-        "sysid": int(msg.get_srcSystem()),
-        "compid": int(msg.get_srcComponent()),
-        "msgid": int(msg.get_msgId()),
+        "sysid": sysid,
+        "compid": compid,
+        "msgid": msgid,
         "name": str(msg.get_type()),
-        "seq": int(msg.get_seq()),
+        "seq": seq,
         "fields": fields,
         "raw": base64.b64encode(bytes(raw)).decode(),
     }
+
+
+def _raw_header(raw: bytes) -> tuple[int, int, int, int] | None:
+    """(seq, sysid, compid, msgid) from a frame's header, None when it is cut short."""
+    if raw[:1] == b"\xfd" and len(raw) >= 10:  # MAVLink 2: 24-bit message id
+        return raw[4], raw[5], raw[6], int.from_bytes(raw[7:10], "little")
+    if raw[:1] == b"\xfe" and len(raw) >= 6:
+        return raw[2], raw[3], raw[4], raw[5]
+    return None

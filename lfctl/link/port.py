@@ -79,6 +79,15 @@ class MavPort:
         An in-memory link to talk through instead.
     pump : callable, optional
         With ``link``: called before reading, so the other end can answer.
+
+    Attributes
+    ----------
+    tap : callable or None
+        Sees every packet sent and received, as the vehicle endpoint's tap does:
+        ``tap(direction, msg, raw)`` with ``"out"`` (sent by this port) or ``"in"``
+        (received; garbage the parser could not frame is not shown), the pymavlink message
+        and its bytes as they travelled. Called in the sender's or reader's thread: keep it
+        cheap, and do not raise.
     """
 
     def __init__(
@@ -105,6 +114,7 @@ class MavPort:
             self._parser = mav.MAVLink(None)
             self._parser.robust_parsing = True
         self._queue: deque[Any] = deque()
+        self.tap: Callable[[str, Any, bytes], None] | None = None
 
     @staticmethod
     def open(connect: str, sysid: int, compid: int, signing_key: bytes | None = None) -> MavPort:
@@ -163,9 +173,13 @@ class MavPort:
         """
         if self.connection is not None:
             self.connection.mav.send(msg)
+            data = bytes(msg.get_msgbuf())  # what pymavlink packed (and signed) for it
         else:
             assert self.link is not None
-            self.link.send(pack_next(msg, self.mav))
+            data = pack_next(msg, self.mav)
+            self.link.send(data)
+        if self.tap is not None:
+            self.tap("out", msg, data)
 
     def recv(self, timeout_s: float = 0.0) -> Any | None:
         """The next message received, waiting up to ``timeout_s`` (in memory: none after a
@@ -177,14 +191,18 @@ class MavPort:
             Longest wait, s; 0 returns at once.
         """
         if self.connection is not None:
-            return self.connection.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
-        if not self._queue:
-            if self.pump is not None:
-                self.pump()
-            assert self.link is not None
-            for data, _addr in self.link.recv():
-                self._queue.extend(m for m in (self._parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA")
-        return self._queue.popleft() if self._queue else None
+            m = self.connection.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
+        else:
+            if not self._queue:
+                if self.pump is not None:
+                    self.pump()
+                assert self.link is not None
+                for data, _addr in self.link.recv():
+                    self._queue.extend(m for m in (self._parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA")
+            m = self._queue.popleft() if self._queue else None
+        if m is not None and self.tap is not None and m.get_type() != "BAD_DATA":
+            self.tap("in", m, bytes(m.get_msgbuf()))
+        return m
 
     def close(self) -> None:
         """Close the connection (an in-memory link is its owner's to close)."""

@@ -37,6 +37,7 @@ import platform
 import subprocess
 import time
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -357,6 +358,7 @@ class Recorder:
         self._channels: dict[str, Any] = {}
         self._next_image: dict[str, float] = {}  # per follower: when the next image is due, sim s
         self._mounts: dict[str, CameraModel] = {}  # followers whose camera is in /tf
+        self._index = {v.name: k for k, v in enumerate(cfg.vehicles)}  # a vehicle's colour, as in the scene
         self._waypoints: list[tuple[float, float]] = []
         self._radius_m = cfg.mission.acceptance_radius_m
         self._scene_at = -math.inf
@@ -536,7 +538,12 @@ class Recorder:
 
     # -- vehicles ----------------------------------------------------------------------------
     def poses(
-        self, t_s: float, names: tuple[str, ...], pos_ned_m: np.ndarray, yaw_rad: np.ndarray, fix: bool = True
+        self,
+        t_s: float,
+        names: tuple[str, ...],
+        pos_ned_m: np.ndarray,
+        yaw_rad: np.ndarray,
+        fix: bool | Sequence[tuple[float, float, float] | None] = True,
     ) -> None:
         """``/<vehicle>/pose`` and ``/<vehicle>/fix`` for each vehicle, and one ``/tf``: map ->
         ned -> each vehicle -> each recorded camera.
@@ -551,8 +558,11 @@ class Recorder:
             (N, 2) north, east, m.
         yaw_rad : np.ndarray
             (N,) headings, rad.
-        fix : bool
-            Also the LocationFix (from ``[link]`` home: a local frame whose origin is known).
+        fix : bool or sequence
+            The LocationFix: True places each vehicle by ``[link]`` home (a local frame whose
+            origin is known); False sends none; a sequence gives each vehicle's own global
+            position, in the order of ``names``: (latitude deg, longitude deg, altitude m), or
+            None for a vehicle that has none (no LocationFix for it).
         """
         stamp = self._stamp(t_s)
         lat0, lon0, alt0 = self.cfg.link.home_lat_deg, self.cfg.link.home_lon_deg, self.cfg.link.home_alt_m
@@ -577,9 +587,14 @@ class Recorder:
                 ),
             )
             tfs.append(_transform(stamp, WORLD_FRAME, name, position, orientation))
-            if not fix:
+            geo: tuple[float, float, float] | None
+            if isinstance(fix, bool):
+                geo = ned_to_geodetic(north, east, 0.0, lat0, lon0, alt0) if fix else None
+            else:
+                geo = fix[i]
+            if geo is None:
                 continue
-            lat, lon, alt = ned_to_geodetic(north, east, 0.0, lat0, lon0, alt0)
+            lat, lon, alt = geo
             self._log(
                 f"/{name}/fix",
                 fc.LocationFixChannel,
@@ -591,7 +606,7 @@ class Recorder:
                     longitude=lon,
                     altitude=alt,
                     heading=yaw % (2 * math.pi),
-                    color=_vehicle_colour(i),
+                    color=_vehicle_colour(self._index.get(name, i)),
                 ),
             )
         for follower, cam in self._mounts.items():

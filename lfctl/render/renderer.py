@@ -25,13 +25,27 @@ import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig, LightKey, SceneConfig
 from lfctl.frames import rot_z, wrap_pi
-from lfctl.render.textures import banner_texture, ground_texture, noise_texture, periodic_pyramid, prop_texture
+from lfctl.render import footage
+from lfctl.render.rover import EDGE_BGR, MESH, banner_edges, shadow_polygons, sun_direction, sun_light, visible_faces
+from lfctl.render.sensor import Sensor
+from lfctl.render.tag_texture import tag_banner_texture
+from lfctl.render.textures import (
+    banner_texture,
+    ground_texture,
+    noise_texture,
+    periodic_pyramid,
+    prop_texture,
+    real_banner_texture,
+    real_ground_texture,
+    real_wall_texture,
+)
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.camera_model import CameraModel
 
 __all__ = ["FrameTruth", "Renderer", "VehiclePose"]
 
 NEAR_M = 0.05
+FAR_GROUND_M = 40.0  # the realistic floor ends this far away: the background's foot hides the rest
 GROUND_TILES = 3  # the floor texture tiled GROUND_TILES x GROUND_TILES for the fast warp path
 GROUND_LEVELS = 4  # floor mip levels: full, 1/2, 1/4, 1/8 of the texture's resolution
 BODY_LENGTH_M, BODY_WIDTH_M, BODY_BOTTOM_M, BODY_TOP_M = 0.30, 0.22, 0.03, 0.14
@@ -54,6 +68,15 @@ def _clip_near(points_cam: np.ndarray) -> np.ndarray:
             t = (NEAR_M - a[2]) / (b[2] - a[2])
             out.append(a + t * (b - a))
     return np.array(out) if out else np.empty((0, 3))
+
+
+def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b, normalised (np.cross costs ~20 us a call)."""
+    x = float(a[1] * b[2] - a[2] * b[1])
+    y = float(a[2] * b[0] - a[0] * b[2])
+    z = float(a[0] * b[1] - a[1] * b[0])
+    n = math.sqrt(x * x + y * y + z * z) or 1.0
+    return np.array([x / n, y / n, z / n])
 
 
 @dataclass(frozen=True)
@@ -148,8 +171,27 @@ class Renderer:
         self.banner = banner
         self.geometry = BannerGeometry.from_config(banner)
         self.scene = scene
+        self.realism = scene.realism == "on"
+        self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._pyramids: dict[int, list[np.ndarray]] = {}
+        self._undistort_maps = None
+        w, h = camera.width_px, camera.height_px
+        if abs(camera.k1) > 0 or abs(camera.k2) > 0:
+            # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
+            m1, m2 = cv2.initUndistortRectifyMap(self.cam.K, self.cam.dist, None, self.cam.K, (w, h), cv2.CV_16SC2)
+            self._undistort_maps = (m1, m2)
+        if self.realism:
+            self._init_real(seed)
+        else:
+            self._init_flat(seed)
+
+    def _init_flat(self, seed: int) -> None:
+        """The old look (scene.realism = "off"): exactly the frames lfctl drew before."""
+        camera, banner, scene = self.cfg, self.banner, self.scene
         rng = np.random.default_rng(seed)
         self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
+        if banner.kind == "aruco":  # the same panel with a tag instead (the rest of the scene unchanged)
+            self.banner_tex, self.banner_marks_tex = tag_banner_texture(banner, np.random.default_rng(seed + 4))
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
         self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
@@ -179,13 +221,6 @@ class Renderer:
         self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
         self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
         self._ground_bands = self._ground_band_levels()
-        self._undistort_maps = None
-        if abs(camera.k1) > 0 or abs(camera.k2) > 0:
-            # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
-            m1, m2 = cv2.initUndistortRectifyMap(self.cam.K, self.cam.dist, None, self.cam.K, (w, h), cv2.CV_16SC2)
-            self._undistort_maps = (m1, m2)
-        self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self._pyramids: dict[int, list[np.ndarray]] = {}
 
     # -- static parts -------------------------------------------------------------------
     def _sky_image(self) -> np.ndarray:
@@ -446,6 +481,8 @@ class Renderer:
         yaw_rate_radps : float
             The follower's yaw rate, rad/s: motion blur, when the camera has it.
         """
+        if self.realism:
+            return self._render_real(t_s, follower, others, target_index, follower_name, yaw_rate_radps)
         R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
         layer = self._sky_half.copy()
         self._paint_ground(layer, R, c)
@@ -540,3 +577,508 @@ class Renderer:
                 full = cv2.contourArea(target_poly.astype(np.float32))
                 vis *= min(1.0, total / full) if full > 0 else 0.0
         return FrameTruth(t_s, bbox, marks, float(vis), in_view, rng, brg, rel, ban_cam)
+
+    # -- the realistic look (scene.realism = "on") ----------------------------------------
+    def _init_real(self, seed: int) -> None:
+        """Textures (photographed where the footage is there), the sun, the ground's mip
+        bands at full resolution, the background, and the sensor."""
+        camera, banner, scene = self.cfg, self.banner, self.scene
+        w = camera.width_px
+        rng = np.random.default_rng([seed, 14])
+        plates = footage.plates() if scene.textures == "footage" else None
+        self.sun = sun_direction(scene.sun_azimuth_rad, scene.sun_elevation_rad)
+        self._lit_cache: dict[tuple[int, int], np.ndarray] = {}
+        self._lit_keep: list[np.ndarray] = []
+        self.banner_tex, self.banner_marks_tex = real_banner_texture(banner, rng)
+        if banner.kind == "aruco":  # the tag printed on the same board (opaque: alpha 255)
+            tag, self.banner_marks_tex = tag_banner_texture(banner, np.random.default_rng(seed + 4))
+            self.banner_tex = cv2.cvtColor(tag, cv2.COLOR_BGR2BGRA)
+        photos = None
+        if plates is not None and scene.ground in ("concrete", "grass"):
+            photos = plates.asphalt if scene.ground == "concrete" else plates.grass
+        self.ground_tex, self.ground_px_per_m = real_ground_texture(scene.ground, photos, rng)
+        self._ground_levels = periodic_pyramid(self.ground_tex, 5)
+        # level 0 is only drawn on the nearest rows, which see less than a period: 2 x 2 tiles
+        # hold them wherever they fall; coarser levels see more of the floor: 3 x 3
+        # (as BGRA: OpenCV warps four channels faster than three)
+        reps = (2, 3, 4, 6, 8)
+        self._ground_tiles = [
+            np.tile(cv2.cvtColor(t, cv2.COLOR_BGR2BGRA), (reps[k], reps[k], 1))
+            for k, t in enumerate(self._ground_levels)
+        ]
+        self._ground_reps = reps
+        self._ground_scratch = np.zeros((camera.height_px, camera.width_px, 4), np.uint8)
+        self.prop_tex = [real_wall_texture(p, plates.facade if plates else None, banner, rng) for p in scene.props]
+        occ_rng = np.random.default_rng(seed + 1)
+        self.occluder_tex = [
+            noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
+            for o in scene.occluders
+        ]
+        self._sky = self._sky_image()
+        # the distant background: a 360-degree strip, one pixel per pixel of the image at the
+        # focal length, its foot on the horizon; doubled so any slice of it is contiguous
+        fx = float(self.cam.K[0, 0])
+        self._ground_bands = self._ground_band_levels_full()
+        self._background = None
+        if plates is not None:
+            pano = plates.background
+            width = max(w, int(round(2 * math.pi * fx)))
+            height = max(1, int(round(pano.shape[0] * width / pano.shape[1])))
+            pano = cv2.resize(pano, (width, height), interpolation=cv2.INTER_AREA)
+            pano = np.roll(pano, int(rng.integers(width)), axis=1)
+            self._background = self._fade_into_sky(np.concatenate([pano, pano[:, :w]], axis=1))
+        self.sensor = Sensor(camera, seed)
+
+    def _background_foot(self) -> int:
+        """The image row the background stands on: the floor's first row (or the horizon)."""
+        return self._ground_bands[0][0] if self._ground_bands else int(round(self._horizon_row()))
+
+    def _fade_into_sky(self, bg: np.ndarray) -> np.ndarray:
+        """The background's top quarter faded into the sky behind it (a photograph's cut
+        edge is a hard line across the sky otherwise); the rows it lands on never change, so
+        this is done once."""
+        rows = max(1, bg.shape[0] // 4)
+        top = self._background_foot() - bg.shape[0]
+        sky_rows = np.clip(np.arange(top, top + rows), 0, self.cfg.height_px - 1)
+        sky = self._sky[sky_rows, :1].astype(np.float32)  # (rows, 1, 3): the sky is the same along a row
+        x = (np.arange(rows, dtype=np.float32) + 0.5) / rows
+        weight = (x * x * (3 - 2 * x))[:, None, None]  # smoothstep: 0 at the cut, 1 a quarter down
+        out = bg.copy()
+        out[:rows] = np.round(sky + (bg[:rows].astype(np.float32) - sky) * weight).astype(np.uint8)
+        return out
+
+    def _horizon_row(self) -> float:
+        """The image row of the horizon straight ahead (the camera moves in the plane at a
+        fixed pitch, so it never changes; it can lie outside the image)."""
+        ahead = self.cam.R_body_from_cam.T @ np.array([1.0, 0.0, 0.0])  # body forward, camera frame
+        if ahead[2] <= 1e-9:
+            return -1.0
+        return float(self.cam.K[1, 1] * ahead[1] / ahead[2] + self.cam.K[1, 2])
+
+    def _ground_band_levels_full(self) -> list[tuple[int, int, int]]:
+        """As :meth:`_ground_band_levels`, at full resolution: the rows that see the floor in
+        bands, each with the mip level whose texels are about a pixel's footprint; the
+        nearest rows get level 0 (the texture is fine enough for them not to look soft)."""
+        Kinv = np.linalg.inv(self.cam.K)
+        R = self.cam.R_body_from_cam
+        height = -float(self.cam.mount_body_m[2])
+        w, h = self.cfg.width_px, self.cfg.height_px
+        cx = float(self.cam.K[0, 2])
+        bands: list[tuple[int, int, int]] = []
+        for r in range(h):
+            rays = R @ Kinv @ np.array([[0.0, w - 1.0, cx, cx + 1.0, cx], [r, r, r, r, r + 1.0], [1.0] * 5])
+            if not np.all(rays[2] > 1e-6):
+                continue
+            hits = rays[:2] * (height / rays[2])
+            if float(np.linalg.norm(hits[:, 2])) > FAR_GROUND_M:
+                continue  # the last rows before the horizon: the background shows there
+            across = float(np.linalg.norm(hits[:, 3] - hits[:, 2]))
+            along = float(np.linalg.norm(hits[:, 4] - hits[:, 2]))
+            texels = math.sqrt(across * along) * self.ground_px_per_m
+            level = min(len(self._ground_levels) - 1, max(0, math.floor(math.log2(max(texels, 1.0)))))
+            if bands and bands[-1][2] == level and bands[-1][1] == r:
+                bands[-1] = (bands[-1][0], r + 1, level)
+            else:
+                bands.append((r, r + 1, level))
+        return bands
+
+    def _paint_ground_full(self, img: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
+        """The floor at full resolution, band by band (see :meth:`_paint_ground`)."""
+        s = self.ground_px_per_m
+        P = self.cam.K @ np.hstack([R, (-R @ c)[:, None]])
+        Hg = P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        w = img.shape[1]
+        for r0, r1, level in self._ground_bands:
+            k = 2**level
+            to_level = np.array([[k, 0.0, (k - 1) / 2.0], [0.0, k, (k - 1) / 2.0], [0.0, 0.0, 1.0]])
+            M = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]]) @ Hg @ to_level
+            Minv = np.linalg.inv(M)
+            ph, pw = self._ground_levels[level].shape[:2]
+            if level == 0:
+                # the band's four corners in texels: put their lowest corner in the first tile
+                corners = Minv @ np.array([[0.0, w, 0.0, w], [0.0, 0.0, r1 - r0, r1 - r0], [1.0] * 4])
+                q = corners[:2] / corners[2]
+                kx, ky = math.floor(q[0].min() / pw), math.floor(q[1].min() / ph)
+            else:
+                q = Minv @ np.array([w / 2.0, (r1 - r0) / 2.0, 1.0])
+                kx = math.floor(q[0] / q[2] / pw) - self._ground_reps[level] // 2
+                ky = math.floor(q[1] / q[2] / ph) - self._ground_reps[level] // 2
+            M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
+            cv2.warpPerspective(
+                self._ground_tiles[level],
+                M,
+                (w, r1 - r0),
+                dst=self._ground_scratch[r0:r1],
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_WRAP,
+            )
+        if self._ground_bands:
+            r0, r1 = self._ground_bands[0][0], self._ground_bands[-1][1]
+            cv2.cvtColor(self._ground_scratch[r0:r1], cv2.COLOR_BGRA2BGR, dst=img[r0:r1])
+
+    def _background_image(self, R: np.ndarray, c: np.ndarray, yaw_rad: float) -> np.ndarray:
+        """Sky, and the photographed background standing on the horizon, at full resolution."""
+        img = self._sky.copy()
+        if self._background is None:
+            return img
+        h, w = img.shape[:2]
+        # its foot on the horizon, or on the farthest row the floor is drawn on
+        horizon = self._background_foot()
+        bg = self._background
+        width = bg.shape[1] - w
+        x0 = int(round(yaw_rad * float(self.cam.K[0, 0]) - float(self.cam.K[0, 2]))) % width
+        top = horizon - bg.shape[0]
+        r0, r1 = max(0, top), min(h, horizon)
+        if r1 > r0:
+            img[r0:r1] = bg[r0 - top : r1 - top, x0 : x0 + w]
+        return img
+
+    def _image_poly(self, R: np.ndarray, c: np.ndarray, pts: np.ndarray) -> np.ndarray | None:
+        """World points of a convex polygon -> its image polygon (clipped at the near plane)."""
+        cam = (pts - c) @ R.T
+        if np.all(cam[:, 2] >= NEAR_M):
+            clipped = cam
+        else:
+            clipped = _clip_near(cam)
+            if len(clipped) < 3:
+                return None
+        uv = clipped @ self.cam.K.T
+        return uv[:, :2] / uv[:, 2:3]
+
+    def _cloud(self, t_s: float, follower: VehiclePose) -> tuple[float, float] | None:
+        """The cloud shadow's band (east from, east to) at ``t_s``, or None (shadow_gain 1)."""
+        sc = self.scene
+        if sc.shadow_gain >= 1.0:
+            return None
+        span, width = 8.0, 1.5
+        e = follower.east_m - span / 2 + span * ((t_s % sc.shadow_period_s) / sc.shadow_period_s)
+        return e - width / 2, e + width / 2
+
+    def _paint_shadows(
+        self,
+        img: np.ndarray,
+        R: np.ndarray,
+        c: np.ndarray,
+        t_s: float,
+        vehicles: list[tuple[VehiclePose, np.ndarray | None]],
+        props: list[Plane],
+        cloud: tuple[float, float] | None,
+        follower: VehiclePose,
+    ) -> None:
+        """Darken the floor where the sun does not reach it: cast shadows of vehicles and
+        props, the contact patches under the vehicles, and the cloud's band. One mask over
+        the region they cover, softened, multiplied in."""
+        sc = self.scene
+        H, W = img.shape[:2]
+        casts: list[np.ndarray] = []
+        patches: list[np.ndarray] = []
+        band: np.ndarray | None = None
+        if sc.shadows:
+            for v, corners in vehicles:
+                polys, patch = shadow_polygons(v.north_m, v.east_m, v.yaw_rad, self.sun, corners)
+                for poly in polys:
+                    ip = self._image_poly(R, c, poly)
+                    if ip is not None:
+                        casts.append(ip)
+                ip = self._image_poly(R, c, patch) if v is not follower else None
+                if ip is not None:
+                    patches.append(ip)
+            for plane in props:
+                pts = plane.corners
+                ground = pts - self.sun[None, :] * (pts[:, 2:3] / float(self.sun[2]))
+                ip = self._image_poly(R, c, ground)
+                if ip is not None:
+                    casts.append(ip)
+        elif vehicles:
+            for v, _corners in vehicles:
+                _polys, patch = shadow_polygons(v.north_m, v.east_m, v.yaw_rad, self.sun, None)
+                ip = self._image_poly(R, c, patch) if v is not follower else None
+                if ip is not None:
+                    patches.append(ip)
+        if cloud is not None:
+            n0, n1 = follower.north_m - 40.0, follower.north_m + 40.0
+            e0, e1 = cloud
+            band = self._image_poly(R, c, np.array([[n0, e0, 0.0], [n0, e1, 0.0], [n1, e1, 0.0], [n1, e0, 0.0]]))
+        every = casts + ([band] if band is not None else [])
+        if every:
+            self._shade(img, every, band, casts)
+        for poly in patches:
+            # the contact patch: little sky reaches under a body: dark, with a soft rim a
+            # tenth of its width wide, in its own small window
+            sigma = max(1.0, 0.1 * float(np.ptp(poly[:, 0])))
+            pad = int(3 * sigma) + 1
+            px0, py0 = np.floor(poly.min(axis=0)).astype(int) - pad
+            px1, py1 = np.ceil(poly.max(axis=0)).astype(int) + pad
+            px0, py0, px1, py1 = max(px0, 0), max(py0, self._floor_top()), min(px1, W), min(py1, H)
+            if px1 <= px0 or py1 <= py0:
+                continue
+            contact = np.full((py1 - py0, px1 - px0), 255, np.uint8)
+            dark = int(round(255 * (1.0 - 0.65 * (1.0 - 0.5 * sc.ambient))))
+            cv2.fillPoly(contact, [np.round((poly - [px0, py0]) * 16).astype(np.int32)], dark, cv2.LINE_AA, 4)
+            k = int(1.7 * sigma) | 1  # two box blurs: nearly a Gaussian, at a fixed cost per pixel
+            contact = cv2.blur(cv2.blur(contact, (k, k)), (k, k))
+            psub = img[py0:py1, px0:px1]
+            cv2.multiply(psub, cv2.cvtColor(contact, cv2.COLOR_GRAY2BGR), dst=psub, scale=1.0 / 255.0)
+
+    def _floor_top(self) -> int:
+        """The first image row the floor is drawn on: shadows fall on the floor, so none
+        reaches above it (the rows above show the sky and the distant background)."""
+        return self._ground_bands[0][0] if self._ground_bands else self.cfg.height_px
+
+    def _shade(
+        self, img: np.ndarray, every: list[np.ndarray], band: np.ndarray | None, casts: list[np.ndarray]
+    ) -> None:
+        """Multiply the cast shadows and the cloud's band into the floor, softened by a few pixels."""
+        sc = self.scene
+        H, W = img.shape[:2]
+        pts = np.vstack(every)
+        x0, y0 = np.floor(pts.min(axis=0)).astype(int) - 2
+        x1, y1 = np.ceil(pts.max(axis=0)).astype(int) + 2
+        x0, y0, x1, y1 = max(x0, 0), max(y0, self._floor_top()), min(x1, W), min(y1, H)
+        if x1 <= x0 or y1 <= y0:
+            return
+        mask = np.full((y1 - y0, x1 - x0), 255, np.uint8)
+        off = np.array([x0, y0], float)
+        if band is not None:
+            cv2.fillPoly(mask, [np.round((band - off) * 16).astype(np.int32)], int(round(255 * sc.shadow_gain)), cv2.LINE_AA, 4)  # fmt: skip
+        shade = int(round(255 * sc.ambient))
+        for poly in casts:
+            cv2.fillPoly(mask, [np.round((poly - off) * 16).astype(np.int32)], shade, cv2.LINE_AA, 4)
+        mask = cv2.blur(mask, (3, 3))  # a penumbra of a few pixels
+        sub = img[y0:y1, x0:x1]
+        cv2.multiply(sub, cv2.cvtColor(mask, cv2.COLOR_GRAY2BGR), dst=sub, scale=1.0 / 255.0)
+
+    def _paint_textured(
+        self,
+        img: np.ndarray,
+        R: np.ndarray,
+        c: np.ndarray,
+        plane: Plane,
+        light: float,
+        glare: np.ndarray | None = None,
+    ) -> np.ndarray | None:
+        """Warp a textured plane into ``img`` at full resolution, lit by ``light``. A BGRA
+        texture is blended by its warped alpha (anti-aliased edges) and gets ``glare`` (a
+        small float image of added light over the plane, resized to the texture); returns
+        the image polygon, or None when not visible."""
+        poly = self._image_poly(R, c, plane.corners)
+        if poly is None:
+            return None
+        H_img, W_img = img.shape[:2]
+        x0, y0 = np.floor(poly.min(axis=0)).astype(int)
+        x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
+        if x1 <= x0 or y1 <= y0:
+            return None
+        sub = img[y0:y1, x0:x1]
+        K = self.cam.K
+        tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
+        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
+        Hp = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
+        size = (x1 - x0, y1 - y0)
+        lit = self._lit(tex, light, glare)
+        if tex.shape[2] == 4:
+            warped = cv2.warpPerspective(lit, Hp, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+            alpha = warped[..., 3].astype(np.float32) * (1.0 / 255.0)
+            sub[:] = cv2.blendLinear(warped[..., :3], sub, alpha, 1.0 - alpha)
+            return poly
+        mask = np.zeros(sub.shape[:2], np.uint8)
+        cv2.fillPoly(mask, [np.round((poly - [x0, y0]) * 16).astype(np.int32)], 255, cv2.LINE_8, shift=4)
+        warped = cv2.warpPerspective(lit, Hp, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        cv2.copyTo(warped, mask, sub)
+        return poly
+
+    def _lit(self, tex: np.ndarray, light: float, glare: np.ndarray | None) -> np.ndarray:
+        """A texture (a mip level) times ``light``, plus ``glare`` (resized over it). Without
+        glare the result is kept per light level (in steps of 1/128): props and banners
+        are lit alike frame after frame."""
+        q = round(light * 128)
+        if glare is None:
+            if q == 128:
+                return tex
+            hit = self._lit_cache.get((id(tex), q))
+            if hit is not None:
+                return hit
+        colour = tex[..., :3].astype(np.float32) * (q / 128.0)
+        if glare is not None:
+            colour += cv2.resize(glare, (tex.shape[1], tex.shape[0]), interpolation=cv2.INTER_LINEAR)[..., None]
+        out = np.clip(colour, 0, 255).astype(np.uint8)
+        if tex.shape[2] == 4:
+            out = np.dstack([out, tex[..., 3]])
+        if glare is None:
+            if len(self._lit_cache) > 256:
+                self._lit_cache.clear()
+                self._lit_keep.clear()
+            self._lit_cache[(id(tex), q)] = out
+            self._lit_keep.append(tex)  # keeps the id a valid key
+        return out
+
+    def _banner_glare(self, corners: np.ndarray, normal: np.ndarray, c: np.ndarray, direct: float) -> np.ndarray | None:
+        """The sun's glare on the banner: Phong lobes of the mirror direction against the
+        view direction, on a 5 x 5 grid over the panel (digital numbers to add), or None."""
+        gloss = self.banner.gloss
+        cos_in = float(np.dot(normal, self.sun))
+        if gloss <= 0 or direct <= 0 or cos_in <= 0:
+            return None
+        mirror = 2 * cos_in * normal - self.sun  # where the sun's light leaves the surface
+        u = np.linspace(0.0, 1.0, 5)
+        tl, tr, _br, bl = corners
+        grid = (
+            tl[None, None, :]
+            + u[None, :, None] * (tr - tl)[None, None, :]
+            + u[:, None, None] * (bl - tl)[None, None, :]
+        )
+        view = c[None, None, :] - grid
+        view /= np.linalg.norm(view, axis=2, keepdims=True)
+        cos = np.clip(np.einsum("ijk,k->ij", view, mirror), 0.0, 1.0)
+        spec = gloss * direct * (1.0 - self.scene.ambient) * 255.0 * (0.5 * cos**8 + 2.5 * cos**300)
+        if float(spec.max()) < 1.0:
+            return None
+        return spec.astype(np.float32)
+
+    def _render_real(
+        self,
+        t_s: float,
+        follower: VehiclePose,
+        others: Sequence[VehiclePose],
+        target_index: int,
+        follower_name: str,
+        yaw_rate_radps: float,
+    ) -> tuple[np.ndarray, FrameTruth]:
+        """The realistic frame: see the class docstring."""
+        R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
+        img = self._background_image(R, c, follower.yaw_rad)
+        self._paint_ground_full(img, R, c)
+        target = others[target_index]
+        cloud = self._cloud(t_s, follower)
+        props = self._props(t_s)
+        banners: list[np.ndarray | None] = []
+        for v in others:
+            if v.banner:
+                centre, right, down = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
+                half = self.banner.panel_size_m / 2
+                tl = centre - right * half - down * half
+                banners.append(
+                    np.array([tl, tl + 2 * right * half, tl + 2 * (right + down) * half, tl + 2 * down * half])
+                )
+            else:
+                banners.append(None)
+        shadowed = [(v, b) for v, b in zip(others, banners, strict=True)] + [(follower, None)]
+        self._paint_shadows(img, R, c, t_s, shadowed, props, cloud, follower)
+        # painter's order: props, occluders and whole vehicles, far to near
+        items: list[tuple[float, str, object]] = []
+        for p in props:
+            items.append((float(np.linalg.norm(p.centre - c)), "prop", p))
+        for p in self._occluders(t_s, follower, target, follower_name):
+            items.append((float(np.linalg.norm(p.centre - c)), "occluder", p))
+        for i, v in enumerate(others):
+            items.append((math.hypot(v.north_m - c[0], v.east_m - c[1]), "vehicle", i))
+        items.sort(key=lambda x: -x[0])
+        target_poly = None
+        nearer: list[np.ndarray] = []
+        for _d, kind, obj in items:
+            if kind != "vehicle":
+                assert isinstance(obj, Plane)
+                normal = _unit_cross(obj.ax, obj.ay)  # towards a viewer who sees the texture unmirrored
+                poly = self._paint_textured(img, R, c, obj, self._light_at(obj.centre, normal, cloud))
+                if poly is not None and target_poly is not None:
+                    nearer.append(poly)
+                continue
+            assert isinstance(obj, int)
+            v, corners = others[obj], banners[obj]
+            polys, banner_poly = self._paint_vehicle(img, R, c, v, corners, cloud)
+            if obj == target_index:
+                target_poly = banner_poly
+                nearer.extend(polys[1])  # the vehicle's own faces drawn over its banner
+            elif target_poly is not None:
+                nearer.extend(polys[0] + polys[1])
+        truth = self._truth(t_s, R, c, follower, target, target_poly, nearer)
+        if self._undistort_maps is not None:
+            img = cv2.remap(img, self._undistort_maps[0], self._undistort_maps[1], cv2.INTER_LINEAR)
+        gain, tint = self.light(t_s)
+        img = self.sensor.expose(img, t_s, gain * np.asarray(tint, float), yaw_rate_radps, float(self.cam.K[0, 0]))
+        return img, truth
+
+    def _light_at(self, point: np.ndarray, normal: np.ndarray | None, cloud: tuple[float, float] | None) -> float:
+        """The light on a surface at ``point``: the sun's unless the cloud's band covers it.
+        Props are lit as vertical panels facing the camera half-way to the sun."""
+        direct = 1.0
+        if cloud is not None and cloud[0] <= float(point[1]) <= cloud[1]:
+            direct = self.scene.shadow_gain
+        if normal is None:
+            return sun_light(None, self.sun, self.scene.ambient, direct)
+        return sun_light(normal, self.sun, self.scene.ambient, direct)
+
+    def _paint_vehicle(
+        self,
+        img: np.ndarray,
+        R: np.ndarray,
+        c: np.ndarray,
+        v: VehiclePose,
+        corners: np.ndarray | None,
+        cloud: tuple[float, float] | None,
+    ) -> tuple[tuple[list[np.ndarray], list[np.ndarray]], np.ndarray | None]:
+        """One rover: faces behind the banner, the banner's edges and print (seen from behind
+        the vehicle), then the faces in front of it; all the rover's corners projected at
+        once. Returns the painted polygons (before, after) and the banner's polygon."""
+        direct = 1.0
+        if cloud is not None and cloud[0] <= v.east_m <= cloud[1]:
+            direct = self.scene.shadow_gain
+        cy, sy = math.cos(v.yaw_rad), math.sin(v.yaw_rad)
+        Rb = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+        t = np.array([v.north_m, v.east_m, 0.0])
+        cam_b = Rb.T @ (c - t)
+        before, after = visible_faces(cam_b)
+        cam = (MESH.points @ Rb.T + t - c) @ R.T
+        ok = cam[:, 2] >= NEAR_M
+        uv = cam @ self.cam.K.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            px = uv[:, :2] / uv[:, 2:3]
+        normals_w = MESH.normals @ Rb.T
+        up = max(-float(self.sun[2]), 1e-3)
+        amb = self.scene.ambient
+        cos = np.where(MESH.normals.any(axis=1), np.maximum(normals_w @ self.sun, 0.0), 0.5 * up)
+        light = np.minimum(1.8, amb + (1.0 - amb) * direct * cos / up)
+        colours = np.minimum(255.0, np.round(MESH.bgr * light[:, None]))
+        drawn: tuple[list[np.ndarray], list[np.ndarray]] = ([], [])
+        seen_from_behind = corners is not None and float(np.dot(Rb[:, 0], corners.mean(axis=0) - c)) > 0
+        banner_poly = None
+        for k, faces in enumerate((before, after)):
+            if k == 1 and seen_from_behind and corners is not None:
+                for pts, n in banner_edges(corners, v.yaw_rad, self.banner.thickness_m, c):
+                    poly = self._image_poly(R, c, pts)
+                    if poly is not None:
+                        lit = sun_light(n, self.sun, amb, direct)
+                        colour = tuple(int(min(255, round(b * lit))) for b in EDGE_BGR)
+                        cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], colour, cv2.LINE_AA, shift=4)
+                        drawn[0].append(poly)
+                banner_poly = self._paint_banner(img, R, c, corners, direct)
+            for i in faces:
+                a, b = MESH.faces[i]
+                if ok[a:b].all():
+                    poly = px[a:b]
+                    if not MESH.normals[i].any():  # a tyre: the hull of its rims
+                        poly = cv2.convexHull(np.ascontiguousarray(poly, np.float32))[:, 0, :].astype(float)
+                elif MESH.normals[i].any():
+                    poly = self._image_poly(R, c, MESH.points[a:b] @ Rb.T + t)
+                    if poly is None:
+                        continue
+                else:
+                    continue
+                col = colours[i]
+                cv2.fillPoly(
+                    img, [np.round(poly * 16).astype(np.int32)], (col[0], col[1], col[2]), cv2.LINE_AA, shift=4
+                )
+                drawn[k].append(poly)
+        return drawn, banner_poly
+
+    def _paint_banner(
+        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, corners: np.ndarray, direct: float
+    ) -> np.ndarray | None:
+        tl, tr, _br, bl = corners
+        size = self.banner_tex.shape[0]
+        normal = _unit_cross(bl - tl, tr - tl)  # towards the viewer behind the vehicle
+        plane = Plane(tl, (tr - tl) / size, (bl - tl) / size, self.banner_tex)
+        light = sun_light(normal, self.sun, self.scene.ambient, direct)
+        glare = self._banner_glare(corners, normal, c, direct)
+        return self._paint_textured(img, R, c, plane, light, glare)

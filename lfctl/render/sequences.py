@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -93,7 +94,12 @@ class Sequence:
 
 
 def make_sequence(
-    tier: str, seed: int, n_frames: int = 300, camera: CameraConfig | None = None, banner: BannerConfig | None = None
+    tier: str,
+    seed: int,
+    n_frames: int = 300,
+    camera: CameraConfig | None = None,
+    banner: BannerConfig | None = None,
+    realism: Literal["on", "off"] = "off",
 ) -> Sequence:
     """The tier's sequence for a seed (deterministic).
 
@@ -110,6 +116,10 @@ def make_sequence(
         The camera (default :class:`~lfctl.config.CameraConfig`'s).
     banner : BannerConfig, optional
         The banner (default :class:`~lfctl.config.BannerConfig`'s).
+    realism : {"off", "on"}
+        The renderer's look (``scene.realism``): ``"off"``, the flat look the tracker's tests
+        pin, or ``"on"``, with photographed ground, walls and background picked per seed
+        (what ``lfctl bench vision`` renders).
     """
     if tier not in TIERS:
         raise ValueError(f"unknown tier {tier!r} (known: {', '.join(TIERS)})")
@@ -176,6 +186,8 @@ def make_sequence(
             )
     scene = SceneConfig(
         ground="concrete",
+        realism=realism,
+        textures="footage",  # with realism "on": photographed ground, walls and background, picked per seed
         props=props,
         occluders=occluders,
         lighting=lighting,

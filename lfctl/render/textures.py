@@ -13,13 +13,20 @@ import numpy as np
 from lfctl.config import BannerConfig, PropConfig
 
 __all__ = [
+    "GROUND_PERIOD_PX",
+    "GROUND_PX_PER_M",
+    "REAL_BANNER_PX_PER_M",
     "TEX_PX_PER_M",
     "banner_texture",
     "ground_texture",
     "hue_bgr",
     "noise_texture",
+    "periodic_noise",
     "periodic_pyramid",
     "prop_texture",
+    "real_banner_texture",
+    "real_ground_texture",
+    "real_wall_texture",
 ]
 
 TEX_PX_PER_M = 800.0  # banner texture resolution, px per m
@@ -166,3 +173,177 @@ def periodic_pyramid(tex: np.ndarray, levels: int) -> list[np.ndarray]:
         down = cv2.pyrDown(np.tile(out[-1], (3, 3, 1)))
         out.append(down[h // 2 : h, w // 2 : w].copy())
     return out
+
+
+# ---------------------------------------------------------------------------------------
+# The realistic renderer's textures (scene.realism = "on")
+
+#: the realistic banner's texture resolution, px per m: sharp down to half a metre away
+REAL_BANNER_PX_PER_M = 1600.0
+#: the realistic ground: a 2 m period at 768 px per m (a pixel's footprint on the nearest rows
+#: of a 640 x 480, 62 degree camera 0.2 m up is about 1.2 mm)
+GROUND_PERIOD_PX, GROUND_PX_PER_M = 1536, 768.0
+
+
+def periodic_noise(rng: np.random.Generator, h: int, w: int, sigma_px: float) -> np.ndarray:
+    """Zero-mean, unit-spread Gaussian noise blurred by ``sigma_px`` that tiles without seams
+    (float32, h x w).
+
+    Parameters
+    ----------
+    rng : np.random.Generator
+        The noise's random stream.
+    h, w : int
+        Size, px.
+    sigma_px : float
+        Grain size, px (below 0.5: white noise).
+    """
+    n = rng.standard_normal((h, w), dtype=np.float32)
+    if sigma_px >= 0.5:
+        pad = int(3 * sigma_px) + 1
+        big = np.pad(n, pad, mode="wrap")
+        n = cv2.GaussianBlur(big, (0, 0), sigma_px)[pad : pad + h, pad : pad + w]
+    return (n - n.mean()) / max(float(n.std()), 1e-6)
+
+
+def real_banner_texture(cfg: BannerConfig, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The printed banner: BGRA (alpha 255: the warp's border gives anti-aliased edges) and
+    the marker centres in texture pixels (TL, TR, BR, BL).
+
+    Board with paper grain and uneven ink, the hatched pattern, markers printed with soft
+    edges and ink that varies (never one flat, fully saturated colour), slightly blurred as
+    a print is. ``marker_saturation`` sets the ink's mean saturation.
+
+    Parameters
+    ----------
+    cfg : BannerConfig
+        Sizes and colours.
+    rng : np.random.Generator
+        The grain's random stream.
+    """
+    s = REAL_BANNER_PX_PER_M
+    size = int(round(cfg.panel_size_m * s))
+    up = 2  # drawn at twice the size, then area-averaged: anti-aliased print edges
+    big = size * up
+    base = np.array(cfg.panel_bgr, np.float32)
+    grain = periodic_noise(rng, big, big, 0.8) * 4.0 + periodic_noise(rng, big, big, 14.0) * 3.0
+    tex = np.clip(base[None, None, :] + grain[..., None], 0, 255).astype(np.uint8)
+    hatch = tuple(int(c * 0.8) for c in cfg.panel_bgr)
+    step = 9 * up * s / TEX_PX_PER_M / 2  # the same pattern as the flat banner, in metres
+    k = -float(big)
+    while k < big:
+        cv2.line(tex, (int(k), 0), (int(k) + big, big), hatch, max(1, int(round(up * s / TEX_PX_PER_M))), cv2.LINE_AA)
+        k += step
+    half = cfg.side_m / 2 * s * up
+    m = cfg.marker_size_m / 2 * s * up
+    c0 = big / 2
+    centres = np.array([[c0 - half, c0 - half], [c0 + half, c0 - half], [c0 + half, c0 + half], [c0 - half, c0 + half]])
+    ink = np.array(hue_bgr(cfg.marker_hue_deg, cfg.marker_saturation, 0.82), np.float32)
+    mask = np.zeros((big, big), np.uint8)
+    for cx, cy in centres:
+        pts = np.array([[cx - m, cy - m], [cx + m, cy - m], [cx + m, cy + m], [cx - m, cy + m]])
+        cv2.fillPoly(mask, [np.round(pts * 16).astype(np.int32)], 255, cv2.LINE_AA, shift=4)
+    # ink: thinner and thicker by a few per cent, and the paper shows through a little
+    mottle = 1.0 + 0.05 * periodic_noise(rng, big, big, 3.0) + 0.03 * periodic_noise(rng, big, big, 0.6)
+    ink_img = ink[None, None, :] * mottle[..., None] + 0.12 * (tex.astype(np.float32) - base)
+    a = (mask.astype(np.float32) / 255.0)[..., None]
+    out = tex.astype(np.float32) * (1 - a) + ink_img * a
+    out = cv2.GaussianBlur(out, (0, 0), 0.7 * up)
+    out = cv2.resize(np.clip(out, 0, 255).astype(np.uint8), (size, size), interpolation=cv2.INTER_AREA)
+    bgra = np.dstack([out, np.full((size, size), 255, np.uint8)])
+    return bgra, (centres + 0.5) / up - 0.5
+
+
+def _tile_to(img: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    """A periodic image scaled to a period that divides ``n``, flipped at random, tiled to n x n."""
+    period = int(rng.choice([n // 4, n // 3, n // 2])) if n % 12 == 0 else n // 2
+    t = cv2.resize(img, (period, period), interpolation=cv2.INTER_CUBIC)
+    if rng.random() < 0.5:
+        t = cv2.flip(t, 1)
+    if rng.random() < 0.5:
+        t = cv2.transpose(t)
+    reps = n // period
+    tiled = np.tile(t, (reps, reps, 1))
+    return np.roll(tiled, (int(rng.integers(n)), int(rng.integers(n))), axis=(0, 1))
+
+
+def real_ground_texture(
+    kind: str, photos: Sequence[np.ndarray] | None, rng: np.random.Generator
+) -> tuple[np.ndarray, float]:
+    """The realistic ground: one period (:data:`GROUND_PERIOD_PX` square, tileable) at
+    :data:`GROUND_PX_PER_M`, and that resolution.
+
+    With ``photos`` (crops of real ground), several are laid over each other at random
+    scales, flips and offsets and blended by smooth random weights, so the 2 m period does
+    not show one photograph repeating; otherwise the procedural ``kind``. A fine grain is
+    added either way: a photograph magnified to the nearest rows would look soft.
+
+    Parameters
+    ----------
+    kind : str
+        ``"checker"``, ``"carpet"``, ``"grass"`` or concrete (anything else).
+    photos : sequence of np.ndarray or None
+        Tileable photographs of this kind of ground, or None for procedural.
+    rng : np.random.Generator
+        Choices and grain.
+    """
+    n = GROUND_PERIOD_PX
+    if photos:
+        layers = [_tile_to(photos[int(rng.integers(len(photos)))], n, rng).astype(np.float32) for _ in range(3)]
+        yy, xx = np.mgrid[0:n, 0:n].astype(np.float32) * (2 * np.pi / n)
+        weights = []
+        for _ in layers:
+            f = np.zeros((n, n), np.float32)
+            for _ in range(3):
+                kx, ky = int(rng.integers(-3, 4)), int(rng.integers(1, 4))
+                f += np.cos(kx * xx + ky * yy + float(rng.uniform(0, 2 * np.pi)))
+            weights.append(f)
+        w = np.exp(np.stack(weights) / 0.35)
+        w /= w.sum(axis=0, keepdims=True)
+        base = sum(layer * wk[..., None] for layer, wk in zip(layers, w, strict=True))
+        grain_dn = 6.0
+    else:
+        if kind == "checker":
+            sq = n // 4  # 0.5 m squares
+            tile = (np.indices((4, 4)).sum(axis=0) % 2).astype(np.float32)
+            base = np.dstack([np.kron(90 + 60 * tile, np.ones((sq, sq), np.float32))] * 3)
+            grain_dn = 3.0
+        else:
+            colour = {"carpet": (70, 60, 110), "grass": (40, 110, 70)}.get(kind, (128, 130, 132))
+            amp = {"carpet": 25.0, "grass": 22.0}.get(kind, 18.0)
+            coarse = periodic_noise(rng, n, n, 18.0) * amp
+            base = np.array(colour, np.float32)[None, None, :] + coarse[..., None]
+            grain_dn = 8.0
+    grain = periodic_noise(rng, n, n, 0.7) * grain_dn + periodic_noise(rng, n, n, 2.5) * grain_dn * 0.6
+    tex = np.clip(np.asarray(base, np.float32) + grain[..., None], 0, 255).astype(np.uint8)
+    return tex, GROUND_PX_PER_M
+
+
+def real_wall_texture(
+    prop: PropConfig, photos: Sequence[np.ndarray] | None, banner: BannerConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """A prop's realistic texture: a wall faced with a photographed facade (tiled along its
+    width at its height), anything else as :func:`prop_texture`.
+
+    Parameters
+    ----------
+    prop : PropConfig
+        The prop.
+    photos : sequence of np.ndarray or None
+        Facade photographs (tileable along x), or None.
+    banner : BannerConfig
+        For distractors, as :func:`prop_texture`.
+    rng : np.random.Generator
+        Choices.
+    """
+    if prop.kind != "wall" or not photos:
+        return prop_texture(prop, banner, rng)
+    photo = photos[int(rng.integers(len(photos)))]
+    h = max(8, int(prop.height_m * 200))
+    w = max(8, int(prop.width_m * 200))
+    tw = max(8, int(round(photo.shape[1] * h / photo.shape[0])))
+    tile = cv2.resize(photo, (tw, h), interpolation=cv2.INTER_CUBIC)
+    reps = w // tw + 2
+    row = np.tile(tile, (1, reps, 1))  # the facade is periodic along x: no seams
+    x0 = int(rng.integers(tw))
+    return np.ascontiguousarray(row[:, x0 : x0 + w])

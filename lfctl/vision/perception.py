@@ -2,8 +2,9 @@
 simulated camera (`lfctl sim`, camera sensing), a real rover (`lfctl follow`) and
 `lfctl track` all run:
 
-    frame -> tracker (CAMShift on H x S x LBP, Kalman filters, marker constellation)
-          -> marker pose (solvePnP IPPE_SQUARE, else the paper's eq. 9-11)
+    frame -> tracker (CAMShift on H x S x LBP, Kalman filters, marker constellation;
+             or, for an ArUco banner, cv2.aruco with the same filters: lfctl.vision.aruco)
+          -> pose of the four points (solvePnP IPPE_SQUARE, else the paper's eq. 9-11)
           -> the banner's offset on its vehicle -> RelativeMeasurement
 
 When the markers are hidden but the histogram tracker holds its window, the window's centre
@@ -20,6 +21,7 @@ import cv2
 import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig
+from lfctl.vision.aruco import ArucoSettings, ArucoTracker
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.boxes import Box
 from lfctl.vision.camera_model import CameraModel
@@ -85,7 +87,7 @@ def slot_box(camera: CameraModel, banner: BannerGeometry, range_m: float, bearin
 
 
 class BannerPerception:
-    """The tracker, the marker pose and the banner's offset, frame after frame.
+    """The tracker (or the ArUco detector), the pose and the banner's offset, frame after frame.
 
     Parameters
     ----------
@@ -93,8 +95,8 @@ class BannerPerception:
         Intrinsics, distortion and mount of the camera the frames come from.
     banner : BannerGeometry
         The target's banner.
-    settings : TrackerSettings
-        The tracker's settings (kind, marker hue, ...).
+    settings : TrackerSettings or ArucoSettings
+        The marker tracker's settings (kind, marker hue, ...), or the ArUco detector's.
     expected_box : Box, optional
         Where the target should appear at the start (see :func:`slot_box`): with several
         banners in view, the tracker starts on the one nearest it.
@@ -104,12 +106,14 @@ class BannerPerception:
         self,
         camera: CameraModel,
         banner: BannerGeometry,
-        settings: TrackerSettings,
+        settings: TrackerSettings | ArucoSettings,
         expected_box: Box | None = None,
     ) -> None:
         self.camera = camera
         self.banner = banner
-        self.tracker = Tracker(settings)
+        self.tracker: Tracker | ArucoTracker = (
+            ArucoTracker(settings) if isinstance(settings, ArucoSettings) else Tracker(settings)
+        )
         self.expected_box = expected_box
         self.started = False
 
@@ -123,7 +127,9 @@ class BannerPerception:
         use_markers: bool = True,
         marker_hue_deg: float | None = None,
     ) -> BannerPerception:
-        """Perception as a scenario's ``[camera]`` and ``[banner]`` describe it.
+        """Perception as a scenario's ``[camera]`` and ``[banner]`` describe it: the marker
+        tracker, or for ``banner.kind = "aruco"`` the ArUco detector (``kind``,
+        ``use_markers`` and ``marker_hue_deg`` then do not apply).
 
         Parameters
         ----------
@@ -141,6 +147,10 @@ class BannerPerception:
         """
         cam = CameraModel.from_config(camera)
         geometry = BannerGeometry.from_config(banner)
+        expected = slot_box(cam, geometry, *slot) if slot is not None else None
+        if banner.kind == "aruco":
+            tag = ArucoSettings(banner.aruco_dictionary, banner.aruco_id, geometry.panel_over_side)
+            return BannerPerception(cam, geometry, tag, expected)
         settings = TrackerSettings(
             kind=kind,  # type: ignore[arg-type]
             marker_hue_deg=banner.marker_hue_deg if marker_hue_deg is None else marker_hue_deg,
@@ -149,13 +159,12 @@ class BannerPerception:
             panel_over_side=geometry.panel_over_side,
             use_markers=use_markers,
         )
-        expected = slot_box(cam, geometry, *slot) if slot is not None else None
         return BannerPerception(cam, geometry, settings, expected)
 
     def step(self, t_s: float, frame: np.ndarray, roi: Box | None = None) -> Perception:
         """Perceive one frame.
 
-        Until the target is found, each frame is searched for the banner's markers (or, with
+        Until the target is found, each frame is searched for the banner's markers or tag (or, with
         ``roi``, the tracker starts on that window); after that the tracker follows it.
 
         Parameters
@@ -181,15 +190,15 @@ class BannerPerception:
         return Perception(t_s, track, pose, self._measurement(t_s, track, pose))
 
     def marker_pose(self, markers: np.ndarray) -> MarkerPose | None:
-        """The banner's pose from its four marker centres (TL, TR, BR, BL, pixels): PnP,
-        else the paper's two-pair estimate.
+        """The banner's pose from its four marker centres, or its tag's corners (TL, TR, BR,
+        BL, pixels): PnP, else the paper's two-pair estimate.
 
         Parameters
         ----------
         markers : np.ndarray
-            (4, 2) marker centres in raw (distorted) pixels.
+            (4, 2) marker centres (tag corners) in raw (distorted) pixels.
         """
-        side = self.banner.side_m
+        side = self.banner.square_m
         cam = self.camera
         found = pnp_pose(markers, cam.K, cam.dist, side)
         if found is not None:

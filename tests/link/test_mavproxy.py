@@ -7,7 +7,6 @@ a virtual environment the test makes; where it cannot be installed the test says
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import signal
 import subprocess
@@ -18,13 +17,11 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.config import load_config
 from lfctl.frames import ned_to_geodetic
 from lfctl.link.endpoint import MODES
 from lfctl.sim.links import Links
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
-EXAMPLES = Path(__file__).parents[2] / "examples"
 
 
 @pytest.fixture(scope="module")
@@ -53,15 +50,10 @@ def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
 
 
 def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
-    mavproxy: Path, tmp_path: Path, free_udp_ports, background_run
+    mavproxy: Path, tmp_path: Path, truth_convoy, background_run
 ) -> None:
-    base = free_udp_ports(2)
-    cfg = load_config(EXAMPLES / "convoy.toml")
-    cfg = dataclasses.replace(
-        cfg,
-        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=120.0),
-        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
-    )
+    cfg = truth_convoy(120.0)
+    base = cfg.link.udp_base_port
     home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
 
     def at(n: float, e: float) -> tuple[float, float]:

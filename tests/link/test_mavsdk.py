@@ -4,18 +4,14 @@ own ground software would use must work without changes."""
 from __future__ import annotations
 
 import asyncio
-import dataclasses
 import math
-from pathlib import Path
 
 import pytest
 
-from lfctl.config import load_config
 from lfctl.link.mission import local_mission
 
 mavsdk = pytest.importorskip("mavsdk")
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
-EXAMPLES = Path(__file__).parents[2] / "examples"
 
 
 async def session(port: int, home: tuple[float, float, float]) -> dict:
@@ -87,16 +83,11 @@ async def session(port: int, home: tuple[float, float, float]) -> dict:
     return out
 
 
-def test_mavsdk_uploads_starts_watches_pauses_and_disarms(free_udp_ports, background_run) -> None:
+def test_mavsdk_uploads_starts_watches_pauses_and_disarms(truth_convoy, background_run) -> None:
     from mavsdk.plugins.telemetry import FlightMode
 
-    base = free_udp_ports(2)
-    cfg = load_config(EXAMPLES / "convoy.toml")
-    cfg = dataclasses.replace(
-        cfg,
-        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=40.0),
-        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
-    )
+    cfg = truth_convoy(40.0)
+    base = cfg.link.udp_base_port
     with background_run(cfg, realtime=True) as errors:
         out = asyncio.run(
             asyncio.wait_for(
@@ -168,16 +159,11 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
     return out
 
 
-def test_mavsdk_fence_rally_goto_rtl_and_health(free_udp_ports, background_run) -> None:
+def test_mavsdk_fence_rally_goto_rtl_and_health(truth_convoy, background_run) -> None:
     from mavsdk.plugins.telemetry import FlightMode
 
-    base = free_udp_ports(2)
-    cfg = load_config(EXAMPLES / "convoy.toml")
-    cfg = dataclasses.replace(
-        cfg,
-        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=60.0),
-        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
-    )
+    cfg = truth_convoy(60.0)
+    base = cfg.link.udp_base_port
     with background_run(cfg, realtime=True) as errors:
         home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
         out = asyncio.run(asyncio.wait_for(fence_rally_goto_rtl(base, home), timeout=50))

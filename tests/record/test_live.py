@@ -4,6 +4,7 @@ H.264 in the MCAP, the MAVLink camera component, and the audit's link figures.""
 from __future__ import annotations
 
 import asyncio
+import base64
 import dataclasses
 import json
 import math
@@ -14,6 +15,7 @@ import socket
 import struct
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import av
@@ -22,6 +24,7 @@ import pytest
 import websockets
 from foxglove_schemas_protobuf.CompressedVideo_pb2 import CompressedVideo
 from foxglove_schemas_protobuf.LocationFix_pb2 import LocationFix
+from foxglove_schemas_protobuf.Log_pb2 import Log
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from mcap.reader import NonSeekingReader
 from pymavlink import mavutil
@@ -63,9 +66,15 @@ def interrupt(proc: subprocess.Popen) -> None:
 
 
 # -- the Foxglove WebSocket ---------------------------------------------------------------------
-async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[bytes]]:
+async def subscribe_and_collect(
+    port: int,
+    wanted: set[str],
+    until: Callable[[dict[str, list[bytes]]], bool] | None = None,
+    advertised: set[str] | None = None,
+) -> dict[str, list[bytes]]:
     """Connect as Foxglove does, subscribe to every advertised channel, keep payloads per topic
-    until every wanted topic has sent a message (or 30 s passed).
+    until every wanted topic has sent a message and ``until(got)`` holds (or 30 s passed);
+    ``advertised`` collects every topic the server advertised.
 
     A wanted channel silent for a second is subscribed again: foxglove-sdk may advertise a
     channel a moment before it takes subscriptions to it ("subscribe to unknown channel"
@@ -87,7 +96,7 @@ async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[b
         async def loop() -> None:
             loop_clock = asyncio.get_running_loop()
             asked_at = loop_clock.time()
-            while not wanted <= set(got):
+            while not (wanted <= set(got) and (until is None or until(got))):
                 if loop_clock.time() - asked_at > 1.0:
                     asked_at = loop_clock.time()
                     await subscribe({t: c for t, c in channel_of_topic.items() if t in wanted and t not in got})
@@ -99,6 +108,8 @@ async def subscribe_and_collect(port: int, wanted: set[str]) -> dict[str, list[b
                     msg = json.loads(frame)
                     if msg["op"] == "advertise":
                         new = {ch["topic"]: ch["id"] for ch in msg["channels"]}
+                        if advertised is not None:
+                            advertised.update(new)
                         channel_of_topic.update(new)
                         await subscribe(new)
                 elif frame[0] == 1:  # messageData: op, subscription id, log time, payload
@@ -358,6 +369,34 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
 
 
 # -- lfctl follow --live ---------------------------------------------------------------------------
+def start_follow(tmp_path: Path, rover, video: Path, *extra: str) -> tuple[subprocess.Popen, int]:
+    """`lfctl follow --live 127.0.0.1:0` against the rover in another process, and its Foxglove port."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen(
+        [
+            sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}",
+            "--camera", str(video), "--timeout", "10", "--live", "127.0.0.1:0", *extra,
+        ],
+        stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
+    )  # fmt: skip
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    if not line.startswith("foxglove"):
+        interrupt(proc)
+        raise AssertionError(line + (tmp_path / "stderr").read_text())
+    return proc, int(line.split("ws://127.0.0.1:")[1].split()[0])
+
+
+def packets(got: dict[str, list[bytes]], topic: str) -> list[dict]:
+    return [json.loads(p) for p in got.get(topic, [])]
+
+
+def both_ways(got: dict[str, list[bytes]]) -> bool:
+    """/mavlink/rover has shown the rover's global position and a setpoint to it."""
+    seen = {(p["direction"], p["name"]) for p in packets(got, "/mavlink/rover")}
+    return {("out", "GLOBAL_POSITION_INT"), ("in", "SET_POSITION_TARGET_LOCAL_NED")} <= seen
+
+
 @pytest.mark.integration
 def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     tmp_path: Path, banner_video, standing_rover
@@ -367,22 +406,11 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     rtp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)  # read after the run: keep it all
     rtp.bind(("127.0.0.1", 0))
     rtp.settimeout(0.05)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    wanted = {"/rover/pose", "/rover/camera/video", "/rover/controller", "/rover/fix", "/mavlink/rover"}
     with standing_rover() as rover:
-        proc = subprocess.Popen(
-            [
-                sys.executable, "-m", "lfctl", "follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}",
-                "--camera", str(video), "--timeout", "10", "--live", "127.0.0.1:0",
-                "--video", f"127.0.0.1:{rtp.getsockname()[1]}",
-            ],
-            stdout=subprocess.PIPE, stderr=(tmp_path / "stderr").open("w"), text=True, env=env,
-        )  # fmt: skip
+        proc, port = start_follow(tmp_path, rover, video, "--video", f"127.0.0.1:{rtp.getsockname()[1]}")
         try:
-            assert proc.stdout is not None
-            line = proc.stdout.readline()
-            assert line.startswith("foxglove"), line
-            port = int(line.split("ws://127.0.0.1:")[1].split()[0])
-            got = asyncio.run(subscribe_and_collect(port, {"/rover/pose", "/rover/camera/video", "/rover/controller"}))
+            got = asyncio.run(subscribe_and_collect(port, wanted, until=both_ways))
         finally:
             interrupt(proc)
     datagrams = []
@@ -393,12 +421,63 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
             break
     rtp.close()
     assert proc.returncode == 130, (tmp_path / "stderr").read_text()
-    assert {"/rover/pose", "/rover/camera/video", "/rover/controller"} <= set(got), sorted(got)
+    assert wanted <= set(got), sorted(got)
     assert CompressedVideo.FromString(got["/rover/camera/video"][0]).format == "h264"
     assert PoseInFrame.FromString(got["/rover/pose"][0]).frame_id == "ned"
+    # the Map panel's position is the rover's own, from its GLOBAL_POSITION_INT (degE7)
+    fix = LocationFix.FromString(got["/rover/fix"][-1])
+    lat, lon, alt = rover.home
+    assert fix.frame_id == "rover"
+    assert fix.latitude == pytest.approx(lat, abs=1e-7) and fix.longitude == pytest.approx(lon, abs=1e-7)
+    assert fix.altitude == pytest.approx(alt, abs=1e-3)
+    # the companion's link both ways, as the rover sees it; raw bytes kept, fields decoded
+    parser = mav.MAVLink(None)
+    for p in packets(got, "/mavlink/rover"):
+        decoded = parser.parse_buffer(base64.b64decode(p["raw"]))
+        assert decoded and decoded[0].get_type() == p["name"] and decoded[0].get_msgId() == p["msgid"]
+        # out: from the rover's autopilot; in: from its companion (component 191)
+        assert (p["sysid"], p["compid"]) == ((1, 1) if p["direction"] == "out" else (1, 191)), p
+    pos = next(p for p in packets(got, "/mavlink/rover") if p["name"] == "GLOBAL_POSITION_INT")
+    assert (pos["fields"]["lat"], pos["fields"]["lon"]) == (round(lat * 1e7), round(lon * 1e7))
+    sp = next(p for p in packets(got, "/mavlink/rover") if p["name"] == "SET_POSITION_TARGET_LOCAL_NED")
+    assert sp["fields"]["type_mask"] == 1479 and sp["fields"]["coordinate_frame"] == mav.MAV_FRAME_BODY_NED
     # RTP version 2, payload type 96, the last packet of each frame marked
     assert datagrams and all(d[0] >> 6 == 2 and d[1] & 0x7F == 96 for d in datagrams)
     assert sum(d[1] >> 7 for d in datagrams) >= 1
     # stopped by the interrupt, the rover was left with a zero setpoint
     g = rover.guided
     assert g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)
+
+
+@pytest.mark.integration
+def test_follow_live_says_once_that_a_rover_without_gps_has_no_location_fix(
+    tmp_path: Path, banner_video, standing_rover
+) -> None:
+    # an ArduPilot rover with no global position sends GLOBAL_POSITION_INT at 0, 0
+    video = banner_video(400)
+
+    def said(got: dict[str, list[bytes]]) -> bool:
+        return any("no global position" in Log.FromString(m).message for m in got.get("/log", []))
+
+    advertised: set[str] = set()
+    with standing_rover(home=(0.0, 0.0, 0.0)) as rover:
+        proc, port = start_follow(tmp_path, rover, video)
+        try:
+            got = asyncio.run(
+                subscribe_and_collect(
+                    port, {"/rover/pose", "/mavlink/rover", "/log"}, until=said, advertised=advertised
+                )
+            )
+            # the rover goes on sending 0, 0: more steps, still no fix, and no second line
+            more = asyncio.run(
+                subscribe_and_collect(
+                    port, {"/rover/pose"}, until=lambda g: len(g["/rover/pose"]) > 20, advertised=advertised
+                )
+            )
+        finally:
+            interrupt(proc)
+    assert proc.returncode == 130, (tmp_path / "stderr").read_text()
+    assert said(got)
+    assert any(p["name"] == "GLOBAL_POSITION_INT" for p in packets(got, "/mavlink/rover"))
+    assert "/rover/fix" not in advertised | set(got) | set(more)
+    assert not any("global position" in Log.FromString(m).message for m in more.get("/log", []))
