@@ -39,6 +39,13 @@ def _cv_filter(dim: int, accel_var: float, meas_var: float) -> KalmanFilter:
     return kf
 
 
+def _innovation_sq(kf: KalmanFilter, u: float, v: float) -> float:
+    # S = H P H' + R, y = z - H x, d^2 = y' S^-1 y
+    S = kf.H @ kf.P @ kf.H.T + kf.R
+    y = np.array([u, v]) - kf.H @ kf.x.reshape(-1)
+    return float(y @ np.linalg.solve(S, y))
+
+
 def _predict(kf: KalmanFilter) -> None:
     # x = F x
     # P = F P F' + Q
@@ -87,6 +94,17 @@ class CentreFilter:
             The window centre measured this frame, px.
         """
         _update(self.kf, np.array([u, v]))
+
+    def innovation_sq(self, u: float, v: float) -> float:
+        """Squared Mahalanobis distance of a measured centre from the predicted one (chi-square
+        with 2 degrees of freedom for a centre the filter describes).
+
+        Parameters
+        ----------
+        u, v : float
+            A measured centre, px.
+        """
+        return _innovation_sq(self.kf, u, v)
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:

@@ -25,7 +25,11 @@ Mean shift places a window of the filtered size (CAMShift's window can sprawl ov
 neighbour and drag the centre along); CAMShift measures the size, which a Kalman filter on
 its logarithm smooths. A window that fails the gate is looked for again anywhere in the
 search region before the target is called hidden; a hidden target must pass a stricter gate
-to come back.
+to come back. A banner whose markers were seen is held to its track: without its markers the
+window may not leave the centre filter's validation gate, and once hidden it comes back only
+on its markers (in the realistic look the camera's exposure can turn the ground the light
+grey of its panel, which its colours alone do not tell apart). Real footage without markers
+is unaffected.
 
 Pure: frames in, :class:`TrackState` out; no clock, file or socket.
 """
@@ -49,6 +53,8 @@ from lfctl.vision.track_state import TrackStatus
 
 __all__ = ["TrackState", "Tracker", "TrackerSettings"]
 
+#: the centre's validation gate: chi-square with 2 degrees of freedom at 0.999
+CENTRE_GATE_SQ = 13.8
 #: variance of log(size) of a box known to within 2 % (the start box; the banner from its markers)
 EXACT_SIZE_VAR = 0.02**2
 
@@ -464,6 +470,19 @@ class Tracker:
                 if alt_d < d:
                     fix, cand, d = alt, alt_cand, alt_d
                     accepted = gate.accepts(d, reentry=back)
+        if (
+            not back
+            and self._markers_seen
+            and constellation is None
+            and self._centre.innovation_sq(*_centre_of(fix.window)) > CENTRE_GATE_SQ
+        ):
+            # a banner without its markers: the histogram window may not jump off the track
+            return self._miss(frame, pred_win, search, d, "window jumped off the track")
+        if back and self._markers_seen and constellation is None:
+            # a hidden banner whose markers were seen comes back on its markers: its colours
+            # alone also match what the camera's exposure turns the same light grey as its
+            # panel, anywhere in the search region, which widens while it is hidden
+            return self._miss(frame, pred_win, search, d, "hidden banner: back only on its markers")
         if not accepted and constellation is None:
             limit = gate.reentry_threshold if back else gate.threshold
             return self._miss(frame, pred_win, search, d, f"colour distance {d:.2f} >= {limit:.2f}")
@@ -657,3 +676,8 @@ class Tracker:
             ):
                 return None
         return refine(c, hsv, self.s.marker_hue_deg, origin)
+
+
+def _centre_of(box: Box) -> tuple[float, float]:
+    x, y, w, h = box
+    return x + w / 2.0, y + h / 2.0
