@@ -1,16 +1,30 @@
 """lfctl bench vision: the paper's tracker and its baselines against OpenCV's trackers on
-rendered sequences with ground truth, and the renderer's own cost.
+labelled real footage and on rendered sequences with ground truth, and the renderer's cost.
 
-Tiers (lfctl/render/sequences.py) x seeds x 300 frames; every frame is rendered once and fed to
-every tracker: hue-only CAMShift (the paper's baseline), H+S+LBP CAMShift without filters,
-the full lfctl tracker, and OpenCV's TrackerMIL, TrackerKCF and TrackerCSRT (KCF and CSRT
-need opencv-contrib-python-headless; see the README for the environment that has them).
-All start from the true banner box in frame 0.
+Trackers: hue-only CAMShift (the paper's baseline), H+S+LBP CAMShift without filters, the
+full lfctl tracker (default settings, markers on), and OpenCV's TrackerMIL, TrackerKCF and
+TrackerCSRT (KCF and CSRT need opencv-contrib-python-headless; see the README for the
+environment that has them; without it their rows say so).
 
-Per tier and tracker: success rate (IoU >= 0.5 over frames whose banner is at least half
-visible), median centre error, frames to recover after a full occlusion, frames reported as
-tracking while fully hidden, median ms per frame; for the full tracker also the pose error
-of both estimators (range %, bearing deg; within 3 m).
+Real footage (``footage/labels``, read with :mod:`lfctl.bench.footage`): every tracker starts
+on the label's frame-0 box, as ``lfctl track VIDEO --roi x,y,w,h`` does: the full tracker
+through the one pose pipeline (:class:`~lfctl.vision.perception.BannerPerception`) with its
+default settings, markers on. None of the footage shows a banner, so any banner pose it
+reports is a false one, and is counted. The sequences with no target (``no_banner``) are run
+through the same pipeline twice, as `lfctl track VIDEO` (searching every frame for the
+markers until found) and from a box (the middle quarter of the frame), and their banner
+poses counted. Per sequence and tracker: success (IoU >= 0.5 over the labelled frames with
+the target in plain view, counted only while the tracker claims TRACKING), median centre
+error there, plain-view frames not claimed as TRACKING, hidden frames claimed as TRACKING,
+banner-pose frames, median ms per frame (each tracker alone on the decoded frames).
+
+Rendered tiers (lfctl/render/sequences.py) x seeds x 300 frames; every frame is rendered once
+and fed to every tracker, all starting from the true banner box in frame 0. Per tier and
+tracker: success (IoU >= 0.5 over frames whose banner is at least half visible, counted only
+while the tracker claims TRACKING, as on real footage), median centre error, frames to
+recover after a full occlusion, frames reported as tracking while fully hidden, median ms
+per frame; for the full tracker also the pose error of both estimators (range %, bearing
+deg; within 3 m).
 
 Then the ArUco section (:mod:`lfctl.bench.vision_aruco`): an ArUco banner against the
 paper's, detection and pose error against range and angle under the same tiers.
@@ -18,6 +32,7 @@ paper's, detection and pose error against range and angle under the same tiers.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import sys
@@ -28,11 +43,14 @@ import cv2
 import numpy as np
 
 from lfctl.bench.common import print_json, print_table
+from lfctl.bench.footage import LabelledSequence, load_sequences
 from lfctl.bench.vision_aruco import compare as aruco_compare
+from lfctl.config import BannerConfig, CameraConfig
 from lfctl.render.sequences import TIERS, make_sequence
 from lfctl.vision.banner import BannerGeometry
-from lfctl.vision.boxes import iou
+from lfctl.vision.boxes import Box, iou
 from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.perception import BannerPerception
 from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings
@@ -40,9 +58,13 @@ from lfctl.vision.tracker import Tracker, TrackerSettings
 __all__ = ["main"]
 
 OURS = ("hue", "hs-lbp", "full")
+PEERS = ("MIL", "KCF", "CSRT")
+CONTRIB = ("KCF", "CSRT")  # in opencv-contrib-python-headless only
+NO_PEER = "n/a (needs opencv-contrib)"
 
 
 def peer_names() -> list[str]:
+    """The OpenCV peers this OpenCV build can create (KCF and CSRT are in contrib only)."""
     names = ["MIL"]
     if hasattr(cv2, "TrackerKCF"):
         names.append("KCF")
@@ -103,7 +125,7 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
                 box, tracking = (tuple(int(v) for v in b) if ok else None), bool(ok)
             rec[k]["ms"].append((time.perf_counter() - t0) * 1000)
             rec[k]["tracking"].append(tracking)
-            if box is not None and truth.bbox is not None and box[2] > 0 and box[3] > 0:
+            if tracking and box is not None and truth.bbox is not None and box[2] > 0 and box[3] > 0:
                 rec[k]["iou"].append(iou(box, truth.bbox))
                 tc = (truth.bbox[0] + truth.bbox[2] / 2, truth.bbox[1] + truth.bbox[3] / 2)
                 rec[k]["err"].append(math.hypot(box[0] + box[2] / 2 - tc[0], box[1] + box[3] / 2 - tc[1]))
@@ -133,6 +155,154 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
         "render_ms": render_ms,
         "init_failed": init_failed,
     }
+
+
+def _perception(frame: np.ndarray) -> BannerPerception:
+    """The pose pipeline as `lfctl track` builds it for a video: the default camera at the
+    video's size, the default banner, the full tracker."""
+    h, w = frame.shape[:2]
+    return BannerPerception.from_config(dataclasses.replace(CameraConfig(), width_px=w, height_px=h), BannerConfig())
+
+
+def _centre_error(box: Box, truth: Box) -> float:
+    return math.hypot(box[0] + box[2] / 2 - truth[0] - truth[2] / 2, box[1] + box[3] / 2 - truth[1] - truth[3] / 2)
+
+
+def run_real(job: tuple[LabelledSequence, tuple[str, ...]]) -> dict:
+    """One real sequence: every tracker alone over its decoded frames (see the module
+    docstring); per tracker its frame records, scored against the labels."""
+    seq, peers = job
+    frames = list(seq.frames())
+    if seq.no_banner:
+        h, w = frames[0].shape[:2]
+        poses, ms = 0, []
+        for roi in (None, (w // 4, h // 4, w // 2, h // 2)):  # as `lfctl track VIDEO`, and with --roi
+            perception = _perception(frames[0])
+            for i, frame in enumerate(frames):
+                t0 = time.perf_counter()
+                seen = perception.step(i / 30.0, frame, roi)
+                ms.append((time.perf_counter() - t0) * 1000)
+                poses += seen.pose is not None
+        return {"name": seq.name, "no_banner": True, "frames": 2 * len(frames), "pose_frames": poses, "ms": ms}
+    assert seq.init_box is not None
+    out: dict[str, dict] = {}
+    for k in (*OURS, *peers):
+        boxes: list[Box | None] = [seq.init_box]
+        tracking, ms, poses = [True], [], 0
+        if k == "full":
+            perception = _perception(frames[0])
+            poses += perception.step(0.0, frames[0], seq.init_box).pose is not None
+        elif k in OURS:
+            tracker = Tracker(TrackerSettings(kind=k))  # type: ignore[arg-type]
+            tracker.init(frames[0], seq.init_box)
+        else:
+            peer = make_peer(k)
+            try:
+                peer.init(frames[0], seq.init_box)
+            except cv2.error as exc:
+                out[k] = {"failed": str(exc).splitlines()[-1][:80]}
+                continue
+        for i, frame in enumerate(frames[1:], start=1):
+            t0 = time.perf_counter()
+            if k == "full":
+                seen = perception.step(i / 30.0, frame)
+                st = seen.track
+                assert st is not None
+                box, ok = st.bbox, st.status is TrackStatus.TRACKING
+                poses += seen.pose is not None
+            elif k in OURS:
+                st = tracker.update(frame)
+                box, ok = st.bbox, st.status is TrackStatus.TRACKING
+            else:
+                ok, b = peer.update(frame)
+                box = tuple(int(v) for v in b) if ok else None
+            ms.append((time.perf_counter() - t0) * 1000)
+            boxes.append(box)
+            tracking.append(bool(ok))
+        plain, hidden = seq.in_plain_view(), seq.hidden()
+        hits = [tracking[i] and boxes[i] is not None and iou(boxes[i], seq.boxes[i]) >= 0.5 for i in plain]
+        errors = [_centre_error(boxes[i], seq.boxes[i]) for i in plain if tracking[i] and boxes[i] is not None]  # type: ignore[arg-type]
+        out[k] = {
+            "success": round(float(np.mean(hits)), 3),
+            "median_centre_error_px": round(float(np.median(errors)), 2) if errors else None,
+            "plain_view_not_tracking": int(sum(not tracking[i] for i in plain)),
+            "plain_view_frames": len(plain),
+            "tracking_while_hidden": int(sum(tracking[i] for i in hidden)),
+            "hidden_frames": len(hidden),
+            "banner_pose_frames": poses if k == "full" else None,
+            "median_ms": round(float(np.median(ms)), 3),
+        }
+    return {"name": seq.name, "no_banner": False, "frames": len(frames), "trackers": out}
+
+
+def real_section(results: list[dict], peers: tuple[str, ...]) -> dict:
+    """Print the real-footage table and how the full tracker stands against its rules there
+    (``criteria``: the sequences or frame counts that break each); their JSON."""
+    rows = []
+    for r in results:
+        if r["no_banner"]:
+            ms = round(float(np.median(r["ms"])), 3)
+            rows.append((r["name"], "full", "-", "-", "-", "-", f"{r['pose_frames']}/{r['frames']}", ms))
+            continue
+        for k in (*OURS, *PEERS):
+            e = r["trackers"].get(k)
+            if k not in OURS and k not in peers:
+                rows.append((r["name"], k, NO_PEER if k in CONTRIB else "not run", "", "", "", "", ""))
+            elif e is None or "failed" in e:
+                rows.append((r["name"], k, f"refused to start: {e['failed'] if e else '?'}", "", "", "", "", ""))
+            else:
+                rows.append(
+                    (
+                        r["name"],
+                        k,
+                        e["success"],
+                        e["median_centre_error_px"],
+                        f"{e['plain_view_not_tracking']}/{e['plain_view_frames']}",
+                        f"{e['tracking_while_hidden']}/{e['hidden_frames']}",
+                        f"{e['banner_pose_frames']}/{r['frames']}" if e["banner_pose_frames"] is not None else "-",
+                        e["median_ms"],
+                    )
+                )
+    print(
+        "real footage (footage/labels): every tracker from the label's frame-0 box; full = default settings, markers on"
+    )
+    print_table(
+        (
+            "sequence",
+            "tracker",
+            "success",
+            "centre err px",
+            "not tracking in plain view",
+            "tracking while hidden",
+            "banner-pose frames",
+            "ms/frame",
+        ),
+        rows,
+    )
+    labelled = [r for r in results if not r["no_banner"]]
+    full = {r["name"]: r["trackers"]["full"] for r in labelled}
+    criteria: dict[str, object] = {
+        "full_not_below_hs_lbp": [n for n in full if full[n]["success"] < labelled_get(labelled, n, "hs-lbp")],
+        "full_tracking_while_hidden": sum(e["tracking_while_hidden"] for e in full.values()),
+        "full_plain_view_not_tracking": sum(e["plain_view_not_tracking"] for e in full.values()),
+        "banner_pose_frames": sum(e["banner_pose_frames"] for e in full.values())
+        + sum(r["pose_frames"] for r in results if r["no_banner"]),
+    }
+    if "CSRT" in peers:
+        where = [n for n in full if labelled_get(labelled, n, "CSRT") >= 0.9]
+        criteria["csrt_at_least_0.9_on"] = where
+        criteria["full_below_0.9_there"] = [n for n in where if full[n]["success"] < 0.9]
+    print("full tracker on real footage, what breaks each rule:", criteria)
+    return {
+        "sequences": {r["name"]: {k: v for k, v in r.items() if k not in ("name", "ms")} for r in results},
+        "criteria": criteria,
+    }
+
+
+def labelled_get(results: list[dict], name: str, tracker: str) -> float:
+    """A tracker's success on a labelled sequence (nan when it did not run)."""
+    e = next(r for r in results if r["name"] == name)["trackers"].get(tracker)
+    return float(e["success"]) if e and "success" in e else math.nan
 
 
 def timing_pass(tier: str, n_frames: int, peers: tuple[str, ...]) -> dict[str, float]:
@@ -190,8 +360,12 @@ def main(quick: bool = False) -> None:
     peers = tuple(peer_names())
     jobs = [(tier, seed, n_frames, peers) for tier in TIERS for seed in seeds]
     workers = max(1, min(len(jobs), os.cpu_count() or 1))
+    sequences = load_sequences()
     with ProcessPoolExecutor(workers) as pool:
+        real_results = list(pool.map(run_real, [(seq, peers) for seq in sequences]))
         results = list(pool.map(run_job, jobs))
+    real = real_section(real_results, peers)
+    print()
     timing = {tier: timing_pass(tier, 60 if quick else 150, peers) for tier in TIERS}
     names = [*OURS, *peers]
     rows, out = [], {}
@@ -240,6 +414,8 @@ def main(quick: bool = False) -> None:
                     entry["median_ms"],
                 )
             )
+        rows += [(tier, k, NO_PEER if k in CONTRIB else "not run", "", "", "", "") for k in PEERS if k not in peers]
+    print("rendered tiers: every tracker from the true banner box in frame 0")
     print_table(
         ("tier", "tracker", "success", "centre err px", "recover frames", "tracking while hidden", "ms/frame"), rows
     )
@@ -288,6 +464,7 @@ def main(quick: bool = False) -> None:
             "frames_per_sequence": n_frames,
             "seeds": list(seeds),
             "peers": list(peers),
+            "real": real,
             "tiers": out,
             "summary": summary,
             "aruco": aruco,

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["WindowMoments", "camshift_in_roi", "window_moments"]
+__all__ = ["WindowMoments", "camshift_in_roi", "meanshift_in_roi", "window_moments"]
 
 TERM = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 10, 1.0)
 
@@ -89,5 +89,36 @@ def camshift_in_roi(
     _, (nx, ny, nw, nh) = cv2.CamShift(prob_roi, (lx, ly, lw, lh), TERM)
     if nw <= 0 or nh <= 0:
         return (x, y, 0, 0), 0.0
+    mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0
+    return (nx + ox, ny + oy, nw, nh), mass
+
+
+def meanshift_in_roi(
+    prob_roi: np.ndarray, roi_origin: tuple[int, int], window: tuple[int, int, int, int]
+) -> tuple[tuple[int, int, int, int], float]:
+    """cv2.meanShift on a back-projection of a region of interest: the window moves to the
+    probability's centroid and keeps its size (CAMShift without eq. 8's resizing).
+
+    ``window`` and the result are in full-image coordinates; returns the moved window (clipped
+    to the region) and the mean probability (0..1) inside it, or ``window`` and 0 when it
+    starts outside the region.
+
+    Parameters
+    ----------
+    prob_roi : np.ndarray
+        8-bit back-projection (0..255) of the region of interest only.
+    roi_origin : (int, int)
+        The region's top-left corner (x, y) in the full image, px.
+    window : Box
+        Where to start: (x, y, w, h) in full-image pixels.
+    """
+    ox, oy = roi_origin
+    x, y, w, h = window
+    rh, rw = prob_roi.shape[:2]
+    lx, ly = max(0, x - ox), max(0, y - oy)
+    if lx >= rw or ly >= rh:
+        return window, 0.0
+    lw, lh = max(1, min(w - (lx - (x - ox)), rw - lx)), max(1, min(h - (ly - (y - oy)), rh - ly))
+    _, (nx, ny, nw, nh) = cv2.meanShift(prob_roi, (lx, ly, lw, lh), TERM)
     mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0
     return (nx + ox, ny + oy, nw, nh), mass

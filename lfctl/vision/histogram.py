@@ -4,6 +4,7 @@ and back-projected into an 8-bit probability image."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import cv2
@@ -30,23 +31,37 @@ class FeatureSpace:
     lbp_threshold : int
         The LBP noise threshold, grey levels (see :func:`~lfctl.vision.lbp.lbp_ri36`).
     achromatic_s : int
-        Pixels with a saturation (0..255) at or below this count as grey: their hue goes to 0.
+        Pixels with a saturation (0..255) at or below this count as grey: their hue goes to 0
+        (or, with ``grey_levels``, to a brightness bin).
+    grey_levels : int
+        0: grey pixels share hue bin 0 (the paper's features). N > 0: grey pixels, and pixels
+        too dark for their hue to mean anything (value below ``dark_v``), go to N extra
+        brightness bins after the hue bins instead, as in Perez et al.'s colour-based tracker
+        (ECCV 2002): a black jersey and a light grey van differ only there. Needs
+        ``use_saturation``.
+    dark_v : int
+        With ``grey_levels``: pixels darker than this (value 0..255) count as grey whatever
+        their saturation (OpenCV's saturation of a near-black pixel is noise).
     """
 
     use_saturation: bool = True
     use_lbp: bool = True
     lbp_threshold: int = 3
     achromatic_s: int = 40
+    grey_levels: int = 0
+    dark_v: int = 40
 
     @property
     def bins(self) -> list[int]:
         """Bins per channel, in plane order (as cv2.calcHist takes them)."""
-        return [HUE_BINS] + ([SAT_BINS] if self.use_saturation else []) + ([LBP_BINS] if self.use_lbp else [])
+        first = HUE_BINS + (self.grey_levels if self.use_saturation else 0)
+        return [first] + ([SAT_BINS] if self.use_saturation else []) + ([LBP_BINS] if self.use_lbp else [])
 
     @property
-    def ranges(self) -> list[int]:
+    def ranges(self) -> list[float]:
         """Value range of each channel, flattened ``[lo, hi, lo, hi, ...]`` (hi exclusive)."""
-        return [0, 180] + ([0, 256] if self.use_saturation else []) + ([0, N_CODES] if self.use_lbp else [])
+        first = 180.0 + (self.grey_levels * 180.0 / HUE_BINS if self.use_saturation else 0.0)
+        return [0, first] + ([0, 256] if self.use_saturation else []) + ([0, N_CODES] if self.use_lbp else [])
 
     @property
     def channels(self) -> list[int]:
@@ -71,10 +86,25 @@ class FeatureSpace:
         if not self.use_saturation:
             return [h], hsv
         chromatic = cv2.compare(sat, self.achromatic_s, cv2.CMP_GT)
-        planes = [cv2.bitwise_and(h, chromatic), sat]
+        if self.grey_levels:
+            chromatic = cv2.bitwise_and(chromatic, cv2.compare(hsv[:, :, 2], self.dark_v, cv2.CMP_GE))
+            first = cv2.LUT(hsv[:, :, 2], _grey_lut(self.grey_levels))  # the brightness bins...
+            cv2.copyTo(h, chromatic, first)  # ...where the hue means nothing
+            planes = [first, sat]
+        else:
+            planes = [cv2.bitwise_and(h, chromatic), sat]
         if self.use_lbp:
             planes.append(lbp_ri36(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2GRAY), self.lbp_threshold))
         return planes, hsv
+
+
+@functools.cache
+def _grey_lut(levels: int) -> np.ndarray:
+    """Value (0..255) -> the middle of its brightness bin on the extended hue axis: ``levels``
+    equal value bands, each one hue-bin wide, after hue 180."""
+    width = 180.0 / HUE_BINS
+    band = np.minimum(np.arange(256) * levels // 256, levels - 1)
+    return np.round(180.0 + (band + 0.5) * width).astype(np.uint8)
 
 
 def histogram(space: FeatureSpace, planes: list[np.ndarray], mask: np.ndarray | None) -> np.ndarray:

@@ -39,19 +39,26 @@ def _cv_filter(dim: int, accel_var: float, meas_var: float) -> KalmanFilter:
     return kf
 
 
+def _innovation_sq(kf: KalmanFilter, u: float, v: float) -> float:
+    # S = H P H' + R, y = z - H x, d^2 = y' S^-1 y
+    S = kf.H @ kf.P @ kf.H.T + kf.R
+    y = np.array([u, v]) - kf.H @ kf.x.reshape(-1)
+    return float(y @ np.linalg.solve(S, y))
+
+
 def _predict(kf: KalmanFilter) -> None:
     # x = F x
     # P = F P F' + Q
     kf.predict()
 
 
-def _update(kf: KalmanFilter, z: np.ndarray) -> None:
+def _update(kf: KalmanFilter, z: np.ndarray, R: np.ndarray | None = None) -> None:
     # y = z - H x
-    # S = H P H' + R
+    # S = H P H' + R  (R: the filter's, or this measurement's)
     # K = P H' S^-1
     # x = x + K y
     # P = (I - K H) P (I - K H)' + K R K'  (Joseph form)
-    kf.update(z)
+    kf.update(z, R)
 
 
 class CentreFilter:
@@ -88,6 +95,17 @@ class CentreFilter:
         """
         _update(self.kf, np.array([u, v]))
 
+    def innovation_sq(self, u: float, v: float) -> float:
+        """Squared Mahalanobis distance of a measured centre from the predicted one (chi-square
+        with 2 degrees of freedom for a centre the filter describes).
+
+        Parameters
+        ----------
+        u, v : float
+            A measured centre, px.
+        """
+        return _innovation_sq(self.kf, u, v)
+
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the state x = [u, v, du, dv] and its covariance P."""
@@ -123,25 +141,40 @@ class OcclusionCoaster:
 
 
 class AreaFilter:
-    """Constant-velocity filter on sqrt(window area); the gate flags collapses and jumps.
+    """Constant-velocity filter on the window's size; the gate flags collapses and jumps.
+
+    The size may be sqrt(w h) in px, or its logarithm (as the tracker runs it: a scale
+    changes by factors, so its noise is a fraction of the size, whatever the size).
 
     Parameters
     ----------
     size_px : float
-        The first window's size, sqrt(w h), px.
+        The first window's size (sqrt(w h), px, or its logarithm).
     accel_var : float
-        Process noise: variance of the size's acceleration, (px/frame^2)^2.
+        Process noise: variance of the size's acceleration, (size unit / frame^2)^2.
     meas_var : float
-        Variance of a measured size, px^2.
+        Variance of a measured size, (size unit)^2.
     gate_sigma : float
         A size further than this many innovation sigmas from the prediction is flagged.
+    rate_var : float
+        Variance of the size's rate of change at the start, (size unit / frame)^2.
+    size_var : float, optional
+        Variance of the first size (default ``meas_var``: as uncertain as a measurement).
     """
 
-    def __init__(self, size_px: float, accel_var: float = 0.3, meas_var: float = 4.0, gate_sigma: float = 3.5) -> None:
+    def __init__(
+        self,
+        size_px: float,
+        accel_var: float = 0.3,
+        meas_var: float = 4.0,
+        gate_sigma: float = 3.5,
+        rate_var: float = 4.0,
+        size_var: float | None = None,
+    ) -> None:
         self.kf = _cv_filter(1, accel_var, meas_var)
         self.kf.x = np.array([size_px, 0.0])
-        # P0 = diag(R, 2^2): the size as measured, its rate unknown
-        self.kf.P = np.diag([meas_var, 4.0])
+        # P0 = diag(size_var, rate_var): the first size, its rate unknown
+        self.kf.P = np.diag([meas_var if size_var is None else size_var, rate_var])
         self.gate_sigma = gate_sigma
 
     def predict(self) -> float:
@@ -172,12 +205,15 @@ class AreaFilter:
         """
         return self.innovation_sigma(size_px) <= self.gate_sigma
 
-    def update(self, size_px: float) -> None:
+    def update(self, size_px: float, meas_var: float | None = None) -> None:
         """Fuse a measured size.
 
         Parameters
         ----------
         size_px : float
-            The window's size measured this frame, sqrt(w h), px.
+            The window's size measured this frame (sqrt(w h), px, or its logarithm).
+        meas_var : float, optional
+            This measurement's variance, when it is not the filter's ``meas_var`` (a more
+            precise sensor).
         """
-        _update(self.kf, np.array([size_px]))
+        _update(self.kf, np.array([size_px]), None if meas_var is None else np.array([[meas_var]]))

@@ -154,6 +154,8 @@ class BannerPerception:
         settings = TrackerSettings(
             kind=kind,  # type: ignore[arg-type]
             marker_hue_deg=banner.marker_hue_deg if marker_hue_deg is None else marker_hue_deg,
+            marker_saturation=banner.marker_saturation,
+            marker_over_side=geometry.marker_size_m / geometry.side_m,
             panel_over_side=geometry.panel_over_side,
             use_markers=use_markers,
         )

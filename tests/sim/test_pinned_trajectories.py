@@ -20,7 +20,7 @@ pytestmark = pytest.mark.fmu
 PINNED = {
     ("convoy", "truth", None): "328b3685316fc7e95fa22995b410f2e877943fb71cd5be05460ee686d79a8dcd",
     ("column5", "truth", 20.0): "86d24783dee14dd3bbeca52f3478d9193d4dc7ba7b93b090a595bee2d25872ba",
-    ("convoy", "camera", 12.0): "d23a5dcc4eb3cf91bb4d3bcb602e7c2d365a41b2f8df771dd484664c0f3a620c",
+    ("convoy", "camera", 12.0): "fa812bb29be7d97666c4fcc6e50c214ec3c45f854ed1819e5f8d0723c5d490ff",
     ("vee", "camera", 8.0): "3b38a6eba614fc3d2ea685cdbd9ba34e792d7bf2613116cef2b5528e26d61e39",
 }
 

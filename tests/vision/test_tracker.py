@@ -12,17 +12,18 @@ from lfctl.config import load_config
 from lfctl.render.renderer import VehiclePose
 from lfctl.render.sequences import make_sequence
 from lfctl.sim.camera_sensor import CameraSensor
+from lfctl.vision import markers
 from lfctl.vision.boxes import iou
 from lfctl.vision.frames import FrameError
-from lfctl.vision.markers import find_constellations
+from lfctl.vision.markers import BannerLook, check_constellation, find_constellations
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
 
-def run(tier: str, seed: int, kind: str, n: int = 150):
-    seq = make_sequence(tier, seed, n)
+def run(tier: str, seed: int, kind: str, n: int = 150, realism: str = "off"):
+    seq = make_sequence(tier, seed, n, realism=realism)
     tr = Tracker(TrackerSettings(kind=kind))
     out = []
     for i, (_t, frame, truth) in enumerate(seq.frames()):
@@ -81,6 +82,23 @@ def test_occlusion_is_flagged_within_3_frames_and_recovered_within_10(seed: int)
     assert back - last <= 10
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 2])
+def test_a_hidden_banner_is_not_taken_up_on_its_colours_alone_in_the_realistic_look(seed: int) -> None:
+    # the realistic camera's exposure follows the dark occluder: the ground turns the light
+    # grey of the banner's panel. Seed 0: a patch of it in the frame's corner passed the gate
+    # after 50 hidden frames (6 hidden frames claimed); seed 2: the window slid onto it as the
+    # markers went behind the occluder (22). The markers bring the banner back.
+    records = run("occlusion", seed, "full", 300, realism="on")
+    hidden = [i for i, (_, tr) in enumerate(records) if tr.visible_fraction < 0.05]
+    assert len(hidden) >= 20
+    assert [i for i in hidden if records[i][0].status is TrackStatus.TRACKING] == []
+    tracked = [
+        st.status is TrackStatus.TRACKING and iou(st.bbox, tr.bbox) >= 0.5 for st, tr in records[hidden[-1] + 12 :]
+    ]
+    assert np.mean(tracked) >= 0.95
+
+
 def test_init_from_markers_finds_the_banner() -> None:
     _t, frame, truth = next(make_sequence("clear", 0, 1).frames())
     st = Tracker().init_from_markers(frame)
@@ -115,15 +133,24 @@ def test_bad_roi_and_use_before_init() -> None:
 def test_in_a_vee_the_follower_starts_on_its_target_not_on_a_mix_with_the_banner_behind() -> None:
     # l2's view at the start of examples/vee.toml: its target l1 ahead-right, the leader
     # beyond it with two markers peeking out at l1's left edge. l1's left markers plus those
-    # two look like one banner turned 70 deg and score higher than l1 head-on.
+    # two sit like one banner turned 70 deg and score higher than l1 head-on; but their
+    # markers are square (head-on) where a turned banner's are narrowed: the shape check
+    # rejects the mix, and the slot still says which banner is the target.
     cfg = load_config(EXAMPLES / "vee.toml")
     sensor = CameraSensor(cfg, "l2", 3)
     others = [VehiclePose(0, 0, 0), VehiclePose(-1.299, 0.75, 0), VehiclePose(-1.299, -0.75, 0)]
     frame, truth = sensor.renderer.render(0.0, VehiclePose(-2.598, -1.5, 0.0, False), others, 2, "l2")
     settings = sensor.perception.tracker.s
-    cands = find_constellations(cv2.cvtColor(frame, cv2.COLOR_BGR2HSV), settings.marker_hue_deg)
-    assert len(cands) >= 2
-    assert iou(cands[0].banner_bbox(settings.panel_over_side), truth.bbox) < 0.5  # the squarest is the mix
+    look = BannerLook(settings.marker_saturation, settings.marker_over_side, settings.panel_over_side)
+    hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(markers, "check_constellation", lambda *a, **k: "")  # geometry only
+        unchecked = find_constellations(hsv, settings.marker_hue_deg, look=look)
+    assert len(unchecked) >= 2
+    assert iou(unchecked[0].banner_bbox(settings.panel_over_side), truth.bbox) < 0.5  # the squarest is the mix
+    assert check_constellation(unchecked[0], hsv, settings.marker_hue_deg, look) == "marker shape"
+    cands = find_constellations(hsv, settings.marker_hue_deg, look=look)
+    assert all(iou(c.banner_bbox(settings.panel_over_side), truth.bbox) >= 0.8 for c in cands)
     # the slot (1.5 m at 30 deg) says where the target should be; the tracker takes the nearest
     assert sensor.perception.expected_box is not None and iou(sensor.perception.expected_box, truth.bbox) >= 0.8
     st = Tracker(settings).init_from_markers(frame, sensor.perception.expected_box)

@@ -1,0 +1,39 @@
+"""The real-footage section of `lfctl bench vision`: scored as documented, peers this OpenCV
+cannot create reported as such."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from lfctl.bench import vision
+from lfctl.bench.footage import load_sequence
+from lfctl.data import footage_dir
+
+
+def test_a_labelled_sequence_is_scored_and_a_missing_peer_is_named(capsys: pytest.CaptureFixture[str]) -> None:
+    seq = load_sequence(footage_dir() / "labels" / "carphone_bowtie.json")
+    result = vision.run_real((seq, ()))  # no OpenCV peer: as if none could be created
+    full = result["trackers"]["full"]
+    assert full["plain_view_frames"] == len(seq.in_plain_view()) == 23
+    assert full["hidden_frames"] == 0 and full["banner_pose_frames"] == 0
+    assert 0.0 <= full["success"] <= 1.0 and full["median_ms"] > 0
+    assert set(result["trackers"]) == {"hue", "hs-lbp", "full"}
+    out = vision.real_section([result], ())
+    text = capsys.readouterr().out
+    cells = [[c.strip() for c in line.split("|")[1:-1]] for line in text.splitlines() if line.startswith("|")]
+    assert cells[-2][:3] == ["carphone_bowtie", "KCF", "n/a (needs opencv-contrib)"]
+    assert cells[-1][:3] == ["carphone_bowtie", "CSRT", "n/a (needs opencv-contrib)"]
+    assert cells[-3][:3] == ["carphone_bowtie", "MIL", "not run"]
+    assert "full tracker on real footage, what breaks each rule:" in text
+    assert out["criteria"]["banner_pose_frames"] == 0
+    assert "csrt_at_least_0.9_on" not in out["criteria"]  # no CSRT, no claim about where it holds
+    json.dumps(out)
+
+
+def test_a_sequence_without_a_target_counts_banner_poses_both_ways() -> None:
+    seq = load_sequence(footage_dir() / "labels" / "neg_iscc_redroom.json")
+    result = vision.run_real((seq, ("MIL",)))
+    assert result["no_banner"] and result["frames"] == 2 * seq.n_frames  # auto-start and from a box
+    assert result["pose_frames"] == 0
