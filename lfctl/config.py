@@ -90,7 +90,7 @@ _POS = Bound(-1e5, 1e5)
 #: a positive length of a thing in the scene, m
 _SIZE = Bound(0, 100, lo_open=True)
 #: a rate of a subsystem, Hz
-_RATE = Bound(0, 1000, lo_open=True)
+_RATE = Bound(0.001, 1000)  # Hz: once in about 17 min at the least (a period the scheduler can count)
 #: a time in the run, s
 _TIME = Bound(0, 1e6)
 
