@@ -268,18 +268,19 @@ class Renderer:
         cam = (R @ (pts - c).T).T
         return cam
 
-    def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
-        """Draw the floor into the half-resolution background layer, band by band."""
+    def _ground_homography(self, K: np.ndarray, R: np.ndarray, c: np.ndarray) -> np.ndarray:
+        """Level-0 ground texture pixel -> image pixel through camera matrix ``K``."""
         s = self.ground_px_per_m
         # texture pixel (a, b) of level 0 is the world point (a / s, b / s, 0)
-        P = self._half_K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
-        Hg = P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        P = K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
+        return P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+    def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
+        """Draw the floor into the half-resolution background layer, band by band."""
+        Hg = self._ground_homography(self._half_K, R, c)
         w = layer.shape[1]
         for r0, r1, level in self._ground_bands:
-            k = 2**level
-            # texel i of this level covers level-0 texels k i .. k i + k - 1: centre k i + (k - 1) / 2
-            to_level = np.array([[k, 0.0, (k - 1) / 2.0], [0.0, k, (k - 1) / 2.0], [0.0, 0.0, 1.0]])
-            M = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]]) @ Hg @ to_level
+            M = _band_homography(Hg, r0, level)
             # move by whole texture periods so the floor seen mid-band is in the middle tile
             q = np.linalg.solve(M, np.array([w / 2.0, (r1 - r0) / 2.0, 1.0]))
             ph, pw = self._ground_levels[level].shape[:2]
@@ -684,14 +685,10 @@ class Renderer:
 
     def _paint_ground_full(self, img: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
         """The floor at full resolution, band by band (see :meth:`_paint_ground`)."""
-        s = self.ground_px_per_m
-        P = self.cam.K @ np.hstack([R, (-R @ c)[:, None]])
-        Hg = P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        Hg = self._ground_homography(self.cam.K, R, c)
         w = img.shape[1]
         for r0, r1, level in self._ground_bands:
-            k = 2**level
-            to_level = np.array([[k, 0.0, (k - 1) / 2.0], [0.0, k, (k - 1) / 2.0], [0.0, 0.0, 1.0]])
-            M = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]]) @ Hg @ to_level
+            M = _band_homography(Hg, r0, level)
             Minv = np.linalg.inv(M)
             ph, pw = self._ground_levels[level].shape[:2]
             if level == 0:
@@ -1082,3 +1079,11 @@ class Renderer:
         light = sun_light(normal, self.sun, self.scene.ambient, direct)
         glare = self._banner_glare(corners, normal, c, direct)
         return self._paint_textured(img, R, c, plane, light, glare)
+
+
+def _band_homography(Hg: np.ndarray, r0: int, level: int) -> np.ndarray:
+    """Texel of mip ``level`` -> pixel of the band that starts at image row ``r0``."""
+    k = 2**level
+    # texel i of this level covers level-0 texels k i .. k i + k - 1: centre k i + (k - 1) / 2
+    to_level = np.array([[k, 0.0, (k - 1) / 2.0], [0.0, k, (k - 1) / 2.0], [0.0, 0.0, 1.0]])
+    return np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]]) @ Hg @ to_level
