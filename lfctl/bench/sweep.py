@@ -3,88 +3,142 @@ on a Dask LocalCluster and on a ``dask scheduler`` with ``dask worker`` processe
 127.0.0.1, against the same runs by :func:`lfctl.sim.runner.run_scenario` in a plain loop.
 
 The runs are CPU-bound: the convoy with truth sensing (FMU stepping, guidance, links; no
-rendering), the same scenario at different seeds. Wall time counts from the first
-submission to the last row (cluster start-up is reported on its own); the engine's overhead
-is the 1-worker sweep's wall time over the loop's, per run.
+rendering), the same scenario at different seeds. A shared machine's speed drifts by tens of
+percent over minutes, more than the engine costs, so the cases take turns: each round runs a
+block of the plain loop, then each engine with 1 and N workers (a cluster started afresh for
+each block), and every figure is the median over the rounds of the ratio within a round.
+A block's wall time counts from the first submission to the last row (the cluster's start
+and close are reported on their own); the engine's overhead is a 1-worker block's wall time
+over the loop block's of the same round, per run.
 """
 
 from __future__ import annotations
 
 import logging
+import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from lfctl.bench.common import print_json, print_table
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sim.runner import run_scenario
 from lfctl.sweep.engine import run_sweep, scheduler_processes
-from lfctl.sweep.spec import parse_sweep, plan
+from lfctl.sweep.spec import SweepPlan, parse_sweep, plan
 
 __all__ = ["main"]
 
-DURATION_S = 200.0  # simulated seconds per run: about 1.5 s of one core here
+DURATION_S = 200.0  # simulated seconds per run: about 2 s of one core here
+ENGINES = ("LocalCluster", "dask scheduler (tcp)")
 
 
-def _sweep(runs: int, duration_s: float) -> str:
-    return (
-        f'name = "bench"\nscenario = "convoy"\nseeds = {runs}\n'
-        f'[set]\n"sim.duration_s" = {duration_s}\n"sim.sensing" = "truth"\n'
+def _plan(runs: int, duration_s: float) -> SweepPlan:
+    return plan(
+        parse_sweep(
+            f'name = "bench"\nscenario = "convoy"\nseeds = {runs}\n'
+            f'[set]\n"sim.duration_s" = {duration_s}\n"sim.sensing" = "truth"\n'
+        )
     )
 
 
-def main(quick: bool = False) -> None:
-    """Run the benchmark, print its table and JSON line (``quick``: fewer, shorter runs)."""
-    logging.getLogger("distributed").setLevel(logging.ERROR)  # workers starting and stopping
-    n = usable_cores()
-    runs = 4 if quick else 12 * n
-    duration = 20.0 if quick else DURATION_S
-    p = plan(parse_sweep(_sweep(runs, duration)))
+def _loop(p: SweepPlan) -> float:
     t0 = time.perf_counter()
     for r in p.runs:
         run_scenario(r.config)
-    loop_s = time.perf_counter() - t0
-    results = [{"engine": "plain loop", "workers": 1, "runs": runs, "wall_s": round(loop_s, 2), "startup_s": 0.0}]
+    return time.perf_counter() - t0
+
+
+def _engine(engine: str, workers: int, p: SweepPlan, out: Path) -> tuple[float, float]:
+    """One block on an engine started for it: (wall time of the runs, start-up and close), s."""
+    t0 = time.perf_counter()
+    if engine == "LocalCluster":
+        res = run_sweep(p, out, workers=workers, plots=False)
+        rest = time.perf_counter() - t0 - res.wall_s
+    else:
+        with scheduler_processes(workers) as address:
+            res = run_sweep(p, out, scheduler=address, workers=workers, plots=False)
+        rest = time.perf_counter() - t0 - res.wall_s
+    if res.failed:
+        sys.exit(f"bench sweep: {len(res.failed)} runs failed on {engine}: {res.failed[0]['error']}")
+    return res.wall_s, rest
+
+
+def _median(values: list[float]) -> float:
+    return statistics.median(values) if values else float("nan")
+
+
+def main(quick: bool = False) -> None:
+    """Run the benchmark, print its table and JSON line (``quick``: one short round)."""
+    logging.getLogger("distributed").setLevel(logging.ERROR)  # workers starting and stopping
+    n = usable_cores()
+    rounds, per_worker = (1, 2) if quick else (3, 4)
+    duration = 20.0 if quick else DURATION_S
+    one, many = _plan(per_worker, duration), _plan(per_worker * n, duration)
+    blocks: dict[tuple[str, int], list[tuple[float, float]]] = {}
+    cases: list[tuple[str, int, Callable[[Path], tuple[float, float]]]] = [
+        ("plain loop", 1, lambda _: (_loop(one), 0.0))
+    ]
+    for engine in ENGINES:
+        for workers in dict.fromkeys((1, n)):
+            p = one if workers == 1 else many
+
+            def block(out: Path, e: str = engine, w: int = workers, q: SweepPlan = p) -> tuple[float, float]:
+                return _engine(e, w, q, out)
+
+            cases.append((engine, workers, block))
     with tempfile.TemporaryDirectory(prefix="lfctl-bench-sweep-") as tmp:
-        for workers in (1, n):
-            t0 = time.perf_counter()
-            res = run_sweep(p, Path(tmp) / f"local-{workers}", workers=workers, plots=False)
-            startup = time.perf_counter() - t0 - res.wall_s
-            results.append(
-                {"engine": "LocalCluster", "workers": workers, "runs": runs, "wall_s": round(res.wall_s, 2),
-                 "startup_s": round(startup, 2)}
-            )  # fmt: skip
-        for workers in (1, n):
-            t0 = time.perf_counter()
-            with scheduler_processes(workers) as address:
-                up = time.perf_counter() - t0
-                res = run_sweep(p, Path(tmp) / f"tcp-{workers}", scheduler=address, workers=workers, plots=False)
-            results.append(
-                {"engine": "dask scheduler (tcp)", "workers": workers, "runs": runs, "wall_s": round(res.wall_s, 2),
-                 "startup_s": round(up, 2)}
-            )  # fmt: skip
-            if any(r["status"] != "ok" for r in res.rows):
-                sys.exit(f"bench sweep: runs failed on {address}")
-    for r in results:
-        r["runs_per_min"] = round(60.0 * runs / r["wall_s"], 1)
-    for engine in ("LocalCluster", "dask scheduler (tcp)"):
-        one, many = (r for r in results if r["engine"] == engine)
-        many["speedup"] = round(many["runs_per_min"] / one["runs_per_min"], 2)
-        many["speedup_per_worker"] = round(many["speedup"] / n, 2)
-        one["overhead_pct"] = round(100.0 * (one["wall_s"] - loop_s) / loop_s, 1)
-        one["overhead_ms_per_run"] = round(1000.0 * (one["wall_s"] - loop_s) / runs, 1)
-    print(f"{runs} runs of the convoy, truth sensing, {duration:g} s simulated each; {n} usable cores")
+        for r in range(rounds):
+            for engine, workers, block in cases:
+                out = Path(tmp) / f"{r}-{engine.split()[0]}-{workers}"
+                blocks.setdefault((engine, workers), []).append(block(out))
+    loop = [wall for wall, _ in blocks[("plain loop", 1)]]
+    results: list[dict[str, Any]] = []
+    for (engine, workers), got in blocks.items():
+        walls = [wall for wall, _ in got]
+        runs = per_worker * workers
+        row: dict[str, Any] = {
+            "engine": engine,
+            "workers": workers,
+            "runs": runs,
+            "rounds": rounds,
+            "wall_s": [round(w, 2) for w in walls],
+            "runs_per_min": round(60.0 * runs / _median(walls), 1),
+            "startup_s": round(_median([s for _, s in got]), 2),
+        }
+        if engine != "plain loop" and workers == 1:
+            ratios = [w / base for w, base in zip(walls, loop, strict=True)]
+            row["overhead_pct"] = round(100.0 * (_median(ratios) - 1.0), 1)
+            row["overhead_pct_rounds"] = [round(100.0 * (x - 1.0), 1) for x in ratios]
+            row["overhead_ms_per_run"] = round(
+                1000.0 * _median([w - b for w, b in zip(walls, loop, strict=True)]) / runs, 1
+            )
+        if engine != "plain loop" and workers > 1:
+            ones = [w for w, _ in blocks[(engine, 1)]]
+            # rate with N workers over the rate with 1, round by round
+            ups = [(runs / w) / (per_worker / w1) for w, w1 in zip(walls, ones, strict=True)]
+            row["speedup"] = round(_median(ups), 2)
+            row["speedup_rounds"] = [round(u, 2) for u in ups]
+            row["speedup_per_worker"] = round(row["speedup"] / workers, 2)
+        results.append(row)
+    print(
+        f"convoy runs, truth sensing, {duration:g} s simulated each; {n} usable cores; {rounds} rounds, each: "
+        f"{per_worker} runs per worker per case, the cases in turn; medians over the rounds"
+    )
     print_table(
-        ("engine", "workers", "wall s", "runs/min", "speed-up", "per worker", "overhead %", "ms/run", "start-up s"),
+        ("engine", "workers", "runs", "wall s (each round)", "runs/min", "speed-up", "per worker", "overhead %",
+         "ms/run", "start+close s"),
         [
-            (r["engine"], r["workers"], r["wall_s"], r["runs_per_min"], r.get("speedup", "-"),
-             r.get("speedup_per_worker", "-"), r.get("overhead_pct", "-"), r.get("overhead_ms_per_run", "-"),
-             r["startup_s"])
+            (r["engine"], r["workers"], r["runs"], " ".join(f"{w:.2f}" for w in r["wall_s"]), r["runs_per_min"],
+             r.get("speedup", "-"), r.get("speedup_per_worker", "-"), r.get("overhead_pct", "-"),
+             r.get("overhead_ms_per_run", "-"), r["startup_s"])
             for r in results
         ],
     )  # fmt: skip
-    print_json("sweep", {"cores": n, "runs": runs, "duration_s": duration, "cases": results})
+    print_json("sweep", {"cores": n, "rounds": rounds, "runs_per_worker": per_worker, "duration_s": duration,
+                         "cases": results})  # fmt: skip
 
 
 if __name__ == "__main__":

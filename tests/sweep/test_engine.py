@@ -15,9 +15,10 @@ import cloudpickle
 import pytest
 from distributed import Client
 
+from lfctl import __version__
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sweep import run_sweep
-from lfctl.sweep.engine import scheduler_processes
+from lfctl.sweep.engine import _check_workers, _connect, scheduler_processes, worker_environment
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
 from lfctl.sweep.task import execute
@@ -169,3 +170,52 @@ def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
         assert 1 <= len(read_rows(tmp_path / "again")) < 8
         resumed = run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, resume=True)
     assert _table(resumed.rows) == _table(rows)
+
+
+def test_workers_lfctl_starts_leave_out_what_feeds_only_the_dashboard() -> None:
+    assert worker_environment() == {
+        "DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED": "False",
+        "DASK_DISTRIBUTED__ADMIN__TICK__INTERVAL": "1s",
+        "DASK_DISTRIBUTED__ADMIN__SYSTEM_MONITOR__INTERVAL": "2s",
+    }
+
+    def settings(dask_worker: object) -> tuple:
+        import dask
+
+        callbacks = dask_worker.periodic_callbacks  # type: ignore[attr-defined]
+        return dask.config.get("distributed.admin.tick.interval"), "profile" in callbacks
+
+    client, cluster, _ = _connect(None, 1)
+    try:
+        assert list(client.run(settings).values()) == [("1s", False)]  # no statistical profiler
+    finally:
+        client.close()
+        cluster.close()
+    with scheduler_processes(1) as address, Client(address) as client:
+        assert list(client.run(settings).values()) == [("1s", False)]
+
+
+class _Cluster:
+    """What _check_workers asks of a client, answering as a scheduler and workers would."""
+
+    def __init__(self, scheduler: object, workers: dict[str, object]) -> None:
+        self.scheduler, self.workers = scheduler, workers
+
+    def run_on_scheduler(self, fn: object) -> object:
+        if isinstance(self.scheduler, Exception):
+            raise self.scheduler
+        return self.scheduler
+
+    def run(self, fn: object) -> dict[str, object]:
+        return self.workers
+
+
+def test_a_scheduler_or_worker_with_other_lfctl_code_is_named() -> None:
+    me = (__version__, "c0de" * 16)
+    _check_workers(_Cluster(me, {"tcp://w1": me}), me[1])  # the same code everywhere: fine
+    with pytest.raises(LfctlError, match=r"the Dask scheduler runs other lfctl code \(lfctl 0.0.1, code 0ther"):
+        _check_workers(_Cluster(("0.0.1", "0ther" * 8), {"tcp://w1": me}), me[1])
+    with pytest.raises(LfctlError, match=r"the Dask scheduler cannot import lfctl .*ModuleNotFoundError"):
+        _check_workers(_Cluster(ModuleNotFoundError("No module named 'lfctl'"), {}), me[1])
+    with pytest.raises(LfctlError, match=r"workers run other lfctl code .*: tcp://w2 \(lfctl 0.0.1, code 0ther"):
+        _check_workers(_Cluster(me, {"tcp://w1": me, "tcp://w2": ("0.0.1", "0ther" * 8)}), me[1])
