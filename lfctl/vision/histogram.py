@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from lfctl.vision.exposure import scale_value
 from lfctl.vision.lbp import N_CODES, lbp_ri36
 
 __all__ = ["FeatureSpace", "back_project", "bhattacharyya", "histogram", "ratio_lut"]
@@ -68,7 +69,7 @@ class FeatureSpace:
         """Indices of the planes the histogram reads: all of them, 0..n-1."""
         return list(range(len(self.bins)))
 
-    def features(self, frame_bgr: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    def features(self, frame_bgr: np.ndarray, value_gain: float = 1.0) -> tuple[list[np.ndarray], np.ndarray]:
         """The single-channel feature planes of a frame (or region) and its HSV image.
 
         Planes: hue, then saturation and the LBP codes when used. With saturation in the
@@ -80,8 +81,13 @@ class FeatureSpace:
         ----------
         frame_bgr : np.ndarray
             BGR image or region, uint8, H x W x 3.
+        value_gain : float
+            Exposure compensation: the value channel (the brightness bins, the dark test
+            and the HSV image returned) is multiplied by it, as a camera's gain would (see
+            :class:`~lfctl.vision.exposure.Exposure`). Hue, saturation and the LBP codes
+            (thresholded contrasts) are read as the camera gave them.
         """
-        hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
+        hsv = scale_value(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV), value_gain)
         h, sat, _ = cv2.split(hsv)
         if not self.use_saturation:
             return [h], hsv

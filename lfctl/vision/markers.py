@@ -233,6 +233,12 @@ def _hue_off_deg(hue: np.ndarray, target: int) -> np.ndarray:
     return np.minimum(d, 180 - d) * 2
 
 
+#: a marker blob smaller than this (px; 4 x 4) is mostly its blurred rim, whose pixels blend
+#: the marker's colour with the panel's: its saturation is that of its most saturated pixel
+#: (the rendered banner 8 m out: 2-3 px markers, medians 130-150 of 255, cores 200-216)
+TINY_MARKER_PX = 16.0
+
+
 def check_constellation(
     c: Constellation,
     hsv: np.ndarray,
@@ -254,10 +260,12 @@ def check_constellation(
     all are rejected and all 606 true ones kept:
 
     - ``"marker colour"``: each marker's median hue within half the segmentation window of
-      ``hue_deg`` and its median saturation at least 0.7 of the printed one. The reddish
-      surfaces that fall in the window (skin, lips, brick, wood) sit at its orange edge
-      (median hue off by 6-18 deg) and are less saturated (90-132 of 255); the rendered
-      markers are within 2 deg and at 196-227.
+      ``hue_deg`` and its median saturation at least 0.7 of the printed one (of a marker
+      under :data:`TINY_MARKER_PX`, its most saturated pixel's). The reddish surfaces that
+      fall in the window (skin, lips, brick, wood) sit at its orange edge (median hue off by
+      6-18 deg) and are less saturated (90-132 of 255; the one constellation of tiny blobs
+      on the footage that reaches this check: at most 92); the rendered markers are within
+      2 deg and at 196-227.
     - ``"marker shape"``: each marker as wide for its height as the square it sits on (a
       square seen turned narrows as the constellation does): within 30 % and a pixel.
       Rendered markers: 0.79-1.19 of it; false ones 0.38-3.7.
@@ -304,6 +312,8 @@ def check_constellation(
             return "marker colour"
         k = on.shape[0] // 2
         hue_off, sat, val = np.partition(on, k, axis=0)[k].tolist()  # the medians (upper of an even count)
+        if b.area_px < TINY_MARKER_PX:  # mostly rim, blended with the panel: judged by its core
+            sat = int(on[:, 1].max())
         if hue_off > tolerance_deg / 2.0 or sat < 0.7 * look.marker_saturation * 255.0:
             return "marker colour"
         sats.append(sat)

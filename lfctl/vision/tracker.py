@@ -44,6 +44,7 @@ import numpy as np
 
 from lfctl.vision.boxes import Box, clip_box, iou
 from lfctl.vision.camshift import camshift_in_roi, meanshift_in_roi
+from lfctl.vision.exposure import Exposure, scale_value
 from lfctl.vision.frames import FrameError, check_bgr, check_roi
 from lfctl.vision.gates import DistanceGate, colour_distance, ring_boxes, separating_level
 from lfctl.vision.histogram import FeatureSpace, back_project, histogram, ratio_lut
@@ -250,6 +251,7 @@ class Tracker:
         self._markers_seen = False
         self._markers_missing = 0
         self._look = BannerLook(self.s.marker_saturation, self.s.marker_over_side, self.s.panel_over_side)
+        self._exposure = Exposure()  # the full tracker's; the baselines see the camera's pixels
 
     # -- initialisation ----------------------------------------------------------------
     def init(self, frame: np.ndarray, roi: Box) -> TrackState:
@@ -270,6 +272,7 @@ class Tracker:
         frame = check_bgr(frame)
         roi = check_roi(roi, frame.shape)
         self.frame_index = 0
+        self._exposure.start(frame)
         self._learn(frame, roi)
         if self.s.kind == "full":
             self._calibrate(frame, roi)
@@ -293,7 +296,7 @@ class Tracker:
             Where the target's banner should appear (x, y, w, h), pixels.
         """
         frame = check_bgr(frame)
-        hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+        hsv = self._hsv(frame)
         c = self._markers_near(hsv, expect)
         if c is None:
             return None
@@ -312,7 +315,7 @@ class Tracker:
         assert area is not None
         ax, ay, aw, ah = area
         region = frame[ay : ay + ah, ax : ax + aw]
-        planes, hsv = self.space.features(region)
+        planes, hsv = self._features(region)
         tmask = _mask((ah, aw), roi, (ax, ay))
         if self.s.kind == "hue":
             # classic CAMShift: hue histogram of saturated, bright-enough pixels, no background term
@@ -379,6 +382,7 @@ class Tracker:
             raise FrameError("tracker not initialised: call init(frame, roi) or init_from_markers(frame) first")
         self.frame_index += 1
         if self.s.kind == "full":
+            self._exposure.update(frame)
             return self._update_full(frame)
         return self._update_plain(frame)
 
@@ -432,7 +436,7 @@ class Tracker:
             return self._miss(frame, pred_win, None, 1.0, "prediction left the frame")
         sx, sy, sw, sh = search
         region = frame[sy : sy + sh, sx : sx + sw]
-        planes, hsv = self.space.features(region)
+        planes, hsv = self._features(region)
         prob = self._probability(planes)
         fix = self._locate(prob, (sx, sy), pred_win)
         constellation = None
@@ -446,7 +450,7 @@ class Tracker:
                 wide = clip_box(_square(fix.window, 4.0), frame.shape)
                 if wide is not None:
                     wx, wy, ww, wh = wide
-                    whsv = cv2.cvtColor(frame[wy : wy + wh, wx : wx + ww], cv2.COLOR_BGR2HSV)
+                    whsv = self._hsv(frame[wy : wy + wh, wx : wx + ww])
                     constellation = self._markers_near(whsv, pred_win, (wx, wy), must)
         if constellation is not None:
             self._markers_seen = True
@@ -521,6 +525,15 @@ class Tracker:
             self.frame_index, self.status, win, quality, d, constellation.centres if constellation else None, search
         )
 
+    def _features(self, region: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+        """The feature planes and HSV image of a frame region, at this frame's exposure."""
+        return self.space.features(region, self._exposure.gain if self.s.kind == "full" else 1.0)
+
+    def _hsv(self, region: np.ndarray) -> np.ndarray:
+        """A frame region in HSV, at this frame's exposure (for the markers)."""
+        hsv = cv2.cvtColor(region, cv2.COLOR_BGR2HSV)
+        return scale_value(hsv, self._exposure.gain) if self.s.kind == "full" else hsv
+
     def _probability(self, planes: list[np.ndarray]) -> np.ndarray:
         """The full tracker's back-projection: the model's, with what is more probably
         surroundings than target (below :attr:`_floor`) set to 0."""
@@ -585,7 +598,7 @@ class Tracker:
         if area is None:
             return
         ax, ay, aw, ah = area
-        planes, _ = self.space.features(frame[ay : ay + ah, ax : ax + aw])
+        planes, _ = self._features(frame[ay : ay + ah, ax : ax + aw])
         prob = self._probability(planes)
         placed, _ = meanshift_in_roi(prob, (ax, ay), roi)
         cs, _ = camshift_in_roi(prob, (ax, ay), placed)
@@ -623,7 +636,7 @@ class Tracker:
                 hsv_region = (0, 0, frame.shape[1], frame.shape[0])
             if hsv_region is not None:
                 rx, ry, rw, rh = hsv_region
-                hsv = cv2.cvtColor(frame[ry : ry + rh, rx : rx + rw], cv2.COLOR_BGR2HSV)
+                hsv = self._hsv(frame[ry : ry + rh, rx : rx + rw])
                 must = "return" if self.status is TrackStatus.OCCLUDED else "nearest"
                 c = self._markers_near(hsv, pred_win, (rx, ry), must)
                 if c is not None:

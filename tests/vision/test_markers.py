@@ -90,6 +90,25 @@ def test_each_way_of_not_being_a_banner_fails_its_check(kwargs: dict, failed: st
     assert find_constellations(hsv, 0.0) == []
 
 
+def _far_banner(marker: tuple[int, int, int]) -> np.ndarray:
+    """A banner 8 m out: 3 px markers, drawn at 4x and shrunk (each edge pixel a blend of
+    marker and panel, as a lens and a sensor give)."""
+    img = cv2.resize(background(), (1280, 960), interpolation=cv2.INTER_NEAREST)
+    draw_banner(img, (640, 480), side_px=40, marker=marker)
+    return cv2.resize(img, (320, 240), interpolation=cv2.INTER_AREA)
+
+
+def test_a_banner_with_markers_of_a_few_pixels_passes_on_their_cores() -> None:
+    hsv = cv2.cvtColor(_far_banner(RED), cv2.COLOR_BGR2HSV)
+    cands = unchecked(hsv)
+    assert cands and max(b.area_px for b in cands[0].blobs) < markers.TINY_MARKER_PX
+    assert check_constellation(cands[0], hsv, 0.0) == ""
+    # pink ones as small (saturation 0.5 where 0.85 is printed) are still not markers: their
+    # cores are no more saturated than they are
+    pink = cv2.cvtColor(_far_banner((115, 115, 230)), cv2.COLOR_BGR2HSV)
+    assert [check_constellation(c, pink, 0.0) for c in unchecked(pink)] == ["marker colour"]
+
+
 def test_a_quad_far_from_a_squares_perspective_fails() -> None:
     # four good markers (as wide for their height as the quad) on a light panel, but on a
     # quadrilateral no upright square makes at a plausible range: the far side a third of

@@ -14,6 +14,7 @@ from lfctl.render.sequences import make_sequence
 from lfctl.sim.camera_sensor import CameraSensor
 from lfctl.vision import markers
 from lfctl.vision.boxes import iou
+from lfctl.vision.exposure import Exposure
 from lfctl.vision.frames import FrameError
 from lfctl.vision.markers import BannerLook, check_constellation, find_constellations
 from lfctl.vision.track_state import TrackStatus
@@ -97,6 +98,33 @@ def test_a_hidden_banner_is_not_taken_up_on_its_colours_alone_in_the_realistic_l
         st.status is TrackStatus.TRACKING and iou(st.bbox, tr.bbox) >= 0.5 for st, tr in records[hidden[-1] + 12 :]
     ]
     assert np.mean(tracked) >= 0.95
+
+
+def _darkened(n: int, to: float, start: int = 30, frames: int = 40):
+    """The clear scene whose light falls from 1 to ``to`` over ``frames`` frames from ``start``
+    (a camera without auto-exposure)."""
+    for i, (_t, frame, truth) in enumerate(make_sequence("clear", 0, n).frames()):
+        gain = 1.0 + (to - 1.0) * float(np.clip((i - start) / frames, 0.0, 1.0))
+        yield cv2.convertScaleAbs(frame, alpha=gain), truth
+
+
+@pytest.mark.parametrize(("compensated", "held"), [(True, True), (False, False)])
+def test_the_full_tracker_holds_a_banner_darkened_to_an_eighth(compensated: bool, held: bool) -> None:
+    # at an eighth of the light the panel and the markers fall under the value a marker pixel
+    # needs and into the darkest brightness bin: without its exposure compensation the full
+    # tracker called the banner hidden for good (the tracker-lighting sweep, gain 0.12)
+    tr = Tracker()
+    if not compensated:
+        tr._exposure = Exposure(engage=10.0, release=10.0, limit=10.0)  # never engages at 8x
+    records = []
+    for i, (frame, truth) in enumerate(_darkened(130, 0.12)):
+        records.append((tr.init(frame, truth.bbox) if i == 0 else tr.update(frame), truth))
+    after = records[75:]
+    tracked = [st.status is TrackStatus.TRACKING and iou(st.bbox, t.bbox) >= 0.5 for st, t in after]
+    assert bool(np.mean(tracked) >= 0.95) == held
+    if compensated:
+        assert tr._exposure.gain == pytest.approx(1 / 0.12, rel=0.1)
+        assert all(st.markers is not None for st, _ in after[-10:])  # the markers are seen in the dark
 
 
 def test_init_from_markers_finds_the_banner() -> None:
