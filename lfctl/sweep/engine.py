@@ -344,27 +344,26 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
     return client, None, desc
 
 
+def _identity(run: Callable[[Callable[[], Any]], Any], who: str, fix: str) -> Any:
+    """:func:`_worker_identity` as ``run`` (the client's run on the scheduler or the workers)
+    returns it; a process that cannot unpickle or import lfctl is named."""
+    try:
+        return run(_worker_identity)
+    except Exception as exc:
+        raise LfctlError(f"{who} cannot import lfctl ({type(exc).__name__}: {exc}): {fix}") from None
+
+
 def _check_workers(client: Any, code: str) -> None:
     """The scheduler and every worker import this lfctl. The scheduler unpickles the runs it
     is given, so it needs lfctl too; asking it first also takes its imports (1.3 s on a fresh
     ``dask scheduler`` here) out of the first run's time."""
-    try:
-        ours = client.run_on_scheduler(_worker_identity)
-    except Exception as exc:  # the scheduler could not unpickle or import lfctl
-        raise LfctlError(
-            f"the Dask scheduler cannot import lfctl ({type(exc).__name__}: {exc}): install this lfctl where it runs"
-        ) from None
+    ours = _identity(client.run_on_scheduler, "the Dask scheduler", "install this lfctl where it runs")
     if tuple(ours) != (__version__, code):
         raise LfctlError(
             f"the Dask scheduler runs other lfctl code (lfctl {ours[0]}, code {ours[1][:12]}) than this process "
             f"(lfctl {__version__}, code {code[:12]}): install the same lfctl everywhere"
         )
-    try:
-        seen = client.run(_worker_identity)
-    except Exception as exc:  # the worker could not unpickle or import lfctl
-        raise LfctlError(
-            f"Dask workers cannot run lfctl ({type(exc).__name__}: {exc}): install this lfctl on every worker"
-        ) from None
+    seen = _identity(client.run, "Dask workers", "install this lfctl on every worker")
     wrong = {w: v for w, v in seen.items() if v != (__version__, code)}
     if wrong:
         listed = ", ".join(f"{w} (lfctl {v[0]}, code {v[1][:12]})" for w, v in sorted(wrong.items()))
