@@ -19,7 +19,10 @@ on the labelled real footage in ``footage/`` and on the rendered tiers together)
 - how CAMShift's window sits on this target against the box it was started on (size and
   centre offset), so the window it reports is the box a user would draw;
 - the colour distance the target keeps from its model and the one its surroundings have
-  (:class:`~lfctl.vision.gates.DistanceGate`): the gate between TRACKING and OCCLUDED.
+  (:class:`~lfctl.vision.gates.DistanceGate`): the gate between TRACKING and OCCLUDED;
+- the picture's brightness: when the whole picture darkens or brightens past 1.6x, it reads
+  the value channel scaled back, as a camera's gain would
+  (:class:`~lfctl.vision.exposure.Exposure`).
 
 Mean shift places a window of the filtered size (CAMShift's window can sprawl over a
 neighbour and drag the centre along); CAMShift measures the size, which a Kalman filter on
@@ -251,7 +254,7 @@ class Tracker:
         self._markers_seen = False
         self._markers_missing = 0
         self._look = BannerLook(self.s.marker_saturation, self.s.marker_over_side, self.s.panel_over_side)
-        self._exposure = Exposure()  # the full tracker's; the baselines see the camera's pixels
+        self._exposure = Exposure()  # followed by the full tracker only: the baselines' gain stays 1
 
     # -- initialisation ----------------------------------------------------------------
     def init(self, frame: np.ndarray, roi: Box) -> TrackState:
@@ -527,12 +530,11 @@ class Tracker:
 
     def _features(self, region: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """The feature planes and HSV image of a frame region, at this frame's exposure."""
-        return self.space.features(region, self._exposure.gain if self.s.kind == "full" else 1.0)
+        return self.space.features(region, self._exposure.gain)
 
     def _hsv(self, region: np.ndarray) -> np.ndarray:
         """A frame region in HSV, at this frame's exposure (for the markers)."""
-        hsv = cv2.cvtColor(region, cv2.COLOR_BGR2HSV)
-        return scale_value(hsv, self._exposure.gain) if self.s.kind == "full" else hsv
+        return scale_value(cv2.cvtColor(region, cv2.COLOR_BGR2HSV), self._exposure.gain)
 
     def _probability(self, planes: list[np.ndarray]) -> np.ndarray:
         """The full tracker's back-projection: the model's, with what is more probably
