@@ -5,8 +5,10 @@ on a Dask LocalCluster and on a ``dask scheduler`` with ``dask worker`` processe
 The runs are CPU-bound: the convoy with truth sensing (FMU stepping, guidance, links; no
 rendering), the same scenario at different seeds. A shared machine's speed drifts by tens of
 percent over minutes, more than the engine costs, so the cases take turns: each round runs a
-block of the plain loop, then each engine with 1 and N workers (a cluster started afresh for
-each block), and every figure is the median over the rounds of the ratio within a round.
+block of the plain loop and of each engine with 1 and N workers (a cluster started afresh for
+each block), in an order rotated by one case each round; overhead and speed-up are medians
+over the rounds of ratios within a round, runs/min and start+close medians of the rounds'
+own figures.
 A block's wall time counts from the first submission to the last row (the cluster's start
 and close are reported on their own); the engine's overhead is a 1-worker block's wall time
 over the loop block's of the same round, per run. "Between runs" is the engine's own share,
@@ -94,7 +96,8 @@ def main(quick: bool = False) -> None:
             cases.append((engine, workers, block))
     with tempfile.TemporaryDirectory(prefix="lfctl-bench-sweep-") as tmp:
         for r in range(rounds):
-            for engine, workers, block in cases:
+            turn = r % len(cases)  # no case always first, or always after the same one
+            for engine, workers, block in cases[turn:] + cases[:turn]:
                 out = Path(tmp) / f"{r}-{engine.split()[0]}-{workers}"
                 blocks.setdefault((engine, workers), []).append(block(out))
     loop = [wall for wall, _, _ in blocks[("plain loop", 1)]]

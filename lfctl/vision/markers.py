@@ -312,9 +312,10 @@ def check_constellation(
             return "marker colour"
         k = on.shape[0] // 2
         hue_off, sat, val = np.partition(on, k, axis=0)[k].tolist()  # the medians (upper of an even count)
-        if b.area_px < TINY_MARKER_PX:  # mostly rim, blended with the panel: judged by its core
-            sat = int(on[:, 1].max())
-        if hue_off > tolerance_deg / 2.0 or sat < 0.7 * look.marker_saturation * 255.0:
+        # a marker mostly rim, blended with the panel, is judged by its core (the panel check
+        # below still compares with the medians)
+        judged = int(on[:, 1].max()) if b.area_px < TINY_MARKER_PX else sat
+        if hue_off > tolerance_deg / 2.0 or judged < 0.7 * look.marker_saturation * 255.0:
             return "marker colour"
         sats.append(sat)
         vals.append(val)

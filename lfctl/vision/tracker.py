@@ -299,6 +299,7 @@ class Tracker:
             Where the target's banner should appear (x, y, w, h), pixels.
         """
         frame = check_bgr(frame)
+        self._exposure.start(frame)  # a new start: this frame is the reference
         hsv = self._hsv(frame)
         c = self._markers_near(hsv, expect)
         if c is None:
@@ -521,6 +522,7 @@ class Tracker:
             self._relearn_count += 1
             if self._relearn_count >= s.relearn_after_frames:  # learn afresh
                 self._learn(frame, win)
+                self._exposure.rebase(frame)  # the model's light is now this frame's
                 self._relearn_count = 0
         self.status = TrackStatus.TRACKING
         quality = float(np.clip(1.0 - d, 0.0, 1.0)) if constellation is None else max(0.8, 1.0 - d)
