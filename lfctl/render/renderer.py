@@ -70,6 +70,18 @@ def _clip_near(points_cam: np.ndarray) -> np.ndarray:
     return np.array(out) if out else np.empty((0, 3))
 
 
+def _pixel_box(poly: np.ndarray, shape: tuple[int, ...]) -> tuple[int, int, int, int] | None:
+    """The pixels (x0, y0, x1, y1; x1, y1 exclusive) an image polygon covers inside an image
+    of ``shape``, or None when it covers none."""
+    H_img, W_img = shape[:2]
+    x0, y0 = np.floor(poly.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    return int(x0), int(y0), int(x1), int(y1)
+
+
 def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b, normalised (np.cross costs ~20 us a call)."""
     x = float(a[1] * b[2] - a[2] * b[1])
@@ -296,6 +308,16 @@ class Renderer:
                 borderMode=cv2.BORDER_WRAP,
             )
 
+    def _texture_to_roi(
+        self, plane: Plane, R: np.ndarray, c: np.ndarray, K: np.ndarray, x0: int, y0: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The plane's texture at the mip level its distance asks for, and the homography
+        from it to the image region whose top-left is (x0, y0): K [R ax, R ay, R (o - c)],
+        shifted to the region."""
+        tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
+        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
+        return tex, np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
+
     def _paint_plane(
         self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane, K: np.ndarray
     ) -> np.ndarray | None:
@@ -306,22 +328,17 @@ class Renderer:
             return None
         uv = (K @ clipped.T).T
         poly = uv[:, :2] / uv[:, 2:3]
-        H_img, W_img = img.shape[:2]
-        x0, y0 = np.floor(poly.min(axis=0)).astype(int)
-        x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
-        if x1 <= x0 or y1 <= y0:
+        box = _pixel_box(poly, img.shape)
+        if box is None:
             return None
+        x0, y0, x1, y1 = box
         if plane.texture is None:
             cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], plane.colour, cv2.LINE_AA, shift=4)
             return poly
         sub = img[y0:y1, x0:x1]
         mask = np.zeros(sub.shape[:2], np.uint8)
         cv2.fillPoly(mask, [np.round((poly - [x0, y0]) * 16).astype(np.int32)], 255, cv2.LINE_8, shift=4)
-        tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
-        # homography texture -> image: K [R ax, R ay, R (o - c)], then shift to the ROI
-        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
-        Hp = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
+        tex, Hp = self._texture_to_roi(plane, R, c, K, x0, y0)
         warped = cv2.warpPerspective(
             tex, Hp, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
         )
@@ -861,17 +878,13 @@ class Renderer:
         poly = self._image_poly(R, c, plane.corners)
         if poly is None:
             return None
-        H_img, W_img = img.shape[:2]
-        x0, y0 = np.floor(poly.min(axis=0)).astype(int)
-        x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
-        if x1 <= x0 or y1 <= y0:
+        box = _pixel_box(poly, img.shape)
+        if box is None:
             return None
+        x0, y0, x1, y1 = box
         sub = img[y0:y1, x0:x1]
         K = self.cam.K
-        tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
-        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
-        Hp = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
+        tex, Hp = self._texture_to_roi(plane, R, c, K, x0, y0)
         size = (x1 - x0, y1 - y0)
         lit = self._lit(tex, light, glare)
         if tex.shape[2] == 4:
