@@ -134,12 +134,14 @@ def run(args: argparse.Namespace) -> int:
             print(_bar(state), end="", file=sys.stderr, flush=True)
 
     # Ctrl-C / SIGTERM: stop submitting and let running runs finish; a second one cancels them
-    requested = threading.Event()
+    # (the engine acts on it between rows, so each row in the folder has also been printed);
+    # a third interrupts whatever is going on (a cluster still starting, say)
+    requested, cancelled = threading.Event(), threading.Event()
 
     def ask_stop(signum: int, frame: object) -> None:
-        if requested.is_set():
+        if cancelled.is_set():
             raise KeyboardInterrupt
-        requested.set()
+        (cancelled if requested.is_set() else requested).set()
 
     handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -152,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
             logs=args.logs,
             progress=progress,
             stop=requested.is_set,
+            cancel=cancelled.is_set,
         )
     except KeyboardInterrupt:
         if show_bar:

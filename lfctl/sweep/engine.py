@@ -12,8 +12,10 @@ summary and plots are written from every row in the folder.
   its configuration says (Dask's default is 3). When the retries are spent the row says
   ``crashed``.
 - ``stop()`` true: nothing more is submitted, running runs finish, their rows are written.
-  ``KeyboardInterrupt`` (a second Ctrl-C): running runs are cancelled, finished rows written,
-  and the interrupt goes on up.
+- ``cancel()`` true (the CLI's second Ctrl-C), or a ``KeyboardInterrupt``: running runs are
+  cancelled, finished rows written, and ``KeyboardInterrupt`` goes on up. ``cancel`` is asked
+  between rows, so every row in the journal has also been given to ``progress``; an
+  interrupt raised at any moment can land between the two.
 - ``resume``: runs with a row in the folder's journal are skipped; the folder must hold the
   same sweep (same plan digest) run by the same lfctl code.
 
@@ -383,6 +385,7 @@ def run_sweep(
     logs: str = "none",
     progress: Callable[[SweepProgress, dict[str, Any] | None], None] | None = None,
     stop: Callable[[], bool] | None = None,
+    cancel: Callable[[], bool] | None = None,
     task: Callable[[Any, str, str], dict[str, Any]] | None = None,
     plots: bool = True,
 ) -> SweepResult:
@@ -408,6 +411,9 @@ def run_sweep(
         row), and about twice a second (row None).
     stop : callable, optional
         Asked in the loop; True stops submitting and lets running runs finish.
+    cancel : callable, optional
+        Asked in the loop, between rows (at least twice a second); True cancels the running
+        runs, writes the results of the finished ones and raises ``KeyboardInterrupt``.
     task : callable, optional
         What a worker runs per run: ``task(run, out_dir, logs) -> row`` (default
         :func:`lfctl.sweep.task.execute`); it must be importable by the workers.
@@ -420,6 +426,8 @@ def run_sweep(
         A bad sweep file or variant, a folder that holds another sweep, bad options.
     LfctlError
         The scheduler cannot be reached, or its workers run other lfctl code.
+    KeyboardInterrupt
+        ``cancel()`` was true, or an interrupt arrived; the finished rows are written.
     """
     from distributed import wait
 
@@ -461,6 +469,8 @@ def run_sweep(
         if progress is not None:
             progress(state(), None)
         while todo or pending:
+            if cancel is not None and cancel():
+                raise KeyboardInterrupt
             stopping = stopping or (stop is not None and stop())
             if not stopping and todo:
                 if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second

@@ -126,7 +126,8 @@ def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp
     assert [s["failed"] for s in result.summary.rows] == [1, 3]
 
 
-def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path) -> None:
+@pytest.mark.parametrize("how", ["cancel", "interrupt"])
+def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path, how: str) -> None:
     (tmp_path / "s.toml").write_text(
         'scenario = "convoy"\nseeds = 6\n[set]\n"sim.duration_s" = 3.0\n"sim.sensing" = "truth"\n'
     )
@@ -135,12 +136,16 @@ def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path) -> Non
     def progress(state: object, row: dict | None) -> None:
         if row is not None:
             rows.append(row)
-            raise KeyboardInterrupt  # as the CLI's handler raises on a second Ctrl-C
+            if how == "interrupt":
+                raise KeyboardInterrupt  # Ctrl-C in a Python session, at whatever moment
 
     with pytest.raises(KeyboardInterrupt):
-        run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, progress=progress, logs="all")
+        # the CLI's second Ctrl-C sets `cancel`, which the engine asks between rows
+        cancel = (lambda: bool(rows)) if how == "cancel" else None
+        run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, progress=progress, logs="all", cancel=cancel)
     written = read_rows(tmp_path / "out")
     assert [r["run"] for r in written] == [rows[0]["run"]] and written[0]["status"] == "ok"
+    assert len(rows) == 1  # a cancel comes before the next row: every written row was reported
     log = tmp_path / "out" / written[0]["log_path"]
     assert log.suffix == ".mcap" and log.stat().st_size > 0
 
