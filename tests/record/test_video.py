@@ -1,0 +1,62 @@
+"""The colour conversion in front of x264: hand-worked BT.601 studio-range values, chroma as
+each 2 x 2 block's mean, and the same planes (within rounding) as swscale, PyAV's own."""
+
+from __future__ import annotations
+
+import av
+import numpy as np
+import pytest
+
+from lfctl.record.video import bgr_to_i420, psnr
+
+
+def planes(i420: np.ndarray, h: int, w: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    flat, n = i420.reshape(-1), h * w
+    return (
+        flat[:n].reshape(h, w),
+        flat[n : n + n // 4].reshape(h // 2, w // 2),
+        flat[n + n // 4 :].reshape(h // 2, w // 2),
+    )
+
+
+@pytest.mark.parametrize(
+    ("bgr", "yuv"),
+    [
+        # Y = 16 + 219 (0.299 R + 0.587 G + 0.114 B) / 255; U = 128 + 224 * 0.5 (B - Y') / (1 - 0.114) / 255,
+        # V = 128 + 224 * 0.5 (R - Y') / (1 - 0.299) / 255 (Y' the unscaled luma)
+        ((0, 0, 0), (16, 128, 128)),
+        ((255, 255, 255), (235, 128, 128)),
+        ((0, 0, 255), (81.5, 90.2, 240.0)),  # red: Y' 76.2, B - Y' = -76.2, R - Y' = 178.8
+        ((255, 0, 0), (41.0, 240.0, 109.8)),  # blue: Y' 29.1, B - Y' = 225.9, R - Y' = -29.1
+    ],
+)
+def test_plain_colours_take_bt601_studio_range_values(bgr: tuple[int, int, int], yuv: tuple[float, ...]) -> None:
+    frame = np.empty((4, 6, 3), np.uint8)
+    frame[:] = bgr
+    y, u, v = planes(bgr_to_i420(frame), 4, 6)
+    for plane, want in zip((y, u, v), yuv, strict=True):
+        assert np.all(np.abs(plane.astype(float) - want) <= 1.0), (plane, want)
+
+
+def test_a_chroma_sample_is_its_blocks_mean_not_one_pixel() -> None:
+    frame = np.full((2, 2, 3), 96, np.uint8)
+    frame[0, 0] = (96, 96, 255)  # one reddish pixel of four: the mean is (96, 96, 135.75)
+    _, u, v = planes(bgr_to_i420(frame), 2, 2)
+    # Y' = 0.299 * 135.75 + 0.701 * 96 = 107.88; U = 128 + 0.8784 * 0.5643 * (96 - 107.88) = 122.1,
+    # V = 128 + 0.8784 * 0.7133 * (135.75 - 107.88) = 145.5 (the top-left pixel alone: 112.2, 177.8)
+    assert abs(int(u[0, 0]) - 122.1) <= 1.0 and abs(int(v[0, 0]) - 145.5) <= 1.0
+
+
+@pytest.mark.parametrize(("h", "w"), [(480, 640), (242, 322)])
+def test_the_planes_match_swscale_within_rounding(h: int, w: int) -> None:
+    rng = np.random.default_rng(7)
+    blocks = rng.integers(0, 256, (h // 8 + 1, w // 8 + 1, 3)).astype(np.uint8)
+    smooth = np.ascontiguousarray(blocks[np.arange(h) // 8][:, np.arange(w) // 8])  # flat 8 x 8 blocks
+    ours = bgr_to_i420(smooth)
+    theirs = av.VideoFrame.from_ndarray(smooth, format="bgr24").reformat(format="yuv420p").to_ndarray()
+    assert ours.shape == theirs.shape == (h * 3 // 2, w)
+    d = np.abs(ours.astype(int) - theirs.astype(int))
+    assert d[:h].max() <= 1  # luma: rounding only
+    assert np.median(d[h:]) <= 1  # chroma: rounding inside the blocks (swscale filters across their edges)
+    back = av.VideoFrame.from_ndarray(ours, format="yuv420p").to_ndarray(format="bgr24")
+    assert psnr(back, smooth) > 35.0
