@@ -471,7 +471,10 @@ def run_sweep(
         while todo or pending:
             if cancel is not None and cancel():
                 raise KeyboardInterrupt
-            stopping = stopping or (stop is not None and stop())
+            if not stopping and stop is not None and stop():
+                stopping = True
+                if progress is not None:  # said at once, even when nothing is left to wait for
+                    progress(state(), None)
             if not stopping and todo:
                 if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second
                     slots, slots_at = max(1, sum(client.nthreads().values())), time.perf_counter()

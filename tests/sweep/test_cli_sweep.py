@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -81,7 +82,12 @@ def _start(sweep: Path, out: Path) -> subprocess.Popen[str]:
 @pytest.mark.parametrize("presses", [1, 2])
 def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_path: Path, presses: int) -> None:
     sweep = tmp_path / "s.toml"
-    sweep.write_text(TRUTH.format(top="seeds = 12\n", duration=150.0))  # runs of about a second
+    # short and long runs take turns (15 and 400 s simulated, about 0.1 and 3 s): when the
+    # first short one has finished, a long one is surely running for seconds
+    sweep.write_text(
+        'scenario = "convoy"\nseeds = 1\n[set]\n"sim.sensing" = "truth"\n[grid]\n'
+        '"sensing.range_noise_m" = [0.0, 0.01, 0.02, 0.03, 0.04, 0.05]\n"sim.duration_s" = [15.0, 400.0]\n'
+    )
     proc = _start(sweep, tmp_path / "out")
     try:
         assert proc.stdout is not None
@@ -92,6 +98,7 @@ def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_
         while "stopping" not in said:  # the sweep took the first Ctrl-C
             said = proc.stderr.readline()
             assert said, "lfctl sweep ended without saying it is stopping"
+        assert re.search(r"; [12] running finish", said), said  # the long run at least
         if presses == 2:
             os.killpg(proc.pid, signal.SIGINT)
         out, err = proc.communicate(timeout=120)
