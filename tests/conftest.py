@@ -5,7 +5,6 @@ standing rover (a vehicle endpoint on loopback UDP) for `lfctl follow`."""
 from __future__ import annotations
 
 import contextlib
-import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -13,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from support import free_udp_ports as _free_udp_ports
 
 from lfctl.fmu.build import BuiltModel, build_model
 
@@ -28,28 +28,6 @@ def rover() -> BuiltModel:
 @pytest.fixture(scope="session")
 def unicycle() -> BuiltModel:
     return build_model("KinematicUnicycle")
-
-
-def _free_udp_ports(n: int) -> int:
-    """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let go)."""
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-        if base + n > 65000:
-            continue
-        socks = []
-        try:
-            for k in range(n):
-                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
-                socks[-1].bind(("127.0.0.1", base + k))
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-        return base
-    raise RuntimeError(f"no {n} free consecutive UDP ports")
 
 
 @pytest.fixture

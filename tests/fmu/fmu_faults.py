@@ -4,18 +4,24 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from support import free_udp_ports
+
 #: FaultyRover's `fault` parameter
 NAN, INF, HUGE, HANG, FAR = 1, 2, 3, 4, 5
 
 
 def faulty_scenario(fmu: Path, fault: int, fault_at: float, log_dir: Path, duration_s: float = 3.0) -> str:
-    """A leader and a follower, both FaultyRover; only the follower has the fault."""
+    """A leader and a follower, both FaultyRover; only the follower has the fault (on free
+    loopback ports, no ground station)."""
     return f"""name = "faulty"
 [sim]
 duration_s = {duration_s}
 sensing = "truth"
 [recording]
 dir = "{log_dir}"
+[link]
+udp_base_port = {free_udp_ports(2)}
+gcs_udpout = ""
 [[vehicles]]
 name = "leader"
 role = "leader"

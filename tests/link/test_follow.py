@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v10 import ardupilotmega as mav1
 from pymavlink.dialects.v20 import ardupilotmega as mav
+from support import left_stopped, wait_until
 
 from lfctl.cli import main
 from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S, LiveView
@@ -59,13 +60,12 @@ def test_follow_drives_a_guided_rover_from_video(
                 *(["--signing-passphrase", passphrase] if passphrase else []),
             ]
         )
-        time.sleep(0.2)  # the last setpoints reach the rover
+        stopped = wait_until(lambda: left_stopped(rover))  # the last setpoints reach the rover in its time
     assert rc == 0 and "sent" in capsys.readouterr().out
     assert rover.mode == MODES["GUIDED"] and rover.armed
     assert {"SET_POSITION_TARGET_LOCAL_NED", "NAMED_VALUE_FLOAT"} <= names
     assert max(v for v, _ in received) > 0.05  # the leader is ~1.8 m away: drive towards the slot
-    g = rover.guided  # left stopped: the last target is zero speed and zero turn rate
-    assert g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)
+    assert stopped, rover.guided  # left stopped: the last target is zero speed and zero turn rate
 
 
 # -- what the companion's link shows: the rover's global position, every packet both ways -----------

@@ -28,12 +28,15 @@ pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
 def mavproxy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     venv = tmp_path_factory.mktemp("mavproxy") / "venv"
     made = subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], capture_output=True)
-    pip = subprocess.run(
-        [str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "MAVProxy==1.8.75", "pyserial"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    try:
+        pip = subprocess.run(
+            [str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "MAVProxy==1.8.75", "pyserial"],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.skip("MAVProxy does not install here: pip took over 300 s (no package index?)")
     exe = venv / "bin" / "mavproxy.py"
     if made.returncode or pip.returncode or not exe.exists():
         pytest.skip(f"MAVProxy does not install here: {pip.stderr.strip()[-300:]}")

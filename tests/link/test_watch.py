@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
-import socket
 from pathlib import Path
 
 import pytest
@@ -93,11 +92,9 @@ def test_on_a_pipe_each_update_is_one_json_object() -> None:
 
 @pytest.mark.integration
 @pytest.mark.fmu
-def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run) -> None:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("127.0.0.1", 0))
-        gcs_port = probe.getsockname()[1]
-    base = gcs_port + 7 if gcs_port < 65000 else gcs_port - 20
+def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run, free_udp_ports) -> None:
+    gcs_port = free_udp_ports(3)  # the ground station's, then the two vehicles'
+    base = gcs_port + 1
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = dataclasses.replace(
         cfg,

@@ -21,6 +21,7 @@ from mcap.decoder import DecoderFactory as McapDecoderFactory
 from mcap.reader import NonSeekingReader
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
+from support import free_udp_ports
 
 from lfctl.cli import main
 from lfctl.config import load_config
@@ -243,7 +244,7 @@ def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
     scen = tmp_path / "s.toml"
     scen.write_text(
         (EXAMPLES / "convoy.toml").read_text().replace('sensing = "camera"   # or "truth"', 'sensing = "truth"')
-        + f'\n[recording]\ndir = "{tmp_path}"\n[link]\ngcs_udpout = ""\nudp_base_port = {_free_udp_port()}\n'
+        + f'\n[recording]\ndir = "{tmp_path}"\n[link]\ngcs_udpout = ""\nudp_base_port = {free_udp_ports(2)}\n'
     )  # default 1 MiB chunks: what reaches the disk is the recorder's once-a-second flush
     proc = subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scen), "--realtime", "-q"],
@@ -297,14 +298,6 @@ def test_images_keep_their_rate_when_camera_ticks_jitter(tmp_path: Path, image_r
     gaps = np.diff(taken)
     # evenly spread: within a camera period plus a physics step of each other
     assert gaps.max() - gaps.min() <= 1 / 30 + 0.011
-
-
-def _free_udp_port() -> int:
-    import socket
-
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _children(pid: int) -> set[int]:

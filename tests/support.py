@@ -1,0 +1,51 @@
+"""Helpers the tests import (``from support import ...``): plain functions, where
+conftest.py holds fixtures (two conftest modules exist, so importing from "conftest" would
+depend on which was loaded first)."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["free_udp_ports", "left_stopped", "wait_until"]
+
+
+def free_udp_ports(n: int) -> int:
+    """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let go)."""
+    for _ in range(50):
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
+            a.bind(("127.0.0.1", 0))
+            base = a.getsockname()[1]
+        if base + n > 65000:
+            continue
+        socks = []
+        try:
+            for k in range(n):
+                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                socks[-1].bind(("127.0.0.1", base + k))
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+        return base
+    raise RuntimeError(f"no {n} free consecutive UDP ports")
+
+
+def wait_until(predicate: Callable[[], bool], timeout_s: float = 10.0) -> bool:
+    """Poll ``predicate`` every 20 ms until it holds or ``timeout_s`` passes; whether it held
+    (for what another thread or process does in its own time)."""
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+def left_stopped(rover: Any) -> bool:
+    """The rover's last guided target is zero speed and zero turn rate."""
+    g = rover.guided
+    return g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)
