@@ -9,6 +9,7 @@ version, flags), so a second call costs only the hash.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import os
@@ -18,6 +19,7 @@ import subprocess
 import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -399,14 +401,36 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
     if not force and built.fmi2.is_file() and built.fmi3.is_file():
         return built
     root.parent.mkdir(parents=True, exist_ok=True)
-    log.info("building %s FMUs into %s", src.identifier, root)
-    with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
-        work = Path(tmp)
-        out_dir = work / "out"
-        out_dir.mkdir()
-        for fmi in (2, 3):
-            _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
-        if root.exists():
-            shutil.rmtree(root)
-        os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
+    # one builder at a time per entry: the workers of a sweep on a cold cache start together,
+    # and a second build replacing the first would pull the files from under its readers
+    with _locked(root.parent / f".{root.name}.lock"):
+        if not force and built.fmi2.is_file() and built.fmi3.is_file():
+            return built  # built by another process while this one waited
+        log.info("building %s FMUs into %s", src.identifier, root)
+        with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
+            work = Path(tmp)
+            out_dir = work / "out"
+            out_dir.mkdir()
+            for fmi in (2, 3):
+                _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
+            if root.exists():
+                shutil.rmtree(root)
+            os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
     return built
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on ``path`` (created if need be) while the block runs, across
+    processes (``flock``; where there is none, as on Windows, no lock)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    with path.open("a") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)

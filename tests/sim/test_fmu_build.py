@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -62,6 +63,25 @@ def test_second_build_is_a_cache_hit(tmp_path: Path) -> None:
     stamp = first.fmi2.stat().st_mtime_ns
     second = build_model("KinematicUnicycle", tmp_path)
     assert second == first and second.fmi2.stat().st_mtime_ns == stamp
+
+
+def test_processes_building_at_once_build_once_and_all_get_it(tmp_path: Path) -> None:
+    # a sweep's workers on a cold cache: each asks for the same model at the same moment
+    script = (
+        "import logging, sys; from pathlib import Path; from lfctl.fmu.build import build_model; "
+        "logging.basicConfig(level=logging.INFO, format='%(message)s'); "
+        "b = build_model('KinematicUnicycle', Path(sys.argv[1])); print(b.fmi2.stat().st_size, b.fmi3.stat().st_size)"
+    )
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", script, str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        for _ in range(3)
+    ]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 0], outs
+    assert sum(err.count("building KinematicUnicycle FMUs") for _, err in outs) == 1, outs  # the others waited
+    assert len({out for out, _ in outs}) == 1 and int(outs[0][0].split()[0]) > 0
 
 
 def test_cache_key_changes_with_compiler_version() -> None:
