@@ -1,5 +1,5 @@
 """The real-footage section of `lfctl bench vision`: scored as documented, peers this OpenCV
-cannot create reported as such."""
+cannot create reported as such; its timing pass."""
 
 from __future__ import annotations
 
@@ -37,3 +37,10 @@ def test_a_sequence_without_a_target_counts_banner_poses_both_ways() -> None:
     result = vision.run_real((seq, ("MIL",)))
     assert result["no_banner"] and result["frames"] == 2 * seq.n_frames  # auto-start and from a box
     assert result["pose_frames"] == 0
+
+
+def test_the_timing_pass_gives_wall_clock_and_cpu_time_per_tracker() -> None:
+    t = vision.timing_pass("clear", 8, ())
+    assert t["renderer"] > 0
+    for k in vision.OURS:  # the process's CPU time runs on while a frame is worked on: never zero
+        assert t[k] > 0 and t[f"{k} cpu"] > 0, t
