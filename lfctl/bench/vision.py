@@ -309,7 +309,9 @@ def timing_pass(tier: str, n_frames: int, peers: tuple[str, ...]) -> dict[str, f
     """Median ms per frame of the renderer and of each tracker alone on the same pre-rendered
     frames, in one process (the accuracy runs share the cores, which inflates their timings):
     wall-clock time under each name, and under ``"<name> cpu"`` the process's CPU time per
-    frame, which other programs on a busy machine inflate much less than the wall clock."""
+    frame, OpenCV's threads included (so a tracker whose OpenCV calls run on several cores
+    shows more CPU than wall time), which other programs on a busy machine inflate much less
+    than the wall clock."""
     seq = make_sequence(tier, 0, n_frames, realism="on")
     frames, render = [], []
     it = seq.frames()
@@ -454,7 +456,9 @@ def main(quick: bool = False) -> None:
     render = np.array([timing[t]["renderer"] for t in TIERS])
     per_tier = ", ".join(f"{t} {timing[t]['renderer']:.2f}" for t in TIERS)
     print(f"\nrenderer: median over tiers {np.median(render):.2f} ms/frame (per tier: {per_tier}), 640x480")
-    print("ms/frame: each tracker alone on the same pre-rendered frames, one process (wall clock; CPU: the process's)")
+    print(
+        "ms/frame: each tracker alone on the same pre-rendered frames, one process (wall clock; CPU: the process's, OpenCV's threads included)"
+    )
     full_ms = float(np.median([timing[t]["full"] for t in TIERS]))
     full_cpu_ms = float(np.median([timing[t]["full cpu"] for t in TIERS]))
     summary = {

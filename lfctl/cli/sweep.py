@@ -159,7 +159,8 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         if show_bar:
             print(file=sys.stderr)
-        print(f"cancelled the running runs; the finished ones are in {out_dir} (--resume goes on)", file=sys.stderr)
+        what = "cancelled the running runs" if cancelled.is_set() else "interrupted"
+        print(f"{what}; the finished runs are in {out_dir} (--resume goes on)", file=sys.stderr)
         raise
     finally:
         for sig, handler in handlers.items():

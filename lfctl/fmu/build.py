@@ -10,6 +10,7 @@ version, flags), so a second call costs only the hash.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import logging
 import os
@@ -421,16 +422,13 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
 
 @contextlib.contextmanager
 def _locked(path: Path) -> Iterator[None]:
-    """An exclusive lock on ``path`` (created if need be) while the block runs, across
-    processes (``flock``; where there is none, as on Windows, no lock)."""
+    """An exclusive ``flock`` on ``path`` (created if need be) while the block runs, across
+    processes. Opened read-only: a lock file another user made in a shared cache still
+    locks. Waiters wait as long as the build takes (each compile is bounded by its timeout);
+    if it fails, the next one tries in turn."""
+    fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o666)
     try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
+        fcntl.flock(fd, fcntl.LOCK_EX)
         yield
-        return
-    with path.open("a") as f:
-        fcntl.flock(f, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(f, fcntl.LOCK_UN)
+    finally:
+        os.close(fd)  # closing releases the lock

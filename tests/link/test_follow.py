@@ -61,6 +61,8 @@ def test_follow_drives_a_guided_rover_from_video(
             ]
         )
         stopped = wait_until(lambda: left_stopped(rover))  # the last setpoints reach the rover in its time
+        time.sleep(0.2)  # and nothing else comes after them
+        stopped = stopped and left_stopped(rover)
     assert rc == 0 and "sent" in capsys.readouterr().out
     assert rover.mode == MODES["GUIDED"] and rover.armed
     assert {"SET_POSITION_TARGET_LOCAL_NED", "NAMED_VALUE_FLOAT"} <= names

@@ -15,6 +15,7 @@ import socket
 import struct
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -415,6 +416,8 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
         finally:
             interrupt(proc)
         stopped = wait_until(lambda: left_stopped(rover))  # the last setpoints reach the rover in its time
+        time.sleep(0.2)  # and nothing else comes after them
+        stopped = stopped and left_stopped(rover)
     datagrams = []
     while True:
         try:

@@ -43,7 +43,7 @@ def test_a_chroma_sample_is_its_blocks_mean_not_one_pixel() -> None:
     frame[0, 0] = (96, 96, 255)  # one reddish pixel of four: the mean is (96, 96, 135.75)
     _, u, v = planes(bgr_to_i420(frame), 2, 2)
     # Y' = 0.299 * 135.75 + 0.701 * 96 = 107.88; U = 128 + 0.8784 * 0.5643 * (96 - 107.88) = 122.1,
-    # V = 128 + 0.8784 * 0.7133 * (135.75 - 107.88) = 145.5 (the top-left pixel alone: 112.2, 177.8)
+    # V = 128 + 0.8784 * 0.7133 * (135.75 - 107.88) = 145.5 (the top-left pixel alone: 104.4, 197.9)
     assert abs(int(u[0, 0]) - 122.1) <= 1.0 and abs(int(v[0, 0]) - 145.5) <= 1.0
 
 
@@ -60,3 +60,13 @@ def test_the_planes_match_swscale_within_rounding(h: int, w: int) -> None:
     assert np.median(d[h:]) <= 1  # chroma: rounding inside the blocks (swscale filters across their edges)
     back = av.VideoFrame.from_ndarray(ours, format="yuv420p").to_ndarray(format="bgr24")
     assert psnr(back, smooth) > 35.0
+
+
+@pytest.mark.parametrize(
+    ("shape", "dtype", "says"),
+    [((3, 4, 3), np.uint8, "even, non-zero frame size, got 4x3"), ((4, 4, 4), np.uint8, "uint8 BGR image"),
+     ((4, 4, 3), np.float32, "uint8 BGR image")],
+)  # fmt: skip
+def test_what_is_not_an_even_bgr_image_is_named(shape: tuple[int, ...], dtype: type, says: str) -> None:
+    with pytest.raises(ValueError, match=says):
+        bgr_to_i420(np.zeros(shape, dtype))

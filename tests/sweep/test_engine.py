@@ -17,7 +17,7 @@ from distributed import Client
 
 from lfctl import __version__
 from lfctl.errors import ConfigError, LfctlError
-from lfctl.sweep import run_sweep
+from lfctl.sweep import SweepProgress, run_sweep
 from lfctl.sweep.engine import _check_workers, _connect, scheduler_processes, worker_environment
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
@@ -128,24 +128,29 @@ def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp
 
 @pytest.mark.parametrize("how", ["cancel", "interrupt"])
 def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path, how: str) -> None:
+    # two workers, a short and a long run side by side: when the short one's row comes, the
+    # long one is running, and the cancel must drop it
     (tmp_path / "s.toml").write_text(
-        'scenario = "convoy"\nseeds = 6\n[set]\n"sim.duration_s" = 3.0\n"sim.sensing" = "truth"\n'
+        'scenario = "convoy"\n[set]\n"sim.sensing" = "truth"\n[grid]\n"sim.duration_s" = [3.0, 400.0, 3.0, 3.0]\n'
     )
     rows: list[dict] = []
+    running_then: list[int] = []
 
-    def progress(state: object, row: dict | None) -> None:
+    def progress(state: SweepProgress, row: dict | None) -> None:
         if row is not None:
             rows.append(row)
+            running_then.append(state.running)
             if how == "interrupt":
                 raise KeyboardInterrupt  # Ctrl-C in a Python session, at whatever moment
 
     with pytest.raises(KeyboardInterrupt):
         # the CLI's second Ctrl-C sets `cancel`, which the engine asks between rows
         cancel = (lambda: bool(rows)) if how == "cancel" else None
-        run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, progress=progress, logs="all", cancel=cancel)
+        run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=2, progress=progress, logs="all", cancel=cancel)
     written = read_rows(tmp_path / "out")
-    assert [r["run"] for r in written] == [rows[0]["run"]] and written[0]["status"] == "ok"
+    assert [r["run"] for r in written] == [rows[0]["run"]] == [0] and written[0]["status"] == "ok"
     assert len(rows) == 1  # a cancel comes before the next row: every written row was reported
+    assert running_then == [1]  # the long run was in flight when it was cancelled: it has no row
     log = tmp_path / "out" / written[0]["log_path"]
     assert log.suffix == ".mcap" and log.stat().st_size > 0
 
