@@ -10,9 +10,12 @@ t(0.975, n - 1) s / sqrt(n). It needs two runs; with one the bounds are empty.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
-from collections.abc import Iterable, Sequence
+import os
+import secrets
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -60,6 +63,20 @@ class SweepSummary:
     files: list[Path]  # summary tables and plots written
 
 
+@contextlib.contextmanager
+def _whole(path: Path) -> Iterator[Path]:
+    """A new file beside ``path`` to write in the block; at its end it replaces ``path`` in
+    one step, so a reader (or a sweep stopped mid-write by a third Ctrl-C) finds the old file
+    or the new one, never part of one. On an exception it is removed and ``path`` is untouched."""
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.partial{path.suffix}")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def write_meta(out_dir: Path, meta: dict[str, Any]) -> None:
     """Write ``sweep.json``.
 
@@ -71,7 +88,8 @@ def write_meta(out_dir: Path, meta: dict[str, Any]) -> None:
         ``name``, ``digest``, ``code``, ``keys``, ``followers``, ``runs`` and anything else
         JSON can hold.
     """
-    (out_dir / META).write_text(json.dumps(meta, indent=1, default=str) + "\n")
+    with _whole(out_dir / META) as tmp:
+        tmp.write_text(json.dumps(meta, indent=1, default=str) + "\n")
 
 
 def read_meta(out_dir: Path) -> dict[str, Any]:
@@ -186,9 +204,16 @@ def write_tables(
     columns = [*ID_COLUMNS, *keys, *metric_columns(followers), *STATUS_COLUMNS]
     table = _table(sorted(rows, key=lambda r: int(r["run"])), columns)
     out = [out_dir / "runs.parquet", out_dir / "runs.csv"]
-    pq.write_table(table, out[0])
-    pacsv.write_csv(table, out[1])
+    _write_table(table, *out)
     return out
+
+
+def _write_table(table: pa.Table, parquet: Path, csv: Path) -> None:
+    """A table as Parquet and CSV, each file replaced whole."""
+    with _whole(parquet) as tmp:
+        pq.write_table(table, tmp)
+    with _whole(csv) as tmp:
+        pacsv.write_csv(table, tmp)
 
 
 def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
@@ -332,12 +357,11 @@ def report(out_dir: str | Path, plots: bool = True) -> SweepSummary:
     columns = ["variant", *keys, "runs", "ok", "failed"] + [
         f"{m}.{s}" for m in metrics for s in ("mean", "ci95_lo", "ci95_hi")
     ]
-    table = _table(summary, columns)
-    pq.write_table(table, files[0])
-    pacsv.write_csv(table, files[1])
+    _write_table(_table(summary, columns), files[0], files[1])
     md = summary_markdown(summary, keys, followers)
     title = f"# sweep {meta['name']}: {len(rows)} runs, {sum(r['status'] != 'ok' for r in rows)} failed\n\n"
-    files[2].write_text(title + md)
+    with _whole(files[2]) as tmp:
+        tmp.write_text(title + md)
     if plots:
         files += plot_sweep(folder / "plots", rows, keys, followers)
     return SweepSummary(summary, md, files)

@@ -105,3 +105,26 @@ def test_plots_pool_the_other_keys_when_they_make_too_many_lines(tmp_path: Path)
     assert line_keys(rows, "a", ["a", "b", "c"]) == (["c"], ["b"])  # b alone makes 14 lines: pooled
     assert line_keys(rows, "b", ["a", "b", "c"]) == (["a", "c"], [])  # 2 x 3 lines
     assert len(plot_sweep(tmp_path / "c", rows, ["a", "b", "c"], ["f1"])) == 3
+
+
+def test_a_table_write_stopped_midway_leaves_the_old_file_whole(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pyarrow.csv as pacsv
+
+    first = [_row(0, 0, 0.01), _row(1, 0, 0.02)]
+    write_tables(tmp_path, first, [], ["follower1"])
+    before = (tmp_path / "runs.csv").read_bytes()
+    real = pacsv.write_csv
+
+    def cut_short(table: object, path: object) -> None:
+        Path(str(path)).write_text('"run","variant"\n0,')  # part of a file, then a third Ctrl-C
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pacsv, "write_csv", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        write_tables(tmp_path, [*first, _row(2, 1, 0.03)], [], ["follower1"])
+    monkeypatch.setattr(pacsv, "write_csv", real)
+    assert (tmp_path / "runs.csv").read_bytes() == before  # the old table, whole
+    assert [r["run"] for r in read_rows(tmp_path)] == [0, 1, 2]  # the Parquet file was written before: whole too
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs.csv", "runs.parquet"]  # no part left behind
