@@ -8,10 +8,13 @@ the command line turns into exit code 2.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
+import secrets
 import stat
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,6 +30,7 @@ __all__ = [
     "check_port",
     "check_text",
     "read_text_file",
+    "write_whole",
 ]
 
 #: names that become parts of file names, MAVLink names and MCAP topics: letters, digits, -, _
@@ -277,3 +281,25 @@ def read_text_file(path: Path, what: str, max_bytes: int) -> str:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"cannot read {what} {path}: not UTF-8 text (byte {exc.start})") from exc
+
+
+@contextlib.contextmanager
+def write_whole(path: Path) -> Iterator[Path]:
+    """A new file beside ``path`` for the block to write; when the block ends it replaces
+    ``path`` in one step (``os.replace``), so a reader, or a run stopped mid-write, finds the
+    old file or the new one, never part of one. On an exception the new file is removed and
+    ``path`` is left as it was. The new file is hidden (``.<stem>.<pid>.<random>.partial<suffix>``:
+    the suffix kept for writers that go by it) and made by this call alone (``O_EXCL``).
+
+    Parameters
+    ----------
+    path : Path
+        The file to write.
+    """
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.partial{path.suffix}")
+    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)

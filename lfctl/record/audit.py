@@ -18,7 +18,6 @@ import heapq
 import itertools
 import json
 import math
-import os
 import re
 from collections import defaultdict
 from collections.abc import Callable, Iterator
@@ -29,6 +28,7 @@ from typing import Any
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
+from lfctl.checks import write_whole
 from lfctl.errors import ConfigError
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
 from lfctl.record.mcap_read import (
@@ -779,13 +779,8 @@ def recover(report: AuditReport, out_path: Path) -> int:
             raise ConfigError(f"cannot recover into {out_path}: {problem}")
         if Path(report.path).exists() and out_path.samefile(report.path):
             raise ConfigError(f"cannot recover into {out_path}: it is the audited file itself")
-    tmp = out_path.with_name(f".{out_path.name}.{os.getpid()}.partial")
-    try:
-        with open(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644), "wb") as f:
-            n = _write_recovered(report, f)
-        os.replace(tmp, out_path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    with write_whole(out_path) as tmp, open(tmp, "wb") as f:
+        n = _write_recovered(report, f)
     return n
 
 

@@ -10,12 +10,9 @@ t(0.975, n - 1) s / sqrt(n). It needs two runs; with one the bounds are empty.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
-import os
-import secrets
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +22,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
+from lfctl.checks import write_whole
 from lfctl.errors import ConfigError
 from lfctl.sweep.task import FIGURES, ID_COLUMNS, STATUS_COLUMNS
 
@@ -63,20 +61,6 @@ class SweepSummary:
     files: list[Path]  # summary tables and plots written
 
 
-@contextlib.contextmanager
-def _whole(path: Path) -> Iterator[Path]:
-    """A new file beside ``path`` to write in the block; at its end it replaces ``path`` in
-    one step, so a reader (or a sweep stopped mid-write by a third Ctrl-C) finds the old file
-    or the new one, never part of one. On an exception it is removed and ``path`` is untouched."""
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.partial{path.suffix}")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def write_meta(out_dir: Path, meta: dict[str, Any]) -> None:
     """Write ``sweep.json``.
 
@@ -88,7 +72,7 @@ def write_meta(out_dir: Path, meta: dict[str, Any]) -> None:
         ``name``, ``digest``, ``code``, ``keys``, ``followers``, ``runs`` and anything else
         JSON can hold.
     """
-    with _whole(out_dir / META) as tmp:
+    with write_whole(out_dir / META) as tmp:
         tmp.write_text(json.dumps(meta, indent=1, default=str) + "\n")
 
 
@@ -210,9 +194,9 @@ def write_tables(
 
 def _write_table(table: pa.Table, parquet: Path, csv: Path) -> None:
     """A table as Parquet and CSV, each file replaced whole."""
-    with _whole(parquet) as tmp:
+    with write_whole(parquet) as tmp:
         pq.write_table(table, tmp)
-    with _whole(csv) as tmp:
+    with write_whole(csv) as tmp:
         pacsv.write_csv(table, tmp)
 
 
@@ -360,7 +344,7 @@ def report(out_dir: str | Path, plots: bool = True) -> SweepSummary:
     _write_table(_table(summary, columns), files[0], files[1])
     md = summary_markdown(summary, keys, followers)
     title = f"# sweep {meta['name']}: {len(rows)} runs, {sum(r['status'] != 'ok' for r in rows)} failed\n\n"
-    with _whole(files[2]) as tmp:
+    with write_whole(files[2]) as tmp:
         tmp.write_text(title + md)
     if plots:
         files += plot_sweep(folder / "plots", rows, keys, followers)

@@ -5,8 +5,7 @@ the value a marker pixel must have. A camera's auto-exposure undoes that by scal
 gain; this does the same in software, on the value channel the tracker reads.
 
 The picture's level is the mean of a sparse grid of its pixels (about every 4th row and
-column);
-the compensation is the level the tracker started on over the level now. It engages only
+column); the compensation is the level the tracker started on over the level now. It engages only
 past a change real cameras do not show on their own: on lfctl's labelled real footage, with
 the cameras' own auto-exposure, the level stays within 0.74-1.37 of the first frame's
 (panning, a bright window coming into view), so it engages past 1.6x either way and lets go
