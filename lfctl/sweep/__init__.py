@@ -10,7 +10,7 @@ CSV), the per-variant summary with 95 % confidence intervals, and the plots.
 
 from __future__ import annotations
 
-from lfctl.sweep.engine import SweepProgress, SweepResult, run_sweep, scheduler_processes
+from lfctl.sweep.engine import SweepProgress, SweepResult, local_cluster, run_sweep, scheduler_processes
 from lfctl.sweep.results import SweepSummary, read_rows, report
 from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, Variant, load_sweep, parse_sweep, plan, set_key, with_keys
 
@@ -23,6 +23,7 @@ __all__ = [
     "SweepSummary",
     "Variant",
     "load_sweep",
+    "local_cluster",
     "parse_sweep",
     "plan",
     "read_rows",

@@ -61,6 +61,7 @@ __all__ = [
     "SweepProgress",
     "SweepResult",
     "code_digest",
+    "local_cluster",
     "run_sweep",
     "scheduler_processes",
     "worker_environment",
@@ -307,22 +308,46 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
     return []
 
 
+def _local_cluster(n_workers: int) -> Any:
+    """The sweep's ``LocalCluster``: ``n_workers`` processes of one thread, quiet, on 127.0.0.1."""
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
+        return LocalCluster(
+            n_workers=n_workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
+            silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
+        )
+
+
+@contextlib.contextmanager
+def local_cluster(n_workers: int) -> Iterator[str]:
+    """The ``LocalCluster`` a sweep starts, kept up across sweeps: yields its scheduler's
+    address (for ``run_sweep(..., scheduler=address)``) and closes it on exit.
+
+    Parameters
+    ----------
+    n_workers : int
+        Worker processes, one thread each.
+    """
+    cluster = _local_cluster(n_workers)
+    try:
+        yield str(cluster.scheduler_address)
+    finally:
+        cluster.close()
+
+
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]:
     """A client and its cluster (None for a scheduler of one's own) and their description."""
-    import dask
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler is None:
         n = workers or usable_cores()
-        with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
-            cluster = LocalCluster(
-                n_workers=n,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
-                silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
-            )
+        cluster = _local_cluster(n)
         client = Client(cluster)
         client.register_plugin(_IgnoreSigint())
         return client, cluster, f"Dask LocalCluster, {n} worker processes x 1 thread; a crashed run is retried once"

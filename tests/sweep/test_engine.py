@@ -18,7 +18,7 @@ from distributed import Client
 from lfctl import __version__
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sweep import SweepProgress, run_sweep
-from lfctl.sweep.engine import _check_workers, _connect, scheduler_processes, worker_environment
+from lfctl.sweep.engine import _check_workers, _connect, local_cluster, scheduler_processes, worker_environment
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
 from lfctl.sweep.task import execute
@@ -203,6 +203,12 @@ def test_workers_lfctl_starts_leave_out_what_feeds_only_the_dashboard() -> None:
         cluster.close()
     with scheduler_processes(1) as address, Client(address) as client:
         assert list(client.run(settings).values()) == [("1s", False)]
+    # the sweep's LocalCluster on its own (to keep up across sweeps): the same workers, closed on leaving
+    with local_cluster(1) as address, Client(address) as client:
+        assert list(client.run(settings).values()) == [("1s", False)]
+        assert list(client.nthreads().values()) == [1]
+    with pytest.raises(OSError):
+        Client(address, timeout="1s")
 
 
 class _Cluster:
