@@ -35,6 +35,18 @@ def test_the_gate_learns_the_typical_distance_then_splits_it_from_the_background
     assert gate.typical == pytest.approx(0.2)
 
 
+def test_an_accepted_window_teaches_the_model_less_the_nearer_the_threshold() -> None:
+    gate = DistanceGate(background=0.8, learn_frames=3)
+    assert gate.teach_weight(0.1) == 0.0  # nothing before the gate is learnt
+    for d in (0.3, 0.1, 0.2):
+        gate.observe(d)
+    # typical 0.2, threshold 0.5, confident up to 0.35: all of it there, none at the threshold
+    assert gate.teach_weight(0.2) == gate.teach_weight(0.35) == 1.0
+    assert gate.teach_weight(0.4) == pytest.approx(0.1 / 0.15)  # (0.5 - 0.4) / (0.5 - 0.35)
+    assert gate.teach_weight(0.47) == pytest.approx(0.2)  # 0.03 / 0.15
+    assert gate.teach_weight(0.5) == gate.teach_weight(0.7) == 0.0  # refused: teaches nothing
+
+
 def test_separating_level_is_youdens_cut() -> None:
     inside = np.array([0, 10, 200, 210, 220, 230], np.uint8)  # a third of the target dim
     outside = np.array([0, 0, 5, 10, 20, 200], np.uint8)
