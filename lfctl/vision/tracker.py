@@ -514,8 +514,12 @@ class Tracker:
         self._coaster = None
         self._occluded_frames = 0
         if accepted:
-            if gate.confident(d):
-                self._blend(cand)
+            # a target followed by its colours alone learns from every window the gate accepts,
+            # less the nearer its threshold; a banner whose markers were seen only from confident
+            # ones, as its markers relearn it afresh when its look changes (below)
+            weight = float(gate.confident(d)) if self._markers_seen else gate.teach_weight(d)
+            if weight > 0.0:
+                self._blend(cand, weight)
             gate.observe(d)
             self._relearn_count = 0
         else:  # the markers hold the target the gate refuses: lighting changed
@@ -617,9 +621,10 @@ class Tracker:
             float(np.clip((y + h / 2.0 - py - ph / 2.0) / ph, -0.5, 0.5)),
         )
 
-    def _blend(self, cand: np.ndarray) -> None:
+    def _blend(self, cand: np.ndarray, weight: float = 1.0) -> None:
+        """Blend a window's histogram into the model at ``weight`` times the blend rate."""
         assert self._ref_hist is not None
-        a = self.s.alpha
+        a = self.s.alpha * weight
         ref = self._ref_hist / max(float(self._ref_hist.sum()), 1e-9)
         new = cand / max(float(cand.sum()), 1e-9)
         self._ref_hist = ((1 - a) * ref + a * new) * float(self._ref_hist.sum())

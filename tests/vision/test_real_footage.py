@@ -112,24 +112,7 @@ def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
     assert [i for i in seq.hidden() if run.statuses[i] is TrackStatus.TRACKING] == []
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="frames 20 and 25 OCCLUDED: while the camera pans (frames 10-24) the print's "
-                "box (the labels, interpolated between labelled frames) is 0.50-0.64 from the model, "
-                "against the gate learnt on frames 1-5 (0.56; 0.45 to come back); the search region "
-                "holds the print on both frames",
-            ),
-        )
-        if n == "iscc_shirtprint"
-        else n
-        for n in LABELLED
-    ],
-)
+@pytest.mark.parametrize("name", LABELLED)
 def test_never_occluded_while_the_target_is_in_plain_view(name: str) -> None:
     seq = SEQUENCES[name]
     run = full_run(name)

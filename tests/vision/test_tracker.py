@@ -149,6 +149,16 @@ def test_after_learning_afresh_the_gain_is_taken_from_that_frame() -> None:
     assert tr._exposure.update(cv2.convertScaleAbs(dim, alpha=1 / 1.7)) == pytest.approx(1.7, rel=0.03)
 
 
+def test_a_window_is_blended_into_the_model_at_its_weight() -> None:
+    tr = Tracker(TrackerSettings(alpha=0.15))
+    tr._ref_hist = np.array([2.0, 2.0], np.float32)
+    # rate 0.15 x 0.5: (0.925 * [0.5, 0.5] + 0.075 * [1, 0]) * 4, the model's count kept
+    tr._blend(np.array([1.0, 0.0], np.float32), 0.5)
+    assert tr._ref_hist == pytest.approx([2.15, 1.85])
+    tr._blend(np.array([1.0, 0.0], np.float32), 0.0)  # weight 0: unchanged
+    assert tr._ref_hist == pytest.approx([2.15, 1.85])
+
+
 def test_init_from_markers_finds_the_banner() -> None:
     _t, frame, truth = next(make_sequence("clear", 0, 1).frames())
     st = Tracker().init_from_markers(frame)
