@@ -6,6 +6,7 @@ perspective."""
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -233,6 +234,14 @@ def _hue_off_deg(hue: np.ndarray, target: int) -> np.ndarray:
     return np.minimum(d, 180 - d) * 2
 
 
+@functools.cache
+def _hue_off_table(target: int) -> np.ndarray:
+    """:func:`_hue_off_deg` of every 8-bit hue, int16 (a table look-up per pixel)."""
+    table = _hue_off_deg(np.arange(256), target)
+    table.flags.writeable = False  # shared by every call
+    return table
+
+
 #: a marker blob smaller than this (px; 4 x 4) is mostly its blurred rim, whose pixels blend
 #: the marker's colour with the panel's: its saturation is that of its most saturated pixel
 #: (the rendered banner 8 m out: 2-3 px markers, medians 130-150 of 255, cores 200-216)
@@ -299,14 +308,14 @@ def check_constellation(
     across = math.hypot(x_tr - x_tl, y_tr - y_tl) + math.hypot(x_br - x_bl, y_br - y_bl)
     down = math.hypot(x_bl - x_tl, y_bl - y_tl) + math.hypot(x_br - x_tr, y_br - y_tr)
     aspect = across / max(1e-9, down)
-    target = int(round(hue_deg / 2.0)) % 180
+    hue_off_of = _hue_off_table(int(round(hue_deg / 2.0)) % 180)
     sats, vals = [], []
     for b in c.blobs:
         x, y, w, h = b.bbox
         if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
             return "marker shape"
         px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
-        px[:, 0] = _hue_off_deg(px[:, 0], target)
+        px[:, 0] = hue_off_of[px[:, 0]]
         on = px[(px[:, 0] <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
         if on.shape[0] == 0:
             return "marker colour"
@@ -336,14 +345,16 @@ def check_constellation(
         x, y, w, h = b.bbox
         x, y = x - x0, y - y0
         cv2.rectangle(panel, (x - 1 - w // 3, y - 1 - h // 3), (x + w + w // 3, y + h + h // 3), 0, -1)
-    px = hsv[y0:y1, x0:x1][panel > 0]
+    n_panel = cv2.countNonZero(panel)
     expected = cv2.contourArea(quad.astype(np.float32)) * (
         1.0 - 4.0 * (look.marker_over_side / look.panel_over_side) ** 2
     )
-    if px.shape[0] < 0.3 * expected:
+    if n_panel < 0.3 * expected:
         return "panel"  # mostly outside the image: too little of it to tell
-    light = (px[:, 1] < 0.5 * sorted(sats)[2]) & (px[:, 2] >= 0.5 * sorted(vals)[2])
-    if float(np.mean(light)) < 0.6:
+    # light: saturation below half the markers' and value at least half theirs (whole levels)
+    sat_below, val_from = math.ceil(0.5 * sorted(sats)[2]), math.ceil(0.5 * sorted(vals)[2])
+    light = cv2.inRange(hsv[y0:y1, x0:x1], (0, 0, val_from), (255, sat_below - 1, 255))
+    if n_panel and cv2.countNonZero(cv2.bitwise_and(light, panel)) / n_panel < 0.6:
         return "panel"
     return ""
 
@@ -370,6 +381,22 @@ def refine(
     return Constellation(refined + np.array(origin, float), c.blobs, c.score)
 
 
+@functools.cache
+def _refine_tables(target: int, tolerance_deg: float, s_floor: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_centre`'s per-pixel weights as two 256-entry tables (a marker is a few
+    pixels: a table look-up costs a third of the image operations it replaces): hue (OpenCV's
+    0..179, ``target`` its value) -> 255 within ``tolerance_deg`` on the circle, else 0;
+    saturation -> how far it is above ``s_floor`` (0 below)."""
+    levels = np.arange(256, dtype=np.uint8)[None, :]
+    off = cv2.absdiff(levels, np.full_like(levels, target))
+    off = cv2.min(off, cv2.subtract(np.full_like(off, 180), off))  # hue is circular (0..179)
+    on_hue = cv2.compare(off, tolerance_deg / 2.0, cv2.CMP_LE)
+    over_floor = cv2.subtract(levels, np.full_like(levels, s_floor))
+    for table in (on_hue, over_floor):
+        table.flags.writeable = False  # shared by every call
+    return on_hue.ravel(), over_floor.ravel()
+
+
 def refine_centre(
     hsv: np.ndarray, blob: Blob, hue_deg: float, tolerance_deg: float, s_floor: int = 30
 ) -> tuple[float, float]:
@@ -379,11 +406,8 @@ def refine_centre(
     H, W = hsv.shape[:2]
     x0, y0, x1, y1 = max(0, x - 2), max(0, y - 2), min(W, x + w + 2), min(H, y + h + 2)
     roi = hsv[y0:y1, x0:x1]
-    dh = cv2.absdiff(roi[:, :, 0], np.full(roi.shape[:2], int(round(hue_deg / 2.0)) % 180, np.uint8))
-    dh = cv2.min(dh, cv2.subtract(np.full_like(dh, 180), dh))  # hue is circular (0..179)
-    on_hue = cv2.compare(dh, tolerance_deg / 2.0, cv2.CMP_LE)
-    weight = cv2.bitwise_and(cv2.subtract(roi[:, :, 1], np.full_like(dh, s_floor)), on_hue)
-    m = cv2.moments(weight)
+    on_hue, over_floor = _refine_tables(int(round(hue_deg / 2.0)) % 180, tolerance_deg, s_floor)
+    m = cv2.moments(on_hue[roi[:, :, 0]] & over_floor[roi[:, :, 1]])
     if m["m00"] <= 0:
         return blob.centroid
     return x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]
