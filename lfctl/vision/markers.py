@@ -121,23 +121,30 @@ def constellation_scores(c: np.ndarray, sizes: np.ndarray, marker_over_side: flo
     loses a pixel's rim; 0.5-1.6 times it is accepted.
     """
     tl, tr, br, bl = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
-    left, right = np.linalg.norm(bl - tl, axis=1), np.linalg.norm(br - tr, axis=1)
-    top, bottom = np.linalg.norm(tr - tl, axis=1), np.linalg.norm(br - bl, axis=1)
-    ok = np.minimum.reduce([left, right, top, bottom]) >= 2.0
+    down_left, down_right = bl - tl, br - tr
+    left, right = _lengths(down_left), _lengths(down_right)
+    top, bottom = _lengths(tr - tl), _lengths(br - bl)
+    ok = np.minimum(np.minimum(left, right), np.minimum(top, bottom)) >= 2.0
     left, right = np.maximum(left, 1e-9), np.maximum(right, 1e-9)
     aspect = ((top + bottom) / 2) / ((left + right) / 2)  # ~cos(yaw): 1 head-on
     ok &= (aspect >= 0.2) & (aspect <= 1.4)
-    upright = 1.0 - np.minimum(1.0, (np.abs((bl - tl)[:, 0]) + np.abs((br - tr)[:, 0])) / (left + right))
+    upright = 1.0 - np.minimum(1.0, (np.abs(down_left[:, 0]) + np.abs(down_right[:, 0])) / (left + right))
     width_match = np.minimum(top, bottom) / np.maximum(np.maximum(top, bottom), 1e-9)
     s_tl, s_tr, s_br, s_bl = sizes[:, 0], sizes[:, 1], sizes[:, 2], sizes[:, 3]
     pair_match = np.minimum(s_tl, s_bl) / np.maximum(s_tl, s_bl) * np.minimum(s_tr, s_br) / np.maximum(s_tr, s_br)
     expected = (right / left) ** 2  # right-side / left-side marker area from perspective
     got = (s_tr + s_br) / (s_tl + s_bl)
     perspective = np.minimum(expected / got, got / expected)
-    scale = np.sqrt(sizes.mean(axis=1)) / ((left + right) / 2)
+    scale = np.sqrt(np.add.reduce(sizes, axis=1) / 4) / ((left + right) / 2)  # the mean size's root
     ok &= (scale >= 0.5 * marker_over_side) & (scale <= 1.6 * marker_over_side)
     score = upright * width_match * np.sqrt(pair_match) * np.sqrt(perspective)
     return np.where(ok, score, 0.0)
+
+
+def _lengths(v: np.ndarray) -> np.ndarray:
+    """The length of each of M vectors (M, 2), as np.linalg.norm(v, axis=1) computes it, without
+    its checks (a third of constellation_scores' time went to four norm calls)."""
+    return np.sqrt(np.add.reduce(v * v, axis=1))
 
 
 def find_constellation(
