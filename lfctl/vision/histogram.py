@@ -88,13 +88,13 @@ class FeatureSpace:
             (thresholded contrasts) are read as the camera gave them.
         """
         hsv = scale_value(cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV), value_gain)
-        h, sat, _ = cv2.split(hsv)
+        h, sat, val = cv2.split(hsv)
         if not self.use_saturation:
             return [h], hsv
         chromatic = cv2.compare(sat, self.achromatic_s, cv2.CMP_GT)
         if self.grey_levels:
-            chromatic = cv2.bitwise_and(chromatic, cv2.compare(hsv[:, :, 2], self.dark_v, cv2.CMP_GE))
-            first = cv2.LUT(hsv[:, :, 2], _grey_lut(self.grey_levels))  # the brightness bins...
+            chromatic = cv2.bitwise_and(chromatic, cv2.compare(val, self.dark_v, cv2.CMP_GE))
+            first = cv2.LUT(val, _grey_lut(self.grey_levels))  # the brightness bins...
             cv2.copyTo(h, chromatic, first)  # ...where the hue means nothing
             planes = [first, sat]
         else:

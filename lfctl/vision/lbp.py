@@ -43,14 +43,19 @@ def lbp_ri36(gray: np.ndarray, threshold: int = 0) -> np.ndarray:
     """
     if gray.dtype != np.uint8 or gray.ndim != 2:
         raise ValueError(f"lbp_ri36 needs a 2-D uint8 image, got {gray.dtype} {gray.shape}")
-    g = cv2.copyMakeBorder(gray, 1, 1, 1, 1, cv2.BORDER_REPLICATE).astype(np.int16)
+    # in 8 bits throughout (half the memory traffic of 16-bit differences): a saturating
+    # difference and a threshold that writes the bit's value
+    g = cv2.copyMakeBorder(gray, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
     h, w = gray.shape
-    centre = g[1 : h + 1, 1 : w + 1] + np.int16(threshold)
+    centre = g[1 : h + 1, 1 : w + 1]
     code = np.zeros((h, w), np.uint8)
     for k, (dy, dx) in enumerate(NEIGHBOURS):
         nb = g[1 + dy : h + 1 + dy, 1 + dx : w + 1 + dx]
-        ge = cv2.compare(nb, centre, cv2.CMP_GE)  # 255 / 0
-        code = cv2.bitwise_or(code, cv2.bitwise_and(ge, 1 << k))
+        if threshold > 0:  # nb - centre >= threshold: the rise (0 for a fall) over threshold - 1
+            bit = cv2.threshold(cv2.subtract(nb, centre), threshold - 1, 1 << k, cv2.THRESH_BINARY)[1]
+        else:  # centre - nb <= -threshold: the fall (0 for a rise) at most -threshold
+            bit = cv2.threshold(cv2.subtract(centre, nb), -threshold, 1 << k, cv2.THRESH_BINARY_INV)[1]
+        code = cv2.bitwise_or(code, bit)
     return cv2.LUT(code, RI_LUT)
 
 

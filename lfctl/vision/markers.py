@@ -6,6 +6,7 @@ perspective."""
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from dataclasses import dataclass
@@ -97,14 +98,14 @@ def order_corners(pts: np.ndarray) -> np.ndarray:
 
 def _order_many(quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Order each of M quads (M, 4, 2) TL, TR, BR, BL; also return the index permutation."""
+    rows = np.arange(len(quads))[:, None]  # indexing with it: np.take_along_axis costs 15 us a call
     by_y = np.argsort(quads[:, :, 1], axis=1, kind="stable")
     top, bottom = by_y[:, :2], by_y[:, 2:]
-    tx = np.take_along_axis(quads[:, :, 0], top, axis=1)
-    bx = np.take_along_axis(quads[:, :, 0], bottom, axis=1)
+    tx, bx = quads[rows, top, 0], quads[rows, bottom, 0]
     top = np.where((tx[:, 0] <= tx[:, 1])[:, None], top, top[:, ::-1])
     bottom = np.where((bx[:, 0] <= bx[:, 1])[:, None], bottom, bottom[:, ::-1])
     idx = np.stack([top[:, 0], top[:, 1], bottom[:, 1], bottom[:, 0]], axis=1)
-    return np.take_along_axis(quads, idx[:, :, None], axis=1), idx
+    return quads[rows, idx], idx
 
 
 def constellation_scores(c: np.ndarray, sizes: np.ndarray, marker_over_side: float = 0.25) -> np.ndarray:
@@ -120,23 +121,30 @@ def constellation_scores(c: np.ndarray, sizes: np.ndarray, marker_over_side: flo
     loses a pixel's rim; 0.5-1.6 times it is accepted.
     """
     tl, tr, br, bl = c[:, 0], c[:, 1], c[:, 2], c[:, 3]
-    left, right = np.linalg.norm(bl - tl, axis=1), np.linalg.norm(br - tr, axis=1)
-    top, bottom = np.linalg.norm(tr - tl, axis=1), np.linalg.norm(br - bl, axis=1)
-    ok = np.minimum.reduce([left, right, top, bottom]) >= 2.0
+    down_left, down_right = bl - tl, br - tr
+    left, right = _lengths(down_left), _lengths(down_right)
+    top, bottom = _lengths(tr - tl), _lengths(br - bl)
+    ok = np.minimum(np.minimum(left, right), np.minimum(top, bottom)) >= 2.0
     left, right = np.maximum(left, 1e-9), np.maximum(right, 1e-9)
     aspect = ((top + bottom) / 2) / ((left + right) / 2)  # ~cos(yaw): 1 head-on
     ok &= (aspect >= 0.2) & (aspect <= 1.4)
-    upright = 1.0 - np.minimum(1.0, (np.abs((bl - tl)[:, 0]) + np.abs((br - tr)[:, 0])) / (left + right))
+    upright = 1.0 - np.minimum(1.0, (np.abs(down_left[:, 0]) + np.abs(down_right[:, 0])) / (left + right))
     width_match = np.minimum(top, bottom) / np.maximum(np.maximum(top, bottom), 1e-9)
     s_tl, s_tr, s_br, s_bl = sizes[:, 0], sizes[:, 1], sizes[:, 2], sizes[:, 3]
     pair_match = np.minimum(s_tl, s_bl) / np.maximum(s_tl, s_bl) * np.minimum(s_tr, s_br) / np.maximum(s_tr, s_br)
     expected = (right / left) ** 2  # right-side / left-side marker area from perspective
     got = (s_tr + s_br) / (s_tl + s_bl)
     perspective = np.minimum(expected / got, got / expected)
-    scale = np.sqrt(sizes.mean(axis=1)) / ((left + right) / 2)
+    scale = np.sqrt(np.add.reduce(sizes, axis=1) / 4) / ((left + right) / 2)  # the mean size's root
     ok &= (scale >= 0.5 * marker_over_side) & (scale <= 1.6 * marker_over_side)
     score = upright * width_match * np.sqrt(pair_match) * np.sqrt(perspective)
     return np.where(ok, score, 0.0)
+
+
+def _lengths(v: np.ndarray) -> np.ndarray:
+    """The length of each of M vectors (M, 2), as np.linalg.norm(v, axis=1) computes it, without
+    its checks (a third of constellation_scores' time went to four norm calls)."""
+    return np.sqrt(np.add.reduce(v * v, axis=1))
 
 
 def find_constellation(
@@ -210,27 +218,42 @@ def find_constellations(
         return []
     cands.sort(key=lambda b: -b.area_px)
     cands = cands[:10]  # the banners' markers are among the larger square blobs
-    combos = np.array(list(itertools.combinations(range(len(cands)), 4)))
-    pts = np.array([b.centroid for b in cands])[combos]  # (M, 4, 2)
-    areas = np.array([b.area_px for b in cands])[combos]
-    ordered, idx = _order_many(pts)
-    sizes = np.take_along_axis(areas, idx, axis=1)
+    combos = _combinations(len(cands))
+    ordered, idx = _order_many(np.array([b.centroid for b in cands])[combos])  # (M, 4, 2)
+    combos = combos[np.arange(len(combos))[:, None], idx]  # the blobs of each, in order
+    sizes = np.array([b.area_px for b in cands])[combos]
     scores = constellation_scores(ordered, sizes, look.marker_over_side)
     out: list[Constellation] = []
     for k in np.argsort(-scores, kind="stable"):
         if scores[k] < min_score or len(out) >= limit:
             break
-        chosen = tuple(cands[int(combos[k][j])] for j in idx[k])
+        chosen = tuple(cands[j] for j in combos[k].tolist())
         candidate = Constellation(ordered[k], chosen, float(scores[k]))
         if not check_constellation(candidate, hsv, hue_deg, look, tolerance_deg, s_min, v_min):
             out.append(Constellation(ordered[k] + np.array(origin, float), chosen, float(scores[k])))
     return out
 
 
+@functools.cache
+def _combinations(n: int) -> np.ndarray:
+    """Every choice of 4 of ``n`` indices, (M, 4), in itertools' order."""
+    combos = np.array(list(itertools.combinations(range(n), 4)))
+    combos.flags.writeable = False  # shared by every call
+    return combos
+
+
 def _hue_off_deg(hue: np.ndarray, target: int) -> np.ndarray:
     """|hue - target| in whole degrees on the circle (OpenCV hue: degrees / 2, 0..179), int16."""
     d = np.abs(hue.astype(np.int16) - target)
     return np.minimum(d, 180 - d) * 2
+
+
+@functools.cache
+def _hue_off_table(target: int) -> np.ndarray:
+    """:func:`_hue_off_deg` of every 8-bit hue, int16 (a table look-up per pixel)."""
+    table = _hue_off_deg(np.arange(256), target)
+    table.flags.writeable = False  # shared by every call
+    return table
 
 
 #: a marker blob smaller than this (px; 4 x 4) is mostly its blurred rim, whose pixels blend
@@ -299,14 +322,14 @@ def check_constellation(
     across = math.hypot(x_tr - x_tl, y_tr - y_tl) + math.hypot(x_br - x_bl, y_br - y_bl)
     down = math.hypot(x_bl - x_tl, y_bl - y_tl) + math.hypot(x_br - x_tr, y_br - y_tr)
     aspect = across / max(1e-9, down)
-    target = int(round(hue_deg / 2.0)) % 180
+    hue_off_of = _hue_off_table(int(round(hue_deg / 2.0)) % 180)
     sats, vals = [], []
     for b in c.blobs:
         x, y, w, h = b.bbox
         if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
             return "marker shape"
         px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
-        px[:, 0] = _hue_off_deg(px[:, 0], target)
+        px[:, 0] = hue_off_of[px[:, 0]]
         on = px[(px[:, 0] <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
         if on.shape[0] == 0:
             return "marker colour"
@@ -336,14 +359,16 @@ def check_constellation(
         x, y, w, h = b.bbox
         x, y = x - x0, y - y0
         cv2.rectangle(panel, (x - 1 - w // 3, y - 1 - h // 3), (x + w + w // 3, y + h + h // 3), 0, -1)
-    px = hsv[y0:y1, x0:x1][panel > 0]
+    n_panel = cv2.countNonZero(panel)
     expected = cv2.contourArea(quad.astype(np.float32)) * (
         1.0 - 4.0 * (look.marker_over_side / look.panel_over_side) ** 2
     )
-    if px.shape[0] < 0.3 * expected:
+    if n_panel < 0.3 * expected:
         return "panel"  # mostly outside the image: too little of it to tell
-    light = (px[:, 1] < 0.5 * sorted(sats)[2]) & (px[:, 2] >= 0.5 * sorted(vals)[2])
-    if float(np.mean(light)) < 0.6:
+    # light: saturation below half the markers' and value at least half theirs (whole levels)
+    sat_below, val_from = math.ceil(0.5 * sorted(sats)[2]), math.ceil(0.5 * sorted(vals)[2])
+    light = cv2.inRange(hsv[y0:y1, x0:x1], (0, 0, val_from), (255, sat_below - 1, 255))
+    if n_panel and cv2.countNonZero(cv2.bitwise_and(light, panel)) / n_panel < 0.6:
         return "panel"
     return ""
 
@@ -370,6 +395,22 @@ def refine(
     return Constellation(refined + np.array(origin, float), c.blobs, c.score)
 
 
+@functools.cache
+def _refine_tables(target: int, tolerance_deg: float, s_floor: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`refine_centre`'s per-pixel weights as two 256-entry tables (a marker is a few
+    pixels: a table look-up costs a third of the image operations it replaces): hue (OpenCV's
+    0..179, ``target`` its value) -> 255 within ``tolerance_deg`` on the circle, else 0;
+    saturation -> how far it is above ``s_floor`` (0 below)."""
+    levels = np.arange(256, dtype=np.uint8)[None, :]
+    off = cv2.absdiff(levels, np.full_like(levels, target))
+    off = cv2.min(off, cv2.subtract(np.full_like(off, 180), off))  # hue is circular (0..179)
+    on_hue = cv2.compare(off, tolerance_deg / 2.0, cv2.CMP_LE)
+    over_floor = cv2.subtract(levels, np.full_like(levels, s_floor))
+    for table in (on_hue, over_floor):
+        table.flags.writeable = False  # shared by every call
+    return on_hue.ravel(), over_floor.ravel()
+
+
 def refine_centre(
     hsv: np.ndarray, blob: Blob, hue_deg: float, tolerance_deg: float, s_floor: int = 30
 ) -> tuple[float, float]:
@@ -379,11 +420,8 @@ def refine_centre(
     H, W = hsv.shape[:2]
     x0, y0, x1, y1 = max(0, x - 2), max(0, y - 2), min(W, x + w + 2), min(H, y + h + 2)
     roi = hsv[y0:y1, x0:x1]
-    dh = cv2.absdiff(roi[:, :, 0], np.full(roi.shape[:2], int(round(hue_deg / 2.0)) % 180, np.uint8))
-    dh = cv2.min(dh, cv2.subtract(np.full_like(dh, 180), dh))  # hue is circular (0..179)
-    on_hue = cv2.compare(dh, tolerance_deg / 2.0, cv2.CMP_LE)
-    weight = cv2.bitwise_and(cv2.subtract(roi[:, :, 1], np.full_like(dh, s_floor)), on_hue)
-    m = cv2.moments(weight)
+    on_hue, over_floor = _refine_tables(int(round(hue_deg / 2.0)) % 180, tolerance_deg, s_floor)
+    m = cv2.moments(on_hue[roi[:, :, 0]] & over_floor[roi[:, :, 1]])
     if m["m00"] <= 0:
         return blob.centroid
     return x0 + m["m10"] / m["m00"], y0 + m["m01"] / m["m00"]

@@ -625,9 +625,15 @@ class Tracker:
         """Blend a window's histogram into the model at ``weight`` times the blend rate."""
         assert self._ref_hist is not None
         a = self.s.alpha * weight
-        ref = self._ref_hist / max(float(self._ref_hist.sum()), 1e-9)
+        total = float(self._ref_hist.sum())
+        ref = self._ref_hist / max(total, 1e-9)
         new = cand / max(float(cand.sum()), 1e-9)
-        self._ref_hist = ((1 - a) * ref + a * new) * float(self._ref_hist.sum())
+        # ((1 - a) ref + a new) total, in place: the histograms have 20 736 bins
+        ref *= 1 - a
+        new *= a
+        ref += new
+        ref *= total
+        self._ref_hist = ref
 
     def _miss(self, frame: np.ndarray, pred_win: Box, search: Box | None, d: float, why: str) -> TrackState:
         """No acceptable window: coast (OCCLUDED), then LOST; try the markers to come back."""
