@@ -77,6 +77,24 @@ def test_lbp_matches_the_numpy_oracle_and_ignores_a_constant(img: np.ndarray, c:
     assert np.array_equal(codes, lbp_ri36((img + c).astype(np.uint8), thr))  # no overflow below 255
 
 
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.uint8, (9, 11), elements=st.integers(0, 255)), st.integers(-260, 261))
+def test_lbp_matches_the_numpy_oracle_over_the_whole_range(img: np.ndarray, thr: int) -> None:
+    # the 8-bit path saturates its differences: a threshold at or past +-255 still counts right
+    assert np.array_equal(lbp_ri36(img, thr), lbp_ri36_reference(img, thr))
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.uint8, (16, 20), elements=st.sampled_from([0, 255])))
+def test_blobs_chain_codes_are_each_contours_own(mask: np.ndarray) -> None:
+    # blobs() codes every contour in one pass; each must be chain_code of that contour alone
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    want = {(int(c[0, 0, 0]), int(c[0, 0, 1])): chain_code(c) if len(c) > 1 else [] for c in contours}
+    for b in blobs(mask, min_area_px=0.0):
+        assert list(b.codes) == want[b.start]
+        assert b.perimeter_px == pytest.approx(chain_perimeter(list(b.codes)) + 4.0)
+
+
 def test_chain_codes_of_a_known_square() -> None:
     # border pixels of a 3x3 square, clockwise on screen from its top-left pixel
     contour = np.array([[1, 1], [2, 1], [3, 1], [3, 2], [3, 3], [2, 3], [1, 3], [1, 2]])
