@@ -83,9 +83,10 @@ def _engine(engine: str, workers: int, p: SweepPlan, out: Path) -> tuple[float, 
 
 def _pairs(engine: str, p: SweepPlan, pairs: int, out: Path) -> list[tuple[float, float]]:
     """(through the engine, in the loop) wall times of one run, pair by pair, on an engine with
-    one worker kept up; which goes first alternates."""
+    one worker kept up (its first run, a warm-up, not counted); which goes first alternates."""
     got: list[tuple[float, float]] = []
     with local_cluster(1) if engine == "LocalCluster" else scheduler_processes(1) as address:
+        _checked(run_sweep(p, out / f"pair-{engine.split()[0]}-warm-up", scheduler=address, plots=False), engine)
         for i in range(pairs):
             walls: dict[str, float] = {}
             for side in ("engine", "loop") if i % 2 == 0 else ("loop", "engine"):
@@ -108,7 +109,7 @@ def _quartiles(values: list[float]) -> list[float]:
     """First and third quartiles (both the one value, of one)."""
     if len(values) < 2:
         return values * 2
-    q = statistics.quantiles(values, n=4)
+    q = statistics.quantiles(values, n=4, method="inclusive")  # within the data, for few values
     return [q[0], q[2]]
 
 

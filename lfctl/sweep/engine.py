@@ -326,16 +326,21 @@ def _local_cluster(n_workers: int) -> Any:
 
 @contextlib.contextmanager
 def local_cluster(n_workers: int) -> Iterator[str]:
-    """The ``LocalCluster`` a sweep starts, kept up across sweeps: yields its scheduler's
-    address (for ``run_sweep(..., scheduler=address)``) and closes it on exit.
+    """The ``LocalCluster`` a sweep starts (its workers ignore Ctrl-C), kept up across
+    sweeps: yields its scheduler's address (for ``run_sweep(..., scheduler=address)``) and
+    closes it on exit.
 
     Parameters
     ----------
     n_workers : int
         Worker processes, one thread each.
     """
+    from distributed import Client
+
     cluster = _local_cluster(n_workers)
     try:
+        with Client(cluster) as client:
+            client.register_plugin(_IgnoreSigint())  # kept by the scheduler for every worker
         yield str(cluster.scheduler_address)
     finally:
         cluster.close()

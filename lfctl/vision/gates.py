@@ -9,9 +9,10 @@ the target is in plain view. So the gate is learnt per target, from two measurem
   of the target's size around it (the median: one neighbour may be more of the target);
   what "not the target" looks like here;
 - ``typical``: the distance of the accepted windows over the first frames (their median).
-  The reference histogram itself follows the target (the tracker blends the windows it
-  accepts into it, weighted by :meth:`DistanceGate.teach_weight`), so the distance the target
-  keeps from it stays near this.
+  The reference histogram itself follows the target (the tracker blends confident windows
+  into it, and for a target followed by its colours alone the other accepted ones too,
+  weighted by :meth:`DistanceGate.teach_weight`), so the distance the target keeps from it
+  stays near this.
 
 A window is the target when its distance is nearer the typical than the background one:
 ``d < (typical + background) / 2``, the two-class threshold for classes of equal spread.
@@ -138,8 +139,8 @@ class DistanceGate:
         return d < (self.reentry_threshold if reentry else self.threshold)
 
     def confident(self, d: float) -> bool:
-        """Whether ``d`` is near enough the typical distance for the window to teach the model
-        (nearer the typical than the threshold; never while still learning).
+        """Whether ``d`` is near enough the typical distance for the window to teach the model in
+        full (nearer the typical than the threshold; never while still learning).
 
         Parameters
         ----------
@@ -151,30 +152,29 @@ class DistanceGate:
     def teach_weight(self, d: float) -> float:
         """How much an accepted window at colour distance ``d`` teaches the model, 0..1: all of
         it while :meth:`confident`, then less the nearer ``d`` is to :attr:`threshold`, nothing
-        at or past it (and nothing while still learning).
+        at or past it (and nothing while still learning). The tracker uses it for a target
+        followed by its colours alone (a banner's markers relearn its look instead).
 
-        A target followed by its colours alone has no other way to follow its own look as it
-        changes (light, pose, a video coder's colour), and a window between the confident
-        level and the threshold is still the target (the gate accepted it). Taught nothing
-        there, the model keeps the first frames' look while the target drifts from it: a shirt
-        print in 176 x 144 video, lit cyan, has a saturation of 145 on frame 0 and 83-122 on
-        frames 8-30; from frame 7 its windows sat at 0.48-0.55, never confident again, and its
-        labelled box went 0.50-0.64 from the model on frames 14-24, past the gate (0.56), as
-        the camera panned; it was called hidden for 14 frames. Taught less the nearer the
-        threshold, a window that is partly something else (an occluder coming in, a window
-        slid off the target) teaches little.
+        Such a target has no other way to follow its own look as it changes (light, pose, a
+        video coder's colour), and a window between the confident level and the threshold is
+        still the target (the gate accepted it). Taught only by confident windows, the model
+        keeps the first frames' look while the target drifts from it until the gate refuses
+        it in plain view (a printed shirt under cyan light whose saturation fell from 145 to
+        83-122). Taught less the nearer the threshold, a window that is partly something else
+        (an occluder coming in, a window slid off the target) teaches little.
 
         Parameters
         ----------
         d : float
             The window's colour distance to the model (0..1).
         """
-        if self.typical is None:
+        if self.typical is None or d >= self.threshold:
             return 0.0
         sure = 0.5 * (self.typical + self.threshold)  # the confident level
-        if d <= sure:
+        span = self.threshold - sure
+        if d <= sure or span <= 0.0:
             return 1.0
-        return max(0.0, min(1.0, (self.threshold - d) / (self.threshold - sure)))
+        return (self.threshold - d) / span
 
     def observe(self, d: float) -> None:
         """Learn from the distance of a window the track accepted.

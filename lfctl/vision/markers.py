@@ -395,7 +395,7 @@ def refine(
     return Constellation(refined + np.array(origin, float), c.blobs, c.score)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)  # keyed on a float tolerance: bounded
 def _refine_tables(target: int, tolerance_deg: float, s_floor: int) -> tuple[np.ndarray, np.ndarray]:
     """:func:`refine_centre`'s per-pixel weights as two 256-entry tables (a marker is a few
     pixels: a table look-up costs a third of the image operations it replaces): hue (OpenCV's

@@ -8,6 +8,7 @@ worker are rows, and do not stop the sweep."""
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -207,6 +208,7 @@ def test_workers_lfctl_starts_leave_out_what_feeds_only_the_dashboard() -> None:
     with local_cluster(1) as address, Client(address) as client:
         assert list(client.run(settings).values()) == [("1s", False)]
         assert list(client.nthreads().values()) == [1]
+        assert list(client.run(lambda: signal.getsignal(signal.SIGINT) is signal.SIG_IGN).values()) == [True]
     with pytest.raises(OSError):
         Client(address, timeout="1s")
 

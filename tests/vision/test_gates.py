@@ -45,6 +45,10 @@ def test_an_accepted_window_teaches_the_model_less_the_nearer_the_threshold() ->
     assert gate.teach_weight(0.4) == pytest.approx(0.1 / 0.15)  # (0.5 - 0.4) / (0.5 - 0.35)
     assert gate.teach_weight(0.47) == pytest.approx(0.2)  # 0.03 / 0.15
     assert gate.teach_weight(0.5) == gate.teach_weight(0.7) == 0.0  # refused: teaches nothing
+    # a typical distance at the background one (no accepted window could give it): no division
+    flat = DistanceGate(background=0.4, learn_frames=1)
+    flat.observe(0.4)
+    assert flat.teach_weight(0.39) == 1.0 and flat.teach_weight(0.41) == 0.0
 
 
 def test_separating_level_is_youdens_cut() -> None:
