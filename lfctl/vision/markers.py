@@ -401,14 +401,12 @@ def _refine_tables(target: int, tolerance_deg: float, s_floor: int) -> tuple[np.
     pixels: a table look-up costs a third of the image operations it replaces): hue (OpenCV's
     0..179, ``target`` its value) -> 255 within ``tolerance_deg`` on the circle, else 0;
     saturation -> how far it is above ``s_floor`` (0 below)."""
-    levels = np.arange(256, dtype=np.uint8)[None, :]
-    off = cv2.absdiff(levels, np.full_like(levels, target))
-    off = cv2.min(off, cv2.subtract(np.full_like(off, 180), off))  # hue is circular (0..179)
-    on_hue = cv2.compare(off, tolerance_deg / 2.0, cv2.CMP_LE)
-    over_floor = cv2.subtract(levels, np.full_like(levels, s_floor))
+    on_hue = np.where(_hue_off_table(target) <= tolerance_deg, 255, 0).astype(np.uint8)
+    levels = np.arange(256, dtype=np.uint8)
+    over_floor = cv2.subtract(levels, np.full_like(levels, s_floor)).ravel()
     for table in (on_hue, over_floor):
         table.flags.writeable = False  # shared by every call
-    return on_hue.ravel(), over_floor.ravel()
+    return on_hue, over_floor
 
 
 def refine_centre(
