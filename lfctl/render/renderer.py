@@ -233,6 +233,40 @@ class Renderer:
         self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
         self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
         self._ground_bands = self._ground_band_levels()
+        self._init_ground_bands()
+
+    def _init_ground_bands(self) -> None:
+        """What :meth:`_paint_ground` needs per band that never changes, built once: the
+        matrices :func:`_band_homography` multiplies the floor's homography by (stacked, so
+        one matmul does every band, item by item as the 3 x 3 products did), the band's
+        middle pixel, the level's tile and its period, and the layer's rows. The layer itself
+        is reused frame after frame (it never leaves the renderer): the floor's warps write
+        every pixel of their rows, so only the other rows are copied from the sky."""
+        w, h = self._half_size
+        bands = self._ground_bands
+        self._layer = self._sky_half.copy()
+        self._band_shift = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]] for r0, _r1, _l in bands])
+        self._band_to_level = np.array(
+            [
+                [[2**lv, 0.0, (2**lv - 1) / 2.0], [0.0, 2**lv, (2**lv - 1) / 2.0], [0.0, 0.0, 1.0]]
+                for _r0, _r1, lv in bands
+            ]
+        )
+        self._band_mid = np.array([[[w / 2.0], [(r1 - r0) / 2.0], [1.0]] for r0, r1, _l in bands])
+        self._band_paint = [
+            (
+                self._ground_tiles[lv],
+                self._ground_levels[lv].shape[1],
+                self._ground_levels[lv].shape[0],
+                self._layer[r0:r1],
+            )
+            for r0, r1, lv in bands
+        ]
+        covered = np.zeros(h, bool)
+        for r0, r1, _l in bands:
+            covered[r0:r1] = True
+        edges = np.flatnonzero(np.diff(np.concatenate([[False], ~covered, [False]]).astype(np.int8)))
+        self._sky_rows = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
     # -- static parts -------------------------------------------------------------------
     def _sky_image(self) -> np.ndarray:
@@ -288,25 +322,26 @@ class Renderer:
         return P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
     def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
-        """Draw the floor into the half-resolution background layer, band by band."""
+        """Draw the floor into the half-resolution background layer, band by band.
+
+        ``layer`` must be ``self._layer`` (the bands' views into it are built once). Every
+        band's homography, the texel under its middle pixel and the shift to the middle tile
+        are computed for all bands at once, with the same 3 x 3 products and solves as one
+        band at a time (the warps see bit-identical matrices)."""
+        if not self._band_paint:
+            return
         Hg = self._ground_homography(self._half_K, R, c)
+        Ms = self._band_shift @ Hg @ self._band_to_level  # _band_homography of every band
+        # move by whole texture periods so the floor seen mid-band is in the middle tile
+        q = np.linalg.solve(Ms, self._band_mid)[:, :, 0].tolist()
+        shifts = np.tile(np.eye(3), (len(q), 1, 1))
+        for k, ((qx, qy, qw), (_tile, pw, ph, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
+            shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
+            shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
+        Ms = Ms @ shifts
         w = layer.shape[1]
-        for r0, r1, level in self._ground_bands:
-            M = _band_homography(Hg, r0, level)
-            # move by whole texture periods so the floor seen mid-band is in the middle tile
-            q = np.linalg.solve(M, np.array([w / 2.0, (r1 - r0) / 2.0, 1.0]))
-            ph, pw = self._ground_levels[level].shape[:2]
-            kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
-            ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
-            M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
-            cv2.warpPerspective(
-                self._ground_tiles[level],
-                M,
-                (w, r1 - r0),
-                dst=layer[r0:r1],
-                flags=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_WRAP,
-            )
+        for M, (tile, _pw, _ph, dst) in zip(Ms, self._band_paint, strict=True):
+            cv2.warpPerspective(tile, M, (w, dst.shape[0]), dst=dst, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
 
     def _texture_to_roi(
         self, plane: Plane, R: np.ndarray, c: np.ndarray, K: np.ndarray, x0: int, y0: int
@@ -502,7 +537,9 @@ class Renderer:
         if self.realism:
             return self._render_real(t_s, follower, others, target_index, follower_name, yaw_rate_radps)
         R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
-        layer = self._sky_half.copy()
+        layer = self._layer
+        for r0, r1 in self._sky_rows:
+            layer[r0:r1] = self._sky_half[r0:r1]
         self._paint_ground(layer, R, c)
         target = others[target_index]
         items: list[tuple[float, Plane, str]] = []
