@@ -19,6 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -74,12 +75,19 @@ def _pixel_box(poly: np.ndarray, shape: tuple[int, ...]) -> tuple[int, int, int,
     """The pixels (x0, y0, x1, y1; x1, y1 exclusive) an image polygon covers inside an image
     of ``shape``, or None when it covers none."""
     H_img, W_img = shape[:2]
-    x0, y0 = np.floor(poly.min(axis=0)).astype(int)
-    x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
-    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
+    lo, hi = poly.min(axis=0).tolist(), poly.max(axis=0).tolist()
+    x0, y0 = max(math.floor(lo[0]), 0), max(math.floor(lo[1]), 0)
+    x1, y1 = min(math.ceil(hi[0]), W_img), min(math.ceil(hi[1]), H_img)
     if x1 <= x0 or y1 <= y0:
         return None
-    return int(x0), int(y0), int(x1), int(y1)
+    return x0, y0, x1, y1
+
+
+def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    """|a - b| of two 3-vectors exactly as np.linalg.norm computes it (the square root of
+    the difference's dot product with itself), without its ~3 us of checks."""
+    d = a - b
+    return math.sqrt(d.dot(d))
 
 
 def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -111,6 +119,19 @@ class Plane:
     @cached_property
     def centre(self) -> np.ndarray:
         return self.corners.mean(axis=0)
+
+    @cached_property
+    def texel_m(self) -> float:
+        """The longer side of a texel, m (kept with the plane: a static prop's is reused)."""
+        return max(float(np.linalg.norm(self.ax)), float(np.linalg.norm(self.ay)))
+
+
+class _Face(NamedTuple):
+    """A flat-shaded box face: its world corners (4, 3) as :attr:`Plane.corners` lays them
+    out, and its colour."""
+
+    corners: np.ndarray
+    colour: tuple[int, int, int]
 
 
 # ---------------------------------------------------------------------------------------
@@ -187,6 +208,7 @@ class Renderer:
         self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._pyramids: dict[int, list[np.ndarray]] = {}
         self._undistort_maps = None
+        self._static_props: dict[tuple[int, float], Plane] = {}  # see _props
         w, h = camera.width_px, camera.height_px
         if abs(camera.k1) > 0 or abs(camera.k2) > 0:
             # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
@@ -350,24 +372,31 @@ class Renderer:
         from it to the image region whose top-left is (x0, y0): K [R ax, R ay, R (o - c)],
         shifted to the region."""
         tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
-        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
+        cols = np.empty((3, 3))  # as np.column_stack lays them out (C order), at a tenth of its cost
+        cols[:, 0], cols[:, 1], cols[:, 2] = R @ ax, R @ ay, R @ (origin - c)
+        Hp = K @ cols
         return tex, np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
 
     def _paint_plane(
-        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane, K: np.ndarray
+        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane | _Face, K: np.ndarray
     ) -> np.ndarray | None:
-        """Warp a plane into ``img`` (intrinsics ``K``); returns its image polygon (or None if not visible)."""
+        """Warp a plane (or fill a face) into ``img`` (intrinsics ``K``); returns its image
+        polygon (or None if not visible)."""
         cam_pts = self._project(R, c, plane.corners)
-        clipped = _clip_near(cam_pts)
-        if len(clipped) < 3:
-            return None
+        if (cam_pts[:, 2] >= NEAR_M).all():
+            # what _clip_near gives for it (its rows, C-ordered), without its loop
+            clipped = np.ascontiguousarray(cam_pts)
+        else:
+            clipped = _clip_near(cam_pts)
+            if len(clipped) < 3:
+                return None
         uv = (K @ clipped.T).T
         poly = uv[:, :2] / uv[:, 2:3]
         box = _pixel_box(poly, img.shape)
         if box is None:
             return None
         x0, y0, x1, y1 = box
-        if plane.texture is None:
+        if isinstance(plane, _Face) or plane.texture is None:
             cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], plane.colour, cv2.LINE_AA, shift=4)
             return poly
         sub = img[y0:y1, x0:x1]
@@ -395,7 +424,7 @@ class Renderer:
         depth = float((R @ (centre - c))[2])
         if depth <= NEAR_M:
             return plane.texture, plane.ax, plane.ay, plane.origin
-        texel_px = fx * max(float(np.linalg.norm(plane.ax)), float(np.linalg.norm(plane.ay))) / depth
+        texel_px = fx * plane.texel_m / depth
         level = 0
         while texel_px * (2 ** (level + 1)) <= 1.0 and level < 4:
             level += 1
@@ -412,19 +441,23 @@ class Renderer:
         origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
         return pyr[level], plane.ax * k, plane.ay * k, origin
 
-    def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane, str]]:
+    def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane | _Face, str]]:
         """The vehicle's box faces (flat shaded) and banner that face the camera at ``c``, with distances."""
         Rz = rot_z(v.yaw_rad)
         pts = np.array([v.north_m, v.east_m, 0.0]) + _BOX_FACES @ Rz.T  # (5, 4, 3) world corners
         centres = pts.mean(axis=1)
         outward = _BOX_NORMALS @ Rz.T
         # back-face culling: a face is seen only from the side its outward normal points to
-        facing = np.einsum("ij,ij->i", outward, c - centres) > 0
-        dist = np.linalg.norm(centres - c, axis=1)
-        out = []
-        for k in np.flatnonzero(facing):
-            p = pts[k]
-            out.append((float(dist[k]), Plane(p[0], p[1] - p[0], p[3] - p[0], None, _BOX_COLOURS[k]), _BOX_NAMES[k]))
+        facing = (np.einsum("ij,ij->i", outward, c - centres) > 0).tolist()
+        dist = np.linalg.norm(centres - c, axis=1).tolist()
+        # every face's corners as Plane(p0, p1 - p0, p3 - p0).corners computes them (the same
+        # sums, element by element, all faces at once)
+        o = pts[:, 0]
+        ax, ay = pts[:, 1] - o, pts[:, 3] - o
+        corners = np.stack([o, o + ax, o + ax + ay, o + ay], axis=1)
+        out: list[tuple[float, Plane | _Face, str]] = [
+            (dist[k], _Face(corners[k], _BOX_COLOURS[k]), _BOX_NAMES[k]) for k in range(len(facing)) if facing[k]
+        ]
         if v.banner:
             centre, right, down = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
             if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
@@ -434,7 +467,7 @@ class Renderer:
                 px = self.banner.panel_size_m / size
                 # 1 cm nearer than the back face it is mounted on, so it is painted after it
                 plane = Plane(origin, right * px, down * px, self.banner_tex)
-                out.append((float(np.linalg.norm(plane.centre - c)) - 0.01, plane, "banner"))
+                out.append((_distance(plane.centre, c) - 0.01, plane, "banner"))
         return out
 
     def _occluders(self, t_s: float, follower: VehiclePose, target: VehiclePose, follower_name: str) -> list[Plane]:
@@ -469,15 +502,29 @@ class Renderer:
         return planes
 
     def _props(self, t_s: float) -> list[Plane]:
+        """The props' panels at ``t_s``. A prop that does not move gives the same plane every
+        frame (its position plus a zero: the sign of that zero, which follows t's, is the
+        only thing t can change), so it is built once per sign and kept with its cached
+        corners, centre and texel size."""
         planes = []
-        for p, tex in zip(self.scene.props, self.prop_tex, strict=True):
+        sign = math.copysign(1.0, t_s) if math.isfinite(t_s) else None
+        for i, (p, tex) in enumerate(zip(self.scene.props, self.prop_tex, strict=True)):
+            key = (i, sign) if sign is not None and p.vel_north_mps == 0.0 and p.vel_east_mps == 0.0 else None
+            if key is not None:
+                kept = self._static_props.get(key)
+                if kept is not None:
+                    planes.append(kept)
+                    continue
             n, e = p.north_m + p.vel_north_mps * t_s, p.east_m + p.vel_east_mps * t_s
             # panel plane: normal along yaw; texture x runs to the right of a viewer facing it
             normal = np.array([math.cos(p.yaw_rad), math.sin(p.yaw_rad), 0.0])
             right = np.array([-normal[1], normal[0], 0.0])  # viewer faces -normal; their right
             h, w = tex.shape[:2]
             origin = np.array([n, e, -(p.base_m + p.height_m)]) - right * p.width_m / 2
-            planes.append(Plane(origin, right * p.width_m / w, np.array([0.0, 0.0, p.height_m / h]), tex))
+            plane = Plane(origin, right * p.width_m / w, np.array([0.0, 0.0, p.height_m / h]), tex)
+            if key is not None:
+                self._static_props[key] = plane
+            planes.append(plane)
         return planes
 
     # -- lighting -----------------------------------------------------------------------
@@ -542,14 +589,14 @@ class Renderer:
             layer[r0:r1] = self._sky_half[r0:r1]
         self._paint_ground(layer, R, c)
         target = others[target_index]
-        items: list[tuple[float, Plane, str]] = []
+        items: list[tuple[float, Plane | _Face, str]] = []
         for p in self._props(t_s):
-            items.append((float(np.linalg.norm(p.centre - c)), p, "prop"))
+            items.append((_distance(p.centre, c), p, "prop"))
         for i, v in enumerate(others):
             for dist, plane, name in self._vehicle_faces(v, c):
                 items.append((dist, plane, "target" if (name == "banner" and i == target_index) else name))
         for p in self._occluders(t_s, follower, target, follower_name):
-            items.append((float(np.linalg.norm(p.centre - c)), p, "occluder"))
+            items.append((_distance(p.centre, c), p, "occluder"))
         items.sort(key=lambda x: -x[0])
         # props farther than every vehicle and occluder are background: into the layer
         n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))
@@ -579,17 +626,20 @@ class Renderer:
         return img, truth
 
     def _apply_light(self, img: np.ndarray, t_s: float) -> np.ndarray:
-        gain, tint = self.light(t_s)
-        if gain != 1.0 or np.any(tint != 1.0):
-            img = cv2.transform(img, np.diag(gain * tint).astype(np.float32))
+        """The global gain and tint, then the sweeping shadow band (darkened in place)."""
         sc = self.scene
+        if sc.lighting or (sc.flicker_amplitude > 0 and sc.flicker_hz > 0):  # else gain 1, tint 1
+            gain, tint = self.light(t_s)
+            if gain != 1.0 or np.any(tint != 1.0):
+                img = cv2.transform(img, np.diag(gain * tint).astype(np.float32))
         if sc.shadow_gain < 1.0:
             w = img.shape[1]
             band = w // 4
             x0 = int(((t_s % sc.shadow_period_s) / sc.shadow_period_s) * (w + band)) - band
             a, b = max(0, x0), min(w, x0 + band)
             if b > a:
-                img[:, a:b] = cv2.convertScaleAbs(img[:, a:b], alpha=sc.shadow_gain)
+                cols = img[:, a:b]
+                cv2.convertScaleAbs(cols, dst=cols, alpha=sc.shadow_gain)
         return img
 
     def _truth(
