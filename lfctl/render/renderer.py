@@ -83,6 +83,12 @@ def _pixel_box(poly: np.ndarray, shape: tuple[int, ...]) -> tuple[int, int, int,
     return x0, y0, x1, y1
 
 
+def _mean(a: np.ndarray, axis: int) -> np.ndarray:
+    """``a.mean(axis)`` as numpy computes it for floats (np.add.reduce, then a division by
+    the count), without its ~5 us of Python around the two calls."""
+    return np.add.reduce(a, axis=axis) / a.shape[axis]
+
+
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
     """|a - b| of two 3-vectors exactly as np.linalg.norm computes it (the square root of
     the difference's dot product with itself), without its ~3 us of checks."""
@@ -118,7 +124,7 @@ class Plane:
 
     @cached_property
     def centre(self) -> np.ndarray:
-        return self.corners.mean(axis=0)
+        return _mean(self.corners, 0)
 
     @cached_property
     def texel_m(self) -> float:
@@ -209,6 +215,7 @@ class Renderer:
         self._pyramids: dict[int, list[np.ndarray]] = {}
         self._undistort_maps = None
         self._static_props: dict[tuple[int, float], Plane] = {}  # see _props
+        self._last_banner_frame: tuple[VehiclePose, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
         w, h = camera.width_px, camera.height_px
         if abs(camera.k1) > 0 or abs(camera.k2) > 0:
             # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
@@ -274,6 +281,7 @@ class Renderer:
                 for _r0, _r1, lv in bands
             ]
         )
+        self._band_eye = np.array([np.eye(3)] * len(bands)).reshape(len(bands), 3, 3)
         self._band_mid = np.array([[[w / 2.0], [(r1 - r0) / 2.0], [1.0]] for r0, r1, _l in bands])
         self._band_paint = [
             (
@@ -340,8 +348,10 @@ class Renderer:
         """Level-0 ground texture pixel -> image pixel through camera matrix ``K``."""
         s = self.ground_px_per_m
         # texture pixel (a, b) of level 0 is the world point (a / s, b / s, 0)
-        P = K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
-        return P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        Rt = np.empty((3, 4))  # [R | -R c], C-ordered as np.hstack made it
+        Rt[:, :3] = R
+        Rt[:, 3] = -R @ c
+        return (K @ Rt) @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
     def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
         """Draw the floor into the half-resolution background layer, band by band.
@@ -356,7 +366,7 @@ class Renderer:
         Ms = self._band_shift @ Hg @ self._band_to_level  # _band_homography of every band
         # move by whole texture periods so the floor seen mid-band is in the middle tile
         q = np.linalg.solve(Ms, self._band_mid)[:, :, 0].tolist()
-        shifts = np.tile(np.eye(3), (len(q), 1, 1))
+        shifts = self._band_eye.copy()
         for k, ((qx, qy, qw), (_tile, pw, ph, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
             shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
             shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
@@ -441,25 +451,41 @@ class Renderer:
         origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
         return pyr[level], plane.ax * k, plane.ay * k, origin
 
+    def _banner_frame(self, v: VehiclePose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The banner's centre, right and down of vehicle ``v`` (geometry.frame_ned), kept for
+        the last vehicle asked: the target's is wanted twice a frame, for its plane and its
+        truth (the same pose object, which is frozen)."""
+        last = self._last_banner_frame
+        if last is not None and last[0] is v:
+            return last[1]
+        frame = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
+        self._last_banner_frame = (v, frame)
+        return frame
+
     def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane | _Face, str]]:
         """The vehicle's box faces (flat shaded) and banner that face the camera at ``c``, with distances."""
         Rz = rot_z(v.yaw_rad)
         pts = np.array([v.north_m, v.east_m, 0.0]) + _BOX_FACES @ Rz.T  # (5, 4, 3) world corners
-        centres = pts.mean(axis=1)
+        centres = _mean(pts, 1)
         outward = _BOX_NORMALS @ Rz.T
         # back-face culling: a face is seen only from the side its outward normal points to
         facing = (np.einsum("ij,ij->i", outward, c - centres) > 0).tolist()
-        dist = np.linalg.norm(centres - c, axis=1).tolist()
+        d = centres - c
+        dist = np.sqrt(np.add.reduce(d * d, axis=1)).tolist()  # np.linalg.norm(d, axis=1)'s own sums
         # every face's corners as Plane(p0, p1 - p0, p3 - p0).corners computes them (the same
         # sums, element by element, all faces at once)
         o = pts[:, 0]
         ax, ay = pts[:, 1] - o, pts[:, 3] - o
-        corners = np.stack([o, o + ax, o + ax + ay, o + ay], axis=1)
+        corners = np.empty((len(pts), 4, 3))
+        corners[:, 0] = o
+        corners[:, 1] = o + ax
+        corners[:, 2] = o + ax + ay
+        corners[:, 3] = o + ay
         out: list[tuple[float, Plane | _Face, str]] = [
             (dist[k], _Face(corners[k], _BOX_COLOURS[k]), _BOX_NAMES[k]) for k in range(len(facing)) if facing[k]
         ]
         if v.banner:
-            centre, right, down = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
+            centre, right, down = self._banner_frame(v)
             if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
                 size = self.banner_tex.shape[0]
                 half = self.banner.panel_size_m / 2
@@ -653,7 +679,7 @@ class Renderer:
         nearer: list[np.ndarray],
     ) -> FrameTruth:
         K = self.cam.K
-        centre, _right, _down = self.geometry.frame_ned(target.north_m, target.east_m, target.yaw_rad)
+        centre, _right, _down = self._banner_frame(target)
         marks_w = self.geometry.markers_ned(target.north_m, target.east_m, target.yaw_rad)
         cam = (R @ (marks_w - c).T).T
         with np.errstate(divide="ignore", invalid="ignore"):
