@@ -374,13 +374,12 @@ class Renderer:
         Rt[:, 3] = -R @ c
         return (K @ Rt) @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
-    def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
-        """Draw the floor into the half-resolution background layer, band by band.
-
-        ``layer`` must be ``self._layer`` (the bands' views into it are built once). Every
-        band's homography, the texel under its middle pixel and the shift to the middle tile
-        are computed for all bands at once, with the same 3 x 3 products and solves as one
-        band at a time (the warps see bit-identical matrices)."""
+    def _paint_ground(self, R: np.ndarray, c: np.ndarray) -> None:
+        """Draw the floor into the half-resolution background layer (``self._layer``, which
+        the bands' views built once look into), band by band. Every band's homography, the
+        texel under its middle pixel and the shift to the middle tile are computed for all
+        bands at once, with the same 3 x 3 products and solves as one band at a time (the
+        warps see bit-identical matrices)."""
         if not self._band_paint:
             return
         Hg = self._ground_homography(self._half_K, R, c)
@@ -392,7 +391,7 @@ class Renderer:
             shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
             shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
         Ms = Ms @ shifts
-        w = layer.shape[1]
+        w = self._layer.shape[1]
         for M, (tile, _pw, _ph, dst) in zip(Ms, self._band_paint, strict=True):
             cv2.warpPerspective(tile, M, (w, dst.shape[0]), dst=dst, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
 
@@ -634,7 +633,7 @@ class Renderer:
         layer = self._layer
         for r0, r1 in self._sky_rows:
             layer[r0:r1] = self._sky_half[r0:r1]
-        self._paint_ground(layer, R, c)
+        self._paint_ground(R, c)
         target = others[target_index]
         items: list[tuple[float, Plane | _Face, str]] = []
         for p in self._props(t_s):

@@ -71,7 +71,7 @@ def test_the_floors_stacked_bands_are_the_band_by_band_floor(camera: CameraConfi
         r._layer[:] = 7 * (k % 2)  # whatever the last frame left
         for r0, r1 in r._sky_rows:
             r._layer[r0:r1] = r._sky_half[r0:r1]
-        r._paint_ground(r._layer, R, c)
+        r._paint_ground(R, c)
         assert np.array_equal(r._layer, reference_ground(r, R, c))
 
 
