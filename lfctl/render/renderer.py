@@ -19,6 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -74,12 +75,44 @@ def _pixel_box(poly: np.ndarray, shape: tuple[int, ...]) -> tuple[int, int, int,
     """The pixels (x0, y0, x1, y1; x1, y1 exclusive) an image polygon covers inside an image
     of ``shape``, or None when it covers none."""
     H_img, W_img = shape[:2]
-    x0, y0 = np.floor(poly.min(axis=0)).astype(int)
-    x1, y1 = np.ceil(poly.max(axis=0)).astype(int)
+    x0, y0, x1, y1 = _poly_bounds(poly)
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
     if x1 <= x0 or y1 <= y0:
         return None
-    return int(x0), int(y0), int(x1), int(y1)
+    return x0, y0, x1, y1
+
+
+_INT_SAFE = 2.0**62  # image coordinates well inside int64, where math.floor and numpy's astype(int) agree
+
+
+def _poly_bounds(poly: np.ndarray) -> tuple[int, int, int, int]:
+    """The floor of an image polygon's least x and y and the ceiling of its greatest, as
+    ``np.floor(poly.min(axis=0)).astype(int)`` (and ceil of max) give them, in a third of
+    the time for the few corners a plane has. Polygons with a non-finite coordinate take
+    numpy's own path (its NaN-propagating min and its conversion of those to int), and so
+    do coordinates beyond int64's range, which numpy's conversion does not keep."""
+    xs, ys = poly.T.tolist()
+    if math.isfinite(sum(xs) + sum(ys)):
+        lx, ly, hx, hy = min(xs), min(ys), max(xs), max(ys)
+        if max(-lx, -ly, hx, hy) < _INT_SAFE:
+            return math.floor(lx), math.floor(ly), math.ceil(hx), math.ceil(hy)
+    with np.errstate(invalid="ignore"):
+        x0, y0 = np.floor(poly.min(axis=0)).astype(int).tolist()
+        x1, y1 = np.ceil(poly.max(axis=0)).astype(int).tolist()
+    return x0, y0, x1, y1
+
+
+def _mean(a: np.ndarray, axis: int) -> np.ndarray:
+    """``a.mean(axis)`` as numpy computes it for floats (np.add.reduce, then a division by
+    the count), without its ~5 us of Python around the two calls."""
+    return np.add.reduce(a, axis=axis) / a.shape[axis]
+
+
+def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    """|a - b| of two 3-vectors exactly as np.linalg.norm computes it (the square root of
+    the difference's dot product with itself), without its ~3 us of checks."""
+    d = a - b
+    return math.sqrt(d.dot(d))
 
 
 def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -106,11 +139,26 @@ class Plane:
         """World corners (4, 3): origin, along x, opposite, along y."""
         h, w = (self.texture.shape[:2]) if self.texture is not None else (1, 1)
         o, ax, ay = self.origin, self.ax * w, self.ay * h
-        return np.array([o, o + ax, o + ax + ay, o + ay])
+        out = np.empty((4, 3))  # np.array([o, o + ax, o + ax + ay, o + ay]) without its list walk
+        out[0], out[1], out[2], out[3] = o, o + ax, o + ax + ay, o + ay
+        return out
 
     @cached_property
     def centre(self) -> np.ndarray:
-        return self.corners.mean(axis=0)
+        return _mean(self.corners, 0)
+
+    @cached_property
+    def texel_m(self) -> float:
+        """The longer side of a texel, m (kept with the plane: a static prop's is reused)."""
+        return max(float(np.linalg.norm(self.ax)), float(np.linalg.norm(self.ay)))
+
+
+class _Face(NamedTuple):
+    """A flat-shaded box face: its world corners (4, 3) as :attr:`Plane.corners` lays them
+    out, and its colour."""
+
+    corners: np.ndarray
+    colour: tuple[int, int, int]
 
 
 # ---------------------------------------------------------------------------------------
@@ -187,6 +235,8 @@ class Renderer:
         self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._pyramids: dict[int, list[np.ndarray]] = {}
         self._undistort_maps = None
+        self._static_props: dict[tuple[int, float], Plane] = {}  # see _props
+        self._last_banner_frame: tuple[VehiclePose, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
         w, h = camera.width_px, camera.height_px
         if abs(camera.k1) > 0 or abs(camera.k2) > 0:
             # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
@@ -233,6 +283,41 @@ class Renderer:
         self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
         self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
         self._ground_bands = self._ground_band_levels()
+        self._init_ground_bands()
+
+    def _init_ground_bands(self) -> None:
+        """What :meth:`_paint_ground` needs per band that never changes, built once: the
+        matrices :func:`_band_homography` multiplies the floor's homography by (stacked, so
+        one matmul does every band, item by item as the 3 x 3 products did), the band's
+        middle pixel, the level's tile and its period, and the layer's rows. The layer itself
+        is reused frame after frame (it never leaves the renderer): the floor's warps write
+        every pixel of their rows, so only the other rows are copied from the sky."""
+        w, h = self._half_size
+        bands = self._ground_bands
+        self._layer = self._sky_half.copy()
+        self._band_shift = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]] for r0, _r1, _l in bands])
+        self._band_to_level = np.array(
+            [
+                [[2**lv, 0.0, (2**lv - 1) / 2.0], [0.0, 2**lv, (2**lv - 1) / 2.0], [0.0, 0.0, 1.0]]
+                for _r0, _r1, lv in bands
+            ]
+        )
+        self._band_eye = np.array([np.eye(3)] * len(bands)).reshape(len(bands), 3, 3)
+        self._band_mid = np.array([[[w / 2.0], [(r1 - r0) / 2.0], [1.0]] for r0, r1, _l in bands])
+        self._band_paint = [
+            (
+                self._ground_tiles[lv],
+                self._ground_levels[lv].shape[1],
+                self._ground_levels[lv].shape[0],
+                self._layer[r0:r1],
+            )
+            for r0, r1, lv in bands
+        ]
+        covered = np.zeros(h, bool)
+        for r0, r1, _l in bands:
+            covered[r0:r1] = True
+        edges = np.flatnonzero(np.diff(np.concatenate([[False], ~covered, [False]]).astype(np.int8)))
+        self._sky_rows = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
     # -- static parts -------------------------------------------------------------------
     def _sky_image(self) -> np.ndarray:
@@ -284,29 +369,31 @@ class Renderer:
         """Level-0 ground texture pixel -> image pixel through camera matrix ``K``."""
         s = self.ground_px_per_m
         # texture pixel (a, b) of level 0 is the world point (a / s, b / s, 0)
-        P = K @ np.hstack([R, (-R @ c)[:, None]])  # 3x4
-        return P @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        Rt = np.empty((3, 4))  # [R | -R c], C-ordered as np.hstack made it
+        Rt[:, :3] = R
+        Rt[:, 3] = -R @ c
+        return (K @ Rt) @ np.array([[1.0 / s, 0.0, 0.0], [0.0, 1.0 / s, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 
-    def _paint_ground(self, layer: np.ndarray, R: np.ndarray, c: np.ndarray) -> None:
-        """Draw the floor into the half-resolution background layer, band by band."""
+    def _paint_ground(self, R: np.ndarray, c: np.ndarray) -> None:
+        """Draw the floor into the half-resolution background layer (``self._layer``, which
+        the bands' views built once look into), band by band. Every band's homography, the
+        texel under its middle pixel and the shift to the middle tile are computed for all
+        bands at once, with the same 3 x 3 products and solves as one band at a time (the
+        warps see bit-identical matrices)."""
+        if not self._band_paint:
+            return
         Hg = self._ground_homography(self._half_K, R, c)
-        w = layer.shape[1]
-        for r0, r1, level in self._ground_bands:
-            M = _band_homography(Hg, r0, level)
-            # move by whole texture periods so the floor seen mid-band is in the middle tile
-            q = np.linalg.solve(M, np.array([w / 2.0, (r1 - r0) / 2.0, 1.0]))
-            ph, pw = self._ground_levels[level].shape[:2]
-            kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
-            ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
-            M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
-            cv2.warpPerspective(
-                self._ground_tiles[level],
-                M,
-                (w, r1 - r0),
-                dst=layer[r0:r1],
-                flags=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_WRAP,
-            )
+        Ms = self._band_shift @ Hg @ self._band_to_level  # _band_homography of every band
+        # move by whole texture periods so the floor seen mid-band is in the middle tile
+        q = np.linalg.solve(Ms, self._band_mid)[:, :, 0].tolist()
+        shifts = self._band_eye.copy()
+        for k, ((qx, qy, qw), (_tile, pw, ph, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
+            shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
+            shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
+        Ms = Ms @ shifts
+        w = self._layer.shape[1]
+        for M, (tile, _pw, _ph, dst) in zip(Ms, self._band_paint, strict=True):
+            cv2.warpPerspective(tile, M, (w, dst.shape[0]), dst=dst, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
 
     def _texture_to_roi(
         self, plane: Plane, R: np.ndarray, c: np.ndarray, K: np.ndarray, x0: int, y0: int
@@ -315,24 +402,31 @@ class Renderer:
         from it to the image region whose top-left is (x0, y0): K [R ax, R ay, R (o - c)],
         shifted to the region."""
         tex, ax, ay, origin = self._mip_level(plane, R, c, float(K[0, 0]))
-        Hp = K @ np.column_stack([R @ ax, R @ ay, R @ (origin - c)])
+        cols = np.empty((3, 3))  # as np.column_stack lays them out (C order), at a tenth of its cost
+        cols[:, 0], cols[:, 1], cols[:, 2] = R @ ax, R @ ay, R @ (origin - c)
+        Hp = K @ cols
         return tex, np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ Hp
 
     def _paint_plane(
-        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane, K: np.ndarray
+        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, plane: Plane | _Face, K: np.ndarray
     ) -> np.ndarray | None:
-        """Warp a plane into ``img`` (intrinsics ``K``); returns its image polygon (or None if not visible)."""
+        """Warp a plane (or fill a face) into ``img`` (intrinsics ``K``); returns its image
+        polygon (or None if not visible)."""
         cam_pts = self._project(R, c, plane.corners)
-        clipped = _clip_near(cam_pts)
-        if len(clipped) < 3:
-            return None
+        if (cam_pts[:, 2] >= NEAR_M).all():
+            # what _clip_near gives for it (its rows, C-ordered), without its loop
+            clipped = np.ascontiguousarray(cam_pts)
+        else:
+            clipped = _clip_near(cam_pts)
+            if len(clipped) < 3:
+                return None
         uv = (K @ clipped.T).T
         poly = uv[:, :2] / uv[:, 2:3]
         box = _pixel_box(poly, img.shape)
         if box is None:
             return None
         x0, y0, x1, y1 = box
-        if plane.texture is None:
+        if isinstance(plane, _Face) or plane.texture is None:
             cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], plane.colour, cv2.LINE_AA, shift=4)
             return poly
         sub = img[y0:y1, x0:x1]
@@ -360,7 +454,7 @@ class Renderer:
         depth = float((R @ (centre - c))[2])
         if depth <= NEAR_M:
             return plane.texture, plane.ax, plane.ay, plane.origin
-        texel_px = fx * max(float(np.linalg.norm(plane.ax)), float(np.linalg.norm(plane.ay))) / depth
+        texel_px = fx * plane.texel_m / depth
         level = 0
         while texel_px * (2 ** (level + 1)) <= 1.0 and level < 4:
             level += 1
@@ -377,21 +471,41 @@ class Renderer:
         origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
         return pyr[level], plane.ax * k, plane.ay * k, origin
 
-    def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane, str]]:
+    def _banner_frame(self, v: VehiclePose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The banner's centre, right and down of vehicle ``v`` (geometry.frame_ned), kept for
+        the last vehicle asked: the target's is wanted twice a frame, for its plane and its
+        truth (the same pose object, which is frozen)."""
+        last = self._last_banner_frame
+        if last is not None and last[0] is v:
+            return last[1]
+        frame = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
+        self._last_banner_frame = (v, frame)
+        return frame
+
+    def _vehicle_faces(self, v: VehiclePose, c: np.ndarray) -> list[tuple[float, Plane | _Face, str]]:
         """The vehicle's box faces (flat shaded) and banner that face the camera at ``c``, with distances."""
         Rz = rot_z(v.yaw_rad)
         pts = np.array([v.north_m, v.east_m, 0.0]) + _BOX_FACES @ Rz.T  # (5, 4, 3) world corners
-        centres = pts.mean(axis=1)
+        centres = _mean(pts, 1)
         outward = _BOX_NORMALS @ Rz.T
         # back-face culling: a face is seen only from the side its outward normal points to
-        facing = np.einsum("ij,ij->i", outward, c - centres) > 0
-        dist = np.linalg.norm(centres - c, axis=1)
-        out = []
-        for k in np.flatnonzero(facing):
-            p = pts[k]
-            out.append((float(dist[k]), Plane(p[0], p[1] - p[0], p[3] - p[0], None, _BOX_COLOURS[k]), _BOX_NAMES[k]))
+        facing = (np.einsum("ij,ij->i", outward, c - centres) > 0).tolist()
+        d = centres - c
+        dist = np.sqrt(np.add.reduce(d * d, axis=1)).tolist()  # np.linalg.norm(d, axis=1)'s own sums
+        # every face's corners as Plane(p0, p1 - p0, p3 - p0).corners computes them (the same
+        # sums, element by element, all faces at once)
+        o = pts[:, 0]
+        ax, ay = pts[:, 1] - o, pts[:, 3] - o
+        corners = np.empty((len(pts), 4, 3))
+        corners[:, 0] = o
+        corners[:, 1] = o + ax
+        corners[:, 2] = o + ax + ay
+        corners[:, 3] = o + ay
+        out: list[tuple[float, Plane | _Face, str]] = [
+            (dist[k], _Face(corners[k], _BOX_COLOURS[k]), _BOX_NAMES[k]) for k in range(len(facing)) if facing[k]
+        ]
         if v.banner:
-            centre, right, down = self.geometry.frame_ned(v.north_m, v.east_m, v.yaw_rad)
+            centre, right, down = self._banner_frame(v)
             if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
                 size = self.banner_tex.shape[0]
                 half = self.banner.panel_size_m / 2
@@ -399,7 +513,7 @@ class Renderer:
                 px = self.banner.panel_size_m / size
                 # 1 cm nearer than the back face it is mounted on, so it is painted after it
                 plane = Plane(origin, right * px, down * px, self.banner_tex)
-                out.append((float(np.linalg.norm(plane.centre - c)) - 0.01, plane, "banner"))
+                out.append((_distance(plane.centre, c) - 0.01, plane, "banner"))
         return out
 
     def _occluders(self, t_s: float, follower: VehiclePose, target: VehiclePose, follower_name: str) -> list[Plane]:
@@ -434,15 +548,29 @@ class Renderer:
         return planes
 
     def _props(self, t_s: float) -> list[Plane]:
+        """The props' panels at ``t_s``. A prop that does not move gives the same plane every
+        frame (its position plus a zero: the sign of that zero, which follows t's, is the
+        only thing t can change), so it is built once per sign and kept with its cached
+        corners, centre and texel size."""
         planes = []
-        for p, tex in zip(self.scene.props, self.prop_tex, strict=True):
+        sign = math.copysign(1.0, t_s) if math.isfinite(t_s) else None
+        for i, (p, tex) in enumerate(zip(self.scene.props, self.prop_tex, strict=True)):
+            key = (i, sign) if sign is not None and p.vel_north_mps == 0.0 and p.vel_east_mps == 0.0 else None
+            if key is not None:
+                kept = self._static_props.get(key)
+                if kept is not None:
+                    planes.append(kept)
+                    continue
             n, e = p.north_m + p.vel_north_mps * t_s, p.east_m + p.vel_east_mps * t_s
             # panel plane: normal along yaw; texture x runs to the right of a viewer facing it
             normal = np.array([math.cos(p.yaw_rad), math.sin(p.yaw_rad), 0.0])
             right = np.array([-normal[1], normal[0], 0.0])  # viewer faces -normal; their right
             h, w = tex.shape[:2]
             origin = np.array([n, e, -(p.base_m + p.height_m)]) - right * p.width_m / 2
-            planes.append(Plane(origin, right * p.width_m / w, np.array([0.0, 0.0, p.height_m / h]), tex))
+            plane = Plane(origin, right * p.width_m / w, np.array([0.0, 0.0, p.height_m / h]), tex)
+            if key is not None:
+                self._static_props[key] = plane
+            planes.append(plane)
         return planes
 
     # -- lighting -----------------------------------------------------------------------
@@ -502,17 +630,19 @@ class Renderer:
         if self.realism:
             return self._render_real(t_s, follower, others, target_index, follower_name, yaw_rate_radps)
         R, c = self.cam.pose(follower.north_m, follower.east_m, follower.yaw_rad)
-        layer = self._sky_half.copy()
-        self._paint_ground(layer, R, c)
+        layer = self._layer
+        for r0, r1 in self._sky_rows:
+            layer[r0:r1] = self._sky_half[r0:r1]
+        self._paint_ground(R, c)
         target = others[target_index]
-        items: list[tuple[float, Plane, str]] = []
+        items: list[tuple[float, Plane | _Face, str]] = []
         for p in self._props(t_s):
-            items.append((float(np.linalg.norm(p.centre - c)), p, "prop"))
+            items.append((_distance(p.centre, c), p, "prop"))
         for i, v in enumerate(others):
             for dist, plane, name in self._vehicle_faces(v, c):
                 items.append((dist, plane, "target" if (name == "banner" and i == target_index) else name))
         for p in self._occluders(t_s, follower, target, follower_name):
-            items.append((float(np.linalg.norm(p.centre - c)), p, "occluder"))
+            items.append((_distance(p.centre, c), p, "occluder"))
         items.sort(key=lambda x: -x[0])
         # props farther than every vehicle and occluder are background: into the layer
         n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))
@@ -542,17 +672,20 @@ class Renderer:
         return img, truth
 
     def _apply_light(self, img: np.ndarray, t_s: float) -> np.ndarray:
-        gain, tint = self.light(t_s)
-        if gain != 1.0 or np.any(tint != 1.0):
-            img = cv2.transform(img, np.diag(gain * tint).astype(np.float32))
+        """The global gain and tint, then the sweeping shadow band (darkened in place)."""
         sc = self.scene
+        if sc.lighting or (sc.flicker_amplitude > 0 and sc.flicker_hz > 0):  # else gain 1, tint 1
+            gain, tint = self.light(t_s)
+            if gain != 1.0 or np.any(tint != 1.0):
+                img = cv2.transform(img, np.diag(gain * tint).astype(np.float32))
         if sc.shadow_gain < 1.0:
             w = img.shape[1]
             band = w // 4
             x0 = int(((t_s % sc.shadow_period_s) / sc.shadow_period_s) * (w + band)) - band
             a, b = max(0, x0), min(w, x0 + band)
             if b > a:
-                img[:, a:b] = cv2.convertScaleAbs(img[:, a:b], alpha=sc.shadow_gain)
+                cols = img[:, a:b]
+                cv2.convertScaleAbs(cols, dst=cols, alpha=sc.shadow_gain)
         return img
 
     def _truth(
@@ -566,7 +699,7 @@ class Renderer:
         nearer: list[np.ndarray],
     ) -> FrameTruth:
         K = self.cam.K
-        centre, _right, _down = self.geometry.frame_ned(target.north_m, target.east_m, target.yaw_rad)
+        centre, _right, _down = self._banner_frame(target)
         marks_w = self.geometry.markers_ned(target.north_m, target.east_m, target.yaw_rad)
         cam = (R @ (marks_w - c).T).T
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -579,8 +712,7 @@ class Renderer:
         bbox, vis, in_view = None, 0.0, False
         if target_poly is not None:
             W, H = self.cfg.width_px, self.cfg.height_px
-            x0, y0 = np.floor(target_poly.min(axis=0)).astype(int)
-            x1, y1 = np.ceil(target_poly.max(axis=0)).astype(int)
+            x0, y0, x1, y1 = _poly_bounds(target_poly)
             cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
             if cx1 > cx0 and cy1 > cy0:
                 in_view = True
