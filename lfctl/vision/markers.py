@@ -212,7 +212,7 @@ def find_constellations(
     """
     look = look or BannerLook()
     mask = hue_window_mask(hsv, hue_deg, tolerance_deg, s_min, v_min)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPEN_KERNEL)
     cands = [b for b in blobs(mask, min_area_px=4.0) if b.is_square(0.6, 3.5)]  # foreshortened up to ~70 deg
     if len(cands) < 4:
         return []
@@ -232,6 +232,11 @@ def find_constellations(
         if not check_constellation(candidate, hsv, hue_deg, look, tolerance_deg, s_min, v_min):
             out.append(Constellation(ordered[k] + np.array(origin, float), chosen, float(scores[k])))
     return out
+
+
+#: the opening that drops single-pixel specks from the marker mask (shared, never written)
+_OPEN_KERNEL = np.ones((2, 2), np.uint8)
+_OPEN_KERNEL.flags.writeable = False
 
 
 @functools.cache
@@ -255,6 +260,10 @@ def _hue_off_table(target: int) -> np.ndarray:
     table.flags.writeable = False  # shared by every call
     return table
 
+
+#: the unit square's corners TL, TR, BR, BL, for the perspective check (shared, never written)
+_UNIT_SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+_UNIT_SQUARE.flags.writeable = False
 
 #: a marker blob smaller than this (px; 4 x 4) is mostly its blurred rim, whose pixels blend
 #: the marker's colour with the panel's: its saturation is that of its most saturated pixel
@@ -342,8 +351,7 @@ def check_constellation(
             return "marker colour"
         sats.append(sat)
         vals.append(val)
-    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
-    homography = cv2.getPerspectiveTransform(square, pts.astype(np.float32))
+    homography = cv2.getPerspectiveTransform(_UNIT_SQUARE, pts.astype(np.float32))
     if np.hypot(homography[2, 0], homography[2, 1]) / max(abs(homography[2, 2]), 1e-9) > 0.6:
         return "perspective"
     centre = pts.mean(axis=0)
