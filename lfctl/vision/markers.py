@@ -77,11 +77,42 @@ class Constellation:
             Panel side / marker square side (see
             :attr:`~lfctl.vision.banner.BannerGeometry.panel_over_side`).
         """
-        c = self.centres.mean(axis=0)
-        corners = c + (self.centres - c) * panel_over_side
-        x0, y0 = np.floor(corners.min(axis=0)).astype(int)
-        x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
-        return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
+        pts = self.centres
+        if pts.shape == (4, 2) and pts.dtype == np.float64 and pts.flags.c_contiguous:
+            box = _banner_bbox4(pts.tolist(), panel_over_side)
+            if box is not None:
+                return box
+        return _banner_bbox_numpy(pts, panel_over_side)
+
+
+def _banner_bbox_numpy(centres: np.ndarray, panel_over_side: float) -> tuple[int, int, int, int]:
+    """:meth:`Constellation.banner_bbox` on any array of centres."""
+    c = centres.mean(axis=0)
+    corners = c + (centres - c) * panel_over_side
+    x0, y0 = np.floor(corners.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
+    return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
+
+
+#: beyond this (px) a corner is left to numpy, whose integer conversion wraps where Python's does not
+_BBOX_LIMIT = 2.0**52
+
+
+def _banner_bbox4(pts: list[list[float]], panel_over_side: float) -> tuple[int, int, int, int] | None:
+    """:func:`_banner_bbox_numpy` of four C-ordered float64 centres in plain floats, with
+    numpy's arithmetic in numpy's order (its mean over the first axis adds the rows one after
+    another, then divides by 4), so the same box to the bit; called several times a frame,
+    where numpy's cost per call was most of the time. None for a non-finite or huge corner
+    (numpy's conversion of those is its own)."""
+    (xa, ya), (xb, yb), (xc, yc), (xd, yd) = pts
+    cx, cy = (((xa + xb) + xc) + xd) / 4, (((ya + yb) + yc) + yd) / 4
+    xs = [cx + (x - cx) * panel_over_side for x in (xa, xb, xc, xd)]
+    ys = [cy + (y - cy) * panel_over_side for y in (ya, yb, yc, yd)]
+    lo_x, hi_x, lo_y, hi_y = min(xs), max(xs), min(ys), max(ys)
+    if not all(-_BBOX_LIMIT < v < _BBOX_LIMIT for v in (lo_x, hi_x, lo_y, hi_y)):
+        return None  # NaN fails every comparison, so it lands here too
+    x0, y0 = math.floor(lo_x), math.floor(lo_y)
+    return x0, y0, math.ceil(hi_x) - x0, math.ceil(hi_y) - y0
 
 
 def order_corners(pts: np.ndarray) -> np.ndarray:
@@ -333,13 +364,20 @@ def check_constellation(
     aspect = across / max(1e-9, down)
     hue_off_of = _hue_off_table(int(round(hue_deg / 2.0)) % 180)
     sats, vals = [], []
-    for b in c.blobs:
-        x, y, w, h = b.bbox
+    # every marker's pixels in one array: one conversion, hue look-up and threshold for all
+    # of them (on a marker's few pixels numpy's cost per call was most of the time); each
+    # marker's rows are then its own, in the same order, so the same medians
+    boxes = [b.bbox for b in c.blobs]
+    regions = [hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3) for x, y, w, h in boxes]
+    every = np.concatenate(regions).astype(np.int16) if regions else np.zeros((0, 3), np.int16)
+    every[:, 0] = hue_off_of[every[:, 0]]
+    marker = (every[:, 0] <= tolerance_deg) & (every[:, 1] >= s_min) & (every[:, 2] >= v_min)
+    end = 0
+    for b, (_x, _y, w, h), region in zip(c.blobs, boxes, regions, strict=True):
+        start, end = end, end + region.shape[0]
         if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
             return "marker shape"
-        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
-        px[:, 0] = hue_off_of[px[:, 0]]
-        on = px[(px[:, 0] <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
+        on = every[start:end][marker[start:end]]
         if on.shape[0] == 0:
             return "marker colour"
         k = on.shape[0] // 2

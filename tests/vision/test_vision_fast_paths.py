@@ -4,13 +4,26 @@ Kalman updates with H given to filterpy, and the choice among several constellat
 from __future__ import annotations
 
 import copy
+import dataclasses
+import math
 
+import cv2
 import numpy as np
 import pytest
 
+import lfctl.vision.markers as markers_mod
 import lfctl.vision.tracker as tracker_mod
+from lfctl.render.sequences import make_sequence
 from lfctl.vision.kalman import AreaFilter, CentreFilter
-from lfctl.vision.markers import Constellation
+from lfctl.vision.markers import (
+    TINY_MARKER_PX,
+    BannerLook,
+    Constellation,
+    _banner_bbox4,
+    _banner_bbox_numpy,
+    _hue_off_table,
+    check_constellation,
+)
 from lfctl.vision.pose import pnp_pose
 from lfctl.vision.tracker import Tracker, _mismatch
 
@@ -68,3 +81,121 @@ def test_pnp_pose_with_shared_object_points_per_side() -> None:
     assert near is not None and far is not None and again is not None
     assert far.range_m == pytest.approx(2 * near.range_m)
     assert again.range_m == near.range_m
+
+
+def test_banner_bbox_in_floats_is_numpys_to_the_bit() -> None:
+    rng = np.random.default_rng(11)
+    for _k in range(20000):
+        scale = 10.0 ** rng.uniform(-2, 4)
+        centres = rng.uniform(-1, 1, (4, 2)) * scale + rng.uniform(-500, 1500, 2)
+        pos = float(rng.uniform(0.5, 3.0))
+        c = Constellation(np.ascontiguousarray(centres), (), 1.0)
+        assert c.banner_bbox(pos) == _banner_bbox_numpy(centres, pos)
+        # near-integer centres far out, where the order of the mean's additions decides
+        # which side of an integer a corner rounds to
+        near = rng.integers(-(10**6), 10**6, (4, 2)) + rng.choice([0.0, 0.1, 0.3, 1e-9], (4, 2))
+        pos = float(rng.choice([1.0, 3.0, 0.5, 0.22 / 0.14]))
+        assert Constellation(near, (), 1.0).banner_bbox(pos) == _banner_bbox_numpy(near, pos)
+
+
+def test_banner_bbox_leaves_other_arrays_to_numpy() -> None:
+    centres = np.array([[10.25, 20.5], [40.0, 20.0], [40.5, 50.0], [10.0, 50.75]])
+    want = _banner_bbox_numpy(centres, 1.5)
+    assert Constellation(np.asfortranarray(centres), (), 1.0).banner_bbox(1.5) == want
+    assert Constellation(centres.astype(np.float32), (), 1.0).banner_bbox(1.5) == _banner_bbox_numpy(
+        centres.astype(np.float32), 1.5
+    )
+    assert _banner_bbox4([[np.nan, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
+    assert _banner_bbox4([[np.inf, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
+
+
+def _plain_marker_check(c: Constellation, hsv: np.ndarray, aspect: float, look: BannerLook) -> tuple[str, list, list]:
+    """check_constellation's marker loop as it was, one blob at a time: the first failure,
+    or "" with the markers' median saturations and values."""
+    hue_off_of = _hue_off_table(0)
+    sats, vals = [], []
+    for b in c.blobs:
+        x, y, w, h = b.bbox
+        if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
+            return "marker shape", sats, vals
+        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
+        px[:, 0] = hue_off_of[px[:, 0]]
+        on = px[(px[:, 0] <= 18.0) & (px[:, 1] >= 90) & (px[:, 2] >= 40)]
+        if on.shape[0] == 0:
+            return "marker colour", sats, vals
+        k = on.shape[0] // 2
+        hue_off, sat, val = np.partition(on, k, axis=0)[k].tolist()
+        judged = int(on[:, 1].max()) if b.area_px < TINY_MARKER_PX else sat
+        if hue_off > 9.0 or judged < 0.7 * look.marker_saturation * 255.0:
+            return "marker colour", sats, vals
+        sats.append(sat)
+        vals.append(val)
+    return "", sats, vals
+
+
+def test_check_constellation_judges_markers_as_one_blob_at_a_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rendered banners, and their blobs moved and resized at random (every kind of marker
+    failure): the batched marker loop decides as the plain one, and hands the panel check
+    the same medians."""
+    look = BannerLook()
+    real_ceil = markers_mod.math.ceil
+    panel_inputs: list[float] = []
+
+    class _Math:  # records what the panel check is given (sorted(sats)[2], sorted(vals)[2])
+        def __getattr__(self, name: str):
+            return getattr(math, name)
+
+        @staticmethod
+        def ceil(v: float) -> int:
+            panel_inputs.append(v)
+            return real_ceil(v)
+
+    monkeypatch.setattr(markers_mod, "math", _Math())
+    rng = np.random.default_rng(5)
+    reasons = set()
+    seq = make_sequence("range", 1, 90)
+    for i, (_t, frame, _truth) in enumerate(seq.frames()):
+        if i % 3:
+            continue
+        hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(markers_mod, "check_constellation", lambda *a, **k: "")
+            cands = markers_mod.find_constellations(hsv, 0.0)
+        for c in cands:
+            variants = [c]
+            for _ in range(6):
+                blobs = tuple(
+                    dataclasses.replace(
+                        b,
+                        bbox=(
+                            b.bbox[0] + int(rng.integers(-3, 4)),
+                            b.bbox[1] + int(rng.integers(-3, 4)),
+                            max(1, b.bbox[2] + int(rng.integers(-2, 3))),
+                            max(1, b.bbox[3] + int(rng.integers(-2, 3))),
+                        ),
+                        area_px=float(rng.choice([b.area_px, 9.0, 40.0])),
+                    )
+                    for b in c.blobs
+                )
+                variants.append(Constellation(c.centres, blobs, c.score))
+            # one marker's box moved off it onto the panel: no marker pixels there
+            k = int(rng.integers(0, 4))
+            off = c.blobs[k].bbox
+            moved = dataclasses.replace(c.blobs[k], bbox=(off[0] + 2 * off[2] + 2, off[1], off[2], off[3]))
+            variants.append(Constellation(c.centres, (*c.blobs[:k], moved, *c.blobs[k + 1 :]), c.score))
+            for v in variants:
+                pts = np.asarray(v.centres, np.float64)
+                (xa, ya), (xb, yb), (xc, yc), (xd, yd) = pts.tolist()
+                across = math.hypot(xb - xa, yb - ya) + math.hypot(xc - xd, yc - yd)
+                down = math.hypot(xd - xa, yd - ya) + math.hypot(xc - xb, yc - yb)
+                plain, sats, vals = _plain_marker_check(v, hsv, across / max(1e-9, down), look)
+                panel_inputs.clear()
+                got = check_constellation(v, hsv, 0.0, look)
+                if plain:
+                    assert got == plain
+                else:
+                    assert got not in ("marker shape", "marker colour")
+                    if panel_inputs:
+                        assert panel_inputs[:2] == [0.5 * sorted(sats)[2], 0.5 * sorted(vals)[2]]
+                reasons.add(got)
+    assert {"", "marker shape", "marker colour"} <= reasons
