@@ -97,6 +97,10 @@ def _value(x: float | None) -> float | None:
     return x if x is not None and math.isfinite(x) else None
 
 
+#: most (step, noise) models a TargetEstimator keeps (a run with a fixed guidance rate uses ~10)
+_MAX_MODELS = 64
+
+
 class TargetEstimator:
     """Constant-velocity Kalman filter on the target's local NED position (filterpy).
 
@@ -117,6 +121,9 @@ class TargetEstimator:
         self.kf.R = np.eye(2) * meas_sigma_m**2
         self.accel_var = accel_sigma_mps2**2
         self.initialised = False
+        # (dt_s, accel_var) -> F, Q: the guidance steps' few distinct lengths (t - t_prev in
+        # floating point takes about ten values for one period); read-only, shared by steps
+        self._models: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
 
     def init(self, north_m: float, east_m: float) -> None:
         """Start at a first fix, velocity unknown (0 with a wide variance).
@@ -141,10 +148,21 @@ class TargetEstimator:
         """
         if dt_s <= 0:
             return
-        # F = [[I, dt I], [0, I]]
-        self.kf.F = np.array([[1.0, 0.0, dt_s, 0.0], [0.0, 1.0, 0.0, dt_s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
-        # Q = accel_sigma^2 [[dt^4/4 I, dt^3/2 I], [dt^3/2 I, dt^2 I]] (white acceleration noise)
-        self.kf.Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=self.accel_var, block_size=2, order_by_dim=False)
+        # F and Q made once per step length and noise: Q_discrete_white_noise cost more than
+        # the prediction itself, every step
+        key = (dt_s, self.accel_var)
+        model = self._models.get(key)
+        if model is None:
+            if len(self._models) >= _MAX_MODELS:
+                self._models.clear()
+            # F = [[I, dt I], [0, I]]
+            F = np.array([[1.0, 0.0, dt_s, 0.0], [0.0, 1.0, 0.0, dt_s], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+            # Q = accel_sigma^2 [[dt^4/4 I, dt^3/2 I], [dt^3/2 I, dt^2 I]] (white acceleration noise)
+            Q = Q_discrete_white_noise(dim=2, dt=dt_s, var=self.accel_var, block_size=2, order_by_dim=False)
+            for a in (F, Q):
+                a.flags.writeable = False
+            model = self._models[key] = (F, Q)
+        self.kf.F, self.kf.Q = model
         # x = F x
         # P = F P F' + Q
         self.kf.predict()

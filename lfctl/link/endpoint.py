@@ -85,6 +85,8 @@ STREAMS = {
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
+#: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
+_GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT"))
 #: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
 SENSORS = (
     mav.MAV_SYS_STATUS_SENSOR_3D_GYRO
@@ -952,7 +954,8 @@ class VehicleEndpoint:
         name = ID_NAMES.get(msg_id)
         s = self.state
         t_ms = int(self.t_s * 1000) & 0xFFFFFFFF
-        lat, lon, alt = ned_to_geodetic(s["north_m"], s["east_m"], 0.0, *self.home)
+        if name in _GLOBAL_STREAMS:  # the position in degrees only for the two that carry it
+            lat, lon, alt = ned_to_geodetic(s["north_m"], s["east_m"], 0.0, *self.home)
         vn, ve = s["speed_mps"] * math.cos(s["yaw_rad"]), s["speed_mps"] * math.sin(s["yaw_rad"])
         hdg = int(round(math.degrees(s["yaw_rad"]) % 360 * 100)) % 36000
         if name == "HEARTBEAT":
@@ -1110,7 +1113,14 @@ def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
         names = []
     for k in names:
         try:
-            fields[k] = _jsonable(getattr(msg, k))
+            value = getattr(msg, k)
+            # most fields are plain ints and finite floats, which _jsonable returns as they
+            # are: skip its call for them (tens of thousands of fields a minute)
+            kind = type(value)
+            if kind is int or (kind is float and math.isfinite(value)):
+                fields[k] = value
+            else:
+                fields[k] = _jsonable(value)
         except Exception as exc:
             fields[k] = f"<not decodable: {type(exc).__name__}>"
     seq, sysid, compid, msgid = (

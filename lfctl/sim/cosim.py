@@ -127,6 +127,8 @@ class Simulation:
         self._cache_dir = cache_dir
         self.tick = 0
         self.t_s = 0.0
+        self._state: WorldState | None = None  # state() of tick _state_tick (see state())
+        self._state_tick = -1
         self._opened = False
         #: wall seconds spent in each task and in FMU stepping ("physics"): the cost split
         self.task_time_s: dict[str, float] = {}
@@ -152,6 +154,7 @@ class Simulation:
             self.close()
             raise
         self._opened = True
+        self._state = None  # the outputs are the instances' now
         return self
 
     def _library(self, v: VehicleConfig) -> FmuLibrary:
@@ -232,14 +235,27 @@ class Simulation:
         self._cmd_raw[i, 1] = yaw_rate_radps * self._in_scale[i, 1]
 
     def state(self) -> WorldState:
-        """The world truth now (SI, NED)."""
+        """The world truth now (SI, NED).
+
+        Made once per tick and shared: the outputs change only in :meth:`step` (and in
+        :meth:`open`), while the tasks due on one tick each ask for it (camera, telemetry,
+        guidance and link can all fall on the same tick). Its arrays are read-only, so no
+        reader can change what another sees.
+        """
+        cached = self._state
+        if cached is not None and self._state_tick == self.tick:
+            return cached
         si = self._out_raw * self._out_scale
         n0, e0, y0 = self._origin[:, 0], self._origin[:, 1], self._origin[:, 2]
         c, s = np.cos(y0), np.sin(y0)
         north = n0 + c * si[:, 0] - s * si[:, 1]
         east = e0 + s * si[:, 0] + c * si[:, 1]
         yaw = np.array([wrap_pi(float(a)) for a in si[:, 2] + y0])
-        return WorldState(self.t_s, self.names, np.stack([north, east], axis=1), yaw, si[:, 3].copy(), si[:, 4].copy())
+        world = WorldState(self.t_s, self.names, np.stack([north, east], axis=1), yaw, si[:, 3].copy(), si[:, 4].copy())
+        for a in (world.pos_ned_m, world.yaw_rad, world.speed_mps, world.yaw_rate_radps):
+            a.flags.writeable = False
+        self._state, self._state_tick = world, self.tick
+        return world
 
     # -- running -------------------------------------------------------------------------
     def step(self) -> None:
@@ -273,6 +289,7 @@ class Simulation:
         self.task_time_s["physics"] = self.task_time_s.get("physics", 0.0) + clock() - t0
         self.tick = tick + 1
         self.t_s = self.tick * dt
+        self._state = None
 
     def run(
         self,

@@ -149,16 +149,23 @@ class Links:
         world : WorldState
             The truth now; vehicle i feeds endpoint i.
         """
+        # each vehicle's values as Python floats, as world.vehicle(i) gives them, read off
+        # the arrays at once (no VehicleState built per endpoint per tick)
+        pos, yaw, speed, rate = (
+            world.pos_ned_m.tolist(),
+            world.yaw_rad.tolist(),
+            world.speed_mps.tolist(),
+            world.yaw_rate_radps.tolist(),
+        )
         for i, ep in enumerate(self.endpoints):
-            st = world.vehicle(i)
             ep.tick(
                 t_s,
                 {
-                    "north_m": st.north_m,
-                    "east_m": st.east_m,
-                    "yaw_rad": st.yaw_rad,
-                    "speed_mps": st.speed_mps,
-                    "yaw_rate_radps": st.yaw_rate_radps,
+                    "north_m": pos[i][0],
+                    "east_m": pos[i][1],
+                    "yaw_rad": yaw[i],
+                    "speed_mps": speed[i],
+                    "yaw_rate_radps": rate[i],
                 },
             )
             self.peers[i].recv()  # telemetry to the in-memory peer: nobody reads it in a run

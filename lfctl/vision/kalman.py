@@ -58,7 +58,9 @@ def _update(kf: KalmanFilter, z: np.ndarray, R: np.ndarray | None = None) -> Non
     # K = P H' S^-1
     # x = x + K y
     # P = (I - K H) P (I - K H)' + K R K'  (Joseph form)
-    kf.update(z, R)
+    # H given: filterpy then takes z as it is (a 1-D vector, as the state is) instead of
+    # reshaping it through np.atleast_2d each call; the same arithmetic
+    kf.update(z, R, kf.H)
 
 
 class CentreFilter:

@@ -77,11 +77,42 @@ class Constellation:
             Panel side / marker square side (see
             :attr:`~lfctl.vision.banner.BannerGeometry.panel_over_side`).
         """
-        c = self.centres.mean(axis=0)
-        corners = c + (self.centres - c) * panel_over_side
-        x0, y0 = np.floor(corners.min(axis=0)).astype(int)
-        x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
-        return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
+        pts = self.centres
+        if pts.shape == (4, 2) and pts.dtype == np.float64 and pts.flags.c_contiguous:
+            box = _banner_bbox4(pts.tolist(), panel_over_side)
+            if box is not None:
+                return box
+        return _banner_bbox_numpy(pts, panel_over_side)
+
+
+def _banner_bbox_numpy(centres: np.ndarray, panel_over_side: float) -> tuple[int, int, int, int]:
+    """:meth:`Constellation.banner_bbox` on any array of centres."""
+    c = centres.mean(axis=0)
+    corners = c + (centres - c) * panel_over_side
+    x0, y0 = np.floor(corners.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
+    return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
+
+
+#: beyond this (px) a corner is left to numpy, whose integer conversion wraps where Python's does not
+_BBOX_LIMIT = 2.0**52
+
+
+def _banner_bbox4(pts: list[list[float]], panel_over_side: float) -> tuple[int, int, int, int] | None:
+    """:func:`_banner_bbox_numpy` of four C-ordered float64 centres in plain floats, with
+    numpy's arithmetic in numpy's order (its mean over the first axis adds the rows one after
+    another, then divides by 4), so the same box to the bit; called several times a frame,
+    where numpy's cost per call was most of the time. None for a non-finite or huge corner
+    (numpy's conversion of those is its own)."""
+    (xa, ya), (xb, yb), (xc, yc), (xd, yd) = pts
+    cx, cy = (((xa + xb) + xc) + xd) / 4, (((ya + yb) + yc) + yd) / 4
+    xs = [cx + (x - cx) * panel_over_side for x in (xa, xb, xc, xd)]
+    ys = [cy + (y - cy) * panel_over_side for y in (ya, yb, yc, yd)]
+    lo_x, hi_x, lo_y, hi_y = min(xs), max(xs), min(ys), max(ys)
+    if not all(-_BBOX_LIMIT < v < _BBOX_LIMIT for v in (lo_x, hi_x, lo_y, hi_y)):
+        return None  # NaN fails every comparison, so it lands here too
+    x0, y0 = math.floor(lo_x), math.floor(lo_y)
+    return x0, y0, math.ceil(hi_x) - x0, math.ceil(hi_y) - y0
 
 
 def order_corners(pts: np.ndarray) -> np.ndarray:
@@ -212,17 +243,21 @@ def find_constellations(
     """
     look = look or BannerLook()
     mask = hue_window_mask(hsv, hue_deg, tolerance_deg, s_min, v_min)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPEN_KERNEL)
     cands = [b for b in blobs(mask, min_area_px=4.0) if b.is_square(0.6, 3.5)]  # foreshortened up to ~70 deg
     if len(cands) < 4:
         return []
     cands.sort(key=lambda b: -b.area_px)
     cands = cands[:10]  # the banners' markers are among the larger square blobs
-    combos = _combinations(len(cands))
-    ordered, idx = _order_many(np.array([b.centroid for b in cands])[combos])  # (M, 4, 2)
-    combos = combos[np.arange(len(combos))[:, None], idx]  # the blobs of each, in order
-    sizes = np.array([b.area_px for b in cands])[combos]
-    scores = constellation_scores(ordered, sizes, look.marker_over_side)
+    single = _score_four(cands, look.marker_over_side) if len(cands) == 4 else None
+    if single is not None:  # one choice, as most frames have: scored in plain floats
+        ordered, combos, scores = single
+    else:
+        combos = _combinations(len(cands))
+        ordered, idx = _order_many(np.array([b.centroid for b in cands])[combos])  # (M, 4, 2)
+        combos = combos[np.arange(len(combos))[:, None], idx]  # the blobs of each, in order
+        sizes = np.array([b.area_px for b in cands])[combos]
+        scores = constellation_scores(ordered, sizes, look.marker_over_side)
     out: list[Constellation] = []
     for k in np.argsort(-scores, kind="stable"):
         if scores[k] < min_score or len(out) >= limit:
@@ -232,6 +267,55 @@ def find_constellations(
         if not check_constellation(candidate, hsv, hue_deg, look, tolerance_deg, s_min, v_min):
             out.append(Constellation(ordered[k] + np.array(origin, float), chosen, float(scores[k])))
     return out
+
+
+#: the opening that drops single-pixel specks from the marker mask (shared, never written)
+_OPEN_KERNEL = np.ones((2, 2), np.uint8)
+_OPEN_KERNEL.flags.writeable = False
+
+
+def _score_four(cands: list[Blob], marker_over_side: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_order_many` and :func:`constellation_scores` of the one choice four blobs give,
+    in plain floats with numpy's arithmetic in numpy's order (its sum over a row of four adds
+    them one after another, ``** 2`` squares), so the same ordered centres, blob order and
+    score to the bit; as (1, 4, 2) centres, (1, 4) blob indices and (1,) scores. Most frames
+    hold just the four markers, and on one choice numpy's cost per call was most of the
+    time. None (numpy's path then) for non-finite values or a zero division, whose handling
+    is numpy's own."""
+    pts = [b.centroid for b in cands]
+    sizes = [b.area_px for b in cands]
+    if not all(math.isfinite(v) for v in (*itertools.chain.from_iterable(pts), *sizes)):
+        return None
+    # TL, TR, BR, BL: the upper two (a stable sort on y) left to right, the lower two right to left
+    by_y = sorted(range(4), key=lambda i: pts[i][1])
+    top = by_y[:2] if pts[by_y[0]][0] <= pts[by_y[1]][0] else by_y[1::-1]
+    bottom = by_y[2:] if pts[by_y[2]][0] <= pts[by_y[3]][0] else by_y[:1:-1]
+    order = [top[0], top[1], bottom[1], bottom[0]]
+    (tlx, tly), (trx, try_), (brx, bry), (blx, bly) = (pts[i] for i in order)
+    s_tl, s_tr, s_br, s_bl = (sizes[i] for i in order)
+    try:
+        dlx, dly, drx, dry = blx - tlx, bly - tly, brx - trx, bry - try_
+        left, right = math.sqrt(dlx * dlx + dly * dly), math.sqrt(drx * drx + dry * dry)
+        tx, ty, bx, by = trx - tlx, try_ - tly, brx - blx, bry - bly
+        top_len, bottom_len = math.sqrt(tx * tx + ty * ty), math.sqrt(bx * bx + by * by)
+        ok = min(min(left, right), min(top_len, bottom_len)) >= 2.0
+        left, right = max(left, 1e-9), max(right, 1e-9)
+        aspect = ((top_len + bottom_len) / 2) / ((left + right) / 2)
+        ok = ok and 0.2 <= aspect <= 1.4
+        upright = 1.0 - min(1.0, (abs(dlx) + abs(drx)) / (left + right))
+        width_match = min(top_len, bottom_len) / max(max(top_len, bottom_len), 1e-9)
+        pair_match = min(s_tl, s_bl) / max(s_tl, s_bl) * min(s_tr, s_br) / max(s_tr, s_br)
+        ratio = right / left
+        expected = ratio * ratio
+        got = (s_tr + s_br) / (s_tl + s_bl)
+        perspective = min(expected / got, got / expected)
+        scale = math.sqrt((((s_tl + s_tr) + s_br) + s_bl) / 4) / ((left + right) / 2)
+        ok = ok and 0.5 * marker_over_side <= scale <= 1.6 * marker_over_side
+        score = upright * width_match * math.sqrt(pair_match) * math.sqrt(perspective)
+    except (ZeroDivisionError, ValueError):
+        return None
+    ordered = np.array([[pts[i] for i in order]], np.float64)
+    return ordered, np.array([order]), np.array([score if ok else 0.0])
 
 
 @functools.cache
@@ -255,6 +339,10 @@ def _hue_off_table(target: int) -> np.ndarray:
     table.flags.writeable = False  # shared by every call
     return table
 
+
+#: the unit square's corners TL, TR, BR, BL, for the perspective check (shared, never written)
+_UNIT_SQUARE = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
+_UNIT_SQUARE.flags.writeable = False
 
 #: a marker blob smaller than this (px; 4 x 4) is mostly its blurred rim, whose pixels blend
 #: the marker's colour with the panel's: its saturation is that of its most saturated pixel
@@ -324,13 +412,20 @@ def check_constellation(
     aspect = across / max(1e-9, down)
     hue_off_of = _hue_off_table(int(round(hue_deg / 2.0)) % 180)
     sats, vals = [], []
-    for b in c.blobs:
-        x, y, w, h = b.bbox
+    # every marker's pixels in one array: one conversion, hue look-up and threshold for all
+    # of them (on a marker's few pixels numpy's cost per call was most of the time); each
+    # marker's rows are then its own, in the same order, so the same medians
+    boxes = [b.bbox for b in c.blobs]
+    regions = [hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3) for x, y, w, h in boxes]
+    every = np.concatenate(regions).astype(np.int16) if regions else np.zeros((0, 3), np.int16)
+    every[:, 0] = hue_off_of[every[:, 0]]
+    marker = (every[:, 0] <= tolerance_deg) & (every[:, 1] >= s_min) & (every[:, 2] >= v_min)
+    end = 0
+    for b, (_x, _y, w, h), region in zip(c.blobs, boxes, regions, strict=True):
+        start, end = end, end + region.shape[0]
         if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
             return "marker shape"
-        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
-        px[:, 0] = hue_off_of[px[:, 0]]
-        on = px[(px[:, 0] <= tolerance_deg) & (px[:, 1] >= s_min) & (px[:, 2] >= v_min)]
+        on = every[start:end][marker[start:end]]
         if on.shape[0] == 0:
             return "marker colour"
         k = on.shape[0] // 2
@@ -342,8 +437,7 @@ def check_constellation(
             return "marker colour"
         sats.append(sat)
         vals.append(val)
-    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], np.float32)
-    homography = cv2.getPerspectiveTransform(square, pts.astype(np.float32))
+    homography = cv2.getPerspectiveTransform(_UNIT_SQUARE, pts.astype(np.float32))
     if np.hypot(homography[2, 0], homography[2, 1]) / max(abs(homography[2, 2]), 1e-9) > 0.6:
         return "perspective"
     centre = pts.mean(axis=0)

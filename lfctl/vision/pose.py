@@ -16,6 +16,7 @@ range and bearing between the two vehicles' reference points.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -90,6 +91,23 @@ def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose 
     return MarkerPose(np.array([x_t, y_t, z_t]), rng, bearing, rel, quality, "paper")
 
 
+#: no lens distortion, for OpenCV (shared, never written)
+_NO_DISTORTION = np.zeros(4)
+_NO_DISTORTION.flags.writeable = False
+
+
+@functools.lru_cache(maxsize=16)  # one banner per run; keyed on a float: bounded
+def _square_points(side_m: float) -> np.ndarray:
+    """IPPE_SQUARE's fixed object points for a square of ``side_m``, matched to the image
+    corners BL, BR, TR, TL: the object frame is x right, y down the banner, z away from the
+    camera. This order is exact on synthetic corners (tests/vision); TL, TR, BR, BL was not.
+    Made once per side (every frame with markers asked for the same four points)."""
+    s = side_m / 2
+    obj = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+    obj.flags.writeable = False  # shared by every call
+    return obj
+
+
 def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m: float) -> MarkerPose | None:
     """``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``; None when it fails or puts the banner
     behind the camera.
@@ -105,13 +123,9 @@ def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m
     side_m : float
         Side of the markers' square (the paper's E), m.
     """
-    s = side_m / 2
-    # IPPE_SQUARE's fixed object points, matched to the image corners BL, BR, TR, TL: the
-    # object frame is x right, y down the banner, z away from the camera. This order is exact
-    # on synthetic corners (tests/vision); TL, TR, BR, BL was not.
-    obj = np.array([[-s, s, 0.0], [s, s, 0.0], [s, -s, 0.0], [-s, -s, 0.0]])
+    obj = _square_points(side_m)
     img = np.ascontiguousarray(np.asarray(centres, np.float64)[[3, 2, 1, 0]]).reshape(4, 1, 2)
-    d = dist if dist is not None else np.zeros(4)
+    d = dist if dist is not None else _NO_DISTORTION
     ok, rvec, tvec = cv2.solvePnP(obj, img, K, d, flags=cv2.SOLVEPNP_IPPE_SQUARE)
     if not ok:
         return None

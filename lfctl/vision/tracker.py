@@ -693,11 +693,15 @@ class Tracker:
         c = found[0]
         if expect is not None:
             pos = self.s.panel_over_side
-            c = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
-            box = c.banner_bbox(pos)
+            # each candidate's box and mismatch once (min() and the checks below used to
+            # compute the chosen one's twice more): the first of the least, as min() picks
+            boxes = [k.banner_bbox(pos) for k in found]
+            mismatches = [_mismatch(b, expect) for b in boxes]
+            best = mismatches.index(min(mismatches))
+            c, box = found[best], boxes[best]
             if must == "overlap" and iou(box, expect) < 0.2:
                 return None
-            if must == "track" and _mismatch(box, expect) > 1.0:
+            if must == "track" and mismatches[best] > 1.0:
                 return None
             if must == "return" and abs(np.log(np.sqrt(box[2] * box[3]) / np.sqrt(expect[2] * expect[3]))) > np.log(
                 2.0

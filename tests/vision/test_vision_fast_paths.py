@@ -1,0 +1,242 @@
+"""The tracker's smaller fast paths against the plain computations they replace: the
+Kalman updates with H given to filterpy, and the choice among several constellations."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+import lfctl.vision.markers as markers_mod
+import lfctl.vision.tracker as tracker_mod
+from lfctl.render.sequences import make_sequence
+from lfctl.vision.chaincode import Blob
+from lfctl.vision.kalman import AreaFilter, CentreFilter
+from lfctl.vision.markers import (
+    TINY_MARKER_PX,
+    BannerLook,
+    Constellation,
+    _banner_bbox4,
+    _banner_bbox_numpy,
+    _combinations,
+    _hue_off_table,
+    _order_many,
+    _score_four,
+    check_constellation,
+    constellation_scores,
+)
+from lfctl.vision.pose import pnp_pose
+from lfctl.vision.tracker import Tracker, _mismatch
+
+
+def test_filter_updates_match_filterpys_plain_update_bit_for_bit() -> None:
+    rng = np.random.default_rng(7)
+    centre, area = CentreFilter(320.0, 240.0), AreaFilter(3.2, accel_var=1e-6, meas_var=0.04, size_var=4e-4)
+    for k in range(200):
+        plain_c, plain_a = copy.deepcopy(centre.kf), copy.deepcopy(area.kf)
+        u, v, s = rng.normal(320, 40), rng.normal(240, 30), rng.normal(3.2, 0.3)
+        var = 4e-4 if k % 3 else None
+        centre.predict()
+        area.predict()
+        plain_c.predict()
+        plain_a.predict()
+        centre.update(u, v)
+        area.update(s, var)
+        plain_c.update(np.array([u, v]))
+        plain_a.update(np.array([s]), None if var is None else np.array([[var]]))
+        for fast, plain in ((centre.kf, plain_c), (area.kf, plain_a)):
+            assert fast.x.shape == plain.x.shape and fast.x.tobytes() == plain.x.tobytes()
+            assert fast.P.tobytes() == plain.P.tobytes()
+
+
+def _constellation(cx: float, cy: float, side: float) -> Constellation:
+    h = side / 2
+    centres = np.array([[cx - h, cy - h], [cx + h, cy - h], [cx + h, cy + h], [cx - h, cy + h]])
+    return Constellation(centres, (), 1.0)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_markers_near_picks_the_constellation_min_picked(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(seed)
+    found = [_constellation(*rng.uniform(50, 400, 2), rng.uniform(10, 60)) for _ in range(rng.integers(1, 6))]
+    tr = Tracker()
+    expect = (int(rng.integers(0, 400)), int(rng.integers(0, 300)), 60, 60)
+    pos = tr.s.panel_over_side
+    if seed % 2 == 0:  # a tie at the least mismatch: the first of them, as min() picks
+        best = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
+        found.append(Constellation(best.centres.copy(), (), 0.5))
+    monkeypatch.setattr(tracker_mod, "find_constellations", lambda *a, **k: list(found))
+    monkeypatch.setattr(tracker_mod, "refine", lambda c, *a, **k: c)
+    want = min(found, key=lambda k: _mismatch(k.banner_bbox(pos), expect))
+    got = tr._markers_near(np.zeros((4, 4, 3), np.uint8), expect, must="nearest")
+    assert got is want
+    track = tr._markers_near(np.zeros((4, 4, 3), np.uint8), expect, must="track")
+    assert track is (want if _mismatch(want.banner_bbox(pos), expect) <= 1.0 else None)
+
+
+def test_pnp_pose_with_shared_object_points_per_side() -> None:
+    K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    corners = np.array([[300.0, 220], [340, 220], [340, 260], [300, 260]])
+    near, far = pnp_pose(corners, K, None, 0.14), pnp_pose(corners, K, None, 0.28)
+    again = pnp_pose(corners, K, None, 0.14)
+    assert near is not None and far is not None and again is not None
+    assert far.range_m == pytest.approx(2 * near.range_m)
+    assert again.range_m == near.range_m
+
+
+def test_banner_bbox_in_floats_is_numpys_to_the_bit() -> None:
+    rng = np.random.default_rng(11)
+    for _k in range(20000):
+        scale = 10.0 ** rng.uniform(-2, 4)
+        centres = rng.uniform(-1, 1, (4, 2)) * scale + rng.uniform(-500, 1500, 2)
+        pos = float(rng.uniform(0.5, 3.0))
+        c = Constellation(np.ascontiguousarray(centres), (), 1.0)
+        assert c.banner_bbox(pos) == _banner_bbox_numpy(centres, pos)
+        # near-integer centres far out, where the order of the mean's additions decides
+        # which side of an integer a corner rounds to
+        near = rng.integers(-(10**6), 10**6, (4, 2)) + rng.choice([0.0, 0.1, 0.3, 1e-9], (4, 2))
+        pos = float(rng.choice([1.0, 3.0, 0.5, 0.22 / 0.14]))
+        assert Constellation(near, (), 1.0).banner_bbox(pos) == _banner_bbox_numpy(near, pos)
+
+
+def test_banner_bbox_leaves_other_arrays_to_numpy() -> None:
+    centres = np.array([[10.25, 20.5], [40.0, 20.0], [40.5, 50.0], [10.0, 50.75]])
+    want = _banner_bbox_numpy(centres, 1.5)
+    assert Constellation(np.asfortranarray(centres), (), 1.0).banner_bbox(1.5) == want
+    assert Constellation(centres.astype(np.float32), (), 1.0).banner_bbox(1.5) == _banner_bbox_numpy(
+        centres.astype(np.float32), 1.5
+    )
+    assert _banner_bbox4([[np.nan, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
+    assert _banner_bbox4([[np.inf, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
+
+
+def _plain_marker_check(c: Constellation, hsv: np.ndarray, aspect: float, look: BannerLook) -> tuple[str, list, list]:
+    """check_constellation's marker loop as it was, one blob at a time: the first failure,
+    or "" with the markers' median saturations and values."""
+    hue_off_of = _hue_off_table(0)
+    sats, vals = [], []
+    for b in c.blobs:
+        x, y, w, h = b.bbox
+        if abs(w - aspect * h) > 0.3 * aspect * h + 1.0:
+            return "marker shape", sats, vals
+        px = hsv[max(0, y) : y + h, max(0, x) : x + w].reshape(-1, 3).astype(np.int16)
+        px[:, 0] = hue_off_of[px[:, 0]]
+        on = px[(px[:, 0] <= 18.0) & (px[:, 1] >= 90) & (px[:, 2] >= 40)]
+        if on.shape[0] == 0:
+            return "marker colour", sats, vals
+        k = on.shape[0] // 2
+        hue_off, sat, val = np.partition(on, k, axis=0)[k].tolist()
+        judged = int(on[:, 1].max()) if b.area_px < TINY_MARKER_PX else sat
+        if hue_off > 9.0 or judged < 0.7 * look.marker_saturation * 255.0:
+            return "marker colour", sats, vals
+        sats.append(sat)
+        vals.append(val)
+    return "", sats, vals
+
+
+def test_check_constellation_judges_markers_as_one_blob_at_a_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rendered banners, and their blobs moved and resized at random (every kind of marker
+    failure): the batched marker loop decides as the plain one, and hands the panel check
+    the same medians."""
+    look = BannerLook()
+    real_ceil = markers_mod.math.ceil
+    panel_inputs: list[float] = []
+
+    class _Math:  # records what the panel check is given (sorted(sats)[2], sorted(vals)[2])
+        def __getattr__(self, name: str):
+            return getattr(math, name)
+
+        @staticmethod
+        def ceil(v: float) -> int:
+            panel_inputs.append(v)
+            return real_ceil(v)
+
+    monkeypatch.setattr(markers_mod, "math", _Math())
+    rng = np.random.default_rng(5)
+    reasons = set()
+    seq = make_sequence("range", 1, 90)
+    for i, (_t, frame, _truth) in enumerate(seq.frames()):
+        if i % 3:
+            continue
+        hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(markers_mod, "check_constellation", lambda *a, **k: "")
+            cands = markers_mod.find_constellations(hsv, 0.0)
+        for c in cands:
+            variants = [c]
+            for _ in range(6):
+                blobs = tuple(
+                    dataclasses.replace(
+                        b,
+                        bbox=(
+                            b.bbox[0] + int(rng.integers(-3, 4)),
+                            b.bbox[1] + int(rng.integers(-3, 4)),
+                            max(1, b.bbox[2] + int(rng.integers(-2, 3))),
+                            max(1, b.bbox[3] + int(rng.integers(-2, 3))),
+                        ),
+                        area_px=float(rng.choice([b.area_px, 9.0, 40.0])),
+                    )
+                    for b in c.blobs
+                )
+                variants.append(Constellation(c.centres, blobs, c.score))
+            # one marker's box moved off it onto the panel: no marker pixels there
+            k = int(rng.integers(0, 4))
+            off = c.blobs[k].bbox
+            moved = dataclasses.replace(c.blobs[k], bbox=(off[0] + 2 * off[2] + 2, off[1], off[2], off[3]))
+            variants.append(Constellation(c.centres, (*c.blobs[:k], moved, *c.blobs[k + 1 :]), c.score))
+            for v in variants:
+                pts = np.asarray(v.centres, np.float64)
+                (xa, ya), (xb, yb), (xc, yc), (xd, yd) = pts.tolist()
+                across = math.hypot(xb - xa, yb - ya) + math.hypot(xc - xd, yc - yd)
+                down = math.hypot(xd - xa, yd - ya) + math.hypot(xc - xb, yc - yb)
+                plain, sats, vals = _plain_marker_check(v, hsv, across / max(1e-9, down), look)
+                panel_inputs.clear()
+                got = check_constellation(v, hsv, 0.0, look)
+                if plain:
+                    assert got == plain
+                else:
+                    assert got not in ("marker shape", "marker colour")
+                    if panel_inputs:
+                        assert panel_inputs[:2] == [0.5 * sorted(sats)[2], 0.5 * sorted(vals)[2]]
+                reasons.add(got)
+    assert {"", "marker shape", "marker colour"} <= reasons
+
+
+def _blob(cx: float, cy: float, area: float) -> Blob:
+    return Blob((), (0, 0), area, 4.0, (cx, cy), (int(cx), int(cy), 2, 2))
+
+
+def test_four_blobs_score_as_numpy_scores_their_one_choice() -> None:
+    rng = np.random.default_rng(13)
+    for k in range(20000):
+        if k % 4 == 0:  # a banner's markers, in perspective, with noise
+            side, turn = rng.uniform(3, 200), rng.uniform(0.2, 1.0)
+            x0, y0 = rng.uniform(0, 600, 2)
+            pts = np.array([[x0, y0], [x0 + side * turn, y0], [x0 + side * turn, y0 + side], [x0, y0 + side]])
+            pts += rng.normal(0, rng.choice([0.0, 0.5, 3.0]), pts.shape)
+            areas = (side * 0.25) ** 2 * rng.uniform(0.3, 2.0, 4)
+        else:  # anything: ties in x and y, tiny and huge spreads
+            pts = rng.integers(0, 8, (4, 2)) * rng.choice([1.0, 0.5, 7.3]) + rng.choice([0.0, 1e-7])
+            areas = rng.choice([4.0, 4.5, 9.0, 100.0, 2500.5], 4)
+        rng.shuffle(pts)
+        cands = [_blob(float(x), float(y), float(a)) for (x, y), a in zip(pts, areas, strict=True)]
+        mos = float(rng.choice([0.25, 0.035 / 0.14, 0.4]))
+        fast = _score_four(cands, mos)
+        assert fast is not None
+        ordered, combos, scores = fast
+        combos_np = _combinations(4)
+        ordered_np, idx = _order_many(np.array([b.centroid for b in cands])[combos_np])
+        combos_np = combos_np[np.arange(1)[:, None], idx]
+        scores_np = constellation_scores(ordered_np, np.array([b.area_px for b in cands])[combos_np], mos)
+        assert ordered.tobytes() == ordered_np.tobytes()
+        assert combos.tolist() == combos_np.tolist()
+        assert scores.tobytes() == scores_np.tobytes()
+
+
+def test_four_blobs_with_a_non_finite_value_are_left_to_numpy() -> None:
+    cands = [_blob(0.0, 0.0, 9.0), _blob(10.0, 0.0, 9.0), _blob(10.0, 10.0, math.nan), _blob(0.0, 10.0, 9.0)]
+    assert _score_four(cands, 0.25) is None
