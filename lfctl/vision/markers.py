@@ -249,15 +249,11 @@ def find_constellations(
         return []
     cands.sort(key=lambda b: -b.area_px)
     cands = cands[:10]  # the banners' markers are among the larger square blobs
-    single = _score_four(cands, look.marker_over_side) if len(cands) == 4 else None
-    if single is not None:  # one choice, as most frames have: scored in plain floats
-        ordered, combos, scores = single
-    else:
-        combos = _combinations(len(cands))
-        ordered, idx = _order_many(np.array([b.centroid for b in cands])[combos])  # (M, 4, 2)
-        combos = combos[np.arange(len(combos))[:, None], idx]  # the blobs of each, in order
-        sizes = np.array([b.area_px for b in cands])[combos]
-        scores = constellation_scores(ordered, sizes, look.marker_over_side)
+    combos = _combinations(len(cands))
+    ordered, idx = _order_many(np.array([b.centroid for b in cands])[combos])  # (M, 4, 2)
+    combos = combos[np.arange(len(combos))[:, None], idx]  # the blobs of each, in order
+    sizes = np.array([b.area_px for b in cands])[combos]
+    scores = constellation_scores(ordered, sizes, look.marker_over_side)
     out: list[Constellation] = []
     for k in np.argsort(-scores, kind="stable"):
         if scores[k] < min_score or len(out) >= limit:
@@ -272,50 +268,6 @@ def find_constellations(
 #: the opening that drops single-pixel specks from the marker mask (shared, never written)
 _OPEN_KERNEL = np.ones((2, 2), np.uint8)
 _OPEN_KERNEL.flags.writeable = False
-
-
-def _score_four(cands: list[Blob], marker_over_side: float) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """:func:`_order_many` and :func:`constellation_scores` of the one choice four blobs give,
-    in plain floats with numpy's arithmetic in numpy's order (its sum over a row of four adds
-    them one after another, ``** 2`` squares), so the same ordered centres, blob order and
-    score to the bit; as (1, 4, 2) centres, (1, 4) blob indices and (1,) scores. Most frames
-    hold just the four markers, and on one choice numpy's cost per call was most of the
-    time. None (numpy's path then) for non-finite values or a zero division, whose handling
-    is numpy's own."""
-    pts = [b.centroid for b in cands]
-    sizes = [b.area_px for b in cands]
-    if not all(math.isfinite(v) for v in (*itertools.chain.from_iterable(pts), *sizes)):
-        return None
-    # TL, TR, BR, BL: the upper two (a stable sort on y) left to right, the lower two right to left
-    by_y = sorted(range(4), key=lambda i: pts[i][1])
-    top = by_y[:2] if pts[by_y[0]][0] <= pts[by_y[1]][0] else by_y[1::-1]
-    bottom = by_y[2:] if pts[by_y[2]][0] <= pts[by_y[3]][0] else by_y[:1:-1]
-    order = [top[0], top[1], bottom[1], bottom[0]]
-    (tlx, tly), (trx, try_), (brx, bry), (blx, bly) = (pts[i] for i in order)
-    s_tl, s_tr, s_br, s_bl = (sizes[i] for i in order)
-    try:
-        dlx, dly, drx, dry = blx - tlx, bly - tly, brx - trx, bry - try_
-        left, right = math.sqrt(dlx * dlx + dly * dly), math.sqrt(drx * drx + dry * dry)
-        tx, ty, bx, by = trx - tlx, try_ - tly, brx - blx, bry - bly
-        top_len, bottom_len = math.sqrt(tx * tx + ty * ty), math.sqrt(bx * bx + by * by)
-        ok = min(min(left, right), min(top_len, bottom_len)) >= 2.0
-        left, right = max(left, 1e-9), max(right, 1e-9)
-        aspect = ((top_len + bottom_len) / 2) / ((left + right) / 2)
-        ok = ok and 0.2 <= aspect <= 1.4
-        upright = 1.0 - min(1.0, (abs(dlx) + abs(drx)) / (left + right))
-        width_match = min(top_len, bottom_len) / max(max(top_len, bottom_len), 1e-9)
-        pair_match = min(s_tl, s_bl) / max(s_tl, s_bl) * min(s_tr, s_br) / max(s_tr, s_br)
-        ratio = right / left
-        expected = ratio * ratio
-        got = (s_tr + s_br) / (s_tl + s_bl)
-        perspective = min(expected / got, got / expected)
-        scale = math.sqrt((((s_tl + s_tr) + s_br) + s_bl) / 4) / ((left + right) / 2)
-        ok = ok and 0.5 * marker_over_side <= scale <= 1.6 * marker_over_side
-        score = upright * width_match * math.sqrt(pair_match) * math.sqrt(perspective)
-    except (ZeroDivisionError, ValueError):
-        return None
-    ordered = np.array([[pts[i] for i in order]], np.float64)
-    return ordered, np.array([order]), np.array([score if ok else 0.0])
 
 
 @functools.cache

@@ -14,7 +14,6 @@ import pytest
 import lfctl.vision.markers as markers_mod
 import lfctl.vision.tracker as tracker_mod
 from lfctl.render.sequences import make_sequence
-from lfctl.vision.chaincode import Blob
 from lfctl.vision.kalman import AreaFilter, CentreFilter
 from lfctl.vision.markers import (
     TINY_MARKER_PX,
@@ -22,12 +21,8 @@ from lfctl.vision.markers import (
     Constellation,
     _banner_bbox4,
     _banner_bbox_numpy,
-    _combinations,
     _hue_off_table,
-    _order_many,
-    _score_four,
     check_constellation,
-    constellation_scores,
 )
 from lfctl.vision.pose import pnp_pose
 from lfctl.vision.tracker import Tracker, _mismatch
@@ -204,39 +199,3 @@ def test_check_constellation_judges_markers_as_one_blob_at_a_time(monkeypatch: p
                         assert panel_inputs[:2] == [0.5 * sorted(sats)[2], 0.5 * sorted(vals)[2]]
                 reasons.add(got)
     assert {"", "marker shape", "marker colour"} <= reasons
-
-
-def _blob(cx: float, cy: float, area: float) -> Blob:
-    return Blob((), (0, 0), area, 4.0, (cx, cy), (int(cx), int(cy), 2, 2))
-
-
-def test_four_blobs_score_as_numpy_scores_their_one_choice() -> None:
-    rng = np.random.default_rng(13)
-    for k in range(20000):
-        if k % 4 == 0:  # a banner's markers, in perspective, with noise
-            side, turn = rng.uniform(3, 200), rng.uniform(0.2, 1.0)
-            x0, y0 = rng.uniform(0, 600, 2)
-            pts = np.array([[x0, y0], [x0 + side * turn, y0], [x0 + side * turn, y0 + side], [x0, y0 + side]])
-            pts += rng.normal(0, rng.choice([0.0, 0.5, 3.0]), pts.shape)
-            areas = (side * 0.25) ** 2 * rng.uniform(0.3, 2.0, 4)
-        else:  # anything: ties in x and y, tiny and huge spreads
-            pts = rng.integers(0, 8, (4, 2)) * rng.choice([1.0, 0.5, 7.3]) + rng.choice([0.0, 1e-7])
-            areas = rng.choice([4.0, 4.5, 9.0, 100.0, 2500.5], 4)
-        rng.shuffle(pts)
-        cands = [_blob(float(x), float(y), float(a)) for (x, y), a in zip(pts, areas, strict=True)]
-        mos = float(rng.choice([0.25, 0.035 / 0.14, 0.4]))
-        fast = _score_four(cands, mos)
-        assert fast is not None
-        ordered, combos, scores = fast
-        combos_np = _combinations(4)
-        ordered_np, idx = _order_many(np.array([b.centroid for b in cands])[combos_np])
-        combos_np = combos_np[np.arange(1)[:, None], idx]
-        scores_np = constellation_scores(ordered_np, np.array([b.area_px for b in cands])[combos_np], mos)
-        assert ordered.tobytes() == ordered_np.tobytes()
-        assert combos.tolist() == combos_np.tolist()
-        assert scores.tobytes() == scores_np.tobytes()
-
-
-def test_four_blobs_with_a_non_finite_value_are_left_to_numpy() -> None:
-    cands = [_blob(0.0, 0.0, 9.0), _blob(10.0, 0.0, 9.0), _blob(10.0, 10.0, math.nan), _blob(0.0, 10.0, 9.0)]
-    assert _score_four(cands, 0.25) is None
