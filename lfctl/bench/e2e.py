@@ -7,9 +7,10 @@ core, and where the time goes: physics (FMU stepping), render, vision (tracker +
 guidance, link (MAVLink endpoints), recording (image encoding, poses, messages), other
 (the master's own loop). Render, vision and encoding are CPU seconds summed over the
 camera processes (sim.camera_workers), so with workers the split adds up to more than
-the wall time. Leader + 1 on one core runs twice: with the scenario's (default, fast)
-renderer and with ``scene.realism = "on"``; a last section measures what each realistic
-effect costs per frame (:mod:`lfctl.bench.render_cost`).
+the wall time. Leader + 1 on one core runs three times: with the scenario's (default, fast)
+renderer, with ``scene.realism = "on"``, and without recording the camera's frames (what
+the H.264 video costs the run); a last section measures what each realistic effect costs
+per frame (:mod:`lfctl.bench.render_cost`).
 """
 
 from __future__ import annotations
@@ -48,15 +49,23 @@ def one_core() -> Iterator[None]:
         cv2.setNumThreads(threads)
 
 
-def measure(name: str, duration: float, tmp: str, pinned: bool = False, realism: str | None = None) -> dict:
+def measure(
+    name: str, duration: float, tmp: str, pinned: bool = False, realism: str | None = None, images: bool = True
+) -> dict:
+    """One camera run of ``examples/<name>.toml`` for ``duration`` s, recorded into ``tmp``
+    (``images``: with the camera's frames, as the defaults record them): its wall time,
+    real-time factor and split by stage."""
     cfg = load_config(examples_dir() / f"{name}.toml")
     cfg = dataclasses.replace(
         cfg,
         sim=dataclasses.replace(cfg.sim, sensing="camera", duration_s=duration),
-        recording=dataclasses.replace(cfg.recording, dir=tmp),
+        recording=dataclasses.replace(cfg.recording, dir=tmp, images=images),
     )
     if realism is not None:
         cfg = dataclasses.replace(cfg, scene=dataclasses.replace(cfg.scene, realism=realism))
+    label = name if realism is None else f"{name} (realism {realism})"
+    if not images:
+        label += " (no image recording)"
     with one_core() if pinned else contextlib.nullcontext():
         cores = len(os.sched_getaffinity(0))
         t0 = time.perf_counter()
@@ -77,7 +86,7 @@ def measure(name: str, duration: float, tmp: str, pinned: bool = False, realism:
     main_process = sum(split.values()) - extra["render_s"] - extra["vision_s"] - extra["encode_s"]
     split["other"] = max(0.0, wall - main_process - (tasks.get("camera", 0.0) - extra["record_camera_s"]))
     return {
-        "scenario": name if realism is None else f"{name} (realism {realism})",
+        "scenario": label,
         "realism": cfg.scene.realism,
         "followers": len(cfg.followers),
         "sim_s": duration,
@@ -99,6 +108,8 @@ def main(quick: bool = False) -> None:
             measure("column5", duration, tmp),
             # the realistic camera (not the default): what it costs the whole product
             measure("convoy", duration, tmp, pinned=True, realism="on"),
+            # the same run without recording the camera's frames: what the H.264 video costs
+            measure("convoy", duration, tmp, pinned=True, images=False),
         ]
     rows = []
     for r in runs:
@@ -134,11 +145,16 @@ def main(quick: bool = False) -> None:
         ),
         rows,
     )
-    one, one_all, four, real = runs
+    one, one_all, four, real, bare = runs
     # cost: CPU seconds of every stage (over all processes) per simulated second per follower
     per_follower = [sum(r["split_s"].values()) / r["sim_s"] / r["followers"] for r in (one_all, four)]
     print(
         f"\nCPU seconds per simulated second per follower: {per_follower[0]:.3f} (1 follower), {per_follower[1]:.3f} (4 followers): growth is {'linear' if per_follower[1] <= 1.25 * per_follower[0] else 'super-linear'}"
+    )
+    print(
+        f"recording the camera's frames ({load_config(examples_dir() / 'convoy.toml').recording.image_format}, "
+        f"the default) costs leader + 1 on one core {100 * (1 - bare['wall_s'] / one['wall_s']):.0f} % of its wall time: "
+        f"{one['real_time_factor']:.2f}x real time with it, {bare['real_time_factor']:.2f}x without"
     )
     biggest = max(one["split_s"], key=one["split_s"].get)
     print(f"largest stage for leader + 1: {biggest}")
@@ -151,6 +167,7 @@ def main(quick: bool = False) -> None:
         {
             "leader_plus_1_one_core_real_time_factor": round(one["real_time_factor"], 3),
             "leader_plus_1_one_core_realism_on_real_time_factor": round(real["real_time_factor"], 3),
+            "leader_plus_1_one_core_no_image_recording_real_time_factor": round(bare["real_time_factor"], 3),
             "render_cost": costs,
             "leader_plus_1_real_time_factor": round(one_all["real_time_factor"], 3),
             "leader_plus_4_real_time_factor": round(four["real_time_factor"], 3),
