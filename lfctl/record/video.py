@@ -45,7 +45,7 @@ def bgr_to_i420(frame_bgr: np.ndarray, out: np.ndarray | None = None) -> np.ndar
     levels of the exact value). OpenCV's own BGR to I420
     takes it from the block's top-left pixel, which puts colour steps on a marker's edges.
     swscale (PyAV's conversion, which the encoder would otherwise apply) filters it too, at
-    0.8-1.1 ms a 640 x 480 frame against 0.55-0.7 ms here (rendered frames, interleaved
+    0.8-1.1 ms a 640 x 480 frame against 0.34-0.38 ms here (rendered frames, interleaved
     runs); converted back to BGR as a decoder does, a rendered frame comes out at 40.4 dB
     PSNR from here and 38.5 dB from swscale.
 
