@@ -41,6 +41,7 @@ from lfctl.render.textures import (
     real_wall_texture,
 )
 from lfctl.vision.banner import BannerGeometry
+from lfctl.vision.boxes import point_bounds
 from lfctl.vision.camera_model import CameraModel
 
 __all__ = ["FrameTruth", "Renderer", "VehiclePose"]
@@ -75,30 +76,10 @@ def _pixel_box(poly: np.ndarray, shape: tuple[int, ...]) -> tuple[int, int, int,
     """The pixels (x0, y0, x1, y1; x1, y1 exclusive) an image polygon covers inside an image
     of ``shape``, or None when it covers none."""
     H_img, W_img = shape[:2]
-    x0, y0, x1, y1 = _poly_bounds(poly)
+    x0, y0, x1, y1 = point_bounds(poly)
     x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, W_img), min(y1, H_img)
     if x1 <= x0 or y1 <= y0:
         return None
-    return x0, y0, x1, y1
-
-
-_INT_SAFE = 2.0**62  # image coordinates well inside int64, where math.floor and numpy's astype(int) agree
-
-
-def _poly_bounds(poly: np.ndarray) -> tuple[int, int, int, int]:
-    """The floor of an image polygon's least x and y and the ceiling of its greatest, as
-    ``np.floor(poly.min(axis=0)).astype(int)`` (and ceil of max) give them, in a third of
-    the time for the few corners a plane has. Polygons with a non-finite coordinate take
-    numpy's own path (its NaN-propagating min and its conversion of those to int), and so
-    do coordinates beyond int64's range, which numpy's conversion does not keep."""
-    xs, ys = poly.T.tolist()
-    if math.isfinite(sum(xs) + sum(ys)):
-        lx, ly, hx, hy = min(xs), min(ys), max(xs), max(ys)
-        if max(-lx, -ly, hx, hy) < _INT_SAFE:
-            return math.floor(lx), math.floor(ly), math.ceil(hx), math.ceil(hy)
-    with np.errstate(invalid="ignore"):
-        x0, y0 = np.floor(poly.min(axis=0)).astype(int).tolist()
-        x1, y1 = np.ceil(poly.max(axis=0)).astype(int).tolist()
     return x0, y0, x1, y1
 
 
@@ -712,7 +693,7 @@ class Renderer:
         bbox, vis, in_view = None, 0.0, False
         if target_poly is not None:
             W, H = self.cfg.width_px, self.cfg.height_px
-            x0, y0, x1, y1 = _poly_bounds(target_poly)
+            x0, y0, x1, y1 = point_bounds(target_poly)
             cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)
             if cx1 > cx0 and cy1 > cy0:
                 in_view = True

@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 from lfctl.config import BannerConfig
+from lfctl.vision.boxes import point_bounds
 from lfctl.vision.chaincode import Blob, blobs
 from lfctl.vision.color import hue_window_mask
 
@@ -77,42 +78,9 @@ class Constellation:
             Panel side / marker square side (see
             :attr:`~lfctl.vision.banner.BannerGeometry.panel_over_side`).
         """
-        pts = self.centres
-        if pts.shape == (4, 2) and pts.dtype == np.float64 and pts.flags.c_contiguous:
-            box = _banner_bbox4(pts.tolist(), panel_over_side)
-            if box is not None:
-                return box
-        return _banner_bbox_numpy(pts, panel_over_side)
-
-
-def _banner_bbox_numpy(centres: np.ndarray, panel_over_side: float) -> tuple[int, int, int, int]:
-    """:meth:`Constellation.banner_bbox` on any array of centres."""
-    c = centres.mean(axis=0)
-    corners = c + (centres - c) * panel_over_side
-    x0, y0 = np.floor(corners.min(axis=0)).astype(int)
-    x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
-    return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
-
-
-#: beyond this (px) a corner is left to numpy, whose integer conversion wraps where Python's does not
-_BBOX_LIMIT = 2.0**52
-
-
-def _banner_bbox4(pts: list[list[float]], panel_over_side: float) -> tuple[int, int, int, int] | None:
-    """:func:`_banner_bbox_numpy` of four C-ordered float64 centres in plain floats, with
-    numpy's arithmetic in numpy's order (its mean over the first axis adds the rows one after
-    another, then divides by 4), so the same box to the bit; called several times a frame,
-    where numpy's cost per call was most of the time. None for a non-finite or huge corner
-    (numpy's conversion of those is its own)."""
-    (xa, ya), (xb, yb), (xc, yc), (xd, yd) = pts
-    cx, cy = (((xa + xb) + xc) + xd) / 4, (((ya + yb) + yc) + yd) / 4
-    xs = [cx + (x - cx) * panel_over_side for x in (xa, xb, xc, xd)]
-    ys = [cy + (y - cy) * panel_over_side for y in (ya, yb, yc, yd)]
-    lo_x, hi_x, lo_y, hi_y = min(xs), max(xs), min(ys), max(ys)
-    if not all(-_BBOX_LIMIT < v < _BBOX_LIMIT for v in (lo_x, hi_x, lo_y, hi_y)):
-        return None  # NaN fails every comparison, so it lands here too
-    x0, y0 = math.floor(lo_x), math.floor(lo_y)
-    return x0, y0, math.ceil(hi_x) - x0, math.ceil(hi_y) - y0
+        c = self.centres.mean(axis=0)
+        x0, y0, x1, y1 = point_bounds(c + (self.centres - c) * panel_over_side)
+        return x0, y0, x1 - x0, y1 - y0
 
 
 def order_corners(pts: np.ndarray) -> np.ndarray:

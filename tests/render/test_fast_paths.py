@@ -4,7 +4,6 @@ give bit-identical numbers (the frames' pixels follow from them), on random pose
 from __future__ import annotations
 
 import math
-import warnings
 
 import cv2
 import numpy as np
@@ -20,24 +19,7 @@ from lfctl.render.renderer import (
     Renderer,
     VehiclePose,
     _band_homography,
-    _poly_bounds,
 )
-
-
-def test_poly_bounds_are_numpys_floor_and_ceil() -> None:
-    rng = np.random.default_rng(0)
-    odd = [np.nan, np.inf, -np.inf, 1e308, -1e19, 9.3e18, 4e18]
-    for k in range(20000):
-        poly = rng.normal(size=(int(rng.integers(3, 9)), 2)) * 10.0 ** int(rng.integers(-2, 5))
-        if k % 7 == 0:
-            poly = np.round(poly)  # whole coordinates: floor and ceil meet
-        if k % 11 == 0:
-            poly[rng.integers(len(poly)), rng.integers(2)] = odd[k % len(odd)]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # numpy's cast of NaN and inf to int
-            lo = np.floor(poly.min(axis=0)).astype(int).tolist()
-            hi = np.ceil(poly.max(axis=0)).astype(int).tolist()
-        assert _poly_bounds(poly) == (*lo, *hi), poly
 
 
 def reference_ground(r: Renderer, R: np.ndarray, c: np.ndarray) -> np.ndarray:

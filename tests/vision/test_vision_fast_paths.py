@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import warnings
 
 import cv2
 import numpy as np
@@ -14,13 +15,12 @@ import pytest
 import lfctl.vision.markers as markers_mod
 import lfctl.vision.tracker as tracker_mod
 from lfctl.render.sequences import make_sequence
+from lfctl.vision.boxes import point_bounds
 from lfctl.vision.kalman import AreaFilter, CentreFilter
 from lfctl.vision.markers import (
     TINY_MARKER_PX,
     BannerLook,
     Constellation,
-    _banner_bbox4,
-    _banner_bbox_numpy,
     _hue_off_table,
     check_constellation,
 )
@@ -83,30 +83,58 @@ def test_pnp_pose_with_shared_object_points_per_side() -> None:
     assert again.range_m == near.range_m
 
 
-def test_banner_bbox_in_floats_is_numpys_to_the_bit() -> None:
+def _plain_banner_bbox(centres: np.ndarray, panel_over_side: float) -> tuple[int, int, int, int]:
+    """Constellation.banner_bbox as it was, all in numpy."""
+    c = centres.mean(axis=0)
+    corners = c + (centres - c) * panel_over_side
+    x0, y0 = np.floor(corners.min(axis=0)).astype(int)
+    x1, y1 = np.ceil(corners.max(axis=0)).astype(int)
+    return int(x0), int(y0), int(x1 - x0), int(y1 - y0)
+
+
+def test_banner_bbox_is_numpys_to_the_bit() -> None:
     rng = np.random.default_rng(11)
     for _k in range(20000):
         scale = 10.0 ** rng.uniform(-2, 4)
         centres = rng.uniform(-1, 1, (4, 2)) * scale + rng.uniform(-500, 1500, 2)
         pos = float(rng.uniform(0.5, 3.0))
         c = Constellation(np.ascontiguousarray(centres), (), 1.0)
-        assert c.banner_bbox(pos) == _banner_bbox_numpy(centres, pos)
-        # near-integer centres far out, where the order of the mean's additions decides
-        # which side of an integer a corner rounds to
+        assert c.banner_bbox(pos) == _plain_banner_bbox(centres, pos)
+        # near-integer centres far out, where rounding decides which side of an integer a
+        # corner lands on
         near = rng.integers(-(10**6), 10**6, (4, 2)) + rng.choice([0.0, 0.1, 0.3, 1e-9], (4, 2))
         pos = float(rng.choice([1.0, 3.0, 0.5, 0.22 / 0.14]))
-        assert Constellation(near, (), 1.0).banner_bbox(pos) == _banner_bbox_numpy(near, pos)
+        assert Constellation(near, (), 1.0).banner_bbox(pos) == _plain_banner_bbox(near, pos)
 
 
-def test_banner_bbox_leaves_other_arrays_to_numpy() -> None:
+def test_banner_bbox_of_other_arrays_is_numpys() -> None:
     centres = np.array([[10.25, 20.5], [40.0, 20.0], [40.5, 50.0], [10.0, 50.75]])
-    want = _banner_bbox_numpy(centres, 1.5)
+    want = _plain_banner_bbox(centres, 1.5)
     assert Constellation(np.asfortranarray(centres), (), 1.0).banner_bbox(1.5) == want
-    assert Constellation(centres.astype(np.float32), (), 1.0).banner_bbox(1.5) == _banner_bbox_numpy(
-        centres.astype(np.float32), 1.5
-    )
-    assert _banner_bbox4([[np.nan, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
-    assert _banner_bbox4([[np.inf, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]], 1.5) is None
+    f32 = centres.astype(np.float32)
+    assert Constellation(f32, (), 1.0).banner_bbox(1.5) == _plain_banner_bbox(f32, 1.5)
+    for odd in (np.nan, np.inf):
+        bad = centres.copy()
+        bad[0, 0] = odd
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numpy's cast of NaN and inf to int
+            assert Constellation(bad, (), 1.0).banner_bbox(1.5) == _plain_banner_bbox(bad, 1.5)
+
+
+def test_point_bounds_are_numpys_floor_and_ceil() -> None:
+    rng = np.random.default_rng(0)
+    odd = [np.nan, np.inf, -np.inf, 1e308, -1e19, 9.3e18, 4e18]
+    for k in range(20000):
+        poly = rng.normal(size=(int(rng.integers(3, 9)), 2)) * 10.0 ** int(rng.integers(-2, 5))
+        if k % 7 == 0:
+            poly = np.round(poly)  # whole coordinates: floor and ceil meet
+        if k % 11 == 0:
+            poly[rng.integers(len(poly)), rng.integers(2)] = odd[k % len(odd)]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # numpy's cast of NaN and inf to int
+            lo = np.floor(poly.min(axis=0)).astype(int).tolist()
+            hi = np.ceil(poly.max(axis=0)).astype(int).tolist()
+        assert point_bounds(poly) == (*lo, *hi), poly
 
 
 def _plain_marker_check(c: Constellation, hsv: np.ndarray, aspect: float, look: BannerLook) -> tuple[str, list, list]:
