@@ -5,26 +5,28 @@
 2. :class:`OcclusionCoaster`: takes the centre filter's position and velocity when the
    target disappears and keeps coasting them, with a larger process noise, so the search
    region follows the hidden target and widens with the uncertainty until it reappears.
-3. :class:`AreaFilter`: constant velocity on the window's size (square root of its area); a
-   normalised innovation beyond a gate flags an occlusion early (the window collapsing as an
-   occluder slides over the target, or jumping onto something else).
+3. :class:`AreaFilter`: the window's size (square root of its area), constant velocity mixed
+   with a holding model (an IMM); a normalised innovation beyond a gate flags an occlusion
+   early (the window collapsing as an occluder slides over the target, or jumping onto
+   something else).
 """
 
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import IMMEstimator, KalmanFilter
 
 __all__ = ["AreaFilter", "CentreFilter", "OcclusionCoaster"]
 
 
-def _cv_filter(dim: int, accel_var: float, meas_var: float) -> KalmanFilter:
+def _cv_filter(dim: int, accel_var: float, meas_var: float, cls: type[KalmanFilter] = KalmanFilter) -> KalmanFilter:
     """A constant-velocity filter on ``dim`` coordinates, one step per frame: state
     x = [p_1 .. p_dim, v_1 .. v_dim] (px, px/frame), measurement z = [p_1 .. p_dim]."""
-    kf = KalmanFilter(dim_x=2 * dim, dim_z=dim)
+    kf = cls(dim_x=2 * dim, dim_z=dim)
     # F = [[I, dt I], [0, I]], dt = 1 frame: p' = p + v, v' = v
     F = np.eye(2 * dim)
     for i in range(dim):
@@ -142,18 +144,44 @@ class OcclusionCoaster:
         return float(math.sqrt(max(self.kf.P[0, 0], self.kf.P[1, 1])))
 
 
+class _ScalarKalmanFilter(KalmanFilter):
+    """filterpy's KalmanFilter for one measured coordinate, with the measurement's likelihood
+    in closed form: filterpy's own goes through scipy's multivariate normal, about 0.15 ms a
+    call, which the IMM asks of each model each frame. Same value, same floor."""
+
+    @property
+    def likelihood(self) -> float:
+        # N(y; 0, S) = exp(-y^2 / 2S) / sqrt(2 pi S), y and S of the last update
+        S = float(self.S[0, 0])
+        y = float(self.y[0])
+        return max(math.exp(-0.5 * y * y / S) / math.sqrt(2.0 * math.pi * S), sys.float_info.min)
+
+    def update(self, z: np.ndarray, R: np.ndarray | None = None, H: np.ndarray | None = None) -> None:
+        # H given: filterpy takes z as it is instead of reshaping it each call (as _update)
+        super().update(z, R, self.H if H is None else H)
+
+
 class AreaFilter:
-    """Constant-velocity filter on the window's size; the gate flags collapses and jumps.
+    """The window's size, filtered; the gate flags collapses and jumps.
 
     The size may be sqrt(w h) in px, or its logarithm (as the tracker runs it: a scale
     changes by factors, so its noise is a fraction of the size, whatever the size).
+
+    With ``hold_var`` None this is one constant-velocity filter (the size grows or shrinks at
+    a steady rate). With a ``hold_var`` it is an interacting multiple model (IMM, Blom and
+    Bar-Shalom 1988; filterpy's :class:`~filterpy.kalman.IMMEstimator`) of that filter and a
+    second one in which the size holds, jittering by ``hold_var`` a frame, its rate zero. Each
+    frame the two are mixed by how well each predicted the measured sizes, so a target that
+    stops approaching is held at its size instead of extrapolated along the rate it had,
+    and one that keeps approaching is followed at its rate. The gate reads the mixture.
 
     Parameters
     ----------
     size_px : float
         The first window's size (sqrt(w h), px, or its logarithm).
     accel_var : float
-        Process noise: variance of the size's acceleration, (size unit / frame^2)^2.
+        Process noise of the steady-rate model: variance of the size's acceleration, (size
+        unit / frame^2)^2.
     meas_var : float
         Variance of a measured size, (size unit)^2.
     gate_sigma : float
@@ -162,6 +190,17 @@ class AreaFilter:
         Variance of the size's rate of change at the start, (size unit / frame)^2.
     size_var : float, optional
         Variance of the first size (default ``meas_var``: as uncertain as a measurement).
+    hold_var : float, optional
+        The holding model's variance of the size's change a frame, (size unit)^2; None
+        (the default) for the steady-rate filter alone.
+    switch_prob : float
+        With ``hold_var``: the chance a frame that the target switches from one model to the
+        other (0.03: it keeps one for about 33 frames, a second at 30 frames a second).
+
+    Raises
+    ------
+    ValueError
+        ``hold_var`` negative, or ``switch_prob`` outside (0, 1).
     """
 
     def __init__(
@@ -172,17 +211,76 @@ class AreaFilter:
         gate_sigma: float = 3.5,
         rate_var: float = 4.0,
         size_var: float | None = None,
+        hold_var: float | None = None,
+        switch_prob: float = 0.03,
     ) -> None:
-        self.kf = _cv_filter(1, accel_var, meas_var)
+        self.kf = _cv_filter(1, accel_var, meas_var, _ScalarKalmanFilter)
         self.kf.x = np.array([size_px, 0.0])
         # P0 = diag(size_var, rate_var): the first size, its rate unknown
         self.kf.P = np.diag([meas_var if size_var is None else size_var, rate_var])
         self.gate_sigma = gate_sigma
+        self.meas_var = meas_var
+        self._imm: IMMEstimator | None = None
+        if hold_var is not None:
+            if not (hold_var >= 0.0 and math.isfinite(hold_var)):
+                raise ValueError(f"hold_var must be >= 0, got {hold_var!r}")
+            if not 0.0 < switch_prob < 1.0:
+                raise ValueError(f"switch_prob must be in (0, 1), got {switch_prob!r}")
+            hold = _ScalarKalmanFilter(dim_x=2, dim_z=1)
+            # F = [[1, 0], [0, 0]]: the size stays, its rate is zero
+            hold.F = np.array([[1.0, 0.0], [0.0, 0.0]])
+            hold.H = self.kf.H.copy()
+            hold.R = self.kf.R.copy()
+            # Q = diag(hold_var, 0): the size jitters, the rate stays zero
+            hold.Q = np.diag([hold_var, 0.0])
+            hold.x = self.kf.x.copy()
+            hold.P = self.kf.P.copy()
+            # M[i, j]: chance of going from model i to model j in a frame; mu: both equally likely
+            M = np.array([[1.0 - switch_prob, switch_prob], [switch_prob, 1.0 - switch_prob]])
+            self._imm = IMMEstimator([self.kf, hold], np.array([0.5, 0.5]), M)
+
+    @property
+    def x(self) -> np.ndarray:
+        """The state [size, rate] (the models' mixture with ``hold_var``), read-only view."""
+        x = self.kf.x if self._imm is None else self._imm.x
+        v = x.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def P(self) -> np.ndarray:
+        """The state's covariance (the mixture's, spread of the models included), read-only view."""
+        P = self.kf.P if self._imm is None else self._imm.P
+        v = P.view()
+        v.flags.writeable = False
+        return v
+
+    @property
+    def size(self) -> float:
+        """The filtered size (size unit)."""
+        return float(self.x[0])
+
+    @property
+    def hold_probability(self) -> float | None:
+        """How likely the size is holding rather than changing steadily (None without ``hold_var``)."""
+        return None if self._imm is None else float(self._imm.mu[1])
+
+    def hold(self) -> None:
+        """Set the size's rate to zero in every model: the size holds from here (a target not
+        measured, as when hidden, is not extrapolated)."""
+        self.kf.x[1] = 0.0  # the steady-rate model (the holding model's rate is zero by its F)
+        if self._imm is not None:
+            self._imm.x[1] = 0.0
 
     def predict(self) -> float:
-        """Advance one frame; the predicted size, px."""
-        _predict(self.kf)
-        return float(self.kf.x[0])
+        """Advance one frame; the predicted size."""
+        if self._imm is None:
+            _predict(self.kf)
+        else:
+            # each model starts from the mixture of both, weighted by the chance of a switch,
+            # then predicts by its own F and Q; the estimate is their mixture by mu
+            self._imm.predict()
+        return self.size
 
     def innovation_sigma(self, size_px: float) -> float:
         """|measurement - prediction| in standard deviations of the innovation.
@@ -190,12 +288,12 @@ class AreaFilter:
         Parameters
         ----------
         size_px : float
-            A measured size, px.
+            A measured size.
         """
-        # S = H P H' + R
-        S = float((self.kf.H @ self.kf.P @ self.kf.H.T + self.kf.R)[0, 0])
+        # S = H P H' + R, with the mixture's P: P[0, 0] + R
+        S = float(self.P[0, 0]) + self.meas_var
         # |y| / sqrt(S), y = z - H x
-        return abs(size_px - float(self.kf.x[0])) / math.sqrt(S)
+        return abs(size_px - self.size) / math.sqrt(S)
 
     def consistent(self, size_px: float) -> bool:
         """Within the gate (no occlusion or jump flagged).
@@ -203,7 +301,7 @@ class AreaFilter:
         Parameters
         ----------
         size_px : float
-            A measured size, px.
+            A measured size.
         """
         return self.innovation_sigma(size_px) <= self.gate_sigma
 
@@ -218,4 +316,19 @@ class AreaFilter:
             This measurement's variance, when it is not the filter's ``meas_var`` (a more
             precise sensor).
         """
-        _update(self.kf, np.array([size_px]), None if meas_var is None else np.array([[meas_var]]))
+        z = np.array([size_px])
+        R = None if meas_var is None else np.array([[meas_var]])
+        if self._imm is None:
+            _update(self.kf, z, R)
+            return
+        # each model updates on the measurement; mu_j ~ (chance of j before) x (likelihood of
+        # the measurement under j), and the estimate is their mixture by mu
+        saved = [f.R for f in self._imm.filters]
+        if R is not None:
+            for f in self._imm.filters:
+                f.R = R
+        try:
+            self._imm.update(z)
+        finally:
+            for f, r in zip(self._imm.filters, saved, strict=True):
+                f.R = r

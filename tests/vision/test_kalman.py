@@ -81,3 +81,98 @@ def test_a_measurement_at_the_prediction_leaves_the_centre_where_it_is() -> None
     f.update(pu, pv)
     after, _ = f.state
     assert after == pytest.approx(before + np.array([before[2], before[3], 0.0, 0.0]))
+
+
+def test_size_imm_one_predict_and_update_by_hand() -> None:
+    # both models start at x = [0, 0], P = diag(1, 1); R = 1; steady-rate Q = 0, holding Q = 0
+    f = AreaFilter(0.0, accel_var=0.0, meas_var=1.0, rate_var=1.0, size_var=1.0, hold_var=0.0, switch_prob=0.1)
+    assert f.hold_probability == 0.5
+    assert f.predict() == 0.0
+    # steady rate: F = [[1, 1], [0, 1]]: P = [[2, 1], [1, 1]]; holding: F = [[1, 0], [0, 0]]: P = diag(1, 0)
+    # the mixture (same means): P = (P_cv + P_hold) / 2
+    assert np.allclose(f.P, [[1.5, 0.5], [0.5, 0.5]])
+    assert f.innovation_sigma(2.0) == pytest.approx(2.0 / math.sqrt(1.5 + 1.0))
+    f.update(2.0)
+    # S_cv = 3, S_hold = 2; likelihoods N(2; 0, S); mu ~ 0.5 L (both models equally likely before)
+    l_cv = math.exp(-4 / 6) / math.sqrt(2 * math.pi * 3)
+    l_hold = math.exp(-4 / 4) / math.sqrt(2 * math.pi * 2)
+    mu_hold = l_hold / (l_cv + l_hold)
+    assert f.hold_probability == pytest.approx(mu_hold)
+    # steady rate: K = (2, 1) / 3, x = (4/3, 2/3); holding: K = (1/2, 0), x = (1, 0)
+    x = (1 - mu_hold) * np.array([4 / 3, 2 / 3]) + mu_hold * np.array([1.0, 0.0])
+    assert np.allclose(f.x, x)
+    assert f.size == pytest.approx(x[0])
+
+
+def test_size_imm_a_precise_measurement_leaves_the_filters_own_noise() -> None:
+    f = AreaFilter(0.0, accel_var=0.0, meas_var=1.0, rate_var=1.0, size_var=1.0, hold_var=0.0)
+    f.predict()
+    f.update(0.5, meas_var=0.01)
+    # steady rate: K_p = 2 / 2.01; holding: K_p = 1 / 1.01; both pull the size nearly to 0.5
+    assert f.size == pytest.approx(0.5, abs=0.01)
+    assert all(m.R[0, 0] == 1.0 for m in f._imm.filters)  # the next size is a plain one again
+    assert f.meas_var == 1.0 and f.innovation_sigma(1.0) == pytest.approx(abs(1.0 - f.size) / math.sqrt(f.P[0, 0] + 1))
+
+
+def _imm_error_after(sizes: list[float], hold_var: float | None) -> list[float]:
+    f = AreaFilter(sizes[0], accel_var=1e-6, meas_var=1e-4, rate_var=1e-4, size_var=1e-4, hold_var=hold_var)
+    rng = np.random.default_rng(3)
+    errs = []
+    for s in sizes[1:]:
+        f.predict()
+        f.update(s + float(rng.normal(0.0, 0.01)))
+        errs.append(abs(f.size - s))
+    return errs
+
+
+def test_size_imm_holds_a_target_that_stops_and_follows_one_that_keeps_growing() -> None:
+    # log size grows 2 % a frame for 30 frames, then holds for 30 (a walker who stops)
+    grow = [0.02 * i for i in range(31)]
+    stop = grow + [grow[-1]] * 30
+    cv_alone = _imm_error_after(stop, None)
+    imm = _imm_error_after(stop, 1e-5)
+    # after the stop the steady-rate filter alone runs on along the old rate for a while;
+    # the mixture switches to holding and errs less
+    assert max(imm[32:45]) < 0.5 * max(cv_alone[32:45])
+    # while the target keeps growing, the mixture follows it as closely as the steady-rate
+    # filter alone (the holding model would lag one rate's worth of frames behind)
+    assert np.mean(imm[10:30]) < 2.0 * np.mean(cv_alone[10:30]) + 0.01
+    g = AreaFilter(0.0, accel_var=1e-6, meas_var=1e-4, rate_var=1e-4, size_var=1e-4, hold_var=1e-5)
+    for i in range(1, 31):
+        g.predict()
+        g.update(0.02 * i)
+    assert g.hold_probability is not None and g.hold_probability < 0.1 and g.x[1] == pytest.approx(0.02, rel=0.1)
+
+
+def test_size_imm_hold_stops_every_model() -> None:
+    f = AreaFilter(0.0, accel_var=1e-6, meas_var=1e-4, rate_var=1e-4, size_var=1e-4, hold_var=1e-5)
+    for i in range(1, 20):
+        f.predict()
+        f.update(0.03 * i)
+    assert f.x[1] > 0.02
+    f.hold()
+    size = f.size
+    assert f.x[1] == 0.0
+    # no model extrapolates a rate (0.03 a frame before); the mixture moves only as the
+    # models' weights do, their sizes being a little apart
+    assert f.predict() == pytest.approx(size, abs=1e-3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-0.5, 0.5), min_size=1, max_size=40), st.floats(1e-6, 1e-2), st.floats(0.001, 0.5))
+def test_size_imm_stays_a_probability_and_a_covariance(steps: list, hold_var: float, p: float) -> None:
+    f = AreaFilter(3.0, accel_var=1e-6, meas_var=0.04, rate_var=1e-4, size_var=4e-4, hold_var=hold_var, switch_prob=p)
+    s = 3.0
+    for d in steps:
+        f.predict()
+        s += d
+        f.update(s, meas_var=4e-4 if d > 0.4 else None)
+        assert 0.0 <= f.hold_probability <= 1.0
+        assert np.allclose(f.P, f.P.T) and np.all(np.linalg.eigvalsh(f.P) >= -1e-12)
+        assert math.isfinite(f.size)
+
+
+@pytest.mark.parametrize(("hold_var", "p"), [(-1.0, 0.03), (math.nan, 0.03), (1e-4, 0.0), (1e-4, 1.0)])
+def test_size_imm_refuses_bad_settings(hold_var: float, p: float) -> None:
+    with pytest.raises(ValueError, match=r"hold_var|switch_prob"):
+        AreaFilter(0.0, hold_var=hold_var, switch_prob=p)

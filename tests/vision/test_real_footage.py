@@ -3,8 +3,7 @@ tracker, with its default settings and markers on, through the pose pipeline, fr
 label's frame-0 box (as `lfctl track VIDEO --roi` starts it).
 
 The footage and the trackers are deterministic (no seeds): each rule is checked on every
-labelled frame. A rule lfctl does not meet yet is an xfail with the measured figure, strict,
-so that it fails the day it passes."""
+labelled frame."""
 
 from __future__ import annotations
 
@@ -75,24 +74,7 @@ def success(seq: LabelledSequence, run: Run) -> float:
     )
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="0.85 measured (CSRT 0.95), IoU 0.496, 0.44, 0.44 on frames 25, 30, 40: "
-                "CAMShift's calibrated size runs 17-49 % over the labelled jacket on frames 15-55 (the "
-                "calibration is learnt on frame 0's side view; he then turns his back, beside a woman "
-                "in a black coat) and the window takes in his head",
-            ),
-        )
-        if n == "vtest_navyred"
-        else n
-        for n in CSRT_AT_0_9
-    ],
-)
+@pytest.mark.parametrize("name", CSRT_AT_0_9)
 def test_holds_the_target_where_csrt_does(name: str) -> None:
     assert success(SEQUENCES[name], full_run(name)) >= 0.9
 
