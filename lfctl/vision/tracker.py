@@ -107,11 +107,14 @@ class TrackerSettings:
         frame, on log(size) (1e-4: 1 % a frame). The filter mixes it with the steady-rate
         model (``size_accel_var``) by how well each predicted the last sizes (an IMM, see
         :class:`~lfctl.vision.kalman.AreaFilter`): a walker who stops approaching is held at
-        his size instead of extrapolated along the rate he had. On real footage the
-        steady-rate model alone carried a growth rate past the frames that showed it and
-        overshot the navy jacket by up to 49 %. With it, every labelled clip's success is the
-        same or better at any value from 1e-5 to 4e-4; from 7e-4 up the navy jacket falls back
-        to what the steady-rate model alone gives. None: the steady-rate model alone.
+        his size instead of extrapolated along the rate he had. With sizes as noisy as
+        CAMShift's, neither model wins for long (the holding one's chance stays at 0.3-0.6
+        on the navy jacket) and the size is their mixture, which carries about half of the
+        steady-rate model's extrapolation. The steady-rate model alone carried a growth rate
+        past the frames that showed it and overshot the navy jacket by up to 49 %. With the
+        mixture, every labelled clip's success is the same or better at any value from 1e-5
+        to 4e-4; from 7e-4 up the navy jacket falls back to what the steady-rate model alone
+        gives. None: the steady-rate model alone.
     size_switch_prob : float
         The chance a frame that the target's size switches between holding and changing
         steadily (0.03: about once a second at 30 frames a second; 0.01-0.3 score the same on
