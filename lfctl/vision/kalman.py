@@ -144,6 +144,12 @@ class OcclusionCoaster:
         return float(math.sqrt(max(self.kf.P[0, 0], self.kf.P[1, 1])))
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
 class _ScalarKalmanFilter(KalmanFilter):
     """filterpy's KalmanFilter for one measured coordinate, with the measurement's likelihood
     in closed form: filterpy's own goes through scipy's multivariate normal, about 0.15 ms a
@@ -242,18 +248,12 @@ class AreaFilter:
     @property
     def x(self) -> np.ndarray:
         """The state [size, rate] (the models' mixture with ``hold_var``), read-only view."""
-        x = self.kf.x if self._imm is None else self._imm.x
-        v = x.view()
-        v.flags.writeable = False
-        return v
+        return _read_only((self.kf if self._imm is None else self._imm).x)
 
     @property
     def P(self) -> np.ndarray:
         """The state's covariance (the mixture's, spread of the models included), read-only view."""
-        P = self.kf.P if self._imm is None else self._imm.P
-        v = P.view()
-        v.flags.writeable = False
-        return v
+        return _read_only((self.kf if self._imm is None else self._imm).P)
 
     @property
     def size(self) -> float:
