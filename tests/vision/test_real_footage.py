@@ -3,7 +3,8 @@ tracker, with its default settings and markers on, through the pose pipeline, fr
 label's frame-0 box (as `lfctl track VIDEO --roi` starts it).
 
 The footage and the trackers are deterministic (no seeds): each rule is checked on every
-labelled frame."""
+labelled frame. A rule lfctl does not meet yet is an xfail with the measured figure, strict,
+so that it fails the day it passes."""
 
 from __future__ import annotations
 
@@ -94,7 +95,25 @@ def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
     assert [i for i in seq.hidden() if run.statuses[i] is TrackStatus.TRACKING] == []
 
 
-@pytest.mark.parametrize("name", LABELLED)
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(
+            n,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="12 of 15 plain-view frames OCCLUDED (25-95), success 0.067 (CSRT 0.733): the "
+                "pale-blue jacket is half grey pixels (saturation <= 40) and shares its blue with her "
+                "jeans; CAMShift's window spreads over the jeans and the bright pavement, 23 x 51 px on "
+                "frame 5 to 65 x 105 on frame 20 while she shrinks to 20 x 47, and the windows after "
+                "it are mostly pavement, past the gate",
+            ),
+        )
+        if n == "vtest_whitehood"
+        else n
+        for n in LABELLED
+    ],
+)
 def test_never_occluded_while_the_target_is_in_plain_view(name: str) -> None:
     seq = SEQUENCES[name]
     run = full_run(name)
