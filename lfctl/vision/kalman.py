@@ -144,23 +144,18 @@ class OcclusionCoaster:
         return float(math.sqrt(max(self.kf.P[0, 0], self.kf.P[1, 1])))
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    v = a.view()
-    v.flags.writeable = False
-    return v
-
-
 class _ScalarKalmanFilter(KalmanFilter):
     """filterpy's KalmanFilter for one measured coordinate, with the measurement's likelihood
-    in closed form: filterpy's own goes through scipy's multivariate normal, about 0.15 ms a
-    call, which the IMM asks of each model each frame. Same value, same floor."""
+    in closed form: filterpy's own goes through scipy's multivariate normal (0.07-0.15 ms a
+    call on the machine this was written on), which the IMM asks of each model each frame.
+    The same value (to rounding), and the same floor for a likelihood that underflows to 0."""
 
     @property
     def likelihood(self) -> float:
-        # N(y; 0, S) = exp(-y^2 / 2S) / sqrt(2 pi S), y and S of the last update
-        S = float(self.S[0, 0])
-        y = float(self.y[0])
-        return max(math.exp(-0.5 * y * y / S) / math.sqrt(2.0 * math.pi * S), sys.float_info.min)
+        # N(y; 0, S) = exp(-(y^2 / S + log(2 pi S)) / 2), y and S of the last update
+        S = float(self.S.item())
+        y = float(self.y.item())
+        return math.exp(-0.5 * (y * y / S + math.log(2.0 * math.pi * S))) or sys.float_info.min
 
     def update(self, z: np.ndarray, R: np.ndarray | None = None, H: np.ndarray | None = None) -> None:
         # H given: filterpy takes z as it is instead of reshaping it each call (as _update)
@@ -179,7 +174,13 @@ class AreaFilter:
     second one in which the size holds, jittering by ``hold_var`` a frame, its rate zero. Each
     frame the two are mixed by how well each predicted the measured sizes, so a target that
     stops approaching is held at its size instead of extrapolated along the rate it had,
-    and one that keeps approaching is followed at its rate. The gate reads the mixture.
+    and one that keeps approaching is followed at its rate (when the sizes are precise
+    enough to tell the two apart; with noisy ones the mixture stays near even). The gate
+    reads the mixture; filterpy weighs the predicted models by the last frame's mode
+    probabilities (not yet moved by the chance of a switch, less than ``switch_prob``).
+
+    Under the IMM, :attr:`kf` is the steady-rate model; :attr:`x`, :attr:`P` and
+    :attr:`size` are the mixture's.
 
     Parameters
     ----------
@@ -206,7 +207,7 @@ class AreaFilter:
     Raises
     ------
     ValueError
-        ``hold_var`` negative, or ``switch_prob`` outside (0, 1).
+        ``hold_var`` negative or not finite, or ``switch_prob`` outside (0, 1).
     """
 
     def __init__(
@@ -246,19 +247,24 @@ class AreaFilter:
             self._imm = IMMEstimator([self.kf, hold], np.array([0.5, 0.5]), M)
 
     @property
+    def _estimate(self) -> KalmanFilter | IMMEstimator:
+        # what holds the estimate: the one filter, or the IMM's mixture
+        return self.kf if self._imm is None else self._imm
+
+    @property
     def x(self) -> np.ndarray:
-        """The state [size, rate] (the models' mixture with ``hold_var``), read-only view."""
-        return _read_only((self.kf if self._imm is None else self._imm).x)
+        """A copy of the state [size, rate] (the models' mixture with ``hold_var``)."""
+        return self._estimate.x.copy()
 
     @property
     def P(self) -> np.ndarray:
-        """The state's covariance (the mixture's, spread of the models included), read-only view."""
-        return _read_only((self.kf if self._imm is None else self._imm).P)
+        """A copy of the state's covariance (the mixture's, the models' spread included)."""
+        return self._estimate.P.copy()
 
     @property
     def size(self) -> float:
         """The filtered size (size unit)."""
-        return float(self.x[0])
+        return float(self._estimate.x[0])
 
     @property
     def hold_probability(self) -> float | None:
@@ -267,7 +273,8 @@ class AreaFilter:
 
     def hold(self) -> None:
         """Set the size's rate to zero in every model: the size holds from here (a target not
-        measured, as when hidden, is not extrapolated)."""
+        measured, as when hidden, is not extrapolated). The mixture's :attr:`P` keeps the
+        models' spread of rates until the next :meth:`predict`."""
         self.kf.x[1] = 0.0  # the steady-rate model (the holding model's rate is zero by its F)
         if self._imm is not None:
             self._imm.x[1] = 0.0
@@ -291,7 +298,7 @@ class AreaFilter:
             A measured size.
         """
         # S = H P H' + R, with the mixture's P: P[0, 0] + R
-        S = float(self.P[0, 0]) + self.meas_var
+        S = float(self._estimate.P[0, 0]) + self.meas_var
         # |y| / sqrt(S), y = z - H x
         return abs(size_px - self.size) / math.sqrt(S)
 
@@ -323,10 +330,12 @@ class AreaFilter:
             return
         # each model updates on the measurement; mu_j ~ (chance of j before) x (likelihood of
         # the measurement under j), and the estimate is their mixture by mu
+        if R is None:
+            self._imm.update(z)
+            return
         saved = [f.R for f in self._imm.filters]
-        if R is not None:
-            for f in self._imm.filters:
-                f.R = R
+        for f in self._imm.filters:
+            f.R = R
         try:
             self._imm.update(z)
         finally:
