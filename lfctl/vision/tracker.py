@@ -110,15 +110,16 @@ class TrackerSettings:
         his size instead of extrapolated along the rate he had. With sizes as noisy as
         CAMShift's, neither model wins for long (the holding one's chance stays at 0.3-0.6
         on the navy jacket) and the size is their mixture, which carries about half of the
-        steady-rate model's extrapolation. The steady-rate model alone carried a growth rate
-        past the frames that showed it and overshot the navy jacket by up to 49 %. With the
-        mixture, every labelled clip's success is the same or better at any value from 1e-5
-        to 4e-4; from 7e-4 up the navy jacket falls back to what the steady-rate model alone
-        gives. None: the steady-rate model alone.
+        steady-rate model's extrapolation. On the navy jacket, CAMShift's own size runs up
+        to 1.49x the labelled jacket's; the steady-rate model alone added 0.14-0.31x more by
+        extrapolating (frames 25 and 45-55), the mixture 0.05-0.23x. On the six
+        clips these values were chosen on, every clip's success is the same or better at
+        every value tried from 1e-5 to 4e-4; at 7e-4 and 1e-3 the navy jacket falls back to
+        what the steady-rate model alone gives. None: the steady-rate model alone.
     size_switch_prob : float
         The chance a frame that the target's size switches between holding and changing
-        steadily (0.03: about once a second at 30 frames a second; 0.01-0.3 score the same on
-        the labelled clips).
+        steadily (0.03: about once a second at 30 frames a second, every 3 s in the 10 fps
+        clips it was chosen on; 0.01-0.3 score the same on those six clips).
     alpha : float
         Blend rate of a model update.
     search_scale : float
