@@ -22,7 +22,11 @@ on the labelled real footage in ``footage/`` and on the rendered tiers together)
   (:class:`~lfctl.vision.gates.DistanceGate`): the gate between TRACKING and OCCLUDED;
 - the picture's brightness: when the whole picture darkens or brightens past 1.6x, it reads
   the value channel scaled back, as a camera's gain would
-  (:class:`~lfctl.vision.exposure.Exposure`).
+  (:class:`~lfctl.vision.exposure.Exposure`);
+- whether this target's window sprawls over faint surroundings of its colours: a target
+  followed by its colours alone whose grown window fails the gate while a smaller one at
+  the same place passes is found again there, and from then on its window grows only onto
+  back-projection dense like its own (``TrackerSettings.sprawl_growth``).
 
 Mean shift places a window of the filtered size (CAMShift's window can sprawl over a
 neighbour and drag the centre along); CAMShift measures the size, which a Kalman filter on
@@ -120,6 +124,29 @@ class TrackerSettings:
         The chance a frame that the target's size switches between holding and changing
         steadily (0.03: about once a second at 30 frames a second, every 3 s in the 10 fps
         clips it was chosen on; 0.01-0.3 score the same on those six clips).
+    sprawl_growth : float
+        A target followed by its colours alone whose window has grown past this times the
+        size its track started at, and then fails the colour gate, is looked for at smaller
+        sizes (``sprawl_scales``) before it is called hidden. CAMShift sizes its window from
+        the back-projection's spread over a window 10 px larger on every side than the last
+        (OpenCV's), so faint surroundings that share the target's colours (a pale jacket on
+        pale pavement) swell it frame after frame until it fails the gate with the target in
+        plain view. A window
+        of a smaller size that the gate accepts is the target found again, and marks it as
+        one whose window sprawls: from then on its window grows only as far as the
+        back-projection it takes in is dense like the target's (``sprawl_margin``). On the
+        labelled footage any value from 1.05 to 2.2 gives the same results (below 1.05 a red
+        jacket is marked; from 2.5 the pale-blue jacket's window has failed the gate before
+        it is looked for smaller).
+    sprawl_scales : tuple of float
+        The sizes tried, as fractions of the predicted window (each between 0 and 1), in
+        turn; the first the gate accepts is taken. Empty: never looked for smaller.
+    sprawl_margin : float
+        For a target marked as sprawling: CAMShift's window larger than the predicted one is
+        believed only when the strip it adds has a mean back-projection of at least the
+        inside's less this fraction of the difference between the inside and the ring
+        around the window (0: as dense as the inside; 0.5: the midpoint); else the size is
+        measured as predicted. 0 to 0.35 give the same results on the labelled footage.
     alpha : float
         Blend rate of a model update.
     search_scale : float
@@ -149,12 +176,23 @@ class TrackerSettings:
     size_meas_var: float = 0.04
     size_hold_var: float | None = 1e-4
     size_switch_prob: float = 0.03
+    sprawl_growth: float = 1.5
+    sprawl_scales: tuple[float, ...] = (0.8, 0.64, 0.5)
+    sprawl_margin: float = 0.25
     alpha: float = 0.15
     search_scale: float = 2.0
     ring_scale: float = 2.0
     lost_after_frames: int = 60
     relearn_after_frames: int = 5
     use_markers: bool = True
+
+    def __post_init__(self) -> None:
+        if not self.sprawl_growth >= 0.0:  # NaN too; inf: never looked for smaller
+            raise ValueError(f"sprawl_growth must be >= 0 (inf: off), got {self.sprawl_growth!r}")
+        if not all(0.0 < k < 1.0 for k in self.sprawl_scales):
+            raise ValueError(f"sprawl_scales must each be between 0 and 1 (exclusive), got {self.sprawl_scales!r}")
+        if not 0.0 <= self.sprawl_margin <= 1.0:
+            raise ValueError(f"sprawl_margin must be within 0..1, got {self.sprawl_margin!r}")
 
 
 @dataclass(frozen=True)
@@ -273,6 +311,8 @@ class Tracker:
         self._aspect = 1.0  # the window's height / width, a slow average (full tracker)
         self._markers_seen = False
         self._markers_missing = 0
+        self._start_size = 0.0  # the window's size when the filters (re)started, px
+        self._sprawling = False  # found again smaller after its window sprawled (see sprawl_growth)
         self._look = BannerLook(self.s.marker_saturation, self.s.marker_over_side, self.s.panel_over_side)
         self._exposure = Exposure()  # followed by the full tracker only: the baselines' gain stays 1
 
@@ -302,6 +342,7 @@ class Tracker:
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
         c = self._markers_near(hsv, roi, must="overlap") if self.s.use_markers and self.s.kind == "full" else None
         self._markers_seen = c is not None
+        self._sprawling = False
         self._start_filters(roi)
         self.status = TrackStatus.TRACKING
         return TrackState(0, self.status, roi, 1.0, 0.0, c.centres if c else None, None, "init")
@@ -376,18 +417,24 @@ class Tracker:
     def _start_filters(self, box: Box) -> None:
         x, y, w, h = box
         self.window = box
+        self._start_size = float(np.sqrt(w * h))
         self._centre = CentreFilter(x + w / 2.0, y + h / 2.0)
-        self._area = AreaFilter(
-            float(np.log(np.sqrt(w * h))),
-            accel_var=self.s.size_accel_var,
-            meas_var=self.s.size_meas_var,
-            rate_var=self.s.size_accel_var * 100,
-            size_var=EXACT_SIZE_VAR,  # the box it starts on is the target's
-            hold_var=self.s.size_hold_var,
-            switch_prob=self.s.size_switch_prob,
-        )
+        self._area = self._size_filter(self._start_size, EXACT_SIZE_VAR)  # the box it starts on is the target's
         self._coaster = None
         self._occluded_frames = 0
+
+    def _size_filter(self, size: float, size_var: float) -> AreaFilter:
+        """A size filter started at ``size`` px, known to ``size_var`` on its logarithm."""
+        s = self.s
+        return AreaFilter(
+            float(np.log(size)),
+            accel_var=s.size_accel_var,
+            meas_var=s.size_meas_var,
+            rate_var=s.size_accel_var * 100,
+            size_var=size_var,
+            hold_var=s.size_hold_var,
+            switch_prob=s.size_switch_prob,
+        )
 
     # -- per frame -----------------------------------------------------------------------
     def update(self, frame: np.ndarray) -> TrackState:
@@ -514,6 +561,9 @@ class Tracker:
             # panel, anywhere in the search region, which widens while it is hidden
             return self._miss(frame, pred_win, search, d, "hidden banner: back only on its markers")
         if not accepted and constellation is None:
+            found = self._look_smaller(frame, pred_win, search, planes, prob, back)
+            if found is not None:
+                return found
             limit = gate.reentry_threshold if back else gate.threshold
             return self._miss(frame, pred_win, search, d, f"colour distance {d:.2f} >= {limit:.2f}")
         # tracking: update the filters and (carefully) the model
@@ -580,13 +630,11 @@ class Tracker:
         over a neighbour of the target's colours and drag the centre with it); CAMShift from
         there measures the size, corrected by this target's calibration, unless the size
         filter finds it a jump (a window swollen over background, or shrunk onto a part of
-        the target)."""
+        the target). A target marked as sprawling (see ``sprawl_growth``) grows only onto
+        back-projection dense like its own."""
         assert self._area is not None
-        fw, fh, ox, oy = self._calibration
-        placed, _ = meanshift_in_roi(prob, origin, start)
-        x, y, w, h = placed
-        cx, cy = x + w / 2.0 + ox * w, y + h / 2.0 + oy * h
-        window = _box_at(cx, cy, float(np.sqrt(start[2] * start[3])), start[3] / max(1, start[2]))
+        fw, fh, _, _ = self._calibration
+        placed, window, _ = self._place(prob, origin, start)
         cs, _ = camshift_in_roi(prob, origin, placed)
         if cs[2] <= 0 or cs[3] <= 0:
             return _Fix(window, None, None)
@@ -594,7 +642,23 @@ class Tracker:
         size = float(np.sqrt(cw * ch))
         if not self._area.consistent(float(np.log(size))):
             return _Fix(window, None, None)
+        predicted = float(np.sqrt(start[2] * start[3]))
+        if self._sprawling and not self._markers_seen and size > predicted:
+            densities = strip_densities(prob, origin, cs, placed, self.s.ring_scale)
+            if densities is not None:
+                inside, strip, ring = densities
+                if strip < inside - self.s.sprawl_margin * (inside - ring):
+                    return _Fix(window, predicted, ch / cw)  # grown over surroundings: as predicted
         return _Fix(window, size, ch / cw)
+
+    def _place(self, prob: np.ndarray, origin: tuple[int, int], start: Box) -> tuple[Box, Box, tuple[float, float]]:
+        """Mean shift from ``start`` (its size kept): the window it ends on, the target's window
+        of ``start``'s size there (moved by this target's calibrated offset) and its centre."""
+        _, _, ox, oy = self._calibration
+        placed, _ = meanshift_in_roi(prob, origin, start)
+        x, y, w, h = placed
+        cx, cy = x + w / 2.0 + ox * w, y + h / 2.0 + oy * h
+        return placed, _box_at(cx, cy, float(np.sqrt(start[2] * start[3])), start[3] / max(1, start[2])), (cx, cy)
 
     def _detect(self, prob: np.ndarray, origin: tuple[int, int], pred_win: Box) -> _Fix | None:
         """The window of the predicted size holding the most back-projection anywhere in the
@@ -656,6 +720,50 @@ class Tracker:
         ref += new
         ref *= total
         self._ref_hist = ref
+
+    def _look_smaller(
+        self,
+        frame: np.ndarray,
+        pred_win: Box,
+        search: Box,
+        planes: list[np.ndarray],
+        prob: np.ndarray,
+        back: bool,
+    ) -> TrackState | None:
+        """A target followed by its colours alone whose window failed the gate: if the window
+        has grown past ``sprawl_growth`` times its starting size (or the target was marked as
+        sprawling before), mean shift places windows of ``sprawl_scales`` times the predicted
+        size; the first the gate accepts is the target, TRACKING, its size filter restarted
+        there and the target marked as sprawling. None when none is tried or accepted."""
+        gate = self._gate
+        assert gate is not None and self._ref_hist is not None and self._centre is not None
+        grown = np.sqrt(pred_win[2] * pred_win[3]) > self.s.sprawl_growth * self._start_size
+        if self._markers_seen or not (grown or self._sprawling):
+            return None
+        sx, sy, sw, sh = search
+        for k in self.s.sprawl_scales:
+            start = _scaled(pred_win, k)
+            _, win, (cx, cy) = self._place(prob, (sx, sy), start)
+            size = float(np.sqrt(start[2] * start[3]))
+            cand = histogram(self.space, planes, _mask((sh, sw), _inner(win), (sx, sy)))
+            if cand.sum() <= 0:
+                continue
+            d = colour_distance(cand, self._ref_hist)
+            win = clip_box(win, frame.shape) if gate.accepts(d, reentry=back) else None
+            if win is None:
+                continue
+            self._centre.update(cx, cy)
+            self._area = self._size_filter(size, self.s.size_meas_var)  # measured once, as CAMShift would
+            self.window = win
+            self._coaster = None
+            self._occluded_frames = 0
+            self._sprawling = True
+            self.status = TrackStatus.TRACKING
+            why = f"found again at {k:.2f}x the predicted size: the window had spread over its surroundings"
+            return TrackState(
+                self.frame_index, self.status, win, float(np.clip(1.0 - d, 0.0, 1.0)), d, None, search, why
+            )
+        return None
 
     def _miss(self, frame: np.ndarray, pred_win: Box, search: Box | None, d: float, why: str) -> TrackState:
         """No acceptable window: coast (OCCLUDED), then LOST; try the markers to come back."""
@@ -730,6 +838,50 @@ class Tracker:
             ):
                 return None
         return refine(c, hsv, self.s.marker_hue_deg, origin)
+
+
+def _region_sum(prob: np.ndarray, origin: tuple[int, int], box: Box) -> tuple[float, int]:
+    """Sum of a region's back-projection inside ``box`` (frame pixels; the region's top-left
+    is ``origin``) and how many of its pixels that covers."""
+    x, y, w, h = box
+    rows, cols = prob.shape[:2]
+    x0, y0 = max(0, x - origin[0]), max(0, y - origin[1])
+    x1, y1 = min(cols, x - origin[0] + w), min(rows, y - origin[1] + h)
+    if x1 <= x0 or y1 <= y0:
+        return 0.0, 0
+    return float(prob[y0:y1, x0:x1].sum(dtype=np.float64)), (x1 - x0) * (y1 - y0)
+
+
+def strip_densities(
+    prob: np.ndarray, origin: tuple[int, int], grown: Box, core: Box, ring_scale: float
+) -> tuple[float, float, float] | None:
+    """Mean back-projection (0..255) inside ``core`` (its overlap with ``grown``), in the strip
+    ``grown`` adds around it, and in the ring of ``ring_scale`` times ``grown`` around that;
+    None when one of the three is empty (in the region ``prob`` covers, whose top-left is
+    ``origin`` in frame pixels).
+
+    Parameters
+    ----------
+    prob : np.ndarray
+        Back-projection of a region, uint8.
+    origin : (int, int)
+        The region's top-left corner in the frame, px.
+    grown, core : Box
+        The larger window and the one it grew from, frame pixels.
+    ring_scale : float
+        The ring's outer box over ``grown``.
+    """
+    x0, y0 = max(grown[0], core[0]), max(grown[1], core[1])
+    x1 = min(grown[0] + grown[2], core[0] + core[2])
+    y1 = min(grown[1] + grown[3], core[1] + core[3])
+    overlap = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
+    s_grown, n_grown = _region_sum(prob, origin, grown)
+    s_core, n_core = _region_sum(prob, origin, overlap)
+    s_outer, n_outer = _region_sum(prob, origin, _scaled(grown, ring_scale))
+    n_strip, n_ring = n_grown - n_core, n_outer - n_grown
+    if n_core <= 0 or n_strip <= 0 or n_ring <= 0:
+        return None
+    return s_core / n_core, (s_grown - s_core) / n_strip, (s_outer - s_grown) / n_ring
 
 
 def _centre_of(box: Box) -> tuple[float, float]:

@@ -34,12 +34,13 @@ class Run:
     boxes: list[Box | None]
     statuses: list[TrackStatus]
     pose_frames: int
+    reasons: tuple[str, ...] = ()
 
 
 @cache
 def full_run(name: str) -> Run:
     seq = SEQUENCES[name]
-    boxes, statuses, poses = [], [], 0
+    boxes, statuses, reasons, poses = [], [], [], 0
     perception = None
     for i, frame in enumerate(seq.frames()):
         if perception is None:
@@ -50,21 +51,28 @@ def full_run(name: str) -> Run:
         assert seen.track is not None
         boxes.append(seen.track.bbox)
         statuses.append(seen.track.status)
+        reasons.append(seen.track.reason)
         poses += seen.pose is not None
-    return Run(boxes, statuses, poses)
+    return Run(boxes, statuses, poses, tuple(reasons))
 
 
-@cache
-def hs_lbp_run(name: str) -> Run:
+def tracker_run(name: str, settings: TrackerSettings) -> Run:
+    """The tracker alone from the label's frame-0 box (no pose pipeline)."""
     seq = SEQUENCES[name]
     assert seq.init_box is not None
-    tracker = Tracker(TrackerSettings(kind="hs-lbp"))
-    boxes, statuses = [], []
+    tracker = Tracker(settings)
+    boxes, statuses, reasons = [], [], []
     for i, frame in enumerate(seq.frames()):
         st = tracker.init(frame, seq.init_box) if i == 0 else tracker.update(frame)
         boxes.append(st.bbox)
         statuses.append(st.status)
-    return Run(boxes, statuses, 0)
+        reasons.append(st.reason)
+    return Run(boxes, statuses, 0, tuple(reasons))
+
+
+@cache
+def hs_lbp_run(name: str) -> Run:
+    return tracker_run(name, TrackerSettings(kind="hs-lbp"))
 
 
 def success(seq: LabelledSequence, run: Run) -> float:
@@ -95,26 +103,7 @@ def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
     assert [i for i in seq.hidden() if run.statuses[i] is TrackStatus.TRACKING] == []
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="12 of 15 plain-view frames not TRACKING (OCCLUDED 35-80, LOST 85-90), success 0.067 "
-                "(CSRT 0.733): the "
-                "pale-blue jacket is half grey pixels (saturation <= 40) and shares its blue with her "
-                "jeans; CAMShift's window spreads over the jeans and the bright pavement, 23 x 51 px on "
-                "frame 5 to 65 x 105 on frame 20 while she shrinks to 20 x 47, and the windows after "
-                "it are mostly pavement, past the gate",
-            ),
-        )
-        if n == "vtest_whitehood"
-        else n
-        for n in LABELLED
-    ],
-)
+@pytest.mark.parametrize("name", LABELLED)
 def test_never_occluded_while_the_target_is_in_plain_view(name: str) -> None:
     seq = SEQUENCES[name]
     run = full_run(name)
@@ -136,3 +125,20 @@ def test_no_banner_pose_in_the_sequences_without_a_target(name: str) -> None:
     for roi in (None, (w // 4, h // 4, w // 2, h // 2)):
         perception = BannerPerception.from_config(camera, BannerConfig())
         assert all(perception.step(i / 30.0, f, roi).pose is None for i, f in enumerate(frames))
+
+
+def test_a_window_that_sprawled_over_the_pavement_is_found_again_at_her_size() -> None:
+    """The pale-blue jacket (vtest_whitehood): CAMShift's window swells over the pavement and
+    her jeans, which faintly share her colours, to 2.2x its start while she shrinks, and fails
+    the gate on frame 24 with her in plain view. Looked for smaller, she is found again and
+    her window then grows only onto back-projection dense like hers (0.6 of her plain-view
+    frames at IoU >= 0.5, measured; the misses are frames 15 and 20, before the gate fails,
+    and 75-90, where she shrinks to 18 x 33 px and the window to about 35 px lags). Without
+    the check the track coasts from frame 24 and is lost (0.067)."""
+    name = "vtest_whitehood"
+    seq, run = SEQUENCES[name], full_run(name)
+    assert success(seq, run) >= 0.5
+    assert any(r.startswith("found again") for r in run.reasons)
+    off = tracker_run(name, TrackerSettings(sprawl_growth=float("inf")))
+    assert [i for i in seq.in_plain_view() if off.statuses[i] is not TrackStatus.TRACKING] != []
+    assert success(seq, off) < 0.2

@@ -18,7 +18,7 @@ from lfctl.vision.exposure import Exposure
 from lfctl.vision.frames import FrameError
 from lfctl.vision.markers import BannerLook, check_constellation, find_constellations
 from lfctl.vision.track_state import TrackStatus
-from lfctl.vision.tracker import Tracker, TrackerSettings
+from lfctl.vision.tracker import Tracker, TrackerSettings, strip_densities
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -215,3 +215,43 @@ def test_in_a_vee_the_follower_starts_on_its_target_not_on_a_mix_with_the_banner
     assert sensor.perception.expected_box is not None and iou(sensor.perception.expected_box, truth.bbox) >= 0.8
     st = Tracker(settings).init_from_markers(frame, sensor.perception.expected_box)
     assert st is not None and iou(st.bbox, truth.bbox) >= 0.8
+
+
+def test_strip_densities_worked_by_hand() -> None:
+    """A 20 x 20 region at (100, 50): the core (110..113, 60..63) at 90, the strip the grown
+    window (108..115, 58..65) adds around it at 30, its ring (2x: 104..119, 54..69) at 6."""
+    prob = np.zeros((20, 20), np.uint8)
+    prob[4:20, 4:20] = 6  # the ring's outer box, rows 54..69 and columns 104..119
+    prob[8:16, 8:16] = 30  # the grown window
+    prob[10:14, 10:14] = 90  # the window it grew from
+    grown, core = (108, 58, 8, 8), (110, 60, 4, 4)
+    inside, strip, ring = strip_densities(prob, (100, 50), grown, core, 2.0)
+    assert (inside, strip, ring) == (90.0, 30.0, 6.0)
+    # a grown window that holds only part of the core: the inside is their overlap (2 x 4 px
+    # at 90); the strip, the other 56 px: 24 at 30 and 32 at 6
+    inside, strip, _ = strip_densities(prob, (100, 50), (112, 58, 8, 8), core, 2.0)
+    assert inside == 90.0
+    assert strip == pytest.approx((24 * 30 + 32 * 6) / 56)
+    # windows past the region's edge count only the pixels inside it; an empty strip is None
+    assert strip_densities(prob, (100, 50), core, core, 2.0) is None
+    assert strip_densities(prob, (100, 50), (90, 40, 4, 4), core, 2.0) is None
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("sprawl_growth", -1.0),
+        ("sprawl_growth", float("nan")),
+        ("sprawl_scales", (0.8, 1.2)),
+        ("sprawl_scales", (0.0,)),
+        ("sprawl_margin", -0.1),
+        ("sprawl_margin", 1.5),
+    ],
+)
+def test_sprawl_settings_that_mean_nothing_are_refused(field: str, value: object) -> None:
+    with pytest.raises(ValueError, match=field):
+        TrackerSettings(**{field: value})  # type: ignore[arg-type]
+
+
+def test_sprawl_checks_can_be_turned_off() -> None:
+    TrackerSettings(sprawl_growth=float("inf"), sprawl_scales=())  # never looked for smaller
