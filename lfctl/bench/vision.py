@@ -53,7 +53,7 @@ from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.perception import BannerPerception
 from lfctl.vision.pose import paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import TrackStatus
-from lfctl.vision.tracker import Tracker, TrackerSettings
+from lfctl.vision.tracker import FOUND_SMALLER, Tracker, TrackerSettings
 
 __all__ = ["main"]
 
@@ -89,7 +89,9 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
     trackers: dict[str, object] = {k: Tracker(TrackerSettings(kind=k)) for k in OURS}
     for p in peers:
         trackers[p] = make_peer(p)
-    rec: dict[str, dict[str, list]] = {k: {"iou": [], "err": [], "tracking": [], "ms": []} for k in trackers}
+    rec: dict[str, dict[str, list]] = {
+        k: {"iou": [], "err": [], "tracking": [], "ms": [], "found": []} for k in trackers
+    }
     truth_vis, truth_valid = [], []
     pose_err: dict[str, list] = {"paper": [], "pnp": []}
     render_ms = []
@@ -120,6 +122,7 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
             if k in OURS:
                 st = tr.update(frame)  # type: ignore[attr-defined]
                 box, tracking = st.bbox, st.status is TrackStatus.TRACKING
+                rec[k]["found"].append(st.reason.startswith(FOUND_SMALLER))
             else:
                 ok, b = tr.update(frame)  # type: ignore[attr-defined]
                 box, tracking = (tuple(int(v) for v in b) if ok else None), bool(ok)
@@ -188,7 +191,7 @@ def run_real(job: tuple[LabelledSequence, tuple[str, ...]]) -> dict:
     out: dict[str, dict] = {}
     for k in (*OURS, *peers):
         boxes: list[Box | None] = [seq.init_box]
-        tracking, ms, poses = [True], [], 0
+        tracking, ms, poses, found = [True], [], 0, 0
         if k == "full":
             perception = _perception(frames[0])
             poses += perception.step(0.0, frames[0], seq.init_box).pose is not None
@@ -210,6 +213,7 @@ def run_real(job: tuple[LabelledSequence, tuple[str, ...]]) -> dict:
                 assert st is not None
                 box, ok = st.bbox, st.status is TrackStatus.TRACKING
                 poses += seen.pose is not None
+                found += st.reason.startswith(FOUND_SMALLER)
             elif k in OURS:
                 st = tracker.update(frame)
                 box, ok = st.bbox, st.status is TrackStatus.TRACKING
@@ -230,6 +234,7 @@ def run_real(job: tuple[LabelledSequence, tuple[str, ...]]) -> dict:
             "tracking_while_hidden": int(sum(tracking[i] for i in hidden)),
             "hidden_frames": len(hidden),
             "banner_pose_frames": poses if k == "full" else None,
+            "found_smaller_frames": found if k == "full" else None,
             "median_ms": round(float(np.median(ms)), 3),
         }
     return {"name": seq.name, "no_banner": False, "frames": len(frames), "trackers": out}
@@ -476,6 +481,21 @@ def main(quick: bool = False) -> None:
         print(
             "KCF/CSRT: not in this OpenCV build (opencv-python-headless); run in an environment with opencv-contrib-python-headless (README)"
         )
+    # how often the full tracker found a sprawled window again smaller (a rare path: where
+    # it fires, and that it does not elsewhere, is worth seeing in every run)
+    found_tiers = {t: int(sum(sum(r["rec"]["full"]["found"]) for r in results if r["tier"] == t)) for t in TIERS}
+    found_real = {
+        r["name"]: r["trackers"]["full"]["found_smaller_frames"]
+        for r in real_results
+        if not r["no_banner"] and r["trackers"]["full"]["found_smaller_frames"]
+    }
+    print(
+        "full tracker, a sprawled window found again smaller: "
+        f"{sum(found_tiers.values())} frames on the rendered tiers, {sum(found_real.values())} on the real clips"
+        + (f" ({', '.join(f'{n} {c}' for n, c in found_real.items())})" if found_real else "")
+    )
+    summary["full_found_smaller_frames_tiers"] = found_tiers
+    summary["full_found_smaller_frames_real"] = found_real
     print("summary:", summary)
     print()
     aruco = aruco_compare(quick)

@@ -59,10 +59,13 @@ from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
 from lfctl.vision.markers import BannerLook, Constellation, find_constellations, refine
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["TrackState", "Tracker", "TrackerSettings"]
+__all__ = ["FOUND_SMALLER", "TrackState", "Tracker", "TrackerSettings", "strip_densities"]
 
 #: the centre's validation gate: chi-square with 2 degrees of freedom at 0.999
 CENTRE_GATE_SQ = 13.8
+#: how a :attr:`TrackState.reason` starts when a window that sprawled over its surroundings
+#: was found again smaller (see ``TrackerSettings.sprawl_growth``)
+FOUND_SMALLER = "found again at"
 #: variance of log(size) of a box known to within 2 % (the start box; the banner from its markers)
 EXACT_SIZE_VAR = 0.02**2
 
@@ -759,7 +762,7 @@ class Tracker:
             self._occluded_frames = 0
             self._sprawling = True
             self.status = TrackStatus.TRACKING
-            why = f"found again at {k:.2f}x the predicted size: the window had spread over its surroundings"
+            why = f"{FOUND_SMALLER} {k:.2f}x the predicted size: the window had spread over its surroundings"
             return TrackState(
                 self.frame_index, self.status, win, float(np.clip(1.0 - d, 0.0, 1.0)), d, None, search, why
             )

@@ -18,7 +18,7 @@ from lfctl.config import BannerConfig, CameraConfig
 from lfctl.vision.boxes import Box, iou
 from lfctl.vision.perception import BannerPerception
 from lfctl.vision.track_state import TrackStatus
-from lfctl.vision.tracker import Tracker, TrackerSettings
+from lfctl.vision.tracker import FOUND_SMALLER, Tracker, TrackerSettings
 
 pytestmark = pytest.mark.slow
 
@@ -138,7 +138,7 @@ def test_a_window_that_sprawled_over_the_pavement_is_found_again_at_her_size() -
     name = "vtest_whitehood"
     seq, run = SEQUENCES[name], full_run(name)
     assert success(seq, run) >= 0.5
-    assert any(r.startswith("found again") for r in run.reasons)
+    assert any(r.startswith(FOUND_SMALLER) for r in run.reasons)
     off = tracker_run(name, TrackerSettings(sprawl_growth=float("inf")))
     assert [i for i in seq.in_plain_view() if off.statuses[i] is not TrackStatus.TRACKING] != []
     assert success(seq, off) < 0.2
