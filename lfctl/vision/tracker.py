@@ -133,14 +133,15 @@ class TrackerSettings:
         sizes (``sprawl_scales``) before it is called hidden. CAMShift sizes its window from
         the back-projection's spread over a window 10 px larger on every side than the last
         (OpenCV's), so faint surroundings that share the target's colours (a pale jacket on
-        pale pavement) swell it frame after frame until it fails the gate with the target in
-        plain view. A window
-        of a smaller size that the gate accepts is the target found again, and marks it as
-        one whose window sprawls: from then on its window grows only as far as the
-        back-projection it takes in is dense like the target's (``sprawl_margin``). On the
-        labelled footage any value from 1.05 to 2.2 gives the same results (below 1.05 a red
-        jacket is marked; from 2.5 the pale-blue jacket's window has failed the gate before
-        it is looked for smaller).
+        pale pavement) swell it frame after frame until it fails the gate, and the track
+        coasts with the target in plain view. A window of a smaller size that the gate
+        accepts is the target found again, and marks it as one whose window sprawls: from
+        then on its window grows only as far as the back-projection it takes in is dense
+        like the target's (``sprawl_margin``). On the labelled footage every value from 1.0
+        to 2.2 gives the same success; with 0 (no limit) a red jacket is marked and
+        colour-only tracking of the rendered textured distractor drops from 0.92 to 0.81;
+        above 2.2 the pale-blue jacket's window has failed the gate before it is looked for
+        smaller. Below 1: looked for smaller on every gate failure; ``inf``: never.
     sprawl_scales : tuple of float
         The sizes tried, as fractions of the predicted window (each between 0 and 1), in
         turn; the first the gate accepts is taken. Empty: never looked for smaller.
@@ -149,7 +150,10 @@ class TrackerSettings:
         believed only when the strip it adds has a mean back-projection of at least the
         inside's less this fraction of the difference between the inside and the ring
         around the window (0: as dense as the inside; 0.5: the midpoint); else the size is
-        measured as predicted. 0 to 0.35 give the same results on the labelled footage.
+        measured as predicted. 0 to 0.35 give the same success on the labelled footage. The
+        cost: CAMShift's window overshoots even a uniform target (OpenCV's 10 px), so the
+        strip a marked target's real growth adds is partly empty and mostly refused; a marked
+        target that comes nearer keeps about its size and its window lags.
     alpha : float
         Blend rate of a model update.
     search_scale : float
@@ -314,7 +318,7 @@ class Tracker:
         self._aspect = 1.0  # the window's height / width, a slow average (full tracker)
         self._markers_seen = False
         self._markers_missing = 0
-        self._start_size = 0.0  # the window's size when the filters (re)started, px
+        self._start_size = 0.0  # the window's size at the start (or reacquired on markers), px
         self._sprawling = False  # found again smaller after its window sprawled (see sprawl_growth)
         self._look = BannerLook(self.s.marker_saturation, self.s.marker_over_side, self.s.panel_over_side)
         self._exposure = Exposure()  # followed by the full tracker only: the baselines' gain stays 1

@@ -147,10 +147,11 @@ def test_no_banner_pose_in_the_sequences_without_a_target(name: str) -> None:
 def test_a_window_that_sprawled_over_the_pavement_is_found_again_at_her_size() -> None:
     """The pale-blue jacket (vtest_whitehood): CAMShift's window swells over the pavement and
     her jeans, which faintly share her colours, to 2.2x its start while she shrinks, and fails
-    the gate on frame 24 with her in plain view. Looked for smaller, she is found again and
+    the gate on frame 24 as a walker passes in front of her; without the check it stays
+    OCCLUDED through her plain-view frames 35-80. Looked for smaller, she is found again and
     her window then grows only onto back-projection dense like hers (0.6 of her plain-view
     frames at IoU >= 0.5, measured; the misses are frames 15 and 20, before the gate fails,
-    and 75-90, where she shrinks to 18 x 33 px and the window to about 35 px lags). Without
+    and 75-90, where she shrinks to about 24 px and the window, at about 35 px, lags). Without
     the check the track coasts from frame 24 and is lost (0.067)."""
     name = "vtest_whitehood"
     seq, run = SEQUENCES[name], full_run(name)

@@ -18,7 +18,7 @@ from lfctl.vision.exposure import Exposure
 from lfctl.vision.frames import FrameError
 from lfctl.vision.markers import BannerLook, check_constellation, find_constellations
 from lfctl.vision.track_state import TrackStatus
-from lfctl.vision.tracker import Tracker, TrackerSettings, strip_densities
+from lfctl.vision.tracker import FOUND_SMALLER, Tracker, TrackerSettings, strip_densities
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -253,5 +253,64 @@ def test_sprawl_settings_that_mean_nothing_are_refused(field: str, value: object
         TrackerSettings(**{field: value})  # type: ignore[arg-type]
 
 
-def test_sprawl_checks_can_be_turned_off() -> None:
-    TrackerSettings(sprawl_growth=float("inf"), sprawl_scales=())  # never looked for smaller
+def _square_prob(side: int, halo: int, size: int = 200) -> np.ndarray:
+    """A back-projection: a ``side`` px square at 200 in the middle, ``halo`` elsewhere."""
+    prob = np.full((size, size), halo, np.uint8)
+    a = size // 2 - side // 2
+    prob[a : a + side, a : a + side] = 200
+    return prob
+
+
+def _located_size(prob: np.ndarray, sprawling: bool, start_side: int = 30) -> float | None:
+    """The size _locate measures from a centred ``start_side`` px window (calibration 1)."""
+    tr = Tracker(TrackerSettings(use_markers=False))
+    tr._calibration = (1.0, 1.0, 0.0, 0.0)
+    tr._area = tr._size_filter(float(start_side), 0.02**2)
+    tr._sprawling = sprawling
+    a = prob.shape[0] // 2 - start_side // 2
+    return tr._locate(prob, (0, 0), (a, a, start_side, start_side)).size_px
+
+
+def test_a_target_marked_as_sprawling_grows_only_onto_back_projection_dense_like_its_own() -> None:
+    # a 30 px target in a faint halo (20 of 255): CAMShift's window, taking in 10 px more on
+    # every side, measures 43 px; believed unless the target is marked, then as predicted
+    faint = _square_prob(30, 20)
+    assert _located_size(faint, sprawling=False) == 43.0
+    assert _located_size(faint, sprawling=True) == 30.0
+    # a 60 px target, the window grown inside it: the strip is as dense as the core, believed
+    assert _located_size(_square_prob(60, 0), sprawling=True) == 60.0
+    # shrinking is never checked: an 18 px target measures 23 px, marked or not
+    assert _located_size(_square_prob(18, 0), sprawling=True) == 23.0
+    # the cost: a 40 px target in an empty field, CAMShift's window overshooting it (48 px),
+    # adds a strip half empty; a marked target's real growth is refused (it lags, documented)
+    assert _located_size(_square_prob(40, 0), sprawling=False) == 48.0
+    assert _located_size(_square_prob(40, 0), sprawling=True) == 30.0
+
+
+def _recoloured_box_frames() -> tuple[np.ndarray, np.ndarray]:
+    """A blue 40 px box on a textured grey; then the same box red but for a blue 16 px core."""
+    rng = np.random.default_rng(3)
+    base = cv2.GaussianBlur(rng.normal(110, 12, (240, 320, 3)).clip(0, 255).astype(np.uint8), (3, 3), 0)
+    before = base.copy()
+    cv2.rectangle(before, (140, 100), (179, 139), (200, 120, 40), -1)
+    after = base.copy()
+    cv2.rectangle(after, (140, 100), (179, 139), (40, 60, 200), -1)
+    cv2.rectangle(after, (152, 112), (167, 127), (200, 120, 40), -1)
+    return before, after
+
+
+@pytest.mark.parametrize(("growth", "status"), [(1.5, TrackStatus.OCCLUDED), (0.0, TrackStatus.TRACKING)])
+def test_only_a_grown_window_is_looked_for_smaller(growth: float, status: TrackStatus) -> None:
+    """A target whose window has not grown and fails the gate has changed, not sprawled: it is
+    not taken up again on a part of itself that still matches (with no growth limit it is)."""
+    before, after = _recoloured_box_frames()
+    tr = Tracker(TrackerSettings(use_markers=False, sprawl_growth=growth))
+    tr.init(before, (140, 100, 40, 40))
+    for _ in range(6):
+        tr.update(before)
+    st = tr.update(after)
+    assert st.status is status
+    assert st.reason.startswith(FOUND_SMALLER) == (status is TrackStatus.TRACKING)
+    assert tr._sprawling == (status is TrackStatus.TRACKING)
+    tr.init(before, (140, 100, 40, 40))  # a new start forgets the mark
+    assert not tr._sprawling
