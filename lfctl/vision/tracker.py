@@ -417,18 +417,29 @@ class Tracker:
             inside = clip_box(box, (ah + ay, aw + ax))
             if inside is None or inside[2] * inside[3] < 0.5 * box[2] * box[3]:
                 continue
-            cand = histogram(self.space, planes, _mask((ah, aw), _inner(box), (ax, ay)))
-            ds.append(colour_distance(cand, self._ref_hist))
+            ds.append(self._window_colours(planes, box, area)[1])
         return float(np.median(ds)) if ds else 1.0
 
     def _start_filters(self, box: Box) -> None:
         x, y, w, h = box
-        self.window = box
         self._start_size = float(np.sqrt(w * h))
         self._centre = CentreFilter(x + w / 2.0, y + h / 2.0)
         self._area = self._size_filter(self._start_size, EXACT_SIZE_VAR)  # the box it starts on is the target's
+        self._resume(box)
+
+    def _resume(self, window: Box) -> None:
+        """The target is in view in ``window``: no longer coasting or counting hidden frames."""
+        self.window = window
         self._coaster = None
         self._occluded_frames = 0
+
+    def _window_colours(self, planes: list[np.ndarray], window: Box, search: Box) -> tuple[np.ndarray, float]:
+        """The histogram of ``window``'s inner part (``planes`` are the search region
+        ``search``'s) and its colour distance to the model."""
+        assert self._ref_hist is not None
+        sx, sy, sw, sh = search
+        cand = histogram(self.space, planes, _mask((sh, sw), _inner(window), (sx, sy)))
+        return cand, colour_distance(cand, self._ref_hist)
 
     def _size_filter(self, size: float, size_var: float) -> AreaFilter:
         """A size filter started at ``size`` px, known to ``size_var`` on its logarithm."""
@@ -540,17 +551,14 @@ class Tracker:
                 fix = _Fix(mbox, float(np.sqrt(mbox[2] * mbox[3])), mbox[3] / mbox[2])
         gate = self._gate
         assert gate is not None and self._ref_hist is not None
-        # candidate histogram from the inner part of the window
-        cand = histogram(self.space, planes, _mask((sh, sw), _inner(fix.window), (sx, sy)))
-        d = colour_distance(cand, self._ref_hist)
+        cand, d = self._window_colours(planes, fix.window, search)  # the window's inner part
         back = self.status is not TrackStatus.TRACKING  # coming back needs the stricter gate
         accepted = gate.accepts(d, reentry=back)
         if not gate.confident(d) and constellation is None:
             # not clearly where it was predicted: the best window anywhere in the search region
             alt = self._detect(prob, (sx, sy), pred_win)
             if alt is not None:
-                alt_cand = histogram(self.space, planes, _mask((sh, sw), _inner(alt.window), (sx, sy)))
-                alt_d = colour_distance(alt_cand, self._ref_hist)
+                alt_cand, alt_d = self._window_colours(planes, alt.window, search)
                 if alt_d < d:
                     fix, cand, d = alt, alt_cand, alt_d
                     accepted = gate.accepts(d, reentry=back)
@@ -589,9 +597,7 @@ class Tracker:
                 self._aspect *= float(np.exp(s.aspect_rate * np.log(fix.aspect / self._aspect)))
             win = _box_at(cx, cy, float(np.exp(self._area.size)), self._aspect)
             win = clip_box(win, frame.shape) or fix.window
-        self.window = win
-        self._coaster = None
-        self._occluded_frames = 0
+        self._resume(win)
         if accepted:
             # a target followed by its colours alone learns from every window the gate accepts,
             # less the nearer its threshold; a banner whose markers were seen only from confident
@@ -747,28 +753,24 @@ class Tracker:
         grown = np.sqrt(pred_win[2] * pred_win[3]) > self.s.sprawl_growth * self._start_size
         if self._markers_seen or not (grown or self._sprawling):
             return None
-        sx, sy, sw, sh = search
         for k in self.s.sprawl_scales:
             start = _scaled(pred_win, k)
-            _, win, (cx, cy) = self._place(prob, (sx, sy), start)
+            _, win, (cx, cy) = self._place(prob, (search[0], search[1]), start)
             size = float(np.sqrt(start[2] * start[3]))
-            cand = histogram(self.space, planes, _mask((sh, sw), _inner(win), (sx, sy)))
-            if cand.sum() <= 0:
+            cand, d = self._window_colours(planes, win, search)
+            if cand.sum() <= 0 or not gate.accepts(d, reentry=back):
                 continue
-            d = colour_distance(cand, self._ref_hist)
-            win = clip_box(win, frame.shape) if gate.accepts(d, reentry=back) else None
-            if win is None:
+            clipped = clip_box(win, frame.shape)
+            if clipped is None:
                 continue
             self._centre.update(cx, cy)
             self._area = self._size_filter(size, self.s.size_meas_var)  # measured once, as CAMShift would
-            self.window = win
-            self._coaster = None
-            self._occluded_frames = 0
+            self._resume(clipped)
             self._sprawling = True
             self.status = TrackStatus.TRACKING
             why = f"{FOUND_SMALLER} {k:.2f}x the predicted size: the window had spread over its surroundings"
             return TrackState(
-                self.frame_index, self.status, win, float(np.clip(1.0 - d, 0.0, 1.0)), d, None, search, why
+                self.frame_index, self.status, clipped, float(np.clip(1.0 - d, 0.0, 1.0)), d, None, search, why
             )
         return None
 
