@@ -849,16 +849,14 @@ class Tracker:
         return refine(c, hsv, self.s.marker_hue_deg, origin)
 
 
-def _region_sum(prob: np.ndarray, origin: tuple[int, int], box: Box) -> tuple[float, int]:
+def _region_sum(prob: np.ndarray, origin: tuple[int, int], box: Box | None) -> tuple[float, int]:
     """Sum of a region's back-projection inside ``box`` (frame pixels; the region's top-left
-    is ``origin``) and how many of its pixels that covers."""
-    x, y, w, h = box
-    rows, cols = prob.shape[:2]
-    x0, y0 = max(0, x - origin[0]), max(0, y - origin[1])
-    x1, y1 = min(cols, x - origin[0] + w), min(rows, y - origin[1] + h)
-    if x1 <= x0 or y1 <= y0:
+    is ``origin``) and how many of its pixels that covers (0, 0 for None)."""
+    inside = None if box is None else clip_box((box[0] - origin[0], box[1] - origin[1], box[2], box[3]), prob.shape)
+    if inside is None:
         return 0.0, 0
-    return float(prob[y0:y1, x0:x1].sum(dtype=np.float64)), (x1 - x0) * (y1 - y0)
+    x, y, w, h = inside
+    return float(prob[y : y + h, x : x + w].sum(dtype=np.float64)), w * h
 
 
 def strip_densities(
@@ -880,10 +878,9 @@ def strip_densities(
     ring_scale : float
         The ring's outer box over ``grown``.
     """
-    x0, y0 = max(grown[0], core[0]), max(grown[1], core[1])
-    x1 = min(grown[0] + grown[2], core[0] + core[2])
-    y1 = min(grown[1] + grown[3], core[1] + core[3])
-    overlap = (x0, y0, max(0, x1 - x0), max(0, y1 - y0))
+    gx, gy, gw, gh = grown
+    part = clip_box((core[0] - gx, core[1] - gy, core[2], core[3]), (gh, gw))  # core inside grown
+    overlap = None if part is None else (part[0] + gx, part[1] + gy, part[2], part[3])
     s_grown, n_grown = _region_sum(prob, origin, grown)
     s_core, n_core = _region_sum(prob, origin, overlap)
     s_outer, n_outer = _region_sum(prob, origin, _scaled(grown, ring_scale))
