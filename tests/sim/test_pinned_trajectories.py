@@ -1,13 +1,20 @@
 """The same scenario and seed give the same run, to the bit: digests of the trajectories,
 commands and track states of runs pinned when the code was restructured. A digest that
 changes means behaviour changed; if that was meant, say so in the commit and pin anew
-(print the new digest with `python -m pytest ... -k pinned -s`)."""
+(print the new digest with `python -m pytest ... -k pinned -s`).
+
+The camera runs also depend on OpenCV's own arithmetic: OpenCV 5.1 rounds a few rendered
+pixels one grey level apart from 5.0 (0.002-0.005 % of a frame), which a closed loop carries
+into a different run. Their digests are pinned per OpenCV release that pyproject.toml admits;
+admitting a new release means pinning its digests here, after checking that the vision figures
+(`lfctl bench vision`) hold on it."""
 
 from __future__ import annotations
 
 import dataclasses
 import hashlib
 
+import cv2
 import numpy as np
 import pytest
 
@@ -17,12 +24,35 @@ from lfctl.sim.runner import RunReport, run_scenario
 
 pytestmark = pytest.mark.fmu
 
-PINNED = {
-    ("convoy", "truth", None): "328b3685316fc7e95fa22995b410f2e877943fb71cd5be05460ee686d79a8dcd",
-    ("column5", "truth", 20.0): "86d24783dee14dd3bbeca52f3478d9193d4dc7ba7b93b090a595bee2d25872ba",
-    ("convoy", "camera", 12.0): "fa812bb29be7d97666c4fcc6e50c214ec3c45f854ed1819e5f8d0723c5d490ff",
-    ("vee", "camera", 8.0): "3b38a6eba614fc3d2ea685cdbd9ba34e792d7bf2613116cef2b5528e26d61e39",
+#: runs that sense by truth: no pixel is drawn, so no OpenCV release changes them
+PINNED_TRUTH = {
+    ("convoy", None): "328b3685316fc7e95fa22995b410f2e877943fb71cd5be05460ee686d79a8dcd",
+    ("column5", 20.0): "86d24783dee14dd3bbeca52f3478d9193d4dc7ba7b93b090a595bee2d25872ba",
 }
+#: runs that sense by camera, per OpenCV release (major.minor)
+PINNED_CAMERA = {
+    "5.0": {
+        ("convoy", 12.0): "fa812bb29be7d97666c4fcc6e50c214ec3c45f854ed1819e5f8d0723c5d490ff",
+        ("vee", 8.0): "3b38a6eba614fc3d2ea685cdbd9ba34e792d7bf2613116cef2b5528e26d61e39",
+    },
+    "5.1": {
+        ("convoy", 12.0): "bf48b8ac4abcccbc14b320f10bf5b2c44a106131fc20089897df49dbd83e1e07",
+        ("vee", 8.0): "b63c17a6221a7f69bf02bcf29bba8fda230a196ffb8f6d83d62b8084c04fe85f",
+    },
+}
+
+
+def pinned(name: str, sensing: str, duration_s: float | None) -> str:
+    """The pinned digest of a run; for a camera run, the one for the OpenCV installed."""
+    if sensing == "truth":
+        return PINNED_TRUTH[(name, duration_s)]
+    release = ".".join(cv2.__version__.split(".")[:2])
+    if release not in PINNED_CAMERA:
+        pytest.fail(
+            f"no camera-run digests pinned for OpenCV {cv2.__version__} (pinned: {', '.join(PINNED_CAMERA)}): "
+            "pin them (see this module's docstring) and widen pyproject.toml's bound together"
+        )
+    return PINNED_CAMERA[release][(name, duration_s)]
 
 
 def digest(report: RunReport) -> str:
@@ -54,7 +84,7 @@ def test_seed_1_gives_the_pinned_run(name: str, sensing: str, duration_s: float 
         sim = dataclasses.replace(sim, duration_s=duration_s)
     got = digest(run_scenario(dataclasses.replace(cfg, sim=sim)))
     print(f"{name} {sensing} {duration_s}: {got}")
-    assert got == PINNED[(name, sensing, duration_s)]
+    assert got == pinned(name, sensing, duration_s)
 
 
 def test_recording_live_view_and_video_change_nothing_the_simulation_computes(tmp_path) -> None:
@@ -67,4 +97,4 @@ def test_recording_live_view_and_video_change_nothing_the_simulation_computes(tm
         video=("127.0.0.1", 9),  # the discard port: nobody listens, datagrams are dropped
     )
     assert report.log_messages > 1000
-    assert digest(report) == PINNED[("convoy", "camera", 12.0)]
+    assert digest(report) == pinned("convoy", "camera", 12.0)
