@@ -21,7 +21,7 @@ from lfctl.data import footage_dir
 from lfctl.errors import ConfigError
 from lfctl.vision.boxes import Box
 
-__all__ = ["LabelledSequence", "load_sequence", "load_sequences"]
+__all__ = ["LabelledSequence", "load_sequence", "load_sequences", "start_boxes"]
 
 
 @dataclass(frozen=True)
@@ -188,3 +188,38 @@ def load_sequences(folder: Path | None = None) -> list[LabelledSequence]:
     if not paths:
         raise ConfigError(f"no label files in {folder / 'labels'} (see footage/README.md)")
     return [load_sequence(p, folder) for p in paths]
+
+
+def start_boxes(box: Box, n: int = 11, moved_px: int = 2, seed: int = 0) -> list[Box]:
+    """``box`` and ``n - 1`` others whose x, y, width and height are each moved by a whole
+    number of pixels from ``-moved_px`` to ``moved_px`` (uniform, seeded; sizes kept >= 2).
+
+    The labels' edges are certain to about 2 px (``footage/README.md``), so a tracker's score
+    from the one label box is one draw among starts a labeller could as well have drawn; the
+    spread over these is how much of it is the start's luck.
+
+    Parameters
+    ----------
+    box : Box
+        The label's start box (x, y, w, h), px.
+    n : int
+        How many boxes, the label's first (>= 1).
+    moved_px : int
+        The largest move of each of x, y, w and h, px (>= 0).
+    seed : int
+        Seeds the moves: the same boxes for the same arguments.
+
+    Raises
+    ------
+    ValueError
+        ``n`` below 1 or ``moved_px`` negative.
+    """
+    if n < 1 or moved_px < 0:
+        raise ValueError(f"start_boxes needs n >= 1 and moved_px >= 0, got n={n!r}, moved_px={moved_px!r}")
+    rng = np.random.default_rng(seed)
+    x, y, w, h = box
+    out: list[Box] = [box]
+    for _ in range(n - 1):
+        dx, dy, dw, dh = (int(v) for v in rng.integers(-moved_px, moved_px + 1, 4))
+        out.append((x + dx, y + dy, max(2, w + dw), max(2, h + dh)))
+    return out

@@ -4,7 +4,10 @@
    prediction is where CAMShift searches next frame.
 2. :class:`OcclusionCoaster`: takes the centre filter's position and velocity when the
    target disappears and keeps coasting them, with a larger process noise, so the search
-   region follows the hidden target and widens with the uncertainty until it reappears.
+   region follows the hidden target and widens with the uncertainty until it reappears. The
+   tracker first gives the centre filter the motion the target kept over its last confident
+   frames (:func:`steady_motion`): an occluder or a neighbour coming in drags the last few
+   frames' windows, and so the filter's velocity, off the target before it is called hidden.
 3. :class:`AreaFilter`: the window's size (square root of its area), constant velocity mixed
    with a holding model (an IMM); a normalised innovation beyond a gate flags an occlusion
    early (the window collapsing as an occluder slides over the target, or jumping onto
@@ -15,12 +18,13 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Sequence
 
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import IMMEstimator, KalmanFilter
 
-__all__ = ["AreaFilter", "CentreFilter", "OcclusionCoaster"]
+__all__ = ["AreaFilter", "CentreFilter", "OcclusionCoaster", "steady_motion"]
 
 
 def _cv_filter(dim: int, accel_var: float, meas_var: float, cls: type[KalmanFilter] = KalmanFilter) -> KalmanFilter:
@@ -63,6 +67,40 @@ def _update(kf: KalmanFilter, z: np.ndarray, R: np.ndarray | None = None) -> Non
     # H given: filterpy then takes z as it is (a 1-D vector, as the state is) instead of
     # reshaping it through np.atleast_2d each call; the same arithmetic
     kf.update(z, R, kf.H)
+
+
+def steady_motion(frames: Sequence[int], us: Sequence[float], vs: Sequence[float], at_frame: int) -> np.ndarray:
+    """The constant-velocity motion that best fits a few centres (least squares), as a centre
+    filter's state at ``at_frame``: x = [u, v, du, dv] (px, px/frame).
+
+    A walker keeps his pace over a second or two; the centre filter, which follows its
+    measurements within a few frames, takes on the pace of a window that an occluder or a
+    neighbour drags off him before he is called hidden, and coasting on that velocity carries
+    the search the wrong way (a charcoal jacket going behind a sign: the window slid left onto
+    another dark jacket for four frames, the coasted search went left while he walked right).
+
+    Parameters
+    ----------
+    frames : sequence of int
+        Frame numbers of the centres (at least two distinct ones).
+    us, vs : sequence of float
+        The centres, px.
+    at_frame : int
+        The frame the state is for (usually after the last centre: it is extrapolated).
+
+    Raises
+    ------
+    ValueError
+        Fewer than two distinct frames, or sequences of different lengths.
+    """
+    t = np.asarray(frames, dtype=np.float64) - at_frame
+    if not len(t) == len(us) == len(vs):
+        raise ValueError(f"frames, us and vs must have the same length, got {len(t)}, {len(us)}, {len(vs)}")
+    if np.unique(t).size < 2:
+        raise ValueError(f"a velocity needs centres in at least two frames, got frames {list(frames)!r}")
+    # per coordinate c(t) = c0 + c1 t (t in frames from at_frame): coef = [[u0, v0], [du, dv]]
+    coef = np.polynomial.polynomial.polyfit(t, np.column_stack([us, vs]), 1)
+    return np.array([coef[0, 0], coef[0, 1], coef[1, 0], coef[1, 1]])
 
 
 class CentreFilter:
@@ -114,6 +152,26 @@ class CentreFilter:
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """Copies of the state x = [u, v, du, dv] and its covariance P."""
         return self.kf.x.copy(), self.kf.P.copy()
+
+    def set_motion(self, x: np.ndarray) -> None:
+        """Take the centre and velocity ``x`` = [u, v, du, dv] (px, px/frame) as the state; the
+        covariance stays (as in :func:`steady_motion`'s use: the motion refitted, not better
+        known).
+
+        Parameters
+        ----------
+        x : np.ndarray
+            The new state, 4 finite values.
+
+        Raises
+        ------
+        ValueError
+            Not 4 finite values.
+        """
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        if x.shape != (4,) or not np.isfinite(x).all():
+            raise ValueError(f"a centre state is 4 finite values [u, v, du, dv], got {x!r}")
+        self.kf.x = x.copy()
 
 
 class OcclusionCoaster:

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster
+from lfctl.vision.kalman import AreaFilter, CentreFilter, OcclusionCoaster, steady_motion
 
 
 def test_centre_filter_one_predict_and_update_by_hand() -> None:
@@ -198,3 +198,52 @@ def test_size_imm_stays_a_probability_and_a_covariance(steps: list, hold_var: fl
 def test_size_imm_refuses_bad_settings(hold_var: float, p: float) -> None:
     with pytest.raises(ValueError, match=r"hold_var|switch_prob"):
         AreaFilter(0.0, hold_var=hold_var, switch_prob=p)
+
+
+def test_steady_motion_by_hand() -> None:
+    """Centres (10, 5) at frame 2, (14, 5) at 3, (16, 6) at 4: least squares per coordinate,
+    t = frame - 5 = -3, -2, -1 (mean -2). u: slope = sum((t + 2)(u - 40/3)) / sum((t + 2)^2)
+    = ((-1)(-10/3) + 0 + (1)(8/3)) / 2 = 3; intercept at t = 0: 40/3 + 3 * 2 = 58/3.
+    v: slope = ((-1)(-1/3) + 0 + (1)(2/3)) / 2 = 0.5; at t = 0: 16/3 + 0.5 * 2 = 19/3."""
+    x = steady_motion([2, 3, 4], [10.0, 14.0, 16.0], [5.0, 5.0, 6.0], at_frame=5)
+    np.testing.assert_allclose(x, [58 / 3, 19 / 3, 3.0, 0.5], atol=1e-12)
+
+
+@given(
+    st.floats(-500, 500),
+    st.floats(-500, 500),
+    st.floats(-20, 20),
+    st.floats(-20, 20),
+    st.lists(st.integers(0, 200), min_size=2, max_size=30, unique=True),
+)
+def test_steady_motion_recovers_a_constant_velocity(u0: float, v0: float, du: float, dv: float, frames: list) -> None:
+    at = max(frames) + 3
+    us = [u0 + du * (f - at) for f in frames]
+    vs = [v0 + dv * (f - at) for f in frames]
+    np.testing.assert_allclose(steady_motion(frames, us, vs, at), [u0, v0, du, dv], atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("frames", "us", "vs", "message"),
+    [
+        ([3], [1.0], [1.0], "two frames"),
+        ([3, 3], [1.0, 2.0], [1.0, 2.0], "two frames"),
+        ([1, 2], [1.0], [1.0, 2.0], "same length"),
+    ],
+)
+def test_steady_motion_refuses_what_has_no_velocity(frames: list, us: list, vs: list, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        steady_motion(frames, us, vs, 5)
+
+
+def test_centre_filter_takes_a_motion_and_keeps_its_covariance() -> None:
+    f = CentreFilter(10.0, 20.0)
+    _, P = f.state
+    f.set_motion(np.array([1.0, 2.0, 3.0, 4.0]))
+    x, P2 = f.state
+    np.testing.assert_array_equal(x, [1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(P2, P)
+    assert f.predict() == (4.0, 6.0)
+    for bad in ([1.0, 2.0, 3.0], [1.0, 2.0, float("nan"), 4.0]):
+        with pytest.raises(ValueError, match="4 finite values"):
+            f.set_motion(np.array(bad))

@@ -314,3 +314,48 @@ def test_only_a_grown_window_is_looked_for_smaller(growth: float, status: TrackS
     assert tr._sprawling == (status is TrackStatus.TRACKING)
     tr.init(before, (140, 100, 40, 40))  # a new start forgets the mark
     assert not tr._sprawling
+
+
+def _moving_box_frames(n: int, speed_px: int) -> list[np.ndarray]:
+    """A blue 40 px box on a textured grey moving right ``speed_px`` a frame, then the grey
+    alone (the box hidden) for as many frames again."""
+    rng = np.random.default_rng(5)
+    base = cv2.GaussianBlur(rng.normal(110, 12, (240, 400, 3)).clip(0, 255).astype(np.uint8), (3, 3), 0)
+    frames = []
+    for k in range(n):
+        f = base.copy()
+        x = 60 + speed_px * k
+        cv2.rectangle(f, (x, 100), (x + 39, 139), (200, 120, 40), -1)
+        frames.append(f)
+    return frames + [base.copy() for _ in range(n)]
+
+
+@pytest.mark.parametrize(("fit_frames", "direction"), [(15, 1), (0, -1)])
+def test_a_hidden_target_coasts_on_the_motion_of_its_confident_frames(fit_frames: int, direction: int) -> None:
+    """A box walks right 4 px a frame. Just before it is hidden, the centre filter is given a
+    velocity of 6 px a frame to the left, as a neighbour dragging the last windows would: the
+    search then coasts right, at the box's pace, on the motion fitted to its confident frames;
+    with the fit off (0), left on the filter's."""
+    frames = _moving_box_frames(14, 4)
+    tr = Tracker(TrackerSettings(use_markers=False, motion_fit_frames=fit_frames))
+    tr.init(frames[0], (60, 100, 40, 40))
+    for f in frames[1:14]:
+        assert tr.update(f).status is TrackStatus.TRACKING
+    x, _ = tr._centre.state
+    tr._centre.set_motion(np.array([x[0], x[1], -6.0, 0.0]))  # dragged off, as by a neighbour
+    hidden = [tr.update(f) for f in frames[14:20]]
+    assert all(st.status is TrackStatus.OCCLUDED for st in hidden)
+    # the first hidden frame shows where the dragged filter predicted it; the coasting starts after
+    centres = [st.bbox[0] + st.bbox[2] / 2 for st in hidden[1:]]
+    pace = (centres[-1] - centres[0]) / (len(centres) - 1)
+    if direction > 0:
+        assert pace == pytest.approx(4.0, abs=0.5)  # the box's own pace
+        assert abs(centres[0] - (60 + 4 * 15 + 20)) <= 4  # where the box would be on frame 15
+    else:
+        assert pace < -3.0
+
+
+def test_motion_fit_frames_must_be_a_whole_number() -> None:
+    for bad in (-1, 2.5):
+        with pytest.raises(ValueError, match="motion_fit_frames"):
+            TrackerSettings(motion_fit_frames=bad)  # type: ignore[arg-type]
