@@ -32,7 +32,9 @@ Mean shift places a window of the filtered size (CAMShift's window can sprawl ov
 neighbour and drag the centre along); CAMShift measures the size, which a Kalman filter on
 its logarithm smooths. A window that fails the gate is looked for again anywhere in the
 search region before the target is called hidden; a hidden target must pass a stricter gate
-to come back. A banner whose markers were seen is held to its track: without its markers the
+to come back. While hidden, the search coasts on the constant velocity fitted to the
+target's last confident centres (``TrackerSettings.motion_fit_frames``), not on the centre
+filter's, which the windows an occluder or a neighbour dragged off it have already bent. A banner whose markers were seen is held to its track: without its markers the
 window may not leave the centre filter's validation gate, and once hidden it comes back only
 on its markers (in the realistic look the camera's exposure can turn the ground the light
 grey of its panel, which its colours alone do not tell apart). Real footage without markers
