@@ -26,7 +26,35 @@ SEQUENCES = {s.name: s for s in load_sequences()}
 LABELLED = sorted(n for n, s in SEQUENCES.items() if not s.no_banner)
 #: where OpenCV's CSRT reaches 0.9 success (lfctl bench vision, with opencv-contrib): the
 #: full tracker must too
-CSRT_AT_0_9 = ("bikes_cyclist", "carphone_bowtie", "vtest_bluejacket", "vtest_navyred")
+CSRT_AT_0_9 = ("bikes_cyclist", "carphone_bowtie", "vtest_bluejacket", "vtest_navyred", "vtest_redshoulders_walkin")
+#: the last clips labelled, held out: their measured failures (strict xfails, by rule)
+WALKIN = (
+    "held out: 0.762 (CSRT 0.905, hs-lbp 0.857; over the start boxes medians 0.762, 0.81 and "
+    "0.19); TRACKING on every plain-view frame (median centre error 5.7 px), but as he walks "
+    "towards the camera the window stays about 28 x 21 px while his jacket grows from 22 x 25 to "
+    "30 x 35 (IoU 0.39-0.49 on frames 70, 80, 90, 100 and 105)"
+)
+HELD_OUT_FAILS = {
+    "csrt": {"vtest_redshoulders_walkin": WALKIN},
+    "hs-lbp": {
+        "vtest_navystripe": "labelled held out: success 0.556 against hs-lbp's 0.833 (CSRT 0.278; medians "
+        "over the start boxes 0.556 and 0.833), TRACKING on every plain-view frame; the window "
+        "spreads onto the man in a black jacket he passes (frame 20) and then stays larger "
+        "than the striped jacket, taking in his head (frames 20-65 at IoU 0.29-0.49)",
+        "vtest_redshoulders_walkin": WALKIN,
+    },
+    "hidden": {
+        "vtest_blackcoat": "held out: on frame 55 he is wholly behind another man in dark clothes "
+        "(perhaps a 2-4 px sliver of his shoulder shows); the window, by then 59 x 63 px against his "
+        "23 x 53 and spread over the dark-clothed men there, is TRACKING (so are CSRT's and MIL's)",
+    },
+}
+
+
+def _with_fails(names, rule: str) -> list:
+    """``names`` as test parameters, those that fail ``rule`` as strict xfails with their cause."""
+    fails = HELD_OUT_FAILS[rule]
+    return [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=fails[n])) if n in fails else n for n in names]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,29 +111,12 @@ def success(seq: LabelledSequence, run: Run) -> float:
     )
 
 
-@pytest.mark.parametrize("name", CSRT_AT_0_9)
+@pytest.mark.parametrize("name", _with_fails(CSRT_AT_0_9, "csrt"))
 def test_holds_the_target_where_csrt_does(name: str) -> None:
     assert success(SEQUENCES[name], full_run(name)) >= 0.9
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        pytest.param(
-            n,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="labelled held out: success 0.556 against hs-lbp's 0.833 (CSRT 0.278; medians "
-                "over the start boxes 0.556 and 0.833), TRACKING on every plain-view frame; the window "
-                "spreads onto the man in a black jacket he passes (frame 20) and then stays larger "
-                "than the striped jacket, taking in his head (frames 20-65 at IoU 0.29-0.49)",
-            ),
-        )
-        if n == "vtest_navystripe"
-        else n
-        for n in LABELLED
-    ],
-)
+@pytest.mark.parametrize("name", _with_fails(LABELLED, "hs-lbp"))
 def test_never_below_the_papers_features_alone(name: str) -> None:
     seq = SEQUENCES[name]
     ours = success(seq, full_run(name))
@@ -113,7 +124,7 @@ def test_never_below_the_papers_features_alone(name: str) -> None:
         assert ours >= success(seq, hs_lbp_run(name))
 
 
-@pytest.mark.parametrize("name", LABELLED)
+@pytest.mark.parametrize("name", _with_fails(LABELLED, "hidden"))
 def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
     seq = SEQUENCES[name]
     run = full_run(name)
