@@ -26,7 +26,16 @@ SEQUENCES = {s.name: s for s in load_sequences()}
 LABELLED = sorted(n for n, s in SEQUENCES.items() if not s.no_banner)
 #: where OpenCV's CSRT reaches 0.9 success (lfctl bench vision, with opencv-contrib): the
 #: full tracker must too
-CSRT_AT_0_9 = ("bikes_cyclist", "carphone_bowtie", "vtest_bluejacket", "vtest_navyred", "vtest_redshoulders_walkin")
+CSRT_AT_0_9 = (
+    "bikes_cyclist",
+    "box_yellow",
+    "carphone_bowtie",
+    "coin_pen",
+    "tennisball_board",
+    "vtest_bluejacket",
+    "vtest_navyred",
+    "vtest_redshoulders_walkin",
+)
 #: the last clips labelled, held out: their measured failures (strict xfails, by rule)
 WALKIN = (
     "held out: 0.762 (CSRT 0.905, hs-lbp 0.857; over the start boxes medians 0.762, 0.81 and "
@@ -34,16 +43,32 @@ WALKIN = (
     "towards the camera the window stays about 28 x 21 px while his jacket grows from 22 x 25 to "
     "30 x 35 (IoU 0.39-0.49 on frames 70, 80, 90, 100 and 105)"
 )
+COIN = (
+    "held out: 0.107 (CSRT 1.0, hs-lbp 1.0), 25 of 28 plain-view frames not TRACKING: a pen flicks the "
+    "coin about 100 px in four frames (clip 11-15), out of the search region; where it lands its look "
+    "has changed (turned over, under other light): 0.41-0.70 from the model against the re-entry gate's "
+    "0.29 (the tracking gate 0.53), so it is OCCLUDED, then LOST, and taken up again on clip 145 only"
+)
+REDBALL = (
+    "held out: 0.0 (hue alone 1.0, CSRT 0.88): a red ball of 12 x 14 px, motion-blurred on frame 0, where "
+    "CAMShift's window is 15 x 21: the calibration from it (sizes x0.8 and x0.67, the centre moved 0.29 of "
+    "a window down) puts the box beside the ball, the window shrinks to 5-8 px, is OCCLUDED on plain-view "
+    "frames 60 and 80, and from frame 85 follows red specks on the benches, TRACKING on frame 130 while the "
+    "ball is out of the picture (without the frame-0 calibration: 1.0, measured; it holds the pedestrians)"
+)
 HELD_OUT_FAILS = {
-    "csrt": {"vtest_redshoulders_walkin": WALKIN},
+    "csrt": {"vtest_redshoulders_walkin": WALKIN, "coin_pen": COIN},
     "hs-lbp": {
+        "coin_pen": COIN,
         "vtest_navystripe": "labelled held out: success 0.556 against hs-lbp's 0.833 (CSRT 0.278; medians "
         "over the start boxes 0.556 and 0.833), TRACKING on every plain-view frame; the window "
         "spreads onto the man in a black jacket he passes (frame 20) and then stays larger "
         "than the striped jacket, taking in his head (frames 20-65 at IoU 0.29-0.49)",
         "vtest_redshoulders_walkin": WALKIN,
     },
+    "plain": {"coin_pen": COIN, "redball_lab": REDBALL},
     "hidden": {
+        "redball_lab": REDBALL,
         "vtest_blackcoat": "held out: on frame 55 he is wholly behind another man in dark clothes "
         "(perhaps a 2-4 px sliver of his shoulder shows); the window, by then 59 x 63 px against his "
         "23 x 53 and spread over the dark-clothed men there, is TRACKING (so are CSRT's and MIL's)",
@@ -131,7 +156,7 @@ def test_never_tracking_while_the_target_is_hidden(name: str) -> None:
     assert [i for i in seq.hidden() if run.statuses[i] is TrackStatus.TRACKING] == []
 
 
-@pytest.mark.parametrize("name", LABELLED)
+@pytest.mark.parametrize("name", _with_fails(LABELLED, "plain"))
 def test_never_occluded_while_the_target_is_in_plain_view(name: str) -> None:
     seq = SEQUENCES[name]
     run = full_run(name)
