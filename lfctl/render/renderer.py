@@ -269,6 +269,13 @@ class Renderer:
         sx, sy = self._half_size[0] / w, self._half_size[1] / h
         self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
         self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
+        # the bare sky layer scaled up, for the rows of a frame whose layer rows are bare
+        # sky (see _upscale); only where the layer is exactly half the frame's size
+        self._sky_full = (
+            cv2.resize(self._sky_half, (w, h), interpolation=cv2.INTER_LINEAR)
+            if (2 * self._half_size[0], 2 * self._half_size[1]) == (w, h)
+            else None
+        )
         self._ground_bands = self._ground_band_levels()
         self._init_ground_bands()
 
@@ -633,9 +640,12 @@ class Renderer:
         items.sort(key=lambda x: -x[0])
         # props farther than every vehicle and occluder are background: into the layer
         n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))
+        dirty = self._ground_bands[0][0] if self._ground_bands else layer.shape[0]  # layer rows above: bare sky
         for _depth, plane, _kind in items[:n_back]:
-            self._paint_plane(layer, R, c, plane, self._half_K)
-        img = cv2.resize(layer, (self.cfg.width_px, self.cfg.height_px), interpolation=cv2.INTER_LINEAR)
+            poly = self._paint_plane(layer, R, c, plane, self._half_K)
+            if poly is not None:
+                dirty = min(dirty, point_bounds(poly)[1] - 2)  # two rows more: an anti-aliased edge's reach
+        img = self._upscale(dirty)
         target_poly = None
         nearer_polys: list[np.ndarray] = []
         for _depth, plane, kind in items[n_back:]:
@@ -657,6 +667,37 @@ class Renderer:
             cv2.add(img, plus, dst=img)
             cv2.subtract(img, minus, dst=img)
         return img, truth
+
+    def _upscale(self, dirty: int) -> np.ndarray:
+        """The background layer at the frame's size, exactly as
+        ``cv2.resize(self._layer, (width, height), interpolation=cv2.INTER_LINEAR)`` gives it,
+        when the layer's rows above ``dirty`` are bare sky.
+
+        Frame row y blends layer rows y // 2 - 1 + y % 2 and the next one (a 2 x upscale), so
+        the rows up to 2 dirty - 2 see bare sky only: they are copied from the sky scaled up
+        once, and only the layer from row dirty - 1 down is scaled (its first frame row,
+        clamped at the cut, is one of the copied ones). Each frame row is computed from the
+        same two layer rows with the same weights, whole rows at a time as in the full
+        resize, so the pixels are the same; the sky and the wall above the horizon are
+        about half the frame, so about half the scaling is saved.
+
+        Parameters
+        ----------
+        dirty : int
+            The first layer row that is not bare sky (the floor's first band, or a prop painted
+            into the layer); below 2 (or without a bare sky to copy): the whole layer is scaled.
+        """
+        layer, sky = self._layer, self._sky_full
+        size = (self.cfg.width_px, self.cfg.height_px)
+        if sky is None or dirty < 2:
+            return cv2.resize(layer, size, interpolation=cv2.INTER_LINEAR)
+        d = min(dirty, layer.shape[0])
+        img = np.empty_like(sky)
+        cv2.resize(
+            layer[d - 1 :], (size[0], size[1] - 2 * (d - 1)), dst=img[2 * (d - 1) :], interpolation=cv2.INTER_LINEAR
+        )
+        img[: 2 * d - 1] = sky[: 2 * d - 1]
+        return img
 
     def _apply_light(self, img: np.ndarray, t_s: float) -> np.ndarray:
         """The global gain and tint, then the sweeping shadow band (darkened in place)."""
