@@ -239,8 +239,11 @@ class Renderer:
         self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
         # source image, and wrapping costs ~5x per pixel; centred on the visible floor, most
-        # samples land inside and the picture is the same (the texture is periodic)
-        self._ground_tiles = [np.tile(t, (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels]
+        # samples land inside and the picture is the same (the texture is periodic). As BGRA:
+        # the warp computes each channel as it does for BGR, at ~0.6 of the time (_paint_ground)
+        self._ground_tiles = [
+            np.tile(cv2.cvtColor(t, cv2.COLOR_BGR2BGRA), (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels
+        ]
         self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
         occ_rng = np.random.default_rng(seed + 1)
         self.occluder_tex = [
@@ -283,12 +286,14 @@ class Renderer:
         """What :meth:`_paint_ground` needs per band that never changes, built once: the
         matrices :func:`_band_homography` multiplies the floor's homography by (stacked, so
         one matmul does every band, item by item as the 3 x 3 products did), the band's
-        middle pixel, the level's tile and its period, and the layer's rows. The layer itself
-        is reused frame after frame (it never leaves the renderer): the floor's warps write
-        every pixel of their rows, so only the other rows are copied from the sky."""
+        middle pixel, the level's tile and its period, the band's rows of a BGRA scratch layer
+        the warp writes and the layer's rows they are copied to. The layer itself is reused
+        frame after frame (it never leaves the renderer): the floor's warps write every pixel
+        of their rows, so only the other rows are copied from the sky."""
         w, h = self._half_size
         bands = self._ground_bands
         self._layer = self._sky_half.copy()
+        scratch = np.zeros((h, w, 4), np.uint8)
         self._band_shift = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]] for r0, _r1, _l in bands])
         self._band_to_level = np.array(
             [
@@ -303,6 +308,7 @@ class Renderer:
                 self._ground_tiles[lv],
                 self._ground_levels[lv].shape[1],
                 self._ground_levels[lv].shape[0],
+                scratch[r0:r1],
                 self._layer[r0:r1],
             )
             for r0, r1, lv in bands
@@ -373,7 +379,9 @@ class Renderer:
         the bands' views built once look into), band by band. Every band's homography, the
         texel under its middle pixel and the shift to the middle tile are computed for all
         bands at once, with the same 3 x 3 products and solves as one band at a time (the
-        warps see bit-identical matrices)."""
+        warps see bit-identical matrices). Each band is warped from the BGRA tiles into the
+        BGRA scratch and its colour copied into the layer: the same pixels as a BGR warp
+        (0.29 -> 0.17 ms a frame for the four bands, with the copies, on the convoy's poses)."""
         if not self._band_paint:
             return
         Hg = self._ground_homography(self._half_K, R, c)
@@ -381,13 +389,16 @@ class Renderer:
         # move by whole texture periods so the floor seen mid-band is in the middle tile
         q = np.linalg.solve(Ms, self._band_mid)[:, :, 0].tolist()
         shifts = self._band_eye.copy()
-        for k, ((qx, qy, qw), (_tile, pw, ph, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
+        for k, ((qx, qy, qw), (_tile, pw, ph, _bgra, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
             shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
             shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
         Ms = Ms @ shifts
         w = self._layer.shape[1]
-        for M, (tile, _pw, _ph, dst) in zip(Ms, self._band_paint, strict=True):
-            cv2.warpPerspective(tile, M, (w, dst.shape[0]), dst=dst, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+        for M, (tile, _pw, _ph, bgra, dst) in zip(Ms, self._band_paint, strict=True):
+            cv2.warpPerspective(
+                tile, M, (w, dst.shape[0]), dst=bgra, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP
+            )
+            cv2.cvtColor(bgra, cv2.COLOR_BGRA2BGR, dst=dst)
 
     def _texture_to_roi(
         self, plane: Plane, R: np.ndarray, c: np.ndarray, K: np.ndarray, x0: int, y0: int
