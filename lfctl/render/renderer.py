@@ -239,8 +239,11 @@ class Renderer:
         self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
         # source image, and wrapping costs ~5x per pixel; centred on the visible floor, most
-        # samples land inside and the picture is the same (the texture is periodic)
-        self._ground_tiles = [np.tile(t, (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels]
+        # samples land inside and the picture is the same (the texture is periodic). As BGRA:
+        # the warp computes each channel as it does for BGR, at ~0.6 of the time (_paint_ground)
+        self._ground_tiles = [
+            np.tile(cv2.cvtColor(t, cv2.COLOR_BGR2BGRA), (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels
+        ]
         self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
         occ_rng = np.random.default_rng(seed + 1)
         self.occluder_tex = [
@@ -253,8 +256,14 @@ class Renderer:
         # instead of a mixed-type add (which costs ~1 ms at 640x480)
         self._noise: list[tuple[np.ndarray, np.ndarray]] = []
         for _ in range(6 if camera.noise_sigma > 0 else 0):
-            n = np.round(noise_rng.normal(0, camera.noise_sigma, (h, w, 3)))
-            self._noise.append((np.clip(n, 0, 255).astype(np.uint8), np.clip(-n, 0, 255).astype(np.uint8)))
+            # normal(0, sigma) is 0 + sigma * standard_normal() element by element: the same
+            # draws scaled in place, ~20 % faster than numpy's per-element call
+            n = noise_rng.standard_normal((h, w, 3))
+            n = np.round(np.multiply(n, camera.noise_sigma, out=n), out=n)
+            plus = np.clip(n, 0, 255).astype(np.uint8)
+            # the negative half from n negated in place: no second 7 MB array (~4 ms a frame)
+            minus = np.clip(np.negative(n, out=n), 0, 255, out=n).astype(np.uint8)
+            self._noise.append((plus, minus))
         self._frame_rng = np.random.default_rng(seed + 3)
         # the background (sky, floor and the props behind every vehicle) is drawn at half
         # resolution and scaled up: _half_K maps the scene into that layer exactly as
@@ -263,6 +272,13 @@ class Renderer:
         sx, sy = self._half_size[0] / w, self._half_size[1] / h
         self._half_K = np.array([[sx, 0.0, 0.5 * sx - 0.5], [0.0, sy, 0.5 * sy - 0.5], [0.0, 0.0, 1.0]]) @ self.cam.K
         self._sky_half = cv2.resize(self._sky_image(), self._half_size, interpolation=cv2.INTER_AREA)
+        # the bare sky layer scaled up, for the rows of a frame whose layer rows are bare
+        # sky (see _upscale); only where the layer is exactly half the frame's size
+        self._sky_full = (
+            cv2.resize(self._sky_half, (w, h), interpolation=cv2.INTER_LINEAR)
+            if (2 * self._half_size[0], 2 * self._half_size[1]) == (w, h)
+            else None
+        )
         self._ground_bands = self._ground_band_levels()
         self._init_ground_bands()
 
@@ -270,12 +286,14 @@ class Renderer:
         """What :meth:`_paint_ground` needs per band that never changes, built once: the
         matrices :func:`_band_homography` multiplies the floor's homography by (stacked, so
         one matmul does every band, item by item as the 3 x 3 products did), the band's
-        middle pixel, the level's tile and its period, and the layer's rows. The layer itself
-        is reused frame after frame (it never leaves the renderer): the floor's warps write
-        every pixel of their rows, so only the other rows are copied from the sky."""
+        middle pixel, the level's tile and its period, the band's rows of a BGRA scratch layer
+        the warp writes and the layer's rows they are copied to. The layer itself is reused
+        frame after frame (it never leaves the renderer): the floor's warps write every pixel
+        of their rows, so only the other rows are copied from the sky."""
         w, h = self._half_size
         bands = self._ground_bands
         self._layer = self._sky_half.copy()
+        scratch = np.zeros((h, w, 4), np.uint8)
         self._band_shift = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, -r0], [0.0, 0.0, 1.0]] for r0, _r1, _l in bands])
         self._band_to_level = np.array(
             [
@@ -290,6 +308,7 @@ class Renderer:
                 self._ground_tiles[lv],
                 self._ground_levels[lv].shape[1],
                 self._ground_levels[lv].shape[0],
+                scratch[r0:r1],
                 self._layer[r0:r1],
             )
             for r0, r1, lv in bands
@@ -360,7 +379,9 @@ class Renderer:
         the bands' views built once look into), band by band. Every band's homography, the
         texel under its middle pixel and the shift to the middle tile are computed for all
         bands at once, with the same 3 x 3 products and solves as one band at a time (the
-        warps see bit-identical matrices)."""
+        warps see bit-identical matrices). Each band is warped from the BGRA tiles into the
+        BGRA scratch and its colour copied into the layer: the same pixels as a BGR warp
+        (0.29 -> 0.17 ms a frame for the four bands, with the copies, on the convoy's poses)."""
         if not self._band_paint:
             return
         Hg = self._ground_homography(self._half_K, R, c)
@@ -368,13 +389,16 @@ class Renderer:
         # move by whole texture periods so the floor seen mid-band is in the middle tile
         q = np.linalg.solve(Ms, self._band_mid)[:, :, 0].tolist()
         shifts = self._band_eye.copy()
-        for k, ((qx, qy, qw), (_tile, pw, ph, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
+        for k, ((qx, qy, qw), (_tile, pw, ph, _bgra, _dst)) in enumerate(zip(q, self._band_paint, strict=True)):
             shifts[k, 0, 2] = (math.floor(qx / qw / pw) - GROUND_TILES // 2) * pw
             shifts[k, 1, 2] = (math.floor(qy / qw / ph) - GROUND_TILES // 2) * ph
         Ms = Ms @ shifts
         w = self._layer.shape[1]
-        for M, (tile, _pw, _ph, dst) in zip(Ms, self._band_paint, strict=True):
-            cv2.warpPerspective(tile, M, (w, dst.shape[0]), dst=dst, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+        for M, (tile, _pw, _ph, bgra, dst) in zip(Ms, self._band_paint, strict=True):
+            cv2.warpPerspective(
+                tile, M, (w, dst.shape[0]), dst=bgra, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP
+            )
+            cv2.cvtColor(bgra, cv2.COLOR_BGRA2BGR, dst=dst)
 
     def _texture_to_roi(
         self, plane: Plane, R: np.ndarray, c: np.ndarray, K: np.ndarray, x0: int, y0: int
@@ -627,9 +651,12 @@ class Renderer:
         items.sort(key=lambda x: -x[0])
         # props farther than every vehicle and occluder are background: into the layer
         n_back = next((i for i, item in enumerate(items) if item[2] != "prop"), len(items))
+        dirty = self._ground_bands[0][0] if self._ground_bands else layer.shape[0]  # layer rows above: bare sky
         for _depth, plane, _kind in items[:n_back]:
-            self._paint_plane(layer, R, c, plane, self._half_K)
-        img = cv2.resize(layer, (self.cfg.width_px, self.cfg.height_px), interpolation=cv2.INTER_LINEAR)
+            poly = self._paint_plane(layer, R, c, plane, self._half_K)
+            if poly is not None:
+                dirty = min(dirty, point_bounds(poly)[1] - 2)  # two rows more: an anti-aliased edge's reach
+        img = self._upscale(dirty)
         target_poly = None
         nearer_polys: list[np.ndarray] = []
         for _depth, plane, kind in items[n_back:]:
@@ -651,6 +678,37 @@ class Renderer:
             cv2.add(img, plus, dst=img)
             cv2.subtract(img, minus, dst=img)
         return img, truth
+
+    def _upscale(self, dirty: int) -> np.ndarray:
+        """The background layer at the frame's size, exactly as
+        ``cv2.resize(self._layer, (width, height), interpolation=cv2.INTER_LINEAR)`` gives it,
+        when the layer's rows above ``dirty`` are bare sky.
+
+        Frame row y blends layer rows y // 2 - 1 + y % 2 and the next one (a 2 x upscale), so
+        the rows up to 2 dirty - 2 see bare sky only: they are copied from the sky scaled up
+        once, and only the layer from row dirty - 1 down is scaled (its first frame row,
+        clamped at the cut, is one of the copied ones). Each frame row is computed from the
+        same two layer rows with the same weights, whole rows at a time as in the full
+        resize, so the pixels are the same. The sky above the floor is half the convoy's
+        frame: 0.43 -> ~0.28 ms where no prop rises above the horizon (two frames in three).
+
+        Parameters
+        ----------
+        dirty : int
+            The first layer row that is not bare sky (the floor's first band, or a prop painted
+            into the layer); below 2 (or without a bare sky to copy): the whole layer is scaled.
+        """
+        layer, sky = self._layer, self._sky_full
+        size = (self.cfg.width_px, self.cfg.height_px)
+        if sky is None or dirty < 2:
+            return cv2.resize(layer, size, interpolation=cv2.INTER_LINEAR)
+        d = min(dirty, layer.shape[0])
+        img = np.empty_like(sky)
+        cv2.resize(
+            layer[d - 1 :], (size[0], size[1] - 2 * (d - 1)), dst=img[2 * (d - 1) :], interpolation=cv2.INTER_LINEAR
+        )
+        img[: 2 * d - 1] = sky[: 2 * d - 1]
+        return img
 
     def _apply_light(self, img: np.ndarray, t_s: float) -> np.ndarray:
         """The global gain and tint, then the sweeping shadow band (darkened in place)."""

@@ -30,6 +30,10 @@ __all__ = [
 ]
 
 TEX_PX_PER_M = 800.0  # banner texture resolution, px per m
+#: how much deeper than its Gaussian reaches (4 sigma) :func:`noise_texture` wraps the noise
+#: around itself before blurring, px: more than OpenCV's widest vector, so no kept pixel is
+#: left to the filter's scalar loop at a row's end
+_BLUR_MARGIN_PX = 64
 
 
 def hue_bgr(hue_deg: float, saturation: float, value: float) -> tuple[int, int, int]:
@@ -64,10 +68,19 @@ def noise_texture(
     blur : int
         Gaussian blur sigma of the noise, px: the grain size (1 or less: none).
     """
-    n = rng.normal(0.0, amplitude, (h, w)).astype(np.float32)
+    n = rng.standard_normal((h, w))  # rng.normal(0, amplitude)'s draws, scaled at numpy's speed
+    n = np.multiply(n, amplitude, out=n).astype(np.float32)
     if blur > 1:
-        # blur a 3x3 tiling and keep the middle: the texture stays periodic (no seams when tiled)
-        n = cv2.GaussianBlur(np.tile(n, (3, 3)), (0, 0), blur)[h : 2 * h, w : 2 * w].copy()
+        # blur the noise with its own wrap around it and keep the middle: the texture stays
+        # periodic (no seams when tiled). The wrap is the middle of a 3 x 3 tiling, cut to
+        # the kernel's reach plus _BLUR_MARGIN_PX, so the middle gets exactly the values the
+        # whole tiling gave it, at a fraction of the pixels (a 300 x 2000 wall at sigma 4:
+        # 6.5 x fewer)
+        reach = 4 * blur + _BLUR_MARGIN_PX
+        my, mx = min(h, reach), min(w, reach)
+        n = cv2.GaussianBlur(np.pad(n, ((my, my), (mx, mx)), mode="wrap"), (0, 0), blur)[
+            my : my + h, mx : mx + w
+        ].copy()
         n *= amplitude / max(float(n.std()), 1e-6)
     tex = np.empty((h, w, 3), np.uint8)
     for c in range(3):

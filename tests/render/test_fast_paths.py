@@ -23,7 +23,8 @@ from lfctl.render.renderer import (
 
 
 def reference_ground(r: Renderer, R: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """The floor as it was drawn band by band: a homography, a solve and a shift each."""
+    """The floor as it was drawn band by band: a homography, a solve and a shift each, warped
+    from the level's BGR tiles."""
     layer = r._sky_half.copy()
     Hg = r._ground_homography(r._half_K, R, c)
     w = layer.shape[1]
@@ -34,10 +35,8 @@ def reference_ground(r: Renderer, R: np.ndarray, c: np.ndarray) -> np.ndarray:
         kx = math.floor(q[0] / q[2] / pw) - GROUND_TILES // 2
         ky = math.floor(q[1] / q[2] / ph) - GROUND_TILES // 2
         M = M @ np.array([[1.0, 0.0, kx * pw], [0.0, 1.0, ky * ph], [0.0, 0.0, 1.0]])
-        cv2.warpPerspective(
-            r._ground_tiles[level], M, (w, r1 - r0), dst=layer[r0:r1], flags=cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_WRAP,
-        )  # fmt: skip
+        bgr = np.tile(r._ground_levels[level], (GROUND_TILES, GROUND_TILES, 1))
+        cv2.warpPerspective(bgr, M, (w, r1 - r0), dst=layer[r0:r1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
     return layer
 
 
