@@ -132,7 +132,11 @@ def test_tiled_floor_draws_the_same_picture_as_wrapping_one_tile(ground: str) ->
     # the 3 x 3 tiling is only a speed-up: the periodic floor must look as a wrapped single tile
     tiled = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
     single = Renderer(CameraConfig(), BannerConfig(), SceneConfig(ground=ground), 7)
-    single._ground_tiles = single._ground_levels
+    # one tile per level (BGRA, as the renderer holds its tiles), and the floor's bands rebuilt
+    # on them: the bands take their tiles when the renderer is built
+    single._ground_tiles = [cv2.cvtColor(t, cv2.COLOR_BGR2BGRA) for t in single._ground_levels]
+    single._init_ground_bands()
+    assert single._band_paint[0][0].shape[:2] == single._ground_levels[single._ground_bands[0][2]].shape[:2]
     lead = VehiclePose(0.0, 0.0, 0.0)
     for i in range(20):
         me = VehiclePose(-1.5 + 37.3 * i, -11.1 * i, 0.7 * i, banner=False)
