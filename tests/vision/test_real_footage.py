@@ -50,14 +50,15 @@ COIN = (
     "held out: 0.107 (CSRT 1.0, hs-lbp 1.0), 25 of 28 plain-view frames not TRACKING: a pen flicks the "
     "coin about 100 px in four frames (clip 11-15), out of the search region; where it lands its look "
     "has changed (turned over, under other light): 0.41-0.70 from the model against the re-entry gate's "
-    "0.29 (the tracking gate 0.53), so it is OCCLUDED, then LOST, and taken up again on clip 145 only"
+    "0.29 (the tracking gate 0.53), so it is OCCLUDED, then LOST, and taken up again on frame 142 only"
 )
 REDBALL = (
     "held out: 0.0 (hue alone 1.0, CSRT 0.88): a red ball of 12 x 14 px, motion-blurred on frame 0, where "
     "CAMShift's window is 15 x 21: the calibration from it (sizes x0.8 and x0.67, the centre moved 0.29 of "
     "a window down) puts the box beside the ball, the window shrinks to 5-8 px, is OCCLUDED on plain-view "
-    "frames 60 and 80, and from frame 85 follows red specks on the benches, TRACKING on frame 130 while the "
-    "ball is out of the picture (without the frame-0 calibration: 1.0, measured; it holds the pedestrians)"
+    "frames 60 and 80, slides off the ball and from frame 110 runs along the picture's bottom edge, TRACKING "
+    "there on frame 130 while the ball is out of the picture (without the frame-0 calibration: 1.0, "
+    "measured; it holds the pedestrians)"
 )
 HELD_OUT_FAILS = {
     "csrt": {"vtest_redshoulders_walkin": WALKIN, "coin_pen": COIN},
