@@ -48,7 +48,7 @@ WALKIN = (
 )
 COIN = (
     "held out: 0.107 (CSRT 1.0, hs-lbp 1.0), 25 of 28 plain-view frames not TRACKING: a pen flicks the "
-    "coin about 100 px in four frames (clip 11-15), out of the search region; where it lands its look "
+    "coin about 100 px in four frames (frames 11-15), out of the search region; where it lands its look "
     "has changed (turned over, under other light): 0.41-0.70 from the model against the re-entry gate's "
     "0.29 (the tracking gate 0.53), so it is OCCLUDED, then LOST, and taken up again on frame 142 only"
 )
