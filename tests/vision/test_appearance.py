@@ -1,0 +1,124 @@
+"""The grey-level pattern gate a hidden target may come back on, worked by hand: the pattern's
+numbers, its blindness to the camera's gain and offset, and the gate's learnt threshold."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from lfctl.vision.appearance import GRID, SCALES, AppearanceGate, pattern
+
+
+def _halves(left: int, right: int, size: int = 32) -> np.ndarray:
+    img = np.full((size, size), left, np.uint8)
+    img[:, size // 2 :] = right
+    return img
+
+
+def test_the_pattern_is_the_cells_less_their_mean_over_their_norm() -> None:
+    p = pattern(_halves(0, 100), (0, 0, 32, 32))
+    assert p is not None and p.shape == (GRID[1], GRID[0])
+    # 256 cells at -50 or +50 around the mean 50: norm 50 x 16 = 800, so each cell is -+1/16
+    assert p[:, : GRID[0] // 2] == pytest.approx(-1 / 16)
+    assert p[:, GRID[0] // 2 :] == pytest.approx(1 / 16)
+    assert float(np.linalg.norm(p)) == pytest.approx(1.0)
+
+
+def test_no_pattern_for_a_flat_window_or_one_mostly_outside_the_picture() -> None:
+    flat = np.full((40, 40), 120, np.uint8)
+    flat[0, 0] = 121  # rms far under one grey level
+    assert pattern(flat, (0, 0, 40, 40)) is None
+    img = np.tile((np.arange(40) * 5).astype(np.uint8), (40, 1))  # a ramp: a pattern everywhere
+    assert pattern(img, (26, 0, 30, 30)) is None  # 14 of its 30 columns inside: under half
+    assert pattern(img, (25, 0, 30, 30)) is not None  # 15 of 30: half
+
+
+@settings(max_examples=40, deadline=None)
+@given(gain=st.floats(0.5, 1.5), offset=st.integers(0, 60), seed=st.integers(0, 2**16))
+def test_a_window_scores_the_same_under_any_gain_and_offset(gain: float, offset: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    scene = rng.integers(20, 120, (48, 48)).astype(np.uint8)
+    gate = AppearanceGate(scene, (16, 16, 16, 16))
+    brighter = np.clip(scene.astype(np.float64) * gain + offset, 0, 255).astype(np.uint8)  # max 240: no clipping
+    score = gate.score(brighter, (16, 16, 16, 16))
+    assert score is not None
+    # the same pattern, but for uint8's rounding of the scaled levels
+    assert score == pytest.approx(1.0, abs=0.01)
+
+
+def test_the_background_is_the_best_impostor_at_least_half_a_window_off() -> None:
+    rng = np.random.default_rng(3)
+    scene = rng.integers(95, 105, (150, 150)).astype(np.uint8)  # faint texture: no pattern of note
+    scene[60:90, 60:90] = _halves(20, 220, 30)  # the target: dark left, light right
+    impostor = np.full((30, 30), 220, np.uint8)
+    impostor[:, :10] = 20  # dark on its left third only: like the target, less
+    scene[0:30, 120:150] = impostor  # two windows off, within the 5-window surroundings
+    gate = AppearanceGate(scene, (60, 60, 30, 30))
+    # every window of its size within 2.5 sizes of its centre and off it, scored one by one
+    off = [
+        gate.score(scene, (x, y, 30, 30))
+        for x in range(0, 121, 2)
+        for y in range(0, 121, 2)
+        if abs(x - 60) >= 30 or abs(y - 60) >= 30
+    ]
+    best = max(v for v in off if v is not None)
+    assert gate.background == pytest.approx(best, abs=0.03)  # matchTemplate on the area resampled once
+    assert best >= gate.score(scene, (120, 0, 30, 30)) > 0.5  # the impostor, or a window on its edge
+    # windows overlapping it are partly the target itself, not impostors: without the impostor
+    # its surroundings are faint texture, though a window half a size lower scores 0.7
+    scene[0:30, 120:150] = rng.integers(95, 105, (30, 30))
+    alone = AppearanceGate(scene, (60, 60, 30, 30))
+    assert alone.score(scene, (60, 75, 30, 30)) > 0.6 > 0.3 > alone.background
+
+
+def test_no_impostor_room_means_nothing_passes() -> None:
+    scene = _halves(20, 220, 30)
+    gate = AppearanceGate(scene, (0, 0, 30, 30), learn_frames=1)
+    assert gate.background == 1.0
+    gate.observe(1.0)
+    assert not gate.passes(1.0)
+
+
+def test_the_gate_sits_half_way_between_the_typical_score_and_the_best_impostor() -> None:
+    rng = np.random.default_rng(4)
+    scene = cv2.GaussianBlur(rng.integers(0, 255, (150, 150)).astype(np.uint8), (0, 0), 4)
+    gate = AppearanceGate(scene, (60, 60, 30, 30), learn_frames=3)
+    assert gate.threshold is None and not gate.passes(0.99)  # nothing passes while learning
+    for s in (0.9, 0.7, 0.95):
+        gate.observe(s)
+    assert gate.typical == pytest.approx(0.9)  # the median
+    assert gate.threshold == pytest.approx(0.5 * (0.9 + gate.background))
+    assert gate.passes(gate.threshold + 1e-6) and not gate.passes(gate.threshold)
+    assert not gate.passes(None)
+    gate.observe(0.1)  # learnt once
+    assert gate.typical == pytest.approx(0.9)
+
+
+def test_a_hidden_target_is_scored_at_the_best_of_its_sizes() -> None:
+    scene = np.full((200, 200), 100, np.uint8)
+    scene[79:121, 79:121] = 30  # the target, 42 px: a dark frame 6 px wide...
+    scene[85:115, 85:115] = 220  # ...round a light middle
+    gate = AppearanceGate(scene, (79, 79, 42, 42))
+    predicted = (85, 85, 30, 30)  # on its centre, at 1 / 1.41 of its size: the light middle only
+    assert gate.score(scene, predicted) is None  # flat: no pattern
+    assert gate.best_score(scene, predicted) == pytest.approx(1.0)  # at 1.41 x 30 = 42 px
+    assert pytest.approx([2 ** (-0.5), 2 ** (-0.25), 1.0, 2**0.25, 2**0.5]) == SCALES
+
+
+def test_a_target_no_more_distinct_than_its_surroundings_never_passes() -> None:
+    scene = np.tile(_halves(20, 220, 30), (5, 5))  # its neighbours are copies of it
+    gate = AppearanceGate(scene, (60, 60, 30, 30), learn_frames=1)
+    assert gate.background == pytest.approx(1.0)
+    gate.observe(0.95)
+    assert not gate.passes(0.99)  # typical <= background: the pattern tells nothing here
+
+
+def test_a_flat_target_has_no_pattern_and_never_passes() -> None:
+    scene = np.full((90, 90), 100, np.uint8)
+    gate = AppearanceGate(scene, (30, 30, 30, 30), learn_frames=1)
+    assert gate.template is None and gate.score(scene, (30, 30, 30, 30)) is None
+    gate.observe(None)
+    assert gate.typical is None and not gate.passes(0.9)
