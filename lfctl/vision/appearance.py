@@ -28,8 +28,8 @@ its track held: 0.47-0.60 at the held size, 0.69 at the best).
 
 Measured on the labelled real footage (``footage/``; target windows scored against the first
 frame's pattern, impostors at random places of the same size): rigid targets keep their
-pattern (coin, faces, tennis ball: median 0.89-0.97) well above any impostor (0.24-0.49 at the
-99th percentile); a walking person does not (median 0.18-0.71 against 0.22-0.64), which is
+pattern (coin, faces, tennis ball: median 0.89-0.97) above the impostors' 99th percentile
+(0.23-0.49); a walking person does not (median 0.18-0.71 against 0.22-0.64), which is
 why the pattern only lets a window back that the colours already nearly accept. What each
 choice gave on the footage is in ``TrackerSettings.appearance_reentry``.
 """
