@@ -172,9 +172,12 @@ class AppearanceGate:
 
 
 def _best_impostor(grey: np.ndarray, box: Box, template: np.ndarray) -> float:
-    """The highest score of a window of ``box``'s size placed anywhere within
-    :data:`SURROUNDINGS` of it, off it (not overlapping it); 1 (nothing passes) when there
-    is no such place."""
+    """The highest score of a window at any of :data:`SCALES` times ``box``'s size, placed
+    anywhere within :data:`SURROUNDINGS` of it and not overlapping it, that has a pattern (its
+    cells' rms at least one grey level, as :func:`pattern` asks: a flat window has no score and
+    never passes); 0 when every such window is flat (a plain wall), 1 (nothing passes) when
+    there is no room for one. The impostors get the same tries at size as a hidden target's
+    window (:meth:`AppearanceGate.best_score`)."""
     x, y, w, h = box
     cx, cy = x + w / 2.0, y + h / 2.0
     reach = SURROUNDINGS / 2.0
@@ -185,13 +188,30 @@ def _best_impostor(grey: np.ndarray, box: Box, template: np.ndarray) -> float:
     if area is None:
         return 1.0
     ax, ay, aw, ah = area
-    fx, fy = GRID[0] / w, GRID[1] / h  # the area resampled so the target's window is GRID
-    size = (max(GRID[0], int(round(aw * fx))), max(GRID[1], int(round(ah * fy))))
-    cells = cv2.resize(grey[ay : ay + ah, ax : ax + aw], size, interpolation=cv2.INTER_AREA).astype(np.float32)
-    scores = cv2.matchTemplate(cells, template.astype(np.float32), cv2.TM_CCOEFF_NORMED)
-    # each score's window's top-left, in grid cells, against the target's
-    ty, tx = (y - ay) * fy, (x - ax) * fx
-    rows, cols = np.ogrid[: scores.shape[0], : scores.shape[1]]
-    away = (np.abs(cols - tx) >= GRID[0]) | (np.abs(rows - ty) >= GRID[1])
-    away &= np.isfinite(scores)
-    return float(scores[away].max()) if away.any() else 1.0
+    gw, gh = GRID
+    best, room = -np.inf, False
+    for k in SCALES:
+        fx, fy = gw / (k * w), gh / (k * h)  # the area resampled so a window k times the box is GRID
+        size = (max(gw, int(round(aw * fx))), max(gh, int(round(ah * fy))))
+        cells = cv2.resize(grey[ay : ay + ah, ax : ax + aw], size, interpolation=cv2.INTER_AREA).astype(np.float32)
+        scores = cv2.matchTemplate(cells, template.astype(np.float32), cv2.TM_CCOEFF_NORMED)
+        # each window's variance over its cells, from integral images
+        s1, s2 = cv2.integral2(cells.astype(np.float64), sdepth=cv2.CV_64F)
+        n = gw * gh
+        total = s1[gh:, gw:] - s1[:-gh, gw:] - s1[gh:, :-gw] + s1[:-gh, :-gw]
+        squares = s2[gh:, gw:] - s2[:-gh, gw:] - s2[gh:, :-gw] + s2[:-gh, :-gw]
+        var = squares / n - (total / n) ** 2
+        # each window's top-left in cells; the box spans gw / k x gh / k cells from (tx, ty), and
+        # resampling mixes it into the cell beyond its edge: a window must clear that too
+        tx, ty = (x - ax) * fx, (y - ay) * fy
+        rows, cols = np.ogrid[: scores.shape[0], : scores.shape[1]]
+        off_x = (cols + gw <= tx - 1) | (cols >= tx + gw / k + 1)
+        off_y = (rows + gh <= ty - 1) | (rows >= ty + gh / k + 1)
+        away = off_x | off_y
+        room = room or bool(away.any())
+        keep = away & (var >= 1.0) & np.isfinite(scores)
+        if keep.any():
+            best = max(best, float(scores[keep].max()))
+    if not room:
+        return 1.0
+    return best if np.isfinite(best) else 0.0

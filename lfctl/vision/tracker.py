@@ -615,7 +615,14 @@ class Tracker:
                     accepted = gate.accepts(d, reentry=back)
         grey = None  # the frame in grey, made only when the pattern is wanted
         why = ""
-        if back and not accepted and constellation is None and s.appearance_reentry and gate.accepts(d):
+        if (
+            back
+            and not accepted
+            and constellation is None
+            and not self._markers_seen  # a banner whose markers were seen comes back on them alone
+            and s.appearance_reentry
+            and gate.accepts(d)
+        ):
             # a hidden target's colours nearly back (past the tracking gate, not the re-entry
             # one): its grey-level pattern decides (see lfctl.vision.appearance)
             grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)

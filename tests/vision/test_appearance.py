@@ -49,7 +49,27 @@ def test_a_window_scores_the_same_under_any_gain_and_offset(gain: float, offset:
     assert score == pytest.approx(1.0, abs=0.01)
 
 
-def test_the_background_is_the_best_impostor_at_least_half_a_window_off() -> None:
+def _brute_force_impostor(gate: AppearanceGate, grey: np.ndarray, box: tuple[int, int, int, int]) -> float:
+    """The best score of a window at each of SCALES times the box's size, at every place
+    (1 px steps) within SURROUNDINGS of it, not overlapping it, scored one by one."""
+    x, y, w, h = box
+    cx, cy = x + w / 2, y + h / 2
+    x0, x1 = max(0, round(cx - 2.5 * w)), min(grey.shape[1], round(cx + 2.5 * w))
+    y0, y1 = max(0, round(cy - 2.5 * h)), min(grey.shape[0], round(cy + 2.5 * h))
+    best = -1.0
+    for k in SCALES:
+        kw, kh = round(k * w), round(k * h)
+        for wy in range(y0, y1 - kh + 1):
+            for wx in range(x0, x1 - kw + 1):
+                if wx + kw > x and wx < x + w and wy + kh > y and wy < y + h:
+                    continue  # overlaps the target
+                v = gate.score(grey, (wx, wy, kw, kh))
+                if v is not None:
+                    best = max(best, v)
+    return best
+
+
+def test_the_background_is_the_best_impostor_not_overlapping_the_target() -> None:
     rng = np.random.default_rng(3)
     scene = rng.integers(95, 105, (150, 150)).astype(np.uint8)  # faint texture: no pattern of note
     scene[60:90, 60:90] = _halves(20, 220, 30)  # the target: dark left, light right
@@ -57,21 +77,44 @@ def test_the_background_is_the_best_impostor_at_least_half_a_window_off() -> Non
     impostor[:, :10] = 20  # dark on its left third only: like the target, less
     scene[0:30, 120:150] = impostor  # two windows off, within the 5-window surroundings
     gate = AppearanceGate(scene, (60, 60, 30, 30))
-    # every window of its size within 2.5 sizes of its centre and off it, scored one by one
-    off = [
-        gate.score(scene, (x, y, 30, 30))
-        for x in range(0, 121, 2)
-        for y in range(0, 121, 2)
-        if abs(x - 60) >= 30 or abs(y - 60) >= 30
-    ]
-    best = max(v for v in off if v is not None)
-    assert gate.background == pytest.approx(best, abs=0.03)  # matchTemplate on the area resampled once
+    best = _brute_force_impostor(gate, scene, (60, 60, 30, 30))
+    assert gate.background == pytest.approx(best, abs=0.03)  # matchTemplate on the area resampled once a size
     assert best >= gate.score(scene, (120, 0, 30, 30)) > 0.5  # the impostor, or a window on its edge
     # windows overlapping it are partly the target itself, not impostors: without the impostor
     # its surroundings are faint texture, though a window half a size lower scores 0.7
     scene[0:30, 120:150] = rng.integers(95, 105, (30, 30))
     alone = AppearanceGate(scene, (60, 60, 30, 30))
     assert alone.score(scene, (60, 75, 30, 30)) > 0.6 > 0.3 > alone.background
+
+
+def test_the_impostors_of_a_wide_target_by_a_corner_beside_it_on_one_axis() -> None:
+    """A target wider than tall near the picture's top-left corner (the area is clipped there),
+    an impostor beside it along x only (its rows overlap the target's), and a better one just
+    beyond the surroundings (which must not count)."""
+    rng = np.random.default_rng(5)
+    scene = rng.integers(95, 105, (120, 200)).astype(np.uint8)
+    target = np.full((12, 24), 200, np.uint8)
+    target[:, :8] = 30
+    target[:4, 16:] = 90
+    scene[10:22, 8:32] = target  # x 8-31, y 10-21: the surroundings reach x < 80, y < 46
+    near = target.copy()
+    near[:, 8:16] = 120  # like it, less
+    scene[10:22, 40:64] = near  # beside it in x, the same rows
+    scene[60:72, 100:124] = target  # an exact copy beyond the surroundings
+    gate = AppearanceGate(scene, (8, 10, 24, 12))
+    best = _brute_force_impostor(gate, scene, (8, 10, 24, 12))
+    assert gate.background == pytest.approx(best, abs=0.05)
+    assert 0.5 < gate.background < 0.9  # the near impostor counts, the copy beyond does not
+
+
+def test_on_a_plain_wall_no_window_is_an_impostor() -> None:
+    """Windows under one grey level of rms have no pattern (a wall in steps of one level):
+    they never pass, so they are no impostors, though OpenCV's correlation scores them."""
+    scene = (100 + np.arange(150)[None, :] // 40 + np.zeros((150, 1))).astype(np.uint8)
+    scene[60:90, 60:90] = _halves(20, 220, 30)
+    gate = AppearanceGate(scene, (60, 60, 30, 30))
+    assert _brute_force_impostor(gate, scene, (60, 60, 30, 30)) == -1.0  # none has a pattern
+    assert gate.background == 0.0
 
 
 def test_no_impostor_room_means_nothing_passes() -> None:
