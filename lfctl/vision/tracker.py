@@ -198,10 +198,11 @@ class TrackerSettings:
         at five sizes, against the best impostor around it). On the labelled footage, over
         each clip's label box and ten start boxes moved by up to 2 px: a coin flicked across
         a desk, which lands lit from another side, from 0.107 to 0.857 from the label box
-        (a mean of 0.172 to 0.870 over the starts), its plain-view frames not tracked from
-        255 to 40 over the starts; every other clip the same from every start. The rendered
-        tiers the same with markers; followed by colour alone, lighting 0.407 to 0.415, the
-        textured distractor 0.924 to 0.941, no hidden frame claimed. Measured on the way (the
+        (a mean of 0.172 to 0.873 over the starts), its plain-view frames not tracked from
+        255 to 39 over the starts; every other clip of the 24 then labelled the same from
+        every start. The rendered tiers the same with markers; followed by colour alone,
+        lighting 0.407 to 0.414, the textured distractor 0.924 to 0.940, no hidden frame
+        claimed. Measured on the way (the
         same starts): the pattern at the predicted size only, 0.393 (the coin lands smaller
         than its track held it); its impostor level from the eight neighbouring windows,
         their median: the cyclist taken up while hidden on a wrong window scoring 0.51 (1.0
