@@ -120,15 +120,8 @@ class AppearanceGate:
 
     def best_score(self, grey: np.ndarray, box: Box) -> float | None:
         """The highest :meth:`score` of windows on ``box``'s centre at :data:`SCALES` times its
-        size (a hidden target's size is known only roughly); None when none has a pattern.
-
-        Parameters
-        ----------
-        grey : np.ndarray
-            Grey image, uint8.
-        box : Box
-            (x, y, w, h), pixels of ``grey``.
-        """
+        size (a hidden target's size is known only roughly); None when none has a pattern. The
+        parameters are :meth:`score`'s."""
         x, y, w, h = box
         cx, cy = x + w / 2.0, y + h / 2.0
         scored = []
