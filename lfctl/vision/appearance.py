@@ -120,8 +120,15 @@ class AppearanceGate:
 
     def best_score(self, grey: np.ndarray, box: Box) -> float | None:
         """The highest :meth:`score` of windows on ``box``'s centre at :data:`SCALES` times its
-        size (a hidden target's size is known only roughly); None when none has a pattern. The
-        parameters are :meth:`score`'s."""
+        size (a hidden target's size is known only roughly); None when none has a pattern.
+
+        Parameters
+        ----------
+        grey : np.ndarray
+            The frame in grey levels, uint8 (as :meth:`score` takes it).
+        box : Box
+            The predicted window (x, y, w, h), pixels; the sizes tried are about its centre.
+        """
         x, y, w, h = box
         cx, cy = x + w / 2.0, y + h / 2.0
         scored = []
