@@ -398,6 +398,11 @@ class Tracker:
         hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
         c = self._markers_near(hsv, roi, must="overlap") if self.s.use_markers and self.s.kind == "full" else None
         self._markers_seen = c is not None
+        # the pattern a hidden target may come back on; a banner whose markers were seen comes
+        # back on them alone, so it needs none (nor the relearning from its markers below)
+        self._pattern = None
+        if self.s.kind == "full" and self.s.appearance_reentry and not self._markers_seen:
+            self._pattern = AppearanceGate(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY), roi, self.s.gate_learn_frames)
         self._sprawling = False
         self._start_filters(roi)
         self.status = TrackStatus.TRACKING
@@ -451,7 +456,6 @@ class Tracker:
         self._ref_hist = histogram(self.space, planes, _mask((ah, aw), _inner(roi), (ax, ay)))
         if full:
             self._gate = DistanceGate(self._background_distance(planes, area, roi), self.s.gate_learn_frames)
-            self._pattern = AppearanceGate(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY), roi, self.s.gate_learn_frames)
             self._floor = 0
             prob = back_project(self.space, planes, self._lut)
             surround = cv2.subtract(_mask((ah, aw), ring, (ax, ay)), tmask)
@@ -621,13 +625,12 @@ class Tracker:
             and not accepted
             and constellation is None
             and not self._markers_seen  # a banner whose markers were seen comes back on them alone
-            and s.appearance_reentry
+            and self._pattern is not None  # built at the start unless the markers were seen
             and gate.accepts(d)
         ):
             # a hidden target's colours nearly back (past the tracking gate, not the re-entry
             # one): its grey-level pattern decides (see lfctl.vision.appearance)
             grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-            assert self._pattern is not None
             score = self._pattern.best_score(grey, fix.window)
             if self._pattern.passes(score):
                 accepted = True
