@@ -18,7 +18,7 @@ from lfctl.config import BannerConfig, CameraConfig
 from lfctl.vision.boxes import Box, iou
 from lfctl.vision.perception import BannerPerception
 from lfctl.vision.track_state import TrackStatus
-from lfctl.vision.tracker import BACK_ON_PATTERN, FOUND_SMALLER, Tracker, TrackerSettings
+from lfctl.vision.tracker import BACK_ON_PATTERN, FOUND_SMALLER, LOST_SEARCH_SCALE, Tracker, TrackerSettings
 
 pytestmark = pytest.mark.slow
 
@@ -46,19 +46,11 @@ WALKIN = (
     "towards the camera the window stays about 28 x 21 px while his jacket grows from 22 x 25 to "
     "30 x 35 (IoU 0.39-0.49 on frames 70, 80, 90, 100 and 105)"
 )
-COIN = (
-    "held out: 0.857 (CSRT 1.0, hs-lbp 1.0), 4 of 28 plain-view frames not TRACKING: a pen flicks the "
-    "coin about 100 px in four frames (frames 11-15), out of the search region (frames 15 and 20 OCCLUDED); "
-    "where it lands it is lit from another side, 0.43 from the model against the re-entry gate's 0.29, and "
-    "its grey-level pattern passes from frame 26 on; after it the window shrinks to 44 x 29 against the "
-    "coin's 56 x 40, which the pen's second pass hides (frame 55 OCCLUDED, back on its pattern on frame 57)"
-)
 REDBALL = (
     "held out: 0.0 (hue alone 1.0, CSRT 0.88): a red ball of 12 x 14 px, motion-blurred on frame 0, where "
     "CAMShift's window is 15 x 21: the calibration from it (sizes x0.8 and x0.67, the centre moved 0.29 of "
-    "a window down) puts the box beside the ball, the window shrinks to 5-8 px, is OCCLUDED on plain-view "
-    "frames 60 and 80, slides off the ball and from frame 110 runs along the picture's bottom edge, TRACKING "
-    "there on frame 130 while the ball is out of the picture (without the frame-0 calibration: 1.0, "
+    "a window down) puts the box beside the ball, the window shrinks to 6-8 px below its centre (IoU "
+    "0.04-0.17), and is OCCLUDED on plain-view frames 60 and 115 (without the frame-0 calibration: 1.0, "
     "measured; it holds the pedestrians)"
 )
 PENS = (
@@ -69,9 +61,8 @@ PENS = (
     "frame 20 on"
 )
 HELD_OUT_FAILS = {
-    "csrt": {"vtest_redshoulders_walkin": WALKIN, "coin_pen": COIN},
+    "csrt": {"vtest_redshoulders_walkin": WALKIN},
     "hs-lbp": {
-        "coin_pen": COIN,
         "vtest_navystripe": "labelled held out: success 0.556 against hs-lbp's 0.833 (CSRT 0.278; medians "
         "over the start boxes 0.556 and 0.833), TRACKING on every plain-view frame; the window "
         "spreads onto the man in a black jacket he passes (frame 20) and then stays larger "
@@ -79,9 +70,8 @@ HELD_OUT_FAILS = {
         "vtest_redshoulders_walkin": WALKIN,
         "pens_redcap": PENS,
     },
-    "plain": {"coin_pen": COIN, "redball_lab": REDBALL},
+    "plain": {"redball_lab": REDBALL},
     "hidden": {
-        "redball_lab": REDBALL,
         "vtest_blackcoat": "held out: on frame 55 he is wholly behind another man in dark clothes "
         "(perhaps a 2-4 px sliver of his shoulder shows); the window, by then 59 x 63 px against his "
         "23 x 53 and spread over the dark-clothed men there, is TRACKING (so are CSRT's and MIL's)",
@@ -221,9 +211,10 @@ def test_the_charcoal_jacket_is_held_from_most_start_boxes_once_coasting_on_its_
     `lfctl bench vision`'s start boxes), the window first slides onto another dark jacket
     walking the other way; coasting on the centre filter's velocity, dragged by those frames,
     takes the search away from him for good (measured: a median success of 0.35 over the 11
-    starts, 27 frames breaking a rule; 51 before a hidden target could come back on its
-    grey-level pattern). On the motion of his last confident frames it follows him behind the
-    sign (a median of 0.8, 5 such frames, measured)."""
+    starts, 15 frames breaking a rule; 27 before a hidden target was looked for as widely as a
+    lost one, 51 before it could come back on its grey-level pattern). On the motion of his
+    last confident frames it follows him behind the sign (a median of 0.8, 5 such frames,
+    measured)."""
     seq = SEQUENCES["vtest_darkjacket"]
     frames = list(seq.frames())
     assert seq.init_box is not None
@@ -246,20 +237,61 @@ def test_the_charcoal_jacket_is_held_from_most_start_boxes_once_coasting_on_its_
     fitted, fitted_breaks = over_starts(TrackerSettings())
     filtered, filtered_breaks = over_starts(TrackerSettings(motion_fit_frames=0))
     assert fitted >= 0.8 and fitted_breaks <= 5
-    assert filtered < 0.5 and filtered_breaks > 20
+    assert filtered < 0.5 and filtered_breaks > 10
 
 
 def test_a_coin_that_lands_lit_from_another_side_comes_back_on_its_pattern() -> None:
-    """A pen flicks the coin (coin_pen) about 100 px; where it lands it is lit from another side:
-    0.37-0.52 from its colour model, past the re-entry gate's 0.29 though inside the tracking
-    gate's 0.53. On its colours alone it stays OCCLUDED, then LOST, in plain view for 25 of the
-    28 labelled frames (success 0.107, measured); its grey-level pattern takes it back on frame
-    26 and again on 57 after the pen's second pass (success 0.857, 4 such frames, measured)."""
+    """A pen flicks the coin (coin_pen) about 100 px in four frames; where it lands it is lit from
+    another side: 0.37-0.52 from its colour model, past the re-entry gate's 0.29 though inside
+    the tracking gate's 0.53. On its colours alone it stays OCCLUDED, then LOST, in plain view
+    for 25 of the 28 labelled frames (success 0.107, measured). With its grey-level pattern, and
+    looked for as widely as a lost target from its first hidden frame, it is back on frame 15,
+    two frames after the flick, and on frame 55 after the pen's second pass: every plain-view
+    frame TRACKING (success 1.0, measured; 0.857 with the pattern in the narrower region)."""
     name = "coin_pen"
     seq, run = SEQUENCES[name], full_run(name)
     plain = seq.in_plain_view()
     assert any(r.startswith(BACK_ON_PATTERN) for r in run.reasons)
-    assert len([i for i in plain if run.statuses[i] is not TrackStatus.TRACKING]) <= 4
+    assert all(run.statuses[i] is TrackStatus.TRACKING for i in plain)
     off = tracker_run(name, TrackerSettings(appearance_reentry=False))
     assert not any(r.startswith(BACK_ON_PATTERN) for r in off.reasons)
     assert len([i for i in plain if off.statuses[i] is not TrackStatus.TRACKING]) >= 20
+
+
+def test_a_hidden_target_with_a_pattern_is_looked_for_as_widely_as_a_lost_one() -> None:
+    """The flicked coin (coin_pen) lands about 100 px away four frames after it is last seen
+    (frame 15's label: 233, 118, 61 x 40). From its first hidden frame, the region searched for
+    a target that can come back on its pattern is LOST_SEARCH_SCALE times its window, and holds
+    where it lands; with the pattern off, the region widens only with the coasting filter's
+    uncertainty, and it does not."""
+    seq = SEQUENCES["coin_pen"]
+    assert seq.init_box is not None
+    landed = seq.boxes[15]
+
+    def regions(settings: TrackerSettings) -> list[tuple[TrackStatus, Box | None, Box | None]]:
+        tracker, got = Tracker(settings), []
+        for i, frame in enumerate(seq.frames()):
+            if i > 15:
+                break
+            st = tracker.init(frame, seq.init_box) if i == 0 else tracker.update(frame)
+            got.append((st.status, st.search, st.bbox))
+        return got
+
+    def holds(outer: Box | None, inner: Box) -> bool:
+        return outer is not None and (
+            outer[0] <= inner[0]
+            and outer[1] <= inner[1]
+            and inner[0] + inner[2] <= outer[0] + outer[2]
+            and inner[1] + inner[3] <= outer[1] + outer[3]
+        )
+
+    on, off = regions(TrackerSettings()), regions(TrackerSettings(appearance_reentry=False))
+    hidden = next(i for i, (status, _, _) in enumerate(on) if status is not TrackStatus.TRACKING)
+    assert hidden == next(i for i, (status, _, _) in enumerate(off) if status is not TrackStatus.TRACKING)
+    last_box, searched = on[hidden - 1][2], on[hidden + 1][1]
+    assert last_box is not None and searched is not None
+    # the frame (568 x 320) does not clip it here: 4 x (70 x 51) px
+    assert searched[2] >= 0.9 * LOST_SEARCH_SCALE * last_box[2]
+    assert searched[3] >= 0.9 * LOST_SEARCH_SCALE * last_box[3]
+    assert holds(on[15][1], landed) and on[15][0] is TrackStatus.TRACKING
+    assert not holds(off[15][1], landed) and off[15][0] is not TrackStatus.TRACKING
