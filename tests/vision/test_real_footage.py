@@ -245,9 +245,10 @@ def test_a_coin_that_lands_lit_from_another_side_comes_back_on_its_pattern() -> 
     another side: 0.37-0.52 from its colour model, past the re-entry gate's 0.29 though inside
     the tracking gate's 0.53. On its colours alone it stays OCCLUDED, then LOST, in plain view
     for 25 of the 28 labelled frames (success 0.107, measured). With its grey-level pattern, and
-    looked for as widely as a lost target from its first hidden frame, it is back on frame 15,
-    two frames after the flick, and on frame 55 after the pen's second pass: every plain-view
-    frame TRACKING (success 1.0, measured; 0.857 with the pattern in the narrower region)."""
+    looked for as widely as a lost target from its first hidden frame, it is back on frame 15
+    (lost on frame 13, as the flick ends), and on frame 55 after the pen's second pass: every
+    plain-view frame TRACKING (success 1.0, measured; 0.857 with the pattern in the narrower
+    region)."""
     name = "coin_pen"
     seq, run = SEQUENCES[name], full_run(name)
     plain = seq.in_plain_view()
