@@ -34,6 +34,7 @@ CSRT_AT_0_9 = (
     "clm_face_scale",
     "coin_pen",
     "obama_bidentie",
+    "realshort_greencup",
     "tennisball_board",
     "vtest_bluejacket",
     "vtest_navyred",
