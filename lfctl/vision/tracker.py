@@ -69,6 +69,7 @@ __all__ = [
     "BACK_ON_PATTERN",
     "FOUND_SMALLER",
     "LOST_SEARCH_SCALE",
+    "OUTSIDE_USUAL",
     "TrackState",
     "Tracker",
     "TrackerSettings",
@@ -681,10 +682,9 @@ class Tracker:
                 why = f"{BACK_ON_PATTERN} (colour distance {d:.2f}, pattern {score:.2f})"
         if accepted and not why and constellation is None and usual is not None:
             # back on its colours alone: outside the usual region, only with its pattern
-            outside, grey = self._outside_usual(frame, grey, usual, fix.window, d)
-            if outside is not None and outside.startswith(OUTSIDE_USUAL):
-                return self._miss(frame, pred_win, search, d, outside)
-            why = outside or why
+            taken, why, grey = self._outside_usual(frame, grey, usual, fix.window, d)
+            if not taken:
+                return self._miss(frame, pred_win, search, d, why)
         if (
             not back
             and self._markers_seen
@@ -904,8 +904,8 @@ class Tracker:
             if clipped is None:
                 continue
             if usual is not None:
-                outside, grey = self._outside_usual(frame, grey, usual, win, d)
-                if outside is not None and outside.startswith(OUTSIDE_USUAL):
+                taken, _, grey = self._outside_usual(frame, grey, usual, win, d)
+                if not taken:
                     continue
             self._centre.update(cx, cy)
             self._area = self._size_filter(size, self.s.size_meas_var)  # measured once, as CAMShift would
@@ -922,22 +922,21 @@ class Tracker:
 
     def _outside_usual(
         self, frame: np.ndarray, grey: np.ndarray | None, usual: Box, window: Box, d: float
-    ) -> tuple[str | None, np.ndarray | None]:
-        """A hidden target's window that passed the colour gate alone, in the region widened
-        for a target with a pattern: None if its centre is inside ``usual`` (the region it
-        would have had), else the reason it is taken (its pattern passes) or refused (starting
-        with :data:`OUTSIDE_USUAL`); and the frame in grey, made here if it was not."""
+    ) -> tuple[bool, str, np.ndarray | None]:
+        """Whether a hidden target's window that passed the colour gate alone, in the region
+        widened for a target with a pattern, is taken: inside ``usual`` (the region it would
+        have had) with no reason; outside it only if its pattern passes, the reason saying
+        so (:data:`OUTSIDE_USUAL`); and the frame in grey, made here if it was not."""
         assert self._pattern is not None
         if _holds_point(usual, _centre_of(window)):
-            return None, grey
+            return True, "", grey
         if grey is None:
             grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
         score = self._pattern.best_score(grey, window)
-        if not self._pattern.passes(score):
+        if score is None or not self._pattern.passes(score):
             shown = "none" if score is None else f"{score:.2f}"
-            return f"{OUTSIDE_USUAL} on colour alone (distance {d:.2f}), pattern {shown} fails", grey
-        assert score is not None
-        return f"{BACK_ON_PATTERN} {OUTSIDE_USUAL} (colour distance {d:.2f}, pattern {score:.2f})", grey
+            return False, f"{OUTSIDE_USUAL} on colour alone (distance {d:.2f}), pattern {shown} fails", grey
+        return True, f"{BACK_ON_PATTERN} {OUTSIDE_USUAL} (colour distance {d:.2f}, pattern {score:.2f})", grey
 
     def _miss(self, frame: np.ndarray, pred_win: Box, search: Box | None, d: float, why: str) -> TrackState:
         """No acceptable window: coast (OCCLUDED), then LOST; try the markers to come back."""
