@@ -118,6 +118,42 @@ class AppearanceGate:
         p = pattern(grey, box)
         return None if p is None else float(np.dot(p.ravel(), self.template.ravel()))
 
+    def turned_scores(
+        self, frame: np.ndarray, centre: tuple[float, float], size: tuple[float, float], angles: tuple[float, ...]
+    ) -> list[float | None]:
+        """Normalised correlation with the target's pattern of the window of ``size`` on
+        ``centre`` with its axes turned by each of ``angles``; None for an angle whose window
+        has no pattern, and for every angle when the turned window may leave the image.
+
+        Parameters
+        ----------
+        frame : np.ndarray
+            BGR image, uint8 (only the pixels around ``centre`` are made grey).
+        centre : tuple of float
+            The window's centre (x, y), pixels.
+        size : tuple of float
+            The window's width and height along its own axes, pixels.
+        angles : tuple of float
+            How far the window is turned, degrees, in OpenCV's sense: the picture turned by
+            the angle about the centre puts the target back as it was at the start.
+        """
+        if self.template is None:
+            return [None] * len(angles)
+        cx, cy = centre
+        w, h = max(2, int(round(size[0]))), max(2, int(round(size[1])))
+        r = int(np.ceil(np.hypot(w, h) / 2.0)) + 1  # the turned window lies within r of the centre
+        x0, y0 = int(round(cx)) - r, int(round(cy)) - r
+        if x0 < 0 or y0 < 0 or x0 + 2 * r > frame.shape[1] or y0 + 2 * r > frame.shape[0]:
+            return [None] * len(angles)
+        grey = cv2.cvtColor(frame[y0 : y0 + 2 * r, x0 : x0 + 2 * r], cv2.COLOR_BGR2GRAY)
+        scores: list[float | None] = []
+        for angle in angles:
+            m = cv2.getRotationMatrix2D((cx - x0, cy - y0), angle, 1.0)
+            m[:, 2] += (w / 2.0 - (cx - x0), h / 2.0 - (cy - y0))  # the window's corner to (0, 0)
+            p = pattern(cv2.warpAffine(grey, m, (w, h), flags=cv2.INTER_LINEAR), (0, 0, w, h))
+            scores.append(None if p is None else float(np.dot(p.ravel(), self.template.ravel())))
+        return scores
+
     def best_score(self, grey: np.ndarray, box: Box) -> float | None:
         """The highest :meth:`score` of windows on ``box``'s centre at :data:`SCALES` times its
         size (a hidden target's size is known only roughly); None when none has a pattern.

@@ -165,3 +165,31 @@ def test_a_flat_target_has_no_pattern_and_never_passes() -> None:
     assert gate.template is None and gate.score(scene, (30, 30, 30, 30)) is None
     gate.observe(None)
     assert gate.typical is None and not gate.passes(0.9)
+
+
+def _rod_picture(angle_deg: float) -> np.ndarray:
+    """A 60 x 16 px rod, light at one end, dark at the other, on mid grey, centred at (60, 60) of a
+    120 x 120 picture turned by ``angle_deg`` (OpenCV's sense) about that centre."""
+    img = np.full((120, 120, 3), 128, np.uint8)
+    img[52:68, 30:90] = np.linspace(40, 230, 60, dtype=np.uint8)[None, :, None]
+    m = cv2.getRotationMatrix2D((60.0, 60.0), angle_deg, 1.0)
+    return cv2.warpAffine(img, m, (120, 120), flags=cv2.INTER_LINEAR, borderValue=(128, 128, 128))
+
+
+def test_a_window_turned_back_by_the_targets_turn_scores_as_it_did_at_the_start() -> None:
+    gate = AppearanceGate(cv2.cvtColor(_rod_picture(0.0), cv2.COLOR_BGR2GRAY), (30, 52, 60, 16))
+    turned = _rod_picture(-40.0)  # turned 40 degrees clockwise
+    at_start, back, wrong_way = gate.turned_scores(turned, (60.0, 60.0), (60.0, 16.0), (0.0, 40.0, -40.0))
+    assert back is not None and back > 0.95  # turned back, the rod is where it was
+    assert at_start is not None and wrong_way is not None
+    assert back > at_start + 0.2 and back > wrong_way + 0.2
+    # unturned, the window scores as score() does on the same box
+    same = gate.turned_scores(_rod_picture(0.0), (60.0, 60.0), (60.0, 16.0), (0.0,))[0]
+    assert same == pytest.approx(1.0, abs=1e-6)
+
+
+def test_no_turned_score_when_the_turned_window_may_leave_the_picture() -> None:
+    gate = AppearanceGate(cv2.cvtColor(_rod_picture(0.0), cv2.COLOR_BGR2GRAY), (30, 52, 60, 16))
+    # the turned window reaches up to its half-diagonal (31.1 px) from its centre
+    assert gate.turned_scores(_rod_picture(0.0), (60.0, 20.0), (60.0, 16.0), (0.0, 5.0)) == [None, None]
+    assert gate.turned_scores(_rod_picture(0.0), (60.0, 60.0), (60.0, 16.0), (0.0, 5.0))[1] is not None

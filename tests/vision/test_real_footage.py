@@ -54,13 +54,6 @@ REDBALL = (
     "0.04-0.17), and is OCCLUDED on plain-view frames 60 and 115 (without the frame-0 calibration: 1.0, "
     "measured; it holds the pedestrians)"
 )
-PENS = (
-    "held out (batch F): 0.25 (hs-lbp 1.0, hue 1.0, CSRT 0.167), TRACKING on every frame: the camera turns "
-    "the red cap from lying flat (68 x 19 px) to upright (18 x 68) in two seconds; the window's aspect, a "
-    "slow average (TrackerSettings.aspect_rate 0.03, for a walker's noisy one), stays wide (22 x 42 on frame "
-    "60) and below the cap's centre (median centre error 14.5 px against hs-lbp's 3.6): IoU 0.37-0.49 from "
-    "frame 20 on"
-)
 HELD_OUT_FAILS = {
     "csrt": {"vtest_redshoulders_walkin": WALKIN},
     "hs-lbp": {
@@ -69,7 +62,6 @@ HELD_OUT_FAILS = {
         "spreads onto the man in a black jacket he passes (frame 20) and then stays larger "
         "than the striped jacket, taking in his head (frames 20-65 at IoU 0.29-0.49)",
         "vtest_redshoulders_walkin": WALKIN,
-        "pens_redcap": PENS,
     },
     "plain": {"redball_lab": REDBALL},
     "hidden": {
@@ -297,3 +289,19 @@ def test_a_hidden_target_with_a_pattern_is_looked_for_as_widely_as_a_lost_one() 
     assert searched[3] >= 0.9 * LOST_SEARCH_SCALE * last_box[3]
     assert holds(on[15][1], landed) and on[15][0] is TrackStatus.TRACKING
     assert not holds(off[15][1], landed) and off[15][0] is not TrackStatus.TRACKING
+
+
+def test_a_cap_the_camera_rolls_upright_is_followed_by_its_pattern() -> None:
+    """The camera turns the red cap (pens_redcap, held out) from lying flat (68 x 19 px) to
+    upright (18 x 68) in two seconds. Its pattern stays its own over its first frames (typical
+    0.96), so the window turns as the pattern, turned back, says the cap has (75 degrees by frame
+    40; the perspective changes too): success 1.0 (measured), every labelled frame's IoU
+    0.61-0.88. With the window's aspect a slow average of CAMShift's alone it stays wide: 0.25
+    (measured; IoU 0.37-0.49 from frame 20)."""
+    name = "pens_redcap"
+    seq = SEQUENCES[name]
+    assert success(seq, full_run(name)) == 1.0
+    _, _, w, h = full_run(name).boxes[60] or (0, 0, 1, 1)
+    assert h / w >= 3.0  # the label 18 x 67
+    off = tracker_run(name, TrackerSettings(turn_step_deg=0.0))
+    assert success(seq, off) <= 0.5
