@@ -115,15 +115,20 @@ class AppearanceGate:
         """
         if self.template is None:
             return None
-        p = pattern(grey, box)
-        return None if p is None else float(np.dot(p.ravel(), self.template.ravel()))
+        return self._correlate(pattern(grey, box))
+
+    def _correlate(self, p: np.ndarray | None) -> float | None:
+        """A pattern's normalised correlation with the target's; None without either."""
+        if p is None or self.template is None:
+            return None
+        return float(np.dot(p.ravel(), self.template.ravel()))
 
     def turned_scores(
         self, frame: np.ndarray, centre: tuple[float, float], size: tuple[float, float], angles: tuple[float, ...]
     ) -> list[float | None]:
         """Normalised correlation with the target's pattern of the window of ``size`` on
         ``centre`` with its axes turned by each of ``angles``; None for an angle whose window
-        has no pattern, and for every angle when the turned window may leave the image.
+        has no pattern or reaches past the image's edge.
 
         Parameters
         ----------
@@ -141,17 +146,27 @@ class AppearanceGate:
             return [None] * len(angles)
         cx, cy = centre
         w, h = max(2, int(round(size[0]))), max(2, int(round(size[1])))
-        r = int(np.ceil(np.hypot(w, h) / 2.0)) + 1  # the turned window lies within r of the centre
-        x0, y0 = int(round(cx)) - r, int(round(cy)) - r
-        if x0 < 0 or y0 < 0 or x0 + 2 * r > frame.shape[1] or y0 + 2 * r > frame.shape[0]:
+        r = int(np.ceil(np.hypot(w, h) / 2.0)) + 1  # every turned window lies within r of the centre
+        x0, y0 = max(0, int(round(cx)) - r), max(0, int(round(cy)) - r)
+        x1, y1 = min(frame.shape[1], int(round(cx)) + r), min(frame.shape[0], int(round(cy)) + r)
+        if x1 <= x0 or y1 <= y0:
             return [None] * len(angles)
-        grey = cv2.cvtColor(frame[y0 : y0 + 2 * r, x0 : x0 + 2 * r], cv2.COLOR_BGR2GRAY)
+        grey = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+        corners = np.array([[0, 0, 1], [w, 0, 1], [0, h, 1], [w, h, 1]], np.float64)
         scores: list[float | None] = []
         for angle in angles:
-            m = cv2.getRotationMatrix2D((cx - x0, cy - y0), angle, 1.0)
-            m[:, 2] += (w / 2.0 - (cx - x0), h / 2.0 - (cy - y0))  # the window's corner to (0, 0)
-            p = pattern(cv2.warpAffine(grey, m, (w, h), flags=cv2.INTER_LINEAR), (0, 0, w, h))
-            scores.append(None if p is None else float(np.dot(p.ravel(), self.template.ravel())))
+            # the window's pixels from the frame's: turned by -angle about the centre
+            back = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), -angle, 1.0)
+            back[:, 2] += (cx - w / 2.0, cy - h / 2.0)
+            reach = corners @ back.T  # its corners in the frame
+            if reach.min() < 0 or reach[:, 0].max() > frame.shape[1] or reach[:, 1].max() > frame.shape[0]:
+                scores.append(None)
+                continue
+            back[:, 2] -= (x0, y0)
+            upright = cv2.warpAffine(
+                grey, back, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+            )
+            scores.append(self._correlate(pattern(upright, (0, 0, w, h))))
         return scores
 
     def best_score(self, grey: np.ndarray, box: Box) -> float | None:

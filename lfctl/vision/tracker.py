@@ -254,15 +254,19 @@ class TrackerSettings:
         success sum 20.395 to 20.974 and the rule-breaking frames 66 to 65 (3 degrees 20.963
         and 66, 10 degrees 20.967 and 66); every other clip the same from every start but
         the flat coin (mean 0.974 to 0.977), the tie (0.991 to 0.986) and the tennis ball
-        (0.975 to 0.972). Without the
-        aspect's agreement the flat coin (``coin_pen``), whose embossing turns as it spins
-        while its outline does not, went OCCLUDED on a plain-view frame (20.958 and 68).
+        (0.975 to 0.972). Without the aspect's agreement the flat coin (``coin_pen``), whose
+        embossing turns as it spins while its outline does not, went OCCLUDED on a plain-view frame (20.958 and 68);
+        turning only on frames whose colours the gate is confident of gave 20.971 and 65. The
+        pattern is the re-entry cue's, so ``appearance_reentry=False`` turns this off too; so
+        does a banner whose markers were seen (it is held to its markers).
     turn_rigid : float
         The pattern's typical score (:attr:`~lfctl.vision.appearance.AppearanceGate.typical`)
-        from which a target's turn is followed: measured 0.91-0.99 on rigid targets (faces,
-        coin, box, cap), 0.03-0.87 on walking people. At 0.8 four walkers joined in and the
-        rule-breaking frames rose to 74; at 0.95 the cap was followed from fewer start boxes
-        (20.765).
+        from which a target's turn is followed: from the label boxes 0.91-0.99 on rigid
+        targets (faces, coins, box, cap, bottle, Lego part; the cyclist 0.95 too), 0.03-0.87
+        on walking people (one of the cap's moved start boxes 0.85). At 0.8 six more clips
+        were turned from some starts: the success sum rose to 21.086 but the rule-breaking
+        frames to 74 (the black coat's plain-view frames not TRACKING 2 to 12); at 0.95 the
+        cap was followed from fewer start boxes (20.765 and 65).
     turn_margin : float
         How much better a turned window must score than the turn already taken (0: 20.960
         and 67; 0.05: 20.974 and 66).
@@ -304,7 +308,7 @@ class TrackerSettings:
         if not 0.0 <= self.sprawl_margin <= 1.0:
             raise ValueError(f"sprawl_margin must be within 0..1, got {self.sprawl_margin!r}")
         if not 0.0 <= self.turn_step_deg < 90.0:  # NaN too
-            raise ValueError(f"turn_step_deg must be within 0..90 (0: off), got {self.turn_step_deg!r}")
+            raise ValueError(f"turn_step_deg must be in [0, 90) (0: off), got {self.turn_step_deg!r}")
         if not -1.0 <= self.turn_rigid <= 1.0:
             raise ValueError(f"turn_rigid must be a correlation within -1..1, got {self.turn_rigid!r}")
         if not self.turn_margin >= 0.0:
@@ -811,8 +815,8 @@ class Tracker:
         score its window on ``centre`` turned a step either way, and take the better turn
         when CAMShift's ``measured`` aspect agrees with what it does to the window's."""
         pat, area = self._pattern, self._area
-        if pat is None or pat.typical is None or pat.typical < self.s.turn_rigid or area is None:
-            return
+        if pat is None or self._markers_seen or pat.typical is None or pat.typical < self.s.turn_rigid or area is None:
+            return  # a banner whose markers were seen is held to them
         w0, h0 = self._shape
         held_w, held_h = _turned_box(w0, h0, self._turn)
         k = float(np.exp(area.size)) / np.sqrt(held_w * held_h)  # the window's size is the turned box's

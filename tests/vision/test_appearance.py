@@ -188,8 +188,11 @@ def test_a_window_turned_back_by_the_targets_turn_scores_as_it_did_at_the_start(
     assert same == pytest.approx(1.0, abs=1e-6)
 
 
-def test_no_turned_score_when_the_turned_window_may_leave_the_picture() -> None:
-    gate = AppearanceGate(cv2.cvtColor(_rod_picture(0.0), cv2.COLOR_BGR2GRAY), (30, 52, 60, 16))
-    # the turned window reaches up to its half-diagonal (31.1 px) from its centre
-    assert gate.turned_scores(_rod_picture(0.0), (60.0, 20.0), (60.0, 16.0), (0.0, 5.0)) == [None, None]
-    assert gate.turned_scores(_rod_picture(0.0), (60.0, 60.0), (60.0, 16.0), (0.0, 5.0))[1] is not None
+def test_no_turned_score_for_an_angle_whose_window_leaves_the_picture() -> None:
+    noise = np.random.default_rng(3).integers(0, 255, (120, 120, 3)).astype(np.uint8)
+    gate = AppearanceGate(cv2.cvtColor(noise, cv2.COLOR_BGR2GRAY), (30, 52, 60, 16))
+    # a 60 x 16 window on (60, 10): upright it spans rows 2-18; turned 30 degrees its corners
+    # reach 30 sin 30 + 8 cos 30 = 21.9 px above and below its centre, off the top
+    upright, turned = gate.turned_scores(noise, (60.0, 10.0), (60.0, 16.0), (0.0, 30.0))
+    assert upright is not None and turned is None
+    assert None not in gate.turned_scores(noise, (60.0, 60.0), (60.0, 16.0), (0.0, 30.0))
