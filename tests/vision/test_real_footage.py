@@ -292,7 +292,7 @@ def test_a_hidden_target_with_a_pattern_is_looked_for_as_widely_as_a_lost_one() 
 
 
 def test_a_cap_the_camera_rolls_upright_is_followed_by_its_pattern() -> None:
-    """The camera turns the red cap (pens_redcap, held out) from lying flat (68 x 19 px) to
+    """The camera turns the red cap (pens_redcap, batch F) from lying flat (68 x 19 px) to
     upright (18 x 68) in two seconds. Its pattern stays its own over its first frames (typical
     0.96), so the window turns as the pattern, turned back, says the cap has (75 degrees by frame
     40; the perspective changes too): success 1.0 (measured), every labelled frame's IoU
