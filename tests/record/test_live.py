@@ -403,7 +403,7 @@ def both_ways(got: dict[str, list[bytes]]) -> bool:
 def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     tmp_path: Path, banner_video, standing_rover
 ) -> None:
-    video = banner_video(900)  # 30 s: the run is interrupted long before it ends on its own
+    video = banner_video(400)
     rtp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rtp.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)  # read after the run: keep it all
     rtp.bind(("127.0.0.1", 0))
@@ -457,7 +457,7 @@ def test_follow_live_says_once_that_a_rover_without_gps_has_no_location_fix(
     tmp_path: Path, banner_video, standing_rover
 ) -> None:
     # an ArduPilot rover with no global position sends GLOBAL_POSITION_INT at 0, 0
-    video = banner_video(900)  # 30 s: the run is interrupted long before it ends on its own
+    video = banner_video(400)
 
     def said(got: dict[str, list[bytes]]) -> bool:
         return any("no global position" in Log.FromString(m).message for m in got.get("/log", []))
