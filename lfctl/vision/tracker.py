@@ -255,8 +255,9 @@ class TrackerSettings:
         and 66, 10 degrees 20.967 and 66); every other clip the same from every start but
         the flat coin (mean 0.974 to 0.977), the tie (0.991 to 0.986) and the tennis ball
         (0.975 to 0.972). Without the aspect's agreement the flat coin (``coin_pen``), whose
-        embossing turns as it spins while its outline does not, went OCCLUDED on a plain-view frame (20.958 and 68);
-        turning only on frames whose colours the gate is confident of gave 20.971 and 65. The
+        embossing turns as it spins while its outline does not, went OCCLUDED on a plain-view
+        frame (20.958 and 68); turning only on frames whose colours the gate is confident of
+        gave 20.971 and 65. The
         pattern is the re-entry cue's, so ``appearance_reentry=False`` turns this off too; so
         does a banner whose markers were seen (it is held to its markers).
     turn_rigid : float
