@@ -80,9 +80,13 @@ async def subscribe_and_collect(
 
     A wanted channel silent for a second is subscribed again: foxglove-sdk may advertise a
     channel a moment before it takes subscriptions to it ("subscribe to unknown channel"
-    when the machine is busy), and a client that asks once then waits for ever."""
+    when the machine is busy), and a client that asks once then waits for ever.
+
+    The client closes with a 1 s close timeout: foxglove-sdk's server answers the close frame
+    but leaves the TCP connection for the client to end, so websockets' default (10 s) made
+    every collection 10 s longer, long enough for a run's video to end first in a busy suite."""
     got: dict[str, list[bytes]] = {}
-    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"]) as ws:
+    async with websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], close_timeout=1.0) as ws:
         assert ws.subprotocol == "foxglove.sdk.v1"
         topic_of_sub: dict[int, str] = {}
         channel_of_topic: dict[str, int] = {}
