@@ -278,9 +278,9 @@ class TrackerSettings:
         start box with CAMShift's window there. A factor above 1 (CAMShift narrower than the
         box: it sizes on the target's most distinctive colours, a face's skin in a head's
         box) holds frame after frame and is taken whole. One below 1 (CAMShift wider) is
-        partly CAMShift's own over-sizing of a target, which holds (about 1/1.15 on a
-        uniform target drawn tight), and partly that frame's spill past the target (blur, a
-        neighbour of like colour), which comes and goes. Taken whole, it shrank every later
+        partly CAMShift's own over-sizing of a target, which holds (0.83 on a uniform red
+        square drawn tight, 0.95-0.97 on an ellipse), and partly that frame's spill past the
+        target (blur, a neighbour of like colour), which comes and goes. Taken whole, it shrank every later
         window after the spill had gone: CAMShift, started from the shrunk window, settled
         on a part of the target, and the window stayed small. The jacket walking towards the
         camera (``vtest_redshoulders_walkin``, factor 0.71 on the height) kept a window of
