@@ -91,6 +91,9 @@ BACK_ON_PATTERN = "back on its pattern"
 #: alone outside the region it would have had (see :data:`LOST_SEARCH_SCALE`), is refused for
 #: its pattern; taken on its pattern, the reason is ``BACK_ON_PATTERN`` followed by this
 OUTSIDE_USUAL = "outside the usual search region"
+#: how a :attr:`TrackState.reason` starts when a window that passed the colour gate is refused
+#: because none of its pixels back-projects above the floor (no pixel looks like the target)
+NOTHING_OF_IT = "no pixel of the target's colours in the window"
 #: a lost target is looked for in a region at least this many times its window; so is a hidden
 #: one that can come back on its grey-level pattern (see ``TrackerSettings.appearance_reentry``)
 LOST_SEARCH_SCALE = 4.0
@@ -763,6 +766,11 @@ class Tracker:
             if self._pattern.passes(score):
                 accepted = True
                 why = f"{BACK_ON_PATTERN} (colour distance {d:.2f}, pattern {score:.2f})"
+        if accepted and not why and constellation is None and _region_sum(prob, (sx, sy), fix.window)[0] <= 0:
+            # taken on colours alone, yet not one of the window's pixels back-projects above the
+            # floor: the window is only the prediction, and the model's histogram, blended from
+            # windows that took in some surroundings, can match the surroundings it sits on
+            return self._miss(frame, pred_win, search, d, f"{NOTHING_OF_IT} (colour distance {d:.2f})")
         if accepted and not why and constellation is None and usual is not None:
             # back on its colours alone: outside the usual region, only with its pattern
             taken, why, grey = self._outside_usual(frame, grey, usual, fix.window, d)

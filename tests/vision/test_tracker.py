@@ -22,6 +22,7 @@ from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import (
     BACK_ON_PATTERN,
     FOUND_SMALLER,
+    NOTHING_OF_IT,
     OUTSIDE_USUAL,
     Tracker,
     TrackerSettings,
@@ -428,6 +429,27 @@ def test_a_hidden_target_coasts_on_the_motion_of_its_confident_frames(fit_frames
         assert abs(centres[0] - (60 + 4 * 15 + 20)) <= 4  # where the box would be on frame 15
     else:
         assert pace < -3.0
+
+
+@pytest.mark.parametrize("distance", [0.0, 0.3])
+def test_a_window_with_no_pixel_of_the_target_is_not_taken_on_its_colour_distance(
+    monkeypatch: pytest.MonkeyPatch, distance: float
+) -> None:
+    """The box moves on and then is gone. Its window's colour distance is forced to pass the
+    gate (as a model blended from windows that took in surroundings can match them): with the
+    box in view the window is still TRACKING, once it is gone and no pixel of the window
+    back-projects it is OCCLUDED, and the reason says why."""
+    frames = _moving_box_frames(10, 2)
+    tr = Tracker(TrackerSettings(use_markers=False))
+    tr.init(frames[0], (60, 100, 40, 40))
+    for f in frames[1:10]:
+        assert tr.update(f).status is TrackStatus.TRACKING
+    monkeypatch.setattr(tracker_module, "colour_distance", lambda *_a: distance)
+    assert tr.update(frames[9]).status is TrackStatus.TRACKING  # the box, on any distance
+    gone = tr.update(frames[10])
+    assert gone.status is TrackStatus.OCCLUDED
+    assert gone.reason.startswith(NOTHING_OF_IT)
+    assert f"colour distance {distance:.2f}" in gone.reason
 
 
 def test_motion_fit_frames_must_be_a_whole_number() -> None:
