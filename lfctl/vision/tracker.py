@@ -34,7 +34,10 @@ on the labelled real footage in ``footage/`` and on the rendered tiers together)
 Mean shift places a window of the filtered size (CAMShift's window can sprawl over a
 neighbour and drag the centre along); CAMShift measures the size, which a Kalman filter on
 its logarithm smooths. A window that fails the gate is looked for again anywhere in the
-search region before the target is called hidden; a hidden target must pass a stricter gate
+search region before the target is called hidden, and one that passes it on its colour
+distance while none of its pixels back-projects above the separating level is refused (the
+model, blended from windows that took in some surroundings, can match them: the window is then
+only the prediction, riding the background); a hidden target must pass a stricter gate
 to come back, or the tracking gate and its grey-level pattern's gate together
 (:mod:`~lfctl.vision.appearance`: a target that lands lit from another side is plainly its own
 shape and shading). While hidden, the search coasts on the constant velocity fitted to the
