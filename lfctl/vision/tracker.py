@@ -75,6 +75,7 @@ __all__ = [
     "BACK_ON_PATTERN",
     "FOUND_SMALLER",
     "LOST_SEARCH_SCALE",
+    "NOTHING_OF_IT",
     "OUTSIDE_USUAL",
     "TrackState",
     "Tracker",
