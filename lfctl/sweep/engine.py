@@ -86,15 +86,33 @@ QUIET_WORKERS: dict[str, object] = {
 }
 
 
-def code_digest() -> str:
+def code_digest(package: Path | None = None, models: Path | None = None) -> str:
     """SHA-256 over lfctl's Python sources (but the command line and the benchmarks) and the
-    vehicle models' C sources: two processes with the same digest run the same simulation."""
+    vehicle models' C sources: two processes with the same digest run the same simulation.
+
+    Each file is named in the digest by its path inside the package, or inside the models
+    folder (under ``fmu_models/``), whichever holds it: a source checkout (the models beside
+    the package) and a wheel of the same commit (the models inside it) give the same digest.
+
+    Parameters
+    ----------
+    package : Path, optional
+        The ``lfctl`` package folder (default: this one).
+    models : Path, optional
+        The vehicle models' folder (default :func:`~lfctl.data.models_dir`).
+    """
+    package = _PACKAGE if package is None else package
+    models = models_dir() if models is None else models
+    sources = [p for p in sorted(package.rglob("*.py")) if p.relative_to(package).parts[0] not in ("cli", "bench")]
+    named = [(p.relative_to(package).as_posix(), p) for p in sources]
+    named += [
+        ("fmu_models/" + p.relative_to(models).as_posix(), p)
+        for p in sorted(models.rglob("*"))
+        if p.suffix in (".c", ".h")
+    ]
     h = hashlib.sha256()
-    files = [p for p in sorted(_PACKAGE.rglob("*.py")) if p.relative_to(_PACKAGE).parts[0] not in ("cli", "bench")]
-    models = models_dir()
-    files += sorted(p for p in models.rglob("*") if p.suffix in (".c", ".h"))
-    for p in files:
-        h.update(str(p.relative_to(_PACKAGE if p.is_relative_to(_PACKAGE) else models)).encode())
+    for name, p in named:
+        h.update(name.encode())
         h.update(p.read_bytes())
     return h.hexdigest()
 
