@@ -13,7 +13,15 @@ from pathlib import Path
 
 from lfctl.errors import ConfigError
 
-__all__ = ["example_names", "examples_dir", "find_example", "footage_dir", "models_dir", "resolve_scenario"]
+__all__ = [
+    "example_names",
+    "examples_dir",
+    "find_example",
+    "footage_dir",
+    "models_dir",
+    "resolve_mission",
+    "resolve_scenario",
+]
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -84,3 +92,31 @@ def resolve_scenario(arg: str | Path) -> Path:
         return found
     known = ", ".join(example_names()) or "none found"
     raise ConfigError(f"scenario {str(arg)!r} is neither a file nor a shipped example (examples: {known})")
+
+
+def resolve_mission(arg: str | Path) -> Path:
+    """A mission file argument as a path: an existing file, else a shipped mission by its file
+    name (``square.waypoints``, or ``square``), so a wheel's user can upload the examples.
+
+    Parameters
+    ----------
+    arg : str or Path
+        A path to a QGC WPL file, or a shipped mission's name.
+
+    Raises
+    ------
+    ConfigError
+        A bare name that is neither a file here nor a shipped mission; the message lists the
+        shipped ones. A path with a folder is returned as it is, for the reader to judge.
+    """
+    p = Path(arg)
+    if p.is_file() or p.name != str(arg):
+        return p  # a path with a folder is the user's file: reading it names what is wrong
+    folder = examples_dir()
+    for candidate in (folder / p.name, folder / f"{p.name}.waypoints"):
+        if candidate.is_file():
+            return candidate
+    known = ", ".join(sorted(q.name for q in folder.glob("*.waypoints"))) if folder.is_dir() else ""
+    raise ConfigError(
+        f"cannot read mission {str(arg)!r}: no such file here, nor a shipped mission (shipped: {known or 'none found'})"
+    )

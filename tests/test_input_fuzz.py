@@ -423,3 +423,20 @@ def test_bad_parameter_names_are_refused_by_their_rule(name: str, capsys: pytest
     with pytest.raises(SystemExit) as stop:
         build_parser().parse_args(["gcs", "param", "get", name])
     assert stop.value.code == 2 and "must be 1-16 letters" in capsys.readouterr().err
+
+
+def test_a_shipped_mission_is_found_by_name_outside_a_checkout(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # from a folder without the file, the shipped square.waypoints is read (so the only
+    # failure is that nothing listens), and an unknown name lists the shipped missions
+    monkeypatch.chdir(tmp_path)
+    args = ["gcs", "--connect", "udpout:127.0.0.1:9", "--timeout", "0.2", "upload"]
+    assert main([*args, "square.waypoints"]) != 0
+    err = capsys.readouterr().err
+    assert "HEARTBEAT" in err and "cannot read mission" not in err
+    assert main([*args, "square"]) != 0
+    assert "HEARTBEAT" in capsys.readouterr().err
+    assert main([*args, "circle.waypoints"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot read mission 'circle.waypoints'" in err and "square.waypoints" in err

@@ -16,7 +16,8 @@ def register(sub: Any) -> None:
         "bench",
         help="run benchmarks (all, or one by name)",
         description=f"Run the benchmarks ({', '.join(NAMES)}); each prints a table and a JSON line. "
-        "All of them also write bench-results.md and bench-results.json here.",
+        "Without NAME every one runs, each in its own process, and the results are also written to "
+        "bench-results.md and bench-results.json here (one benchmark by name prints only).",
     )
     b.add_argument("name", nargs="?", metavar="NAME", help=f"one benchmark: {', '.join(NAMES)}")
     b.add_argument("--quick", action="store_true", help="shorter runs (for a smoke check)")

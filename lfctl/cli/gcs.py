@@ -31,7 +31,10 @@ def register(sub: Any) -> None:
     )
     g.add_argument("--signing-passphrase", help="MAVLink 2 signing: the vehicle's [link] signing_passphrase")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
-    gu = gsub.add_parser("upload", help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan)")
+    gu = gsub.add_parser(
+        "upload",
+        help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan; or a shipped one by name: square.waypoints)",
+    )
     gu.add_argument("file", type=Path)
     gd = gsub.add_parser("download", help="download the mission (print it, or save to FILE)")
     gd.add_argument("file", type=Path, nargs="?")
@@ -63,13 +66,14 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
+    from lfctl.data import resolve_mission
     from lfctl.link.gcs import GroundStation, result_name
     from lfctl.link.mission import load_mission, save_mission
     from lfctl.link.params import load_param_file
     from lfctl.link.signing import signing_key_from_passphrase
 
     # files are read before connecting: a bad one is named as such, not as a silent vehicle
-    items = load_mission(args.file) if args.action == "upload" else None
+    items = load_mission(resolve_mission(args.file)) if args.action == "upload" else None
     wanted = load_param_file(args.file) if args.action == "param" and args.param_action == "load" else None
     key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
