@@ -73,6 +73,15 @@ def peer_names() -> list[str]:
     return names
 
 
+def cv_refusal(exc: cv2.error) -> str:
+    """An OpenCV error as one short line: what failed and in which function
+    (``init: !posSamples.empty() (-215)``), not the build path that leads its message."""
+    what = getattr(exc, "err", "") or str(exc).strip().splitlines()[-1]
+    func = getattr(exc, "func", "")
+    code = getattr(exc, "code", None)
+    return f"{func + ': ' if func else ''}{what}{f' ({code})' if code is not None else ''}"
+
+
 def make_peer(name: str):
     return {
         "MIL": cv2.TrackerMIL.create,
@@ -107,7 +116,7 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
                     tr.init(frame, truth.bbox)  # type: ignore[attr-defined]
                 except cv2.error as exc:  # a peer that refuses to start fails the whole sequence
                     trackers[k] = None  # type: ignore[assignment]
-                    init_failed.append(f"{k}@{tier}/{seed}: {str(exc).splitlines()[-1][:80]}")
+                    init_failed.append(f"{k}@{tier}/{seed}: {cv_refusal(exc)}")
             continue
         truth_vis.append(truth.visible_fraction)
         truth_valid.append(truth.bbox is not None and truth.visible_fraction >= 0.5)
@@ -187,7 +196,7 @@ def _track_clip(seq: LabelledSequence, frames: list[np.ndarray], k: str, box: Bo
         try:
             peer.init(frames[0], box)
         except cv2.error as exc:
-            return {"failed": str(exc).splitlines()[-1][:80]}
+            return {"failed": cv_refusal(exc)}
     for i, frame in enumerate(frames[1:], start=1):
         t0 = time.perf_counter()
         if k == "full":

@@ -75,3 +75,15 @@ def test_the_start_boxes_section_takes_the_label_box_run_and_the_moved_ones(caps
     assert "from 3 start boxes each" in text and "what breaks each rule (on the medians)" in text
     assert "csrt_median_at_least_0.9_on" not in out["criteria"]
     json.dumps(out)
+
+
+def test_an_opencv_refusal_is_reported_in_one_line_naming_what_failed() -> None:
+    import cv2
+    import numpy as np
+
+    tracker = cv2.TrackerMIL.create()
+    with pytest.raises(cv2.error) as info:  # no positive sample fits a box hanging off the frame
+        tracker.init(np.zeros((480, 640, 3), np.uint8), (630, 470, 20, 20))
+    text = vision.cv_refusal(info.value)
+    assert text == "init: !posSamples.empty() (-215)"
+    assert "\n" not in text and "/" not in text
