@@ -110,7 +110,7 @@ class LinkStats:
     messages: int = 0  # messages parsed and dispatched
     bad: int = 0  # garbage, truncated frames, bad CRC, bad or missing signature
     other_sysid: int = 0  # addressed to another vehicle
-    unknown: int = 0  # message ids we do not handle
+    unknown: int = 0  # message ids we do not handle (ids outside the dialect: not answered at all)
     dropped: int = 0  # datagrams too long, or over the per-tick byte budget
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
@@ -321,10 +321,17 @@ class VehicleEndpoint:
 
     def _datagram(self, data: bytes, addr: tuple[str, int]) -> int:
         """Every MAVLink frame in one datagram: frames are cut out by their header's length
-        (junk between them is skipped at C speed) and each is decoded on its own."""
+        (junk between them is skipped at C speed) and each is decoded on its own.
+
+        A frame whose message id is outside the dialect is not a message: pymavlink cannot
+        check its CRC (it needs the id's CRC extra), so about one random datagram in a hundred
+        would pass as one. Like ArduPilot's parser, which fails such a frame's CRC, the
+        endpoint counts it (``stats.unknown``) and neither answers, records nor takes its
+        sender as a peer: a burst of junk from many ports must not fill the peer table."""
         signed = self.signed_parser is not None and addr[0] != "memory"
         parser = self.signed_parser if signed else self.parser
         good: list[Any] = []
+        unknown = 0
         i, size = 0, len(data)
         while i < size:
             j = _first_frame(data, i)
@@ -336,13 +343,15 @@ class VehicleEndpoint:
                 continue
             msgs = parser.parse_buffer(data[j:end]) or []
             _reset(parser)
-            ok = [m for m in msgs if m.get_type() != "BAD_DATA"]
+            ok = [m for m in msgs if m.get_type() != "BAD_DATA" and not isinstance(m, mav.MAVLink_unknown)]
+            unknown += sum(isinstance(m, mav.MAVLink_unknown) for m in msgs)
             if ok:
                 good += ok
                 i = end
             else:
                 i = j + 1
-        self.stats.bad += 0 if good else 1
+        self.stats.unknown += unknown
+        self.stats.bad += 0 if good or unknown else 1
         if good:
             self.link.accept_peer(addr)
         for m in good:
