@@ -53,6 +53,10 @@ log = logging.getLogger(__name__)
 
 #: ArduPilot Rover custom mode numbers by name (the modes the endpoint knows)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
+#: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
+NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
+#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks (ArduPilot's magic number)
+FORCE_ARM = 21196.0
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
 GCS_COMPID = 190
@@ -97,6 +101,9 @@ SENSORS = (
     | mav.MAV_SYS_STATUS_AHRS
     | mav.MAV_SYS_STATUS_PREARM_CHECK
 )
+#: a disarmed vehicle's home follows it once it is this far from it, m (Rover's
+#: DISTANCE_HOME_MINCHANGE)
+HOME_MIN_CHANGE_M = 0.5
 #: FENCE_ACTION values (Rover's FailsafeAction)
 FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
 
@@ -185,7 +192,10 @@ class VehicleEndpoint:
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
-        self.home_ned: tuple[float, float] | None = None  # set where the vehicle first arms
+        #: home, local NED: follows the vehicle while it is disarmed (moves of HOME_MIN_CHANGE_M
+        #: or more) until a ground station sets it (MAV_CMD_DO_SET_HOME), as Rover's update_home
+        self.home_ned: tuple[float, float] | None = None
+        self.home_locked = False
         self.guided: GuidedTarget | None = None  # None: GUIDED stops
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
@@ -252,8 +262,33 @@ class VehicleEndpoint:
         return self.desired_speed_mps if self.desired_speed_mps is not None else self.param("WP_SPEED")
 
     def home_point(self) -> tuple[float, float]:
-        """Home in local NED (where the vehicle first armed; the origin before that), m."""
+        """Home in local NED, m: where the vehicle was when last disarmed (or a ground station
+        put it); the origin before the first tick."""
         return self.home_ned if self.home_ned is not None else (0.0, 0.0)
+
+    def _update_home(self) -> None:
+        """Rover's update_home: while disarmed and not set by a ground station, home follows
+        the vehicle once it has moved HOME_MIN_CHANGE_M from it."""
+        if self.armed or self.home_locked:
+            return
+        here = (self.state["north_m"], self.state["east_m"])
+        if self.home_ned is None or math.dist(here, self.home_ned) >= HOME_MIN_CHANGE_M:
+            self.home_ned = here
+
+    def set_home(self, north_m: float, east_m: float) -> None:
+        """Put home here and keep it there (MAV_CMD_DO_SET_HOME): it no longer follows the
+        disarmed vehicle; a STATUSTEXT says where, as Rover's does.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            Home, local NED, m.
+        """
+        self.home_ned = (north_m, east_m)
+        self.home_locked = True
+        lat, lon, alt = ned_to_geodetic(north_m, east_m, 0.0, *self.home)
+        self.statustext(f"Set HOME to {lat:.6f} {lon:.6f} at {alt:.2f}m", mav.MAV_SEVERITY_INFO)
+        self._once.append(MSG_IDS["HOME_POSITION"])
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
@@ -493,7 +528,7 @@ class VehicleEndpoint:
     def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
         """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7)."""
         if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM:
-            return self._arm_command(p[0])
+            return self._arm_command(p[0], p[1])
         if cmd == mav.MAV_CMD_DO_SET_MODE:
             base, custom = _as_int(p[0], 0, 255), _as_int(p[1], 0, 2**31 - 1)
             if base is None or custom is None or not base & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
@@ -510,6 +545,8 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_DO_SET_HOME:
+            return self._set_home_command(p, latlon_e7)
         if cmd == mav.MAV_CMD_GET_HOME_POSITION:
             self._once.append(MSG_IDS["HOME_POSITION"])
             return mav.MAV_RESULT_ACCEPTED
@@ -543,22 +580,27 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         return mav.MAV_RESULT_UNSUPPORTED
 
-    def _arm_command(self, arm: float) -> int:
+    def _arm_command(self, arm: float, force: float = 0.0) -> int:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_DENIED
+        if arm == 1.0 and not self.armed and self.mode in NOT_ARMABLE and force != FORCE_ARM:
+            # Rover's RTL and SmartRTL do not allow arming (Mode::allows_arming): a ground
+            # station switches to HOLD first, as MAVSDK does
+            self.statustext("Arm: Mode not armable")
+            return mav.MAV_RESULT_FAILED
         self.set_armed(arm == 1.0)
         return mav.MAV_RESULT_ACCEPTED
 
     def set_armed(self, armed: bool) -> None:
-        """Arm or disarm; home is set where the vehicle first arms, as Rover does.
+        """Arm or disarm (home stays where the vehicle was while disarmed, see :attr:`home_ned`).
 
         Parameters
         ----------
         armed : bool
             Arm (True) or disarm.
         """
-        if armed and self.home_ned is None:
-            self.home_ned = (self.state["north_m"], self.state["east_m"])
+        if armed:
+            self._update_home()  # where it stands now, unless a ground station put home
         if armed != self.armed:
             self.armed = armed
             self.statustext("Armed" if armed else "Disarmed", mav.MAV_SEVERITY_INFO)
@@ -609,21 +651,31 @@ class VehicleEndpoint:
         change_modes = _finite(p[1]) and int(p[1]) & REPOSITION_CHANGE_MODE
         if self.mode != MODES["GUIDED"] and not change_modes:
             return mav.MAV_RESULT_DENIED
-        if latlon_e7 is not None:
-            lat_e7, lon_e7 = latlon_e7
-        else:  # COMMAND_LONG: degrees in param5, param6
-            if not _finite(p[4], p[5]):
-                return mav.MAV_RESULT_DENIED
-            lat_e7, lon_e7 = int(round(p[4] * 1e7)), int(round(p[5] * 1e7))
-        if not (-90e7 <= lat_e7 <= 90e7 and -180e7 <= lon_e7 <= 180e7) or (lat_e7 == 0 and lon_e7 == 0):
+        where = _command_latlon(p, latlon_e7)
+        if where is None or where == (0, 0):
             return mav.MAV_RESULT_DENIED
-        n, e = global_to_local(lat_e7, lon_e7, self.home)
+        n, e = global_to_local(*where, self.home)
         if not self._within_fence(n, e):
             return mav.MAV_RESULT_FAILED
         if self.mode != MODES["GUIDED"] and not self.set_mode(MODES["GUIDED"]):
             return mav.MAV_RESULT_FAILED
         speed = p[0] if _finite(p[0]) and p[0] > 0 else 0.0
         self.guided = GuidedTarget("location", self.t_s, speed_mps=speed, north_m=n, east_m=e)
+        return mav.MAV_RESULT_ACCEPTED
+
+    def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
+        """MAV_CMD_DO_SET_HOME: param1 = 1 (or no position) puts home where the vehicle is,
+        else at the command's latitude and longitude; either way it stays there."""
+        if _finite(p[0]) and p[0] == 1.0:
+            self.set_home(self.state["north_m"], self.state["east_m"])
+            return mav.MAV_RESULT_ACCEPTED
+        where = _command_latlon(p, latlon_e7)
+        if where is None:
+            return mav.MAV_RESULT_DENIED
+        if where == (0, 0):
+            self.set_home(self.state["north_m"], self.state["east_m"])
+        else:
+            self.set_home(*global_to_local(*where, self.home))
         return mav.MAV_RESULT_ACCEPTED
 
     # -- parameters -------------------------------------------------------------------------
@@ -787,7 +839,8 @@ class VehicleEndpoint:
         """A destination the fence allows (Rover refuses guided targets outside it)."""
         if not self.param("FENCE_ENABLE"):
             return True
-        return self.fence.breach(north_m, east_m, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")) is None
+        fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
+        return self.fence.breach(north_m, east_m, fence_type, radius, self.home_point()) is None
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:
@@ -887,6 +940,7 @@ class VehicleEndpoint:
         """
         self.t_s = t_s
         self.state = state
+        self._update_home()
         if self.signed_parser is not None:
             advance_signing_clock(self.signed_parser.signing, time.time())
         self.receive()
@@ -919,7 +973,7 @@ class VehicleEndpoint:
             self.fence_breach = None
             return
         n, e = self.state["north_m"], self.state["east_m"]
-        breach = self.fence.breach(n, e, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS"))
+        breach = self.fence.breach(n, e, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS"), self.home_point())
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
             self._fence_breach_ms = int(self.t_s * 1000)
@@ -1053,6 +1107,20 @@ class VehicleEndpoint:
 
 def _text(value: str | bytes) -> str:
     return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
+
+
+def _command_latlon(p: list[float], latlon_e7: tuple[int, int] | None) -> tuple[int, int] | None:
+    """A command's latitude and longitude, degE7: COMMAND_INT's x, y, or COMMAND_LONG's
+    param5, param6 in degrees; None when not finite or off the globe."""
+    if latlon_e7 is not None:
+        lat_e7, lon_e7 = latlon_e7
+    else:
+        if not _finite(p[4], p[5]):
+            return None
+        lat_e7, lon_e7 = int(round(p[4] * 1e7)), int(round(p[5] * 1e7))
+    if not (-90e7 <= lat_e7 <= 90e7 and -180e7 <= lon_e7 <= 180e7):
+        return None
+    return lat_e7, lon_e7
 
 
 def _first_frame(data: bytes, start: int = 0) -> int:

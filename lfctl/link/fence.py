@@ -156,19 +156,28 @@ class Fence:
             self.inclusion_polygons or self.exclusion_polygons or self.inclusion_circles or self.exclusion_circles
         )
 
-    def breach(self, north_m: float, east_m: float, fence_type: int, radius_m: float) -> str | None:
+    def breach(
+        self,
+        north_m: float,
+        east_m: float,
+        fence_type: int,
+        radius_m: float,
+        home_ned: tuple[float, float] = (0.0, 0.0),
+    ) -> str | None:
         """What the vehicle at (north, east) breaches, or None.
 
         Parameters
         ----------
         north_m, east_m : float
-            The vehicle, local NED from home, m.
+            The vehicle, local NED, m.
         fence_type : int
             FENCE_TYPE: bit 2 the circle of ``radius_m`` around home, bit 4 the stored shapes.
         radius_m : float
             FENCE_RADIUS, m.
+        home_ned : (north_m, east_m)
+            Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
         """
-        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m, east_m) > radius_m:
+        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) > radius_m:
             return "circle"
         if fence_type & FENCE_TYPE_POLYGON:
             if any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons):

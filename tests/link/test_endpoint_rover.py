@@ -13,6 +13,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.bench.fuzz import datagrams
+from lfctl.frames import ned_to_geodetic
 from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MODES, VehicleEndpoint, packet_record
 from lfctl.link.signing import setup_signing, signing_clock
 from lfctl.link.transport import MemoryLink
@@ -34,6 +35,7 @@ class Bench:
         self.parser = mav.MAVLink(None)
         self.parser.robust_parsing = True
         self.t = 0.0
+        self.state = STATE  # the vehicle, for ticks that do not give one
 
     def _tap(self, direction: str, msg: object, raw: bytes) -> None:
         # the recorder's encoding: allow_nan=False, no default: must never raise
@@ -47,7 +49,7 @@ class Bench:
 
     def tick(self, dt: float = 0.02, state: dict[str, float] | None = None) -> list[object]:
         self.t += dt
-        self.ep.tick(self.t, state or STATE)
+        self.ep.tick(self.t, state or self.state)
         out = []
         for data, _addr in self.b.recv(100000):
             out += [m for m in (self.parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA"]
@@ -574,6 +576,76 @@ def test_rtl_reverse_and_speed_commands(bench: Bench) -> None:
     assert bench.set_mode("SMART_RTL") in (mav.MAV_RESULT_ACCEPTED, mav.MAV_RESULT_FAILED)
     assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
     assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.7) == mav.MAV_RESULT_FAILED  # HOLD has no speed
+
+
+@pytest.mark.parametrize("mode", ["RTL", "SMART_RTL"])
+def test_a_ground_station_cannot_arm_in_rtl_or_smartrtl_as_on_rover(bench: Bench, mode: str) -> None:
+    bench.ep.set_armed(True)
+    bench.tick(1.0, {**STATE, "north_m": 3.0})  # a way back for SmartRTL
+    assert bench.set_mode(mode) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED and not bench.ep.armed
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    out = bench.tick()
+    (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
+    assert ack.result == mav.MAV_RESULT_FAILED and not bench.ep.armed
+    assert any(m.get_type() == "STATUSTEXT" and "Mode not armable" in m.text for m in out)
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_ACCEPTED  # forced
+    assert bench.ep.armed
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED  # MAVSDK's way: HOLD, then arm
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
+
+
+def test_home_follows_the_disarmed_vehicle_and_holds_while_armed(bench: Bench) -> None:
+    # Rover's update_home: while disarmed, home moves to the vehicle once it is 0.5 m away
+    def at(n: float, e: float) -> None:
+        bench.state = {**STATE, "north_m": n, "east_m": e}
+        bench.tick()
+
+    at(1.0, 2.0)
+    assert bench.ep.home_point() == (1.0, 2.0)
+    at(1.4, 2.0)
+    assert bench.ep.home_point() == (1.0, 2.0)  # 0.4 m: GPS noise, not a move
+    at(3.0, 2.0)
+    assert bench.ep.home_point() == (3.0, 2.0)
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    at(10.0, 2.0)
+    assert bench.ep.home_point() == (3.0, 2.0)  # armed: RTL's home stays
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    bench.tick()
+    assert bench.ep.home_point() == (10.0, 2.0)
+
+
+@pytest.mark.parametrize("long", [True, False])
+def test_do_set_home_puts_home_there_and_keeps_it(bench: Bench, long: bool) -> None:
+    north_5m, lon_deg, _alt = ned_to_geodetic(5.0, 0.0, 0.0, *HOME)
+    lat, lon = (north_5m, lon_deg) if long else (north_5m * 1e7, lon_deg * 1e7)
+    texts = len(bench.ep.statustexts)
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, 0, long=long) == mav.MAV_RESULT_ACCEPTED
+    n, e = bench.ep.home_point()
+    tol = 0.2 if long else 0.02  # COMMAND_LONG carries degrees as float32: 1e-6 deg, 0.1 m
+    assert n == pytest.approx(5.0, abs=tol) and e == pytest.approx(0.0, abs=tol)
+    assert any("Set HOME to" in text for _t, text in bench.ep.statustexts[texts:])
+    bench.state = {**STATE, "north_m": 20.0}
+    bench.tick()  # disarmed, but a home a ground station put stays
+    assert bench.ep.home_point() == (n, e)
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 1, long=long) == mav.MAV_RESULT_ACCEPTED  # here
+    assert bench.ep.home_point() == (20.0, STATE["east_m"])
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, NAN, NAN) == mav.MAV_RESULT_DENIED
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 91.0, 0.0) == mav.MAV_RESULT_DENIED
+    assert bench.ep.home_point() == (20.0, STATE["east_m"])
+
+
+def test_the_fence_circle_is_centred_on_home_not_the_origin(bench: Bench) -> None:
+    for name, value in (("FENCE_ENABLE", 1), ("FENCE_TYPE", 2), ("FENCE_RADIUS", 30)):
+        bench.ep.params[name].value = value
+    bench.state = {**STATE, "north_m": 100.0, "east_m": 0.0}  # home is here, 100 m from the origin
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    bench.tick()
+    assert bench.ep.fence_breach is None
+    bench.state = {**bench.state, "north_m": 131.0}
+    bench.tick()
+    assert bench.ep.fence_breach == "circle"
 
 
 def test_auto_needs_a_mission_as_on_rover(bench: Bench) -> None:
