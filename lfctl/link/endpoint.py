@@ -188,7 +188,10 @@ class VehicleEndpoint:
         self.mode = MODES[mode]
         self.armed = armed
         self.params = default_params(sysid)
-        self.missions = MissionServer(self.send, self.statustext, self._list_changed)
+        self.missions = MissionServer(
+            self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_latlon
+        )
+        self.mission_complete = False  # the last item reached (Rover: AP_Mission's MISSION_COMPLETE)
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
@@ -265,6 +268,15 @@ class VehicleEndpoint:
         """Home in local NED, m: where the vehicle was when last disarmed (or a ground station
         put it); the origin before the first tick."""
         return self.home_ned if self.home_ned is not None else (0.0, 0.0)
+
+    def _home_latlon(self) -> tuple[int, int, float]:
+        """Home as a mission's item 0 carries it: degE7, degE7, altitude m."""
+        lat, lon, alt = ned_to_geodetic(*self.home_point(), 0.0, *self.home)
+        return int(round(lat * 1e7)), int(round(lon * 1e7)), alt
+
+    def _mission_running(self) -> bool:
+        """The mission is being flown: AUTO, its last item not yet reached."""
+        return self.mode == MODES["AUTO"] and not self.mission_complete
 
     def _update_home(self) -> None:
         """Rover's update_home: while disarmed and not set by a ground station, home follows
@@ -722,6 +734,7 @@ class VehicleEndpoint:
     def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
         if mission_type == MISSION:
             self.mission_version += 1
+            self.mission_complete = False
             self.statustext(f"Mission accepted: {max(0, len(items) - 1)} items", mav.MAV_SEVERITY_INFO)
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
@@ -822,18 +835,23 @@ class VehicleEndpoint:
         if not self.missions.set_current(seq):
             return False
         self.mission_version += 1
+        self.mission_complete = False
         return True
 
-    def reached(self, seq: int) -> None:
+    def reached(self, seq: int, last: bool | None = None) -> None:
         """The autopilot reached mission item ``seq``: tell the ground station.
 
         Parameters
         ----------
         seq : int
             The item reached.
+        last : bool, optional
+            It ends the mission (default: it is the list's last item; the autopilot knows
+            better when DO_JUMPs follow it).
         """
         self.send(mav.MAVLink_mission_item_reached_message(seq))
         self.missions.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
+        self.mission_complete = seq >= len(self.mission) - 1 if last is None else last
 
     def _within_fence(self, north_m: float, east_m: float) -> bool:
         """A destination the fence allows (Rover refuses guided targets outside it)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -27,8 +27,11 @@ MISSION, FENCE, RALLY = mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_FENCE
 MISSION_TYPES = {MISSION: "mission", FENCE: "fence", RALLY: "rally"}
 #: the most items each list takes (ArduPilot's storage on a typical board)
 CAPACITY = {MISSION: 2000, FENCE: 200, RALLY: 50}
+#: an item asked for that has not come is asked for again after this long, s (Rover: 1 s;
+#: sooner here, so an upload over a lossy link does not wait a second for each lost packet)
 ITEM_TIMEOUT_S = 0.25
-RETRIES = 10  # at 20 % loss each way a round trip fails 36 % of the time
+#: an upload that has had no item for this long is cancelled (Rover's upload_timeout_ms)
+UPLOAD_TIMEOUT_S = 8.0
 
 
 @dataclass
@@ -40,7 +43,7 @@ class _Upload:
     items: dict[int, MissionItem] = field(default_factory=dict)
     next_seq: int = 0
     sent_at: float = -math.inf
-    retries: int = 0
+    received_at: float = 0.0  # the count, or the last item taken
 
 
 @dataclass(frozen=True)
@@ -84,6 +87,11 @@ class MissionServer:
         Tells the ground station a line of text.
     on_change : callable
         Told ``(mission_type, items)`` when a list is replaced, before the ACK goes out.
+    running : callable, optional
+        Whether the mission is being flown (AUTO): it cannot be cleared then, as on Rover.
+    home : callable, optional
+        Home now, ``(lat_e7, lon_e7, alt_m)``: item 0 of a mission download, as Rover
+        answers it whatever was uploaded as item 0.
     """
 
     def __init__(
@@ -91,10 +99,14 @@ class MissionServer:
         send: Callable[[Any], None],
         statustext: Callable[[str], None],
         on_change: Callable[[int, list[MissionItem]], None],
+        running: Callable[[], bool] | None = None,
+        home: Callable[[], tuple[int, int, float]] | None = None,
     ) -> None:
         self.send = send
         self.statustext = statustext
         self.on_change = on_change
+        self.running = running or (lambda: False)
+        self.home = home
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
         self.changes: list[ListChange] = []
         self.current_seq = 0
@@ -123,9 +135,18 @@ class MissionServer:
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
         self.on_change(mission_type, self.lists[mission_type])
 
+    def _uploading(self, mission_type: int, src: tuple[int, int]) -> bool:
+        """An upload of this list is running (for anyone): refuse ``src`` what would clash
+        with it, as Rover does (MAV_MISSION_DENIED)."""
+        if mission_type not in self._uploads:
+            return False
+        self._ack(*src, mav.MAV_MISSION_DENIED, mission_type)
+        return True
+
     # -- upload ----------------------------------------------------------------------------
     def on_count(self, m: Any, t_s: float) -> None:
-        """MISSION_COUNT: an upload starts (0 items: the list is cleared).
+        """MISSION_COUNT: an upload starts (0 items: the list is cleared). While one runs, its
+        sender may start again; anyone else is refused (MAV_MISSION_DENIED) until it ends.
 
         Parameters
         ----------
@@ -139,6 +160,10 @@ class MissionServer:
         if mtype not in MISSION_TYPES:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
+        up = self._uploads.get(mtype)
+        if up is not None and (up.sysid, up.compid) != src:
+            self._ack(*src, mav.MAV_MISSION_DENIED, mtype)
+            return
         if m.count == 0:
             self._uploads.pop(mtype, None)
             self.store(mtype, [], *src)
@@ -148,7 +173,7 @@ class MissionServer:
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             self.statustext(f"Mission upload refused: {m.count} items, room for {CAPACITY[mtype]}")
             return
-        self._uploads[mtype] = up = _Upload(mtype, m.count, *src)
+        self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s)
         self._request_next(up, t_s)
 
     def _request_next(self, up: _Upload, t_s: float) -> None:
@@ -171,10 +196,17 @@ class MissionServer:
         """
         self._t_s = t_s
         up = self._uploads.get(mission_type)
-        if up is None or (sysid, compid) != (up.sysid, up.compid):
+        if up is None:
             return  # not part of an upload this vehicle is running
-        if item.seq != up.next_seq:
-            self._request_next(up, t_s)  # a duplicate or reordered item: ask again for the one we need
+        if (sysid, compid) != (up.sysid, up.compid):
+            self._ack(sysid, compid, mav.MAV_MISSION_DENIED, mission_type)  # another's upload
+            return
+        if item.seq > up.next_seq:
+            # an item not asked for yet: Rover's answer; the upload goes on
+            self._ack(sysid, compid, mav.MAV_MISSION_INVALID_SEQUENCE, mission_type)
+            return
+        if item.seq < up.next_seq:
+            self._request_next(up, t_s)  # a duplicate (our request was lost): ask again for the next
             return
         result = self._check_item(item, up)
         if result != mav.MAV_MISSION_ACCEPTED:
@@ -182,7 +214,7 @@ class MissionServer:
             return
         up.items[item.seq] = item
         up.next_seq += 1
-        up.retries = 0
+        up.received_at = t_s
         if up.next_seq < up.count:
             self._request_next(up, t_s)
             return
@@ -213,7 +245,8 @@ class MissionServer:
         self.statustext(f"{MISSION_TYPES[up.mission_type].capitalize()} rejected at item {seq}: {name}")
 
     def tick(self, t_s: float) -> None:
-        """Re-ask for an item that did not come; give up after the retries.
+        """Re-ask for an item that did not come; cancel an upload that has had none for
+        :data:`UPLOAD_TIMEOUT_S` (MAV_MISSION_OPERATION_CANCELLED).
 
         Parameters
         ----------
@@ -222,14 +255,11 @@ class MissionServer:
         """
         self._t_s = t_s
         for mtype, up in list(self._uploads.items()):
-            if t_s - up.sent_at <= ITEM_TIMEOUT_S:
-                continue
-            if up.retries >= RETRIES:
+            if t_s - up.received_at > UPLOAD_TIMEOUT_S:
                 del self._uploads[mtype]
                 self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
                 self.statustext(f"{MISSION_TYPES[mtype].capitalize()} upload timed out waiting for item {up.next_seq}")
-            else:
-                up.retries += 1
+            elif t_s - up.sent_at > ITEM_TIMEOUT_S:
                 self._request_next(up, t_s)
 
     # -- download, clear, current ----------------------------------------------------------
@@ -244,6 +274,8 @@ class MissionServer:
         mtype, src = _addressed(m)
         if mtype not in MISSION_TYPES:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
+            return
+        if self._uploading(mtype, src):
             return
         self.send(mav.MAVLink_mission_count_message(*src, len(self.lists[mtype]), mtype))
 
@@ -260,10 +292,15 @@ class MissionServer:
         if items is None:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
+        if self._uploading(mtype, src):
+            return
         if not 0 <= m.seq < len(items):
             self._ack(*src, mav.MAV_MISSION_INVALID_SEQUENCE, mtype)
             return
         it = items[m.seq]
+        if mtype == MISSION and m.seq == 0 and self.home is not None:
+            lat_e7, lon_e7, alt_m = self.home()
+            it = replace(it, x=lat_e7, y=lon_e7, z=alt_m)
         current = int(mtype == MISSION and it.seq == self.current_seq)
         self.send(_item_message(it, *src, current, mtype))
 
@@ -280,13 +317,21 @@ class MissionServer:
         self._t_s = t_s
         mtype, src = _addressed(m)
         if mtype == mav.MAV_MISSION_TYPE_ALL:
-            for t in MISSION_TYPES:
-                self.store(t, [], *src)
+            types = list(MISSION_TYPES)
         elif mtype in MISSION_TYPES:
-            self.store(mtype, [], *src)
+            types = [mtype]
         else:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
+        # as Rover: not while one of them is being uploaded, nor the mission while it is flown
+        # (MAV_MISSION_ERROR; nothing is cleared)
+        if any(t in self._uploads for t in types) or (MISSION in types and self.running()):
+            self._ack(*src, mav.MAV_MISSION_ERROR, mtype)
+            if MISSION in types and self.running():
+                self.statustext("Mission is running: not cleared")
+            return
+        for t in types:
+            self.store(t, [], *src)
         self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
 
     def set_current(self, seq: int) -> bool:

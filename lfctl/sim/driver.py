@@ -174,7 +174,7 @@ class VehicleDriver:
         out = self._autopilot.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         for k in out.los.reached:
             seq = self._legs[k].seq
-            ep.reached(seq)
+            ep.reached(seq, last=k == len(self._legs) - 1)
             self.reached.append((seq - 1, t_s))
             if self.on_reached is not None:
                 self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1)

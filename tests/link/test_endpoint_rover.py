@@ -668,3 +668,105 @@ def test_health_bits_mavsdk_reads_are_present_enabled_and_healthy(bench: Bench) 
             and st.onboard_control_sensors_enabled & bit
             and st.onboard_control_sensors_health & bit
         )
+
+
+# -- the mission protocol against ArduPilot's MissionItemProtocol ------------------------------
+
+
+def _acks(out: list[object]) -> list[int]:
+    return [int(m.type) for m in out if m.get_type() == "MISSION_ACK"]  # type: ignore[attr-defined]
+
+
+def _item_msg(it: Item) -> object:
+    return mav.MAVLink_mission_item_int_message(
+        1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, 0
+    )
+
+
+def test_the_mission_is_not_cleared_while_it_is_flown(bench: Bench) -> None:
+    assert upload(bench, good_mission(4)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    for mtype in (mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_ALL):
+        bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mtype))
+        assert _acks(bench.tick()) == [mav.MAV_MISSION_ERROR]  # AP_Mission::clear refuses while running
+        assert len(bench.ep.mission) == 4
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ACCEPTED] and bench.ep.mission == []
+
+
+def test_a_finished_mission_can_be_cleared_in_auto(bench: Bench) -> None:
+    assert upload(bench, good_mission(3)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.reached(1)
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ERROR]
+    bench.ep.reached(2)  # the last item
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ACCEPTED]
+
+
+def test_while_one_ground_station_uploads_another_is_refused_and_the_upload_completes(bench: Bench) -> None:
+    items = good_mission(3)
+    other = mav.MAVLink(None, srcSystem=254, srcComponent=190)
+    bench.send(mav.MAVLink_mission_count_message(1, 1, 3, 0))
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    assert req.seq == 0
+    bench.send(_item_msg(items[0]))
+    assert [m.seq for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"] == [1]
+    for msg, expect in (
+        (mav.MAVLink_mission_request_list_message(1, 1, 0), mav.MAV_MISSION_DENIED),
+        (mav.MAVLink_mission_request_int_message(1, 1, 0, 0), mav.MAV_MISSION_DENIED),
+        (mav.MAVLink_mission_count_message(1, 1, 2, 0), mav.MAV_MISSION_DENIED),
+        (mav.MAVLink_mission_clear_all_message(1, 1, 0), mav.MAV_MISSION_ERROR),
+        (_item_msg(items[1]), mav.MAV_MISSION_DENIED),
+    ):
+        bench.raw(msg.pack(other))  # type: ignore[attr-defined]
+        out = bench.tick()
+        acks = [m for m in out if m.get_type() == "MISSION_ACK"]
+        assert [(a.type, a.target_system) for a in acks] == [(expect, 254)], msg
+        assert not [m for m in out if m.get_type() in ("MISSION_COUNT", "MISSION_ITEM_INT")]
+    bench.send(_item_msg(items[1]))
+    bench.tick()
+    bench.send(_item_msg(items[2]))
+    out = bench.tick()
+    assert [(a.type, a.target_system) for a in out if a.get_type() == "MISSION_ACK"] == [(0, 255)]
+    assert len(bench.ep.mission) == 3
+
+
+def test_an_item_not_yet_asked_for_is_an_invalid_sequence_and_the_upload_goes_on(bench: Bench) -> None:
+    items = good_mission(3)
+    bench.send(mav.MAVLink_mission_count_message(1, 1, 3, 0))
+    bench.tick()
+    bench.send(_item_msg(Item(7, mav.MAV_CMD_NAV_WAYPOINT, y=776690000)))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_INVALID_SEQUENCE]
+    for it in items:
+        bench.send(_item_msg(it))
+        out = bench.tick()
+    assert _acks(out) == [mav.MAV_MISSION_ACCEPTED] and len(bench.ep.mission) == 3
+
+
+def test_an_abandoned_upload_is_asked_again_and_cancelled_after_8_s(bench: Bench) -> None:
+    assert upload(bench, good_mission(4)) == mav.MAV_MISSION_ACCEPTED
+    bench.send(mav.MAVLink_mission_count_message(1, 1, 3, 0))
+    bench.tick()
+    asked, acks = 0, []
+    for _ in range(79):  # 7.9 s
+        out = bench.tick(0.1)
+        asked += sum(m.get_type() == "MISSION_REQUEST_INT" for m in out)
+        acks += _acks(out)
+    assert acks == [] and asked >= 7  # still open: asked again, not yet given up
+    for _ in range(5):
+        acks += _acks(bench.tick(0.1))
+    assert acks == [mav.MAV_MISSION_OPERATION_CANCELLED] and len(bench.ep.mission) == 4  # the old one stays
+
+
+def test_item_0_downloads_as_home_whatever_was_uploaded(bench: Bench) -> None:
+    items = good_mission(3)
+    items[0] = Item(0, mav.MAV_CMD_NAV_WAYPOINT, x=10000000, y=10000000)  # (1 deg, 1 deg)
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    back = download(bench, mav.MAV_MISSION_TYPE_MISSION)
+    lat, lon, _alt = ned_to_geodetic(STATE["north_m"], STATE["east_m"], 0.0, *HOME)  # the disarmed vehicle's place
+    assert (back[0].x, back[0].y) == (round(lat * 1e7), round(lon * 1e7))  # type: ignore[attr-defined]
+    assert [m.y for m in back[1:]] == [it.y for it in items[1:]]  # type: ignore[attr-defined]
