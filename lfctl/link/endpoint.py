@@ -585,10 +585,14 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_NAV_SET_YAW_SPEED:
             return self._set_yaw_speed(p[0], p[1], p[2])
         if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
-            on = _as_int(p[0], 0, 1)
-            if on is None:
+            # as ArduPilot's GCS_Fence: 0 off, 1 on, 2 the floor off (a rover has none), else FAILED
+            action = _as_int(p[0], 0, 65535)
+            if action is None:
                 return mav.MAV_RESULT_DENIED
-            self.params["FENCE_ENABLE"].value = on
+            if action > 2:
+                return mav.MAV_RESULT_FAILED
+            if action < 2:
+                self.params["FENCE_ENABLE"].value = action
             return mav.MAV_RESULT_ACCEPTED
         return mav.MAV_RESULT_UNSUPPORTED
 
@@ -693,9 +697,8 @@ class VehicleEndpoint:
     # -- parameters -------------------------------------------------------------------------
     def _param_value(self, name: str) -> Any:
         names = list(self.params)
-        return mav.MAVLink_param_value_message(
-            name.encode(), float(self.params[name].value), mav.MAV_PARAM_TYPE_REAL32, len(names), names.index(name)
-        )
+        p = self.params[name]
+        return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), names.index(name))
 
     def _on_param_request_list(self, m: Any) -> None:
         if self._for_me(m):
@@ -706,9 +709,13 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         names = list(self.params)
-        name = (
-            _text(m.param_id) if m.param_index < 0 else (names[m.param_index] if m.param_index < len(names) else None)
-        )
+        if m.param_index >= 0:
+            if m.param_index < len(names):
+                self.send(self._param_value(names[m.param_index]))
+            else:
+                self.statustext(f"No parameter at index {m.param_index} (there are {len(names)})")
+            return
+        name = _text(m.param_id)
         if name in self.params:
             self.send(self._param_value(name))
         else:
@@ -723,7 +730,7 @@ class VehicleEndpoint:
             self.statustext(f"Unknown parameter {name}")
             return
         if p.accepts(m.param_value):
-            p.value = float(m.param_value)
+            p.value = p.stored(m.param_value)
         elif p.readonly:
             self.statustext(f"{name} is read-only")
         else:
@@ -1043,6 +1050,8 @@ class VehicleEndpoint:
             base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (mav.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
             if self.mode in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
                 base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED  # Rover: an autopilot mode
+            elif self.mode == MODES["MANUAL"]:
+                base |= mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED  # Rover: a mode with manual input
             self.send(
                 mav.MAVLink_heartbeat_message(
                     mav.MAV_TYPE_GROUND_ROVER,

@@ -11,7 +11,7 @@ from pathlib import Path
 from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 
-__all__ = ["Param", "ParamFileError", "default_params", "load_param_file", "save_param_file"]
+__all__ = ["INT8", "INT16", "REAL32", "Param", "ParamFileError", "default_params", "load_param_file", "save_param_file"]
 
 #: a parameter name: ArduPilot's 16-character limit, letters, digits and underscores
 MAX_NAME_LEN = 16
@@ -19,6 +19,8 @@ MAX_NAME_LEN = 16
 MAX_FILE_LINES = 20_000
 #: the largest parameter file read, bytes
 MAX_FILE_BYTES = 2 * 1024 * 1024
+#: MAV_PARAM_TYPE values the parameters use
+INT8, INT16, REAL32 = 2, 4, 9
 
 
 @dataclass
@@ -37,6 +39,10 @@ class Param:
         What it does.
     readonly : bool
         Refuse any set.
+    kind : int
+        Its MAV_PARAM_TYPE, ArduPilot's: REAL32 (9) for an ``AP_Float``, INT8 (2) or INT16
+        (4) for an ``AP_Int8`` / ``AP_Int16`` (PARAM_VALUE says it; MAVSDK's
+        ``get_param_int`` needs it).
     """
 
     value: float
@@ -45,16 +51,31 @@ class Param:
     unit: str
     description: str
     readonly: bool = False
+    kind: int = REAL32
 
     def accepts(self, value: float) -> bool:
-        """Whether a ground station may set ``value`` (finite, in range, not read-only).
+        """Whether a ground station may set ``value`` (finite, in range once stored, not
+        read-only).
 
         Parameters
         ----------
         value : float
             The value asked for.
         """
-        return not self.readonly and math.isfinite(value) and self.lo <= value <= self.hi
+        return not self.readonly and math.isfinite(value) and self.lo <= self.stored(value) <= self.hi
+
+    def stored(self, value: float) -> float:
+        """``value`` as this parameter keeps it: an integer parameter truncates, after
+        ArduPilot's 0.01 nudge away from zero (``AP_Param::set_float``: 0.5 -> 0, 0.999 -> 1).
+
+        Parameters
+        ----------
+        value : float
+            A finite value.
+        """
+        if self.kind == REAL32:
+            return float(value)
+        return float(math.trunc(value + math.copysign(0.01, value)))
 
 
 def default_params(sysid: int) -> dict[str, Param]:
@@ -66,7 +87,7 @@ def default_params(sysid: int) -> dict[str, Param]:
         This vehicle's system id (``SYSID_THISMAV``).
     """
     return {
-        "SYSID_THISMAV": Param(sysid, 1, 255, "", "this vehicle's MAVLink system id", readonly=True),
+        "SYSID_THISMAV": Param(sysid, 1, 255, "", "this vehicle's MAVLink system id", readonly=True, kind=INT16),
         "WP_SPEED": Param(2.0, 0.0, 100.0, "m/s", "AUTO, GUIDED and RTL speed; GUIDED setpoints are limited to it"),
         "WP_RADIUS": Param(2.0, 0.0, 100.0, "m", "waypoint acceptance radius"),
         "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
@@ -74,11 +95,11 @@ def default_params(sysid: int) -> dict[str, Param]:
         "GUID_TIMEOUT": Param(
             3.0, 0.1, 5.0, "s", "GUIDED: stop when no velocity or turn-rate setpoint arrives for this long"
         ),
-        "FS_GCS_ENABLE": Param(0, 0, 2, "", "1 or 2: HOLD when the ground station's heartbeat is lost"),
+        "FS_GCS_ENABLE": Param(0, 0, 2, "", "1 or 2: HOLD when the ground station's heartbeat is lost", kind=INT8),
         "FS_GCS_TIMEOUT": Param(5.0, 2.0, 120.0, "s", "ground station heartbeat timeout"),
-        "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence"),
+        "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence", kind=INT8),
         "FENCE_TYPE": Param(
-            6, 0, 15, "", "bitmask: 2 circle of FENCE_RADIUS around home, 4 polygons and circles uploaded"
+            6, 0, 15, "", "bitmask: 2 circle of FENCE_RADIUS around home, 4 polygons and circles uploaded", kind=INT8
         ),
         "FENCE_ACTION": Param(
             1,
@@ -86,6 +107,7 @@ def default_params(sysid: int) -> dict[str, Param]:
             5,
             "",
             "on breach: 0 report, 1 RTL or HOLD, 2 HOLD, 3 SmartRTL or RTL or HOLD, 4 SmartRTL or HOLD, 5 disarm",
+            kind=INT8,
         ),
         "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),
         "FENCE_MARGIN": Param(2.0, 1.0, 10.0, "m", "distance inside the fence that counts as near it"),

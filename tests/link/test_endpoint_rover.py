@@ -770,3 +770,51 @@ def test_item_0_downloads_as_home_whatever_was_uploaded(bench: Bench) -> None:
     lat, lon, _alt = ned_to_geodetic(STATE["north_m"], STATE["east_m"], 0.0, *HOME)  # the disarmed vehicle's place
     assert (back[0].x, back[0].y) == (round(lat * 1e7), round(lon * 1e7))  # type: ignore[attr-defined]
     assert [m.y for m in back[1:]] == [it.y for it in items[1:]]  # type: ignore[attr-defined]
+
+
+# -- parameters, fence enable, heartbeat as Rover ---------------------------------------------
+
+
+def _param(bench: Bench, name: str, value: float | None = None) -> object:
+    if value is None:
+        bench.send(mav.MAVLink_param_request_read_message(1, 1, name.encode(), -1))
+    else:
+        bench.send(mav.MAVLink_param_set_message(1, 1, name.encode(), value, mav.MAV_PARAM_TYPE_REAL32))
+    (pv,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    return pv
+
+
+def test_integer_parameters_say_so_and_store_whole_numbers_as_ardupilot(bench: Bench) -> None:
+    pv = _param(bench, "FENCE_ENABLE")
+    assert pv.param_type == mav.MAV_PARAM_TYPE_INT8  # type: ignore[attr-defined]  # MAVSDK get_param_int needs it
+    assert _param(bench, "SYSID_THISMAV").param_type == mav.MAV_PARAM_TYPE_INT16  # type: ignore[attr-defined]
+    assert _param(bench, "WP_SPEED").param_type == mav.MAV_PARAM_TYPE_REAL32  # type: ignore[attr-defined]
+    # AP_Param::set_float: + 0.01 away from zero, then truncated
+    assert _param(bench, "FENCE_ENABLE", 0.5).param_value == 0  # type: ignore[attr-defined]
+    assert bench.ep.param("FENCE_ENABLE") == 0  # the fence stays off
+    assert _param(bench, "FENCE_ENABLE", 0.995).param_value == 1  # type: ignore[attr-defined]
+    assert _param(bench, "FENCE_ACTION", 2.7).param_value == 2  # type: ignore[attr-defined]
+    assert _param(bench, "WP_SPEED", 1.25).param_value == 1.25  # type: ignore[attr-defined]
+    bench.send(mav.MAVLink_param_request_read_message(1, 1, b"", 999))
+    out = bench.tick()
+    assert not [m for m in out if m.get_type() == "PARAM_VALUE"]
+    assert any(m.get_type() == "STATUSTEXT" and "No parameter at index 999" in m.text for m in out)
+
+
+@pytest.mark.parametrize(("action", "result", "enabled"), [(1, 0, 1), (0, 0, 0), (2, 0, None), (3, 4, None)])
+def test_do_fence_enable_as_ardupilot(bench: Bench, action: int, result: int, enabled: int | None) -> None:
+    # 0 off, 1 on, 2 the floor off (a rover has none: accepted, nothing changes), else FAILED
+    bench.ep.params["FENCE_ENABLE"].value = 1 - (enabled if enabled is not None else 0)
+    before = bench.ep.param("FENCE_ENABLE")
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, action) == result
+    assert bench.ep.param("FENCE_ENABLE") == (before if enabled is None else enabled)
+
+
+def test_manual_mode_says_it_takes_manual_input(bench: Bench) -> None:
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    (hb,) = [m for m in bench.tick(1.1) if m.get_type() == "HEARTBEAT"]
+    assert hb.base_mode & mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+    assert not hb.base_mode & mav.MAV_MODE_FLAG_GUIDED_ENABLED
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    (hb,) = [m for m in bench.tick(1.1) if m.get_type() == "HEARTBEAT"]
+    assert not hb.base_mode & mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED

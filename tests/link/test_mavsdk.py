@@ -119,6 +119,7 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
     from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action.action import ActionAsync
     from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
+    from mavsdk.asyncio.plugins.param.param import ParamAsync
     from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
     from mavsdk.plugins.mission_raw import MissionItem
     from mavsdk.plugins.telemetry import FlightMode
@@ -140,6 +141,12 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
         system = await sdk.first_autopilot(timeout_s=15.0)
         assert system is not None, "MAVSDK found no autopilot"
         mission, telemetry, action = MissionRawAsync(system), TelemetryAsync(system), ActionAsync(system)
+        params = ParamAsync(system)
+        # ArduPilot's AP_Int8 parameters are INT8 on the wire: get_param_int refused a REAL32
+        out["fence_enable"] = await params.get_param_int("FENCE_ENABLE")
+        await params.set_param_int("FENCE_ACTION", 2)
+        out["fence_action"] = await params.get_param_int("FENCE_ACTION")
+        out["wp_speed"] = await params.get_param_float("WP_SPEED")
         square = [(20, 20), (20, -20), (-20, -20), (-20, 20)]
         fence = [item(k, 5001, n, e, 4, 1) for k, (n, e) in enumerate(square)]
         await mission.upload_geofence(fence)
@@ -181,6 +188,7 @@ def test_mavsdk_fence_rally_goto_rtl_and_health(truth_convoy, background_run) ->
         out = asyncio.run(asyncio.wait_for(fence_rally_goto_rtl(base, home), timeout=120))
     assert not errors, errors
     assert out["fence"] == out["fence_sent"] and len(out["rally"]) == 1 and out["rally"][0][0] == 5100
+    assert (out["fence_enable"], out["fence_action"]) == (0, 2) and out["wp_speed"] > 0
     assert len(out["mission"]) == 5  # the stored convoy mission: home + 4 waypoints
     assert out["health_all_ok"] is True
     assert out["goto_err_m"] < 0.6, out  # goto_location drove the rover there
