@@ -88,6 +88,24 @@ STREAMS = {
     "FENCE_STATUS": 1.0,
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
+#: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
+#: this vehicle sends in them
+DATA_STREAMS: dict[int, tuple[str, ...]] = {
+    mav.MAV_DATA_STREAM_EXTENDED_STATUS: ("SYS_STATUS", "MISSION_CURRENT", "GPS_RAW_INT", "FENCE_STATUS"),
+    mav.MAV_DATA_STREAM_POSITION: ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED"),
+    mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
+}
+DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
+for _group in (
+    mav.MAV_DATA_STREAM_RAW_SENSORS,
+    mav.MAV_DATA_STREAM_RC_CHANNELS,
+    mav.MAV_DATA_STREAM_RAW_CONTROLLER,
+    mav.MAV_DATA_STREAM_EXTRA2,
+    mav.MAV_DATA_STREAM_EXTRA3,
+):
+    DATA_STREAMS[_group] = ()  # groups of messages this vehicle does not send
+#: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
+MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
 _GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT"))
@@ -551,7 +569,8 @@ class VehicleEndpoint:
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
-                return mav.MAV_RESULT_UNSUPPORTED
+                self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
+                return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send
             self._once.append(msg_id)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
@@ -623,21 +642,38 @@ class VehicleEndpoint:
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
     def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
+        """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
+        back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
+        does not send is FAILED."""
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
-        if msg_id is None or not _finite(interval_us):
+        if msg_id is None or not _finite(interval_us) or interval_us < -1:
             return mav.MAV_RESULT_DENIED
         if msg_id not in self._intervals:
-            return mav.MAV_RESULT_UNSUPPORTED
+            self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
+            return mav.MAV_RESULT_FAILED
         if interval_us == -1:
             self._intervals[msg_id] = math.inf
         elif interval_us == 0:
             self._intervals[msg_id] = 1.0 / STREAMS[ID_NAMES[msg_id]]
-        elif interval_us >= 1000:  # at most 1 kHz
-            self._intervals[msg_id] = interval_us / 1e6
         else:
-            return mav.MAV_RESULT_DENIED
+            self._intervals[msg_id] = min(max(interval_us, 1000.0), 60e6) / 1e6
         self._next_due[msg_id] = self.t_s
         return mav.MAV_RESULT_ACCEPTED
+
+    def _on_request_data_stream(self, m: Any) -> None:
+        """REQUEST_DATA_STREAM (MAVProxy and Mission Planner send it): the messages of Rover's
+        stream group at the rate asked for (start_stop 0, or a rate of 0, stops them; at most
+        :data:`MAX_STREAM_HZ`). HEARTBEAT and HOME_POSITION are in no group, as on Rover."""
+        if not self._for_me(m) or m.start_stop not in (0, 1):
+            return
+        names = DATA_STREAMS.get(m.req_stream_id)
+        if names is None:
+            return
+        hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
+        for name in names:
+            msg_id = MSG_IDS[name]
+            self._intervals[msg_id] = 1.0 / hz if hz > 0 else math.inf
+            self._next_due[msg_id] = self.t_s
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
         kind = _as_int(speed_type, 0, 3)

@@ -818,3 +818,35 @@ def test_manual_mode_says_it_takes_manual_input(bench: Bench) -> None:
     assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
     (hb,) = [m for m in bench.tick(1.1) if m.get_type() == "HEARTBEAT"]
     assert not hb.base_mode & mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+
+
+def _count(out: list[object], name: str) -> int:
+    return sum(m.get_type() == name for m in out)  # type: ignore[attr-defined]
+
+
+def test_request_data_stream_sets_rovers_stream_groups(bench: Bench) -> None:
+    # MAVProxy and Mission Planner ask by group: 0 stops all (HEARTBEAT is in no group)
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 0, 0))
+    bench.tick()
+    out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s
+    assert _count(out, "ATTITUDE") == _count(out, "GLOBAL_POSITION_INT") == _count(out, "SYS_STATUS") == 0
+    assert _count(out, "HEARTBEAT") == 2
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 4, 1))
+    bench.tick()
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    assert 7 <= _count(out, "GLOBAL_POSITION_INT") <= 9 and _count(out, "LOCAL_POSITION_NED") >= 7
+    assert _count(out, "ATTITUDE") == 0  # EXTRA1 still stopped
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA1, 1000, 1))
+    bench.tick()
+    out = [m for _ in range(100) for m in bench.tick(0.01)]  # 1 s at 100 ticks a second
+    assert 45 <= _count(out, "ATTITUDE") <= 51  # held to 50 Hz, Rover's SRx_ limit
+
+
+def test_message_intervals_as_ardupilot(bench: Bench) -> None:
+    att = mav.MAVLINK_MSG_ID_ATTITUDE
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100000) == mav.MAV_RESULT_FAILED  # not sent here
+    assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, 12345) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED  # taken as 1 ms
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
+    out = [m for _ in range(50) for m in bench.tick(0.02)]
+    assert _count(out, "ATTITUDE") == 0
