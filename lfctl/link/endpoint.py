@@ -896,6 +896,19 @@ class VehicleEndpoint:
         self.missions.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
         self.mission_complete = seq >= len(self.mission) - 1 if last is None else last
 
+    def rtl_destination(self, north_m: float, east_m: float) -> tuple[float, float]:
+        """Where RTL drives from (north, east): the nearest of home and the rally points the
+        fence allows (a rally point outside an enabled fence is not valid, as Rover's
+        AP_Rally_Rover::is_valid; home always is).
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The vehicle, local NED, m.
+        """
+        candidates = [self.home_point(), *(p for p in self.rally if self._within_fence(*p))]
+        return min(candidates, key=lambda p: math.hypot(p[0] - north_m, p[1] - east_m))
+
     def _within_fence(self, north_m: float, east_m: float) -> bool:
         """A destination the fence allows (Rover refuses guided targets outside it)."""
         if not self.param("FENCE_ENABLE"):

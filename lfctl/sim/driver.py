@@ -209,8 +209,7 @@ class VehicleDriver:
             route = list(reversed(ep.path))
             key: tuple[object, ...] = ("srtl", ep.modes[-1][0])
         else:
-            candidates = [ep.home_point(), *ep.rally]
-            route = [min(candidates, key=lambda p: math.hypot(p[0] - me.north_m, p[1] - me.east_m))]
+            route = [ep.rtl_destination(me.north_m, me.east_m)]
             key = ("rtl", ep.modes[-1][0], route[0])
         done, cmd = self._drive_to(route, key, speed, t_s, world)
         if done:

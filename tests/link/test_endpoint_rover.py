@@ -850,3 +850,23 @@ def test_message_intervals_as_ardupilot(bench: Bench) -> None:
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
     out = [m for _ in range(50) for m in bench.tick(0.02)]
     assert _count(out, "ATTITUDE") == 0
+
+
+def test_rtl_skips_a_rally_point_outside_the_fence(bench: Bench) -> None:
+    # AP_Rally_Rover::is_valid: with the fence on, a rally point outside it is not a place to go
+    assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    inside, outside = ned_to_geodetic(3.0, 3.0, 0.0, *HOME), ned_to_geodetic(0.0, 7.0, 0.0, *HOME)
+    rally = [
+        Item(k, mav.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7), y=round(lon * 1e7), frame=mav.MAV_FRAME_GLOBAL_INT)
+        for k, (lat, lon, _alt) in enumerate((inside, outside))
+    ]
+    assert upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
+    bench.state = {**STATE, "north_m": 0.0, "east_m": 0.0}
+    bench.tick()  # home here
+    near_outside = (0.5, 6.5)
+    n, e = bench.ep.rtl_destination(*near_outside)
+    assert (n, e) == pytest.approx((0.0, 7.0), abs=0.05)  # fence off: the nearest rally point
+    bench.ep.params["FENCE_ENABLE"].value = 1
+    n, e = bench.ep.rtl_destination(*near_outside)
+    assert (n, e) == pytest.approx((3.0, 3.0), abs=0.05)  # fence on: the one inside it
+    assert bench.ep.rtl_destination(0.2, -0.3) == (0.0, 0.0)  # home, nearer than either
