@@ -583,6 +583,15 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             return self._set_interval(p[0], p[1])
+        if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
+            msg_id = _as_int(p[0], 0, 2**24 - 1)
+            if msg_id is None:
+                return mav.MAV_RESULT_DENIED
+            # MESSAGE_INTERVAL as ArduPilot answers it: 0 for a message not sent, -1 stopped
+            period = self._intervals.get(msg_id)
+            interval_us = 0 if period is None else (-1 if math.isinf(period) else int(round(period * 1e6)))
+            self.send(mav.MAVLink_message_interval_message(msg_id, interval_us))
+            return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_MISSION_START:
             if not (_finite(p[0], p[1]) and p[0] == 0 and p[1] == 0):
                 return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover

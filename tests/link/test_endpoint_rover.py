@@ -870,3 +870,23 @@ def test_rtl_skips_a_rally_point_outside_the_fence(bench: Bench) -> None:
     n, e = bench.ep.rtl_destination(*near_outside)
     assert (n, e) == pytest.approx((3.0, 3.0), abs=0.05)  # fence on: the one inside it
     assert bench.ep.rtl_destination(0.2, -0.3) == (0.0, 0.0)  # home, nearer than either
+
+
+def test_get_message_interval_as_ardupilot(bench: Bench) -> None:
+    def interval(msg_id: int) -> int:
+        bench.send(
+            mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, msg_id, 0, 0, 0, 0, 0, 0)
+        )
+        out = bench.tick()
+        (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
+        (mi,) = [m for m in out if m.get_type() == "MESSAGE_INTERVAL"]
+        assert ack.result == mav.MAV_RESULT_ACCEPTED and mi.message_id == msg_id
+        return int(mi.interval_us)
+
+    att = mav.MAVLINK_MSG_ID_ATTITUDE
+    assert interval(att) == 100_000  # 10 Hz by default
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 250_000) == mav.MAV_RESULT_ACCEPTED
+    assert interval(att) == 250_000
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
+    assert interval(att) == -1
+    assert interval(12345) == 0  # not a message this vehicle sends
