@@ -294,7 +294,7 @@ class VehicleEndpoint:
 
     def _mission_running(self) -> bool:
         """The mission is being flown: AUTO, its last item not yet reached."""
-        return self.mode == MODES["AUTO"] and not self.mission_complete
+        return self.mode == MODES["AUTO"] and len(self.mission) > 1 and not self.mission_complete
 
     def _update_home(self) -> None:
         """Rover's update_home: while disarmed and not set by a ground station, home follows
@@ -522,6 +522,10 @@ class VehicleEndpoint:
         if custom_mode != self.mode:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
             self.modes.append((self.t_s, custom_mode))
+            if custom_mode == MODES["AUTO"] and self.mission_complete and self.missions.set_current(1):
+                # a finished mission starts again from its first item (AP_Mission::resume)
+                self.mission_version += 1
+                self.mission_complete = False
         self.mode = custom_mode
         if custom_mode == MODES["GUIDED"]:
             self.guided = None  # entering GUIDED stops until a target comes
@@ -587,9 +591,13 @@ class VehicleEndpoint:
             msg_id = _as_int(p[0], 0, 2**24 - 1)
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
-            # MESSAGE_INTERVAL as ArduPilot answers it: 0 for a message not sent, -1 stopped
+            # MESSAGE_INTERVAL as ArduPilot answers it: -1 for one stopped; 0 and FAILED for a
+            # message not sent (its id cut to the field's 16 bits, as ArduPilot's C does)
             period = self._intervals.get(msg_id)
-            interval_us = 0 if period is None else (-1 if math.isinf(period) else int(round(period * 1e6)))
+            if period is None:
+                self.send(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
+                return mav.MAV_RESULT_FAILED
+            interval_us = -1 if math.isinf(period) else int(round(period * 1e6))
             self.send(mav.MAVLink_message_interval_message(msg_id, interval_us))
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_MISSION_START:

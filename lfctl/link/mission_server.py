@@ -299,8 +299,20 @@ class MissionServer:
             return
         it = items[m.seq]
         if mtype == MISSION and m.seq == 0 and self.home is not None:
+            # home as Rover's AP_Mission reads item 0: a waypoint at home, absolute altitude
             lat_e7, lon_e7, alt_m = self.home()
-            it = replace(it, x=lat_e7, y=lon_e7, z=alt_m)
+            it = replace(
+                it,
+                frame=mav.MAV_FRAME_GLOBAL_INT,
+                command=mav.MAV_CMD_NAV_WAYPOINT,
+                param1=0.0,
+                param2=0.0,
+                param3=0.0,
+                param4=0.0,
+                x=lat_e7,
+                y=lon_e7,
+                z=alt_m,
+            )
         current = int(mtype == MISSION and it.seq == self.current_seq)
         self.send(_item_message(it, *src, current, mtype))
 

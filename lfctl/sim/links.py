@@ -94,6 +94,9 @@ class Links:
                 self.cameras.append(camera)
                 link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
+            # where it starts, before the set-up below ticks it: a disarmed vehicle's home is
+            # where it stands, and the lockstep leader is armed before its first step
+            ep.state = {**ep.state, "north_m": v.north_m, "east_m": v.east_m, "yaw_rad": v.yaw_rad}
             # the scenario's speeds and radii: AUTO's for the leader, the formation's speed
             # limit for followers' GUIDED setpoints (both Rover's WP_SPEED)
             ep.params["WP_SPEED"].value = cfg.mission.cruise_speed_mps if i == 0 else cfg.guidance.max_speed_mps

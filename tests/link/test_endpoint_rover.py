@@ -4,6 +4,7 @@ MISSION; GUIDED in every setpoint form. In memory, driven by pymavlink frames.""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import struct
@@ -846,7 +847,7 @@ def test_message_intervals_as_ardupilot(bench: Bench) -> None:
     att = mav.MAVLINK_MSG_ID_ATTITUDE
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100000) == mav.MAV_RESULT_FAILED  # not sent here
     assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, 12345) == mav.MAV_RESULT_FAILED
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED  # taken as 1 ms
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED  # as 1 ms (below)
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
     out = [m for _ in range(50) for m in bench.tick(0.02)]
     assert _count(out, "ATTITUDE") == 0
@@ -873,20 +874,65 @@ def test_rtl_skips_a_rally_point_outside_the_fence(bench: Bench) -> None:
 
 
 def test_get_message_interval_as_ardupilot(bench: Bench) -> None:
-    def interval(msg_id: int) -> int:
+    def interval(msg_id: int, result: int = mav.MAV_RESULT_ACCEPTED) -> int:
         bench.send(
             mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, msg_id, 0, 0, 0, 0, 0, 0)
         )
         out = bench.tick()
         (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
         (mi,) = [m for m in out if m.get_type() == "MESSAGE_INTERVAL"]
-        assert ack.result == mav.MAV_RESULT_ACCEPTED and mi.message_id == msg_id
+        assert ack.result == result and mi.message_id == msg_id & 0xFFFF
         return int(mi.interval_us)
 
     att = mav.MAVLINK_MSG_ID_ATTITUDE
     assert interval(att) == 100_000  # 10 Hz by default
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 250_000) == mav.MAV_RESULT_ACCEPTED
     assert interval(att) == 250_000
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED
+    assert interval(att) == 1000  # under 1 ms is 1 ms
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
     assert interval(att) == -1
-    assert interval(12345) == 0  # not a message this vehicle sends
+    assert interval(12345, mav.MAV_RESULT_FAILED) == 0  # not a message this vehicle sends
+    assert interval(70000, mav.MAV_RESULT_FAILED) == 0  # beyond the reply's 16-bit field: no raise
+    assert bench.ep.stats.handler_errors == 0
+
+
+def test_item_0_downloads_as_a_waypoint_at_home_with_an_absolute_altitude(bench: Bench) -> None:
+    # good_mission's item 0 is relative-altitude: home's 900 m must not read as 900 m above home
+    assert upload(bench, good_mission(3)) == mav.MAV_MISSION_ACCEPTED
+    home = download(bench, mav.MAV_MISSION_TYPE_MISSION)[0]
+    assert (home.frame, home.command, home.z) == (mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_NAV_WAYPOINT, HOME[2])  # type: ignore[attr-defined]
+
+
+def test_a_finished_mission_starts_again_when_auto_is_entered_again(bench: Bench) -> None:
+    assert upload(bench, good_mission(3)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.reached(1)
+    bench.ep.reached(2)
+    assert bench.ep.mission_complete
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    version = bench.ep.mission_version
+    assert bench.command(mav.MAV_CMD_MISSION_START, 0, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.current_seq == 1 and not bench.ep.mission_complete  # AP_Mission::resume: start()
+    assert bench.ep.mission_version > version  # the autopilot rebuilds its legs
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ERROR]  # flown again: not cleared
+
+
+def test_auto_without_a_mission_does_not_block_a_clear(bench: Bench) -> None:
+    bench.ep.force_mode("AUTO")  # a scripted leader: AUTO with nothing loaded
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ACCEPTED]
+
+
+def test_a_lockstep_leader_starting_off_the_origin_has_its_home_where_it_starts() -> None:
+    from lfctl.config import load_config
+    from lfctl.data import resolve_scenario
+    from lfctl.sim.links import Links
+
+    cfg = load_config(resolve_scenario("convoy"))
+    leader = dataclasses.replace(cfg.vehicles[0], north_m=7.0, east_m=-3.0)
+    cfg = dataclasses.replace(cfg, vehicles=(leader, *cfg.vehicles[1:]))
+    links = Links(cfg, realtime=False)
+    assert links.endpoints[0].armed  # armed by the set-up, before any step of the simulation
+    assert links.endpoints[0].home_point() == (7.0, -3.0)
