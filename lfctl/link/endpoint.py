@@ -29,7 +29,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import ned_to_geodetic, wrap_pi
-from lfctl.link.fence import Fence, rally_points
+from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import MissionItem
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
@@ -625,8 +625,8 @@ class VehicleEndpoint:
             action = _as_int(p[0], 0, 65535)
             if action is None:
                 return mav.MAV_RESULT_DENIED
-            if action > 2:
-                return mav.MAV_RESULT_FAILED
+            if action > 2 or (action == 1 and not self._fence_present()):
+                return mav.MAV_RESULT_FAILED  # on, with no fence to check: AC_Fence::present
             if action < 2:
                 self.params["FENCE_ENABLE"].value = action
             return mav.MAV_RESULT_ACCEPTED
@@ -925,6 +925,12 @@ class VehicleEndpoint:
         """
         candidates = [self.home_point(), *(p for p in self.rally if self._within_fence(*p))]
         return min(candidates, key=lambda p: math.hypot(p[0] - north_m, p[1] - east_m))
+
+    def _fence_present(self) -> bool:
+        """A fence there is to check: FENCE_TYPE's circle, or its polygons with some uploaded."""
+        fence_type = int(self.param("FENCE_TYPE"))
+        circle = bool(fence_type & FENCE_TYPE_CIRCLE) and self.param("FENCE_RADIUS") > 0
+        return circle or (bool(fence_type & FENCE_TYPE_POLYGON) and not self.fence.empty)
 
     def _within_fence(self, north_m: float, east_m: float) -> bool:
         """A destination the fence allows (Rover refuses guided targets outside it)."""

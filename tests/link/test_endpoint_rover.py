@@ -936,3 +936,13 @@ def test_a_lockstep_leader_starting_off_the_origin_has_its_home_where_it_starts(
     links = Links(cfg, realtime=False)
     assert links.endpoints[0].armed  # armed by the set-up, before any step of the simulation
     assert links.endpoints[0].home_point() == (7.0, -3.0)
+
+
+def test_the_fence_cannot_be_enabled_when_there_is_none(bench: Bench) -> None:
+    # AC_Fence::present: FENCE_TYPE polygons only and none uploaded is no fence (FAILED)
+    bench.ep.params["FENCE_TYPE"].value = 4
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_FAILED
+    assert bench.ep.param("FENCE_ENABLE") == 0
+    assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.param("FENCE_ENABLE") == 1
