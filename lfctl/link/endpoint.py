@@ -31,7 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import MissionItem
+from lfctl.link.mission import MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.params import Param, default_params
 from lfctl.link.port import pack_next
@@ -96,14 +96,6 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
-for _group in (
-    mav.MAV_DATA_STREAM_RAW_SENSORS,
-    mav.MAV_DATA_STREAM_RC_CHANNELS,
-    mav.MAV_DATA_STREAM_RAW_CONTROLLER,
-    mav.MAV_DATA_STREAM_EXTRA2,
-    mav.MAV_DATA_STREAM_EXTRA3,
-):
-    DATA_STREAMS[_group] = ()  # groups of messages this vehicle does not send
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
 MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
@@ -207,7 +199,7 @@ class VehicleEndpoint:
         self.armed = armed
         self.params = default_params(sysid)
         self.missions = MissionServer(
-            self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_latlon
+            self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_item
         )
         self.mission_complete = False  # the last item reached (Rover: AP_Mission's MISSION_COMPLETE)
         self.mission_version = 0  # bumps when the mission or the current item changes
@@ -287,10 +279,13 @@ class VehicleEndpoint:
         put it); the origin before the first tick."""
         return self.home_ned if self.home_ned is not None else (0.0, 0.0)
 
-    def _home_latlon(self) -> tuple[int, int, float]:
-        """Home as a mission's item 0 carries it: degE7, degE7, altitude m."""
-        lat, lon, alt = ned_to_geodetic(*self.home_point(), 0.0, *self.home)
-        return int(round(lat * 1e7)), int(round(lon * 1e7)), alt
+    def _home_geodetic(self) -> tuple[float, float, float]:
+        """Home's latitude, longitude (degrees) and altitude (m)."""
+        return ned_to_geodetic(*self.home_point(), 0.0, *self.home)
+
+    def _home_item(self) -> MissionItem:
+        """Home as a mission's item 0 (a download's, as Rover answers it)."""
+        return home_item(*self._home_geodetic())
 
     def _mission_running(self) -> bool:
         """The mission is being flown: AUTO, its last item not yet reached."""
@@ -316,7 +311,7 @@ class VehicleEndpoint:
         """
         self.home_ned = (north_m, east_m)
         self.home_locked = True
-        lat, lon, alt = ned_to_geodetic(north_m, east_m, 0.0, *self.home)
+        lat, lon, alt = self._home_geodetic()
         self.statustext(f"Set HOME to {lat:.6f} {lon:.6f} at {alt:.2f}m", mav.MAV_SEVERITY_INFO)
         self._once.append(MSG_IDS["HOME_POSITION"])
 
@@ -588,18 +583,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             return self._set_interval(p[0], p[1])
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
-            msg_id = _as_int(p[0], 0, 2**24 - 1)
-            if msg_id is None:
-                return mav.MAV_RESULT_DENIED
-            # MESSAGE_INTERVAL as ArduPilot answers it: -1 for one stopped; 0 and FAILED for a
-            # message not sent (its id cut to the field's 16 bits, as ArduPilot's C does)
-            period = self._intervals.get(msg_id)
-            if period is None:
-                self.send(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
-                return mav.MAV_RESULT_FAILED
-            interval_us = -1 if math.isinf(period) else int(round(period * 1e6))
-            self.send(mav.MAVLink_message_interval_message(msg_id, interval_us))
-            return mav.MAV_RESULT_ACCEPTED
+            return self._get_interval(p[0])
         if cmd == mav.MAV_CMD_MISSION_START:
             if not (_finite(p[0], p[1]) and p[0] == 0 and p[1] == 0):
                 return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover
@@ -677,15 +661,28 @@ class VehicleEndpoint:
         self._next_due[msg_id] = self.t_s
         return mav.MAV_RESULT_ACCEPTED
 
+    def _get_interval(self, msg_id_f: float) -> int:
+        """MAV_CMD_GET_MESSAGE_INTERVAL as ArduPilot answers it: MESSAGE_INTERVAL with the
+        interval, -1 for a message stopped; 0 and FAILED for one not sent (its id cut to the
+        field's 16 bits, as ArduPilot's C does)."""
+        msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
+        if msg_id is None:
+            return mav.MAV_RESULT_DENIED
+        period = self._intervals.get(msg_id)
+        if period is None:
+            self.send(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
+            return mav.MAV_RESULT_FAILED
+        interval_us = -1 if math.isinf(period) else int(round(period * 1e6))
+        self.send(mav.MAVLink_message_interval_message(msg_id, interval_us))
+        return mav.MAV_RESULT_ACCEPTED
+
     def _on_request_data_stream(self, m: Any) -> None:
         """REQUEST_DATA_STREAM (MAVProxy and Mission Planner send it): the messages of Rover's
         stream group at the rate asked for (start_stop 0, or a rate of 0, stops them; at most
         :data:`MAX_STREAM_HZ`). HEARTBEAT and HOME_POSITION are in no group, as on Rover."""
         if not self._for_me(m) or m.start_stop not in (0, 1):
             return
-        names = DATA_STREAMS.get(m.req_stream_id)
-        if names is None:
-            return
+        names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
         for name in names:
             msg_id = MSG_IDS[name]
@@ -735,13 +732,11 @@ class VehicleEndpoint:
     def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
         """MAV_CMD_DO_SET_HOME: param1 = 1 (or no position) puts home where the vehicle is,
         else at the command's latitude and longitude; either way it stays there."""
-        if _finite(p[0]) and p[0] == 1.0:
-            self.set_home(self.state["north_m"], self.state["east_m"])
-            return mav.MAV_RESULT_ACCEPTED
-        where = _command_latlon(p, latlon_e7)
-        if where is None:
+        here = _finite(p[0]) and p[0] == 1.0
+        where = None if here else _command_latlon(p, latlon_e7)
+        if not here and where is None:
             return mav.MAV_RESULT_DENIED
-        if where == (0, 0):
+        if here or where == (0, 0):
             self.set_home(self.state["north_m"], self.state["east_m"])
         else:
             self.set_home(*global_to_local(*where, self.home))
@@ -936,8 +931,12 @@ class VehicleEndpoint:
         """A destination the fence allows (Rover refuses guided targets outside it)."""
         if not self.param("FENCE_ENABLE"):
             return True
+        return self._breach(north_m, east_m) is None
+
+    def _breach(self, north_m: float, east_m: float) -> str | None:
+        """What (north, east) breaches of the fence as FENCE_TYPE and FENCE_RADIUS set it."""
         fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        return self.fence.breach(north_m, east_m, fence_type, radius, self.home_point()) is None
+        return self.fence.breach(north_m, east_m, fence_type, radius, self.home_point())
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:
@@ -1070,7 +1069,7 @@ class VehicleEndpoint:
             self.fence_breach = None
             return
         n, e = self.state["north_m"], self.state["east_m"]
-        breach = self.fence.breach(n, e, int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS"), self.home_point())
+        breach = self._breach(n, e)
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
             self._fence_breach_ms = int(self.t_s * 1000)
@@ -1169,7 +1168,7 @@ class VehicleEndpoint:
             self.send(mav.MAVLink_mission_current_message(self.current_seq, total))
         elif name == "HOME_POSITION":
             hn, he = self.home_point()
-            hlat, hlon, halt = ned_to_geodetic(hn, he, 0.0, *self.home)
+            hlat, hlon, halt = self._home_geodetic()
             self.send(
                 mav.MAVLink_home_position_message(
                     int(round(hlat * 1e7)), int(round(hlon * 1e7)), int(round(halt * 1000)),

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -90,8 +90,8 @@ class MissionServer:
     running : callable, optional
         Whether the mission is being flown (AUTO): it cannot be cleared then, as on Rover.
     home : callable, optional
-        Home now, ``(lat_e7, lon_e7, alt_m)``: item 0 of a mission download, as Rover
-        answers it whatever was uploaded as item 0.
+        Home now, as item 0 (:func:`~lfctl.link.mission.home_item`): a mission download's
+        item 0, as Rover answers it whatever was uploaded as item 0.
     """
 
     def __init__(
@@ -100,7 +100,7 @@ class MissionServer:
         statustext: Callable[[str], None],
         on_change: Callable[[int, list[MissionItem]], None],
         running: Callable[[], bool] | None = None,
-        home: Callable[[], tuple[int, int, float]] | None = None,
+        home: Callable[[], MissionItem] | None = None,
     ) -> None:
         self.send = send
         self.statustext = statustext
@@ -299,20 +299,7 @@ class MissionServer:
             return
         it = items[m.seq]
         if mtype == MISSION and m.seq == 0 and self.home is not None:
-            # home as Rover's AP_Mission reads item 0: a waypoint at home, absolute altitude
-            lat_e7, lon_e7, alt_m = self.home()
-            it = replace(
-                it,
-                frame=mav.MAV_FRAME_GLOBAL_INT,
-                command=mav.MAV_CMD_NAV_WAYPOINT,
-                param1=0.0,
-                param2=0.0,
-                param3=0.0,
-                param4=0.0,
-                x=lat_e7,
-                y=lon_e7,
-                z=alt_m,
-            )
+            it = self.home()  # as Rover's AP_Mission reads item 0: home now
         current = int(mtype == MISSION and it.seq == self.current_seq)
         self.send(_item_message(it, *src, current, mtype))
 
@@ -337,9 +324,10 @@ class MissionServer:
             return
         # as Rover: not while one of them is being uploaded, nor the mission while it is flown
         # (MAV_MISSION_ERROR; nothing is cleared)
-        if any(t in self._uploads for t in types) or (MISSION in types and self.running()):
+        flown = MISSION in types and self.running()
+        if flown or any(t in self._uploads for t in types):
             self._ack(*src, mav.MAV_MISSION_ERROR, mtype)
-            if MISSION in types and self.running():
+            if flown:
                 self.statustext("Mission is running: not cleared")
             return
         for t in types:
