@@ -48,23 +48,31 @@ def footage_dir() -> Path:
     return _folder("footage")
 
 
-def example_names() -> list[str]:
-    """Names of the shipped example scenarios (file stems), sorted."""
+def example_names(suffix: str = ".toml") -> list[str]:
+    """Names of the shipped example scenarios (file stems), sorted.
+
+    Parameters
+    ----------
+    suffix : str
+        The kind of file: ``.toml`` scenarios, ``.waypoints`` missions.
+    """
     folder = examples_dir()
-    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
+    return sorted(p.stem for p in folder.glob(f"*{suffix}")) if folder.is_dir() else []
 
 
-def find_example(name: str) -> Path | None:
+def find_example(name: str, suffix: str = ".toml") -> Path | None:
     """The shipped example file called ``name`` (``convoy``, ``convoy.toml``,
     ``square.waypoints``), or None.
 
     Parameters
     ----------
     name : str
-        A file name in the examples folder, with or without the ``.toml`` suffix.
+        A file name in the examples folder, with or without ``suffix``.
+    suffix : str
+        The suffix a bare name is tried with.
     """
     folder = examples_dir()
-    for candidate in (name, f"{name}.toml"):
+    for candidate in (name, f"{name}{suffix}"):
         p = folder / candidate
         if "/" not in candidate and p.is_file():
             return p
@@ -112,11 +120,10 @@ def resolve_mission(arg: str | Path) -> Path:
     p = Path(arg)
     if p.is_file() or p.name != str(arg):
         return p  # a path with a folder is the user's file: reading it names what is wrong
-    folder = examples_dir()
-    for candidate in (folder / p.name, folder / f"{p.name}.waypoints"):
-        if candidate.is_file():
-            return candidate
-    known = ", ".join(sorted(q.name for q in folder.glob("*.waypoints"))) if folder.is_dir() else ""
+    found = find_example(p.name, ".waypoints")
+    if found is not None:
+        return found
+    known = ", ".join(f"{n}.waypoints" for n in example_names(".waypoints"))
     raise ConfigError(
         f"cannot read mission {str(arg)!r}: no such file here, nor a shipped mission (shipped: {known or 'none found'})"
     )
