@@ -83,6 +83,7 @@ STREAMS = {
     "GLOBAL_POSITION_INT": 10.0,
     "LOCAL_POSITION_NED": 10.0,
     "ATTITUDE": 10.0,
+    "VFR_HUD": 4.0,
     "MISSION_CURRENT": 1.0,
     "HOME_POSITION": 0.5,
     "FENCE_STATUS": 1.0,
@@ -94,13 +95,14 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_EXTENDED_STATUS: ("SYS_STATUS", "MISSION_CURRENT", "GPS_RAW_INT", "FENCE_STATUS"),
     mav.MAV_DATA_STREAM_POSITION: ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED"),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
+    mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
 MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
-_GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT"))
+_GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT", "VFR_HUD"))
 #: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
 SENSORS = (
     mav.MAV_SYS_STATUS_SENSOR_3D_GYRO
@@ -1032,7 +1034,8 @@ class VehicleEndpoint:
             Now, s.
         state : dict
             The vehicle now: ``north_m``, ``east_m``, ``yaw_rad``, ``speed_mps``,
-            ``yaw_rate_radps`` (local NED, SI).
+            ``yaw_rate_radps`` (local NED, SI), and optionally ``speed_cmd_mps``, the speed it
+            is commanded (VFR_HUD's throttle, see :meth:`throttle_pct`).
         """
         self.t_s = t_s
         self.state = state
@@ -1098,6 +1101,22 @@ class VehicleEndpoint:
             if self.mode == MODES[name] or self.set_mode(MODES[name]):
                 return
 
+    def throttle_pct(self) -> int:
+        """The throttle VFR_HUD reports, percent (0-100): Rover's speed controller's base
+        throttle, the commanded speed times ``CRUISE_THROTTLE`` / ``CRUISE_SPEED``, its
+        magnitude, to at most 100; 0 disarmed or with either parameter 0.
+
+        The command is the state's ``speed_cmd_mps``; a vehicle ticked without one reports
+        what its speed needs (the command it would hold at steady state).
+        """
+        cruise_speed, cruise_throttle = self.param("CRUISE_SPEED"), self.param("CRUISE_THROTTLE")
+        if not self.armed or cruise_speed <= 0 or cruise_throttle <= 0:
+            return 0
+        command = self.state.get("speed_cmd_mps", self.state["speed_mps"])
+        if not math.isfinite(command):
+            return 0
+        return int(round(min(100.0, abs(command) * cruise_throttle / cruise_speed)))
+
     def _record_path(self) -> None:
         """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes."""
         if not self.armed or self.mode in (MODES["RTL"], MODES["SMART_RTL"]):
@@ -1158,6 +1177,11 @@ class VehicleEndpoint:
             )  # fmt: skip
         elif name == "LOCAL_POSITION_NED":
             self.send(mav.MAVLink_local_position_ned_message(t_ms, s["north_m"], s["east_m"], 0.0, vn, ve, 0.0))
+        elif name == "VFR_HUD":
+            # as Rover fills it: its ground speed as the airspeed too, the heading in whole
+            # degrees, the throttle's magnitude (percent), the altitude above sea level
+            speed = abs(s["speed_mps"])
+            self.send(mav.MAVLink_vfr_hud_message(speed, speed, hdg // 100, self.throttle_pct(), alt, 0.0))
         elif name == "ATTITUDE":
             self.send(
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])

@@ -91,6 +91,7 @@ def default_params(sysid: int) -> dict[str, Param]:
         "WP_SPEED": Param(2.0, 0.0, 100.0, "m/s", "AUTO, GUIDED and RTL speed; GUIDED setpoints are limited to it"),
         "WP_RADIUS": Param(2.0, 0.0, 100.0, "m", "waypoint acceptance radius"),
         "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
+        "CRUISE_THROTTLE": Param(50, 0, 100, "%", "throttle at CRUISE_SPEED (VFR_HUD's throttle)", kind=INT8),
         "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
         "GUID_TIMEOUT": Param(
             3.0, 0.1, 5.0, "s", "GUIDED: stop when no velocity or turn-rate setpoint arrives for this long"

@@ -234,6 +234,11 @@ class Simulation:
         self._cmd_raw[i, 0] = speed_mps * self._in_scale[i, 0]
         self._cmd_raw[i, 1] = yaw_rate_radps * self._in_scale[i, 1]
 
+    def commanded_speeds_mps(self) -> list[float]:
+        """Each vehicle's forward-speed command now, m/s (as :meth:`set_command` last set it),
+        in :attr:`names` order."""
+        return (self._cmd_raw[:, 0] / self._in_scale[:, 0]).tolist()
+
     def state(self) -> WorldState:
         """The world truth now (SI, NED).
 

@@ -7,7 +7,7 @@ its stream. Owns its sockets; close() releases them."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from lfctl.config import Config
@@ -100,6 +100,8 @@ class Links:
             # the scenario's speeds and radii: AUTO's for the leader, the formation's speed
             # limit for followers' GUIDED setpoints (both Rover's WP_SPEED)
             ep.params["WP_SPEED"].value = cfg.mission.cruise_speed_mps if i == 0 else cfg.guidance.max_speed_mps
+            # ... which is also its cruise: VFR_HUD's throttle reads CRUISE_THROTTLE (50 %) there
+            ep.params["CRUISE_SPEED"].value = ep.params["WP_SPEED"].value
             ep.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
             if realtime:
                 ep.time_budget_s = REALTIME_RECEIVE_BUDGET_S
@@ -141,7 +143,7 @@ class Links:
         """Each vehicle's UDP port, by name (empty in lockstep)."""
         return {ep.name: udp.port for ep, udp in zip(self.endpoints, self.udp, strict=False)}
 
-    def tick(self, t_s: float, world: WorldState) -> None:
+    def tick(self, t_s: float, world: WorldState, speed_cmds_mps: Sequence[float] | None = None) -> None:
         """Advance every endpoint to ``t_s`` with its vehicle's truth (see
         :meth:`~lfctl.link.endpoint.VehicleEndpoint.tick`).
 
@@ -151,6 +153,9 @@ class Links:
             Simulation time, s.
         world : WorldState
             The truth now; vehicle i feeds endpoint i.
+        speed_cmds_mps : sequence of float, optional
+            Each vehicle's forward-speed command now, m/s (its throttle in VFR_HUD); None:
+            the endpoints report the throttle each vehicle's speed needs.
         """
         # each vehicle's values as Python floats, as world.vehicle(i) gives them, read off
         # the arrays at once (no VehicleState built per endpoint per tick)
@@ -161,16 +166,16 @@ class Links:
             world.yaw_rate_radps.tolist(),
         )
         for i, ep in enumerate(self.endpoints):
-            ep.tick(
-                t_s,
-                {
-                    "north_m": pos[i][0],
-                    "east_m": pos[i][1],
-                    "yaw_rad": yaw[i],
-                    "speed_mps": speed[i],
-                    "yaw_rate_radps": rate[i],
-                },
-            )
+            state = {
+                "north_m": pos[i][0],
+                "east_m": pos[i][1],
+                "yaw_rad": yaw[i],
+                "speed_mps": speed[i],
+                "yaw_rate_radps": rate[i],
+            }
+            if speed_cmds_mps is not None:
+                state["speed_cmd_mps"] = speed_cmds_mps[i]
+            ep.tick(t_s, state)
             self.peers[i].recv()  # telemetry to the in-memory peer: nobody reads it in a run
         for camera in self.cameras:
             camera.tick(t_s)

@@ -315,7 +315,7 @@ class LinkTask:
         self._states: dict[str, tuple[int, bool]] = {}
 
     def __call__(self, t_s: float) -> None:
-        self.links.tick(t_s, self.sim.state())
+        self.links.tick(t_s, self.sim.state(), self.sim.commanded_speeds_mps())
         for driver in self.drivers:
             self.sim.set_command(driver.index, *driver.link_command())
         if self.recorder is not None:

@@ -946,3 +946,38 @@ def test_the_fence_cannot_be_enabled_when_there_is_none(bench: Bench) -> None:
     assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
     assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_ACCEPTED
     assert bench.ep.param("FENCE_ENABLE") == 1
+
+
+def test_vfr_hud_as_rover_fills_it(bench: Bench) -> None:
+    # QGroundControl's ground speed and throttle and MAVSDK's fixed-wing metrics come from it
+    out = [m for _ in range(50) for m in bench.tick(0.02)]  # 1 s
+    huds = [m for m in out if m.get_type() == "VFR_HUD"]
+    assert 3 <= len(huds) <= 5  # 4 Hz by default
+    hud = huds[-1]
+    assert hud.groundspeed == hud.airspeed == pytest.approx(0.2)  # no airspeed sensor: the ground speed
+    assert hud.heading == 28  # 0.5 rad = 28.6 degrees, in whole degrees as Rover's yaw_sensor / 100
+    assert hud.alt == pytest.approx(HOME[2], abs=1e-3) and hud.climb == 0.0
+    assert hud.throttle == 0  # disarmed: the motors are off
+
+    def throttle(**state: float) -> int:
+        bench.state = {**STATE, **state}
+        request = (mav.MAVLINK_MSG_ID_VFR_HUD, 0, 0, 0, 0, 0, 0)
+        bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+        return int([m for m in bench.tick(0.001) if m.get_type() == "VFR_HUD"][-1].throttle)
+
+    bench.ep.set_armed(True)
+    # Rover's base throttle: the commanded speed times CRUISE_THROTTLE (50 %) / CRUISE_SPEED (2 m/s)
+    assert throttle(speed_cmd_mps=1.0) == 25
+    assert throttle(speed_cmd_mps=-1.0) == 25  # reversing: its magnitude
+    assert throttle(speed_cmd_mps=9.0) == 100  # to at most 100 %
+    assert throttle() == 5  # no command given: what its speed (0.2 m/s) needs
+    bench.ep.params["CRUISE_SPEED"].value = 0.0
+    assert throttle(speed_cmd_mps=1.0) == 0  # Rover's guard against dividing by 0
+
+
+def test_extra2_is_vfr_huds_stream_group(bench: Bench) -> None:
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 10, 1))
+    bench.tick()
+    out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s
+    assert 18 <= _count(out, "VFR_HUD") <= 21
+    assert 18 <= _count(out, "ATTITUDE") <= 21  # EXTRA1 as it was (10 Hz)

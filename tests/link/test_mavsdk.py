@@ -83,6 +83,13 @@ async def session(port: int, home: tuple[float, float, float]) -> dict:
             if out["mode"] == FlightMode.MISSION and moved > 0.3:
                 break
         out["moved_m"] = moved
+        # VFR_HUD, which MAVSDK reads as "fixed-wing metrics" and QGroundControl as its
+        # ground speed and throttle: asked for faster, as a client does
+        await telemetry.set_rate_fixedwing_metrics(5.0)
+        hud = await telemetry.fixedwing_metrics()
+        out["hud"] = (hud.groundspeed_m_s, hud.throttle_percentage, hud.heading_deg, hud.absolute_altitude_m)
+        vel = await telemetry.velocity_ned()
+        out["speed"] = math.hypot(vel.north_m_s, vel.east_m_s)
         out["armed"] = await telemetry.armed()
         home_pos = await telemetry.home()
         out["home"] = (home_pos.latitude_deg, home_pos.longitude_deg)
@@ -110,6 +117,10 @@ def test_mavsdk_uploads_starts_watches_pauses_and_disarms(truth_convoy, backgrou
     assert out["downloaded"] == out["uploaded"]
     assert out["mode"] == FlightMode.MISSION and out["armed"]
     assert out["moved_m"] > 0.3
+    groundspeed, throttle, heading, alt = out["hud"]
+    assert groundspeed > 0.1 and groundspeed == pytest.approx(out["speed"], abs=0.1)
+    assert 0.1 <= throttle <= 1.0 and 0 <= heading < 360  # MAVSDK gives VFR_HUD's percent / 100
+    assert alt == pytest.approx(cfg.link.home_alt_m, abs=0.5)
     assert out["home"] == pytest.approx((cfg.link.home_lat_deg, cfg.link.home_lon_deg), abs=1e-6)
     assert out["mode_after_pause"] == FlightMode.HOLD
     assert out["armed_after"] is False

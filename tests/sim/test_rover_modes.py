@@ -156,3 +156,22 @@ def test_a_fence_breach_sends_the_leader_home() -> None:
     assert "RTL" in [name for name, _s in rep.leader_modes]
     assert any(text == "Fence breached: circle" for _t, text in links.endpoints[0].statustexts)
     assert math.hypot(*leader_at(rep, 60.0)) <= 0.8
+
+
+def test_vfr_hud_throttle_follows_each_vehicles_speed_command() -> None:
+    # the run sets each vehicle's CRUISE_SPEED to its WP_SPEED: cruising, the throttle reads
+    # CRUISE_THROTTLE (50 %); a ground station then stops the leader in HOLD
+    seen: dict[float, tuple[int, int, float]] = {}
+
+    def sample(t: float) -> Callable[[Links], None]:
+        def at(links: Links) -> None:
+            lead, follower = links.endpoints
+            seen[t] = (lead.throttle_pct(), follower.throttle_pct(), lead.state["speed_cmd_mps"])
+
+        return at
+
+    run_with({5.0: sample(5.0), 8.0: mode("HOLD"), 10.0: sample(10.0)}, duration_s=11.0)
+    lead, follower, command = seen[5.0]
+    assert command == pytest.approx(0.4, abs=0.02) and lead == 50  # AUTO, mid-leg at cruise_speed_mps
+    assert 0 < follower <= 100  # following: what its speed command needs
+    assert seen[10.0][0] == 0  # HOLD: commanded to stop
