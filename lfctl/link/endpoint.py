@@ -87,6 +87,7 @@ STREAMS = {
     "MISSION_CURRENT": 1.0,
     "HOME_POSITION": 0.5,
     "FENCE_STATUS": 1.0,
+    "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
@@ -103,6 +104,8 @@ MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
 _GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT", "VFR_HUD"))
+#: SYS_STATUS's battery fields, "not measured" (voltage, current, remaining): lfctl models no battery
+BATTERY_NOT_MEASURED = (0xFFFF, -1, -1)
 #: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
 SENSORS = (
     mav.MAV_SYS_STATUS_SENSOR_3D_GYRO
@@ -223,8 +226,9 @@ class VehicleEndpoint:
         self.tap = tap
         self.statustexts: list[tuple[float, str]] = []
         self._text_id = 0
-        self._intervals = {MSG_IDS[name]: 1.0 / rate for name, rate in STREAMS.items()}
-        self._next_due: dict[int, float] = {}
+        self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
+        # a message not streamed by default is not due until asked for
+        self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
         self._gcs_seen: float | None = None
         self._guided_stale_reported = False
@@ -570,8 +574,7 @@ class VehicleEndpoint:
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
-                self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
-                return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send
+                return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
             self._once.append(msg_id)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
@@ -657,10 +660,12 @@ class VehicleEndpoint:
         if interval_us == -1:
             self._intervals[msg_id] = math.inf
         elif interval_us == 0:
-            self._intervals[msg_id] = 1.0 / STREAMS[ID_NAMES[msg_id]]
+            self._intervals[msg_id] = _period(STREAMS[ID_NAMES[msg_id]])
         else:
             self._intervals[msg_id] = min(max(interval_us, 1000.0), 60e6) / 1e6
-        self._next_due[msg_id] = self.t_s
+        self._next_due[msg_id] = (
+            self.t_s if math.isfinite(self._intervals[msg_id]) else math.inf
+        )  # stopped: not once more
         return mav.MAV_RESULT_ACCEPTED
 
     def _get_interval(self, msg_id_f: float) -> int:
@@ -688,8 +693,8 @@ class VehicleEndpoint:
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
         for name in names:
             msg_id = MSG_IDS[name]
-            self._intervals[msg_id] = 1.0 / hz if hz > 0 else math.inf
-            self._next_due[msg_id] = self.t_s
+            self._intervals[msg_id] = _period(hz)
+            self._next_due[msg_id] = self.t_s if hz > 0 else math.inf
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
         kind = _as_int(speed_type, 0, 3)
@@ -1101,10 +1106,19 @@ class VehicleEndpoint:
             if self.mode == MODES[name] or self.set_mode(MODES[name]):
                 return
 
+    def system_status(self) -> int:
+        """HEARTBEAT's MAV_STATE as Rover's ``vehicle_system_status``: CRITICAL in a failsafe,
+        STANDBY in HOLD, ACTIVE otherwise, armed or not (QGroundControl takes an armed
+        vehicle that is ACTIVE as moving, and then offers no Disarm)."""
+        if self._gcs_failsafe:
+            return int(mav.MAV_STATE_CRITICAL)
+        return int(mav.MAV_STATE_STANDBY if self.mode == MODES["HOLD"] else mav.MAV_STATE_ACTIVE)
+
     def throttle_pct(self) -> int:
         """The throttle VFR_HUD reports, percent (0-100): Rover's speed controller's base
         throttle, the commanded speed times ``CRUISE_THROTTLE`` / ``CRUISE_SPEED``, its
-        magnitude, to at most 100; 0 disarmed or with either parameter 0.
+        magnitude, to at most 100, truncated to a whole percent as Rover's ``int16_t``; 0
+        disarmed or with either parameter 0.
 
         The command is the state's ``speed_cmd_mps``; a vehicle ticked without one reports
         what its speed needs (the command it would hold at steady state).
@@ -1115,7 +1129,7 @@ class VehicleEndpoint:
         command = self.state.get("speed_cmd_mps", self.state["speed_mps"])
         if not math.isfinite(command):
             return 0
-        return int(round(min(100.0, abs(command) * cruise_throttle / cruise_speed)))
+        return int(min(100.0, abs(command) * cruise_throttle / cruise_speed))  # int16_t: truncated
 
     def _record_path(self) -> None:
         """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes."""
@@ -1148,7 +1162,7 @@ class VehicleEndpoint:
                     mav.MAV_AUTOPILOT_ARDUPILOTMEGA,
                     base,
                     self.mode,
-                    mav.MAV_STATE_ACTIVE if self.armed else mav.MAV_STATE_STANDBY,
+                    self.system_status(),
                     3,
                 )
             )
@@ -1159,7 +1173,14 @@ class VehicleEndpoint:
             enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
             health = SENSORS | (fence if self.fence_breach is None else 0)
             self.send(
-                mav.MAVLink_sys_status_message(SENSORS | fence, enabled, health, 200, 12000, 100, 90, 0, 0, 0, 0, 0, 0)
+                mav.MAVLink_sys_status_message(
+                    SENSORS | fence, enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
+                )
+            )
+        elif name == "EXTENDED_SYS_STATE":
+            # ArduPilot's for a vehicle that reports no VTOL or landed state
+            self.send(
+                mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, mav.MAV_LANDED_STATE_UNDEFINED)
             )
         elif name == "GPS_RAW_INT":
             self.send(
@@ -1181,7 +1202,9 @@ class VehicleEndpoint:
             # as Rover fills it: its ground speed as the airspeed too, the heading in whole
             # degrees, the throttle's magnitude (percent), the altitude above sea level
             speed = abs(s["speed_mps"])
-            self.send(mav.MAVLink_vfr_hud_message(speed, speed, hdg // 100, self.throttle_pct(), alt, 0.0))
+            yaw_cd = int(math.degrees(s["yaw_rad"]) * 100)  # Rover's yaw_sensor: truncated centidegrees
+            heading = (yaw_cd + 36000 if yaw_cd < 0 else yaw_cd) // 100 % 360
+            self.send(mav.MAVLink_vfr_hud_message(speed, speed, heading, self.throttle_pct(), alt, 0.0))
         elif name == "ATTITUDE":
             self.send(
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])
@@ -1225,6 +1248,11 @@ class VehicleEndpoint:
                     caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
+
+
+def _period(rate_hz: float) -> float:
+    """A stream's period, s: infinite (not sent) at 0 Hz."""
+    return 1.0 / rate_hz if rate_hz > 0 else math.inf
 
 
 def _text(value: str | bytes) -> str:

@@ -968,11 +968,30 @@ def test_vfr_hud_as_rover_fills_it(bench: Bench) -> None:
     bench.ep.set_armed(True)
     # Rover's base throttle: the commanded speed times CRUISE_THROTTLE (50 %) / CRUISE_SPEED (2 m/s)
     assert throttle(speed_cmd_mps=1.0) == 25
+    assert throttle(speed_cmd_mps=0.99) == 24  # 24.75, truncated as Rover's int16_t
     assert throttle(speed_cmd_mps=-1.0) == 25  # reversing: its magnitude
     assert throttle(speed_cmd_mps=9.0) == 100  # to at most 100 %
     assert throttle() == 5  # no command given: what its speed (0.2 m/s) needs
+    bench.ep.params["CRUISE_THROTTLE"].value = 0
+    assert throttle(speed_cmd_mps=1.0) == 0
+    bench.ep.params["CRUISE_THROTTLE"].value = 50
     bench.ep.params["CRUISE_SPEED"].value = 0.0
     assert throttle(speed_cmd_mps=1.0) == 0  # Rover's guard against dividing by 0
+    assert throttle(speed_cmd_mps=NAN) == 0 and bench.ep.stats.handler_errors == 0
+
+
+@pytest.mark.parametrize(("yaw_deg", "heading"), [(28.996, 28), (359.999, 359), (-0.5, 359), (-0.004, 0), (180.0, 180)])
+def test_vfr_hud_heading_in_whole_degrees_as_rovers_yaw_sensor(bench: Bench, yaw_deg: float, heading: int) -> None:
+    bench.state = {**STATE, "yaw_rad": math.radians(yaw_deg)}
+    request = (mav.MAVLINK_MSG_ID_VFR_HUD, 0, 0, 0, 0, 0, 0)
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+    assert [m for m in bench.tick(0.001) if m.get_type() == "VFR_HUD"][-1].heading == heading
+
+
+def test_cruise_throttle_is_an_int8_percent_as_on_rover(bench: Bench) -> None:
+    bench.send(mav.MAVLink_param_request_read_message(1, 1, b"CRUISE_THROTTLE", -1))
+    (value,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert value.param_type == mav.MAV_PARAM_TYPE_INT8 and value.param_value == 50
 
 
 def test_extra2_is_vfr_huds_stream_group(bench: Bench) -> None:
@@ -981,3 +1000,62 @@ def test_extra2_is_vfr_huds_stream_group(bench: Bench) -> None:
     out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s
     assert 18 <= _count(out, "VFR_HUD") <= 21
     assert 18 <= _count(out, "ATTITUDE") <= 21  # EXTRA1 as it was (10 Hz)
+
+
+def _heartbeat_state(bench: Bench) -> int:
+    beats = [m for _ in range(60) for m in bench.tick(0.02) if m.get_type() == "HEARTBEAT"]
+    return int(beats[-1].system_status)
+
+
+def test_heartbeat_state_as_rover_says_it(bench: Bench) -> None:
+    # QGroundControl takes an armed vehicle that is ACTIVE as moving: no Disarm, no Start Mission
+    assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_STANDBY
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    assert _heartbeat_state(bench) == mav.MAV_STATE_ACTIVE  # disarmed, not in HOLD: ACTIVE, as on Rover
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.set_armed(True)
+    assert _heartbeat_state(bench) == mav.MAV_STATE_STANDBY  # HOLD, armed or not
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert _heartbeat_state(bench) == mav.MAV_STATE_ACTIVE
+    bench.ep.params["FS_GCS_ENABLE"].value = 1
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    bench.tick(6.0)  # the ground station's heartbeat lost (FS_GCS_TIMEOUT 5 s): HOLD, in a failsafe
+    assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
+
+
+def test_a_message_not_sent_is_refused_without_a_text_when_requested_once(bench: Bench) -> None:
+    # QGroundControl asks for COMPONENT_METADATA (397) and AVAILABLE_MODES (435) on connecting
+    for msg_id in (397, 435):
+        request = (msg_id, 0, 0, 0, 0, 0, 0)
+        bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+        out = bench.tick()
+        (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
+        assert ack.result == mav.MAV_RESULT_FAILED and _count(out, "STATUSTEXT") == 0
+    # a stream asked for: ArduPilot says it has no such message
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 397, 1e6) == mav.MAV_RESULT_FAILED
+    assert any("No ap_message for mavlink id (397)" in t for _, t in bench.ep.statustexts)
+
+
+def test_extended_sys_state_is_sent_when_asked_for(bench: Bench) -> None:
+    # QGroundControl asks for it (and BATTERY_STATUS's absence makes it ask every 10 s)
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    assert _count(out, "EXTENDED_SYS_STATE") == 0  # not streamed by default
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 500_000) == 0
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    states = [m for m in out if m.get_type() == "EXTENDED_SYS_STATE"]
+    assert 3 <= len(states) <= 5 and states[-1].landed_state == mav.MAV_LANDED_STATE_UNDEFINED
+    assert not bench.ep.statustexts or all("No ap_message" not in t for _, t in bench.ep.statustexts)
+
+
+def test_a_stopped_message_is_not_sent_once_more(bench: Bench) -> None:
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, -1) == 0
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 0, 0))
+    out = bench.tick()
+    assert _count(out, "ATTITUDE") == _count(out, "GLOBAL_POSITION_INT") == 0
+
+
+def test_sys_status_says_the_battery_is_not_measured(bench: Bench) -> None:
+    (status,) = [m for m in bench.tick() if m.get_type() == "SYS_STATUS"]
+    assert (status.voltage_battery, status.current_battery, status.battery_remaining) == (0xFFFF, -1, -1)

@@ -119,7 +119,9 @@ def test_mavsdk_uploads_starts_watches_pauses_and_disarms(truth_convoy, backgrou
     assert out["moved_m"] > 0.3
     groundspeed, throttle, heading, alt = out["hud"]
     assert groundspeed > 0.1 and groundspeed == pytest.approx(out["speed"], abs=0.1)
-    assert 0.1 <= throttle <= 1.0 and 0 <= heading < 360  # MAVSDK gives VFR_HUD's percent / 100
+    # MAVSDK gives VFR_HUD's percent / 100; at the mission's speed (the run's CRUISE_SPEED) it is
+    # CRUISE_THROTTLE, 50 %
+    assert throttle == pytest.approx(0.5, abs=0.1) and 0 <= heading < 360
     assert alt == pytest.approx(cfg.link.home_alt_m, abs=0.5)
     assert out["home"] == pytest.approx((cfg.link.home_lat_deg, cfg.link.home_lon_deg), abs=1e-6)
     assert out["mode_after_pause"] == FlightMode.HOLD

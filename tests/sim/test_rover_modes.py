@@ -161,17 +161,19 @@ def test_a_fence_breach_sends_the_leader_home() -> None:
 def test_vfr_hud_throttle_follows_each_vehicles_speed_command() -> None:
     # the run sets each vehicle's CRUISE_SPEED to its WP_SPEED: cruising, the throttle reads
     # CRUISE_THROTTLE (50 %); a ground station then stops the leader in HOLD
-    seen: dict[float, tuple[int, int, float]] = {}
+    seen: dict[float, list[tuple[int, float, float]]] = {}
 
     def sample(t: float) -> Callable[[Links], None]:
         def at(links: Links) -> None:
-            lead, follower = links.endpoints
-            seen[t] = (lead.throttle_pct(), follower.throttle_pct(), lead.state["speed_cmd_mps"])
+            seen[t] = [
+                (ep.throttle_pct(), ep.state["speed_cmd_mps"], ep.param("CRUISE_SPEED")) for ep in links.endpoints
+            ]
 
         return at
 
     run_with({5.0: sample(5.0), 8.0: mode("HOLD"), 10.0: sample(10.0)}, duration_s=11.0)
-    lead, follower, command = seen[5.0]
-    assert command == pytest.approx(0.4, abs=0.02) and lead == 50  # AUTO, mid-leg at cruise_speed_mps
-    assert 0 < follower <= 100  # following: what its speed command needs
-    assert seen[10.0][0] == 0  # HOLD: commanded to stop
+    (lead, command, cruise), (follower, f_command, f_cruise) = seen[5.0]
+    assert (cruise, f_cruise) == (0.4, 0.5)  # [mission] cruise_speed_mps, [guidance] max_speed_mps
+    assert command == pytest.approx(0.4, abs=0.02) and lead == 50  # AUTO, mid-leg at its cruise
+    assert f_command > 0.05 and follower == int(f_command * 50 / 0.5)  # following: what its command needs
+    assert seen[10.0][0][0] == 0  # HOLD: commanded to stop
