@@ -58,6 +58,8 @@ NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
 #: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks (ArduPilot's magic number)
 FORCE_ARM = 21196.0
 MODE_NAMES = {v: k for k, v in MODES.items()}
+#: Rover's autopilot modes (``is_autopilot_mode``): HEARTBEAT's GUIDED_ENABLED, NAV_CONTROLLER_OUTPUT
+AUTOPILOT_MODES = frozenset(MODES[n] for n in ("AUTO", "GUIDED", "RTL", "SMART_RTL"))
 #: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
 GCS_COMPID = 190
 COMPANION_COMPID = 191
@@ -87,13 +89,20 @@ STREAMS = {
     "MISSION_CURRENT": 1.0,
     "HOME_POSITION": 0.5,
     "FENCE_STATUS": 1.0,
+    "NAV_CONTROLLER_OUTPUT": 2.0,
     "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
 #: this vehicle sends in them
 DATA_STREAMS: dict[int, tuple[str, ...]] = {
-    mav.MAV_DATA_STREAM_EXTENDED_STATUS: ("SYS_STATUS", "MISSION_CURRENT", "GPS_RAW_INT", "FENCE_STATUS"),
+    mav.MAV_DATA_STREAM_EXTENDED_STATUS: (
+        "SYS_STATUS",
+        "MISSION_CURRENT",
+        "GPS_RAW_INT",
+        "NAV_CONTROLLER_OUTPUT",
+        "FENCE_STATUS",
+    ),
     mav.MAV_DATA_STREAM_POSITION: ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED"),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
     mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
@@ -121,6 +130,17 @@ SENSORS = (
 HOME_MIN_CHANGE_M = 0.5
 #: FENCE_ACTION values (Rover's FailsafeAction)
 FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
+
+
+@dataclass(frozen=True)
+class NavReport:
+    """Where a vehicle's autopilot is steering, for NAV_CONTROLLER_OUTPUT (local NED angles,
+    from north, clockwise)."""
+
+    nav_bearing_rad: float  # the heading it steers
+    target_bearing_rad: float  # from the vehicle to its destination
+    distance_m: float  # to its destination
+    cross_track_m: float  # from the leg it follows, positive right of it
 
 
 @dataclass
@@ -218,6 +238,8 @@ class VehicleEndpoint:
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
+        #: where the autopilot steers now (the vehicle's driver sets it; None: no destination)
+        self.nav: NavReport | None = None
         self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
         self.fence_breach: str | None = None
         self.fence_breaches = 0
@@ -1152,7 +1174,7 @@ class VehicleEndpoint:
         hdg = int(round(math.degrees(s["yaw_rad"]) % 360 * 100)) % 36000
         if name == "HEARTBEAT":
             base = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | (mav.MAV_MODE_FLAG_SAFETY_ARMED if self.armed else 0)
-            if self.mode in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
+            if self.mode in AUTOPILOT_MODES:
                 base |= mav.MAV_MODE_FLAG_GUIDED_ENABLED  # Rover: an autopilot mode
             elif self.mode == MODES["MANUAL"]:
                 base |= mav.MAV_MODE_FLAG_MANUAL_INPUT_ENABLED  # Rover: a mode with manual input
@@ -1177,6 +1199,17 @@ class VehicleEndpoint:
                     SENSORS | fence, enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
                 )
             )
+        elif name == "NAV_CONTROLLER_OUTPUT":
+            # Rover's, in an autopilot mode with a destination: bearings in whole degrees,
+            # the distance in whole metres, no pitch, altitude or speed error
+            nav = self.nav
+            if nav is not None and self.mode in AUTOPILOT_MODES:
+                self.send(
+                    mav.MAVLink_nav_controller_output_message(
+                        0.0, 0.0, _whole_degrees(nav.nav_bearing_rad), _whole_degrees(nav.target_bearing_rad),
+                        min(int(nav.distance_m), 0xFFFF), 0.0, 0.0, nav.cross_track_m,
+                    )
+                )  # fmt: skip
         elif name == "EXTENDED_SYS_STATE":
             # ArduPilot's for a vehicle that reports no VTOL or landed state
             self.send(
@@ -1248,6 +1281,11 @@ class VehicleEndpoint:
                     caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
+
+
+def _whole_degrees(angle_rad: float) -> int:
+    """A bearing in whole degrees, 0-359, truncated (Rover's centidegrees / 100)."""
+    return int(math.degrees(angle_rad) % 360.0) % 360 if math.isfinite(angle_rad) else 0
 
 
 def _period(rate_hz: float) -> float:

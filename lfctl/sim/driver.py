@@ -23,8 +23,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.config import Config
 from lfctl.frames import wrap_pi
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
+from lfctl.guidance.los import LosOutput
 from lfctl.guidance.smc import BearingGains, SlidingModeController
-from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.link.endpoint import MODES, NavReport, VehicleEndpoint
 from lfctl.link.mission import Leg, to_legs
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
@@ -107,7 +108,8 @@ class VehicleDriver:
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
-        """The vehicle's command at ``t_s`` (kept in :attr:`command`).
+        """The vehicle's command at ``t_s`` (kept in :attr:`command`); where it steers goes to
+        the endpoint's ``nav`` (NAV_CONTROLLER_OUTPUT), None when it has no destination.
 
         Parameters
         ----------
@@ -116,6 +118,7 @@ class VehicleDriver:
         world : WorldState
             The truth.
         """
+        self.endpoint.nav = None  # set by the modes that steer for a destination
         self.command = self._command(t_s, world)
         return self.command
 
@@ -172,6 +175,7 @@ class VehicleDriver:
         assert self._autopilot is not None
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._autopilot.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
+        ep.nav = _nav_report(out.los, ep.reversed)
         for k in out.los.reached:
             seq = self._legs[k].seq
             ep.reached(seq, last=k == len(self._legs) - 1)
@@ -231,6 +235,14 @@ class VehicleDriver:
             self._goto = LeaderAutopilot(route, settings, (me.north_m, me.east_m))
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._goto.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
+        ep.nav = _nav_report(out.los, ep.reversed)
         arrived = self._goto.done and not self._goto_done
         self._goto_done = self._goto.done
         return arrived, ((-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps)
+
+
+def _nav_report(los: LosOutput, reversed_: bool) -> NavReport:
+    """Where the waypoint guidance steers, as NAV_CONTROLLER_OUTPUT gives it: a vehicle driving
+    in reverse steers its tail, so its body heads the other way."""
+    heading = los.heading_cmd_rad + math.pi if reversed_ else los.heading_cmd_rad
+    return NavReport(heading, los.los_angle_rad, los.distance_to_go_m, los.cross_track_m)

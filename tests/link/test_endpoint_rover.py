@@ -1059,3 +1059,28 @@ def test_a_stopped_message_is_not_sent_once_more(bench: Bench) -> None:
 def test_sys_status_says_the_battery_is_not_measured(bench: Bench) -> None:
     (status,) = [m for m in bench.tick() if m.get_type() == "SYS_STATUS"]
     assert (status.voltage_battery, status.current_battery, status.battery_remaining) == (0xFFFF, -1, -1)
+
+
+def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> None:
+    # MAVProxy's console (distance and bearing to the waypoint) and QGroundControl read it
+    from lfctl.link.endpoint import NavReport
+
+    def navs(seconds: float = 1.0) -> list[object]:
+        out = [m for _ in range(int(seconds / 0.02)) for m in bench.tick(0.02)]
+        return [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
+
+    bench.ep.nav = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4)
+    assert navs() == []  # HOLD: not an autopilot mode, as on Rover
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    got = navs()
+    assert len(got) == 2  # 2 Hz, in EXTENDED_STATUS
+    n = got[-1]
+    assert (n.nav_bearing, n.target_bearing, n.wp_dist) == (349, 350, 12)  # whole degrees and metres
+    assert n.xtrack_error == pytest.approx(-0.4) and n.nav_roll == n.nav_pitch == n.aspd_error == 0
+    bench.ep.nav = NavReport(0.0, 0.0, 1e6, 0.0)
+    assert navs()[-1].wp_dist == 0xFFFF  # at most the field's largest
+    bench.ep.nav = None
+    assert navs() == []  # no destination (speed and turn-rate setpoints): nothing to say
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTENDED_STATUS, 10, 1))
+    bench.ep.nav = NavReport(0.0, 0.0, 3.0, 0.0)
+    assert 9 <= len(navs()) <= 11  # the group's rate

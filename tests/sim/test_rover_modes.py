@@ -177,3 +177,44 @@ def test_vfr_hud_throttle_follows_each_vehicles_speed_command() -> None:
     assert command == pytest.approx(0.4, abs=0.02) and lead == 50  # AUTO, mid-leg at its cruise
     assert f_command > 0.05 and follower == int(f_command * 50 / 0.5)  # following: what its command needs
     assert seen[10.0][0][0] == 0  # HOLD: commanded to stop
+
+
+def test_nav_controller_output_follows_the_leaders_destination() -> None:
+    seen: dict[float, object] = {}
+
+    def sample(t: float) -> Callable[[Links], None]:
+        def at(links: Links) -> None:
+            ep = links.endpoints[0]
+            seen[t] = (ep.nav, ep.state["north_m"], ep.state["east_m"], links.endpoints[1].nav)
+
+        return at
+
+    goal = (1.0, 4.0)  # GUIDED "go here" (DO_REPOSITION) after the first leg
+    run_with(
+        {
+            4.0: sample(4.0),
+            20.0: mode("GUIDED"),
+            20.1: lambda links: send(
+                links,
+                mav.MAVLink_command_int_message(
+                    1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0,
+                    *latlon(links, *goal), 0,
+                ),
+            ),
+            22.0: sample(22.0),
+            23.0: mode("HOLD"),
+            24.0: sample(24.0),
+        },
+        duration_s=25.0,
+    )  # fmt: skip
+    nav, n, e, follower = seen[4.0]
+    assert nav is not None and follower is None  # AUTO; the follower drives on setpoints
+    assert nav.distance_m == pytest.approx(math.hypot(6.0 - n, 0.0 - e), abs=0.15)  # to waypoint (6, 0)
+    assert abs(math.degrees(wrap(nav.target_bearing_rad))) < 5 and abs(nav.cross_track_m) < 0.2
+    nav, n, e, _ = seen[22.0]
+    assert nav is not None and nav.distance_m == pytest.approx(math.hypot(goal[0] - n, goal[1] - e), abs=0.15)
+    assert seen[24.0][0] is None  # HOLD: no destination
+
+
+def wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
