@@ -238,8 +238,7 @@ class VehicleEndpoint:
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
-        #: where the autopilot steers now (the vehicle's driver sets it; None: no destination)
-        self.nav: NavReport | None = None
+        self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
         self.fence_breach: str | None = None
         self.fence_breaches = 0
@@ -255,6 +254,7 @@ class VehicleEndpoint:
         self._gcs_seen: float | None = None
         self._guided_stale_reported = False
         self._gcs_failsafe = False
+        self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
         self.t_s = 0.0
         self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
@@ -506,7 +506,7 @@ class VehicleEndpoint:
         if m.type == mav.MAV_TYPE_GCS:
             self._gcs_seen = self.t_s
             if self._gcs_failsafe:
-                self._gcs_failsafe = False
+                self._gcs_failsafe = self._failsafe_acted = False
                 self.statustext("Failsafe cleared: ground station heartbeat back", mav.MAV_SEVERITY_INFO)
 
     # -- modes --------------------------------------------------------------------------------
@@ -1092,6 +1092,7 @@ class VehicleEndpoint:
             self._gcs_failsafe = True
             if self.armed and self.mode != MODES["HOLD"]:
                 self._enter(MODES["HOLD"])
+                self._failsafe_acted = True
             self.statustext("Failsafe: ground station heartbeat lost, HOLD")
 
     def _check_fence(self) -> None:
@@ -1128,11 +1129,29 @@ class VehicleEndpoint:
             if self.mode == MODES[name] or self.set_mode(MODES[name]):
                 return
 
+    def steering(self, report: NavReport | None) -> None:
+        """Where the vehicle's autopilot steers now (its driver tells it at each guidance step;
+        None: no destination). It holds until the mode, the arming, the reversing, the
+        mission or the GUIDED target changes, whichever comes first."""
+        self._nav = None if report is None else (report, self._nav_context())
+
+    @property
+    def nav(self) -> NavReport | None:
+        """The last :meth:`steering` report, None once what it steered for has changed."""
+        if self._nav is None or self._nav[1] != self._nav_context():
+            return None
+        return self._nav[0]
+
+    def _nav_context(self) -> tuple[object, ...]:
+        return (self.mode, self.armed, self.reversed, self.mission_version, self.guided)
+
     def system_status(self) -> int:
-        """HEARTBEAT's MAV_STATE as Rover's ``vehicle_system_status``: CRITICAL in a failsafe,
-        STANDBY in HOLD, ACTIVE otherwise, armed or not (QGroundControl takes an armed
-        vehicle that is ACTIVE as moving, and then offers no Disarm)."""
-        if self._gcs_failsafe:
+        """HEARTBEAT's MAV_STATE as Rover's ``vehicle_system_status``: CRITICAL while a
+        failsafe that acted lasts (one that found the vehicle disarmed or in HOLD did not act,
+        as Rover's ``failsafe.triggered``), STANDBY in HOLD, ACTIVE otherwise, armed or not
+        (QGroundControl takes an armed vehicle that is ACTIVE as moving, and then offers no
+        Disarm)."""
+        if self._failsafe_acted:
             return int(mav.MAV_STATE_CRITICAL)
         return int(mav.MAV_STATE_STANDBY if self.mode == MODES["HOLD"] else mav.MAV_STATE_ACTIVE)
 
@@ -1203,11 +1222,11 @@ class VehicleEndpoint:
             # Rover's, in an autopilot mode with a destination: bearings in whole degrees,
             # the distance in whole metres, no pitch, altitude or speed error
             nav = self.nav
-            if nav is not None and self.mode in AUTOPILOT_MODES:
+            if nav is not None and self.mode in AUTOPILOT_MODES and math.isfinite(nav.distance_m):
                 self.send(
                     mav.MAVLink_nav_controller_output_message(
                         0.0, 0.0, _whole_degrees(nav.nav_bearing_rad), _whole_degrees(nav.target_bearing_rad),
-                        min(int(nav.distance_m), 0xFFFF), 0.0, 0.0, nav.cross_track_m,
+                        min(int(nav.distance_m), 0xFFFF), 0.0, 0.0, -nav.cross_track_m,  # Rover's: + left
                     )
                 )  # fmt: skip
         elif name == "EXTENDED_SYS_STATE":

@@ -109,7 +109,7 @@ class VehicleDriver:
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
         """The vehicle's command at ``t_s`` (kept in :attr:`command`); where it steers goes to
-        the endpoint's ``nav`` (NAV_CONTROLLER_OUTPUT), None when it has no destination.
+        the endpoint's :meth:`~lfctl.link.endpoint.VehicleEndpoint.steering` (NAV_CONTROLLER_OUTPUT), None when it has no destination.
 
         Parameters
         ----------
@@ -118,7 +118,7 @@ class VehicleDriver:
         world : WorldState
             The truth.
         """
-        self.endpoint.nav = None  # set by the modes that steer for a destination
+        self.endpoint.steering(None)  # told again by the modes that steer for a destination
         self.command = self._command(t_s, world)
         return self.command
 
@@ -175,13 +175,13 @@ class VehicleDriver:
         assert self._autopilot is not None
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._autopilot.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
-        ep.nav = _nav_report(out.los, ep.reversed)
         for k in out.los.reached:
             seq = self._legs[k].seq
             ep.reached(seq, last=k == len(self._legs) - 1)
             self.reached.append((seq - 1, t_s))
             if self.on_reached is not None:
                 self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1)
+        ep.steering(_nav_report(out.los, ep.reversed))  # after the items reached moved the current one
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
     # -- GUIDED --------------------------------------------------------------------------------
@@ -235,7 +235,7 @@ class VehicleDriver:
             self._goto = LeaderAutopilot(route, settings, (me.north_m, me.east_m))
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._goto.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
-        ep.nav = _nav_report(out.los, ep.reversed)
+        ep.steering(_nav_report(out.los, ep.reversed))
         arrived = self._goto.done and not self._goto_done
         self._goto_done = self._goto.done
         return arrived, ((-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps)

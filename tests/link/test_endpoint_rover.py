@@ -1022,6 +1022,19 @@ def test_heartbeat_state_as_rover_says_it(bench: Bench) -> None:
     bench.tick()
     bench.tick(6.0)  # the ground station's heartbeat lost (FS_GCS_TIMEOUT 5 s): HOLD, in a failsafe
     assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    assert _heartbeat_state(bench) == mav.MAV_STATE_STANDBY  # back: the failsafe is over, still in HOLD
+
+
+def test_a_failsafe_that_finds_the_vehicle_disarmed_is_not_critical(bench: Bench) -> None:
+    # Rover's failsafe.triggered: only a failsafe that took the vehicle out of its mode
+    bench.ep.params["FS_GCS_ENABLE"].value = 1
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    bench.tick(6.0)
+    assert bench.ep.mode == MODES["MANUAL"] and _heartbeat_state(bench) == mav.MAV_STATE_ACTIVE
 
 
 def test_a_message_not_sent_is_refused_without_a_text_when_requested_once(bench: Bench) -> None:
@@ -1049,10 +1062,11 @@ def test_extended_sys_state_is_sent_when_asked_for(bench: Bench) -> None:
 
 
 def test_a_stopped_message_is_not_sent_once_more(bench: Bench) -> None:
-    bench.tick()
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, -1) == 0
+    bench.tick()  # every stream sent once; the next ATTITUDE and GLOBAL_POSITION_INT due in 0.1 s
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, 30, -1, 0, 0, 0, 0, 0))
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 0, 0))
-    out = bench.tick()
+    out = bench.tick()  # the tick that takes both
+    assert _count(out, "COMMAND_ACK") == 1
     assert _count(out, "ATTITUDE") == _count(out, "GLOBAL_POSITION_INT") == 0
 
 
@@ -1069,18 +1083,30 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
         out = [m for _ in range(int(seconds / 0.02)) for m in bench.tick(0.02)]
         return [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
 
-    bench.ep.nav = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4)
+    report = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4)  # 0.4 m left of its leg
+    bench.ep.steering(report)
     assert navs() == []  # HOLD: not an autopilot mode, as on Rover
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert navs() == []  # the report was for HOLD: not sent once the mode changed
+    bench.ep.steering(report)
     got = navs()
     assert len(got) == 2  # 2 Hz, in EXTENDED_STATUS
     n = got[-1]
     assert (n.nav_bearing, n.target_bearing, n.wp_dist) == (349, 350, 12)  # whole degrees and metres
-    assert n.xtrack_error == pytest.approx(-0.4) and n.nav_roll == n.nav_pitch == n.aspd_error == 0
-    bench.ep.nav = NavReport(0.0, 0.0, 1e6, 0.0)
+    assert n.xtrack_error == pytest.approx(0.4)  # Rover's sign: positive left of the track
+    assert n.nav_roll == n.nav_pitch == n.aspd_error == n.alt_error == 0
+    bench.ep.steering(NavReport(0.0, 0.0, 1e6, 0.0))
     assert navs()[-1].wp_dist == 0xFFFF  # at most the field's largest
-    bench.ep.nav = None
+    bench.ep.steering(NavReport(0.0, 0.0, NAN, 0.0))
+    assert navs() == [] and bench.ep.stats.handler_errors == 0
+    bench.ep.steering(None)
     assert navs() == []  # no destination (speed and turn-rate setpoints): nothing to say
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTENDED_STATUS, 10, 1))
-    bench.ep.nav = NavReport(0.0, 0.0, 3.0, 0.0)
-    assert 9 <= len(navs()) <= 11  # the group's rate
+    bench.tick()
+    bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0))
+    assert 16 <= len(navs(2.0)) <= 21  # the group's rate (10 Hz, on 50 Hz ticks)
+    for change in (lambda: bench.ep.set_armed(False), lambda: bench.command(mav.MAV_CMD_DO_SET_REVERSE, 1)):
+        bench.ep.set_armed(True)
+        bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0))
+        change()
+        assert navs(0.2) == []  # what it steered for changed: nothing stale goes out

@@ -180,41 +180,67 @@ def test_vfr_hud_throttle_follows_each_vehicles_speed_command() -> None:
 
 
 def test_nav_controller_output_follows_the_leaders_destination() -> None:
-    seen: dict[float, object] = {}
+    seen: dict[float, tuple[object, float, float, object]] = {}
 
     def sample(t: float) -> Callable[[Links], None]:
         def at(links: Links) -> None:
             ep = links.endpoints[0]
-            seen[t] = (ep.nav, ep.state["north_m"], ep.state["east_m"], links.endpoints[1].nav)
+            seen[t] = (wire_nav(links), ep.state["north_m"], ep.state["east_m"], links.endpoints[1].nav)
 
         return at
 
-    goal = (1.0, 4.0)  # GUIDED "go here" (DO_REPOSITION) after the first leg
+    goal = (1.0, 4.0)  # GUIDED "go here" (DO_REPOSITION) after the second leg has begun
     run_with(
         {
             4.0: sample(4.0),
-            20.0: mode("GUIDED"),
-            20.1: lambda links: send(
+            **{t: sample(t) for t in (18.0, 19.0, 20.0, 21.0, 22.0)},
+            24.0: mode("GUIDED"),
+            24.1: lambda links: send(
                 links,
                 mav.MAVLink_command_int_message(
                     1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0,
                     *latlon(links, *goal), 0,
                 ),
             ),
-            22.0: sample(22.0),
-            23.0: mode("HOLD"),
-            24.0: sample(24.0),
+            26.0: sample(26.0),
+            27.0: mode("HOLD"),
+            28.0: sample(28.0),
         },
-        duration_s=25.0,
+        duration_s=29.0,
     )  # fmt: skip
     nav, n, e, follower = seen[4.0]
     assert nav is not None and follower is None  # AUTO; the follower drives on setpoints
-    assert nav.distance_m == pytest.approx(math.hypot(6.0 - n, 0.0 - e), abs=0.15)  # to waypoint (6, 0)
-    assert abs(math.degrees(wrap(nav.target_bearing_rad))) < 5 and abs(nav.cross_track_m) < 0.2
-    nav, n, e, _ = seen[22.0]
-    assert nav is not None and nav.distance_m == pytest.approx(math.hypot(goal[0] - n, goal[1] - e), abs=0.15)
-    assert seen[24.0][0] is None  # HOLD: no destination
+    assert nav.wp_dist == int(math.hypot(6.0 - n, 0.0 - e))  # to waypoint (6, 0), whole metres
+    assert nav.target_bearing in (0, 359) and nav.nav_bearing in (0, 1, 358, 359)
+    offsets = []
+    for t in (18.0, 19.0, 20.0, 21.0, 22.0):  # on the second leg, (6, 0) to (6, 6), heading east
+        nav, n, e, _ = seen[t]
+        assert nav is not None and nav.target_bearing in range(60, 121)
+        # Rover's sign: + left (north) of the leg; the guidance ran up to 1/20 s before
+        assert nav.xtrack_error == pytest.approx(n - 6.0, abs=0.005)
+        offsets.append(abs(n - 6.0))
+    assert max(offsets) > 0.02  # off the leg by more than the tolerance: the sign is tested
+    nav, n, e, _ = seen[26.0]
+    assert nav is not None and nav.wp_dist == int(math.hypot(goal[0] - n, goal[1] - e))
+    assert seen[28.0][0] is None  # HOLD: no destination, nothing sent
 
 
-def wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
+def wire_nav(links: Links) -> object | None:
+    """The leader's NAV_CONTROLLER_OUTPUT as it would go out now, decoded (None: not sent)."""
+    links.peers[0].recv()  # what the run sent before
+    links.endpoints[0]._send_by_id(mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT)
+    parser = mav.MAVLink(None)
+    got = [m for data, _ in links.peers[0].recv() for m in parser.parse_buffer(data) or []]
+    navs = [m for m in got if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
+    return navs[-1] if navs else None
+
+
+def test_the_nav_report_is_the_waypoint_guidances_and_a_reversed_body_heads_the_other_way() -> None:
+    from lfctl.guidance.los import LosOutput
+    from lfctl.sim.driver import _nav_report
+
+    los = LosOutput(0.3, 0.2, 0.5, 0.25, 4.0, 1, (), False)
+    from lfctl.link.endpoint import NavReport
+
+    assert _nav_report(los, False) == NavReport(0.3, 0.5, 4.0, 0.25)
+    assert _nav_report(los, True).nav_bearing_rad == pytest.approx(0.3 + math.pi)
