@@ -1130,9 +1130,16 @@ class VehicleEndpoint:
                 return
 
     def steering(self, report: NavReport | None) -> None:
-        """Where the vehicle's autopilot steers now (its driver tells it at each guidance step;
-        None: no destination). It holds until the mode, the arming, the reversing, the
-        mission or the GUIDED target changes, whichever comes first."""
+        """Where the vehicle's autopilot steers now (its driver tells it at each guidance
+        step), for NAV_CONTROLLER_OUTPUT. It holds until the mode, the arming, the reversing,
+        the mission or the GUIDED target changes, whichever comes first.
+
+        Parameters
+        ----------
+        report : NavReport or None
+            The heading steered, the bearing and distance to the destination and the
+            cross-track error; None: no destination (nothing is sent).
+        """
         self._nav = None if report is None else (report, self._nav_context())
 
     @property
