@@ -1110,3 +1110,40 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
         bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0))
         change()
         assert navs(0.2) == []  # what it steered for changed: nothing stale goes out
+
+
+def test_qgroundcontrols_connect_sequence_gets_every_answer_and_no_warning(bench: Bench) -> None:
+    # QGroundControl's ArduPilot start-up (InitialConnectStateMachine, APMFirmwarePlugin's
+    # stream rates, sent again every 10 s while no BATTERY_STATUS comes), over one minute
+    def command(cmd: int, *p: float) -> None:
+        bench.send(mav.MAVLink_command_long_message(1, 1, cmd, 0, *p, *([0.0] * (7 - len(p)))))
+
+    def stream_rates() -> None:
+        for group, hz in ((1, 2), (2, 2), (3, 2), (6, 3), (10, 10), (11, 10), (12, 3)):
+            bench.send(mav.MAVLink_request_data_stream_message(1, 1, group, hz, 1))
+        command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_HOME_POSITION, 1e6)
+        command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, 1e6)
+
+    stream_rates()
+    command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+    command(mav.MAV_CMD_REQUEST_MESSAGE, 397)  # COMPONENT_METADATA
+    command(mav.MAV_CMD_REQUEST_MESSAGE, 435)  # AVAILABLE_MODES
+    bench.send(mav.MAVLink_param_request_list_message(1, 1))
+    out: list[object] = []
+    for k in range(60 * 50):
+        if k and k % 500 == 0:  # every 10 s
+            stream_rates()
+        out += bench.tick(0.02)
+    acks = {}
+    for m in out:
+        if m.get_type() == "COMMAND_ACK":
+            acks.setdefault((m.command, m.result), 0)
+            acks[m.command, m.result] += 1
+    assert acks[mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_RESULT_ACCEPTED] == 12  # 6 times, 2 messages
+    assert acks[mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_RESULT_ACCEPTED] == 1
+    assert acks[mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_RESULT_FAILED] == 2  # not sent by a Rover either
+    assert _count(out, "STATUSTEXT") == 0
+    assert _count(out, "AUTOPILOT_VERSION") == 1 and _count(out, "PARAM_VALUE") == len(bench.ep.params)
+    # the rates it asked for (EXTRA2 10 Hz, EXTRA1 10 Hz, POSITION 3 Hz, EXTENDED_SYS_STATE 1 Hz), on 50 Hz ticks
+    for name, hz in (("VFR_HUD", 10), ("ATTITUDE", 10), ("GLOBAL_POSITION_INT", 3), ("EXTENDED_SYS_STATE", 1)):
+        assert 0.85 * 60 * hz <= _count(out, name) <= 60 * hz + 6, name  # each re-init may send one more
