@@ -90,6 +90,7 @@ STREAMS = {
     "HOME_POSITION": 0.5,
     "FENCE_STATUS": 1.0,
     "NAV_CONTROLLER_OUTPUT": 2.0,
+    "POSITION_TARGET_GLOBAL_INT": 2.0,
     "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
@@ -102,6 +103,7 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
         "GPS_RAW_INT",
         "NAV_CONTROLLER_OUTPUT",
         "FENCE_STATUS",
+        "POSITION_TARGET_GLOBAL_INT",
     ),
     mav.MAV_DATA_STREAM_POSITION: ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED"),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
@@ -113,6 +115,19 @@ MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
 _GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT", "VFR_HUD"))
+#: POSITION_TARGET_GLOBAL_INT's type_mask as Rover sends it: the position only (velocities,
+#: accelerations, yaw and yaw rate ignored, and the mask's top four bits set)
+POSITION_ONLY_TYPE_MASK = (
+    mav.POSITION_TARGET_TYPEMASK_VX_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_VY_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_VZ_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_AX_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_AY_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_AZ_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+    | mav.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+    | 0xF000
+)
 #: SYS_STATUS's battery fields, "not measured" (voltage, current, remaining): lfctl models no battery
 BATTERY_NOT_MEASURED = (0xFFFF, -1, -1)
 #: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
@@ -141,6 +156,7 @@ class NavReport:
     target_bearing_rad: float  # from the vehicle to its destination
     distance_m: float  # to its destination
     cross_track_m: float  # from the leg it follows, positive right of it
+    destination_ned_m: tuple[float, float]  # where it is going, local NED (POSITION_TARGET_GLOBAL_INT)
 
 
 @dataclass
@@ -1234,6 +1250,18 @@ class VehicleEndpoint:
                     mav.MAVLink_nav_controller_output_message(
                         0.0, 0.0, _whole_degrees(nav.nav_bearing_rad), _whole_degrees(nav.target_bearing_rad),
                         min(int(nav.distance_m), 0xFFFF), 0.0, 0.0, -nav.cross_track_m,  # Rover's: + left
+                    )
+                )  # fmt: skip
+        elif name == "POSITION_TARGET_GLOBAL_INT":
+            # Rover's, where its mode has a destination: the place only (everything else
+            # ignored), at the ground's altitude above sea level, as MAVProxy's map shows it
+            nav = self.nav
+            if nav is not None and self.mode in AUTOPILOT_MODES and all(map(math.isfinite, nav.destination_ned_m)):
+                d_lat, d_lon, d_alt = ned_to_geodetic(*nav.destination_ned_m, 0.0, *self.home)
+                self.send(
+                    mav.MAVLink_position_target_global_int_message(
+                        t_ms, mav.MAV_FRAME_GLOBAL, POSITION_ONLY_TYPE_MASK, int(round(d_lat * 1e7)),
+                        int(round(d_lon * 1e7)), d_alt, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
                     )
                 )  # fmt: skip
         elif name == "EXTENDED_SYS_STATE":

@@ -1083,7 +1083,7 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
         out = [m for _ in range(int(seconds / 0.02)) for m in bench.tick(0.02)]
         return [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
 
-    report = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4)  # 0.4 m left of its leg
+    report = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4, (12.0, -2.0))  # 0.4 m left of its leg
     bench.ep.steering(report)
     assert navs() == []  # HOLD: not an autopilot mode, as on Rover
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
@@ -1095,19 +1095,28 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
     assert (n.nav_bearing, n.target_bearing, n.wp_dist) == (349, 350, 12)  # whole degrees and metres
     assert n.xtrack_error == pytest.approx(0.4)  # Rover's sign: positive left of the track
     assert n.nav_roll == n.nav_pitch == n.aspd_error == n.alt_error == 0
-    bench.ep.steering(NavReport(0.0, 0.0, 1e6, 0.0))
+    # and where it is going, for MAVProxy's map: the place only, as Rover sends it
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 87, 0, 0, 0, 0, 0, 0))
+    (target,) = [m for m in bench.tick() if m.get_type() == "POSITION_TARGET_GLOBAL_INT"]
+    lat, lon, alt = ned_to_geodetic(12.0, -2.0, 0.0, *HOME)
+    assert (target.lat_int, target.lon_int) == (round(lat * 1e7), round(lon * 1e7))
+    assert target.alt == pytest.approx(alt, abs=0.01) and target.coordinate_frame == mav.MAV_FRAME_GLOBAL
+    assert target.type_mask == 0xFDF8  # velocities, accelerations, yaw and yaw rate ignored
+    bench.ep.steering(NavReport(0.0, 0.0, 1e6, 0.0, (1e6, 0.0)))
     assert navs()[-1].wp_dist == 0xFFFF  # at most the field's largest
-    bench.ep.steering(NavReport(0.0, 0.0, NAN, 0.0))
-    assert navs() == [] and bench.ep.stats.handler_errors == 0
+    bench.ep.steering(NavReport(0.0, 0.0, NAN, 0.0, (NAN, 0.0)))
+    out = [m for _ in range(50) for m in bench.tick(0.02)]
+    assert _count(out, "NAV_CONTROLLER_OUTPUT") == _count(out, "POSITION_TARGET_GLOBAL_INT") == 0
+    assert bench.ep.stats.handler_errors == 0
     bench.ep.steering(None)
     assert navs() == []  # no destination (speed and turn-rate setpoints): nothing to say
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTENDED_STATUS, 10, 1))
     bench.tick()
-    bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0))
+    bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0, (3.0, 0.0)))
     assert 16 <= len(navs(2.0)) <= 21  # the group's rate (10 Hz, on 50 Hz ticks)
     for change in (lambda: bench.ep.set_armed(False), lambda: bench.command(mav.MAV_CMD_DO_SET_REVERSE, 1)):
         bench.ep.set_armed(True)
-        bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0))
+        bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0, (3.0, 0.0)))
         change()
         assert navs(0.2) == []  # what it steered for changed: nothing stale goes out
 

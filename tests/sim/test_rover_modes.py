@@ -181,11 +181,13 @@ def test_vfr_hud_throttle_follows_each_vehicles_speed_command() -> None:
 
 def test_nav_controller_output_follows_the_leaders_destination() -> None:
     seen: dict[float, tuple[object, float, float, object]] = {}
+    targets: dict[float, tuple[float, float] | None] = {}
 
     def sample(t: float) -> Callable[[Links], None]:
         def at(links: Links) -> None:
             ep = links.endpoints[0]
             seen[t] = (wire_nav(links), ep.state["north_m"], ep.state["east_m"], links.endpoints[1].nav)
+            targets[t] = target_ned(links)
 
         return at
 
@@ -223,16 +225,28 @@ def test_nav_controller_output_follows_the_leaders_destination() -> None:
     nav, n, e, _ = seen[26.0]
     assert nav is not None and nav.wp_dist == int(math.hypot(goal[0] - n, goal[1] - e))
     assert seen[28.0][0] is None  # HOLD: no destination, nothing sent
+    # where it is going (POSITION_TARGET_GLOBAL_INT): the waypoint, the next one, the goal, none
+    assert targets[4.0] == pytest.approx((6.0, 0.0), abs=0.01)
+    assert targets[20.0] == pytest.approx((6.0, 6.0), abs=0.01)
+    assert targets[26.0] == pytest.approx(goal, abs=0.01) and targets[28.0] is None
 
 
-def wire_nav(links: Links) -> object | None:
-    """The leader's NAV_CONTROLLER_OUTPUT as it would go out now, decoded (None: not sent)."""
+def wire_nav(links: Links, msg_id: int = mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT) -> object | None:
+    """The leader's NAV_CONTROLLER_OUTPUT (or ``msg_id``) as it would go out now, decoded
+    (None: not sent)."""
     links.peers[0].recv()  # what the run sent before
-    links.endpoints[0]._send_by_id(mav.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT)
+    links.endpoints[0]._send_by_id(msg_id)
     parser = mav.MAVLink(None)
     got = [m for data, _ in links.peers[0].recv() for m in parser.parse_buffer(data) or []]
-    navs = [m for m in got if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
-    return navs[-1] if navs else None
+    return got[-1] if got else None
+
+
+def target_ned(links: Links) -> tuple[float, float] | None:
+    """The leader's POSITION_TARGET_GLOBAL_INT as it would go out now, in local NED."""
+    from lfctl.link.guided import global_to_local
+
+    m = wire_nav(links, mav.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT)
+    return None if m is None else global_to_local(m.lat_int, m.lon_int, links.home)
 
 
 def test_the_nav_report_is_the_waypoint_guidances_and_a_reversed_body_heads_the_other_way() -> None:
@@ -242,5 +256,5 @@ def test_the_nav_report_is_the_waypoint_guidances_and_a_reversed_body_heads_the_
     los = LosOutput(0.3, 0.2, 0.5, 0.25, 4.0, 1, (), False)
     from lfctl.link.endpoint import NavReport
 
-    assert _nav_report(los, False) == NavReport(0.3, 0.5, 4.0, 0.25)
-    assert _nav_report(los, True).nav_bearing_rad == pytest.approx(0.3 + math.pi)
+    assert _nav_report(los, False, (5.0, 6.0)) == NavReport(0.3, 0.5, 4.0, 0.25, (5.0, 6.0))
+    assert _nav_report(los, True, (5.0, 6.0)).nav_bearing_rad == pytest.approx(0.3 + math.pi)
