@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
@@ -181,9 +181,8 @@ class VehicleDriver:
             self.reached.append((seq - 1, t_s))
             if self.on_reached is not None:
                 self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1)
-        leg = self._legs[min(out.los.active_index, len(self._legs) - 1)]
         # after the items reached moved the current one
-        ep.steering(_nav_report(out.los, ep.reversed, (leg.north_m, leg.east_m)))
+        ep.steering(_nav_report(out.los, ep.reversed, self._autopilot.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
     # -- GUIDED --------------------------------------------------------------------------------
@@ -237,15 +236,19 @@ class VehicleDriver:
             self._goto = LeaderAutopilot(route, settings, (me.north_m, me.east_m))
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._goto.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
-        ep.steering(_nav_report(out.los, ep.reversed, route[min(out.los.active_index, len(route) - 1)]))
+        ep.steering(_nav_report(out.los, ep.reversed, self._goto.follower.waypoints))
         arrived = self._goto.done and not self._goto_done
         self._goto_done = self._goto.done
         return arrived, ((-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps)
 
 
-def _nav_report(los: LosOutput, reversed_: bool, destination: tuple[float, float]) -> NavReport:
-    """Where the waypoint guidance steers, towards ``destination`` (local NED), as
-    NAV_CONTROLLER_OUTPUT gives it: a vehicle driving in reverse steers its tail, so its body
-    heads the other way."""
+def _nav_report(los: LosOutput, reversed_: bool, waypoints: Sequence[tuple[float, float]]) -> NavReport | None:
+    """Where the waypoint guidance over ``waypoints`` (local NED) steers, as
+    NAV_CONTROLLER_OUTPUT gives it: towards its active waypoint (the last once all are
+    reached; None when there are none, as in a mission of home alone). A vehicle driving in
+    reverse steers its tail, so its body heads the other way."""
+    if not waypoints:
+        return None
     heading = los.heading_cmd_rad + math.pi if reversed_ else los.heading_cmd_rad
+    destination = waypoints[min(los.active_index, len(waypoints) - 1)]
     return NavReport(heading, los.los_angle_rad, los.distance_to_go_m, los.cross_track_m, destination)

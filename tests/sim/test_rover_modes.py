@@ -256,5 +256,26 @@ def test_the_nav_report_is_the_waypoint_guidances_and_a_reversed_body_heads_the_
     los = LosOutput(0.3, 0.2, 0.5, 0.25, 4.0, 1, (), False)
     from lfctl.link.endpoint import NavReport
 
-    assert _nav_report(los, False, (5.0, 6.0)) == NavReport(0.3, 0.5, 4.0, 0.25, (5.0, 6.0))
-    assert _nav_report(los, True, (5.0, 6.0)).nav_bearing_rad == pytest.approx(0.3 + math.pi)
+    assert _nav_report(los, False, [(5.0, 6.0)]) == NavReport(0.3, 0.5, 4.0, 0.25, (5.0, 6.0))
+    reversed_ = _nav_report(los, True, [(5.0, 6.0)])
+    assert reversed_ is not None and reversed_.nav_bearing_rad == pytest.approx(0.3 + math.pi)
+    assert _nav_report(los, False, []) is None  # no waypoints, no destination
+
+
+def test_a_mission_of_home_alone_in_auto_stops_the_leader_and_reports_no_destination() -> None:
+    # a ground station may upload a mission of item 0 alone (MISSION_COUNT 1) once one is done
+    from lfctl.link.endpoint import MODES
+
+    seen: dict[str, object] = {}
+
+    def home_only(links: Links) -> None:
+        ep = links.endpoints[0]
+        ep.store_mission([ep._home_item()])
+
+    def look(links: Links) -> None:
+        ep = links.endpoints[0]
+        seen.update(mode=ep.mode, nav=ep.nav, target=wire_nav(links, mav.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT))
+
+    report, _ = run_with({2.0: home_only, 3.0: look}, duration_s=4.0)
+    assert seen == {"mode": MODES["AUTO"], "nav": None, "target": None}
+    assert abs(report.result.final.speed_mps[0]) < 0.05  # nothing to drive to: it has stopped
