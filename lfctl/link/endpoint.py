@@ -696,15 +696,17 @@ class VehicleEndpoint:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
             return mav.MAV_RESULT_FAILED
         if interval_us == -1:
-            self._intervals[msg_id] = math.inf
+            self._stream(msg_id, math.inf)
         elif interval_us == 0:
-            self._intervals[msg_id] = _period(STREAMS[ID_NAMES[msg_id]])
+            self._stream(msg_id, _period(STREAMS[ID_NAMES[msg_id]]))
         else:
-            self._intervals[msg_id] = min(max(interval_us, 1000.0), 60e6) / 1e6
-        self._next_due[msg_id] = (
-            self.t_s if math.isfinite(self._intervals[msg_id]) else math.inf
-        )  # stopped: not once more
+            self._stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6)
         return mav.MAV_RESULT_ACCEPTED
+
+    def _stream(self, msg_id: int, period_s: float) -> None:
+        """Send ``msg_id`` every ``period_s`` from now (infinite: stop it, not sending it once more)."""
+        self._intervals[msg_id] = period_s
+        self._next_due[msg_id] = self.t_s if math.isfinite(period_s) else math.inf
 
     def _get_interval(self, msg_id_f: float) -> int:
         """MAV_CMD_GET_MESSAGE_INTERVAL as ArduPilot answers it: MESSAGE_INTERVAL with the
@@ -730,9 +732,7 @@ class VehicleEndpoint:
         names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
         for name in names:
-            msg_id = MSG_IDS[name]
-            self._intervals[msg_id] = _period(hz)
-            self._next_due[msg_id] = self.t_s if hz > 0 else math.inf
+            self._stream(MSG_IDS[name], _period(hz))
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
         kind = _as_int(speed_type, 0, 3)
@@ -1160,8 +1160,9 @@ class VehicleEndpoint:
 
     @property
     def nav(self) -> NavReport | None:
-        """The last :meth:`steering` report, None once what it steered for has changed."""
-        if self._nav is None or self._nav[1] != self._nav_context():
+        """The last :meth:`steering` report; None outside Rover's autopilot modes and once what
+        it steered for has changed."""
+        if self._nav is None or self.mode not in AUTOPILOT_MODES or self._nav[1] != self._nav_context():
             return None
         return self._nav[0]
 
@@ -1245,7 +1246,7 @@ class VehicleEndpoint:
             # Rover's, in an autopilot mode with a destination: bearings in whole degrees,
             # the distance in whole metres, no pitch, altitude or speed error
             nav = self.nav
-            if nav is not None and self.mode in AUTOPILOT_MODES and math.isfinite(nav.distance_m):
+            if nav is not None and math.isfinite(nav.distance_m):
                 self.send(
                     mav.MAVLink_nav_controller_output_message(
                         0.0, 0.0, _whole_degrees(nav.nav_bearing_rad), _whole_degrees(nav.target_bearing_rad),
@@ -1256,7 +1257,7 @@ class VehicleEndpoint:
             # Rover's, where its mode has a destination: the place only (everything else
             # ignored), at the ground's altitude above sea level, as MAVProxy's map shows it
             nav = self.nav
-            if nav is not None and self.mode in AUTOPILOT_MODES and all(map(math.isfinite, nav.destination_ned_m)):
+            if nav is not None and all(map(math.isfinite, nav.destination_ned_m)):
                 d_lat, d_lon, d_alt = ned_to_geodetic(*nav.destination_ned_m, 0.0, *self.home)
                 self.send(
                     mav.MAVLink_position_target_global_int_message(
