@@ -35,6 +35,7 @@ from lfctl.link.mission import MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.params import Param, default_params
 from lfctl.link.port import pack_next
+from lfctl.link.rc import PilotInput, RcOverrides
 from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
 
 __all__ = [
@@ -268,6 +269,8 @@ class VehicleEndpoint:
         self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
         self._gcs_seen: float | None = None
+        self.rc = RcOverrides()  # RC_CHANNELS_OVERRIDE and MANUAL_CONTROL: MANUAL's sticks
+        self._rc_refused: set[int] = set()  # senders told once that their sticks are not taken
         self._guided_stale_reported = False
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
@@ -520,10 +523,47 @@ class VehicleEndpoint:
 
     def _on_heartbeat(self, m: Any) -> None:
         if m.type == mav.MAV_TYPE_GCS:
-            self._gcs_seen = self.t_s
-            if self._gcs_failsafe:
-                self._gcs_failsafe = self._failsafe_acted = False
-                self.statustext("Failsafe cleared: ground station heartbeat back", mav.MAV_SEVERITY_INFO)
+            self._gcs_alive()
+
+    def _gcs_alive(self) -> None:
+        """The ground station was heard from: the GCS failsafe's clock restarts (and clears)."""
+        self._gcs_seen = self.t_s
+        if self._gcs_failsafe:
+            self._gcs_failsafe = self._failsafe_acted = False
+            self.statustext("Failsafe cleared: ground station heartbeat back", mav.MAV_SEVERITY_INFO)
+
+    # -- pilot input ----------------------------------------------------------------------------
+    def _from_my_gcs(self, m: Any) -> bool:
+        """Sticks are taken from ``SYSID_MYGCS`` only, as Rover; another sender is told once."""
+        sysid, mine = m.get_srcSystem(), int(self.param("SYSID_MYGCS"))
+        if sysid == mine:
+            return True
+        if sysid not in self._rc_refused:  # at most 256 senders
+            self._rc_refused.add(sysid)
+            what = "Manual control" if m.get_type() == "MANUAL_CONTROL" else "RC override"
+            self.statustext(f"{what} from {sysid} ignored: SYSID_MYGCS {mine}", mav.MAV_SEVERITY_WARNING)
+        return False
+
+    def _on_rc_channels_override(self, m: Any) -> None:
+        if not self._for_me(m) or not self._from_my_gcs(m):
+            return
+        channels = [getattr(m, f"chan{k}_raw", 0) for k in range(1, 19)]
+        self.rc.from_rc_override(channels, self.t_s)
+        self._gcs_alive()  # Rover counts the ground station's sticks as its heartbeat
+
+    def _on_manual_control(self, m: Any) -> None:
+        if m.target != self.sysid:  # Rover: only control aimed at this vehicle (0 is not "all" here)
+            self.stats.other_sysid += 1
+            return
+        if not self._from_my_gcs(m):
+            return
+        self.rc.from_manual_control(m.y, m.z, self.t_s)
+        self._gcs_alive()
+
+    def pilot_input(self) -> PilotInput:
+        """The sticks MANUAL drives by now: the live overrides on the steering and throttle
+        channels (:mod:`lfctl.link.rc`), centred where there is none."""
+        return self.rc.pilot(self.t_s, self.param("RC_OVERRIDE_TIME"))
 
     # -- modes --------------------------------------------------------------------------------
     def _on_set_mode(self, m: Any) -> None:

@@ -112,6 +112,16 @@ def default_params(sysid: int) -> dict[str, Param]:
         ),
         "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),
         "FENCE_MARGIN": Param(2.0, 1.0, 10.0, "m", "distance inside the fence that counts as near it"),
+        "SYSID_MYGCS": Param(
+            255, 1, 255, "", "the ground station whose RC_CHANNELS_OVERRIDE and MANUAL_CONTROL are taken", kind=INT16
+        ),
+        "RC_OVERRIDE_TIME": Param(
+            3.0,
+            -1.0,
+            120.0,
+            "s",
+            "an RC override lasts this long after it last came; 0: none taken, -1: until released",
+        ),
         "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
         "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
         "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),

@@ -7,7 +7,9 @@ mode, mission and targets its MAVLink endpoint holds become speed and yaw-rate c
 - GUIDED: a rate target passes through, a heading target is held with the heading law, a
   location target is driven to and stopped at (MISSION_ITEM_REACHED 0 on arrival);
 - RTL: to the nearest rally point or home, then stop; SmartRTL: back along the way it came;
-- HOLD, MANUAL (no radio here), disarmed: stop.
+- MANUAL: the ground station's sticks (RC_CHANNELS_OVERRIDE, MANUAL_CONTROL;
+  :mod:`lfctl.link.rc`) as speed and yaw rate; no live override: stop;
+- HOLD, disarmed: stop.
 
 A reversed vehicle (MAV_CMD_DO_SET_REVERSE) drives its targets backwards.
 """
@@ -126,6 +128,8 @@ class VehicleDriver:
         """The command for the vehicle's FMU at a link tick: a GUIDED rate target fresh from
         the endpoint (a companion's setpoints arrive faster than guidance runs), else :attr:`command`."""
         ep = self.endpoint
+        if ep.armed and ep.mode == MODES["MANUAL"]:
+            return self._manual()
         if ep.armed and ep.mode == MODES["GUIDED"]:
             rate = ep.guided_command()
             if rate is not None:
@@ -145,7 +149,26 @@ class VehicleDriver:
         if ep.mode in (MODES["RTL"], MODES["SMART_RTL"]):
             return self._return(t_s, world)
         self._goto = None
+        if ep.mode == MODES["MANUAL"]:
+            return self._manual()
         return 0.0, 0.0
+
+    # -- MANUAL --------------------------------------------------------------------------------
+    def _manual(self) -> tuple[float, float]:
+        """The sticks as Rover's MANUAL passes them to its motors, for a vehicle commanded in
+        speed and yaw rate: the throttle stick is percent throttle, and throttle is speed as
+        Rover's own feed-forward has it (``CRUISE_SPEED`` at ``CRUISE_THROTTLE``), up to the
+        scenario's ``max_speed_mps`` either way; the steering stick at full throw is the
+        vehicle's tightest turn (``max_yaw_rate_degps``). Backing up turns the other way, as
+        Rover's default ``PILOT_STEER_TYPE`` (a car's steering)."""
+        ep = self.endpoint
+        pilot = ep.pilot_input()
+        g = self.cfg.guidance
+        cruise_speed, cruise_throttle = ep.param("CRUISE_SPEED"), ep.param("CRUISE_THROTTLE")
+        speed = pilot.throttle * 100.0 * cruise_speed / cruise_throttle if cruise_throttle > 0 else 0.0
+        speed = max(-g.max_speed_mps, min(g.max_speed_mps, speed))
+        turn = -1.0 if pilot.throttle < 0 else 1.0
+        return speed, turn * pilot.steering * g.max_yaw_rate_radps
 
     # -- AUTO ----------------------------------------------------------------------------------
     def _auto(self, t_s: float, world: WorldState) -> tuple[float, float]:

@@ -1156,3 +1156,49 @@ def test_qgroundcontrols_connect_sequence_gets_every_answer_and_no_warning(bench
     # the rates it asked for (EXTRA2 10 Hz, EXTRA1 10 Hz, POSITION 3 Hz, EXTENDED_SYS_STATE 1 Hz), on 50 Hz ticks
     for name, hz in (("VFR_HUD", 10), ("ATTITUDE", 10), ("GLOBAL_POSITION_INT", 3), ("EXTENDED_SYS_STATE", 1)):
         assert 0.85 * 60 * hz <= _count(out, name) <= 60 * hz + 6, name  # each re-init may send one more
+
+
+# -- the ground station's sticks (RC_CHANNELS_OVERRIDE, MANUAL_CONTROL) -------------------------
+def test_sticks_are_taken_from_sysid_mygcs_only_and_another_sender_is_told_once(bench: Bench) -> None:
+    mavsdk = mav.MAVLink(None, srcSystem=245, srcComponent=190)  # MAVSDK's default system id
+    for _ in range(3):
+        bench.raw(mav.MAVLink_manual_control_message(1, 0, 0, 800, 0, 0).pack(mavsdk))
+        bench.tick()
+    assert not bench.ep.pilot_input().active
+    texts = [t for _, t in bench.ep.statustexts if "ignored" in t]
+    assert texts == ["Manual control from 245 ignored: SYSID_MYGCS 255"]
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"SYSID_MYGCS", 245, mav.MAV_PARAM_TYPE_INT16))
+    bench.tick()
+    bench.raw(mav.MAVLink_manual_control_message(1, 0, 0, 800, 0, 0).pack(mavsdk))
+    bench.tick()
+    assert bench.ep.pilot_input().throttle == pytest.approx((1820 - 1530) / 370)  # z 800 -> 1820 us
+
+
+def test_manual_control_aimed_elsewhere_is_not_taken_and_a_target_of_0_is_not_everyone(bench: Bench) -> None:
+    for target in (0, 2):
+        bench.send(mav.MAVLink_manual_control_message(target, 0, 500, 500, 0, 0))
+        bench.tick()
+    assert not bench.ep.pilot_input().active and bench.ep.stats.other_sysid == 2
+    bench.send(mav.MAVLink_rc_channels_override_message(2, 1, 1700, 0, 1700, 0, 0, 0, 0, 0))
+    bench.tick()
+    assert not bench.ep.pilot_input().active  # RC override for vehicle 2
+
+
+def test_sticks_keep_the_ground_station_alive_and_time_out_after_rc_override_time(bench: Bench) -> None:
+    bench.ep.params["FS_GCS_ENABLE"].value = 1
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.set_armed(True)
+    for _ in range(8):  # 8 s of sticks and no heartbeat: no failsafe
+        bench.send(mav.MAVLink_rc_channels_override_message(1, 1, 1900, 0, 1715, 0, 0, 0, 0, 0))
+        bench.tick(1.0)
+    pilot = bench.ep.pilot_input()
+    assert bench.ep.mode == MODES["MANUAL"] and pilot.steering == 1.0 and pilot.throttle == pytest.approx(0.5)
+    bench.tick(2.9)
+    assert bench.ep.pilot_input().active
+    bench.tick(0.2)  # RC_OVERRIDE_TIME (3 s) since the last: centred sticks
+    assert not bench.ep.pilot_input().active
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"RC_OVERRIDE_TIME", -1, mav.MAV_PARAM_TYPE_REAL32))
+    bench.send(mav.MAVLink_rc_channels_override_message(1, 1, 1900, 0, 1715, 0, 0, 0, 0, 0))
+    bench.tick(0.02)
+    bench.tick(6.0)  # -1: the override is kept, but the ground station is lost (FS_GCS_TIMEOUT 5 s): HOLD
+    assert bench.ep.pilot_input().active and bench.ep.mode == MODES["HOLD"]

@@ -124,3 +124,42 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
     assert abs(guided_target.north_m + 3.0) < 0.05 and abs(guided_target.east_m - 2.0) < 0.05
     assert mode_after == MODES["RTL"], out2
     assert "fence breach" not in out and "ACCEPTED" in out
+
+
+def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out(
+    mavproxy: Path, tmp_path: Path, truth_convoy, background_run
+) -> None:
+    # `rc 3 1700` holds the throttle channel at 1700 us (MAVProxy resends it every second):
+    # (1700 - 1530) / 370 = 45.9 % throttle; CRUISE_SPEED at CRUISE_THROTTLE 50 % makes that
+    # 0.919 x CRUISE_SPEED, up to the scenario's max_speed_mps
+    cfg = truth_convoy(120.0)
+    base = cfg.link.udp_base_port
+    links: list[Links] = []
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    with background_run(cfg, realtime=True, on_links=links.append) as errors:
+        while not links:
+            time.sleep(0.05)
+        ep = links[0].endpoints[0]
+        expected = min(cfg.guidance.max_speed_mps, (170 / 370) * 100 * ep.param("CRUISE_SPEED") / 50)
+        proc = subprocess.Popen(
+            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
+             "--non-interactive", "--cmd=mode MANUAL; arm throttle; rc 3 1700"],
+            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        )  # fmt: skip
+        deadline = time.monotonic() + 40
+        driven = []
+        while time.monotonic() < deadline and len(driven) < 20:
+            if ep.mode == MODES["MANUAL"] and ep.armed and abs(ep.state["speed_mps"] - expected) < 0.02:
+                driven.append(ep.state["speed_mps"])
+            time.sleep(0.1)
+        quit_at = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=20)
+        deadline = quit_at + 15
+        while time.monotonic() < deadline and abs(ep.state["speed_mps"]) > 0.01:
+            time.sleep(0.1)
+        stopped_after = time.monotonic() - quit_at
+        still_manual = ep.mode == MODES["MANUAL"]
+    assert not errors, errors
+    assert len(driven) == 20, out  # 2 s at the speed the stick asks for
+    assert still_manual and 1.0 < stopped_after < 10.0, out  # RC_OVERRIDE_TIME (3 s) after the last override

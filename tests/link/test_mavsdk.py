@@ -206,3 +206,67 @@ def test_mavsdk_fence_rally_goto_rtl_and_health(truth_convoy, background_run) ->
     assert out["health_all_ok"] is True
     assert out["goto_err_m"] < 0.6, out  # goto_location drove the rover there
     assert out["mode_rtl"] == FlightMode.RETURN_TO_LAUNCH
+
+
+async def manual_drive(port: int, endpoint: Any) -> dict:
+    """MAVSDK's ManualControl (MANUAL_CONTROL from system 245) driving the leader in MANUAL."""
+    import json
+
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.action.action import ActionAsync
+    from mavsdk.asyncio.plugins.manual_control.manual_control import ManualControlAsync
+    from mavsdk.asyncio.plugins.mavlink_direct.mavlink_direct import MavlinkDirectAsync
+    from mavsdk.asyncio.plugins.param.param import ParamAsync
+    from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
+    from mavsdk.plugins.mavlink_direct import MavlinkMessage
+
+    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    out: dict = {}
+
+    async def sticks(z: float, seconds: float) -> None:  # MAVSDK's z 0..1 is MANUAL_CONTROL's 0..1000
+        for _ in range(int(seconds * 10)):
+            await manual.set_manual_control_input(0.0, 0.0, z, 0.0)
+            await asyncio.sleep(0.1)
+
+    try:
+        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=15.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        manual, params, action = ManualControlAsync(system), ParamAsync(system), ActionAsync(system)
+        telemetry, direct = TelemetryAsync(system), MavlinkDirectAsync(system)
+        # MAVSDK has no call for Rover's MANUAL: the mode as a command, the way its users send one
+        fields = {"target_system": 1, "target_component": 1, "command": 176, "confirmation": 0, "param1": 1.0,
+                  "param2": 0.0, "param3": 0.0, "param4": 0.0, "param5": 0.0, "param6": 0.0, "param7": 0.0}  # fmt: skip
+        await direct.send_message(MavlinkMessage("COMMAND_LONG", 245, 190, 1, 1, json.dumps(fields)))
+        await action.arm()
+        await sticks(0.5, 2.0)  # not SYSID_MYGCS (255): ignored, as Rover does
+        out["speed_not_mine"] = endpoint.state["speed_mps"]
+        out["texts"] = [t for _, t in endpoint.statustexts if "ignored" in t]
+        await params.set_param_int("SYSID_MYGCS", 245)
+        await sticks(0.5, 4.0)  # z 500 -> 1700 us: 45.9 % throttle
+        out["mode"] = await telemetry.flight_mode()
+        out["speed"] = endpoint.state["speed_mps"]
+        out["expected"] = (170 / 370) * 100 * endpoint.param("CRUISE_SPEED") / 50
+    finally:
+        sdk.destroy()
+    return out
+
+
+def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_convoy, background_run) -> None:
+    from mavsdk.plugins.telemetry import FlightMode
+
+    from lfctl.sim.links import Links
+
+    cfg = truth_convoy(60.0)
+    links: list[Links] = []
+    with background_run(cfg, realtime=True, on_links=links.append) as errors:
+        while not links:
+            asyncio.run(asyncio.sleep(0.05))
+        ep = links[0].endpoints[0]
+        out = asyncio.run(asyncio.wait_for(manual_drive(cfg.link.udp_base_port, ep), timeout=120))
+    assert not errors, errors
+    assert out["texts"] == ["Manual control from 245 ignored: SYSID_MYGCS 255"]
+    assert abs(out["speed_not_mine"]) < 0.02
+    assert out["mode"] == FlightMode.MANUAL
+    expected = min(cfg.guidance.max_speed_mps, out["expected"])
+    assert out["speed"] == pytest.approx(expected, abs=0.03)

@@ -1,0 +1,185 @@
+"""A ground station's sticks, as ArduPilot Rover reads them: RC_CHANNELS_OVERRIDE and
+MANUAL_CONTROL become override values on the radio's channels, and MANUAL mode reads its
+steering and throttle from them.
+
+lfctl's vehicles have no radio, so an override is the only pilot input. Its channels are
+Rover's defaults: steering on channel 1 (``RCMAP_ROLL``), throttle on channel 3
+(``RCMAP_THROTTLE``), each 1100-1900 us with its trim at 1500 (``RCn_MIN``, ``RCn_MAX``,
+``RCn_TRIM``) and a dead zone of 30 us either side of the trim (``RCn_DZ``; Rover's default for
+both, and its throttle channel is centred, so below the trim is reverse).
+
+- RC_CHANNELS_OVERRIDE: channels 1-8 take any value but 65535 ("no change"); 0 releases the
+  channel. Channels 9-18 ignore 0 and 65535 alike, and 65534 releases them.
+- MANUAL_CONTROL: ``y`` (-1000..1000) drives the steering channel and ``z`` (-1000..1000) the
+  throttle channel, both mapped linearly onto 1100..1900 us; 32767 (INT16_MAX) releases the
+  channel.
+- Both are taken only from system ``SYSID_MYGCS``, as Rover takes them; MANUAL_CONTROL only
+  when its ``target`` is this vehicle, RC_CHANNELS_OVERRIDE when its ``target_system`` is this
+  vehicle or 0 (Rover does not look at it; lfctl does not take sticks meant for another).
+- An override lasts ``RC_OVERRIDE_TIME`` seconds after it last arrived (3 s by default; 0 turns
+  overrides off, a negative value keeps them until released).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = [
+    "RADIO_MAX",
+    "RADIO_MIN",
+    "RADIO_TRIM",
+    "RC_DEAD_ZONE",
+    "STEER_CHANNEL",
+    "THROTTLE_CHANNEL",
+    "PilotInput",
+    "RcOverrides",
+    "manual_to_pwm",
+    "stick",
+]
+
+#: Rover's default input range, trim and dead zone for the steering and throttle channels, us
+RADIO_MIN, RADIO_TRIM, RADIO_MAX = 1100, 1500, 1900
+RC_DEAD_ZONE = 30
+#: Rover's default channel map (1-based, as RCMAP_ROLL and RCMAP_THROTTLE)
+STEER_CHANNEL, THROTTLE_CHANNEL = 1, 3
+#: the channels RC_CHANNELS_OVERRIDE carries
+N_CHANNELS = 18
+UINT16_MAX = 65535
+INT16_MAX = 32767
+
+
+@dataclass(frozen=True)
+class PilotInput:
+    """The sticks MANUAL reads, each -1..1 (Rover's control_in over its full range):
+    ``steering`` positive turns clockwise seen from above, ``throttle`` positive drives forward.
+    ``active`` is False when neither channel holds a live override (no pilot: centred sticks)."""
+
+    steering: float
+    throttle: float
+    active: bool
+
+
+def stick(pwm: float) -> float:
+    """A centred channel's position, -1..1, from its pulse width: 0 inside the dead zone, then
+    linear out to the end points (Rover's ``pwm_to_angle_dz``), clipped beyond them.
+
+    Parameters
+    ----------
+    pwm : float
+        The channel's pulse width, us.
+    """
+    high, low = RADIO_TRIM + RC_DEAD_ZONE, RADIO_TRIM - RC_DEAD_ZONE
+    if pwm > high:
+        return min(1.0, (pwm - high) / (RADIO_MAX - high))
+    if pwm < low:
+        return max(-1.0, (pwm - low) / (low - RADIO_MIN))
+    return 0.0
+
+
+def manual_to_pwm(value: int) -> int:
+    """A MANUAL_CONTROL axis (-1000..1000) as the pulse width Rover's ``manual_override`` gives
+    it: linear over 1100..1900 us (values beyond the axis' range go beyond the end points, and
+    :func:`stick` clips them).
+
+    Parameters
+    ----------
+    value : int
+        The axis.
+    """
+    return int(RADIO_MIN + (RADIO_MAX - RADIO_MIN) * (value + 1000) / 2000)
+
+
+class RcOverrides:
+    """The override on each of the 18 channels: its pulse width and when it arrived."""
+
+    def __init__(self) -> None:
+        self._values: dict[int, tuple[int, float]] = {}  # channel (1-based) -> (us, t_s)
+
+    def set(self, channel: int, pwm: int, t_s: float) -> None:
+        """Hold ``pwm`` on ``channel`` (1-based) from ``t_s``.
+
+        Parameters
+        ----------
+        channel : int
+            The channel, 1-18.
+        pwm : int
+            The pulse width, us; 0 releases the channel.
+        t_s : float
+            When the override arrived, s.
+        """
+        if pwm == 0:
+            self._values.pop(channel, None)
+        else:
+            self._values[channel] = (pwm, t_s)
+
+    def from_rc_override(self, channels: list[int], t_s: float) -> None:
+        """Take an RC_CHANNELS_OVERRIDE.
+
+        Parameters
+        ----------
+        channels : list of int
+            Its ``chan1_raw`` .. ``chan18_raw`` (the first 8 for MAVLink 1), us.
+        t_s : float
+            When it arrived, s.
+        """
+        for k, value in enumerate(channels[:N_CHANNELS]):
+            if k < 8:
+                if value != UINT16_MAX:
+                    self.set(k + 1, value, t_s)
+            elif value not in (0, UINT16_MAX):
+                self.set(k + 1, 0 if value == UINT16_MAX - 1 else value, t_s)
+
+    def from_manual_control(self, y: int, z: int, t_s: float) -> None:
+        """Take a MANUAL_CONTROL's steering and throttle axes.
+
+        Parameters
+        ----------
+        y : int
+            Its ``y`` axis, -1000..1000: the steering channel.
+        z : int
+            Its ``z`` axis, -1000..1000: the throttle channel.
+        t_s : float
+            When it arrived, s.
+        """
+        for channel, value in ((STEER_CHANNEL, y), (THROTTLE_CHANNEL, z)):
+            self.set(channel, 0 if value == INT16_MAX else manual_to_pwm(value), t_s)
+
+    def value(self, channel: int, t_s: float, timeout_s: float) -> int | None:
+        """The live override on a channel, us, or None (none, released, or timed out).
+
+        Parameters
+        ----------
+        channel : int
+            The channel, 1-18.
+        t_s : float
+            Now, s.
+        timeout_s : float
+            How long an override lasts (``RC_OVERRIDE_TIME``): 0 takes none, a negative
+            value keeps them until released.
+        """
+        held = self._values.get(channel)
+        if held is None or timeout_s == 0 or not math.isfinite(timeout_s):
+            return None
+        pwm, since = held
+        if timeout_s > 0 and t_s - since >= timeout_s:
+            return None
+        return pwm
+
+    def pilot(self, t_s: float, timeout_s: float) -> PilotInput:
+        """The sticks MANUAL reads (a channel without a live override is centred).
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        timeout_s : float
+            How long an override lasts, as in :meth:`value`.
+        """
+        steer = self.value(STEER_CHANNEL, t_s, timeout_s)
+        throttle = self.value(THROTTLE_CHANNEL, t_s, timeout_s)
+        return PilotInput(
+            steering=0.0 if steer is None else stick(steer),
+            throttle=0.0 if throttle is None else stick(throttle),
+            active=steer is not None or throttle is not None,
+        )
