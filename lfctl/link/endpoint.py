@@ -93,6 +93,7 @@ STREAMS = {
     "NAV_CONTROLLER_OUTPUT": 2.0,
     "POSITION_TARGET_GLOBAL_INT": 2.0,
     "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
+    "RC_CHANNELS": 1.0,
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
@@ -107,6 +108,7 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
         "POSITION_TARGET_GLOBAL_INT",
     ),
     mav.MAV_DATA_STREAM_POSITION: ("GLOBAL_POSITION_INT", "LOCAL_POSITION_NED"),
+    mav.MAV_DATA_STREAM_RC_CHANNELS: ("RC_CHANNELS",),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
     mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
 }
@@ -1310,6 +1312,11 @@ class VehicleEndpoint:
             self.send(
                 mav.MAVLink_extended_sys_state_message(mav.MAV_VTOL_STATE_UNDEFINED, mav.MAV_LANDED_STATE_UNDEFINED)
             )
+        elif name == "RC_CHANNELS":
+            # Rover's: each channel's input, here a live override or 0; no receiver, so no
+            # channel counted as received (chancount 0) and the RSSI unknown (255)
+            values = self.rc.values(self.t_s, self.param("RC_OVERRIDE_TIME"))
+            self.send(mav.MAVLink_rc_channels_message(t_ms, 0, *values, 255))
         elif name == "GPS_RAW_INT":
             self.send(
                 mav.MAVLink_gps_raw_int_message(

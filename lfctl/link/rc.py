@@ -166,6 +166,18 @@ class RcOverrides:
             return None
         return pwm
 
+    def values(self, t_s: float, timeout_s: float) -> list[int]:
+        """Every channel's live override, us (0 where there is none), as RC_CHANNELS reports them.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        timeout_s : float
+            How long an override lasts, as in :meth:`value`.
+        """
+        return [self.value(k, t_s, timeout_s) or 0 for k in range(1, N_CHANNELS + 1)]
+
     def pilot(self, t_s: float, timeout_s: float) -> PilotInput:
         """The sticks MANUAL reads (a channel without a live override is centred).
 

@@ -1202,3 +1202,15 @@ def test_sticks_keep_the_ground_station_alive_and_time_out_after_rc_override_tim
     bench.tick(0.02)
     bench.tick(6.0)  # -1: the override is kept, but the ground station is lost (FS_GCS_TIMEOUT 5 s): HOLD
     assert bench.ep.pilot_input().active and bench.ep.mode == MODES["HOLD"]
+
+
+def test_rc_channels_reports_the_live_overrides_at_the_rc_channels_streams_rate(bench: Bench) -> None:
+    bench.send(mav.MAVLink_rc_channels_override_message(1, 1, 1700, 65535, 1900, 0, 0, 0, 0, 0))
+    out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s at the default 1 Hz
+    rc = [m for m in out if m.get_type() == "RC_CHANNELS"]
+    assert len(rc) == 2 and (rc[-1].chan1_raw, rc[-1].chan2_raw, rc[-1].chan3_raw) == (1700, 0, 1900)
+    assert rc[-1].chancount == 0 and rc[-1].rssi == 255  # no receiver: none counted as received
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_RC_CHANNELS, 5, 1))
+    out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s at 5 Hz, past RC_OVERRIDE_TIME
+    rc = [m for m in out if m.get_type() == "RC_CHANNELS"]
+    assert 9 <= len(rc) <= 11 and rc[0].chan1_raw == 1700 and rc[-1].chan1_raw == rc[-1].chan3_raw == 0
