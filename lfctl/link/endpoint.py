@@ -59,6 +59,8 @@ NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
 #: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks (ArduPilot's magic number)
 FORCE_ARM = 21196.0
 MODE_NAMES = {v: k for k, v in MODES.items()}
+#: the least time between two "sticks ignored" texts, s (:meth:`VehicleEndpoint._from_my_gcs`)
+RC_REFUSED_TEXT_S = 2.0
 #: Rover's autopilot modes (``is_autopilot_mode``): HEARTBEAT's GUIDED_ENABLED, NAV_CONTROLLER_OUTPUT
 AUTOPILOT_MODES = frozenset(MODES[n] for n in ("AUTO", "GUIDED", "RTL", "SMART_RTL"))
 #: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
@@ -272,7 +274,9 @@ class VehicleEndpoint:
         self._once: list[int] = []
         self._gcs_seen: float | None = None
         self.rc = RcOverrides()  # RC_CHANNELS_OVERRIDE and MANUAL_CONTROL: MANUAL's sticks
-        self._rc_refused: set[int] = set()  # senders told once that their sticks are not taken
+        self._rc_refused: set[int] = set()  # senders told that their sticks are not taken ...
+        self._rc_refused_for = 0  # ... while SYSID_MYGCS is this
+        self._rc_refused_text_t = -math.inf  # when the last of those texts went out
         self._guided_stale_reported = False
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
@@ -532,16 +536,21 @@ class VehicleEndpoint:
         self._gcs_seen = self.t_s
         if self._gcs_failsafe:
             self._gcs_failsafe = self._failsafe_acted = False
-            self.statustext("Failsafe cleared: ground station heartbeat back", mav.MAV_SEVERITY_INFO)
+            self.statustext("Failsafe cleared: ground station back", mav.MAV_SEVERITY_INFO)
 
     # -- pilot input ----------------------------------------------------------------------------
     def _from_my_gcs(self, m: Any) -> bool:
-        """Sticks are taken from ``SYSID_MYGCS`` only, as Rover; another sender is told once."""
+        """Sticks are taken from ``SYSID_MYGCS`` only, as Rover. Rover is silent about the
+        rest; lfctl tells each other sender once per ``SYSID_MYGCS``, at most one text every
+        :data:`RC_REFUSED_TEXT_S` seconds (a burst from many senders is not a burst of texts)."""
         sysid, mine = m.get_srcSystem(), int(self.param("SYSID_MYGCS"))
         if sysid == mine:
             return True
-        if sysid not in self._rc_refused:  # at most 256 senders
-            self._rc_refused.add(sysid)
+        if self._rc_refused_for != mine:  # a new SYSID_MYGCS: everyone else may be told again
+            self._rc_refused_for, self._rc_refused = mine, set()
+        if sysid not in self._rc_refused and self.t_s >= self._rc_refused_text_t + RC_REFUSED_TEXT_S:
+            self._rc_refused.add(sysid)  # at most 256 senders
+            self._rc_refused_text_t = self.t_s
             what = "Manual control" if m.get_type() == "MANUAL_CONTROL" else "RC override"
             self.statustext(f"{what} from {sysid} ignored: SYSID_MYGCS {mine}", mav.MAV_SEVERITY_WARNING)
         return False

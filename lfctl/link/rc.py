@@ -15,9 +15,16 @@ both, and its throttle channel is centred, so below the trim is reverse).
   channel.
 - Both are taken only from system ``SYSID_MYGCS``, as Rover takes them; MANUAL_CONTROL only
   when its ``target`` is this vehicle, RC_CHANNELS_OVERRIDE when its ``target_system`` is this
-  vehicle or 0 (Rover does not look at it; lfctl does not take sticks meant for another).
+  vehicle or 0 (as Rover's MAVLink routing passes it on).
+- A channel reads as Rover's does: the pulse width as a signed 16-bit number, clipped to the end
+  points, through the dead zone to a whole percent of throttle and a whole centidegree of
+  steering (Rover's integer ``control_in``).
 - An override lasts ``RC_OVERRIDE_TIME`` seconds after it last arrived (3 s by default; 0 turns
-  overrides off, a negative value keeps them until released).
+  overrides off, a negative value keeps them until released). A channel whose override has
+  lapsed reads as centred. Rover, with no receiver, differs here: its radio failsafe
+  (``FS_THR_ENABLE``, on by default) zeroes the sticks ``RC_FS_TIMEOUT`` after the last RC
+  frame and takes ``FS_ACTION``, and with it off the last sticks stay in force. lfctl models no
+  radio failsafe and stops, the safer of the two.
 """
 
 from __future__ import annotations
@@ -31,7 +38,9 @@ __all__ = [
     "RADIO_TRIM",
     "RC_DEAD_ZONE",
     "STEER_CHANNEL",
+    "STEER_RANGE",
     "THROTTLE_CHANNEL",
+    "THROTTLE_RANGE",
     "PilotInput",
     "RcOverrides",
     "manual_to_pwm",
@@ -43,6 +52,8 @@ RADIO_MIN, RADIO_TRIM, RADIO_MAX = 1100, 1500, 1900
 RC_DEAD_ZONE = 30
 #: Rover's default channel map (1-based, as RCMAP_ROLL and RCMAP_THROTTLE)
 STEER_CHANNEL, THROTTLE_CHANNEL = 1, 3
+#: the range of Rover's control_in on its throttle (percent) and steering (centidegrees) channels
+THROTTLE_RANGE, STEER_RANGE = 100, 4500
 #: the channels RC_CHANNELS_OVERRIDE carries
 N_CHANNELS = 18
 UINT16_MAX = 65535
@@ -60,20 +71,26 @@ class PilotInput:
     active: bool
 
 
-def stick(pwm: float) -> float:
-    """A centred channel's position, -1..1, from its pulse width: 0 inside the dead zone, then
-    linear out to the end points (Rover's ``pwm_to_angle_dz``), clipped beyond them.
+def stick(pwm: int, steps: int = THROTTLE_RANGE) -> float:
+    """A centred channel's position, -1..1, from its pulse width, as Rover's
+    ``pwm_to_angle_dz_trim`` reads it: the width as a signed 16-bit number (65535 is -1),
+    clipped to the end points, 0 inside the dead zone, then linear out to the end points in
+    whole steps (truncated toward zero).
 
     Parameters
     ----------
-    pwm : float
+    pwm : int
         The channel's pulse width, us.
+    steps : int
+        The channel's range in Rover's units: :data:`THROTTLE_RANGE` (whole percent) or
+        :data:`STEER_RANGE` (centidegrees).
     """
+    width = min(RADIO_MAX, max(RADIO_MIN, (int(pwm) + 0x8000) % 0x10000 - 0x8000))
     high, low = RADIO_TRIM + RC_DEAD_ZONE, RADIO_TRIM - RC_DEAD_ZONE
-    if pwm > high:
-        return min(1.0, (pwm - high) / (RADIO_MAX - high))
-    if pwm < low:
-        return max(-1.0, (pwm - low) / (low - RADIO_MIN))
+    if width > high:
+        return int(steps * (width - high) / (RADIO_MAX - high)) / steps
+    if width < low:
+        return int(steps * (width - low) / (low - RADIO_MIN)) / steps
     return 0.0
 
 
@@ -104,10 +121,11 @@ class RcOverrides:
         channel : int
             The channel, 1-18.
         pwm : int
-            The pulse width, us; 0 releases the channel.
+            The pulse width, us, kept modulo 65536 as Rover keeps it; 0 releases the channel.
         t_s : float
             When the override arrived, s.
         """
+        pwm = int(pwm) & 0xFFFF  # Rover keeps an override as a uint16_t (a negative one wraps)
         if pwm == 0:
             self._values.pop(channel, None)
         else:
@@ -191,7 +209,7 @@ class RcOverrides:
         steer = self.value(STEER_CHANNEL, t_s, timeout_s)
         throttle = self.value(THROTTLE_CHANNEL, t_s, timeout_s)
         return PilotInput(
-            steering=0.0 if steer is None else stick(steer),
-            throttle=0.0 if throttle is None else stick(throttle),
+            steering=0.0 if steer is None else stick(steer, STEER_RANGE),
+            throttle=0.0 if throttle is None else stick(throttle, THROTTLE_RANGE),
             active=steer is not None or throttle is not None,
         )

@@ -32,7 +32,7 @@ from lfctl.link.mission import Leg, to_legs
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
 
-__all__ = ["VehicleDriver", "autopilot_settings"]
+__all__ = ["VehicleDriver", "autopilot_settings", "speed_max"]
 
 
 def autopilot_settings(cfg: Config) -> AutopilotSettings:
@@ -156,17 +156,16 @@ class VehicleDriver:
     # -- MANUAL --------------------------------------------------------------------------------
     def _manual(self) -> tuple[float, float]:
         """The sticks as Rover's MANUAL passes them to its motors, for a vehicle commanded in
-        speed and yaw rate: the throttle stick is percent throttle, and throttle is speed as
-        Rover's own feed-forward has it (``CRUISE_SPEED`` at ``CRUISE_THROTTLE``), up to the
-        scenario's ``max_speed_mps`` either way; the steering stick at full throw is the
+        speed and yaw rate: the throttle stick is a fraction of full throttle, and full
+        throttle is the speed Rover projects from its feed-forward (:func:`speed_max`), up to
+        the scenario's ``max_speed_mps`` either way; the steering stick at full throw is the
         vehicle's tightest turn (``max_yaw_rate_degps``). Backing up turns the other way, as
         Rover's default ``PILOT_STEER_TYPE`` (a car's steering)."""
         ep = self.endpoint
         pilot = ep.pilot_input()
         g = self.cfg.guidance
-        cruise_speed, cruise_throttle = ep.param("CRUISE_SPEED"), ep.param("CRUISE_THROTTLE")
-        speed = pilot.throttle * 100.0 * cruise_speed / cruise_throttle if cruise_throttle > 0 else 0.0
-        speed = max(-g.max_speed_mps, min(g.max_speed_mps, speed))
+        full = speed_max(ep.param("CRUISE_SPEED"), ep.param("CRUISE_THROTTLE"))
+        speed = max(-g.max_speed_mps, min(g.max_speed_mps, pilot.throttle * full))
         turn = -1.0 if pilot.throttle < 0 else 1.0
         return speed, turn * pilot.steering * g.max_yaw_rate_radps
 
@@ -263,6 +262,23 @@ class VehicleDriver:
         arrived = self._goto.done and not self._goto_done
         self._goto_done = self._goto.done
         return arrived, ((-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps)
+
+
+def speed_max(cruise_speed_mps: float, cruise_throttle_pct: float) -> float:
+    """The speed at full throttle, m/s, as Rover's ``Mode::calc_speed_max`` projects it: the
+    cruise speed over the cruise throttle, or the cruise speed itself when the cruise throttle
+    is not a sane 5-100 %; at most 30 m/s.
+
+    Parameters
+    ----------
+    cruise_speed_mps : float
+        ``CRUISE_SPEED``, m/s.
+    cruise_throttle_pct : float
+        ``CRUISE_THROTTLE``, percent.
+    """
+    throttle = cruise_throttle_pct / 100.0
+    full = cruise_speed_mps if throttle > 1.0 or throttle < 0.05 else cruise_speed_mps / throttle
+    return min(30.0, max(0.0, full))
 
 
 def _nav_report(los: LosOutput, reversed_: bool, waypoints: Sequence[tuple[float, float]]) -> NavReport | None:

@@ -1171,7 +1171,7 @@ def test_sticks_are_taken_from_sysid_mygcs_only_and_another_sender_is_told_once(
     bench.tick()
     bench.raw(mav.MAVLink_manual_control_message(1, 0, 0, 800, 0, 0).pack(mavsdk))
     bench.tick()
-    assert bench.ep.pilot_input().throttle == pytest.approx((1820 - 1530) / 370)  # z 800 -> 1820 us
+    assert bench.ep.pilot_input().throttle == 0.78  # z 800 -> 1820 us: 100 x 290 / 370 = 78.4 %
 
 
 def test_manual_control_aimed_elsewhere_is_not_taken_and_a_target_of_0_is_not_everyone(bench: Bench) -> None:
@@ -1214,3 +1214,42 @@ def test_rc_channels_reports_the_live_overrides_at_the_rc_channels_streams_rate(
     out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s at 5 Hz, past RC_OVERRIDE_TIME
     rc = [m for m in out if m.get_type() == "RC_CHANNELS"]
     assert 9 <= len(rc) <= 11 and rc[0].chan1_raw == 1700 and rc[-1].chan1_raw == rc[-1].chan3_raw == 0
+
+
+def test_sticks_ignored_texts_are_rate_limited_and_told_again_for_a_new_sysid_mygcs(bench: Bench) -> None:
+    for sysid in range(1, 101):  # a burst from 100 senders: one text
+        bench.raw(mav.MAVLink_rc_channels_override_message(1, 1, 1700, 0, 0, 0, 0, 0, 0, 0).pack(
+            mav.MAVLink(None, srcSystem=sysid, srcComponent=1)))  # fmt: skip
+    bench.tick()
+    assert sum("ignored" in t for _, t in bench.ep.statustexts) == 1
+    bench.ep.params["SYSID_MYGCS"].value = 200
+    bench.tick(3.0)
+    bench.raw(mav.MAVLink_rc_channels_override_message(1, 1, 1700, 0, 0, 0, 0, 0, 0, 0).pack(
+        mav.MAVLink(None, srcSystem=1, srcComponent=1)))  # fmt: skip
+    bench.tick()
+    assert [t for _, t in bench.ep.statustexts if "ignored" in t][-1] == "RC override from 1 ignored: SYSID_MYGCS 200"
+
+
+def test_manual_control_keeps_the_ground_station_alive_and_any_stick_value_is_safe(bench: Bench) -> None:
+    bench.ep.params["FS_GCS_ENABLE"].value = 1
+    bench.ep.set_armed(True)
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    for y in (-32768, 32766, -3750, 0, -1000, 1000, 500, -500):  # 8 s of joystick, no heartbeat
+        bench.send(mav.MAVLink_manual_control_message(1, 0, y, y, 0, 0))
+        bench.tick(1.0)
+    assert bench.ep.mode == MODES["MANUAL"] and bench.ep.stats.handler_errors == 0
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_RC_CHANNELS, 10, 1))
+    bench.send(mav.MAVLink_manual_control_message(1, 0, -32768, 0, 0, 0))
+    out = [m for _ in range(10) for m in bench.tick(0.05)]
+    (rc,) = [m for m in out if m.get_type() == "RC_CHANNELS"][-1:]
+    assert rc.chan1_raw == (1100 - 12707) & 0xFFFF and bench.ep.pilot_input().steering == -1.0
+    bench.tick(6.0)  # nothing from the ground station for FS_GCS_TIMEOUT: HOLD
+    assert bench.ep.mode == MODES["HOLD"]
+
+
+def test_an_rc_override_to_system_0_is_taken(bench: Bench) -> None:
+    bench.send(mav.MAVLink_rc_channels_override_message(0, 0, 65535, 65535, 1715, 65535, 0, 0, 0, 0))
+    bench.tick()
+    assert bench.ep.pilot_input().throttle == 0.5

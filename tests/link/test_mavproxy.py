@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import ned_to_geodetic
 from lfctl.link.endpoint import MODES
+from lfctl.sim.driver import speed_max
 from lfctl.sim.links import Links
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow, pytest.mark.fmu]
@@ -130,8 +131,8 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
     mavproxy: Path, tmp_path: Path, truth_convoy, background_run
 ) -> None:
     # `rc 3 1700` holds the throttle channel at 1700 us (MAVProxy resends it every second):
-    # (1700 - 1530) / 370 = 45.9 % throttle; CRUISE_SPEED at CRUISE_THROTTLE 50 % makes that
-    # 0.919 x CRUISE_SPEED, up to the scenario's max_speed_mps
+    # 100 x (1700 - 1530) / 370 = 45 % (a whole percent, as Rover's) of the full-throttle speed
+    # Rover projects from CRUISE_SPEED at CRUISE_THROTTLE 50 %, up to the scenario's max_speed_mps
     cfg = truth_convoy(120.0)
     base = cfg.link.udp_base_port
     links: list[Links] = []
@@ -140,7 +141,7 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
         while not links:
             time.sleep(0.05)
         ep = links[0].endpoints[0]
-        expected = min(cfg.guidance.max_speed_mps, (170 / 370) * 100 * ep.param("CRUISE_SPEED") / 50)
+        expected = min(cfg.guidance.max_speed_mps, 0.45 * speed_max(ep.param("CRUISE_SPEED"), 50))
         proc = subprocess.Popen(
             [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
              "--non-interactive", "--cmd=mode MANUAL; arm throttle; rc 3 1700"],

@@ -208,7 +208,7 @@ def test_mavsdk_fence_rally_goto_rtl_and_health(truth_convoy, background_run) ->
     assert out["mode_rtl"] == FlightMode.RETURN_TO_LAUNCH
 
 
-async def manual_drive(port: int, endpoint: Any) -> dict:
+async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
     """MAVSDK's ManualControl (MANUAL_CONTROL from system 245) driving the leader in MANUAL."""
     import json
 
@@ -219,6 +219,8 @@ async def manual_drive(port: int, endpoint: Any) -> dict:
     from mavsdk.asyncio.plugins.param.param import ParamAsync
     from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
     from mavsdk.plugins.mavlink_direct import MavlinkMessage
+
+    from lfctl.sim.driver import speed_max
 
     sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     out: dict = {}
@@ -243,10 +245,14 @@ async def manual_drive(port: int, endpoint: Any) -> dict:
         out["speed_not_mine"] = endpoint.state["speed_mps"]
         out["texts"] = [t for _, t in endpoint.statustexts if "ignored" in t]
         await params.set_param_int("SYSID_MYGCS", 245)
-        await sticks(0.5, 4.0)  # z 500 -> 1700 us: 45.9 % throttle
+        # z 500 -> 1700 us: 45 % of the full-throttle speed Rover projects from CRUISE_SPEED at 50 %
+        out["expected"] = min(max_speed_mps, 0.45 * speed_max(endpoint.param("CRUISE_SPEED"), 50))
+        for _ in range(10):  # up to 10 s for the sticks to bring it to that speed
+            await sticks(0.5, 1.0)
+            out["speed"] = endpoint.state["speed_mps"]
+            if abs(out["speed"] - out["expected"]) < 0.02:
+                break
         out["mode"] = await telemetry.flight_mode()
-        out["speed"] = endpoint.state["speed_mps"]
-        out["expected"] = (170 / 370) * 100 * endpoint.param("CRUISE_SPEED") / 50
     finally:
         sdk.destroy()
     return out
@@ -263,10 +269,11 @@ def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_c
         while not links:
             asyncio.run(asyncio.sleep(0.05))
         ep = links[0].endpoints[0]
-        out = asyncio.run(asyncio.wait_for(manual_drive(cfg.link.udp_base_port, ep), timeout=120))
+        out = asyncio.run(
+            asyncio.wait_for(manual_drive(cfg.link.udp_base_port, ep, cfg.guidance.max_speed_mps), timeout=120)
+        )
     assert not errors, errors
     assert out["texts"] == ["Manual control from 245 ignored: SYSID_MYGCS 255"]
     assert abs(out["speed_not_mine"]) < 0.02
     assert out["mode"] == FlightMode.MANUAL
-    expected = min(cfg.guidance.max_speed_mps, out["expected"])
-    assert out["speed"] == pytest.approx(expected, abs=0.03)
+    assert out["speed"] == pytest.approx(out["expected"], abs=0.02)

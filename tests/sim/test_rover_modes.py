@@ -283,12 +283,13 @@ def test_a_mission_of_home_alone_in_auto_stops_the_leader_and_reports_no_destina
 
 def test_manual_drives_the_leader_by_the_ground_stations_sticks() -> None:
     # MANUAL, as a ground station's RC override drives a Rover: throttle 1622 us is
-    # (1622 - 1530) / 370 = 24.9 % throttle, at CRUISE_THROTTLE 50 % for CRUISE_SPEED 0.4 m/s
-    # 0.199 m/s; 1378 us the same backwards, where steering 1567 us (10 % right) turns the
-    # car's way round: -10 % of 90 deg/s commanded, of which the skid-steer rover's skid factor
-    # (0.8, its FMU's default) achieves -7.2 deg/s. Sent every second, the sticks stop 3 s
-    # after the last.
-    forward = mav.MAVLink_rc_channels_override_message(1, 1, 1500, 0, 1622, 0, 0, 0, 0, 0)
+    # 100 x (1622 - 1530) / 370 = 24 % (Rover's whole percent) of full throttle, which Rover
+    # projects from CRUISE_SPEED 0.4 m/s at CRUISE_THROTTLE 50 % as 0.8 m/s: 0.192 m/s; 1378 us
+    # the same backwards. Steering 1567 us (10 % right) turns right going forward and, as a
+    # car's steering, left backing up: +-10 % of 90 deg/s commanded, of which the skid-steer
+    # rover's skid factor (0.8, its FMU's default) achieves 7.2 deg/s. Sent every second, the
+    # sticks stop 3 s after the last.
+    forward = mav.MAVLink_rc_channels_override_message(1, 1, 1567, 0, 1622, 0, 0, 0, 0, 0)
     backward = mav.MAVLink_rc_channels_override_message(1, 1, 1567, 0, 1378, 0, 0, 0, 0, 0)
     commands: dict[float, Callable[[Links], None]] = {2.0: mode("MANUAL")}
     for t in range(3, 12):
@@ -298,11 +299,8 @@ def test_manual_drives_the_leader_by_the_ground_stations_sticks() -> None:
     rep, _links = run_with(commands, duration_s=27.0)
     assert [name for name, _s in rep.leader_modes][:2] == ["AUTO", "MANUAL"]
     t, speed, yaw = rep.result.t_s, rep.result.speed_mps[:, 0], np.unwrap(rep.result.yaw_rad[:, 0])
-    ahead = (t >= 6.0) & (t <= 12.0)
-    back = (t >= 15.0) & (t <= 21.0)
-    assert np.median(speed[ahead]) == pytest.approx(0.199, abs=0.01)
-    assert np.ptp(yaw[ahead]) < math.radians(2.0)
-    assert np.median(speed[back]) == pytest.approx(-0.199, abs=0.01)
-    rate = np.polyfit(t[back], yaw[back], 1)[0]
-    assert math.degrees(rate) == pytest.approx(-7.2, abs=0.3)
+    for legs, sign in (((t >= 6.0) & (t <= 12.0), 1.0), ((t >= 15.0) & (t <= 21.0), -1.0)):
+        assert np.median(speed[legs]) == pytest.approx(sign * 0.192, abs=0.005)
+        rate = np.polyfit(t[legs], yaw[legs], 1)[0]
+        assert math.degrees(rate) == pytest.approx(sign * 7.2, abs=0.3)
     assert np.max(np.abs(speed[t >= 25.0])) < 0.02  # 3 s after the last override: stopped
