@@ -56,9 +56,12 @@ log = logging.getLogger(__name__)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
 NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
-#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks (ArduPilot's magic number)
-FORCE_ARM = 21196.0
+#: MAV_CMD_COMPONENT_ARM_DISARM's param2 values that arm past the checks: ArduPilot's
+#: magic_force_arm_value (MAVProxy's `arm throttle force`) and MAVLink's 21196
+FORCE_ARM = (2989.0, 21196.0)
 MODE_NAMES = {v: k for k, v in MODES.items()}
+#: Rover's other modes, which lfctl does not fly (named when refused)
+OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
 #: the least time between two "sticks ignored" texts, s (:meth:`VehicleEndpoint._from_my_gcs`)
 RC_REFUSED_TEXT_S = 2.0
 #: Rover's autopilot modes (``is_autopilot_mode``): HEARTBEAT's GUIDED_ENABLED, NAV_CONTROLLER_OUTPUT
@@ -96,6 +99,8 @@ STREAMS = {
     "POSITION_TARGET_GLOBAL_INT": 2.0,
     "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
     "RC_CHANNELS": 1.0,
+    "ATTITUDE_QUATERNION": 0.0,  # sent when asked for (MAVSDK's attitude quaternion)
+    "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, and with GET_HOME_POSITION
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
@@ -481,8 +486,11 @@ class VehicleEndpoint:
             log.exception("%s: handling %s failed", self.name, m.get_type())
 
     def _for_me(self, m: Any, field: str = "target_system") -> bool:
+        """Aimed at this vehicle's autopilot: system 0 or this one and, where the message names
+        one, component 0 or 1 (Rover's routing forwards what is aimed at another component of
+        its system and does not act on it)."""
         target = getattr(m, field, self.sysid)
-        if target not in (0, self.sysid):
+        if target not in (0, self.sysid) or getattr(m, "target_component", 0) not in (0, 1):
             self.stats.other_sysid += 1
             return False
         return True
@@ -591,6 +599,11 @@ class VehicleEndpoint:
         custom_mode : int
             The Rover mode number (a value of :data:`MODES`).
         """
+        if custom_mode == self.mode:
+            return True  # as Rover: already there, nothing changes (a GUIDED target is kept)
+        if custom_mode in OTHER_ROVER_MODES:
+            self.statustext(f"{OTHER_ROVER_MODES[custom_mode]} mode not supported", mav.MAV_SEVERITY_WARNING)
+            return False
         if custom_mode not in MODE_NAMES:
             self.statustext(f"Unknown mode {custom_mode}")
             return False
@@ -601,9 +614,11 @@ class VehicleEndpoint:
             return False
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
             self.statustext("No Mission. Can't set AUTO.")
+            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)  # Rover's, after the mode's
             return False
         if custom_mode == MODES["SMART_RTL"] and not self.path:
             self.statustext("SmartRTL unavailable: no path recorded")
+            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
             return False
         self._enter(custom_mode)
         return True
@@ -612,6 +627,11 @@ class VehicleEndpoint:
         if custom_mode != self.mode:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
             self.modes.append((self.t_s, custom_mode))
+            if custom_mode in AUTOPILOT_MODES:
+                # Rover's autopilot modes start forwards at their default speed
+                # (Mode::init_reversed_flag, each mode's _enter)
+                self.reversed = False
+                self.desired_speed_mps = None
             if custom_mode == MODES["AUTO"] and self.mission_complete and self.missions.set_current(1):
                 # a finished mission starts again from its first item (AP_Mission::resume)
                 self.mission_version += 1
@@ -667,12 +687,18 @@ class VehicleEndpoint:
             self._once.append(msg_id)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if p[0] != 1.0:
+                return mav.MAV_RESULT_FAILED  # as Rover: param1 must be 1
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
+            # Rover runs its pre-arm checks (their failures as "PreArm:" texts); lfctl's vehicle
+            # has none that can fail
+            return mav.MAV_RESULT_TEMPORARILY_REJECTED if self.armed else mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_HOME:
             return self._set_home_command(p, latlon_e7)
         if cmd == mav.MAV_CMD_GET_HOME_POSITION:
-            self._once.append(MSG_IDS["HOME_POSITION"])
+            self._once += [MSG_IDS["HOME_POSITION"], MSG_IDS["GPS_GLOBAL_ORIGIN"]]  # as Rover: both
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             return self._set_interval(p[0], p[1])
@@ -712,8 +738,8 @@ class VehicleEndpoint:
 
     def _arm_command(self, arm: float, force: float = 0.0) -> int:
         if not _finite(arm) or arm not in (0.0, 1.0):
-            return mav.MAV_RESULT_DENIED
-        if arm == 1.0 and not self.armed and self.mode in NOT_ARMABLE and force != FORCE_ARM:
+            return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
+        if arm == 1.0 and not self.armed and self.mode in NOT_ARMABLE and force not in FORCE_ARM:
             # Rover's RTL and SmartRTL do not allow arming (Mode::allows_arming): a ground
             # station switches to HOLD first, as MAVSDK does
             self.statustext("Arm: Mode not armable")
@@ -733,7 +759,7 @@ class VehicleEndpoint:
             self._update_home()  # where it stands now, unless a ground station put home
         if armed != self.armed:
             self.armed = armed
-            self.statustext("Armed" if armed else "Disarmed", mav.MAV_SEVERITY_INFO)
+            self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
     def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
@@ -793,8 +819,8 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_DENIED
         if self.mode not in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
             return mav.MAV_RESULT_FAILED  # Rover: the mode has no speed to set
-        if self.mode == MODES["GUIDED"] and self.guided is not None and self.guided.kind != "location":
-            return mav.MAV_RESULT_FAILED  # rate and heading targets carry their own speed
+        if self.mode == MODES["GUIDED"] and (self.guided is None or self.guided.kind != "location"):
+            return mav.MAV_RESULT_FAILED  # stopped, or a rate or heading target with its own speed
         self.desired_speed_mps = float(speed)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -828,8 +854,10 @@ class VehicleEndpoint:
     def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
         """MAV_CMD_DO_SET_HOME: param1 = 1 (or no position) puts home where the vehicle is,
         else at the command's latitude and longitude; either way it stays there."""
-        here = _finite(p[0]) and p[0] == 1.0
+        here = p[0] == 1.0
         where = None if here else _command_latlon(p, latlon_e7)
+        if not here and where != (0, 0) and p[0] != 0.0:
+            return mav.MAV_RESULT_FAILED  # as Rover: here (1, or at 0, 0) or there (0)
         if not here and where is None:
             return mav.MAV_RESULT_DENIED
         if here or where == (0, 0):
@@ -839,10 +867,18 @@ class VehicleEndpoint:
         return mav.MAV_RESULT_ACCEPTED
 
     # -- parameters -------------------------------------------------------------------------
-    def _param_value(self, name: str) -> Any:
+    def _param_value(self, name: str, indexed: bool = True) -> Any:
+        """PARAM_VALUE for ``name``: with its index in the list, or (``indexed`` False) index
+        -1, as Rover answers a set and a read by name."""
         names = list(self.params)
         p = self.params[name]
-        return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), names.index(name))
+        index = names.index(name) if indexed else 0xFFFF
+        return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), index)
+
+    def _param_name(self, raw: str | bytes) -> str | None:
+        """The parameter a request names, found as Rover's AP_Param finds it (any case)."""
+        name = _text(raw).upper()
+        return name if name in self.params else None
 
     def _on_param_request_list(self, m: Any) -> None:
         if self._for_me(m):
@@ -859,27 +895,27 @@ class VehicleEndpoint:
             else:
                 self.statustext(f"No parameter at index {m.param_index} (there are {len(names)})")
             return
-        name = _text(m.param_id)
-        if name in self.params:
-            self.send(self._param_value(name))
+        name = self._param_name(m.param_id)
+        if name is not None:
+            self.send(self._param_value(name, indexed=False))
         else:
-            self.statustext(f"Unknown parameter {name}")
+            self.statustext(f"Unknown parameter {_text(m.param_id)}")
 
     def _on_param_set(self, m: Any) -> None:
         if not self._for_me(m):
             return
-        name = _text(m.param_id)
-        p = self.params.get(name)
-        if p is None:
-            self.statustext(f"Unknown parameter {name}")
+        name = self._param_name(m.param_id)
+        if name is None:
+            self.statustext(f"Unknown parameter {_text(m.param_id)}")
             return
+        p = self.params[name]
         if p.accepts(m.param_value):
             p.value = p.stored(m.param_value)
         elif p.readonly:
-            self.statustext(f"{name} is read-only")
+            self.statustext(f"Param write denied ({name})", mav.MAV_SEVERITY_WARNING)  # Rover's text
         else:
             self.statustext(f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip())
-        self.send(self._param_value(name))  # the value now in force, as ArduPilot answers
+        self.send(self._param_value(name, indexed=False))  # the value now in force, as Rover answers
 
     # -- missions, fence, rally -------------------------------------------------------------
     def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
@@ -1349,6 +1385,21 @@ class VehicleEndpoint:
             yaw_cd = int(math.degrees(s["yaw_rad"]) * 100)  # Rover's yaw_sensor: truncated centidegrees
             heading = (yaw_cd + 36000 if yaw_cd < 0 else yaw_cd) // 100 % 360
             self.send(mav.MAVLink_vfr_hud_message(speed, speed, heading, self.throttle_pct(), alt, 0.0))
+        elif name == "ATTITUDE_QUATERNION":
+            half = wrap_pi(s["yaw_rad"]) / 2.0  # level: a turn about down alone
+            self.send(
+                mav.MAVLink_attitude_quaternion_message(
+                    t_ms, math.cos(half), 0.0, 0.0, math.sin(half), 0.0, 0.0, s["yaw_rate_radps"], [0.0] * 4
+                )
+            )
+        elif name == "GPS_GLOBAL_ORIGIN":
+            # where local NED is anchored (the EKF origin's place on a Rover)
+            o_lat, o_lon, o_alt = self.home
+            self.send(
+                mav.MAVLink_gps_global_origin_message(
+                    int(round(o_lat * 1e7)), int(round(o_lon * 1e7)), int(round(o_alt * 1000)), int(self.t_s * 1e6)
+                )
+            )
         elif name == "ATTITUDE":
             self.send(
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])

@@ -231,13 +231,14 @@ class VehicleDriver:
     def _return(self, t_s: float, world: WorldState) -> tuple[float, float]:
         ep = self.endpoint
         me = world.vehicle(self.index)
-        speed = ep.param("RTL_SPEED") or ep.speed_mps
+        # Rover's RTL speed (RTL_SPEED, else WP_SPEED) until a DO_CHANGE_SPEED in the mode
+        speed = ep.desired_speed_mps or ep.param("RTL_SPEED") or ep.param("WP_SPEED")
         if ep.mode == MODES["SMART_RTL"] and ep.path:
             route = list(reversed(ep.path))
-            key: tuple[object, ...] = ("srtl", ep.modes[-1][0])
+            key: tuple[object, ...] = ("srtl", ep.modes[-1][0], speed)
         else:
             route = [ep.rtl_destination(me.north_m, me.east_m)]
-            key = ("rtl", ep.modes[-1][0], route[0])
+            key = ("rtl", ep.modes[-1][0], route[0], speed)
         done, cmd = self._drive_to(route, key, speed, t_s, world)
         if done:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)

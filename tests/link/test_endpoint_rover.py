@@ -111,7 +111,8 @@ def test_a_command_with_values_that_are_not_numbers_is_denied_and_nothing_change
 ) -> None:
     bench.tick()
     before = (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq)
-    assert bench.command(cmd, *params) in (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED)
+    # refused (COMPONENT_ARM_DISARM with neither 0 nor 1: UNSUPPORTED, as Rover)
+    assert bench.command(cmd, *params) in (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED, mav.MAV_RESULT_UNSUPPORTED)
     assert (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq) == before
     assert bench.ep.stats.handler_errors == 0
 
@@ -1253,3 +1254,95 @@ def test_an_rc_override_to_system_0_is_taken(bench: Bench) -> None:
     bench.send(mav.MAVLink_rc_channels_override_message(0, 0, 65535, 65535, 1715, 65535, 0, 0, 0, 0))
     bench.tick()
     assert bench.ep.pilot_input().throttle == 0.5
+
+
+# -- commands and parameters as Rover answers them --------------------------------------------
+def test_force_arm_takes_ardupilots_magic_value_and_mavlinks(bench: Bench) -> None:
+    assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 0) == mav.MAV_RESULT_FAILED  # RTL: not armable
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989) == mav.MAV_RESULT_ACCEPTED  # `arm throttle force`
+    assert bench.ep.armed and bench.ep.statustexts[-1][1] == "Throttle armed"
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 2) == mav.MAV_RESULT_UNSUPPORTED
+
+
+def test_choosing_the_mode_the_vehicle_is_in_changes_nothing(bench: Bench) -> None:
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, 0))
+    bench.tick()
+    assert bench.ep.guided is not None
+    modes_before = list(bench.ep.modes)
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.guided is not None and bench.ep.modes == modes_before  # the target kept, no mode change
+
+
+def test_an_autopilot_mode_starts_forwards_at_its_default_speed(bench: Bench) -> None:
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.7) == mav.MAV_RESULT_FAILED  # stopped: no speed to set
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, 0))
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.7) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_REVERSE, 1) == mav.MAV_RESULT_ACCEPTED
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.reversed and bench.ep.desired_speed_mps == pytest.approx(0.7)  # HOLD: not an autopilot mode
+    assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
+    assert not bench.ep.reversed and bench.ep.desired_speed_mps is None  # Mode::init_reversed_flag, RTL's _enter
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.3) == mav.MAV_RESULT_ACCEPTED  # RTL takes a speed
+
+
+def test_commands_and_parameters_for_another_component_are_not_acted_on(bench: Bench) -> None:
+    bench.send(mav.MAVLink_command_long_message(1, 191, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    bench.send(mav.MAVLink_param_set_message(1, 100, b"WP_SPEED", 3.0, mav.MAV_PARAM_TYPE_REAL32))
+    out = bench.tick()
+    assert not bench.ep.armed and bench.ep.param("WP_SPEED") == 2.0
+    assert not [m for m in out if m.get_type() in ("COMMAND_ACK", "PARAM_VALUE")]
+
+
+def test_param_value_answers_a_set_and_a_read_by_name_with_index_minus_1_in_any_case(bench: Bench) -> None:
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"wp_speed", 1.5, mav.MAV_PARAM_TYPE_REAL32))
+    (echo,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert (echo.param_id, echo.param_value, echo.param_index) == ("WP_SPEED", 1.5, 65535)
+    bench.send(mav.MAVLink_param_request_read_message(1, 1, b"WP_SPEED", -1))
+    (by_name,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert by_name.param_index == 65535 and by_name.param_count == len(bench.ep.params)
+    bench.send(mav.MAVLink_param_request_read_message(1, 1, b"", 1))
+    (by_index,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert by_index.param_index == 1 and by_index.param_id == list(bench.ep.params)[1]
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"SYSID_THISMAV", 7, mav.MAV_PARAM_TYPE_INT16))
+    (kept,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert kept.param_value == 1 and bench.ep.statustexts[-1][1] == "Param write denied (SYSID_THISMAV)"
+
+
+def test_set_home_autopilot_capabilities_and_prearm_checks_answer_as_rover(bench: Bench) -> None:
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 2, 0, 0, 0, 12.96, 77.67, 900) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 3, 0, 0, 0, 0, 0, 0) == mav.MAV_RESULT_ACCEPTED  # 0, 0: here
+    assert bench.command(mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 0) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED
+    bench.ep.set_armed(True)
+    assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_TEMPORARILY_REJECTED
+
+
+def test_gps_global_origin_and_attitude_quaternion_when_asked_for(bench: Bench) -> None:
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    assert not [m for m in out if m.get_type() in ("GPS_GLOBAL_ORIGIN", "ATTITUDE_QUATERNION")]  # not streamed
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
+    (origin,) = [m for m in bench.tick() if m.get_type() == "GPS_GLOBAL_ORIGIN"]
+    assert (origin.latitude, origin.longitude, origin.altitude) == (129602000, 776690000, 900000)
+    msg_id = mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 100_000) == mav.MAV_RESULT_ACCEPTED
+    quats = [m for _ in range(50) for m in bench.tick(0.02) if m.get_type() == "ATTITUDE_QUATERNION"]
+    assert 9 <= len(quats) <= 11
+    q = quats[-1]
+    assert (q.q1, q.q2, q.q3, q.q4) == pytest.approx((math.cos(0.25), 0, 0, math.sin(0.25)))  # yaw 0.5 rad
+
+
+def test_a_rover_mode_lfctl_does_not_fly_is_named_and_a_failed_change_says_so(bench: Bench) -> None:
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 1))
+    bench.tick()
+    assert bench.ep.statustexts[-1][1] == "ACRO mode not supported"
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_FAILED  # no mission
+    assert [t for _, t in bench.ep.statustexts[-2:]] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]

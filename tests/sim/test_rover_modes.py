@@ -304,3 +304,20 @@ def test_manual_drives_the_leader_by_the_ground_stations_sticks() -> None:
         rate = np.polyfit(t[legs], yaw[legs], 1)[0]
         assert math.degrees(rate) == pytest.approx(sign * 7.2, abs=0.3)
     assert np.max(np.abs(speed[t >= 25.0])) < 0.02  # 3 s after the last override: stopped
+
+
+def test_a_speed_change_in_rtl_takes_effect_and_does_not_outlive_the_mode() -> None:
+    # RTL drives at RTL_SPEED, else WP_SPEED (0.4 m/s here); DO_CHANGE_SPEED in RTL changes it
+    # at once (Rover's ModeRTL::set_desired_speed); entering AUTO again starts at its default
+    def rtl(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    def slower(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_CHANGE_SPEED, 0, 1, 0.2, 0, 0, 0, 0, 0))
+
+    rep, links = run_with({14.0: rtl, 22.0: slower, 28.0: mode("AUTO")}, duration_s=29.0)
+    t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
+    # (it turns back first, slowing in the turn)
+    assert np.median(speed[(t > 19.0) & (t < 22.0)]) == pytest.approx(0.4, abs=0.02)
+    assert np.median(speed[(t > 24.0) & (t < 28.0)]) == pytest.approx(0.2, abs=0.02)
+    assert links.endpoints[0].desired_speed_mps is None  # AUTO entered again: its own speed
