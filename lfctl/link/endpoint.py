@@ -33,7 +33,7 @@ from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
-from lfctl.link.params import Param, default_params
+from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
 from lfctl.link.port import pack_next
 from lfctl.link.rc import PilotInput, RcOverrides
 from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
@@ -692,9 +692,11 @@ class VehicleEndpoint:
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
-            # Rover runs its pre-arm checks (their failures as "PreArm:" texts); lfctl's vehicle
-            # has none that can fail
-            return mav.MAV_RESULT_TEMPORARILY_REJECTED if self.armed else mav.MAV_RESULT_ACCEPTED
+            if self.armed:
+                return mav.MAV_RESULT_TEMPORARILY_REJECTED
+            for failure in self.prearm_failures():  # as Rover: each failure a "PreArm:" text
+                self.statustext(f"PreArm: {failure}", mav.MAV_SEVERITY_CRITICAL)
+            return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_HOME:
             return self._set_home_command(p, latlon_e7)
         if cmd == mav.MAV_CMD_GET_HOME_POSITION:
@@ -736,14 +738,30 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         return mav.MAV_RESULT_UNSUPPORTED
 
+    def prearm_failures(self) -> list[str]:
+        """What keeps this vehicle from arming now, as Rover's pre-arm checks say it (none
+        with ``ARMING_CHECK`` 0, or once armed): its mode (RTL and SmartRTL do not allow
+        arming, ``Mode::allows_arming``) and, with the parameter checks on (``ARMING_CHECK``
+        1 or bit 32), a ``WP_SPEED`` of 0."""
+        checks = int(self.param("ARMING_CHECK"))
+        if self.armed or checks == 0:
+            return []
+        failures = []
+        if (checks == ARMING_CHECK_ALL or checks & ARMING_CHECK_PARAMETERS) and self.param("WP_SPEED") <= 0:
+            failures.append("WP_SPEED too low")
+        if self.mode in NOT_ARMABLE:
+            failures.append("Mode not armable")
+        return failures
+
     def _arm_command(self, arm: float, force: float = 0.0) -> int:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
-        if arm == 1.0 and not self.armed and self.mode in NOT_ARMABLE and force not in FORCE_ARM:
-            # Rover's RTL and SmartRTL do not allow arming (Mode::allows_arming): a ground
-            # station switches to HOLD first, as MAVSDK does
-            self.statustext("Arm: Mode not armable")
-            return mav.MAV_RESULT_FAILED
+        if arm == 1.0 and force not in FORCE_ARM:
+            failures = self.prearm_failures()
+            for failure in failures:  # a ground station switches to HOLD first, as MAVSDK does
+                self.statustext(f"Arm: {failure}", mav.MAV_SEVERITY_CRITICAL)
+            if failures:
+                return mav.MAV_RESULT_FAILED
         self.set_armed(arm == 1.0)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -1324,6 +1342,8 @@ class VehicleEndpoint:
             fence = mav.MAV_SYS_STATUS_GEOFENCE
             enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
             health = SENSORS | (fence if self.fence_breach is None else 0)
+            if self.prearm_failures():  # QGroundControl's "Ready To Fly" / "Not Ready"
+                health &= ~mav.MAV_SYS_STATUS_PREARM_CHECK
             self.send(
                 mav.MAVLink_sys_status_message(
                     SENSORS | fence, enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0

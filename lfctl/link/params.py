@@ -11,7 +11,17 @@ from pathlib import Path
 from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 
-__all__ = ["INT8", "INT16", "REAL32", "Param", "ParamFileError", "default_params", "load_param_file", "save_param_file"]
+__all__ = [
+    "INT8",
+    "INT16",
+    "INT32",
+    "REAL32",
+    "Param",
+    "ParamFileError",
+    "default_params",
+    "load_param_file",
+    "save_param_file",
+]
 
 #: a parameter name: ArduPilot's 16-character limit, letters, digits and underscores
 MAX_NAME_LEN = 16
@@ -20,7 +30,9 @@ MAX_FILE_LINES = 20_000
 #: the largest parameter file read, bytes
 MAX_FILE_BYTES = 2 * 1024 * 1024
 #: MAV_PARAM_TYPE values the parameters use
-INT8, INT16, REAL32 = 2, 4, 9
+INT8, INT16, INT32, REAL32 = 2, 4, 6, 9
+#: ARMING_CHECK's bits lfctl has checks for: all of them, and the parameter checks
+ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS = 1, 1 << 5
 
 
 @dataclass
@@ -40,9 +52,9 @@ class Param:
     readonly : bool
         Refuse any set.
     kind : int
-        Its MAV_PARAM_TYPE, ArduPilot's: REAL32 (9) for an ``AP_Float``, INT8 (2) or INT16
-        (4) for an ``AP_Int8`` / ``AP_Int16`` (PARAM_VALUE says it; MAVSDK's
-        ``get_param_int`` needs it).
+        Its MAV_PARAM_TYPE, ArduPilot's: REAL32 (9) for an ``AP_Float``, INT8 (2), INT16
+        (4) or INT32 (6) for an ``AP_Int8`` / ``AP_Int16`` / ``AP_Int32`` (PARAM_VALUE says
+        it; MAVSDK's ``get_param_int`` needs it).
     """
 
     value: float
@@ -112,6 +124,9 @@ def default_params(sysid: int) -> dict[str, Param]:
         ),
         "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),
         "FENCE_MARGIN": Param(2.0, 1.0, 10.0, "m", "distance inside the fence that counts as near it"),
+        "ARMING_CHECK": Param(
+            1, 0, 0x7FFFFF, "", "pre-arm checks: 0 none, 1 all, else a bitmask (32: parameters)", kind=INT32
+        ),
         "SYSID_MYGCS": Param(
             255, 1, 255, "", "the ground station whose RC_CHANNELS_OVERRIDE and MANUAL_CONTROL are taken", kind=INT16
         ),

@@ -1346,3 +1346,26 @@ def test_a_rover_mode_lfctl_does_not_fly_is_named_and_a_failed_change_says_so(be
     assert bench.ep.statustexts[-1][1] == "ACRO mode not supported"
     assert bench.set_mode("AUTO") == mav.MAV_RESULT_FAILED  # no mission
     assert [t for _, t in bench.ep.statustexts[-2:]] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]
+
+
+def test_prearm_checks_as_rovers_with_arming_check_and_the_sys_status_ready_bit(bench: Bench) -> None:
+    def ready() -> bool:
+        (status,) = [m for m in bench.tick(1.0) if m.get_type() == "SYS_STATUS"][-1:]
+        return bool(status.onboard_control_sensors_health & mav.MAV_SYS_STATUS_PREARM_CHECK)
+
+    assert ready()
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.0, mav.MAV_PARAM_TYPE_REAL32))
+    assert not ready()  # QGroundControl: "Not Ready"
+    assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.statustexts[-1][1] == "PreArm: WP_SPEED too low"
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
+    assert bench.ep.statustexts[-1][1] == "Arm: WP_SPEED too low" and not bench.ep.armed
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 64, mav.MAV_PARAM_TYPE_INT32))
+    (echo,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
+    assert echo.param_type == mav.MAV_PARAM_TYPE_INT32  # MAVProxy's `arm check` reads it as a bitmask
+    assert ready()  # the parameter checks (32) are off
+    assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
+    assert not ready() and bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 0, mav.MAV_PARAM_TYPE_INT32))
+    assert ready()  # no checks: Rover arms in RTL too
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
