@@ -14,15 +14,18 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import tomli_w
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.cli import build_parser, main
 from lfctl.config import MAX_SCENARIO_BYTES, parse_config
 from lfctl.errors import ConfigError
 from lfctl.link.mission import MissionItem, load_mission
-from lfctl.link.params import load_param_file
+from lfctl.link.params import load_param_file, save_param_file
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
@@ -440,3 +443,21 @@ def test_a_shipped_mission_is_found_by_name_outside_a_checkout(
     assert main([*args, "circle.waypoints"]) == 2
     err = capsys.readouterr().err
     assert "cannot read mission 'circle.waypoints'" in err and "square.waypoints" in err
+
+
+@given(
+    st.dictionaries(
+        st.sampled_from(["ARMING_CHECK", "WP_SPEED", "FENCE_RADIUS", "CRUISE_THROTTLE", "LFC_BEARING"]),
+        st.one_of(st.integers(-(2**24), 2**24), st.floats(-1e6, 1e6, width=32)),
+        min_size=1,
+    )
+)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_a_saved_parameter_file_loads_back_the_values_a_vehicle_sent(tmp_path: Path, values: dict) -> None:
+    # PARAM_VALUE carries 32-bit floats: each comes back as that float (a bitmask such as
+    # 1048574 whole, not 1.04857e+06)
+    sent = {name: float(np.float32(v)) for name, v in values.items()}
+    for fmt in ("mavproxy", "qgc"):
+        path = tmp_path / f"p.{fmt}"
+        save_param_file(sent, path, fmt)
+        assert {k: float(np.float32(v)) for k, v in load_param_file(path).items()} == sent

@@ -56,12 +56,16 @@ log = logging.getLogger(__name__)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
 NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
-#: MAV_CMD_COMPONENT_ARM_DISARM's param2 values that arm past the checks: ArduPilot's
-#: magic_force_arm_value (MAVProxy's `arm throttle force`) and MAVLink's 21196
-FORCE_ARM = (2989.0, 21196.0)
+#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks: ArduPilot's
+#: magic_force_arm_value (MAVProxy's `arm throttle force`); 21196, its force-disarm value, does
+#: not force an arm
+FORCE_ARM = 2989.0
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: Rover's other modes, which lfctl does not fly (named when refused)
 OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
+#: Rover's period of the "PreArm:" texts while a check fails, and their delay once one starts
+#: failing, s (AP_Arming::update)
+PREARM_DISPLAY_S, PREARM_SOON_S = 30.0, 4.0
 #: the least time between two "sticks ignored" texts, s (:meth:`VehicleEndpoint._from_my_gcs`)
 RC_REFUSED_TEXT_S = 2.0
 #: Rover's autopilot modes (``is_autopilot_mode``): HEARTBEAT's GUIDED_ENABLED, NAV_CONTROLLER_OUTPUT
@@ -283,6 +287,10 @@ class VehicleEndpoint:
         self._rc_refused_for = 0  # ... while SYSID_MYGCS is this
         self._rc_refused_text_t = -math.inf  # when the last of those texts went out
         self._guided_stale_reported = False
+        self._guided_arrived = False  # GUIDED reached its place (and stopped there)
+        self._prearm_failing = False  # a pre-arm check failed at the last tick
+        self._prearm_shown = -math.inf  # when the "PreArm:" texts last went out ...
+        self._prearm_due = math.inf  # ... and when they go out next
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
         self.t_s = 0.0
@@ -611,6 +619,7 @@ class VehicleEndpoint:
             # ArduPilot's FOLLOW chases another vehicle's GLOBAL_POSITION_INT; lfctl follows by
             # camera, through GUIDED and the companion: refuse rather than accept and do nothing
             self.statustext("FOLLOW mode not supported: use GUIDED", mav.MAV_SEVERITY_WARNING)
+            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
             return False
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
             self.statustext("No Mission. Can't set AUTO.")
@@ -628,8 +637,8 @@ class VehicleEndpoint:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
             self.modes.append((self.t_s, custom_mode))
             if custom_mode in AUTOPILOT_MODES:
-                # Rover's autopilot modes start forwards at their default speed
-                # (Mode::init_reversed_flag, each mode's _enter)
+                # Rover's autopilot modes start forwards (Mode::enter clears the reversed
+                # flag) at their default speed (each mode's _enter)
                 self.reversed = False
                 self.desired_speed_mps = None
             if custom_mode == MODES["AUTO"] and self.mission_complete and self.missions.set_current(1):
@@ -639,6 +648,7 @@ class VehicleEndpoint:
         self.mode = custom_mode
         if custom_mode == MODES["GUIDED"]:
             self.guided = None  # entering GUIDED stops until a target comes
+            self._guided_arrived = False
         self._guided_stale_reported = False
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
@@ -747,7 +757,7 @@ class VehicleEndpoint:
         if self.armed or checks == 0:
             return []
         failures = []
-        if (checks == ARMING_CHECK_ALL or checks & ARMING_CHECK_PARAMETERS) and self.param("WP_SPEED") <= 0:
+        if checks & (ARMING_CHECK_ALL | ARMING_CHECK_PARAMETERS) and self.param("WP_SPEED") <= 0:
             failures.append("WP_SPEED too low")
         if self.mode in NOT_ARMABLE:
             failures.append("Mode not armable")
@@ -756,12 +766,14 @@ class VehicleEndpoint:
     def _arm_command(self, arm: float, force: float = 0.0) -> int:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
-        if arm == 1.0 and force not in FORCE_ARM:
+        if arm == 1.0 and force != FORCE_ARM:
             failures = self.prearm_failures()
             for failure in failures:  # a ground station switches to HOLD first, as MAVSDK does
                 self.statustext(f"Arm: {failure}", mav.MAV_SEVERITY_CRITICAL)
             if failures:
                 return mav.MAV_RESULT_FAILED
+        if arm == 1.0 and not self.armed and self.param("ARMING_CHECK") == 0:
+            self.statustext("Warning: Arming Checks Disabled", mav.MAV_SEVERITY_WARNING)  # Rover's
         self.set_armed(arm == 1.0)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -837,8 +849,13 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_DENIED
         if self.mode not in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
             return mav.MAV_RESULT_FAILED  # Rover: the mode has no speed to set
-        if self.mode == MODES["GUIDED"] and (self.guided is None or self.guided.kind != "location"):
-            return mav.MAV_RESULT_FAILED  # stopped, or a rate or heading target with its own speed
+        if self.mode == MODES["GUIDED"] and (
+            (self.guided is None and not self._guided_arrived)
+            or (self.guided is not None and self.guided.kind != "location")
+        ):
+            # Rover's GUIDED takes a speed while it drives to a place or has arrived there, not
+            # while stopped as it starts nor for a rate or heading target with its own speed
+            return mav.MAV_RESULT_FAILED
         self.desired_speed_mps = float(speed)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -894,8 +911,9 @@ class VehicleEndpoint:
         return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), index)
 
     def _param_name(self, raw: str | bytes) -> str | None:
-        """The parameter a request names, found as Rover's AP_Param finds it (any case)."""
-        name = _text(raw).upper()
+        """The parameter a request names (its exact name: Rover's AP_Param finds grouped
+        names such as WP_SPEED only in their own case)."""
+        name = _text(raw)
         return name if name in self.params else None
 
     def _on_param_request_list(self, m: Any) -> None:
@@ -1170,6 +1188,7 @@ class VehicleEndpoint:
         if self.guided is not None and self.guided.kind == "location":
             self.send(mav.MAVLink_mission_item_reached_message(0))
             self.guided = None  # stop there
+            self._guided_arrived = True
 
     # -- the tick -----------------------------------------------------------------------------
     def tick(self, t_s: float, state: dict[str, float]) -> None:
@@ -1193,6 +1212,7 @@ class VehicleEndpoint:
         self.receive()
         self.missions.tick(t_s)
         self._check_gcs_failsafe(t_s)
+        self._report_prearm(t_s)
         self._check_fence()
         self._record_path()
         for msg_id in list(self._once):
@@ -1202,6 +1222,18 @@ class VehicleEndpoint:
             if t_s >= self._next_due.get(msg_id, 0.0):
                 self._send_by_id(msg_id)
                 self._next_due[msg_id] = t_s + period if math.isfinite(period) else math.inf
+
+    def _report_prearm(self, t_s: float) -> None:
+        """As Rover's AP_Arming::update: while a disarmed vehicle fails a pre-arm check, each
+        failure as a "PreArm:" text every 30 s, and 4 s after the checks start failing."""
+        failing = bool(self.prearm_failures())
+        if failing and not self._prearm_failing:
+            self._prearm_due = max(t_s, self._prearm_shown) + PREARM_SOON_S
+        self._prearm_failing = failing
+        if failing and t_s >= self._prearm_due:
+            self._prearm_shown, self._prearm_due = t_s, t_s + PREARM_DISPLAY_S
+            for failure in self.prearm_failures():
+                self.statustext(f"PreArm: {failure}", mav.MAV_SEVERITY_CRITICAL)
 
     def _check_gcs_failsafe(self, t_s: float) -> None:
         if (

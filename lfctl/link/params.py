@@ -8,6 +8,8 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 
@@ -215,6 +217,15 @@ def load_param_file(path: str | Path) -> dict[str, float]:
     return out
 
 
+def _number(value: float) -> str:
+    """A parameter's value as text that reads back to the same value: a whole number in full
+    (a bitmask such as 1048574 must not become 1.04857e+06), else the shortest decimal of its
+    32-bit float, as PARAM_VALUE carries it (0.7, not 0.699999988)."""
+    if math.isfinite(value) and float(value).is_integer():
+        return str(int(value))
+    return np.format_float_positional(np.float32(value), trim="-")
+
+
 def save_param_file(values: dict[str, float], path: str | Path, fmt: str = "mavproxy", sysid: int = 1) -> None:
     """Write a parameter file.
 
@@ -230,7 +241,7 @@ def save_param_file(values: dict[str, float], path: str | Path, fmt: str = "mavp
         The vehicle's system id (the QGroundControl format names it).
     """
     if fmt == "mavproxy":
-        lines = [f"{name:<16} {value:g}" for name, value in sorted(values.items())]
+        lines = [f"{name:<16} {_number(value)}" for name, value in sorted(values.items())]
     elif fmt == "qgc":
         lines = ["# Onboard parameters for Vehicle " + str(sysid), "#", "# Vehicle-Id Component-Id Name Value Type"]
         lines += [f"{sysid}\t1\t{name}\t{value!r}\t9" for name, value in sorted(values.items())]

@@ -235,10 +235,10 @@ class VehicleDriver:
         speed = ep.desired_speed_mps or ep.param("RTL_SPEED") or ep.param("WP_SPEED")
         if ep.mode == MODES["SMART_RTL"] and ep.path:
             route = list(reversed(ep.path))
-            key: tuple[object, ...] = ("srtl", ep.modes[-1][0], speed)
+            key: tuple[object, ...] = ("srtl", ep.modes[-1][0])
         else:
             route = [ep.rtl_destination(me.north_m, me.east_m)]
-            key = ("rtl", ep.modes[-1][0], route[0], speed)
+            key = ("rtl", ep.modes[-1][0], route[0])
         done, cmd = self._drive_to(route, key, speed, t_s, world)
         if done:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
@@ -257,6 +257,9 @@ class VehicleDriver:
                 autopilot_settings(self.cfg), cruise_speed_mps=speed, acceptance_radius_m=ep.param("WP_RADIUS")
             )
             self._goto = LeaderAutopilot(route, settings, (me.north_m, me.east_m))
+        elif self._goto.settings.cruise_speed_mps != speed:
+            # a new speed on the way (DO_CHANGE_SPEED): the same route, from where it has got to
+            self._goto.settings = dataclasses.replace(self._goto.settings, cruise_speed_mps=speed)
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._goto.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         ep.steering(_nav_report(out.los, ep.reversed, self._goto.follower.waypoints))

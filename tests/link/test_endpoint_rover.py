@@ -112,7 +112,12 @@ def test_a_command_with_values_that_are_not_numbers_is_denied_and_nothing_change
     bench.tick()
     before = (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq)
     # refused (COMPONENT_ARM_DISARM with neither 0 nor 1: UNSUPPORTED, as Rover)
-    assert bench.command(cmd, *params) in (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED, mav.MAV_RESULT_UNSUPPORTED)
+    refused = (
+        (mav.MAV_RESULT_UNSUPPORTED,)
+        if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM
+        else (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED)
+    )
+    assert bench.command(cmd, *params) in refused
     assert (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq) == before
     assert bench.ep.stats.handler_errors == 0
 
@@ -591,7 +596,7 @@ def test_a_ground_station_cannot_arm_in_rtl_or_smartrtl_as_on_rover(bench: Bench
     (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
     assert ack.result == mav.MAV_RESULT_FAILED and not bench.ep.armed
     assert any(m.get_type() == "STATUSTEXT" and "Mode not armable" in m.text for m in out)
-    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_ACCEPTED  # forced
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989) == mav.MAV_RESULT_ACCEPTED  # forced
     assert bench.ep.armed
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
     assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED  # MAVSDK's way: HOLD, then arm
@@ -1263,7 +1268,8 @@ def test_force_arm_takes_ardupilots_magic_value_and_mavlinks(bench: Bench) -> No
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989) == mav.MAV_RESULT_ACCEPTED  # `arm throttle force`
     assert bench.ep.armed and bench.ep.statustexts[-1][1] == "Throttle armed"
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
-    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_ACCEPTED
+    # 21196 is ArduPilot's force-disarm value: it does not force an arm (MAVSDK's arm_force sends it)
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_FAILED
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 2) == mav.MAV_RESULT_UNSUPPORTED
 
 
@@ -1301,8 +1307,11 @@ def test_commands_and_parameters_for_another_component_are_not_acted_on(bench: B
     assert not [m for m in out if m.get_type() in ("COMMAND_ACK", "PARAM_VALUE")]
 
 
-def test_param_value_answers_a_set_and_a_read_by_name_with_index_minus_1_in_any_case(bench: Bench) -> None:
+def test_param_value_answers_a_set_and_a_read_by_name_with_index_minus_1(bench: Bench) -> None:
     bench.send(mav.MAVLink_param_set_message(1, 1, b"wp_speed", 1.5, mav.MAV_PARAM_TYPE_REAL32))
+    assert not [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]  # Rover finds WP_SPEED in its case only
+    assert bench.ep.statustexts[-1][1] == "Unknown parameter wp_speed"
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32))
     (echo,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
     assert (echo.param_id, echo.param_value, echo.param_index) == ("WP_SPEED", 1.5, 65535)
     bench.send(mav.MAVLink_param_request_read_message(1, 1, b"WP_SPEED", -1))
@@ -1328,9 +1337,14 @@ def test_set_home_autopilot_capabilities_and_prearm_checks_answer_as_rover(bench
 def test_gps_global_origin_and_attitude_quaternion_when_asked_for(bench: Bench) -> None:
     out = [m for _ in range(100) for m in bench.tick(0.02)]
     assert not [m for m in out if m.get_type() in ("GPS_GLOBAL_ORIGIN", "ATTITUDE_QUATERNION")]  # not streamed
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 12.9605, 77.6695, 900) == mav.MAV_RESULT_ACCEPTED
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
-    (origin,) = [m for m in bench.tick() if m.get_type() == "GPS_GLOBAL_ORIGIN"]
+    out = bench.tick()
+    (origin,) = [m for m in out if m.get_type() == "GPS_GLOBAL_ORIGIN"]
+    (home,) = [m for m in out if m.get_type() == "HOME_POSITION"]
+    # the origin stays where local NED is anchored when home moves
     assert (origin.latitude, origin.longitude, origin.altitude) == (129602000, 776690000, 900000)
+    assert (home.latitude, home.longitude) == pytest.approx((129605000, 776695000), abs=50)
     msg_id = mav.MAVLINK_MSG_ID_ATTITUDE_QUATERNION
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 100_000) == mav.MAV_RESULT_ACCEPTED
     quats = [m for _ in range(50) for m in bench.tick(0.02) if m.get_type() == "ATTITUDE_QUATERNION"]
@@ -1360,6 +1374,9 @@ def test_prearm_checks_as_rovers_with_arming_check_and_the_sys_status_ready_bit(
     assert bench.ep.statustexts[-1][1] == "PreArm: WP_SPEED too low"
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
     assert bench.ep.statustexts[-1][1] == "Arm: WP_SPEED too low" and not bench.ep.armed
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 3, mav.MAV_PARAM_TYPE_INT32))
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED  # bit 1, all: still checked
     bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 64, mav.MAV_PARAM_TYPE_INT32))
     (echo,) = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]
     assert echo.param_type == mav.MAV_PARAM_TYPE_INT32  # MAVProxy's `arm check` reads it as a bitmask
@@ -1367,5 +1384,27 @@ def test_prearm_checks_as_rovers_with_arming_check_and_the_sys_status_ready_bit(
     assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
     assert not ready() and bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
     bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 0, mav.MAV_PARAM_TYPE_INT32))
-    assert ready()  # no checks: Rover arms in RTL too
+    assert ready()  # no checks: Rover arms in RTL too, and warns
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
+    assert "Warning: Arming Checks Disabled" in [t for _, t in bench.ep.statustexts[-2:]]
+
+
+def test_a_failing_prearm_check_is_said_4_s_after_it_starts_failing_then_every_30_s(bench: Bench) -> None:
+    bench.tick(10.0)
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.0, mav.MAV_PARAM_TYPE_REAL32))
+    times = []
+    for _ in range(800):  # 80 s
+        bench.tick(0.1)
+        times += [t for t, text in bench.ep.statustexts if text == "PreArm: WP_SPEED too low" and t not in times]
+    start = 10.1  # the first tick that saw it failing
+    assert [t - start for t in times] == pytest.approx([4.0, 34.0, 64.0], abs=0.25)  # to a tick or two
+
+
+def test_guided_takes_a_speed_once_it_has_arrived(bench: Bench) -> None:
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, 0))
+    bench.tick()
+    bench.ep.guided_reached()  # the simulation drove it there
+    assert bench.ep.guided is None  # stopped there
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.7) == mav.MAV_RESULT_ACCEPTED

@@ -145,6 +145,19 @@ def test_smart_rtl_goes_back_the_way_it_came() -> None:
     assert math.hypot(*track[-1]) <= 0.8
 
 
+def test_a_speed_change_on_the_way_back_keeps_the_way_back() -> None:
+    # DO_CHANGE_SPEED part-way through SmartRTL (at 50 s, past the corner at (6, 0)): the
+    # same way home, slower, as Rover's ModeSmartRTL::set_desired_speed; not from its start again
+    def slower(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_CHANGE_SPEED, 0, 1, 0.3, 0, 0, 0, 0, 0))
+
+    rep, _links = run_with({34.0: mode("SMART_RTL"), 50.0: slower}, duration_s=80.0)
+    t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
+    assert np.max(track[t >= 50.0, 1]) <= 1.0  # never back up the second leg towards (6, 6)
+    assert np.median(np.abs(rep.result.speed_mps[(t > 53.0) & (t < 60.0), 0])) == pytest.approx(0.3, abs=0.02)
+    assert math.hypot(*track[-1]) <= 0.8
+
+
 def test_a_fence_breach_sends_the_leader_home() -> None:
     def fence(links: Links) -> None:
         ep = links.endpoints[0]
