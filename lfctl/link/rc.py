@@ -197,14 +197,13 @@ class RcOverrides:
         return [self.value(k, t_s, timeout_s) or 0 for k in range(1, N_CHANNELS + 1)]
 
     def pilot(self, t_s: float, timeout_s: float) -> PilotInput:
-        """The sticks MANUAL reads (a channel without a live override is centred).
+        """The sticks MANUAL reads at ``t_s`` (a channel without a live override is centred;
+        ``timeout_s`` as in :meth:`value`).
 
         Parameters
         ----------
-        t_s : float
-            Now, s.
-        timeout_s : float
-            How long an override lasts, as in :meth:`value`.
+        t_s, timeout_s : float
+            As in :meth:`value`.
         """
         steer = self.value(STEER_CHANNEL, t_s, timeout_s)
         throttle = self.value(THROTTLE_CHANNEL, t_s, timeout_s)

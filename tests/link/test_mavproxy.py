@@ -44,6 +44,16 @@ def mavproxy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return exe
 
 
+def start(mavproxy: Path, port: int, cmds: str, cwd: Path) -> subprocess.Popen[str]:
+    """MAVProxy on ``udpout`` to ``port``, running ``cmds`` (its --cmd), its output piped."""
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    return subprocess.Popen(
+        [str(mavproxy), f"--master=udpout:127.0.0.1:{port}", "--target-system=1", "--target-component=1",
+         "--non-interactive", f"--cmd={cmds}"],
+        cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+    )  # fmt: skip
+
+
 def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
     """A QGC WPL 110 file: (command, param1, param2, lat, lon) per row."""
     lines = ["QGC WPL 110"]
@@ -84,15 +94,10 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
             f"guided {goal[0]:.7f} {goal[1]:.7f} 0",
         ]
     )
-    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
     with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             time.sleep(0.05)
-        proc = subprocess.Popen(
-            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
-             "--non-interactive", f"--cmd={cmds}"],
-            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-        )  # fmt: skip
+        proc = start(mavproxy, base, cmds, tmp_path)
         ep = links[0].endpoints[0]
         deadline = time.monotonic() + 40
 
@@ -105,11 +110,7 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
         guided_target = ep.guided
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=20)
-        second = subprocess.Popen(
-            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
-             "--non-interactive", "--cmd=mode RTL"],
-            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-        )  # fmt: skip
+        second = start(mavproxy, base, "mode RTL", tmp_path)
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and ep.mode != MODES["RTL"]:
             time.sleep(0.1)
@@ -136,17 +137,12 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
     cfg = truth_convoy(120.0)
     base = cfg.link.udp_base_port
     links: list[Links] = []
-    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
     with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             time.sleep(0.05)
         ep = links[0].endpoints[0]
         expected = min(cfg.guidance.max_speed_mps, 0.45 * speed_max(ep.param("CRUISE_SPEED"), 50))
-        proc = subprocess.Popen(
-            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
-             "--non-interactive", "--cmd=mode MANUAL; arm throttle; rc 3 1700"],
-            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-        )  # fmt: skip
+        proc = start(mavproxy, base, "mode MANUAL; arm throttle; rc 3 1700", tmp_path)
         deadline = time.monotonic() + 40
         driven = []
         while time.monotonic() < deadline and len(driven) < 20:
