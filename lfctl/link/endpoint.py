@@ -105,6 +105,7 @@ STREAMS = {
     "RC_CHANNELS": 1.0,
     "ATTITUDE_QUATERNION": 0.0,  # sent when asked for (MAVSDK's attitude quaternion)
     "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, and with GET_HOME_POSITION
+    "SYSTEM_TIME": 0.0,  # sent when asked for, or with the EXTRA3 group (MAVSDK's unix epoch time)
 }
 MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
@@ -122,8 +123,17 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_RC_CHANNELS: ("RC_CHANNELS",),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
     mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
+    mav.MAV_DATA_STREAM_EXTRA3: ("SYSTEM_TIME",),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
+#: messages Rover knows (GCS_MAVLINK::mavlink_id_to_ap_message_id) for equipment lfctl's
+#: vehicles have not fitted: a battery monitor, a rangefinder, an RPM sensor, ESC telemetry,
+#: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
+#: nothing is sent (MAVSDK's set_rate_battery succeeds).
+NOT_FITTED = frozenset(
+    getattr(mav, f"MAVLINK_MSG_ID_{name}")
+    for name in ("BATTERY_STATUS", "DISTANCE_SENSOR", "RANGEFINDER", "RPM", "ESC_TELEMETRY_1_TO_4", "ADSB_VEHICLE")
+)
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
 MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
@@ -278,6 +288,7 @@ class VehicleEndpoint:
         self.statustexts: list[tuple[float, str]] = []
         self._text_id = 0
         self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
+        self._intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
         # a message not streamed by default is not due until asked for
         self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
@@ -294,6 +305,7 @@ class VehicleEndpoint:
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
         self.t_s = 0.0
+        self._epoch_us = time.time_ns() // 1000  # UTC at t_s = 0 (SYSTEM_TIME)
         self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
         #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
@@ -692,6 +704,8 @@ class VehicleEndpoint:
             msg_id = _as_int(p[0], 0, 2**24 - 1)
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
+            if msg_id in NOT_FITTED:
+                return mav.MAV_RESULT_ACCEPTED  # as a Rover without that equipment: nothing comes
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
             self._once.append(msg_id)
@@ -795,7 +809,8 @@ class VehicleEndpoint:
     def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
-        does not send is FAILED."""
+        does not send is FAILED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
+        ACCEPTED and stays unsent)."""
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
         if msg_id is None or not _finite(interval_us) or interval_us < -1:
             return mav.MAV_RESULT_DENIED
@@ -805,7 +820,7 @@ class VehicleEndpoint:
         if interval_us == -1:
             self._stream(msg_id, math.inf)
         elif interval_us == 0:
-            self._stream(msg_id, _period(STREAMS[ID_NAMES[msg_id]]))
+            self._stream(msg_id, _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0)))
         else:
             self._stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6)
         return mav.MAV_RESULT_ACCEPTED
@@ -1444,6 +1459,10 @@ class VehicleEndpoint:
                     t_ms, math.cos(half), 0.0, 0.0, math.sin(half), 0.0, 0.0, s["yaw_rate_radps"], [0.0] * 4
                 )
             )
+        elif name == "SYSTEM_TIME":
+            # UTC as a board with GPS time has it: the run's start plus the simulation time
+            # (as the run's log stamps its messages), and the time since boot
+            self.send(mav.MAVLink_system_time_message(self._epoch_us + int(self.t_s * 1e6), t_ms))
         elif name == "GPS_GLOBAL_ORIGIN":
             # where local NED is anchored (the EKF origin's place on a Rover)
             o_lat, o_lon, o_alt = self.home

@@ -1408,3 +1408,24 @@ def test_guided_takes_a_speed_once_it_has_arrived(bench: Bench) -> None:
     bench.ep.guided_reached()  # the simulation drove it there
     assert bench.ep.guided is None  # stopped there
     assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.7) == mav.MAV_RESULT_ACCEPTED
+
+
+def test_messages_for_equipment_not_fitted_are_accepted_and_system_time_is_sent(bench: Bench) -> None:
+    # as a Rover with no battery monitor: MAVSDK's set_rate_battery and a request succeed, nothing comes
+    battery = mav.MAVLINK_MSG_ID_BATTERY_STATUS
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, battery, 1e6) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, battery) == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, battery, 0, 0, 0, 0, 0, 0))
+    (interval,) = [m for m in bench.tick() if m.get_type() == "MESSAGE_INTERVAL"]
+    assert interval.interval_us == 1_000_000
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    assert not [m for m in out if m.get_type() == "BATTERY_STATUS"]
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_RAW_IMU, 1e6) == mav.MAV_RESULT_FAILED
+    # SYSTEM_TIME with the EXTRA3 group: the run's start plus the simulation time
+    t0 = time.time()
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA3, 2, 1))
+    times = [m for _ in range(100) for m in bench.tick(0.02) if m.get_type() == "SYSTEM_TIME"]
+    assert 3 <= len(times) <= 5
+    last = times[-1]
+    assert last.time_boot_ms == pytest.approx(bench.t * 1000, abs=510)  # within a period (2 Hz)
+    assert last.time_unix_usec / 1e6 - last.time_boot_ms / 1e3 == pytest.approx(t0, abs=5.0)
