@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import time
 from collections.abc import Awaitable, Callable
 from typing import Any
 
@@ -236,6 +237,18 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
         assert system is not None, "MAVSDK found no autopilot"
         manual, params, action = ManualControlAsync(system), ParamAsync(system), ActionAsync(system)
         telemetry, direct = TelemetryAsync(system), MavlinkDirectAsync(system)
+        # rates a script sets: the battery's is accepted (a Rover without a battery monitor),
+        # the time and the attitude quaternion come
+        await telemetry.set_rate_battery(1.0)
+        await telemetry.set_rate_unix_epoch_time(2.0)
+        await telemetry.set_rate_attitude_quaternion(5.0)
+        for _ in range(50):
+            out["epoch_us"] = await telemetry.unix_epoch_time()
+            q = await telemetry.attitude_quaternion()
+            out["q"] = (q.w, q.x, q.y, q.z)
+            if out["epoch_us"] and any(out["q"]):
+                break
+            await asyncio.sleep(0.1)
         # MAVSDK has no call for Rover's MANUAL: the mode as a command, the way its users send one
         fields = {"target_system": 1, "target_component": 1, "command": 176, "confirmation": 0, "param1": 1.0,
                   "param2": 0.0, "param3": 0.0, "param4": 0.0, "param5": 0.0, "param6": 0.0, "param7": 0.0}  # fmt: skip
@@ -277,3 +290,6 @@ def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_c
     assert abs(out["speed_not_mine"]) < 0.02
     assert out["mode"] == FlightMode.MANUAL
     assert out["speed"] == pytest.approx(out["expected"], abs=0.02)
+    assert out["epoch_us"] / 1e6 == pytest.approx(time.time(), abs=120)  # realtime: the run's start + its time
+    w, x, y, z = out["q"]
+    assert x == y == 0.0 and w * w + z * z == pytest.approx(1.0, abs=1e-5)  # level, turned about down
