@@ -69,9 +69,19 @@ class ListChange:
     items: int
 
 
+#: the frame a downloaded item carries for the frame it was stored in: Rover's
+#: AP_Mission::mission_cmd_to_mavlink_int names the altitude frame without the _INT (MAVProxy
+#: writes it into the files it saves)
+DOWNLOAD_FRAME = {
+    mav.MAV_FRAME_GLOBAL_INT: mav.MAV_FRAME_GLOBAL,
+    mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
+
+
 def _item_message(it: MissionItem, sysid: int, compid: int, current: int, mission_type: int) -> Any:
     return mav.MAVLink_mission_item_int_message(
-        sysid, compid, it.seq, it.frame, it.command, current, it.autocontinue,
+        sysid, compid, it.seq, DOWNLOAD_FRAME.get(it.frame, it.frame), it.command, current, it.autocontinue,
         it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mission_type,
     )  # fmt: skip
 
