@@ -29,6 +29,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import ned_to_geodetic, wrap_pi
+from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import MissionItem, home_item
@@ -565,6 +566,15 @@ class VehicleEndpoint:
         if self._gcs_failsafe:
             self._gcs_failsafe = self._failsafe_acted = False
             self.statustext("Failsafe cleared: ground station back", mav.MAV_SEVERITY_INFO)
+
+    def _on_file_transfer_protocol(self, m: Any) -> None:
+        """MAVLink FTP: no files here (:mod:`lfctl.link.ftp`), said at once so that a ground
+        station falls back to PARAM_REQUEST_LIST without waiting out its FTP timeout."""
+        if m.target_network != 0 or not self._for_me(m):
+            return
+        answer = ftp.reply(bytes(m.payload))
+        if answer is not None:
+            self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), answer))
 
     # -- pilot input ----------------------------------------------------------------------------
     def _from_my_gcs(self, m: Any) -> bool:

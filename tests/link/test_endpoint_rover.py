@@ -1433,3 +1433,15 @@ def test_messages_for_equipment_not_fitted_are_accepted_and_system_time_is_sent(
     last = times[-1]
     assert last.time_boot_ms == pytest.approx(bench.t * 1000, abs=510)  # within a period (2 Hz)
     assert last.time_unix_usec / 1e6 - last.time_boot_ms / 1e3 == pytest.approx(t0, abs=5.0)
+
+
+def test_mavlink_ftp_is_refused_at_once_to_the_asker_and_only_for_this_vehicle(bench: Bench) -> None:
+    name = b"@PARAM/param.pck?withdefaults=1"
+    payload = list((struct.pack("<HBBBBBBI", 7, 0, 4, len(name), 0, 0, 0, 0) + name).ljust(251, b"\0"))
+    bench.send(mav.MAVLink_file_transfer_protocol_message(0, 1, 1, payload))
+    (answer,) = [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+    assert (answer.target_system, answer.target_component) == (255, 190)
+    assert struct.unpack_from("<HBB", bytes(answer.payload)) == (8, 0, 129) and answer.payload[12] == 10
+    for network, system in ((1, 1), (0, 2)):  # another network, another vehicle: not ours to answer
+        bench.send(mav.MAVLink_file_transfer_protocol_message(network, system, 1, payload))
+        assert not [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]

@@ -8,6 +8,7 @@ a virtual environment the test makes; where it cannot be installed the test says
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -160,3 +161,6 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
     assert not errors, errors
     assert len(driven) == 20, out  # 2 s at the speed the stick asks for
     assert still_manual and 1.0 < stopped_after < 10.0, out  # RC_OVERRIDE_TIME (3 s) after the last override
+    # MAVProxy asks for the parameters over MAVLink FTP first: refused at once, it lists them
+    # with PARAM_REQUEST_LIST within the session (it waited about 11 s for FTP before)
+    assert re.search(r"Received \d+ parameters", out) and "FTP: request timed out" not in out, out
