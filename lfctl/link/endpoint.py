@@ -108,7 +108,16 @@ STREAMS = {
     "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, and with GET_HOME_POSITION
     "SYSTEM_TIME": 0.0,  # sent when asked for, or with the EXTRA3 group (MAVSDK's unix epoch time)
 }
-MSG_IDS = {name: getattr(mav, f"MAVLINK_MSG_ID_{name}") for name in (*STREAMS, "AUTOPILOT_VERSION", "PARAM_VALUE")}
+#: messages Rover knows (GCS_MAVLINK::mavlink_id_to_ap_message_id) for equipment lfctl's
+#: vehicles have not fitted: a battery monitor, a rangefinder, an RPM sensor, ESC telemetry,
+#: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
+#: nothing is sent (MAVSDK's set_rate_battery succeeds).
+NOT_FITTED_NAMES = ("BATTERY_STATUS", "DISTANCE_SENSOR", "RANGEFINDER", "RPM", "ESC_TELEMETRY_1_TO_4", "ADSB_VEHICLE")
+MSG_IDS = {
+    name: getattr(mav, f"MAVLINK_MSG_ID_{name}")
+    for name in (*STREAMS, *NOT_FITTED_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
+}
+NOT_FITTED = frozenset(MSG_IDS[name] for name in NOT_FITTED_NAMES)
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
 #: this vehicle sends in them
 DATA_STREAMS: dict[int, tuple[str, ...]] = {
@@ -124,17 +133,17 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_RC_CHANNELS: ("RC_CHANNELS",),
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
     mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
-    mav.MAV_DATA_STREAM_EXTRA3: ("SYSTEM_TIME",),
+    # with the messages of equipment not fitted, whose rate the group sets though none is sent
+    mav.MAV_DATA_STREAM_EXTRA3: (
+        "SYSTEM_TIME",
+        "BATTERY_STATUS",
+        "DISTANCE_SENSOR",
+        "RANGEFINDER",
+        "RPM",
+        "ESC_TELEMETRY_1_TO_4",
+    ),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
-#: messages Rover knows (GCS_MAVLINK::mavlink_id_to_ap_message_id) for equipment lfctl's
-#: vehicles have not fitted: a battery monitor, a rangefinder, an RPM sensor, ESC telemetry,
-#: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
-#: nothing is sent (MAVSDK's set_rate_battery succeeds).
-NOT_FITTED = frozenset(
-    getattr(mav, f"MAVLINK_MSG_ID_{name}")
-    for name in ("BATTERY_STATUS", "DISTANCE_SENSOR", "RANGEFINDER", "RPM", "ESC_TELEMETRY_1_TO_4", "ADSB_VEHICLE")
-)
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
 MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
@@ -290,6 +299,7 @@ class VehicleEndpoint:
         self._text_id = 0
         self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
         self._intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
+        self._group_period: dict[int, float] = {}  # each message's group rate, as last requested
         # a message not streamed by default is not due until asked for
         self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
@@ -306,7 +316,9 @@ class VehicleEndpoint:
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
         self.t_s = 0.0
-        self._epoch_us = time.time_ns() // 1000  # UTC at t_s = 0 (SYSTEM_TIME)
+        #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
+        #: to its log's start so that SYSTEM_TIME and the log share a clock
+        self.epoch_us = time.time_ns() // 1000
         self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
         #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
@@ -570,11 +582,13 @@ class VehicleEndpoint:
     def _on_file_transfer_protocol(self, m: Any) -> None:
         """MAVLink FTP: no files here (:mod:`lfctl.link.ftp`), said at once so that a ground
         station falls back to PARAM_REQUEST_LIST without waiting out its FTP timeout."""
-        if m.target_network != 0 or not self._for_me(m):
+        if not self._for_me(m):  # (its target_network is not looked at, as Rover)
             return
         answer = ftp.reply(bytes(m.payload))
         if answer is not None:
-            self.send(mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), answer))
+            self.send(
+                mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), list(answer))
+            )
 
     # -- pilot input ----------------------------------------------------------------------------
     def _from_my_gcs(self, m: Any) -> bool:
@@ -829,8 +843,8 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_FAILED
         if interval_us == -1:
             self._stream(msg_id, math.inf)
-        elif interval_us == 0:
-            self._stream(msg_id, _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0)))
+        elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
+            self._stream(msg_id, self._group_period.get(msg_id, _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0))))
         else:
             self._stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6)
         return mav.MAV_RESULT_ACCEPTED
@@ -864,6 +878,7 @@ class VehicleEndpoint:
         names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
         for name in names:
+            self._group_period[MSG_IDS[name]] = _period(hz)
             self._stream(MSG_IDS[name], _period(hz))
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
@@ -1472,7 +1487,7 @@ class VehicleEndpoint:
         elif name == "SYSTEM_TIME":
             # UTC as a board with GPS time has it: the run's start plus the simulation time
             # (as the run's log stamps its messages), and the time since boot
-            self.send(mav.MAVLink_system_time_message(self._epoch_us + int(self.t_s * 1e6), t_ms))
+            self.send(mav.MAVLink_system_time_message(self.epoch_us + int(self.t_s * 1e6), t_ms))
         elif name == "GPS_GLOBAL_ORIGIN":
             # where local NED is anchored (the EKF origin's place on a Rover)
             o_lat, o_lon, o_alt = self.home

@@ -69,7 +69,7 @@ class ListChange:
     items: int
 
 
-#: the frame a downloaded item carries for the frame it was stored in: Rover's
+#: the frame a downloaded item with a place carries for the frame it was stored in: Rover's
 #: AP_Mission::mission_cmd_to_mavlink_int names the altitude frame without the _INT (MAVProxy
 #: writes it into the files it saves)
 DOWNLOAD_FRAME = {
@@ -77,12 +77,20 @@ DOWNLOAD_FRAME = {
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
     mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
 }
+#: the mission commands lfctl takes that store a place (AP_Mission::stores_location); the
+#: others (DO_CHANGE_SPEED, DO_JUMP) download in frame GLOBAL (0), as Rover's do
+STORES_LOCATION = frozenset((mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_CMD_NAV_LOITER_TIME))
 
 
 def _item_message(it: MissionItem, sysid: int, compid: int, current: int, mission_type: int) -> Any:
+    frame, z = DOWNLOAD_FRAME.get(it.frame, it.frame), it.z
+    if mission_type == FENCE:
+        frame, z = mav.MAV_FRAME_GLOBAL, 0.0  # MissionItemProtocol_Fence: no altitude
+    elif mission_type == MISSION and it.command not in STORES_LOCATION:
+        frame = mav.MAV_FRAME_GLOBAL
     return mav.MAVLink_mission_item_int_message(
-        sysid, compid, it.seq, DOWNLOAD_FRAME.get(it.frame, it.frame), it.command, current, it.autocontinue,
-        it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mission_type,
+        sysid, compid, it.seq, frame, it.command, current, it.autocontinue,
+        it.param1, it.param2, it.param3, it.param4, it.x, it.y, z, mission_type,
     )  # fmt: skip
 
 

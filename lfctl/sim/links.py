@@ -49,6 +49,8 @@ class Links:
     video_ports : dict, optional
         Follower -> the UDP port its camera's RTP stream goes to: with ``realtime`` each such
         follower's system gets a camera component (100) on its UDP port that announces it.
+    start_ns : int, optional
+        The run's start on the epoch clock, ns (the log's): SYSTEM_TIME counts from it.
     """
 
     def __init__(
@@ -57,6 +59,7 @@ class Links:
         realtime: bool,
         tap: Callable[[str, str, Any, bytes], None] | None = None,
         video_ports: dict[str, int] | None = None,
+        start_ns: int | None = None,
     ) -> None:
         lc = cfg.link
         self.home = (lc.home_lat_deg, lc.home_lon_deg, lc.home_alt_m)
@@ -94,6 +97,8 @@ class Links:
                 self.cameras.append(camera)
                 link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
+            if start_ns is not None:
+                ep.epoch_us = start_ns // 1000  # SYSTEM_TIME on the log's clock
             # where it starts, before the set-up below ticks it: a disarmed vehicle's home is
             # where it stands, and the lockstep leader is armed before its first step
             ep.state = {**ep.state, "north_m": v.north_m, "east_m": v.east_m, "yaw_rad": v.yaw_rad}

@@ -411,7 +411,8 @@ def run_scenario(
                     recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw))
 
             video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
-            links = Links(cfg, sim.realtime, tap, video_ports)
+            start_ns = recorder.start_ns if recorder is not None else None
+            links = Links(cfg, sim.realtime, tap, video_ports, start_ns)
             senders: dict[str, RtpH264Sender] = {}
             try:
                 if video is not None and video_ports is not None:

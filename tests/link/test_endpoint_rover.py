@@ -1422,12 +1422,20 @@ def test_messages_for_equipment_not_fitted_are_accepted_and_system_time_is_sent(
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, battery, 0, 0, 0, 0, 0, 0))
     (interval,) = [m for m in bench.tick() if m.get_type() == "MESSAGE_INTERVAL"]
     assert interval.interval_us == 1_000_000
-    out = [m for _ in range(100) for m in bench.tick(0.02)]
-    assert not [m for m in out if m.get_type() == "BATTERY_STATUS"]
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_RAW_IMU, 1e6) == mav.MAV_RESULT_FAILED
-    # SYSTEM_TIME with the EXTRA3 group: the run's start plus the simulation time
+    # SYSTEM_TIME with the EXTRA3 group: the run's start plus the simulation time; the group
+    # sets the battery's rate too (Rover's STREAM_EXTRA3), and "default" is the group's rate
     t0 = time.time()
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA3, 2, 1))
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_SYSTEM_TIME, 1e5) == 0
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_SYSTEM_TIME, 0) == 0
+    for msg_id in (battery, mav.MAVLINK_MSG_ID_SYSTEM_TIME):
+        bench.send(
+            mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, msg_id, 0, 0, 0, 0, 0, 0)
+        )
+        (interval,) = [m for m in bench.tick() if m.get_type() == "MESSAGE_INTERVAL"]
+        assert interval.interval_us == 500_000
     times = [m for _ in range(100) for m in bench.tick(0.02) if m.get_type() == "SYSTEM_TIME"]
     assert 3 <= len(times) <= 5
     last = times[-1]
@@ -1442,6 +1450,31 @@ def test_mavlink_ftp_is_refused_at_once_to_the_asker_and_only_for_this_vehicle(b
     (answer,) = [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
     assert (answer.target_system, answer.target_component) == (255, 190)
     assert struct.unpack_from("<HBB", bytes(answer.payload)) == (8, 0, 129) and answer.payload[12] == 10
-    for network, system in ((1, 1), (0, 2)):  # another network, another vehicle: not ours to answer
-        bench.send(mav.MAVLink_file_transfer_protocol_message(network, system, 1, payload))
-        assert not [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+    bench.send(mav.MAVLink_file_transfer_protocol_message(0, 2, 1, payload))  # another vehicle's
+    assert not [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+    bench.send(mav.MAVLink_file_transfer_protocol_message(3, 1, 1, payload))  # the network is not looked at
+    assert [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+
+
+def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_points(bench: Bench) -> None:
+    lat, lon = (int(round(v * 1e7)) for v in ned_to_geodetic(3.0, 0.0, 0.0, *HOME)[:2])
+    rel = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    mission = [
+        mav.MAVLink_mission_item_int_message(1, 1, 0, mav.MAV_FRAME_GLOBAL_INT, 16, 0, 1, 0, 0, 0, 0, lat, lon, 900, 0),
+        mav.MAVLink_mission_item_int_message(1, 1, 1, rel, 16, 0, 1, 0, 0, 0, 0, lat, lon, 0, 0),
+        mav.MAVLink_mission_item_int_message(1, 1, 2, mav.MAV_FRAME_MISSION, 178, 0, 1, 1, 0.5, -1, 0, 0, 0, 0, 0),
+        mav.MAVLink_mission_item_int_message(1, 1, 3, rel, 19, 0, 1, 2, 0, 0, 0, lat, lon + 100, 0, 0),
+    ]
+    assert upload(bench, mission) == mav.MAV_MISSION_ACCEPTED
+    frames = [it.frame for it in download(bench, mav.MAV_MISSION_TYPE_MISSION)]  # type: ignore[attr-defined]
+    assert frames == [mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL, 3]
+    fence = [
+        mav.MAVLink_mission_item_int_message(1, 1, k, rel, 5001, 0, 1, 3, 0, 0, 0, lat + dy, lon + dx, 5, 1)
+        for k, (dy, dx) in enumerate(((1000, 1000), (1000, -1000), (-1000, 0)))
+    ]
+    assert upload(bench, fence, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    back = download(bench, mav.MAV_MISSION_TYPE_FENCE)
+    assert {(it.frame, it.z) for it in back} == {(mav.MAV_FRAME_GLOBAL, 0.0)}  # type: ignore[attr-defined]
+    rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 0, 0, 0, 0, lat, lon, 0, 2)]
+    assert upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
+    assert [it.frame for it in download(bench, mav.MAV_MISSION_TYPE_RALLY)] == [3]  # type: ignore[attr-defined]

@@ -24,9 +24,12 @@ def request(seq: int, opcode: int, data: bytes = b"", session: int = 0, offset: 
         (4, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # OpenFileRO @PARAM/param.pck: MAVProxy's first ask
         (3, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # ListDirectory
         (14, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # CalcFileCRC32
-        (15, ftp.NAK, ftp.ERR_INVALID_SESSION),  # BurstReadFile on a session never opened
-        (5, ftp.NAK, ftp.ERR_INVALID_SESSION),  # ReadFile
+        (15, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # BurstReadFile: no file open on the session
+        (5, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # ReadFile
+        (12, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),  # TruncateFile: ArduPilot has none
+        (16, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),  # ListDirectoryWithTime: MAVProxy falls back to 3
         (99, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),
+        (0, ftp.ACK, None),  # None
         (1, ftp.ACK, None),  # TerminateSession
         (2, ftp.ACK, None),  # ResetSessions
     ],
@@ -35,7 +38,8 @@ def test_each_request_is_answered_at_once(opcode: int, answer: int, error: int |
     out = ftp.reply(request(0xFFFF, opcode, b"@PARAM/param.pck?withdefaults=1", session=3, offset=12))
     assert out is not None and len(out) == 251
     seq, session, op, size, req_opcode, burst, _pad, offset = HEADER.unpack_from(out)
-    assert (seq, session, op, req_opcode, burst, offset) == (0, 3, answer, opcode, 0, 12)  # seq wraps
+    # the sequence wraps; the offset is ListDirectory's only, as ArduPilot's setup_reply
+    assert (seq, session, op, req_opcode, burst, offset) == (0, 3, answer, opcode, 0, 12 if opcode == 3 else 0)
     assert (size, out[12]) == ((1, error) if error is not None else (0, 0))
 
 

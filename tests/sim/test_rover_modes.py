@@ -334,3 +334,36 @@ def test_a_speed_change_in_rtl_takes_effect_and_does_not_outlive_the_mode() -> N
     assert np.median(speed[(t > 19.0) & (t < 22.0)]) == pytest.approx(0.4, abs=0.02)
     assert np.median(speed[(t > 24.0) & (t < 28.0)]) == pytest.approx(0.2, abs=0.02)
     assert links.endpoints[0].desired_speed_mps is None  # AUTO entered again: its own speed
+
+
+def test_system_time_is_on_the_logs_clock(tmp_path) -> None:
+    # SYSTEM_TIME's UTC is the run's start plus the simulation time, as the log stamps its
+    # messages: a ground station's clock and the log's agree
+    import json
+
+    from mcap.reader import make_reader
+
+    cfg = parse_config(SCENARIO, "modes")
+    cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=4.0))
+    links: list[Links] = []
+    steps = [0]
+
+    def stop() -> bool:
+        steps[0] += 1
+        if steps[0] * cfg.sim.dt_s >= 2.0 and steps[0] * cfg.sim.dt_s < 2.0 + cfg.sim.dt_s:
+            request = (mav.MAVLINK_MSG_ID_SYSTEM_TIME, 0, 0, 0, 0, 0, 0)
+            send(links[0], mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+        return False
+
+    path = tmp_path / "run.mcap"
+    run_scenario(cfg, record_to=path, on_links=links.append, stop=stop)
+    with open(path, "rb") as f:
+        sent = [
+            (message.log_time, json.loads(message.data))
+            for _schema, channel, message in make_reader(f).iter_messages(topics=["/mavlink/leader"])
+        ]
+    times = [(t, r["fields"]) for t, r in sent if r["direction"] == "out" and r.get("name") == "SYSTEM_TIME"]
+    assert len(times) == 1
+    log_time_ns, fields = times[0]
+    assert abs(fields["time_unix_usec"] * 1000 - log_time_ns) < 1e6  # within 1 ms
+    assert fields["time_boot_ms"] == pytest.approx(2000, abs=100)
