@@ -998,7 +998,8 @@ class VehicleEndpoint:
         if mission_type == MISSION:
             self.mission_version += 1
             self.mission_complete = False
-            self.statustext(f"Mission accepted: {max(0, len(items) - 1)} items", mav.MAV_SEVERITY_INFO)
+            if items:  # Rover's words on a mission received (scripts wait for them); a clear is silent
+                self.statustext("Flight plan received", mav.MAV_SEVERITY_INFO)
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
             self.statustext(f"Fence accepted: {len(items)} items", mav.MAV_SEVERITY_INFO)

@@ -1478,3 +1478,13 @@ def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_point
     rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 0, 0, 0, 0, lat, lon, 0, 2)]
     assert upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
     assert [it.frame for it in download(bench, mav.MAV_MISSION_TYPE_RALLY)] == [3]  # type: ignore[attr-defined]
+
+
+def test_a_received_mission_is_said_in_rovers_words_and_a_clear_is_silent(bench: Bench) -> None:
+    # scripts written for ArduPilot wait for "Flight plan received" after an upload
+    assert upload(bench, good_mission(3)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.statustexts[-1][1] == "Flight plan received"
+    before = len(bench.ep.statustexts)
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    bench.tick()
+    assert not bench.ep.mission and len(bench.ep.statustexts) == before

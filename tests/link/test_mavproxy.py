@@ -126,7 +126,7 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
     assert guided_target is not None and guided_target.kind == "location", out
     assert abs(guided_target.north_m + 3.0) < 0.05 and abs(guided_target.east_m - 2.0) < 0.05
     assert mode_after == MODES["RTL"], out2
-    assert "fence breach" not in out and "ACCEPTED" in out
+    assert "fence breach" not in out and "ACCEPTED" in out and "Flight plan received" in out
 
 
 def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out(
