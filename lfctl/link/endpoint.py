@@ -134,14 +134,8 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_EXTRA1: ("ATTITUDE",),
     mav.MAV_DATA_STREAM_EXTRA2: ("VFR_HUD",),
     # with the messages of equipment not fitted, whose rate the group sets though none is sent
-    mav.MAV_DATA_STREAM_EXTRA3: (
-        "SYSTEM_TIME",
-        "BATTERY_STATUS",
-        "DISTANCE_SENSOR",
-        "RANGEFINDER",
-        "RPM",
-        "ESC_TELEMETRY_1_TO_4",
-    ),
+    # (ADS-B is in Rover's ADSB group)
+    mav.MAV_DATA_STREAM_EXTRA3: ("SYSTEM_TIME", *(n for n in NOT_FITTED_NAMES if n != "ADSB_VEHICLE")),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
@@ -654,19 +648,19 @@ class VehicleEndpoint:
         if custom_mode == MODES["FOLLOW"]:
             # ArduPilot's FOLLOW chases another vehicle's GLOBAL_POSITION_INT; lfctl follows by
             # camera, through GUIDED and the companion: refuse rather than accept and do nothing
-            self.statustext("FOLLOW mode not supported: use GUIDED", mav.MAV_SEVERITY_WARNING)
-            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
-            return False
+            return self._refuse_mode("FOLLOW mode not supported: use GUIDED")
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
-            self.statustext("No Mission. Can't set AUTO.")
-            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)  # Rover's, after the mode's
-            return False
+            return self._refuse_mode("No Mission. Can't set AUTO.")
         if custom_mode == MODES["SMART_RTL"] and not self.path:
-            self.statustext("SmartRTL unavailable: no path recorded")
-            self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
-            return False
+            return self._refuse_mode("SmartRTL unavailable: no path recorded")
         self._enter(custom_mode)
         return True
+
+    def _refuse_mode(self, why: str, severity: int = mav.MAV_SEVERITY_WARNING) -> bool:
+        """A mode that cannot start: its reason, then Rover's "Flight mode change failed"."""
+        self.statustext(why, severity)
+        self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
+        return False
 
     def _enter(self, custom_mode: int) -> None:
         if custom_mode != self.mode:
@@ -728,8 +722,6 @@ class VehicleEndpoint:
             msg_id = _as_int(p[0], 0, 2**24 - 1)
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
-            if msg_id in NOT_FITTED:
-                return mav.MAV_RESULT_ACCEPTED  # as a Rover without that equipment: nothing comes
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
             self._once.append(msg_id)
@@ -742,8 +734,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
             if self.armed:
                 return mav.MAV_RESULT_TEMPORARILY_REJECTED
-            for failure in self.prearm_failures():  # as Rover: each failure a "PreArm:" text
-                self.statustext(f"PreArm: {failure}", mav.MAV_SEVERITY_CRITICAL)
+            self._say_failures("PreArm", self.prearm_failures())
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_HOME:
             return self._set_home_command(p, latlon_e7)
@@ -805,9 +796,8 @@ class VehicleEndpoint:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
         if arm == 1.0 and force != FORCE_ARM:
-            failures = self.prearm_failures()
-            for failure in failures:  # a ground station switches to HOLD first, as MAVSDK does
-                self.statustext(f"Arm: {failure}", mav.MAV_SEVERITY_CRITICAL)
+            failures = self.prearm_failures()  # a ground station switches to HOLD first, as MAVSDK does
+            self._say_failures("Arm", failures)
             if failures:
                 return mav.MAV_RESULT_FAILED
         if arm == 1.0 and not self.armed and self.param("ARMING_CHECK") == 0:
@@ -1267,14 +1257,19 @@ class VehicleEndpoint:
     def _report_prearm(self, t_s: float) -> None:
         """As Rover's AP_Arming::update: while a disarmed vehicle fails a pre-arm check, each
         failure as a "PreArm:" text every 30 s, and 4 s after the checks start failing."""
-        failing = bool(self.prearm_failures())
+        failures = self.prearm_failures()
+        failing = bool(failures)
         if failing and not self._prearm_failing:
             self._prearm_due = max(t_s, self._prearm_shown) + PREARM_SOON_S
         self._prearm_failing = failing
         if failing and t_s >= self._prearm_due:
             self._prearm_shown, self._prearm_due = t_s, t_s + PREARM_DISPLAY_S
-            for failure in self.prearm_failures():
-                self.statustext(f"PreArm: {failure}", mav.MAV_SEVERITY_CRITICAL)
+            self._say_failures("PreArm", failures)
+
+    def _say_failures(self, prefix: str, failures: list[str]) -> None:
+        """Each pre-arm failure as Rover's check_failed says it: "PreArm: ..." or, on an arm, "Arm: ..."."""
+        for failure in failures:
+            self.statustext(f"{prefix}: {failure}", mav.MAV_SEVERITY_CRITICAL)
 
     def _check_gcs_failsafe(self, t_s: float) -> None:
         if (
