@@ -28,6 +28,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl import __version__
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
@@ -731,6 +732,9 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_FAILED  # as Rover: param1 must be 1
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_DO_SEND_BANNER:
+            self._banner()
+            return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
             if self.armed:
                 return mav.MAV_RESULT_TEMPORARILY_REJECTED
@@ -946,8 +950,16 @@ class VehicleEndpoint:
         name = _text(raw)
         return name if name in self.params else None
 
+    def _banner(self) -> None:
+        """Rover's banner (MAV_CMD_DO_SEND_BANNER, and before a parameter list as on Rover):
+        the firmware line a log and a ground station's console start with, then which
+        simulated vehicle this is (Rover's second line is its board's serial number)."""
+        self.statustext(f"lfctl V{__version__} (Rover, ArduPilot MAVLink)", mav.MAV_SEVERITY_INFO)
+        self.statustext(f"lfctl sim: {self.name}, sysid {self.sysid}", mav.MAV_SEVERITY_INFO)
+
     def _on_param_request_list(self, m: Any) -> None:
         if self._for_me(m):
+            self._banner()  # as Rover: a parameter list starts with the banner
             for name in self.params:
                 self.send(self._param_value(name))
 

@@ -13,6 +13,7 @@ import time
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl import __version__
 from lfctl.bench.fuzz import datagrams
 from lfctl.frames import ned_to_geodetic
 from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MODES, VehicleEndpoint, packet_record
@@ -1161,7 +1162,8 @@ def test_qgroundcontrols_connect_sequence_gets_every_answer_and_no_warning(bench
     assert acks[mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAV_RESULT_ACCEPTED] == 12  # 6 times, 2 messages
     assert acks[mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_RESULT_ACCEPTED] == 1
     assert acks[mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_RESULT_FAILED] == 2  # not sent by a Rover either
-    assert _count(out, "STATUSTEXT") == 0
+    texts = [m for m in out if m.get_type() == "STATUSTEXT"]
+    assert [m.severity for m in texts] == [mav.MAV_SEVERITY_INFO] * 2  # the banner, no warning
     assert _count(out, "AUTOPILOT_VERSION") == 1 and _count(out, "PARAM_VALUE") == len(bench.ep.params)
     # the rates it asked for (EXTRA2 10 Hz, EXTRA1 10 Hz, POSITION 3 Hz, EXTENDED_SYS_STATE 1 Hz), on 50 Hz ticks
     for name, hz in (("VFR_HUD", 10), ("ATTITUDE", 10), ("GLOBAL_POSITION_INT", 3), ("EXTENDED_SYS_STATE", 1)):
@@ -1336,6 +1338,24 @@ def test_set_home_autopilot_capabilities_and_prearm_checks_answer_as_rover(bench
     assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED
     bench.ep.set_armed(True)
     assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_TEMPORARILY_REJECTED
+
+
+def test_the_banner_on_request_and_before_a_parameter_list_as_rover(bench: Bench) -> None:
+    # MAVProxy's `useralerts check` sends DO_SEND_BANNER; a parameter list starts with it too
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_DO_SEND_BANNER) == mav.MAV_RESULT_ACCEPTED
+    assert [t for _, t in bench.ep.statustexts[-2:]] == [
+        f"lfctl V{__version__} (Rover, ArduPilot MAVLink)",
+        "lfctl sim: v, sysid 1",
+    ]
+    bench.send(mav.MAVLink_param_request_list_message(1, 1))
+    out = bench.tick()
+    kinds = [m.get_type() for m in out if m.get_type() in ("STATUSTEXT", "PARAM_VALUE")]
+    assert kinds[:3] == ["STATUSTEXT", "STATUSTEXT", "PARAM_VALUE"]
+    texts = [m for m in out if m.get_type() == "STATUSTEXT"]
+    assert [m.severity for m in texts] == [mav.MAV_SEVERITY_INFO] * 2
+    bench.send(mav.MAVLink_param_request_list_message(1, 191))  # another component's list: nothing
+    assert not [m for m in bench.tick() if m.get_type() in ("STATUSTEXT", "PARAM_VALUE")]
 
 
 def test_gps_global_origin_and_attitude_quaternion_when_asked_for(bench: Bench) -> None:
