@@ -172,6 +172,9 @@ SENSORS = (
 #: a disarmed vehicle's home follows it once it is this far from it, m (Rover's
 #: DISTANCE_HOME_MINCHANGE)
 HOME_MIN_CHANGE_M = 0.5
+#: the farthest a ground station may put home above or below the ground, m (HOME_POSITION's
+#: altitude and GLOBAL_POSITION_INT's are int32 mm: about 2147 km)
+MAX_HOME_HEIGHT_M = 1e6
 #: FENCE_ACTION values (Rover's FailsafeAction)
 FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
 
@@ -278,6 +281,7 @@ class VehicleEndpoint:
         #: home, local NED: follows the vehicle while it is disarmed (moves of HOME_MIN_CHANGE_M
         #: or more) until a ground station sets it (MAV_CMD_DO_SET_HOME), as Rover's update_home
         self.home_ned: tuple[float, float] | None = None
+        self.home_up_m = 0.0  # home's height above the (flat) ground, as a ground station set it
         self.home_locked = False
         self.guided: GuidedTarget | None = None  # None: GUIDED stops
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
@@ -367,7 +371,7 @@ class VehicleEndpoint:
 
     def _home_geodetic(self) -> tuple[float, float, float]:
         """Home's latitude, longitude (degrees) and altitude (m)."""
-        return ned_to_geodetic(*self.home_point(), 0.0, *self.home)
+        return ned_to_geodetic(*self.home_point(), -self.home_up_m, *self.home)
 
     def _home_item(self) -> MissionItem:
         """Home as a mission's item 0 (a download's, as Rover answers it)."""
@@ -385,8 +389,9 @@ class VehicleEndpoint:
         here = (self.state["north_m"], self.state["east_m"])
         if self.home_ned is None or math.dist(here, self.home_ned) >= HOME_MIN_CHANGE_M:
             self.home_ned = here
+            self.home_up_m = 0.0  # the vehicle's own place, on the ground
 
-    def set_home(self, north_m: float, east_m: float) -> None:
+    def set_home(self, north_m: float, east_m: float, up_m: float = 0.0) -> None:
         """Put home here and keep it there (MAV_CMD_DO_SET_HOME): it no longer follows the
         disarmed vehicle; a STATUSTEXT says where, as Rover's does.
 
@@ -394,8 +399,13 @@ class VehicleEndpoint:
         ----------
         north_m, east_m : float
             Home, local NED, m.
+        up_m : float
+            Home's height above the ground (which is flat, at the scenario's home altitude),
+            m: HOME_POSITION's altitude, and GLOBAL_POSITION_INT's ``relative_alt`` is the
+            vehicle's height above it, as on a Rover.
         """
         self.home_ned = (north_m, east_m)
+        self.home_up_m = up_m
         self.home_locked = True
         lat, lon, alt = self._home_geodetic()
         self.statustext(f"Set HOME to {lat:.6f} {lon:.6f} at {alt:.2f}m", mav.MAV_SEVERITY_INFO)
@@ -702,16 +712,17 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
-        self._ack(m, self._command(m.command, p, None))
+        self._ack(m, self._command(m.command, p, None, mav.MAV_FRAME_GLOBAL))
 
     def _on_command_int(self, m: Any) -> None:
         if not self._for_me(m):
             return
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
-        self._ack(m, self._command(m.command, p, (m.x, m.y)))
+        self._ack(m, self._command(m.command, p, (m.x, m.y), m.frame))
 
-    def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
-        """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7)."""
+    def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
+        """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7), ``frame``
+        its frame (a COMMAND_LONG's is GLOBAL, as ArduPilot reads a location in one)."""
         if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM:
             return self._arm_command(p[0], p[1])
         if cmd == mav.MAV_CMD_DO_SET_MODE:
@@ -741,7 +752,7 @@ class VehicleEndpoint:
             self._say_failures("PreArm", self.prearm_failures())
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_HOME:
-            return self._set_home_command(p, latlon_e7)
+            return self._set_home_command(p, latlon_e7, frame)
         if cmd == mav.MAV_CMD_GET_HOME_POSITION:
             self._once += [MSG_IDS["HOME_POSITION"], MSG_IDS["GPS_GLOBAL_ORIGIN"]]  # as Rover: both
             return mav.MAV_RESULT_ACCEPTED
@@ -920,9 +931,10 @@ class VehicleEndpoint:
         self.guided = GuidedTarget("location", self.t_s, speed_mps=speed, north_m=n, east_m=e)
         return mav.MAV_RESULT_ACCEPTED
 
-    def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
+    def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
         """MAV_CMD_DO_SET_HOME: param1 = 1 (or no position) puts home where the vehicle is,
-        else at the command's latitude and longitude; either way it stays there."""
+        else at the command's latitude, longitude and altitude (param7 / z, in the command's
+        frame); either way it stays there."""
         here = p[0] == 1.0
         where = None if here else _command_latlon(p, latlon_e7)
         if not here and where != (0, 0) and p[0] != 0.0:
@@ -931,9 +943,27 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_DENIED
         if here or where == (0, 0):
             self.set_home(self.state["north_m"], self.state["east_m"])
-        else:
-            self.set_home(*global_to_local(*where, self.home))
+            return mav.MAV_RESULT_ACCEPTED
+        up = self._height_above_ground(p[6], frame)
+        if up is None:
+            return mav.MAV_RESULT_DENIED  # as Rover: a frame it cannot read a location in
+        self.set_home(*global_to_local(*where, self.home), up)
         return mav.MAV_RESULT_ACCEPTED
+
+    def _height_above_ground(self, alt_m: float, frame: int) -> float | None:
+        """A command's altitude as a height above lfctl's flat ground, m: above mean sea level
+        (GLOBAL), above home (RELATIVE_ALT) or above the terrain (TERRAIN_ALT, the ground);
+        None for another frame, or for a home more than :data:`MAX_HOME_HEIGHT_M` from the
+        ground (HOME_POSITION and GLOBAL_POSITION_INT carry altitudes in int32 mm)."""
+        if frame in (mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT):
+            up = alt_m - self.home[2]
+        elif frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
+            up = self.home_up_m + alt_m
+        elif frame in (mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT):
+            up = alt_m
+        else:
+            return None
+        return up if _finite(up) and abs(up) <= MAX_HOME_HEIGHT_M else None
 
     # -- parameters -------------------------------------------------------------------------
     def _param_value(self, name: str, indexed: bool = True) -> Any:
@@ -1472,7 +1502,8 @@ class VehicleEndpoint:
         elif name == "GLOBAL_POSITION_INT":
             self.send(
                 mav.MAVLink_global_position_int_message(
-                    t_ms, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)), 0,
+                    t_ms, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                    int(round(-self.home_up_m * 1000)),  # above home, as Rover's relative_alt
                     int(round(vn * 100)), int(round(ve * 100)), 0, hdg,
                 )
             )  # fmt: skip
@@ -1518,7 +1549,7 @@ class VehicleEndpoint:
             self.send(
                 mav.MAVLink_home_position_message(
                     int(round(hlat * 1e7)), int(round(hlon * 1e7)), int(round(halt * 1000)),
-                    hn, he, 0.0, [1, 0, 0, 0], 0, 0, 0,
+                    hn, he, -self.home_up_m, [1, 0, 0, 0], 0, 0, 0,
                 )
             )  # fmt: skip
         elif name == "FENCE_STATUS":

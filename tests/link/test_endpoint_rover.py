@@ -644,6 +644,47 @@ def test_do_set_home_puts_home_there_and_keeps_it(bench: Bench, long: bool) -> N
     assert bench.ep.home_point() == (20.0, STATE["east_m"])
 
 
+def test_do_set_home_keeps_the_altitude_in_the_commands_frame(bench: Bench) -> None:
+    # the ground is flat at HOME's 900 m; a COMMAND_LONG's altitude is above mean sea level (as
+    # ArduPilot reads it, MAV_FRAME_GLOBAL), a COMMAND_INT's in its own frame
+    lat, lon = 12.9605, 77.6695
+
+    def home_and_relative_alt() -> tuple[float, float, float]:
+        bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
+        out = [m for _ in range(30) for m in bench.tick(0.02)]
+        home = [m for m in out if m.get_type() == "HOME_POSITION"][-1]
+        pos = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
+        return home.altitude / 1000, home.z, pos.relative_alt / 1000
+
+    def command_int(frame: int, z: float) -> int:
+        x, y = int(lat * 1e7), int(lon * 1e7)
+        bench.send(mav.MAVLink_command_int_message(1, 1, frame, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0, x, y, z))
+        (ack,) = [m for m in bench.tick() if m.get_type() == "COMMAND_ACK"]
+        return int(ack.result)
+
+    assert home_and_relative_alt() == (900.0, 0.0, 0.0)
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, 912.5) == mav.MAV_RESULT_ACCEPTED
+    text = bench.ep.statustexts[-1][1]  # COMMAND_LONG's degrees are float32: 1e-6 deg
+    assert text.startswith("Set HOME to 12.9605") and text.endswith(" at 912.50m")
+    # home 12.5 m above the ground: the rover on the ground is 12.5 m below it
+    assert home_and_relative_alt() == pytest.approx((912.5, -12.5, -12.5), abs=1e-3)
+    assert command_int(mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, -2.5) == mav.MAV_RESULT_ACCEPTED  # 2.5 m below home
+    assert home_and_relative_alt() == pytest.approx((910.0, -10.0, -10.0), abs=1e-3)
+    assert command_int(mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, 3.0) == mav.MAV_RESULT_ACCEPTED  # above the ground
+    assert home_and_relative_alt() == pytest.approx((903.0, -3.0, -3.0), abs=1e-3)
+    assert command_int(mav.MAV_FRAME_GLOBAL_INT, 880.0) == mav.MAV_RESULT_ACCEPTED
+    assert home_and_relative_alt() == pytest.approx((880.0, 20.0, 20.0), abs=1e-3)
+    # a frame no location is read in, or an altitude the messages cannot carry: refused, home kept
+    assert command_int(mav.MAV_FRAME_LOCAL_NED, 0.0) == mav.MAV_RESULT_DENIED
+    assert command_int(mav.MAV_FRAME_GLOBAL_INT, 3e6) == mav.MAV_RESULT_DENIED
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, NAN) == mav.MAV_RESULT_DENIED
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, -INF) == mav.MAV_RESULT_DENIED
+    assert home_and_relative_alt() == pytest.approx((880.0, 20.0, 20.0), abs=1e-3)
+    # here (param1 1): where the vehicle is, on the ground
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 1) == mav.MAV_RESULT_ACCEPTED
+    assert home_and_relative_alt() == pytest.approx((900.0, 0.0, 0.0), abs=1e-3)
+
+
 def test_the_fence_circle_is_centred_on_home_not_the_origin(bench: Bench) -> None:
     for name, value in (("FENCE_ENABLE", 1), ("FENCE_TYPE", 2), ("FENCE_RADIUS", 30)):
         bench.ep.params[name].value = value
