@@ -175,6 +175,11 @@ HOME_MIN_CHANGE_M = 0.5
 #: the farthest a ground station may put home above or below the ground, m (HOME_POSITION's
 #: altitude and GLOBAL_POSITION_INT's are int32 mm: about 2147 km)
 MAX_HOME_HEIGHT_M = 1e6
+#: a reboot's silence, s: the autopilot neither sends nor hears anything while it restarts
+REBOOT_S = 2.0
+#: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN's param6 that reboots an armed vehicle (ArduPilot's
+#: magic_force_reboot_value; MAVProxy's `reboot force` sends it)
+FORCE_REBOOT = 20190226
 #: FENCE_ACTION values (Rover's FailsafeAction)
 FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
 
@@ -202,6 +207,7 @@ class LinkStats:
     other_sysid: int = 0  # addressed to another vehicle
     unknown: int = 0  # message ids we do not handle (ids outside the dialect: not answered at all)
     dropped: int = 0  # datagrams too long, or over the per-tick byte budget
+    rebooting: int = 0  # datagrams that came while the autopilot restarted (dropped, unread)
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
 
@@ -268,16 +274,46 @@ class VehicleEndpoint:
             # stays unsigned
             setup_signing(self.mav, signing_key)
             self.signed_parser = self._parser(signing_key)
-        self.mode = MODES[mode]
-        self.armed = armed
         self.params = default_params(sysid)
         self.missions = MissionServer(
             self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_item
         )
-        self.mission_complete = False  # the last item reached (Rover: AP_Mission's MISSION_COMPLETE)
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
+        self.stats = LinkStats()
+        self.tap = tap
+        self.statustexts: list[tuple[float, str]] = []
+        self.t_s = 0.0
+        self._boot_mode = MODES[mode]  # the mode it starts in, and starts in again on a reboot
+        self._boot_t_s = 0.0  # when the autopilot last started: time_boot_ms counts from here
+        self._booting_until = -math.inf  # rebooting (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) until then
+        self._reboot_due = False  # a reboot was accepted: it starts after the ACK has gone out
+        self._banner_said = True  # the banner after a reboot has gone out
+        self._start(armed)
+        self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
+        #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
+        #: to its log's start so that SYSTEM_TIME and the log share a clock
+        self.epoch_us = time.time_ns() // 1000
+        self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
+        #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
+        #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
+        self.time_budget_s: float | None = None
+        self.state: dict[str, float] = {
+            "north_m": 0.0,
+            "east_m": 0.0,
+            "yaw_rad": 0.0,
+            "speed_mps": 0.0,
+            "yaw_rate_radps": 0.0,
+        }
+
+    def _start(self, armed: bool = False) -> None:
+        """The autopilot's state as it starts, at construction and again after a reboot:
+        what a Rover keeps in RAM. What it keeps in storage (parameters, mission, fence,
+        rally points) and the link's counters are not touched."""
+        self.mode = self._boot_mode
+        self.armed = armed
+        self.mission_complete = False  # the last item reached (Rover: AP_Mission's MISSION_COMPLETE)
         #: home, local NED: follows the vehicle while it is disarmed (moves of HOME_MIN_CHANGE_M
         #: or more) until a ground station sets it (MAV_CMD_DO_SET_HOME), as Rover's update_home
         self.home_ned: tuple[float, float] | None = None
@@ -288,13 +324,9 @@ class VehicleEndpoint:
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
-        self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
         self.fence_breach: str | None = None
         self.fence_breaches = 0
         self._fence_breach_ms = 0
-        self.stats = LinkStats()
-        self.tap = tap
-        self.statustexts: list[tuple[float, str]] = []
         self._text_id = 0
         self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
         self._intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
@@ -314,21 +346,6 @@ class VehicleEndpoint:
         self._prearm_due = math.inf  # ... and when they go out next
         self._gcs_failsafe = False
         self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
-        self.t_s = 0.0
-        #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
-        #: to its log's start so that SYSTEM_TIME and the log share a clock
-        self.epoch_us = time.time_ns() // 1000
-        self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
-        #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
-        #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
-        self.time_budget_s: float | None = None
-        self.state: dict[str, float] = {
-            "north_m": 0.0,
-            "east_m": 0.0,
-            "yaw_rad": 0.0,
-            "speed_mps": 0.0,
-            "yaw_rate_radps": 0.0,
-        }
 
     @staticmethod
     def _parser(signing_key: bytes | None) -> Any:
@@ -418,8 +435,10 @@ class VehicleEndpoint:
         Parameters
         ----------
         msg : pymavlink message
-            The message.
+            The message (not sent while the autopilot restarts).
         """
+        if self.rebooting:
+            return
         data = pack_next(msg, self.mav)
         self.link.send(data)
         if self.tap is not None:
@@ -465,6 +484,9 @@ class VehicleEndpoint:
             for data, addr in batch:
                 self.stats.datagrams += 1
                 self.stats.remote += addr[0] != "memory"
+                if self.rebooting:
+                    self.stats.rebooting += 1
+                    continue
                 if len(data) > MAX_DATAGRAM_BYTES or len(data) > budget:
                     self.stats.dropped += 1
                     continue
@@ -713,12 +735,16 @@ class VehicleEndpoint:
             return
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
         self._ack(m, self._command(m.command, p, None, mav.MAV_FRAME_GLOBAL))
+        if self._reboot_due:
+            self.reboot()
 
     def _on_command_int(self, m: Any) -> None:
         if not self._for_me(m):
             return
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
         self._ack(m, self._command(m.command, p, (m.x, m.y), m.frame))
+        if self._reboot_due:
+            self.reboot()
 
     def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
         """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7), ``frame``
@@ -743,6 +769,8 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_FAILED  # as Rover: param1 must be 1
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+            return self._reboot_command(p)
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
             self._banner()
             return mav.MAV_RESULT_ACCEPTED
@@ -979,6 +1007,48 @@ class VehicleEndpoint:
         names such as WP_SPEED only in their own case)."""
         name = _text(raw)
         return name if name in self.params else None
+
+    def _reboot_command(self, p: list[float]) -> int:
+        """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as Rover takes it: param1 1 reboots the autopilot
+        (3, into its bootloader, and shutting down are not lfctl's: UNSUPPORTED); an armed
+        vehicle only with param6 = :data:`FORCE_REBOOT`. The ACK goes out first, as on Rover."""
+        if p[0] != 1.0:
+            return mav.MAV_RESULT_UNSUPPORTED
+        if self.armed and p[5] != FORCE_REBOOT:
+            return mav.MAV_RESULT_FAILED
+        self._reboot_due = True
+        return mav.MAV_RESULT_ACCEPTED
+
+    def reboot(self) -> None:
+        """Restart the autopilot: for :data:`REBOOT_S` it sends nothing and drops what comes
+        in; then it starts as it started at first (disarmed, in its first mode, default
+        stream rates, home following the vehicle, no GUIDED target, time_boot_ms from 0,
+        MAVLink sequence from 0) and says its banner. Parameters, the mission, the fence and
+        the rally points are kept, as a Rover keeps them in storage. The vehicle stays where
+        it is; disarmed, it stops."""
+        self._reboot_due = False
+        self._start()
+        self.missions.restart()
+        self.mission_version += 1
+        self.mav.seq = 0
+        self.modes.append((self.t_s, self.mode))
+        self._boot_t_s = self.t_s + REBOOT_S
+        self._booting_until = self._boot_t_s
+        self._banner_said = False
+        log.info("%s: rebooting", self.name)
+
+    @property
+    def rebooting(self) -> bool:
+        """The autopilot is restarting (see :meth:`reboot`)."""
+        return self.t_s < self._booting_until
+
+    def _boot_ms(self) -> int:
+        """time_boot_ms: ms since the autopilot last started, as uint32."""
+        return int((self.t_s - self._boot_t_s) * 1000) & 0xFFFFFFFF
+
+    def _boot_us(self) -> int:
+        """A time_usec that counts from boot: us since the autopilot last started."""
+        return int((self.t_s - self._boot_t_s) * 1e6)
 
     def _banner(self) -> None:
         """Rover's banner (MAV_CMD_DO_SEND_BANNER, and before a parameter list as on Rover):
@@ -1279,10 +1349,18 @@ class VehicleEndpoint:
         """
         self.t_s = t_s
         self.state = state
+        if self.rebooting:
+            self.receive()  # heard by nobody
+            return
+        if self._boot_t_s > 0.0 and not self._banner_said:
+            self._banner_said = True
+            self._banner()  # a Rover's first words after a reboot
         self._update_home()
         if self.signed_parser is not None:
             advance_signing_clock(self.signed_parser.signing, time.time())
         self.receive()
+        if self.rebooting:
+            return  # a reboot was asked for
         self.missions.tick(t_s)
         self._check_gcs_failsafe(t_s)
         self._report_prearm(t_s)
@@ -1334,7 +1412,7 @@ class VehicleEndpoint:
         breach = self._breach(n, e)
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
-            self._fence_breach_ms = int(self.t_s * 1000)
+            self._fence_breach_ms = self._boot_ms()
             self.statustext(f"Fence breached: {breach}", mav.MAV_SEVERITY_CRITICAL)
             if self.armed:
                 self._fence_action()
@@ -1425,7 +1503,7 @@ class VehicleEndpoint:
     def _send_by_id(self, msg_id: int) -> None:
         name = ID_NAMES.get(msg_id)
         s = self.state
-        t_ms = int(self.t_s * 1000) & 0xFFFFFFFF
+        t_ms = self._boot_ms()
         if name in _GLOBAL_STREAMS:  # the position in degrees only for the two that carry it
             lat, lon, alt = ned_to_geodetic(s["north_m"], s["east_m"], 0.0, *self.home)
         vn, ve = s["speed_mps"] * math.cos(s["yaw_rad"]), s["speed_mps"] * math.sin(s["yaw_rad"])
@@ -1495,7 +1573,7 @@ class VehicleEndpoint:
         elif name == "GPS_RAW_INT":
             self.send(
                 mav.MAVLink_gps_raw_int_message(
-                    int(self.t_s * 1e6), 3, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
+                    self._boot_us(), 3, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
                     100, 100, int(round(abs(s["speed_mps"]) * 100)), hdg, 12,
                 )
             )  # fmt: skip
@@ -1532,7 +1610,7 @@ class VehicleEndpoint:
             o_lat, o_lon, o_alt = self.home
             self.send(
                 mav.MAVLink_gps_global_origin_message(
-                    int(round(o_lat * 1e7)), int(round(o_lon * 1e7)), int(round(o_alt * 1000)), int(self.t_s * 1e6)
+                    int(round(o_lat * 1e7)), int(round(o_lon * 1e7)), int(round(o_alt * 1000)), self._boot_us()
                 )
             )
         elif name == "ATTITUDE":

@@ -352,6 +352,12 @@ class MissionServer:
             self.store(t, [], *src)
         self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
 
+    def restart(self) -> None:
+        """The autopilot restarted: an upload under way is lost (its ground station times
+        out) and the mission starts again from its first item; the lists stay."""
+        self._uploads.clear()
+        self.current_seq = 1 if len(self.lists[MISSION]) > 1 else 0
+
     def set_current(self, seq: int) -> bool:
         """Make mission item ``seq`` current (False when there is no such waypoint item).
 

@@ -1381,6 +1381,49 @@ def test_set_home_autopilot_capabilities_and_prearm_checks_answer_as_rover(bench
     assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_TEMPORARILY_REJECTED
 
 
+def test_reboot_is_refused_as_rover_refuses_it(bench: Bench) -> None:
+    reboot = mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
+    for param1 in (0, 2, 3, NAN):  # nothing, shut down, into the bootloader: not lfctl's
+        assert bench.command(reboot, param1) == mav.MAV_RESULT_UNSUPPORTED
+    bench.ep.set_armed(True)
+    assert bench.command(reboot, 1) == mav.MAV_RESULT_FAILED  # armed: only forced
+    assert bench.ep.armed and not bench.ep.rebooting
+
+
+@pytest.mark.parametrize("armed", [False, True])
+def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(bench: Bench, armed: bool) -> None:
+    assert upload(bench, good_mission()) == mav.MAV_MISSION_ACCEPTED
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32))
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 1e6) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 1) == mav.MAV_RESULT_ACCEPTED  # locked here
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.set_armed(armed)
+    bench.tick(10.0)
+    force = 20190226 if armed else 0  # MAVProxy's `reboot force`
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, force) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.rebooting and not bench.ep.armed
+    # restarting: nothing goes out, nothing is heard (an arm command gets no answer)
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    quiet = [m for _ in range(95) for m in bench.tick(0.02)]
+    assert quiet == [] and bench.ep.stats.rebooting == 1 and not bench.ep.armed
+    out = [m for _ in range(60) for m in bench.tick(0.02)]
+    assert not bench.ep.rebooting
+    texts = [m.text for m in out if m.get_type() == "STATUSTEXT"]
+    assert texts[0].startswith("lfctl V")  # the banner first, as a Rover starts
+    (first, *_) = [m for m in out if m.get_type() == "ATTITUDE"]
+    assert first.time_boot_ms < 200  # time_boot_ms from the new start
+    assert out[0].get_seq() == 0  # the MAVLink sequence too
+    beat = [m for m in out if m.get_type() == "HEARTBEAT"][-1]
+    assert beat.custom_mode == MODES["HOLD"] and not beat.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED
+    # RAM is new: default rates (ATTITUDE 10 Hz again, not 1 Hz), home follows the vehicle
+    assert 10 <= _count(out, "ATTITUDE") <= 13
+    assert not bench.ep.home_locked and bench.ep.guided is None
+    # storage is kept: the parameter, the mission from its first item
+    assert bench.ep.param("WP_SPEED") == 1.5
+    assert len(bench.ep.mission) == len(good_mission()) and bench.ep.current_seq == 1
+    assert bench.ep.stats.handler_errors == 0
+
+
 def test_the_banner_on_request_and_before_a_parameter_list_as_rover(bench: Bench) -> None:
     # MAVProxy's `useralerts check` sends DO_SEND_BANNER; a parameter list starts with it too
     bench.tick()
