@@ -180,7 +180,7 @@ class VehicleDriver:
             )
         me = world.vehicle(self.index)
         key = (ep.mission_version, ep.speed_mps)
-        if key != self._key:
+        if key != self._key and not (self._autopilot is not None and self._done(key)):
             self._key = key
             self._legs = to_legs(ep.mission, self.home, max(1, ep.current_seq))
             settings = dataclasses.replace(
@@ -206,6 +206,12 @@ class VehicleDriver:
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, self._autopilot.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    def _done(self, key: tuple[int, float]) -> bool:
+        """The mission in force is finished and only the speed changed (a WP_SPEED set, a
+        parameter file loaded): AUTO stays where it ended, as Rover's does, instead of flying
+        its last leg again (and reporting its last item reached twice)."""
+        return self.endpoint.mission_complete and bool(self._key) and key[0] == self._key[0]
 
     # -- GUIDED --------------------------------------------------------------------------------
     def _guided(self, t_s: float, world: WorldState) -> tuple[float, float]:

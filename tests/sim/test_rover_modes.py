@@ -158,6 +158,18 @@ def test_a_speed_change_on_the_way_back_keeps_the_way_back() -> None:
     assert math.hypot(*track[-1]) <= 0.8
 
 
+def test_a_speed_set_after_the_mission_ends_does_not_fly_its_last_leg_again() -> None:
+    # a ground station loads its parameter file once the mission is done: WP_SPEED comes back
+    # as float32 (0.4 -> 0.4000000059604645); AUTO stays where it ended, each waypoint once
+    def wp_speed(links: Links) -> None:
+        send(links, mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.4, mav.MAV_PARAM_TYPE_REAL32))
+
+    rep, _links = run_with({45.0: wp_speed}, duration_s=50.0)
+    assert [i for i, _t in rep.waypoints_reached] == [0, 1] and rep.n_waypoints == 2
+    assert all(t < 45.0 for _i, t in rep.waypoints_reached)
+    assert math.hypot(*(leader_at(rep, 50.0) - leader_at(rep, 44.0))) <= 0.05
+
+
 def test_a_fence_breach_sends_the_leader_home() -> None:
     def fence(links: Links) -> None:
         ep = links.endpoints[0]
