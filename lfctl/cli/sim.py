@@ -161,7 +161,7 @@ def print_report(report: RunReport) -> None:
                 m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
                 num(m.range_err_rms_m, ".3f"), num(m.range_err_max_m, ".3f"), num(m.bearing_err_rms_rad, ".2f", deg),
                 num(m.bearing_err_max_rad, ".2f", deg), num(m.min_separation_m, ".2f"),
-                f"{st['tracking']:.1f}", f"{st['occluded']:.1f}", f"{st['lost']:.1f}",
+                f"{st['tracking']:.2f}", f"{st['occluded']:.2f}", f"{st['lost']:.2f}",  # steps of dt: exact, and they add up
             ))  # fmt: skip
         widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
         for r in [head, *rows]:

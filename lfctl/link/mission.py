@@ -168,6 +168,17 @@ def is_nav(item: MissionItem) -> bool:
     return item.command in (NAV_WAYPOINT, NAV_LOITER_TIME)
 
 
+def nav_count(mission: list[MissionItem]) -> int:
+    """The waypoints (NAV items) of a mission whose item 0 is home.
+
+    Parameters
+    ----------
+    mission : list of MissionItem
+        The mission, home first (empty: none).
+    """
+    return sum(1 for it in mission[1:] if is_nav(it))
+
+
 @dataclass(frozen=True)
 class Leg:
     """One leg for the leader's autopilot: local target, wait there, speed on the way."""

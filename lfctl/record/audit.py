@@ -159,7 +159,7 @@ _POSE_ESTIMATE = {
     "truth_range_m": (_positive, True),
     "truth_bearing_deg": (_num, True),
 }
-_MISSION = {"event": (_text, True), "index": (_index, True)}
+_MISSION = {"event": (_text, True), "index": (_index, True), "waypoints": (_index, False)}
 _MAVLINK = {
     "direction": (_direction, True),
     "sysid": (_int, True),
@@ -451,12 +451,15 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
     findings.extend(_end_findings(c, end, recovered))
     # -- content ----------------------------------------------------------------------------
     figures["followers"] = _formation_figures(c, info)
-    figures["mission"] = [
-        {"index": m["index"] + 1, "t_s": round(t, 2)}
-        for t, m in _json_messages(c, "/leader/mission")
-        if m.get("event") == "reached"
-    ]
-    figures["waypoints"] = info.waypoints
+    reached = [(t, m) for t, m in _json_messages(c, "/leader/mission") if m.get("event") == "reached"]
+    figures["mission"] = [{"index": m["index"] + 1, "t_s": round(t, 2)} for t, m in reached]
+    # as `lfctl sim` counts them: distinct waypoints of the mission last reached in (a log
+    # before the events carried its size: the scenario's), none reached: the scenario's
+    last = reached[-1][1].get("waypoints") if reached else None
+    figures["waypoints"] = (
+        last if isinstance(last, int) and not isinstance(last, bool) and last >= 0 else info.waypoints
+    )
+    figures["waypoints_reached"] = len({m["index"] for m in figures["mission"]})
     link = _link_figures(c)
     figures["links"], figures["link_senders"] = link["links"], link["senders"]
     figures["topics"] = {
@@ -882,7 +885,7 @@ def format_report(report: AuditReport) -> str:
                 )
     if fig.get("waypoints"):
         reached = ", ".join(f"{m['index']}@{m['t_s']}s" for m in fig["mission"]) or "none"
-        lines.append(f"mission: {len(fig['mission'])}/{fig['waypoints']} waypoints reached ({reached})")
+        lines.append(f"mission: {fig['waypoints_reached']}/{fig['waypoints']} waypoints reached ({reached})")
     for topic, link in fig.get("links", {}).items():
         lines.append(
             f"link {topic}: {link['packets_in']} in, {link['packets_out']} out; {link['commands']} commands, "

@@ -154,7 +154,8 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "event": {"type": "string"},
             "index": {"type": "integer"},
             "active": {"type": "integer"},
-            "count": {"type": "integer"},
+            "count": {"type": "integer", "description": "items in the mission, home not counted"},
+            "waypoints": {"type": "integer", "description": "of them, the waypoints (NAV items)"},
         },
     },
     "lfctl.MavlinkPacket": {
@@ -991,7 +992,7 @@ class Recorder:
                 ),
             )
 
-    def mission_reached(self, t_s: float, index: int, active: int, count: int) -> None:
+    def mission_reached(self, t_s: float, index: int, active: int, count: int, waypoints: int) -> None:
         """The leader reached a waypoint (``/leader/mission``, and a line in ``/log``).
 
         Parameters
@@ -1003,13 +1004,15 @@ class Recorder:
         active : int
             The mission item now current.
         count : int
-            Waypoints in the mission (home not counted).
+            Items in the mission (home not counted).
+        waypoints : int
+            Of them, the waypoints (NAV items): what "N/M waypoints reached" counts against.
         """
         self.json(
             "/leader/mission",
             "lfctl.Mission",
             t_s,
-            {"event": "reached", "index": index, "active": active, "count": count},
+            {"event": "reached", "index": index, "active": active, "count": count, "waypoints": waypoints},
         )
         self.event(t_s, self.cfg.vehicles[0].name, f"reached waypoint {index + 1}/{count}")
 

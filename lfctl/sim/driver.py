@@ -28,7 +28,7 @@ from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.los import LosOutput
 from lfctl.guidance.smc import BearingGains, SlidingModeController
 from lfctl.link.endpoint import MODES, NavReport, VehicleEndpoint
-from lfctl.link.mission import Leg, to_legs
+from lfctl.link.mission import Leg, nav_count, to_legs
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
 
@@ -79,7 +79,8 @@ class VehicleDriver:
     scripted : bool
         Drive ``[script]``'s profile in AUTO when there is no mission (the scenario's leader).
     on_reached : callable, optional
-        Told ``(t_s, index, active, count)`` when a mission waypoint is reached (the recorder).
+        Told ``(t_s, index, active, count, waypoints)`` when a mission waypoint is reached
+        (the recorder): ``waypoints`` is the NAV items in the mission it belongs to.
     """
 
     def __init__(
@@ -90,7 +91,7 @@ class VehicleDriver:
         home: tuple[float, float, float],
         step_s: float,
         scripted: bool = False,
-        on_reached: Callable[[float, int, int, int], None] | None = None,
+        on_reached: Callable[[float, int, int, int, int], None] | None = None,
     ) -> None:
         self.cfg = cfg
         self.endpoint = endpoint
@@ -101,6 +102,7 @@ class VehicleDriver:
         self.on_reached = on_reached
         self.command: tuple[float, float] = (0.0, 0.0)  # speed (m/s), yaw rate (rad/s)
         self.reached: list[tuple[int, float]] = []  # (waypoint index from 0, t_s)
+        self.reached_of: int | None = None  # waypoints (NAV items) in the mission last reached in
         self._autopilot: LeaderAutopilot | None = None
         self._key: tuple[object, ...] = ()
         self._legs: list[Leg] = []
@@ -201,8 +203,9 @@ class VehicleDriver:
             seq = self._legs[k].seq
             ep.reached(seq, last=k == len(self._legs) - 1)
             self.reached.append((seq - 1, t_s))
+            self.reached_of = nav_count(ep.mission)
             if self.on_reached is not None:
-                self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1)
+                self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of)
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, self._autopilot.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps

@@ -31,7 +31,7 @@ from lfctl.follower.stack import Follower, formation_settings
 from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import Odometry
 from lfctl.link.endpoint import MODE_NAMES, packet_record
-from lfctl.link.mission import is_nav, to_legs
+from lfctl.link.mission import nav_count, to_legs
 from lfctl.link.mission_server import ListChange
 from lfctl.metrics import FormationMetrics, formation_metrics
 from lfctl.record.rtp import RtpH264Sender
@@ -101,7 +101,7 @@ class RunReport:
     traces: list[FollowerTrace]  # one per follower, in scenario order
     metrics: list[FormationMetrics]  # the traces' figures, same order
     waypoints_reached: list[tuple[int, float]]  # (waypoint index from 0, t_s) as reached
-    n_waypoints: int  # waypoints (NAV items) in the leader's mission at the end
+    n_waypoints: int  # waypoints (NAV items) of the mission last reached in (none reached: the one at the end)
     leader_mode: str  # "auto" (a mission) or "script" (the scenario's speed / yaw-rate profile)
     leader_modes: list[tuple[str, float]] = dataclasses.field(default_factory=list)  # (mode, seconds in it)
     mission_changes: list[ListChange] = dataclasses.field(default_factory=list)  # by clients, after the start
@@ -541,7 +541,7 @@ def _closed_loop(
         traces=traces,
         metrics=[tr.metrics(step_s) for tr in traces],
         waypoints_reached=drivers[0].reached,
-        n_waypoints=sum(1 for it in leader_ep.mission[1:] if is_nav(it)),
+        n_waypoints=drivers[0].reached_of if drivers[0].reached_of is not None else nav_count(leader_ep.mission),
         leader_mode="script" if not cfg.mission.waypoints and not leader_ep.missions.changes else "auto",
         leader_modes=[(name, secs) for name, secs in modes.items() if secs > 0],
         mission_changes=[c for c in leader_ep.missions.changes if c.t_s > 0 or c.sysid not in (0, 255)],

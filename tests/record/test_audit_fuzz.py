@@ -86,7 +86,7 @@ def fill(rec: Recorder, seconds: float = 4.0, start: int = 0) -> None:
         rec.mavlink(t, "leader", {"direction": "out", "sysid": 1, "compid": 1, **packet})
         rec.mavlink(t, "follower1", {"direction": "in", "sysid": 2, "compid": 191, **packet})
         if k == 40:
-            rec.mission_reached(t, 0, 2, 4)
+            rec.mission_reached(t, 0, 2, 4, 4)
 
 
 def write_log(path: Path, compression: str = "zstd", reason: str | None = "completed") -> Path:

@@ -25,7 +25,7 @@ from support import free_udp_ports
 
 from lfctl.cli import main
 from lfctl.config import load_config
-from lfctl.record.audit import audit, recover
+from lfctl.record.audit import audit, format_report, recover
 from lfctl.record.writer import FLUSH_INTERVAL_S, Recorder
 from lfctl.sim.runner import run_scenario
 
@@ -380,3 +380,17 @@ def test_the_recorder_hands_a_chunk_to_the_os_every_second(tmp_path: Path, monke
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(data)  # what a SIGKILL at this moment leaves
     assert audit(cut).figures["messages"] == 51
+
+
+def test_the_audit_counts_waypoints_as_the_run_summary_does(tmp_path: Path) -> None:
+    # an uploaded mission of 2 waypoints and a DO item (items 1, 3) replaced the scenario's 4;
+    # item 3 reported twice (the mission flown again): 2 of 2, not 3 events of the scenario's 4
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    assert len(cfg.mission.waypoints) == 4
+    rec = Recorder(tmp_path / "m.mcap", cfg)
+    for t, index in ((1.0, 0), (2.0, 2), (3.0, 2)):
+        rec.mission_reached(t, index, min(index + 2, 3), 3, 2)
+    rec.close("completed", 3.0)
+    rep = audit(tmp_path / "m.mcap")
+    assert (rep.figures["waypoints_reached"], rep.figures["waypoints"]) == (2, 2)
+    assert "mission: 2/2 waypoints reached (1@1.0s, 3@2.0s, 3@3.0s)" in format_report(rep)

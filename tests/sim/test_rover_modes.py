@@ -164,7 +164,11 @@ def test_a_speed_set_after_the_mission_ends_does_not_fly_its_last_leg_again() ->
     def wp_speed(links: Links) -> None:
         send(links, mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.4, mav.MAV_PARAM_TYPE_REAL32))
 
-    rep, _links = run_with({45.0: wp_speed}, duration_s=50.0)
+    def clear(links: Links) -> None:
+        send(links, mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+
+    rep, _links = run_with({45.0: wp_speed, 47.0: clear}, duration_s=50.0)
+    # counted against the mission flown, not the (cleared) one at the end: 2 of 2, not 2 of 0
     assert [i for i, _t in rep.waypoints_reached] == [0, 1] and rep.n_waypoints == 2
     assert all(t < 45.0 for _i, t in rep.waypoints_reached)
     assert math.hypot(*(leader_at(rep, 50.0) - leader_at(rep, 44.0))) <= 0.05
