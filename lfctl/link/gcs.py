@@ -213,8 +213,7 @@ class GroundStation:
             The parameter, e.g. ``WP_SPEED``.
         """
         self.send(mav.MAVLink_param_request_read_message(self.target, 1, name.encode(), -1))
-        m = self.wait(("PARAM_VALUE",), where=lambda m: _pid(m) == name)
-        return float(m.param_value)
+        return self._param_answer(name)
 
     def param_set(self, name: str, value: float) -> float:
         """Set a parameter; returns the value now in force (the old one if refused).
@@ -227,7 +226,28 @@ class GroundStation:
             The new value, in the parameter's unit.
         """
         self.send(mav.MAVLink_param_set_message(self.target, 1, name.encode(), float(value), mav.MAV_PARAM_TYPE_REAL32))
-        m = self.wait(("PARAM_VALUE",), where=lambda m: _pid(m) == name)
+        return self._param_answer(name)
+
+    def _param_answer(self, name: str) -> float:
+        """The PARAM_VALUE for ``name``; MissionProtocolError when the vehicle says it has no
+        such parameter (lfctl's "Unknown parameter NAME"), LinkTimeoutError naming it when
+        nothing comes (a Rover does not answer for a name it lacks)."""
+        unknown = f"Unknown parameter {name}"
+
+        def answer(m: Any) -> bool:
+            return _pid(m) == name if m.get_type() == "PARAM_VALUE" else text_field(m.text) == unknown
+
+        try:
+            m = self.wait(("PARAM_VALUE", "STATUSTEXT"), where=answer)
+        except LinkTimeoutError as e:
+            raise LinkTimeoutError(
+                f"PARAM_VALUE for {name}",
+                sysid=self.target,
+                timeout_s=e.timeout_s,
+                detail=f"does the vehicle have a parameter {name}? {CHECK_LINK}",
+            ) from None
+        if m.get_type() == "STATUSTEXT":
+            raise MissionProtocolError(f"system {self.target} has no parameter {name!r}")
         return float(m.param_value)
 
     def param_list(self) -> dict[str, float]:

@@ -373,6 +373,16 @@ def test_a_refused_param_set_exits_1(live: LiveEndpoint, capsys: pytest.CaptureF
     assert main([*connect, "WP_SPEED", "0.5"]) == 0
 
 
+def test_a_parameter_the_vehicle_lacks_is_named_at_once(live: LiveEndpoint, capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.cli import main
+
+    # on the vehicle's word ("Unknown parameter NOPE"), not a timeout's "is the vehicle up?"
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "5"]
+    for op in (["get", "NOPE"], ["set", "NOPE", "1"]):
+        assert main([*connect, "param", *op]) == 1
+        assert "system 1 has no parameter 'NOPE'" in capsys.readouterr().err
+
+
 def test_the_vehicle_port_is_its_own() -> None:
     from lfctl.errors import LinkError
 
