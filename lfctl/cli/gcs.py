@@ -45,10 +45,10 @@ def register(sub: Any) -> None:
     gsub.add_parser("disarm", help="disarm")
     gp = gsub.add_parser("param", help="parameters: list, get NAME, set NAME VALUE, save FILE, load FILE")
     gps = gp.add_subparsers(dest="param_action", required=True, metavar="OP")
-    gps.add_parser("list")
-    gpg = gps.add_parser("get")
+    gps.add_parser("list", help="print every parameter and its value")
+    gpg = gps.add_parser("get", help="print one parameter's value")
     gpg.add_argument("name", type=param_name)
-    gpsv = gps.add_parser("set")
+    gpsv = gps.add_parser("set", help="set one parameter; exit 1 when the vehicle refuses the value")
     gpsv.add_argument("name", type=param_name)
     gpsv.add_argument("value", type=number(-3.4e38, 3.4e38))  # what a MAVLink float carries
     gpsave = gps.add_parser("save", help="write every parameter to FILE (MAVProxy's NAME VALUE, or QGroundControl's)")

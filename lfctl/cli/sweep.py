@@ -24,7 +24,7 @@ def register(sub: Any) -> None:
         help="run many variants of a scenario on Dask (local cores or a cluster); `sweep report DIR`",
         description="Run a sweep file (or a shipped sweep by name: see examples/sweeps) on a Dask LocalCluster "
         "(one worker process per core) or a running scheduler, writing one row per run (Parquet and CSV), a "
-        "summary per variant with 95 %% confidence intervals, and plots. `lfctl sweep report DIR` rebuilds the "
+        "summary per variant with 95 % confidence intervals, and plots. `lfctl sweep report DIR` rebuilds the "
         "summary and plots of a sweep's folder from its rows.",
     )
     s.add_argument("sweep", metavar="SWEEP", help="sweep TOML file or a shipped sweep's name; or `report`")

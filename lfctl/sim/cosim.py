@@ -310,7 +310,8 @@ class Simulation:
         duration_s : float, optional
             Simulated seconds, rounded to whole physics steps.
         progress : callable, optional
-            Called as ``progress(t_s, wall_s)`` about once per simulated second.
+            Called as ``progress(t_s, wall_s)`` about once per simulated second, and after the
+            last step.
         stop : callable, optional
             Asked after every step; when it says True the run ends with KeyboardInterrupt,
             between steps (a signal handler that only sets a flag, so an interrupt never
@@ -339,7 +340,7 @@ class Simulation:
                 lag = (self.tick - start_tick) * self.dt_s - (time.perf_counter() - wall0)
                 if lag > 0:
                     time.sleep(lag)
-            if progress is not None and k % progress_every == 0:
+            if progress is not None and (k % progress_every == 0 or k == n_ticks - 1):  # and at the end
                 progress(self.t_s, time.perf_counter() - wall0)
         wall = time.perf_counter() - wall0
         final = self.state()
