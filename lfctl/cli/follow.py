@@ -6,7 +6,6 @@ import argparse
 import dataclasses
 import math
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -46,7 +45,8 @@ def register(sub: Any) -> None:
     fo.add_argument("--camera", default="0", help="camera index, video file or stream URL (default 0)")
     fo.add_argument("--target", type=integer(1, 255), default=1, help="the rover's system id (default 1)")
     fo.add_argument(
-        "--scenario", type=Path, help="camera intrinsics and mount, banner, gains and rates from this scenario"
+        "--scenario",
+        help="camera intrinsics and mount, banner, gains and rates from this scenario (a file, or a shipped name)",
     )
     fo.add_argument(
         "--range",
@@ -290,6 +290,7 @@ def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
     from lfctl.cli.sim import announce_live, live_address
     from lfctl.config import load_config, parse_config
+    from lfctl.data import resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
@@ -299,7 +300,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.vision.camera_model import CameraModel
     from lfctl.vision.perception import BannerPerception
 
-    cfg = load_config(args.scenario) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
+    cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
     live = live_address(args.live, cfg.live.foxglove, "--live")
     stream_to = live_address(args.video, cfg.live.video, "--video")
     slot = cfg.slots()[cfg.followers[0].name]

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from lfctl.checks import Bound, check_connection, check_name
@@ -99,3 +100,25 @@ def param_name(text: str) -> str:
     if not re.fullmatch(r"[A-Za-z0-9_]{1,16}", text):
         raise argparse.ArgumentTypeError(f"must be 1-16 letters, digits or '_', got {text!r}")
     return text
+
+
+#: the containers an annotated video is written in (OpenCV's writer picks one by extension)
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+
+
+def video_out(text: str) -> Path:
+    """A file to write a video to: a known extension, in a folder that exists.
+
+    Parameters
+    ----------
+    text : str
+        The path given.
+    """
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder: give a file ({', '.join(VIDEO_SUFFIXES)})")
+    if path.suffix.lower() not in VIDEO_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"must end in {', '.join(VIDEO_SUFFIXES)}, got {text!r}")
+    if not path.parent.is_dir():
+        raise argparse.ArgumentTypeError(f"the folder {str(path.parent)!r} does not exist")
+    return path

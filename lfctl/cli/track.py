@@ -6,10 +6,9 @@ import argparse
 import dataclasses
 import json
 import math
-from pathlib import Path
 from typing import Any
 
-from lfctl.cli.options import integer, number
+from lfctl.cli.options import integer, number, video_out
 
 
 def register(sub: Any) -> None:
@@ -21,7 +20,7 @@ def register(sub: Any) -> None:
     )
     t.add_argument("source", help="video file, camera index (0) or stream URL")
     t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
-    t.add_argument("--out", type=Path, help="write an annotated video here (.mp4 or .avi)")
+    t.add_argument("--out", type=video_out, help="write an annotated video here (.mp4, .avi, .mkv or .mov)")
     t.add_argument("--tracker", choices=("full", "hs-lbp", "hue"), default="full", help="tracker kind (default: full)")
     t.add_argument("--no-markers", action="store_true", help="histogram path only (objects without the banner)")
     t.add_argument(
@@ -29,7 +28,9 @@ def register(sub: Any) -> None:
         type=number(0, 360, hi_open=True, unit="deg"),
         help="marker hue, degrees (default: the scenario's, else red 0)",
     )
-    t.add_argument("--scenario", type=Path, help="take camera intrinsics and banner geometry from this scenario")
+    t.add_argument(
+        "--scenario", help="take camera intrinsics and banner geometry from this scenario (a file, or a shipped name)"
+    )
     t.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many frames")
     t.set_defaults(func=run)
 
@@ -53,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from lfctl.config import BannerConfig, CameraConfig, load_config
+    from lfctl.data import resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.video import VideoSource
     from lfctl.vision.draw import annotate
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.vision.perception import BannerPerception
 
     roi = parse_roi(args.roi) if args.roi else None
-    scen = load_config(args.scenario) if args.scenario else None
+    scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
     writer = None
     with VideoSource(args.source) as video:

@@ -3,6 +3,7 @@ with automatic marker detection, and on bad input."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 from pathlib import Path
 
@@ -63,12 +64,26 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
         (["track", "__TEXT__"], "cannot open video source"),
         (["track", "__VIDEO__", "--roi", "1,2,3"], "--roi must be x,y,w,h"),
         (["track", "__VIDEO__", "--roi", "9000,9000,10,10"], "lies outside the"),
+        (["track", "__VIDEO__", "--roi", "1,2,30,30", "--out", "out.txt"], "must end in .mp4, .avi"),
+        (["track", "__VIDEO__", "--roi", "1,2,30,30", "--out", "__TMP__"], "is a folder"),
+        (["track", "__VIDEO__", "--roi", "1,2,30,30", "--out", "/nonexistent/a.mp4"], "does not exist"),
+        (["track", "__VIDEO__", "--roi", "1,2,30,30", "--scenario", "nosuch"], "neither a file nor a shipped"),
     ],
 )
 def test_bad_input_is_named(argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     text = tmp_path / "notes.mp4"
     text.write_text("not a video")
     video = str(footage_dir() / "bikes.mp4")
-    argv = [str(text) if a == "__TEXT__" else (video if a == "__VIDEO__" else a) for a in argv]
-    assert main(argv) == 2
-    assert message in capsys.readouterr().err
+    named = {"__TEXT__": str(text), "__VIDEO__": video, "__TMP__": str(tmp_path)}
+    with pytest.raises(SystemExit) if "--out" in argv else contextlib.nullcontext() as stop:
+        assert main([named.get(a, a) for a in argv]) == 2
+    if stop is not None:  # argparse refuses a bad --out before the video is opened
+        assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and "Assertion failed" not in err
+
+
+def test_a_shipped_scenario_is_taken_by_name(capsys: pytest.CaptureFixture[str]) -> None:
+    video = str(footage_dir() / "bikes.mp4")
+    assert main(["track", video, "--roi", "1,2,30,30", "--scenario", "vee", "--max-frames", "2"]) == 0
+    assert len(records(capsys)) == 2
