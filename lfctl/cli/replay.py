@@ -38,4 +38,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
     if r.unreadable:
         print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
+    if r.truncated:
+        print(f"  the log is truncated (not finished): these are the frames before the cut (`lfctl audit {args.file}`)")
     return 0

@@ -40,6 +40,7 @@ class ReplayResult:
     unreadable: int = 0  # recorded images skipped: they do not decode, or differ in size from the first
     recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
     replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
+    truncated: bool = False  # the log was not finished (cut, or its run killed): what was read before the cut
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -65,10 +66,17 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     if unusable is not None:
         raise ConfigError(unusable.what)
     c = report.contents
+    if not c.channels and not c.metadata:  # nothing readable: say why, as the audit does
+        why = next((f.what for f in report.findings if f.level == "error"), "no readable records")
+        raise ConfigError(f"{path}: {why}")
     followers = [f for f in report.figures.get("run", {}).get("followers", "").split(",") if f]
+    if follower is not None and followers and follower not in followers:
+        raise ConfigError(f"{path} has no follower {follower!r} (its followers: {', '.join(followers)})")
     name = follower or (followers[0] if followers else "")
     count = len(c.messages.get(image_topic(name, "h264"), []) or c.messages.get(image_topic(name, "jpeg"), []))
     images = recorded_frames(c.messages, name)
+    if not count and not c.footer:
+        raise ConfigError(f"{path} is truncated (not finished) before any camera image of {name!r} was written")
     if not count:
         raise ConfigError(
             f"{path} has no recorded camera images for follower {name!r} "
@@ -106,7 +114,8 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
         raise ConfigError(f"{path}: none of the {count} recorded images of {name!r} decodes")
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
-    return ReplayResult(name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n)
+    truncated = not c.footer
+    return ReplayResult(name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n, truncated)
 
 
 def recorded_frames(messages: dict[str, Sequence[tuple[int, bytes]]], follower: str) -> list[tuple[int, np.ndarray]]:

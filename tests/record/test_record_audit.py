@@ -236,6 +236,24 @@ def test_replay_reruns_a_tracker_on_recorded_frames(camera_log, capsys: pytest.C
     assert main(["replay", str(camera_log[0]), "--tracker", "hue-only"]) == 0
     out = capsys.readouterr().out
     assert "replayed tracker (hue-only): success" in out and "recorded tracker (full):  success" in out
+    assert "truncated" not in out
+
+
+def test_replay_names_what_is_wrong_with_the_file(camera_log, tmp_path: Path, capsys) -> None:
+    data = camera_log[0].read_bytes()
+    (tmp_path / "text.mcap").write_text("hello\n")
+    (tmp_path / "head.mcap").write_bytes(data[:2000])  # cut before any image
+    (tmp_path / "half.mcap").write_bytes(data[: len(data) // 2])
+    for name, argv, said in (
+        ("text", [], "not an MCAP file"),
+        ("head", [], "truncated"),
+        ("whole", ["--follower", "nobody"], "has no follower 'nobody' (its followers: follower1)"),
+    ):
+        path = camera_log[0] if name == "whole" else tmp_path / f"{name}.mcap"
+        assert main(["replay", str(path), *argv]) == 2
+        assert said in capsys.readouterr().err, name
+    assert main(["replay", str(tmp_path / "half.mcap")]) == 0  # what came before the cut, said so
+    assert "the log is truncated (not finished)" in capsys.readouterr().out
 
 
 @pytest.mark.slow
