@@ -460,8 +460,9 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
         last if isinstance(last, int) and not isinstance(last, bool) and last >= 0 else info.waypoints
     )
     figures["waypoints_reached"] = len({m["index"] for m in figures["mission"]})
-    link = _link_figures(c)
+    link = _link_figures(c, info.vehicles[0] if info.vehicles else "leader")
     figures["links"], figures["link_senders"] = link["links"], link["senders"]
+    figures["mission_changes_s"] = link["mission_changes_s"]
     figures["topics"] = {
         ch.topic: counted[ch_id] for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic)
     }
@@ -671,11 +672,18 @@ def lost_by_sequence(got: list[tuple[float, int]]) -> list[int]:
     return lost
 
 
-def _link_figures(c: Contents) -> dict[str, Any]:
+def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
     """Per link: packets each way, message rates, commands and their acks (latency on the
-    log's clock); per sender: loss by its own sequence numbers over every link."""
+    log's clock); per sender: loss by its own sequence numbers over every link; when a client
+    replaced or cleared the leader's mission after the start (its accepted MISSION_ACKs)."""
     links: dict[str, Any] = {}
     packets = mavlink_packets(c)
+    changes = [
+        round(t, 2)
+        for t, m in packets.get(f"/mavlink/{leader}", [])
+        if t > 0 and m["direction"] == "out" and m["name"] == "MISSION_ACK"
+        and m["fields"].get("type") == 0 and m["fields"].get("mission_type", 0) == 0
+    ]  # fmt: skip
     for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
         rates: dict[str, int] = defaultdict(int)
@@ -699,7 +707,7 @@ def _link_figures(c: Contents) -> dict[str, Any]:
     for sender, got in heard_by_sender(packets).items():
         lost = lost_by_sequence(got)[-1]
         senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
-    return {"links": links, "senders": senders}
+    return {"links": links, "senders": senders, "mission_changes_s": changes}
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:
@@ -885,7 +893,13 @@ def format_report(report: AuditReport) -> str:
                 )
     if fig.get("waypoints"):
         reached = ", ".join(f"{m['index']}@{m['t_s']}s" for m in fig["mission"]) or "none"
-        lines.append(f"mission: {fig['waypoints_reached']}/{fig['waypoints']} waypoints reached ({reached})")
+        changed = fig.get("mission_changes_s") or []
+        since = (
+            f"; the mission was replaced or cleared by a client at {', '.join(f'{t:g}' for t in changed)} s"
+            if changed
+            else ""
+        )
+        lines.append(f"mission: {fig['waypoints_reached']}/{fig['waypoints']} waypoints reached ({reached}){since}")
     for topic, link in fig.get("links", {}).items():
         lines.append(
             f"link {topic}: {link['packets_in']} in, {link['packets_out']} out; {link['commands']} commands, "

@@ -111,16 +111,19 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     )
     fig, ax = plt.subplots(figsize=(8, 8))
     cfg = _scenario(c)
+    changed = report.figures.get("mission_changes_s") or []
     if cfg is not None and cfg.mission.waypoints:
-        reached = {m["index"]: m["t_s"] for m in report.figures.get("mission", [])}
+        # reach times belong to the scenario's waypoints only while its mission was the one flown
+        reached = {} if changed else {m["index"]: m["t_s"] for m in report.figures.get("mission", [])}
         r = cfg.mission.acceptance_radius_m
         for k, wp in enumerate(cfg.mission.waypoints, start=1):
             n, e = wp[0], wp[1]
             ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
             ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
-            when = f" @{reached[k]:.1f} s" if k in reached else " (not reached)"
+            when = "" if changed else (f" @{reached[k]:.1f} s" if k in reached else " (not reached)")
             ax.annotate(f"WP{k}{when}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
-        ax.plot([], [], "x", color="tab:cyan", label=f"waypoints (acceptance {r:g} m)")
+        what = f"the scenario's waypoints, replaced at {changed[0]:g} s" if changed else "waypoints"
+        ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
     for k, v in enumerate(vehicles):
         t, a = _track(c, v)
         if not len(t):

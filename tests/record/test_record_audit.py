@@ -406,9 +406,18 @@ def test_the_audit_counts_waypoints_as_the_run_summary_does(tmp_path: Path) -> N
     cfg = load_config(EXAMPLES / "convoy.toml")
     assert len(cfg.mission.waypoints) == 4
     rec = Recorder(tmp_path / "m.mcap", cfg)
+    ack = {"msgid": 47, "name": "MISSION_ACK", "seq": 0, "raw": "AAAA", "direction": "out", "sysid": 1, "compid": 1}
+    rec.mavlink(0.0, "leader", {**ack, "fields": {"type": 0, "mission_type": 0}})  # the scenario's, at the start
+    rec.mavlink(0.5, "leader", {**ack, "fields": {"type": 0, "mission_type": 0}})  # a client's upload
+    rec.mavlink(0.7, "leader", {**ack, "fields": {"type": 0, "mission_type": 1}})  # a fence: not the mission
+    rec.mavlink(0.8, "leader", {**ack, "fields": {"type": 13, "mission_type": 0}})  # refused: nothing changed
     for t, index in ((1.0, 0), (2.0, 2), (3.0, 2)):
         rec.mission_reached(t, index, min(index + 2, 3), 3, 2)
     rec.close("completed", 3.0)
     rep = audit(tmp_path / "m.mcap")
     assert (rep.figures["waypoints_reached"], rep.figures["waypoints"]) == (2, 2)
-    assert "mission: 2/2 waypoints reached (1@1.0s, 3@2.0s, 3@3.0s)" in format_report(rep)
+    assert rep.figures["mission_changes_s"] == [0.5]
+    assert (
+        "mission: 2/2 waypoints reached (1@1.0s, 3@2.0s, 3@3.0s); the mission was replaced or cleared by a client "
+        "at 0.5 s" in format_report(rep)
+    )
