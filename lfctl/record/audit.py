@@ -790,6 +790,8 @@ def recover(report: AuditReport, out_path: Path) -> int:
             raise ConfigError(f"cannot recover into {out_path}: {problem}")
         if Path(report.path).exists() and out_path.samefile(report.path):
             raise ConfigError(f"cannot recover into {out_path}: it is the audited file itself")
+    if not out_path.parent.is_dir():
+        raise ConfigError(f"cannot recover into {out_path}: the folder {out_path.parent} does not exist")
     with write_whole(out_path) as tmp, open(tmp, "wb") as f:
         n = _write_recovered(report, f)
     return n
@@ -887,8 +889,8 @@ def format_report(report: AuditReport) -> str:
                 f"{cells[4]:>9} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
             )
             for e in f["occlusion_episodes"]:
-                lines.append(
-                    f"    {e['worst']} at {e['start_s']} s for {e['duration_s']} s, "
+                lines.append(  # the episode's time counts in occluded s and lost s by state
+                    f"    not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']}), "
                     + ("recovered" if e["recovered"] else "not recovered")
                 )
     if fig.get("waypoints"):

@@ -185,6 +185,8 @@ def test_a_file_cut_at_60_percent_is_reported_and_recovered(
     again = audit(out)
     assert again.ok and again.figures["messages"] == rep.figures["messages"]
     assert "recovery" in again.contents.metadata
+    assert main(["audit", str(cut), "--recover", str(tmp_path / "nowhere" / "r.mcap")]) == 2
+    assert "the folder" in capsys.readouterr().err and not (tmp_path / "nowhere").exists()
 
 
 @pytest.mark.parametrize(
