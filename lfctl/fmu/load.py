@@ -488,7 +488,9 @@ class FmuInstance:
         except FmuError:
             raise
         except Exception as exc:
-            raise self._error(f"cannot instantiate {lib.identifier} as {name!r}: {exc}", "Instantiate") from exc
+            # name the user's .fmu, not the temporary folder it was unpacked into (gone by now)
+            why = str(exc).replace(f"{lib._unzipdir}/", f"{lib.path} member ") if lib._unzipdir else str(exc)
+            raise self._error(f"cannot instantiate {lib.identifier} as {name!r}: {why}", "Instantiate") from exc
         self._set_parameters(parameters, pose)
         dll = self._slave.dll
         c = self._slave.component

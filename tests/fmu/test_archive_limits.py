@@ -257,3 +257,19 @@ def test_a_sound_fmu_unpacks_in_full(faulty: BuiltModel, tmp_path: Path) -> None
         for info in z.infolist():
             if not info.is_dir():
                 assert (dest / info.filename).read_bytes() == z.read(info)
+
+
+def test_an_fmu_without_its_binary_is_named_not_its_temporary_folder(faulty: BuiltModel, tmp_path: Path) -> None:
+    import numpy as np
+
+    from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, FmuInstance
+
+    fmu = tmp_path / "nobin.fmu"
+    with zipfile.ZipFile(faulty.fmi2) as src, zipfile.ZipFile(fmu, "w") as dst:
+        for info in src.infolist():
+            if not info.filename.startswith("binaries/"):
+                dst.writestr(info, src.read(info))
+    rows = np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
+    with FmuLibrary(fmu) as lib, pytest.raises(FmuError) as err:
+        FmuInstance(lib, "leader", {}, (0.0, 0.0, 0.0), *rows, 0.0)
+    assert f"{fmu} member binaries/" in str(err.value) and "lfctl-" not in str(err.value)
