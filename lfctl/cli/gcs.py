@@ -82,12 +82,15 @@ def run(args: argparse.Namespace) -> int:
         action = args.action
         if items is not None:  # upload
             gcs.upload(items)
-            print(f"uploaded {len(items) - 1} items (+ home) to system {args.target}")
+            n = len(items) - 1
+            print(f"uploaded {n} item{'' if n == 1 else 's'} (+ home) to system {args.target}")
         elif action == "download":
             items = gcs.download()
             if args.file:
                 save_mission(items, args.file)
                 print(f"downloaded {len(items)} items to {args.file}")
+            elif not items:
+                print(f"system {args.target} has no mission")
             else:
                 for it in items:
                     print(
@@ -99,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         elif action in ("mode", "arm", "disarm"):
             result = gcs.set_mode(args.mode) if action == "mode" else gcs.arm(action == "arm")
             name = result_name(result)
-            print(f"{action} {args.mode if action == 'mode' else ''}: {name}".replace("  ", " "))
+            print(f"{action} {args.mode}: {name}" if action == "mode" else f"{action}: {name}")
             if name != "MAV_RESULT_ACCEPTED":
                 return 1
         elif action == "param":

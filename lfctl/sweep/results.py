@@ -89,6 +89,8 @@ def read_meta(out_dir: Path) -> dict[str, Any]:
     ConfigError
         The folder holds no sweep (or a damaged ``sweep.json``).
     """
+    if not Path(out_dir).is_dir():
+        raise ConfigError(f"{out_dir}: no such folder")
     try:
         return dict(json.loads((out_dir / META).read_text()))
     except FileNotFoundError:
@@ -217,7 +219,13 @@ def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
     try:
         return list(pq.read_table(path).to_pylist())
     except FileNotFoundError:
-        raise ConfigError(f"{out_dir} has no results table (runs.parquet): has the sweep run there?") from None
+        journal = Path(out_dir) / JOURNAL
+        hint = (
+            f"its runs are in {JOURNAL}: run the sweep again there with --resume to rebuild the table"
+            if journal.exists()
+            else "has the sweep run there?"
+        )
+        raise ConfigError(f"{out_dir} has no results table (runs.parquet): {hint}") from None
     except (OSError, pa.ArrowException) as exc:
         raise ConfigError(f"{path}: cannot read it: {exc}") from None
 
