@@ -91,7 +91,9 @@ def test_packets_carry_consecutive_sequence_numbers_so_a_gcs_counts_no_loss(live
     g.close()
 
 
-def test_mission_round_trip_upload_download_clear(live: LiveEndpoint, tmp_path: Path) -> None:
+def test_mission_round_trip_upload_download_clear(
+    live: LiveEndpoint, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     g = live.gcs()
     items = local_mission(SQUARE, HOME)
     g.upload(items)
@@ -109,6 +111,12 @@ def test_mission_round_trip_upload_download_clear(live: LiveEndpoint, tmp_path: 
     g.clear()
     assert g.download() == []
     g.close()
+    from lfctl.cli import main
+
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "5"]
+    assert main([*connect, "download"]) == 0
+    assert main([*connect, "arm"]) == 0
+    assert capsys.readouterr().out.splitlines()[-2:] == ["system 1 has no mission", "arm: MAV_RESULT_ACCEPTED"]
 
 
 def test_invalid_latitude_is_rejected_and_the_old_mission_stays(live: LiveEndpoint) -> None:

@@ -89,10 +89,15 @@ def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summa
 
 
 def test_report_of_a_folder_without_a_sweep_says_so(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no such folder"):
+        report(tmp_path / "nowhere")
     with pytest.raises(ConfigError, match="holds no sweep"):
         report(tmp_path)
     write_meta(tmp_path, {"name": "t", "keys": [], "followers": []})
-    with pytest.raises(ConfigError, match="has no results table"):
+    with pytest.raises(ConfigError, match="has the sweep run there"):
+        report(tmp_path)
+    append_row(tmp_path, {"run": 0})  # a journal but no table: the way back is named
+    with pytest.raises(ConfigError, match="run the sweep again there with --resume"):
         report(tmp_path)
 
 
