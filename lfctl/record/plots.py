@@ -306,8 +306,10 @@ def plot_all(report: AuditReport, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out_dir.mkdir(parents=True, exist_ok=True)
     c = report.contents
+    if not c.channels and not c.metadata:  # nothing readable (not MCAP, empty): no empty plots
+        return []
+    out_dir.mkdir(parents=True, exist_ok=True)
     made = [out_dir / "trajectories.png"]
     _trajectories(plt, report, made[0])
     for f in _followers(c):  # names of letters, digits, '-', '_': every file stays in out_dir

@@ -202,9 +202,10 @@ def test_non_mcap_files_get_a_clear_error(
 ) -> None:
     p = tmp_path / "x.mcap"
     p.write_bytes(content)
-    assert main(["audit", str(p)]) == 1
+    assert main(["audit", str(p), "--plot", str(tmp_path / "plots")]) == 1
     out = capsys.readouterr().out
     assert message in out and "Traceback" not in out
+    assert not (tmp_path / "plots").exists()  # nothing to plot: no empty PNGs
 
 
 def test_strict_fails_on_the_scenarios_limits(truth_log, tmp_path: Path) -> None:
