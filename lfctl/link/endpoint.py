@@ -172,9 +172,9 @@ SENSORS = (
 #: a disarmed vehicle's home follows it once it is this far from it, m (Rover's
 #: DISTANCE_HOME_MINCHANGE)
 HOME_MIN_CHANGE_M = 0.5
-#: the farthest a ground station may put home above or below the ground, m (HOME_POSITION's
-#: altitude and GLOBAL_POSITION_INT's are int32 mm: about 2147 km)
-MAX_HOME_HEIGHT_M = 1e6
+#: the largest altitude a command's location may carry, m, in any frame (ArduPilot's
+#: LOCATION_ALT_MAX_M: location_from_command_t refuses more)
+LOCATION_ALT_MAX_M = 83_000.0
 #: a reboot's silence, s: the autopilot neither sends nor hears anything while it restarts
 REBOOT_S = 2.0
 #: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN's param6 that reboots an armed vehicle (ArduPilot's
@@ -207,7 +207,7 @@ class LinkStats:
     other_sysid: int = 0  # addressed to another vehicle
     unknown: int = 0  # message ids we do not handle (ids outside the dialect: not answered at all)
     dropped: int = 0  # datagrams too long, or over the per-tick byte budget
-    rebooting: int = 0  # datagrams that came while the autopilot restarted (dropped, unread)
+    rebooting: int = 0  # messages that came while the autopilot restarted (recorded, not acted on)
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
 
@@ -289,7 +289,10 @@ class VehicleEndpoint:
         self._boot_t_s = 0.0  # when the autopilot last started: time_boot_ms counts from here
         self._booting_until = -math.inf  # rebooting (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) until then
         self._reboot_due = False  # a reboot was accepted: it starts after the ACK has gone out
-        self._banner_said = True  # the banner after a reboot has gone out
+        #: each message's stream-group rate as REQUEST_DATA_STREAM last set it: kept across a
+        #: reboot, as Rover keeps its SRn_ parameters (SET_MESSAGE_INTERVAL's rates are not)
+        self._group_period: dict[int, float] = {}
+        self._ready_said = True  # "ArduPilot Ready" after a reboot has gone out
         self._start(armed)
         self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
         #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
@@ -330,7 +333,7 @@ class VehicleEndpoint:
         self._text_id = 0
         self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
         self._intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
-        self._group_period: dict[int, float] = {}  # each message's group rate, as last requested
+        self._intervals.update(self._group_period)  # REQUEST_DATA_STREAM's rates outlive a reboot
         # a message not streamed by default is not due until asked for
         self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
@@ -484,9 +487,6 @@ class VehicleEndpoint:
             for data, addr in batch:
                 self.stats.datagrams += 1
                 self.stats.remote += addr[0] != "memory"
-                if self.rebooting:
-                    self.stats.rebooting += 1
-                    continue
                 if len(data) > MAX_DATAGRAM_BYTES or len(data) > budget:
                     self.stats.dropped += 1
                     continue
@@ -539,7 +539,10 @@ class VehicleEndpoint:
     def _handle(self, m: Any, signed: bool) -> None:
         try:
             if self.tap is not None:
-                self.tap("in", m, bytes(m.get_msgbuf()))
+                self.tap("in", m, bytes(m.get_msgbuf()))  # what reached the port, acted on or not
+            if self.rebooting:  # restarting (from this frame on, if the datagram asked for it)
+                self.stats.rebooting += 1
+                return
             self._dispatch(m, signed)
         except Exception:  # a bug in a handler: counted and logged, the run goes on
             self.stats.handler_errors += 1
@@ -981,8 +984,10 @@ class VehicleEndpoint:
     def _height_above_ground(self, alt_m: float, frame: int) -> float | None:
         """A command's altitude as a height above lfctl's flat ground, m: above mean sea level
         (GLOBAL), above home (RELATIVE_ALT) or above the terrain (TERRAIN_ALT, the ground);
-        None for another frame, or for a home more than :data:`MAX_HOME_HEIGHT_M` from the
-        ground (HOME_POSITION and GLOBAL_POSITION_INT carry altitudes in int32 mm)."""
+        None for another frame, or an altitude beyond :data:`LOCATION_ALT_MAX_M` either way
+        (as Rover's location_from_command_t, before the frame is applied)."""
+        if not _finite(alt_m) or abs(alt_m) > LOCATION_ALT_MAX_M:
+            return None
         if frame in (mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT):
             up = alt_m - self.home[2]
         elif frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
@@ -991,7 +996,7 @@ class VehicleEndpoint:
             up = alt_m
         else:
             return None
-        return up if _finite(up) and abs(up) <= MAX_HOME_HEIGHT_M else None
+        return up
 
     # -- parameters -------------------------------------------------------------------------
     def _param_value(self, name: str, indexed: bool = True) -> Any:
@@ -1012,20 +1017,21 @@ class VehicleEndpoint:
         """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as Rover takes it: param1 1 reboots the autopilot
         (3, into its bootloader, and shutting down are not lfctl's: UNSUPPORTED); an armed
         vehicle only with param6 = :data:`FORCE_REBOOT`. The ACK goes out first, as on Rover."""
+        if self.armed and p[5] != FORCE_REBOOT:
+            return mav.MAV_RESULT_FAILED  # checked first, as Rover: armed, any param1 is FAILED
         if p[0] != 1.0:
             return mav.MAV_RESULT_UNSUPPORTED
-        if self.armed and p[5] != FORCE_REBOOT:
-            return mav.MAV_RESULT_FAILED
         self._reboot_due = True
         return mav.MAV_RESULT_ACCEPTED
 
     def reboot(self) -> None:
-        """Restart the autopilot: for :data:`REBOOT_S` it sends nothing and drops what comes
-        in; then it starts as it started at first (disarmed, in its first mode, default
-        stream rates, home following the vehicle, no GUIDED target, time_boot_ms from 0,
-        MAVLink sequence from 0) and says its banner. Parameters, the mission, the fence and
-        the rally points are kept, as a Rover keeps them in storage. The vehicle stays where
-        it is; disarmed, it stops."""
+        """Restart the autopilot: for :data:`REBOOT_S` it sends nothing and acts on nothing
+        that comes in (what arrives is still recorded); then it starts as it started at first
+        (disarmed, in the mode it was created in, SET_MESSAGE_INTERVAL's rates gone, home
+        following the vehicle, no GUIDED target, time_boot_ms and the MAVLink sequence from 0)
+        and says "ArduPilot Ready". Parameters, REQUEST_DATA_STREAM's rates, the mission
+        (from its first item), the fence and the rally points are kept, as a Rover keeps them
+        in storage. The vehicle stays where it is; disarmed, it stops."""
         self._reboot_due = False
         self._start()
         self.missions.restart()
@@ -1034,7 +1040,7 @@ class VehicleEndpoint:
         self.modes.append((self.t_s, self.mode))
         self._boot_t_s = self.t_s + REBOOT_S
         self._booting_until = self._boot_t_s
-        self._banner_said = False
+        self._ready_said = False
         log.info("%s: rebooting", self.name)
 
     @property
@@ -1352,9 +1358,9 @@ class VehicleEndpoint:
         if self.rebooting:
             self.receive()  # heard by nobody
             return
-        if self._boot_t_s > 0.0 and not self._banner_said:
-            self._banner_said = True
-            self._banner()  # a Rover's first words after a reboot
+        if self._boot_t_s > 0.0 and not self._ready_said:
+            self._ready_said = True
+            self.statustext("ArduPilot Ready", mav.MAV_SEVERITY_INFO)  # AP_Vehicle::setup's last words
         self._update_home()
         if self.signed_parser is not None:
             advance_signing_clock(self.signed_parser.signing, time.time())

@@ -677,6 +677,7 @@ def test_do_set_home_keeps_the_altitude_in_the_commands_frame(bench: Bench) -> N
     # a frame no location is read in, or an altitude the messages cannot carry: refused, home kept
     assert command_int(mav.MAV_FRAME_LOCAL_NED, 0.0) == mav.MAV_RESULT_DENIED
     assert command_int(mav.MAV_FRAME_GLOBAL_INT, 3e6) == mav.MAV_RESULT_DENIED
+    assert command_int(mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 83_001) == mav.MAV_RESULT_DENIED  # Rover's limit
     assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, NAN) == mav.MAV_RESULT_DENIED
     assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, lat, lon, -INF) == mav.MAV_RESULT_DENIED
     assert home_and_relative_alt() == pytest.approx((880.0, 20.0, 20.0), abs=1e-3)
@@ -1205,6 +1206,7 @@ def test_qgroundcontrols_connect_sequence_gets_every_answer_and_no_warning(bench
     assert acks[mav.MAV_CMD_REQUEST_MESSAGE, mav.MAV_RESULT_FAILED] == 2  # not sent by a Rover either
     texts = [m for m in out if m.get_type() == "STATUSTEXT"]
     assert [m.severity for m in texts] == [mav.MAV_SEVERITY_INFO] * 2  # the banner, no warning
+    assert texts[0].text.startswith("lfctl V") and texts[1].text == "lfctl sim: v, sysid 1"
     assert _count(out, "AUTOPILOT_VERSION") == 1 and _count(out, "PARAM_VALUE") == len(bench.ep.params)
     # the rates it asked for (EXTRA2 10 Hz, EXTRA1 10 Hz, POSITION 3 Hz, EXTENDED_SYS_STATE 1 Hz), on 50 Hz ticks
     for name, hz in (("VFR_HUD", 10), ("ATTITUDE", 10), ("GLOBAL_POSITION_INT", 3), ("EXTENDED_SYS_STATE", 1)):
@@ -1386,40 +1388,72 @@ def test_reboot_is_refused_as_rover_refuses_it(bench: Bench) -> None:
     for param1 in (0, 2, 3, NAN):  # nothing, shut down, into the bootloader: not lfctl's
         assert bench.command(reboot, param1) == mav.MAV_RESULT_UNSUPPORTED
     bench.ep.set_armed(True)
-    assert bench.command(reboot, 1) == mav.MAV_RESULT_FAILED  # armed: only forced
+    for param1 in (1, 0, 3):  # armed: anything unforced is FAILED, checked first as on Rover
+        assert bench.command(reboot, param1) == mav.MAV_RESULT_FAILED
     assert bench.ep.armed and not bench.ep.rebooting
+
+
+def _reboot_frames(force: float, *then: object) -> bytes:
+    """A reboot (COMMAND_INT, its y the force value) and more frames, in one datagram."""
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    reboot = mav.MAVLink_command_int_message(
+        1, 1, 0, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 0, 1, 0, 0, 0, 0, int(force), 0
+    )
+    return b"".join(m.pack(gcs) for m in (reboot, *then))  # type: ignore[attr-defined]
 
 
 @pytest.mark.parametrize("armed", [False, True])
 def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(bench: Bench, armed: bool) -> None:
     assert upload(bench, good_mission()) == mav.MAV_MISSION_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2) == mav.MAV_RESULT_ACCEPTED
     bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32))
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 2, 1))
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 1e6) == mav.MAV_RESULT_ACCEPTED
-    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 1) == mav.MAV_RESULT_ACCEPTED  # locked here
+    here = dict(zip(("lat", "lon"), ned_to_geodetic(1.0, 2.0, 0.0, *HOME)[:2], strict=True))
+    assert (
+        bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, here["lat"], here["lon"], HOME[2] + 12.5)
+        == mav.MAV_RESULT_ACCEPTED
+    )  # locked, 12.5 m above the ground
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    bench.send(
+        mav.MAVLink_set_position_target_local_ned_message(0, 1, 1, 1, 0b110111111000, 5, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+    )
     bench.ep.set_armed(armed)
     bench.tick(10.0)
-    force = 20190226 if armed else 0  # MAVProxy's `reboot force`
-    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, force) == mav.MAV_RESULT_ACCEPTED
-    assert bench.ep.rebooting and not bench.ep.armed
-    # restarting: nothing goes out, nothing is heard (an arm command gets no answer)
-    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    assert bench.ep.guided is not None and bench.ep.current_seq == 2 and bench.ep.home_locked
+    # one datagram: a reboot (COMMAND_INT; forced when armed, as MAVProxy's `reboot force`),
+    # then a mode change and an arm: only the reboot is acted on, the rest is recorded
+    arm = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    manual = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, MODES["MANUAL"], 0, 0, 0, 0, 0)
+    bench.raw(_reboot_frames(20190226 if armed else 0, manual, arm))
+    (ack,) = [m for m in bench.tick() if m.get_type() == "COMMAND_ACK"]
+    assert (ack.command, ack.result) == (mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, mav.MAV_RESULT_ACCEPTED)
+    assert bench.ep.rebooting and not bench.ep.armed and bench.ep.mode == MODES["HOLD"]
+    # restarting: nothing goes out, nothing is acted on (another arm gets no answer)
+    bench.send(arm)
     quiet = [m for _ in range(95) for m in bench.tick(0.02)]
-    assert quiet == [] and bench.ep.stats.rebooting == 1 and not bench.ep.armed
+    assert quiet == [] and bench.ep.stats.rebooting == 3 and not bench.ep.armed
+    arms = [r for r in bench.records if '"direction": "in"' in r and '"command": 400,' in r]
+    assert len(arms) == 2  # recorded as they came, not acted on
     out = [m for _ in range(60) for m in bench.tick(0.02)]
     assert not bench.ep.rebooting
     texts = [m.text for m in out if m.get_type() == "STATUSTEXT"]
-    assert texts[0].startswith("lfctl V")  # the banner first, as a Rover starts
+    assert texts == ["ArduPilot Ready"]  # AP_Vehicle::setup's last words
     (first, *_) = [m for m in out if m.get_type() == "ATTITUDE"]
     assert first.time_boot_ms < 200  # time_boot_ms from the new start
     assert out[0].get_seq() == 0  # the MAVLink sequence too
     beat = [m for m in out if m.get_type() == "HEARTBEAT"][-1]
     assert beat.custom_mode == MODES["HOLD"] and not beat.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED
-    # RAM is new: default rates (ATTITUDE 10 Hz again, not 1 Hz), home follows the vehicle
+    # RAM is new: SET_MESSAGE_INTERVAL's rate gone (ATTITUDE 10 Hz again, not 1 Hz), home
+    # unlocked and on the ground, no GUIDED target
     assert 10 <= _count(out, "ATTITUDE") <= 13
     assert not bench.ep.home_locked and bench.ep.guided is None
-    # storage is kept: the parameter, the mission from its first item
+    home = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
+    assert home.relative_alt == 0
+    # storage is kept: the parameter, REQUEST_DATA_STREAM's rate (Rover's SRn_: POSITION at
+    # 2 Hz), the mission from its first item
     assert bench.ep.param("WP_SPEED") == 1.5
+    assert 2 <= _count(out, "GLOBAL_POSITION_INT") <= 3
     assert len(bench.ep.mission) == len(good_mission()) and bench.ep.current_seq == 1
     assert bench.ep.stats.handler_errors == 0
 
