@@ -391,6 +391,18 @@ def test_a_parameter_the_vehicle_lacks_is_named_at_once(live: LiveEndpoint, caps
         assert "system 1 has no parameter 'NOPE'" in capsys.readouterr().err
 
 
+def test_a_ground_station_reboots_the_vehicle_and_hears_it_come_back(live: LiveEndpoint) -> None:
+    # as a script written for ArduPilot does it: the ACK, then wait for "ArduPilot Ready"
+    g = live.gcs(timeout_s=10.0)
+    assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert g.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    ready = g.wait(("STATUSTEXT",), where=lambda m: m.text == "ArduPilot Ready")
+    beat = g.wait(("HEARTBEAT",), where=lambda m: m.get_srcComponent() == 1)
+    assert ready.severity == mav.MAV_SEVERITY_INFO and beat.custom_mode == MODES["HOLD"]
+    assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED  # and it takes commands again
+    g.close()
+
+
 def test_the_vehicle_port_is_its_own() -> None:
     from lfctl.errors import LinkError
 
