@@ -108,11 +108,14 @@ def run(args: argparse.Namespace) -> int:
     human = sys.stderr if pipe else sys.stdout
     show_bar = not args.quiet and sys.stderr.isatty()
     spec = p.spec
-    print(
-        f"sweep        {spec.name}: {len(p.variants)} variants x {len(spec.seeds)} seeds x {spec.repetitions} "
-        f"repetitions = {len(p.runs)} runs  ({spec.scenario.name})",
-        file=human,
+    counts = (
+        (len(p.variants), "variant"),
+        (len(spec.seeds), "seed"),
+        (spec.repetitions, "repetition"),
+        (len(p.runs), "run"),
     )
+    v, sd, r, n = (f"{k} {word}{'' if k == 1 else 's'}" for k, word in counts)
+    print(f"sweep        {spec.name}: {v} x {sd} x {r} = {n}  ({spec.scenario.name})", file=human)
     print(f"folder       {out_dir}", file=human, flush=True)
 
     announced, stopping = threading.Event(), threading.Event()
