@@ -139,3 +139,32 @@ def test_a_run_that_fails_later_leaves_a_finished_log_that_says_why(tmp_path: Pa
     assert report.figures["end"]["reason"] == "error: RuntimeError: the disk went away"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(1.51)  # stop is asked after step 151
     assert any("ended abnormally at t = 1.51 s" in f.what and f.level == "error" for f in report.findings)
+
+
+def test_the_summarys_state_times_add_up_to_the_run(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "convoy", "--duration", "3", "--sensing", "truth", "--no-record", "-q"]) == 0
+    row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("follower1  leader"))
+    tracking, occluded, lost = (float(v) for v in row.split()[-3:])
+    assert tracking + occluded + lost == pytest.approx(3.0, abs=0.011)  # to 0.01 s, not 0.1 each
+
+
+def test_video_with_truth_sensing_is_refused_before_it_is_announced(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sim", "convoy", "--duration", "1", "--no-record", "-q", "--sensing", "truth", "--video"]) == 2
+    out, err = capsys.readouterr()
+    assert "live video needs camera sensing" in err and "RTP/UDP" not in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "said", "not_said"),
+    [
+        (["gcs", "param", "--help"], ("list ", "get ", "set ", "save ", "load "), ()),
+        (["sweep", "--help"], ("95 % confidence",), ("%%",)),
+    ],
+)
+def test_help_lists_every_operation_and_prints_no_escapes(
+    argv: list[str], said: tuple[str, ...], not_said: tuple[str, ...], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        main(argv)
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps to the terminal's width
+    assert all(s in out for s in said) and not any(s in out for s in not_said)

@@ -153,6 +153,11 @@ def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log) -> None:
     for state, secs in m.time_in_state_s.items():
         assert f["time_in_state_s"][state] == pytest.approx(secs, abs=1e-6)
     assert [w["index"] - 1 for w in rep.figures["mission"]] == [i for i, _ in report.waypoints_reached]
+    # an episode is time without TRACKING, worded as such (its states' seconds are the columns)
+    for e in f["occlusion_episodes"]:
+        line = f"not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']})"
+        assert line in format_report(rep)
+    assert f["occlusion_episodes"], "the scenario's 1.5 s dropout makes one"
 
 
 def test_a_flipped_byte_inside_a_chunk_is_a_crc_error(truth_log, tmp_path: Path) -> None:

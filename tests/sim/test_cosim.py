@@ -91,6 +91,13 @@ def test_run_advances_time_and_moves_the_leader() -> None:
     assert r.final.pos_ned_m[0, 1] > 1.0 + 1.0
 
 
+def test_progress_is_told_about_once_a_second_and_at_the_end() -> None:
+    told: list[float] = []
+    with Simulation(parse_config(TWO)) as sim:
+        sim.run(3.0, progress=lambda t_s, _wall_s: told.append(t_s))
+    assert len(told) == 4 and told[-1] == pytest.approx(3.0)  # a bar drawn to its end
+
+
 def test_set_command_rejects_non_finite() -> None:
     with Simulation(parse_config(TWO)) as sim, pytest.raises(ValueError, match=r"leader: commands must be finite"):
         sim.set_command("leader", math.nan, 0.0)
