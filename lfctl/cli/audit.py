@@ -44,6 +44,8 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--recover {args.recover}: {problem}")
         if args.recover.samefile(args.file):
             raise ConfigError(f"--recover {args.recover}: that is the log being audited")
+    if args.recover is not None and not args.recover.parent.is_dir():  # said before a long audit
+        raise ConfigError(f"--recover {args.recover}: the folder {args.recover.parent} does not exist")
     report = audit(args.file)
     if args.strict:
         report.findings.extend(check_thresholds(report))
@@ -62,8 +64,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_report(report))
     if args.plot:
-        for p in plot(report, args.plot):
+        made = plot(report, args.plot)
+        for p in made:
             print(f"plot: {p}", file=sys.stderr)
+        if not made:
+            print(f"no plots: nothing readable in {args.file}", file=sys.stderr)
     if args.recover:
         n = recover(report, args.recover)
         print(f"recovered {n} messages into {args.recover}", file=sys.stderr)

@@ -88,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
             items = gcs.download()
             if args.file:
                 save_mission(items, args.file)
-                print(f"downloaded {len(items)} items to {args.file}")
+                n = max(0, len(items) - 1)
+                print(f"downloaded {n} item{'' if n == 1 else 's'} (+ home) to {args.file}")
             elif not items:
                 print(f"system {args.target} has no mission")
             else:

@@ -134,9 +134,8 @@ def print_report(report: RunReport) -> None:
     print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time{spread})")
     modes = ", ".join(f"{name} {secs:.1f} s" for name, secs in report.leader_modes) or "none"
     if report.leader_mode == "auto":
-        distinct = len({i for i, _t in report.waypoints_reached})
         reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
-        print(f"leader       {modes}; {distinct}/{report.n_waypoints} waypoints reached ({reached})")
+        print(f"leader       {modes}; {report.n_reached}/{report.n_waypoints} waypoints reached ({reached})")
     else:
         print(f"leader       {modes}; scripted speed / yaw-rate profile (no [mission] waypoints)")
     for c in report.mission_changes:

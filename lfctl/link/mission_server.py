@@ -352,6 +352,12 @@ class MissionServer:
             self.store(t, [], *src)
         self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
 
+    @property
+    def mission_number(self) -> int:
+        """How many times the mission list has been stored (replaced or cleared): which
+        mission is in force, 1 for the first."""
+        return sum(1 for c in self.changes if c.kind == "mission")
+
     def restart(self) -> None:
         """The autopilot restarted: an upload under way is lost (its ground station times
         out) and the mission starts again from its first item; the lists stay."""

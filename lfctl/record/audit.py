@@ -159,7 +159,8 @@ _POSE_ESTIMATE = {
     "truth_range_m": (_positive, True),
     "truth_bearing_deg": (_num, True),
 }
-_MISSION = {"event": (_text, True), "index": (_index, True), "waypoints": (_index, False)}
+#: "reached" events carry an index; "stored" ones (a mission replaced or cleared) do not
+_MISSION = {"event": (_text, True), "index": (_index, False), "waypoints": (_index, False), "mission": (_index, False)}
 _MAVLINK = {
     "direction": (_direction, True),
     "sysid": (_int, True),
@@ -451,15 +452,7 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
     findings.extend(_end_findings(c, end, recovered))
     # -- content ----------------------------------------------------------------------------
     figures["followers"] = _formation_figures(c, info)
-    reached = [(t, m) for t, m in _json_messages(c, "/leader/mission") if m.get("event") == "reached"]
-    figures["mission"] = [{"index": m["index"] + 1, "t_s": round(t, 2)} for t, m in reached]
-    # as `lfctl sim` counts them: distinct waypoints of the mission last reached in (a log
-    # before the events carried its size: the scenario's), none reached: the scenario's
-    last = reached[-1][1].get("waypoints") if reached else None
-    figures["waypoints"] = (
-        last if isinstance(last, int) and not isinstance(last, bool) and last >= 0 else info.waypoints
-    )
-    figures["waypoints_reached"] = len({m["index"] for m in figures["mission"]})
+    figures.update(_mission_figures(_json_messages(c, "/leader/mission"), info.waypoints))
     link = _link_figures(c, info.vehicles[0] if info.vehicles else "leader")
     figures["links"], figures["link_senders"] = link["links"], link["senders"]
     figures["mission_changes_s"] = link["mission_changes_s"]
@@ -672,6 +665,25 @@ def lost_by_sequence(got: list[tuple[float, int]]) -> list[int]:
     return lost
 
 
+def _mission_figures(events: list[tuple[float, dict[str, Any]]], scenario_waypoints: int) -> dict[str, Any]:
+    """The leader's mission progress, counted as `lfctl sim` counts it: every arrival in
+    order (``mission``), and the distinct waypoints reached of the mission last reached in
+    against its size (``waypoints_reached`` / ``waypoints``). With nothing reached, the size
+    is the mission stored last (a log from before missions were numbered: the scenario's)."""
+    reached = [(t, m) for t, m in events if m.get("event") == "reached" and "index" in m]
+    stored = [m for _t, m in events if m.get("event") == "stored"]
+    out: dict[str, Any] = {"mission": [{"index": m["index"] + 1, "t_s": round(t, 2)} for t, m in reached]}
+    if reached:
+        last = reached[-1][1]
+        same = [m for _t, m in reached if m.get("mission") == last.get("mission")]  # all, in old logs
+        out["waypoints_reached"] = len({m["index"] for m in same})
+        out["waypoints"] = last.get("waypoints", scenario_waypoints)
+    else:
+        out["waypoints_reached"] = 0
+        out["waypoints"] = stored[-1].get("waypoints", scenario_waypoints) if stored else scenario_waypoints
+    return out
+
+
 def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
     """Per link: packets each way, message rates, commands and their acks (latency on the
     log's clock); per sender: loss by its own sequence numbers over every link; when a client
@@ -682,7 +694,7 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
         round(t, 2)
         for t, m in packets.get(f"/mavlink/{leader}", [])
         if t > 0 and m["direction"] == "out" and m["name"] == "MISSION_ACK"
-        and m["fields"].get("type") == 0 and m["fields"].get("mission_type", 0) == 0
+        and m["fields"].get("type") == 0 and m["fields"].get("mission_type", 0) in (0, 255)  # MISSION, or ALL
     ]  # fmt: skip
     for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
@@ -893,7 +905,7 @@ def format_report(report: AuditReport) -> str:
                     f"    not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']}), "
                     + ("recovered" if e["recovered"] else "not recovered")
                 )
-    if fig.get("waypoints"):
+    if fig.get("waypoints") or fig.get("mission"):
         reached = ", ".join(f"{m['index']}@{m['t_s']}s" for m in fig["mission"]) or "none"
         changed = fig.get("mission_changes_s") or []
         since = (

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Any
 
@@ -114,15 +115,16 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     changed = report.figures.get("mission_changes_s") or []
     if cfg is not None and cfg.mission.waypoints:
         # reach times belong to the scenario's waypoints only while its mission was the one flown
-        reached = {} if changed else {m["index"]: m["t_s"] for m in report.figures.get("mission", [])}
+        until = changed[0] if changed else math.inf
+        reached = {m["index"]: m["t_s"] for m in report.figures.get("mission", []) if m["t_s"] < until}
         r = cfg.mission.acceptance_radius_m
         for k, wp in enumerate(cfg.mission.waypoints, start=1):
             n, e = wp[0], wp[1]
             ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
             ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
-            when = "" if changed else (f" @{reached[k]:.1f} s" if k in reached else " (not reached)")
+            when = f" @{reached[k]:.1f} s" if k in reached else ("" if changed else " (not reached)")
             ax.annotate(f"WP{k}{when}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
-        what = f"the scenario's waypoints, replaced at {changed[0]:g} s" if changed else "waypoints"
+        what = f"the scenario's waypoints, replaced or cleared at {changed[0]:g} s" if changed else "waypoints"
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
     for k, v in enumerate(vehicles):
         t, a = _track(c, v)

@@ -156,6 +156,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "active": {"type": "integer"},
             "count": {"type": "integer", "description": "items in the mission, home not counted"},
             "waypoints": {"type": "integer", "description": "of them, the waypoints (NAV items)"},
+            "mission": {"type": "integer", "description": "which mission: 1 the first stored, counting each change"},
         },
     },
     "lfctl.MavlinkPacket": {
@@ -992,7 +993,9 @@ class Recorder:
                 ),
             )
 
-    def mission_reached(self, t_s: float, index: int, active: int, count: int, waypoints: int) -> None:
+    def mission_reached(
+        self, t_s: float, index: int, active: int, count: int, waypoints: int, mission: int = 1
+    ) -> None:
         """The leader reached a waypoint (``/leader/mission``, and a line in ``/log``).
 
         Parameters
@@ -1007,14 +1010,39 @@ class Recorder:
             Items in the mission (home not counted).
         waypoints : int
             Of them, the waypoints (NAV items): what "N/M waypoints reached" counts against.
+        mission : int
+            Which mission it is (1 the first stored, counting each replacement or clear).
         """
         self.json(
             "/leader/mission",
             "lfctl.Mission",
             t_s,
-            {"event": "reached", "index": index, "active": active, "count": count, "waypoints": waypoints},
+            {
+                "event": "reached",
+                "index": index,
+                "active": active,
+                "count": count,
+                "waypoints": waypoints,
+                "mission": mission,
+            },
         )
-        self.event(t_s, self.cfg.vehicles[0].name, f"reached waypoint {index + 1}/{count}")
+        self.event(t_s, self.cfg.vehicles[0].name, f"reached mission item {index + 1}/{count}")
+
+    def mission_stored(self, t_s: float, waypoints: int, mission: int) -> None:
+        """The leader's mission was stored: replaced, or cleared (``/leader/mission``).
+
+        Parameters
+        ----------
+        t_s : float
+            Simulation time, s.
+        waypoints : int
+            Its waypoints (NAV items; 0 when cleared).
+        mission : int
+            Its number (1 the first stored).
+        """
+        self.json(
+            "/leader/mission", "lfctl.Mission", t_s, {"event": "stored", "waypoints": waypoints, "mission": mission}
+        )
 
     # -- the end ---------------------------------------------------------------------------------
     def _close_file(self) -> None:

@@ -79,8 +79,9 @@ class VehicleDriver:
     scripted : bool
         Drive ``[script]``'s profile in AUTO when there is no mission (the scenario's leader).
     on_reached : callable, optional
-        Told ``(t_s, index, active, count, waypoints)`` when a mission waypoint is reached
-        (the recorder): ``waypoints`` is the NAV items in the mission it belongs to.
+        Told ``(t_s, index, active, count, waypoints, mission)`` when a mission waypoint is
+        reached (the recorder): ``waypoints`` is the NAV items in the mission it belongs to,
+        ``mission`` that mission's number (:attr:`MissionServer.mission_number`).
     """
 
     def __init__(
@@ -91,7 +92,7 @@ class VehicleDriver:
         home: tuple[float, float, float],
         step_s: float,
         scripted: bool = False,
-        on_reached: Callable[[float, int, int, int, int], None] | None = None,
+        on_reached: Callable[[float, int, int, int, int, int], None] | None = None,
     ) -> None:
         self.cfg = cfg
         self.endpoint = endpoint
@@ -103,6 +104,7 @@ class VehicleDriver:
         self.command: tuple[float, float] = (0.0, 0.0)  # speed (m/s), yaw rate (rad/s)
         self.reached: list[tuple[int, float]] = []  # (waypoint index from 0, t_s)
         self.reached_of: int | None = None  # waypoints (NAV items) in the mission last reached in
+        self._reached_in: tuple[int, set[int]] = (0, set())  # that mission's number, its items reached
         self._autopilot: LeaderAutopilot | None = None
         self._key: tuple[object, ...] = ()
         self._legs: list[Leg] = []
@@ -204,11 +206,21 @@ class VehicleDriver:
             ep.reached(seq, last=k == len(self._legs) - 1)
             self.reached.append((seq - 1, t_s))
             self.reached_of = nav_count(ep.mission)
+            number = ep.missions.mission_number
+            if self._reached_in[0] != number:
+                self._reached_in = (number, set())
+            self._reached_in[1].add(seq - 1)
             if self.on_reached is not None:
-                self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of)
+                self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of, number)
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, self._autopilot.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    @property
+    def distinct_reached(self) -> int:
+        """Distinct waypoints reached of the mission last reached in (a mission flown twice
+        counts each once; an earlier, replaced mission's not at all)."""
+        return len(self._reached_in[1])
 
     def _done(self, key: tuple[int, float]) -> bool:
         """The mission in force is finished and only the speed changed (a WP_SPEED set, a

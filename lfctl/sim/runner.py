@@ -104,6 +104,7 @@ class RunReport:
     n_waypoints: int  # waypoints (NAV items) of the mission last reached in (none reached: the one at the end)
     leader_mode: str  # "auto" (a mission) or "script" (the scenario's speed / yaw-rate profile)
     leader_modes: list[tuple[str, float]] = dataclasses.field(default_factory=list)  # (mode, seconds in it)
+    n_reached: int = 0  # distinct waypoints reached of the mission last reached in ("N/M waypoints reached")
     mission_changes: list[ListChange] = dataclasses.field(default_factory=list)  # by clients, after the start
     log_path: Path | None = None  # the MCAP log written (None: not recorded)
     log_messages: int = 0  # messages in it
@@ -178,6 +179,7 @@ class TelemetryTask:
         self.links = links
         self.followers = followers
         self._mission_version = -1
+        self._missions_stored = 0
         self._events = scenario_events(sim.config)
 
     def __call__(self, t_s: float) -> None:
@@ -191,6 +193,9 @@ class TelemetryTask:
             for leg in to_legs(leader.mission, self.links.home):
                 seen.setdefault(leg.seq, (leg.north_m, leg.east_m))
             rec.set_mission(t_s, list(seen.values()), leader.param("WP_RADIUS"))
+        if leader.missions.mission_number != self._missions_stored:  # replaced or cleared
+            self._missions_stored = leader.missions.mission_number
+            rec.mission_stored(t_s, nav_count(leader.mission), self._missions_stored)
         while self._events and self._events[0][0] <= t_s:
             rec.event(t_s, "scenario", self._events.pop(0)[1])
         slots = {}
@@ -542,6 +547,7 @@ def _closed_loop(
         metrics=[tr.metrics(step_s) for tr in traces],
         waypoints_reached=drivers[0].reached,
         n_waypoints=drivers[0].reached_of if drivers[0].reached_of is not None else nav_count(leader_ep.mission),
+        n_reached=drivers[0].distinct_reached,
         leader_mode="script" if not cfg.mission.waypoints and not leader_ep.missions.changes else "auto",
         leader_modes=[(name, secs) for name, secs in modes.items() if secs > 0],
         mission_changes=[c for c in leader_ep.missions.changes if c.t_s > 0 or c.sysid not in (0, 255)],

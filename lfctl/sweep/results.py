@@ -90,7 +90,7 @@ def read_meta(out_dir: Path) -> dict[str, Any]:
         The folder holds no sweep (or a damaged ``sweep.json``).
     """
     if not Path(out_dir).is_dir():
-        raise ConfigError(f"{out_dir}: no such folder")
+        raise ConfigError(f"{out_dir}: {'not a folder' if Path(out_dir).exists() else 'no such folder'}")
     try:
         return dict(json.loads((out_dir / META).read_text()))
     except FileNotFoundError:

@@ -264,6 +264,14 @@ def test_replay_names_what_is_wrong_with_the_file(camera_log, tmp_path: Path, ca
     assert "the log is truncated (not finished)" in capsys.readouterr().out
 
 
+def test_replay_of_a_cut_log_without_images_says_there_were_none(truth_log, tmp_path: Path, capsys) -> None:
+    data = truth_log[0].read_bytes()
+    (tmp_path / "cut.mcap").write_bytes(data[: len(data) // 2])
+    assert main(["replay", str(tmp_path / "cut.mcap")]) == 2
+    err = capsys.readouterr().err  # a truth-sensing run records no images, cut or not
+    assert "no recorded camera images" in err and "before any camera image" not in err
+
+
 @pytest.mark.slow
 @pytest.mark.integration
 def test_a_run_killed_with_sigkill_is_recovered(tmp_path: Path) -> None:
@@ -419,13 +427,14 @@ def test_the_audit_counts_waypoints_as_the_run_summary_does(tmp_path: Path) -> N
     rec.mavlink(0.5, "leader", {**ack, "fields": {"type": 0, "mission_type": 0}})  # a client's upload
     rec.mavlink(0.7, "leader", {**ack, "fields": {"type": 0, "mission_type": 1}})  # a fence: not the mission
     rec.mavlink(0.8, "leader", {**ack, "fields": {"type": 13, "mission_type": 0}})  # refused: nothing changed
+    rec.mavlink(0.9, "leader", {**ack, "fields": {"type": 0, "mission_type": 255}})  # a clear of ALL lists
     for t, index in ((1.0, 0), (2.0, 2), (3.0, 2)):
         rec.mission_reached(t, index, min(index + 2, 3), 3, 2)
     rec.close("completed", 3.0)
     rep = audit(tmp_path / "m.mcap")
     assert (rep.figures["waypoints_reached"], rep.figures["waypoints"]) == (2, 2)
-    assert rep.figures["mission_changes_s"] == [0.5]
+    assert rep.figures["mission_changes_s"] == [0.5, 0.9]
     assert (
         "mission: 2/2 waypoints reached (1@1.0s, 3@2.0s, 3@3.0s); the mission was replaced or cleared by a client "
-        "at 0.5 s" in format_report(rep)
+        "at 0.5, 0.9 s" in format_report(rep)
     )

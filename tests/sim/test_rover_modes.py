@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -39,7 +40,9 @@ max_speed_mps = 0.5
 """
 
 
-def run_with(commands: dict[float, Callable[[Links], None]], duration_s: float = 40.0) -> tuple[RunReport, Links]:
+def run_with(
+    commands: dict[float, Callable[[Links], None]], duration_s: float = 40.0, record_to: Path | None = None
+) -> tuple[RunReport, Links]:
     """Run the scenario, sending ``commands[t]`` from a ground station at simulation time t."""
     cfg = parse_config(SCENARIO, "modes")
     cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=duration_s))
@@ -54,7 +57,7 @@ def run_with(commands: dict[float, Callable[[Links], None]], duration_s: float =
             pending.pop(0)[1](links[0])
         return False
 
-    return run_scenario(cfg, on_links=links.append, stop=stop), links[0]
+    return run_scenario(cfg, on_links=links.append, stop=stop, record_to=record_to), links[0]
 
 
 GCS = mav.MAVLink(None, srcSystem=255, srcComponent=190)
@@ -172,6 +175,35 @@ def test_a_speed_set_after_the_mission_ends_does_not_fly_its_last_leg_again() ->
     assert [i for i, _t in rep.waypoints_reached] == [0, 1] and rep.n_waypoints == 2
     assert all(t < 45.0 for _i, t in rep.waypoints_reached)
     assert math.hypot(*(leader_at(rep, 50.0) - leader_at(rep, 44.0))) <= 0.05
+
+
+def test_a_second_mission_is_counted_on_its_own_in_the_summary_and_the_audit(tmp_path: Path) -> None:
+    # the scenario's 2 waypoints flown, then a client's mission of 1 replaces it and is flown:
+    # 1/1 (every arrival listed), not "2/1"; the audit of the run's log says the same
+    from lfctl.link.mission import local_mission
+    from lfctl.link.mission_server import MISSION
+    from lfctl.record.audit import audit
+
+    def replace(links: Links) -> None:
+        links.endpoints[0].missions.store(MISSION, local_mission([(0.0, 3.0)], links.home), 255, 190)
+
+    rep, _links = run_with({34.0: replace}, duration_s=55.0, record_to=tmp_path / "m.mcap")
+    assert [i for i, _t in rep.waypoints_reached] == [0, 1, 0]
+    assert (rep.n_reached, rep.n_waypoints) == (1, 1)
+    fig = audit(tmp_path / "m.mcap").figures
+    assert (fig["waypoints_reached"], fig["waypoints"]) == (1, 1) and len(fig["mission"]) == 3
+
+
+def test_nothing_reached_after_a_clear_counts_against_the_cleared_mission_in_both(tmp_path: Path) -> None:
+    from lfctl.record.audit import audit
+
+    def clear(links: Links) -> None:  # a clear of every list (MAV_MISSION_TYPE_ALL)
+        send(links, mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_ALL))
+
+    rep, _links = run_with({1.0: mode("HOLD"), 2.0: clear}, duration_s=4.0, record_to=tmp_path / "c.mcap")
+    fig = audit(tmp_path / "c.mcap").figures
+    assert (rep.n_reached, rep.n_waypoints) == (fig["waypoints_reached"], fig["waypoints"]) == (0, 0)
+    assert fig["mission_changes_s"] == [pytest.approx(2.0, abs=0.1)]
 
 
 def test_a_fence_breach_sends_the_leader_home() -> None:
