@@ -28,7 +28,7 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Audit the file; print the report (or JSON); plot and recover when asked."""
     from lfctl.errors import ConfigError
-    from lfctl.record.audit import audit, check_thresholds, format_report, plot, recover
+    from lfctl.record.audit import audit, check_thresholds, format_report, plot, recover, recover_target_problem
     from lfctl.record.mcap_read import regular_file_problem
 
     if not args.file.exists() and not args.file.is_symlink():
@@ -38,14 +38,9 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(problem)
     if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
         raise ConfigError(f"--plot {args.plot}: not a directory")
-    if args.recover is not None and (args.recover.exists() or args.recover.is_symlink()):
-        problem = regular_file_problem(args.recover)
-        if problem:
-            raise ConfigError(f"--recover {args.recover}: {problem}")
-        if args.recover.samefile(args.file):
-            raise ConfigError(f"--recover {args.recover}: that is the log being audited")
-    if args.recover is not None and not args.recover.parent.is_dir():  # said before a long audit
-        raise ConfigError(f"--recover {args.recover}: the folder {args.recover.parent} does not exist")
+    problem = recover_target_problem(args.recover, args.file) if args.recover is not None else None
+    if problem:  # said before a long audit
+        raise ConfigError(f"--recover {args.recover}: {problem}")
     report = audit(args.file)
     if args.strict:
         report.findings.extend(check_thresholds(report))

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from lfctl.cli.options import connection, integer, number, param_name
+from lfctl.cli.options import connection, counted, integer, number, param_name
 
 
 def register(sub: Any) -> None:
@@ -82,14 +82,12 @@ def run(args: argparse.Namespace) -> int:
         action = args.action
         if items is not None:  # upload
             gcs.upload(items)
-            n = len(items) - 1
-            print(f"uploaded {n} item{'' if n == 1 else 's'} (+ home) to system {args.target}")
+            print(f"uploaded {counted(len(items) - 1, 'item')} (+ home) to system {args.target}")
         elif action == "download":
             items = gcs.download()
             if args.file:
                 save_mission(items, args.file)
-                n = max(0, len(items) - 1)
-                print(f"downloaded {n} item{'' if n == 1 else 's'} (+ home) to {args.file}")
+                print(f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home) to {args.file}")
             elif not items:
                 print(f"system {args.target} has no mission")
             else:

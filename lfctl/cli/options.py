@@ -102,6 +102,19 @@ def param_name(text: str) -> str:
     return text
 
 
+def counted(n: int, word: str) -> str:
+    """``n`` and ``word``, plural unless ``n`` is 1 ("1 item", "3 items").
+
+    Parameters
+    ----------
+    n : int
+        How many.
+    word : str
+        The thing counted, singular.
+    """
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 #: the containers an annotated video is written in (OpenCV's writer picks one by extension)
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 

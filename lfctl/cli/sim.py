@@ -181,9 +181,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the scenario; print the summary and where the log went."""
     from lfctl.config import load_config
     from lfctl.data import resolve_scenario
-    from lfctl.errors import ConfigError
     from lfctl.record.writer import run_path
-    from lfctl.sim.runner import run_scenario
+    from lfctl.sim.runner import check_video, run_scenario
     from lfctl.sim.watchdog import BlockedCallWatchdog
 
     cfg = apply_options(load_config(resolve_scenario(args.scenario)), args)
@@ -224,8 +223,7 @@ def run(args: argparse.Namespace) -> int:
 
     live = live_address(args.live, cfg.live.foxglove, "--live")
     video = live_address(args.video, cfg.live.video, "--video")
-    if video is not None and cfg.sim.sensing != "camera":  # refused before it is announced
-        raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
+    check_video(cfg, video)  # refused before it is announced
     if video is not None:
         for k, v in enumerate(cfg.followers):
             print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)

@@ -12,6 +12,8 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from lfctl.cli.options import counted
+
 if TYPE_CHECKING:
     from lfctl.sweep.engine import SweepProgress
     from lfctl.sweep.results import SweepSummary
@@ -108,14 +110,15 @@ def run(args: argparse.Namespace) -> int:
     human = sys.stderr if pipe else sys.stdout
     show_bar = not args.quiet and sys.stderr.isatty()
     spec = p.spec
-    counts = (
-        (len(p.variants), "variant"),
-        (len(spec.seeds), "seed"),
-        (spec.repetitions, "repetition"),
-        (len(p.runs), "run"),
+    sizes = (
+        counted(len(p.variants), "variant"),
+        counted(len(spec.seeds), "seed"),
+        counted(spec.repetitions, "repetition"),
     )
-    v, sd, r, n = (f"{k} {word}{'' if k == 1 else 's'}" for k, word in counts)
-    print(f"sweep        {spec.name}: {v} x {sd} x {r} = {n}  ({spec.scenario.name})", file=human)
+    print(
+        f"sweep        {spec.name}: {' x '.join(sizes)} = {counted(len(p.runs), 'run')}  ({spec.scenario.name})",
+        file=human,
+    )
     print(f"folder       {out_dir}", file=human, flush=True)
 
     announced, stopping = threading.Event(), threading.Event()

@@ -409,7 +409,6 @@ class VehicleEndpoint:
         here = (self.state["north_m"], self.state["east_m"])
         if self.home_ned is None or math.dist(here, self.home_ned) >= HOME_MIN_CHANGE_M:
             self.home_ned = here
-            self.home_up_m = 0.0  # the vehicle's own place, on the ground
 
     def set_home(self, north_m: float, east_m: float, up_m: float = 0.0) -> None:
         """Put home here and keep it there (MAV_CMD_DO_SET_HOME): it no longer follows the
@@ -989,14 +988,12 @@ class VehicleEndpoint:
         if not _finite(alt_m) or abs(alt_m) > LOCATION_ALT_MAX_M:
             return None
         if frame in (mav.MAV_FRAME_GLOBAL, mav.MAV_FRAME_GLOBAL_INT):
-            up = alt_m - self.home[2]
-        elif frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
-            up = self.home_up_m + alt_m
-        elif frame in (mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT):
-            up = alt_m
-        else:
-            return None
-        return up
+            return alt_m - self.home[2]
+        if frame in (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
+            return self.home_up_m + alt_m
+        if frame in (mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT):
+            return alt_m
+        return None
 
     # -- parameters -------------------------------------------------------------------------
     def _param_value(self, name: str, indexed: bool = True) -> Any:
@@ -1358,7 +1355,7 @@ class VehicleEndpoint:
         if self.rebooting:
             self.receive()  # heard by nobody
             return
-        if self._boot_t_s > 0.0 and not self._ready_said:
+        if not self._ready_said:
             self._ready_said = True
             self.statustext("ArduPilot Ready", mav.MAV_SEVERITY_INFO)  # AP_Vehicle::setup's last words
         self._update_home()

@@ -791,22 +791,39 @@ def recover(report: AuditReport, out_path: Path) -> int:
     Raises
     ------
     ConfigError
-        ``out_path`` is the audited file itself, or exists and is not a regular file.
+        ``out_path`` cannot take the copy (see :func:`recover_target_problem`).
     OSError
         The file cannot be written.
     """
     out_path = Path(out_path)
-    if out_path.exists() or out_path.is_symlink():
-        problem = regular_file_problem(out_path)
-        if problem:
-            raise ConfigError(f"cannot recover into {out_path}: {problem}")
-        if Path(report.path).exists() and out_path.samefile(report.path):
-            raise ConfigError(f"cannot recover into {out_path}: it is the audited file itself")
-    if not out_path.parent.is_dir():
-        raise ConfigError(f"cannot recover into {out_path}: the folder {out_path.parent} does not exist")
+    problem = recover_target_problem(out_path, Path(report.path))
+    if problem:
+        raise ConfigError(f"cannot recover into {out_path}: {problem}")
     with write_whole(out_path) as tmp, open(tmp, "wb") as f:
         n = _write_recovered(report, f)
     return n
+
+
+def recover_target_problem(out_path: Path, audited: Path) -> str | None:
+    """Why ``out_path`` cannot take a recovered copy of ``audited`` (None: it can): it exists
+    and is not a regular file, it is the audited log itself, or its folder does not exist.
+
+    Parameters
+    ----------
+    out_path : Path
+        Where the copy would go.
+    audited : Path
+        The log being audited.
+    """
+    if out_path.exists() or out_path.is_symlink():
+        problem = regular_file_problem(out_path)
+        if problem:
+            return problem
+        if audited.exists() and out_path.samefile(audited):
+            return "that is the log being audited"
+    if not out_path.parent.is_dir():
+        return f"the folder {out_path.parent} does not exist"
+    return None
 
 
 def _write_recovered(report: AuditReport, f: Any) -> int:

@@ -47,7 +47,7 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["FollowerTrace", "RunReport", "run_scenario"]
+__all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario"]
 
 
 @dataclass
@@ -90,6 +90,25 @@ class FollowerTrace:
             self.yaw_rate_cmd_radps,
             step_s,
         )
+
+
+def check_video(cfg: Config, video: tuple[str, int] | None) -> None:
+    """Refuse live video (``video``: where it streams to, None: none) without camera sensing.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+    video : (host, port) or None
+        Where each follower's camera would stream.
+
+    Raises
+    ------
+    ConfigError
+        Video asked for, and the sensing is not the camera's.
+    """
+    if video is not None and cfg.sim.sensing != "camera":
+        raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
 
 
 @dataclass
@@ -402,8 +421,7 @@ def run_scenario(
     law = controller or cfg.guidance.controller
     if law not in ("smc", "p"):
         raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
-    if video is not None and cfg.sim.sensing != "camera":
-        raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
+    check_video(cfg, video)
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
         with _recording(record_to, cfg, sim, live) as recorder:
             tap = None
