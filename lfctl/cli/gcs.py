@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
     from lfctl.data import resolve_mission
     from lfctl.link.gcs import GroundStation, result_name
-    from lfctl.link.mission import load_mission, save_mission
+    from lfctl.link.mission import command_name, load_mission, save_mission
     from lfctl.link.params import load_param_file
     from lfctl.link.signing import signing_key_from_passphrase
 
@@ -93,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
             else:
                 for it in items:
                     print(
-                        f"{it.seq:3d} cmd {it.command:3d} frame {it.frame} p1 {it.param1:g} p2 {it.param2:g} lat {it.lat_deg:.7f} lon {it.lon_deg:.7f} alt {it.z:g}"
+                        f"{it.seq:3d} cmd {it.command:3d} {command_name(it.command)} frame {it.frame}"
+                        f" p1 {it.param1:g} p2 {it.param2:g} lat {it.lat_deg:.7f} lon {it.lon_deg:.7f} alt {it.z:g}"
                     )
         elif action == "clear":
             gcs.clear()

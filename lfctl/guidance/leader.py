@@ -72,6 +72,10 @@ class LeaderAutopilot:
     speeds : sequence of (float or None), optional
         Speed on the way to each waypoint, m/s (DO_CHANGE_SPEED); None (for all, or for one)
         is the cruise speed.
+    one_per_step : bool
+        Reach at most one waypoint a step, even where several are within reach (a mission's
+        items waiting where the one before ended): each begins, and may change its wait or
+        speed, before the next is reached.
     """
 
     def __init__(
@@ -80,8 +84,10 @@ class LeaderAutopilot:
         settings: AutopilotSettings,
         start_ned_m: tuple[float, float],
         speeds: Sequence[float | None] | None = None,
+        one_per_step: bool = False,
     ) -> None:
         self.settings = settings
+        self._most = 1 if one_per_step else None
         self.speeds = list(speeds) if speeds is not None else [None] * len(waypoints)
         self.holds = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
         self.follower = WaypointFollower(
@@ -115,7 +121,7 @@ class LeaderAutopilot:
         if t_s < self._hold_until and self._last_los is not None:  # waiting at a waypoint
             # the waypoint was reached once, when the wait began: not again on every tick
             return AutopilotOutput(0.0, 0.0, replace(self._last_los, reached=()), self._hold_until - t_s)
-        los = self.follower.step(north_m, east_m, yaw_rad)
+        los = self.follower.step(north_m, east_m, yaw_rad, self._most)
         self._last_los = los
         for i in los.reached:
             if self.holds[i] > 0:

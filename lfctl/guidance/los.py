@@ -178,7 +178,7 @@ class WaypointFollower:
         """True once the last waypoint has been reached."""
         return self.index >= len(self.waypoints)
 
-    def step(self, north_m: float, east_m: float, heading_rad: float) -> LosOutput:
+    def step(self, north_m: float, east_m: float, heading_rad: float, most: int | None = None) -> LosOutput:
         """Advance past reached waypoints and return the heading command (the current
         heading once the route is done).
 
@@ -188,9 +188,12 @@ class WaypointFollower:
             The vehicle's position, NED, m.
         heading_rad : float
             The vehicle's heading, rad.
+        most : int, optional
+            Advance past at most this many waypoints (default: all that are reached), so
+            that whoever steps it sees each one begin before the next is reached.
         """
         reached: list[int] = []
-        while not self.done:
+        while not self.done and (most is None or len(reached) < most):
             wp = self.waypoints[self.index]
             dist = distance_to_go_m(north_m, east_m, *wp)
             seg_len = math.hypot(wp[0] - self.prev[0], wp[1] - self.prev[1])

@@ -1207,20 +1207,50 @@ class VehicleEndpoint:
         self.mission_complete = False
         return True
 
-    def reached(self, seq: int, last: bool | None = None) -> None:
-        """The autopilot reached mission item ``seq``: tell the ground station.
+    def reached(self, seq: int, last: bool | None = None, next_seq: int | None = None) -> None:
+        """The autopilot finished mission item ``seq`` (arrived, and waited as long as the
+        item says): tell the ground station, and head for the next navigation item.
 
         Parameters
         ----------
         seq : int
-            The item reached.
+            The item finished.
         last : bool, optional
             It ends the mission (default: it is the list's last item; the autopilot knows
             better when DO_JUMPs follow it).
+        next_seq : int, optional
+            The navigation item that comes next (MISSION_CURRENT; default: the item after).
         """
         self.send(mav.MAVLink_mission_item_reached_message(seq))
-        self.missions.current_seq = min(seq + 1, max(0, len(self.mission) - 1))
+        after = seq + 1 if next_seq is None else next_seq
+        self.missions.current_seq = min(after, max(0, len(self.mission) - 1))
         self.mission_complete = seq >= len(self.mission) - 1 if last is None else last
+        if self.mission_complete:
+            self.statustext("Mission Complete", mav.MAV_SEVERITY_NOTICE)  # Rover's exit_mission
+
+    def item_done(self, seq: int) -> None:
+        """A DO command or condition of the mission is done (MISSION_ITEM_REACHED, as Rover
+        sends it for the ones its own mode carries out); the current item does not move.
+
+        Parameters
+        ----------
+        seq : int
+            The item.
+        """
+        self.send(mav.MAVLink_mission_item_reached_message(seq))
+
+    def run_mission_item(self, item: MissionItem) -> None:
+        """Carry out a mission's DO command on the vehicle as the same command from a ground
+        station would (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE), then say it is done.
+
+        Parameters
+        ----------
+        item : MissionItem
+            The item whose turn has come.
+        """
+        p = [item.param1, item.param2, item.param3, item.param4, float(item.x), float(item.y), item.z]
+        self._command(item.command, p, (item.x, item.y), item.frame)
+        self.item_done(item.seq)
 
     def rtl_destination(self, north_m: float, east_m: float) -> tuple[float, float]:
         """Where RTL drives from (north, east): the nearest of home and the rally points the

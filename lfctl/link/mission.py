@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -15,27 +17,119 @@ from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
 
 __all__ = [
+    "ACTED_ON",
+    "CONDITION_DELAY",
+    "CONDITION_DISTANCE",
     "DO_CHANGE_SPEED",
+    "DO_FENCE_ENABLE",
     "DO_JUMP",
+    "DO_SET_HOME",
+    "DO_SET_REVERSE",
+    "FLOWN",
     "MAX_EXPANDED",
     "MAX_FILE_BYTES",
     "MAX_FILE_ITEMS",
+    "NAV_DELAY",
+    "NAV_LOITER_TIME",
+    "NAV_LOITER_UNLIM",
+    "NAV_RETURN_TO_LAUNCH",
+    "NAV_WAYPOINT",
+    "NOTHING_FITTED",
+    "PLACES",
+    "SKIPPED",
+    "SKIPPED_NAV",
+    "SKIPPED_SAID",
+    "STORES_LOCATION",
+    "SUPPORTED",
     "Leg",
     "MissionItem",
+    "command_name",
     "home_item",
     "is_nav",
     "load_mission",
     "local_mission",
+    "nav_count",
     "save_mission",
+    "seconds_until_utc",
     "to_legs",
     "validate_item",
 ]
 
 NAV_WAYPOINT = mav.MAV_CMD_NAV_WAYPOINT  # 16
+NAV_LOITER_UNLIM = mav.MAV_CMD_NAV_LOITER_UNLIM  # 17
 NAV_LOITER_TIME = mav.MAV_CMD_NAV_LOITER_TIME  # 19
+NAV_RETURN_TO_LAUNCH = mav.MAV_CMD_NAV_RETURN_TO_LAUNCH  # 20
+NAV_DELAY = mav.MAV_CMD_NAV_DELAY  # 93
+CONDITION_DELAY = mav.MAV_CMD_CONDITION_DELAY  # 112
+CONDITION_DISTANCE = mav.MAV_CMD_CONDITION_DISTANCE  # 114
 DO_JUMP = mav.MAV_CMD_DO_JUMP  # 177
 DO_CHANGE_SPEED = mav.MAV_CMD_DO_CHANGE_SPEED  # 178
-SUPPORTED = {NAV_WAYPOINT, NAV_LOITER_TIME, DO_JUMP, DO_CHANGE_SPEED}
+DO_SET_HOME = mav.MAV_CMD_DO_SET_HOME  # 179
+DO_SET_REVERSE = mav.MAV_CMD_DO_SET_REVERSE  # 194
+DO_FENCE_ENABLE = mav.MAV_CMD_DO_FENCE_ENABLE  # 207
+
+#: the navigation commands a Rover flies: to a place (waypoint; loiter for a time or for
+#: ever), home or the nearest rally point (RTL), or a wait where it stands (NAV_DELAY)
+FLOWN = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH, NAV_DELAY))
+#: the commands that run beside the navigation and act on what lfctl has: the speed, home,
+#: driving in reverse, the fence; and the conditions that hold the ones after them back
+ACTED_ON = frozenset(
+    (DO_CHANGE_SPEED, DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE, CONDITION_DELAY, CONDITION_DISTANCE)
+)
+#: the commands ArduPilot's mission library carries out itself on hardware lfctl does not
+#: have (servos, relays, cameras, a gripper, a sprayer, an auxiliary switch, a parachute, a
+#: gimbal, scripts): taken, and said to act on nothing when their turn comes
+NOTHING_FITTED = frozenset(
+    getattr(mav, f"MAV_CMD_{name}")
+    for name in (
+        "DO_SET_RELAY", "DO_REPEAT_RELAY", "DO_SET_SERVO", "DO_REPEAT_SERVO", "DO_DIGICAM_CONFIGURE",
+        "DO_DIGICAM_CONTROL", "DO_SET_CAM_TRIGG_DIST", "DO_CONTROL_VIDEO", "IMAGE_START_CAPTURE",
+        "IMAGE_STOP_CAPTURE", "VIDEO_START_CAPTURE", "VIDEO_STOP_CAPTURE", "DO_GRIPPER", "DO_SPRAYER",
+        "DO_AUX_FUNCTION", "DO_PARACHUTE", "DO_SEND_SCRIPT_MESSAGE", "DO_SET_RESUME_REPEAT_DIST",
+        "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
+    )
+)  # fmt: skip
+#: the commands a mission may hold that a Rover passes over when their turn comes (aircraft's
+#: take-offs and landings, splines, circles, an offboard computer's turn, a heading to reach):
+#: taken, as Rover's mission library takes them, and skipped with Rover's words
+SKIPPED = frozenset(
+    getattr(mav, f"MAV_CMD_{name}")
+    for name in (
+        "NAV_LOITER_TURNS", "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT",
+        "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
+        "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
+        "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
+        "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",
+    )
+)  # fmt: skip
+#: the skipped ones that are navigation (AP_Mission::is_nav_cmd): passed over in silence, as
+#: a Rover's mission moves on when one fails to start; the others are said to be skipped
+SKIPPED_NAV = frozenset(
+    c
+    for c in SKIPPED
+    if c <= mav.MAV_CMD_NAV_LAST
+    or c in (mav.MAV_CMD_NAV_SET_YAW_SPEED, mav.MAV_CMD_NAV_SCRIPT_TIME, mav.MAV_CMD_NAV_ATTITUDE_TIME)
+)
+#: the skipped DO commands a Rover says it skips ("Skipping invalid cmd #N"): all but the
+#: limits of a guided turn within AUTO, which it takes without a word (lfctl skips that turn)
+SKIPPED_SAID = SKIPPED - SKIPPED_NAV - {mav.MAV_CMD_DO_GUIDED_LIMITS}
+#: every command a mission may hold, as ArduPilot's mission library takes them on upload
+#: (AP_Mission::mavlink_int_to_mission_cmd); any other is MAV_MISSION_UNSUPPORTED
+SUPPORTED = FLOWN | ACTED_ON | NOTHING_FITTED | SKIPPED | {DO_JUMP}
+#: the navigation commands that end a leg somewhere: a waypoint the summary counts
+PLACES = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH))
+#: the commands that store a place (AP_Mission::stores_location): their latitude and
+#: longitude are checked on upload, and a download gives their frame
+STORES_LOCATION = frozenset(
+    getattr(mav, f"MAV_CMD_{name}")
+    for name in (
+        "NAV_WAYPOINT", "NAV_LOITER_UNLIM", "NAV_LOITER_TURNS", "NAV_LOITER_TIME", "NAV_LAND", "NAV_TAKEOFF",
+        "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE",
+        "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND", "NAV_PAYLOAD_PLACE", "DO_SET_HOME", "DO_LAND_START",
+        "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
+    )
+)  # fmt: skip
+#: the frames a flown place may be given in
 NAV_FRAMES = {
     mav.MAV_FRAME_GLOBAL,
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
@@ -136,40 +230,61 @@ def validate_item(item: MissionItem, count: int) -> int:
     """
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
-    if item.command in (NAV_WAYPOINT, NAV_LOITER_TIME) or item.seq == 0:
-        if item.frame not in NAV_FRAMES:
-            return mav.MAV_MISSION_UNSUPPORTED_FRAME
+    cmd = NAV_WAYPOINT if item.seq == 0 else item.command  # home: a place, whatever the command
+    if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM) and item.frame not in NAV_FRAMES:
+        return mav.MAV_MISSION_UNSUPPORTED_FRAME
+    if cmd in STORES_LOCATION:
         if not -90.0 <= item.lat_deg <= 90.0:
             return mav.MAV_MISSION_INVALID_PARAM5_X
         if not -180.0 <= item.lon_deg <= 180.0:
             return mav.MAV_MISSION_INVALID_PARAM6_Y
-    if item.command in (NAV_WAYPOINT, NAV_LOITER_TIME) and not (math.isfinite(item.param1) and item.param1 >= 0):
-        return mav.MAV_MISSION_INVALID_PARAM1  # hold / loiter time, s
-    if item.command == DO_JUMP:
+    timed = (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_DELAY, CONDITION_DELAY, CONDITION_DISTANCE)
+    if cmd in timed and not math.isfinite(item.param1):
+        return mav.MAV_MISSION_INVALID_PARAM1  # a hold, delay or distance (negative: none, as on Rover)
+    if cmd == NAV_DELAY and item.param1 <= 0:  # until a time of day (UTC): hour, minute, second
+        for k, (value, top) in enumerate(((item.param2, 23), (item.param3, 59), (item.param4, 59))):
+            if not (_whole(value) and -1 <= value <= top):  # -1: any
+                return mav.MAV_MISSION_INVALID_PARAM2 + k
+    if cmd == DO_JUMP:
         if not (_whole(item.param1) and 1 <= item.param1 < count):
             return mav.MAV_MISSION_INVALID_PARAM1
         if not (_whole(item.param2) and -1 <= item.param2 <= JUMP_REPEAT_MAX):
             return mav.MAV_MISSION_INVALID_PARAM2
-    if item.command == DO_CHANGE_SPEED and not (
+    if cmd == DO_CHANGE_SPEED and not (
         item.param2 == -1 or (math.isfinite(item.param2) and 0 < item.param2 <= SPEED_MAX_MPS)
     ):
         return mav.MAV_MISSION_INVALID_PARAM2
+    if cmd in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE) and not math.isfinite(item.param1):
+        return mav.MAV_MISSION_INVALID_PARAM1
     return mav.MAV_MISSION_ACCEPTED
 
 
+def command_name(cmd: int) -> str:
+    """A MAV_CMD's name without its prefix (``DO_SET_SERVO``), or its number when it has none.
+
+    Parameters
+    ----------
+    cmd : int
+        The command.
+    """
+    entry = mav.enums["MAV_CMD"].get(cmd)
+    return entry.name.removeprefix("MAV_CMD_") if entry is not None else str(cmd)
+
+
 def is_nav(item: MissionItem) -> bool:
-    """Whether an item is a place to go (a waypoint the vehicle reaches), not a DO command.
+    """Whether an item is a place to go (a waypoint the vehicle reaches: a waypoint, a loiter,
+    RTL's home or rally point), not a wait, a DO command or a condition.
 
     Parameters
     ----------
     item : MissionItem
         A mission item.
     """
-    return item.command in (NAV_WAYPOINT, NAV_LOITER_TIME)
+    return item.command in PLACES
 
 
 def nav_count(mission: list[MissionItem]) -> int:
-    """The waypoints (NAV items) of a mission whose item 0 is home.
+    """The waypoints (places, :func:`is_nav`) of a mission whose item 0 is home.
 
     Parameters
     ----------
@@ -181,19 +296,36 @@ def nav_count(mission: list[MissionItem]) -> int:
 
 @dataclass(frozen=True)
 class Leg:
-    """One leg for the leader's autopilot: local target, wait there, speed on the way."""
+    """One leg for the autopilot: a navigation item, where it ends, how long it waits there,
+    and the DO commands and conditions that begin with it."""
 
     seq: int  # the mission item this leg ends at
     north_m: float  # the target, local NED, m
     east_m: float  # the target, local NED, m
-    hold_s: float  # wait there, s
-    speed_mps: float | None  # speed on the way (DO_CHANGE_SPEED); None: the cruise speed
+    #: wait there, s: math.inf for ever (NAV_LOITER_UNLIM); a NAV_DELAY until a time of day
+    #: is 0 here (its wait is known only when it begins: :func:`seconds_until_utc`)
+    hold_s: float
+    command: int = NAV_WAYPOINT  # the navigation command (:data:`FLOWN`)
+    #: the items between the navigation item before this one and this one (DO commands,
+    #: conditions, navigation a Rover skips), run in turn as the leg begins, as ArduPilot's
+    #: mission library runs them
+    before: tuple[MissionItem, ...] = ()
 
 
-def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_seq: int = 1) -> list[Leg]:
-    """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP and applying DO_CHANGE_SPEED.
+def to_legs(
+    items: list[MissionItem],
+    home: tuple[float, float, float],
+    start_seq: int = 1,
+    start: tuple[float, float] = (0.0, 0.0),
+    return_to: Callable[[float, float], tuple[float, float]] | None = None,
+) -> list[Leg]:
+    """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP.
 
-    At most :data:`MAX_EXPANDED` legs: a DO_JUMP repeated for ever (-1) stops there.
+    Where an item's place comes from the vehicle, it is taken from where the leg before ends
+    (the vehicle is there when the item begins): a waypoint or loiter at latitude and
+    longitude 0 is "here" (Rover's ``Location::sanitize``), a NAV_DELAY waits where it
+    stands, and RTL drives to ``return_to`` of that place. At most :data:`MAX_EXPANDED`
+    legs: a DO_JUMP repeated for ever (-1) stops there; nothing after a loiter for ever.
 
     Parameters
     ----------
@@ -203,9 +335,16 @@ def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_se
         The local NED frame's origin.
     start_seq : int
         The item to start from (the current item).
+    start : (north_m, east_m)
+        Where the vehicle is as the mission (re)starts, local NED, m.
+    return_to : callable, optional
+        Where RTL goes from a place, (north_m, east_m) -> (north_m, east_m): home or the
+        nearest rally point (:meth:`~lfctl.link.endpoint.VehicleEndpoint.rtl_destination`);
+        by default the local origin.
     """
     legs: list[Leg] = []
-    speed: float | None = None
+    before: list[MissionItem] = []
+    here = start
     jumps_left: dict[int, int] = {}
     i = start_seq
     # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
@@ -214,20 +353,57 @@ def to_legs(items: list[MissionItem], home: tuple[float, float, float], start_se
     while 0 < i < len(items) and len(legs) < MAX_EXPANDED and steps < MAX_EXPANDED * len(items):
         steps += 1
         it = items[i]
-        if it.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
-            n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
-            hold = it.param1
-            legs.append(Leg(it.seq, n, e, hold, speed))
-        elif it.command == DO_CHANGE_SPEED and math.isfinite(it.param2) and it.param2 > 0:
-            speed = it.param2
-        elif it.command == DO_JUMP and _whole(it.param1) and _whole(it.param2):
-            left = jumps_left.setdefault(i, int(it.param2))
-            if left != 0:
-                jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
-                i = int(it.param1)
-                continue
+        if it.command in FLOWN:
+            if it.command == NAV_RETURN_TO_LAUNCH:
+                here = return_to(*here) if return_to is not None else (0.0, 0.0)
+            elif it.command != NAV_DELAY and (it.x, it.y) != (0, 0):
+                n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
+                here = (n, e)
+            if it.command == NAV_LOITER_UNLIM:
+                hold = math.inf
+            elif it.command in (NAV_WAYPOINT, NAV_LOITER_TIME) or (it.command == NAV_DELAY and it.param1 > 0):
+                hold = max(0.0, it.param1)
+            else:
+                hold = 0.0
+            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before)))
+            before = []
+            if hold == math.inf:
+                break
+        elif it.command == DO_JUMP:
+            if _whole(it.param1) and _whole(it.param2):
+                left = jumps_left.setdefault(i, int(it.param2))
+                if left != 0:
+                    jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
+                    i = int(it.param1)
+                    continue
+        else:
+            before.append(it)
         i += 1
     return legs
+
+
+def seconds_until_utc(now_unix_s: float, hour: int, minute: int, second: int) -> float:
+    """How long a NAV_DELAY to a time of day waits, s, as Rover's ``AP_RTC::get_time_utc``:
+    the next instant at that hour, minute and second (UTC; -1 for any keeps now's), today or,
+    once passed, tomorrow.
+
+    Parameters
+    ----------
+    now_unix_s : float
+        Now, seconds since 1970 (UTC).
+    hour, minute, second : int
+        The time of day; -1: any (now's).
+    """
+    now = datetime.fromtimestamp(now_unix_s, UTC)
+    target = now.replace(
+        hour=now.hour if hour < 0 else hour,
+        minute=now.minute if minute < 0 else minute,
+        second=now.second if second < 0 else second,
+        microsecond=0,
+    )
+    if target <= now:
+        target += timedelta(days=1)
+    return (target - now).total_seconds()
 
 
 def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, float]) -> list[MissionItem]:

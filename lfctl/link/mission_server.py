@@ -18,7 +18,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.fence import FENCE_COMMANDS, RALLY_COMMANDS, validate_fence
-from lfctl.link.mission import MissionItem, validate_item
+from lfctl.link.mission import STORES_LOCATION, MissionItem, validate_item
 
 __all__ = ["MISSION_TYPES", "ListChange", "MissionServer"]
 
@@ -77,9 +77,6 @@ DOWNLOAD_FRAME = {
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
     mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
 }
-#: the mission commands lfctl takes that store a place (AP_Mission::stores_location); the
-#: others (DO_CHANGE_SPEED, DO_JUMP) download in frame GLOBAL (0), as Rover's do
-STORES_LOCATION = frozenset((mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_CMD_NAV_LOITER_TIME))
 
 
 def _item_message(it: MissionItem, sysid: int, compid: int, current: int, mission_type: int) -> Any:
@@ -87,7 +84,7 @@ def _item_message(it: MissionItem, sysid: int, compid: int, current: int, missio
     if mission_type == FENCE:
         frame, z = mav.MAV_FRAME_GLOBAL, 0.0  # MissionItemProtocol_Fence: no altitude
     elif mission_type == MISSION and it.command not in STORES_LOCATION:
-        frame = mav.MAV_FRAME_GLOBAL
+        frame = mav.MAV_FRAME_GLOBAL  # the others (DO_CHANGE_SPEED, DO_JUMP, ...), as Rover's
     return mav.MAVLink_mission_item_int_message(
         sysid, compid, it.seq, frame, it.command, current, it.autocontinue,
         it.param1, it.param2, it.param3, it.param4, it.x, it.y, z, mission_type,

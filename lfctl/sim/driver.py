@@ -28,7 +28,25 @@ from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.los import LosOutput
 from lfctl.guidance.smc import BearingGains, SlidingModeController
 from lfctl.link.endpoint import MODES, NavReport, VehicleEndpoint
-from lfctl.link.mission import Leg, nav_count, to_legs
+from lfctl.link.mission import (
+    ACTED_ON,
+    CONDITION_DELAY,
+    CONDITION_DISTANCE,
+    DO_CHANGE_SPEED,
+    NAV_DELAY,
+    NAV_LOITER_TIME,
+    NAV_RETURN_TO_LAUNCH,
+    NOTHING_FITTED,
+    PLACES,
+    SKIPPED_NAV,
+    SKIPPED_SAID,
+    Leg,
+    MissionItem,
+    command_name,
+    nav_count,
+    seconds_until_utc,
+    to_legs,
+)
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
 
@@ -108,6 +126,10 @@ class VehicleDriver:
         self._autopilot: LeaderAutopilot | None = None
         self._key: tuple[object, ...] = ()
         self._legs: list[Leg] = []
+        self._leg = 0  # the leg under way
+        self._queue: list[MissionItem] = []  # its DO commands and conditions still to run
+        self._condition: tuple[int, str, float] | None = None  # (item, "time" | "distance", until)
+        self._holding: tuple[int, float] | None = None  # (leg, since when) waiting at its end
         self._goto: LeaderAutopilot | None = None
         self._goto_key: tuple[object, ...] = ()
         self._goto_done = False
@@ -183,10 +205,11 @@ class VehicleDriver:
                 else (0.0, 0.0)
             )
         me = world.vehicle(self.index)
-        key = (ep.mission_version, ep.speed_mps)
-        if key != self._key and not (self._autopilot is not None and self._done(key)):
-            self._key = key
-            self._legs = to_legs(ep.mission, self.home, max(1, ep.current_seq))
+        if self._key != (ep.mission_version,) or self._autopilot is None:
+            self._key = (ep.mission_version,)
+            self._legs = to_legs(
+                ep.mission, self.home, max(1, ep.current_seq), (me.north_m, me.east_m), ep.rtl_destination
+            )
             settings = dataclasses.replace(
                 autopilot_settings(self.cfg),
                 cruise_speed_mps=ep.speed_mps,
@@ -196,37 +219,125 @@ class VehicleDriver:
                 [(g.north_m, g.east_m, g.hold_s) for g in self._legs],
                 settings,
                 (me.north_m, me.east_m),
-                [g.speed_mps for g in self._legs],
+                one_per_step=True,
             )
-        assert self._autopilot is not None
+            self._holding = None
+            if self._legs:
+                self._begin(0, t_s)
+        ap = self._autopilot
+        if ap.settings.cruise_speed_mps != ep.speed_mps:
+            # a speed set on the way (WP_SPEED, a ground station's DO_CHANGE_SPEED): the latest
+            # speed wins over the mission's own, as Rover's one speed limit for its waypoints
+            ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
+            ap.speeds = [None] * len(ap.speeds)
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
-        out = self._autopilot.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
+        out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
+        if self._holding is not None and self._holding[1] < t_s and (out.holding_s == 0.0 or out.los.reached):
+            self._finish(self._holding[0], t_s)  # its wait is over (and the next may have begun its own)
         for k in out.los.reached:
-            seq = self._legs[k].seq
-            ep.reached(seq, last=k == len(self._legs) - 1)
-            self.reached.append((seq - 1, t_s))
+            self._arrive(k, t_s)
+        if self._legs:
+            self._run_items(t_s, out.los.distance_to_go_m)
+        # after the items reached moved the current one
+        ep.steering(_nav_report(out.los, ep.reversed, ap.follower.waypoints))
+        return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    def _begin(self, k: int, t_s: float) -> None:
+        """Leg ``k`` begins: its navigation item starts (RTL's speed, a NAV_DELAY's wait) and
+        the items before it queue up to run in turn."""
+        ep, leg = self.endpoint, self._legs[k]
+        assert self._autopilot is not None
+        self._leg, self._queue, self._condition = k, list(leg.before), None
+        if leg.command == NAV_RETURN_TO_LAUNCH:  # Rover's RTL speed, kept for the legs after
+            speed = ep.param("RTL_SPEED") or ep.param("WP_SPEED")
+            self._autopilot.speeds[k:] = [speed] * (len(self._legs) - k)
+        elif leg.command == NAV_DELAY:
+            item = ep.mission[leg.seq]
+            wait = leg.hold_s
+            if item.param1 <= 0:  # until a time of day, from now (it is reached a step later at the soonest)
+                now = ep.epoch_us / 1e6 + t_s
+                wait = seconds_until_utc(now, int(item.param2), int(item.param3), int(item.param4))
+                self._autopilot.holds[k] = wait
+            ep.statustext(f"Delaying {int(wait)} sec", mav.MAV_SEVERITY_INFO)
+
+    def _arrive(self, k: int, t_s: float) -> None:
+        """The vehicle got to leg ``k``'s end: Rover's words for it, the summary's count, and
+        the item done unless it waits there."""
+        ep, leg = self.endpoint, self._legs[k]
+        assert self._autopilot is not None
+        if leg.command == NAV_RETURN_TO_LAUNCH:
+            ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
+        elif leg.command != NAV_DELAY:
+            wait = f". Loiter for {int(leg.hold_s)} seconds" if 0 < leg.hold_s < math.inf else ""
+            ep.statustext(f"Reached waypoint #{leg.seq}{wait}", mav.MAV_SEVERITY_INFO)
+        if leg.command in PLACES:
+            self.reached.append((leg.seq - 1, t_s))
             self.reached_of = nav_count(ep.mission)
             number = ep.missions.mission_number
             if self._reached_in[0] != number:
                 self._reached_in = (number, set())
-            self._reached_in[1].add(seq - 1)
+            self._reached_in[1].add(leg.seq - 1)
             if self.on_reached is not None:
-                self.on_reached(t_s, seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of, number)
-        # after the items reached moved the current one
-        ep.steering(_nav_report(out.los, ep.reversed, self._autopilot.follower.waypoints))
-        return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+                self.on_reached(t_s, leg.seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of, number)
+        if self._autopilot.holds[k] == math.inf:
+            return  # a loiter for ever: the mission waits here until it is moved on
+        if self._autopilot.holds[k] > 0:
+            self._holding = (k, t_s)
+        else:
+            self._finish(k, t_s)
+
+    def _finish(self, k: int, t_s: float) -> None:
+        """Leg ``k``'s item is done (arrived, and waited as long as it says): the ground
+        station is told, the next leg begins; what is left of this leg's items is dropped,
+        as Rover's mission drops the DO commands a finished waypoint leaves behind."""
+        ep, leg = self.endpoint, self._legs[k]
+        self._holding = None
+        if leg.command == NAV_LOITER_TIME:
+            ep.statustext("Finished active loiter", mav.MAV_SEVERITY_WARNING)
+        last = k == len(self._legs) - 1
+        ep.reached(leg.seq, last=last, next_seq=None if last else self._legs[k + 1].seq)
+        self._queue, self._condition = [], None
+        if not last:
+            self._begin(k + 1, t_s)
+
+    def _run_items(self, t_s: float, distance_to_go_m: float) -> None:
+        """Run the current leg's DO commands and conditions in turn, as ArduPilot's mission
+        library runs them beside the navigation: a condition holds back the ones after it
+        (not the driving) until its time has passed or the vehicle is that near its target."""
+        ep = self.endpoint
+        assert self._autopilot is not None
+        while self._queue or self._condition is not None:
+            if self._condition is not None:
+                seq, kind, value = self._condition
+                if (kind == "time" and t_s < value) or (kind == "distance" and distance_to_go_m >= value):
+                    return
+                self._condition = None
+                ep.item_done(seq)
+                continue
+            it = self._queue.pop(0)
+            cmd = it.command
+            if cmd == CONDITION_DELAY:
+                self._condition = (it.seq, "time", t_s + max(0.0, it.param1))
+            elif cmd == CONDITION_DISTANCE:
+                self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
+            elif cmd == DO_CHANGE_SPEED:
+                if it.param2 > 0:  # -1: no change
+                    self._autopilot.speeds[self._leg :] = [it.param2] * (len(self._legs) - self._leg)
+                ep.item_done(it.seq)
+            elif cmd in ACTED_ON:
+                ep.run_mission_item(it)
+            elif cmd in NOTHING_FITTED:
+                ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
+            elif cmd not in SKIPPED_NAV:  # a DO command a Rover does not carry out
+                if cmd in SKIPPED_SAID:
+                    ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)
+                ep.item_done(it.seq)
 
     @property
     def distinct_reached(self) -> int:
         """Distinct waypoints reached of the mission last reached in (a mission flown twice
         counts each once; an earlier, replaced mission's not at all)."""
         return len(self._reached_in[1])
-
-    def _done(self, key: tuple[int, float]) -> bool:
-        """The mission in force is finished and only the speed changed (a WP_SPEED set, a
-        parameter file loaded): AUTO stays where it ended, as Rover's does, instead of flying
-        its last leg again (and reporting its last item reached twice)."""
-        return self.endpoint.mission_complete and bool(self._key) and key[0] == self._key[0]
 
     # -- GUIDED --------------------------------------------------------------------------------
     def _guided(self, t_s: float, world: WorldState) -> tuple[float, float]:

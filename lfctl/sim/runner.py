@@ -31,7 +31,7 @@ from lfctl.follower.stack import Follower, formation_settings
 from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import Odometry
 from lfctl.link.endpoint import MODE_NAMES, packet_record
-from lfctl.link.mission import nav_count, to_legs
+from lfctl.link.mission import PLACES, nav_count, to_legs
 from lfctl.link.mission_server import ListChange
 from lfctl.metrics import FormationMetrics, formation_metrics
 from lfctl.record.rtp import RtpH264Sender
@@ -209,8 +209,10 @@ class TelemetryTask:
         if leader.mission_version != self._mission_version:
             self._mission_version = leader.mission_version
             seen: dict[int, tuple[float, float]] = {}
-            for leg in to_legs(leader.mission, self.links.home):
-                seen.setdefault(leg.seq, (leg.north_m, leg.east_m))
+            me = st.vehicle(0)
+            for leg in to_legs(leader.mission, self.links.home, 1, (me.north_m, me.east_m), leader.rtl_destination):
+                if leg.command in PLACES:  # a wait where it stands is no place on the map
+                    seen.setdefault(leg.seq, (leg.north_m, leg.east_m))
             rec.set_mission(t_s, list(seen.values()), leader.param("WP_RADIUS"))
         if leader.missions.mission_number != self._missions_stored:  # replaced or cleared
             self._missions_stored = leader.missions.mission_number

@@ -77,8 +77,10 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
 
     mission = wpl(
         tmp_path / "mission.txt",
-        [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (178, 1, 0.4, 0, 0), (16, 0, 0, *at(3, 3))],
-    )
+        # as a Rover takes it: a speed, a camera trigger (nothing fitted to it) and RTL at the end
+        [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (178, 1, 0.4, 0, 0), (16, 0, 0, *at(3, 3)),
+         (206, 2, 0, 0, 0), (20, 0, 0, 0, 0)],
+    )  # fmt: skip
     square = [at(15, 15), at(15, -15), at(-15, -15), at(-15, 15)]
     fence = wpl(tmp_path / "fence.txt", [(5001, 4, 0, lat, lon) for lat, lon in square])
     rally = wpl(tmp_path / "rally.txt", [(5100, 0, 0, *at(-2, 1))])
@@ -104,7 +106,7 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
 
         def loaded() -> bool:
             lists = ep.missions.lists
-            return len(lists[0]) == 4 and len(lists[1]) == 4 and len(lists[2]) == 1
+            return len(lists[0]) == 6 and len(lists[1]) == 4 and len(lists[2]) == 1
 
         while time.monotonic() < deadline and not (loaded() and ep.guided is not None and ep.guided.kind == "location"):
             time.sleep(0.1)
@@ -120,7 +122,7 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
         out2, _ = second.communicate(timeout=20)
     assert not errors, errors
     lists = ep.missions.lists
-    assert [it.command for it in lists[0]] == [16, 16, 178, 16], out  # the mission, DO_CHANGE_SPEED kept
+    assert [it.command for it in lists[0]] == [16, 16, 178, 16, 206, 20], out  # the mission, every item kept
     assert [it.command for it in lists[1]] == [5001] * 4, out  # the fence, apart from the mission
     assert [it.command for it in lists[2]] == [5100], out  # the rally point
     assert guided_target is not None and guided_target.kind == "location", out

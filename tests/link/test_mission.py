@@ -1,5 +1,5 @@
-"""Missions flattened into the leader's legs: DO_JUMP unrolled, DO_CHANGE_SPEED applied,
-starting from the current item; jump loops with no waypoint in them end."""
+"""Missions flattened into the leader's legs: DO_JUMP unrolled, DO commands queued with the
+leg they begin with, starting from the current item; jump loops with no waypoint in them end."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ def renumbered(items: list[MissionItem]) -> list[MissionItem]:
 
 def test_plain_waypoints_become_legs_in_local_metres() -> None:
     legs = to_legs(local_mission([(1.0, 0.0), (1.0, 1.0, 3.0)], HOME), HOME)
-    assert [(leg.seq, leg.hold_s, leg.speed_mps) for leg in legs] == [(1, 0.0, None), (2, 3.0, None)]
+    assert [(leg.seq, leg.hold_s, leg.before) for leg in legs] == [(1, 0.0, ()), (2, 3.0, ())]
     # positions travel as degE7: 1e-7 deg is 1.1 cm of latitude
     assert [(leg.north_m, leg.east_m) for leg in legs] == [
         pytest.approx((1.0, 0.0), abs=0.012),
@@ -26,12 +26,14 @@ def test_plain_waypoints_become_legs_in_local_metres() -> None:
     ]
 
 
-def test_do_change_speed_applies_to_the_legs_after_it() -> None:
+def test_do_commands_begin_with_the_leg_after_them() -> None:
+    # as ArduPilot's mission library: the DO commands between two waypoints start once the
+    # first is done, so they act on the leg to the second
     items = local_mission([(1.0, 0.0), (1.0, 1.0), (2.0, 0.0)], HOME)
     items.insert(2, MissionItem(2, 0, DO_CHANGE_SPEED, 1.0, 0.5))
     items.insert(4, MissionItem(4, 0, DO_CHANGE_SPEED, 1.0, -1.0))  # -1: no change
     legs = to_legs(renumbered(items), HOME)
-    assert [leg.speed_mps for leg in legs] == [None, 0.5, 0.5]
+    assert [[(it.seq, it.param2) for it in leg.before] for leg in legs] == [[], [(2, 0.5)], [(4, -1.0)]]
 
 
 def test_do_jump_repeats_its_loop_the_given_number_of_times() -> None:

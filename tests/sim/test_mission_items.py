@@ -1,0 +1,246 @@
+"""A mission's items flown as an ArduPilot Rover flies them (Rover's ModeAuto, AP_Mission): RTL
+as an item, a place at latitude and longitude 0 meaning "here", loiters for ever, NAV_DELAY
+for a time or to a time of day, DO commands beginning with the leg after them and held back
+by conditions, and the items a Rover passes over. Closed loop in lockstep: the mission is
+stored on the leader mid-run, as a ground station's upload would store it."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Callable
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mcap.reader import make_reader
+from pymavlink.dialects.v20 import ardupilotmega as mav
+from test_rover_modes import leader_at, run_with
+
+from lfctl.link.mission import (
+    SUPPORTED,
+    MissionItem,
+    local_mission,
+    seconds_until_utc,
+    to_legs,
+    validate_item,
+)
+from lfctl.link.mission_server import MISSION
+from lfctl.sim.links import Links
+
+pytestmark = pytest.mark.fmu
+
+
+def item(command: int, p1: float = 0.0, p2: float = 0.0, p3: float = 0.0, p4: float = 0.0) -> MissionItem:
+    return MissionItem(0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command, p1, p2, p3, p4)
+
+
+def here(hold_s: float = 0.0) -> MissionItem:
+    """A waypoint at latitude and longitude 0: where the vehicle is when it begins."""
+    return item(mav.MAV_CMD_NAV_WAYPOINT, hold_s)
+
+
+def store(*parts: list[MissionItem] | MissionItem) -> Callable[[Links], None]:
+    """A ground station's upload of the items given (lists of local places, or single items)."""
+
+    def upload(links: Links) -> None:
+        items = local_mission([], links.home)
+        for part in parts:
+            for it in part if isinstance(part, list) else [part]:
+                items.append(dataclasses.replace(it, seq=len(items)))
+        links.endpoints[0].missions.store(MISSION, items, 255, 190)
+
+    return upload
+
+
+def places(links_home: tuple[float, float, float], *points: tuple[float, ...]) -> list[MissionItem]:
+    return local_mission(list(points), links_home)[1:]
+
+
+def texts(links: Links) -> list[str]:
+    return [text for *_rest, text in links.endpoints[0].statustexts]
+
+
+def test_a_mission_ending_in_rtl_drives_back_home_and_completes() -> None:
+    def upload(links: Links) -> None:
+        store(places(links.home, (4.0, 0.0), (4.0, 4.0)), item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0)
+    ep = links.endpoints[0]
+    end = leader_at(rep, 60.0)
+    assert math.hypot(*end) <= 0.5  # home: where it armed
+    assert rep.result.final.vehicle(0).speed_mps == pytest.approx(0.0, abs=0.02)
+    said = texts(links)
+    assert "Reached destination" in said and said[-1] == "Mission Complete"
+    assert ep.mission_complete and (rep.n_reached, rep.n_waypoints) == (3, 3)
+
+
+def test_a_place_at_latitude_and_longitude_zero_is_where_the_vehicle_is() -> None:
+    # Rover's Location::sanitize: not the Gulf of Guinea, but a wait of 3 s where it stands
+    def upload(links: Links) -> None:
+        store(places(links.home, (4.0, 0.0)), here(3.0), places(links.home, (4.0, 3.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=40.0)
+    track = rep.result.pos_ned_m[:, 0]
+    assert np.max(np.hypot(track[:, 0], track[:, 1])) <= 6.0
+    assert math.hypot(*(leader_at(rep, 40.0) - np.array([4.0, 3.0]))) <= 0.5
+    reached = dict(rep.waypoints_reached)  # item index from 0 -> time
+    assert reached[1] - reached[0] == pytest.approx(0.0, abs=0.5)  # "here" is reached on arrival
+    assert "Reached waypoint #2. Loiter for 3 seconds" in texts(links)
+    t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
+    assert np.max(speed[(t > reached[1] + 0.5) & (t < reached[1] + 2.5)]) < 0.05  # waits there
+
+
+def test_a_loiter_for_ever_holds_the_mission_there() -> None:
+    def upload(links: Links) -> None:
+        loiter = places(links.home, (4.0, 0.0))[0]
+        loiter = MissionItem(0, loiter.frame, mav.MAV_CMD_NAV_LOITER_UNLIM, x=loiter.x, y=loiter.y)
+        store(loiter, places(links.home, (4.0, 4.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=40.0)
+    ep = links.endpoints[0]
+    assert math.hypot(*(leader_at(rep, 40.0) - np.array([4.0, 0.0]))) <= 0.5
+    assert not ep.mission_complete and ep.current_seq == 1  # still the loiter
+    assert "Reached waypoint #1" in texts(links) and "Mission Complete" not in texts(links)
+
+
+def sent(path: Path, *names: str) -> list[tuple[float, str, dict]]:
+    """What the leader sent, from the run's log: (time since the first message, name, fields)."""
+    out, t0 = [], None
+    with open(path, "rb") as f:
+        for _schema, _channel, message in make_reader(f).iter_messages(topics=["/mavlink/leader"]):
+            record = json.loads(message.data)
+            t0 = message.log_time if t0 is None else t0
+            if record["direction"] == "out" and record.get("name") in names:
+                out.append(((message.log_time - t0) / 1e9, record["name"], record["fields"]))
+    return out
+
+
+def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_them(tmp_path: Path) -> None:
+    # 1 go to (4, 0); 2 wait 4 s there; 3 wait 2 s more "here"; then, beginning with the leg
+    # to (4, 6): a 3 s condition, a slower speed behind it, a servo (nothing fitted), a
+    # take-off (a Rover skips it in silence), a mount command (a Rover says it skips it)
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (4.0, 0.0)),
+            item(mav.MAV_CMD_NAV_DELAY, 4.0),
+            here(2.0),
+            item(mav.MAV_CMD_CONDITION_DELAY, 3.0),
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            item(mav.MAV_CMD_DO_SET_SERVO, 5.0, 1900.0),
+            item(mav.MAV_CMD_NAV_TAKEOFF),
+            item(mav.MAV_CMD_DO_MOUNT_CONTROL),
+            places(links.home, (4.0, 6.0)),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0, record_to=tmp_path / "m.mcap")
+    said = texts(links)
+    assert "Delaying 4 sec" in said and "Reached waypoint #3. Loiter for 2 seconds" in said
+    assert "Mission 6: DO_SET_SERVO not fitted" in said and "Skipping invalid cmd #205" in said
+    assert not any("#22" in s for s in said)
+    reached = dict(rep.waypoints_reached)
+    t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
+    at = reached[0]
+    assert np.max(speed[(t > at + 0.5) & (t < at + 5.5)]) < 0.05  # the delay and the wait: standing
+    # the leg to (4, 6) drives at once at 0.4 m/s; 3 s into it the speed change comes
+    assert np.median(speed[(t > at + 7.5) & (t < at + 8.8)]) == pytest.approx(0.4, abs=0.03)
+    assert np.median(speed[(t > at + 10.5) & (t < at + 14.0)]) == pytest.approx(0.2, abs=0.02)
+    assert links.endpoints[0].mission_complete
+    # MISSION_ITEM_REACHED as a Rover sends it: each navigation item once done (the delay
+    # after its 4 s, "here" after its 2 s), the DO commands its own mode carries out (the
+    # condition once its 3 s are up, then the speed and the mount it skips behind it), not
+    # the servo (ArduPilot's mission library runs it) nor the skipped take-off
+    log = sent(tmp_path / "m.mcap", "MISSION_ITEM_REACHED", "MISSION_CURRENT")
+    done = [(round(t - log[0][0], 1), f["seq"]) for t, name, f in log if name == "MISSION_ITEM_REACHED"]
+    assert [seq for _t, seq in done] == [1, 2, 3, 4, 5, 8, 9], done
+    times = dict((seq, t) for t, seq in done)
+    assert times[2] - times[1] == pytest.approx(4.0, abs=0.25) and times[3] - times[2] == pytest.approx(2.0, abs=0.25)
+    assert times[4] - times[3] == pytest.approx(3.0, abs=0.25) and times[5] == times[8] == times[4]
+    current = {f["seq"] for t, name, f in log if name == "MISSION_CURRENT" and t > 1.0}  # after the upload
+    assert sorted(current) == [1, 2, 3, 9]  # only navigation items are current
+
+
+def test_a_nav_delay_to_a_time_of_day_waits_for_it() -> None:
+    # the vehicle's clock (SYSTEM_TIME's) set so that 12:00:10 UTC comes 10 s after the upload
+    noon = datetime(2026, 12, 4, 12, 0, 0, tzinfo=UTC).timestamp()
+
+    def upload(links: Links) -> None:
+        links.endpoints[0].epoch_us = int((noon - 0.5) * 1e6)
+        store(item(mav.MAV_CMD_NAV_DELAY, -1.0, 12.0, 0.0, 10.0), places(links.home, (3.0, 0.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=30.0)
+    assert "Delaying 10 sec" in texts(links)
+    (_index, t_reached), *_ = rep.waypoints_reached
+    assert t_reached > 10.5 and t_reached < 20.0  # set off at 10.5 s, 3 m at 0.4 m/s
+
+
+def test_do_set_reverse_in_a_mission_backs_the_next_leg() -> None:
+    def upload(links: Links) -> None:
+        store(places(links.home, (4.0, 0.0)), item(mav.MAV_CMD_DO_SET_REVERSE, 1.0), places(links.home, (1.0, 0.0)))(
+            links
+        )
+
+    rep, links = run_with({0.5: upload}, duration_s=40.0)
+    reached = dict(rep.waypoints_reached)  # by item index from 0: the waypoints are items 1 and 3
+    t, speed = rep.result.t_s, rep.result.speed_mps[:, 0]
+    assert np.median(speed[(t > reached[0] + 1.0) & (t < reached[2] - 1.0)]) < -0.2  # backing
+    assert links.endpoints[0].reversed
+    assert math.hypot(*(leader_at(rep, 40.0) - np.array([1.0, 0.0]))) <= 0.5
+
+
+# -- the legs, upload ------------------------------------------------------------------------
+HOME = (12.96, 77.67, 900.0)
+
+
+def test_rtl_and_here_take_their_places_from_the_leg_before() -> None:
+    items = [
+        *local_mission([(4.0, 0.0)], HOME),
+        MissionItem(2, 0, mav.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        MissionItem(3, 0, mav.MAV_CMD_NAV_DELAY, 5.0),
+        MissionItem(4, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_LOITER_UNLIM),
+        *local_mission([(9.0, 9.0)], HOME)[1:],
+    ]
+    legs = to_legs(items, HOME, start=(1.0, 1.0), return_to=lambda n, e: (n - 1.0, e + 2.0))
+    ends = [(leg.seq, round(leg.north_m, 2), round(leg.east_m, 2), leg.hold_s) for leg in legs]
+    # RTL from (4, 0); the delay and the loiter where RTL ends; nothing after the loiter
+    assert ends == [(1, 4.0, 0.0, 0.0), (2, 3.0, 2.0, 0.0), (3, 3.0, 2.0, 5.0), (4, 3.0, 2.0, math.inf)]
+
+
+@pytest.mark.parametrize(
+    ("hms", "seconds"),
+    [((23, 45, 0), 900.0), ((12, 0, 0), 45000.0), ((-1, -1, 30), 30.0), ((-1, -1, -1), 86400.0)],
+)
+def test_the_wait_to_a_time_of_day_is_to_its_next_instant(hms: tuple[int, int, int], seconds: float) -> None:
+    now = datetime(2026, 12, 4, 23, 30, 0, tzinfo=UTC).timestamp()  # 23:30:00 UTC
+    assert seconds_until_utc(now, *hms) == seconds
+
+
+def test_every_command_a_rover_mission_takes_is_taken_and_no_other() -> None:
+    for cmd in SUPPORTED:
+        it = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, cmd, 1.0, 1.0, x=129600000, y=776700000)
+        assert validate_item(it, 3) == mav.MAV_MISSION_ACCEPTED, mav.enums["MAV_CMD"][cmd].name
+    for cmd in (mav.MAV_CMD_USER_1, mav.MAV_CMD_NAV_FOLLOW, mav.MAV_CMD_DO_SET_MODE, 65535):
+        assert validate_item(MissionItem(1, 0, cmd), 3) == mav.MAV_MISSION_UNSUPPORTED
+
+
+@pytest.mark.parametrize(
+    ("params", "result"),
+    [
+        ((-1.0, 24.0, 0.0, 0.0), mav.MAV_MISSION_INVALID_PARAM2),  # hour 24
+        ((-1.0, 12.0, 60.0, 0.0), mav.MAV_MISSION_INVALID_PARAM3),  # minute 60
+        ((0.0, 12.0, 0.0, 0.5), mav.MAV_MISSION_INVALID_PARAM4),  # half a second
+        ((math.nan, 0.0, 0.0, 0.0), mav.MAV_MISSION_INVALID_PARAM1),
+        ((-1.0, -1.0, -1.0, 30.0), mav.MAV_MISSION_ACCEPTED),  # at the next half minute
+        ((2.5, 99.0, 99.0, 99.0), mav.MAV_MISSION_ACCEPTED),  # 2.5 s: the time of day unused
+    ],
+)
+def test_a_nav_delay_names_the_parameter_it_cannot_take(params: tuple[float, ...], result: int) -> None:
+    assert validate_item(MissionItem(1, 0, mav.MAV_CMD_NAV_DELAY, *params), 3) == result
+
+
+def test_a_negative_hold_is_none_as_on_a_rover() -> None:
+    wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, -5.0, x=129600000, y=1)
+    assert validate_item(wp, 2) == mav.MAV_MISSION_ACCEPTED
+    assert to_legs([local_mission([], HOME)[0], wp], HOME)[0].hold_s == 0.0
