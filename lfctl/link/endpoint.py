@@ -33,7 +33,7 @@ from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import MissionItem, home_item
+from lfctl.link.mission import LOCATION_ALT_MAX_M, MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
 from lfctl.link.port import pack_next
@@ -172,9 +172,6 @@ SENSORS = (
 #: a disarmed vehicle's home follows it once it is this far from it, m (Rover's
 #: DISTANCE_HOME_MINCHANGE)
 HOME_MIN_CHANGE_M = 0.5
-#: the largest altitude a command's location may carry, m, in any frame (ArduPilot's
-#: LOCATION_ALT_MAX_M: location_from_command_t refuses more)
-LOCATION_ALT_MAX_M = 83_000.0
 #: a reboot's silence, s: the autopilot neither sends nor hears anything while it restarts
 REBOOT_S = 2.0
 #: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN's param6 that reboots an armed vehicle (ArduPilot's
@@ -1224,9 +1221,26 @@ class VehicleEndpoint:
         self.send(mav.MAVLink_mission_item_reached_message(seq))
         after = seq + 1 if next_seq is None else next_seq
         self.missions.current_seq = min(after, max(0, len(self.mission) - 1))
-        self.mission_complete = seq >= len(self.mission) - 1 if last is None else last
-        if self.mission_complete:
-            self.statustext("Mission Complete", mav.MAV_SEVERITY_NOTICE)  # Rover's exit_mission
+        if seq >= len(self.mission) - 1 if last is None else last:
+            self.complete_mission()
+
+    def complete_mission(self) -> None:
+        """The mission is done: AUTO stops where it is, and says so as Rover's exit_mission."""
+        self.mission_complete = True
+        self.statustext("Mission Complete", mav.MAV_SEVERITY_NOTICE)
+
+    def set_speed(self, speed_mps: float) -> None:
+        """The speed a mission item sets for the waypoints after it (DO_CHANGE_SPEED, RTL's
+        start), as Rover's one speed limit for them: the same a ground station's
+        DO_CHANGE_SPEED sets, kept when the current item moves, dropped when a mode is
+        entered.
+
+        Parameters
+        ----------
+        speed_mps : float
+            The speed, m/s.
+        """
+        self.desired_speed_mps = float(speed_mps)
 
     def item_done(self, seq: int) -> None:
         """A DO command or condition of the mission is done (MISSION_ITEM_REACHED, as Rover

@@ -7,7 +7,6 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -26,6 +25,7 @@ __all__ = [
     "DO_SET_HOME",
     "DO_SET_REVERSE",
     "FLOWN",
+    "LOCATION_ALT_MAX_M",
     "MAX_EXPANDED",
     "MAX_FILE_BYTES",
     "MAX_FILE_ITEMS",
@@ -48,6 +48,7 @@ __all__ = [
     "is_nav",
     "load_mission",
     "local_mission",
+    "mission_tail",
     "nav_count",
     "save_mission",
     "seconds_until_utc",
@@ -129,13 +130,20 @@ STORES_LOCATION = frozenset(
         "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
     )
 )  # fmt: skip
-#: the frames a flown place may be given in
+#: the frames a place may be given in (AP_Mission::mavlink_int_to_mission_cmd: above mean sea
+#: level, home or the terrain; a rover's waypoints are flown on the ground whatever the frame)
 NAV_FRAMES = {
+    mav.MAV_FRAME_MISSION,
     mav.MAV_FRAME_GLOBAL,
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
     mav.MAV_FRAME_GLOBAL_INT,
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+    mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
 }
+#: the largest altitude a place may carry, m, in any frame (ArduPilot's LOCATION_ALT_MAX_M:
+#: a mission item's or a command's location beyond it is refused)
+LOCATION_ALT_MAX_M = 83_000.0
 MAX_EXPANDED = 2000  # DO_JUMP repeats are unrolled up to this many legs
 #: the most items a mission file may hold, home included (MISSION_COUNT is 16 bits)
 MAX_FILE_ITEMS = 65535
@@ -231,13 +239,15 @@ def validate_item(item: MissionItem, count: int) -> int:
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
     cmd = NAV_WAYPOINT if item.seq == 0 else item.command  # home: a place, whatever the command
-    if cmd in (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM) and item.frame not in NAV_FRAMES:
-        return mav.MAV_MISSION_UNSUPPORTED_FRAME
     if cmd in STORES_LOCATION:
         if not -90.0 <= item.lat_deg <= 90.0:
             return mav.MAV_MISSION_INVALID_PARAM5_X
         if not -180.0 <= item.lon_deg <= 180.0:
             return mav.MAV_MISSION_INVALID_PARAM6_Y
+        if not (math.isfinite(item.z) and abs(item.z) < LOCATION_ALT_MAX_M):
+            return mav.MAV_MISSION_INVALID_PARAM7
+        if item.frame not in NAV_FRAMES:
+            return mav.MAV_MISSION_UNSUPPORTED_FRAME
     timed = (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_DELAY, CONDITION_DELAY, CONDITION_DISTANCE)
     if cmd in timed and not math.isfinite(item.param1):
         return mav.MAV_MISSION_INVALID_PARAM1  # a hold, delay or distance (negative: none, as on Rover)
@@ -321,11 +331,12 @@ def to_legs(
 ) -> list[Leg]:
     """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP.
 
-    Where an item's place comes from the vehicle, it is taken from where the leg before ends
-    (the vehicle is there when the item begins): a waypoint or loiter at latitude and
-    longitude 0 is "here" (Rover's ``Location::sanitize``), a NAV_DELAY waits where it
-    stands, and RTL drives to ``return_to`` of that place. At most :data:`MAX_EXPANDED`
-    legs: a DO_JUMP repeated for ever (-1) stops there; nothing after a loiter for ever.
+    Where an item's place comes from the vehicle, it is planned from where the leg before
+    ends (the autopilot takes it again from where the vehicle is when the item begins): a
+    waypoint or loiter at latitude and longitude 0 is "here" (Rover's
+    ``Location::sanitize``), a NAV_DELAY waits where it stands, and RTL drives to
+    ``return_to`` of that place. At most :data:`MAX_EXPANDED` legs: a DO_JUMP repeated for
+    ever (-1) stops there; nothing after a loiter for ever.
 
     Parameters
     ----------
@@ -342,8 +353,35 @@ def to_legs(
         nearest rally point (:meth:`~lfctl.link.endpoint.VehicleEndpoint.rtl_destination`);
         by default the local origin.
     """
+    return _walk(items, home, start_seq, start, return_to)[0]
+
+
+def mission_tail(items: list[MissionItem], start_seq: int = 1) -> tuple[MissionItem, ...]:
+    """The DO commands and conditions after the mission's last navigation item (from
+    ``start_seq``, DO_JUMPs followed): a Rover starts the first of them as its last waypoint
+    is done, then the mission is complete; a mission without navigation is all tail.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    start_seq : int
+        The item to start from (the current item).
+    """
+    return _walk(items, (0.0, 0.0, 0.0), start_seq, (0.0, 0.0), None)[1]
+
+
+def _walk(
+    items: list[MissionItem],
+    home: tuple[float, float, float],
+    start_seq: int,
+    start: tuple[float, float],
+    return_to: Callable[[float, float], tuple[float, float]] | None,
+) -> tuple[list[Leg], tuple[MissionItem, ...]]:
+    """The legs, and the items left after the last (:func:`to_legs`, :func:`mission_tail`)."""
     legs: list[Leg] = []
     before: list[MissionItem] = []
+    blocked = False  # a navigation item a Rover skips stops the DO commands after it in its gap
     here = start
     jumps_left: dict[int, int] = {}
     i = start_seq
@@ -366,9 +404,9 @@ def to_legs(
             else:
                 hold = 0.0
             legs.append(Leg(it.seq, *here, hold, it.command, tuple(before)))
-            before = []
+            before, blocked = [], False
             if hold == math.inf:
-                break
+                return legs, ()
         elif it.command == DO_JUMP:
             if _whole(it.param1) and _whole(it.param2):
                 left = jumps_left.setdefault(i, int(it.param2))
@@ -376,34 +414,42 @@ def to_legs(
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
                     i = int(it.param1)
                     continue
-        else:
+        elif it.command in SKIPPED_NAV:
+            blocked = True
+        elif not blocked:
             before.append(it)
         i += 1
-    return legs
+    return legs, tuple(before)
 
 
 def seconds_until_utc(now_unix_s: float, hour: int, minute: int, second: int) -> float:
-    """How long a NAV_DELAY to a time of day waits, s, as Rover's ``AP_RTC::get_time_utc``:
-    the next instant at that hour, minute and second (UTC; -1 for any keeps now's), today or,
-    once passed, tomorrow.
+    """How long a NAV_DELAY to a time of day waits, s, with the arithmetic of Rover's
+    ``AP_RTC::get_time_utc(hour, minute, second, 0)``: the time is matched from its first
+    field that is not -1 down (hour -1, minute 10: ten past the next hour), the fields
+    below taken as given (a -1 among them counts as -1), and a time already past wraps by
+    the unit above the first field given (a day for an hour).
 
     Parameters
     ----------
     now_unix_s : float
         Now, seconds since 1970 (UTC).
     hour, minute, second : int
-        The time of day; -1: any (now's).
+        The time of day; -1 for a field not given.
     """
-    now = datetime.fromtimestamp(now_unix_s, UTC)
-    target = now.replace(
-        hour=now.hour if hour < 0 else hour,
-        minute=now.minute if minute < 0 else minute,
-        second=now.second if second < 0 else second,
-        microsecond=0,
-    )
-    if target <= now:
-        target += timedelta(days=1)
-    return (target - now).total_seconds()
+    day_ms = int(math.floor(now_unix_s * 1000.0)) % 86_400_000
+    cur_ms, cur_s = day_ms % 1000, (day_ms // 1000) % 60
+    cur_min, cur_h = (day_ms // 60_000) % 60, day_ms // 3_600_000
+    fields = ((second, cur_s, 1000, 60_000), (minute, cur_min, 60_000, 3_600_000), (hour, cur_h, 3_600_000, 86_400_000))
+    given = [k for k, (value, *_rest) in enumerate(fields) if value != -1]
+    top = given[-1] if given else -1  # the milliseconds (0, as Rover asks) are always given
+    delay = -cur_ms
+    if top == -1:
+        return (delay + 1000 if delay < 0 else delay) / 1000.0
+    for k, (value, current, unit, wrap) in enumerate(fields[: top + 1]):
+        delay += (value - current) * unit
+        if k == top and delay < 0:
+            delay += wrap
+    return delay / 1000.0
 
 
 def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, float]) -> list[MissionItem]:

@@ -38,11 +38,11 @@ from lfctl.link.mission import (
     NAV_RETURN_TO_LAUNCH,
     NOTHING_FITTED,
     PLACES,
-    SKIPPED_NAV,
     SKIPPED_SAID,
     Leg,
     MissionItem,
     command_name,
+    mission_tail,
     nav_count,
     seconds_until_utc,
     to_legs,
@@ -130,6 +130,9 @@ class VehicleDriver:
         self._queue: list[MissionItem] = []  # its DO commands and conditions still to run
         self._condition: tuple[int, str, float] | None = None  # (item, "time" | "distance", until)
         self._holding: tuple[int, float] | None = None  # (leg, since when) waiting at its end
+        self._tail: tuple[MissionItem, ...] = ()  # the items after the last navigation item
+        self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
+        self._distance = 0.0  # how far it is from the leg's end, m
         self._goto: LeaderAutopilot | None = None
         self._goto_key: tuple[object, ...] = ()
         self._goto_done = False
@@ -166,6 +169,8 @@ class VehicleDriver:
 
     def _command(self, t_s: float, world: WorldState) -> tuple[float, float]:
         ep = self.endpoint
+        if ep.mode != MODES["AUTO"]:
+            self._key = ()  # AUTO entered again restarts the item under way (Rover's resume)
         if not ep.armed:
             return 0.0, 0.0
         if ep.mode == MODES["GUIDED"]:
@@ -205,71 +210,94 @@ class VehicleDriver:
                 else (0.0, 0.0)
             )
         me = world.vehicle(self.index)
+        self._pos = (me.north_m, me.east_m)
         if self._key != (ep.mission_version,) or self._autopilot is None:
-            self._key = (ep.mission_version,)
-            self._legs = to_legs(
-                ep.mission, self.home, max(1, ep.current_seq), (me.north_m, me.east_m), ep.rtl_destination
-            )
-            settings = dataclasses.replace(
-                autopilot_settings(self.cfg),
-                cruise_speed_mps=ep.speed_mps,
-                acceptance_radius_m=ep.param("WP_RADIUS"),
-            )
-            self._autopilot = LeaderAutopilot(
-                [(g.north_m, g.east_m, g.hold_s) for g in self._legs],
-                settings,
-                (me.north_m, me.east_m),
-                one_per_step=True,
-            )
-            self._holding = None
-            if self._legs:
-                self._begin(0, t_s)
+            self._start_mission(t_s)
         ap = self._autopilot
+        assert ap is not None
         if ap.settings.cruise_speed_mps != ep.speed_mps:
-            # a speed set on the way (WP_SPEED, a ground station's DO_CHANGE_SPEED): the latest
-            # speed wins over the mission's own, as Rover's one speed limit for its waypoints
+            # a speed set on the way (a mission's or a ground station's DO_CHANGE_SPEED, RTL's
+            # start, WP_SPEED): the latest wins, as Rover's one speed limit for its waypoints
             ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
-            ap.speeds = [None] * len(ap.speeds)
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
+        self._distance = out.los.distance_to_go_m
         if self._holding is not None and self._holding[1] < t_s and (out.holding_s == 0.0 or out.los.reached):
             self._finish(self._holding[0], t_s)  # its wait is over (and the next may have begun its own)
         for k in out.los.reached:
             self._arrive(k, t_s)
-        if self._legs:
-            self._run_items(t_s, out.los.distance_to_go_m)
+        if not ep.mission_complete:
+            self._run_items(t_s)
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, ap.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
+    def _start_mission(self, t_s: float) -> None:
+        """(Re)start the mission from its current item, from where the vehicle is: a new or
+        changed mission, a new current item, or AUTO entered again (Rover restarts the item
+        under way, its wait and the DO commands with it)."""
+        ep = self.endpoint
+        self._key = (ep.mission_version,)
+        start = max(1, ep.current_seq)
+        self._legs = to_legs(ep.mission, self.home, start, self._pos, ep.rtl_destination)
+        self._tail = mission_tail(ep.mission, start)
+        settings = dataclasses.replace(
+            autopilot_settings(self.cfg), cruise_speed_mps=ep.speed_mps, acceptance_radius_m=ep.param("WP_RADIUS")
+        )
+        self._autopilot = LeaderAutopilot(
+            [(g.north_m, g.east_m, g.hold_s) for g in self._legs], settings, self._pos, one_per_step=True
+        )
+        self._holding, self._queue, self._condition = None, [], None
+        if self._legs:
+            ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
+            self._begin(0, t_s)
+        elif not ep.mission_complete:
+            self._end_mission(t_s)
+
     def _begin(self, k: int, t_s: float) -> None:
-        """Leg ``k`` begins: its navigation item starts (RTL's speed, a NAV_DELAY's wait) and
-        the items before it queue up to run in turn."""
+        """Leg ``k`` begins, as AP_Mission advances to a navigation item: the first item
+        before it starts first, then the navigation item (its place taken now, RTL's speed,
+        a NAV_DELAY's wait), then the rest of the items before it in turn."""
         ep, leg = self.endpoint, self._legs[k]
-        assert self._autopilot is not None
+        ap = self._autopilot
+        assert ap is not None
         self._leg, self._queue, self._condition = k, list(leg.before), None
-        if leg.command == NAV_RETURN_TO_LAUNCH:  # Rover's RTL speed, kept for the legs after
-            speed = ep.param("RTL_SPEED") or ep.param("WP_SPEED")
-            self._autopilot.speeds[k:] = [speed] * (len(self._legs) - k)
-        elif leg.command == NAV_DELAY:
-            item = ep.mission[leg.seq]
+        if self._queue:
+            self._start_item(self._queue.pop(0), t_s)
+        item = ep.mission[leg.seq]
+        if leg.command == NAV_RETURN_TO_LAUNCH:  # home or a rally point as they are now
+            self._place(k, ep.rtl_destination(*self._pos))
+            ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))  # Rover's RTL start
+        elif leg.command == NAV_DELAY or (item.x, item.y) == (0, 0):
+            self._place(k, self._pos)  # here: where the vehicle is as the item begins
+        if leg.command == NAV_DELAY:
             wait = leg.hold_s
-            if item.param1 <= 0:  # until a time of day, from now (it is reached a step later at the soonest)
+            if item.param1 <= 0:  # until a time of day, from now (reached a step later at the soonest)
                 now = ep.epoch_us / 1e6 + t_s
                 wait = seconds_until_utc(now, int(item.param2), int(item.param3), int(item.param4))
-                self._autopilot.holds[k] = wait
+                ap.holds[k] = wait
             ep.statustext(f"Delaying {int(wait)} sec", mav.MAV_SEVERITY_INFO)
+        self._distance = math.dist(self._pos, ap.follower.waypoints[k])
+        self._run_items(t_s)
+
+    def _place(self, k: int, where: tuple[float, float]) -> None:
+        """Leg ``k`` ends at ``where`` after all (a place known only as it begins)."""
+        assert self._autopilot is not None
+        self._autopilot.follower.waypoints[k] = (float(where[0]), float(where[1]))
+        self._legs[k] = dataclasses.replace(self._legs[k], north_m=where[0], east_m=where[1])
 
     def _arrive(self, k: int, t_s: float) -> None:
         """The vehicle got to leg ``k``'s end: Rover's words for it, the summary's count, and
         the item done unless it waits there."""
         ep, leg = self.endpoint, self._legs[k]
-        assert self._autopilot is not None
+        ap = self._autopilot
+        assert ap is not None
         if leg.command == NAV_RETURN_TO_LAUNCH:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
         elif leg.command != NAV_DELAY:
             wait = f". Loiter for {int(leg.hold_s)} seconds" if 0 < leg.hold_s < math.inf else ""
             ep.statustext(f"Reached waypoint #{leg.seq}{wait}", mav.MAV_SEVERITY_INFO)
+        waits = ap.holds[k] > 0
         if leg.command in PLACES:
             self.reached.append((leg.seq - 1, t_s))
             self.reached_of = nav_count(ep.mission)
@@ -278,60 +306,72 @@ class VehicleDriver:
                 self._reached_in = (number, set())
             self._reached_in[1].add(leg.seq - 1)
             if self.on_reached is not None:
-                self.on_reached(t_s, leg.seq - 1, ep.current_seq, len(ep.mission) - 1, self.reached_of, number)
-        if self._autopilot.holds[k] == math.inf:
+                # the item current once this one is done: itself while it waits, else the next
+                after = leg.seq if waits or k + 1 >= len(self._legs) else self._legs[k + 1].seq
+                self.on_reached(t_s, leg.seq - 1, after, len(ep.mission) - 1, self.reached_of, number)
+        if ap.holds[k] == math.inf:
             return  # a loiter for ever: the mission waits here until it is moved on
-        if self._autopilot.holds[k] > 0:
+        if waits:
             self._holding = (k, t_s)
         else:
             self._finish(k, t_s)
 
     def _finish(self, k: int, t_s: float) -> None:
         """Leg ``k``'s item is done (arrived, and waited as long as it says): the ground
-        station is told, the next leg begins; what is left of this leg's items is dropped,
-        as Rover's mission drops the DO commands a finished waypoint leaves behind."""
+        station is told, and the next leg begins, or the mission ends; what is left of this
+        leg's items (behind a condition not yet met) is dropped, as Rover's mission drops it."""
         ep, leg = self.endpoint, self._legs[k]
-        self._holding = None
+        self._holding, self._queue, self._condition = None, [], None
         if leg.command == NAV_LOITER_TIME:
             ep.statustext("Finished active loiter", mav.MAV_SEVERITY_WARNING)
         last = k == len(self._legs) - 1
-        ep.reached(leg.seq, last=last, next_seq=None if last else self._legs[k + 1].seq)
-        self._queue, self._condition = [], None
-        if not last:
+        ep.reached(leg.seq, last=False, next_seq=leg.seq if last else self._legs[k + 1].seq)
+        if last:
+            self._end_mission(t_s)
+        else:
             self._begin(k + 1, t_s)
 
-    def _run_items(self, t_s: float, distance_to_go_m: float) -> None:
+    def _end_mission(self, t_s: float) -> None:
+        """No navigation item is left: the first item after the last one starts (a payload's
+        servo, say), then the mission is complete (AP_Mission's advance finds no more)."""
+        if self._tail:
+            self._start_item(self._tail[0], t_s)
+        self._queue, self._condition = [], None
+        self.endpoint.complete_mission()
+
+    def _run_items(self, t_s: float) -> None:
         """Run the current leg's DO commands and conditions in turn, as ArduPilot's mission
         library runs them beside the navigation: a condition holds back the ones after it
         (not the driving) until its time has passed or the vehicle is that near its target."""
-        ep = self.endpoint
-        assert self._autopilot is not None
         while self._queue or self._condition is not None:
             if self._condition is not None:
                 seq, kind, value = self._condition
-                if (kind == "time" and t_s < value) or (kind == "distance" and distance_to_go_m >= value):
+                if (kind == "time" and t_s < value) or (kind == "distance" and self._distance >= value):
                     return
                 self._condition = None
-                ep.item_done(seq)
+                self.endpoint.item_done(seq)
                 continue
-            it = self._queue.pop(0)
-            cmd = it.command
-            if cmd == CONDITION_DELAY:
-                self._condition = (it.seq, "time", t_s + max(0.0, it.param1))
-            elif cmd == CONDITION_DISTANCE:
-                self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
-            elif cmd == DO_CHANGE_SPEED:
-                if it.param2 > 0:  # -1: no change
-                    self._autopilot.speeds[self._leg :] = [it.param2] * (len(self._legs) - self._leg)
-                ep.item_done(it.seq)
-            elif cmd in ACTED_ON:
-                ep.run_mission_item(it)
-            elif cmd in NOTHING_FITTED:
-                ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
-            elif cmd not in SKIPPED_NAV:  # a DO command a Rover does not carry out
-                if cmd in SKIPPED_SAID:
-                    ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)
-                ep.item_done(it.seq)
+            self._start_item(self._queue.pop(0), t_s)
+
+    def _start_item(self, it: MissionItem, t_s: float) -> None:
+        """Start one DO command or condition of the mission."""
+        ep, cmd = self.endpoint, it.command
+        if cmd == CONDITION_DELAY:
+            self._condition = (it.seq, "time", t_s + max(0.0, it.param1))
+        elif cmd == CONDITION_DISTANCE:
+            self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
+        elif cmd == DO_CHANGE_SPEED:
+            if it.param2 > 0:  # -1: no change
+                ep.set_speed(it.param2)
+            ep.item_done(it.seq)
+        elif cmd in ACTED_ON:
+            ep.run_mission_item(it)
+        elif cmd in NOTHING_FITTED:
+            ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
+        else:  # a DO command a Rover does not carry out
+            if cmd in SKIPPED_SAID:
+                ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)
+            ep.item_done(it.seq)
 
     @property
     def distinct_reached(self) -> int:

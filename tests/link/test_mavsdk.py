@@ -129,6 +129,71 @@ def test_mavsdk_uploads_starts_watches_pauses_and_disarms(truth_convoy, backgrou
     assert out["armed_after"] is False
 
 
+async def plan_ending_in_return(port: int, home: tuple[float, float, float], plan: str) -> dict:
+    """A QGroundControl plan ending in Return, imported by MAVSDK, uploaded and flown until
+    MAVSDK says the mission is finished."""
+    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+    from mavsdk.asyncio.plugins.action.action import ActionAsync
+    from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
+    from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
+
+    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    out: dict = {}
+    try:
+        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=15.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        mission, telemetry, action = MissionRawAsync(system), TelemetryAsync(system), ActionAsync(system)
+        imported = await mission.import_qgroundcontrol_mission_from_string(plan)
+        items = list(imported.mission_items)
+        out["commands"] = [it.command for it in items]
+        await mission.upload_mission(items)
+        await action.arm()
+        await mission.start_mission()
+        out["finished"] = False
+        for _ in range(300):  # up to 60 s: 2 m out, a wait, and back home at 0.4 m/s
+            await asyncio.sleep(0.2)
+            if await mission.is_mission_finished():
+                out["finished"] = True
+                break
+        pos = await telemetry.position()
+        out["from_home_m"] = math.hypot(
+            (pos.latitude_deg - home[0]) * 111_319.5,
+            (pos.longitude_deg - home[1]) * 111_319.5 * math.cos(math.radians(home[0])),
+        )
+    finally:
+        sdk.destroy()
+    return out
+
+
+def test_mavsdk_flies_a_qgroundcontrol_plan_ending_in_return_to_its_end(truth_convoy, background_run, tmp_path) -> None:
+    # the plan as QGroundControl writes it (lfctl's own .plan writer): a waypoint 2 m north, a
+    # 1 s delay there, then Return; a Rover took the whole plan where lfctl used to refuse it
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    from lfctl.link.mission import MissionItem, save_mission
+
+    cfg = truth_convoy(80.0)
+    home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
+    items = local_mission([(2.0, 0.0)], home)
+    items += [
+        MissionItem(2, mav.MAV_FRAME_MISSION, mav.MAV_CMD_NAV_DELAY, 1.0, -1.0, -1.0, -1.0),
+        MissionItem(3, mav.MAV_FRAME_MISSION, mav.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+    ]
+    save_mission(items, tmp_path / "return.plan")
+    with background_run(cfg, realtime=True) as errors:
+        out = asyncio.run(
+            asyncio.wait_for(
+                plan_ending_in_return(cfg.link.udp_base_port, home, (tmp_path / "return.plan").read_text()),
+                timeout=120,
+            )
+        )
+    assert not errors, errors
+    assert out["commands"][-3:] == [16, 93, 20], out
+    assert out["finished"], out  # MAVSDK's own test: the last item reached
+    assert out["from_home_m"] < 0.6, out  # back where it armed
+
+
 async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> dict:
     from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action.action import ActionAsync

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from mcap.reader import make_reader
 from pymavlink.dialects.v20 import ardupilotmega as mav
-from test_rover_modes import leader_at, run_with
+from test_rover_modes import latlon, leader_at, mode, run_with, send
 
 from lfctl.link.mission import (
     SUPPORTED,
@@ -29,6 +29,7 @@ from lfctl.link.mission import (
 )
 from lfctl.link.mission_server import MISSION
 from lfctl.sim.links import Links
+from lfctl.sim.runner import RunReport
 
 pytestmark = pytest.mark.fmu
 
@@ -120,8 +121,9 @@ def sent(path: Path, *names: str) -> list[tuple[float, str, dict]]:
 
 def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_them(tmp_path: Path) -> None:
     # 1 go to (4, 0); 2 wait 4 s there; 3 wait 2 s more "here"; then, beginning with the leg
-    # to (4, 6): a 3 s condition, a slower speed behind it, a servo (nothing fitted), a
-    # take-off (a Rover skips it in silence), a mount command (a Rover says it skips it)
+    # to (4, 6): a 3 s condition, a slower speed behind it, a servo (nothing fitted), a mount
+    # command (a Rover says it skips it), a take-off (a Rover skips it in silence, and with
+    # it what follows it before the next waypoint: the reverse never comes)
     def upload(links: Links) -> None:
         store(
             places(links.home, (4.0, 0.0)),
@@ -130,8 +132,9 @@ def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_t
             item(mav.MAV_CMD_CONDITION_DELAY, 3.0),
             item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
             item(mav.MAV_CMD_DO_SET_SERVO, 5.0, 1900.0),
-            item(mav.MAV_CMD_NAV_TAKEOFF),
             item(mav.MAV_CMD_DO_MOUNT_CONTROL),
+            item(mav.MAV_CMD_NAV_TAKEOFF),
+            item(mav.MAV_CMD_DO_SET_REVERSE, 1.0),
             places(links.home, (4.0, 6.0)),
         )(links)
 
@@ -139,7 +142,7 @@ def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_t
     said = texts(links)
     assert "Delaying 4 sec" in said and "Reached waypoint #3. Loiter for 2 seconds" in said
     assert "Mission 6: DO_SET_SERVO not fitted" in said and "Skipping invalid cmd #205" in said
-    assert not any("#22" in s for s in said)
+    assert not any("#22" in s for s in said) and not links.endpoints[0].reversed
     reached = dict(rep.waypoints_reached)
     t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
     at = reached[0]
@@ -151,15 +154,15 @@ def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_t
     # MISSION_ITEM_REACHED as a Rover sends it: each navigation item once done (the delay
     # after its 4 s, "here" after its 2 s), the DO commands its own mode carries out (the
     # condition once its 3 s are up, then the speed and the mount it skips behind it), not
-    # the servo (ArduPilot's mission library runs it) nor the skipped take-off
+    # the servo (ArduPilot's mission library runs it), the skipped take-off, or the reverse
     log = sent(tmp_path / "m.mcap", "MISSION_ITEM_REACHED", "MISSION_CURRENT")
     done = [(round(t - log[0][0], 1), f["seq"]) for t, name, f in log if name == "MISSION_ITEM_REACHED"]
-    assert [seq for _t, seq in done] == [1, 2, 3, 4, 5, 8, 9], done
+    assert [seq for _t, seq in done] == [1, 2, 3, 4, 5, 7, 10], done
     times = dict((seq, t) for t, seq in done)
     assert times[2] - times[1] == pytest.approx(4.0, abs=0.25) and times[3] - times[2] == pytest.approx(2.0, abs=0.25)
-    assert times[4] - times[3] == pytest.approx(3.0, abs=0.25) and times[5] == times[8] == times[4]
+    assert times[4] - times[3] == pytest.approx(3.0, abs=0.25) and times[5] == times[7] == times[4]
     current = {f["seq"] for t, name, f in log if name == "MISSION_CURRENT" and t > 1.0}  # after the upload
-    assert sorted(current) == [1, 2, 3, 9]  # only navigation items are current
+    assert sorted(current) == [1, 2, 3, 10]  # only navigation items are current
 
 
 def test_a_nav_delay_to_a_time_of_day_waits_for_it() -> None:
@@ -210,11 +213,26 @@ def test_rtl_and_here_take_their_places_from_the_leg_before() -> None:
 
 @pytest.mark.parametrize(
     ("hms", "seconds"),
-    [((23, 45, 0), 900.0), ((12, 0, 0), 45000.0), ((-1, -1, 30), 30.0), ((-1, -1, -1), 86400.0)],
+    [
+        ((23, 45, 0), 900.0),
+        ((12, 0, 0), 45000.0),  # past: tomorrow
+        ((-1, -1, 30), 30.0),
+        ((-1, 10, 0), 2400.0),  # ten past the next hour
+        ((23, 30, 0), 0.0),  # now
+        ((-1, -1, -1), 0.0),  # no time given
+    ],
 )
-def test_the_wait_to_a_time_of_day_is_to_its_next_instant(hms: tuple[int, int, int], seconds: float) -> None:
+def test_the_wait_to_a_time_of_day_is_rovers(hms: tuple[int, int, int], seconds: float) -> None:
     now = datetime(2026, 12, 4, 23, 30, 0, tzinfo=UTC).timestamp()  # 23:30:00 UTC
     assert seconds_until_utc(now, *hms) == seconds
+
+
+def test_a_time_of_day_counts_the_fields_below_the_first_given_as_they_are() -> None:
+    # Rover's get_time_utc at 10:20:15: hour 12 with minute and second -1 is 11:58:59, not
+    # 12:20:15; a quarter of a second past a whole one, "any time" waits for the next
+    now = datetime(2026, 12, 4, 10, 20, 15, tzinfo=UTC).timestamp()
+    assert seconds_until_utc(now, 12, -1, -1) == 5924.0
+    assert seconds_until_utc(now + 0.25, -1, -1, -1) == 0.75
 
 
 def test_every_command_a_rover_mission_takes_is_taken_and_no_other() -> None:
@@ -244,3 +262,150 @@ def test_a_negative_hold_is_none_as_on_a_rover() -> None:
     wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, -5.0, x=129600000, y=1)
     assert validate_item(wp, 2) == mav.MAV_MISSION_ACCEPTED
     assert to_legs([local_mission([], HOME)[0], wp], HOME)[0].hold_s == 0.0
+
+
+# -- what a review against ArduPilot's source found ---------------------------------------------
+def speed_between(rep: RunReport, t0: float, t1: float) -> float:
+    t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
+    return float(np.median(speed[(t > t0) & (t < t1)]))
+
+
+def test_the_do_commands_after_a_wait_run_when_the_next_item_is_reached_at_once() -> None:
+    # 1 waits 2 s, 2 slows to 0.2 m/s, 3 is "here" (done the step it begins), 4 is far: the
+    # speed change still comes (AP_Mission starts the first DO command before the next item)
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (4.0, 0.0, 2.0)),
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            here(),
+            places(links.home, (4.0, 8.0)),
+        )(links)
+
+    rep, _links = run_with({0.5: upload}, duration_s=40.0)
+    left = dict(rep.waypoints_reached)[2]
+    assert speed_between(rep, left + 2.0, left + 10.0) == pytest.approx(0.2, abs=0.02)
+
+
+def test_rtl_in_a_mission_goes_to_home_as_it_is_when_the_rtl_begins() -> None:
+    # DO_SET_HOME (here) after the first waypoint: the RTL at the end goes to the new home
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (4.0, 0.0)),
+            item(mav.MAV_CMD_DO_SET_HOME, 1.0),
+            places(links.home, (4.0, 5.0)),
+            item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=50.0)
+    assert links.endpoints[0].mission_complete
+    assert math.hypot(*(leader_at(rep, 50.0) - np.array([4.0, 0.0]))) <= 0.6
+
+
+def test_a_mission_without_waypoints_runs_its_first_do_command_and_completes() -> None:
+    def upload(links: Links) -> None:
+        store(item(mav.MAV_CMD_DO_SET_REVERSE, 1.0), item(mav.MAV_CMD_DO_SET_SERVO, 5.0, 1900.0))(links)
+
+    _rep, links = run_with({0.5: upload}, duration_s=3.0)
+    ep = links.endpoints[0]
+    assert ep.reversed and ep.mission_complete and texts(links)[-1] == "Mission Complete"
+    assert not any("DO_SET_SERVO" in s for s in texts(links))  # only the first runs, as on a Rover
+
+
+def test_the_first_do_command_after_the_last_waypoint_runs_before_the_mission_completes() -> None:
+    def upload(links: Links) -> None:
+        store(places(links.home, (3.0, 0.0)), item(mav.MAV_CMD_DO_SET_SERVO, 5.0, 1900.0))(links)
+
+    _rep, links = run_with({0.5: upload}, duration_s=20.0)
+    said = texts(links)
+    assert said[-2:] == ["Mission 2: DO_SET_SERVO not fitted", "Mission Complete"]
+
+
+def test_mission_current_is_the_navigation_item_under_way() -> None:
+    seen: list[int] = []
+
+    def upload(links: Links) -> None:
+        store(
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
+            item(mav.MAV_CMD_CONDITION_DELAY, 1.0),
+            places(links.home, (4.0, 0.0)),
+        )(links)
+
+    run_with({0.5: upload, 3.0: lambda links: seen.append(links.endpoints[0].current_seq)}, duration_s=4.0)
+    assert seen == [3]
+
+
+def test_a_missions_speed_holds_over_a_new_current_item_and_ends_when_auto_is_entered_again() -> None:
+    # Rover: DO_CHANGE_SPEED sets its one waypoint speed; MISSION_SET_CURRENT keeps it, a mode
+    # entered starts again at WP_SPEED (0.4 m/s here)
+    def upload(links: Links) -> None:
+        store(
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            places(links.home, (3.0, 0.0), (3.0, 8.0), (0.0, 8.0)),
+        )(links)
+
+    def set_current(links: Links) -> None:
+        send(links, mav.MAVLink_mission_set_current_message(1, 1, 3))
+
+    moved, _links = run_with({0.5: upload, 25.0: set_current}, duration_s=40.0)
+    assert speed_between(moved, 30.0, 38.0) == pytest.approx(0.2, abs=0.02)
+    again, _links = run_with({0.5: upload, 25.0: mode("HOLD"), 26.0: mode("AUTO")}, duration_s=40.0)
+    assert speed_between(again, 30.0, 38.0) == pytest.approx(0.4, abs=0.02)
+
+
+def test_auto_entered_again_drives_back_to_the_item_under_way_and_waits_its_whole_time() -> None:
+    def upload(links: Links) -> None:
+        store(places(links.home, (4.0, 0.0, 20.0)), places(links.home, (4.0, 6.0)))(links)
+
+    def away(links: Links) -> None:  # GUIDED to (0, -3) part-way through the wait
+        x, y = latlon(links, 0.0, -3.0)
+        send(
+            links,
+            mav.MAVLink_command_int_message(
+                1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 1, 0, 0, x, y, 0
+            ),
+        )
+
+    rep, links = run_with({0.5: upload, 12.0: mode("GUIDED"), 12.5: away, 40.0: mode("AUTO")}, duration_s=80.0)
+    arrivals = [t for index, t in rep.waypoints_reached if index == 0]
+    assert len(arrivals) == 2 and arrivals[1] > 40.0  # back at item 1
+    back = arrivals[1]
+    assert math.hypot(*leader_at(rep, back + 19.0) - np.array([4.0, 0.0])) <= 0.6  # the whole 20 s
+    assert texts(links).count("Reached waypoint #1. Loiter for 20 seconds") == 2
+
+
+def test_rtls_start_sets_its_own_speed_over_a_do_change_speed_before_it() -> None:
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (5.0, 0.0)),
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        )(links)
+
+    rep, _links = run_with({0.5: upload}, duration_s=40.0)
+    left = dict(rep.waypoints_reached)[0]
+    assert speed_between(rep, left + 4.0, left + 9.0) == pytest.approx(0.4, abs=0.02)  # WP_SPEED
+
+
+@pytest.mark.parametrize(
+    ("command", "frame", "z", "result"),
+    [
+        (mav.MAV_CMD_DO_SET_HOME, mav.MAV_FRAME_LOCAL_NED, 0.0, mav.MAV_MISSION_UNSUPPORTED_FRAME),
+        (mav.MAV_CMD_DO_SET_HOME, mav.MAV_FRAME_GLOBAL_INT, math.nan, mav.MAV_MISSION_INVALID_PARAM7),
+        (mav.MAV_CMD_NAV_LOITER_TURNS, mav.MAV_FRAME_GLOBAL_INT, 1e9, mav.MAV_MISSION_INVALID_PARAM7),
+        (mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT, 5.0, mav.MAV_MISSION_ACCEPTED),
+        (mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_MISSION, 0.0, mav.MAV_MISSION_ACCEPTED),
+    ],
+)
+def test_every_place_is_checked_for_its_frame_and_altitude(command: int, frame: int, z: float, result: int) -> None:
+    assert validate_item(MissionItem(1, frame, command, x=129600000, y=776700000, z=z), 2) == result
+
+
+def test_the_logs_reached_event_names_the_item_current_after_it(tmp_path: Path) -> None:
+    def upload(links: Links) -> None:
+        store(places(links.home, (3.0, 0.0), (3.0, 3.0)))(links)
+
+    run_with({0.5: upload}, duration_s=30.0, record_to=tmp_path / "m.mcap")
+    with open(tmp_path / "m.mcap", "rb") as f:
+        events = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages(topics=["/leader/mission"])]
+    reached = [(e["index"], e["active"]) for e in events if e.get("event") == "reached"]
+    assert reached == [(0, 2), (1, 2)]
