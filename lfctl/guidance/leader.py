@@ -103,6 +103,16 @@ class LeaderAutopilot:
         """All waypoints reached."""
         return self.follower.done
 
+    def waiting(self, t_s: float) -> bool:
+        """Whether it is still waiting at a waypoint at ``t_s`` (its next step stands still).
+
+        Parameters
+        ----------
+        t_s : float
+            Now, s.
+        """
+        return t_s < self._hold_until
+
     def step(self, t_s: float, north_m: float, east_m: float, yaw_rad: float, dt_s: float) -> AutopilotOutput:
         """Commands for this guidance step: zero while waiting at a waypoint and once done.
 

@@ -1263,7 +1263,9 @@ class VehicleEndpoint:
             The item whose turn has come.
         """
         p = [item.param1, item.param2, item.param3, item.param4, float(item.x), float(item.y), item.z]
-        self._command(item.command, p, (item.x, item.y), item.frame)
+        # a mission's MISSION frame is above mean sea level, as AP_Mission reads a place in it
+        frame = mav.MAV_FRAME_GLOBAL if item.frame == mav.MAV_FRAME_MISSION else item.frame
+        self._command(item.command, p, (item.x, item.y), frame)
         self.item_done(item.seq)
 
     def rtl_destination(self, north_m: float, east_m: float) -> tuple[float, float]:

@@ -316,10 +316,12 @@ class Leg:
     #: is 0 here (its wait is known only when it begins: :func:`seconds_until_utc`)
     hold_s: float
     command: int = NAV_WAYPOINT  # the navigation command (:data:`FLOWN`)
-    #: the items between the navigation item before this one and this one (DO commands,
-    #: conditions, navigation a Rover skips), run in turn as the leg begins, as ArduPilot's
-    #: mission library runs them
+    #: the DO commands and conditions between the navigation item before this one and this
+    #: one that a Rover runs, in turn as the leg begins, as ArduPilot's mission library runs them
     before: tuple[MissionItem, ...] = ()
+    #: the DO_JUMPs' repeats left as this leg was reached in the walk, (item, left) for each
+    #: jump met so far: a mission resumed here goes on counting from them
+    jumps: tuple[tuple[int, int], ...] = ()
 
 
 def to_legs(
@@ -328,6 +330,7 @@ def to_legs(
     start_seq: int = 1,
     start: tuple[float, float] = (0.0, 0.0),
     return_to: Callable[[float, float], tuple[float, float]] | None = None,
+    jumps: tuple[tuple[int, int], ...] = (),
 ) -> list[Leg]:
     """Flatten a mission (from ``start_seq``) into legs, unrolling DO_JUMP.
 
@@ -352,8 +355,11 @@ def to_legs(
         Where RTL goes from a place, (north_m, east_m) -> (north_m, east_m): home or the
         nearest rally point (:meth:`~lfctl.link.endpoint.VehicleEndpoint.rtl_destination`);
         by default the local origin.
+    jumps : tuple of (int, int)
+        DO_JUMP repeats already used up, as a leg's :attr:`Leg.jumps` keeps them (a mission
+        resumed part-way through a loop); by default every jump starts afresh.
     """
-    return _walk(items, home, start_seq, start, return_to)[0]
+    return _walk(items, home, start_seq, start, return_to, jumps)[0]
 
 
 def mission_tail(items: list[MissionItem], start_seq: int = 1) -> tuple[MissionItem, ...]:
@@ -368,7 +374,7 @@ def mission_tail(items: list[MissionItem], start_seq: int = 1) -> tuple[MissionI
     start_seq : int
         The item to start from (the current item).
     """
-    return _walk(items, (0.0, 0.0, 0.0), start_seq, (0.0, 0.0), None)[1]
+    return _walk(items, (0.0, 0.0, 0.0), start_seq, (0.0, 0.0), None, ())[1]
 
 
 def _walk(
@@ -377,13 +383,18 @@ def _walk(
     start_seq: int,
     start: tuple[float, float],
     return_to: Callable[[float, float], tuple[float, float]] | None,
+    jumps: tuple[tuple[int, int], ...],
 ) -> tuple[list[Leg], tuple[MissionItem, ...]]:
-    """The legs, and the items left after the last (:func:`to_legs`, :func:`mission_tail`)."""
+    """The legs, and the items left after the last (:func:`to_legs`, :func:`mission_tail`).
+
+    Between two navigation items a Rover runs the first DO command it finds and the ones
+    straight after it: a navigation item it skips (a take-off, say) ends that run
+    (``AP_Mission::get_next_do_cmd`` stops at it), though not before the first is found."""
     legs: list[Leg] = []
     before: list[MissionItem] = []
-    blocked = False  # a navigation item a Rover skips stops the DO commands after it in its gap
+    blocked = False
     here = start
-    jumps_left: dict[int, int] = {}
+    jumps_left: dict[int, int] = dict(jumps)
     i = start_seq
     # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
     # at each other) add no legs: the walk is bounded too, not only the legs it yields
@@ -403,7 +414,7 @@ def _walk(
                 hold = max(0.0, it.param1)
             else:
                 hold = 0.0
-            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before)))
+            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items())))
             before, blocked = [], False
             if hold == math.inf:
                 return legs, ()
@@ -415,7 +426,7 @@ def _walk(
                     i = int(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:
-            blocked = True
+            blocked = bool(before)
         elif not blocked:
             before.append(it)
         i += 1

@@ -131,6 +131,7 @@ class VehicleDriver:
         self._condition: tuple[int, str, float] | None = None  # (item, "time" | "distance", until)
         self._holding: tuple[int, float] | None = None  # (leg, since when) waiting at its end
         self._tail: tuple[MissionItem, ...] = ()  # the items after the last navigation item
+        self._paused: tuple[object, ...] = ()  # the mission AUTO left part-way (its key), to resume
         self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
         self._distance = 0.0  # how far it is from the leg's end, m
         self._goto: LeaderAutopilot | None = None
@@ -170,7 +171,10 @@ class VehicleDriver:
     def _command(self, t_s: float, world: WorldState) -> tuple[float, float]:
         ep = self.endpoint
         if ep.mode != MODES["AUTO"]:
-            self._key = ()  # AUTO entered again restarts the item under way (Rover's resume)
+            # AUTO entered again restarts the item under way (Rover's resume), with the DO
+            # command that was running and the DO_JUMP counts as they were
+            self._paused = self._key or self._paused
+            self._key = ()
         if not ep.armed:
             return 0.0, 0.0
         if ep.mode == MODES["GUIDED"]:
@@ -219,11 +223,11 @@ class VehicleDriver:
             # a speed set on the way (a mission's or a ground station's DO_CHANGE_SPEED, RTL's
             # start, WP_SPEED): the latest wins, as Rover's one speed limit for its waypoints
             ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
+        if self._holding is not None and not ap.waiting(t_s):
+            self._finish(self._holding[0], t_s)  # its wait is over: the next item begins before it is reached
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         self._distance = out.los.distance_to_go_m
-        if self._holding is not None and self._holding[1] < t_s and (out.holding_s == 0.0 or out.los.reached):
-            self._finish(self._holding[0], t_s)  # its wait is over (and the next may have begun its own)
         for k in out.los.reached:
             self._arrive(k, t_s)
         if not ep.mission_complete:
@@ -237,9 +241,17 @@ class VehicleDriver:
         changed mission, a new current item, or AUTO entered again (Rover restarts the item
         under way, its wait and the DO commands with it)."""
         ep = self.endpoint
+        resume = self._paused == (ep.mission_version,) and bool(self._legs) and not ep.mission_complete
+        self._paused = ()
+        jumps: tuple[tuple[int, int], ...] = ()
+        pending: list[MissionItem] = []
+        if resume:
+            jumps = self._legs[self._leg].jumps
+            pending = [ep.mission[self._condition[0]]] if self._condition is not None else []
+            pending += self._queue
         self._key = (ep.mission_version,)
         start = max(1, ep.current_seq)
-        self._legs = to_legs(ep.mission, self.home, start, self._pos, ep.rtl_destination)
+        self._legs = to_legs(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
         self._tail = mission_tail(ep.mission, start)
         settings = dataclasses.replace(
             autopilot_settings(self.cfg), cruise_speed_mps=ep.speed_mps, acceptance_radius_m=ep.param("WP_RADIUS")
@@ -251,6 +263,9 @@ class VehicleDriver:
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
+            if pending:  # the DO command that was running starts again, and those behind it
+                self._queue = pending + self._queue
+                self._run_items(t_s)
         elif not ep.mission_complete:
             self._end_mission(t_s)
 

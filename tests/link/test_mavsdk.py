@@ -4,9 +4,10 @@ own ground software would use must work without changes."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Any
 
 import pytest
@@ -29,20 +30,30 @@ async def settled(read: Callable[[], Awaitable[Any]], wanted: Any, timeout_s: fl
     return got
 
 
-async def session(port: int, home: tuple[float, float, float]) -> dict:
+@contextlib.asynccontextmanager
+async def autopilot(port: int) -> AsyncIterator[Any]:
+    """MAVSDK as a ground station on ``udpout`` to ``port``, and the autopilot it finds there."""
     from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+
+    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    try:
+        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
+        system = await sdk.first_autopilot(timeout_s=15.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        yield system
+    finally:
+        sdk.destroy()
+
+
+async def session(port: int, home: tuple[float, float, float]) -> dict:
     from mavsdk.asyncio.plugins.action.action import ActionAsync
     from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
     from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
     from mavsdk.plugins.mission_raw import MissionItem
     from mavsdk.plugins.telemetry import FlightMode
 
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     out: dict = {}
-    try:
-        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(timeout_s=15.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    async with autopilot(port) as system:
         mission = MissionRawAsync(system)
         telemetry = TelemetryAsync(system)
         action = ActionAsync(system)
@@ -98,8 +109,6 @@ async def session(port: int, home: tuple[float, float, float]) -> dict:
         out["mode_after_pause"] = await settled(telemetry.flight_mode, FlightMode.HOLD)
         await action.disarm()
         out["armed_after"] = await settled(telemetry.armed, False)
-    finally:
-        sdk.destroy()
     return out
 
 
@@ -132,17 +141,12 @@ def test_mavsdk_uploads_starts_watches_pauses_and_disarms(truth_convoy, backgrou
 async def plan_ending_in_return(port: int, home: tuple[float, float, float], plan: str) -> dict:
     """A QGroundControl plan ending in Return, imported by MAVSDK, uploaded and flown until
     MAVSDK says the mission is finished."""
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action.action import ActionAsync
     from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
     from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
 
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     out: dict = {}
-    try:
-        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(timeout_s=15.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    async with autopilot(port) as system:
         mission, telemetry, action = MissionRawAsync(system), TelemetryAsync(system), ActionAsync(system)
         imported = await mission.import_qgroundcontrol_mission_from_string(plan)
         items = list(imported.mission_items)
@@ -161,8 +165,6 @@ async def plan_ending_in_return(port: int, home: tuple[float, float, float], pla
             (pos.latitude_deg - home[0]) * 111_319.5,
             (pos.longitude_deg - home[1]) * 111_319.5 * math.cos(math.radians(home[0])),
         )
-    finally:
-        sdk.destroy()
     return out
 
 
@@ -195,7 +197,6 @@ def test_mavsdk_flies_a_qgroundcontrol_plan_ending_in_return_to_its_end(truth_co
 
 
 async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> dict:
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action.action import ActionAsync
     from mavsdk.asyncio.plugins.mission_raw.mission_raw import MissionRawAsync
     from mavsdk.asyncio.plugins.param.param import ParamAsync
@@ -213,12 +214,8 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
             param3=0.0, param4=0.0, x=int(round(lat * 1e7)), y=int(round(lon * 1e7)), z=0.0, mission_type=mission_type,
         )  # fmt: skip
 
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     out: dict = {}
-    try:
-        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(timeout_s=15.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    async with autopilot(port) as system:
         mission, telemetry, action = MissionRawAsync(system), TelemetryAsync(system), ActionAsync(system)
         params = ParamAsync(system)
         # ArduPilot's AP_Int8 parameters are INT8 on the wire: get_param_int refused a REAL32
@@ -252,8 +249,6 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
         out["mode_goto"] = await telemetry.flight_mode()
         await action.return_to_launch()
         out["mode_rtl"] = await settled(telemetry.flight_mode, FlightMode.RETURN_TO_LAUNCH)
-    finally:
-        sdk.destroy()
     return out
 
 
@@ -278,7 +273,6 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
     """MAVSDK's ManualControl (MANUAL_CONTROL from system 245) driving the leader in MANUAL."""
     import json
 
-    from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
     from mavsdk.asyncio.plugins.action.action import ActionAsync
     from mavsdk.asyncio.plugins.manual_control.manual_control import ManualControlAsync
     from mavsdk.asyncio.plugins.mavlink_direct.mavlink_direct import MavlinkDirectAsync
@@ -288,7 +282,6 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
 
     from lfctl.sim.driver import speed_max
 
-    sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     out: dict = {}
 
     async def sticks(z: float, seconds: float) -> None:  # MAVSDK's z 0..1 is MANUAL_CONTROL's 0..1000
@@ -296,10 +289,7 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
             await manual.set_manual_control_input(0.0, 0.0, z, 0.0)
             await asyncio.sleep(0.1)
 
-    try:
-        await sdk.add_any_connection(f"udpout://127.0.0.1:{port}")
-        system = await sdk.first_autopilot(timeout_s=15.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    async with autopilot(port) as system:
         manual, params, action = ManualControlAsync(system), ParamAsync(system), ActionAsync(system)
         telemetry, direct = TelemetryAsync(system), MavlinkDirectAsync(system)
         # rates a script sets: the battery's is accepted (a Rover without a battery monitor),
@@ -331,8 +321,6 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
             if abs(out["speed"] - out["expected"]) < 0.02:
                 break
         out["mode"] = await telemetry.flight_mode()
-    finally:
-        sdk.destroy()
     return out
 
 

@@ -409,3 +409,80 @@ def test_the_logs_reached_event_names_the_item_current_after_it(tmp_path: Path) 
         events = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages(topics=["/leader/mission"])]
     reached = [(e["index"], e["active"]) for e in events if e.get("event") == "reached"]
     assert reached == [(0, 2), (1, 2)]
+
+
+# -- and what a second review found ---------------------------------------------------------------
+def test_the_do_commands_after_a_skipped_take_off_run_when_none_came_before_it() -> None:
+    # AP_Mission's search passes the take-off it cannot start and starts the first DO command
+    # it meets; get_next_do_cmd stops only the DO commands after one that is already running
+    def upload(links: Links) -> None:
+        store(
+            item(mav.MAV_CMD_NAV_TAKEOFF), item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2), places(links.home, (4.0, 0.0))
+        )(links)
+
+    rep, _links = run_with({0.5: upload}, duration_s=20.0)
+    assert speed_between(rep, 8.0, 18.0) == pytest.approx(0.2, abs=0.02)
+    items = [
+        *local_mission([(1.0, 0.0)], HOME),
+        MissionItem(2, 0, mav.MAV_CMD_DO_SET_SERVO),
+        MissionItem(3, 0, mav.MAV_CMD_NAV_LAND),
+        MissionItem(4, 0, mav.MAV_CMD_DO_SET_RELAY),
+        MissionItem(5, 0, mav.MAV_CMD_NAV_TAKEOFF),
+        MissionItem(6, 0, mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+        *[dataclasses.replace(it, seq=7) for it in local_mission([(2.0, 0.0)], HOME)[1:]],
+    ]
+    assert [it.seq for it in to_legs(items, HOME)[1].before] == [2]
+    assert [it.seq for it in to_legs(items[:2] + items[4:], HOME)[1].before] == [4]  # not the speed after
+    skipped_first = [items[0], items[1], MissionItem(2, 0, mav.MAV_CMD_NAV_LAND), *items[3:]]
+    assert [it.seq for it in to_legs(skipped_first, HOME)[1].before] == [4]
+
+
+def test_a_time_of_day_wait_after_a_waypoints_wait_begins_before_it_is_reached() -> None:
+    noon = datetime(2026, 12, 4, 12, 0, 0, tzinfo=UTC).timestamp()
+
+    def upload(links: Links) -> None:
+        links.endpoints[0].epoch_us = int(noon * 1e6)  # the run's t = 0 is 12:00:00 UTC
+        store(
+            places(links.home, (4.0, 0.0, 2.0)),
+            item(mav.MAV_CMD_NAV_DELAY, -1.0, 12.0, 0.0, 30.0),  # until 12:00:30
+            places(links.home, (4.0, 6.0)),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0)
+    assert any(s.startswith("Delaying 1") for s in texts(links))  # 18-19 s from the wait's end
+    assert math.hypot(*(leader_at(rep, 29.0) - np.array([4.0, 0.0]))) <= 0.6  # still there at 29 s
+    assert dict(rep.waypoints_reached)[2] > 30.0
+
+
+def test_auto_entered_again_restarts_a_pending_condition_and_keeps_the_jump_counts() -> None:
+    def with_condition(links: Links) -> None:
+        store(
+            places(links.home, (4.0, 0.0)),
+            item(mav.MAV_CMD_CONDITION_DELAY, 8.0),
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            places(links.home, (4.0, 14.0)),
+        )(links)
+
+    rep, _links = run_with({0.5: with_condition, 12.0: mode("HOLD"), 13.0: mode("AUTO")}, duration_s=40.0)
+    assert speed_between(rep, 25.0, 35.0) == pytest.approx(0.2, abs=0.02)  # 8 s from 13 s, then slower
+
+    def with_jump(links: Links) -> None:
+        store(
+            places(links.home, (3.0, 0.0), (3.0, 3.0)),
+            item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
+            places(links.home, (0.0, 0.0)),
+        )(links)
+
+    rep, _links = run_with({0.5: with_jump, 30.0: mode("HOLD"), 31.0: mode("AUTO")}, duration_s=70.0)
+    assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 2, 4]
+
+
+def test_do_set_home_in_the_mission_frame_is_above_mean_sea_level() -> None:
+    def upload(links: Links) -> None:
+        spot = places(links.home, (4.0, 0.0))[0]
+        home_item = MissionItem(0, mav.MAV_FRAME_MISSION, mav.MAV_CMD_DO_SET_HOME, 0.0, x=spot.x, y=spot.y, z=905.0)
+        store(places(links.home, (2.0, 0.0)), home_item, item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=30.0)
+    assert "Set HOME to 12.960236 77.669000 at 905.00m" in texts(links)
+    assert math.hypot(*(leader_at(rep, 30.0) - np.array([4.0, 0.0]))) <= 0.6
