@@ -598,24 +598,55 @@ def _load_plan(p: Path, text: str) -> list[MissionItem]:
         where = f"{p}: mission.items[{k}]"
         if not isinstance(it, dict):
             raise ConfigError(f"{where} must be an object, got {type(it).__name__}")
-        if it.get("type") != "SimpleItem":
-            raise ConfigError(f"{where}: item type {str(it.get('type'))[:40]!r} is not supported (only SimpleItem)")
-        prm = it.get("params", [0] * 7)
-        if not (isinstance(prm, list) and len(prm) == 7 and all(v is None or _is_number(v) for v in prm)):
-            raise ConfigError(f"{where}.params must be 7 numbers (null for unset), got {str(prm)[:60]}")
-        values = [0.0 if v is None else float(v) for v in prm]  # QGroundControl's null: unused
-        command, frame, auto = it.get("command"), it.get("frame", 3), it.get("autoContinue", True)
-        if not _is_int(command):
-            raise ConfigError(f"{where}.command must be a whole number, got {str(command)[:40]}")
-        if not _is_int(frame):
-            raise ConfigError(f"{where}.frame must be a whole number, got {str(frame)[:40]}")
-        if not isinstance(auto, bool):
-            raise ConfigError(f"{where}.autoContinue must be true or false, got {str(auto)[:40]}")
-        frame = {3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0: mav.MAV_FRAME_GLOBAL_INT, 2: mav.MAV_FRAME_MISSION}.get(
-            frame, frame
-        )
-        items.append(_item(where, len(items), frame, command, values[:4], *values[4:], int(auto)))
+        if it.get("type") == "ComplexItem":
+            for j, inner in enumerate(_complex_items(where, it)):
+                items.append(_simple_item(f"{where}.TransectStyleComplexItem.Items[{j}]", inner, len(items)))
+        elif it.get("type") == "SimpleItem":
+            items.append(_simple_item(where, it, len(items)))
+        else:
+            raise ConfigError(f"{where}: item type {str(it.get('type'))[:40]!r} is not SimpleItem or ComplexItem")
+        if len(items) > MAX_FILE_ITEMS:
+            raise ConfigError(
+                f"{p}: over {MAX_FILE_ITEMS} items; a mission holds at most {MAX_FILE_ITEMS} (home included)"
+            )
     return items
+
+
+def _complex_items(where: str, it: dict) -> list[object]:
+    """The mission items a QGroundControl complex item (a survey, a corridor scan) carries
+    in its file: QGroundControl saves the items it made of a transect-style one under
+    ``TransectStyleComplexItem.Items``; the others (a structure scan, a landing pattern) it
+    makes again when it loads them, from geometry lfctl does not rebuild."""
+    kind = str(it.get("complexItemType"))[:40]
+    inner = it.get("TransectStyleComplexItem")
+    made = inner.get("Items") if isinstance(inner, dict) else None
+    if not isinstance(made, list):
+        raise ConfigError(
+            f"{where}: complex item {kind!r} carries no mission items in the file (QGroundControl makes them "
+            "when it loads it): upload it from QGroundControl, or save the mission from there as .waypoints"
+        )
+    return made
+
+
+def _simple_item(where: str, it: object, seq: int) -> MissionItem:
+    """One SimpleItem of a .plan (as QGroundControl's MissionItem::save writes it) as item ``seq``."""
+    if not isinstance(it, dict):
+        raise ConfigError(f"{where} must be an object, got {type(it).__name__}")
+    prm = it.get("params", [0] * 7)
+    if not (isinstance(prm, list) and len(prm) == 7 and all(v is None or _is_number(v) for v in prm)):
+        raise ConfigError(f"{where}.params must be 7 numbers (null for unset), got {str(prm)[:60]}")
+    values = [0.0 if v is None else float(v) for v in prm]  # QGroundControl's null: unused
+    command, frame, auto = it.get("command"), it.get("frame", 3), it.get("autoContinue", True)
+    if not _is_int(command):
+        raise ConfigError(f"{where}.command must be a whole number, got {str(command)[:40]}")
+    if not _is_int(frame):
+        raise ConfigError(f"{where}.frame must be a whole number, got {str(frame)[:40]}")
+    if not isinstance(auto, bool):
+        raise ConfigError(f"{where}.autoContinue must be true or false, got {str(auto)[:40]}")
+    frame = {3: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 0: mav.MAV_FRAME_GLOBAL_INT, 2: mav.MAV_FRAME_MISSION}.get(
+        frame, frame
+    )
+    return _item(where, seq, frame, command, values[:4], *values[4:], int(auto))
 
 
 def _is_number(v: object) -> bool:

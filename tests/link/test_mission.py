@@ -1,7 +1,11 @@
 """Missions flattened into the leader's legs: DO_JUMP unrolled, DO commands queued with the
-leg they begin with, starting from the current item; jump loops with no waypoint in them end."""
+leg they begin with, starting from the current item; jump loops with no waypoint in them end.
+QGroundControl plans with a survey read as the items QGroundControl saved with it."""
 
 from __future__ import annotations
+
+import re
+from pathlib import Path
 
 import pytest
 
@@ -71,3 +75,83 @@ def test_jump_loops_without_a_waypoint_end(jumps: list[tuple[int, float, float]]
     items += local_mission([(2.0, 0.0)], HOME)[1:]
     legs = to_legs(renumbered(items), HOME)  # returns: it used to spin for ever
     assert [leg.seq for leg in legs] == [1]
+
+
+def qgc_item(command: int, params: list[float | None], frame: int = 3) -> dict:
+    """One item as QGroundControl's MissionItem::save writes it."""
+    return {
+        "autoContinue": True,
+        "command": command,
+        "doJumpId": 0,
+        "frame": frame,
+        "params": params,
+        "type": "SimpleItem",
+    }
+
+
+def survey_plan(tmp_path: Path, complex_item: dict) -> Path:
+    import json
+
+    wp = qgc_item(16, [0, 0, 0, None, 12.9603, 77.6691, 0])
+    plan = {
+        "fileType": "Plan",
+        "groundStation": "QGroundControl",
+        "version": 1,
+        "mission": {
+            "version": 2,
+            "firmwareType": 3,
+            "vehicleType": 10,
+            "plannedHomePosition": [12.9602, 77.669, 900],
+            "items": [wp, complex_item, qgc_item(20, [0, 0, 0, 0, 0, 0, 0], frame=2)],
+        },
+    }
+    path = tmp_path / "survey.plan"
+    path.write_text(json.dumps(plan))
+    return path
+
+
+def test_a_qgroundcontrol_survey_is_loaded_as_the_items_it_carries(tmp_path: Path) -> None:
+    # QGroundControl saves a transect-style complex item (survey, corridor scan) with the
+    # mission items it made of it: they follow the item before, numbered on
+    from lfctl.link.mission import load_mission
+
+    made = [
+        qgc_item(16, [0, 0, 0, None, 12.9604, 77.6692, 0]),
+        qgc_item(206, [2.5, 0, 1, 0, 0, 0, 0], frame=2),  # the camera, every 2.5 m
+        qgc_item(16, [0, 0, 0, None, 12.9606, 77.6692, 0]),
+        qgc_item(16, [0, 0, 0, None, 12.9606, 77.6694, 0]),
+        qgc_item(206, [0, 0, 1, 0, 0, 0, 0], frame=2),
+    ]
+    survey = {
+        "type": "ComplexItem",
+        "complexItemType": "survey",
+        "version": 5,
+        "TransectStyleComplexItem": {"version": 1, "Items": made, "CameraCalc": {}, "VisualTransectPoints": []},
+    }
+    items = load_mission(survey_plan(tmp_path, survey))
+    assert [(it.seq, it.command) for it in items] == [
+        (0, 16), (1, 16), (2, 16), (3, 206), (4, 16), (5, 16), (6, 206), (7, 20),
+    ]  # fmt: skip
+    assert items[3].param1 == 2.5 and items[4].lat_deg == pytest.approx(12.9606)
+
+
+@pytest.mark.parametrize(
+    ("complex_item", "named"),
+    [
+        (
+            {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3},
+            "'StructureScan' carries no mission",
+        ),
+        (
+            {"type": "ComplexItem", "complexItemType": "survey", "TransectStyleComplexItem": {"Items": [3]}},
+            "TransectStyleComplexItem.Items[0] must be an object",
+        ),
+        ({"type": "Waypoint"}, "'Waypoint' is not SimpleItem or ComplexItem"),
+    ],
+)
+def test_a_complex_item_lfctl_cannot_read_is_named(tmp_path: Path, complex_item: dict, named: str) -> None:
+    from lfctl.errors import ConfigError
+    from lfctl.link.mission import load_mission
+
+    with pytest.raises(ConfigError, match=re.escape(named)):
+        load_mission(survey_plan(tmp_path, complex_item))
