@@ -33,10 +33,13 @@ def register(sub: Any) -> None:
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     gu = gsub.add_parser(
         "upload",
-        help="upload a mission (QGC WPL 110 .waypoints/.txt or .plan; or a shipped one by name: square.waypoints)",
+        help="upload a mission (QGC WPL 110 .waypoints/.txt, or a QGroundControl .plan with its fence and rally "
+        "points; or a shipped one by name: square.waypoints)",
     )
     gu.add_argument("file", type=Path)
-    gd = gsub.add_parser("download", help="download the mission (print it, or save to FILE)")
+    gd = gsub.add_parser(
+        "download", help="download the mission (print it, or save to FILE; a .plan gets the fence and rally points too)"
+    )
     gd.add_argument("file", type=Path, nargs="?")
     gsub.add_parser("clear", help="clear the mission")
     gm = gsub.add_parser("mode", help="set the mode: MANUAL, HOLD, AUTO, GUIDED")
@@ -68,24 +71,38 @@ def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
     from lfctl.data import resolve_mission
     from lfctl.link.gcs import GroundStation, result_name
-    from lfctl.link.mission import command_name, load_mission, save_mission
+    from lfctl.link.mission import command_name, load_mission_file, save_mission
+    from lfctl.link.mission_server import FENCE, RALLY
     from lfctl.link.params import load_param_file
     from lfctl.link.signing import signing_key_from_passphrase
 
     # files are read before connecting: a bad one is named as such, not as a silent vehicle
-    items = load_mission(resolve_mission(args.file)) if args.action == "upload" else None
+    plan = load_mission_file(resolve_mission(args.file)) if args.action == "upload" else None
     wanted = load_param_file(args.file) if args.action == "param" and args.param_action == "load" else None
     key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         gcs.wait_heartbeat()
         action = args.action
-        if items is not None:  # upload
-            gcs.upload(items)
-            print(f"uploaded {counted(len(items) - 1, 'item')} (+ home) to system {args.target}")
+        if plan is not None:  # upload
+            gcs.upload(plan.mission)
+            said = f"uploaded {counted(len(plan.mission) - 1, 'item')} (+ home)"
+            if plan.plan:  # a plan's three lists go together, as QGroundControl uploads them
+                gcs.upload(plan.fence, mission_type=FENCE)
+                gcs.upload(plan.rally, mission_type=RALLY)
+                said += f", a fence of {counted(len(plan.fence), 'item')} and {counted(len(plan.rally), 'rally point')}"
+            print(f"{said} to system {args.target}")
         elif action == "download":
             items = gcs.download()
-            if args.file:
+            if args.file and Path(args.file).suffix == ".plan":
+                fence = gcs.download(mission_type=FENCE)
+                rally = gcs.download(mission_type=RALLY)
+                save_mission(items, args.file, fence, rally)
+                print(
+                    f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home), a fence of "
+                    f"{counted(len(fence), 'item')} and {counted(len(rally), 'rally point')} to {args.file}"
+                )
+            elif args.file:
                 save_mission(items, args.file)
                 print(f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home) to {args.file}")
             elif not items:

@@ -16,7 +16,14 @@ from dataclasses import dataclass, field
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.frames import geodetic_to_ned
-from lfctl.link.mission import MissionItem
+from lfctl.link.mission import (
+    CIRCLE_EXCLUSION,
+    CIRCLE_INCLUSION,
+    POLYGON_EXCLUSION,
+    POLYGON_INCLUSION,
+    RALLY_POINT,
+    MissionItem,
+)
 
 __all__ = [
     "FENCE_COMMANDS",
@@ -28,13 +35,9 @@ __all__ = [
     "validate_fence",
 ]
 
-POLY_INCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION  # 5001
-POLY_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
-CIRCLE_INCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION  # 5003
-CIRCLE_EXCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION  # 5004
 RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT  # 5000
-FENCE_COMMANDS = {POLY_INCLUSION, POLY_EXCLUSION, CIRCLE_INCLUSION, CIRCLE_EXCLUSION, RETURN_POINT}
-RALLY_COMMANDS = {mav.MAV_CMD_NAV_RALLY_POINT}
+FENCE_COMMANDS = {POLYGON_INCLUSION, POLYGON_EXCLUSION, CIRCLE_INCLUSION, CIRCLE_EXCLUSION, RETURN_POINT}
+RALLY_COMMANDS = {RALLY_POINT}
 #: FENCE_TYPE bits a rover uses
 FENCE_TYPE_CIRCLE = 2
 FENCE_TYPE_POLYGON = 4
@@ -67,7 +70,7 @@ def validate_fence(items: list[MissionItem]) -> tuple[int, int] | None:
             return i, mav.MAV_MISSION_INVALID_PARAM5_X
         if not (-180.0 <= it.lon_deg <= 180.0):
             return i, mav.MAV_MISSION_INVALID_PARAM6_Y
-        if it.command in (POLY_INCLUSION, POLY_EXCLUSION):
+        if it.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION):
             if not (math.isfinite(it.param1) and 3 <= it.param1 <= MAX_VERTICES and it.param1 == int(it.param1)):
                 return i, mav.MAV_MISSION_INVALID_PARAM1
             count = int(it.param1)
@@ -133,10 +136,10 @@ class Fence:
         i = 0
         while i < len(items):
             it = items[i]
-            if it.command in (POLY_INCLUSION, POLY_EXCLUSION):
+            if it.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION):
                 count = int(it.param1)
                 poly = [_local(r, home) for r in items[i : i + count]]
-                (f.inclusion_polygons if it.command == POLY_INCLUSION else f.exclusion_polygons).append(poly)
+                (f.inclusion_polygons if it.command == POLYGON_INCLUSION else f.exclusion_polygons).append(poly)
                 i += count
                 continue
             if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):

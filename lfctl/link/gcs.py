@@ -261,8 +261,15 @@ class GroundStation:
         return out
 
     # -- missions --------------------------------------------------------------------------------
-    def upload(self, items: list[MissionItem], item_timeout_s: float = 1.0, restarts: int = 5) -> None:
-        """Mission upload; MissionProtocolError names the item and result if refused.
+    def upload(
+        self,
+        items: list[MissionItem],
+        item_timeout_s: float = 1.0,
+        restarts: int = 5,
+        mission_type: int = mav.MAV_MISSION_TYPE_MISSION,
+    ) -> None:
+        """Mission (or fence, or rally) upload; MissionProtocolError names the item and
+        result if refused; no items clear the list.
 
         The vehicle drives the transfer (it re-requests a lost item); when the vehicle falls
         silent (our MISSION_COUNT or its final MISSION_ACK lost) the upload starts again.
@@ -275,6 +282,8 @@ class GroundStation:
             The vehicle is taken as silent after three times this with no request, s.
         restarts : int
             How many times the upload may start again from MISSION_COUNT.
+        mission_type : int
+            MAV_MISSION_TYPE: the mission (item 0 = home), the fence or the rally points.
 
         Raises
         ------
@@ -284,44 +293,49 @@ class GroundStation:
             It stayed silent through every restart.
         """
         for _attempt in range(restarts + 1):
-            self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mav.MAV_MISSION_TYPE_MISSION))
+            self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
             while True:
                 try:
                     m = self.wait(
-                        ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"), timeout_s=item_timeout_s * 3
+                        ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
+                        timeout_s=item_timeout_s * 3,
+                        where=lambda m: m.mission_type == mission_type,
                     )
                 except LinkTimeoutError:
                     break  # restart from MISSION_COUNT
                 if m.get_type() == "MISSION_ACK":
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
-                        raise MissionProtocolError(f"mission refused by system {self.target}: {result}", result=result)
+                        what = MISSION_TYPE_NAMES.get(mission_type, "list")
+                        raise MissionProtocolError(f"{what} refused by system {self.target}: {result}", result=result)
                     return
                 if not 0 <= m.seq < len(items):
                     raise MissionProtocolError(
                         f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})",
                         received_seq=m.seq,
                     )
-                self._send_item(items[m.seq])
+                self._send_item(items[m.seq], mission_type)
         raise LinkTimeoutError(
             "answer to the mission upload", sysid=self.target, detail=f"{restarts + 1} attempts from MISSION_COUNT"
         )
 
-    def _send_item(self, it: MissionItem) -> None:
+    def _send_item(self, it: MissionItem, mission_type: int) -> None:
         self.send(
             mav.MAVLink_mission_item_int_message(
                 self.target, 1, it.seq, it.frame, it.command, 0, it.autocontinue,
-                it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mav.MAV_MISSION_TYPE_MISSION,
+                it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z, mission_type,
             )
         )  # fmt: skip
 
-    def download(self, retries: int = 5) -> list[MissionItem]:
-        """Mission download, re-requesting what is lost; item 0 = home.
+    def download(self, retries: int = 5, mission_type: int = mav.MAV_MISSION_TYPE_MISSION) -> list[MissionItem]:
+        """Mission (or fence, or rally) download, re-requesting what is lost; a mission's item 0 = home.
 
         Parameters
         ----------
         retries : int
             Requests for the count and for each item, sharing :attr:`timeout_s`.
+        mission_type : int
+            MAV_MISSION_TYPE: the mission, the fence or the rally points.
 
         Raises
         ------
@@ -332,9 +346,15 @@ class GroundStation:
         """
         count = None
         for _ in range(retries):
-            self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
+            self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mission_type))
             try:
-                count = int(self.wait(("MISSION_COUNT",), timeout_s=self.timeout_s / retries).count)
+                count = int(
+                    self.wait(
+                        ("MISSION_COUNT",),
+                        timeout_s=self.timeout_s / retries,
+                        where=lambda m: m.mission_type == mission_type,
+                    ).count
+                )
                 break
             except LinkTimeoutError:
                 continue
@@ -346,10 +366,12 @@ class GroundStation:
         while len(items) < count:
             seq = len(items)
             for _ in range(retries):
-                self.send(mav.MAVLink_mission_request_int_message(self.target, 1, seq, mav.MAV_MISSION_TYPE_MISSION))
+                self.send(mav.MAVLink_mission_request_int_message(self.target, 1, seq, mission_type))
                 try:
                     m = self.wait(
-                        ("MISSION_ITEM_INT",), timeout_s=self.timeout_s / retries, where=lambda m, s=seq: m.seq == s
+                        ("MISSION_ITEM_INT",),
+                        timeout_s=self.timeout_s / retries,
+                        where=lambda m, s=seq: m.seq == s and m.mission_type == mission_type,
                     )
                     break
                 except LinkTimeoutError:
@@ -364,9 +386,7 @@ class GroundStation:
                     m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z, m.autocontinue
                 )
             )
-        self.send(
-            mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_MISSION)
-        )
+        self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_ACCEPTED, mission_type))
         return items
 
     def clear(self) -> None:
@@ -380,6 +400,14 @@ class GroundStation:
     def close(self) -> None:
         """Close the connection."""
         self.port.close()
+
+
+#: what each MAV_MISSION_TYPE is called in a message
+MISSION_TYPE_NAMES = {
+    mav.MAV_MISSION_TYPE_MISSION: "mission",
+    mav.MAV_MISSION_TYPE_FENCE: "fence",
+    mav.MAV_MISSION_TYPE_RALLY: "rally points",
+}
 
 
 def _pid(m: Any) -> str:

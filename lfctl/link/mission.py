@@ -17,6 +17,8 @@ from lfctl.frames import geodetic_to_ned
 
 __all__ = [
     "ACTED_ON",
+    "CIRCLE_EXCLUSION",
+    "CIRCLE_INCLUSION",
     "CONDITION_DELAY",
     "CONDITION_DISTANCE",
     "DO_CHANGE_SPEED",
@@ -36,17 +38,22 @@ __all__ = [
     "NAV_WAYPOINT",
     "NOTHING_FITTED",
     "PLACES",
+    "POLYGON_EXCLUSION",
+    "POLYGON_INCLUSION",
+    "RALLY_POINT",
     "SKIPPED",
     "SKIPPED_NAV",
     "SKIPPED_SAID",
     "STORES_LOCATION",
     "SUPPORTED",
     "Leg",
+    "MissionFile",
     "MissionItem",
     "command_name",
     "home_item",
     "is_nav",
     "load_mission",
+    "load_mission_file",
     "local_mission",
     "mission_tail",
     "nav_count",
@@ -130,6 +137,11 @@ STORES_LOCATION = frozenset(
         "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
     )
 )  # fmt: skip
+POLYGON_INCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION  # 5001
+POLYGON_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
+CIRCLE_INCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION  # 5003
+CIRCLE_EXCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION  # 5004
+RALLY_POINT = mav.MAV_CMD_NAV_RALLY_POINT  # 5100
 #: the frames a place may be given in (AP_Mission::mavlink_int_to_mission_cmd: above mean sea
 #: level, home or the terrain; a rover's waypoints are flown on the ground whatever the frame)
 NAV_FRAMES = {
@@ -496,8 +508,43 @@ def local_mission(waypoints: list[tuple[float, ...]], home: tuple[float, float, 
 # -- files ----------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class MissionFile:
+    """What a mission file holds.
+
+    Parameters
+    ----------
+    mission : list of MissionItem
+        The mission, item 0 = home.
+    fence : list of MissionItem
+        A plan's geofence as FENCE items (none from a WPL file).
+    rally : list of MissionItem
+        A plan's rally points as RALLY items (none from a WPL file).
+    plan : bool
+        The file is a QGroundControl plan, whose three lists go together.
+    """
+
+    mission: list[MissionItem]
+    fence: list[MissionItem]
+    rally: list[MissionItem]
+    plan: bool
+
+
 def load_mission(path: str | Path) -> list[MissionItem]:
-    """Read a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file; item 0 = home.
+    """The mission of a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file, item 0 =
+    home (:func:`load_mission_file` reads a plan's geofence and rally points too).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, as :func:`load_mission_file` takes it (ConfigError when it cannot be read).
+    """
+    return load_mission_file(path).mission
+
+
+def load_mission_file(path: str | Path) -> MissionFile:
+    """Read a mission file: QGC WPL 110 (the mission) or a QGroundControl .plan (the mission,
+    its geofence's polygons and circles as FENCE items, its rally points as RALLY items).
 
     Parameters
     ----------
@@ -507,14 +554,17 @@ def load_mission(path: str | Path) -> list[MissionItem]:
     Raises
     ------
     ConfigError
-        Unreadable file, or not one of the two formats (the message names the line).
+        Unreadable file, or not one of the two formats (the message names the line or key).
     """
     p = Path(path)
     text = read_text_file(p, "mission", MAX_FILE_BYTES)
-    items = _load_plan(p, text) if p.suffix == ".plan" or text.lstrip().startswith("{") else _load_wpl(p, text)
-    if len(items) > MAX_FILE_ITEMS:
-        raise ConfigError(f"{p}: {len(items)} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
-    return items
+    if p.suffix == ".plan" or text.lstrip().startswith("{"):
+        found = MissionFile(*_load_plan(p, text), plan=True)
+    else:
+        found = MissionFile(_load_wpl(p, text), [], [], plan=False)
+    if len(found.mission) > MAX_FILE_ITEMS:
+        raise ConfigError(f"{p}: {len(found.mission)} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
+    return found
 
 
 def _item(
@@ -578,7 +628,7 @@ def _load_wpl(p: Path, text: str) -> list[MissionItem]:
     return items
 
 
-def _load_plan(p: Path, text: str) -> list[MissionItem]:
+def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem], list[MissionItem]]:
     try:
         plan = json.loads(text)
     except (json.JSONDecodeError, RecursionError) as exc:
@@ -609,7 +659,96 @@ def _load_plan(p: Path, text: str) -> list[MissionItem]:
             raise ConfigError(
                 f"{p}: over {MAX_FILE_ITEMS} items; a mission holds at most {MAX_FILE_ITEMS} (home included)"
             )
-    return items
+    return items, _plan_fence(p, plan.get("geoFence")), _plan_rally(p, plan.get("rallyPoints"))
+
+
+def _latlon(where: str, value: object) -> tuple[float, float]:
+    if not (isinstance(value, list) and len(value) >= 2 and all(_is_number(v) for v in value[:2])):
+        raise ConfigError(f"{where} must be [latitude, longitude], got {str(value)[:60]}")
+    return float(value[0]), float(value[1])
+
+
+def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
+    """A plan's ``geoFence`` as FENCE items: each polygon's vertices (their count in param1),
+    then each circle (its radius in param1), inclusion or exclusion as QGroundControl sends
+    them; none when the plan has no ``geoFence``."""
+    if fence is None:
+        return []
+    if not isinstance(fence, dict):
+        raise ConfigError(f"{p}: geoFence must be an object, got {type(fence).__name__}")
+    polygons, circles = fence.get("polygons", []), fence.get("circles", [])
+    if not isinstance(polygons, list) or not isinstance(circles, list):
+        raise ConfigError(f"{p}: geoFence.polygons and geoFence.circles must be lists")
+    out: list[MissionItem] = []
+    for k, poly in enumerate(polygons):
+        where = f"{p}: geoFence.polygons[{k}]"
+        vertices = poly.get("polygon") if isinstance(poly, dict) else None
+        inclusion = poly.get("inclusion", True) if isinstance(poly, dict) else None
+        if not isinstance(vertices, list) or not isinstance(inclusion, bool):
+            raise ConfigError(f"{where} must be {{'inclusion': true or false, 'polygon': [[lat, lon], ...]}}")
+        cmd = POLYGON_INCLUSION if inclusion else POLYGON_EXCLUSION
+        for j, vertex in enumerate(vertices):
+            lat, lon = _latlon(f"{where}.polygon[{j}]", vertex)
+            out.append(_item(where, len(out), mav.MAV_FRAME_GLOBAL, cmd, [len(vertices), 0, 0, 0], lat, lon, 0.0, 1))
+    for k, circle in enumerate(circles):
+        where = f"{p}: geoFence.circles[{k}]"
+        inner = circle.get("circle") if isinstance(circle, dict) else None
+        radius = inner.get("radius") if isinstance(inner, dict) else None
+        inclusion = circle.get("inclusion", True) if isinstance(circle, dict) else None
+        if not _is_number(radius) or not isinstance(inclusion, bool):
+            raise ConfigError(
+                f"{where} must be {{'inclusion': true or false, 'circle': {{'center': [lat, lon], 'radius': m}}}}"
+            )
+        lat, lon = _latlon(f"{where}.circle.center", inner.get("center"))  # type: ignore[union-attr]
+        cmd = CIRCLE_INCLUSION if inclusion else CIRCLE_EXCLUSION
+        out.append(_item(where, len(out), mav.MAV_FRAME_GLOBAL, cmd, [float(radius), 0, 0, 0], lat, lon, 0.0, 1))
+    return out
+
+
+def _plan_rally(p: Path, rally: object) -> list[MissionItem]:
+    """A plan's ``rallyPoints`` as RALLY items (latitude, longitude, altitude above home)."""
+    if rally is None:
+        return []
+    points = rally.get("points", []) if isinstance(rally, dict) else None
+    if not isinstance(points, list):
+        raise ConfigError(f"{p}: rallyPoints must be {{'points': [[lat, lon, alt], ...]}}")
+    out: list[MissionItem] = []
+    for k, point in enumerate(points):
+        where = f"{p}: rallyPoints.points[{k}]"
+        if not (isinstance(point, list) and len(point) == 3 and all(_is_number(v) for v in point)):
+            raise ConfigError(f"{where} must be [latitude, longitude, altitude], got {str(point)[:60]}")
+        out.append(_item(where, k, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, RALLY_POINT, [0.0] * 4, *point, 1))
+    return out
+
+
+def _plan_geofence(fence: list[MissionItem]) -> dict:
+    """FENCE items as a plan's ``geoFence`` (runs of polygon vertices, circles)."""
+    polygons: list[dict] = []
+    circles: list[dict] = []
+    k = 0
+    while k < len(fence):
+        it = fence[k]
+        if it.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION):
+            run = fence[k : k + max(1, int(it.param1))]
+            polygons.append(
+                {
+                    "inclusion": it.command == POLYGON_INCLUSION,
+                    "polygon": [[v.lat_deg, v.lon_deg] for v in run],
+                    "version": 1,
+                }
+            )
+            k += len(run)
+            continue
+        if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
+            circles.append(
+                {
+                    "circle": {"center": [it.lat_deg, it.lon_deg], "radius": it.param1},
+                    "inclusion": it.command == CIRCLE_INCLUSION,
+                    "version": 1,
+                }
+            )
+        k += 1
+    return {"circles": circles, "polygons": polygons, "version": 2}
 
 
 def _complex_items(where: str, it: dict) -> list[object]:
@@ -657,7 +796,12 @@ def _is_int(v: object) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
-def save_mission(items: list[MissionItem], path: str | Path) -> None:
+def save_mission(
+    items: list[MissionItem],
+    path: str | Path,
+    fence: list[MissionItem] | None = None,
+    rally: list[MissionItem] | None = None,
+) -> None:
     """Write QGC WPL 110 (default) or .plan (by extension).
 
     Parameters
@@ -666,6 +810,8 @@ def save_mission(items: list[MissionItem], path: str | Path) -> None:
         The mission, item 0 = home.
     path : str or Path
         The file; a ``.plan`` suffix writes a QGroundControl plan.
+    fence, rally : list of MissionItem, optional
+        The geofence's and the rally points' items, for a plan (WPL holds the mission only).
     """
     p = Path(path)
     if p.suffix == ".plan":
@@ -674,8 +820,8 @@ def save_mission(items: list[MissionItem], path: str | Path) -> None:
             "fileType": "Plan",
             "version": 1,
             "groundStation": "lfctl",
-            "geoFence": {"circles": [], "polygons": [], "version": 2},
-            "rallyPoints": {"points": [], "version": 2},
+            "geoFence": _plan_geofence(fence or []),
+            "rallyPoints": {"points": [[it.lat_deg, it.lon_deg, it.z] for it in rally or []], "version": 2},
             "mission": {
                 "version": 2,
                 "firmwareType": 3,

@@ -437,3 +437,43 @@ def test_a_crowd_of_new_senders_does_not_evict_the_ground_station_in_use() -> No
         assert set(link.peers) == {gcs, ("127.0.0.1", 50000)}
     finally:
         link.close()
+
+
+def test_a_plans_fence_and_rally_points_go_up_and_come_back_with_its_mission(
+    live: LiveEndpoint, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # as QGroundControl uploads a plan: its mission, its geofence (an inclusion polygon and an
+    # exclusion circle) and its rally points; `gcs download x.plan` brings the three back
+    import json
+
+    from lfctl.cli import main
+
+    lat, lon = HOME[0], HOME[1]
+    square = [[lat + 1e-4, lon - 1e-4], [lat + 1e-4, lon + 1e-4], [lat - 1e-4, lon + 1e-4], [lat - 1e-4, lon - 1e-4]]
+    plan = {
+        "fileType": "Plan",
+        "version": 1,
+        "mission": {"version": 2, "plannedHomePosition": [lat, lon, HOME[2]], "items": []},
+        "geoFence": {
+            "version": 2,
+            "polygons": [{"inclusion": True, "polygon": square, "version": 1}],
+            "circles": [{"inclusion": False, "circle": {"center": [lat + 5e-5, lon], "radius": 2.5}, "version": 1}],
+        },
+        "rallyPoints": {"version": 2, "points": [[lat - 5e-5, lon + 5e-5, 0.0]]},
+    }
+    path = tmp_path / "fenced.plan"
+    path.write_text(json.dumps(plan))
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "5"]
+    assert main([*connect, "upload", str(path)]) == 0
+    assert capsys.readouterr().out.strip() == (
+        "uploaded 0 items (+ home), a fence of 5 items and 1 rally point to system 1"
+    )
+    assert [(it.command, it.param1) for it in live.ep.missions.lists[1]] == [(5001, 4.0)] * 4 + [(5004, 2.5)]
+    assert len(live.ep.fence.inclusion_polygons) == 1 and len(live.ep.rally) == 1
+    assert main([*connect, "download", str(tmp_path / "back.plan")]) == 0
+    back = json.loads((tmp_path / "back.plan").read_text())
+    corners = [c for vertex in back["geoFence"]["polygons"][0]["polygon"] for c in vertex]
+    assert corners == pytest.approx([c for vertex in square for c in vertex], abs=1e-7)
+    assert back["geoFence"]["circles"][0]["circle"]["radius"] == 2.5
+    assert back["geoFence"]["circles"][0]["inclusion"] is False
+    assert back["rallyPoints"]["points"][0][:2] == pytest.approx([lat - 5e-5, lon + 5e-5], abs=1e-7)

@@ -155,3 +155,59 @@ def test_a_complex_item_lfctl_cannot_read_is_named(tmp_path: Path, complex_item:
 
     with pytest.raises(ConfigError, match=re.escape(named)):
         load_mission(survey_plan(tmp_path, complex_item))
+
+
+@pytest.mark.parametrize(
+    ("section", "value", "named"),
+    [
+        ("geoFence", {"polygons": [{"inclusion": True}]}, "geoFence.polygons[0] must be"),
+        ("geoFence", {"polygons": [{"inclusion": 1, "polygon": []}]}, "geoFence.polygons[0] must be"),
+        ("geoFence", {"polygons": [{"polygon": [[12.9, "77"]]}]}, "geoFence.polygons[0].polygon[0] must be [latitude"),
+        ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": "5"}}]}, "geoFence.circles[0] must be"),
+        ("geoFence", {"circles": [{"circle": {"center": [12.9], "radius": 5}}]}, "circles[0].circle.center must be"),
+        ("geoFence", [], "geoFence must be an object"),
+        ("rallyPoints", {"points": [[12.9, 77.6]]}, "rallyPoints.points[0] must be [latitude, longitude, altitude]"),
+        ("rallyPoints", {"points": {}}, "rallyPoints must be"),
+        ("rallyPoints", {"points": [[95.0, 77.6, 0]]}, "latitude must be within"),
+    ],
+)
+def test_a_plans_fence_or_rally_point_lfctl_cannot_read_is_named(
+    tmp_path: Path, section: str, value: object, named: str
+) -> None:
+    import json
+
+    from lfctl.errors import ConfigError
+    from lfctl.link.mission import load_mission_file
+
+    path = survey_plan(tmp_path, qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0]))
+    plan = json.loads(path.read_text())
+    plan[section] = value
+    path.write_text(json.dumps(plan))
+    with pytest.raises(ConfigError, match=re.escape(named)):
+        load_mission_file(path)
+
+
+def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_path: Path) -> None:
+    import json
+
+    from lfctl.link.mission import load_mission_file, save_mission
+
+    first = tmp_path / "first.plan"
+    geo = {
+        "polygons": [{"inclusion": False, "polygon": [[12.96, 77.66], [12.961, 77.66], [12.961, 77.661]]}],
+        "circles": [{"inclusion": True, "circle": {"center": [12.9605, 77.6605], "radius": 40.0}}],
+    }
+    plan = json.loads(survey_plan(tmp_path, qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0])).read_text())
+    plan["geoFence"], plan["rallyPoints"] = geo, {"points": [[12.9601, 77.6601, 3.0]]}
+    first.write_text(json.dumps(plan))
+    loaded = load_mission_file(first)
+    assert [(it.seq, it.command, it.param1) for it in loaded.fence] == [
+        (0, 5002, 3.0),
+        (1, 5002, 3.0),
+        (2, 5002, 3.0),
+        (3, 5003, 40.0),
+    ]
+    save_mission(loaded.mission, tmp_path / "again.plan", loaded.fence, loaded.rally)
+    again = load_mission_file(tmp_path / "again.plan")
+    assert (again.fence, again.rally, again.mission) == (loaded.fence, loaded.rally, loaded.mission)
+    assert again.plan and again.rally[0].z == 3.0
