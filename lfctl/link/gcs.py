@@ -389,13 +389,20 @@ class GroundStation:
         self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_ACCEPTED, mission_type))
         return items
 
-    def clear(self) -> None:
-        """Clear the vehicle's mission (MissionProtocolError if it refuses)."""
-        self.send(mav.MAVLink_mission_clear_all_message(self.target, 1, mav.MAV_MISSION_TYPE_MISSION))
-        m = self.wait(("MISSION_ACK",))
+    def clear(self, mission_type: int = mav.MAV_MISSION_TYPE_MISSION) -> None:
+        """Clear the vehicle's mission, fence or rally points (MissionProtocolError if it refuses).
+
+        Parameters
+        ----------
+        mission_type : int
+            MAV_MISSION_TYPE: the mission, the fence, the rally points, or ALL.
+        """
+        self.send(mav.MAVLink_mission_clear_all_message(self.target, 1, mission_type))
+        m = self.wait(("MISSION_ACK",), where=lambda m: m.mission_type == mission_type)
         if m.type != mav.MAV_MISSION_ACCEPTED:
             result = _result_name("MAV_MISSION_RESULT", m.type)
-            raise MissionProtocolError(f"mission clear refused: {result}", result=result)
+            what = MISSION_TYPE_NAMES.get(mission_type, "list")
+            raise MissionProtocolError(f"{what} clear refused: {result}", result=result)
 
     def close(self) -> None:
         """Close the connection."""

@@ -477,3 +477,7 @@ def test_a_plans_fence_and_rally_points_go_up_and_come_back_with_its_mission(
     assert back["geoFence"]["circles"][0]["circle"]["radius"] == 2.5
     assert back["geoFence"]["circles"][0]["inclusion"] is False
     assert back["rallyPoints"]["points"][0][:2] == pytest.approx([lat - 5e-5, lon + 5e-5], abs=1e-7)
+    g = live.gcs()
+    g.clear(mav.MAV_MISSION_TYPE_FENCE)  # one list at a time: the rally point stays
+    assert (live.ep.missions.lists[1], len(live.ep.missions.lists[2])) == ([], 1)
+    g.close()
