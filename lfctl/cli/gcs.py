@@ -88,8 +88,7 @@ def run(args: argparse.Namespace) -> int:
             gcs.upload(plan.mission)
             said = f"uploaded {counted(len(plan.mission) - 1, 'item')} (+ home)"
             if plan.plan:  # a plan's three lists go together, as QGroundControl uploads them
-                gcs.upload(plan.fence, mission_type=FENCE)
-                gcs.upload(plan.rally, mission_type=RALLY)
+                _upload_rest(gcs, [("fence", plan.fence, FENCE), ("rally points", plan.rally, RALLY)])
                 said += f", a fence of {counted(len(plan.fence), 'item')} and {counted(len(plan.rally), 'rally point')}"
             print(f"{said} to system {args.target}")
         elif action == "download":
@@ -296,3 +295,19 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
         if screen:
             out.write("\x1b[?25h")
             out.flush()
+
+
+def _upload_rest(gcs: Any, lists: list[tuple[str, list[Any], int]]) -> None:
+    """Upload a plan's fence and rally points after its mission; a refusal says what went up."""
+    from lfctl.errors import MissionProtocolError
+
+    sent = ["the mission"]
+    for k, (what, items, mission_type) in enumerate(lists):
+        try:
+            gcs.upload(items, mission_type=mission_type)
+        except MissionProtocolError as exc:
+            kept = " and its ".join(w for w, _items, _type in lists[k:])
+            raise MissionProtocolError(
+                f"{exc} ({' and '.join(sent)} went up; the vehicle keeps its {kept} as they were)", result=exc.result
+            ) from None
+        sent.append(f"the {what}")

@@ -19,9 +19,11 @@ from lfctl.frames import geodetic_to_ned
 from lfctl.link.mission import (
     CIRCLE_EXCLUSION,
     CIRCLE_INCLUSION,
+    MAX_VERTICES,
     POLYGON_EXCLUSION,
     POLYGON_INCLUSION,
     RALLY_POINT,
+    RETURN_POINT,
     MissionItem,
 )
 
@@ -35,14 +37,11 @@ __all__ = [
     "validate_fence",
 ]
 
-RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT  # 5000
 FENCE_COMMANDS = {POLYGON_INCLUSION, POLYGON_EXCLUSION, CIRCLE_INCLUSION, CIRCLE_EXCLUSION, RETURN_POINT}
 RALLY_COMMANDS = {RALLY_POINT}
 #: FENCE_TYPE bits a rover uses
 FENCE_TYPE_CIRCLE = 2
 FENCE_TYPE_POLYGON = 4
-#: the most vertices in one polygon (ArduPilot's fence storage holds about this many)
-MAX_VERTICES = 100
 
 
 def _local(it: MissionItem, home: tuple[float, float, float]) -> tuple[float, float]:

@@ -31,6 +31,8 @@ __all__ = [
     "MAX_EXPANDED",
     "MAX_FILE_BYTES",
     "MAX_FILE_ITEMS",
+    "MAX_VERTICES",
+    "MISSION_TEXT_NAMES",
     "NAV_DELAY",
     "NAV_LOITER_TIME",
     "NAV_LOITER_UNLIM",
@@ -41,6 +43,7 @@ __all__ = [
     "POLYGON_EXCLUSION",
     "POLYGON_INCLUSION",
     "RALLY_POINT",
+    "RETURN_POINT",
     "SKIPPED",
     "SKIPPED_NAV",
     "SKIPPED_SAID",
@@ -56,6 +59,7 @@ __all__ = [
     "load_mission_file",
     "local_mission",
     "mission_tail",
+    "mission_text",
     "nav_count",
     "save_mission",
     "seconds_until_utc",
@@ -142,6 +146,9 @@ POLYGON_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
 CIRCLE_INCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION  # 5003
 CIRCLE_EXCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION  # 5004
 RALLY_POINT = mav.MAV_CMD_NAV_RALLY_POINT  # 5100
+RETURN_POINT = mav.MAV_CMD_NAV_FENCE_RETURN_POINT  # 5000
+#: the most vertices in one fence polygon (ArduPilot's fence storage holds about this many)
+MAX_VERTICES = 100
 #: the frames a place may be given in (AP_Mission::mavlink_int_to_mission_cmd: above mean sea
 #: level, home or the terrain; a rover's waypoints are flown on the ground whatever the frame)
 NAV_FRAMES = {
@@ -163,6 +170,8 @@ MAX_FILE_ITEMS = 65535
 MAX_FILE_BYTES = 16 * 1024 * 1024
 #: the largest magnitude a MAVLink float carries
 _FLOAT32_MAX = 3.4028234663852886e38
+#: the largest magnitude a Python float holds
+_FLOAT64_MAX = 1.7976931348623157e308
 
 
 @dataclass(frozen=True)
@@ -279,6 +288,46 @@ def validate_item(item: MissionItem, count: int) -> int:
     if cmd in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE) and not math.isfinite(item.param1):
         return mav.MAV_MISSION_INVALID_PARAM1
     return mav.MAV_MISSION_ACCEPTED
+
+
+#: the short names ArduPilot's mission library gives the commands it starts, in its
+#: "Mission: N NAME" text (AP_Mission::Mission_Command::type)
+MISSION_TEXT_NAMES = {
+    getattr(mav, f"MAV_CMD_{command}"): name
+    for command, name in (
+        ("NAV_WAYPOINT", "WP"), ("NAV_SPLINE_WAYPOINT", "SplineWP"), ("NAV_RETURN_TO_LAUNCH", "RTL"),
+        ("NAV_LOITER_UNLIM", "LoitUnlim"), ("NAV_LOITER_TIME", "LoitTime"), ("NAV_GUIDED_ENABLE", "GuidedEnable"),
+        ("NAV_LOITER_TURNS", "LoitTurns"), ("NAV_LOITER_TO_ALT", "LoitAltitude"), ("NAV_SET_YAW_SPEED", "SetYawSpd"),
+        ("CONDITION_DELAY", "CondDelay"), ("CONDITION_DISTANCE", "CondDist"), ("DO_CHANGE_SPEED", "ChangeSpeed"),
+        ("DO_SET_HOME", "SetHome"), ("DO_SET_SERVO", "SetServo"), ("DO_SET_RELAY", "SetRelay"),
+        ("DO_REPEAT_SERVO", "RepeatServo"), ("DO_REPEAT_RELAY", "RepeatRelay"), ("DO_CONTROL_VIDEO", "CtrlVideo"),
+        ("DO_DIGICAM_CONFIGURE", "DigiCamCfg"), ("DO_DIGICAM_CONTROL", "DigiCamCtrl"),
+        ("DO_SET_CAM_TRIGG_DIST", "SetCamTrigDst"), ("DO_SET_ROI", "SetROI"), ("DO_SET_REVERSE", "SetReverse"),
+        ("DO_SET_RESUME_REPEAT_DIST", "SetRepeatDist"), ("DO_GUIDED_LIMITS", "GuidedLimits"),
+        ("NAV_TAKEOFF", "Takeoff"), ("NAV_LAND", "Land"), ("NAV_CONTINUE_AND_CHANGE_ALT", "ContinueAndChangeAlt"),
+        ("NAV_ALTITUDE_WAIT", "AltitudeWait"), ("NAV_VTOL_TAKEOFF", "VTOLTakeoff"), ("NAV_VTOL_LAND", "VTOLLand"),
+        ("DO_INVERTED_FLIGHT", "InvertedFlight"), ("DO_FENCE_ENABLE", "FenceEnable"),
+        ("DO_AUTOTUNE_ENABLE", "AutoTuneEnable"), ("DO_VTOL_TRANSITION", "VTOLTransition"),
+        ("DO_ENGINE_CONTROL", "EngineControl"), ("CONDITION_YAW", "CondYaw"), ("DO_LAND_START", "LandStart"),
+        ("NAV_DELAY", "Delay"), ("DO_GRIPPER", "Gripper"), ("NAV_PAYLOAD_PLACE", "PayloadPlace"),
+        ("DO_PARACHUTE", "Parachute"), ("DO_SPRAYER", "Sprayer"), ("DO_AUX_FUNCTION", "AuxFunction"),
+        ("DO_MOUNT_CONTROL", "MountControl"), ("DO_WINCH", "Winch"), ("DO_SEND_SCRIPT_MESSAGE", "Scripting"),
+        ("DO_GO_AROUND", "Go Around"), ("NAV_SCRIPT_TIME", "NavScriptTime"), ("NAV_ATTITUDE_TIME", "NavAttitudeTime"),
+        ("DO_PAUSE_CONTINUE", "PauseContinue"), ("DO_GIMBAL_MANAGER_PITCHYAW", "GimbalPitchYaw"),
+    )
+}  # fmt: skip
+
+
+def mission_text(item: MissionItem) -> str:
+    """What ArduPilot's mission library says as it starts an item: ``Mission: 3 WP`` (``?``
+    for a command its table has no name for).
+
+    Parameters
+    ----------
+    item : MissionItem
+        The item it starts.
+    """
+    return f"Mission: {item.seq} {MISSION_TEXT_NAMES.get(item.command, '?')}"
 
 
 def command_name(cmd: int) -> str:
@@ -401,7 +450,8 @@ def _walk(
 
     Between two navigation items a Rover runs the first DO command it finds and the ones
     straight after it: a navigation item it skips (a take-off, say) ends that run
-    (``AP_Mission::get_next_do_cmd`` stops at it), though not before the first is found."""
+    (``AP_Mission::get_next_do_cmd`` stops at it), though not before the first is found.
+    The skipped navigation items stay in the leg's items: the search tries each, and says so."""
     legs: list[Leg] = []
     before: list[MissionItem] = []
     blocked = False
@@ -437,8 +487,9 @@ def _walk(
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
                     i = int(it.param1)
                     continue
-        elif it.command in SKIPPED_NAV:
-            blocked = bool(before)
+        elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it
+            blocked = any(b.command not in SKIPPED_NAV for b in before)
+            before.append(it)
         elif not blocked:
             before.append(it)
         i += 1
@@ -631,7 +682,7 @@ def _load_wpl(p: Path, text: str) -> list[MissionItem]:
 def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem], list[MissionItem]]:
     try:
         plan = json.loads(text)
-    except (json.JSONDecodeError, RecursionError) as exc:
+    except (ValueError, RecursionError) as exc:  # (JSONDecodeError, or an integer of 4300+ digits)
         raise ConfigError(f"{p}: not a QGroundControl .plan file (not JSON: {str(exc)[:80]})") from None
     mission = plan.get("mission") if isinstance(plan, dict) else None
     if not isinstance(mission, dict):
@@ -659,7 +710,11 @@ def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem]
             raise ConfigError(
                 f"{p}: over {MAX_FILE_ITEMS} items; a mission holds at most {MAX_FILE_ITEMS} (home included)"
             )
-    return items, _plan_fence(p, plan.get("geoFence")), _plan_rally(p, plan.get("rallyPoints"))
+    fence, rally = _plan_fence(p, plan.get("geoFence")), _plan_rally(p, plan.get("rallyPoints"))
+    for what, made in (("geoFence", fence), ("rallyPoints", rally)):
+        if len(made) > MAX_FILE_ITEMS:  # MISSION_COUNT is 16 bits
+            raise ConfigError(f"{p}: {what} makes {len(made)} items; a list holds at most {MAX_FILE_ITEMS}")
+    return items, fence, rally
 
 
 def _latlon(where: str, value: object) -> tuple[float, float]:
@@ -686,6 +741,8 @@ def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
         inclusion = poly.get("inclusion", True) if isinstance(poly, dict) else None
         if not isinstance(vertices, list) or not isinstance(inclusion, bool):
             raise ConfigError(f"{where} must be {{'inclusion': true or false, 'polygon': [[lat, lon], ...]}}")
+        if not 3 <= len(vertices) <= MAX_VERTICES:
+            raise ConfigError(f"{where}: a polygon has 3 to {MAX_VERTICES} vertices, this one {len(vertices)}")
         cmd = POLYGON_INCLUSION if inclusion else POLYGON_EXCLUSION
         for j, vertex in enumerate(vertices):
             lat, lon = _latlon(f"{where}.polygon[{j}]", vertex)
@@ -699,9 +756,17 @@ def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
             raise ConfigError(
                 f"{where} must be {{'inclusion': true or false, 'circle': {{'center': [lat, lon], 'radius': m}}}}"
             )
+        if not (math.isfinite(radius) and radius > 0):  # type: ignore[arg-type]
+            raise ConfigError(f"{where}: the circle's radius must be above 0 m, got {radius!r}")
         lat, lon = _latlon(f"{where}.circle.center", inner.get("center"))  # type: ignore[union-attr]
         cmd = CIRCLE_INCLUSION if inclusion else CIRCLE_EXCLUSION
         out.append(_item(where, len(out), mav.MAV_FRAME_GLOBAL, cmd, [float(radius), 0, 0, 0], lat, lon, 0.0, 1))
+    back = fence.get("breachReturn")
+    if back is not None:  # where a breach sends the vehicle: QGroundControl's fence return point
+        where = f"{p}: geoFence.breachReturn"
+        if not (isinstance(back, list) and len(back) == 3 and all(_is_number(v) for v in back)):
+            raise ConfigError(f"{where} must be [latitude, longitude, altitude], got {str(back)[:60]}")
+        out.append(_item(where, len(out), mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, RETURN_POINT, [0.0] * 4, *back, 1))
     return out
 
 
@@ -725,6 +790,7 @@ def _plan_geofence(fence: list[MissionItem]) -> dict:
     """FENCE items as a plan's ``geoFence`` (runs of polygon vertices, circles)."""
     polygons: list[dict] = []
     circles: list[dict] = []
+    breach: list[float] | None = None
     k = 0
     while k < len(fence):
         it = fence[k]
@@ -739,6 +805,8 @@ def _plan_geofence(fence: list[MissionItem]) -> dict:
             )
             k += len(run)
             continue
+        if it.command == RETURN_POINT:
+            breach = [it.lat_deg, it.lon_deg, it.z]
         if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
             circles.append(
                 {
@@ -748,7 +816,10 @@ def _plan_geofence(fence: list[MissionItem]) -> dict:
                 }
             )
         k += 1
-    return {"circles": circles, "polygons": polygons, "version": 2}
+    out: dict = {"circles": circles, "polygons": polygons, "version": 2}
+    if breach is not None:
+        out["breachReturn"] = breach
+    return out
 
 
 def _complex_items(where: str, it: dict) -> list[object]:
@@ -774,7 +845,8 @@ def _simple_item(where: str, it: object, seq: int) -> MissionItem:
     prm = it.get("params", [0] * 7)
     if not (isinstance(prm, list) and len(prm) == 7 and all(v is None or _is_number(v) for v in prm)):
         raise ConfigError(f"{where}.params must be 7 numbers (null for unset), got {str(prm)[:60]}")
-    values = [0.0 if v is None else float(v) for v in prm]  # QGroundControl's null: unused
+    # QGroundControl's null: unset, NaN in a parameter (as it sends it), 0 in a position
+    values = [(math.nan if k < 4 else 0.0) if v is None else float(v) for k, v in enumerate(prm)]
     command, frame, auto = it.get("command"), it.get("frame", 3), it.get("autoContinue", True)
     if not _is_int(command):
         raise ConfigError(f"{where}.command must be a whole number, got {str(command)[:40]}")
@@ -789,7 +861,10 @@ def _simple_item(where: str, it: object, seq: int) -> MissionItem:
 
 
 def _is_number(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool)
+    """A JSON number a float can hold (an integer too large for one is not)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    return isinstance(v, float) or abs(v) <= _FLOAT64_MAX
 
 
 def _is_int(v: object) -> bool:
@@ -836,13 +911,18 @@ def save_mission(
                         "command": it.command,
                         "doJumpId": it.seq,
                         "frame": it.frame if it.frame != mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT else 3,
-                        "params": [it.param1, it.param2, it.param3, it.param4, it.lat_deg, it.lon_deg, it.z],
+                        # NaN (unset) as QGroundControl writes it: null (bare NaN is not JSON;
+                        # nor is an infinity, in a parameter the command does not use)
+                        "params": [
+                            v if math.isfinite(v) else None
+                            for v in (it.param1, it.param2, it.param3, it.param4, it.lat_deg, it.lon_deg, it.z)
+                        ],
                     }
                     for it in items[1:]
                 ],
             },
         }
-        p.write_text(json.dumps(plan, indent=2))
+        p.write_text(json.dumps(plan, indent=2, allow_nan=False))
         return
     rows = ["QGC WPL 110"]
     for it in items:

@@ -186,7 +186,9 @@ class MissionServer:
             return
         if m.count > CAPACITY[mtype]:
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
-            self.statustext(f"Mission upload refused: {m.count} items, room for {CAPACITY[mtype]}")
+            self.statustext(
+                f"{MISSION_TYPES[mtype].capitalize()} upload refused: {m.count} items, room for {CAPACITY[mtype]}"
+            )
             return
         self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s)
         self._request_next(up, t_s)

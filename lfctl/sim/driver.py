@@ -38,11 +38,13 @@ from lfctl.link.mission import (
     NAV_RETURN_TO_LAUNCH,
     NOTHING_FITTED,
     PLACES,
+    SKIPPED_NAV,
     SKIPPED_SAID,
     Leg,
     MissionItem,
     command_name,
     mission_tail,
+    mission_text,
     nav_count,
     seconds_until_utc,
     to_legs,
@@ -277,9 +279,9 @@ class VehicleDriver:
         ap = self._autopilot
         assert ap is not None
         self._leg, self._queue, self._condition = k, list(leg.before), None
-        if self._queue:
-            self._start_item(self._queue.pop(0), t_s)
+        self._search(t_s)
         item = ep.mission[leg.seq]
+        ep.statustext(mission_text(item), mav.MAV_SEVERITY_INFO)
         if leg.command == NAV_RETURN_TO_LAUNCH:  # home or a rally point as they are now
             self._place(k, ep.rtl_destination(*self._pos))
             ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))  # Rover's RTL start
@@ -294,6 +296,19 @@ class VehicleDriver:
             ep.statustext(f"Delaying {int(wait)} sec", mav.MAV_SEVERITY_INFO)
         self._distance = math.dist(self._pos, ap.follower.waypoints[k])
         self._run_items(t_s)
+
+    def _search(self, t_s: float) -> None:
+        """What AP_Mission's search for the next navigation item does with the items before
+        it: each navigation item it cannot start is tried (and said), and the first DO
+        command or condition it meets is started; the others wait their turn."""
+        started, rest = False, []
+        for it in self._queue:
+            if it.command in SKIPPED_NAV or not started:
+                started = started or it.command not in SKIPPED_NAV
+                self._start_item(it, t_s)
+            else:
+                rest.append(it)
+        self._queue = rest
 
     def _place(self, k: int, where: tuple[float, float]) -> None:
         """Leg ``k`` ends at ``where`` after all (a place known only as it begins)."""
@@ -349,8 +364,8 @@ class VehicleDriver:
     def _end_mission(self, t_s: float) -> None:
         """No navigation item is left: the first item after the last one starts (a payload's
         servo, say), then the mission is complete (AP_Mission's advance finds no more)."""
-        if self._tail:
-            self._start_item(self._tail[0], t_s)
+        self._queue = list(self._tail)
+        self._search(t_s)
         self._queue, self._condition = [], None
         self.endpoint.complete_mission()
 
@@ -369,8 +384,12 @@ class VehicleDriver:
             self._start_item(self._queue.pop(0), t_s)
 
     def _start_item(self, it: MissionItem, t_s: float) -> None:
-        """Start one DO command or condition of the mission."""
+        """Start one DO command or condition of the mission (or try a navigation item a
+        Rover skips), saying so as ArduPilot's mission library does."""
         ep, cmd = self.endpoint, it.command
+        ep.statustext(mission_text(it), mav.MAV_SEVERITY_INFO)
+        if cmd in SKIPPED_NAV:
+            return
         if cmd == CONDITION_DELAY:
             self._condition = (it.seq, "time", t_s + max(0.0, it.param1))
         elif cmd == CONDITION_DISTANCE:

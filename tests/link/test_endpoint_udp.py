@@ -481,3 +481,30 @@ def test_a_plans_fence_and_rally_points_go_up_and_come_back_with_its_mission(
     g.clear(mav.MAV_MISSION_TYPE_FENCE)  # one list at a time: the rally point stays
     assert (live.ep.missions.lists[1], len(live.ep.missions.lists[2])) == ([], 1)
     g.close()
+
+
+def test_a_plan_whose_fence_the_vehicle_refuses_says_what_went_up(
+    live: LiveEndpoint, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # three polygons of 100 vertices: each one a fence may hold, 300 items more than the
+    # simulated vehicle's room for 200: the mission is up, the fence and rally points are not
+    import json
+
+    from lfctl.cli import main
+
+    lat, lon = HOME[0], HOME[1]
+    ring = [[lat + 1e-4 * math.cos(a / 16), lon + 1e-4 * math.sin(a / 16)] for a in range(100)]
+    plan = {
+        "fileType": "Plan",
+        "mission": {"plannedHomePosition": [lat, lon, HOME[2]], "items": []},
+        "geoFence": {"polygons": [{"inclusion": True, "polygon": ring}] * 3, "circles": []},
+        "rallyPoints": {"points": [[lat, lon, 0.0]]},
+    }
+    path = tmp_path / "too-big.plan"
+    path.write_text(json.dumps(plan))
+    assert main(["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "5", "upload", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "fence refused by system 1: MAV_MISSION_NO_SPACE" in err
+    assert "(the mission went up; the vehicle keeps its fence and its rally points as they were)" in err
+    assert live.ep.missions.lists[1] == [] and live.ep.missions.lists[2] == []
+    assert "Fence upload refused: 300 items, room for 200" in [text for _t, text in live.ep.statustexts]

@@ -4,6 +4,7 @@ QGroundControl plans with a survey read as the items QGroundControl saved with i
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -162,7 +163,15 @@ def test_a_complex_item_lfctl_cannot_read_is_named(tmp_path: Path, complex_item:
     [
         ("geoFence", {"polygons": [{"inclusion": True}]}, "geoFence.polygons[0] must be"),
         ("geoFence", {"polygons": [{"inclusion": 1, "polygon": []}]}, "geoFence.polygons[0] must be"),
-        ("geoFence", {"polygons": [{"polygon": [[12.9, "77"]]}]}, "geoFence.polygons[0].polygon[0] must be [latitude"),
+        (
+            "geoFence",
+            {"polygons": [{"polygon": [[12.9, 77.6], [12.9, "77"], [13, 77]]}]},
+            "polygon[1] must be [latitude",
+        ),
+        ("geoFence", {"polygons": [{"polygon": [[12.9, 77.6], [12.91, 77.6]]}]}, "3 to 100 vertices, this one 2"),
+        ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": 0}}]}, "above 0 m, got 0"),
+        ("geoFence", {"polygons": [{"polygon": [[10**400, 77.6]] * 3}]}, "polygon[0] must be [latitude"),
+        ("geoFence", {"breachReturn": [12.9, 77.6]}, "geoFence.breachReturn must be [latitude, longitude, altitude]"),
         ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": "5"}}]}, "geoFence.circles[0] must be"),
         ("geoFence", {"circles": [{"circle": {"center": [12.9], "radius": 5}}]}, "circles[0].circle.center must be"),
         ("geoFence", [], "geoFence must be an object"),
@@ -196,8 +205,10 @@ def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_p
     geo = {
         "polygons": [{"inclusion": False, "polygon": [[12.96, 77.66], [12.961, 77.66], [12.961, 77.661]]}],
         "circles": [{"inclusion": True, "circle": {"center": [12.9605, 77.6605], "radius": 40.0}}],
+        "breachReturn": [12.9602, 77.6602, 5.0],
     }
-    plan = json.loads(survey_plan(tmp_path, qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0])).read_text())
+    # param4 (yaw) left unset, as QGroundControl writes it: null, read as NaN, written as null
+    plan = json.loads(survey_plan(tmp_path, qgc_item(16, [0, 0, 0, None, 12.9603, 77.6691, 0])).read_text())
     plan["geoFence"], plan["rallyPoints"] = geo, {"points": [[12.9601, 77.6601, 3.0]]}
     first.write_text(json.dumps(plan))
     loaded = load_mission_file(first)
@@ -206,8 +217,13 @@ def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_p
         (1, 5002, 3.0),
         (2, 5002, 3.0),
         (3, 5003, 40.0),
+        (4, 5000, 0.0),
     ]
     save_mission(loaded.mission, tmp_path / "again.plan", loaded.fence, loaded.rally)
+    strict = json.loads((tmp_path / "again.plan").read_text(), parse_constant=lambda c: pytest.fail(f"bare {c}"))
+    assert strict["mission"]["items"][0]["params"][3] is None
+    assert strict["geoFence"]["breachReturn"] == pytest.approx([12.9602, 77.6602, 5.0])
     again = load_mission_file(tmp_path / "again.plan")
-    assert (again.fence, again.rally, again.mission) == (loaded.fence, loaded.rally, loaded.mission)
-    assert again.plan and again.rally[0].z == 3.0
+    assert (again.fence, again.rally) == (loaded.fence, loaded.rally)
+    assert [(it.command, it.x, it.y) for it in again.mission] == [(it.command, it.x, it.y) for it in loaded.mission]
+    assert math.isnan(again.mission[1].param4) and again.plan and again.rally[0].z == 3.0

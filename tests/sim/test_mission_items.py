@@ -60,8 +60,10 @@ def places(links_home: tuple[float, float, float], *points: tuple[float, ...]) -
     return local_mission(list(points), links_home)[1:]
 
 
-def texts(links: Links) -> list[str]:
-    return [text for *_rest, text in links.endpoints[0].statustexts]
+def texts(links: Links, after_s: float = 0.0) -> list[str]:
+    """The leader's STATUSTEXTs (from ``after_s``: the scenario's own mission says its first
+    item before the test's upload replaces it)."""
+    return [text for t_s, text in links.endpoints[0].statustexts if t_s >= after_s]
 
 
 def test_a_mission_ending_in_rtl_drives_back_home_and_completes() -> None:
@@ -75,6 +77,9 @@ def test_a_mission_ending_in_rtl_drives_back_home_and_completes() -> None:
     assert rep.result.final.vehicle(0).speed_mps == pytest.approx(0.0, abs=0.02)
     said = texts(links)
     assert "Reached destination" in said and said[-1] == "Mission Complete"
+    # ArduPilot's mission library says each item as it starts it
+    started = [s for s in texts(links, after_s=0.4) if s.startswith("Mission:")]
+    assert started == ["Mission: 1 WP", "Mission: 2 WP", "Mission: 3 RTL"]
     assert ep.mission_complete and (rep.n_reached, rep.n_waypoints) == (3, 3)
 
 
@@ -141,6 +146,12 @@ def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_t
     rep, links = run_with({0.5: upload}, duration_s=60.0, record_to=tmp_path / "m.mcap")
     said = texts(links)
     assert "Delaying 4 sec" in said and "Reached waypoint #3. Loiter for 2 seconds" in said
+    # the search after item 3: the condition started, the take-off tried, then the waypoint;
+    # the speed, servo and mount once the condition is met
+    started = [s.split(" ", 2)[2] for s in texts(links, after_s=0.4) if s.startswith("Mission:")]
+    assert started == [
+        "WP", "Delay", "WP", "CondDelay", "Takeoff", "WP", "ChangeSpeed", "SetServo", "MountControl",
+    ]  # fmt: skip
     assert "Mission 6: DO_SET_SERVO not fitted" in said and "Skipping invalid cmd #205" in said
     assert not any("#22" in s for s in said) and not links.endpoints[0].reversed
     reached = dict(rep.waypoints_reached)
@@ -431,10 +442,11 @@ def test_the_do_commands_after_a_skipped_take_off_run_when_none_came_before_it()
         MissionItem(6, 0, mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
         *[dataclasses.replace(it, seq=7) for it in local_mission([(2.0, 0.0)], HOME)[1:]],
     ]
-    assert [it.seq for it in to_legs(items, HOME)[1].before] == [2]
-    assert [it.seq for it in to_legs(items[:2] + items[4:], HOME)[1].before] == [4]  # not the speed after
+    # the leg's items: the DO commands run and the skipped navigation items tried (and said)
+    assert [it.seq for it in to_legs(items, HOME)[1].before] == [2, 3, 5]  # not the relay, nor the speed
+    assert [it.seq for it in to_legs(items[:2] + items[4:], HOME)[1].before] == [4, 5]  # not the speed after
     skipped_first = [items[0], items[1], MissionItem(2, 0, mav.MAV_CMD_NAV_LAND), *items[3:]]
-    assert [it.seq for it in to_legs(skipped_first, HOME)[1].before] == [4]
+    assert [it.seq for it in to_legs(skipped_first, HOME)[1].before] == [2, 3, 4, 5]
 
 
 def test_a_time_of_day_wait_after_a_waypoints_wait_begins_before_it_is_reached() -> None:
