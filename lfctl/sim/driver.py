@@ -134,6 +134,8 @@ class VehicleDriver:
         self._holding: tuple[int, float] | None = None  # (leg, since when) waiting at its end
         self._tail: tuple[MissionItem, ...] = ()  # the items after the last navigation item
         self._paused: tuple[object, ...] = ()  # the mission AUTO left part-way (its key), to resume
+        self._built: list[MissionItem] | None = None  # the mission the legs were made from
+        self._completed = False  # ... and it is finished
         self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
         self._distance = 0.0  # how far it is from the leg's end, m
         self._goto: LeaderAutopilot | None = None
@@ -243,15 +245,18 @@ class VehicleDriver:
         changed mission, a new current item, or AUTO entered again (Rover restarts the item
         under way, its wait and the DO commands with it)."""
         ep = self.endpoint
-        resume = self._paused == (ep.mission_version,) and bool(self._legs) and not ep.mission_complete
+        # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
+        # for a new or finished mission, or a restart from item 0)
+        same = bool(self._legs) and ep.mission is self._built and not self._completed
+        resume = same and self._paused == (ep.mission_version,)
         self._paused = ()
-        jumps: tuple[tuple[int, int], ...] = ()
+        jumps = self._legs[self._leg].jumps if same else ()
         pending: list[MissionItem] = []
         if resume:
-            jumps = self._legs[self._leg].jumps
             pending = [ep.mission[self._condition[0]]] if self._condition is not None else []
             pending += self._queue
         self._key = (ep.mission_version,)
+        self._built, self._completed = ep.mission, False
         start = max(1, ep.current_seq)
         self._legs = to_legs(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
         self._tail = mission_tail(ep.mission, start)
@@ -367,6 +372,7 @@ class VehicleDriver:
         self._queue = list(self._tail)
         self._search(t_s)
         self._queue, self._condition = [], None
+        self._completed = True
         self.endpoint.complete_mission()
 
     def _run_items(self, t_s: float) -> None:

@@ -466,7 +466,7 @@ def test_a_time_of_day_wait_after_a_waypoints_wait_begins_before_it_is_reached()
     assert dict(rep.waypoints_reached)[2] > 30.0
 
 
-def test_auto_entered_again_restarts_a_pending_condition_and_keeps_the_jump_counts() -> None:
+def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_resume_its_condition() -> None:
     def with_condition(links: Links) -> None:
         store(
             places(links.home, (4.0, 0.0)),
@@ -487,6 +487,13 @@ def test_auto_entered_again_restarts_a_pending_condition_and_keeps_the_jump_coun
 
     rep, _links = run_with({0.5: with_jump, 30.0: mode("HOLD"), 31.0: mode("AUTO")}, duration_s=70.0)
     assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 2, 4]
+
+    def back_to_1(links: Links) -> None:  # MISSION_SET_CURRENT 1 on the way round the second time
+        send(links, mav.MAVLink_mission_set_current_message(1, 1, 1))
+
+    rep, _links = run_with({0.5: with_jump, 30.0: back_to_1}, duration_s=80.0)
+    # the jump already taken stays taken (AP_Mission keeps its count over a new current item)
+    assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 1, 2, 4]
 
 
 def test_do_set_home_in_the_mission_frame_is_above_mean_sea_level() -> None:
