@@ -403,6 +403,7 @@ class VehicleDriver:
         elif cmd == DO_CHANGE_SPEED:
             if it.param2 > 0:  # -1: no change
                 ep.set_speed(it.param2)
+                ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
             ep.item_done(it.seq)
         elif cmd in ACTED_ON:
             ep.run_mission_item(it)

@@ -153,6 +153,7 @@ def test_a_nav_delay_stops_and_conditions_hold_back_only_the_do_commands_after_t
         "WP", "Delay", "WP", "CondDelay", "Takeoff", "WP", "ChangeSpeed", "SetServo", "MountControl",
     ]  # fmt: skip
     assert "Mission 6: DO_SET_SERVO not fitted" in said and "Skipping invalid cmd #205" in said
+    assert "speed: 0.2 m/s" in said
     assert not any("#22" in s for s in said) and not links.endpoints[0].reversed
     reached = dict(rep.waypoints_reached)
     t, speed = rep.result.t_s, np.abs(rep.result.speed_mps[:, 0])
