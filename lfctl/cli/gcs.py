@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
             said = f"uploaded {counted(len(plan.mission) - 1, 'item')} (+ home)"
             if plan.plan:  # a plan's three lists go together, as QGroundControl uploads them
                 _upload_rest(gcs, [("fence", plan.fence, FENCE), ("rally points", plan.rally, RALLY)])
-                said += f", a fence of {counted(len(plan.fence), 'item')} and {counted(len(plan.rally), 'rally point')}"
+                said += _fence_and_rally(plan.fence, plan.rally)
             print(f"{said} to system {args.target}")
         elif action == "download":
             items = gcs.download()
@@ -97,10 +97,8 @@ def run(args: argparse.Namespace) -> int:
                 fence = gcs.download(mission_type=FENCE)
                 rally = gcs.download(mission_type=RALLY)
                 save_mission(items, args.file, fence, rally)
-                print(
-                    f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home), a fence of "
-                    f"{counted(len(fence), 'item')} and {counted(len(rally), 'rally point')} to {args.file}"
-                )
+                said = f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home)"
+                print(f"{said}{_fence_and_rally(fence, rally)} to {args.file}")
             elif args.file:
                 save_mission(items, args.file)
                 print(f"downloaded {counted(max(0, len(items) - 1), 'item')} (+ home) to {args.file}")
@@ -295,6 +293,11 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
         if screen:
             out.write("\x1b[?25h")
             out.flush()
+
+
+def _fence_and_rally(fence: list[Any], rally: list[Any]) -> str:
+    """What a plan's other two lists held, for the line that says what went up or came down."""
+    return f", a fence of {counted(len(fence), 'item')} and {counted(len(rally), 'rally point')}"
 
 
 def _upload_rest(gcs: Any, lists: list[tuple[str, list[Any], int]]) -> None:

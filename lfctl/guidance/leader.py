@@ -69,9 +69,6 @@ class LeaderAutopilot:
         Speeds, radii and heading gains.
     start_ned_m : (north_m, east_m)
         Where the leader starts: the first segment's start, m.
-    speeds : sequence of (float or None), optional
-        Speed on the way to each waypoint, m/s (DO_CHANGE_SPEED); None (for all, or for one)
-        is the cruise speed.
     one_per_step : bool
         Reach at most one waypoint a step, even where several are within reach (a mission's
         items waiting where the one before ended): each begins, and may change its wait or
@@ -83,12 +80,10 @@ class LeaderAutopilot:
         waypoints: Sequence[Sequence[float]],
         settings: AutopilotSettings,
         start_ned_m: tuple[float, float],
-        speeds: Sequence[float | None] | None = None,
         one_per_step: bool = False,
     ) -> None:
         self.settings = settings
         self._most = 1 if one_per_step else None
-        self.speeds = list(speeds) if speeds is not None else [None] * len(waypoints)
         self.holds = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
         self.follower = WaypointFollower(
             [(w[0], w[1]) for w in waypoints], settings.acceptance_radius_m, settings.lookahead_m, start_ned_m
@@ -128,7 +123,7 @@ class LeaderAutopilot:
             Time since the previous step, s.
         """
         st = self.settings
-        if t_s < self._hold_until and self._last_los is not None:  # waiting at a waypoint
+        if self.waiting(t_s) and self._last_los is not None:  # waiting at a waypoint
             # the waypoint was reached once, when the wait began: not again on every tick
             return AutopilotOutput(0.0, 0.0, replace(self._last_los, reached=()), self._hold_until - t_s)
         los = self.follower.step(north_m, east_m, yaw_rad, self._most)
@@ -147,8 +142,7 @@ class LeaderAutopilot:
         self._prev_cmd = los.heading_cmd_rad
         yaw_rate = self.heading.step(err, dt_s, ff)
         # speed: slow for the coming turn and for a large heading error; stop where it ends or waits
-        leg_speed = self.speeds[self.follower.index] if self.follower.index < len(self.speeds) else None
-        speed = leg_speed if leg_speed is not None else st.cruise_speed_mps
+        speed = st.cruise_speed_mps
         turn = self.follower.next_turn_rad()
         blend = clamp(1.0 - (los.distance_to_go_m - st.acceptance_radius_m) / st.slow_distance_m, 0.0, 1.0)
         speed *= 1.0 - st.turn_slowdown * (turn / math.pi) * blend

@@ -58,13 +58,13 @@ __all__ = [
     "load_mission",
     "load_mission_file",
     "local_mission",
-    "mission_tail",
     "mission_text",
     "nav_count",
     "save_mission",
     "seconds_until_utc",
     "to_legs",
     "validate_item",
+    "walk_mission",
 ]
 
 NAV_WAYPOINT = mav.MAV_CMD_NAV_WAYPOINT  # 16
@@ -80,6 +80,12 @@ DO_SET_HOME = mav.MAV_CMD_DO_SET_HOME  # 179
 DO_SET_REVERSE = mav.MAV_CMD_DO_SET_REVERSE  # 194
 DO_FENCE_ENABLE = mav.MAV_CMD_DO_FENCE_ENABLE  # 207
 
+
+def _commands(*names: str) -> frozenset[int]:
+    """The MAV_CMD numbers of these names (without ``MAV_CMD_``)."""
+    return frozenset(getattr(mav, f"MAV_CMD_{name}") for name in names)
+
+
 #: the navigation commands a Rover flies: to a place (waypoint; loiter for a time or for
 #: ever), home or the nearest rally point (RTL), or a wait where it stands (NAV_DELAY)
 FLOWN = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH, NAV_DELAY))
@@ -91,31 +97,25 @@ ACTED_ON = frozenset(
 #: the commands ArduPilot's mission library carries out itself on hardware lfctl does not
 #: have (servos, relays, cameras, a gripper, a sprayer, an auxiliary switch, a parachute, a
 #: gimbal, scripts): taken, and said to act on nothing when their turn comes
-NOTHING_FITTED = frozenset(
-    getattr(mav, f"MAV_CMD_{name}")
-    for name in (
-        "DO_SET_RELAY", "DO_REPEAT_RELAY", "DO_SET_SERVO", "DO_REPEAT_SERVO", "DO_DIGICAM_CONFIGURE",
-        "DO_DIGICAM_CONTROL", "DO_SET_CAM_TRIGG_DIST", "DO_CONTROL_VIDEO", "IMAGE_START_CAPTURE",
-        "IMAGE_STOP_CAPTURE", "VIDEO_START_CAPTURE", "VIDEO_STOP_CAPTURE", "DO_GRIPPER", "DO_SPRAYER",
-        "DO_AUX_FUNCTION", "DO_PARACHUTE", "DO_SEND_SCRIPT_MESSAGE", "DO_SET_RESUME_REPEAT_DIST",
-        "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
-    )
+NOTHING_FITTED = _commands(
+    "DO_SET_RELAY", "DO_REPEAT_RELAY", "DO_SET_SERVO", "DO_REPEAT_SERVO", "DO_DIGICAM_CONFIGURE",
+    "DO_DIGICAM_CONTROL", "DO_SET_CAM_TRIGG_DIST", "DO_CONTROL_VIDEO", "IMAGE_START_CAPTURE",
+    "IMAGE_STOP_CAPTURE", "VIDEO_START_CAPTURE", "VIDEO_STOP_CAPTURE", "DO_GRIPPER", "DO_SPRAYER",
+    "DO_AUX_FUNCTION", "DO_PARACHUTE", "DO_SEND_SCRIPT_MESSAGE", "DO_SET_RESUME_REPEAT_DIST",
+    "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
 )  # fmt: skip
 #: the commands a mission may hold that a Rover passes over when their turn comes (aircraft's
 #: take-offs and landings, splines, circles, an offboard computer's turn, a heading to reach):
-#: taken, as Rover's mission library takes them, and skipped with Rover's words
-SKIPPED = frozenset(
-    getattr(mav, f"MAV_CMD_{name}")
-    for name in (
-        "NAV_LOITER_TURNS", "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT",
-        "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
-        "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
-        "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
-        "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",
-    )
+#: taken, as Rover's mission library takes them, and tried and passed over in turn
+SKIPPED = _commands(
+    "NAV_LOITER_TURNS", "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT",
+    "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
+    "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
+    "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
+    "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",
 )  # fmt: skip
-#: the skipped ones that are navigation (AP_Mission::is_nav_cmd): passed over in silence, as
-#: a Rover's mission moves on when one fails to start; the others are said to be skipped
+#: the skipped ones that are navigation (AP_Mission::is_nav_cmd): tried ("Mission: N
+#: Takeoff") and passed over, as a Rover's mission moves on when one fails to start
 SKIPPED_NAV = frozenset(
     c
     for c in SKIPPED
@@ -132,14 +132,11 @@ SUPPORTED = FLOWN | ACTED_ON | NOTHING_FITTED | SKIPPED | {DO_JUMP}
 PLACES = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH))
 #: the commands that store a place (AP_Mission::stores_location): their latitude and
 #: longitude are checked on upload, and a download gives their frame
-STORES_LOCATION = frozenset(
-    getattr(mav, f"MAV_CMD_{name}")
-    for name in (
-        "NAV_WAYPOINT", "NAV_LOITER_UNLIM", "NAV_LOITER_TURNS", "NAV_LOITER_TIME", "NAV_LAND", "NAV_TAKEOFF",
-        "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE",
-        "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND", "NAV_PAYLOAD_PLACE", "DO_SET_HOME", "DO_LAND_START",
-        "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
-    )
+STORES_LOCATION = _commands(
+    "NAV_WAYPOINT", "NAV_LOITER_UNLIM", "NAV_LOITER_TURNS", "NAV_LOITER_TIME", "NAV_LAND", "NAV_TAKEOFF",
+    "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE",
+    "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND", "NAV_PAYLOAD_PLACE", "DO_SET_HOME", "DO_LAND_START",
+    "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
 )  # fmt: skip
 POLYGON_INCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION  # 5001
 POLYGON_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
@@ -420,38 +417,31 @@ def to_legs(
         DO_JUMP repeats already used up, as a leg's :attr:`Leg.jumps` keeps them (a mission
         resumed part-way through a loop); by default every jump starts afresh.
     """
-    return _walk(items, home, start_seq, start, return_to, jumps)[0]
+    return walk_mission(items, home, start_seq, start, return_to, jumps)[0]
 
 
-def mission_tail(items: list[MissionItem], start_seq: int = 1) -> tuple[MissionItem, ...]:
-    """The DO commands and conditions after the mission's last navigation item (from
-    ``start_seq``, DO_JUMPs followed): a Rover starts the first of them as its last waypoint
-    is done, then the mission is complete; a mission without navigation is all tail.
-
-    Parameters
-    ----------
-    items : list of MissionItem
-        The mission, item 0 = home.
-    start_seq : int
-        The item to start from (the current item).
-    """
-    return _walk(items, (0.0, 0.0, 0.0), start_seq, (0.0, 0.0), None, ())[1]
-
-
-def _walk(
+def walk_mission(
     items: list[MissionItem],
     home: tuple[float, float, float],
-    start_seq: int,
-    start: tuple[float, float],
-    return_to: Callable[[float, float], tuple[float, float]] | None,
-    jumps: tuple[tuple[int, int], ...],
+    start_seq: int = 1,
+    start: tuple[float, float] = (0.0, 0.0),
+    return_to: Callable[[float, float], tuple[float, float]] | None = None,
+    jumps: tuple[tuple[int, int], ...] = (),
 ) -> tuple[list[Leg], tuple[MissionItem, ...]]:
-    """The legs, and the items left after the last (:func:`to_legs`, :func:`mission_tail`).
+    """The legs (:func:`to_legs`), and the mission's tail: the DO commands and conditions after
+    its last navigation item, of which a Rover starts the first as its last waypoint is done,
+    then the mission is complete (a mission without navigation is all tail).
 
     Between two navigation items a Rover runs the first DO command it finds and the ones
     straight after it: a navigation item it skips (a take-off, say) ends that run
     (``AP_Mission::get_next_do_cmd`` stops at it), though not before the first is found.
-    The skipped navigation items stay in the leg's items: the search tries each, and says so."""
+    The skipped navigation items stay in the leg's items: the search tries each, and says so.
+
+    Parameters
+    ----------
+    items, home, start_seq, start, return_to, jumps
+        As :func:`to_legs` takes them.
+    """
     legs: list[Leg] = []
     before: list[MissionItem] = []
     blocked = False

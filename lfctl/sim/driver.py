@@ -43,11 +43,10 @@ from lfctl.link.mission import (
     Leg,
     MissionItem,
     command_name,
-    mission_tail,
     mission_text,
     nav_count,
     seconds_until_utc,
-    to_legs,
+    walk_mission,
 )
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
@@ -258,8 +257,7 @@ class VehicleDriver:
         self._key = (ep.mission_version,)
         self._built, self._completed = ep.mission, False
         start = max(1, ep.current_seq)
-        self._legs = to_legs(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
-        self._tail = mission_tail(ep.mission, start)
+        self._legs, self._tail = walk_mission(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
         settings = dataclasses.replace(
             autopilot_settings(self.cfg), cruise_speed_mps=ep.speed_mps, acceptance_radius_m=ep.param("WP_RADIUS")
         )
