@@ -14,6 +14,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.mission import MissionItem
+from lfctl.link.mission_server import MISSION_TYPES
 from lfctl.link.port import CHECK_LINK, MavPort
 
 __all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_name"]
@@ -306,7 +307,7 @@ class GroundStation:
                 if m.get_type() == "MISSION_ACK":
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
-                        what = MISSION_TYPE_NAMES.get(mission_type, "list")
+                        what = MISSION_TYPES.get(mission_type, "list")
                         raise MissionProtocolError(f"{what} refused by system {self.target}: {result}", result=result)
                     return
                 if not 0 <= m.seq < len(items):
@@ -401,20 +402,12 @@ class GroundStation:
         m = self.wait(("MISSION_ACK",), where=lambda m: m.mission_type == mission_type)
         if m.type != mav.MAV_MISSION_ACCEPTED:
             result = _result_name("MAV_MISSION_RESULT", m.type)
-            what = MISSION_TYPE_NAMES.get(mission_type, "list")
+            what = MISSION_TYPES.get(mission_type, "list")
             raise MissionProtocolError(f"{what} clear refused: {result}", result=result)
 
     def close(self) -> None:
         """Close the connection."""
         self.port.close()
-
-
-#: what each MAV_MISSION_TYPE is called in a message
-MISSION_TYPE_NAMES = {
-    mav.MAV_MISSION_TYPE_MISSION: "mission",
-    mav.MAV_MISSION_TYPE_FENCE: "fence",
-    mav.MAV_MISSION_TYPE_RALLY: "rally points",
-}
 
 
 def _pid(m: Any) -> str:
