@@ -104,7 +104,8 @@ def test_examples_run_by_name_from_any_directory(capsys: pytest.CaptureFixture[s
     assert "scenario     column5" in capsys.readouterr().out
     assert main(["sim", "nosuchexample", "-q"]) == 2
     assert (
-        "neither a file nor a shipped example (examples: column5, convoy, convoy-aruco, vee)" in capsys.readouterr().err
+        "neither a file nor a shipped example (examples: column5, convoy, convoy-aruco, survey, vee)"
+        in capsys.readouterr().err
     )
 
 

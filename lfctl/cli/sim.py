@@ -26,7 +26,7 @@ def register(sub: Any) -> None:
     s = sub.add_parser(
         "sim",
         help="run a scenario and print a summary",
-        description="Run a scenario (a TOML file, or a shipped example by name: convoy, column5, vee) "
+        description="Run a scenario (a TOML file, or a shipped example by name: convoy, column5, vee, survey) "
         "in the co-simulation and print a summary.",
     )
     s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example (convoy)")

@@ -112,6 +112,7 @@ def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, 
         p_gain_per_s=g.p_gain,
         coast_s=g.coast_s,
         slowdown_s=g.slowdown_s,
+        search_yaw_rate_radps=g.search_yaw_rate_radps,
         meas_sigma_m=max(0.02, cfg.sensing.range_noise_m * 2),
     )
 
@@ -162,9 +163,20 @@ class Follower:
         range_m, bearing_rad : float
             The new range (m) and bearing (rad) to the target.
         """
+        self.tune(range_cmd_m=range_m, bearing_cmd_rad=bearing_rad)
+
+    def tune(self, **fields: float) -> None:
+        """Change some of the controller's settings while running (a ground station set
+        ``LFC_*`` parameters), keeping the rest and the controller's state.
+
+        Parameters
+        ----------
+        **fields : float
+            :class:`FormationSettings` fields by name, e.g. ``coast_s=1.0``.
+        """
         st = self.controller.settings
-        if abs(range_m - st.range_cmd_m) > 1e-9 or abs(bearing_rad - st.bearing_cmd_rad) > 1e-9:
-            self.controller.settings = dataclasses.replace(st, range_cmd_m=range_m, bearing_cmd_rad=bearing_rad)
+        if any(abs(v - getattr(st, k)) > 1e-9 for k, v in fields.items()):
+            self.controller.settings = dataclasses.replace(st, **fields)
 
     def step(self, t_s: float, measurement: RelativeMeasurement | None, odometry: Odometry) -> FormationOutput:
         """One guidance step: the formation law on the newest measurement, the setpoint to
@@ -213,6 +225,7 @@ class Follower:
         if last is None or status is last or TrackStatus.LOST not in (status, last):
             return
         kind = "lost" if status is TrackStatus.LOST else "reacquired"
-        text = f"{self.name}: leader {'lost, stopping' if kind == 'lost' else 'reacquired'}"
+        lost = "lost, looking round" if self.settings.search_yaw_rate_radps > 0 else "lost, stopping"
+        text = f"{self.name}: leader {lost if kind == 'lost' else 'reacquired'}"
         self.events.append(FollowerEvent(t_s, kind, text))
         self.companion.statustext(text)

@@ -6,7 +6,11 @@ fed by the relative measurement placed with the follower's own odometry, supplie
 velocity the sliding-mode range law needs (paper eq. 20-23) and coasts through occlusions.
 Behaviour by track state: TRACKING -> full control; no measurement -> coast on the filter for
 ``coast_s``, then slow to a stop over ``slowdown_s`` (OCCLUDED); beyond that, or when the
-sensor says LOST -> stop and hold (LOST) until the target is seen again.
+sensor says LOST -> stop (LOST) until the target is seen again; once the coast and the
+slow-down are over, look for it: turn in place one full turn at ``search_yaw_rate_radps``,
+towards the side the filter last put it on, then hold (a rate of 0: stop and hold at once, as ArduPilot's FOLLOW mode does without a
+target). A camera sees only ahead: a target that turned away, showing its side, or went past
+the edge of the picture is seen again only by looking round.
 
 Two control laws share everything else: ``"smc"`` (the paper's, corrected) and ``"p"``, a
 proportional controller on the position offset like ArduPilot's AP_Follow (FOLL_POS_P), the
@@ -60,6 +64,11 @@ class FormationSettings:
     coast_s, slowdown_s : float
         Coast on the filter this long after the last measurement, then slow to a stop over
         ``slowdown_s``; after both the track is LOST.
+    search_yaw_rate_radps : float
+        Once LOST and the coast and slow-down are over, turn in place one full turn at this
+        rate (rad/s) towards the side the target was last estimated on, then hold; 0: hold
+        still. A LOST from the sensor within the coast does not start the turn (a tracker's
+        moment of doubt with the target still ahead).
     meas_sigma_m : float
         Position noise of a measurement placed in the world, m (filter R).
     accel_sigma_mps2 : float
@@ -75,6 +84,7 @@ class FormationSettings:
     p_heading_gain_per_s: float = 2.0
     coast_s: float = 2.0
     slowdown_s: float = 1.0
+    search_yaw_rate_radps: float = math.radians(45.0)
     meas_sigma_m: float = 0.03
     accel_sigma_mps2: float = 0.3
 
@@ -250,6 +260,9 @@ class FormationController:
         self._t_last_meas = -math.inf
         self._t_prev: float | None = None
         self._target_heading: float | None = None
+        # the search once LOST: the turn's direction (+1 right, -1 left), its heading a step
+        # ago and how far it has turned (rad); None while not searching
+        self._search: tuple[float, float, float] | None = None
         self.status = TrackStatus.LOST
 
     def _odometry_at(self, t_s: float) -> Odometry:
@@ -317,9 +330,11 @@ class FormationController:
             self.bearing_smc.reset()
             if est.initialised:
                 rng, brg = self._relative(odom)
-                return FormationOutput(0.0, 0.0, self.status, rng, brg, est.velocity, since)
+                turn = self._look(odom, brg) if since > st.coast_s + st.slowdown_s else 0.0
+                return FormationOutput(0.0, turn, self.status, rng, brg, est.velocity, since)
             return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since)
 
+        self._search = None
         (tn, te), (vn, ve) = est.position, est.significant_velocity()
         dx, dy = tn - odom.north_m, te - odom.east_m
         rng, brg = self._relative(odom)
@@ -332,6 +347,20 @@ class FormationController:
             speed *= scale
             yaw_rate *= scale
         return FormationOutput(speed, yaw_rate, self.status, rng, brg, (vn, ve), since)
+
+    def _look(self, odom: Odometry, bearing_rad: float) -> float:
+        """The yaw rate of a LOST follower's search: one full turn in place towards the side
+        of ``bearing_rad`` (the filter's bearing to the target as the search begins), then 0.
+        """
+        rate = min(self.settings.search_yaw_rate_radps, self.settings.bearing.max_yaw_rate_radps)
+        if rate <= 0.0:
+            return 0.0
+        if self._search is None:
+            self._search = (-1.0 if bearing_rad < 0.0 else 1.0, odom.yaw_rad, 0.0)
+        side, last_yaw, turned = self._search
+        turned += abs(wrap_pi(odom.yaw_rad - last_yaw))
+        self._search = (side, odom.yaw_rad, turned)
+        return side * rate if turned < 2.0 * math.pi else 0.0
 
     def _relative(self, odom: Odometry) -> tuple[float, float]:
         tn, te = self.estimator.position

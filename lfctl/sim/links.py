@@ -140,6 +140,7 @@ class Links:
             ep.params["LFC_RANGE"].value = slots[v.name].range_m
             ep.params["LFC_BEARING"].value = math.degrees(slots[v.name].bearing_rad)
             ep.params["LFC_COAST"].value = cfg.guidance.coast_s
+            ep.params["LFC_SEARCH"].value = math.degrees(cfg.guidance.search_yaw_rate_radps)
             comp.set_guided()  # as a companion computer does at start-up
             comp.arm()
 

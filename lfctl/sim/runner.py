@@ -263,7 +263,12 @@ class GuidanceTask:
     def _follower(self, t_s: float, world: WorldState, f: SimFollower) -> None:
         me = world.vehicle(f.index)
         ep = self.links.endpoints[f.index]
-        f.stack.set_slot(ep.param("LFC_RANGE"), math.radians(ep.param("LFC_BEARING")))  # a GCS may set them
+        f.stack.tune(  # a ground station may set them
+            range_cmd_m=ep.param("LFC_RANGE"),
+            bearing_cmd_rad=math.radians(ep.param("LFC_BEARING")),
+            coast_s=ep.param("LFC_COAST"),
+            search_yaw_rate_radps=math.radians(ep.param("LFC_SEARCH")),
+        )
         if self.open_loop == "formation":
             if self.pool is not None:
                 meas = self.pool.measurement(f.name)

@@ -30,11 +30,15 @@ class FakeCompanion:
         self.texts.append(text)
 
 
-def run(measure, steps: int = 80, rate_hz: float = 20.0, status_hz: float = 2.0) -> tuple[Follower, FakeCompanion]:
+def run(
+    measure, steps: int = 80, rate_hz: float = 20.0, status_hz: float = 2.0, search_degps: float = 45.0
+) -> tuple[Follower, FakeCompanion]:
     comp = FakeCompanion()
     f = Follower(
         "f1",
-        FormationSettings(range_cmd_m=1.5, coast_s=0.5, slowdown_s=0.5),
+        FormationSettings(
+            range_cmd_m=1.5, coast_s=0.5, slowdown_s=0.5, search_yaw_rate_radps=math.radians(search_degps)
+        ),
         comp,
         step_rate_hz=rate_hz,
         status_rate_hz=status_hz,
@@ -60,18 +64,31 @@ def test_the_status_rate_comes_from_the_settings_not_the_step_count() -> None:
     assert len(comp.reports) == 10
 
 
-def test_lost_and_reacquired_are_said_once_each() -> None:
+@pytest.mark.parametrize(("search_degps", "said"), [(45.0, "lost, looking round"), (0.0, "lost, stopping")])
+def test_lost_and_reacquired_are_said_once_each(search_degps: float, said: str) -> None:
     def measure(t: float) -> RelativeMeasurement:
         if 1.0 <= t < 3.0:
             return RelativeMeasurement(t, TrackStatus.OCCLUDED)
         return RelativeMeasurement(t, TrackStatus.TRACKING, 1.5, 0.0, 1.0)
 
-    f, comp = run(measure)
-    assert comp.texts == ["f1: leader lost, stopping", "f1: leader reacquired"]
+    f, comp = run(measure, search_degps=search_degps)
+    assert comp.texts == [f"f1: leader {said}", "f1: leader reacquired"]
     assert [e.kind for e in f.events] == ["lost", "reacquired"]
     lost_at = f.events[0].t_s
     assert 2.0 <= lost_at <= 2.1  # after coast_s + slowdown_s without a sighting
-    assert all(sp[1] == 0.0 for sp in comp.setpoints if lost_at <= sp[0] < 3.0)
+    lost = [sp for sp in comp.setpoints if lost_at <= sp[0] < 3.0]
+    assert lost and all(sp[1] == 0.0 for sp in lost)  # stopped
+    assert {round(math.degrees(sp[2]), 9) for sp in lost} == {search_degps}  # looking round, or still
+
+
+def test_a_ground_station_tunes_the_coast_and_the_search_while_running() -> None:
+    f, _comp = run(lambda t: RelativeMeasurement(t, TrackStatus.TRACKING, 2.0, 0.0, 1.0), steps=1)
+    before = f.controller.settings
+    f.tune(coast_s=0.5, search_yaw_rate_radps=math.radians(45.0))  # as they are: the same object
+    assert f.controller.settings is before
+    f.tune(coast_s=1.25, search_yaw_rate_radps=0.0)
+    assert (f.settings.coast_s, f.settings.search_yaw_rate_radps) == (1.25, 0.0)
+    assert f.settings.range_cmd_m == 1.5  # the rest kept
 
 
 def test_no_estimate_is_reported_as_no_value() -> None:

@@ -42,7 +42,7 @@ def test_filter_estimates_a_moving_target_velocity() -> None:
 
 
 def test_coast_then_slow_down_then_lost() -> None:
-    s = FormationSettings(range_cmd_m=1.5, coast_s=2.0, slowdown_s=1.0)
+    s = FormationSettings(range_cmd_m=1.5, coast_s=2.0, slowdown_s=1.0, search_yaw_rate_radps=0.0)
     ctl = FormationController(s)
     for k in range(40):  # moving target, tracked for 2 s
         t = k * DT
@@ -59,6 +59,60 @@ def test_coast_then_slow_down_then_lost() -> None:
     # seen again: tracking resumes at once
     out = ctl.step(meas(t0 + 4.0, 2.0), Odometry(t0 + 4.0, 0.0, 0.0, 0.0, 0.0))
     assert out.status is TrackStatus.TRACKING and out.speed_mps > 0
+
+
+def lose_target(brg_deg: float, search_degps: float = 45.0) -> tuple[FormationController, float]:
+    """A controller that tracked a still target at ``brg_deg`` for 1 s, then lost it for good
+    (OCCLUDED frames past the coast and slow-down): the controller and the time it is LOST."""
+    s = FormationSettings(coast_s=1.0, slowdown_s=0.5, search_yaw_rate_radps=math.radians(search_degps))
+    ctl = FormationController(s)
+    for k in range(20):
+        ctl.step(meas(k * DT, 2.0, math.radians(brg_deg)), Odometry(k * DT, 0.0, 0.0, 0.0, 0.0))
+    return ctl, 19 * DT + 1.5
+
+
+def turn_in_place(ctl: FormationController, t0: float, seconds: float) -> list[tuple[float, float, float]]:
+    """Step a LOST controller whose vehicle turns exactly as commanded: (t, yaw, yaw rate)."""
+    yaw, out = 0.0, []
+    for k in range(1, round(seconds / DT) + 1):
+        t = t0 + k * DT
+        o = ctl.step(RelativeMeasurement(t, TrackStatus.OCCLUDED), Odometry(t, 0.0, 0.0, yaw, 0.0))
+        assert o.status is TrackStatus.LOST and o.speed_mps == 0.0
+        out.append((t, yaw, o.yaw_rate_radps))
+        yaw = math.remainder(yaw + o.yaw_rate_radps * DT, 2 * math.pi)
+    return out
+
+
+@pytest.mark.parametrize(("brg_deg", "side"), [(20.0, 1.0), (-20.0, -1.0), (0.0, 1.0)])
+def test_lost_looks_round_one_full_turn_towards_the_targets_side_then_holds(brg_deg: float, side: float) -> None:
+    ctl, t_lost = lose_target(brg_deg)
+    steps = turn_in_place(ctl, t_lost, 10.0)
+    rate = math.radians(45.0)
+    turning = [s for s in steps if s[2] != 0.0]
+    assert {s[2] for s in turning} == {side * rate}  # one way, at the search rate
+    # 360 deg at 45 deg/s: 8 s, to the step (the turn is counted from the odometry)
+    assert len(turning) * DT == pytest.approx(8.0, abs=DT)
+    assert all(s[2] == 0.0 for s in steps[len(turning) :])  # then holds, however long it waits
+    assert steps[len(turning)][1] == pytest.approx(0.0, abs=rate * DT)  # facing where it began
+
+
+def test_lost_holds_still_with_no_search_rate() -> None:
+    ctl, t_lost = lose_target(20.0, search_degps=0.0)
+    assert {s[2] for s in turn_in_place(ctl, t_lost, 3.0)} == {0.0}
+
+
+def test_the_search_waits_for_the_coast_and_starts_again_after_a_new_loss() -> None:
+    ctl, t_lost = lose_target(20.0)
+    # a sensor LOST straight after a sighting: stopped, not turning, until coast + slow-down
+    t = t_lost - 1.5 + DT
+    out = ctl.step(RelativeMeasurement(t, TrackStatus.LOST), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.LOST and (out.speed_mps, out.yaw_rate_radps) == (0.0, 0.0)
+    turn_in_place(ctl, t_lost, 10.0)  # the whole turn, done
+    # seen again on the left, then lost again: a new turn, to the left
+    t = t_lost + 10.0 + DT
+    ctl.step(meas(t, 2.0, math.radians(-30.0)), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    steps = turn_in_place(ctl, t + 1.5, 2.0)
+    assert steps[0][2] == pytest.approx(-math.radians(45.0))
 
 
 def test_sensor_lost_stops_at_once() -> None:

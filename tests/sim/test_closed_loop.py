@@ -68,19 +68,27 @@ def test_full_occlusion_of_1_5_s_is_coasted_through_without_stopping(convoy_runs
         assert all(tr.status[i] is TrackStatus.TRACKING for i in after)
 
 
-def test_leader_lost_for_longer_than_the_coast_stops_the_follower() -> None:
+def test_leader_lost_for_longer_than_the_coast_stops_the_follower_which_looks_round() -> None:
     cfg = convoy()
-    cfg = dataclasses.replace(cfg, sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 28.0),)))
-    rep = run_scenario(cfg, duration_s=35.0)
+    cfg = dataclasses.replace(cfg, sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)))
+    rep = run_scenario(cfg, duration_s=42.0)
     tr = rep.traces[0]
     t = np.array(tr.t_s)
     g = cfg.guidance
-    lost = (t > 20.0 + cfg.sensing.delay_s + g.coast_s + g.slowdown_s + 0.1) & (t < 28.0)
+    lost = (t > 20.0 + cfg.sensing.delay_s + g.coast_s + g.slowdown_s + 0.1) & (t < 36.0)
     assert all(tr.status[i] is TrackStatus.LOST for i in np.flatnonzero(lost))
     assert all(tr.speed_cmd_mps[i] == 0.0 for i in np.flatnonzero(lost))
     settled = lost & (t > 25.0)
     assert np.max(np.abs(np.array(tr.speed_mps)[settled])) < 0.01  # stopped
-    back = np.flatnonzero(t > 29.0)
+    # looking round meanwhile: one full turn in place (counted on its odometry), then still
+    rate = np.array(tr.yaw_rate_cmd_radps)[lost]
+    assert rate[0] == pytest.approx(g.search_yaw_rate_radps) or rate[0] == pytest.approx(-g.search_yaw_rate_radps)
+    assert rate[-1] == 0.0
+    res = rep.result
+    window = (res.t_s >= t[lost][0]) & (res.t_s <= t[lost][np.flatnonzero(rate)[-1]])
+    turned = np.sum(np.abs(np.diff(np.unwrap(res.yaw_rad[window, 1]))))
+    assert math.degrees(turned) == pytest.approx(360.0, abs=10.0)  # the skid-steer's slip included
+    back = np.flatnonzero(t > 37.0)
     assert tr.status[back[0]] is TrackStatus.TRACKING and max(np.array(tr.speed_mps)[back[:60]]) > 0.1  # resumed
 
 
@@ -167,6 +175,47 @@ def test_camera_sensing_formation_errors_within_targets(seed: int) -> None:
     assert m.min_separation_m >= 0.3
     assert m.time_in_state_s["lost"] < 1.0  # only before the first frame
     assert m.time_in_state_s["occluded"] > 0.5  # the occluder was noticed
+
+
+def survey(search_degps: float):
+    """examples/survey.toml: a lawn-mower survey with 2.5 m between its lines (a follower 1.5 m
+    behind sees the leader's side at each end), looking round at ``search_degps``."""
+    cfg = load_config(EXAMPLES / "survey.toml")
+    return dataclasses.replace(
+        cfg, guidance=dataclasses.replace(cfg.guidance, search_yaw_rate_radps=math.radians(search_degps))
+    )
+
+
+def losses(rep: RunReport) -> list[tuple[float, float]]:
+    """The follower's spells of not TRACKING after its first second: (start, length), s."""
+    tr = rep.traces[0]
+    out, start = [], None
+    for t, st in zip(tr.t_s, tr.status, strict=True):
+        if st is not TrackStatus.TRACKING and start is None and t > 1.0:
+            start = t
+        elif st is TrackStatus.TRACKING and start is not None:
+            out.append((start, t - start))
+            start = None
+    if start is not None:
+        out.append((start, tr.t_s[-1] - start))
+    return out
+
+
+@pytest.mark.slow
+def test_a_follower_that_loses_its_leader_at_a_surveys_turns_looks_round_and_finds_it() -> None:
+    """At each end of the survey's lines the leader turns back past the follower, which
+    loses the banner; standing still it sees the leader again only when its path happens to
+    cross the picture, looking round it finds it within seconds."""
+    still, looking = run_scenario(survey(0.0)), run_scenario(survey(45.0))
+    assert len(still.waypoints_reached) == len(looking.waypoints_reached) == 7
+    assert max(length for _t, length in losses(still)) > 30.0  # the case exists
+    spells = losses(looking)
+    assert len(spells) >= 2  # at least two of the turns lose the banner
+    # each found again: coast and slow-down (3 s) and at most one turn (8 s), and a little
+    assert all(length < 15.0 for _t, length in spells), spells
+    assert looking.metrics[0].time_in_state_s["lost"] < 0.6 * still.metrics[0].time_in_state_s["lost"]
+    assert looking.metrics[0].range_err_rms_m < still.metrics[0].range_err_rms_m
+    assert looking.metrics[0].min_separation_m >= 0.3
 
 
 @pytest.mark.slow
