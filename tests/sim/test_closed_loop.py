@@ -92,6 +92,34 @@ def test_leader_lost_for_longer_than_the_coast_stops_the_follower_which_looks_ro
     assert tr.status[back[0]] is TrackStatus.TRACKING and max(np.array(tr.speed_mps)[back[:60]]) > 0.1  # resumed
 
 
+def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() -> None:
+    """LFC_COAST and LFC_SEARCH set on the follower's link by PARAM_SET at t = 1 s change the
+    running follower: LOST one second sooner, and no turn (LFC_SEARCH 0)."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    cfg = convoy()
+    cfg = dataclasses.replace(cfg, sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)))
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    links, sent = [], []
+
+    def stop() -> bool:
+        if not sent and links and links[0].endpoints[1].t_s >= 1.0:
+            for name, value in ((b"LFC_COAST", 1.0), (b"LFC_SEARCH", 0.0)):
+                msg = mav.MAVLink_param_set_message(2, 1, name, value, mav.MAV_PARAM_TYPE_REAL32)
+                links[0].peers[1].send(msg.pack(gcs))
+            sent.append(True)
+        return False
+
+    rep = run_scenario(cfg, duration_s=30.0, on_links=links.append, stop=stop)
+    assert sent and links[0].endpoints[1].param("LFC_COAST") == 1.0
+    tr = rep.traces[0]
+    t = np.array(tr.t_s)
+    lost = np.array([st is TrackStatus.LOST for st in tr.status]) & (t > 15.0)
+    g = cfg.guidance
+    assert t[lost][0] == pytest.approx(20.0 + cfg.sensing.delay_s + 1.0 + g.slowdown_s, abs=0.1)
+    assert not np.any(np.array(tr.yaw_rate_cmd_radps)[lost])  # held still
+
+
 HOLD = """
 [sim]
 duration_s = 105.0
