@@ -292,8 +292,10 @@ class ScriptConfig(_Section):
 class MissionConfig(_Section):
     """[mission]: the leader's route in local NED, flown in AUTO.
 
-    ``waypoints`` holds ``[north_m, east_m]`` or ``[north_m, east_m, hold_s]`` (wait there).
-    Without waypoints the leader follows ``[script]``.
+    ``waypoints`` holds ``[north_m, east_m]`` or ``[north_m, east_m, hold_s]`` (wait there);
+    ``file`` names a ground station's mission file instead (a QGroundControl ``.plan``, with
+    its fence and rally points, or a QGC WPL ``.waypoints``). Without either the leader
+    follows ``[script]``.
     """
 
     _key = "mission"
@@ -310,6 +312,12 @@ class MissionConfig(_Section):
     cruise_speed_mps: float = _f(0.3, Bound(0, 100, lo_open=True))  # the leader's speed on straight legs, m/s
     #: LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
     lookahead_m: float = _f(0.8, Bound(0, 1000))
+    #: a QGroundControl .plan or QGC WPL .waypoints file flown instead of ``waypoints``
+    file: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
+
+    def _check(self) -> None:
+        if self.file is not None and self.waypoints:
+            raise ConfigError("mission.file and mission.waypoints are two missions: give one of them")
 
 
 _GAIN = Bound(0, 1000, lo_open=True)
@@ -1025,9 +1033,13 @@ def load_config(path: str | Path) -> Config:
             else v
             for v in cfg.vehicles
         )
+        mission = cfg.mission
+        if mission.file is not None and not Path(mission.file).expanduser().is_absolute():
+            where = check_inside("mission.file", p.parent, Path(mission.file))
+            mission = dataclasses.replace(mission, file=str(where))
     except ConfigError as exc:
         raise ConfigError(f"{p}: {exc}") from None
-    return dataclasses.replace(cfg, vehicles=vehicles)
+    return dataclasses.replace(cfg, vehicles=vehicles, mission=mission)
 
 
 def reference() -> str:

@@ -31,6 +31,7 @@ __all__ = [
     "MAX_EXPANDED",
     "MAX_FILE_BYTES",
     "MAX_FILE_ITEMS",
+    "MAX_SITE_M",
     "MAX_VERTICES",
     "MISSION_TEXT_NAMES",
     "NAV_DELAY",
@@ -52,6 +53,7 @@ __all__ = [
     "Leg",
     "MissionFile",
     "MissionItem",
+    "check_site",
     "command_name",
     "home_item",
     "is_nav",
@@ -182,7 +184,7 @@ class MissionItem:
     frame : int
         MAV_FRAME of its position.
     command : int
-        MAV_CMD: NAV_WAYPOINT, NAV_LOITER_TIME, DO_JUMP or DO_CHANGE_SPEED are supported.
+        MAV_CMD (an upload takes those in :data:`SUPPORTED`).
     param1, param2, param3, param4 : float
         The command's parameters (a waypoint's param1 is its hold time, s).
     x, y : int
@@ -571,6 +573,44 @@ class MissionFile:
     plan: bool
 
 
+#: farthest a mission file's place may lie from the scenario's home, m (the scenario's bound)
+MAX_SITE_M = 100_000.0
+
+
+def check_site(found: MissionFile, home: tuple[float, float, float], where: str) -> None:
+    """Refuse a mission file planned for another site: a place (a navigation item's, a fence
+    vertex or circle centre, a rally point; latitude and longitude 0 is "here") farther than
+    :data:`MAX_SITE_M` from ``home`` is a ConfigError naming it, its distance and the home.
+
+    Parameters
+    ----------
+    found : MissionFile
+        What the file holds.
+    home : (lat_deg, lon_deg, alt_m)
+        The local frame's origin the vehicles start about.
+    where : str
+        The file, for the message.
+    """
+    from lfctl.frames import geodetic_to_ned
+
+    lists = (("mission item", found.mission[1:]), ("fence item", found.fence), ("rally point", found.rally))
+    for what, items in lists:
+        for it in items:
+            if what == "mission item" and it.command not in STORES_LOCATION:
+                continue
+            if it.x == 0 and it.y == 0:
+                continue
+            lat, lon = it.x * 1e-7, it.y * 1e-7
+            n, e, _ = geodetic_to_ned(lat, lon, 0.0, home[0], home[1], 0.0)
+            far = math.hypot(n, e)
+            if not far <= MAX_SITE_M:
+                raise ConfigError(
+                    f"{where}: {what} {it.seq} ({command_name(it.command)}) at {lat:.7f}, {lon:.7f} is "
+                    f"{far / 1000:.0f} km from the scenario's home {home[0]:.7f}, {home[1]:.7f}: the plan "
+                    "is for another site; set link.home_lat_deg and link.home_lon_deg to where it was made"
+                )
+
+
 def load_mission(path: str | Path) -> list[MissionItem]:
     """The mission of a QGC WPL 110 (.waypoints/.txt) or QGroundControl .plan file, item 0 =
     home (:func:`load_mission_file` reads a plan's geofence and rally points too).
@@ -583,7 +623,7 @@ def load_mission(path: str | Path) -> list[MissionItem]:
     return load_mission_file(path).mission
 
 
-def load_mission_file(path: str | Path) -> MissionFile:
+def load_mission_file(path: str | Path, text: str | None = None) -> MissionFile:
     """Read a mission file: QGC WPL 110 (the mission) or a QGroundControl .plan (the mission,
     its geofence's polygons and circles as FENCE items, its rally points as RALLY items).
 
@@ -591,6 +631,8 @@ def load_mission_file(path: str | Path) -> MissionFile:
     ----------
     path : str or Path
         The file; a ``.plan`` suffix or JSON text is read as a .plan.
+    text : str, optional
+        Its text, already read (else it is read here).
 
     Raises
     ------
@@ -598,7 +640,8 @@ def load_mission_file(path: str | Path) -> MissionFile:
         Unreadable file, or not one of the two formats (the message names the line or key).
     """
     p = Path(path)
-    text = read_text_file(p, "mission", MAX_FILE_BYTES)
+    if text is None:
+        text = read_text_file(p, "mission", MAX_FILE_BYTES)
     if p.suffix == ".plan" or text.lstrip().startswith("{"):
         found = MissionFile(*_load_plan(p, text), plan=True)
     else:

@@ -20,7 +20,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.link.fence import FENCE_COMMANDS, RALLY_COMMANDS, validate_fence
 from lfctl.link.mission import STORES_LOCATION, MissionItem, validate_item
 
-__all__ = ["MISSION_TYPES", "ListChange", "MissionServer"]
+__all__ = ["MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
 
 MISSION, FENCE, RALLY = mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_FENCE, mav.MAV_MISSION_TYPE_RALLY
 #: the lists a vehicle keeps, by MAV_MISSION_TYPE
@@ -77,6 +77,47 @@ DOWNLOAD_FRAME = {
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
     mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
 }
+
+
+def item_result(item: MissionItem, mission_type: int, count: int) -> int:
+    """MAV_MISSION_ACCEPTED, or the MAV_MISSION_* result an upload of ``item`` gets.
+
+    Parameters
+    ----------
+    item : MissionItem
+        One item of the list.
+    mission_type : int
+        MAV_MISSION_TYPE: the mission, the fence or the rally points.
+    count : int
+        How many items the list has.
+    """
+    if mission_type == MISSION:
+        return validate_item(item, count)
+    allowed = FENCE_COMMANDS if mission_type == FENCE else RALLY_COMMANDS
+    if item.command not in allowed:
+        return mav.MAV_MISSION_UNSUPPORTED
+    if not (-90.0 <= item.lat_deg <= 90.0):
+        return mav.MAV_MISSION_INVALID_PARAM5_X
+    if not (-180.0 <= item.lon_deg <= 180.0):
+        return mav.MAV_MISSION_INVALID_PARAM6_Y
+    return mav.MAV_MISSION_ACCEPTED
+
+
+def list_problem(items: list[MissionItem], mission_type: int) -> tuple[int, int] | None:
+    """The first item an upload of the whole list would be refused at, as (seq,
+    MAV_MISSION_RESULT), or None when it would be taken.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The list (a mission's item 0 is home).
+    mission_type : int
+        MAV_MISSION_TYPE.
+    """
+    for it in items:
+        if (result := item_result(it, mission_type, len(items))) != mav.MAV_MISSION_ACCEPTED:
+            return it.seq, result
+    return validate_fence(items) if mission_type == FENCE else None
 
 
 def _item_message(it: MissionItem, sysid: int, compid: int, current: int, mission_type: int) -> Any:
@@ -244,16 +285,7 @@ class MissionServer:
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
     def _check_item(self, item: MissionItem, up: _Upload) -> int:
-        if up.mission_type == MISSION:
-            return validate_item(item, up.count)
-        allowed = FENCE_COMMANDS if up.mission_type == FENCE else RALLY_COMMANDS
-        if item.command not in allowed:
-            return mav.MAV_MISSION_UNSUPPORTED
-        if not (-90.0 <= item.lat_deg <= 90.0):
-            return mav.MAV_MISSION_INVALID_PARAM5_X
-        if not (-180.0 <= item.lon_deg <= 180.0):
-            return mav.MAV_MISSION_INVALID_PARAM6_Y
-        return mav.MAV_MISSION_ACCEPTED
+        return item_result(item, up.mission_type, up.count)
 
     def _refuse(self, up: _Upload, seq: int, result: int) -> None:
         self._uploads.pop(up.mission_type, None)  # the list in force stays as it was

@@ -86,6 +86,28 @@ def _mode_changes(c: Contents) -> list[tuple[float, str, str]]:
     return out
 
 
+def _scene_mission(c: Contents) -> tuple[float, list[tuple[float, float]], float] | None:
+    """The first mission ``/scene`` shows: (sim time, its places as (north, east), acceptance
+    radius), from its ``mission`` entity; None when the log has none (or it does not decode)."""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+    from google.protobuf.message import DecodeError
+
+    for t, d in c.messages.get("/scene", []):
+        try:
+            update = SceneUpdate.FromString(d)
+        except DecodeError:
+            continue
+        for ent in update.entities:
+            if ent.id != "mission":
+                continue
+            places = [(s.pose.position.x, s.pose.position.y) for s in ent.spheres]
+            loops = [ln for ln in ent.lines if ln.type == ln.LINE_LOOP and ln.points]
+            radius = max(loops[0].points[0].x, 0.0) if loops else 0.0
+            fine = all(abs(v) <= MAX_JSON_NUMBER for p in places for v in p)  # NaN fails too
+            return (c.sim_s(t), places, radius) if places and fine else None
+    return None
+
+
 def _track(c: Contents, vehicle: str) -> tuple[np.ndarray, np.ndarray]:
     """A vehicle's ``/<vehicle>/pose`` as simulation times and (N, 2) east/north points:
     messages that do not decode, and points not finite or beyond MAX_JSON_NUMBER m, left out."""
@@ -125,6 +147,15 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
             when = f" @{reached[k]:.1f} s" if k in reached else ("" if changed else " (not reached)")
             ax.annotate(f"WP{k}{when}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
         what = f"the scenario's waypoints, replaced or cleared at {changed[0]:g} s" if changed else "waypoints"
+        ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
+    elif (shown := _scene_mission(c)) is not None:
+        # a mission file, or one a ground station uploaded: its places as the run first showed them
+        t0, places, r = shown
+        for k, (n, e) in enumerate(places, start=1):
+            ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
+            ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
+            ax.annotate(f"{k}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
+        what = f"the mission's places at {t0:g} s" + (f", changed at {changed[0]:g} s" if changed else "")
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
     for k, v in enumerate(vehicles):
         t, a = _track(c, v)

@@ -485,6 +485,23 @@ class Recorder:
         )
         self._mcap.flush()
 
+    def attach(self, name: str, media_type: str, data: bytes) -> None:
+        """Attach a file the run read (before any message; nothing without a file), with
+        its SHA-256 for the audit.
+
+        Parameters
+        ----------
+        name : str
+            The attachment's name, e.g. ``mission/survey.plan``.
+        media_type : str
+            Its media type.
+        data : bytes
+            Its bytes, as the run read them.
+        """
+        if self._mcap is None:
+            return
+        self._attach(name, media_type, data)
+
     def attach_fmus(self, fmu_paths: list[Path]) -> None:
         """Attach each FMU's modelDescription.xml (before any message; nothing without a file).
 

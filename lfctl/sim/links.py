@@ -8,24 +8,91 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
+from pymavlink.dialects.v20 import ardupilotmega as mav
+
+from lfctl.checks import read_text_file
 from lfctl.config import Config
+from lfctl.errors import ConfigError
 from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.companion import Companion
 from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, VehicleEndpoint
 from lfctl.link.gcs import GCS_SYSID, GroundStation
-from lfctl.link.mission import local_mission
+from lfctl.link.mission import (
+    MAX_FILE_BYTES,
+    MissionFile,
+    MissionItem,
+    check_site,
+    load_mission_file,
+    local_mission,
+)
+from lfctl.link.mission_server import FENCE, MISSION, MISSION_TYPES, RALLY, list_problem
 from lfctl.link.port import MavPort
 from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
 from lfctl.sim.world import WorldState
 
-__all__ = ["Links"]
+__all__ = ["Links", "ScenarioMission", "scenario_mission"]
 
 #: wall seconds an endpoint may spend on inbound UDP per tick in --realtime (the rest waits):
 #: a flood of junk must not slow the simulation below real time
 REALTIME_RECEIVE_BUDGET_S = 0.002
+
+
+@dataclass(frozen=True)
+class ScenarioMission:
+    """A scenario's ``mission.file``, read and checked.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    lists : dict
+        Its mission, fence and rally points, by MAV_MISSION_TYPE.
+    data : bytes
+        The file's bytes as read (attached to the run's log).
+    """
+
+    path: Path
+    lists: dict[int, list[MissionItem]]
+    data: bytes
+
+
+def scenario_mission(cfg: Config) -> ScenarioMission | None:
+    """Read ``mission.file`` (None without one) and check it as the leader's upload would and
+    against the scenario's home, so that a bad file stops the run before it starts.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+
+    Raises
+    ------
+    ConfigError
+        The file cannot be read or parsed, holds no mission, an item the leader would refuse
+        (naming it and the MAV_MISSION result), or a place far from the scenario's home.
+    """
+    if cfg.mission.file is None:
+        return None
+    path = Path(cfg.mission.file).expanduser()
+    text = read_text_file(path, "mission.file", MAX_FILE_BYTES)
+    found: MissionFile = load_mission_file(path, text)
+    where = f"mission.file {path}"
+    lists = {MISSION: found.mission, FENCE: found.fence, RALLY: found.rally}
+    for kind, items in lists.items():
+        if (bad := list_problem(items, kind)) is not None:
+            seq, result = bad
+            name = mav.enums["MAV_MISSION_RESULT"][result].name
+            raise ConfigError(f"{where}: the leader would refuse its {MISSION_TYPES[kind]} at item {seq}: {name}")
+    if len(found.mission) <= 1:
+        raise ConfigError(f'{where}: holds no mission items (a Rover refuses AUTO: "No Mission. Can\'t set AUTO.")')
+    lc = cfg.link
+    check_site(found, (lc.home_lat_deg, lc.home_lon_deg, lc.home_alt_m), where)
+    return ScenarioMission(path, lists, text.encode())
 
 
 class Links:
@@ -60,6 +127,7 @@ class Links:
         tap: Callable[[str, str, Any, bytes], None] | None = None,
         video_ports: dict[str, int] | None = None,
         start_ns: int | None = None,
+        mission: ScenarioMission | None = None,
     ) -> None:
         lc = cfg.link
         self.home = (lc.home_lat_deg, lc.home_lon_deg, lc.home_alt_m)
@@ -120,16 +188,26 @@ class Links:
             for i in range(1, len(cfg.vehicles))
         ]
         leader = self.endpoints[0]
-        if cfg.mission.waypoints:
-            items = local_mission(list(cfg.mission.waypoints), self.home)
+        if mission is None and cfg.mission.file is not None:
+            mission = scenario_mission(cfg)
+        if mission is not None or cfg.mission.waypoints:
+            lists = (
+                mission.lists
+                if mission is not None
+                else {MISSION: local_mission(list(cfg.mission.waypoints), self.home), FENCE: [], RALLY: []}
+            )
             if realtime:
-                leader.store_mission(items)  # a stored mission, as on a real rover; GCS starts it
+                for kind, items in lists.items():  # stored, as on a real rover; a GCS starts it
+                    if items or kind == MISSION:
+                        leader.missions.store(kind, items)
             else:
                 # lockstep: upload through the mission protocol at t = 0, then AUTO and arm
                 # no heartbeats: a one-shot set-up is not a ground station whose loss is a failsafe
                 port = MavPort.memory(self.peers[0], GCS_SYSID, GCS_COMPID, pump=lambda: leader.tick(0.0, leader.state))
                 gcs = GroundStation(port, target_system=1, timeout_s=2.0, heartbeats=False)
-                gcs.upload(items)
+                for kind, items in lists.items():
+                    if items or kind == MISSION:
+                        gcs.upload(items, mission_type=kind)
                 gcs.set_mode("AUTO")
                 gcs.arm(True)
         elif not realtime:

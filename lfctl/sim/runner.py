@@ -40,7 +40,7 @@ from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
 from lfctl.sim.camera_sensor import CameraSample
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.driver import VehicleDriver
-from lfctl.sim.links import Links
+from lfctl.sim.links import Links, scenario_mission
 from lfctl.sim.truth_sensor import TruthSensor
 from lfctl.sim.watchdog import finish_on_abandon
 from lfctl.sim.world import WorldState
@@ -429,11 +429,14 @@ def run_scenario(
     if law not in ("smc", "p"):
         raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
     check_video(cfg, video)
+    mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
         with _recording(record_to, cfg, sim, live) as recorder:
             tap = None
             if recorder is not None:
                 recorder.attach_fmus(sim.fmu_paths)  # provenance first: before any message
+                if mission is not None:
+                    recorder.attach(f"mission/{mission.path.name}", "text/plain", mission.data)
                 if on_live is not None and recorder.live_port is not None:
                     on_live(recorder.live_port)
 
@@ -442,7 +445,7 @@ def run_scenario(
 
             video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
             start_ns = recorder.start_ns if recorder is not None else None
-            links = Links(cfg, sim.realtime, tap, video_ports, start_ns)
+            links = Links(cfg, sim.realtime, tap, video_ports, start_ns, mission)
             senders: dict[str, RtpH264Sender] = {}
             try:
                 if video is not None and video_ports is not None:

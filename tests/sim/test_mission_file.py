@@ -1,0 +1,162 @@
+"""A scenario's ``mission.file``: a ground station's .plan (with its fence and rally points)
+or .waypoints flown in lockstep as the scenario's own waypoints are, checked before the run
+starts, attached to the log and drawn by the audit's plot."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lfctl.cli import main
+from lfctl.config import load_config, parse_config
+from lfctl.errors import ConfigError
+from lfctl.frames import ned_to_geodetic
+from lfctl.link.mission_server import FENCE, MISSION, RALLY
+from lfctl.sim.links import Links, scenario_mission
+from lfctl.sim.runner import run_scenario
+
+pytestmark = pytest.mark.fmu
+
+ROUTE = ((3.0, 0.0), (3.0, 2.0), (0.0, 2.0))
+SCENARIO = """
+[sim]
+duration_s = 35.0
+[[vehicles]]
+name = "leader"
+role = "leader"
+[[vehicles]]
+name = "f1"
+role = "follower"
+north_m = -1.5
+[mission]
+{mission}
+"""
+
+
+def geo(cfg, n: float, e: float) -> list[float]:
+    lc = cfg.link
+    lat, lon, _ = ned_to_geodetic(n, e, 0.0, lc.home_lat_deg, lc.home_lon_deg, lc.home_alt_m)
+    return [lat, lon]
+
+
+def write_plan(folder: Path, cfg, route=ROUTE, command: int = 16, fence: bool = True) -> Path:
+    """A QGroundControl plan of ``route`` (local north, east), with an inclusion fence around
+    it and one rally point, as QGroundControl saves one."""
+    items = [
+        {
+            "type": "SimpleItem",
+            "command": command,
+            "frame": 3,
+            "params": [0, 0, 0, None, *geo(cfg, n, e), 0],
+            "autoContinue": True,
+            "doJumpId": k,
+        }
+        for k, (n, e) in enumerate(route, start=1)
+    ]
+    box = [geo(cfg, n, e) for n, e in ((-20, -20), (-20, 20), (20, 20), (20, -20))]
+    plan = {
+        "fileType": "Plan",
+        "version": 1,
+        "groundStation": "QGroundControl",
+        "mission": {"version": 2, "items": items, "plannedHomePosition": [*geo(cfg, 0, 0), 0], "firmwareType": 3},
+        "geoFence": {"version": 2, "polygons": [{"inclusion": True, "polygon": box}] if fence else [], "circles": []},
+        "rallyPoints": {"version": 2, "points": [[*geo(cfg, -1.0, -1.0), 0.0]] if fence else []},
+    }
+    path = folder / "route.plan"
+    path.write_text(json.dumps(plan))
+    return path
+
+
+def scenario(folder: Path, mission: str) -> Path:
+    path = folder / "run.toml"
+    path.write_text(SCENARIO.format(mission=mission))
+    return path
+
+
+def test_a_plan_is_flown_as_the_same_waypoints_are_and_its_fence_and_rally_points_go_up_with_it(
+    tmp_path: Path,
+) -> None:
+    base = parse_config(SCENARIO.format(mission=""))
+    write_plan(tmp_path, base)
+    from_file = load_config(scenario(tmp_path, 'file = "route.plan"'))
+    assert from_file.mission.file == str((tmp_path / "route.plan").resolve())  # beside the scenario
+    waypoints = dataclasses.replace(base, mission=dataclasses.replace(base.mission, waypoints=ROUTE))
+    links = []
+    a = run_scenario(from_file, on_links=links.append)
+    b = run_scenario(waypoints)
+    assert [i for i, _ in a.waypoints_reached] == [i for i, _ in b.waypoints_reached] == [0, 1, 2]
+    assert np.allclose(a.result.pos_ned_m, b.result.pos_ned_m, atol=1e-6)
+    leader = links[0].endpoints[0]
+    assert [len(leader.missions.lists[k]) for k in (MISSION, FENCE, RALLY)] == [4, 4, 1]
+
+
+def test_a_plan_in_a_realtime_run_is_stored_with_its_fence_and_rally_points_for_a_gcs_to_start(
+    tmp_path: Path, free_udp_ports
+) -> None:
+    base = parse_config(SCENARIO.format(mission=""))
+    write_plan(tmp_path, base)
+    cfg = load_config(scenario(tmp_path, 'file = "route.plan"'))
+    link = dataclasses.replace(cfg.link, udp_base_port=free_udp_ports(2), gcs_udpout="")
+    cfg = dataclasses.replace(cfg, link=link)
+    links = Links(cfg, realtime=True, mission=scenario_mission(cfg))
+    try:
+        leader = links.endpoints[0]
+        assert [len(leader.missions.lists[k]) for k in (MISSION, FENCE, RALLY)] == [4, 4, 1]
+        assert not leader.armed  # stored, as on a rover: a ground station starts it
+    finally:
+        links.close()
+
+
+@pytest.mark.parametrize(
+    ("mission", "says"),
+    [
+        ('file = "route.plan"\nwaypoints = [[1.0, 1.0]]', "mission.file and mission.waypoints are two missions"),
+        ('file = "../route.plan"', "mission.file must stay inside"),
+        ('file = "none.plan"', "cannot read mission.file"),
+    ],
+)
+def test_a_mission_file_named_wrongly_is_one_line_naming_it(tmp_path: Path, mission: str, says: str) -> None:
+    with pytest.raises(ConfigError, match=says):
+        scenario_mission(load_config(scenario(tmp_path, mission)))
+
+
+def test_a_plan_for_another_site_or_with_an_item_the_leader_refuses_stops_the_run_before_it_starts(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = parse_config(SCENARIO.format(mission=""))
+    far = dataclasses.replace(base, link=dataclasses.replace(base.link, home_lat_deg=48.0, home_lon_deg=11.0))
+    write_plan(tmp_path, far)  # planned in Bavaria, flown from the default home
+    monkeypatch.chdir(tmp_path)
+    run = scenario(tmp_path, 'file = "route.plan"')
+    assert main(["sim", str(run), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "mission item 1 (NAV_WAYPOINT)" in err and "km from the scenario's home" in err
+    assert "link.home_lat_deg" in err
+    assert not (tmp_path / "logs").exists()  # nothing recorded
+    write_plan(tmp_path, base, command=31000)  # a command no ArduPilot mission knows
+    with pytest.raises(ConfigError, match="would refuse its mission at item 1: MAV_MISSION_UNSUPPORTED"):
+        scenario_mission(load_config(run))
+    write_plan(tmp_path, base, route=())
+    with pytest.raises(ConfigError, match="holds no mission items"):
+        scenario_mission(load_config(run))
+
+
+def test_the_mission_file_is_attached_to_the_log_and_drawn_by_the_plot(tmp_path: Path) -> None:
+    from lfctl.record.audit import audit
+    from lfctl.record.plots import _scene_mission
+
+    base = parse_config(SCENARIO.format(mission=""))
+    plan = write_plan(tmp_path, base, fence=False)
+    cfg = load_config(scenario(tmp_path, 'file = "route.plan"'))
+    log = tmp_path / "run.mcap"
+    run_scenario(cfg, record_to=log, duration_s=3.0)
+    report = audit(log)
+    assert report.ok, [f.line() for f in report.findings]
+    assert report.contents.attachments["mission/route.plan"] == plan.read_bytes()
+    t0, places, radius = _scene_mission(report.contents)
+    assert t0 == pytest.approx(0.0, abs=0.1) and radius == pytest.approx(cfg.mission.acceptance_radius_m)
+    assert np.allclose(places, ROUTE, atol=0.02)  # degE7: about 1 cm
