@@ -354,8 +354,9 @@ class GuidanceConfig(_Section):
     p_gain: float = _f(0.8, _GAIN)  # the P baseline's position gain (FOLL_POS_P), 1/s
     coast_s: float = _f(2.0, Bound(0, 3600))  # followers coast on their filter this long without a measurement, s
     slowdown_s: float = _f(1.0, Bound(0, 3600, lo_open=True))  # then slow to a stop over this long before LOST, s
-    #: once LOST, turn in place one full turn at this rate to look for the target (TOML search_yaw_rate_degps; 0: hold still)
-    search_yaw_rate_radps: float = _f(math.radians(45.0), Bound(0, 3600))  # deg/s
+    #: once LOST, turn in place one full turn at this rate to look for the target (TOML
+    #: search_yaw_rate_degps; 0: hold still; at most max_yaw_rate; a follower of a follower holds)
+    search_yaw_rate_radps: float = _f(0.0, Bound(0, 360))  # deg/s
 
 
 @dataclass(frozen=True)

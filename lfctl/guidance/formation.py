@@ -6,11 +6,12 @@ fed by the relative measurement placed with the follower's own odometry, supplie
 velocity the sliding-mode range law needs (paper eq. 20-23) and coasts through occlusions.
 Behaviour by track state: TRACKING -> full control; no measurement -> coast on the filter for
 ``coast_s``, then slow to a stop over ``slowdown_s`` (OCCLUDED); beyond that, or when the
-sensor says LOST -> stop (LOST) until the target is seen again; once the coast and the
-slow-down are over, look for it: turn in place one full turn at ``search_yaw_rate_radps``,
-towards the side the filter last put it on, then hold (a rate of 0: stop and hold at once, as ArduPilot's FOLLOW mode does without a
-target). A camera sees only ahead: a target that turned away, showing its side, or went past
-the edge of the picture is seen again only by looking round.
+sensor says LOST -> stop (LOST) until the target is seen again. With
+``search_yaw_rate_radps`` set, once the coast and the slow-down are over the follower looks
+for it: one full turn in place towards the side the filter last put it on, then hold; by
+default (0) it holds at once, as ArduPilot's FOLLOW mode does without a target. A camera
+sees only ahead: a target that turned away, showing its side, or went past the edge of the
+picture is seen again only by looking round.
 
 Two control laws share everything else: ``"smc"`` (the paper's, corrected) and ``"p"``, a
 proportional controller on the position offset like ArduPilot's AP_Follow (FOLL_POS_P), the
@@ -66,9 +67,10 @@ class FormationSettings:
         ``slowdown_s``; after both the track is LOST.
     search_yaw_rate_radps : float
         Once LOST and the coast and slow-down are over, turn in place one full turn at this
-        rate (rad/s) towards the side the target was last estimated on, then hold; 0: hold
-        still. A LOST from the sensor within the coast does not start the turn (a tracker's
-        moment of doubt with the target still ahead).
+        rate (rad/s, at most ``bearing.max_yaw_rate_radps``) towards the side the target was
+        last estimated on, then hold; 0 (the default): hold still. A LOST from the sensor
+        within the coast does not start the turn (a tracker's moment of doubt with the target
+        still ahead).
     meas_sigma_m : float
         Position noise of a measurement placed in the world, m (filter R).
     accel_sigma_mps2 : float
@@ -84,7 +86,7 @@ class FormationSettings:
     p_heading_gain_per_s: float = 2.0
     coast_s: float = 2.0
     slowdown_s: float = 1.0
-    search_yaw_rate_radps: float = math.radians(45.0)
+    search_yaw_rate_radps: float = 0.0
     meas_sigma_m: float = 0.03
     accel_sigma_mps2: float = 0.3
 
@@ -262,7 +264,10 @@ class FormationController:
         self._target_heading: float | None = None
         # the search once LOST: the turn's direction (+1 right, -1 left), its heading a step
         # ago and how far it has turned (rad); None while not searching
-        self._search: tuple[float, float, float] | None = None
+        self._search: tuple[float, float, float, float] | None = None
+        # LOST by the coast and slow-down running out: held until a fresh sighting (a longer
+        # coast set meanwhile applies to the next occlusion, not to a target long unseen)
+        self._timed_out = False
         self.status = TrackStatus.LOST
 
     def _odometry_at(self, t_s: float) -> Odometry:
@@ -319,9 +324,10 @@ class FormationController:
             self._t_last_meas = odom.t_s
         since = odom.t_s - self._t_last_meas
         sensor_lost = meas is not None and meas.status is TrackStatus.LOST
+        self._timed_out = not fresh and (self._timed_out or since > st.coast_s + st.slowdown_s)
         if fresh:
             self.status = TrackStatus.TRACKING
-        elif sensor_lost or not est.initialised or since > st.coast_s + st.slowdown_s:
+        elif sensor_lost or not est.initialised or self._timed_out:
             self.status = TrackStatus.LOST
         else:
             self.status = TrackStatus.OCCLUDED
@@ -330,7 +336,7 @@ class FormationController:
             self.bearing_smc.reset()
             if est.initialised:
                 rng, brg = self._relative(odom)
-                turn = self._look(odom, brg) if since > st.coast_s + st.slowdown_s else 0.0
+                turn = self._look(odom, brg) if self._timed_out else 0.0
                 return FormationOutput(0.0, turn, self.status, rng, brg, est.velocity, since)
             return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since)
 
@@ -351,16 +357,22 @@ class FormationController:
     def _look(self, odom: Odometry, bearing_rad: float) -> float:
         """The yaw rate of a LOST follower's search: one full turn in place towards the side
         of ``bearing_rad`` (the filter's bearing to the target as the search begins), then 0.
+
+        The turn is counted on the odometry, the way it turns (a yaw that does not change, or
+        goes the other way, is no progress), and ends at twice the time a full turn takes at
+        the rate, whatever the odometry says (a vehicle that cannot turn on the spot).
         """
-        rate = min(self.settings.search_yaw_rate_radps, self.settings.bearing.max_yaw_rate_radps)
+        st = self.settings
+        rate = min(st.search_yaw_rate_radps, st.bearing.max_yaw_rate_radps)
         if rate <= 0.0:
             return 0.0
         if self._search is None:
-            self._search = (-1.0 if bearing_rad < 0.0 else 1.0, odom.yaw_rad, 0.0)
-        side, last_yaw, turned = self._search
-        turned += abs(wrap_pi(odom.yaw_rad - last_yaw))
-        self._search = (side, odom.yaw_rad, turned)
-        return side * rate if turned < 2.0 * math.pi else 0.0
+            self._search = (-1.0 if bearing_rad < 0.0 else 1.0, odom.t_s, odom.yaw_rad, 0.0)
+        side, t0, last_yaw, turned = self._search
+        turned += side * wrap_pi(odom.yaw_rad - last_yaw)
+        self._search = (side, t0, odom.yaw_rad, turned)
+        done = turned >= 2.0 * math.pi or odom.t_s - t0 > 2.0 * (2.0 * math.pi / rate)
+        return 0.0 if done else side * rate
 
     def _relative(self, odom: Odometry) -> tuple[float, float]:
         tn, te = self.estimator.position

@@ -143,7 +143,7 @@ def default_params(sysid: int) -> dict[str, Param]:
         "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
         "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),
         "LFC_SEARCH": Param(
-            45.0, 0.0, 360.0, "deg/s", "formation: once the target is lost, turn one full turn at this rate; 0: hold"
+            0.0, 0.0, 360.0, "deg/s", "formation: once the target is lost, turn one full turn at this rate; 0: hold"
         ),
     }
 

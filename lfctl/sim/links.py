@@ -35,7 +35,7 @@ from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
 from lfctl.sim.world import WorldState
 
-__all__ = ["Links", "ScenarioMission", "scenario_mission"]
+__all__ = ["Links", "ScenarioMission", "scenario_mission", "search_degps"]
 
 #: wall seconds an endpoint may spend on inbound UDP per tick in --realtime (the rest waits):
 #: a flood of junk must not slow the simulation below real time
@@ -59,6 +59,25 @@ class ScenarioMission:
     path: Path
     lists: dict[int, list[MissionItem]]
     data: bytes
+
+
+def search_degps(cfg: Config, follower: str) -> float:
+    """The rate a follower looks round at once it has lost its target, deg/s: the scenario's
+    ``guidance.search_yaw_rate_degps`` for a follower of the leader, 0 for a follower of a
+    follower. A follower that turns to search turns its banner away from the one behind it,
+    which then loses it too, and turning in its turn the one behind would come first upon
+    the banner of another vehicle (every vehicle's is the same): it waits for its target.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+    follower : str
+        The follower's name.
+    """
+    if cfg.slots()[follower].target != cfg.vehicles[0].name:
+        return 0.0
+    return math.degrees(cfg.guidance.search_yaw_rate_radps)
 
 
 def scenario_mission(cfg: Config) -> ScenarioMission | None:
@@ -218,7 +237,7 @@ class Links:
             ep.params["LFC_RANGE"].value = slots[v.name].range_m
             ep.params["LFC_BEARING"].value = math.degrees(slots[v.name].bearing_rad)
             ep.params["LFC_COAST"].value = cfg.guidance.coast_s
-            ep.params["LFC_SEARCH"].value = math.degrees(cfg.guidance.search_yaw_rate_radps)
+            ep.params["LFC_SEARCH"].value = search_degps(cfg, v.name)
             comp.set_guided()  # as a companion computer does at start-up
             comp.arm()
 

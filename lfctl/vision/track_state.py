@@ -17,7 +17,7 @@ class TrackStatus(enum.Enum):
 
     TRACKING = "tracking"  # a fresh measurement this cycle
     OCCLUDED = "occluded"  # the target is hidden (or the sensor doubts it): coast
-    LOST = "lost"  # gone for longer than the coast allows: stop and hold
+    LOST = "lost"  # gone for longer than the coast allows: stop (and, if set, look round)
 
 
 @dataclass(frozen=True)

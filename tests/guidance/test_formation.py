@@ -96,6 +96,40 @@ def test_lost_looks_round_one_full_turn_towards_the_targets_side_then_holds(brg_
     assert steps[len(turning)][1] == pytest.approx(0.0, abs=rate * DT)  # facing where it began
 
 
+def test_a_search_on_a_vehicle_that_does_not_turn_ends_at_twice_a_turns_time() -> None:
+    """Car steering, a stalled rover, a frozen attitude: the yaw never moves, and the turn is
+    not commanded for ever (8 s a turn at 45 deg/s: given up after 16 s)."""
+    ctl, t_lost = lose_target(20.0)
+    rates = []
+    for k in range(1, round(30.0 / DT)):
+        t = t_lost + k * DT
+        rates.append(ctl.step(RelativeMeasurement(t, TrackStatus.OCCLUDED), Odometry(t, 0.0, 0.0, 0.0, 0.0)))
+    turning = [o for o in rates if o.yaw_rate_radps != 0.0]
+    assert len(turning) * DT == pytest.approx(16.0, abs=2 * DT)
+    assert all(o.yaw_rate_radps == 0.0 for o in rates[len(turning) :])
+
+
+def test_a_turn_the_other_way_is_no_progress() -> None:
+    ctl, t_lost = lose_target(20.0)  # the search turns right
+    yaw = 0.0
+    for k in range(1, round(9.0 / DT)):  # 9 s of the vehicle turning left at the search rate
+        t = t_lost + k * DT
+        out = ctl.step(RelativeMeasurement(t, TrackStatus.OCCLUDED), Odometry(t, 0.0, 0.0, yaw, 0.0))
+        assert out.yaw_rate_radps > 0.0  # still asking for its turn to the right
+        yaw = math.remainder(yaw - math.radians(45.0) * DT, 2 * math.pi)
+
+
+def test_a_longer_coast_set_during_a_search_does_not_bring_a_long_unseen_target_back() -> None:
+    import dataclasses
+
+    ctl, t_lost = lose_target(20.0)
+    turn_in_place(ctl, t_lost, 1.0)
+    ctl.settings = dataclasses.replace(ctl.settings, coast_s=10.0)  # a ground station's LFC_COAST
+    t = t_lost + 1.0 + DT
+    out = ctl.step(RelativeMeasurement(t, TrackStatus.OCCLUDED), Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.LOST and out.speed_mps == 0.0 and out.yaw_rate_radps > 0.0
+
+
 def test_lost_holds_still_with_no_search_rate() -> None:
     ctl, t_lost = lose_target(20.0, search_degps=0.0)
     assert {s[2] for s in turn_in_place(ctl, t_lost, 3.0)} == {0.0}

@@ -70,7 +70,11 @@ def test_full_occlusion_of_1_5_s_is_coasted_through_without_stopping(convoy_runs
 
 def test_leader_lost_for_longer_than_the_coast_stops_the_follower_which_looks_round() -> None:
     cfg = convoy()
-    cfg = dataclasses.replace(cfg, sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)))
+    cfg = dataclasses.replace(
+        cfg,
+        sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)),
+        guidance=dataclasses.replace(cfg.guidance, search_yaw_rate_radps=math.radians(45.0)),
+    )
     rep = run_scenario(cfg, duration_s=42.0)
     tr = rep.traces[0]
     t = np.array(tr.t_s)
@@ -93,31 +97,40 @@ def test_leader_lost_for_longer_than_the_coast_stops_the_follower_which_looks_ro
 
 
 def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() -> None:
-    """LFC_COAST and LFC_SEARCH set on the follower's link by PARAM_SET at t = 1 s change the
-    running follower: LOST one second sooner, and no turn (LFC_SEARCH 0)."""
+    """The scenario's coast (1.5 s) and search (none) are the follower's LFC_COAST and
+    LFC_SEARCH; set by PARAM_SET at t = 1 s to 1 s and 30 deg/s they change the running
+    follower: LOST 1.5 s sooner than the scenario's coast and slow-down allow, and turning."""
     from pymavlink.dialects.v20 import ardupilotmega as mav
 
     cfg = convoy()
-    cfg = dataclasses.replace(cfg, sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)))
+    cfg = dataclasses.replace(
+        cfg,
+        sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)),
+        guidance=dataclasses.replace(cfg.guidance, coast_s=2.5),
+    )
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    links, sent = [], []
+    links, sent, before = [], [], []
 
     def stop() -> bool:
-        if not sent and links and links[0].endpoints[1].t_s >= 1.0:
-            for name, value in ((b"LFC_COAST", 1.0), (b"LFC_SEARCH", 0.0)):
+        ep = links[0].endpoints[1]
+        if not before:
+            before.append((ep.param("LFC_COAST"), ep.param("LFC_SEARCH")))
+        if not sent and ep.t_s >= 1.0:
+            for name, value in ((b"LFC_COAST", 1.0), (b"LFC_SEARCH", 30.0)):
                 msg = mav.MAVLink_param_set_message(2, 1, name, value, mav.MAV_PARAM_TYPE_REAL32)
                 links[0].peers[1].send(msg.pack(gcs))
             sent.append(True)
         return False
 
     rep = run_scenario(cfg, duration_s=30.0, on_links=links.append, stop=stop)
+    assert before == [(2.5, 0.0)]  # the scenario's, on the follower's link
     assert sent and links[0].endpoints[1].param("LFC_COAST") == 1.0
     tr = rep.traces[0]
     t = np.array(tr.t_s)
     lost = np.array([st is TrackStatus.LOST for st in tr.status]) & (t > 15.0)
     g = cfg.guidance
     assert t[lost][0] == pytest.approx(20.0 + cfg.sensing.delay_s + 1.0 + g.slowdown_s, abs=0.1)
-    assert not np.any(np.array(tr.yaw_rate_cmd_radps)[lost])  # held still
+    assert np.max(np.abs(np.array(tr.yaw_rate_cmd_radps)[lost])) == pytest.approx(math.radians(30.0))
 
 
 HOLD = """
@@ -244,6 +257,27 @@ def test_a_follower_that_loses_its_leader_at_a_surveys_turns_looks_round_and_fin
     assert looking.metrics[0].time_in_state_s["lost"] < 0.6 * still.metrics[0].time_in_state_s["lost"]
     assert looking.metrics[0].range_err_rms_m < still.metrics[0].range_err_rms_m
     assert looking.metrics[0].min_separation_m >= 0.3
+
+
+@pytest.mark.slow
+def test_in_a_chain_only_the_leaders_follower_looks_round_and_the_one_behind_waits() -> None:
+    """A second follower behind the first on the survey: when the first turns to search, its
+    banner turns away and the second loses it; were it to look round too it would come first
+    upon the leader's banner (the same) and drive onto the first. It holds still instead."""
+    from lfctl.config import VehicleConfig
+
+    cfg = survey(45.0)
+    second = VehicleConfig(
+        name="follower2", role="follower", north_m=-3.0, target="follower1", range_m=1.5, bearing_rad=0.0
+    )
+    cfg = dataclasses.replace(cfg, vehicles=(*cfg.vehicles, second))
+    rep = run_scenario(cfg)
+    first, behind = rep.traces
+    assert any(st is TrackStatus.LOST for st in first.status)  # the first did search
+    assert any(r != 0.0 for r, st in zip(first.yaw_rate_cmd_radps, first.status, strict=True) if st is TrackStatus.LOST)
+    lost_behind = [r for r, st in zip(behind.yaw_rate_cmd_radps, behind.status, strict=True) if st is TrackStatus.LOST]
+    assert all(r == 0.0 for r in lost_behind)
+    assert all(m.min_separation_m >= 0.3 for m in rep.metrics), [m.min_separation_m for m in rep.metrics]
 
 
 @pytest.mark.slow
