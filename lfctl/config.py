@@ -55,6 +55,7 @@ __all__ = [
     "load_config",
     "parse_config",
     "parse_host_port",
+    "resolve_paths",
 ]
 
 # ----------------------------------------------------------------------------------------
@@ -1026,20 +1027,50 @@ def load_config(path: str | Path) -> Config:
     p = Path(path)
     text = read_text_file(p, "scenario", MAX_SCENARIO_BYTES)
     try:
-        cfg = parse_config(text, name=p.stem)
-        # a user FMU named by a relative path is looked for beside the scenario, and stays there
-        vehicles = tuple(
-            dataclasses.replace(v, fmu=str(check_inside(f"vehicles[{v.name}].fmu", p.parent, Path(v.fmu))))
-            if v.fmu is not None and not Path(v.fmu).expanduser().is_absolute()
-            else v
-            for v in cfg.vehicles
-        )
-        mission = cfg.mission
-        if mission.file is not None and not Path(mission.file).expanduser().is_absolute():
-            where = check_inside("mission.file", p.parent, Path(mission.file))
-            mission = dataclasses.replace(mission, file=str(where))
+        return resolve_paths(parse_config(text, name=p.stem), p.parent)
     except ConfigError as exc:
         raise ConfigError(f"{p}: {exc}") from None
+
+
+def _user_path(key: str, value: str) -> Path:
+    """``value`` with a leading ``~`` expanded (ConfigError naming ``key`` when it cannot be)."""
+    if not value.strip():
+        raise ConfigError(f"{key} is empty: name a file")
+    try:
+        return Path(value).expanduser()
+    except RuntimeError as exc:  # ~user with no such user, or no home
+        raise ConfigError(f"{key}: cannot expand {value!r}: {exc}") from None
+
+
+def resolve_paths(cfg: Config, base_dir: Path) -> Config:
+    """The scenario with its file paths (``vehicles.fmu``, ``mission.file``) made absolute:
+    ``~`` expanded, a relative one looked for in ``base_dir`` (the scenario's folder) and
+    kept inside it, as :func:`load_config` reads them.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario as parsed.
+    base_dir : Path
+        The folder relative paths start from.
+
+    Raises
+    ------
+    ConfigError
+        A relative path leading out of ``base_dir``, an empty one, or a ``~`` that does not expand.
+    """
+
+    def where(key: str, value: str) -> str:
+        path = _user_path(key, value)
+        return str(path if path.is_absolute() else check_inside(key, base_dir, path))
+
+    vehicles = tuple(
+        dataclasses.replace(v, fmu=where(f"vehicles[{v.name}].fmu", v.fmu)) if v.fmu is not None else v
+        for v in cfg.vehicles
+    )
+    mission = cfg.mission
+    if mission.file is not None:
+        mission = dataclasses.replace(mission, file=where("mission.file", mission.file))
     return dataclasses.replace(cfg, vehicles=vehicles, mission=mission)
 
 

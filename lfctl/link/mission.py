@@ -578,8 +578,8 @@ MAX_SITE_M = 100_000.0
 
 
 def check_site(found: MissionFile, home: tuple[float, float, float], where: str) -> None:
-    """Refuse a mission file planned for another site: a place (a navigation item's, a fence
-    vertex or circle centre, a rally point; latitude and longitude 0 is "here") farther than
+    """Refuse a mission file planned for another site: a place (a mission item's, where
+    latitude and longitude 0 is "here"; a fence vertex or circle centre; a rally point) farther than
     :data:`MAX_SITE_M` from ``home`` is a ConfigError naming it, its distance and the home.
 
     Parameters
@@ -596,10 +596,8 @@ def check_site(found: MissionFile, home: tuple[float, float, float], where: str)
     lists = (("mission item", found.mission[1:]), ("fence item", found.fence), ("rally point", found.rally))
     for what, items in lists:
         for it in items:
-            if what == "mission item" and it.command not in STORES_LOCATION:
-                continue
-            if it.x == 0 and it.y == 0:
-                continue
+            if what == "mission item" and (it.command not in STORES_LOCATION or (it.x == 0 and it.y == 0)):
+                continue  # no place, or "here" (a fence vertex or rally point at 0, 0 is at 0, 0)
             lat, lon = it.x * 1e-7, it.y * 1e-7
             n, e, _ = geodetic_to_ned(lat, lon, 0.0, home[0], home[1], 0.0)
             far = math.hypot(n, e)

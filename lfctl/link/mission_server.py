@@ -105,7 +105,8 @@ def item_result(item: MissionItem, mission_type: int, count: int) -> int:
 
 def list_problem(items: list[MissionItem], mission_type: int) -> tuple[int, int] | None:
     """The first item an upload of the whole list would be refused at, as (seq,
-    MAV_MISSION_RESULT), or None when it would be taken.
+    MAV_MISSION_RESULT), or None when it would be taken (a list longer than the vehicle has
+    room for: the first item past its room, MAV_MISSION_NO_SPACE).
 
     Parameters
     ----------
@@ -114,6 +115,8 @@ def list_problem(items: list[MissionItem], mission_type: int) -> tuple[int, int]
     mission_type : int
         MAV_MISSION_TYPE.
     """
+    if len(items) > CAPACITY[mission_type]:
+        return CAPACITY[mission_type], mav.MAV_MISSION_NO_SPACE  # the first item there is no room for
     for it in items:
         if (result := item_result(it, mission_type, len(items))) != mav.MAV_MISSION_ACCEPTED:
             return it.seq, result

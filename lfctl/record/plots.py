@@ -101,10 +101,12 @@ def _scene_mission(c: Contents) -> tuple[float, list[tuple[float, float]], float
             if ent.id != "mission":
                 continue
             places = [(s.pose.position.x, s.pose.position.y) for s in ent.spheres]
+            if not places:  # no mission yet: a ground station may upload one later
+                continue
             loops = [ln for ln in ent.lines if ln.type == ln.LINE_LOOP and ln.points]
             radius = max(loops[0].points[0].x, 0.0) if loops else 0.0
             fine = all(abs(v) <= MAX_JSON_NUMBER for p in places for v in p)  # NaN fails too
-            return (c.sim_s(t), places, radius) if places and fine else None
+            return (c.sim_s(t), places, radius) if fine else None
     return None
 
 
@@ -155,7 +157,8 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
             ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
             ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
             ax.annotate(f"{k}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
-        what = f"the mission's places at {t0:g} s" + (f", changed at {changed[0]:g} s" if changed else "")
+        later = [t for t in changed if t > t0]  # not the upload that put this one there
+        what = f"the mission's places at {t0:g} s" + (f", changed at {later[0]:g} s" if later else "")
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
     for k, v in enumerate(vehicles):
         t, a = _track(c, v)

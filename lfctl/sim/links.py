@@ -29,7 +29,7 @@ from lfctl.link.mission import (
     load_mission_file,
     local_mission,
 )
-from lfctl.link.mission_server import FENCE, MISSION, MISSION_TYPES, RALLY, list_problem
+from lfctl.link.mission_server import CAPACITY, FENCE, MISSION, MISSION_TYPES, RALLY, list_problem
 from lfctl.link.port import MavPort
 from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
@@ -106,7 +106,10 @@ def scenario_mission(cfg: Config) -> ScenarioMission | None:
         if (bad := list_problem(items, kind)) is not None:
             seq, result = bad
             name = mav.enums["MAV_MISSION_RESULT"][result].name
-            raise ConfigError(f"{where}: the leader would refuse its {MISSION_TYPES[kind]} at item {seq}: {name}")
+            room = (
+                f" (room for {CAPACITY[kind]} items, it has {len(items)})" if result == mav.MAV_MISSION_NO_SPACE else ""
+            )
+            raise ConfigError(f"{where}: the leader would refuse its {MISSION_TYPES[kind]} at item {seq}: {name}{room}")
     if len(found.mission) <= 1:
         raise ConfigError(f'{where}: holds no mission items (a Rover refuses AUTO: "No Mission. Can\'t set AUTO.")')
     lc = cfg.link

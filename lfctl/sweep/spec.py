@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from lfctl.config import Config, config_from_table
+from lfctl.config import Config, config_from_table, resolve_paths
 from lfctl.data import examples_dir, resolve_scenario
 from lfctl.errors import ConfigError
 
@@ -581,7 +581,18 @@ def with_keys(cfg: Config, keys: Mapping[str, Any]) -> Config:
         base = tomllib.loads(cfg.source)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{cfg.name}: its source is not TOML ({exc}): was it built by load_config?") from None
-    return _with_keys(base, keys.items(), cfg.name)
+    out = _with_keys(base, keys.items(), cfg.name)
+    # paths load_config resolved beside the scenario stay so, unless a key changes them
+    if "mission.file" not in keys and out.mission.file is not None:
+        out = dataclasses.replace(out, mission=dataclasses.replace(out.mission, file=cfg.mission.file))
+    fmus = {v.name: v.fmu for v in cfg.vehicles}
+    vehicles = tuple(
+        dataclasses.replace(v, fmu=fmus[v.name])
+        if v.fmu is not None and v.name in fmus and f"vehicles[{v.name}].fmu" not in keys
+        else v
+        for v in out.vehicles
+    )
+    return dataclasses.replace(out, vehicles=vehicles)
 
 
 def plan(spec: SweepSpec) -> SweepPlan:
@@ -602,14 +613,21 @@ def plan(spec: SweepSpec) -> SweepPlan:
         A variant that does not build: the message names the variant, its values and the key.
     """
     variants = []
+    missions: dict[str, str] = {}  # each mission file the variants fly -> its SHA-256
     for index, values in enumerate(_combinations(spec)):
         try:
             keys = [*spec.fixed, *values.items(), ("recording.images", spec.images)]
-            cfg = _with_keys(spec.base, keys, spec.scenario.stem)
+            # file paths (a user FMU, a mission file) are the scenario's: beside it, as lfctl sim reads them
+            cfg = resolve_paths(_with_keys(spec.base, keys, spec.scenario.stem), spec.scenario.parent)
             if cfg.sim.clock != "lockstep":
                 raise ConfigError(
                     f"sim.clock must be 'lockstep' in a sweep (runs side by side cannot share UDP ports), got {cfg.sim.clock!r}"
                 )
+            if cfg.mission.file is not None and cfg.mission.file not in missions:
+                from lfctl.sim.links import scenario_mission
+
+                found = scenario_mission(cfg)  # a bad mission file: one line now, not a failed row a run
+                missions[cfg.mission.file] = hashlib.sha256(found.data).hexdigest() if found is not None else ""
         except ConfigError as exc:
             where = f"{spec.path}: " if spec.path is not None else ""
             raise ConfigError(f"{where}{_label(index, values)}: {exc}") from None
@@ -634,6 +652,7 @@ def plan(spec: SweepSpec) -> SweepPlan:
         "seeds": list(spec.seeds),
         "repetitions": spec.repetitions,
         "images": spec.images,
+        "mission_files": missions,  # a plan edited since is another sweep
     }
     digest = hashlib.sha256(json.dumps(what, sort_keys=True, default=repr).encode()).hexdigest()
     return SweepPlan(spec, variants, runs, digest)

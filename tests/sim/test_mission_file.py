@@ -160,3 +160,93 @@ def test_the_mission_file_is_attached_to_the_log_and_drawn_by_the_plot(tmp_path:
     t0, places, radius = _scene_mission(report.contents)
     assert t0 == pytest.approx(0.0, abs=0.1) and radius == pytest.approx(cfg.mission.acceptance_radius_m)
     assert np.allclose(places, ROUTE, atol=0.02)  # degE7: about 1 cm
+
+
+def write_lists(folder: Path, cfg, route, fence_box=None, rally=()) -> Path:
+    """A plan of ``route`` with an inclusion polygon at ``fence_box`` (geodetic vertices) and
+    ``rally`` (geodetic points), written as QGroundControl writes one."""
+    path = write_plan(folder, cfg, route=route, fence=False)
+    plan = json.loads(path.read_text())
+    if fence_box is not None:
+        plan["geoFence"]["polygons"] = [{"inclusion": True, "polygon": fence_box}]
+    plan["rallyPoints"]["points"] = [[*p, 0.0] for p in rally]
+    path.write_text(json.dumps(plan))
+    return path
+
+
+def test_every_list_is_checked_against_the_site_and_the_leaders_room(tmp_path: Path) -> None:
+    base = parse_config(SCENARIO.format(mission=""))
+    run = scenario(tmp_path, 'file = "route.plan"')
+    near = [geo(base, -1.0, -1.0)]
+    # a rally point 101 km north is another site; 99 km is this one
+    write_lists(tmp_path, base, ROUTE, rally=[geo(base, 101_000.0, 0.0)])
+    with pytest.raises(ConfigError, match=r"rally point 0 .* 101 km from the scenario's home"):
+        scenario_mission(load_config(run))
+    write_lists(tmp_path, base, ROUTE, rally=[geo(base, 99_000.0, 0.0)])
+    assert scenario_mission(load_config(run)) is not None
+    # a fence vertex at 0, 0 is at 0, 0 (only a mission item's 0, 0 means "here")
+    box = [geo(base, n, e) for n, e in ((-20, -20), (-20, 20), (20, 20))] + [[0.0, 0.0]]
+    write_lists(tmp_path, base, ROUTE, fence_box=box)
+    with pytest.raises(ConfigError, match="fence item 3"):
+        scenario_mission(load_config(run))
+    # 51 rally points: a Rover has room for 50
+    write_lists(tmp_path, base, ROUTE, rally=near * 51)
+    with pytest.raises(ConfigError, match=r"rally at item 50: MAV_MISSION_NO_SPACE \(room for 50 items, it has 51\)"):
+        scenario_mission(load_config(run))
+
+
+def test_a_mission_file_under_home_is_found_and_an_unknown_user_is_one_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    base = parse_config(SCENARIO.format(mission=""))
+    write_plan(tmp_path, base)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    cfg = load_config(scenario(tmp_path, 'file = "~/route.plan"'))
+    assert cfg.mission.file == str(tmp_path / "route.plan") and scenario_mission(cfg) is not None
+    with pytest.raises(ConfigError, match=r"mission\.file: cannot expand"):
+        load_config(scenario(tmp_path, 'file = "~no_such_user_lfctl/route.plan"'))
+    with pytest.raises(ConfigError, match=r"mission\.file is empty"):
+        load_config(scenario(tmp_path, 'file = " "'))
+
+
+def test_the_plot_draws_a_mission_uploaded_after_the_start() -> None:
+    """The log's first /scene mission is empty (no mission at the start); the one a ground
+    station uploaded at 3 s is drawn."""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    from lfctl.record.mcap_read import Contents
+    from lfctl.record.plots import _scene_mission
+
+    def scene(places: list[tuple[float, float]]) -> bytes:
+        update = SceneUpdate()
+        ent = update.entities.add(id="mission")
+        for n, e in places:
+            sphere = ent.spheres.add()
+            sphere.pose.position.x, sphere.pose.position.y = n, e
+        return update.SerializeToString()
+
+    c = Contents()
+    c.messages["/scene"] = [(0, scene([])), (3_000_000_000, scene([(3.0, 0.0), (3.0, 2.0)]))]
+    t0, places, _radius = _scene_mission(c)
+    assert t0 == pytest.approx(3.0) and places == [(3.0, 0.0), (3.0, 2.0)]
+
+
+def test_a_sweep_flies_a_mission_file_beside_its_scenario_from_any_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from lfctl.sweep.spec import parse_sweep, plan
+
+    base = parse_config(SCENARIO.format(mission=""))
+    folder = tmp_path / "scenarios"
+    folder.mkdir()
+    plan_file = write_plan(folder, base)
+    scenario(folder, 'file = "route.plan"')
+    monkeypatch.chdir(tmp_path)  # not the scenario's folder
+    text = 'scenario = "scenarios/run.toml"\nseeds = 1\n[grid]\n"mission.cruise_speed_mps" = [0.2, 0.3]\n'
+    first = plan(parse_sweep(text, base_dir=tmp_path))
+    assert {r.config.mission.file for r in first.runs} == {str(plan_file.resolve())}
+    plan_file.write_text(plan_file.read_text().replace('"version": 1', '"version": 1 '))
+    assert plan(parse_sweep(text, base_dir=tmp_path)).digest != first.digest  # another mission, another sweep
+    (folder / "route.plan").write_text("{")
+    with pytest.raises(ConfigError, match=r"route\.plan"):
+        plan(parse_sweep(text, base_dir=tmp_path))
