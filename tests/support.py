@@ -9,7 +9,18 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["free_udp_ports", "left_stopped", "wait_until"]
+__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "wait_until"]
+
+#: a scenario's two vehicles as the small closed-loop tests write them: the leader at home,
+#: follower ``f1`` 1.5 m behind it (TOML, to put between a scenario's other tables)
+LEADER_AND_FOLLOWER = """[[vehicles]]
+name = "leader"
+role = "leader"
+[[vehicles]]
+name = "f1"
+role = "follower"
+north_m = -1.5
+"""
 
 
 def free_udp_ports(n: int) -> int:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support import LEADER_AND_FOLLOWER
 
 from lfctl.config import load_config, parse_config
 from lfctl.sim.runner import RunReport, run_scenario
@@ -133,20 +134,17 @@ def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() 
     assert np.max(np.abs(np.array(tr.yaw_rate_cmd_radps)[lost])) == pytest.approx(math.radians(30.0))
 
 
-HOLD = """
+HOLD = (
+    """
 [sim]
 duration_s = 105.0
-[[vehicles]]
-name = "leader"
-role = "leader"
-[[vehicles]]
-name = "f1"
-role = "follower"
-north_m = -1.5
-range_m = 1.5
+"""
+    + LEADER_AND_FOLLOWER
+    + """range_m = 1.5
 [mission]
 waypoints = [[4.0, 0.0, 60.0], [4.0, 4.0]]
 """
+)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from support import LEADER_AND_FOLLOWER
 
 from lfctl.cli import main
 from lfctl.config import load_config, parse_config
@@ -22,19 +23,17 @@ from lfctl.sim.runner import run_scenario
 pytestmark = pytest.mark.fmu
 
 ROUTE = ((3.0, 0.0), (3.0, 2.0), (0.0, 2.0))
-SCENARIO = """
+SCENARIO = (
+    """
 [sim]
 duration_s = 35.0
-[[vehicles]]
-name = "leader"
-role = "leader"
-[[vehicles]]
-name = "f1"
-role = "follower"
-north_m = -1.5
+"""
+    + LEADER_AND_FOLLOWER
+    + """
 [mission]
 {mission}
 """
+)
 
 
 def geo(cfg, n: float, e: float) -> list[float]:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
+from support import LEADER_AND_FOLLOWER
 
 from lfctl.config import parse_config
 from lfctl.frames import ned_to_geodetic
@@ -21,23 +22,21 @@ from lfctl.sim.runner import RunReport, run_scenario
 
 pytestmark = pytest.mark.fmu
 
-SCENARIO = """
+SCENARIO = (
+    """
 name = "modes"
 [sim]
 duration_s = 40.0
-[[vehicles]]
-name = "leader"
-role = "leader"
-[[vehicles]]
-name = "f1"
-role = "follower"
-north_m = -1.5
+"""
+    + LEADER_AND_FOLLOWER
+    + """
 [mission]
 waypoints = [[6.0, 0.0], [6.0, 6.0]]
 cruise_speed_mps = 0.4
 [guidance]
 max_speed_mps = 0.5
 """
+)
 
 
 def run_with(
