@@ -17,7 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from lfctl.sweep.results import mean_ci
+from lfctl.sweep.results import figure_range, mean_ci
 from lfctl.sweep.task import FIGURES
 
 __all__ = ["MAX_LINES", "line_keys", "plot_sweep"]
@@ -107,7 +107,9 @@ def plot_sweep(
                 for i, (combo, members) in enumerate(series.items()):
                     px, py, lo, hi = [], [], [], []
                     for j, x in enumerate(xs_all):
-                        mean, a, b = mean_ci(r.get(column) for r in members if _key(r.get(key)) == x)
+                        mean, a, b = mean_ci(
+                            (r.get(column) for r in members if _key(r.get(key)) == x), figure_range(column)
+                        )
                         if mean is None:
                             continue
                         shift = (i - (len(series) - 1) / 2) * 0.08 if not numeric else 0.0

@@ -5,7 +5,8 @@ and the plots (``plots/``). :func:`report` rebuilds the summary and plots from t
 (``lfctl sweep report DIR``).
 
 The interval is Student's t on the runs that finished (``ok``) of each variant: mean +-
-t(0.975, n - 1) s / sqrt(n). It needs two runs; with one the bounds are empty.
+t(0.975, n - 1) s / sqrt(n), cut to what the figure can be (a share within 0-1, times and
+errors not below 0). It needs two runs; with one the bounds are empty.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import pyarrow.parquet as pq
 
 from lfctl.checks import write_whole
 from lfctl.errors import ConfigError
-from lfctl.sweep.task import FIGURES, ID_COLUMNS, STATUS_COLUMNS
+from lfctl.sweep.task import FIGURE_RANGES, FIGURES, ID_COLUMNS, STATUS_COLUMNS
 
 __all__ = [
     "HEADLINE",
@@ -32,6 +33,7 @@ __all__ = [
     "META",
     "SweepSummary",
     "append_row",
+    "figure_range",
     "mean_ci",
     "metric_columns",
     "read_journal",
@@ -230,13 +232,19 @@ def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
         raise ConfigError(f"{path}: cannot read it: {exc}") from None
 
 
-def mean_ci(values: Iterable[float | None]) -> tuple[float | None, float | None, float | None]:
-    """Mean and 95 % confidence interval (Student's t) of the values present.
+def mean_ci(
+    values: Iterable[float | None], bounds: tuple[float, float] = (-math.inf, math.inf)
+) -> tuple[float | None, float | None, float | None]:
+    """Mean and 95 % confidence interval (Student's t) of the values present, the interval
+    kept within what the figure can be (a share within 0-1, a time or an error not below 0:
+    cut there, the interval still holds the mean as often).
 
     Parameters
     ----------
     values : iterable of float or None
         One figure over runs; None and non-finite values are left out.
+    bounds : (float, float)
+        The lowest and highest the figure can be (:data:`~lfctl.sweep.task.FIGURE_RANGES`).
 
     Returns
     -------
@@ -252,7 +260,19 @@ def mean_ci(values: Iterable[float | None]) -> tuple[float | None, float | None,
     if a.size < 2:
         return mean, None, None
     half = float(t.ppf(0.975, a.size - 1) * a.std(ddof=1) / math.sqrt(a.size))
-    return mean, mean - half, mean + half
+    return mean, max(mean - half, bounds[0]), min(mean + half, bounds[1])
+
+
+def figure_range(column: str) -> tuple[float, float]:
+    """What a results column can be, by its figure (``<follower>.<figure>``); unbounded for
+    any other column.
+
+    Parameters
+    ----------
+    column : str
+        The column's name.
+    """
+    return FIGURE_RANGES.get(column.rsplit(".", 1)[-1], (-math.inf, math.inf))
 
 
 def summarise(rows: Sequence[dict[str, Any]], keys: Sequence[str], metrics: Sequence[str]) -> list[dict[str, Any]]:
@@ -278,7 +298,7 @@ def summarise(rows: Sequence[dict[str, Any]], keys: Sequence[str], metrics: Sequ
         s: dict[str, Any] = {"variant": variant, **{k: runs[0].get(k) for k in keys}}
         s.update(runs=len(runs), ok=len(ok), failed=len(runs) - len(ok))
         for m in metrics:
-            s[f"{m}.mean"], s[f"{m}.ci95_lo"], s[f"{m}.ci95_hi"] = mean_ci(r.get(m) for r in ok)
+            s[f"{m}.mean"], s[f"{m}.ci95_lo"], s[f"{m}.ci95_hi"] = mean_ci((r.get(m) for r in ok), figure_range(m))
         out.append(s)
     return out
 

@@ -22,7 +22,17 @@ from lfctl.sim.runner import FollowerTrace, run_scenario
 from lfctl.sweep.spec import Run
 from lfctl.vision.boxes import iou
 
-__all__ = ["FIGURES", "ID_COLUMNS", "LOG_MODES", "STATUS_COLUMNS", "TrackScore", "execute", "failed_row", "log_name"]
+__all__ = [
+    "FIGURES",
+    "FIGURE_RANGES",
+    "ID_COLUMNS",
+    "LOG_MODES",
+    "STATUS_COLUMNS",
+    "TrackScore",
+    "execute",
+    "failed_row",
+    "log_name",
+]
 
 #: the row's identity
 ID_COLUMNS = ("run", "variant", "seed", "repetition")
@@ -46,6 +56,12 @@ FIGURES = (
     "track_success",  # camera: share of frames showing half the banner or more whose window has IoU >= 0.5
     "target_in_view",  # camera: share of frames with the target's banner in the picture
 )
+#: what each figure can be: (lowest, highest); a confidence interval is kept within it
+FIGURE_RANGES = {name: (0.0, math.inf) for name in FIGURES} | {
+    "bearing_cmd_deg": (-180.0, 180.0),
+    "track_success": (0.0, 1.0),
+    "target_in_view": (0.0, 1.0),
+}
 #: --logs: keep no log, the logs of failed runs (every run is recorded), or every log
 LOG_MODES = ("none", "failed", "all")
 

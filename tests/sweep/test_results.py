@@ -32,6 +32,19 @@ def test_mean_ci_is_students_t_by_hand() -> None:
     assert mean_ci([None]) == (None, None, None)
 
 
+def test_an_interval_stays_within_what_its_figure_can_be() -> None:
+    from lfctl.sweep.results import figure_range
+
+    # lost seconds 0, 0, 60: mean 20, s = 34.641, half = 4.30265 * 34.641 / sqrt(3) = 86.05
+    mean, lo, hi = mean_ci([0.0, 0.0, 60.0], figure_range("follower1.lost_s"))
+    assert mean == 20.0 and lo == 0.0 and hi == pytest.approx(106.05, abs=0.01)
+    # a share: 0.8, 1, 1 -> mean 0.9333, half = 4.30265 * 0.11547 / sqrt(3) = 0.28684
+    mean, lo, hi = mean_ci([0.8, 1.0, 1.0], figure_range("follower1.track_success"))
+    assert lo == pytest.approx(0.64649, abs=1e-4) and hi == 1.0
+    assert figure_range("follower1.bearing_cmd_deg") == (-180.0, 180.0)
+    assert figure_range("wall_time_s") == (-math.inf, math.inf)
+
+
 def _row(run: int, variant: int, value: float | None, status: str = "ok", **extra: object) -> dict:
     row = {"run": run, "variant": variant, "seed": run, "repetition": 0, "sensing.range_noise_m": 0.1 * variant}
     row.update({c: None for c in metric_columns(["f1"])})
