@@ -356,7 +356,7 @@ class GuidanceConfig(_Section):
     coast_s: float = _f(2.0, Bound(0, 3600))  # followers coast on their filter this long without a measurement, s
     slowdown_s: float = _f(1.0, Bound(0, 3600, lo_open=True))  # then slow to a stop over this long before LOST, s
     #: once LOST, turn in place one full turn at this rate to look for the target (TOML
-    #: search_yaw_rate_degps; 0: hold still; at most max_yaw_rate; a follower of a follower holds)
+    #: search_yaw_rate_degps; 0: hold still; at most max_yaw_rate; only a follower of the leader nobody follows)
     search_yaw_rate_radps: float = _f(0.0, Bound(0, 360))  # deg/s
 
 

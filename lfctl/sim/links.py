@@ -63,10 +63,11 @@ class ScenarioMission:
 
 def search_degps(cfg: Config, follower: str) -> float:
     """The rate a follower looks round at once it has lost its target, deg/s: the scenario's
-    ``guidance.search_yaw_rate_degps`` for a follower of the leader, 0 for a follower of a
-    follower. A follower that turns to search turns its banner away from the one behind it,
-    which then loses it too, and turning in its turn the one behind would come first upon
-    the banner of another vehicle (every vehicle's is the same): it waits for its target.
+    ``guidance.search_yaw_rate_degps`` for a follower of the leader that no other vehicle
+    follows; 0 for any other. A follower that turns to search turns its banner away from one
+    behind it, which then loses it too and, its target out of sight, can take up the banner
+    of another vehicle (every vehicle's is the same): a follower that is followed holds
+    still, and so keeps its banner towards the one behind.
 
     Parameters
     ----------
@@ -75,7 +76,9 @@ def search_degps(cfg: Config, follower: str) -> float:
     follower : str
         The follower's name.
     """
-    if cfg.slots()[follower].target != cfg.vehicles[0].name:
+    slots = cfg.slots()
+    followed = any(slot.target == follower for slot in slots.values())
+    if slots[follower].target != cfg.vehicles[0].name or followed:
         return 0.0
     return math.degrees(cfg.guidance.search_yaw_rate_radps)
 

@@ -523,7 +523,7 @@ def _closed_loop(
         seed = int(rng.integers(2**31))  # the follower's sensor: truth noise, or its camera's renderer
         seeds.append((v.name, seed))
         settings = formation_settings(cfg, slot.range_m, slot.bearing_rad, law)
-        search = math.radians(search_degps(cfg, v.name))  # a follower of a follower waits for it
+        search = math.radians(search_degps(cfg, v.name))  # only a follower nobody follows looks round
         stack = Follower(
             v.name,
             dataclasses.replace(settings, search_yaw_rate_radps=search),

@@ -258,24 +258,23 @@ def test_a_follower_that_loses_its_leader_at_a_surveys_turns_looks_round_and_fin
 
 
 @pytest.mark.slow
-def test_in_a_chain_only_the_leaders_follower_looks_round_and_the_one_behind_waits() -> None:
-    """A second follower behind the first on the survey: when the first turns to search, its
-    banner turns away and the second loses it; were it to look round too it would come first
-    upon the leader's banner (the same) and drive onto the first. It holds still instead."""
+def test_in_a_chain_no_follower_looks_round_and_the_one_behind_keeps_its_target() -> None:
+    """A second follower behind the first on the survey. Were the first to turn and search,
+    its banner would turn away, and the second, its target out of sight, could take up the
+    leader's banner (the same). A followed follower holds still instead (and a follower of a
+    follower never searches), so the second keeps the first in view."""
     from lfctl.config import VehicleConfig
 
     cfg = survey(45.0)
     second = VehicleConfig(
         name="follower2", role="follower", north_m=-3.0, target="follower1", range_m=1.5, bearing_rad=0.0
     )
-    cfg = dataclasses.replace(cfg, vehicles=(*cfg.vehicles, second))
-    rep = run_scenario(cfg)
+    rep = run_scenario(dataclasses.replace(cfg, vehicles=(*cfg.vehicles, second)))
     first, behind = rep.traces
-    assert any(st is TrackStatus.LOST for st in first.status)  # the first did search
-    assert any(r != 0.0 for r, st in zip(first.yaw_rate_cmd_radps, first.status, strict=True) if st is TrackStatus.LOST)
-    lost_behind = [r for r, st in zip(behind.yaw_rate_cmd_radps, behind.status, strict=True) if st is TrackStatus.LOST]
-    assert all(r == 0.0 for r in lost_behind)
-    assert all(m.min_separation_m >= 0.3 for m in rep.metrics), [m.min_separation_m for m in rep.metrics]
+    assert any(st is TrackStatus.LOST for st in first.status)  # the first lost the leader ...
+    assert all(r == 0.0 for r, st in zip(first.yaw_rate_cmd_radps, first.status, strict=True) if st is TrackStatus.LOST)
+    assert behind.status[-1] is TrackStatus.TRACKING and rep.metrics[1].time_in_state_s["lost"] < 1.0
+    assert all(m.min_separation_m >= 1.0 for m in rep.metrics), [m.min_separation_m for m in rep.metrics]
 
 
 @pytest.mark.slow
