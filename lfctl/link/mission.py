@@ -598,7 +598,7 @@ def check_site(found: MissionFile, home: tuple[float, float, float], where: str)
         for it in items:
             if what == "mission item" and (it.command not in STORES_LOCATION or (it.x == 0 and it.y == 0)):
                 continue  # no place, or "here" (a fence vertex or rally point at 0, 0 is at 0, 0)
-            lat, lon = it.x * 1e-7, it.y * 1e-7
+            lat, lon = it.lat_deg, it.lon_deg
             n, e, _ = geodetic_to_ned(lat, lon, 0.0, home[0], home[1], 0.0)
             far = math.hypot(n, e)
             if not far <= MAX_SITE_M:

@@ -23,7 +23,6 @@ from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, VehicleEndpoint
 from lfctl.link.gcs import GCS_SYSID, GroundStation
 from lfctl.link.mission import (
     MAX_FILE_BYTES,
-    MissionFile,
     MissionItem,
     check_site,
     load_mission_file,
@@ -102,7 +101,7 @@ def scenario_mission(cfg: Config) -> ScenarioMission | None:
         return None
     path = Path(cfg.mission.file).expanduser()
     text = read_text_file(path, "mission.file", MAX_FILE_BYTES)
-    found: MissionFile = load_mission_file(path, text)
+    found = load_mission_file(path, text)
     where = f"mission.file {path}"
     lists = {MISSION: found.mission, FENCE: found.fence, RALLY: found.rally}
     for kind, items in lists.items():

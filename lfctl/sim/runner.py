@@ -40,7 +40,7 @@ from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
 from lfctl.sim.camera_sensor import CameraSample
 from lfctl.sim.cosim import RunResult, Simulation
 from lfctl.sim.driver import VehicleDriver
-from lfctl.sim.links import Links, scenario_mission, search_degps
+from lfctl.sim.links import Links, scenario_mission
 from lfctl.sim.truth_sensor import TruthSensor
 from lfctl.sim.watchdog import finish_on_abandon
 from lfctl.sim.world import WorldState
@@ -522,11 +522,9 @@ def _closed_loop(
         slot = slots[v.name]
         seed = int(rng.integers(2**31))  # the follower's sensor: truth noise, or its camera's renderer
         seeds.append((v.name, seed))
-        settings = formation_settings(cfg, slot.range_m, slot.bearing_rad, law)
-        search = math.radians(search_degps(cfg, v.name))  # only a follower nobody follows looks round
         stack = Follower(
             v.name,
-            dataclasses.replace(settings, search_yaw_rate_radps=search),
+            formation_settings(cfg, slot.range_m, slot.bearing_rad, law),  # LFC_* tune it before each step
             companion,
             step_rate_hz=cfg.sim.guidance_rate_hz,
             status_rate_hz=cfg.sim.status_rate_hz,
