@@ -243,6 +243,9 @@ class VehicleConfig(_Section):
     range_m: float | None = _f(None, Bound(0, 1000, lo_open=True))
     #: commanded bearing, clockwise positive (TOML bearing_deg)
     bearing_rad: float | None = _f(None, Bound(-180, 180))
+    #: the ArUco tag its banner prints with ``banner.kind = "aruco"`` (None: ``banner.aruco_id``
+    #: plus its place in [[vehicles]], the leader's 0); a follower looks for its target's id only
+    aruco_id: int | None = _f(None, Bound(0, 586, integer=True), note="unique; < the dictionary's size")
 
     def _prefix(self) -> str:
         ok = isinstance(self.name, str) and NAME_PATTERN.fullmatch(self.name)
@@ -483,12 +486,13 @@ class BannerConfig(_Section):
     marker_saturation: float = _f(0.85, Bound(0, 1))  # the markers' HSV saturation in the rendered scene
     #: near white: the markers carry the hue
     panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True))
-    #: what the panel carries: "markers" (the paper's four) or "aruco" (one tag; every
-    #: vehicle's banner prints the same id, told apart as the markers are, by where it shows)
+    #: what the panel carries: "markers" (the paper's four) or "aruco" (one tag; each vehicle's
+    #: banner prints its own id, see ``vehicles.aruco_id``)
     kind: Literal["markers", "aruco"] = "markers"
     #: the tag's dictionary (cv2.aruco's DICT_<name>)
     aruco_dictionary: Literal["4X4_50", "4X4_100", "5X5_50", "6X6_50", "APRILTAG_16h5", "APRILTAG_36h11"] = "4X4_50"
-    aruco_id: int = _f(0, Bound(0, 586, integer=True), note="< the dictionary's size")  # the tag's id
+    #: the leader's tag id; each vehicle after it prints the next id unless it sets its own
+    aruco_id: int = _f(0, Bound(0, 586, integer=True), note="< the dictionary's size")
     #: side of the tag's black square, m (a one-cell white margin must fit around it)
     tag_size_m: float = _f(0.165, Bound(0, 10, lo_open=True), note="+ 2 cells <= panel_size_m")
     #: the panel's thickness, m: its edges show when it is seen at an angle (scene.realism "on")
@@ -777,6 +781,8 @@ class Config:
                 raise ConfigError(
                     f"scene.occluders[{i}].follower names an unknown vehicle {occ.follower!r} (known: {names})"
                 )
+        if self.banner.kind == "aruco":
+            self._check_tag_ids()
         # followers' targets must lead back to the leader without a cycle
         target = {name: slot.target for name, slot in self.slots().items()}
         for start in target:
@@ -786,6 +792,40 @@ class Config:
                     raise ConfigError(f"vehicles: follower targets form a cycle: {' -> '.join([*seen, node])}")
                 seen.append(node)
                 node = target[node]
+
+    def _check_tag_ids(self) -> None:
+        """Each vehicle's tag id inside the dictionary, and no two vehicles with the same id."""
+        b = self.banner
+        _bits, size = TAG_DICTIONARIES[b.aruco_dictionary]
+        owner: dict[int, str] = {}
+        for name, tag in self.tag_ids().items():
+            if tag >= size:
+                given = next(v for v in self.vehicles if v.name == name).aruco_id
+                how = "" if given is not None else f" (banner.aruco_id {b.aruco_id} + its place in [[vehicles]])"
+                raise ConfigError(
+                    f"vehicles[{name}].aruco_id must be below {size} for {b.aruco_dictionary}, got {tag}{how}"
+                )
+            if tag in owner:
+                raise ConfigError(
+                    f"vehicles[{name}].aruco_id {tag} is vehicles[{owner[tag]}]'s too: each banner needs its own tag id"
+                )
+            owner[tag] = name
+
+    def tag_ids(self) -> dict[str, int]:
+        """The ArUco tag id each vehicle's banner prints (with ``banner.kind = "aruco"``): its
+        own ``aruco_id``, else ``banner.aruco_id`` plus its place in [[vehicles]]."""
+        base = self.banner.aruco_id
+        return {v.name: v.aruco_id if v.aruco_id is not None else base + i for i, v in enumerate(self.vehicles)}
+
+    def banner_of(self, name: str) -> BannerConfig:
+        """The banner vehicle ``name`` carries: ``[banner]`` with its own tag id.
+
+        Parameters
+        ----------
+        name : str
+            A vehicle's name.
+        """
+        return dataclasses.replace(self.banner, aruco_id=self.tag_ids()[name])
 
     def slots(self) -> dict[str, Slot]:
         """Each follower's target, range and bearing: its own keys, else the formation shape."""

@@ -315,7 +315,8 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
         h, w = first.shape[:2]
         camera = dataclasses.replace(cfg.camera, width_px=w, height_px=h)
-        perception = BannerPerception.from_config(camera, cfg.banner, (range_m, bearing_rad), kind=camera.tracker)
+        banner = cfg.banner_of(slot.target)  # with ArUco tags, the target's own id
+        perception = BannerPerception.from_config(camera, banner, (range_m, bearing_rad), kind=camera.tracker)
         view = None
         if live is not None or stream_to is not None:
             view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)

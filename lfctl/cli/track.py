@@ -6,9 +6,12 @@ import argparse
 import dataclasses
 import json
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from lfctl.cli.options import integer, number, video_out
+
+if TYPE_CHECKING:
+    from lfctl.config import BannerConfig, Config
 
 
 def register(sub: Any) -> None:
@@ -48,6 +51,13 @@ def parse_roi(text: str) -> tuple[int, int, int, int]:
     return parts[0], parts[1], parts[2], parts[3]
 
 
+def _watched_banner(scen: Config) -> BannerConfig:
+    """The banner the scenario's first follower looks for (with ArUco tags, its target's id);
+    the leader's in a scenario without followers."""
+    slots = scen.slots()
+    return scen.banner_of(next(iter(slots.values())).target) if slots else scen.banner
+
+
 def run(args: argparse.Namespace) -> int:
     """Perceive every frame; print a JSON line each; write the annotated video."""
     import cv2
@@ -77,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
                     camera = dataclasses.replace(scen.camera if scen else CameraConfig(), width_px=w, height_px=h)
                     perception = BannerPerception.from_config(
                         camera,
-                        scen.banner if scen else BannerConfig(),
+                        _watched_banner(scen) if scen else BannerConfig(),
                         kind=args.tracker,
                         use_markers=not args.no_markers,
                         marker_hue_deg=args.marker_hue_deg,

@@ -698,9 +698,11 @@ class Recorder:
         self._log("/scene", fc.SceneUpdateChannel, t_s, fm.SceneUpdate(entities=entities))
 
     def _vehicle_entities(self, stamp: fm.Timestamp) -> list[fm.SceneEntity]:
-        """Each vehicle as a body with its banner (panel and four markers) and its name,
-        locked to its own frame (FRD: x forward, z down)."""
+        """Each vehicle as a body with its banner (panel and four markers, or its ArUco tag as
+        a black square, its id beside the name) and its name, locked to its own frame (FRD: x
+        forward, z down)."""
         b = self.cfg.banner
+        tags = self.cfg.tag_ids() if b.kind == "aruco" else None
         out = []
         for i, v in enumerate(self.cfg.vehicles):
             marker = _colour(0.9, 0.1, 0.1)
@@ -715,14 +717,23 @@ class Recorder:
                     color=_colour(0.95, 0.95, 0.92),
                 ),
             ]
-            for dy, dz in ((-half, -half), (half, -half), (half, half), (-half, half)):
+            if tags is not None:
                 cubes.append(
                     fm.CubePrimitive(
-                        pose=_pose(-b.back_m - 0.008, dy, -h + dz),
-                        size=fm.Vector3(x=0.005, y=b.marker_size_m, z=b.marker_size_m),
-                        color=marker,
+                        pose=_pose(-b.back_m - 0.008, 0.0, -h),
+                        size=fm.Vector3(x=0.005, y=b.tag_size_m, z=b.tag_size_m),
+                        color=_colour(0.05, 0.05, 0.05),
                     )
                 )
+            else:
+                for dy, dz in ((-half, -half), (half, -half), (half, half), (-half, half)):
+                    cubes.append(
+                        fm.CubePrimitive(
+                            pose=_pose(-b.back_m - 0.008, dy, -h + dz),
+                            size=fm.Vector3(x=0.005, y=b.marker_size_m, z=b.marker_size_m),
+                            color=marker,
+                        )
+                    )
             out.append(
                 fm.SceneEntity(
                     timestamp=stamp,
@@ -737,7 +748,7 @@ class Recorder:
                             font_size=14.0,
                             scale_invariant=True,
                             color=_colour(1.0, 1.0, 1.0),
-                            text=v.name,
+                            text=v.name if tags is None else f"{v.name} (tag {tags[v.name]})",
                         )
                     ],
                 )

@@ -14,6 +14,7 @@ and relative heading.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Sequence
@@ -174,6 +175,8 @@ class VehiclePose:
     east_m: float  # reference point, local NED
     yaw_rad: float  # heading
     banner: bool = True  # draw the banner on its back
+    #: the ArUco tag its banner prints (``banner.kind = "aruco"``); None: ``banner.aruco_id``
+    tag_id: int | None = None
 
 
 @dataclass(frozen=True)
@@ -232,9 +235,11 @@ class Renderer:
         """The old look (scene.realism = "off"): exactly the frames lfctl drew before."""
         camera, banner, scene = self.cfg, self.banner, self.scene
         rng = np.random.default_rng(seed)
-        self.banner_tex, self.banner_marks_tex = banner_texture(banner, rng)
+        self.banner_tex, _marks = banner_texture(banner, rng)
+        self._tag_seed = seed + 4
+        self._tag_tex: dict[int, np.ndarray] = {}
         if banner.kind == "aruco":  # the same panel with a tag instead (the rest of the scene unchanged)
-            self.banner_tex, self.banner_marks_tex = tag_banner_texture(banner, np.random.default_rng(seed + 4))
+            self.banner_tex = self._tag_texture(banner.aruco_id)
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
         self._ground_levels = periodic_pyramid(self.ground_tex, GROUND_LEVELS)
         # each level repeated 3 x 3: warpPerspective's fast path only samples inside the
@@ -476,6 +481,24 @@ class Renderer:
         origin = plane.origin + (plane.ax + plane.ay) * (k - 1) / 2.0
         return pyr[level], plane.ax * k, plane.ay * k, origin
 
+    def _tag_texture(self, tag_id: int) -> np.ndarray:
+        """The panel printed with tag ``tag_id`` (made once per id; the same paper for every
+        id). BGRA for the realistic look (opaque), BGR for the flat one."""
+        tex = self._tag_tex.get(tag_id)
+        if tex is None:
+            cfg = dataclasses.replace(self.banner, aruco_id=tag_id)
+            tex, _corners = tag_banner_texture(cfg, np.random.default_rng(self._tag_seed))
+            if self.realism:
+                tex = cv2.cvtColor(tex, cv2.COLOR_BGR2BGRA)
+            self._tag_tex[tag_id] = tex
+        return tex
+
+    def _banner_texture(self, v: VehiclePose) -> np.ndarray:
+        """What vehicle ``v``'s banner shows: its own tag with ``banner.kind = "aruco"``."""
+        if self.banner.kind != "aruco" or v.tag_id is None:
+            return self.banner_tex
+        return self._tag_texture(v.tag_id)
+
     def _banner_frame(self, v: VehiclePose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The banner's centre, right and down of vehicle ``v`` (geometry.frame_ned), kept for
         the last vehicle asked: the target's is wanted twice a frame, for its plane and its
@@ -512,12 +535,13 @@ class Renderer:
         if v.banner:
             centre, right, down = self._banner_frame(v)
             if float(np.dot(Rz[:, 0], centre - c)) > 0:  # seen from behind the vehicle
-                size = self.banner_tex.shape[0]
+                tex = self._banner_texture(v)
+                size = tex.shape[0]
                 half = self.banner.panel_size_m / 2
                 origin = centre - right * half - down * half
                 px = self.banner.panel_size_m / size
                 # 1 cm nearer than the back face it is mounted on, so it is painted after it
-                plane = Plane(origin, right * px, down * px, self.banner_tex)
+                plane = Plane(origin, right * px, down * px, tex)
                 out.append((_distance(plane.centre, c) - 0.01, plane, "banner"))
         return out
 
@@ -778,10 +802,11 @@ class Renderer:
         self.sun = sun_direction(scene.sun_azimuth_rad, scene.sun_elevation_rad)
         self._lit_cache: dict[tuple[int, int], np.ndarray] = {}
         self._lit_keep: list[np.ndarray] = []
-        self.banner_tex, self.banner_marks_tex = real_banner_texture(banner, rng)
+        self.banner_tex, _marks = real_banner_texture(banner, rng)
+        self._tag_seed = seed + 4
+        self._tag_tex = {}
         if banner.kind == "aruco":  # the tag printed on the same board (opaque: alpha 255)
-            tag, self.banner_marks_tex = tag_banner_texture(banner, np.random.default_rng(seed + 4))
-            self.banner_tex = cv2.cvtColor(tag, cv2.COLOR_BGR2BGRA)
+            self.banner_tex = self._tag_texture(banner.aruco_id)
         photos = None
         if plates is not None and scene.ground in ("concrete", "grass"):
             photos = plates.asphalt if scene.ground == "concrete" else plates.grass
@@ -1233,7 +1258,7 @@ class Renderer:
                         colour = tuple(int(min(255, round(b * lit))) for b in EDGE_BGR)
                         cv2.fillPoly(img, [np.round(poly * 16).astype(np.int32)], colour, cv2.LINE_AA, shift=4)
                         drawn[0].append(poly)
-                banner_poly = self._paint_banner(img, R, c, corners, direct)
+                banner_poly = self._paint_banner(img, R, c, corners, direct, self._banner_texture(v))
             for i in faces:
                 a, b = MESH.faces[i]
                 if ok[a:b].all():
@@ -1254,12 +1279,12 @@ class Renderer:
         return drawn, banner_poly
 
     def _paint_banner(
-        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, corners: np.ndarray, direct: float
+        self, img: np.ndarray, R: np.ndarray, c: np.ndarray, corners: np.ndarray, direct: float, tex: np.ndarray
     ) -> np.ndarray | None:
         tl, tr, _br, bl = corners
-        size = self.banner_tex.shape[0]
+        size = tex.shape[0]
         normal = _unit_cross(bl - tl, tr - tl)  # towards the viewer behind the vehicle
-        plane = Plane(tl, (tr - tl) / size, (bl - tl) / size, self.banner_tex)
+        plane = Plane(tl, (tr - tl) / size, (bl - tl) / size, tex)
         light = sun_light(normal, self.sun, self.scene.ambient, direct)
         glare = self._banner_glare(corners, normal, c, direct)
         return self._paint_textured(img, R, c, plane, light, glare)

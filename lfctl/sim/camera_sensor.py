@@ -50,9 +50,11 @@ class CameraSensor:
         self.follower = follower
         self.renderer = Renderer(cfg.camera, cfg.banner, cfg.scene, seed)
         slot = cfg.slots().get(follower)
+        self.tag_ids = cfg.tag_ids()
+        # the target's banner: with ArUco tags, its own id is the one looked for
         self.perception = BannerPerception.from_config(
             cfg.camera,
-            cfg.banner,
+            cfg.banner_of(slot.target) if slot is not None else cfg.banner,
             (slot.range_m, slot.bearing_rad) if slot is not None else None,
             kind=cfg.camera.tracker,
         )
@@ -87,8 +89,11 @@ class CameraSensor:
                 continue
             if i == target:
                 index = len(others)
+            tag = self.tag_ids.get(world.names[i])
             others.append(
-                VehiclePose(float(world.pos_ned_m[i, 0]), float(world.pos_ned_m[i, 1]), float(world.yaw_rad[i]))
+                VehiclePose(
+                    float(world.pos_ned_m[i, 0]), float(world.pos_ned_m[i, 1]), float(world.yaw_rad[i]), True, tag
+                )
             )
         own = VehiclePose(
             float(world.pos_ned_m[me, 0]), float(world.pos_ned_m[me, 1]), float(world.yaw_rad[me]), banner=False

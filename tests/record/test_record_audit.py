@@ -438,3 +438,20 @@ def test_the_audit_counts_waypoints_as_the_run_summary_does(tmp_path: Path) -> N
         "mission: 2/2 waypoints reached (1@1.0s, 3@2.0s, 3@3.0s); the mission was replaced or cleared by a client "
         "at 0.5, 0.9 s" in format_report(rep)
     )
+
+
+def test_the_scene_shows_each_vehicles_own_tag(tmp_path: Path) -> None:
+    """With the ArUco banner each vehicle's entity carries its tag (a black square on the
+    panel, no red markers) and names its id, as its banner prints it."""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    cfg = small_chunks(load_config(EXAMPLES / "convoy-aruco.toml"), tmp_path, "truth", 1.0)
+    run_scenario(cfg, record_to=tmp_path / "t.mcap")
+    first = SceneUpdate.FromString(audit(tmp_path / "t.mcap").contents.messages["/scene"][0][1])
+    vehicles = {e.id: e for e in first.entities if e.id.startswith("vehicle/")}
+    texts = {k: e.texts[0].text for k, e in vehicles.items()}
+    assert texts == {f"vehicle/{n}": f"{n} (tag {t})" for n, t in cfg.tag_ids().items()}
+    for e in vehicles.values():
+        body, panel, *print_ = e.cubes
+        assert len(print_) == 1 and print_[0].size.y == pytest.approx(cfg.banner.tag_size_m)
+        assert print_[0].color.r < 0.1  # black, not the markers' red

@@ -168,3 +168,67 @@ def test_aruco_keys_load() -> None:
     assert (cfg.banner.kind, cfg.banner.aruco_dictionary, cfg.banner.aruco_id) == ("aruco", "5X5_50", 7)
     # a markers banner ignores the tag's size (it need not fit the panel)
     assert parse_config(LEADER + "[banner]\ntag_size_m = 0.3\n").banner.kind == "markers"
+
+
+TWO = LEADER + '[[vehicles]]\nname = "f1"\nrole = "follower"\n'
+THREE = TWO + '[[vehicles]]\nname = "f2"\nrole = "follower"\n'
+
+
+def test_each_vehicle_prints_its_own_tag_and_a_follower_looks_for_its_targets() -> None:
+    # banner.aruco_id 5: the leader 5, then 6 and 7 in [[vehicles]] order; f2 follows f1 (a chain)
+    cfg = parse_config(THREE + "target = 'f1'\n[banner]\nkind = 'aruco'\naruco_id = 5\n")
+    assert cfg.tag_ids() == {"leader": 5, "f1": 6, "f2": 7}
+    assert (cfg.banner_of("leader").aruco_id, cfg.banner_of("f1").aruco_id) == (5, 6)
+    # a vehicle's own key wins; the others keep their place's id
+    own = parse_config(TWO + "aruco_id = 42\n[banner]\nkind = 'aruco'\n")
+    assert own.tag_ids() == {"leader": 0, "f1": 42}
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        # f1's own id is the leader's
+        (TWO + "aruco_id = 0\n[banner]\nkind = 'aruco'\n", r"vehicles\[f1\]\.aruco_id 0 is vehicles\[leader\]'s too"),
+        # the leader at 49 leaves f1 the 50th id of a 50-id dictionary
+        (
+            TWO + "[banner]\nkind = 'aruco'\naruco_id = 49\n",
+            r"vehicles\[f1\]\.aruco_id must be below 50 for 4X4_50, got 50 \(banner\.aruco_id 49 \+ its place",
+        ),
+        (TWO + "aruco_id = 30\n[banner]\nkind = 'aruco'\naruco_dictionary = 'APRILTAG_16h5'\n", r"below 30 .* got 30$"),
+        (TWO + "aruco_id = 587\n", r"vehicles\[f1\]\.aruco_id must be within 0\.\.586, got 587"),
+    ],
+)
+def test_bad_tag_ids_name_the_vehicle_and_the_value(text: str, message: str) -> None:
+    with pytest.raises(ConfigError, match=message):
+        parse_config(text)
+
+
+def test_a_markers_banner_does_not_use_tag_ids() -> None:
+    # 49 + 1 would be past 4X4_50, but the markers banner prints no tag
+    assert parse_config(TWO + "[banner]\naruco_id = 49\n").banner.kind == "markers"
+
+
+@pytest.mark.parametrize("realism", ["off", "on"])
+def test_each_banner_shows_its_own_tag_and_perception_finds_only_its_targets(realism: str) -> None:
+    # two rovers side by side, 2 m ahead: the left prints tag 3, the right tag 4
+    r = Renderer(CAMERA, ARUCO, SceneConfig(realism=realism), 7)
+    left, right = VehiclePose(2.0, -0.4, 0.0, tag_id=3), VehiclePose(2.0, 0.4, 0.0, tag_id=4)
+    frame, truth = r.render(0.0, ME, [left, right], 1)
+    found = {}
+    for tag in (3, 4, 0):
+        st = BannerPerception.from_config(CAMERA, BannerConfig(kind="aruco", aruco_id=tag)).tracker.init_from_markers(
+            frame
+        )
+        found[tag] = None if st is None else st.markers
+    assert found[0] is None  # the scenario's id is printed by neither
+    assert found[4] is not None and np.max(np.abs(found[4] - truth.markers_px)) < 1.5  # the target (index 1)
+    assert found[3] is not None and float(found[3][:, 0].mean()) < float(truth.markers_px[:, 0].mean()) - 50
+
+
+def test_track_and_follow_look_for_the_first_followers_target() -> None:
+    from lfctl.cli.track import _watched_banner
+
+    cfg = parse_config(THREE + "[banner]\nkind = 'aruco'\naruco_id = 5\n")
+    assert _watched_banner(cfg).aruco_id == 5  # f1 follows the leader (tag 5)
+    # a leader alone: its own
+    assert _watched_banner(parse_config(LEADER + "[banner]\nkind = 'aruco'\naruco_id = 9\n")).aruco_id == 9
