@@ -452,6 +452,6 @@ def test_the_scene_shows_each_vehicles_own_tag(tmp_path: Path) -> None:
     texts = {k: e.texts[0].text for k, e in vehicles.items()}
     assert texts == {f"vehicle/{n}": f"{n} (tag {t})" for n, t in cfg.tag_ids().items()}
     for e in vehicles.values():
-        body, panel, *print_ = e.cubes
+        _body, _panel, *print_ = e.cubes
         assert len(print_) == 1 and print_[0].size.y == pytest.approx(cfg.banner.tag_size_m)
         assert print_[0].color.r < 0.1  # black, not the markers' red
