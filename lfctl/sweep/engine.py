@@ -323,7 +323,24 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
     shutil.copyfile(spec.scenario, folder / "scenario.toml")
     for v in p.variants:
         (folder / "variants" / f"variant-{v.index:04d}.toml").write_text(v.source)
+    # the files the scenario names beside it (a mission file, a user FMU), at the same place
+    # beside scenario.toml and the variants, so each runs again from the sweep's folder
+    for rel in _files_beside(p):
+        for where in (folder, folder / "variants"):
+            (where / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(spec.scenario.parent.resolve() / rel, where / rel)
     return []
+
+
+def _files_beside(p: SweepPlan) -> list[Path]:
+    """The mission files and user FMUs the variants fly that lie in the scenario's folder,
+    relative to it (absolute paths elsewhere are left where they are)."""
+    base = p.spec.scenario.parent.resolve()
+    found: set[Path] = set()
+    for v in p.variants:
+        named = [v.config.mission.file, *(veh.fmu for veh in v.config.vehicles)]
+        found.update(Path(f).relative_to(base) for f in named if f is not None and Path(f).is_relative_to(base))
+    return sorted(found)
 
 
 def _local_cluster(n_workers: int) -> Any:

@@ -249,3 +249,24 @@ def test_a_sweep_flies_a_mission_file_beside_its_scenario_from_any_folder(
     (folder / "route.plan").write_text("{")
     with pytest.raises(ConfigError, match=r"route\.plan"):
         plan(parse_sweep(text, base_dir=tmp_path))
+
+
+def test_a_sweeps_folder_keeps_the_mission_file_so_each_variant_runs_again(tmp_path: Path) -> None:
+    """The folder's scenario.toml and variants/*.toml name the plan as the scenario did
+    ("plans/route.plan", beside it): a copy lies there for each."""
+    from lfctl.sweep.engine import _prepare
+    from lfctl.sweep.spec import parse_sweep, plan
+
+    base = parse_config(SCENARIO.format(mission=""))
+    folder = tmp_path / "scenarios"
+    (folder / "plans").mkdir(parents=True)
+    original = write_plan(folder / "plans", base)
+    scenario(folder, 'file = "plans/route.plan"')
+    text = 'scenario = "scenarios/run.toml"\nseeds = 1\n[grid]\n"mission.cruise_speed_mps" = [0.2, 0.3]\n'
+    out = tmp_path / "out"
+    assert _prepare(out, plan(parse_sweep(text, base_dir=tmp_path)), False, "code") == []
+    original.write_text("{")  # edited after the sweep: the folder keeps what it flew
+    for toml in (out / "scenario.toml", *sorted((out / "variants").glob("*.toml"))):
+        cfg = load_config(toml)
+        assert Path(cfg.mission.file) == toml.parent / "plans" / "route.plan"
+        assert [len(lst) for lst in scenario_mission(cfg).lists.values()] == [len(ROUTE) + 1, 4, 1]
