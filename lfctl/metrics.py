@@ -19,7 +19,9 @@ __all__ = [
     "CHATTER_DEADBAND_RADPS",
     "SETTLE_S",
     "FormationMetrics",
+    "PathHistory",
     "TrackEpisode",
+    "distance_to_path",
     "formation_metrics",
     "sign_changes",
     "track_episodes",
@@ -55,6 +57,11 @@ class FormationMetrics:
         The absolute yaw-rate command integrated over the run, rad.
     chattering_per_s : float
         Sign changes of the yaw-rate command (outside ``CHATTER_DEADBAND_RADPS``) per second.
+    path_err_rms_m, path_err_max_m : float or None
+        RMS and largest absolute path error after the settling time, m: the follower's distance
+        from the path its target drove, less its slot's sideways offset (``range_cmd_m`` x
+        ``|sin(bearing_cmd_rad)|``); how far it cuts a corner. None without samples (a log
+        written before the figure existed).
     """
 
     name: str
@@ -69,6 +76,8 @@ class FormationMetrics:
     time_in_state_s: dict[str, float]
     control_effort_rad: float
     chattering_per_s: float
+    path_err_rms_m: float | None = None
+    path_err_max_m: float | None = None
 
 
 @dataclass(frozen=True)
@@ -132,6 +141,7 @@ def formation_metrics(
     yaw_rate_cmd_radps: Sequence[float],
     step_s: float,
     settle_s: float = SETTLE_S,
+    path_err_m: Sequence[float] | None = None,
 ) -> FormationMetrics:
     """The figures of one follower from its samples at the guidance rate.
 
@@ -155,9 +165,12 @@ def formation_metrics(
         The sample period (the guidance period), s.
     settle_s : float
         Errors count from this time on, s.
+    path_err_m : sequence of float, optional
+        The path error at each sample (see :class:`PathHistory`), m.
     """
     t = np.asarray(t_s, float)
     keep = t >= settle_s
+    p_err = np.asarray(path_err_m, float)[keep] if path_err_m is not None and len(path_err_m) == len(t) else None
     r_err = np.asarray(range_err_m, float)[keep]
     b_err = np.asarray(bearing_err_rad, float)[keep]
     yaw_cmd = np.asarray(yaw_rate_cmd_radps, float)
@@ -178,7 +191,71 @@ def formation_metrics(
         time_in_state_s={k: n * step_s for k, n in states.items()},
         control_effort_rad=float(np.sum(np.abs(yaw_cmd)) * step_s),
         chattering_per_s=sign_changes(yaw_cmd, CHATTER_DEADBAND_RADPS) / duration if duration > 0 else 0.0,
+        path_err_rms_m=_rms(p_err) if p_err is not None else None,
+        path_err_max_m=_max_abs(p_err) if p_err is not None else None,
     )
+
+
+def distance_to_path(path: np.ndarray, north_m: float, east_m: float) -> float:
+    """Distance from a point to a polyline, m.
+
+    Parameters
+    ----------
+    path : np.ndarray
+        (K, 2) north, east of the polyline's points, K >= 1, m.
+    north_m, east_m : float
+        The point, m.
+    """
+    p = np.array([north_m, east_m])
+    if len(path) == 1:
+        return float(np.hypot(*(path[0] - p)))
+    a, ab = path[:-1], np.diff(path, axis=0)
+    length2 = np.einsum("ij,ij->i", ab, ab)
+    u = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum(length2, 1e-12), 0.0, 1.0)
+    d = a + ab * u[:, None] - p
+    return float(np.sqrt(np.min(np.einsum("ij,ij->i", d, d))))
+
+
+class PathHistory:
+    """The path a vehicle drove, for the path error of whoever follows it: a point each
+    ``spacing_m`` it moves, the last ``keep`` of them, and before its first position a
+    straight ``lead_in_m`` back along its first heading (the road it came on: a follower
+    starting behind it is on its path).
+
+    Parameters
+    ----------
+    north_m, east_m, yaw_rad : float
+        Where the vehicle starts, and its heading.
+    spacing_m, keep, lead_in_m : float, int, float
+        Point spacing (m), points kept, and the lead-in's length (m).
+    """
+
+    def __init__(
+        self,
+        north_m: float,
+        east_m: float,
+        yaw_rad: float,
+        spacing_m: float = 0.02,
+        keep: int = 1000,
+        lead_in_m: float = 10.0,
+    ) -> None:
+        back = (north_m - lead_in_m * np.cos(yaw_rad), east_m - lead_in_m * np.sin(yaw_rad))
+        self.points: list[tuple[float, float]] = [back, (north_m, east_m)]
+        self.spacing_m = spacing_m
+        self.keep = keep
+
+    def add(self, north_m: float, east_m: float) -> None:
+        """The vehicle is here now (a point is kept once it is ``spacing_m`` from the last)."""
+        ln, le = self.points[-1]
+        if (north_m - ln) ** 2 + (east_m - le) ** 2 >= self.spacing_m**2:
+            self.points.append((north_m, east_m))
+            if len(self.points) > 2 * self.keep:
+                del self.points[: len(self.points) - self.keep]
+
+    def error(self, north_m: float, east_m: float, offset_m: float = 0.0) -> float:
+        """A follower's path error: its distance from the kept path, less ``offset_m`` (its
+        slot's sideways offset), m."""
+        return distance_to_path(np.asarray(self.points[-self.keep :]), north_m, east_m) - offset_m
 
 
 def track_episodes(

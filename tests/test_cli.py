@@ -26,7 +26,7 @@ def test_sim_convoy_prints_a_summary(capsys: pytest.CaptureFixture[str]) -> None
     assert "scenario     convoy" in out and "sim time     5.00 s in 500 steps of 10 ms" in out
     assert "real time)" in out and "leader       AUTO 5.0 s; 0/4 waypoints reached" in out
     row = next(line for line in out.splitlines() if line.startswith("follower1  leader"))
-    assert len(row.split()) == 12  # name, target, range, bearing, 4 errors, min sep, 3 state times
+    assert len(row.split()) == 13  # name, target, range, bearing, 4 errors, min sep, path RMS, 3 state times
 
 
 def test_sim_seed_and_duration_override(capsys: pytest.CaptureFixture[str]) -> None:

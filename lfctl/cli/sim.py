@@ -143,10 +143,13 @@ def print_report(report: RunReport) -> None:
         print(f"             {c.kind} {what} by system {c.sysid} at {c.t_s:.1f} s")
     if report.metrics and cfg.script.followers == "formation":
         print()
-        print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")
+        print(
+            f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading; "
+            "path: off the target's path, less the slot's sideways offset"
+        )
         head = (
             "follower", "target", "range_m", "bearing", "rng RMS m", "rng max m", "brg RMS deg", "brg max deg",
-            "min sep m", "tracking s", "occluded s", "lost s",
+            "min sep m", "path RMS m", "tracking s", "occluded s", "lost s",
         )  # fmt: skip
 
         def num(value: float | None, fmt: str, scale: float = 1.0) -> str:
@@ -159,7 +162,7 @@ def print_report(report: RunReport) -> None:
             rows.append((
                 m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
                 num(m.range_err_rms_m, ".3f"), num(m.range_err_max_m, ".3f"), num(m.bearing_err_rms_rad, ".2f", deg),
-                num(m.bearing_err_max_rad, ".2f", deg), num(m.min_separation_m, ".2f"),
+                num(m.bearing_err_max_rad, ".2f", deg), num(m.min_separation_m, ".2f"), num(m.path_err_rms_m, ".3f"),
                 f"{st['tracking']:.2f}", f"{st['occluded']:.2f}", f"{st['lost']:.2f}",  # steps of dt: exact, and they add up
             ))  # fmt: skip
         widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]

@@ -150,6 +150,7 @@ _CONTROLLER = {
     "range_error_m": (_num, True),
     "bearing_error_deg": (_num, True),
     "separation_m": (_num, True),
+    "path_error_m": (_num, False),
     "yaw_rate_cmd_degps": (_num, True),
     "target": (_text, False),
 }
@@ -545,6 +546,8 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
             status,
             [math.radians(x[1]["yaw_rate_cmd_degps"]) for x in msgs],
             step_s,
+            # a log from before the path error was recorded has none
+            path_err_m=[x[1]["path_error_m"] for x in msgs] if all("path_error_m" in x[1] for x in msgs) else None,
         )
         fig: dict[str, Any] = {
             "follower": f,
@@ -558,6 +561,8 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
             "time_in_state_s": {k: round(v, 2) for k, v in m.time_in_state_s.items()},
             "control_effort_rad": round(m.control_effort_rad, 4),
             "chattering_per_s": round(m.chattering_per_s, 4),
+            "path_err_rms_m": _rounded(m.path_err_rms_m, 4),
+            "path_err_max_m": _rounded(m.path_err_max_m, 4),
             "occlusion_episodes": [
                 {
                     "start_s": round(e.start_s, 2),
@@ -899,7 +904,7 @@ def format_report(report: AuditReport) -> str:
     if fig.get("followers"):
         lines.append(f"formation (after {SETTLE_S:g} s settling):")
         lines.append(
-            f"  {'follower':<10} {'target':<8} {'rng RMS m':>9} {'rng max m':>9} {'brg RMS deg':>11} {'brg max deg':>11} {'min sep m':>9} {'tracking s':>10} {'occluded s':>10} {'lost s':>6} {'pose rng %':>10} {'pose brg deg':>12}"
+            f"  {'follower':<10} {'target':<8} {'rng RMS m':>9} {'rng max m':>9} {'brg RMS deg':>11} {'brg max deg':>11} {'min sep m':>9} {'path RMS m':>10} {'tracking s':>10} {'occluded s':>10} {'lost s':>6} {'pose rng %':>10} {'pose brg deg':>12}"
         )
         for f in fig["followers"]:
             st = f["time_in_state_s"]
@@ -911,11 +916,12 @@ def format_report(report: AuditReport) -> str:
                     "bearing_err_rms_deg",
                     "bearing_err_max_deg",
                     "min_separation_m",
+                    "path_err_rms_m",
                 )
             ]
             lines.append(
                 f"  {f['follower']:<10} {f['target']:<8} {cells[0]:>9} {cells[1]:>9} {cells[2]:>11} {cells[3]:>11} "
-                f"{cells[4]:>9} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
+                f"{cells[4]:>9} {cells[5]:>10} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
             )
             for e in f["occlusion_episodes"]:
                 lines.append(  # the episode's time counts in occluded s and lost s by state

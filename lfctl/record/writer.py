@@ -144,6 +144,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "range_error_m": {"type": "number"},
             "bearing_error_deg": {"type": "number"},
             "separation_m": {"type": "number"},
+            "path_error_m": {"type": "number", "description": "off the target's path, less the slot's sideways offset"},
             "target": {"type": "string"},
         },
     },

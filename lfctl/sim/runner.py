@@ -33,7 +33,7 @@ from lfctl.guidance.formation import Odometry
 from lfctl.link.endpoint import MODE_NAMES, packet_record
 from lfctl.link.mission import PLACES, nav_count, to_legs
 from lfctl.link.mission_server import ListChange
-from lfctl.metrics import FormationMetrics, formation_metrics
+from lfctl.metrics import FormationMetrics, PathHistory, formation_metrics
 from lfctl.record.rtp import RtpH264Sender
 from lfctl.record.writer import EVENT_MODE, Recorder, scenario_events
 from lfctl.sim.camera_pool import CameraJob, CameraPool, default_workers
@@ -68,6 +68,8 @@ class FollowerTrace:
     speed_cmd_mps: list[float] = dataclasses.field(default_factory=list)  # the commands sent
     yaw_rate_cmd_radps: list[float] = dataclasses.field(default_factory=list)  # positive right
     speed_mps: list[float] = dataclasses.field(default_factory=list)  # the follower's true speed
+    #: off the path its target drove, less the slot's sideways offset (lfctl.metrics.PathHistory)
+    path_err_m: list[float] = dataclasses.field(default_factory=list)
 
     def metrics(self, step_s: float) -> FormationMetrics:
         """The formation figures of this trace (see :mod:`lfctl.metrics`).
@@ -89,6 +91,7 @@ class FollowerTrace:
             [s.value for s in self.status],
             self.yaw_rate_cmd_radps,
             step_s,
+            path_err_m=self.path_err_m,
         )
 
 
@@ -252,11 +255,19 @@ class GuidanceTask:
         self.pool = pool
         self.recorder = recorder
         self.open_loop = sim.config.script.followers
+        self._paths: dict[int, PathHistory] = {}  # each target's path, for its followers' path error
 
     def __call__(self, t_s: float) -> None:
         world = self.sim.state()
         for driver in self.drivers:
             driver.update(t_s, world)
+        for index in {f.target for f in self.followers}:
+            v = world.vehicle(index)
+            path = self._paths.get(index)
+            if path is None:
+                self._paths[index] = PathHistory(v.north_m, v.east_m, v.yaw_rad)
+            else:
+                path.add(v.north_m, v.east_m)
         for f in self.followers:
             self._follower(t_s, world, f)
 
@@ -312,6 +323,8 @@ class GuidanceTask:
         tr.speed_cmd_mps.append(cmd[0])
         tr.yaw_rate_cmd_radps.append(cmd[1])
         tr.speed_mps.append(speed_mps)
+        offset = slot.range_cmd_m * abs(math.sin(slot.bearing_cmd_rad))
+        tr.path_err_m.append(self._paths[f.target].error(me.north_m, me.east_m, offset))
         if self.recorder is not None:
             self.recorder.controller(
                 t_s,
@@ -327,6 +340,7 @@ class GuidanceTask:
                     "range_error_m": round(range_err, 5),
                     "bearing_error_deg": round(math.degrees(bearing_err), 4),
                     "separation_m": round(tr.separation_m[-1], 5),
+                    "path_error_m": round(tr.path_err_m[-1], 5),
                     "target": tr.target,
                 },
             )

@@ -53,6 +53,8 @@ FIGURES = (
     "control_effort_rad",  # |yaw-rate command| integrated over the run
     "chattering_per_s",  # yaw-rate command sign changes per second
     "speed_cmd_variation_mps2",  # the speed command's absolute changes summed, per second (the range law's chattering)
+    "path_err_rms_m",  # off the target's path, less the slot's sideways offset (corner cutting), after settling
+    "path_err_max_m",
     "track_success",  # camera: share of frames showing half the banner or more whose window has IoU >= 0.5
     "target_in_view",  # camera: share of frames with the target's banner in the picture
 )
@@ -134,6 +136,8 @@ def _figures(m: FormationMetrics, trace: FollowerTrace, step_s: float, score: Tr
         m.control_effort_rad,
         m.chattering_per_s,
         variation_per_s(trace.speed_cmd_mps, step_s),
+        m.path_err_rms_m,
+        m.path_err_max_m,
         score.success if score is not None else None,
         score.view if score is not None else None,
     )
