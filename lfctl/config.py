@@ -334,7 +334,10 @@ class GuidanceConfig(_Section):
     """[guidance]: controller choice, gains and limits (leader heading, follower formation)."""
 
     _key = "guidance"
-    controller: Literal["smc", "p"] = "smc"  # followers' law: sliding mode, or the P baseline
+    #: followers' law: sliding mode, the P baseline, or the target's trail (its path, not a
+    #: line to it: no corner cut)
+    controller: Literal["smc", "p", "trail"] = "smc"
+    trail_lookahead_m: float = _f(0.3, Bound(0, 100, lo_open=True))  # the trail law's lookahead distance, m
     #: followers' speed limit; also caps the leader's cruise speed
     max_speed_mps: float = _f(0.5, Bound(0, 100, lo_open=True))
     #: followers may back up this fast to restore the range

@@ -245,7 +245,13 @@ class PathHistory:
         self.keep = keep
 
     def add(self, north_m: float, east_m: float) -> None:
-        """The vehicle is here now (a point is kept once it is ``spacing_m`` from the last)."""
+        """The vehicle is here now (a point is kept once it is ``spacing_m`` from the last).
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            Its position, m.
+        """
         ln, le = self.points[-1]
         if (north_m - ln) ** 2 + (east_m - le) ** 2 >= self.spacing_m**2:
             self.points.append((north_m, east_m))
@@ -254,7 +260,15 @@ class PathHistory:
 
     def error(self, north_m: float, east_m: float, offset_m: float = 0.0) -> float:
         """A follower's path error: its distance from the kept path, less ``offset_m`` (its
-        slot's sideways offset), m."""
+        slot's sideways offset), m.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The follower's position, m.
+        offset_m : float
+            Its slot's sideways offset from the path, m.
+        """
         return distance_to_path(np.asarray(self.points[-self.keep :]), north_m, east_m) - offset_m
 
 

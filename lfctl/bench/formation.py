@@ -1,9 +1,12 @@
-"""lfctl bench formation: the sliding-mode follower against a proportional baseline.
+"""lfctl bench formation: the sliding-mode follower against a proportional baseline, and
+the trail law against both.
 
 For each example scenario and each sensing mode that exists, in the same run: the paper's
-sliding-mode laws (corrected) and a P controller on the position offset, as ArduPilot's
-AP_Follow does (FOLL_POS_P style), with the same sensor, filter and limits. Per follower
-type the worst follower's numbers (errors after 5 s settling).
+sliding-mode laws (corrected), a P controller on the position offset, as ArduPilot's
+AP_Follow does (FOLL_POS_P style), and the trail law (the target's path driven, not a line
+to it), with the same sensor, filter and limits. Per run the worst follower's numbers
+(errors after 5 s settling); the path error is how far a follower is off its target's path
+(less its slot's sideways offset): how far it cuts corners.
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ from lfctl.sim.runner import run_scenario
 
 __all__ = ["main"]
 
-SCENARIOS = ("convoy", "column5", "vee")
+SCENARIOS = ("convoy", "column5", "vee", "survey")
+LAWS = ("smc", "p", "trail")
 SENSING = ("truth", "camera")
 CAMERA_DURATION_S = 40.0  # camera runs render and track every frame: the first 40 s of each route
 
@@ -31,7 +35,7 @@ def main(quick: bool = False) -> None:
         cfg = load_config(examples_dir() / f"{name}.toml")
         for sensing in SENSING:
             cfg_s = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, sensing=sensing))
-            for law in ("smc", "p"):
+            for law in LAWS:
                 duration = 20.0 if quick else (CAMERA_DURATION_S if sensing == "camera" else None)
                 rep = run_scenario(cfg_s, controller=law, duration_s=duration)
                 ms = rep.metrics
@@ -47,6 +51,9 @@ def main(quick: bool = False) -> None:
                     "min_separation_m": round(min(m.min_separation_m for m in ms), 3),
                     "effort_rad": round(max(m.control_effort_rad for m in ms), 2),
                     "chattering_per_s": round(max(m.chattering_per_s for m in ms), 3),
+                    "path_rms_m": round(max(m.path_err_rms_m for m in ms), 4),
+                    "path_max_m": round(max(m.path_err_max_m for m in ms), 4),
+                    "lost_s": round(max(m.time_in_state_s["lost"] for m in ms), 2),
                 }
                 results.append(rec)
                 rows.append(tuple(rec.values()))
@@ -63,6 +70,9 @@ def main(quick: bool = False) -> None:
             "min sep m",
             "effort rad",
             "chatter /s",
+            "path RMS m",
+            "path max m",
+            "lost s",
         ),
         rows,
     )
@@ -73,6 +83,9 @@ def main(quick: bool = False) -> None:
                 r for r in results if r["scenario"] == name and r["sensing"] == sensing and r["controller"] == "smc"
             )
             p = next(r for r in results if r["scenario"] == name and r["sensing"] == sensing and r["controller"] == "p")
+            trail = next(
+                r for r in results if r["scenario"] == name and r["sensing"] == sensing and r["controller"] == "trail"
+            )
             summary.append(
                 {
                     "scenario": name,
@@ -83,11 +96,24 @@ def main(quick: bool = False) -> None:
                     else None,
                     "smc_beats_p_on_range_without_more_chattering": smc["range_rms_m"] < p["range_rms_m"]
                     and smc["chattering_per_s"] <= p["chattering_per_s"],
+                    "path_rms_ratio_trail_over_smc": round(trail["path_rms_m"] / smc["path_rms_m"], 3)
+                    if smc["path_rms_m"]
+                    else None,
+                    "trail_on_path_lost_no_longer": trail["path_rms_m"] < smc["path_rms_m"]
+                    and trail["lost_s"] <= smc["lost_s"] + 0.5,
                 }
             )
     print()
     print_table(
-        ("scenario", "sensing", "range RMS ratio smc/p", "chattering ratio smc/p", "target met"),
+        (
+            "scenario",
+            "sensing",
+            "range RMS ratio smc/p",
+            "chattering ratio smc/p",
+            "smc target met",
+            "path RMS ratio trail/smc",
+            "trail target met",
+        ),
         [tuple(s.values()) for s in summary],
     )
     print(f"truth sensing over each whole route; camera sensing over its first {CAMERA_DURATION_S:g} s")

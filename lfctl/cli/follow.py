@@ -330,7 +330,7 @@ def run(args: argparse.Namespace) -> int:
                 companion,
                 video,
                 perception,
-                formation_settings(cfg, range_m, bearing_rad, cfg.guidance.controller),
+                formation_settings(cfg, range_m, bearing_rad, cfg.guidance.controller, camera),
                 rate_hz=rate_hz,
                 status_rate_hz=cfg.sim.status_rate_hz,
                 arm=args.arm,

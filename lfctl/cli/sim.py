@@ -45,8 +45,8 @@ def register(sub: Any) -> None:
     )
     s.add_argument(
         "--controller",
-        choices=("smc", "p"),
-        help="follower control law: sliding mode or the P baseline (default: guidance.controller)",
+        choices=("smc", "p", "trail"),
+        help="follower control law: sliding mode, the P baseline, or the target's trail (default: guidance.controller)",
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.add_argument("--no-record", action="store_true", help="do not write the MCAP log (default: [recording] enabled)")
@@ -143,10 +143,8 @@ def print_report(report: RunReport) -> None:
         print(f"             {c.kind} {what} by system {c.sysid} at {c.t_s:.1f} s")
     if report.metrics and cfg.script.followers == "formation":
         print()
-        print(
-            f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading; "
-            "path: off the target's path, less the slot's sideways offset"
-        )
+        print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")
+        print("path RMS: the follower's distance from the path its target drove, less the slot's sideways offset")
         head = (
             "follower", "target", "range_m", "bearing", "rng RMS m", "rng max m", "brg RMS deg", "brg max deg",
             "min sep m", "path RMS m", "tracking s", "occluded s", "lost s",

@@ -16,7 +16,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from lfctl.config import Config
+from lfctl.config import CameraConfig, Config
 from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import FormationController, FormationOutput, FormationSettings, Odometry
 from lfctl.guidance.smc import BearingGains, RangeGains
@@ -79,7 +79,45 @@ class FollowerEvent:
     text: str  # the STATUSTEXT sent for it
 
 
-def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, controller: str) -> FormationSettings:
+#: the trail law keeps the target this far inside the picture's edge besides the banner's own
+#: half-width, rad: the tracker's window and search region need the room
+VIEW_MARGIN_RAD = math.radians(5.0)
+
+
+def view_half_angle_rad(cfg: Config, camera: CameraConfig | None, range_cmd_m: float) -> float:
+    """How far off the heading the follower's sensor keeps its target in view, rad: half the
+    camera's horizontal field of view (half the truth sensor's ``fov``) less the banner's
+    half-width at the slot's range and :data:`VIEW_MARGIN_RAD`; pi for a sensor that sees
+    all round.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario (``[banner]``, ``[sensing]``).
+    camera : CameraConfig or None
+        The follower's camera; None: the truth sensor.
+    range_cmd_m : float
+        The slot's range, m.
+    """
+    if camera is not None:
+        fx = camera.fx_px or (camera.width_px / 2) / math.tan(camera.hfov_rad / 2)
+        cx = camera.cx_px or camera.width_px / 2
+        half = math.atan2(min(cx, camera.width_px - cx), fx)  # the nearer edge
+    else:
+        half = cfg.sensing.fov_rad / 2
+        if half >= math.pi:
+            return math.pi
+    banner = math.atan2(cfg.banner.panel_size_m / 2, range_cmd_m)
+    return max(0.0, half - banner - VIEW_MARGIN_RAD)
+
+
+def formation_settings(
+    cfg: Config,
+    range_cmd_m: float,
+    bearing_cmd_rad: float,
+    controller: str,
+    camera: CameraConfig | None = None,
+) -> FormationSettings:
     """The formation controller settings a scenario asks for.
 
     Parameters
@@ -88,8 +126,11 @@ def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, 
         The scenario (``[guidance]`` gains, ``[sensing]`` noise).
     range_cmd_m, bearing_cmd_rad : float
         The slot: range (m) and bearing (rad, clockwise positive) to the target.
-    controller : "smc" or "p"
+    controller : "smc", "p" or "trail"
         The control law.
+    camera : CameraConfig, optional
+        The follower's camera, when a camera finds its target (its field of view bounds the
+        trail law's heading); None: the truth sensor (``[sensing] fov_deg``).
     """
     g = cfg.guidance
     return FormationSettings(
@@ -110,6 +151,8 @@ def formation_settings(cfg: Config, range_cmd_m: float, bearing_cmd_rad: float, 
             max_yaw_rate_radps=g.max_yaw_rate_radps,
         ),
         p_gain_per_s=g.p_gain,
+        trail_lookahead_m=g.trail_lookahead_m,
+        view_half_angle_rad=view_half_angle_rad(cfg, camera, range_cmd_m),
         coast_s=g.coast_s,
         slowdown_s=g.slowdown_s,
         search_yaw_rate_radps=g.search_yaw_rate_radps,

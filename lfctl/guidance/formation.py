@@ -13,9 +13,12 @@ default (0) it holds at once, as ArduPilot's FOLLOW mode does without a target. 
 sees only ahead: a target that turned away, showing its side, or went past the edge of the
 picture is seen again only by looking round.
 
-Two control laws share everything else: ``"smc"`` (the paper's, corrected) and ``"p"``, a
+Three control laws share everything else: ``"smc"`` (the paper's, corrected), ``"p"``, a
 proportional controller on the position offset like ArduPilot's AP_Follow (FOLL_POS_P), the
-baseline the benchmark compares against.
+baseline the benchmark compares against, and ``"trail"``: both of those aim at the target and
+so cut its corners; a trail follower drives the path the filter says the target drove
+(:mod:`lfctl.guidance.trail`), the slot's range taken along it and its sideways offset kept
+beside it.
 """
 
 from __future__ import annotations
@@ -31,9 +34,17 @@ from filterpy.kalman import KalmanFilter
 
 from lfctl.frames import body_to_ned, wrap_pi
 from lfctl.guidance.smc import BearingGains, RangeGains, SlidingModeController, clamp, smc_speed_mps
+from lfctl.guidance.trail import Trail, trail_speed_mps
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 
-__all__ = ["FormationController", "FormationOutput", "FormationSettings", "Odometry", "TargetEstimator"]
+__all__ = ["CONTROLLERS", "FormationController", "FormationOutput", "FormationSettings", "Odometry", "TargetEstimator"]
+
+#: the follower's control laws (``guidance.controller``)
+CONTROLLERS = ("smc", "p", "trail")
+#: the trail law drives on only while its target is further than this share of the slot's
+#: range in a straight line: round a right-angle corner an in-line follower comes to 1/sqrt(2)
+#: of it, and a follower beside the path on the inside nearer still
+TRAIL_MIN_RANGE = 0.6
 
 
 @dataclass(frozen=True)
@@ -55,10 +66,18 @@ class FormationSettings:
     ----------
     range_cmd_m, bearing_cmd_rad : float
         Commanded range (m) and bearing (rad, clockwise positive) to the target.
-    controller : "smc" or "p"
-        The paper's sliding-mode laws or the AP_Follow-style proportional baseline.
+    controller : "smc", "p" or "trail"
+        The paper's sliding-mode laws, the AP_Follow-style proportional baseline, or the
+        target's trail driven with the same gains (the range law along the trail, the
+        bearing law on the heading to a point ``trail_lookahead_m`` ahead along it).
     range, bearing : RangeGains, BearingGains
         Sliding-mode gains.
+    trail_lookahead_m : float
+        The trail follower's lookahead distance, m (> 0).
+    view_half_angle_rad : float
+        The sensor sees this far either side of the heading (half a camera's horizontal field
+        of view less a margin for the banner's width), rad: the trail law's heading keeps the
+        target inside it, and so turns ahead of a corner it cannot see round; pi: no limit.
     p_gain_per_s, p_heading_gain_per_s : float
         Baseline position gain (FOLL_POS_P) and heading gain (yaw rate per rad of heading
         error), 1/s.
@@ -79,9 +98,11 @@ class FormationSettings:
 
     range_cmd_m: float = 1.5
     bearing_cmd_rad: float = 0.0
-    controller: Literal["smc", "p"] = "smc"
+    controller: Literal["smc", "p", "trail"] = "smc"
     range: RangeGains = field(default_factory=RangeGains)
     bearing: BearingGains = field(default_factory=BearingGains)
+    trail_lookahead_m: float = 0.3
+    view_half_angle_rad: float = math.pi
     p_gain_per_s: float = 0.8
     p_heading_gain_per_s: float = 2.0
     coast_s: float = 2.0
@@ -268,6 +289,8 @@ class FormationController:
         # LOST by the coast and slow-down running out: held until a fresh sighting (a longer
         # coast set meanwhile applies to the next occlusion, not to a target long unseen)
         self._timed_out = False
+        self.trail = Trail()  # the target's path, for the trail law (started by the first fix)
+        self._trail_restart = True
         self.status = TrackStatus.LOST
 
     def _odometry_at(self, t_s: float) -> Odometry:
@@ -316,6 +339,7 @@ class FormationController:
             n, e = at.north_m + dn, at.east_m + de
             if not est.initialised or stale:
                 est.init(n, e)
+                self._trail_restart = True  # a target found afresh: its old trail is not its path now
             else:
                 # the fix describes meas.t_s: bring it to now with the estimated velocity
                 vn, ve = est.velocity
@@ -346,6 +370,8 @@ class FormationController:
         rng, brg = self._relative(odom)
         if st.controller == "smc":
             speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
+        elif st.controller == "trail":
+            speed, yaw_rate = self._trail(tn, te, vn, ve, odom, dt)
         else:
             speed, yaw_rate = self._p_baseline(tn, te, vn, ve, odom)
         if self.status is TrackStatus.OCCLUDED and since > st.coast_s:
@@ -396,6 +422,45 @@ class FormationController:
         los_rate = (dx * rel_ve - dy * rel_vn) / max(rng * rng, 1e-6)
         los_rate = clamp(los_rate, -st.bearing.max_yaw_rate_radps, st.bearing.max_yaw_rate_radps)
         return speed, self.bearing_smc.step(err, dt, los_rate)
+
+    def _trail(self, tn: float, te: float, vn: float, ve: float, odom: Odometry, dt: float) -> tuple[float, float]:
+        """The target's trail driven: the bearing law on the heading to a point
+        ``trail_lookahead_m`` ahead along it (offset sideways by the slot), the range law on
+        the gap along it, slowed by the heading still to turn."""
+        st = self.settings
+        trail = self.trail
+        # a negative bearing (the target ahead-left) puts the follower right of the trail
+        offset = -st.range_cmd_m * math.sin(st.bearing_cmd_rad)
+        if self._trail_restart:
+            # the trail starts level with the follower, ``offset`` to its left, and runs straight to the target
+            start = (odom.north_m + offset * math.sin(odom.yaw_rad), odom.east_m - offset * math.cos(odom.yaw_rad))
+            trail.reset(start, (tn, te))
+            self._trail_restart = False
+        else:
+            trail.extend(tn, te)
+        fix = trail.locate(odom.north_m, odom.east_m)
+        gap = trail.end_s(tn, te) - fix.s_m
+        gap_cmd = st.range_cmd_m * math.cos(st.bearing_cmd_rad)
+        if vn == 0.0 and ve == 0.0:  # the target is still (to the filter's confidence)
+            sigma_r, _ = self.estimator.range_bearing_sigma(tn - odom.north_m, te - odom.east_m)
+            if abs(gap - gap_cmd) < 2.0 * sigma_r:
+                self.bearing_smc.reset()
+                return 0.0, 0.0  # in the slot to within the sensor's noise: hold, do not hunt
+        an, ae = trail.aim(odom.north_m, odom.east_m, st.trail_lookahead_m, offset)
+        heading = math.atan2(ae - odom.east_m, an - odom.north_m)
+        # keep the target in view: the heading at most view_half_angle from its line of sight
+        sight = math.atan2(te - odom.east_m, tn - odom.north_m)
+        limit = st.view_half_angle_rad
+        heading = sight + clamp(wrap_pi(heading - sight), -limit, limit)
+        err = wrap_pi(heading - odom.yaw_rad)
+        n1, e1 = trail.points[-1]
+        n0, e0 = trail.points[-2]
+        ahead = math.hypot(n1 - n0, e1 - e0)
+        target_speed = (vn * (n1 - n0) + ve * (e1 - e0)) / ahead if ahead > 0 else math.hypot(vn, ve)
+        speed = trail_speed_mps(gap, gap_cmd, target_speed, err, st.range)
+        if math.hypot(tn - odom.north_m, te - odom.east_m) < TRAIL_MIN_RANGE * st.range_cmd_m:
+            speed = min(speed, 0.0)  # however far along the trail, not into the target
+        return speed, self.bearing_smc.step(err, dt)
 
     def _p_baseline(self, tn: float, te: float, vn: float, ve: float, odom: Odometry) -> tuple[float, float]:
         """AP_Follow style: desired velocity = target velocity + P x offset error."""

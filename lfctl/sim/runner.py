@@ -29,7 +29,7 @@ from lfctl.config import Config
 from lfctl.errors import ConfigError
 from lfctl.follower.stack import Follower, formation_settings
 from lfctl.frames import wrap_pi
-from lfctl.guidance.formation import Odometry
+from lfctl.guidance.formation import CONTROLLERS, Odometry
 from lfctl.link.endpoint import MODE_NAMES, packet_record
 from lfctl.link.mission import PLACES, nav_count, to_legs
 from lfctl.link.mission_server import ListChange
@@ -401,7 +401,7 @@ def run_scenario(
     ----------
     cfg : Config
         The scenario.
-    controller : "smc" or "p", optional
+    controller : "smc", "p" or "trail", optional
         Follower control law (default ``guidance.controller``).
     realtime : bool, optional
         Pace to the wall clock, each endpoint on its UDP port (default ``sim.clock``).
@@ -440,8 +440,8 @@ def run_scenario(
         The log cannot be created, or the WebSocket cannot listen there.
     """
     law = controller or cfg.guidance.controller
-    if law not in ("smc", "p"):
-        raise ConfigError(f"controller must be 'smc' or 'p', got {law!r}")
+    if law not in CONTROLLERS:
+        raise ConfigError(f"controller must be one of {', '.join(map(repr, CONTROLLERS))}, got {law!r}")
     check_video(cfg, video)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
@@ -538,7 +538,10 @@ def _closed_loop(
         seeds.append((v.name, seed))
         stack = Follower(
             v.name,
-            formation_settings(cfg, slot.range_m, slot.bearing_rad, law),  # LFC_* tune it before each step
+            # LFC_* tune it before each step
+            formation_settings(
+                cfg, slot.range_m, slot.bearing_rad, law, cfg.camera if cfg.sim.sensing == "camera" else None
+            ),
             companion,
             step_rate_hz=cfg.sim.guidance_rate_hz,
             status_rate_hz=cfg.sim.status_rate_hz,

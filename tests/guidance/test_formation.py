@@ -169,8 +169,8 @@ def test_delayed_measurement_is_placed_with_the_odometry_of_its_time() -> None:
     assert out.range_est_m == pytest.approx(1.7)
 
 
-@pytest.mark.parametrize("law", ["smc", "p"])
-def test_at_the_slot_with_a_still_target_both_laws_hold_still(law: str) -> None:
+@pytest.mark.parametrize("law", ["smc", "p", "trail"])
+def test_at_the_slot_with_a_still_target_every_law_holds_still(law: str) -> None:
     ctl = FormationController(FormationSettings(range_cmd_m=1.5, controller=law))
     out = None
     for k in range(100):

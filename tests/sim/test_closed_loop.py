@@ -286,3 +286,37 @@ def test_vee_on_camera_each_follower_tracks_its_own_target() -> None:
     for m in rep.metrics:
         assert m.range_err_rms_m <= 0.10 * m.range_cmd_m, m
         assert math.degrees(m.bearing_err_rms_rad) <= 5.0, m
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_the_trail_law_keeps_to_the_leaders_path_where_the_pursuit_laws_cut_its_corners(seed: int) -> None:
+    """The convoy's square on truth sensing: the paper's law and the P baseline aim at the
+    leader and cut each corner; the trail law drives the path the filter says it drove."""
+    reps = {law: run_scenario(with_seed(convoy(), seed), controller=law).metrics[0] for law in ("smc", "p", "trail")}
+    trail = reps["trail"]
+    assert reps["smc"].path_err_max_m > 0.5 and reps["p"].path_err_max_m > 0.3, reps
+    assert trail.path_err_rms_m < 0.05 and trail.path_err_max_m < 0.15, trail
+    # the gap is held along the path: straight-line range shorter across a corner, never near
+    assert trail.range_err_rms_m < 0.2 and trail.min_separation_m > 0.9, trail
+
+
+@pytest.mark.slow
+def test_on_camera_the_trail_law_keeps_to_the_path_and_its_leader_in_view() -> None:
+    """The convoy on its camera: a 62 deg lens cannot see round a right angle from the path,
+    so the trail law turns early enough to keep the banner in the picture, and cuts the
+    corner less than the paper's law."""
+    rep = run_scenario(convoy("camera"), controller="trail", duration_s=35.0)  # two corners
+    m = rep.metrics[0]
+    assert m.time_in_state_s["lost"] < 0.5 and m.time_in_state_s["tracking"] > 33.0, m
+    assert m.path_err_rms_m < 0.2 and m.min_separation_m > 0.7, m
+    assert math.degrees(m.bearing_err_max_rad) < 31.0, m  # the banner stayed inside the half view
+
+
+@pytest.mark.slow
+def test_on_the_survey_the_trail_follower_turns_with_the_leader_and_never_loses_it() -> None:
+    """The survey's line ends lose a follower that aims at the leader (it sees its side);
+    one that drives its path turns behind it and keeps its banner in view."""
+    rep = run_scenario(survey(45.0), controller="trail", duration_s=60.0)
+    m = rep.metrics[0]
+    assert m.time_in_state_s["lost"] < 0.5, m
+    assert m.path_err_rms_m < 0.2 and m.min_separation_m > 0.7, m

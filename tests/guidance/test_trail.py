@@ -1,0 +1,170 @@
+"""The trail law: the target's path as the follower estimated it, located on by hand, the
+range law along it, and a follower closing a square behind a target without cutting its
+corners (kinematic loop, no FMU)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from lfctl.frames import wrap_pi
+from lfctl.guidance.formation import FormationController, FormationSettings, Odometry
+from lfctl.guidance.smc import RangeGains
+from lfctl.guidance.trail import Trail, trail_speed_mps
+from lfctl.metrics import distance_to_path
+from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
+
+
+def l_trail() -> Trail:
+    # north 2 m, then east 2 m, a point each 0.5 m
+    t = Trail(spacing_m=0.5)
+    t.reset((0.0, 0.0), (0.5, 0.0))
+    for n, e in [(1.0, 0.0), (1.5, 0.0), (2.0, 0.0), (2.0, 0.5), (2.0, 1.0), (2.0, 1.5), (2.0, 2.0)]:
+        t.extend(n, e)
+    return t
+
+
+def test_a_point_is_located_by_arc_length_side_and_heading() -> None:
+    t = l_trail()
+    assert t.s[-1] == pytest.approx(4.0)
+    fix = t.locate(1.2, 0.3)  # 0.3 m east of the first leg: right of a trail heading north
+    assert (fix.s_m, fix.cross_m, fix.heading_rad) == pytest.approx((1.2, 0.3, 0.0))
+    fix = t.locate(2.4, 1.0)  # 0.4 m north of the second leg: left of a trail heading east
+    assert (fix.s_m, fix.cross_m, fix.heading_rad) == pytest.approx((3.0, -0.4, math.pi / 2))
+    assert t.end_s(2.0, 2.3) == pytest.approx(4.3)  # the target 0.3 m past the last point
+
+
+def test_the_aim_is_the_first_point_a_lookahead_away_and_ahead() -> None:
+    t = l_trail()
+    t.locate(1.2, 0.0)
+    assert t.aim(1.2, 0.0, 0.6) == pytest.approx((2.0, 0.0))  # 0.8 m on: (1.5, 0) is only 0.3 away
+    assert t.aim(1.2, 0.0, 1.0) == pytest.approx((2.0, 1.0))  # (2, 0.5) is 0.94 away
+    assert t.aim(1.2, 0.0, 9.0) == pytest.approx((2.0, 2.0))  # none that far: the end
+    # 0.5 m to the right of the trail (east of the first leg, south of the second): inside
+    # the corner. Level with the corner, at (1.5, 0.5), the shifted points just past it,
+    # (1.5, 0.5) itself and (1.5, 1.0), are not a lookahead ahead: it aims along the second leg
+    t.locate(1.5, 0.5)
+    assert t.aim(1.5, 0.5, 0.6, offset_m=0.5) == pytest.approx((1.5, 1.5))
+
+
+def test_points_closer_than_the_spacing_are_not_kept_and_the_oldest_go_first() -> None:
+    t = Trail(spacing_m=0.1, max_points=4)
+    t.reset((0.0, 0.0), (0.05, 0.0))  # the target's first place is kept however near
+    t.extend(0.1, 0.0)  # 0.05 from the last: not kept
+    assert len(t.points) == 2
+    for n in (0.25, 0.4, 0.55):
+        t.extend(n, 0.0)
+    assert t.points == pytest.approx([(0.05, 0.0), (0.25, 0.0), (0.4, 0.0), (0.55, 0.0)]) and t.s[0] == pytest.approx(
+        0.05
+    )
+    assert t.locate(0.45, 0.0).s_m == pytest.approx(0.45)  # arc lengths still count from the start
+
+
+def test_bad_trails_are_refused() -> None:
+    with pytest.raises(ValueError, match="spacing_m"):
+        Trail(spacing_m=0.0)
+    with pytest.raises(ValueError, match="reset it first"):
+        Trail().locate(0.0, 0.0)
+
+
+@given(st.floats(-1.0, 5.0), st.floats(-2.0, 4.0))
+def test_the_place_found_is_the_nearest_on_the_trail(n: float, e: float) -> None:
+    t = l_trail()
+    fix = t.locate(n, e)
+    nearest = distance_to_path(np.array(t.points), n, e)
+    # the point at the arc length found is the trail's nearest; the side is the offset from
+    # that segment's line (no more than the distance: less past either end)
+    k = t.cursor
+    assert distance_to_path(np.array(t.points[k : k + 2]), n, e) == pytest.approx(nearest, abs=1e-9)
+    assert t.s[k] - 1e-9 <= fix.s_m <= t.s[k + 1] + 1e-9
+    assert abs(fix.cross_m) <= nearest + 1e-9
+
+
+def test_the_range_law_along_the_trail_by_hand() -> None:
+    g = RangeGains(eta_mps=0.25, phi_m=0.25, min_speed_mps=-0.15, max_speed_mps=0.5)
+    # 0.1 m behind the slot: the target's 0.3 plus 0.25 x 0.1 / 0.25 = 0.4 m/s
+    assert trail_speed_mps(1.6, 1.5, 0.3, 0.0, g) == pytest.approx(0.4)
+    # a 60 deg turn still to make halves it
+    assert trail_speed_mps(1.6, 1.5, 0.3, math.radians(60), g) == pytest.approx(0.2)
+    # far behind: 0.3 + 0.25 = 0.55, saturated to 0.5; past 90 deg it turns in place
+    assert trail_speed_mps(3.0, 1.5, 0.3, 0.0, g) == pytest.approx(0.5)
+    assert trail_speed_mps(3.0, 1.5, 0.3, math.radians(120), g) == 0.0
+    # too close to a still target: backs up, at most the reverse limit
+    assert trail_speed_mps(1.0, 1.5, 0.0, 0.0, g) == pytest.approx(-0.15)
+
+
+def square(t: float, speed: float = 0.3, side: float = 3.0) -> tuple[float, float]:
+    """A target driving a square's sides at ``speed``: north, east, south, ... (sharp corners)."""
+    s = (speed * t) % (4 * side)
+    k, u = int(s // side), s % side
+    corners = [(0.0, 0.0), (side, 0.0), (side, side), (0.0, side)]
+    (n0, e0), (n1, e1) = corners[k], corners[(k + 1) % 4]
+    return n0 + (n1 - n0) * u / side, e0 + (e1 - e0) * u / side
+
+
+def drive(law: str, seconds: float = 45.0, dt: float = 0.05, bearing_deg: float = 0.0) -> tuple[float, float]:
+    """A unicycle follower in a slot 1.5 m from the square's target: its largest path error
+    after 5 s (its distance from the target's path less the slot's sideways offset), and its
+    last range."""
+    b = math.radians(bearing_deg)
+    settings = FormationSettings(range_cmd_m=1.5, bearing_cmd_rad=b, controller=law)  # type: ignore[arg-type]
+    ctl = FormationController(settings)
+    offset = abs(1.5 * math.sin(b))
+    n, e, yaw, v = -1.5 * math.cos(b), 1.5 * math.sin(-b), 0.0, 0.0
+    worst, path = 0.0, [(-10.0, 0.0), (0.0, 0.0)]
+    for k in range(int(seconds / dt)):
+        t = k * dt
+        tn, te = square(t)
+        path.append((tn, te))
+        rng = math.hypot(tn - n, te - e)
+        brg = wrap_pi(math.atan2(te - e, tn - n) - yaw)
+        out = ctl.step(RelativeMeasurement(t, TrackStatus.TRACKING, rng, brg, 1.0), Odometry(t, n, e, yaw, v))
+        v = out.speed_mps
+        n, e, yaw = n + v * math.cos(yaw) * dt, e + v * math.sin(yaw) * dt, yaw + out.yaw_rate_radps * dt
+        if t > 5.0:
+            worst = max(worst, abs(distance_to_path(np.array(path[-400:]), n, e) - offset))
+    return worst, math.hypot(square(seconds)[0] - n, square(seconds)[1] - e)
+
+
+def test_a_trail_follower_keeps_to_the_targets_path_where_pursuit_cuts_its_corners() -> None:
+    trail, trail_range = drive("trail")
+    smc, _ = drive("smc")
+    assert smc > 0.4  # the pursuit law cuts each corner (about 0.5 m on this square)
+    assert trail < 0.1, trail
+    assert 1.0 < trail_range < 1.6  # the gap held along the path (shorter across a corner)
+
+
+@pytest.mark.parametrize("bearing_deg", [-30.0, 30.0])
+def test_a_trail_follower_beside_the_path_keeps_its_offset_round_corners(bearing_deg: float) -> None:
+    # -30 deg: 0.75 m right of the path, inside each right-hand corner of the square; 30:
+    # outside, where the shifted legs leave a gap round the corner that the follower crosses on
+    # a chord, up to 0.75 (1 - cos 45 deg) = 0.22 m inside the arc 0.75 m from the corner
+    worst, rng = drive("trail", bearing_deg=bearing_deg)
+    assert worst < 0.25, worst
+    assert worst < drive("smc", bearing_deg=bearing_deg)[0] / 3  # the pursuit law: 0.33 and 0.75
+    assert 0.8 < rng < 2.3  # inside the corner the path is shorter, outside longer
+
+
+def test_the_trail_law_keeps_the_target_in_a_narrow_camera_view() -> None:
+    """With a 31 deg half-view the heading never leaves the target's line of sight by more."""
+    limit = math.radians(20.0)
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5, controller="trail", view_half_angle_rad=limit))
+    n, e, yaw, v, dt = -1.5, 0.0, 0.0, 0.0, 0.05
+    worst = 0.0
+    for k in range(int(40.0 / dt)):
+        t = k * dt
+        tn, te = square(t)
+        brg = wrap_pi(math.atan2(te - e, tn - n) - yaw)
+        out = ctl.step(
+            RelativeMeasurement(t, TrackStatus.TRACKING, math.hypot(tn - n, te - e), brg, 1.0),
+            Odometry(t, n, e, yaw, v),
+        )
+        v = out.speed_mps
+        n, e, yaw = n + v * math.cos(yaw) * dt, e + v * math.sin(yaw) * dt, yaw + out.yaw_rate_radps * dt
+        if t > 5.0:
+            worst = max(worst, abs(brg))
+    assert worst < math.radians(31.0), math.degrees(worst)
