@@ -86,6 +86,10 @@ TAG_DICTIONARIES: dict[str, tuple[int, int]] = {
     "APRILTAG_36h11": (6, 587),
 }
 
+#: the widest slot bearing the trail law holds, deg (lfctl.guidance.formation.TRAIL_MAX_BEARING_RAD:
+#: config may not import guidance, a test keeps the two equal)
+TRAIL_MAX_BEARING_DEG = 40.0
+
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
 #: a positive length of a thing in the scene, m
@@ -786,6 +790,13 @@ class Config:
                 )
         if self.banner.kind == "aruco":
             self._check_tag_ids()
+        if self.guidance.controller == "trail":
+            for name, slot in self.slots().items():
+                if abs(slot.bearing_rad) > math.radians(TRAIL_MAX_BEARING_DEG) + 1e-12:
+                    raise ConfigError(
+                        f"vehicles[{name}]: a slot at bearing {math.degrees(slot.bearing_rad):g} deg is wider than "
+                        f'guidance.controller = "trail" holds (at most {TRAIL_MAX_BEARING_DEG:g} deg): use "smc"'
+                    )
         # followers' targets must lead back to the leader without a cycle
         target = {name: slot.target for name, slot in self.slots().items()}
         for start in target:
@@ -800,17 +811,21 @@ class Config:
         """Each vehicle's tag id inside the dictionary, and no two vehicles with the same id."""
         b = self.banner
         _bits, size = TAG_DICTIONARIES[b.aruco_dictionary]
+        given = {v.name: v.aruco_id for v in self.vehicles}
+
+        def which(name: str, tag: int) -> str:
+            if given[name] is not None:
+                return f"vehicles[{name}].aruco_id {tag}"
+            return f"vehicles[{name}]'s tag {tag} (banner.aruco_id {b.aruco_id} + its place in [[vehicles]])"
+
         owner: dict[int, str] = {}
         for name, tag in self.tag_ids().items():
             if tag >= size:
-                given = next(v for v in self.vehicles if v.name == name).aruco_id
-                how = "" if given is not None else f" (banner.aruco_id {b.aruco_id} + its place in [[vehicles]])"
-                raise ConfigError(
-                    f"vehicles[{name}].aruco_id must be below {size} for {b.aruco_dictionary}, got {tag}{how}"
-                )
+                raise ConfigError(f"{which(name, tag)} must be below {size} for {b.aruco_dictionary}")
             if tag in owner:
                 raise ConfigError(
-                    f"vehicles[{name}].aruco_id {tag} is vehicles[{owner[tag]}]'s too: each banner needs its own tag id"
+                    f"{which(name, tag)} is {which(owner[tag], tag)} too: each banner needs its own tag id "
+                    "(give the vehicles their own vehicles.aruco_id)"
                 )
             owner[tag] = name
 

@@ -220,7 +220,10 @@ class PathHistory:
     """The path a vehicle drove, for the path error of whoever follows it: a point each
     ``spacing_m`` it moves, the last ``keep`` of them, and before its first position a
     straight ``lead_in_m`` back along its first heading (the road it came on: a follower
-    starting behind it is on its path).
+    starting behind it is on its path). The error is unsigned (a follower its offset away on
+    the wrong side scores 0) and taken from the kept stretch only (``keep`` x ``spacing_m``:
+    the last 20 m by default; a follower further behind on the path than that is measured
+    from its oldest kept point).
 
     Parameters
     ----------
@@ -235,14 +238,21 @@ class PathHistory:
         north_m: float,
         east_m: float,
         yaw_rad: float,
-        spacing_m: float = 0.02,
-        keep: int = 1000,
+        spacing_m: float = 0.05,
+        keep: int = 400,
         lead_in_m: float = 10.0,
     ) -> None:
-        back = (north_m - lead_in_m * np.cos(yaw_rad), east_m - lead_in_m * np.sin(yaw_rad))
-        self.points: list[tuple[float, float]] = [back, (north_m, east_m)]
         self.spacing_m = spacing_m
         self.keep = keep
+        self._buf = np.empty((2 * keep, 2))  # a point per row; the newest at row _n - 1
+        self._buf[0] = north_m - lead_in_m * np.cos(yaw_rad), east_m - lead_in_m * np.sin(yaw_rad)
+        self._buf[1] = north_m, east_m
+        self._n = 2
+
+    @property
+    def points(self) -> np.ndarray:
+        """The kept points, oldest first, (K, 2) north and east, m (a view)."""
+        return self._buf[max(0, self._n - self.keep) : self._n]
 
     def add(self, north_m: float, east_m: float) -> None:
         """The vehicle is here now (a point is kept once it is ``spacing_m`` from the last).
@@ -252,11 +262,14 @@ class PathHistory:
         north_m, east_m : float
             Its position, m.
         """
-        ln, le = self.points[-1]
-        if (north_m - ln) ** 2 + (east_m - le) ** 2 >= self.spacing_m**2:
-            self.points.append((north_m, east_m))
-            if len(self.points) > 2 * self.keep:
-                del self.points[: len(self.points) - self.keep]
+        ln, le = self._buf[self._n - 1]
+        if (north_m - ln) ** 2 + (east_m - le) ** 2 < self.spacing_m**2:
+            return
+        if self._n == len(self._buf):  # full: the newest keep points to the front
+            self._buf[: self.keep] = self._buf[self._n - self.keep : self._n]
+            self._n = self.keep
+        self._buf[self._n] = north_m, east_m
+        self._n += 1
 
     def error(self, north_m: float, east_m: float, offset_m: float = 0.0) -> float:
         """A follower's path error: its distance from the kept path, less ``offset_m`` (its
@@ -269,7 +282,7 @@ class PathHistory:
         offset_m : float
             Its slot's sideways offset from the path, m.
         """
-        return distance_to_path(np.asarray(self.points[-self.keep :]), north_m, east_m) - offset_m
+        return distance_to_path(self.points, north_m, east_m) - offset_m
 
 
 def track_episodes(

@@ -55,10 +55,18 @@ def test_path_history_leads_in_keeps_a_spaced_path_and_subtracts_the_offset() ->
     assert h.error(0.0, -3.0) == pytest.approx(0.0)  # behind it on the road it came on
     for k in range(1, 11):
         h.add(0.0, 0.1 * k)  # 1 m east in 0.1 m steps: a point each 0.5 m
-    assert h.points[-2:] == [(0.0, 0.5), (0.0, 1.0)]
+    assert h.points[-2:].tolist() == [[0.0, 0.5], [0.0, 1.0]]
     h.add(1.0, 1.0)  # turns north
     assert h.error(0.5, 1.3) == pytest.approx(0.3)
     assert h.error(0.5, 1.3, offset_m=0.3) == pytest.approx(0.0)
+
+
+def test_path_history_keeps_the_newest_points_when_full() -> None:
+    h = PathHistory(0.0, 0.0, 0.0, spacing_m=1.0, keep=3, lead_in_m=1.0)
+    for k in range(1, 8):
+        h.add(float(k), 0.0)
+    assert h.points.tolist() == [[5.0, 0.0], [6.0, 0.0], [7.0, 0.0]]
+    assert h.error(0.0, 0.0) == pytest.approx(5.0)  # the older path is no longer kept
 
 
 def test_the_path_error_counts_after_settling_and_is_none_without_samples() -> None:

@@ -79,36 +79,22 @@ class FollowerEvent:
     text: str  # the STATUSTEXT sent for it
 
 
-#: the trail law keeps the target this far inside the picture's edge besides the banner's own
-#: half-width, rad: the tracker's window and search region need the room
-VIEW_MARGIN_RAD = math.radians(5.0)
-
-
-def view_half_angle_rad(cfg: Config, camera: CameraConfig | None, range_cmd_m: float) -> float:
-    """How far off the heading the follower's sensor keeps its target in view, rad: half the
-    camera's horizontal field of view (half the truth sensor's ``fov``) less the banner's
-    half-width at the slot's range and :data:`VIEW_MARGIN_RAD`; pi for a sensor that sees
-    all round.
+def view_half_fov_rad(cfg: Config, camera: CameraConfig | None) -> float:
+    """How far off the heading the follower's sensor sees, rad: half the camera's horizontal
+    field of view (to the nearer edge of the picture), or half the truth sensor's ``fov``.
 
     Parameters
     ----------
     cfg : Config
-        The scenario (``[banner]``, ``[sensing]``).
+        The scenario (``[sensing]``).
     camera : CameraConfig or None
         The follower's camera; None: the truth sensor.
-    range_cmd_m : float
-        The slot's range, m.
     """
-    if camera is not None:
-        fx = camera.fx_px or (camera.width_px / 2) / math.tan(camera.hfov_rad / 2)
-        cx = camera.cx_px or camera.width_px / 2
-        half = math.atan2(min(cx, camera.width_px - cx), fx)  # the nearer edge
-    else:
-        half = cfg.sensing.fov_rad / 2
-        if half >= math.pi:
-            return math.pi
-    banner = math.atan2(cfg.banner.panel_size_m / 2, range_cmd_m)
-    return max(0.0, half - banner - VIEW_MARGIN_RAD)
+    if camera is None:
+        return min(math.pi, cfg.sensing.fov_rad / 2)
+    fx = camera.fx_px or (camera.width_px / 2) / math.tan(camera.hfov_rad / 2)
+    cx = camera.cx_px or camera.width_px / 2
+    return math.atan2(min(cx, camera.width_px - cx), fx)
 
 
 def formation_settings(
@@ -152,7 +138,9 @@ def formation_settings(
         ),
         p_gain_per_s=g.p_gain,
         trail_lookahead_m=g.trail_lookahead_m,
-        view_half_angle_rad=view_half_angle_rad(cfg, camera, range_cmd_m),
+        view_half_fov_rad=view_half_fov_rad(cfg, camera),
+        # a point for the truth sensor
+        banner_half_m=cfg.banner.panel_size_m / 2 if camera is not None else 0.0,
         coast_s=g.coast_s,
         slowdown_s=g.slowdown_s,
         search_yaw_rate_radps=g.search_yaw_rate_radps,
@@ -208,17 +196,22 @@ class Follower:
         """
         self.tune(range_cmd_m=range_m, bearing_cmd_rad=bearing_rad)
 
-    def tune(self, **fields: float) -> None:
+    def tune(self, **fields: float | str) -> None:
         """Change some of the controller's settings while running (a ground station set
         ``LFC_*`` parameters), keeping the rest and the controller's state.
 
         Parameters
         ----------
-        **fields : float
-            :class:`FormationSettings` fields by name, e.g. ``coast_s=1.0``.
+        **fields : float or str
+            :class:`FormationSettings` fields by name, e.g. ``coast_s=1.0``, ``controller="trail"``.
         """
         st = self.controller.settings
-        if any(abs(v - getattr(st, k)) > 1e-9 for k, v in fields.items()):
+
+        def changed(k: str, v: float | str) -> bool:
+            old = getattr(st, k)
+            return old != v if isinstance(v, str) else abs(v - old) > 1e-9
+
+        if any(changed(k, v) for k, v in fields.items()):
             self.controller.settings = dataclasses.replace(st, **fields)
 
     def step(self, t_s: float, measurement: RelativeMeasurement | None, odometry: Odometry) -> FormationOutput:

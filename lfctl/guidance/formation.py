@@ -41,10 +41,17 @@ __all__ = ["CONTROLLERS", "FormationController", "FormationOutput", "FormationSe
 
 #: the follower's control laws (``guidance.controller``)
 CONTROLLERS = ("smc", "p", "trail")
-#: the trail law drives on only while its target is further than this share of the slot's
-#: range in a straight line: round a right-angle corner an in-line follower comes to 1/sqrt(2)
-#: of it, and a follower beside the path on the inside nearer still
+#: nearer its target than this share of the slot's range in a straight line, the trail law
+#: backs away as the range law would (round a right-angle corner an in-line follower comes to
+#: 1/sqrt(2) of it along the trail, a follower beside the path on the inside nearer still)
 TRAIL_MIN_RANGE = 0.6
+#: the trail law holds slots up to this bearing; a wider one is held by the sliding-mode law
+#: (a follower that far to the side, on the inside of a right-angle corner, reaches the
+#: corner before its target and would turn the long way round)
+TRAIL_MAX_BEARING_RAD = math.radians(40.0)  # lfctl.config.TRAIL_MAX_BEARING_DEG, which a test keeps equal
+#: the trail law keeps the target this far inside the picture's edge besides the banner's own
+#: half-width, rad: the tracker's window and search region need the room
+VIEW_MARGIN_RAD = math.radians(5.0)
 
 
 @dataclass(frozen=True)
@@ -74,10 +81,12 @@ class FormationSettings:
         Sliding-mode gains.
     trail_lookahead_m : float
         The trail follower's lookahead distance, m (> 0).
-    view_half_angle_rad : float
-        The sensor sees this far either side of the heading (half a camera's horizontal field
-        of view less a margin for the banner's width), rad: the trail law's heading keeps the
-        target inside it, and so turns ahead of a corner it cannot see round; pi: no limit.
+    view_half_fov_rad, banner_half_m : float
+        The sensor sees this far either side of the heading, rad (half a camera's horizontal
+        field of view; pi: all round), and half the target's banner, m: the trail law keeps
+        its heading within that, less the banner's half-width at the slot's range and
+        ``VIEW_MARGIN_RAD`` (never less than the slot's own bearing), of the target, and so
+        turns ahead of a corner it cannot see round.
     p_gain_per_s, p_heading_gain_per_s : float
         Baseline position gain (FOLL_POS_P) and heading gain (yaw rate per rad of heading
         error), 1/s.
@@ -102,7 +111,8 @@ class FormationSettings:
     range: RangeGains = field(default_factory=RangeGains)
     bearing: BearingGains = field(default_factory=BearingGains)
     trail_lookahead_m: float = 0.3
-    view_half_angle_rad: float = math.pi
+    view_half_fov_rad: float = math.pi
+    banner_half_m: float = 0.0
     p_gain_per_s: float = 0.8
     p_heading_gain_per_s: float = 2.0
     coast_s: float = 2.0
@@ -291,6 +301,7 @@ class FormationController:
         self._timed_out = False
         self.trail = Trail()  # the target's path, for the trail law (started by the first fix)
         self._trail_restart = True
+        self._law = settings.controller  # a law changed while running starts afresh
         self.status = TrackStatus.LOST
 
     def _odometry_at(self, t_s: float) -> Odometry:
@@ -309,6 +320,10 @@ class FormationController:
             The follower's pose and speed now.
         """
         st = self.settings
+        if st.controller != self._law:  # a ground station chose another law (LFC_LAW)
+            self._law = st.controller
+            self._trail_restart = True  # the trail has not been kept while another law drove
+            self.bearing_smc.reset()
         dt = 0.0 if self._t_prev is None else odom.t_s - self._t_prev
         self._t_prev = odom.t_s
         self._odom.append(odom)
@@ -370,8 +385,11 @@ class FormationController:
         rng, brg = self._relative(odom)
         if st.controller == "smc":
             speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
-        elif st.controller == "trail":
-            speed, yaw_rate = self._trail(tn, te, vn, ve, odom, dt)
+        elif st.controller == "trail" and abs(st.bearing_cmd_rad) <= TRAIL_MAX_BEARING_RAD:
+            speed, yaw_rate = self._trail(tn, te, vn, ve, odom, dt, fresh)
+        elif st.controller == "trail":  # a slot too wide for the trail (LFC_BEARING): the paper's law holds it
+            self._trail_restart = True
+            speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
         else:
             speed, yaw_rate = self._p_baseline(tn, te, vn, ve, odom)
         if self.status is TrackStatus.OCCLUDED and since > st.coast_s:
@@ -423,34 +441,39 @@ class FormationController:
         los_rate = clamp(los_rate, -st.bearing.max_yaw_rate_radps, st.bearing.max_yaw_rate_radps)
         return speed, self.bearing_smc.step(err, dt, los_rate)
 
-    def _trail(self, tn: float, te: float, vn: float, ve: float, odom: Odometry, dt: float) -> tuple[float, float]:
+    def _trail(
+        self, tn: float, te: float, vn: float, ve: float, odom: Odometry, dt: float, fresh: bool
+    ) -> tuple[float, float]:
         """The target's trail driven: the bearing law on the heading to a point
         ``trail_lookahead_m`` ahead along it (offset sideways by the slot), the range law on
-        the gap along it, slowed by the heading still to turn."""
+        the gap along it, slowed by the heading still to turn. The trail grows only from fresh
+        fixes of a moving target: not from the filter's guess while it is hidden (a corner
+        turned out of sight would go in as an overshoot), nor from its noise while it stands."""
         st = self.settings
         trail = self.trail
+        dx, dy = tn - odom.north_m, te - odom.east_m
         # a negative bearing (the target ahead-left) puts the follower right of the trail
         offset = -st.range_cmd_m * math.sin(st.bearing_cmd_rad)
         if self._trail_restart:
             # the trail starts level with the follower, ``offset`` to its left, and runs straight to the target
             start = (odom.north_m + offset * math.sin(odom.yaw_rad), odom.east_m - offset * math.cos(odom.yaw_rad))
-            trail.reset(start, (tn, te))
+            trail.reset(start, (tn, te), odom.yaw_rad)
             self._trail_restart = False
-        else:
+        elif fresh and (vn != 0.0 or ve != 0.0):
             trail.extend(tn, te)
         fix = trail.locate(odom.north_m, odom.east_m)
         gap = trail.end_s(tn, te) - fix.s_m
         gap_cmd = st.range_cmd_m * math.cos(st.bearing_cmd_rad)
         if vn == 0.0 and ve == 0.0:  # the target is still (to the filter's confidence)
-            sigma_r, _ = self.estimator.range_bearing_sigma(tn - odom.north_m, te - odom.east_m)
+            sigma_r, _ = self.estimator.range_bearing_sigma(dx, dy)
             if abs(gap - gap_cmd) < 2.0 * sigma_r:
                 self.bearing_smc.reset()
                 return 0.0, 0.0  # in the slot to within the sensor's noise: hold, do not hunt
         an, ae = trail.aim(odom.north_m, odom.east_m, st.trail_lookahead_m, offset)
         heading = math.atan2(ae - odom.east_m, an - odom.north_m)
-        # keep the target in view: the heading at most view_half_angle from its line of sight
-        sight = math.atan2(te - odom.east_m, tn - odom.north_m)
-        limit = st.view_half_angle_rad
+        # keep the target in view: the heading within the view's limit of its line of sight
+        sight = math.atan2(dy, dx)
+        limit = self._view_limit_rad()
         heading = sight + clamp(wrap_pi(heading - sight), -limit, limit)
         err = wrap_pi(heading - odom.yaw_rad)
         n1, e1 = trail.points[-1]
@@ -458,9 +481,18 @@ class FormationController:
         ahead = math.hypot(n1 - n0, e1 - e0)
         target_speed = (vn * (n1 - n0) + ve * (e1 - e0)) / ahead if ahead > 0 else math.hypot(vn, ve)
         speed = trail_speed_mps(gap, gap_cmd, target_speed, err, st.range)
-        if math.hypot(tn - odom.north_m, te - odom.east_m) < TRAIL_MIN_RANGE * st.range_cmd_m:
-            speed = min(speed, 0.0)  # however far along the trail, not into the target
+        near = TRAIL_MIN_RANGE * st.range_cmd_m
+        if math.hypot(dx, dy) < near:  # however far along the trail: back away, as the range law does
+            speed = min(speed, smc_speed_mps(dx, dy, vn, ve, odom.yaw_rad, near, st.range))
         return speed, self.bearing_smc.step(err, dt)
+
+    def _view_limit_rad(self) -> float:
+        """How far the trail law's heading may be from the target's line of sight, rad."""
+        st = self.settings
+        if st.view_half_fov_rad >= math.pi:
+            return math.pi
+        banner = math.atan2(st.banner_half_m, st.range_cmd_m)
+        return max(st.view_half_fov_rad - banner - VIEW_MARGIN_RAD, abs(st.bearing_cmd_rad))
 
     def _p_baseline(self, tn: float, te: float, vn: float, ve: float, odom: Odometry) -> tuple[float, float]:
         """AP_Follow style: desired velocity = target velocity + P x offset error."""

@@ -53,25 +53,39 @@ class Trail:
         self.s: list[float] = []  # arc length at each point, m
         self.cursor = 0  # the segment the follower was last found on
 
-    def reset(self, start: tuple[float, float], target: tuple[float, float]) -> None:
-        """Start again: a straight trail from ``start`` (the follower) to ``target``."""
+    def reset(self, start: tuple[float, float], target: tuple[float, float], heading_rad: float) -> None:
+        """Start again: a straight trail from ``start`` (the follower) to ``target``; when
+        the target is on the start, ``spacing_m`` along ``heading_rad`` (the follower's)."""
         self.points, self.s, self.cursor = [start], [0.0], 0
-        self.extend(*target, force=True)
+        step = math.hypot(target[0] - start[0], target[1] - start[1])
+        if step < 1e-6:
+            d = self.spacing_m
+            target, step = (start[0] + d * math.cos(heading_rad), start[1] + d * math.sin(heading_rad)), d
+        self.points.append(target)
+        self.s.append(step)
 
-    def extend(self, north_m: float, east_m: float, force: bool = False) -> None:
+    def extend(self, north_m: float, east_m: float) -> None:
         """The target is here now: kept as a new point once ``spacing_m`` from the last.
+        A target that has backed up takes the trail back with it: the points it has backed
+        past are dropped (never the first segment), so the trail's length is still how far
+        along it the target is.
 
         Parameters
         ----------
         north_m, east_m : float
             The target's estimated position, m.
-        force : bool
-            Keep it however near the last point (not on it).
         """
-        ln, le = self.points[-1]
+        while len(self.points) > 2:
+            (an, ae), (bn, be) = self.points[-2], self.points[-1]
+            if (north_m - bn) * (bn - an) + (east_m - be) * (be - ae) >= 0.0:
+                break  # ahead of the last point, along the last segment
+            self.points.pop()
+            self.s.pop()
+        self.cursor = min(self.cursor, len(self.points) - 2)
+        (an, ae), (ln, le) = self.points[-2], self.points[-1]
         step = math.hypot(north_m - ln, east_m - le)
-        if step < self.spacing_m and not (force and step > 0.0):
-            return
+        if step < self.spacing_m or (north_m - ln) * (ln - an) + (east_m - le) * (le - ae) < 0.0:
+            return  # too near, or behind the end of the first segment (see end_s)
         self.points.append((north_m, east_m))
         self.s.append(self.s[-1] + step)
         if len(self.points) > self.max_points:
@@ -81,15 +95,18 @@ class Trail:
 
     def end_s(self, north_m: float, east_m: float) -> float:
         """Arc length of the target at (north, east): the trail's length plus its distance
-        from the last point, m.
+        from the last point, m; less how far it is behind the last point, along the last
+        segment, when it is (a target backed up past the first segment's end).
 
         Parameters
         ----------
         north_m, east_m : float
             The target's estimated position, m.
         """
-        ln, le = self.points[-1]
-        return self.s[-1] + math.hypot(north_m - ln, east_m - le)
+        (an, ae), (ln, le) = self.points[-2], self.points[-1]
+        seg = math.hypot(ln - an, le - ae)
+        along = ((north_m - ln) * (ln - an) + (east_m - le) * (le - ae)) / seg if seg > 0 else 0.0
+        return self.s[-1] + (along if along < 0.0 else math.hypot(north_m - ln, east_m - le))
 
     def aim(self, north_m: float, east_m: float, lookahead_m: float, offset_m: float = 0.0) -> tuple[float, float]:
         """Pure pursuit's aim: the first point of the trail, shifted ``offset_m`` to its right
@@ -122,7 +139,8 @@ class Trail:
 
     def locate(self, north_m: float, east_m: float, window: int = 200) -> TrailFix:
         """Where (north, east) is along the trail: the nearest segment from a few before the
-        last one found to ``window`` after it (a follower moves on along its trail).
+        last one found to ``window`` after it (a follower moves on along its trail). Behind
+        the first point the first segment runs on backwards: the arc length is negative there.
 
         Parameters
         ----------
@@ -140,7 +158,8 @@ class Trail:
             (an, ae), (bn, be) = self.points[k], self.points[k + 1]
             dn, de = bn - an, be - ae
             length2 = dn * dn + de * de
-            u = clamp(((north_m - an) * dn + (east_m - ae) * de) / length2, 0.0, 1.0) if length2 > 0 else 0.0
+            lo = -math.inf if k == 0 else 0.0  # the first segment runs on backwards
+            u = clamp(((north_m - an) * dn + (east_m - ae) * de) / length2, lo, 1.0) if length2 > 0 else 0.0
             d2 = (an + u * dn - north_m) ** 2 + (ae + u * de - east_m) ** 2
             if best is None or d2 < best[0]:
                 best = (d2, k, u)

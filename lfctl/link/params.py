@@ -145,6 +145,17 @@ def default_params(sysid: int) -> dict[str, Param]:
         "LFC_SEARCH": Param(
             0.0, 0.0, 360.0, "deg/s", "formation: once the target is lost, turn one full turn at this rate; 0: hold"
         ),
+        "LFC_LAW": Param(
+            0,
+            0,
+            2,
+            "",
+            "formation: the law: 0 sliding mode (the paper's), 1 P (AP_Follow), 2 trail (its path)",
+            kind=INT8,
+        ),
+        "LFC_LOOKAHEAD": Param(
+            0.3, 0.05, 5.0, "m", "formation: the trail law steers for the point this far along the path"
+        ),
     }
 
 

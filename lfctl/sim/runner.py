@@ -279,6 +279,8 @@ class GuidanceTask:
             bearing_cmd_rad=math.radians(ep.param("LFC_BEARING")),
             coast_s=ep.param("LFC_COAST"),
             search_yaw_rate_radps=math.radians(ep.param("LFC_SEARCH")),
+            controller=CONTROLLERS[int(ep.param("LFC_LAW"))],
+            trail_lookahead_m=ep.param("LFC_LOOKAHEAD"),
         )
         if self.open_loop == "formation":
             if self.pool is not None:
@@ -460,6 +462,8 @@ def run_scenario(
             video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
             start_ns = recorder.start_ns if recorder is not None else None
             links = Links(cfg, sim.realtime, tap, video_ports, start_ns, mission)
+            for ep in links.endpoints[1:]:  # the run's law (--controller) is each follower's
+                ep.params["LFC_LAW"].value = CONTROLLERS.index(law)
             senders: dict[str, RtpH264Sender] = {}
             try:
                 if video is not None and video_ports is not None:

@@ -39,6 +39,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 import uuid
 from collections.abc import Callable, Iterator
 from concurrent.futures import CancelledError
@@ -299,6 +300,7 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
         return read_journal(folder)
     if folder.exists() and any(folder.iterdir()):
         raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
+    beside = _files_beside(p)  # before anything is written: a bad name leaves no folder behind
     (folder / "variants").mkdir(parents=True, exist_ok=True)
     spec = p.spec
     write_meta(
@@ -325,21 +327,39 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
         (folder / "variants" / f"variant-{v.index:04d}.toml").write_text(v.source)
     # the files the scenario names beside it (a mission file, a user FMU), at the same place
     # beside scenario.toml and the variants, so each runs again from the sweep's folder
-    for rel in _files_beside(p):
+    for rel in beside:
         for where in (folder, folder / "variants"):
-            (where / rel).parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(spec.scenario.parent.resolve() / rel, where / rel)
+            dest = where / rel
+            if not dest.resolve().is_relative_to(where.resolve()):  # a link in the way
+                raise ConfigError(f"{rel} would be copied outside the sweep's folder, to {dest.resolve()}")
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(spec.scenario.parent / rel, dest)
     return []
 
 
+#: the files a sweep writes at the top of its folder (the scenario's own files are copied beside them)
+_OWN_FILES = frozenset(
+    {"sweep.toml", "scenario.toml", "sweep.json", "runs.jsonl", "runs.csv", "runs.parquet"}
+    | {"summary.csv", "summary.parquet", "summary.md"}
+)
+
+
 def _files_beside(p: SweepPlan) -> list[Path]:
-    """The mission files and user FMUs the variants fly that lie in the scenario's folder,
-    relative to it (absolute paths elsewhere are left where they are)."""
-    base = p.spec.scenario.parent.resolve()
+    """The mission files and user FMUs the variants name by a relative path (as written in
+    their TOML: beside the scenario), normalised. Absolute paths, and ``~`` ones, are used
+    where they are and not copied."""
     found: set[Path] = set()
     for v in p.variants:
-        named = [v.config.mission.file, *(veh.fmu for veh in v.config.vehicles)]
-        found.update(Path(f).relative_to(base) for f in named if f is not None and Path(f).is_relative_to(base))
+        table = tomllib.loads(v.source)
+        named = [table.get("mission", {}).get("file"), *(veh.get("fmu") for veh in table.get("vehicles", []))]
+        for text in named:
+            if not isinstance(text, str) or not text or text.startswith("~") or Path(text).is_absolute():
+                continue
+            rel = Path(os.path.normpath(text))
+            if rel.parts and rel.parts[0] != "..":  # resolve_paths has kept it inside the folder
+                if str(rel) in _OWN_FILES or rel.parts[0] in ("logs", "plots") or rel.match("variants/variant-*.toml"):
+                    raise ConfigError(f"{text}: a file the scenario names beside it would take a sweep file's place")
+                found.add(rel)
     return sorted(found)
 
 

@@ -134,6 +134,35 @@ def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() 
     assert np.max(np.abs(np.array(tr.yaw_rate_cmd_radps)[lost])) == pytest.approx(math.radians(30.0))
 
 
+def test_a_ground_station_switches_the_law_to_the_trail_while_the_run_goes_on() -> None:
+    """LFC_LAW is the run's law (0, the paper's); a PARAM_SET of 2 at t = 1 s makes the
+    running follower drive the leader's path (and LFC_LOOKAHEAD its lookahead) from then on:
+    it keeps to the path as a trail run does, where the paper's law cuts the corners."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    links, sent, before = [], [], []
+
+    def stop() -> bool:
+        ep = links[0].endpoints[1]
+        if not before:
+            before.append((ep.param("LFC_LAW"), ep.param("LFC_LOOKAHEAD")))
+        if not sent and ep.t_s >= 1.0:
+            law = mav.MAVLink_param_set_message(2, 1, b"LFC_LAW", 2, mav.MAV_PARAM_TYPE_INT8)
+            ahead = mav.MAVLink_param_set_message(2, 1, b"LFC_LOOKAHEAD", 0.4, mav.MAV_PARAM_TYPE_REAL32)
+            for msg in (law, ahead):
+                links[0].peers[1].send(msg.pack(gcs))
+            sent.append(True)
+        return False
+
+    rep = run_scenario(convoy(), duration_s=35.0, on_links=links.append, stop=stop)
+    assert before == [(0.0, pytest.approx(0.3))]
+    ep = links[0].endpoints[1]
+    assert (ep.param("LFC_LAW"), ep.param("LFC_LOOKAHEAD")) == (2.0, pytest.approx(0.4))
+    switched, smc = rep.metrics[0], run_scenario(convoy(), duration_s=35.0).metrics[0]
+    assert switched.path_err_max_m < 0.15 < 0.5 < smc.path_err_max_m, (switched, smc)
+
+
 HOLD = (
     """
 [sim]

@@ -270,3 +270,27 @@ def test_a_sweeps_folder_keeps_the_mission_file_so_each_variant_runs_again(tmp_p
         cfg = load_config(toml)
         assert Path(cfg.mission.file) == toml.parent / "plans" / "route.plan"
         assert [len(lst) for lst in scenario_mission(cfg).lists.values()] == [len(ROUTE) + 1, 4, 1]
+
+
+def test_a_sweep_copies_only_what_its_scenario_names_beside_it_and_never_over_its_own_files(tmp_path: Path) -> None:
+    from lfctl.sweep.engine import _prepare
+    from lfctl.sweep.spec import parse_sweep, plan
+
+    base = parse_config(SCENARIO.format(mission=""))
+    folder = tmp_path / "scenarios"
+    (folder / "plans").mkdir(parents=True)
+    plan_file = write_plan(folder / "plans", base)
+    text = 'scenario = "scenarios/run.toml"\nseeds = 1\n[grid]\n"mission.cruise_speed_mps" = [0.2, 0.3]\n'
+    # a roundabout relative name lands where it points; an absolute one is used where it is
+    scenario(folder, 'file = "plans/../plans/route.plan"')
+    _prepare(tmp_path / "a", plan(parse_sweep(text, base_dir=tmp_path)), False, "code")
+    assert (tmp_path / "a" / "plans" / "route.plan").is_file() and not (tmp_path / "plans").exists()
+    scenario(folder, f"file = {json.dumps(str(plan_file))}")
+    _prepare(tmp_path / "b", plan(parse_sweep(text, base_dir=tmp_path)), False, "code")
+    assert not (tmp_path / "b" / "plans").exists()
+    # a plan saved as sweep.json would take the sweep's own file's place
+    (folder / "sweep.json").write_text(plan_file.read_text())
+    scenario(folder, 'file = "sweep.json"')
+    with pytest.raises(ConfigError, match=r"sweep\.json: a file the scenario names beside it would take"):
+        _prepare(tmp_path / "c", plan(parse_sweep(text, base_dir=tmp_path)), False, "code")
+    assert not (tmp_path / "c").exists()  # refused before anything was written

@@ -184,5 +184,5 @@ def test_with_keys_changes_a_loaded_scenario_as_a_sweep_would() -> None:
     assert math.isclose(changed.sensing.bearing_noise_rad, math.radians(2.0))
     assert changed.slots()["follower1"].range_m == 2.0 and changed.mission == cfg.mission
     assert parse_config(changed.source, "convoy") == changed
-    with pytest.raises(ConfigError, match=r"guidance\.controller must be one of 'smc', 'p', got 'pid'"):
+    with pytest.raises(ConfigError, match=r"guidance\.controller must be one of 'smc', 'p', 'trail', got 'pid'"):
         with_keys(cfg, {"guidance.controller": "pid"})

@@ -187,14 +187,27 @@ def test_each_vehicle_prints_its_own_tag_and_a_follower_looks_for_its_targets() 
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        # f1's own id is the leader's
-        (TWO + "aruco_id = 0\n[banner]\nkind = 'aruco'\n", r"vehicles\[f1\]\.aruco_id 0 is vehicles\[leader\]'s too"),
+        # f1's own id is the leader's (banner.aruco_id, its place 0)
+        (
+            TWO + "aruco_id = 0\n[banner]\nkind = 'aruco'\n",
+            r"vehicles\[f1\]\.aruco_id 0 is vehicles\[leader\]'s tag 0 \(banner\.aruco_id 0 \+ its place in "
+            r"\[\[vehicles\]\]\) too",
+        ),
+        # f1 takes 2, which f2 prints from its place
+        (
+            TWO + 'aruco_id = 2\n[[vehicles]]\nname = "f2"\nrole = "follower"\n[banner]\nkind = \'aruco\'\n',
+            r"vehicles\[f2\]'s tag 2 \(banner\.aruco_id 0 \+ its place in \[\[vehicles\]\]\) is "
+            r"vehicles\[f1\]\.aruco_id 2 too",
+        ),
         # the leader at 49 leaves f1 the 50th id of a 50-id dictionary
         (
             TWO + "[banner]\nkind = 'aruco'\naruco_id = 49\n",
-            r"vehicles\[f1\]\.aruco_id must be below 50 for 4X4_50, got 50 \(banner\.aruco_id 49 \+ its place",
+            r"vehicles\[f1\]'s tag 50 \(banner\.aruco_id 49 \+ its place in \[\[vehicles\]\]\) must be below 50 for 4X4_50",
         ),
-        (TWO + "aruco_id = 30\n[banner]\nkind = 'aruco'\naruco_dictionary = 'APRILTAG_16h5'\n", r"below 30 .* got 30$"),
+        (
+            TWO + "aruco_id = 30\n[banner]\nkind = 'aruco'\naruco_dictionary = 'APRILTAG_16h5'\n",
+            r"aruco_id 30 must be below 30",
+        ),
         (TWO + "aruco_id = 587\n", r"vehicles\[f1\]\.aruco_id must be within 0\.\.586, got 587"),
     ],
 )
@@ -228,7 +241,12 @@ def test_each_banner_shows_its_own_tag_and_perception_finds_only_its_targets(rea
 def test_track_and_follow_look_for_the_first_followers_target() -> None:
     from lfctl.cli.track import _watched_banner
 
-    cfg = parse_config(THREE + "[banner]\nkind = 'aruco'\naruco_id = 5\n")
-    assert _watched_banner(cfg).aruco_id == 5  # f1 follows the leader (tag 5)
+    # the leader prints its own 9 (banner.aruco_id 5 is the default for the places after it)
+    leader9 = LEADER + "aruco_id = 9\n" + THREE[len(LEADER) :]
+    cfg = parse_config(leader9 + "[banner]\nkind = 'aruco'\naruco_id = 5\n")
+    assert cfg.tag_ids() == {"leader": 9, "f1": 6, "f2": 7}
+    assert _watched_banner(cfg).aruco_id == 9  # f1 follows the leader: its tag, not banner.aruco_id
+    chain = parse_config(leader9 + "[formation]\nshape = 'column'\ntargets = 'chain'\n[banner]\nkind = 'aruco'\n")
+    assert chain.slots()["f2"].target == "f1" and chain.banner_of(chain.slots()["f2"].target).aruco_id == 1
     # a leader alone: its own
     assert _watched_banner(parse_config(LEADER + "[banner]\nkind = 'aruco'\naruco_id = 9\n")).aruco_id == 9
