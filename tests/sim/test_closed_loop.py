@@ -349,3 +349,22 @@ def test_on_the_survey_the_trail_follower_turns_with_the_leader_and_never_loses_
     m = rep.metrics[0]
     assert m.time_in_state_s["lost"] < 0.5, m
     assert m.path_err_rms_m < 0.2 and m.min_separation_m > 0.7, m
+
+
+@pytest.mark.slow
+def test_the_vee_on_camera_drives_its_paths_when_each_banner_prints_its_own_tag() -> None:
+    """The vee's second rank sees the leader's banner just behind its own target. With the
+    markers (every banner the same) the trail law's second rank has taken the leader's up at
+    the second turn and driven into its first-rank follower's place; with an ArUco tag per
+    vehicle it looks only for its target's, and the whole route holds."""
+    cfg = load_config(EXAMPLES / "vee.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="camera"),
+        banner=dataclasses.replace(cfg.banner, kind="aruco"),
+        guidance=dataclasses.replace(cfg.guidance, controller="trail"),
+    )
+    rep = run_scenario(cfg)
+    for m in rep.metrics:
+        assert m.time_in_state_s["lost"] < 0.5 and m.path_err_rms_m < 0.05, m
+        assert m.min_separation_m > 0.7 and m.range_err_rms_m < 0.2, m
