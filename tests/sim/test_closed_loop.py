@@ -97,35 +97,42 @@ def test_leader_lost_for_longer_than_the_coast_stops_the_follower_which_looks_ro
     assert tr.status[back[0]] is TrackStatus.TRACKING and max(np.array(tr.speed_mps)[back[:60]]) > 0.1  # resumed
 
 
-def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() -> None:
-    """The scenario's coast (1.5 s) and search (none) are the follower's LFC_COAST and
-    LFC_SEARCH; set by PARAM_SET at t = 1 s to 1 s and 30 deg/s they change the running
-    follower: LOST 1.5 s sooner than the scenario's coast and slow-down allow, and turning."""
+def ground_station_sets(params: list[tuple[bytes, float, int]], at_s: float = 1.0):
+    """A ground station's PARAM_SETs to follower 1 at ``at_s``: (name, value, MAV_PARAM_TYPE)
+    each. Returns (links, before, stop): the run's Links once up, the values in force at the
+    start, and the ``stop`` callback that sends them."""
     from pymavlink.dialects.v20 import ardupilotmega as mav
 
-    cfg = convoy()
-    cfg = dataclasses.replace(
-        cfg,
-        sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)),
-        guidance=dataclasses.replace(cfg.guidance, coast_s=2.5),
-    )
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     links, sent, before = [], [], []
 
     def stop() -> bool:
         ep = links[0].endpoints[1]
         if not before:
-            before.append((ep.param("LFC_COAST"), ep.param("LFC_SEARCH")))
-        if not sent and ep.t_s >= 1.0:
-            for name, value in ((b"LFC_COAST", 1.0), (b"LFC_SEARCH", 30.0)):
-                msg = mav.MAVLink_param_set_message(2, 1, name, value, mav.MAV_PARAM_TYPE_REAL32)
-                links[0].peers[1].send(msg.pack(gcs))
+            before.append(tuple(ep.param(name.decode()) for name, _, _ in params))
+        if not sent and ep.t_s >= at_s:
+            for name, value, kind in params:
+                links[0].peers[1].send(mav.MAVLink_param_set_message(2, 1, name, value, kind).pack(gcs))
             sent.append(True)
         return False
 
+    return links, before, stop
+
+
+def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() -> None:
+    """The scenario's coast (1.5 s) and search (none) are the follower's LFC_COAST and
+    LFC_SEARCH; set by PARAM_SET at t = 1 s to 1 s and 30 deg/s they change the running
+    follower: LOST 1.5 s sooner than the scenario's coast and slow-down allow, and turning."""
+    cfg = convoy()
+    cfg = dataclasses.replace(
+        cfg,
+        sensing=dataclasses.replace(cfg.sensing, dropouts=((20.0, 36.0),)),
+        guidance=dataclasses.replace(cfg.guidance, coast_s=2.5),
+    )
+    links, before, stop = ground_station_sets([(b"LFC_COAST", 1.0, 9), (b"LFC_SEARCH", 30.0, 9)])  # REAL32
     rep = run_scenario(cfg, duration_s=30.0, on_links=links.append, stop=stop)
     assert before == [(2.5, 0.0)]  # the scenario's, on the follower's link
-    assert sent and links[0].endpoints[1].param("LFC_COAST") == 1.0
+    assert links[0].endpoints[1].param("LFC_COAST") == 1.0
     tr = rep.traces[0]
     t = np.array(tr.t_s)
     lost = np.array([st is TrackStatus.LOST for st in tr.status]) & (t > 15.0)
@@ -138,23 +145,7 @@ def test_a_ground_station_switches_the_law_to_the_trail_while_the_run_goes_on() 
     """LFC_LAW is the run's law (0, the paper's); a PARAM_SET of 2 at t = 1 s makes the
     running follower drive the leader's path (and LFC_LOOKAHEAD its lookahead) from then on:
     it keeps to the path as a trail run does, where the paper's law cuts the corners."""
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
-    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    links, sent, before = [], [], []
-
-    def stop() -> bool:
-        ep = links[0].endpoints[1]
-        if not before:
-            before.append((ep.param("LFC_LAW"), ep.param("LFC_LOOKAHEAD")))
-        if not sent and ep.t_s >= 1.0:
-            law = mav.MAVLink_param_set_message(2, 1, b"LFC_LAW", 2, mav.MAV_PARAM_TYPE_INT8)
-            ahead = mav.MAVLink_param_set_message(2, 1, b"LFC_LOOKAHEAD", 0.4, mav.MAV_PARAM_TYPE_REAL32)
-            for msg in (law, ahead):
-                links[0].peers[1].send(msg.pack(gcs))
-            sent.append(True)
-        return False
-
+    links, before, stop = ground_station_sets([(b"LFC_LAW", 2, 2), (b"LFC_LOOKAHEAD", 0.4, 9)])  # INT8, REAL32
     rep = run_scenario(convoy(), duration_s=35.0, on_links=links.append, stop=stop)
     assert before == [(0.0, pytest.approx(0.3))]
     ep = links[0].endpoints[1]
