@@ -88,7 +88,7 @@ TAG_DICTIONARIES: dict[str, tuple[int, int]] = {
 
 #: the widest slot bearing the trail law holds, deg (lfctl.guidance.formation.TRAIL_MAX_BEARING_RAD:
 #: config may not import guidance, a test keeps the two equal)
-TRAIL_MAX_BEARING_DEG = 40.0
+TRAIL_MAX_BEARING_DEG = 30.0
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)

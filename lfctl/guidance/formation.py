@@ -46,9 +46,9 @@ CONTROLLERS = ("smc", "p", "trail")
 #: 1/sqrt(2) of it along the trail, a follower beside the path on the inside nearer still)
 TRAIL_MIN_RANGE = 0.6
 #: the trail law holds slots up to this bearing; a wider one is held by the sliding-mode law
-#: (a follower that far to the side, on the inside of a right-angle corner, reaches the
-#: corner before its target and would turn the long way round)
-TRAIL_MAX_BEARING_RAD = math.radians(40.0)  # lfctl.config.TRAIL_MAX_BEARING_DEG, which a test keeps equal
+#: (from 35 deg to the side, on the inside of a right-angle corner, a follower reaches the
+#: corner as its target turns it and turns the long way round)
+TRAIL_MAX_BEARING_RAD = math.radians(30.0)  # lfctl.config.TRAIL_MAX_BEARING_DEG, which a test keeps equal
 #: the trail law keeps the target this far inside the picture's edge besides the banner's own
 #: half-width, rad: the tracker's window and search region need the room
 VIEW_MARGIN_RAD = math.radians(5.0)
@@ -454,15 +454,21 @@ class FormationController:
         dx, dy = tn - odom.north_m, te - odom.east_m
         # a negative bearing (the target ahead-left) puts the follower right of the trail
         offset = -st.range_cmd_m * math.sin(st.bearing_cmd_rad)
+        if not self._trail_restart and fresh and (vn != 0.0 or ve != 0.0):
+            trail.extend(tn, te)
+        if not self._trail_restart:
+            fix = trail.locate(odom.north_m, odom.east_m)
+            gap = trail.end_s(tn, te) - fix.s_m
+            # the target behind the follower along its trail (it came back towards it, or was
+            # found again there): that trail is not the way to it now
+            self._trail_restart = gap < 0.0
         if self._trail_restart:
             # the trail starts level with the follower, ``offset`` to its left, and runs straight to the target
             start = (odom.north_m + offset * math.sin(odom.yaw_rad), odom.east_m - offset * math.cos(odom.yaw_rad))
             trail.reset(start, (tn, te), odom.yaw_rad)
             self._trail_restart = False
-        elif fresh and (vn != 0.0 or ve != 0.0):
-            trail.extend(tn, te)
-        fix = trail.locate(odom.north_m, odom.east_m)
-        gap = trail.end_s(tn, te) - fix.s_m
+            fix = trail.locate(odom.north_m, odom.east_m)
+            gap = trail.end_s(tn, te) - fix.s_m
         gap_cmd = st.range_cmd_m * math.cos(st.bearing_cmd_rad)
         if vn == 0.0 and ve == 0.0:  # the target is still (to the filter's confidence)
             sigma_r, _ = self.estimator.range_bearing_sigma(dx, dy)
@@ -481,8 +487,13 @@ class FormationController:
         ahead = math.hypot(n1 - n0, e1 - e0)
         target_speed = (vn * (n1 - n0) + ve * (e1 - e0)) / ahead if ahead > 0 else math.hypot(vn, ve)
         speed = trail_speed_mps(gap, gap_cmd, target_speed, err, st.range)
+        straight = math.hypot(dx, dy)
+        if speed < 0.0 and straight > st.range_cmd_m:
+            speed = 0.0  # further than the slot in a straight line: backing off the trail only adds to it
         near = TRAIL_MIN_RANGE * st.range_cmd_m
-        if math.hypot(dx, dy) < near:  # however far along the trail: back away, as the range law does
+        if straight < near and dx * math.cos(odom.yaw_rad) + dy * math.sin(odom.yaw_rad) > 0.5 * straight:
+            # too near a target ahead (within 60 deg of the heading), however far along the
+            # trail: back away, as the range law does (not from one beside or behind it)
             speed = min(speed, smc_speed_mps(dx, dy, vn, ve, odom.yaw_rad, near, st.range))
         return speed, self.bearing_smc.step(err, dt)
 
