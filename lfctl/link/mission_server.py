@@ -229,10 +229,11 @@ class MissionServer:
             self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
             return
         if m.count > CAPACITY[mtype]:
-            self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
+            # the text first: a client that reads the vehicle's texts once it has the NACK finds it
             self.statustext(
                 f"{MISSION_TYPES[mtype].capitalize()} upload refused: {m.count} items, room for {CAPACITY[mtype]}"
             )
+            self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             return
         self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s)
         self._request_next(up, t_s)
