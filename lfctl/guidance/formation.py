@@ -41,9 +41,9 @@ __all__ = ["CONTROLLERS", "FormationController", "FormationOutput", "FormationSe
 
 #: the follower's control laws (``guidance.controller``)
 CONTROLLERS = ("smc", "p", "trail")
-#: nearer its target than this share of the slot's range in a straight line, the trail law
-#: backs away as the range law would (round a right-angle corner an in-line follower comes to
-#: 1/sqrt(2) of it along the trail, a follower beside the path on the inside nearer still)
+#: nearer a target ahead of it than this share of the slot's range in a straight line, the
+#: trail law backs away as the range law would (round a right-angle corner an in-line
+#: follower comes to 1/sqrt(2) of it along the trail, one beside the path on the inside nearer)
 TRAIL_MIN_RANGE = 0.6
 #: the trail law holds slots up to this bearing; a wider one is held by the sliding-mode law
 #: (from 35 deg to the side, on the inside of a right-angle corner, a follower reaches the
