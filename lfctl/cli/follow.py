@@ -237,6 +237,7 @@ class LiveView:
             "yaw_rate_cmd_degps": round(math.degrees(out.yaw_rate_radps), 4),
             "range_cmd_m": slot.range_cmd_m,
             "bearing_cmd_deg": round(math.degrees(slot.bearing_cmd_rad), 4),
+            "law": out.law,
         }
         if out.range_est_m is not None and out.bearing_est_rad is not None:
             # a rover has no truth: its errors are the stack's own estimate

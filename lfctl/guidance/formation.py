@@ -133,6 +133,9 @@ class FormationOutput:
     bearing_est_rad: float | None  # and of its bearing, clockwise positive (None: no estimate yet)
     target_vel_ned_mps: tuple[float, float]  # the target's estimated velocity, north and east
     since_measurement_s: float  # since the last measurement was fused (inf before the first)
+    #: the law the command came from: the settings' controller, but "smc" while a slot is too
+    #: wide for the trail law (see TRAIL_MAX_BEARING_RAD)
+    law: str = ""
 
 
 def _value(x: float | None) -> float | None:
@@ -324,6 +327,8 @@ class FormationController:
             self._law = st.controller
             self._trail_restart = True  # the trail has not been kept while another law drove
             self.bearing_smc.reset()
+        wide = st.controller == "trail" and abs(st.bearing_cmd_rad) > TRAIL_MAX_BEARING_RAD
+        law = "smc" if wide else st.controller
         dt = 0.0 if self._t_prev is None else odom.t_s - self._t_prev
         self._t_prev = odom.t_s
         self._odom.append(odom)
@@ -376,27 +381,26 @@ class FormationController:
             if est.initialised:
                 rng, brg = self._relative(odom)
                 turn = self._look(odom, brg) if self._timed_out else 0.0
-                return FormationOutput(0.0, turn, self.status, rng, brg, est.velocity, since)
-            return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since)
+                return FormationOutput(0.0, turn, self.status, rng, brg, est.velocity, since, law)
+            return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since, law)
 
         self._search = None
         (tn, te), (vn, ve) = est.position, est.significant_velocity()
         dx, dy = tn - odom.north_m, te - odom.east_m
         rng, brg = self._relative(odom)
-        if st.controller == "smc":
+        if law == "smc":
+            if st.controller == "trail":  # a slot too wide for the trail (LFC_BEARING): the paper's law holds it
+                self._trail_restart = True
             speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
-        elif st.controller == "trail" and abs(st.bearing_cmd_rad) <= TRAIL_MAX_BEARING_RAD:
+        elif law == "trail":
             speed, yaw_rate = self._trail(tn, te, vn, ve, odom, dt, fresh)
-        elif st.controller == "trail":  # a slot too wide for the trail (LFC_BEARING): the paper's law holds it
-            self._trail_restart = True
-            speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
         else:
             speed, yaw_rate = self._p_baseline(tn, te, vn, ve, odom)
         if self.status is TrackStatus.OCCLUDED and since > st.coast_s:
             scale = clamp(1.0 - (since - st.coast_s) / st.slowdown_s, 0.0, 1.0)
             speed *= scale
             yaw_rate *= scale
-        return FormationOutput(speed, yaw_rate, self.status, rng, brg, (vn, ve), since)
+        return FormationOutput(speed, yaw_rate, self.status, rng, brg, (vn, ve), since, law)
 
     def _look(self, odom: Odometry, bearing_rad: float) -> float:
         """The yaw rate of a LOST follower's search: one full turn in place towards the side

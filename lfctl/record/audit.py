@@ -153,6 +153,7 @@ _CONTROLLER = {
     "path_error_m": (_num, False),
     "yaw_rate_cmd_degps": (_num, True),
     "target": (_text, False),
+    "law": (_text, False),
 }
 _POSE_ESTIMATE = {
     "range_m": (_num, True),

@@ -146,6 +146,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "separation_m": {"type": "number"},
             "path_error_m": {"type": "number", "description": "off the target's path, less the slot's sideways offset"},
             "target": {"type": "string"},
+            "law": {"type": "string", "description": "the law that made the command: smc, p or trail"},
         },
     },
     "lfctl.Mission": {

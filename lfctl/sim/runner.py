@@ -289,12 +289,12 @@ class GuidanceTask:
                 assert f.sensor is not None
                 meas = f.sensor.measure(t_s, world, f.index, f.target)
             out = f.stack.step(t_s, meas, Odometry(t_s, me.north_m, me.east_m, me.yaw_rad, me.speed_mps))
-            cmd, status = (out.speed_mps, out.yaw_rate_radps), out.status
+            cmd, status, law = (out.speed_mps, out.yaw_rate_radps), out.status, out.law
         else:  # scripted runs: copy the leader's command, or stand still
             cmd = self.drivers[0].command if self.open_loop == "copy" else (0.0, 0.0)
             f.stack.command(t_s, *cmd)
-            status = TrackStatus.TRACKING
-        self._trace(t_s, world, f, me.speed_mps, cmd, status)
+            status, law = TrackStatus.TRACKING, ""
+        self._trace(t_s, world, f, me.speed_mps, cmd, status, law)
 
     def _trace(
         self,
@@ -304,6 +304,7 @@ class GuidanceTask:
         speed_mps: float,
         cmd: tuple[float, float],
         status: TrackStatus,
+        law: str,
     ) -> None:
         tr, slot = f.trace, f.stack.settings
         tr.range_cmd_m, tr.bearing_cmd_rad = slot.range_cmd_m, slot.bearing_cmd_rad
@@ -344,6 +345,7 @@ class GuidanceTask:
                     "separation_m": round(tr.separation_m[-1], 5),
                     "path_error_m": round(tr.path_err_m[-1], 5),
                     "target": tr.target,
+                    **({"law": law} if law else {}),  # the law that made the command (LFC_LAW may change it)
                 },
             )
 

@@ -141,17 +141,28 @@ def test_a_ground_station_sets_the_coast_and_the_search_while_the_run_goes_on() 
     assert np.max(np.abs(np.array(tr.yaw_rate_cmd_radps)[lost])) == pytest.approx(math.radians(30.0))
 
 
-def test_a_ground_station_switches_the_law_to_the_trail_while_the_run_goes_on() -> None:
+def test_a_ground_station_switches_the_law_to_the_trail_while_the_run_goes_on(tmp_path: Path) -> None:
     """LFC_LAW is the run's law (0, the paper's); a PARAM_SET of 2 at t = 1 s makes the
     running follower drive the leader's path (and LFC_LOOKAHEAD its lookahead) from then on:
-    it keeps to the path as a trail run does, where the paper's law cuts the corners."""
+    it keeps to the path as a trail run does, where the paper's law cuts the corners. The
+    log's controller topic says which law made each command."""
+    import json
+
+    from lfctl.record.audit import audit
+
     links, before, stop = ground_station_sets([(b"LFC_LAW", 2, 2), (b"LFC_LOOKAHEAD", 0.4, 9)])  # INT8, REAL32
-    rep = run_scenario(convoy(), duration_s=35.0, on_links=links.append, stop=stop)
+    cfg = convoy()
+    cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, dir=str(tmp_path)))
+    rep = run_scenario(cfg, duration_s=35.0, on_links=links.append, stop=stop, record_to=tmp_path / "law.mcap")
     assert before == [(0.0, pytest.approx(0.3))]
     ep = links[0].endpoints[1]
     assert (ep.param("LFC_LAW"), ep.param("LFC_LOOKAHEAD")) == (2.0, pytest.approx(0.4))
     switched, smc = rep.metrics[0], run_scenario(convoy(), duration_s=35.0).metrics[0]
     assert switched.path_err_max_m < 0.15 < 0.5 < smc.path_err_max_m, (switched, smc)
+    steps = [json.loads(d) for _, d in audit(tmp_path / "law.mcap").contents.messages["/follower1/controller"]]
+    laws = [(m["t_s"] < 1.0, m["law"]) for m in steps]
+    assert {law for early, law in laws if early} == {"smc"} and {law for early, law in laws if not early} >= {"trail"}
+    assert [law for early, law in laws if not early][-1] == "trail"
 
 
 HOLD = (
