@@ -21,6 +21,7 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.formation import FormationController, FormationOutput, FormationSettings, Odometry
 from lfctl.guidance.smc import BearingGains, RangeGains
 from lfctl.schedule import RateSchedule
+from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 
 __all__ = ["CompanionPort", "Follower", "FollowerEvent", "formation_settings"]
@@ -92,8 +93,8 @@ def view_half_fov_rad(cfg: Config, camera: CameraConfig | None) -> float:
     """
     if camera is None:
         return min(math.pi, cfg.sensing.fov_rad / 2)
-    fx = camera.fx_px or (camera.width_px / 2) / math.tan(camera.hfov_rad / 2)
-    cx = camera.cx_px or camera.width_px / 2
+    K = CameraModel.from_config(camera).K
+    fx, cx = float(K[0, 0]), float(K[0, 2])
     return math.atan2(min(cx, camera.width_px - cx), fx)
 
 

@@ -75,16 +75,13 @@ class Trail:
         north_m, east_m : float
             The target's estimated position, m.
         """
-        while len(self.points) > 2:
-            (an, ae), (bn, be) = self.points[-2], self.points[-1]
-            if (north_m - bn) * (bn - an) + (east_m - be) * (be - ae) >= 0.0:
-                break  # ahead of the last point, along the last segment
-            self.points.pop()
+        while len(self.points) > 2 and self._past_end(north_m, east_m) < 0.0:
+            self.points.pop()  # backed up past the last point, along the last segment
             self.s.pop()
         self.cursor = min(self.cursor, len(self.points) - 2)
-        (an, ae), (ln, le) = self.points[-2], self.points[-1]
+        ln, le = self.points[-1]
         step = math.hypot(north_m - ln, east_m - le)
-        if step < self.spacing_m or (north_m - ln) * (ln - an) + (east_m - le) * (le - ae) < 0.0:
+        if step < self.spacing_m or self._past_end(north_m, east_m) < 0.0:
             return  # too near, or behind the end of the first segment (see end_s)
         self.points.append((north_m, east_m))
         self.s.append(self.s[-1] + step)
@@ -103,10 +100,16 @@ class Trail:
         north_m, east_m : float
             The target's estimated position, m.
         """
-        (an, ae), (ln, le) = self.points[-2], self.points[-1]
-        seg = math.hypot(ln - an, le - ae)
-        along = ((north_m - ln) * (ln - an) + (east_m - le) * (le - ae)) / seg if seg > 0 else 0.0
+        ln, le = self.points[-1]
+        along = self._past_end(north_m, east_m)
         return self.s[-1] + (along if along < 0.0 else math.hypot(north_m - ln, east_m - le))
+
+    def _past_end(self, north_m: float, east_m: float) -> float:
+        """How far (north, east) is past the last point along the last segment, m (negative
+        behind it)."""
+        (an, ae), (ln, le) = self.points[-2], self.points[-1]
+        seg = self.s[-1] - self.s[-2]
+        return ((north_m - ln) * (ln - an) + (east_m - le) * (le - ae)) / seg if seg > 0 else 0.0
 
     def aim(self, north_m: float, east_m: float, lookahead_m: float, offset_m: float = 0.0) -> tuple[float, float]:
         """Pure pursuit's aim: the first point of the trail, shifted ``offset_m`` to its right
@@ -126,16 +129,15 @@ class Trail:
             Its sideways offset from the trail, m (positive right).
         """
         pts = self.points
-        for k in range(self.cursor + 1, len(pts)):
+        qn, qe = pts[-1]
+        for k in range(self.cursor + 1, len(pts)):  # at least the last segment: cursor <= len - 2
             (an, ae), (bn, be) = pts[k - 1], pts[k]
             h = math.atan2(be - ae, bn - an)
             qn, qe = bn - offset_m * math.sin(h), be + offset_m * math.cos(h)
             dn, de = qn - north_m, qe - east_m
             if dn * dn + de * de >= lookahead_m * lookahead_m and dn * math.cos(h) + de * math.sin(h) > 0:
-                return qn, qe
-        (an, ae), (bn, be) = pts[-2], pts[-1]
-        h = math.atan2(be - ae, bn - an)
-        return bn - offset_m * math.sin(h), be + offset_m * math.cos(h)
+                break
+        return qn, qe
 
     def locate(self, north_m: float, east_m: float, window: int = 200) -> TrailFix:
         """Where (north, east) is along the trail: the nearest segment from a few before the

@@ -221,6 +221,8 @@ class Renderer:
         self._undistort_maps = None
         self._static_props: dict[tuple[int, float], Plane] = {}  # see _props
         self._last_banner_frame: tuple[VehiclePose, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
+        self._tag_seed = seed + 4  # every tag's panel is printed on the same paper
+        self._tag_tex: dict[int, np.ndarray] = {}  # by tag id (_tag_texture)
         w, h = camera.width_px, camera.height_px
         if abs(camera.k1) > 0 or abs(camera.k2) > 0:
             # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
@@ -236,8 +238,6 @@ class Renderer:
         camera, banner, scene = self.cfg, self.banner, self.scene
         rng = np.random.default_rng(seed)
         self.banner_tex, _marks = banner_texture(banner, rng)
-        self._tag_seed = seed + 4
-        self._tag_tex: dict[int, np.ndarray] = {}
         if banner.kind == "aruco":  # the same panel with a tag instead (the rest of the scene unchanged)
             self.banner_tex = self._tag_texture(banner.aruco_id)
         self.ground_tex, self.ground_px_per_m = ground_texture(scene.ground, rng)
@@ -803,8 +803,6 @@ class Renderer:
         self._lit_cache: dict[tuple[int, int], np.ndarray] = {}
         self._lit_keep: list[np.ndarray] = []
         self.banner_tex, _marks = real_banner_texture(banner, rng)
-        self._tag_seed = seed + 4
-        self._tag_tex = {}
         if banner.kind == "aruco":  # the tag printed on the same board (opaque: alpha 255)
             self.banner_tex = self._tag_texture(banner.aruco_id)
         photos = None

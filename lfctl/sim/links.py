@@ -17,7 +17,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.checks import read_text_file
 from lfctl.config import Config
 from lfctl.errors import ConfigError
-from lfctl.guidance.formation import CONTROLLERS
 from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.companion import Companion
 from lfctl.link.endpoint import COMPANION_COMPID, GCS_COMPID, VehicleEndpoint
@@ -244,7 +243,6 @@ class Links:
             ep.params["LFC_BEARING"].value = math.degrees(slots[v.name].bearing_rad)
             ep.params["LFC_COAST"].value = cfg.guidance.coast_s
             ep.params["LFC_SEARCH"].value = search_degps(cfg, v.name)
-            ep.params["LFC_LAW"].value = CONTROLLERS.index(cfg.guidance.controller)
             ep.params["LFC_LOOKAHEAD"].value = cfg.guidance.trail_lookahead_m
             comp.set_guided()  # as a companion computer does at start-up
             comp.arm()

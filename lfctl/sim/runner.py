@@ -464,7 +464,7 @@ def run_scenario(
             video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
             start_ns = recorder.start_ns if recorder is not None else None
             links = Links(cfg, sim.realtime, tap, video_ports, start_ns, mission)
-            for ep in links.endpoints[1:]:  # the run's law (--controller) is each follower's
+            for ep in links.endpoints[1:]:  # the run's law (--controller, else the scenario's) is each follower's
                 ep.params["LFC_LAW"].value = CONTROLLERS.index(law)
             senders: dict[str, RtpH264Sender] = {}
             try:
