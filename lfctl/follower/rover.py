@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lfctl.follower.stack import Follower, FollowerEvent
+from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
 from lfctl.link.companion import Companion
 from lfctl.video import VideoSource
@@ -66,8 +66,11 @@ def follow_rover(
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
     Waits for the rover's heartbeat, asks for its odometry at ``rate_hz``, puts it in GUIDED
-    (and arms it with ``arm``), then each period: read the rover's messages, take a frame,
-    perceive it, run the stack. The rover is sent zero setpoints at the end, however it ends.
+    (and arms it with ``arm``), then each period: read the rover's messages (and answer a
+    ground station's parameter requests), take a frame, perceive it, run the stack with the
+    companion's ``LFC_*`` parameters (set from ``settings`` at the start; a ground station
+    may change them). The companion's heartbeat goes out once a second. The rover is sent
+    zero setpoints at the end, however it ends.
 
     Parameters
     ----------
@@ -97,6 +100,8 @@ def follow_rover(
         The run's clock, s, for the steps' ``t_s`` (default: seconds since the loop
         started); give the one the steps are logged on, so they and the link's packets share it.
     """
+    for name, value in formation_param_values(settings).items():  # a ground station may set them
+        companion.params[name].value = value
     companion.wait_vehicle(timeout_s, rate_hz)
     companion.set_guided()
     if arm:
@@ -111,6 +116,7 @@ def follow_rover(
         while max_steps is None or steps < max_steps:
             t_s = now()
             companion.poll(t_s)
+            companion.heartbeat(t_s)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
                 break
@@ -120,6 +126,7 @@ def follow_rover(
             odom = Odometry(t_s, v.north_m or 0.0, v.east_m or 0.0, v.yaw_rad or 0.0, v.speed_mps or 0.0)
             fix = (v.lat_deg, v.lon_deg, v.alt_m or 0.0) if v.lat_deg is not None and v.lon_deg is not None else None
             n_events = len(stack.events)
+            stack.tune_from_params(companion.param)
             out = stack.step(t_s, seen.measurement, odom)
             steps += 1
             if on_step is not None:

@@ -13,18 +13,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 from lfctl.config import CameraConfig, Config
 from lfctl.frames import wrap_pi
-from lfctl.guidance.formation import FormationController, FormationOutput, FormationSettings, Odometry
+from lfctl.guidance.formation import CONTROLLERS, FormationController, FormationOutput, FormationSettings, Odometry
 from lfctl.guidance.smc import BearingGains, RangeGains
 from lfctl.schedule import RateSchedule
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 
-__all__ = ["CompanionPort", "Follower", "FollowerEvent", "formation_settings"]
+__all__ = ["CompanionPort", "Follower", "FollowerEvent", "formation_param_values", "formation_settings"]
 
 
 class CompanionPort(Protocol):
@@ -149,6 +150,25 @@ def formation_settings(
     )
 
 
+def formation_param_values(settings: FormationSettings) -> dict[str, float]:
+    """The ``LFC_*`` parameters that give ``settings``' slot, coast, search rate and law, in
+    the parameters' units (deg, deg/s; the law by its number: 0 smc, 1 p, 2 trail).
+
+    Parameters
+    ----------
+    settings : FormationSettings
+        The settings.
+    """
+    return {
+        "LFC_RANGE": settings.range_cmd_m,
+        "LFC_BEARING": math.degrees(settings.bearing_cmd_rad),
+        "LFC_COAST": settings.coast_s,
+        "LFC_SEARCH": math.degrees(settings.search_yaw_rate_radps),
+        "LFC_LAW": float(CONTROLLERS.index(settings.controller)),
+        "LFC_LOOKAHEAD": settings.trail_lookahead_m,
+    }
+
+
 class Follower:
     """A follower's stack: formation controller, companion, events and status reports.
 
@@ -196,6 +216,24 @@ class Follower:
             The new range (m) and bearing (rad) to the target.
         """
         self.tune(range_cmd_m=range_m, bearing_cmd_rad=bearing_rad)
+
+    def tune_from_params(self, value: Callable[[str], float]) -> None:
+        """Take the ``LFC_*`` parameters' values now (a ground station may have set them):
+        the slot, the coast, the search rate and the law (see :func:`formation_param_values`).
+
+        Parameters
+        ----------
+        value : callable
+            A parameter's value by name.
+        """
+        self.tune(
+            range_cmd_m=value("LFC_RANGE"),
+            bearing_cmd_rad=math.radians(value("LFC_BEARING")),
+            coast_s=value("LFC_COAST"),
+            search_yaw_rate_radps=math.radians(value("LFC_SEARCH")),
+            controller=CONTROLLERS[int(value("LFC_LAW"))],
+            trail_lookahead_m=value("LFC_LOOKAHEAD"),
+        )
 
     def tune(self, **fields: float | str) -> None:
         """Change some of the controller's settings while running (a ground station set

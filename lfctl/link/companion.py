@@ -9,6 +9,14 @@ reads back the vehicle's HEARTBEAT, LOCAL_POSITION_NED and ATTITUDE (its odometr
 rover) and GLOBAL_POSITION_INT (where it is on the map, when it knows). One class for both
 worlds: on a :class:`MavPort` over UDP or serial to a real rover, or over the in-memory link
 to a simulated vehicle's endpoint.
+
+On a real rover it is a MAVLink component of its own, as a companion board is: it sends its
+HEARTBEAT once a second (:meth:`Companion.heartbeat`), holds the formation parameters
+``LFC_*`` (:func:`lfctl.link.params.formation_params`) and answers the parameter protocol for
+them, and refuses commands addressed to it (COMMAND_ACK UNSUPPORTED) and MAVLink FTP (it
+has no files). A ground station
+reaches it through the rover's MAVLink routing: ArduPilot forwards what is addressed to
+component 191, or to every component, to the link the companion talks on.
 """
 
 from __future__ import annotations
@@ -21,7 +29,10 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError
+from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
+from lfctl.link.param_server import ParamServer
+from lfctl.link.params import formation_params
 from lfctl.link.port import CHECK_LINK, MavPort
 
 __all__ = ["COMPANION_COMPID", "Companion", "VehicleReport"]
@@ -34,6 +45,10 @@ ODOMETRY_MSG_IDS = (
     mav.MAVLINK_MSG_ID_ATTITUDE,
     mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
 )
+#: the companion's HEARTBEAT period, s (MAVLink's 1 Hz)
+HEARTBEAT_PERIOD_S = 1.0
+#: the parameter protocol's requests
+PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
 
 
 @dataclass
@@ -79,6 +94,41 @@ class Companion:
         self.port = port
         self.target = target_system
         self.vehicle = VehicleReport()
+        #: its own parameters (``LFC_*``): a ground station may set them while it runs
+        self.params = formation_params()
+        self.param_server = ParamServer(self.params, self.port.send, self.statustext)
+        self._heartbeat_t_s: float | None = None
+
+    def param(self, name: str) -> float:
+        """One of the companion's parameters now.
+
+        Parameters
+        ----------
+        name : str
+            ``LFC_RANGE``, ``LFC_BEARING``, ... (:func:`lfctl.link.params.formation_params`).
+        """
+        return self.params[name].value
+
+    def heartbeat(self, t_s: float) -> None:
+        """Its HEARTBEAT (an onboard controller, active), once each :data:`HEARTBEAT_PERIOD_S`:
+        call it as often as you like.
+
+        Parameters
+        ----------
+        t_s : float
+            Now, on the companion's clock, s.
+        """
+        if self._heartbeat_t_s is not None and t_s - self._heartbeat_t_s < HEARTBEAT_PERIOD_S:
+            return
+        self._heartbeat_t_s = t_s
+        self._send_heartbeat()
+
+    def _send_heartbeat(self) -> None:
+        self.port.send(
+            mav.MAVLink_heartbeat_message(
+                mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID, 0, 0, mav.MAV_STATE_ACTIVE, 3
+            )
+        )
 
     @staticmethod
     def open(connect: str, target_system: int, signing_key: bytes | None = None) -> Companion:
@@ -197,6 +247,16 @@ class Companion:
         return n
 
     def _take(self, m: Any, t_s: float) -> None:
+        kind = m.get_type()
+        if kind in PARAM_REQUESTS:
+            self._param_request(m, kind)
+            return
+        if kind in ("COMMAND_LONG", "COMMAND_INT"):
+            self._command(m)
+            return
+        if kind == "FILE_TRANSFER_PROTOCOL":
+            self._ftp(m)
+            return
         if m.get_srcSystem() != self.target or m.get_srcComponent() != 1:
             return
         kind, v = m.get_type(), self.vehicle
@@ -210,6 +270,47 @@ class Companion:
             v.global_t_s = t_s
             known = (m.lat, m.lon) != (0, 0) and abs(m.lat) <= 900_000_000 and abs(m.lon) <= 1_800_000_000
             v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
+
+    def _param_request(self, m: Any, kind: str) -> None:
+        """The parameter protocol, for requests addressed to this component or to every
+        component of the vehicle; a broadcast that names no ``LFC_*`` parameter (a read by
+        index, another parameter) is the autopilot's to answer, and is left to it."""
+        if m.target_system not in (0, self.target) or m.target_component not in (0, COMPANION_COMPID):
+            return
+        if kind == "PARAM_REQUEST_LIST":
+            self.param_server.request_list()
+            return
+        by_index = kind == "PARAM_REQUEST_READ" and m.param_index >= 0
+        if m.target_component == 0 and (by_index or self.param_server.name_of(m.param_id) is None):
+            return
+        if kind == "PARAM_REQUEST_READ":
+            self.param_server.request_read(m)
+        else:
+            self.param_server.set(m)
+
+    def _command(self, m: Any) -> None:
+        """A command addressed to this component (not a broadcast: the autopilot answers
+        those): none is carried out here, each is answered UNSUPPORTED, as MAVLink's command
+        protocol asks of a component that has not implemented it."""
+        if m.target_system != self.target or m.target_component != COMPANION_COMPID:
+            return
+        self.port.send(
+            mav.MAVLink_command_ack_message(
+                m.command, mav.MAV_RESULT_UNSUPPORTED, 0, 0, m.get_srcSystem(), m.get_srcComponent()
+            )
+        )
+
+    def _ftp(self, m: Any) -> None:
+        """MAVLink FTP addressed to this component: it has no files (:mod:`lfctl.link.ftp`),
+        said at once, so that a ground station asking for its parameter file (MAVProxy's
+        ``param fetch``) falls back to PARAM_REQUEST_LIST without waiting out its timeout."""
+        if m.target_system != self.target or m.target_component != COMPANION_COMPID:
+            return
+        answer = ftp.reply(bytes(m.payload))
+        if answer is not None:
+            self.port.send(
+                mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), list(answer))
+            )
 
     def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> None:
         """Say hello until the vehicle's heartbeat is heard, then ask for its position (local
@@ -230,11 +331,7 @@ class Companion:
         start = time.monotonic()
         deadline = start + timeout_s
         while time.monotonic() < deadline:
-            self.port.send(
-                mav.MAVLink_heartbeat_message(
-                    mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID, 0, 0, mav.MAV_STATE_ACTIVE, 3
-                )
-            )
+            self._send_heartbeat()
             self.poll(time.monotonic() - start, 0.2)
             if self.vehicle.heard:
                 interval_us = 1e6 / odometry_rate_hz

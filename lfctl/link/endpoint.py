@@ -35,6 +35,7 @@ from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import LOCATION_ALT_MAX_M, MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
+from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
 from lfctl.link.port import pack_next
 from lfctl.link.rc import PilotInput, RcOverrides
@@ -272,6 +273,7 @@ class VehicleEndpoint:
             setup_signing(self.mav, signing_key)
             self.signed_parser = self._parser(signing_key)
         self.params = default_params(sysid)
+        self.param_server = ParamServer(self.params, self.send, self.statustext)
         self.missions = MissionServer(
             self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_item
         )
@@ -993,20 +995,6 @@ class VehicleEndpoint:
         return None
 
     # -- parameters -------------------------------------------------------------------------
-    def _param_value(self, name: str, indexed: bool = True) -> Any:
-        """PARAM_VALUE for ``name``: with its index in the list, or (``indexed`` False) index
-        -1, as Rover answers a set and a read by name."""
-        names = list(self.params)
-        p = self.params[name]
-        index = names.index(name) if indexed else 0xFFFF
-        return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), index)
-
-    def _param_name(self, raw: str | bytes) -> str | None:
-        """The parameter a request names (its exact name: Rover's AP_Param finds grouped
-        names such as WP_SPEED only in their own case)."""
-        name = _text(raw)
-        return name if name in self.params else None
-
     def _reboot_command(self, p: list[float]) -> int:
         """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as Rover takes it: param1 1 reboots the autopilot
         (3, into its bootloader, and shutting down are not lfctl's: UNSUPPORTED); an armed
@@ -1060,40 +1048,15 @@ class VehicleEndpoint:
     def _on_param_request_list(self, m: Any) -> None:
         if self._for_me(m):
             self._banner()  # as Rover: a parameter list starts with the banner
-            for name in self.params:
-                self.send(self._param_value(name))
+            self.param_server.request_list()
 
     def _on_param_request_read(self, m: Any) -> None:
-        if not self._for_me(m):
-            return
-        names = list(self.params)
-        if m.param_index >= 0:
-            if m.param_index < len(names):
-                self.send(self._param_value(names[m.param_index]))
-            else:
-                self.statustext(f"No parameter at index {m.param_index} (there are {len(names)})")
-            return
-        name = self._param_name(m.param_id)
-        if name is not None:
-            self.send(self._param_value(name, indexed=False))
-        else:
-            self.statustext(f"Unknown parameter {_text(m.param_id)}")
+        if self._for_me(m):
+            self.param_server.request_read(m)
 
     def _on_param_set(self, m: Any) -> None:
-        if not self._for_me(m):
-            return
-        name = self._param_name(m.param_id)
-        if name is None:
-            self.statustext(f"Unknown parameter {_text(m.param_id)}")
-            return
-        p = self.params[name]
-        if p.accepts(m.param_value):
-            p.value = p.stored(m.param_value)
-        elif p.readonly:
-            self.statustext(f"Param write denied ({name})", mav.MAV_SEVERITY_WARNING)  # Rover's text
-        else:
-            self.statustext(f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip())
-        self.send(self._param_value(name, indexed=False))  # the value now in force, as Rover answers
+        if self._for_me(m):
+            self.param_server.set(m)
 
     # -- missions, fence, rally -------------------------------------------------------------
     def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
@@ -1715,10 +1678,6 @@ def _whole_degrees(angle_rad: float) -> int:
 def _period(rate_hz: float) -> float:
     """A stream's period, s: infinite (not sent) at 0 Hz."""
     return 1.0 / rate_hz if rate_hz > 0 else math.inf
-
-
-def _text(value: str | bytes) -> str:
-    return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
 
 
 def _command_latlon(p: list[float], latlon_e7: tuple[int, int] | None) -> tuple[int, int] | None:

@@ -21,6 +21,7 @@ __all__ = [
     "Param",
     "ParamFileError",
     "default_params",
+    "formation_params",
     "load_param_file",
     "save_param_file",
 ]
@@ -139,6 +140,15 @@ def default_params(sysid: int) -> dict[str, Param]:
             "s",
             "an RC override lasts this long after it last came; 0: none taken, -1: until released",
         ),
+        **formation_params(),
+    }
+
+
+def formation_params() -> dict[str, Param]:
+    """lfctl's formation parameters, ``LFC_*``, at their defaults: the slot, the coast, the
+    search and the law. A simulated follower has them among its vehicle's parameters; on a
+    real rover its companion (``lfctl follow``, component 191) has them."""
+    return {
         "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
         "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
         "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),

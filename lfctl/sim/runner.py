@@ -274,14 +274,7 @@ class GuidanceTask:
     def _follower(self, t_s: float, world: WorldState, f: SimFollower) -> None:
         me = world.vehicle(f.index)
         ep = self.links.endpoints[f.index]
-        f.stack.tune(  # a ground station may set them
-            range_cmd_m=ep.param("LFC_RANGE"),
-            bearing_cmd_rad=math.radians(ep.param("LFC_BEARING")),
-            coast_s=ep.param("LFC_COAST"),
-            search_yaw_rate_radps=math.radians(ep.param("LFC_SEARCH")),
-            controller=CONTROLLERS[int(ep.param("LFC_LAW"))],
-            trail_lookahead_m=ep.param("LFC_LOOKAHEAD"),
-        )
+        f.stack.tune_from_params(ep.param)  # a ground station may set them
         if self.open_loop == "formation":
             if self.pool is not None:
                 meas = self.pool.measurement(f.name)

@@ -210,3 +210,112 @@ def test_the_live_view_says_when_the_rover_has_no_global_position_once_per_chang
     quiet._say_fix(0.0, False)
     quiet._say_fix(0.1, True)
     assert quiet.rec.events == []
+
+
+# -- the companion as a component of its own: heartbeat, LFC_* parameters, commands --------------
+def _gcs_to(port: MavPort) -> tuple[socket.socket, mav.MAVLink]:
+    """A ground station's socket and codec (system 255), sending to ``port`` as the rover's
+    MAVLink routing would forward it."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    return s, mav.MAVLink(None, srcSystem=255, srcComponent=190)
+
+
+def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_component() -> None:
+    companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
+    sent: list[Any] = []
+    companion.port.tap = lambda d, m, raw: sent.append(m) if d == "out" else None
+    address = companion.port.connection.port.getsockname()
+    sock, gcs = _gcs_to(companion.port)
+
+    def ask(msg: Any) -> list[Any]:
+        sent.clear()
+        sock.sendto(msg.pack(gcs), address)
+        companion.poll(0.0, 2.0)
+        return [(m.get_type(), m) for m in sent]
+
+    try:
+        # a list to every component of the vehicle (QGroundControl's): each LFC_* with its index
+        answers = ask(mav.MAVLink_param_request_list_message(1, 0))
+        names = [m.param_id for _, m in answers]
+        assert names == ["LFC_RANGE", "LFC_BEARING", "LFC_COAST", "LFC_SEARCH", "LFC_LAW", "LFC_LOOKAHEAD"]
+        assert [(m.param_index, m.param_count) for _, m in answers] == [(k, 6) for k in range(6)]
+        assert answers[4][1].param_type == mav.MAV_PARAM_TYPE_INT8
+        # a set addressed to it: stored, answered with the value in force (index -1)
+        ((kind, m),) = ask(mav.MAVLink_param_set_message(1, COMPANION_COMPID, b"LFC_RANGE", 2.5, 9))
+        assert (kind, m.param_id, m.param_value, m.param_index) == ("PARAM_VALUE", "LFC_RANGE", 2.5, 65535)
+        assert companion.param("LFC_RANGE") == 2.5
+        # a broadcast set of LFC_LAW is its; of an autopilot parameter, not (it stays silent)
+        ((kind, m),) = ask(mav.MAVLink_param_set_message(1, 0, b"LFC_LAW", 2.0, mav.MAV_PARAM_TYPE_INT8))
+        assert (m.param_id, m.param_value) == ("LFC_LAW", 2.0) and companion.param("LFC_LAW") == 2
+        assert ask(mav.MAVLink_param_set_message(1, 0, b"WP_SPEED", 1.0, 9)) == []
+        assert ask(mav.MAVLink_param_request_read_message(1, 0, b"", 0)) == []  # by index: the autopilot's
+        # addressed to it: out of range, unknown, by index past the end: said, the value kept
+        answers = ask(mav.MAVLink_param_set_message(1, COMPANION_COMPID, b"LFC_RANGE", 50.0, 9))
+        assert [k for k, _ in answers] == ["STATUSTEXT", "PARAM_VALUE"] and answers[1][1].param_value == 2.5
+        assert "LFC_RANGE rejected: 50 outside 0.3..10 m" in answers[0][1].text
+        ((kind, m),) = ask(mav.MAVLink_param_request_read_message(1, COMPANION_COMPID, b"WP_SPEED", -1))
+        assert kind == "STATUSTEXT" and m.text == "Unknown parameter WP_SPEED"
+        ((kind, m),) = ask(mav.MAVLink_param_request_read_message(1, COMPANION_COMPID, b"", 6))
+        assert m.text == "No parameter at index 6 (there are 6)"
+        ((kind, m),) = ask(mav.MAVLink_param_request_read_message(1, COMPANION_COMPID, b"", 1))
+        assert (m.param_id, m.param_index) == ("LFC_BEARING", 1)
+        # another vehicle's, or the autopilot's alone: not its to answer
+        assert ask(mav.MAVLink_param_request_list_message(2, 0)) == []
+        assert ask(mav.MAVLink_param_request_list_message(1, 1)) == []
+        # a command addressed to it: UNSUPPORTED, to the sender; a broadcast one is the autopilot's
+        ((kind, m),) = ask(mav.MAVLink_command_long_message(1, COMPANION_COMPID, 400, 0, 1, 0, 0, 0, 0, 0, 0))
+        assert (kind, m.command, m.result) == ("COMMAND_ACK", 400, mav.MAV_RESULT_UNSUPPORTED)
+        assert (m.target_system, m.target_component) == (255, 190)
+        assert ask(mav.MAVLink_command_long_message(1, 0, 400, 0, 1, 0, 0, 0, 0, 0, 0)) == []
+        # its heartbeat once a second, however often asked
+        sent.clear()
+        for t in (10.0, 10.4, 10.99, 11.0, 11.5, 12.1):
+            companion.heartbeat(t)
+        assert [m.get_type() for m in sent] == ["HEARTBEAT"] * 3
+        assert (sent[0].type, sent[0].autopilot) == (mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID)
+    finally:
+        sock.close()
+        companion.close()
+
+
+def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banner_video, standing_rover) -> None:
+    # lfctl follow's loop on a rover over loopback UDP; a PARAM_SET for component 191 comes in
+    # on the companion's link as the rover's MAVLink routing forwards a ground station's
+    from lfctl.config import parse_config
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.video import VideoSource
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    heard: list[Any] = []
+    slots: list[tuple[int, float, str]] = []
+    with standing_rover() as rover:
+        rover.tap = lambda d, m, raw: heard.append(m) if d == "in" and m.get_srcComponent() == 191 else None
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+        sock, gcs = _gcs_to(companion.port)
+
+        def on_step(step: Any) -> None:
+            slots.append((len(slots), step.settings.range_cmd_m, step.output.law))
+            if len(slots) == 5:  # the companion's socket is bound once it has sent
+                address = ("127.0.0.1", companion.port.connection.port.getsockname()[1])
+                sock.sendto(mav.MAVLink_param_set_message(1, 191, b"LFC_RANGE", 2.5, 9).pack(gcs), address)
+                sock.sendto(mav.MAVLink_param_set_message(1, 191, b"LFC_LAW", 2, 2).pack(gcs), address)
+
+        try:
+            with VideoSource(str(banner_video(60))) as video:
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                    timeout_s=5.0, max_frames=40, on_step=on_step)  # fmt: skip
+        finally:
+            sock.close()
+            companion.close()
+    assert done.steps == 40
+    assert slots[0][1:] == (1.5, "smc")  # the settings' slot, as the companion's parameters say it
+    moved = [k for k, r, law in slots if r == 2.5 and law in ("trail", "smc")]
+    assert moved and moved[0] >= 5 and slots[-1][1] == 2.5  # taken on a later step, and kept
+    assert any(law == "trail" for _, _, law in slots[moved[0] :])
+    values = [m for m in heard if m.get_type() == "PARAM_VALUE"]
+    assert [(m.param_id, m.param_value) for m in values] == [("LFC_RANGE", 2.5), ("LFC_LAW", 2.0)]
+    assert any(m.get_type() == "HEARTBEAT" and m.type == mav.MAV_TYPE_ONBOARD_CONTROLLER for m in heard)

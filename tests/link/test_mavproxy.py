@@ -166,3 +166,70 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
     # MAVProxy asks for the parameters over MAVLink FTP first: refused at once, it lists them
     # with PARAM_REQUEST_LIST within the session (it waited about 11 s for FTP before)
     assert re.search(r"Received \d+ parameters", out) and "FTP: request timed out" not in out, out
+
+
+def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy: Path, tmp_path: Path) -> None:
+    # `lfctl follow`'s companion (component 191) as MAVProxy reaches it on a rover: its own
+    # heartbeat, its parameter file refused over FTP at once, then the list and the sets
+    import queue
+    import threading
+
+    from lfctl.link.companion import COMPANION_COMPID, Companion
+    from lfctl.link.port import MavPort
+
+    companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
+    port = companion.port.connection.port.getsockname()[1]
+    stop = threading.Event()
+
+    def serve() -> None:
+        t0 = time.monotonic()
+        while not stop.is_set():
+            t = time.monotonic() - t0
+            companion.poll(t, 0.05)
+            companion.heartbeat(t)
+
+    server = threading.Thread(target=serve, daemon=True)
+    server.start()
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    proc = subprocess.Popen(
+        [str(mavproxy), f"--master=udpout:127.0.0.1:{port}", "--target-system=1", "--target-component=191",
+         "--cmd=param fetch"],
+        cwd=tmp_path, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+    )  # fmt: skip
+    lines: queue.Queue[str] = queue.Queue()
+    assert proc.stdout is not None and proc.stdin is not None
+    threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
+    said: list[str] = []
+
+    def wait_for(pattern: str, timeout_s: float = 20.0) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                said.append(lines.get(timeout=0.2))
+            except queue.Empty:
+                continue
+            if re.search(pattern, said[-1]):
+                return True
+        return False
+
+    try:
+        fetched = wait_for(r"Received 6 parameters")  # FTP refused: no 11 s wait before the list
+        proc.stdin.write("param set LFC_RANGE 2.5\nparam set LFC_LAW 2\n")
+        proc.stdin.flush()
+        deadline = time.monotonic() + 5.0
+        while companion.param("LFC_LAW") != 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        proc.stdin.write("param show LFC_*\n")
+        proc.stdin.flush()
+        shown = wait_for(r"LFC_RANGE\s+2\.5")
+    finally:
+        proc.kill()
+        proc.wait(timeout=10)
+        stop.set()
+        server.join(timeout=5)
+        companion.close()
+    out = "".join(said)
+    assert fetched and "Detected vehicle 1:191" in out, out[-2000:]
+    assert "timed out" not in out  # its FTP refused at once, the list asked for at once
+    assert shown, out[-2000:]  # its PARAM_VALUE answers reached MAVProxy's table
+    assert (companion.param("LFC_RANGE"), companion.param("LFC_LAW")) == (2.5, 2)
