@@ -33,7 +33,7 @@ from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import LOCATION_ALT_MAX_M, MissionItem, home_item
+from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
@@ -60,6 +60,12 @@ MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL"
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
 NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
 #: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks: ArduPilot's
+#: the slowest speed Rover's waypoint navigation takes (AR_WPNAV_SPEED_MIN), m/s
+WP_SPEED_MIN_MPS = 0.05
+#: SPEED_TYPE_ENUM_END: DO_CHANGE_SPEED's speed type past the last, DENIED as a climb speed
+SPEED_TYPE_ENUM_END = 4
+#: the largest int32: a MISSION_ITEM's x or y that is not a place must fit the item's integers
+INT32_MAX = 2**31 - 1
 #: magic_force_arm_value (MAVProxy's `arm throttle force`); 21196, its force-disarm value, does
 #: not force an arm
 FORCE_ARM = 2989.0
@@ -278,6 +284,7 @@ class VehicleEndpoint:
             self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_item
         )
         self.mission_version = 0  # bumps when the mission or the current item changes
+        self.mission_restarts = 0  # bumps when the mission restarts from its start (DO_JUMP's counts too)
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
         self.stats = LinkStats()
@@ -657,9 +664,33 @@ class VehicleEndpoint:
         return self.rc.pilot(self.t_s, self.param("RC_OVERRIDE_TIME"))
 
     # -- modes --------------------------------------------------------------------------------
+    def _on_timesync(self, m: Any) -> None:
+        """TIMESYNC: a request (``tc1`` 0) is answered with the autopilot's clock, ns since
+        boot, and the request's ``ts1``, as Rover's ``handle_timesync`` (MAVROS and MAVSDK
+        estimate the link's time offset from it); an answer to someone else's is not ours."""
+        if m.tc1 != 0 or getattr(m, "target_system", 0) not in (0, self.sysid):
+            return
+        self.send(mav.MAVLink_timesync_message(self._boot_us() * 1000, m.ts1))
+
     def _on_set_mode(self, m: Any) -> None:
-        if self._for_me(m) and m.base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
-            self.set_mode(m.custom_mode)
+        """SET_MODE (the message): as DO_SET_MODE, and answered as Rover answers it, with a
+        COMMAND_ACK whose command is the message's id, 11 (scripts wait for it)."""
+        if not self._for_me(m):
+            return
+        result = self._mode_command(m.base_mode, m.custom_mode)
+        self.send(
+            mav.MAVLink_command_ack_message(
+                mav.MAVLINK_MSG_ID_SET_MODE, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()
+            )
+        )
+
+    def _mode_command(self, base_mode: int, custom_mode: int) -> int:
+        """A mode change a ground station asked for (SET_MODE, DO_SET_MODE): only a custom
+        mode is taken (else DENIED), FAILED when the mode is refused (Rover's
+        ``_set_mode_common``)."""
+        if not base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            return mav.MAV_RESULT_DENIED
+        return mav.MAV_RESULT_ACCEPTED if self.set_mode(custom_mode) else mav.MAV_RESULT_FAILED
 
     def set_mode(self, custom_mode: int) -> bool:
         """Switch mode as Rover would (the next HEARTBEAT goes out at once); False, with a
@@ -754,9 +785,9 @@ class VehicleEndpoint:
             return self._arm_command(p[0], p[1])
         if cmd == mav.MAV_CMD_DO_SET_MODE:
             base, custom = _as_int(p[0], 0, 255), _as_int(p[1], 0, 2**31 - 1)
-            if base is None or custom is None or not base & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            if base is None or custom is None:
                 return mav.MAV_RESULT_DENIED
-            return mav.MAV_RESULT_ACCEPTED if self.set_mode(custom) else mav.MAV_RESULT_FAILED
+            return self._mode_command(base, custom)
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
             msg_id = _as_int(p[0], 0, 2**24 - 1)
             if msg_id is None:
@@ -799,7 +830,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_REPOSITION:
-            return self._reposition(p, latlon_e7)
+            return self._reposition(p, latlon_e7, frame)
         if cmd == mav.MAV_CMD_DO_SET_REVERSE:
             if not _finite(p[0]):
                 return mav.MAV_RESULT_DENIED
@@ -916,22 +947,32 @@ class VehicleEndpoint:
             self._stream(MSG_IDS[name], _period(hz))
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
-        kind = _as_int(speed_type, 0, 3)
-        if kind is None or kind in (mav.SPEED_TYPE_CLIMB_SPEED, mav.SPEED_TYPE_DESCENT_SPEED):
+        # as Rover: climb and descent speeds (and SPEED_TYPE_ENUM_END) are DENIED, any other
+        # type is a ground speed; lfctl also DENIES a type or speed that is not a number, and
+        # a speed over 100 m/s
+        kind = _as_int(speed_type, 0, 255)
+        if kind is None or kind in (mav.SPEED_TYPE_CLIMB_SPEED, mav.SPEED_TYPE_DESCENT_SPEED, SPEED_TYPE_ENUM_END):
             return mav.MAV_RESULT_DENIED
-        if not (_finite(speed) and 0 < speed <= 100.0):
+        if not (_finite(speed) and speed <= 100.0):
             return mav.MAV_RESULT_DENIED
-        if self.mode not in (MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]):
-            return mav.MAV_RESULT_FAILED  # Rover: the mode has no speed to set
-        if self.mode == MODES["GUIDED"] and (
-            (self.guided is None and not self._guided_arrived)
-            or (self.guided is not None and self.guided.kind != "location")
-        ):
-            # Rover's GUIDED takes a speed while it drives to a place or has arrived there, not
-            # while stopped as it starts nor for a rate or heading target with its own speed
+        if not self._takes_speed(speed):
             return mav.MAV_RESULT_FAILED
         self.desired_speed_mps = float(speed)
         return mav.MAV_RESULT_ACCEPTED
+
+    def _takes_speed(self, speed: float) -> bool:
+        """Whether the mode takes a new speed now (Rover's ``Mode::set_desired_speed``): AUTO,
+        GUIDED, RTL and SmartRTL, at least :data:`WP_SPEED_MIN_MPS` (a speed of 0 or less, or
+        MAVLink's -1 "no change", FAILS on Rover); GUIDED only while it drives to a place or
+        has arrived there, not while stopped as it starts nor for a rate or heading target
+        with its own speed."""
+        if speed < WP_SPEED_MIN_MPS or self.mode not in (
+            MODES["AUTO"], MODES["GUIDED"], MODES["RTL"], MODES["SMART_RTL"]
+        ):  # fmt: skip
+            return False
+        return self.mode != MODES["GUIDED"] or (
+            self.guided.kind == "location" if self.guided is not None else self._guided_arrived
+        )
 
     def _set_yaw_speed(self, angle_deg: float, speed: float, relative: float) -> int:
         if self.mode != MODES["GUIDED"]:
@@ -944,12 +985,20 @@ class VehicleEndpoint:
         self.guided = GuidedTarget("heading", self.t_s, speed_mps=max(-limit, min(limit, speed)), heading_rad=heading)
         return mav.MAV_RESULT_ACCEPTED
 
-    def _reposition(self, p: list[float], latlon_e7: tuple[int, int] | None) -> int:
+    def _reposition(self, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
+        """MAV_CMD_DO_REPOSITION as Rover's ``handle_command_int_do_reposition``: a
+        COMMAND_INT only (a COMMAND_LONG is UNSUPPORTED: Rover reads no location from one for
+        it); outside GUIDED only with the change-mode flag; a place off the globe, at 0, 0, or
+        whose altitude is not a number, beyond 83 km or in a frame Rover cannot read is
+        DENIED; GUIDED is entered, then a speed (param1 > 0) must be one GUIDED takes now
+        (FAILED from a GUIDED just entered, which is stopped), then the place is the target."""
+        if latlon_e7 is None:
+            return mav.MAV_RESULT_UNSUPPORTED
         change_modes = _finite(p[1]) and int(p[1]) & REPOSITION_CHANGE_MODE
         if self.mode != MODES["GUIDED"] and not change_modes:
             return mav.MAV_RESULT_DENIED
         where = _command_latlon(p, latlon_e7)
-        if where is None or where == (0, 0):
+        if where is None or where == (0, 0) or self._height_above_ground(p[6], frame) is None:
             return mav.MAV_RESULT_DENIED
         n, e = global_to_local(*where, self.home)
         if not self._within_fence(n, e):
@@ -957,6 +1006,8 @@ class VehicleEndpoint:
         if self.mode != MODES["GUIDED"] and not self.set_mode(MODES["GUIDED"]):
             return mav.MAV_RESULT_FAILED
         speed = p[0] if _finite(p[0]) and p[0] > 0 else 0.0
+        if speed > 0 and not self._takes_speed(speed):
+            return mav.MAV_RESULT_FAILED
         self.guided = GuidedTarget("location", self.t_s, speed_mps=speed, north_m=n, east_m=e)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -1059,18 +1110,20 @@ class VehicleEndpoint:
             self.param_server.set(m)
 
     # -- missions, fence, rally -------------------------------------------------------------
-    def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
+    def _list_changed(self, mission_type: int, items: list[MissionItem], done: bool = True) -> None:
+        # done False: an item of a partial update written, the update not over (no words yet)
         if mission_type == MISSION:
             self.mission_version += 1
             self.mission_complete = False
-            if items:  # Rover's words on a mission received (scripts wait for them); a clear is silent
+            if items and done:  # Rover's words on a mission received (scripts wait for them); a clear is silent
                 self.statustext("Flight plan received", mav.MAV_SEVERITY_INFO)
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
             self.statustext(f"Fence accepted: {len(items)} items", mav.MAV_SEVERITY_INFO)
         elif mission_type == RALLY:
             self.rally = rally_points(items, self.home)
-            self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
+            if done:
+                self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
 
     def store_mission(self, items: list[MissionItem]) -> None:
         """Make ``items`` (item 0 = home) the mission in force, item 1 current, as a finished
@@ -1100,15 +1153,19 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         mtype = getattr(m, "mission_type", MISSION)
-        if not _finite(m.x) or abs(m.x) > 90.0:
+        # degrees, but for the few commands whose x and y are not a place (carried as they are)
+        raw = m.command in RAW_XY
+        x_max, y_max, scale = (INT32_MAX, INT32_MAX, 1.0) if raw else (90.0, 180.0, 1e7)
+        if not _finite(m.x) or abs(m.x) > x_max:
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_INVALID_PARAM5_X, mtype)
             return
-        if not _finite(m.y) or abs(m.y) > 180.0:
+        if not _finite(m.y) or abs(m.y) > y_max:
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), mav.MAV_MISSION_INVALID_PARAM6_Y, mtype)
             return
+        to_int = int if raw else round  # AP_Mission: a raw x is cast (truncated), degrees rounded
         item = MissionItem(
             m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4,
-            int(round(m.x * 1e7)), int(round(m.y * 1e7)), m.z, m.autocontinue,
+            int(to_int(m.x * scale)), int(to_int(m.y * scale)), m.z, m.autocontinue,
         )  # fmt: skip
         self._mission_item(m, item)
 
@@ -1140,7 +1197,14 @@ class VehicleEndpoint:
         if self._for_me(m):
             self.missions.on_request_item(m)
 
-    _on_mission_request = _on_mission_request_int  # old clients ask with MISSION_REQUEST
+    def _on_mission_request(self, m: Any) -> None:
+        # old clients ask with MISSION_REQUEST: answered with the float MISSION_ITEM, as Rover
+        if self._for_me(m):
+            self.missions.on_request_item(m, float_item=True)
+
+    def _on_mission_write_partial_list(self, m: Any) -> None:
+        if self._for_me(m):
+            self.missions.on_write_partial(m, self.t_s)
 
     def _on_mission_ack(self, m: Any) -> None:
         pass  # the end of a download: nothing to do
@@ -1150,19 +1214,41 @@ class VehicleEndpoint:
             self.missions.on_clear(m, self.t_s)
 
     def _on_mission_set_current(self, m: Any) -> None:
+        # as Rover: the echo carries the number asked for (0 too: scripts take it for an ACK)
         if self._for_me(m) and self.set_current(m.seq):
-            self.send(mav.MAVLink_mission_current_message(self.current_seq))
+            self.send(self._mission_current(m.seq))
+
+    def _mission_current(self, seq: int) -> Any:
+        """MISSION_CURRENT as Rover sends it: ``seq``; total, the last item's number (home,
+        item 0, not counted; UINT16_MAX without a mission); the mission's state (no mission,
+        not started, active, complete) and mission_mode 1 while the mode flies it (AUTO)."""
+        items = len(self.mission)
+        total = items - 1 if items > 1 else 0xFFFF
+        if items < 2:
+            state = mav.MISSION_STATE_NO_MISSION
+        elif self.mission_complete:
+            state = mav.MISSION_STATE_COMPLETE
+        elif self.mode == MODES["AUTO"]:
+            state = mav.MISSION_STATE_ACTIVE
+        else:
+            state = mav.MISSION_STATE_NOT_STARTED
+        return mav.MAVLink_mission_current_message(seq, total, state, int(self.mode == MODES["AUTO"]))
 
     def set_current(self, seq: int) -> bool:
         """Make mission item ``seq`` the one to head for (False when there is no such item).
+        As Rover's ``AP_Mission::set_current_cmd``: 0 restarts the mission from item 1, and
+        a restart, or any item of a finished mission, starts DO_JUMP's counts afresh.
 
         Parameters
         ----------
         seq : int
-            The item, 1 .. count - 1.
+            The item, 0 .. count - 1.
         """
-        if not self.missions.set_current(seq):
+        restart = seq == 0 or self.mission_complete
+        if not self.missions.set_current(max(1, seq)):
             return False
+        if restart:
+            self.mission_restarts += 1
         self.mission_version += 1
         self.mission_complete = False
         return True
@@ -1630,9 +1716,7 @@ class VehicleEndpoint:
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])
             )
         elif name == "MISSION_CURRENT":
-            # total: the last item's number (home, item 0, not counted); UINT16_MAX without a mission
-            total = len(self.mission) - 1 if len(self.mission) > 1 else 0xFFFF
-            self.send(mav.MAVLink_mission_current_message(self.current_seq, total))
+            self.send(self._mission_current(self.current_seq))
         elif name == "HOME_POSITION":
             hn, he = self.home_point()
             hlat, hlon, halt = self._home_geodetic()

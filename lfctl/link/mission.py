@@ -44,6 +44,7 @@ __all__ = [
     "POLYGON_EXCLUSION",
     "POLYGON_INCLUSION",
     "RALLY_POINT",
+    "RAW_XY",
     "RETURN_POINT",
     "SKIPPED",
     "SKIPPED_NAV",
@@ -140,6 +141,10 @@ STORES_LOCATION = _commands(
     "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND", "NAV_PAYLOAD_PLACE", "DO_SET_HOME", "DO_LAND_START",
     "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
 )  # fmt: skip
+#: the commands whose x and y are not a place: the float MISSION_ITEM carries them as they
+#: are, where for every other command it carries degrees (AP_Mission's conversions between
+#: MISSION_ITEM and MISSION_ITEM_INT)
+RAW_XY = _commands("DO_DIGICAM_CONTROL", "DO_DIGICAM_CONFIGURE", "NAV_ATTITUDE_TIME", "DO_GIMBAL_MANAGER_PITCHYAW")
 POLYGON_INCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION  # 5001
 POLYGON_EXCLUSION = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION  # 5002
 CIRCLE_INCLUSION = mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION  # 5003

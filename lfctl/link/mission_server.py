@@ -18,7 +18,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.fence import FENCE_COMMANDS, RALLY_COMMANDS, validate_fence
-from lfctl.link.mission import STORES_LOCATION, MissionItem, validate_item
+from lfctl.link.mission import RAW_XY, STORES_LOCATION, MissionItem, validate_item
 
 __all__ = ["MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
 
@@ -37,13 +37,21 @@ UPLOAD_TIMEOUT_S = 8.0
 @dataclass
 class _Upload:
     mission_type: int
-    count: int
+    count: int  # how many items the list will hold
     sysid: int
     compid: int
     items: dict[int, MissionItem] = field(default_factory=dict)
     next_seq: int = 0
     sent_at: float = -math.inf
     received_at: float = 0.0  # the count, or the last item taken
+    #: a partial update (MISSION_WRITE_PARTIAL_LIST): the list it changes, and its last item
+    base: list[MissionItem] | None = None
+    last: int = -1
+
+    @property
+    def final(self) -> int:
+        """The last item asked for."""
+        return self.last if self.base is not None else self.count - 1
 
 
 @dataclass(frozen=True)
@@ -123,16 +131,33 @@ def list_problem(items: list[MissionItem], mission_type: int) -> tuple[int, int]
     return validate_fence(items) if mission_type == FENCE else None
 
 
-def _item_message(it: MissionItem, sysid: int, compid: int, current: int, mission_type: int) -> Any:
+def _item_message(
+    it: MissionItem, sysid: int, compid: int, current: int, mission_type: int, float_item: bool = False
+) -> Any:
+    """A downloaded item: MISSION_ITEM_INT, or (``float_item``) the float MISSION_ITEM an old
+    client's MISSION_REQUEST gets, its x and y in degrees but for :data:`RAW_XY`'s commands."""
     frame, z = DOWNLOAD_FRAME.get(it.frame, it.frame), it.z
     if mission_type == FENCE:
         frame, z = mav.MAV_FRAME_GLOBAL, 0.0  # MissionItemProtocol_Fence: no altitude
     elif mission_type == MISSION and it.command not in STORES_LOCATION:
         frame = mav.MAV_FRAME_GLOBAL  # the others (DO_CHANGE_SPEED, DO_JUMP, ...), as Rover's
-    return mav.MAVLink_mission_item_int_message(
-        sysid, compid, it.seq, frame, it.command, current, it.autocontinue,
-        it.param1, it.param2, it.param3, it.param4, it.x, it.y, z, mission_type,
-    )  # fmt: skip
+    head = (
+        sysid,
+        compid,
+        it.seq,
+        frame,
+        it.command,
+        current,
+        it.autocontinue,
+        it.param1,
+        it.param2,
+        it.param3,
+        it.param4,
+    )
+    if not float_item:
+        return mav.MAVLink_mission_item_int_message(*head, it.x, it.y, z, mission_type)
+    scale = 1.0 if it.command in RAW_XY else 1e-7
+    return mav.MAVLink_mission_item_message(*head, it.x * scale, it.y * scale, z, mission_type)
 
 
 class MissionServer:
@@ -145,7 +170,9 @@ class MissionServer:
     statustext : callable
         Tells the ground station a line of text.
     on_change : callable
-        Told ``(mission_type, items)`` when a list is replaced, before the ACK goes out.
+        Told ``(mission_type, items, done)`` when a list is replaced, before the ACK goes out
+        (``done`` True), and as each item of a partial update of the mission or the rally
+        points is written (``done`` False: the update is not over).
     running : callable, optional
         Whether the mission is being flown (AUTO): it cannot be cleared then, as on Rover.
     home : callable, optional
@@ -157,7 +184,7 @@ class MissionServer:
         self,
         send: Callable[[Any], None],
         statustext: Callable[[str], None],
-        on_change: Callable[[int, list[MissionItem]], None],
+        on_change: Callable[[int, list[MissionItem], bool], None],
         running: Callable[[], bool] | None = None,
         home: Callable[[], MissionItem] | None = None,
     ) -> None:
@@ -176,7 +203,9 @@ class MissionServer:
     def _ack(self, sysid: int, compid: int, result: int, mission_type: int) -> None:
         self.send(mav.MAVLink_mission_ack_message(sysid, compid, result, mission_type))
 
-    def store(self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0) -> None:
+    def store(
+        self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0, keep_current: bool = False
+    ) -> None:
         """Make ``items`` the list of this type in force (checked already).
 
         Parameters
@@ -187,12 +216,14 @@ class MissionServer:
             The items (a mission's item 0 is home).
         sysid, compid : int
             Who changed it (0: the vehicle itself, e.g. a mission stored at boot).
+        keep_current : bool
+            A mission's current item stays (a partial update); else item 1 is current.
         """
         self.lists[mission_type] = list(items)
-        if mission_type == MISSION:
+        if mission_type == MISSION and not (keep_current and self.current_seq < len(items)):
             self.current_seq = 1 if len(items) > 1 else 0
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
-        self.on_change(mission_type, self.lists[mission_type])
+        self.on_change(mission_type, self.lists[mission_type], True)
 
     def _uploading(self, mission_type: int, src: tuple[int, int]) -> bool:
         """An upload of this list is running (for anyone): refuse ``src`` what would clash
@@ -242,6 +273,47 @@ class MissionServer:
         up.sent_at = t_s
         self.send(mav.MAVLink_mission_request_int_message(up.sysid, up.compid, up.next_seq, up.mission_type))
 
+    def on_write_partial(self, m: Any, t_s: float) -> None:
+        """MISSION_WRITE_PARTIAL_LIST: items ``start_index`` .. ``end_index`` of a list are
+        uploaded again (MAVProxy's ``wp changealt``, ``wp move``, ``wp update``), each
+        replacing the item there, or added at the end when its number is the list's count. As
+        Rover: a range past the list's end, or backwards, is "Flight plan update rejected" and
+        MAV_MISSION_ERROR; while another's upload runs, MAV_MISSION_DENIED. The items are
+        checked as an upload's; each is in force as it comes, as Rover writes it (the fence's
+        once the last has come and the polygon checks), and an update that stops half way keeps
+        what came; a mission's current item stays.
+
+        Parameters
+        ----------
+        m : pymavlink message
+            The message as received.
+        t_s : float
+            Now, s.
+        """
+        self._t_s = t_s
+        mtype, src = _addressed(m)
+        if mtype not in MISSION_TYPES:
+            self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
+            return
+        up = self._uploads.get(mtype)
+        if up is not None and (up.sysid, up.compid) != src:
+            self._ack(*src, mav.MAV_MISSION_DENIED, mtype)
+            return
+        base = self.lists[mtype]
+        first, last = m.start_index, m.end_index
+        if not 0 <= first <= last <= len(base):  # Rover reads the int16 indexes as unsigned
+            self.statustext(f"Flight plan update rejected: items {first}..{last} of {len(base)}")
+            self._ack(*src, mav.MAV_MISSION_ERROR, mtype)
+            return
+        if last >= CAPACITY[mtype]:
+            self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
+            return
+        count = max(len(base), last + 1)
+        self._uploads[mtype] = up = _Upload(
+            mtype, count, *src, next_seq=first, received_at=t_s, base=list(base), last=last
+        )
+        self._request_next(up, t_s)
+
     def on_item(self, item: MissionItem, mission_type: int, sysid: int, compid: int, t_s: float) -> None:
         """One uploaded item (from MISSION_ITEM_INT, or a converted MISSION_ITEM).
 
@@ -277,16 +349,41 @@ class MissionServer:
         up.items[item.seq] = item
         up.next_seq += 1
         up.received_at = t_s
-        if up.next_seq < up.count:
+        if up.base is not None and up.mission_type != FENCE:
+            self._write_partial(up)  # as Rover's replace_item: in force at once
+        if up.next_seq <= up.final:
             self._request_next(up, t_s)
             return
         del self._uploads[mission_type]
-        items = [up.items[i] for i in range(up.count)]
+        items = [up.items[i] for i in range(up.count)] if up.base is None else self._partial_items(up)
         if up.mission_type == FENCE and (bad := validate_fence(items)) is not None:
             self._refuse(up, *bad)
             return
-        self.store(up.mission_type, items, up.sysid, up.compid)
+        self.store(up.mission_type, items, up.sysid, up.compid, keep_current=up.base is not None)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
+
+    @staticmethod
+    def _partial_items(up: _Upload) -> list[MissionItem]:
+        """A partial update's list: the items sent so far replace those there, or come at the end."""
+        assert up.base is not None
+        items = list(up.base)
+        for seq in sorted(up.items):
+            if seq < len(items):
+                items[seq] = up.items[seq]
+            else:
+                items.append(up.items[seq])
+        return items
+
+    def _write_partial(self, up: _Upload) -> None:
+        """Put a partial update's items so far in force (not the fence's: Rover checks a
+        fence whole), without the words a finished upload gets: an update that stops half way
+        (MAVProxy asks to send one item past those it changed, and past the list's end has
+        none to send) keeps what came, as Rover's does."""
+        items = self._partial_items(up)
+        self.lists[up.mission_type] = items
+        if self.current_seq >= len(self.lists[MISSION]):
+            self.current_seq = 1 if len(self.lists[MISSION]) > 1 else 0
+        self.on_change(up.mission_type, items, False)
 
     def _check_item(self, item: MissionItem, up: _Upload) -> int:
         return item_result(item, up.mission_type, up.count)
@@ -310,6 +407,10 @@ class MissionServer:
         for mtype, up in list(self._uploads.items()):
             if t_s - up.received_at > UPLOAD_TIMEOUT_S:
                 del self._uploads[mtype]
+                if up.base is not None and up.items and mtype != FENCE:  # what came is in force
+                    self.changes.append(
+                        ListChange(MISSION_TYPES[mtype], t_s, up.sysid, up.compid, len(self.lists[mtype]))
+                    )
                 self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
                 self.statustext(f"{MISSION_TYPES[mtype].capitalize()} upload timed out waiting for item {up.next_seq}")
             elif t_s - up.sent_at > ITEM_TIMEOUT_S:
@@ -332,13 +433,15 @@ class MissionServer:
             return
         self.send(mav.MAVLink_mission_count_message(*src, len(self.lists[mtype]), mtype))
 
-    def on_request_item(self, m: Any) -> None:
+    def on_request_item(self, m: Any, float_item: bool = False) -> None:
         """MISSION_REQUEST_INT (or the old MISSION_REQUEST): one item of a download.
 
         Parameters
         ----------
         m : pymavlink message
             The message as received.
+        float_item : bool
+            Answer with the float MISSION_ITEM (the old MISSION_REQUEST's answer, as Rover's).
         """
         mtype, src = _addressed(m)
         items = self.lists.get(mtype)
@@ -354,7 +457,7 @@ class MissionServer:
         if mtype == MISSION and m.seq == 0 and self.home is not None:
             it = self.home()  # as Rover's AP_Mission reads item 0: home now
         current = int(mtype == MISSION and it.seq == self.current_seq)
-        self.send(_item_message(it, *src, current, mtype))
+        self.send(_item_message(it, *src, current, mtype, float_item))
 
     def on_clear(self, m: Any, t_s: float) -> None:
         """MISSION_CLEAR_ALL: clear the list named (MAV_MISSION_TYPE_ALL: all three).

@@ -134,6 +134,7 @@ class VehicleDriver:
         self._tail: tuple[MissionItem, ...] = ()  # the items after the last navigation item
         self._paused: tuple[object, ...] = ()  # the mission AUTO left part-way (its key), to resume
         self._built: list[MissionItem] | None = None  # the mission the legs were made from
+        self._restarts = 0  # the endpoint's mission restarts (from item 0) the legs know of
         self._completed = False  # ... and it is finished
         self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
         self._distance = 0.0  # how far it is from the leg's end, m
@@ -246,7 +247,13 @@ class VehicleDriver:
         ep = self.endpoint
         # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
         # for a new or finished mission, or a restart from item 0)
-        same = bool(self._legs) and ep.mission is self._built and not self._completed
+        same = (
+            bool(self._legs)
+            and ep.mission is self._built
+            and not self._completed
+            and self._restarts == ep.mission_restarts
+        )
+        self._restarts = ep.mission_restarts
         resume = same and self._paused == (ep.mission_version,)
         self._paused = ()
         jumps = self._legs[self._leg].jumps if same else ()

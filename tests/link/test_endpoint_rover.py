@@ -112,10 +112,11 @@ def test_a_command_with_values_that_are_not_numbers_is_denied_and_nothing_change
 ) -> None:
     bench.tick()
     before = (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq)
-    # refused (COMPONENT_ARM_DISARM with neither 0 nor 1: UNSUPPORTED, as Rover)
+    # refused (COMPONENT_ARM_DISARM with neither 0 nor 1, and DO_REPOSITION as a COMMAND_LONG:
+    # UNSUPPORTED, as Rover)
     refused = (
         (mav.MAV_RESULT_UNSUPPORTED,)
-        if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM
+        if cmd in (mav.MAV_CMD_COMPONENT_ARM_DISARM, mav.MAV_CMD_DO_REPOSITION)
         else (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED)
     )
     assert bench.command(cmd, *params) in refused
@@ -537,14 +538,44 @@ def test_reposition_goes_there_in_guided_or_switches_with_the_flag(bench: Bench)
         bench.command(mav.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, lat * 1e7, lon * 1e7, 0, long=False)
         == mav.MAV_RESULT_DENIED
     )
+    # with the flag and a speed: GUIDED is entered, but a GUIDED just entered is stopped and
+    # takes no speed, so the command FAILS there, as Rover's (no target)
     assert (
         bench.command(mav.MAV_CMD_DO_REPOSITION, 0.4, 1, 0, 0, lat * 1e7, lon * 1e7, 0, long=False)
+        == mav.MAV_RESULT_FAILED
+    )
+    assert bench.ep.mode == MODES["GUIDED"] and bench.ep.guided is None
+    # without a speed it goes; then, driving there, a speed is taken
+    assert (
+        bench.command(mav.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, lat * 1e7, lon * 1e7, 0, long=False)
         == mav.MAV_RESULT_ACCEPTED
     )
-    assert bench.ep.mode == MODES["GUIDED"] and bench.ep.guided.kind == "location"
-    assert bench.ep.guided.north_m == pytest.approx(2.2, abs=0.05) and bench.ep.guided.speed_mps == pytest.approx(0.4)
+    assert bench.ep.guided.kind == "location" and bench.ep.guided.north_m == pytest.approx(2.2, abs=0.05)
+    assert (
+        bench.command(mav.MAV_CMD_DO_REPOSITION, 0.4, 0, 0, 0, lat * 1e7, lon * 1e7, 0, long=False)
+        == mav.MAV_RESULT_ACCEPTED
+    )
+    assert bench.ep.guided.speed_mps == pytest.approx(0.4)
     # lat/lon 0, 0 is refused, as Rover
     assert bench.command(mav.MAV_CMD_DO_REPOSITION, -1, 1, 0, 0, 0, 0, 0, long=False) == mav.MAV_RESULT_DENIED
+    # as a COMMAND_LONG: UNSUPPORTED (Rover reads DO_REPOSITION's place from a COMMAND_INT only)
+    assert bench.command(mav.MAV_CMD_DO_REPOSITION, -1, 0, 0, 0, lat, lon, 0) == mav.MAV_RESULT_UNSUPPORTED
+
+
+@pytest.mark.parametrize(
+    ("frame", "z"),
+    [
+        (mav.MAV_FRAME_LOCAL_NED, 0.0),  # not a frame a place is read in
+        (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, NAN),
+        (mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 1e6),  # beyond Rover's 83 km
+    ],
+)
+def test_a_reposition_whose_altitude_rover_cannot_read_is_denied(bench: Bench, frame: int, z: float) -> None:
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_command_int_message(1, 1, frame, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, z))
+    acks = [m for m in bench.tick() if m.get_type() == "COMMAND_ACK"]
+    assert [a.result for a in acks] == [mav.MAV_RESULT_DENIED] and bench.ep.guided is None
 
 
 def test_mission_item_current_2_is_a_guided_target() -> None:
@@ -1626,3 +1657,133 @@ def test_a_received_mission_is_said_in_rovers_words_and_a_clear_is_silent(bench:
     bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
     bench.tick()
     assert not bench.ep.mission and len(bench.ep.statustexts) == before
+
+
+# -- what real clients sent that lfctl answered wrongly (review against Rover's source) -------------
+def test_set_mode_the_message_is_acknowledged_with_command_11_as_rover_does(bench: Bench) -> None:
+    # the pymavlink recipe waits for COMMAND_ACK with command == MAVLINK_MSG_ID_SET_MODE
+    def set_mode(base: int, custom: int) -> list[int]:
+        bench.send(mav.MAVLink_set_mode_message(1, base, custom))
+        return [m.result for m in bench.tick() if m.get_type() == "COMMAND_ACK" and m.command == 11]
+
+    custom = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    assert set_mode(custom, MODES["GUIDED"]) == [mav.MAV_RESULT_ACCEPTED] and bench.ep.mode == MODES["GUIDED"]
+    assert set_mode(custom, 1) == [mav.MAV_RESULT_FAILED]  # ACRO: not lfctl's
+    assert set_mode(0, MODES["HOLD"]) == [mav.MAV_RESULT_DENIED]  # not a custom mode
+    assert set_mode(custom, MODES["AUTO"]) == [mav.MAV_RESULT_FAILED]  # no mission
+    assert bench.ep.mode == MODES["GUIDED"]
+    bench.send(mav.MAVLink_set_mode_message(7, custom, MODES["HOLD"]))  # another vehicle's
+    assert not [m for m in bench.tick() if m.get_type() == "COMMAND_ACK"]
+
+
+def test_a_timesync_request_is_answered_with_the_autopilots_clock(bench: Bench) -> None:
+    bench.tick(1.0)
+    bench.send(mav.MAVLink_timesync_message(0, 123456789))
+    (answer,) = [m for m in bench.tick(0.5) if m.get_type() == "TIMESYNC"]
+    assert answer.ts1 == 123456789 and answer.tc1 == pytest.approx(1.5e9, abs=0.05e9)  # ns since boot
+    bench.send(mav.MAVLink_timesync_message(5, 123456789))  # an answer, not a request
+    assert not [m for m in bench.tick() if m.get_type() == "TIMESYNC"]
+
+
+def _square(n: int) -> list[Item]:
+    """Home and ``n`` waypoints."""
+    return [Item(0, 16)] + [Item(k, 16, x=129602000 + 100 * k) for k in range(1, n + 1)]
+
+
+def test_a_partial_list_update_replaces_items_in_place_as_mavproxys_wp_changealt_does(bench: Bench) -> None:
+    assert upload(bench, _square(4)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.set_current(3)
+    bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 2, 2, 0))
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    assert req.seq == 2
+    moved = Item(2, 16, x=129609999)
+    bench.send(
+        mav.MAVLink_mission_item_int_message(1, 1, 2, moved.frame, 16, 0, 1, 0, 0, 0, 0, moved.x, moved.y, 7.0, 0)
+    )
+    out = bench.tick()
+    assert [(m.get_type(), getattr(m, "type", None)) for m in out if m.get_type() == "MISSION_ACK"] == [
+        ("MISSION_ACK", mav.MAV_MISSION_ACCEPTED)
+    ]
+    mission = bench.ep.mission
+    assert len(mission) == 5 and mission[2].x == 129609999 and mission[2].z == 7.0
+    assert [it.x for k, it in enumerate(mission) if k != 2] == [129602000, 129602100, 129602300, 129602400]
+    assert bench.ep.current_seq == 3  # the current item stays
+    # one past the end adds an item; a range past that, or backwards, is refused as Rover's
+    bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 5, 5, 0))
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    bench.send(mav.MAVLink_mission_item_int_message(1, 1, 5, moved.frame, 16, 0, 1, 0, 0, 0, 0, moved.x, moved.y, 0, 0))
+    bench.tick()
+    assert len(bench.ep.mission) == 6
+    for first, last in ((7, 9), (3, 2), (-1, 2)):
+        bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, first, last, 0))
+        out = bench.tick()
+        assert [m.type for m in out if m.get_type() == "MISSION_ACK"] == [mav.MAV_MISSION_ERROR]
+        assert any(m.get_type() == "STATUSTEXT" and "Flight plan update rejected" in m.text for m in out)
+    assert len(bench.ep.mission) == 6
+    # an update that stops half way keeps what came (MAVProxy asks to send one past its items)
+    bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 1, 2, 0))
+    bench.tick()
+    bench.send(
+        mav.MAVLink_mission_item_int_message(1, 1, 1, moved.frame, 16, 0, 1, 0, 0, 0, 0, 129601111, moved.y, 0, 0)
+    )
+    bench.tick()
+    assert bench.ep.mission[1].x == 129601111  # in force at once, as Rover writes it
+    out = [m for _ in range(9) for m in bench.tick(1.0)]
+    assert [m.type for m in out if m.get_type() == "MISSION_ACK"] == [mav.MAV_MISSION_OPERATION_CANCELLED]
+    assert bench.ep.mission[1].x == 129601111 and bench.ep.mission[2].x == 129609999
+    bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 0, 0, 9))  # a list type that is none
+    assert [m.type for m in bench.tick() if m.get_type() == "MISSION_ACK"] == [mav.MAV_MISSION_UNSUPPORTED]
+
+
+def test_an_old_clients_mission_request_gets_the_float_mission_item(bench: Bench) -> None:
+    items = [*_square(2), Item(3, mav.MAV_CMD_DO_DIGICAM_CONTROL, x=0, y=1)]
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    got = {}
+    for seq in (1, 3):
+        bench.send(mav.MAVLink_mission_request_message(1, 1, seq, 0))
+        (m,) = [m for m in bench.tick() if m.get_type() in ("MISSION_ITEM", "MISSION_ITEM_INT")]
+        assert m.get_type() == "MISSION_ITEM"
+        got[seq] = m
+    # degrees, in the float's precision (about 1e-6 deg there)
+    assert got[1].x == pytest.approx(12.9602100, abs=1e-5) and got[1].y == pytest.approx(77.669, abs=1e-5)
+    assert (got[3].x, got[3].y) == (0.0, 1.0)  # not a place: as stored
+    # uploaded as a float item, the camera command's x and y are taken as they are (not degrees)
+    bench.send(mav.MAVLink_mission_count_message(1, 1, 2, 0))
+    bench.tick()
+    bench.send(mav.MAVLink_mission_item_message(1, 1, 0, 3, 16, 0, 1, 0, 0, 0, 0, 12.96, 77.67, 0, 0))
+    bench.tick()
+    bench.send(
+        mav.MAVLink_mission_item_message(1, 1, 1, 0, mav.MAV_CMD_DO_DIGICAM_CONTROL, 0, 1, 0, 0, 0, 0, 5, 7, 0, 0)
+    )
+    bench.tick()
+    assert (bench.ep.mission[1].x, bench.ep.mission[1].y) == (5, 7)
+
+
+def test_item_0_restarts_the_mission_and_the_echo_says_what_was_asked(bench: Bench) -> None:
+    assert upload(bench, _square(3)) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.set_current(3)
+    restarts = bench.ep.mission_restarts
+    bench.send(mav.MAVLink_mission_set_current_message(1, 1, 0))
+    (echo,) = [m for m in bench.tick() if m.get_type() == "MISSION_CURRENT"]
+    assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (0, 3, mav.MISSION_STATE_NOT_STARTED, 0)
+    assert bench.ep.current_seq == 1 and bench.ep.mission_restarts == restarts + 1
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 4) == mav.MAV_RESULT_DENIED  # no such item
+    bench.ep.set_armed(True)
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_mission_set_current_message(1, 1, 2))
+    (echo,) = [m for m in bench.tick() if m.get_type() == "MISSION_CURRENT"]
+    assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (2, 3, mav.MISSION_STATE_ACTIVE, 1)
+
+
+def test_change_speed_results_as_rovers(bench: Bench) -> None:
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, 0))
+    bench.tick()
+    # too slow for Rover's waypoint navigation (under 0.05 m/s, 0, MAVLink's -1): FAILED
+    for speed in (0.01, 0.0, -1.0):
+        assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, speed) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 4, 0.5) == mav.MAV_RESULT_DENIED  # SPEED_TYPE_ENUM_END
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 7, 0.5) == mav.MAV_RESULT_ACCEPTED  # any other: ground speed
+    assert bench.ep.desired_speed_mps == pytest.approx(0.5)

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -233,3 +234,60 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
     assert "timed out" not in out  # its FTP refused at once, the list asked for at once
     assert shown, out[-2000:]  # its PARAM_VALUE answers reached MAVProxy's table
     assert (companion.param("LFC_RANGE"), companion.param("LFC_LAW")) == (2.5, 2)
+
+
+def test_mavproxy_edits_an_uploaded_mission_in_place_with_wp_changealt(
+    mavproxy: Path, tmp_path: Path, truth_convoy, background_run
+) -> None:
+    # `wp changealt` (and `wp move`, `wp update`) send MISSION_WRITE_PARTIAL_LIST: only the
+    # items changed are uploaded again
+    import queue
+    import threading
+
+    cfg = truth_convoy(120.0)
+    base = cfg.link.udp_base_port
+    home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
+
+    def at(n: float, e: float) -> tuple[float, float]:
+        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
+        return lat, lon
+
+    mission = wpl(tmp_path / "mission.txt", [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (16, 0, 0, *at(3, 3))])
+    links: list[Links] = []
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    with background_run(cfg, realtime=True, on_links=links.append) as errors:
+        while not links:
+            time.sleep(0.05)
+        ep = links[0].endpoints[0]
+        proc = subprocess.Popen(
+            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
+             f"--cmd=wp load {mission}"],
+            cwd=tmp_path, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+        )  # fmt: skip
+        assert proc.stdin is not None and proc.stdout is not None
+        lines: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
+
+        def wait(done: Callable[[], bool], timeout_s: float = 30.0) -> bool:
+            deadline = time.monotonic() + timeout_s
+            while time.monotonic() < deadline and not done():
+                time.sleep(0.1)
+            return done()
+
+        try:
+            loaded = wait(lambda: len(ep.mission) == 3)
+            before = list(ep.mission)
+            proc.stdin.write("wp changealt 2 7\n")
+            proc.stdin.flush()
+            # in force as it comes, as on Rover: MAVProxy then offers item 3, which it does not
+            # have (its range ends one past the items it changed), and the update times out
+            changed = wait(lambda: ep.mission[2].z == 7.0)
+        finally:
+            proc.kill()
+            proc.wait(timeout=10)
+        out = "".join(lines.queue)
+    assert not errors, errors
+    assert loaded and changed, out[-2000:]
+    after = ep.mission
+    assert after[2].z == 7.0 and (after[2].x, after[2].y) == (before[2].x, before[2].y), out[-2000:]
+    assert [it.z for it in after[:2]] == [it.z for it in before[:2]]  # the rest as they were
