@@ -811,8 +811,9 @@ def recover(report: AuditReport, out_path: Path) -> int:
 
 
 def recover_target_problem(out_path: Path, audited: Path) -> str | None:
-    """Why ``out_path`` cannot take a recovered copy of ``audited`` (None: it can): it exists
-    and is not a regular file, it is the audited log itself, or its folder does not exist.
+    """Why ``out_path`` cannot take a recovered copy of ``audited`` (None: it can): it
+    exists (the log itself, another log, a scenario: a recovery writes over nothing), or its
+    folder does not exist.
 
     Parameters
     ----------
@@ -827,6 +828,7 @@ def recover_target_problem(out_path: Path, audited: Path) -> str | None:
             return problem
         if audited.exists() and out_path.samefile(audited):
             return "that is the log being audited"
+        return "it exists (a recovery writes over nothing: name a new file)"
     if not out_path.parent.is_dir():
         return f"the folder {out_path.parent} does not exist"
     return None

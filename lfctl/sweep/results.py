@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -111,8 +112,15 @@ def append_row(out_dir: Path, row: dict[str, Any]) -> None:
     row : dict
         The run's row.
     """
-    with open(out_dir / JOURNAL, "a", encoding="utf-8") as f:
-        f.write(json.dumps(row, default=str) + "\n")
+    path = out_dir / JOURNAL
+    with open(path, "a+b") as f:
+        # a last line a crash cut short is ended first: the row goes on a line of its own (the
+        # torn one stays, and reading skips it), not onto the fragment, where both would be lost
+        torn = False
+        if f.seek(0, os.SEEK_END) > 0:
+            f.seek(-1, os.SEEK_END)
+            torn = f.read(1) != b"\n"
+        f.write((("\n" if torn else "") + json.dumps(row, default=str) + "\n").encode("utf-8"))
 
 
 def read_journal(out_dir: Path) -> list[dict[str, Any]]:

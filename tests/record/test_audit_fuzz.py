@@ -316,6 +316,7 @@ def test_a_log_cut_anywhere_is_truncated_and_recovers_each_message_once(
             assert rc == 1 and json.loads(text)["ok"] is False
         if n < first_chunk:
             continue
+        out.unlink(missing_ok=True)  # a recovery writes over nothing
         assert recover(rep, out) == rep.figures["messages"]
         again = audit(out)
         assert again.ok and all(f.kind == "recovery" for f in again.findings), (n, again.findings)
@@ -692,6 +693,10 @@ def test_directories_devices_and_sockets_are_refused(logs, tmp_path: Path, capsy
     assert rc == 2 and "--recover" in out
     rc, out = run_cli(["audit", str(logs["zstd"]), "--recover", str(logs["zstd"])], capsys)
     assert rc == 2 and "the log being audited" in out
+    precious = tmp_path / "precious.toml"  # another file: a recovery writes over nothing
+    precious.write_text("[sim]\n")
+    rc, out = run_cli(["audit", str(logs["zstd"]), "--recover", str(precious)], capsys)
+    assert rc == 2 and "exists" in out and precious.read_text() == "[sim]\n"
 
 
 # -- crafted content with valid CRCs ---------------------------------------------------------------

@@ -82,6 +82,10 @@ def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summa
         f.write('{"run": 9, "varia')  # a line cut short by a crash
     journal = read_journal(tmp_path)
     assert [r["run"] for r in journal] == list(range(8))
+    # --resume appends the next row after the torn line, on a line of its own: kept
+    append_row(tmp_path, _row(8, 4, 0.5))
+    assert [r["run"] for r in read_journal(tmp_path)] == list(range(9))
+    journal = [r for r in read_journal(tmp_path) if r["run"] < 8]
     write_meta(tmp_path, {"name": "t", "keys": keys, "followers": ["f1"]})
     write_tables(tmp_path, journal, keys, ["f1"])
     back = read_rows(tmp_path)
