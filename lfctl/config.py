@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from lfctl.checks import NAME_PATTERN, Bound, check_host_port, check_inside, check_name, check_text, read_text_file
+from lfctl.data import builtin_models
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -257,6 +258,8 @@ class VehicleConfig(_Section):
 
     def _check(self) -> None:
         key = self._prefix()
+        if self.fmu is None and self.model not in (known := builtin_models()):
+            raise ConfigError(f"{key}.model must be one of {', '.join(known)}, got {self.model!r}")
         if self.role == "leader":
             for k in ("target", "range_m", "bearing_rad"):
                 if getattr(self, k) is not None:

@@ -38,6 +38,14 @@ def models_dir() -> Path:
     return _folder("fmu_models")
 
 
+def builtin_models() -> list[str]:
+    """Names of the built-in vehicle models (folders of :func:`models_dir` with a ``config.h``)."""
+    folder = models_dir()
+    if not folder.is_dir():
+        return []
+    return sorted(p.name for p in folder.iterdir() if (p / "config.h").is_file())
+
+
 def examples_dir() -> Path:
     """The folder of shipped example scenarios (``convoy.toml``, ...) and missions."""
     return _folder("examples")
@@ -60,6 +68,12 @@ def example_names(suffix: str = ".toml") -> list[str]:
     return sorted(p.stem for p in folder.glob(f"*{suffix}")) if folder.is_dir() else []
 
 
+def sweep_example_names() -> list[str]:
+    """Names of the shipped example sweeps (file stems in ``examples/sweeps``), sorted."""
+    folder = examples_dir() / "sweeps"
+    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
+
+
 def find_example(name: str, suffix: str = ".toml") -> Path | None:
     """The shipped example file called ``name`` (``convoy``, ``convoy.toml``,
     ``square.waypoints``), or None.
@@ -79,13 +93,20 @@ def find_example(name: str, suffix: str = ".toml") -> Path | None:
     return None
 
 
+def _shipped_path(p: Path) -> bool:
+    """``examples/NAME`` where there is no such file: the README's commands, run from a
+    wheel's install (no ``examples`` folder here), name the shipped file."""
+    return len(p.parts) == 2 and p.parts[0] == "examples" and not p.exists()
+
+
 def resolve_scenario(arg: str | Path) -> Path:
     """A scenario argument as a path: an existing file, else a shipped example by name.
 
     Parameters
     ----------
     arg : str or Path
-        A path to a TOML file, or an example's name (``convoy``).
+        A path to a TOML file, or an example's name (``convoy``; ``examples/convoy.toml``
+        too where there is no such file, as the README writes it).
 
     Raises
     ------
@@ -95,7 +116,7 @@ def resolve_scenario(arg: str | Path) -> Path:
     p = Path(arg)
     if p.is_file():
         return p
-    found = find_example(str(arg)) if p.name == str(arg) else None
+    found = find_example(p.name) if p.name == str(arg) or _shipped_path(p) else None
     if found is not None:
         return found
     known = ", ".join(example_names()) or "none found"
@@ -109,7 +130,8 @@ def resolve_mission(arg: str | Path) -> Path:
     Parameters
     ----------
     arg : str or Path
-        A path to a QGC WPL file, or a shipped mission's name.
+        A path to a QGC WPL file, or a shipped mission's name (``examples/square.waypoints``
+        too where there is no such file, as the README writes it).
 
     Raises
     ------
@@ -118,11 +140,13 @@ def resolve_mission(arg: str | Path) -> Path:
         shipped ones. A path with a folder is returned as it is, for the reader to judge.
     """
     p = Path(arg)
-    if p.is_file() or p.name != str(arg):
+    if p.is_file() or (p.name != str(arg) and not _shipped_path(p)):
         return p  # a path with a folder is the user's file: reading it names what is wrong
     found = find_example(p.name, ".waypoints")
     if found is not None:
         return found
+    if p.name != str(arg):
+        return p
     known = ", ".join(f"{n}.waypoints" for n in example_names(".waypoints"))
     raise ConfigError(
         f"cannot read mission {str(arg)!r}: no such file here, nor a shipped mission (shipped: {known or 'none found'})"

@@ -91,6 +91,10 @@ def test_defaults_fill_the_sim_section() -> None:
         ),
         ("[sim\n", r"not valid TOML"),
         (LEADER + "[camera]\ntracker = 'kcf'\n", r"camera\.tracker must be one of 'full', 'hs-lbp', 'hue', got 'kcf'"),
+        (
+            LEADER + "model = 'Tank'\n",
+            r"vehicles\[leader\]\.model must be one of KinematicUnicycle, SkidSteerRover, got 'Tank'",
+        ),
     ],
 )
 def test_bad_scenarios_name_the_key(text: str, message: str) -> None:

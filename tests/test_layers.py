@@ -21,7 +21,7 @@ ALLOWED = {
     "errors": set(),
     "checks": {"errors"},
     "frames": set(),
-    "config": {"checks", "errors"},
+    "config": {"checks", "data", "errors"},
     "data": {"errors"},
     "schedule": set(),
     "video": {"errors"},

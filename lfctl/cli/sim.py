@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lfctl.cli.options import integer, number
+from lfctl.data import example_names
 
 if TYPE_CHECKING:
     from lfctl.config import Config
@@ -26,8 +27,8 @@ def register(sub: Any) -> None:
     s = sub.add_parser(
         "sim",
         help="run a scenario and print a summary",
-        description="Run a scenario (a TOML file, or a shipped example by name: convoy, column5, vee, survey) "
-        "in the co-simulation and print a summary.",
+        description="Run a scenario (a TOML file, or a shipped example by name: "
+        f"{', '.join(example_names()) or 'none found'}) in the co-simulation and print a summary.",
     )
     s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example (convoy)")
     s.add_argument(

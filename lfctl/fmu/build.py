@@ -27,7 +27,7 @@ from pathlib import Path
 import fmpy
 import platformdirs
 
-from lfctl.data import models_dir
+from lfctl.data import builtin_models, models_dir
 from lfctl.errors import BuildToolError, FmuError
 
 __all__ = [
@@ -152,10 +152,7 @@ def parse_model_source(folder: Path) -> ModelSource:
 
 def available_models() -> list[str]:
     """Names of the built-in models (folders of fmu_models/ with a config.h)."""
-    folder = models_dir()
-    if not folder.is_dir():
-        return []
-    return sorted(p.name for p in folder.iterdir() if (p / "config.h").is_file())
+    return builtin_models()
 
 
 def _units_element(parent: ET.Element, units: set[str], fmi_version: int) -> None:

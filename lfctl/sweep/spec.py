@@ -55,7 +55,7 @@ import numpy as np
 import tomli_w
 
 from lfctl.config import Config, config_from_table, resolve_paths
-from lfctl.data import examples_dir, resolve_scenario
+from lfctl.data import examples_dir, resolve_scenario, sweep_example_names
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -312,8 +312,7 @@ def sweeps_dir() -> Path:
 
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps (file stems), sorted."""
-    folder = sweeps_dir()
-    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
+    return sweep_example_names()
 
 
 def find_sweep(arg: str | Path) -> Path:

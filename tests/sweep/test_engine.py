@@ -110,7 +110,7 @@ def _crashing_task(run: Run, out_dir: str, logs: str) -> dict:
 def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp_path: Path) -> None:
     (tmp_path / "s.toml").write_text(
         'scenario = "convoy"\nseeds = 3\n[set]\n"sim.duration_s" = 2.0\n"sim.sensing" = "truth"\n'
-        '[grid]\n"vehicles[follower1].model" = ["SkidSteerRover", "NoSuchModel"]\n'
+        '[grid]\n"vehicles[follower1].parameters" = [{}, {no_such_param = 1.0}]\n'
     )
     # one worker: one run in flight, so a dying worker takes no other run with it
     result = run_sweep(tmp_path / "s.toml", tmp_path / "out", workers=1, task=_crashing_task, logs="failed")
@@ -119,9 +119,10 @@ def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp
     assert (tmp_path / "out" / "killed-run-1").exists()  # run 1 (seed 2) did die once, then ran again
     assert by_run[1]["follower1.tracking_s"] > 1.0 and by_run[1]["sim_time_s"] == pytest.approx(2.0)
     assert by_run[2]["error"].startswith("KilledWorker: every worker that ran it died")
+    # a parameter the model does not have: found only when the FMU is loaded, in the run
     assert (
-        by_run[3]["error"]
-        == "FmuError: unknown built-in model 'NoSuchModel' (known: KinematicUnicycle, SkidSteerRover)"
+        by_run[3]["error"].startswith("ConfigError: ")
+        and "parameter 'no_such_param' does not exist" in by_run[3]["error"]
     )
     assert by_run[0]["log_path"] == "" and not list((tmp_path / "out" / "logs").glob("*.mcap"))  # ok: deleted
     assert [s["failed"] for s in result.summary.rows] == [1, 3]
