@@ -42,8 +42,9 @@ def register(sub: Any) -> None:
     )
     gd.add_argument("file", type=Path, nargs="?")
     gsub.add_parser("clear", help="clear the mission")
-    gm = gsub.add_parser("mode", help="set the mode: MANUAL, HOLD, AUTO, GUIDED")
-    gm.add_argument("mode", type=str.upper, choices=("MANUAL", "HOLD", "AUTO", "GUIDED"))
+    modes = ("MANUAL", "HOLD", "AUTO", "GUIDED", "RTL", "SMART_RTL")  # every mode lfctl's vehicles fly
+    gm = gsub.add_parser("mode", help=f"set the mode: {', '.join(modes)}")
+    gm.add_argument("mode", type=str.upper, choices=modes)
     gsub.add_parser("arm", help="arm")
     gsub.add_parser("disarm", help="disarm")
     gp = gsub.add_parser("param", help="parameters: list, get NAME, set NAME VALUE, save FILE, load FILE")

@@ -231,6 +231,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)
     path: Path | None = run_path(cfg) if cfg.recording.enabled and not args.no_record else None
     handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    logged: list[Path] = []
     try:  # an FMU stuck in a step ignores the handlers: the watchdog ends the run instead
         with BlockedCallWatchdog():
             report = run_scenario(
@@ -242,7 +243,12 @@ def run(args: argparse.Namespace) -> int:
                 live=live,
                 video=video,
                 on_live=lambda port: announce_live(port, live[0]) if live is not None else None,
+                on_log=logged.append,
             )
+    except KeyboardInterrupt:
+        if logged and logged[0].exists():  # finished, "interrupted" in its end metadata
+            print(f"\nlog          {logged[0]}  (interrupted; check it with `lfctl audit {logged[0]}`)", flush=True)
+        raise
     finally:
         for sig, handler in handlers.items():
             signal.signal(sig, handler)

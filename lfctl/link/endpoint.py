@@ -59,13 +59,13 @@ log = logging.getLogger(__name__)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
 NOT_ARMABLE = frozenset((MODES["RTL"], MODES["SMART_RTL"]))
-#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks: ArduPilot's
 #: the slowest speed Rover's waypoint navigation takes (AR_WPNAV_SPEED_MIN), m/s
 WP_SPEED_MIN_MPS = 0.05
 #: SPEED_TYPE_ENUM_END: DO_CHANGE_SPEED's speed type past the last, DENIED as a climb speed
 SPEED_TYPE_ENUM_END = 4
 #: the largest int32: a MISSION_ITEM's x or y that is not a place must fit the item's integers
 INT32_MAX = 2**31 - 1
+#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks: ArduPilot's
 #: magic_force_arm_value (MAVProxy's `arm throttle force`); 21196, its force-disarm value, does
 #: not force an arm
 FORCE_ARM = 2989.0

@@ -398,7 +398,7 @@ class Recorder:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise RecordError(f"cannot create the log folder {path.parent}: {exc}") from exc
+            raise RecordError(f"cannot create the log folder {path.parent} (recording.dir): {exc}") from exc
         for n in range(1, _MAX_SUFFIX + 1):
             candidate = path if n == 1 else path.with_name(f"{path.stem}-{n}{path.suffix}")
             try:  # created exclusively: a concurrent run cannot take the same name

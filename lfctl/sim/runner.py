@@ -387,6 +387,7 @@ def run_scenario(
     live: tuple[str, int] | None = None,
     video: tuple[str, int] | None = None,
     on_live: Callable[[int], None] | None = None,
+    on_log: Callable[[Path], None] | None = None,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -428,6 +429,9 @@ def run_scenario(
         camera component that announces its stream.
     on_live : callable, optional
         Told the Foxglove WebSocket's port once it listens.
+    on_log : callable, optional
+        Told the MCAP log's path once it is open (a name taken gets ``-2``, ...): where an
+        interrupted run's finished log is.
 
     Raises
     ------
@@ -446,6 +450,8 @@ def run_scenario(
             tap = None
             if recorder is not None:
                 recorder.attach_fmus(sim.fmu_paths)  # provenance first: before any message
+                if on_log is not None and recorder.path is not None:
+                    on_log(recorder.path)
                 if mission is not None:
                     recorder.attach(f"mission/{mission.path.name}", "text/plain", mission.data)
                 if on_live is not None and recorder.live_port is not None:

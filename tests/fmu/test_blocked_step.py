@@ -20,11 +20,11 @@ from lfctl.record.audit import audit
 pytestmark = [pytest.mark.fmu, pytest.mark.integration]
 
 
-def start_sim(scenario: Path, tmp: Path, mark: Path) -> subprocess.Popen[str]:
+def start_sim(scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DEVNULL) -> subprocess.Popen[str]:
     env = dict(os.environ, TMPDIR=str(tmp), LFCTL_TEST_FMU_MARK=str(mark))
     return subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scenario), "-q"],
-        stdout=subprocess.DEVNULL,
+        stdout=stdout,
         stderr=subprocess.PIPE,
         text=True,
         env=env,
@@ -75,7 +75,7 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
     scen.write_text(
         faulty_scenario(faulty.fmi2, 0, 0.0, logs, duration_s=600.0).replace("[sim]", "[sim]\nclock = 'realtime'")
     )
-    proc = start_sim(scen, tmp, tmp_path / "unused")
+    proc = start_sim(scen, tmp, tmp_path / "unused", stdout=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 60
         while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
@@ -91,4 +91,5 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
     assert (rc, proc.stderr.read()) == (130, "lfctl: interrupted\n")
     (log,) = logs.glob("*.mcap")
     assert audit(log).figures["end"]["reason"] == "interrupted"
+    assert proc.stdout is not None and f"log          {log}  (interrupted;" in proc.stdout.read()  # where it went
     assert list(tmp.iterdir()) == []

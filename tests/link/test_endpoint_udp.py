@@ -117,6 +117,13 @@ def test_mission_round_trip_upload_download_clear(
     assert main([*connect, "download"]) == 0
     assert main([*connect, "arm"]) == 0
     assert capsys.readouterr().out.splitlines()[-2:] == ["system 1 has no mission", "arm: MAV_RESULT_ACCEPTED"]
+    # every mode the vehicles fly, RTL and SmartRTL too (any case)
+    assert main([*connect, "mode", "rtl"]) == 0 and live.ep.mode == MODES["RTL"]
+    assert main([*connect, "mode", "hold"]) == 0 and live.ep.mode == MODES["HOLD"]
+    assert capsys.readouterr().out.splitlines()[-2:] == [
+        "mode RTL: MAV_RESULT_ACCEPTED",
+        "mode HOLD: MAV_RESULT_ACCEPTED",
+    ]
 
 
 def test_invalid_latitude_is_rejected_and_the_old_mission_stays(live: LiveEndpoint) -> None:
