@@ -39,6 +39,10 @@ __all__ = ["TIME_MARK_S", "plot_all"]
 
 #: a time mark on every trajectory this often, s of simulation time
 TIME_MARK_S = 10.0
+#: marks nearer than this share of the time axis to the one before share its label
+LABEL_GAP_FRAC = 0.02
+#: a pose series' line is broken where no pose came for this many usual steps
+GAP_STEPS = 3.0
 
 
 def _scenario(c: Contents) -> Config | None:
@@ -188,16 +192,44 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
 
 
 def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> None:
-    """Scenario events (red dotted) and mode changes (grey dashed) as vertical lines."""
+    """Scenario events (red dotted) and mode changes (grey dashed) as vertical lines; with
+    ``label``, their names, those closer than :data:`LABEL_GAP_FRAC` of the time axis to the
+    one before written as one label (side by side they overlap), inside the axes."""
     top = ax.get_ylim()[1]
-    for t, text in events:
+    for t, _text in events:
         ax.axvline(t, color="tab:red", ls=":", lw=1.2)
-        if label:
-            ax.text(t, top, " " + text, rotation=90, va="top", ha="left", fontsize=7, color="tab:red")
-    for t, vehicle, mode in modes:
+    for t, _vehicle, _mode in modes:
         ax.axvline(t, color="grey", ls="--", lw=0.8)
-        if label:
-            ax.text(t, top, f" {vehicle}: {mode}", rotation=90, va="top", ha="right", fontsize=7, color="dimgrey")
+    if not label:
+        return
+    lo, hi = ax.get_xlim()
+    gap = LABEL_GAP_FRAC * (hi - lo)
+    for (t, text), ha, color in (
+        *((g, "left", "tab:red") for g in _grouped([(t, x) for t, x in events], gap)),
+        *((g, "right", "dimgrey") for g in _grouped([(t, f"{v}: {m}") for t, v, m in modes], gap)),
+    ):
+        ax.text(t, top, " " + text, rotation=90, va="top", ha=ha, fontsize=7, color=color, clip_on=True)
+
+
+def _broken(t: np.ndarray, series: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
+    """``t`` and ``series`` with a NaN put in each gap longer than :data:`GAP_STEPS` times the
+    usual step (matplotlib breaks a line at a NaN)."""
+    if len(t) < 3:
+        return t, series
+    steps = np.diff(t)
+    cut = np.flatnonzero(steps > GAP_STEPS * float(np.median(steps))) + 1
+    return np.insert(t, cut, np.nan), [np.insert(s.astype(float), cut, np.nan) for s in series]
+
+
+def _grouped(marks: list[tuple[float, str]], gap: float) -> list[tuple[float, str]]:
+    """Marks in time order, each within ``gap`` of the group's first joined into it (" / ")."""
+    out: list[tuple[float, str]] = []
+    for t, text in sorted(marks):
+        if out and t - out[-1][0] < gap:
+            out[-1] = (out[-1][0], f"{out[-1][1]} / {text}")
+        else:
+            out.append((t, text))
+    return out
 
 
 def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
@@ -236,8 +268,10 @@ def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
     for ax, label in ((a1, True), (a2, False), (a3, False)):
         _marks(ax, events, modes, label)
         ax.grid(alpha=0.3)
-    a1.plot([], [], color="tab:red", ls=":", label="scenario event")
-    a1.plot([], [], color="grey", ls="--", label="mode change")
+    if events:
+        a1.plot([], [], color="tab:red", ls=":", label="scenario event")
+    if modes:
+        a1.plot([], [], color="grey", ls="--", label="mode change")
     a1.legend(loc="lower right", fontsize=8)
     a2.legend(loc="lower right", fontsize=8)
     a1.set_title(f"{follower}: formation errors (truth) and track state")
@@ -251,10 +285,15 @@ def _pose(plt: Any, c: Contents, follower: str, path: Path) -> bool:
         return False
     t = np.array([x[0] for x in msgs])
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(11, 6), sharex=True)
-    a1.plot(t, [m["truth_range_m"] for _, m in msgs], color="black", lw=1.5, label="truth")
+    # the truth is logged with each pose found: across the frames without one (the banner
+    # hidden) the line is broken, not drawn straight through what was not measured
+    t_line, (truth_range, truth_bearing) = _broken(
+        t, [np.array([m["truth_range_m"] for _, m in msgs]), np.array([m["truth_bearing_deg"] for _, m in msgs])]
+    )
+    a1.plot(t_line, truth_range, color="black", lw=1.5, label="truth (where a pose was found)")
     a1.plot(t, [m["range_m"] for _, m in msgs], ".", color="tab:orange", ms=2.5, label="estimate (markers)")
     a1.set_ylabel("range (m)")
-    a2.plot(t, [m["truth_bearing_deg"] for _, m in msgs], color="black", lw=1.5, label="truth")
+    a2.plot(t_line, truth_bearing, color="black", lw=1.5, label="truth (where a pose was found)")
     a2.plot(t, [m["bearing_deg"] for _, m in msgs], ".", color="tab:orange", ms=2.5, label="estimate (markers)")
     a2.set_ylabel("bearing (deg)")
     a2.set_xlabel("simulation time (s)")

@@ -455,3 +455,18 @@ def test_the_scene_shows_each_vehicles_own_tag(tmp_path: Path) -> None:
         _body, _panel, *print_ = e.cubes
         assert len(print_) == 1 and print_[0].size.y == pytest.approx(cfg.banner.tag_size_m)
         assert print_[0].color.r < 0.1  # black, not the markers' red
+
+
+def test_plot_lines_break_at_gaps_and_close_marks_share_a_label() -> None:
+    import numpy as np
+
+    from lfctl.record.plots import _broken, _grouped
+
+    t = np.array([0.0, 0.1, 0.2, 1.5, 1.6])  # no pose from 0.2 s to 1.5 s
+    t2, (v,) = _broken(t, [np.array([1.0, 2.0, 3.0, 4.0, 5.0])])
+    assert np.isnan(t2[3]) and np.isnan(v[3]) and list(t2[[0, 4]]) == [0.0, 1.5] and len(v) == 6
+    assert _grouped([(42.0, "b"), (40.0, "a"), (40.5, "c"), (60.0, "d")], gap=1.0) == [
+        (40.0, "a / c"),
+        (42.0, "b"),
+        (60.0, "d"),
+    ]
