@@ -41,6 +41,13 @@ class VideoSource:
         """Frames per second the source declares (30 when it declares none)."""
         return float(self._cap.get(cv2.CAP_PROP_FPS) or 30.0)
 
+    @property
+    def declared_frames(self) -> int | None:
+        """How many frames a video file's container says it holds (None for a camera or a
+        stream, or a file that does not say)."""
+        n = self._cap.get(cv2.CAP_PROP_FRAME_COUNT)
+        return int(n) if n and n > 0 and Path(self.name).is_file() else None
+
     def read(self) -> np.ndarray | None:
         """The next frame (BGR, uint8), or None at the end of the source."""
         ok, frame = self._cap.read()

@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import json
 import math
+import sys
 from typing import TYPE_CHECKING, Any
 
 from lfctl.cli.options import integer, number, video_out
@@ -76,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     n = 0
     writer = None
     with VideoSource(args.source) as video:
+        declared = video.declared_frames
         perception = None
         try:
             while args.max_frames is None or n < args.max_frames:
@@ -132,4 +134,7 @@ def run(args: argparse.Namespace) -> int:
                 writer.release()
     if n == 0:
         raise ConfigError(f"video source {args.source!r} gave no frames")
+    if (args.max_frames is None or n < args.max_frames) and declared is not None and n < declared - 1:
+        # (a container's count may be one off): a cut or damaged file ends early
+        print(f"lfctl track: {args.source} ended after {n} of the {declared} frames it declares", file=sys.stderr)
     return 0

@@ -55,6 +55,14 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
     assert len(with_pose) >= 27
     err = np.array([(r["pose"]["range_m"] - tr.range_m) / tr.range_m for r, tr in with_pose])
     assert np.sqrt(np.mean(err**2)) < 0.02
+    assert "ended after" not in capsys.readouterr().err  # the whole file: nothing to say
+    # the same file cut short (a copy that stopped, a damaged card): said, with what it declares
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(video.read_bytes()[: video.stat().st_size // 2])
+    assert main(["track", str(cut)]) == 0
+    captured = capsys.readouterr()
+    n = len([line for line in captured.out.splitlines() if line.startswith("{")])
+    assert 0 < n < 30 and f"{cut} ended after {n} of the 30 frames it declares" in captured.err
 
 
 @pytest.mark.parametrize(
