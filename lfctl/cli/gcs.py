@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
         gcs.wait_heartbeat()
         action = args.action
         if plan is not None:  # upload
+            _warn_if_far(gcs, plan, args.file)
             gcs.upload(plan.mission)
             said = f"uploaded {counted(len(plan.mission) - 1, 'item')} (+ home)"
             if plan.plan:  # a plan's three lists go together, as QGroundControl uploads them
@@ -299,6 +300,30 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
 def _fence_and_rally(fence: list[Any], rally: list[Any]) -> str:
     """What a plan's other two lists held, for the line that says what went up or came down."""
     return f", a fence of {counted(len(fence), 'item')} and {counted(len(rally), 'rally point')}"
+
+
+def _warn_if_far(gcs: Any, plan: Any, name: str) -> None:
+    """Say (on stderr) when a plan's place is far from the vehicle's home (HOME_POSITION, asked
+    for with GET_HOME_POSITION): a plan made for another site. It is uploaded all the same, as
+    a Rover takes it; a vehicle that does not answer within 2 s is not checked."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    from lfctl.errors import LinkTimeoutError
+    from lfctl.link.mission import far_place
+
+    try:
+        gcs.send(mav.MAVLink_command_long_message(gcs.target, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
+        home = gcs.wait(("HOME_POSITION",), timeout_s=min(2.0, gcs.timeout_s))
+    except LinkTimeoutError:
+        return
+    where = (home.latitude / 1e7, home.longitude / 1e7, home.altitude / 1000.0)
+    far = far_place(plan, where)
+    if far is not None:
+        print(
+            f"lfctl gcs: warning: {name}: {far} the vehicle's home {where[0]:.7f}, {where[1]:.7f} "
+            "(a plan for another site? uploading it anyway, as a Rover takes it)",
+            file=sys.stderr,
+        )
 
 
 def _upload_rest(gcs: Any, lists: list[tuple[str, list[Any], int]]) -> None:

@@ -56,6 +56,7 @@ __all__ = [
     "MissionItem",
     "check_site",
     "command_name",
+    "far_place",
     "home_item",
     "is_nav",
     "load_mission",
@@ -582,19 +583,18 @@ class MissionFile:
 MAX_SITE_M = 100_000.0
 
 
-def check_site(found: MissionFile, home: tuple[float, float, float], where: str) -> None:
-    """Refuse a mission file planned for another site: a place (a mission item's, where
-    latitude and longitude 0 is "here"; a fence vertex or circle centre; a rally point) farther than
-    :data:`MAX_SITE_M` from ``home`` is a ConfigError naming it, its distance and the home.
+def far_place(found: MissionFile, home: tuple[float, float, float]) -> str | None:
+    """The first place in a mission file farther than :data:`MAX_SITE_M` from ``home`` (a
+    mission item's, where latitude and longitude 0 is "here"; a fence vertex or circle
+    centre; a rally point), said as "mission item 1 (NAV_WAYPOINT) at LAT, LON is N km
+    from"; None when every place is near.
 
     Parameters
     ----------
     found : MissionFile
         What the file holds.
     home : (lat_deg, lon_deg, alt_m)
-        The local frame's origin the vehicles start about.
-    where : str
-        The file, for the message.
+        Where the vehicles are.
     """
     from lfctl.frames import geodetic_to_ned
 
@@ -607,11 +607,32 @@ def check_site(found: MissionFile, home: tuple[float, float, float], where: str)
             n, e, _ = geodetic_to_ned(lat, lon, 0.0, home[0], home[1], 0.0)
             far = math.hypot(n, e)
             if not far <= MAX_SITE_M:
-                raise ConfigError(
-                    f"{where}: {what} {it.seq} ({command_name(it.command)}) at {lat:.7f}, {lon:.7f} is "
-                    f"{far / 1000:.0f} km from the scenario's home {home[0]:.7f}, {home[1]:.7f}: the plan "
-                    "is for another site; set link.home_lat_deg and link.home_lon_deg to where it was made"
+                return (
+                    f"{what} {it.seq} ({command_name(it.command)}) at {lat:.7f}, {lon:.7f} is {far / 1000:.0f} km from"
                 )
+    return None
+
+
+def check_site(found: MissionFile, home: tuple[float, float, float], where: str) -> None:
+    """Refuse a mission file planned for another site: a place farther than
+    :data:`MAX_SITE_M` from ``home`` (:func:`far_place`) is a ConfigError naming it, its
+    distance and the home.
+
+    Parameters
+    ----------
+    found : MissionFile
+        What the file holds.
+    home : (lat_deg, lon_deg, alt_m)
+        The local frame's origin the vehicles start about.
+    where : str
+        The file, for the message.
+    """
+    far = far_place(found, home)
+    if far is not None:
+        raise ConfigError(
+            f"{where}: {far} the scenario's home {home[0]:.7f}, {home[1]:.7f}: the plan is for another site; "
+            "set link.home_lat_deg and link.home_lon_deg to where it was made"
+        )
 
 
 def load_mission(path: str | Path) -> list[MissionItem]:

@@ -124,6 +124,16 @@ def test_mission_round_trip_upload_download_clear(
         "mode RTL: MAV_RESULT_ACCEPTED",
         "mode HOLD: MAV_RESULT_ACCEPTED",
     ]
+    # a plan made for another site goes up, as a Rover takes it, with a warning naming the place
+    far = tmp_path / "far.waypoints"
+    far.write_text("QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t52.0\t4.0\t0\t1\n1\t0\t3\t16\t0\t0\t0\t0\t52.0\t4.0\t0\t1\n")
+    assert main([*connect, "upload", str(far)]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "mission item 1 (NAV_WAYPOINT) at 52.0000000, 4.0000000 is" in err
+    assert "km from the vehicle's home" in err and len(live.ep.mission) == 2
+    save_mission(local_mission(SQUARE, HOME), tmp_path / "near.waypoints")
+    assert main([*connect, "upload", str(tmp_path / "near.waypoints")]) == 0
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_invalid_latitude_is_rejected_and_the_old_mission_stays(live: LiveEndpoint) -> None:
