@@ -303,24 +303,16 @@ def _fence_and_rally(fence: list[Any], rally: list[Any]) -> str:
 
 
 def _warn_if_far(gcs: Any, plan: Any, name: str) -> None:
-    """Say (on stderr) when a plan's place is far from the vehicle's home (HOME_POSITION, asked
-    for with GET_HOME_POSITION): a plan made for another site. It is uploaded all the same, as
-    a Rover takes it; a vehicle that does not answer within 2 s is not checked."""
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
-    from lfctl.errors import LinkTimeoutError
+    """Say (on stderr) when a plan's place is far from the vehicle's home: a plan made for
+    another site. It is uploaded all the same, as a Rover takes it; a vehicle that does not
+    tell its home within 2 s is not checked."""
     from lfctl.link.mission import far_place
 
-    try:
-        gcs.send(mav.MAVLink_command_long_message(gcs.target, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
-        home = gcs.wait(("HOME_POSITION",), timeout_s=min(2.0, gcs.timeout_s))
-    except LinkTimeoutError:
-        return
-    where = (home.latitude / 1e7, home.longitude / 1e7, home.altitude / 1000.0)
-    far = far_place(plan, where)
+    home = gcs.home(timeout_s=min(2.0, gcs.timeout_s))
+    far = far_place(plan, home) if home is not None else None
     if far is not None:
         print(
-            f"lfctl gcs: warning: {name}: {far} the vehicle's home {where[0]:.7f}, {where[1]:.7f} "
+            f"lfctl gcs: warning: {name}: {far} the vehicle's home {home[0]:.7f}, {home[1]:.7f} "
             "(a plan for another site? uploading it anyway, as a Rover takes it)",
             file=sys.stderr,
         )

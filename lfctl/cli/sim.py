@@ -140,7 +140,7 @@ def print_report(report: RunReport) -> None:
     else:
         print(f"leader       {modes}; scripted speed / yaw-rate profile (no [mission] waypoints)")
     for c in report.mission_changes:
-        what = f"replaced ({c.items} items)" if c.items else "cleared"
+        what = f"edited ({c.items} items)" if c.edit else f"replaced ({c.items} items)" if c.items else "cleared"
         print(f"             {c.kind} {what} by system {c.sysid} at {c.t_s:.1f} s")
     if report.metrics and cfg.script.followers == "formation":
         print()

@@ -14,6 +14,7 @@ import numpy as np
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
 from lfctl.link.companion import Companion
+from lfctl.link.params import set_values
 from lfctl.video import VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
 
@@ -100,8 +101,8 @@ def follow_rover(
         The run's clock, s, for the steps' ``t_s`` (default: seconds since the loop
         started); give the one the steps are logged on, so they and the link's packets share it.
     """
-    for name, value in formation_param_values(settings).items():  # a ground station may set them
-        companion.params[name].value = value
+    # a ground station may set them; each must be one it could set
+    set_values(companion.params, formation_param_values(settings), "lfctl follow")
     companion.wait_vehicle(timeout_s, rate_hz)
     companion.set_guided()
     if arm:

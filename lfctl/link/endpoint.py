@@ -281,10 +281,16 @@ class VehicleEndpoint:
         self.params = default_params(sysid)
         self.param_server = ParamServer(self.params, self.send, self.statustext)
         self.missions = MissionServer(
-            self.send, self.statustext, self._list_changed, running=self._mission_running, home=self._home_item
+            self.send,
+            self.statustext,
+            self._list_changed,
+            running=self._mission_running,
+            home=self._home_item,
+            on_edit=self._list_edited,
         )
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.mission_restarts = 0  # bumps when the mission restarts from its start (DO_JUMP's counts too)
+        self.mission_edits = 0  # bumps when items of the mission are changed in place (a partial update)
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
         self.stats = LinkStats()
@@ -1110,20 +1116,28 @@ class VehicleEndpoint:
             self.param_server.set(m)
 
     # -- missions, fence, rally -------------------------------------------------------------
-    def _list_changed(self, mission_type: int, items: list[MissionItem], done: bool = True) -> None:
-        # done False: an item of a partial update written, the update not over (no words yet)
+    def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
         if mission_type == MISSION:
             self.mission_version += 1
             self.mission_complete = False
-            if items and done:  # Rover's words on a mission received (scripts wait for them); a clear is silent
+            if items:  # Rover's words on a mission received (scripts wait for them); a clear is silent
                 self.statustext("Flight plan received", mav.MAV_SEVERITY_INFO)
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
             self.statustext(f"Fence accepted: {len(items)} items", mav.MAV_SEVERITY_INFO)
         elif mission_type == RALLY:
             self.rally = rally_points(items, self.home)
-            if done:
-                self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
+            self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
+
+    def _list_edited(self, mission_type: int, items: list[MissionItem]) -> None:
+        """Items changed in place (a partial update): the mission is the same mission, edited
+        (not finished again, its DO_JUMP counts kept); the fence and rally points as they are now."""
+        if mission_type == MISSION:
+            self.mission_edits += 1
+        elif mission_type == FENCE:
+            self.fence = Fence.from_items(items, self.home)
+        elif mission_type == RALLY:
+            self.rally = rally_points(items, self.home)
 
     def store_mission(self, items: list[MissionItem]) -> None:
         """Make ``items`` (item 0 = home) the mission in force, item 1 current, as a finished

@@ -182,6 +182,22 @@ class GroundStation:
             detail=f"{retries} tries",
         )
 
+    def home(self, timeout_s: float | None = None) -> tuple[float, float, float] | None:
+        """The vehicle's home (latitude deg, longitude deg, altitude m above mean sea level),
+        asked for with MAV_CMD_GET_HOME_POSITION; None when no HOME_POSITION comes in time.
+
+        Parameters
+        ----------
+        timeout_s : float, optional
+            Longest wait, s (default :attr:`timeout_s`).
+        """
+        self.send(mav.MAVLink_command_long_message(self.target, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, *[0.0] * 7))
+        try:
+            m = self.wait(("HOME_POSITION",), timeout_s=timeout_s)
+        except LinkTimeoutError:
+            return None
+        return m.latitude / 1e7, m.longitude / 1e7, m.altitude / 1000.0
+
     def set_mode(self, name: str) -> int:
         """Ask for a Rover mode (MAV_CMD_DO_SET_MODE); returns the MAV_RESULT.
 

@@ -5,7 +5,8 @@ Upload (MISSION_COUNT, then the vehicle asks for each item with MISSION_REQUEST_
 per-item timeouts and retries, and ends with MISSION_ACK), download (MISSION_REQUEST_LIST,
 MISSION_COUNT, MISSION_REQUEST_INT -> MISSION_ITEM_INT), clear (MISSION_CLEAR_ALL) and the
 current item. An upload is checked item by item and as a whole before it replaces the list
-in force; a refused upload leaves it as it was. No operation on one list touches another.
+in force; a refused upload leaves it as it was (a partial update, MISSION_WRITE_PARTIAL_LIST,
+edits the list in place item by item as Rover's does: one refused half way keeps what came). No operation on one list touches another.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ class _Upload:
 
 @dataclass(frozen=True)
 class ListChange:
-    """A list replaced or cleared.
+    """A list replaced, cleared, or edited in place (a partial update that ended accepted).
 
     Parameters
     ----------
@@ -68,6 +69,8 @@ class ListChange:
         Who changed it (0, 0: the vehicle itself).
     items : int
         How many items it holds now.
+    edit : bool
+        Items changed in place (MISSION_WRITE_PARTIAL_LIST): the same mission, edited.
     """
 
     kind: str
@@ -75,6 +78,7 @@ class ListChange:
     sysid: int
     compid: int
     items: int
+    edit: bool = False
 
 
 #: the frame a downloaded item with a place carries for the frame it was stored in: Rover's
@@ -170,9 +174,11 @@ class MissionServer:
     statustext : callable
         Tells the ground station a line of text.
     on_change : callable
-        Told ``(mission_type, items, done)`` when a list is replaced, before the ACK goes out
-        (``done`` True), and as each item of a partial update of the mission or the rally
-        points is written (``done`` False: the update is not over).
+        Told ``(mission_type, items)`` when a list is replaced, before the ACK goes out.
+    on_edit : callable, optional
+        Told ``(mission_type, items)`` when items of a list are changed in place (a partial
+        update: the mission's and the rally points' as each item comes, the fence's once
+        the last has come); the list is the same object, edited.
     running : callable, optional
         Whether the mission is being flown (AUTO): it cannot be cleared then, as on Rover.
     home : callable, optional
@@ -184,13 +190,15 @@ class MissionServer:
         self,
         send: Callable[[Any], None],
         statustext: Callable[[str], None],
-        on_change: Callable[[int, list[MissionItem], bool], None],
+        on_change: Callable[[int, list[MissionItem]], None],
         running: Callable[[], bool] | None = None,
         home: Callable[[], MissionItem] | None = None,
+        on_edit: Callable[[int, list[MissionItem]], None] | None = None,
     ) -> None:
         self.send = send
         self.statustext = statustext
         self.on_change = on_change
+        self.on_edit = on_edit or (lambda mission_type, items: None)
         self.running = running or (lambda: False)
         self.home = home
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
@@ -203,9 +211,7 @@ class MissionServer:
     def _ack(self, sysid: int, compid: int, result: int, mission_type: int) -> None:
         self.send(mav.MAVLink_mission_ack_message(sysid, compid, result, mission_type))
 
-    def store(
-        self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0, keep_current: bool = False
-    ) -> None:
+    def store(self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0) -> None:
         """Make ``items`` the list of this type in force (checked already).
 
         Parameters
@@ -216,14 +222,12 @@ class MissionServer:
             The items (a mission's item 0 is home).
         sysid, compid : int
             Who changed it (0: the vehicle itself, e.g. a mission stored at boot).
-        keep_current : bool
-            A mission's current item stays (a partial update); else item 1 is current.
         """
         self.lists[mission_type] = list(items)
-        if mission_type == MISSION and not (keep_current and self.current_seq < len(items)):
+        if mission_type == MISSION:
             self.current_seq = 1 if len(items) > 1 else 0
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
-        self.on_change(mission_type, self.lists[mission_type], True)
+        self.on_change(mission_type, self.lists[mission_type])
 
     def _uploading(self, mission_type: int, src: tuple[int, int]) -> bool:
         """An upload of this list is running (for anyone): refuse ``src`` what would clash
@@ -350,40 +354,50 @@ class MissionServer:
         up.next_seq += 1
         up.received_at = t_s
         if up.base is not None and up.mission_type != FENCE:
-            self._write_partial(up)  # as Rover's replace_item: in force at once
+            self._edit(up.mission_type, {item.seq: item})  # as Rover's replace_item: in force at once
         if up.next_seq <= up.final:
             self._request_next(up, t_s)
             return
         del self._uploads[mission_type]
-        items = [up.items[i] for i in range(up.count)] if up.base is None else self._partial_items(up)
+        if up.base is not None:
+            self._finish_partial(up)
+            return
+        items = [up.items[i] for i in range(up.count)]
         if up.mission_type == FENCE and (bad := validate_fence(items)) is not None:
             self._refuse(up, *bad)
             return
-        self.store(up.mission_type, items, up.sysid, up.compid, keep_current=up.base is not None)
+        self.store(up.mission_type, items, up.sysid, up.compid)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
-    @staticmethod
-    def _partial_items(up: _Upload) -> list[MissionItem]:
-        """A partial update's list: the items sent so far replace those there, or come at the end."""
-        assert up.base is not None
-        items = list(up.base)
-        for seq in sorted(up.items):
-            if seq < len(items):
-                items[seq] = up.items[seq]
+    def _edit(self, mission_type: int, items: dict[int, MissionItem]) -> None:
+        """Items of a list changed in place (each replacing the one at its number, or added
+        at the end): the same list object, so the mission being flown is the same mission,
+        edited (its DO_JUMP counts, its state and its number stay, as Rover's replace_cmd
+        leaves them)."""
+        held = self.lists[mission_type]
+        for seq in sorted(items):
+            if seq < len(held):
+                held[seq] = items[seq]
             else:
-                items.append(up.items[seq])
-        return items
+                held.append(items[seq])
+        self.on_edit(mission_type, held)
 
-    def _write_partial(self, up: _Upload) -> None:
-        """Put a partial update's items so far in force (not the fence's: Rover checks a
-        fence whole), without the words a finished upload gets: an update that stops half way
-        (MAVProxy asks to send one item past those it changed, and past the list's end has
-        none to send) keeps what came, as Rover's does."""
-        items = self._partial_items(up)
-        self.lists[up.mission_type] = items
-        if self.current_seq >= len(self.lists[MISSION]):
-            self.current_seq = 1 if len(self.lists[MISSION]) > 1 else 0
-        self.on_change(up.mission_type, items, False)
+    def _finish_partial(self, up: _Upload) -> None:
+        """A partial update's last item came: the fence's items are checked whole and put in
+        force now; the update is ACCEPTED and, ending so, counted as an edit of the list (one
+        that stops half way keeps what came, as Rover's, but is no accepted change)."""
+        if up.mission_type == FENCE:
+            assert up.base is not None
+            whole = list(up.base)
+            for seq in sorted(up.items):
+                whole[seq : seq + 1] = [up.items[seq]]
+            if (bad := validate_fence(whole)) is not None:
+                self._refuse(up, *bad)
+                return
+            self._edit(FENCE, up.items)
+        held = self.lists[up.mission_type]
+        self.changes.append(ListChange(MISSION_TYPES[up.mission_type], self._t_s, up.sysid, up.compid, len(held), True))
+        self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
     def _check_item(self, item: MissionItem, up: _Upload) -> int:
         return item_result(item, up.mission_type, up.count)
@@ -407,10 +421,6 @@ class MissionServer:
         for mtype, up in list(self._uploads.items()):
             if t_s - up.received_at > UPLOAD_TIMEOUT_S:
                 del self._uploads[mtype]
-                if up.base is not None and up.items and mtype != FENCE:  # what came is in force
-                    self.changes.append(
-                        ListChange(MISSION_TYPES[mtype], t_s, up.sysid, up.compid, len(self.lists[mtype]))
-                    )
                 self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
                 self.statustext(f"{MISSION_TYPES[mtype].capitalize()} upload timed out waiting for item {up.next_seq}")
             elif t_s - up.sent_at > ITEM_TIMEOUT_S:
@@ -494,7 +504,7 @@ class MissionServer:
     def mission_number(self) -> int:
         """How many times the mission list has been stored (replaced or cleared): which
         mission is in force, 1 for the first."""
-        return sum(1 for c in self.changes if c.kind == "mission")
+        return sum(1 for c in self.changes if c.kind == "mission" and not c.edit)
 
     def restart(self) -> None:
         """The autopilot restarted: an upload under way is lost (its ground station times

@@ -24,6 +24,7 @@ __all__ = [
     "formation_params",
     "load_param_file",
     "save_param_file",
+    "set_values",
 ]
 
 #: a parameter name: ArduPilot's 16-character limit, letters, digits and underscores
@@ -149,9 +150,9 @@ def formation_params() -> dict[str, Param]:
     search and the law. A simulated follower has them among its vehicle's parameters; on a
     real rover its companion (``lfctl follow``, component 191) has them."""
     return {
-        "LFC_RANGE": Param(1.5, 0.3, 10.0, "m", "formation: commanded range to the target"),
+        "LFC_RANGE": Param(1.5, 0.1, 1000.0, "m", "formation: commanded range to the target"),
         "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
-        "LFC_COAST": Param(2.0, 0.0, 10.0, "s", "formation: coast this long on the filter when the target is hidden"),
+        "LFC_COAST": Param(2.0, 0.0, 3600.0, "s", "formation: coast this long on the filter when the target is hidden"),
         "LFC_SEARCH": Param(
             0.0, 0.0, 360.0, "deg/s", "formation: once the target is lost, turn one full turn at this rate; 0: hold"
         ),
@@ -164,9 +165,32 @@ def formation_params() -> dict[str, Param]:
             kind=INT8,
         ),
         "LFC_LOOKAHEAD": Param(
-            0.3, 0.05, 5.0, "m", "formation: the trail law steers for the point this far along the path"
+            0.3, 0.01, 100.0, "m", "formation: the trail law steers for the point this far along the path"
         ),
     }
+
+
+def set_values(params: dict[str, Param], values: dict[str, float], source: str) -> None:
+    """Start parameters at ``values`` (a scenario's, a command line's), each inside its range:
+    one outside is a ConfigError naming it, as a ground station could not set it back.
+
+    Parameters
+    ----------
+    params : dict of str to Param
+        The table.
+    values : dict of str to float
+        Values by name.
+    source : str
+        Where the values come from, for the message.
+    """
+    for name, value in values.items():
+        p = params[name]
+        if not p.lo <= value <= p.hi:
+            raise ConfigError(
+                f"{source}: {name} would be {value:g}, outside its {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
+                + " (a ground station could not set it back)"
+            )
+        p.value = p.stored(value)
 
 
 class ParamFileError(ConfigError):

@@ -219,8 +219,12 @@ class VehicleDriver:
             )
         me = world.vehicle(self.index)
         self._pos = (me.north_m, me.east_m)
-        if self._key != (ep.mission_version,) or self._autopilot is None:
-            self._start_mission(t_s)
+        key = (ep.mission_version, ep.mission_edits)
+        if self._key != key or self._autopilot is None:
+            if self._autopilot is not None and self._key[:1] == key[:1] and ep.mission_complete:
+                self._key = key  # a finished mission edited in place: nothing more to fly, as on Rover
+            else:
+                self._start_mission(t_s)
         ap = self._autopilot
         assert ap is not None
         if ap.settings.cruise_speed_mps != ep.speed_mps:
@@ -254,14 +258,14 @@ class VehicleDriver:
             and self._restarts == ep.mission_restarts
         )
         self._restarts = ep.mission_restarts
-        resume = same and self._paused == (ep.mission_version,)
+        resume = same and self._paused[:1] == (ep.mission_version,)
         self._paused = ()
         jumps = self._legs[self._leg].jumps if same else ()
         pending: list[MissionItem] = []
         if resume:
             pending = [ep.mission[self._condition[0]]] if self._condition is not None else []
             pending += self._queue
-        self._key = (ep.mission_version,)
+        self._key = (ep.mission_version, ep.mission_edits)
         self._built, self._completed = ep.mission, False
         start = max(1, ep.current_seq)
         self._legs, self._tail = walk_mission(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)

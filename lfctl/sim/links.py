@@ -29,6 +29,7 @@ from lfctl.link.mission import (
     local_mission,
 )
 from lfctl.link.mission_server import CAPACITY, FENCE, MISSION, MISSION_TYPES, RALLY, list_problem
+from lfctl.link.params import set_values
 from lfctl.link.port import MavPort
 from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
@@ -239,11 +240,14 @@ class Links:
             leader.set_armed(True)
         slots = cfg.slots()
         for ep, comp, v in zip(self.endpoints[1:], self.companions, cfg.followers, strict=True):
-            ep.params["LFC_RANGE"].value = slots[v.name].range_m
-            ep.params["LFC_BEARING"].value = math.degrees(slots[v.name].bearing_rad)
-            ep.params["LFC_COAST"].value = cfg.guidance.coast_s
-            ep.params["LFC_SEARCH"].value = search_degps(cfg, v.name)
-            ep.params["LFC_LOOKAHEAD"].value = cfg.guidance.trail_lookahead_m
+            values = {
+                "LFC_RANGE": slots[v.name].range_m,
+                "LFC_BEARING": math.degrees(slots[v.name].bearing_rad),
+                "LFC_COAST": cfg.guidance.coast_s,
+                "LFC_SEARCH": search_degps(cfg, v.name),
+                "LFC_LOOKAHEAD": cfg.guidance.trail_lookahead_m,
+            }
+            set_values(ep.params, values, f"{v.name}'s slot and guidance")  # a ground station may set them
             comp.set_guided()  # as a companion computer does at start-up
             comp.arm()
 

@@ -200,7 +200,7 @@ class TelemetryTask:
         self.recorder = recorder
         self.links = links
         self.followers = followers
-        self._mission_version = -1
+        self._mission_version: tuple[int, int] = (-1, -1)  # the map's mission: its version and edits
         self._missions_stored = 0
         self._events = scenario_events(sim.config)
 
@@ -209,8 +209,8 @@ class TelemetryTask:
         rec = self.recorder
         rec.poses(t_s, st.names, st.pos_ned_m, st.yaw_rad)
         leader = self.links.endpoints[0]
-        if leader.mission_version != self._mission_version:
-            self._mission_version = leader.mission_version
+        if (leader.mission_version, leader.mission_edits) != self._mission_version:
+            self._mission_version = (leader.mission_version, leader.mission_edits)
             seen: dict[int, tuple[float, float]] = {}
             me = st.vehicle(0)
             for leg in to_legs(leader.mission, self.links.home, 1, (me.north_m, me.east_m), leader.rtl_destination):

@@ -18,6 +18,7 @@ from support import left_stopped, wait_until
 from lfctl.cli import main
 from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S, LiveView
 from lfctl.config import parse_config
+from lfctl.errors import ConfigError
 from lfctl.frames import ned_to_geodetic
 from lfctl.link.companion import COMPANION_COMPID, Companion
 from lfctl.link.endpoint import MODES, VehicleEndpoint
@@ -250,9 +251,9 @@ def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_
         assert ask(mav.MAVLink_param_set_message(1, 0, b"WP_SPEED", 1.0, 9)) == []
         assert ask(mav.MAVLink_param_request_read_message(1, 0, b"", 0)) == []  # by index: the autopilot's
         # addressed to it: out of range, unknown, by index past the end: said, the value kept
-        answers = ask(mav.MAVLink_param_set_message(1, COMPANION_COMPID, b"LFC_RANGE", 50.0, 9))
+        answers = ask(mav.MAVLink_param_set_message(1, COMPANION_COMPID, b"LFC_RANGE", 5000.0, 9))
         assert [k for k, _ in answers] == ["STATUSTEXT", "PARAM_VALUE"] and answers[1][1].param_value == 2.5
-        assert "LFC_RANGE rejected: 50 outside 0.3..10 m" in answers[0][1].text
+        assert "LFC_RANGE rejected: 5000 outside 0.1..1000 m" in answers[0][1].text
         ((kind, m),) = ask(mav.MAVLink_param_request_read_message(1, COMPANION_COMPID, b"WP_SPEED", -1))
         assert kind == "STATUSTEXT" and m.text == "Unknown parameter WP_SPEED"
         ((kind, m),) = ask(mav.MAVLink_param_request_read_message(1, COMPANION_COMPID, b"", 6))
@@ -319,3 +320,15 @@ def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banne
     values = [m for m in heard if m.get_type() == "PARAM_VALUE"]
     assert [(m.param_id, m.param_value) for m in values] == [("LFC_RANGE", 2.5), ("LFC_LAW", 2.0)]
     assert any(m.get_type() == "HEARTBEAT" and m.type == mav.MAV_TYPE_ONBOARD_CONTROLLER for m in heard)
+
+
+def test_a_slot_the_companion_could_not_hold_as_a_parameter_is_refused_at_the_start() -> None:
+    # LFC_RANGE is 0.1..1000 m: a value outside would be one a ground station could not set back
+    from lfctl.link.params import formation_params, set_values
+
+    params = formation_params()
+    set_values(params, {"LFC_RANGE": 20.0, "LFC_LAW": 2.0}, "lfctl follow")
+    assert (params["LFC_RANGE"].value, params["LFC_LAW"].value) == (20.0, 2.0)
+    with pytest.raises(ConfigError, match=r"lfctl follow: LFC_RANGE would be 0\.05, outside its 0\.1\.\.1000 m"):
+        set_values(params, {"LFC_RANGE": 0.05}, "lfctl follow")
+    assert params["LFC_RANGE"].value == 20.0

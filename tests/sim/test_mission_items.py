@@ -496,6 +496,13 @@ def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_re
     # the jump already taken stays taken (AP_Mission keeps its count over a new current item)
     assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 1, 2, 4]
 
+    def restart(links: Links) -> None:  # MISSION_SET_CURRENT 0: the mission from its start
+        send(links, mav.MAVLink_mission_set_current_message(1, 1, 0))
+
+    rep, _links = run_with({0.5: with_jump, 30.0: restart}, duration_s=90.0)
+    # item 0 restarts it as AP_Mission::set_current_cmd(0) does: the jump counts afresh
+    assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 1, 2, 1, 2, 4]
+
 
 def test_do_set_home_in_the_mission_frame_is_above_mean_sea_level() -> None:
     def upload(links: Links) -> None:
@@ -506,3 +513,46 @@ def test_do_set_home_in_the_mission_frame_is_above_mean_sea_level() -> None:
     rep, links = run_with({0.5: upload}, duration_s=30.0)
     assert "Set HOME to 12.960236 77.669000 at 905.00m" in texts(links)
     assert math.hypot(*(leader_at(rep, 30.0) - np.array([4.0, 0.0]))) <= 0.6
+
+
+def test_a_partial_update_edits_the_mission_being_flown_without_starting_it_again() -> None:
+    # MAVProxy's `wp changealt N` uploads item N again (MISSION_WRITE_PARTIAL_LIST): Rover
+    # writes it in place; the mission flown is the same mission (DO_JUMP counts, its number,
+    # a finished one stays finished)
+    def with_jump(links: Links) -> None:
+        store(
+            places(links.home, (3.0, 0.0), (3.0, 3.0)),
+            item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
+            places(links.home, (0.0, 0.0)),
+        )(links)
+
+    def edit(seq: int) -> Callable[[Links], None]:
+        def write(links: Links) -> None:
+            send(links, mav.MAVLink_mission_write_partial_list_message(1, 1, seq, seq, 0))
+
+        return write
+
+    def item_again(seq: int, z: float) -> Callable[[Links], None]:
+        def send_item(links: Links) -> None:
+            it = links.endpoints[0].mission[seq]
+            send(links, mav.MAVLink_mission_item_int_message(
+                1, 1, seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4, it.x, it.y, z, 0,
+            ))  # fmt: skip
+
+        return send_item
+
+    # on the second lap, item 4 edited: the jump already taken stays taken
+    rep, links = run_with({0.5: with_jump, 30.0: edit(4), 30.1: item_again(4, 5.0)}, duration_s=70.0)
+    assert links.endpoints[0].mission[4].z == 5.0
+    assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 2, 4]
+    assert rep.n_reached == rep.n_waypoints == 3  # the same mission: its waypoints counted on
+    assert [(c.kind, c.edit) for c in rep.mission_changes if c.t_s > 1.0] == [("mission", True)]
+
+    def square(links: Links) -> None:
+        store(places(links.home, (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)))(links)
+
+    # after "Mission Complete", an edit does not fly it again
+    rep, links = run_with({0.5: square, 35.0: edit(1), 35.1: item_again(1, 5.0)}, duration_s=50.0)
+    ep = links.endpoints[0]
+    assert ep.mission_complete and [i + 1 for i, _t in rep.waypoints_reached] == [1, 2, 3]
+    assert [s for t, s in ep.statustexts if t > 35.0 and ("Reached" in s or "Complete" in s)] == []
