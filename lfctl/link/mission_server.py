@@ -238,6 +238,19 @@ class MissionServer:
         return True
 
     # -- upload ----------------------------------------------------------------------------
+    def _may_upload(self, mtype: int, src: tuple[int, int]) -> bool:
+        """Whether ``src`` may start an upload of this list now; if not, it is told why: a
+        list type there is none of (MAV_MISSION_UNSUPPORTED), or another's upload of it
+        under way (MAV_MISSION_DENIED); its own may start again."""
+        if mtype not in MISSION_TYPES:
+            self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
+            return False
+        up = self._uploads.get(mtype)
+        if up is not None and (up.sysid, up.compid) != src:
+            self._ack(*src, mav.MAV_MISSION_DENIED, mtype)
+            return False
+        return True
+
     def on_count(self, m: Any, t_s: float) -> None:
         """MISSION_COUNT: an upload starts (0 items: the list is cleared). While one runs, its
         sender may start again; anyone else is refused (MAV_MISSION_DENIED) until it ends.
@@ -251,12 +264,7 @@ class MissionServer:
         """
         self._t_s = t_s
         mtype, src = _addressed(m)
-        if mtype not in MISSION_TYPES:
-            self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
-            return
-        up = self._uploads.get(mtype)
-        if up is not None and (up.sysid, up.compid) != src:
-            self._ack(*src, mav.MAV_MISSION_DENIED, mtype)
+        if not self._may_upload(mtype, src):
             return
         if m.count == 0:
             self._uploads.pop(mtype, None)
@@ -296,12 +304,7 @@ class MissionServer:
         """
         self._t_s = t_s
         mtype, src = _addressed(m)
-        if mtype not in MISSION_TYPES:
-            self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
-            return
-        up = self._uploads.get(mtype)
-        if up is not None and (up.sysid, up.compid) != src:
-            self._ack(*src, mav.MAV_MISSION_DENIED, mtype)
+        if not self._may_upload(mtype, src):
             return
         base = self.lists[mtype]
         first, last = m.start_index, m.end_index

@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -56,6 +57,33 @@ def start(mavproxy: Path, port: int, cmds: str, cwd: Path) -> subprocess.Popen[s
     )  # fmt: skip
 
 
+def place(cfg: object, north_m: float, east_m: float) -> tuple[float, float]:
+    """Latitude and longitude of a point ``north_m``, ``east_m`` from the scenario's home."""
+    link = cfg.link  # type: ignore[attr-defined]
+    lat, lon, _ = ned_to_geodetic(north_m, east_m, 0.0, link.home_lat_deg, link.home_lon_deg, link.home_alt_m)
+    return lat, lon
+
+
+def start_interactive(
+    mavproxy: Path, port: int, component: int, first: str, cwd: Path
+) -> tuple[subprocess.Popen[str], Any]:
+    """MAVProxy on ``udpout`` to ``port`` for ``component``, running ``first`` (its --cmd) and
+    then what is written to its stdin, as a user types; with a queue of its output lines."""
+    import queue
+    import threading
+
+    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
+    proc = subprocess.Popen(
+        [str(mavproxy), f"--master=udpout:127.0.0.1:{port}", "--target-system=1", f"--target-component={component}",
+         f"--cmd={first}"],
+        cwd=cwd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+    )  # fmt: skip
+    lines: queue.Queue[str] = queue.Queue()
+    assert proc.stdout is not None
+    threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
+    return proc, lines
+
+
 def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
     """A QGC WPL 110 file: (command, param1, param2, lat, lon) per row."""
     lines = ["QGC WPL 110"]
@@ -70,11 +98,9 @@ def test_mavproxy_loads_mission_fence_and_rally_then_guided_and_rtl(
 ) -> None:
     cfg = truth_convoy(120.0)
     base = cfg.link.udp_base_port
-    home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
 
     def at(n: float, e: float) -> tuple[float, float]:
-        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
-        return lat, lon
+        return place(cfg, n, e)
 
     mission = wpl(
         tmp_path / "mission.txt",
@@ -191,15 +217,8 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
 
     server = threading.Thread(target=serve, daemon=True)
     server.start()
-    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
-    proc = subprocess.Popen(
-        [str(mavproxy), f"--master=udpout:127.0.0.1:{port}", "--target-system=1", "--target-component=191",
-         "--cmd=param fetch"],
-        cwd=tmp_path, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-    )  # fmt: skip
-    lines: queue.Queue[str] = queue.Queue()
-    assert proc.stdout is not None and proc.stdin is not None
-    threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
+    proc, lines = start_interactive(mavproxy, port, COMPANION_COMPID, "param fetch", tmp_path)
+    assert proc.stdin is not None
     said: list[str] = []
 
     def wait_for(pattern: str, timeout_s: float = 20.0) -> bool:
@@ -241,32 +260,21 @@ def test_mavproxy_edits_an_uploaded_mission_in_place_with_wp_changealt(
 ) -> None:
     # `wp changealt` (and `wp move`, `wp update`) send MISSION_WRITE_PARTIAL_LIST: only the
     # items changed are uploaded again
-    import queue
-    import threading
 
     cfg = truth_convoy(120.0)
     base = cfg.link.udp_base_port
-    home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
 
     def at(n: float, e: float) -> tuple[float, float]:
-        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
-        return lat, lon
+        return place(cfg, n, e)
 
     mission = wpl(tmp_path / "mission.txt", [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (16, 0, 0, *at(3, 3))])
     links: list[Links] = []
-    env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
     with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             time.sleep(0.05)
         ep = links[0].endpoints[0]
-        proc = subprocess.Popen(
-            [str(mavproxy), f"--master=udpout:127.0.0.1:{base}", "--target-system=1", "--target-component=1",
-             f"--cmd=wp load {mission}"],
-            cwd=tmp_path, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-        )  # fmt: skip
-        assert proc.stdin is not None and proc.stdout is not None
-        lines: queue.Queue[str] = queue.Queue()
-        threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
+        proc, lines = start_interactive(mavproxy, base, 1, f"wp load {mission}", tmp_path)
+        assert proc.stdin is not None
 
         def wait(done: Callable[[], bool], timeout_s: float = 30.0) -> bool:
             deadline = time.monotonic() + timeout_s

@@ -467,6 +467,15 @@ def test_a_time_of_day_wait_after_a_waypoints_wait_begins_before_it_is_reached()
     assert dict(rep.waypoints_reached)[2] > 30.0
 
 
+def with_jump(links: Links) -> None:
+    """Two waypoints, a DO_JUMP back to the first (once), and one back home."""
+    store(
+        places(links.home, (3.0, 0.0), (3.0, 3.0)),
+        item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
+        places(links.home, (0.0, 0.0)),
+    )(links)
+
+
 def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_resume_its_condition() -> None:
     def with_condition(links: Links) -> None:
         store(
@@ -478,13 +487,6 @@ def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_re
 
     rep, _links = run_with({0.5: with_condition, 12.0: mode("HOLD"), 13.0: mode("AUTO")}, duration_s=40.0)
     assert speed_between(rep, 25.0, 35.0) == pytest.approx(0.2, abs=0.02)  # 8 s from 13 s, then slower
-
-    def with_jump(links: Links) -> None:
-        store(
-            places(links.home, (3.0, 0.0), (3.0, 3.0)),
-            item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
-            places(links.home, (0.0, 0.0)),
-        )(links)
 
     rep, _links = run_with({0.5: with_jump, 30.0: mode("HOLD"), 31.0: mode("AUTO")}, duration_s=70.0)
     assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 2, 4]
@@ -519,13 +521,6 @@ def test_a_partial_update_edits_the_mission_being_flown_without_starting_it_agai
     # MAVProxy's `wp changealt N` uploads item N again (MISSION_WRITE_PARTIAL_LIST): Rover
     # writes it in place; the mission flown is the same mission (DO_JUMP counts, its number,
     # a finished one stays finished)
-    def with_jump(links: Links) -> None:
-        store(
-            places(links.home, (3.0, 0.0), (3.0, 3.0)),
-            item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
-            places(links.home, (0.0, 0.0)),
-        )(links)
-
     def edit(seq: int) -> Callable[[Links], None]:
         def write(links: Links) -> None:
             send(links, mav.MAVLink_mission_write_partial_list_message(1, 1, seq, seq, 0))
