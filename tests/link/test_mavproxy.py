@@ -260,20 +260,15 @@ def test_mavproxy_edits_an_uploaded_mission_in_place_with_wp_changealt(
 ) -> None:
     # `wp changealt` (and `wp move`, `wp update`) send MISSION_WRITE_PARTIAL_LIST: only the
     # items changed are uploaded again
-
     cfg = truth_convoy(120.0)
-    base = cfg.link.udp_base_port
-
-    def at(n: float, e: float) -> tuple[float, float]:
-        return place(cfg, n, e)
-
-    mission = wpl(tmp_path / "mission.txt", [(16, 0, 0, *at(0, 0)), (16, 0, 0, *at(3, 0)), (16, 0, 0, *at(3, 3))])
+    rows = [(16, 0, 0, *place(cfg, n, e)) for n, e in ((0, 0), (3, 0), (3, 3))]
+    mission = wpl(tmp_path / "mission.txt", rows)  # type: ignore[arg-type]
     links: list[Links] = []
     with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             time.sleep(0.05)
         ep = links[0].endpoints[0]
-        proc, lines = start_interactive(mavproxy, base, 1, f"wp load {mission}", tmp_path)
+        proc, lines = start_interactive(mavproxy, cfg.link.udp_base_port, 1, f"wp load {mission}", tmp_path)
         assert proc.stdin is not None
 
         def wait(done: Callable[[], bool], timeout_s: float = 30.0) -> bool:
