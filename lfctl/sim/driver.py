@@ -221,8 +221,11 @@ class VehicleDriver:
         self._pos = (me.north_m, me.east_m)
         key = (ep.mission_version, ep.mission_edits)
         if self._key != key or self._autopilot is None:
-            if self._autopilot is not None and self._key[:1] == key[:1] and ep.mission_complete:
-                self._key = key  # a finished mission edited in place: nothing more to fly, as on Rover
+            edited = self._autopilot is not None and self._key[:1] == key[:1]
+            if edited and (ep.mission_complete or self._take_edit()):
+                # edited in place: a finished mission has nothing more to fly, one under way
+                # goes on with the places of the items still to come, as on Rover
+                self._key = key
             else:
                 self._start_mission(t_s)
         ap = self._autopilot
@@ -243,6 +246,27 @@ class VehicleDriver:
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, ap.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    def _take_edit(self) -> bool:
+        """The mission flown was edited in place (a partial update): the legs still to come
+        take their items' new places, as Rover reads each item when it comes to it, while
+        the leg under way and what it runs go on. False when the edit changed more than
+        places (a command, a wait, the DO commands, the mission's end): the mission is then
+        planned again from the item under way."""
+        if not self._legs:
+            return False
+        ep, now = self.endpoint, self._legs[self._leg]
+        legs, tail = walk_mission(ep.mission, self.home, now.seq, self._pos, ep.rtl_destination, now.jumps)
+        old = self._legs[self._leg :]
+
+        def shape(some: list[Leg]) -> list[tuple[object, ...]]:
+            return [(g.seq, g.command, g.hold_s, g.before, g.jumps) for g in some[1:]]
+
+        if len(legs) != len(old) or shape(legs) != shape(old) or tail != self._tail:
+            return False
+        for k, leg in enumerate(legs[1:], start=self._leg + 1):
+            self._place(k, (leg.north_m, leg.east_m))
+        return True
 
     def _start_mission(self, t_s: float) -> None:
         """(Re)start the mission from its current item, from where the vehicle is: a new or
