@@ -56,22 +56,18 @@ def footage_dir() -> Path:
     return _folder("footage")
 
 
-def example_names(suffix: str = ".toml") -> list[str]:
-    """Names of the shipped example scenarios (file stems), sorted.
+def example_names(suffix: str = ".toml", sub: str = "") -> list[str]:
+    """Names of the shipped example files (file stems), sorted.
 
     Parameters
     ----------
     suffix : str
         The kind of file: ``.toml`` scenarios, ``.waypoints`` missions.
+    sub : str
+        A folder of the examples (``sweeps``: the shipped sweeps); default the examples' own.
     """
-    folder = examples_dir()
+    folder = examples_dir() / sub
     return sorted(p.stem for p in folder.glob(f"*{suffix}")) if folder.is_dir() else []
-
-
-def sweep_example_names() -> list[str]:
-    """Names of the shipped example sweeps (file stems in ``examples/sweeps``), sorted."""
-    folder = examples_dir() / "sweeps"
-    return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
 
 
 def find_example(name: str, suffix: str = ".toml") -> Path | None:

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from lfctl.cli.options import counted
-from lfctl.data import sweep_example_names
+from lfctl.data import example_names
 
 if TYPE_CHECKING:
     from lfctl.sweep.engine import SweepProgress
@@ -26,7 +26,7 @@ def register(sub: Any) -> None:
         "sweep",
         help="run many variants of a scenario on Dask (local cores or a cluster); `sweep report DIR`",
         description="Run a sweep file (or a shipped sweep by name: "
-        f"{', '.join(sweep_example_names()) or 'none found'}) on a Dask LocalCluster "
+        f"{', '.join(example_names('.toml', 'sweeps')) or 'none found'}) on a Dask LocalCluster "
         "(one worker process per core) or a running scheduler, writing one row per run (Parquet and CSV), a "
         "summary per variant with 95 % confidence intervals, and plots. `lfctl sweep report DIR` rebuilds the "
         "summary and plots of a sweep's folder from its rows.",

@@ -150,9 +150,8 @@ def parse_model_source(folder: Path) -> ModelSource:
     )
 
 
-def available_models() -> list[str]:
-    """Names of the built-in models (folders of fmu_models/ with a config.h)."""
-    return builtin_models()
+#: names of the built-in models (folders of fmu_models/ with a config.h)
+available_models = builtin_models
 
 
 def _units_element(parent: ET.Element, units: set[str], fmi_version: int) -> None:

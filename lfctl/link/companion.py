@@ -14,9 +14,9 @@ On a real rover it is a MAVLink component of its own, as a companion board is: i
 HEARTBEAT once a second (:meth:`Companion.heartbeat`), holds the formation parameters
 ``LFC_*`` (:func:`lfctl.link.params.formation_params`) and answers the parameter protocol for
 them, and refuses commands addressed to it (COMMAND_ACK UNSUPPORTED) and MAVLink FTP (it
-has no files). A ground station
-reaches it through the rover's MAVLink routing: ArduPilot forwards what is addressed to
-component 191, or to every component, to the link the companion talks on.
+has no files). A ground station reaches it through the rover's MAVLink routing: ArduPilot
+forwards what is addressed to component 191, or to every component, to the link the
+companion talks on.
 """
 
 from __future__ import annotations

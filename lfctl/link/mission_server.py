@@ -6,7 +6,8 @@ per-item timeouts and retries, and ends with MISSION_ACK), download (MISSION_REQ
 MISSION_COUNT, MISSION_REQUEST_INT -> MISSION_ITEM_INT), clear (MISSION_CLEAR_ALL) and the
 current item. An upload is checked item by item and as a whole before it replaces the list
 in force; a refused upload leaves it as it was (a partial update, MISSION_WRITE_PARTIAL_LIST,
-edits the list in place item by item as Rover's does: one refused half way keeps what came). No operation on one list touches another.
+edits the list in place item by item as Rover's does: one refused half way keeps what came).
+No operation on one list touches another.
 """
 
 from __future__ import annotations
@@ -45,14 +46,9 @@ class _Upload:
     next_seq: int = 0
     sent_at: float = -math.inf
     received_at: float = 0.0  # the count, or the last item taken
-    #: a partial update (MISSION_WRITE_PARTIAL_LIST): the list it changes, and its last item
-    base: list[MissionItem] | None = None
-    last: int = -1
-
-    @property
-    def final(self) -> int:
-        """The last item asked for."""
-        return self.last if self.base is not None else self.count - 1
+    #: a partial update (MISSION_WRITE_PARTIAL_LIST) of the list in force, items next_seq..last
+    partial: bool = False
+    last: int = -1  # the last item asked for (a whole upload: count - 1)
 
 
 @dataclass(frozen=True)
@@ -278,7 +274,7 @@ class MissionServer:
             )
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             return
-        self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s)
+        self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s, last=m.count - 1)
         self._request_next(up, t_s)
 
     def _request_next(self, up: _Upload, t_s: float) -> None:
@@ -317,7 +313,7 @@ class MissionServer:
             return
         count = max(len(base), last + 1)
         self._uploads[mtype] = up = _Upload(
-            mtype, count, *src, next_seq=first, received_at=t_s, base=list(base), last=last
+            mtype, count, *src, next_seq=first, received_at=t_s, partial=True, last=last
         )
         self._request_next(up, t_s)
 
@@ -356,13 +352,13 @@ class MissionServer:
         up.items[item.seq] = item
         up.next_seq += 1
         up.received_at = t_s
-        if up.base is not None and up.mission_type != FENCE:
+        if up.partial and up.mission_type != FENCE:
             self._edit(up.mission_type, {item.seq: item})  # as Rover's replace_item: in force at once
-        if up.next_seq <= up.final:
+        if up.next_seq <= up.last:
             self._request_next(up, t_s)
             return
         del self._uploads[mission_type]
-        if up.base is not None:
+        if up.partial:
             self._finish_partial(up)
             return
         items = [up.items[i] for i in range(up.count)]
@@ -378,22 +374,16 @@ class MissionServer:
         edited (its DO_JUMP counts, its state and its number stay, as Rover's replace_cmd
         leaves them)."""
         held = self.lists[mission_type]
-        for seq in sorted(items):
-            if seq < len(held):
-                held[seq] = items[seq]
-            else:
-                held.append(items[seq])
+        _put(held, items)
         self.on_edit(mission_type, held)
 
     def _finish_partial(self, up: _Upload) -> None:
         """A partial update's last item came: the fence's items are checked whole and put in
         force now; the update is ACCEPTED and, ending so, counted as an edit of the list (one
         that stops half way keeps what came, as Rover's, but is no accepted change)."""
-        if up.mission_type == FENCE:
-            assert up.base is not None
-            whole = list(up.base)
-            for seq in sorted(up.items):
-                whole[seq : seq + 1] = [up.items[seq]]
+        if up.mission_type == FENCE:  # the fence in force is as it was when the update began
+            whole = list(self.lists[FENCE])
+            _put(whole, up.items)
             if (bad := validate_fence(whole)) is not None:
                 self._refuse(up, *bad)
                 return
@@ -527,6 +517,15 @@ class MissionServer:
             return False
         self.current_seq = seq
         return True
+
+
+def _put(held: list[MissionItem], items: dict[int, MissionItem]) -> None:
+    """``items`` into ``held`` by number: each replaces the one there, or comes at the end."""
+    for seq in sorted(items):
+        if seq < len(held):
+            held[seq] = items[seq]
+        else:
+            held.append(items[seq])
 
 
 def _addressed(m: Any) -> tuple[int, tuple[int, int]]:

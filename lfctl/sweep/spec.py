@@ -55,7 +55,7 @@ import numpy as np
 import tomli_w
 
 from lfctl.config import Config, config_from_table, resolve_paths
-from lfctl.data import examples_dir, resolve_scenario, sweep_example_names
+from lfctl.data import example_names, examples_dir, resolve_scenario
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -312,7 +312,7 @@ def sweeps_dir() -> Path:
 
 def sweep_names() -> list[str]:
     """Names of the shipped example sweeps (file stems), sorted."""
-    return sweep_example_names()
+    return example_names(".toml", "sweeps")
 
 
 def find_sweep(arg: str | Path) -> Path:
