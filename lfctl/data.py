@@ -9,6 +9,7 @@ install, ``pip install .`` and a wheel behave alike.
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 from lfctl.errors import ConfigError
@@ -38,12 +39,14 @@ def models_dir() -> Path:
     return _folder("fmu_models")
 
 
-def builtin_models() -> list[str]:
-    """Names of the built-in vehicle models (folders of :func:`models_dir` with a ``config.h``)."""
+@functools.cache
+def builtin_models() -> tuple[str, ...]:
+    """Names of the built-in vehicle models (folders of :func:`models_dir` with a ``config.h``),
+    read once: every scenario's vehicles (a sweep's hundreds of variants) are checked against it."""
     folder = models_dir()
     if not folder.is_dir():
-        return []
-    return sorted(p.name for p in folder.iterdir() if (p / "config.h").is_file())
+        return ()
+    return tuple(sorted(p.name for p in folder.iterdir() if (p / "config.h").is_file()))
 
 
 def examples_dir() -> Path:
