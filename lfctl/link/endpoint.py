@@ -65,10 +65,10 @@ WP_SPEED_MIN_MPS = 0.05
 SPEED_TYPE_ENUM_END = 4
 #: the largest int32: a MISSION_ITEM's x or y that is not a place must fit the item's integers
 INT32_MAX = 2**31 - 1
-#: MAV_CMD_COMPONENT_ARM_DISARM's param2 that arms past the checks: ArduPilot's
-#: magic_force_arm_value (MAVProxy's `arm throttle force`); 21196, its force-disarm value, does
-#: not force an arm
-FORCE_ARM = 2989.0
+#: MAV_CMD_COMPONENT_ARM_DISARM's param2 values that arm past the checks, as Rover 4.6:
+#: ArduPilot's magic_force_arm_value (MAVProxy's `arm throttle force`) and its
+#: magic_force_arm_disarm_value (MAVLink's force value, which MAVSDK's `arm_force` sends)
+FORCE_ARM = (2989.0, 21196.0)
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: Rover's other modes, which lfctl does not fly (named when refused)
 OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
@@ -876,7 +876,7 @@ class VehicleEndpoint:
     def _arm_command(self, arm: float, force: float = 0.0) -> int:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
-        if arm == 1.0 and force != FORCE_ARM:
+        if arm == 1.0 and force not in FORCE_ARM:
             failures = self.prearm_failures()  # a ground station switches to HOLD first, as MAVSDK does
             self._say_failures("Arm", failures)
             if failures:

@@ -1348,8 +1348,11 @@ def test_force_arm_takes_ardupilots_magic_value_and_mavlinks(bench: Bench) -> No
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 2989) == mav.MAV_RESULT_ACCEPTED  # `arm throttle force`
     assert bench.ep.armed and bench.ep.statustexts[-1][1] == "Throttle armed"
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
-    # 21196 is ArduPilot's force-disarm value: it does not force an arm (MAVSDK's arm_force sends it)
-    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_FAILED
+    # MAVLink's force value (MAVSDK's arm_force sends it) forces an arm too, as on Rover 4.6
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.armed
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 21196) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, 1) == mav.MAV_RESULT_FAILED  # not a force value
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 2) == mav.MAV_RESULT_UNSUPPORTED
 
 

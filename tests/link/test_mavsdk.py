@@ -249,6 +249,9 @@ async def fence_rally_goto_rtl(port: int, home: tuple[float, float, float]) -> d
         out["mode_goto"] = await telemetry.flight_mode()
         await action.return_to_launch()
         out["mode_rtl"] = await settled(telemetry.flight_mode, FlightMode.RETURN_TO_LAUNCH)
+        # MAVSDK's arm_force sends param1 0 with 21196: on Rover, and here, a forced disarm
+        await action.arm_force()
+        out["after_arm_force"] = await settled(telemetry.armed, False)
     return out
 
 
@@ -267,6 +270,7 @@ def test_mavsdk_fence_rally_goto_rtl_and_health(truth_convoy, background_run) ->
     assert out["health_all_ok"] is True
     assert out["goto_err_m"] < 0.6, out  # goto_location drove the rover there
     assert out["mode_rtl"] == FlightMode.RETURN_TO_LAUNCH
+    assert out["after_arm_force"] is False
 
 
 async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
