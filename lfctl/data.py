@@ -22,6 +22,7 @@ __all__ = [
     "models_dir",
     "resolve_mission",
     "resolve_scenario",
+    "user_cache",
 ]
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
@@ -32,6 +33,20 @@ def _folder(name: str) -> Path:
     if inside.is_dir():
         return inside
     return _PACKAGE_DIR.parent / name  # a source checkout (editable install)
+
+
+def user_cache(sub: str) -> Path:
+    """``sub`` in the user cache directory (``~/.cache/lfctl/<sub>`` on Linux): what lfctl
+    makes on first use and keeps (built FMUs, cut texture plates, Foxglove layouts).
+
+    Parameters
+    ----------
+    sub : str
+        The folder's name.
+    """
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("lfctl")) / sub
 
 
 def models_dir() -> Path:

@@ -289,7 +289,7 @@ class LiveView:
 
 def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
-    from lfctl.cli.sim import announce_live, live_address
+    from lfctl.cli.sim import announce_live, live_address, live_layout
     from lfctl.config import load_config, parse_config
     from lfctl.data import resolve_scenario
     from lfctl.errors import ConfigError
@@ -322,7 +322,8 @@ def run(args: argparse.Namespace) -> int:
         if live is not None or stream_to is not None:
             view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)
             if view.port is not None and live is not None:
-                announce_live(view.port, live[0])
+                name = cfg.followers[0].name
+                announce_live(view.port, live[0], live_layout(name, name, "h264"))  # its view follows the rover
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         if view is not None:
             view.watch(companion.port)

@@ -114,11 +114,34 @@ def live_address(value: str | None, default: str, option: str) -> tuple[str, int
     return parse_host_port(value or default, option)
 
 
-def announce_live(port: int, host: str) -> None:
-    """Say where Foxglove connects, and which layout to open."""
-    from lfctl.data import examples_dir
+def announce_live(port: int, host: str, layout: Path) -> None:
+    """Say where Foxglove connects, and which layout to open (see :func:`live_layout`)."""
+    print(f"foxglove     ws://{host}:{port}  (layout: {layout})", flush=True)
 
-    print(f"foxglove     ws://{host}:{port}  (layout: {examples_dir() / 'foxglove-layout.json'})", flush=True)
+
+def live_layout(follower: str, leader: str, image_format: str) -> Path:
+    """The Foxglove layout that shows this run: the shipped one when its names fit
+    (``follower1`` behind ``leader``, H.264), else one made for it in the user cache
+    (``~/.cache/lfctl/layouts``).
+
+    Parameters
+    ----------
+    follower : str
+        Whose camera and errors the layout shows.
+    leader : str
+        The vehicle its 3D view follows.
+    image_format : str
+        ``h264`` or ``jpeg``, as ``[recording] image_format``.
+    """
+    from lfctl.data import examples_dir, user_cache
+    from lfctl.record.layout import layout_json
+
+    if (follower, leader, image_format) == ("follower1", "leader", "h264"):
+        return examples_dir() / "foxglove-layout.json"
+    path = user_cache("layouts") / f"{leader}-{follower}-{image_format}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(layout_json(follower, leader, image_format))
+    return path
 
 
 def print_report(report: RunReport) -> None:
@@ -225,6 +248,8 @@ def run(args: argparse.Namespace) -> int:
 
     live = live_address(args.live, cfg.live.foxglove, "--live")
     video = live_address(args.video, cfg.live.video, "--video")
+    first = cfg.followers[0].name if cfg.followers else "follower1"
+    layout = live_layout(first, cfg.leader.name, cfg.recording.image_format) if live is not None else Path()
     check_video(cfg, video)  # refused before it is announced
     if video is not None:
         for k, v in enumerate(cfg.followers):
@@ -242,7 +267,7 @@ def run(args: argparse.Namespace) -> int:
                 stop=requested.is_set,
                 live=live,
                 video=video,
-                on_live=lambda port: announce_live(port, live[0]) if live is not None else None,
+                on_live=lambda port: announce_live(port, live[0], layout) if live is not None else None,
                 on_log=logged.append,
             )
     except KeyboardInterrupt:

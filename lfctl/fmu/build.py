@@ -25,9 +25,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import fmpy
-import platformdirs
 
-from lfctl.data import builtin_models, models_dir
+from lfctl.data import builtin_models, models_dir, user_cache
 from lfctl.errors import BuildToolError, FmuError
 
 __all__ = [
@@ -314,7 +313,7 @@ def cache_key(src: ModelSource, compiler_version: str) -> str:
 
 def default_cache_dir() -> Path:
     """Where built FMUs are kept: the user cache directory (``~/.cache/lfctl/fmu`` on Linux)."""
-    return Path(platformdirs.user_cache_dir("lfctl")) / "fmu"
+    return user_cache("fmu")
 
 
 def _compile(compiler: str, sources: list[Path], include_dirs: list[Path], out: Path, model: str) -> None:

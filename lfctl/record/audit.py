@@ -839,7 +839,8 @@ def _write_recovered(report: AuditReport, f: Any) -> int:
     w = Writer(f, compression=CompressionType.ZSTD, enable_crcs=True, enable_data_crcs=True)
     w.start(profile="", library=(c.header_library or "unknown") + " (recovered by lfctl audit)")
     for name, data in c.attachments.items():
-        w.add_attachment(0, 0, name, c.attachment_types.get(name, "application/octet-stream"), data)
+        log_time, create_time = c.attachment_times.get(name, (0, 0))
+        w.add_attachment(create_time, log_time, name, c.attachment_types.get(name, "application/octet-stream"), data)
     for name, md in c.metadata.items():
         if name != "recovery":
             w.add_metadata(name, md)

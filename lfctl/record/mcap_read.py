@@ -119,6 +119,11 @@ _U32 = "I" if array("I").itemsize >= 4 else "L"  # 4 bytes where it can (32 byte
 _MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
 
 
+def _a(word: str) -> str:
+    """``word`` with its indefinite article."""
+    return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"
+
+
 def _size(n: int) -> str:
     """``64 MiB`` / ``123 bytes``: a size for a person."""
     if n >= MiB and n % MiB == 0:
@@ -283,6 +288,7 @@ class Contents:
     metadata: dict[str, dict[str, str]] = field(default_factory=dict)  # by metadata record name
     attachments: dict[str, bytes] = field(default_factory=dict)  # by attachment name
     attachment_types: dict[str, str] = field(default_factory=dict)  # media type, by attachment name
+    attachment_times: dict[str, tuple[int, int]] = field(default_factory=dict)  # (log, create) time, ns, by name
     statistics: Statistics | None = None  # the summary's statistics record (None: not reached)
     footer: bool = False  # the footer was read: the file is complete
     data_end: bool = False  # the data section's end record was read
@@ -557,13 +563,14 @@ class _Reader:
             return self.fail(
                 start, f"truncated: the file ends inside the closing magic ({have} of 8 bytes)", "truncated"
             )
+        have -= 9  # past the record's opcode and length
         if self.c.complete:
             return self.fail(
                 start, f"corrupt {kind} record: it declares {declared} bytes, the file ends {have} bytes on"
             )
         return self.fail(
             start,
-            f"truncated: the file ends inside a {kind} record ({declared} bytes declared, {have} present; "
+            f"truncated: the file ends inside {_a(kind)} record ({declared} bytes declared, {have} present; "
             f"file {self.size} bytes)",
             "truncated",
         )
@@ -638,6 +645,8 @@ class _Reader:
                 "limit",
             )
         if length > self.size - self.pos:
+            if op == CHUNK and not c.complete:  # cut short inside a finished chunk: keep what is whole
+                raise self.unfinished_chunk(start, length)
             raise self.past_end(start, kind, length)
         footer_at = self.size - FOOTER_BYTES - 8
         if c.complete and start == footer_at and (op != FOOTER or length != 20):
@@ -817,8 +826,7 @@ class _Reader:
         return log_time
 
     def attachment(self, cur: _Cursor, body: bytes, start: int) -> None:
-        cur.u64("log_time")
-        cur.u64("create_time")
+        times = cur.u64("log_time"), cur.u64("create_time")
         name = cur.string("name")
         media = cur.string("media_type")
         data = cur.raw(cur.u64("data length"), "data")
@@ -835,6 +843,7 @@ class _Reader:
                 )
         self.c.attachments[name] = data
         self.c.attachment_types[name] = media
+        self.c.attachment_times[name] = times
 
     def chunk(self, cur: _Cursor, start: int) -> None:
         t0 = cur.u64("message_start_time")
@@ -902,10 +911,12 @@ class _Reader:
                     raise self.fail(start, f"corrupt Chunk: {exc}") from None
         return out_of_range
 
-    def unfinished_chunk(self, start: int) -> _Fault:
-        """A Chunk whose length still holds the writer's placeholder: the writer streams a chunk
-        to the file and fills its lengths in when the chunk is finished, so a writer killed in
-        between leaves this. The messages whose records reached the file in full are kept."""
+    def unfinished_chunk(self, start: int, declared: int | None = None) -> _Fault:
+        """A Chunk the file ends inside: one whose length still holds the writer's placeholder
+        (the writer streams a chunk to the file and fills its lengths in when the chunk is
+        finished, so a writer killed in between leaves this), or, with ``declared``, a finished
+        one cut short (a copy or a disk that ended early). The messages whose records reached
+        the file in full are kept."""
         rest = self.size - self.pos
         body = self.read(min(rest, self.lim.record_bytes), start)
         cur = _Cursor(body, "Chunk")
@@ -925,10 +936,14 @@ class _Reader:
                 note = f"; {len(records) - used} bytes of a record cut off"
         except _Bad as exc:
             note = f"; nothing recovered from it: {exc}"
+        what = (
+            "a Chunk the writer had not finished (its length is still the writer's placeholder; "
+            if declared is None
+            else f"a Chunk record ({declared} bytes declared, "
+        )
         return self.fail(
             start,
-            f"truncated: the file ends inside a Chunk the writer had not finished (its length is still the "
-            f"writer's placeholder; {rest} bytes of it present, {kept} whole messages recovered{note})",
+            f"truncated: the file ends inside {what}{rest} bytes of it present, {kept} whole messages recovered{note})",
             "truncated",
         )
 

@@ -108,12 +108,16 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         "properties": {
             "t_s": {"type": "number", "description": "simulation time, s"},
             "state": {"type": "string"},
-            "bbox": {"type": ["array", "null"], "items": {"type": "integer"}},
+            "bbox": {"type": "array", "items": {"type": "number"}, "description": "x, y, w, h, px (absent: no window)"},
             "quality": {"type": "number"},
             "distance": {"type": "number"},
-            "markers": {"type": ["array", "null"]},
+            "markers": {
+                "type": "array",
+                "items": {"type": "object", "properties": {"x": {"type": "number"}, "y": {"type": "number"}}},
+                "description": "the four markers' centres, px (absent: not found)",
+            },
             "reason": {"type": "string"},
-            "truth_bbox": {"type": ["array", "null"]},
+            "truth_bbox": {"type": "array", "items": {"type": "number"}, "description": "absent: not in view"},
             "truth_visible_fraction": {"type": "number"},
         },
     },
@@ -170,7 +174,12 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "compid": {"type": "integer"},
             "msgid": {"type": "integer"},
             "name": {"type": "string"},
-            "fields": {"type": "object"},
+            "seq": {"type": "integer", "description": "the packet's sequence number"},
+            "fields": {
+                "type": "object",
+                "properties": {},
+                "description": "the message's fields as pymavlink names them (which depends on msgid)",
+            },
             "raw": {"type": "string", "contentEncoding": "base64"},
         },
     },
@@ -935,16 +944,20 @@ class Recorder:
         self._log(
             f"/{follower}/camera/annotations", fc.ImageAnnotationsChannel, t_s, _annotations(stamp, track, measurement)
         )
+        # a value that is not there is left out (Foxglove's JSON schemas have no null)
         payload: dict[str, Any] = {
             "state": track.status.value if track else "lost",
-            "bbox": list(track.bbox) if track and track.bbox else None,
             "quality": float(track.quality) if track else 0.0,
             "distance": float(track.distance) if track else 1.0,
-            "markers": np.round(track.markers, 2).tolist() if track is not None and track.markers is not None else None,
             "reason": track.reason if track else "not started",
         }
+        if track is not None and track.bbox:
+            payload["bbox"] = list(track.bbox)
+        if track is not None and track.markers is not None:
+            payload["markers"] = [{"x": x, "y": y} for x, y in np.round(track.markers, 2).tolist()]
         if truth is not None:
-            payload["truth_bbox"] = list(truth.bbox) if truth.bbox else None
+            if truth.bbox:
+                payload["truth_bbox"] = list(truth.bbox)
             payload["truth_visible_fraction"] = round(float(truth.visible_fraction), 4)
         self.json(f"/{follower}/tracker", "lfctl.Tracker", t_s, payload)
         if (

@@ -23,7 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lfctl.data import footage_dir
+from lfctl.data import footage_dir, user_cache
 
 __all__ = ["VERSION", "Plates", "cache_dir", "close_loop", "make_periodic", "plates"]
 
@@ -60,9 +60,7 @@ class Plates:
 
 def cache_dir() -> Path:
     """Where cut plates are kept: the user cache directory (``~/.cache/lfctl/textures``)."""
-    import platformdirs
-
-    return Path(platformdirs.user_cache_dir("lfctl")) / "textures"
+    return user_cache("textures")
 
 
 def make_periodic(img: np.ndarray, axes: tuple[int, ...] = (0, 1)) -> np.ndarray:

@@ -488,3 +488,27 @@ def test_follow_live_says_once_that_a_rover_without_gps_has_no_location_fix(
     assert any(p["name"] == "GLOBAL_POSITION_INT" for p in packets(got, "/mavlink/rover"))
     assert "/rover/fix" not in advertised | set(got) | set(more)
     assert not any("global position" in Log.FromString(m).message for m in more.get("/log", []))
+
+
+@pytest.mark.parametrize(
+    ("scenario", "image_format", "video_topic"),
+    [("convoy", "h264", "/follower1/camera/video"), ("vee", "h264", "/r1/camera/video"),
+     ("convoy", "jpeg", "/follower1/camera/image/compressed")],
+)  # fmt: skip
+def test_the_layout_live_prints_shows_the_runs_own_follower_and_images(
+    scenario: str, image_format: str, video_topic: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from lfctl.cli.sim import live_layout
+    from lfctl.config import load_config
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    cfg = load_config(EXAMPLES / f"{scenario}.toml")
+    path = live_layout(cfg.followers[0].name, cfg.leader.name, image_format)
+    if (scenario, image_format) == ("convoy", "h264"):
+        assert path == EXAMPLES / "foxglove-layout.json"  # the shipped one fits
+    else:
+        assert path.is_relative_to(tmp_path)
+    text = path.read_text()
+    follower = cfg.followers[0].name
+    assert video_topic in text and f"/{follower}/controller.range_error_m" in text
+    assert "/follower1/" not in text or follower == "follower1"

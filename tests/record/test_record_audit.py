@@ -116,6 +116,61 @@ def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None
     assert tf_children["ned"] == "map"
 
 
+def foxglove_json_types(schema: dict, where: str) -> None:
+    """Raise where Foxglove's JSON-schema reader would refuse ``schema`` (its
+    ``parseJsonSchema``: an object lists its properties; each field is one type, boolean,
+    string (base64 or plain), number, integer, an object, or an array of one of those but an
+    array; integer enums as ``oneOf`` consts; no type lists, no null)."""
+    assert schema.get("type") == "object", f"{where}: not an object"
+    assert isinstance(schema.get("properties"), dict), f"{where}: an object without properties"
+    for name, field in schema["properties"].items():
+        at = f"{where}.{name}"
+        if "oneOf" in field:
+            assert all(isinstance(a.get("const"), int) for a in field["oneOf"]), at
+            continue
+        kind = field.get("type")
+        if kind == "array":
+            items = field.get("items")
+            assert isinstance(items, dict), f"{at}: an array without items"
+            if items.get("type") == "object":
+                foxglove_json_types(items, at)
+            else:
+                assert items.get("type") in ("boolean", "string", "number", "integer"), f"{at}: items {items}"
+                assert "contentEncoding" not in items, at
+        elif kind == "object":
+            foxglove_json_types(field, at)
+        else:
+            assert kind in ("boolean", "string", "number", "integer"), f"{at}: type {kind!r}"
+            assert field.get("contentEncoding") in (None, "base64"), at
+
+
+def test_the_json_topics_load_in_foxglove_and_each_message_fits_its_schema(camera_log) -> None:
+    """Foxglove drops a channel whose schema its reader refuses (an error on the topic); the
+    messages must be what the schema says, null nowhere."""
+    import jsonschema
+
+    path, _ = camera_log
+    checked: dict[str, int] = {}
+    with path.open("rb") as f:
+        for schema, channel, message in NonSeekingReader(f).iter_messages():
+            if channel.message_encoding != "json":
+                continue
+            doc = json.loads(schema.data)
+            if schema.name not in checked:
+                foxglove_json_types(doc, schema.name)
+                checked[schema.name] = 0
+            jsonschema.validate(json.loads(message.data), doc)
+            checked[schema.name] += 1
+    assert {"lfctl.Tracker", "lfctl.Controller", "lfctl.PoseEstimate", "lfctl.MavlinkPacket"} <= set(checked), checked
+
+
+def test_every_json_schema_the_recorder_has_loads_in_foxglove() -> None:
+    from lfctl.record.writer import JSON_SCHEMAS
+
+    for name, schema in JSON_SCHEMAS.items():
+        foxglove_json_types(schema, name)
+
+
 def test_a_jpeg_log_keeps_jpeg_images(tmp_path: Path) -> None:
     cfg = small_chunks(load_config(EXAMPLES / "convoy.toml"), tmp_path, "camera", 1.0)
     cfg = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_format="jpeg"))
@@ -192,6 +247,37 @@ def test_a_file_cut_at_60_percent_is_reported_and_recovered(
     assert "recovery" in again.contents.metadata
     assert main(["audit", str(cut), "--recover", str(tmp_path / "nowhere" / "r.mcap")]) == 2
     assert "the folder" in capsys.readouterr().err and not (tmp_path / "nowhere").exists()
+
+
+def test_a_file_cut_inside_a_finished_chunk_keeps_that_chunks_whole_messages(tmp_path: Path) -> None:
+    """A copy or a disk that ended early cuts a chunk whose length is written: the messages
+    of it that reached the file whole are kept, as from a chunk the writer had not finished;
+    the recovered file keeps the attachments' times."""
+    from mcap.reader import make_reader
+
+    # chunks of the default size: a zstd block is inflated whole, and a 4 KiB chunk is one block
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=60.0))
+    run_scenario(cfg, record_to=tmp_path / "run.mcap")
+    data = (tmp_path / "run.mcap").read_bytes()
+    with (tmp_path / "run.mcap").open("rb") as f:
+        summary = make_reader(f).get_summary()
+        times = {a.name: (a.log_time, a.create_time) for a in make_reader(f).iter_attachments()}
+    assert summary is not None
+    chunk = max(summary.chunk_indexes, key=lambda c: c.uncompressed_size)
+    at_start, inside = tmp_path / "start.mcap", tmp_path / "inside.mcap"
+    at_start.write_bytes(data[: chunk.chunk_start_offset])
+    inside.write_bytes(data[: chunk.chunk_start_offset + int(chunk.chunk_length * 0.7)])
+    before, rep = audit(at_start), audit(inside)
+    (cut,) = [f for f in rep.findings if f.kind == "truncated"]
+    assert f"a Chunk record ({chunk.chunk_length - 9} bytes declared" in cut.what, cut.what
+    assert rep.figures["messages"] > before.figures["messages"], cut.what
+    out = tmp_path / "recovered.mcap"
+    recover(rep, out)
+    with out.open("rb") as g:
+        again = {a.name: (a.log_time, a.create_time) for a in make_reader(g).iter_attachments()}
+    assert again == times and min(t for pair in times.values() for t in pair) > 1.6e18  # not 1970
+    assert audit(out).figures["messages"] == rep.figures["messages"]
 
 
 @pytest.mark.parametrize(
