@@ -289,7 +289,7 @@ class VehicleEndpoint:
             on_edit=self._list_edited,
         )
         self.mission_version = 0  # bumps when the mission or the current item changes
-        self.mission_restarts = 0  # bumps when the mission restarts from its start (DO_JUMP's counts too)
+        self.mission_restarts = 0  # bumps when the mission restarts or is reset (DO_JUMP's counts afresh)
         self.mission_edits = 0  # bumps when items of the mission are changed in place (a partial update)
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
@@ -831,8 +831,7 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["AUTO"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
-            seq = _as_int(p[0], 0, 65535)
-            return mav.MAV_RESULT_ACCEPTED if seq is not None and self.set_current(seq) else mav.MAV_RESULT_DENIED
+            return self._set_current_command(p[0], p[1])
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_REPOSITION:
@@ -1248,7 +1247,23 @@ class VehicleEndpoint:
             state = mav.MISSION_STATE_NOT_STARTED
         return mav.MAVLink_mission_current_message(seq, total, state, int(self.mode == MODES["AUTO"]))
 
-    def set_current(self, seq: int) -> bool:
+    def _set_current_command(self, seq_param: float, reset_param: float) -> int:
+        """MAV_CMD_DO_SET_MISSION_CURRENT as Rover's ``handle_command_do_set_mission_current``
+        (GCS_Common): param1 an item that is not the mission's (home, item 0, counts) is
+        DENIED; a mission of home alone has no item to head for, FAILED. param2 1 ("reset
+        mission") resets the mission first (``AP_Mission::reset``: DO_JUMP's counts afresh, a
+        finished mission no longer finished) and restarts it at the item (``resume``); any
+        other param2 is taken as 0, not refused. Accepted, the new current item is told at
+        once (MISSION_CURRENT), as Rover volunteers it."""
+        seq = _as_int(seq_param, 0, 65535)
+        if seq is None or seq >= len(self.mission):
+            return mav.MAV_RESULT_DENIED
+        if not self.set_current(seq, reset=reset_param == 1.0):
+            return mav.MAV_RESULT_FAILED
+        self._once.append(MSG_IDS["MISSION_CURRENT"])
+        return mav.MAV_RESULT_ACCEPTED
+
+    def set_current(self, seq: int, reset: bool = False) -> bool:
         """Make mission item ``seq`` the one to head for (False when there is no such item).
         As Rover's ``AP_Mission::set_current_cmd``: 0 restarts the mission from item 1, and
         a restart, or any item of a finished mission, starts DO_JUMP's counts afresh.
@@ -1257,8 +1272,11 @@ class VehicleEndpoint:
         ----------
         seq : int
             The item, 0 .. count - 1.
+        reset : bool
+            Reset the mission first, as ``AP_Mission::reset`` (DO_SET_MISSION_CURRENT's
+            param2 1): DO_JUMP's counts start afresh whichever item is asked for.
         """
-        restart = seq == 0 or self.mission_complete
+        restart = reset or seq == 0 or self.mission_complete
         if not self.missions.set_current(max(1, seq)):
             return False
         if restart:

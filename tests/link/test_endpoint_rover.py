@@ -1776,6 +1776,28 @@ def test_item_0_restarts_the_mission_and_the_echo_says_what_was_asked(bench: Ben
     assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (2, 3, mav.MISSION_STATE_ACTIVE, 1)
 
 
+def test_do_set_mission_current_tells_the_new_item_at_once_and_a_reset_restarts_a_finished_mission(
+    bench: Bench,
+) -> None:
+    # Rover volunteers MISSION_CURRENT once DO_SET_MISSION_CURRENT is accepted
+    # (send_message(MSG_CURRENT_WAYPOINT)), not at the stream's next turn
+    assert upload(bench, _square(3)) == mav.MAV_MISSION_ACCEPTED
+    bench.tick(5.0)  # past the streamed MISSION_CURRENT
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 2, 0, 0, 0, 0, 0, 0))
+    out = bench.tick(0.001)
+    assert [m.get_type() for m in out if m.get_type() in ("COMMAND_ACK", "MISSION_CURRENT")] == [
+        "COMMAND_ACK",
+        "MISSION_CURRENT",
+    ]
+    assert [m.seq for m in out if m.get_type() == "MISSION_CURRENT"] == [2]
+    # a finished mission, reset at item 2: no longer finished, its DO_JUMP counts afresh
+    bench.ep.complete_mission()
+    restarts = bench.ep.mission_restarts
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2, 1) == mav.MAV_RESULT_ACCEPTED
+    assert not bench.ep.mission_complete and bench.ep.current_seq == 2
+    assert bench.ep.mission_restarts == restarts + 1
+
+
 def test_change_speed_results_as_rovers(bench: Bench) -> None:
     x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED

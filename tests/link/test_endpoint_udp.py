@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.gcs import GroundStation
-from lfctl.link.mission import load_mission, local_mission, save_mission
+from lfctl.link.mission import MissionItem, load_mission, local_mission, save_mission
 from lfctl.link.signing import setup_signing, signing_key_from_passphrase
 from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
 
@@ -525,3 +525,31 @@ def test_a_plan_whose_fence_the_vehicle_refuses_says_what_went_up(
     assert "(the mission went up; the vehicle keeps its fence and its rally points as they were)" in err
     assert live.ep.missions.lists[1] == [] and live.ep.missions.lists[2] == []
     assert "Fence upload refused: 300 items, room for 200" in [text for _t, text in live.ep.statustexts]
+
+
+def test_do_set_mission_current_param2_1_resets_the_mission_as_rover(live: LiveEndpoint) -> None:
+    # Rover 4.5+, GCS_Common's handle_command_do_set_mission_current: param2 1 ("reset
+    # mission") is AP_Mission::reset before the item is made current (DO_JUMP's counts start
+    # afresh, the driver's mission_restarts); any other param2 is a plain set, not refused;
+    # an item the mission has not is DENIED, a mission of home alone FAILED
+    g = live.gcs()
+    items = [*local_mission(SQUARE, HOME), MissionItem(5, 0, mav.MAV_CMD_DO_JUMP, 1.0, 2.0)]
+    g.upload(items)
+    ep = live.ep
+    restarts = ep.mission_restarts
+    for param2 in (0.0, 2.0, 0.5, math.nan):
+        assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, param2) == mav.MAV_RESULT_ACCEPTED
+        assert (ep.current_seq, ep.mission_restarts) == (3, restarts)
+    assert g.wait(("MISSION_CURRENT",), where=lambda m: m.seq == 3).total == 5
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, 1) == mav.MAV_RESULT_ACCEPTED
+    assert (ep.current_seq, ep.mission_restarts) == (3, restarts + 1)
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 5, 1) == mav.MAV_RESULT_ACCEPTED  # the DO_JUMP: an item
+    assert ep.mission_restarts == restarts + 2
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 6, 1) == mav.MAV_RESULT_DENIED  # past the last item
+    assert ep.mission_restarts == restarts + 2
+    g.upload(items[:1])  # home alone: nothing to head for
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 1) == mav.MAV_RESULT_FAILED
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == mav.MAV_RESULT_DENIED
+    g.clear()
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0) == mav.MAV_RESULT_DENIED
+    g.close()
