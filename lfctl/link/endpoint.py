@@ -33,7 +33,7 @@ from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item
+from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
@@ -1187,6 +1187,12 @@ class VehicleEndpoint:
         if m.current == 2 and mtype == MISSION:  # a guided "go here"
             ok = self._guided_location(item)
             result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
+            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
+            return
+        if m.current == 3 and mtype == MISSION:
+            # an altitude change (MAVProxy's `guided` changealt): Rover takes an item it can
+            # read and, having no altitude to change, does nothing (no upload involved)
+            result = validate_item(item, max(2, len(self.mission)))
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
             return
         self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)

@@ -553,3 +553,58 @@ def test_do_set_mission_current_param2_1_resets_the_mission_as_rover(live: LiveE
     g.clear()
     assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0) == mav.MAV_RESULT_DENIED
     g.close()
+
+
+def test_an_item_with_no_upload_under_way_is_a_mission_error_for_each_list(live: LiveEndpoint) -> None:
+    # Rover's GCS_MAVLINK::handle_mission_item: an item of a list whose upload is not under
+    # way (here the last one sent again, as after a lost final ACK) is MISSION_ACK
+    # MAV_MISSION_ERROR for that list, nothing changed: no special case for the last item;
+    # a list there is none of is MAV_MISSION_UNSUPPORTED
+    g = live.gcs()
+    lat, lon = int(HOME[0] * 1e7), int(HOME[1] * 1e7)
+    corners = [(1000, -1000), (1000, 1000), (-1000, 1000), (-1000, -1000)]
+    inclusion = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    lists = {
+        mav.MAV_MISSION_TYPE_MISSION: local_mission(SQUARE, HOME),
+        mav.MAV_MISSION_TYPE_FENCE: [
+            MissionItem(k, mav.MAV_FRAME_GLOBAL, inclusion, 4.0, x=lat + dn, y=lon + de)
+            for k, (dn, de) in enumerate(corners)
+        ],
+        mav.MAV_MISSION_TYPE_RALLY: [
+            MissionItem(0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_CMD_NAV_RALLY_POINT, x=lat + 500, y=lon)
+        ],
+    }
+    for mtype, items in lists.items():
+        g.upload(items, mission_type=mtype)
+    held = {mtype: list(live.ep.missions.lists[mtype]) for mtype in lists}
+    mission = lists[mav.MAV_MISSION_TYPE_MISSION]
+
+    def answer(msg: object, mtype: int) -> int:
+        g.send(msg)
+        return int(g.wait(("MISSION_ACK",), where=lambda m: m.mission_type == mtype).type)
+
+    def item_int(it: MissionItem, mtype: int, current: int = 0) -> object:
+        return mav.MAVLink_mission_item_int_message(
+            1, 1, it.seq, it.frame, it.command, current, 1, it.param1, 0, 0, 0, it.x, it.y, it.z, mtype
+        )
+
+    for mtype, items in lists.items():
+        last = items[-1]
+        assert answer(item_int(last, mtype), mtype) == mav.MAV_MISSION_ERROR
+        as_float = mav.MAVLink_mission_item_message(
+            1, 1, last.seq, last.frame, last.command, 0, 1, last.param1, 0, 0, 0, last.lat_deg, last.lon_deg, 0, mtype
+        )
+        assert answer(as_float, mtype) == mav.MAV_MISSION_ERROR
+    assert answer(item_int(mission[1], 3), 3) == mav.MAV_MISSION_UNSUPPORTED  # no such list
+    assert {mtype: live.ep.missions.lists[mtype] for mtype in lists} == held
+    # current = 3, an altitude change (MAVProxy's `guided` module): Rover takes it and has no
+    # altitude to change; current = 2 stays a guided target (refused outside GUIDED)
+    assert answer(item_int(mission[1], 0, current=3), 0) == mav.MAV_MISSION_ACCEPTED
+    assert answer(item_int(mission[1], 0, current=2), 0) == mav.MAV_MISSION_ERROR
+    assert live.ep.mission == held[mav.MAV_MISSION_TYPE_MISSION] and live.ep.guided is None
+    # a stray item's MAV_MISSION_ERROR that reaches lfctl's ground station after it has
+    # started a new upload (before the vehicle asks for anything) does not fail that upload
+    g.send(item_int(mission[-1], 0))
+    g.upload(mission[:3])
+    assert len(live.ep.mission) == 3
+    g.close()
