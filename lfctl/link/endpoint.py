@@ -843,8 +843,6 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self._change_speed(p[0], p[1])
-        if cmd == mav.MAV_CMD_NAV_SET_YAW_SPEED:
-            return self._set_yaw_speed(p[0], p[1], p[2])
         if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
             # as ArduPilot's GCS_Fence: 0 off, 1 on, 2 the floor off (a rover has none), else FAILED
             action = _as_int(p[0], 0, 65535)
@@ -855,6 +853,8 @@ class VehicleEndpoint:
             if action < 2:
                 self.params["FENCE_ENABLE"].value = action
             return mav.MAV_RESULT_ACCEPTED
+        # anything else, MAV_CMD_NAV_SET_YAW_SPEED too: Rover 4.5 took it (deprecated), Rover's
+        # newest source is built without it (AP_MAVLINK_MAV_CMD_NAV_SET_YAW_SPEED_ENABLED 0)
         return mav.MAV_RESULT_UNSUPPORTED
 
     def prearm_failures(self) -> list[str]:
@@ -978,17 +978,6 @@ class VehicleEndpoint:
         return self.mode != MODES["GUIDED"] or (
             self.guided.kind == "location" if self.guided is not None else self._guided_arrived
         )
-
-    def _set_yaw_speed(self, angle_deg: float, speed: float, relative: float) -> int:
-        if self.mode != MODES["GUIDED"]:
-            return mav.MAV_RESULT_FAILED
-        if not _finite(angle_deg, speed, relative):
-            return mav.MAV_RESULT_DENIED
-        limit = self.param("WP_SPEED")
-        base = self.state["yaw_rad"] if relative > 0 else 0.0
-        heading = wrap_pi(base + math.radians(angle_deg))
-        self.guided = GuidedTarget("heading", self.t_s, speed_mps=max(-limit, min(limit, speed)), heading_rad=heading)
-        return mav.MAV_RESULT_ACCEPTED
 
     def _reposition(self, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
         """MAV_CMD_DO_REPOSITION as Rover's ``handle_command_int_do_reposition``: a

@@ -608,3 +608,21 @@ def test_an_item_with_no_upload_under_way_is_a_mission_error_for_each_list(live:
     g.upload(mission[:3])
     assert len(live.ep.mission) == 3
     g.close()
+
+
+def test_nav_set_yaw_speed_is_unsupported_as_on_a_current_rover(live: LiveEndpoint) -> None:
+    # Rover's newest source is built without it (AP_MAVLINK_MAV_CMD_NAV_SET_YAW_SPEED_ENABLED
+    # 0): the command falls through to GCS_Common's UNSUPPORTED, as a COMMAND_LONG (turned into
+    # a COMMAND_INT) or a COMMAND_INT, in GUIDED too; the target stays
+    g = live.gcs()
+    assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert g.command(mav.MAV_CMD_NAV_SET_YAW_SPEED, 90, 0.3, 0) == mav.MAV_RESULT_UNSUPPORTED
+    g.send(
+        mav.MAVLink_command_int_message(
+            1, 1, mav.MAV_FRAME_GLOBAL, mav.MAV_CMD_NAV_SET_YAW_SPEED, 0, 0, 90, 0.3, 1, 0, 0, 0, 0
+        )
+    )
+    ack = g.wait(("COMMAND_ACK",), where=lambda m: m.command == mav.MAV_CMD_NAV_SET_YAW_SPEED)
+    assert ack.result == mav.MAV_RESULT_UNSUPPORTED
+    assert live.ep.guided is None and live.ep.mode == MODES["GUIDED"]
+    g.close()
