@@ -33,7 +33,7 @@ from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item
+from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
@@ -289,7 +289,7 @@ class VehicleEndpoint:
             on_edit=self._list_edited,
         )
         self.mission_version = 0  # bumps when the mission or the current item changes
-        self.mission_restarts = 0  # bumps when the mission restarts from its start (DO_JUMP's counts too)
+        self.mission_restarts = 0  # bumps when the mission restarts or is reset (DO_JUMP's counts afresh)
         self.mission_edits = 0  # bumps when items of the mission are changed in place (a partial update)
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
@@ -831,8 +831,7 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["AUTO"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
-            seq = _as_int(p[0], 0, 65535)
-            return mav.MAV_RESULT_ACCEPTED if seq is not None and self.set_current(seq) else mav.MAV_RESULT_DENIED
+            return self._set_current_command(p[0], p[1])
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_REPOSITION:
@@ -844,8 +843,6 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self._change_speed(p[0], p[1])
-        if cmd == mav.MAV_CMD_NAV_SET_YAW_SPEED:
-            return self._set_yaw_speed(p[0], p[1], p[2])
         if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
             # as ArduPilot's GCS_Fence: 0 off, 1 on, 2 the floor off (a rover has none), else FAILED
             action = _as_int(p[0], 0, 65535)
@@ -856,6 +853,8 @@ class VehicleEndpoint:
             if action < 2:
                 self.params["FENCE_ENABLE"].value = action
             return mav.MAV_RESULT_ACCEPTED
+        # anything else, MAV_CMD_NAV_SET_YAW_SPEED too: Rover 4.5 took it (deprecated), Rover's
+        # newest source is built without it (AP_MAVLINK_MAV_CMD_NAV_SET_YAW_SPEED_ENABLED 0)
         return mav.MAV_RESULT_UNSUPPORTED
 
     def prearm_failures(self) -> list[str]:
@@ -979,17 +978,6 @@ class VehicleEndpoint:
         return self.mode != MODES["GUIDED"] or (
             self.guided.kind == "location" if self.guided is not None else self._guided_arrived
         )
-
-    def _set_yaw_speed(self, angle_deg: float, speed: float, relative: float) -> int:
-        if self.mode != MODES["GUIDED"]:
-            return mav.MAV_RESULT_FAILED
-        if not _finite(angle_deg, speed, relative):
-            return mav.MAV_RESULT_DENIED
-        limit = self.param("WP_SPEED")
-        base = self.state["yaw_rad"] if relative > 0 else 0.0
-        heading = wrap_pi(base + math.radians(angle_deg))
-        self.guided = GuidedTarget("heading", self.t_s, speed_mps=max(-limit, min(limit, speed)), heading_rad=heading)
-        return mav.MAV_RESULT_ACCEPTED
 
     def _reposition(self, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
         """MAV_CMD_DO_REPOSITION as Rover's ``handle_command_int_do_reposition``: a
@@ -1190,6 +1178,12 @@ class VehicleEndpoint:
             result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
             return
+        if m.current == 3 and mtype == MISSION:
+            # an altitude change (MAVProxy's `guided` changealt): Rover takes an item it can
+            # read and, having no altitude to change, does nothing (no upload involved)
+            result = validate_item(item, max(2, len(self.mission)))
+            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
+            return
         self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)
 
     def _guided_location(self, item: MissionItem) -> bool:
@@ -1248,7 +1242,23 @@ class VehicleEndpoint:
             state = mav.MISSION_STATE_NOT_STARTED
         return mav.MAVLink_mission_current_message(seq, total, state, int(self.mode == MODES["AUTO"]))
 
-    def set_current(self, seq: int) -> bool:
+    def _set_current_command(self, seq_param: float, reset_param: float) -> int:
+        """MAV_CMD_DO_SET_MISSION_CURRENT as Rover's ``handle_command_do_set_mission_current``
+        (GCS_Common): param1 an item that is not the mission's (home, item 0, counts) is
+        DENIED; a mission of home alone has no item to head for, FAILED. param2 1 ("reset
+        mission") resets the mission first (``AP_Mission::reset``: DO_JUMP's counts afresh, a
+        finished mission no longer finished) and restarts it at the item (``resume``); any
+        other param2 is taken as 0, not refused. Accepted, the new current item is told at
+        once (MISSION_CURRENT), as Rover volunteers it."""
+        seq = _as_int(seq_param, 0, 65535)
+        if seq is None or seq >= len(self.mission):
+            return mav.MAV_RESULT_DENIED
+        if not self.set_current(seq, reset=reset_param == 1.0):
+            return mav.MAV_RESULT_FAILED
+        self._once.append(MSG_IDS["MISSION_CURRENT"])
+        return mav.MAV_RESULT_ACCEPTED
+
+    def set_current(self, seq: int, reset: bool = False) -> bool:
         """Make mission item ``seq`` the one to head for (False when there is no such item).
         As Rover's ``AP_Mission::set_current_cmd``: 0 restarts the mission from item 1, and
         a restart, or any item of a finished mission, starts DO_JUMP's counts afresh.
@@ -1257,8 +1267,11 @@ class VehicleEndpoint:
         ----------
         seq : int
             The item, 0 .. count - 1.
+        reset : bool
+            Reset the mission first, as ``AP_Mission::reset`` (DO_SET_MISSION_CURRENT's
+            param2 1): DO_JUMP's counts start afresh whichever item is asked for.
         """
-        restart = seq == 0 or self.mission_complete
+        restart = reset or seq == 0 or self.mission_complete
         if not self.missions.set_current(max(1, seq)):
             return False
         if restart:

@@ -289,7 +289,10 @@ class GroundStation:
         result if refused; no items clear the list.
 
         The vehicle drives the transfer (it re-requests a lost item); when the vehicle falls
-        silent (our MISSION_COUNT or its final MISSION_ACK lost) the upload starts again.
+        silent (our MISSION_COUNT or its final MISSION_ACK lost) the upload starts again. A
+        MAV_MISSION_ERROR that comes before the vehicle has asked for anything is passed over:
+        it answers an item of an earlier transfer that reached the vehicle after that transfer
+        ended (one of ours sent twice), as Rover answers such an item.
 
         Parameters
         ----------
@@ -311,6 +314,7 @@ class GroundStation:
         """
         for _attempt in range(restarts + 1):
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
+            asked = False
             while True:
                 try:
                     m = self.wait(
@@ -321,6 +325,8 @@ class GroundStation:
                 except LinkTimeoutError:
                     break  # restart from MISSION_COUNT
                 if m.get_type() == "MISSION_ACK":
+                    if m.type == mav.MAV_MISSION_ERROR and not asked:
+                        continue  # a stray item's answer, from before our count
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
                         what = MISSION_TYPES.get(mission_type, "list")
@@ -331,6 +337,7 @@ class GroundStation:
                         f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})",
                         received_seq=m.seq,
                     )
+                asked = True
                 self._send_item(items[m.seq], mission_type)
         raise LinkTimeoutError(
             "answer to the mission upload", sysid=self.target, detail=f"{restarts + 1} attempts from MISSION_COUNT"

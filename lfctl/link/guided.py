@@ -6,7 +6,8 @@ A target is one of
 - ``rate``: a turn rate and a speed (a companion's SET_POSITION_TARGET_LOCAL_NED with
   velocity and yaw rate, SET_ATTITUDE_TARGET with a body yaw rate);
 - ``heading``: a heading and a speed (velocity alone, velocity or speed with a heading,
-  a heading alone, SET_ATTITUDE_TARGET's quaternion, MAV_CMD_NAV_SET_YAW_SPEED);
+  a heading alone, SET_ATTITUDE_TARGET's quaternion; not MAV_CMD_NAV_SET_YAW_SPEED, which
+  Rover's newest source is built without);
 - ``location``: a place to drive to and stop at (a position setpoint, MAV_CMD_DO_REPOSITION,
   a MISSION_ITEM with current = 2).
 

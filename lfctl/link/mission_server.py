@@ -7,7 +7,8 @@ MISSION_COUNT, MISSION_REQUEST_INT -> MISSION_ITEM_INT), clear (MISSION_CLEAR_AL
 current item. An upload is checked item by item and as a whole before it replaces the list
 in force; a refused upload leaves it as it was (a partial update, MISSION_WRITE_PARTIAL_LIST,
 edits the list in place item by item as Rover's does: one refused half way keeps what came).
-No operation on one list touches another.
+An item that comes when no upload of its list is under way is MAV_MISSION_ERROR, as Rover
+answers it. No operation on one list touches another.
 """
 
 from __future__ import annotations
@@ -318,7 +319,11 @@ class MissionServer:
         self._request_next(up, t_s)
 
     def on_item(self, item: MissionItem, mission_type: int, sysid: int, compid: int, t_s: float) -> None:
-        """One uploaded item (from MISSION_ITEM_INT, or a converted MISSION_ITEM).
+        """One uploaded item (from MISSION_ITEM_INT, or a converted MISSION_ITEM). As Rover's
+        GCS_MAVLINK::handle_mission_item: an item of a list there is none of is
+        MAV_MISSION_UNSUPPORTED, and one that comes when no upload of its list is under way
+        MAV_MISSION_ERROR, nothing changed (so is the last item sent again after its upload
+        ended: ArduPilot has no special case for it, its ACK is not sent again).
 
         Parameters
         ----------
@@ -332,9 +337,13 @@ class MissionServer:
             Now, s.
         """
         self._t_s = t_s
+        if mission_type not in MISSION_TYPES:
+            self._ack(sysid, compid, mav.MAV_MISSION_UNSUPPORTED, mission_type)
+            return
         up = self._uploads.get(mission_type)
         if up is None:
-            return  # not part of an upload this vehicle is running
+            self._ack(sysid, compid, mav.MAV_MISSION_ERROR, mission_type)  # not part of an upload
+            return
         if (sysid, compid) != (up.sysid, up.compid):
             self._ack(sysid, compid, mav.MAV_MISSION_DENIED, mission_type)  # another's upload
             return

@@ -274,7 +274,8 @@ class VehicleDriver:
         under way, its wait and the DO commands with it)."""
         ep = self.endpoint
         # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
-        # for a new or finished mission, or a restart from item 0)
+        # for a new or finished mission, a restart from item 0, or DO_SET_MISSION_CURRENT's
+        # reset, param2 1: each bumps the endpoint's mission_restarts)
         same = (
             bool(self._legs)
             and ep.mission is self._built

@@ -501,7 +501,7 @@ def test_setpoints_outside_guided_are_ignored_as_on_rover(bench: Bench) -> None:
     assert bench.ep.guided is None
 
 
-def test_global_target_attitude_target_and_set_yaw_speed() -> None:
+def test_global_target_and_attitude_target() -> None:
     b = guided_bench()
     lat, lon = int(HOME[0] * 1e7) + 90, int(HOME[1] * 1e7)  # about 1 m north
     g = target_of(
@@ -526,8 +526,6 @@ def test_global_target_attitude_target_and_set_yaw_speed() -> None:
         and g.yaw_rate_radps == pytest.approx(0.25)
         and g.speed_mps == pytest.approx(-b.ep.param("WP_SPEED"))
     )
-    assert b.command(mav.MAV_CMD_NAV_SET_YAW_SPEED, 90, 0.3, 0) == mav.MAV_RESULT_ACCEPTED
-    assert b.ep.guided.kind == "heading" and b.ep.guided.heading_rad == pytest.approx(math.pi / 2)
 
 
 def test_reposition_goes_there_in_guided_or_switches_with_the_flag(bench: Bench) -> None:
@@ -1777,6 +1775,28 @@ def test_item_0_restarts_the_mission_and_the_echo_says_what_was_asked(bench: Ben
     bench.send(mav.MAVLink_mission_set_current_message(1, 1, 2))
     (echo,) = [m for m in bench.tick() if m.get_type() == "MISSION_CURRENT"]
     assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (2, 3, mav.MISSION_STATE_ACTIVE, 1)
+
+
+def test_do_set_mission_current_tells_the_new_item_at_once_and_a_reset_restarts_a_finished_mission(
+    bench: Bench,
+) -> None:
+    # Rover volunteers MISSION_CURRENT once DO_SET_MISSION_CURRENT is accepted
+    # (send_message(MSG_CURRENT_WAYPOINT)), not at the stream's next turn
+    assert upload(bench, _square(3)) == mav.MAV_MISSION_ACCEPTED
+    bench.tick(5.0)  # past the streamed MISSION_CURRENT
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 2, 0, 0, 0, 0, 0, 0))
+    out = bench.tick(0.001)
+    assert [m.get_type() for m in out if m.get_type() in ("COMMAND_ACK", "MISSION_CURRENT")] == [
+        "COMMAND_ACK",
+        "MISSION_CURRENT",
+    ]
+    assert [m.seq for m in out if m.get_type() == "MISSION_CURRENT"] == [2]
+    # a finished mission, reset at item 2: no longer finished, its DO_JUMP counts afresh
+    bench.ep.complete_mission()
+    restarts = bench.ep.mission_restarts
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2, 1) == mav.MAV_RESULT_ACCEPTED
+    assert not bench.ep.mission_complete and bench.ep.current_seq == 2
+    assert bench.ep.mission_restarts == restarts + 1
 
 
 def test_change_speed_results_as_rovers(bench: Bench) -> None:

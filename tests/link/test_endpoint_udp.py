@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.gcs import GroundStation
-from lfctl.link.mission import load_mission, local_mission, save_mission
+from lfctl.link.mission import MissionItem, load_mission, local_mission, save_mission
 from lfctl.link.signing import setup_signing, signing_key_from_passphrase
 from lfctl.link.transport import LossyLink, MemoryLink, UdpLink
 
@@ -525,3 +525,104 @@ def test_a_plan_whose_fence_the_vehicle_refuses_says_what_went_up(
     assert "(the mission went up; the vehicle keeps its fence and its rally points as they were)" in err
     assert live.ep.missions.lists[1] == [] and live.ep.missions.lists[2] == []
     assert "Fence upload refused: 300 items, room for 200" in [text for _t, text in live.ep.statustexts]
+
+
+def test_do_set_mission_current_param2_1_resets_the_mission_as_rover(live: LiveEndpoint) -> None:
+    # Rover 4.5+, GCS_Common's handle_command_do_set_mission_current: param2 1 ("reset
+    # mission") is AP_Mission::reset before the item is made current (DO_JUMP's counts start
+    # afresh, the driver's mission_restarts); any other param2 is a plain set, not refused;
+    # an item the mission has not is DENIED, a mission of home alone FAILED
+    g = live.gcs()
+    items = [*local_mission(SQUARE, HOME), MissionItem(5, 0, mav.MAV_CMD_DO_JUMP, 1.0, 2.0)]
+    g.upload(items)
+    ep = live.ep
+    restarts = ep.mission_restarts
+    for param2 in (0.0, 2.0, 0.5, math.nan):
+        assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, param2) == mav.MAV_RESULT_ACCEPTED
+        assert (ep.current_seq, ep.mission_restarts) == (3, restarts)
+    assert g.wait(("MISSION_CURRENT",), where=lambda m: m.seq == 3).total == 5
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, 1) == mav.MAV_RESULT_ACCEPTED
+    assert (ep.current_seq, ep.mission_restarts) == (3, restarts + 1)
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 5, 1) == mav.MAV_RESULT_ACCEPTED  # the DO_JUMP: an item
+    assert ep.mission_restarts == restarts + 2
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 6, 1) == mav.MAV_RESULT_DENIED  # past the last item
+    assert ep.mission_restarts == restarts + 2
+    g.upload(items[:1])  # home alone: nothing to head for
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 1) == mav.MAV_RESULT_FAILED
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == mav.MAV_RESULT_DENIED
+    g.clear()
+    assert g.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0) == mav.MAV_RESULT_DENIED
+    g.close()
+
+
+def test_an_item_with_no_upload_under_way_is_a_mission_error_for_each_list(live: LiveEndpoint) -> None:
+    # Rover's GCS_MAVLINK::handle_mission_item: an item of a list whose upload is not under
+    # way (here the last one sent again, as after a lost final ACK) is MISSION_ACK
+    # MAV_MISSION_ERROR for that list, nothing changed: no special case for the last item;
+    # a list there is none of is MAV_MISSION_UNSUPPORTED
+    g = live.gcs()
+    lat, lon = int(HOME[0] * 1e7), int(HOME[1] * 1e7)
+    corners = [(1000, -1000), (1000, 1000), (-1000, 1000), (-1000, -1000)]
+    inclusion = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    lists = {
+        mav.MAV_MISSION_TYPE_MISSION: local_mission(SQUARE, HOME),
+        mav.MAV_MISSION_TYPE_FENCE: [
+            MissionItem(k, mav.MAV_FRAME_GLOBAL, inclusion, 4.0, x=lat + dn, y=lon + de)
+            for k, (dn, de) in enumerate(corners)
+        ],
+        mav.MAV_MISSION_TYPE_RALLY: [
+            MissionItem(0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT, mav.MAV_CMD_NAV_RALLY_POINT, x=lat + 500, y=lon)
+        ],
+    }
+    for mtype, items in lists.items():
+        g.upload(items, mission_type=mtype)
+    held = {mtype: list(live.ep.missions.lists[mtype]) for mtype in lists}
+    mission = lists[mav.MAV_MISSION_TYPE_MISSION]
+
+    def answer(msg: object, mtype: int) -> int:
+        g.send(msg)
+        return int(g.wait(("MISSION_ACK",), where=lambda m: m.mission_type == mtype).type)
+
+    def item_int(it: MissionItem, mtype: int, current: int = 0) -> object:
+        return mav.MAVLink_mission_item_int_message(
+            1, 1, it.seq, it.frame, it.command, current, 1, it.param1, 0, 0, 0, it.x, it.y, it.z, mtype
+        )
+
+    for mtype, items in lists.items():
+        last = items[-1]
+        assert answer(item_int(last, mtype), mtype) == mav.MAV_MISSION_ERROR
+        as_float = mav.MAVLink_mission_item_message(
+            1, 1, last.seq, last.frame, last.command, 0, 1, last.param1, 0, 0, 0, last.lat_deg, last.lon_deg, 0, mtype
+        )
+        assert answer(as_float, mtype) == mav.MAV_MISSION_ERROR
+    assert answer(item_int(mission[1], 3), 3) == mav.MAV_MISSION_UNSUPPORTED  # no such list
+    assert {mtype: live.ep.missions.lists[mtype] for mtype in lists} == held
+    # current = 3, an altitude change (MAVProxy's `guided` module): Rover takes it and has no
+    # altitude to change; current = 2 stays a guided target (refused outside GUIDED)
+    assert answer(item_int(mission[1], 0, current=3), 0) == mav.MAV_MISSION_ACCEPTED
+    assert answer(item_int(mission[1], 0, current=2), 0) == mav.MAV_MISSION_ERROR
+    assert live.ep.mission == held[mav.MAV_MISSION_TYPE_MISSION] and live.ep.guided is None
+    # a stray item's MAV_MISSION_ERROR that reaches lfctl's ground station after it has
+    # started a new upload (before the vehicle asks for anything) does not fail that upload
+    g.send(item_int(mission[-1], 0))
+    g.upload(mission[:3])
+    assert len(live.ep.mission) == 3
+    g.close()
+
+
+def test_nav_set_yaw_speed_is_unsupported_as_on_a_current_rover(live: LiveEndpoint) -> None:
+    # Rover's newest source is built without it (AP_MAVLINK_MAV_CMD_NAV_SET_YAW_SPEED_ENABLED
+    # 0): the command falls through to GCS_Common's UNSUPPORTED, as a COMMAND_LONG (turned into
+    # a COMMAND_INT) or a COMMAND_INT, in GUIDED too; the target stays
+    g = live.gcs()
+    assert g.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    assert g.command(mav.MAV_CMD_NAV_SET_YAW_SPEED, 90, 0.3, 0) == mav.MAV_RESULT_UNSUPPORTED
+    g.send(
+        mav.MAVLink_command_int_message(
+            1, 1, mav.MAV_FRAME_GLOBAL, mav.MAV_CMD_NAV_SET_YAW_SPEED, 0, 0, 90, 0.3, 1, 0, 0, 0, 0
+        )
+    )
+    ack = g.wait(("COMMAND_ACK",), where=lambda m: m.command == mav.MAV_CMD_NAV_SET_YAW_SPEED)
+    assert ack.result == mav.MAV_RESULT_UNSUPPORTED
+    assert live.ep.guided is None and live.ep.mode == MODES["GUIDED"]
+    g.close()

@@ -506,6 +506,20 @@ def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_re
     assert [index + 1 for index, _t in rep.waypoints_reached] == [1, 2, 1, 1, 2, 1, 2, 4]
 
 
+@pytest.mark.parametrize(("reset", "laps"), [(0.0, [1, 2, 1, 1, 2, 4]), (1.0, [1, 2, 1, 1, 2, 1, 2, 4])])
+def test_do_set_mission_current_with_reset_starts_the_jump_counts_afresh(reset: float, laps: list[int]) -> None:
+    # DO_SET_MISSION_CURRENT 1 on the way round the second time: param2 0 keeps the jump
+    # already taken (as MISSION_SET_CURRENT 1), param2 1 resets the mission first
+    # (AP_Mission::reset): the jump is taken again
+    def back_to_1(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(
+            1, 1, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 1, reset, 0, 0, 0, 0, 0,
+        ))  # fmt: skip
+
+    rep, _links = run_with({0.5: with_jump, 30.0: back_to_1}, duration_s=90.0)
+    assert [index + 1 for index, _t in rep.waypoints_reached] == laps
+
+
 def test_do_set_home_in_the_mission_frame_is_above_mean_sea_level() -> None:
     def upload(links: Links) -> None:
         spot = places(links.home, (4.0, 0.0))[0]
