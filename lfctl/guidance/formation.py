@@ -321,7 +321,16 @@ class FormationController:
             ``odom`` is placed with the odometry of its own time.
         odom : Odometry
             The follower's pose and speed now.
+
+        Raises
+        ------
+        ValueError
+            An odometry value that is not a number (it would stay in the target's filter for
+            good), named.
         """
+        for name in ("t_s", "north_m", "east_m", "yaw_rad", "speed_mps"):
+            if not math.isfinite(getattr(odom, name)):
+                raise ValueError(f"odometry {name} is {getattr(odom, name)!r}: the formation law needs a number")
         st = self.settings
         if st.controller != self._law:  # a ground station chose another law (LFC_LAW)
             self._law = st.controller

@@ -21,6 +21,7 @@ companion talks on.
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import dataclass
@@ -48,6 +49,8 @@ ODOMETRY_MSG_IDS = (
 #: the companion's HEARTBEAT period, s (MAVLink's 1 Hz)
 HEARTBEAT_PERIOD_S = 1.0
 #: the parameter protocol's requests
+log = logging.getLogger(__name__)
+
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
 
 
@@ -97,6 +100,8 @@ class Companion:
         #: its own parameters (``LFC_*``): a ground station may set them while it runs
         self.params = formation_params()
         self.param_server = ParamServer(self.params, self.port.send, self.statustext)
+        #: the vehicle's position and attitude messages passed over for a value that is not a number
+        self.non_finite = 0
         self._heartbeat_t_s: float | None = None
 
     def param(self, name: str) -> float:
@@ -263,13 +268,27 @@ class Companion:
         if kind == "HEARTBEAT":
             v.heard, v.mode, v.armed = True, m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
-            v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
+            if self._finite(kind, m.x, m.y, m.vx, m.vy):
+                v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
         elif kind == "ATTITUDE":
-            v.yaw_rad = m.yaw
+            if self._finite(kind, m.yaw):
+                v.yaw_rad = m.yaw
         elif kind == "GLOBAL_POSITION_INT":
             v.global_t_s = t_s
             known = (m.lat, m.lon) != (0, 0) and abs(m.lat) <= 900_000_000 and abs(m.lon) <= 1_800_000_000
             v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
+
+    def _finite(self, kind: str, *values: float) -> bool:
+        """Whether the vehicle's ``kind`` holds only numbers: ArduPilot sends none that is
+        not, so one that does is damaged or not the autopilot's, and is passed over (the
+        odometry keeps its last values; a NaN there would stay in the formation filter for
+        good). The first is said in the log, the rest counted in :attr:`non_finite`."""
+        if all(math.isfinite(x) for x in values):
+            return True
+        if not self.non_finite:
+            log.warning("%s from the vehicle with a value that is not a number: passed over (and any after it)", kind)
+        self.non_finite += 1
+        return False
 
     def _param_request(self, m: Any, kind: str) -> None:
         """The parameter protocol, for requests addressed to this component or to every

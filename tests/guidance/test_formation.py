@@ -24,6 +24,19 @@ def test_target_ahead_beyond_range_drives_forward_straight() -> None:
     assert out.range_est_m == pytest.approx(2.5)
 
 
+@pytest.mark.parametrize("field", ["t_s", "north_m", "east_m", "yaw_rad", "speed_mps"])
+def test_odometry_that_is_not_a_number_is_refused_and_leaves_the_filter_as_it_was(field: str) -> None:
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    ctl.step(meas(0.0, 2.5), Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
+    good = ctl.step(meas(DT, 2.5), Odometry(DT, 0.0, 0.0, 0.0, 0.0))
+    bad = {"t_s": 2 * DT, "north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, field: math.nan}
+    with pytest.raises(ValueError, match=f"odometry {field} is nan"):
+        ctl.step(meas(2 * DT, 2.5), Odometry(**bad))
+    out = ctl.step(meas(2 * DT, 2.5), Odometry(2 * DT, 0.0, 0.0, 0.0, 0.0))
+    assert math.isfinite(out.speed_mps) and math.isfinite(out.yaw_rate_radps)
+    assert out.range_est_m == pytest.approx(good.range_est_m, abs=1e-6)
+
+
 def test_target_on_the_right_turns_right() -> None:
     ctl = FormationController(FormationSettings(range_cmd_m=1.5))
     out = ctl.step(meas(0.0, 1.5, math.radians(20)), Odometry(0.0, 0.0, 0.0, 0.0, 0.0))
