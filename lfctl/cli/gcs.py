@@ -201,20 +201,25 @@ def fleet_rows(table: Any, now_s: float) -> list[dict[str, Any]]:
                 "sysid": sysid,
                 "mode": r.mode,
                 "armed": r.armed,
-                "north_m": None if r.north_m is None else round(r.north_m, 2),
-                "east_m": None if r.east_m is None else round(r.east_m, 2),
-                "speed_mps": None if r.speed_mps is None else round(r.speed_mps, 2),
+                "north_m": _rounded(r.north_m, 2),
+                "east_m": _rounded(r.east_m, 2),
+                "speed_mps": _rounded(r.speed_mps, 2),
                 "link_age_s": round(age, 1),
                 "stale": age > STALE_S,
                 "mission_seq": r.mission_seq,
                 "mission_total": r.mission_total,
-                "range_err_m": None if "rng_err" not in f else round(f["rng_err"], 3),
-                "bearing_err_deg": None if "brg_err" not in f else round(f["brg_err"], 2),
+                "range_err_m": _rounded(f.get("rng_err"), 3),  # the companion's NaN: no estimate
+                "bearing_err_deg": _rounded(f.get("brg_err"), 2),
                 "track": track,
                 "text": r.text,
             }
         )
     return out
+
+
+def _rounded(value: float | None, digits: int) -> float | None:
+    """``value`` rounded, None where there is none or it is not a number (JSON has no NaN)."""
+    return None if value is None or not math.isfinite(value) else round(value, digits)
 
 
 def render_fleet(rows: list[dict[str, Any]]) -> list[str]:

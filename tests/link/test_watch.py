@@ -56,6 +56,19 @@ def test_rows_wait_for_the_autopilot_and_go_stale_after_3_s() -> None:
     assert old["stale"] and "STALE" in render_fleet([old])[1]
 
 
+def test_a_lost_followers_no_value_is_null_in_the_json_not_nan() -> None:
+    """The companion reports an unknown error as NaN (MAVLink's "no value"); JSON has no NaN."""
+    table = FleetTable()
+    table.add(message(heartbeat(15, True), 2), 0.0)
+    table.add(message(mav.MAVLink_local_position_ned_message(0, float("nan"), -1.5, 0, 0.3, 0.0, 0), 2), 0.0)
+    for name in (b"rng_err", b"brg_err", b"trk_q"):
+        table.add(message(mav.MAVLink_named_value_float_message(0, name, float("nan")), 2, 191), 0.0)
+    (row,) = fleet_rows(table, 0.5)
+    assert (row["range_err_m"], row["bearing_err_deg"], row["track"], row["north_m"]) == (None, None, "lost", None)
+    json.loads(json.dumps(row, allow_nan=False))  # strict JSON
+    assert "nan" not in render_fleet([row])[1].lower()
+
+
 class FakeStation:
     """Gives the scripted messages, one per call, then nothing."""
 
