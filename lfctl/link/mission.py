@@ -249,11 +249,23 @@ def _whole(x: float) -> bool:
     return math.isfinite(x) and x == int(x)
 
 
+#: the params (1-4) a mission item may leave NaN, by command (AP_Mission::sanity_check_params)
+NAN_ALLOWED = {
+    mav.MAV_CMD_NAV_WAYPOINT: (4,),
+    mav.MAV_CMD_NAV_LAND: (4,),
+    mav.MAV_CMD_NAV_TAKEOFF: (4,),
+    mav.MAV_CMD_NAV_VTOL_TAKEOFF: (4,),
+    mav.MAV_CMD_NAV_VTOL_LAND: (3, 4),
+}
+
+
 def validate_item(item: MissionItem, count: int) -> int:
     """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home).
 
-    Parameters the command uses must be finite and in range; the ones it does not use may be
-    anything (QGroundControl sends NaN for "unset"), as ArduPilot takes them.
+    First, as ArduPilot's ``AP_Mission::sanity_check_params`` for every command: params 1-4
+    must not be infinite, nor NaN, except where a NaN means "unset" (param4, the yaw, of
+    NAV_WAYPOINT, NAV_LAND, NAV_TAKEOFF and NAV_VTOL_TAKEOFF; params 3 and 4 of
+    NAV_VTOL_LAND). Then the parameters the command uses must be in range.
 
     Parameters
     ----------
@@ -262,6 +274,10 @@ def validate_item(item: MissionItem, count: int) -> int:
     count : int
         The mission's item count (DO_JUMP must land inside it).
     """
+    may_be_nan = NAN_ALLOWED.get(item.command, ())
+    for k, value in enumerate((item.param1, item.param2, item.param3, item.param4)):
+        if math.isinf(value) or (math.isnan(value) and k + 1 not in may_be_nan):
+            return mav.MAV_MISSION_INVALID_PARAM1 + k
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
     cmd = NAV_WAYPOINT if item.seq == 0 else item.command  # home: a place, whatever the command

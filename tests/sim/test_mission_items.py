@@ -270,6 +270,30 @@ def test_a_nav_delay_names_the_parameter_it_cannot_take(params: tuple[float, ...
     assert validate_item(MissionItem(1, 0, mav.MAV_CMD_NAV_DELAY, *params), 3) == result
 
 
+@pytest.mark.parametrize(
+    ("cmd", "params", "result"),
+    [
+        (mav.MAV_CMD_NAV_WAYPOINT, (0.0, 0.0, 0.0, math.nan), mav.MAV_MISSION_ACCEPTED),  # the yaw unset
+        (mav.MAV_CMD_NAV_WAYPOINT, (0.0, math.nan, 0.0, 0.0), mav.MAV_MISSION_INVALID_PARAM2),
+        (mav.MAV_CMD_NAV_WAYPOINT, (0.0, 0.0, 0.0, math.inf), mav.MAV_MISSION_INVALID_PARAM4),
+        (mav.MAV_CMD_DO_CHANGE_SPEED, (1.0, 0.5, math.nan, 0.0), mav.MAV_MISSION_INVALID_PARAM3),
+        (mav.MAV_CMD_DO_CHANGE_SPEED, (1.0, 0.5, -1.0, math.nan), mav.MAV_MISSION_INVALID_PARAM4),
+        (mav.MAV_CMD_NAV_RETURN_TO_LAUNCH, (math.nan, 0.0, 0.0, 0.0), mav.MAV_MISSION_INVALID_PARAM1),
+        (mav.MAV_CMD_NAV_LOITER_UNLIM, (0.0, 0.0, 0.0, math.nan), mav.MAV_MISSION_INVALID_PARAM4),
+        (mav.MAV_CMD_DO_JUMP, (1.0, 1.0, math.nan, 0.0), mav.MAV_MISSION_INVALID_PARAM3),
+        (mav.MAV_CMD_USER_1, (-math.inf, 0.0, 0.0, 0.0), mav.MAV_MISSION_INVALID_PARAM1),  # checked first
+    ],
+)
+def test_params_1_to_4_are_numbers_unless_rover_takes_nan_for_unset(
+    cmd: int, params: tuple[float, ...], result: int
+) -> None:
+    """As AP_Mission::sanity_check_params: an unused parameter may not be NaN or infinite
+    either (QGroundControl's plans hold numbers there); only the yaw of a waypoint (and a
+    landing's, a takeoff's) may be NaN."""
+    it = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, cmd, *params, x=129600000, y=776700000)
+    assert validate_item(it, 3) == result
+
+
 def test_a_negative_hold_is_none_as_on_a_rover() -> None:
     wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, -5.0, x=129600000, y=1)
     assert validate_item(wp, 2) == mav.MAV_MISSION_ACCEPTED
