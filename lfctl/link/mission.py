@@ -4,9 +4,10 @@ waypoints, and the QGC WPL 110 / QGroundControl .plan file formats."""
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -14,6 +15,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.checks import read_text_file
 from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "ACTED_ON",
@@ -222,6 +225,15 @@ class MissionItem:
     def lon_deg(self) -> float:
         """Longitude, degrees."""
         return self.y / 1e7
+
+    @property
+    def file_xy(self) -> tuple[float, float]:
+        """Params 5 and 6 as a plan or waypoint file holds them: degrees, but x and y as they
+        are for an item in MAV_FRAME_MISSION (a DO command's numbers, not a place), as
+        QGroundControl converts them to and from MISSION_ITEM_INT."""
+        if self.frame == mav.MAV_FRAME_MISSION:
+            return float(self.x), float(self.y)
+        return self.lat_deg, self.lon_deg
 
 
 def home_item(lat_deg: float, lon_deg: float, alt_m: float) -> MissionItem:
@@ -705,7 +717,9 @@ def _item(
     """One item from a file, each field checked against what MISSION_ITEM_INT carries.
 
     Parameters 1-4 may be NaN (QGroundControl's "unset"); the vehicle decides whether the
-    command accepts them. ``where`` names the line or item for the message.
+    command accepts them. Params 5 and 6 are degrees, scaled by 1e7 for MISSION_ITEM_INT, but
+    taken as they are in MAV_FRAME_MISSION (a DO command's numbers), as QGroundControl uploads
+    them. ``where`` names the line or item for the message.
     """
     if not 0 <= command <= 65535:
         raise ConfigError(f"{where}: command {command} is not a MAV_CMD (0..65535)")
@@ -716,11 +730,16 @@ def _item(
     for i, v in enumerate(params, start=1):
         if not (math.isnan(v) or abs(v) <= _FLOAT32_MAX):
             raise ConfigError(f"{where}: param{i} = {v!r} does not fit a MAVLink float (NaN for unset)")
+    if not (math.isfinite(alt) and abs(alt) <= _FLOAT32_MAX):
+        raise ConfigError(f"{where}: altitude must be a finite number, got {alt!r}")
+    if frame == mav.MAV_FRAME_MISSION:  # not a place: x and y go as they are (QGroundControl's upload)
+        for i, v in ((5, lat), (6, lon)):
+            if not (math.isfinite(v) and -(2**31) <= round(v) < 2**31):
+                raise ConfigError(f"{where}: param{i} = {v!r} does not fit MISSION_ITEM_INT's integer")
+        return MissionItem(seq, frame, command, *params, int(round(lat)), int(round(lon)), alt, autocontinue)
     for label, v, limit in (("latitude", lat, 90.0), ("longitude", lon, 180.0)):
         if not (math.isfinite(v) and abs(v) <= limit):
             raise ConfigError(f"{where}: {label} must be within [-{limit:g}, {limit:g}] degrees, got {v!r}")
-    if not (math.isfinite(alt) and abs(alt) <= _FLOAT32_MAX):
-        raise ConfigError(f"{where}: altitude must be a finite number, got {alt!r}")
     return MissionItem(seq, frame, command, *params, int(round(lat * 1e7)), int(round(lon * 1e7)), alt, autocontinue)
 
 
@@ -757,7 +776,12 @@ def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem]
         plan = json.loads(text)
     except (ValueError, RecursionError) as exc:  # (JSONDecodeError, or an integer of 4300+ digits)
         raise ConfigError(f"{p}: not a QGroundControl .plan file (not JSON: {str(exc)[:80]})") from None
-    mission = plan.get("mission") if isinstance(plan, dict) else None
+    if not isinstance(plan, dict) or plan.get("fileType") != "Plan":
+        kind = str(plan.get("fileType"))[:40] if isinstance(plan, dict) else type(plan).__name__
+        raise ConfigError(f"{p}: not a QGroundControl .plan file (fileType {kind!r}, not 'Plan')")
+    if plan.get("version") != 1:
+        raise ConfigError(f"{p}: plan version {str(plan.get('version'))[:20]}: QGroundControl's plans are version 1")
+    mission = plan.get("mission")
     if not isinstance(mission, dict):
         raise ConfigError(f"{p}: not a QGroundControl .plan file (no 'mission' object)")
     home, raw = mission.get("plannedHomePosition"), mission.get("items")
@@ -768,6 +792,8 @@ def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem]
     if len(raw) >= MAX_FILE_ITEMS:
         raise ConfigError(f"{p}: {len(raw) + 1} items; a mission holds at most {MAX_FILE_ITEMS} (home included)")
     items = [_item(f"{p}: plannedHomePosition", 0, mav.MAV_FRAME_GLOBAL_INT, NAV_WAYPOINT, [0.0] * 4, *home, 1)]
+    jump_ids: dict[int, int] = {}  # a SimpleItem's doJumpId: its seq
+    simple: set[int] = set()  # the seqs of the plan's own SimpleItems (not a survey's)
     for k, it in enumerate(raw):
         where = f"{p}: mission.items[{k}]"
         if not isinstance(it, dict):
@@ -776,6 +802,9 @@ def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem]
             for j, inner in enumerate(_complex_items(where, it)):
                 items.append(_simple_item(f"{where}.TransectStyleComplexItem.Items[{j}]", inner, len(items)))
         elif it.get("type") == "SimpleItem":
+            if _is_int(it.get("doJumpId")):
+                jump_ids.setdefault(it["doJumpId"], len(items))
+            simple.add(len(items))
             items.append(_simple_item(where, it, len(items)))
         else:
             raise ConfigError(f"{where}: item type {str(it.get('type'))[:40]!r} is not SimpleItem or ComplexItem")
@@ -783,6 +812,13 @@ def _load_plan(p: Path, text: str) -> tuple[list[MissionItem], list[MissionItem]
             raise ConfigError(
                 f"{p}: over {MAX_FILE_ITEMS} items; a mission holds at most {MAX_FILE_ITEMS} (home included)"
             )
+    for k, it in enumerate(items):
+        if it.command == DO_JUMP and k in simple:
+            # QGroundControl's DO_JUMP names its target by doJumpId, and goes up with its seq
+            target = jump_ids.get(int(it.param1)) if math.isfinite(it.param1) else None
+            if target is None:
+                raise ConfigError(f"{p}: the DO_JUMP at item {k} jumps to doJumpId {it.param1:g}, which no item has")
+            items[k] = replace(it, param1=float(target))
     fence, rally = _plan_fence(p, plan.get("geoFence")), _plan_rally(p, plan.get("rallyPoints"))
     for what, made in (("geoFence", fence), ("rallyPoints", rally)):
         if len(made) > MAX_FILE_ITEMS:  # MISSION_COUNT is 16 bits
@@ -804,14 +840,23 @@ def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
         return []
     if not isinstance(fence, dict):
         raise ConfigError(f"{p}: geoFence must be an object, got {type(fence).__name__}")
-    polygons, circles = fence.get("polygons", []), fence.get("circles", [])
+    version = fence.get("version")
+    if version == 1:  # QGroundControl 3.x's fence: QGroundControl ignores it, and so does lfctl
+        log.warning("%s: geoFence version 1 (QGroundControl 3.x) ignored, as QGroundControl ignores it", p)
+        return []
+    if version != 2:
+        raise ConfigError(
+            f"{p}: geoFence version {str(version)[:20]}: QGroundControl reads version 2 (and ignores 1, "
+            "or a fence with no version, without a word; lfctl refuses the last)"
+        )
+    polygons, circles = fence.get("polygons"), fence.get("circles")
     if not isinstance(polygons, list) or not isinstance(circles, list):
-        raise ConfigError(f"{p}: geoFence.polygons and geoFence.circles must be lists")
+        raise ConfigError(f"{p}: geoFence.polygons and geoFence.circles must be lists (both are required)")
     out: list[MissionItem] = []
     for k, poly in enumerate(polygons):
         where = f"{p}: geoFence.polygons[{k}]"
         vertices = poly.get("polygon") if isinstance(poly, dict) else None
-        inclusion = poly.get("inclusion", True) if isinstance(poly, dict) else None
+        inclusion = poly.get("inclusion") if isinstance(poly, dict) else None
         if not isinstance(vertices, list) or not isinstance(inclusion, bool):
             raise ConfigError(f"{where} must be {{'inclusion': true or false, 'polygon': [[lat, lon], ...]}}")
         if not 3 <= len(vertices) <= MAX_VERTICES:
@@ -824,7 +869,7 @@ def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
         where = f"{p}: geoFence.circles[{k}]"
         inner = circle.get("circle") if isinstance(circle, dict) else None
         radius = inner.get("radius") if isinstance(inner, dict) else None
-        inclusion = circle.get("inclusion", True) if isinstance(circle, dict) else None
+        inclusion = circle.get("inclusion") if isinstance(circle, dict) else None
         if not _is_number(radius) or not isinstance(inclusion, bool):
             raise ConfigError(
                 f"{where} must be {{'inclusion': true or false, 'circle': {{'center': [lat, lon], 'radius': m}}}}"
@@ -847,6 +892,11 @@ def _plan_rally(p: Path, rally: object) -> list[MissionItem]:
     """A plan's ``rallyPoints`` as RALLY items (latitude, longitude, altitude above home)."""
     if rally is None:
         return []
+    if isinstance(rally, dict) and rally.get("version") == 1:  # as QGroundControl: ignored
+        log.warning("%s: rallyPoints version 1 ignored, as QGroundControl ignores it", p)
+        return []
+    if isinstance(rally, dict) and rally.get("version") != 2:
+        raise ConfigError(f"{p}: rallyPoints version {str(rally.get('version'))[:20]}: QGroundControl reads version 2")
     points = rally.get("points", []) if isinstance(rally, dict) else None
     if not isinstance(points, list):
         raise ConfigError(f"{p}: rallyPoints must be {{'points': [[lat, lon, alt], ...]}}")
@@ -988,7 +1038,7 @@ def save_mission(
                         # nor is an infinity, in a parameter the command does not use)
                         "params": [
                             v if math.isfinite(v) else None
-                            for v in (it.param1, it.param2, it.param3, it.param4, it.lat_deg, it.lon_deg, it.z)
+                            for v in (it.param1, it.param2, it.param3, it.param4, *it.file_xy, it.z)
                         ],
                     }
                     for it in items[1:]
@@ -1009,8 +1059,7 @@ def save_mission(
             it.param2,
             it.param3,
             it.param4,
-            f"{it.lat_deg:.7f}",
-            f"{it.lon_deg:.7f}",
+            *(f"{v:.7f}" if it.frame != mav.MAV_FRAME_MISSION else f"{v:g}" for v in it.file_xy),
             it.z,
             it.autocontinue,
         ]

@@ -513,9 +513,10 @@ def test_a_plan_whose_fence_the_vehicle_refuses_says_what_went_up(
     ring = [[lat + 1e-4 * math.cos(a / 16), lon + 1e-4 * math.sin(a / 16)] for a in range(100)]
     plan = {
         "fileType": "Plan",
+        "version": 1,
         "mission": {"plannedHomePosition": [lat, lon, HOME[2]], "items": []},
-        "geoFence": {"polygons": [{"inclusion": True, "polygon": ring}] * 3, "circles": []},
-        "rallyPoints": {"points": [[lat, lon, 0.0]]},
+        "geoFence": {"version": 2, "polygons": [{"inclusion": True, "polygon": ring}] * 3, "circles": []},
+        "rallyPoints": {"version": 2, "points": [[lat, lon, 0.0]]},
     }
     path = tmp_path / "too-big.plan"
     path.write_text(json.dumps(plan))

@@ -165,19 +165,27 @@ def test_a_complex_item_lfctl_cannot_read_is_named(tmp_path: Path, complex_item:
         ("geoFence", {"polygons": [{"inclusion": 1, "polygon": []}]}, "geoFence.polygons[0] must be"),
         (
             "geoFence",
-            {"polygons": [{"polygon": [[12.9, 77.6], [12.9, "77"], [13, 77]]}]},
+            {"polygons": [{"inclusion": True, "polygon": [[12.9, 77.6], [12.9, "77"], [13, 77]]}]},
             "polygon[1] must be [latitude",
         ),
-        ("geoFence", {"polygons": [{"polygon": [[12.9, 77.6], [12.91, 77.6]]}]}, "3 to 100 vertices, this one 2"),
-        ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": 0}}]}, "above 0 m, got 0"),
-        ("geoFence", {"polygons": [{"polygon": [[10**400, 77.6]] * 3}]}, "polygon[0] must be [latitude"),
+        ("geoFence", {"polygons": [{"inclusion": True, "polygon": [[12.9, 77.6], [12.91, 77.6]]}]}, "this one 2"),
+        ("geoFence", {"circles": [{"inclusion": True, "circle": {"center": [12.9, 77.6], "radius": 0}}]}, "got 0"),
+        ("geoFence", {"polygons": [{"inclusion": True, "polygon": [[10**400, 77.6]] * 3}]}, "polygon[0] must be [lat"),
         ("geoFence", {"breachReturn": [12.9, 77.6]}, "geoFence.breachReturn must be [latitude, longitude, altitude]"),
         ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": "5"}}]}, "geoFence.circles[0] must be"),
-        ("geoFence", {"circles": [{"circle": {"center": [12.9], "radius": 5}}]}, "circles[0].circle.center must be"),
+        ("geoFence", {"circles": [{"inclusion": True, "circle": {"center": [12.9], "radius": 5}}]}, "center must be"),
         ("geoFence", [], "geoFence must be an object"),
         ("rallyPoints", {"points": [[12.9, 77.6]]}, "rallyPoints.points[0] must be [latitude, longitude, altitude]"),
         ("rallyPoints", {"points": {}}, "rallyPoints must be"),
         ("rallyPoints", {"points": [[95.0, 77.6, 0]]}, "latitude must be within"),
+        # what QGroundControl refuses: a fence or rally list of another version, a polygon or
+        # circle that does not say whether it is an inclusion, a fence without its lists
+        ("geoFence", {"version": 3}, "geoFence version 3: QGroundControl reads version 2"),
+        ("geoFence", {"version": None}, "geoFence version None"),
+        ("geoFence", {"polygons": [{"polygon": [[12.9, 77.6], [12.91, 77.6], [12.91, 77.61]]}]}, "'inclusion': true"),
+        ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": 5}}]}, "'inclusion': true"),
+        ("geoFence", {"circles": None}, "(both are required)"),
+        ("rallyPoints", {"version": 3, "points": []}, "rallyPoints version 3: QGroundControl reads version 2"),
     ],
 )
 def test_a_plans_fence_or_rally_point_lfctl_cannot_read_is_named(
@@ -190,10 +198,55 @@ def test_a_plans_fence_or_rally_point_lfctl_cannot_read_is_named(
 
     path = survey_plan(tmp_path, qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0]))
     plan = json.loads(path.read_text())
-    plan[section] = value
+    required = {"geoFence": {"version": 2, "polygons": [], "circles": []}, "rallyPoints": {"version": 2}}
+    plan[section] = {**required[section], **value} if isinstance(value, dict) else value
     path.write_text(json.dumps(plan))
     with pytest.raises(ConfigError, match=re.escape(named)):
         load_mission_file(path)
+
+
+def test_a_plan_is_read_as_qgroundcontrol_reads_it(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """DO_JUMP's param1 names its target's doJumpId, and goes up as the target's seq; a
+    version-1 fence or rally list (QGroundControl 3.x) is ignored, as QGroundControl ignores
+    it; a DO command's params 5-6 in MAV_FRAME_MISSION go up as they are, not scaled as a place;
+    a file that is not a plan of version 1 is named."""
+    import json
+
+    from lfctl.errors import ConfigError
+    from lfctl.link.mission import load_mission_file, save_mission
+
+    plan = json.loads(survey_plan(tmp_path, qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0])).read_text())
+    items = [
+        qgc_item(16, [0, 0, 0, 0, 12.9603, 77.6691, 0]) | {"doJumpId": 10},
+        qgc_item(16, [0, 0, 0, 0, 12.9604, 77.6691, 0]) | {"doJumpId": 20},
+        qgc_item(177, [10, 2, 0, 0, 0, 0, 0], frame=2) | {"doJumpId": 30},
+        qgc_item(203, [0, 0, 0, 0, 1, 7, 0], frame=2) | {"doJumpId": 40},  # DO_DIGICAM_CONTROL: shoot, id 7
+    ]
+    plan["mission"]["items"] = items
+    plan["geoFence"] = {"version": 1, "polygon": [[12.96, 77.66], [12.961, 77.66], [12.961, 77.661]],
+                        "breachReturn": [12.96, 77.66]}  # fmt: skip
+    plan["rallyPoints"] = {"version": 1, "points": [[12.96, 77.66]]}
+    path = tmp_path / "q.plan"
+    path.write_text(json.dumps(plan))
+    loaded = load_mission_file(path)
+    assert [(it.command, it.param1) for it in loaded.mission[1:4]] == [(16, 0.0), (16, 0.0), (177, 1.0)]
+    assert (loaded.mission[4].x, loaded.mission[4].y) == (1, 7)  # not 10000000, 70000000
+    assert (loaded.fence, loaded.rally) == ([], []) and "version 1 (QGroundControl 3.x) ignored" in caplog.text
+    save_mission(loaded.mission, tmp_path / "again.plan")
+    again = json.loads((tmp_path / "again.plan").read_text())["mission"]["items"]
+    assert again[3]["params"][4:6] == [1.0, 7.0] and again[2]["params"][0] == 1.0 and again[0]["doJumpId"] == 1
+    assert load_mission_file(tmp_path / "again.plan").mission == loaded.mission
+    items[2]["params"][0] = 2  # no item has doJumpId 2: QGroundControl refuses the file
+    path.write_text(json.dumps(plan))
+    with pytest.raises(ConfigError, match="jumps to doJumpId 2, which no item has"):
+        load_mission_file(path)
+    for key, value, named in (
+        ("fileType", "Mission", "fileType 'Mission', not 'Plan'"),
+        ("version", 2, "plan version 2"),
+    ):
+        path.write_text(json.dumps(plan | {key: value}))
+        with pytest.raises(ConfigError, match=re.escape(named)):
+            load_mission_file(path)
 
 
 def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_path: Path) -> None:
@@ -203,13 +256,14 @@ def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_p
 
     first = tmp_path / "first.plan"
     geo = {
+        "version": 2,
         "polygons": [{"inclusion": False, "polygon": [[12.96, 77.66], [12.961, 77.66], [12.961, 77.661]]}],
         "circles": [{"inclusion": True, "circle": {"center": [12.9605, 77.6605], "radius": 40.0}}],
         "breachReturn": [12.9602, 77.6602, 5.0],
     }
     # param4 (yaw) left unset, as QGroundControl writes it: null, read as NaN, written as null
     plan = json.loads(survey_plan(tmp_path, qgc_item(16, [0, 0, 0, None, 12.9603, 77.6691, 0])).read_text())
-    plan["geoFence"], plan["rallyPoints"] = geo, {"points": [[12.9601, 77.6601, 3.0]]}
+    plan["geoFence"], plan["rallyPoints"] = geo, {"version": 2, "points": [[12.9601, 77.6601, 3.0]]}
     first.write_text(json.dumps(plan))
     loaded = load_mission_file(first)
     assert [(it.seq, it.command, it.param1) for it in loaded.fence] == [

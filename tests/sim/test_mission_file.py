@@ -136,8 +136,10 @@ def test_a_plan_for_another_site_or_with_an_item_the_leader_refuses_stops_the_ru
     assert "mission item 1 (NAV_WAYPOINT)" in err and "km from the scenario's home" in err
     assert "link.home_lat_deg" in err
     assert not (tmp_path / "logs").exists()  # nothing recorded
-    write_plan(tmp_path, base, command=31000)  # a command no ArduPilot mission knows
-    with pytest.raises(ConfigError, match="would refuse its mission at item 1: MAV_MISSION_UNSUPPORTED"):
+    # a command no ArduPilot mission knows, its yaw left unset: Rover checks the parameters
+    # first (AP_Mission::sanity_check_params), and only a waypoint's yaw may be NaN
+    write_plan(tmp_path, base, command=31000)
+    with pytest.raises(ConfigError, match="would refuse its mission at item 1: MAV_MISSION_INVALID_PARAM4"):
         scenario_mission(load_config(run))
     write_plan(tmp_path, base, route=())
     with pytest.raises(ConfigError, match="holds no mission items"):
