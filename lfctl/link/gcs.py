@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
-from lfctl.link.mission import MissionItem
+from lfctl.link.mission import MissionItem, command_name
 from lfctl.link.mission_server import MISSION_TYPES
 from lfctl.link.port import CHECK_LINK, MavPort
 
@@ -315,6 +315,7 @@ class GroundStation:
         for _attempt in range(restarts + 1):
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
             asked = False
+            last: MissionItem | None = None  # the item sent last: a refusal is of it
             while True:
                 try:
                     m = self.wait(
@@ -330,15 +331,20 @@ class GroundStation:
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
                         what = MISSION_TYPES.get(mission_type, "list")
-                        raise MissionProtocolError(f"{what} refused by system {self.target}: {result}", result=result)
+                        at = (
+                            "" if last is None else f" on item {last.seq} ({command_name(last.command)}), the last sent"
+                        )
+                        raise MissionProtocolError(
+                            f"{what} refused by system {self.target}{at}: {result}", result=result
+                        )
                     return
                 if not 0 <= m.seq < len(items):
                     raise MissionProtocolError(
                         f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})",
                         received_seq=m.seq,
                     )
-                asked = True
-                self._send_item(items[m.seq], mission_type)
+                asked, last = True, items[m.seq]
+                self._send_item(last, mission_type)
         raise LinkTimeoutError(
             "answer to the mission upload", sysid=self.target, detail=f"{restarts + 1} attempts from MISSION_COUNT"
         )

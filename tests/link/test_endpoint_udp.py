@@ -142,7 +142,9 @@ def test_invalid_latitude_is_rejected_and_the_old_mission_stays(live: LiveEndpoi
     g.upload(good)
     bad = list(good)
     bad[3] = type(bad[3])(**{**bad[3].__dict__, "x": 95 * 10**7})
-    with pytest.raises(MissionProtocolError, match="MAV_MISSION_INVALID_PARAM5_X"):
+    with pytest.raises(
+        MissionProtocolError, match=r"on item 3 \(NAV_WAYPOINT\), the last sent: MAV_MISSION_INVALID_PARAM5_X"
+    ):
         g.upload(bad)
     assert [i.x for i in g.download()[1:]] == [i.x for i in good[1:]]  # item 0: home now
     # a command ArduPilot's mission library does not know (a Rover takes even NAV_TAKEOFF, and skips it)
