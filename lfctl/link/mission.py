@@ -498,8 +498,11 @@ def walk_mission(
                 here = (n, e)
             if it.command == NAV_LOITER_UNLIM:
                 hold = math.inf
-            elif it.command in (NAV_WAYPOINT, NAV_LOITER_TIME) or (it.command == NAV_DELAY and it.param1 > 0):
-                hold = max(0.0, it.param1)
+            elif it.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
+                # whole seconds: Rover keeps this time in a 16-bit integer (AP_Mission's p1)
+                hold = float(math.floor(it.param1)) if it.param1 > 0 else 0.0
+            elif it.command == NAV_DELAY and it.param1 > 0:  # NAV_DELAY's seconds are a float
+                hold = it.param1
             else:
                 hold = 0.0
             legs.append(Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items())))

@@ -294,6 +294,16 @@ def test_params_1_to_4_are_numbers_unless_rover_takes_nan_for_unset(
     assert validate_item(it, 3) == result
 
 
+def test_a_waypoints_or_loiters_wait_is_whole_seconds_as_rovers_16_bit_time() -> None:
+    home = local_mission([], HOME)[0]
+    waits = [
+        to_legs([home, dataclasses.replace(item(cmd, p1), seq=1)], HOME)[0].hold_s
+        for cmd, p1 in ((mav.MAV_CMD_NAV_WAYPOINT, 0.6), (mav.MAV_CMD_NAV_WAYPOINT, 2.5),
+                        (mav.MAV_CMD_NAV_LOITER_TIME, 3.9), (mav.MAV_CMD_NAV_DELAY, 2.5))
+    ]  # fmt: skip
+    assert waits == [0.0, 2.0, 3.0, 2.5]  # NAV_DELAY's seconds are a float on Rover
+
+
 def test_a_negative_hold_is_none_as_on_a_rover() -> None:
     wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, -5.0, x=129600000, y=1)
     assert validate_item(wp, 2) == mav.MAV_MISSION_ACCEPTED
