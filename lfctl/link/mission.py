@@ -168,6 +168,8 @@ NAV_FRAMES = {
     mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
     mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
 }
+#: the frames of a fence vertex or circle, or a rally point (NAV_FRAMES but MAV_FRAME_MISSION)
+PLACE_FRAMES = NAV_FRAMES - {mav.MAV_FRAME_MISSION}
 #: the largest altitude a place may carry, m, in any frame (ArduPilot's LOCATION_ALT_MAX_M:
 #: a mission item's or a command's location beyond it is refused)
 LOCATION_ALT_MAX_M = 83_000.0

@@ -21,7 +21,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.fence import FENCE_COMMANDS, RALLY_COMMANDS, validate_fence
-from lfctl.link.mission import RAW_XY, STORES_LOCATION, MissionItem, validate_item
+from lfctl.link.mission import PLACE_FRAMES, RAW_XY, STORES_LOCATION, MissionItem, validate_item
 
 __all__ = ["MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
 
@@ -102,6 +102,7 @@ def item_result(item: MissionItem, mission_type: int, count: int) -> int:
     """
     if mission_type == MISSION:
         return validate_item(item, count)
+    # as ArduPilot's MissionItemProtocol_Fence / _Rally converters
     allowed = FENCE_COMMANDS if mission_type == FENCE else RALLY_COMMANDS
     if item.command not in allowed:
         return mav.MAV_MISSION_UNSUPPORTED
@@ -109,6 +110,10 @@ def item_result(item: MissionItem, mission_type: int, count: int) -> int:
         return mav.MAV_MISSION_INVALID_PARAM5_X
     if not (-180.0 <= item.lon_deg <= 180.0):
         return mav.MAV_MISSION_INVALID_PARAM6_Y
+    if mission_type == RALLY and not -32768 <= item.z <= 32767:
+        return mav.MAV_MISSION_INVALID_PARAM7  # a rally point's altitude is an int16, m
+    if item.frame not in PLACE_FRAMES:
+        return mav.MAV_MISSION_UNSUPPORTED_FRAME  # a place above sea level, home or the terrain
     return mav.MAV_MISSION_ACCEPTED
 
 
@@ -149,7 +154,7 @@ def _item_message(
         frame,
         it.command,
         current,
-        it.autocontinue,
+        1 if mission_type == MISSION else it.autocontinue,  # Rover's mission items always continue
         it.param1,
         it.param2,
         it.param3,

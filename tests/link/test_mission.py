@@ -4,11 +4,13 @@ QGroundControl plans with a survey read as the items QGroundControl saved with i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from pathlib import Path
 
 import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.mission import DO_CHANGE_SPEED, DO_JUMP, MAX_EXPANDED, MissionItem, local_mission, to_legs
 
@@ -281,3 +283,23 @@ def test_a_plans_fence_and_rally_points_round_trip_through_the_plan_writer(tmp_p
     assert (again.fence, again.rally) == (loaded.fence, loaded.rally)
     assert [(it.command, it.x, it.y) for it in again.mission] == [(it.command, it.x, it.y) for it in loaded.mission]
     assert math.isnan(again.mission[1].param4) and again.plan and again.rally[0].z == 3.0
+
+
+def test_fence_and_rally_items_are_places_and_mission_items_always_continue_as_on_rover() -> None:
+    """ArduPilot's fence and rally converters: a vertex or rally point in MAV_FRAME_MISSION is
+    no place (UNSUPPORTED_FRAME), a rally point's altitude is an int16; a mission item goes
+    down with autocontinue 1 whatever came up (mission_cmd_to_mavlink_int)."""
+    from lfctl.link.mission import MissionItem
+    from lfctl.link.mission_server import FENCE, MISSION, RALLY, _item_message, item_result
+
+    x, y = 129600000, 776700000
+    vertex = MissionItem(0, mav.MAV_FRAME_GLOBAL, mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 5.0, x=x, y=y)
+    rally = MissionItem(0, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_RALLY_POINT, x=x, y=y, z=3.0)
+    assert item_result(vertex, FENCE, 1) == item_result(rally, RALLY, 1) == mav.MAV_MISSION_ACCEPTED
+    for it, kind in ((vertex, FENCE), (rally, RALLY)):
+        moved = dataclasses.replace(it, frame=mav.MAV_FRAME_MISSION)
+        assert item_result(moved, kind, 1) == mav.MAV_MISSION_UNSUPPORTED_FRAME
+    assert item_result(dataclasses.replace(rally, z=40000.0), RALLY, 1) == mav.MAV_MISSION_INVALID_PARAM7
+    wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, x=x, y=y, autocontinue=0)
+    assert _item_message(wp, 255, 190, 0, MISSION).autocontinue == 1
+    assert _item_message(dataclasses.replace(vertex, autocontinue=0), 255, 190, 0, FENCE).autocontinue == 0
