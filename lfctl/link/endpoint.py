@@ -1250,7 +1250,8 @@ class VehicleEndpoint:
         finished mission no longer finished) and restarts it at the item (``resume``); any
         other param2 is taken as 0, not refused. Accepted, the new current item is told at
         once (MISSION_CURRENT), as Rover volunteers it."""
-        seq = _as_int(seq_param, 0, 65535)
+        # Rover casts param1 to an unsigned integer: a fraction is cut off
+        seq = math.trunc(seq_param) if _finite(seq_param) and seq_param >= 0 else None
         if seq is None or seq >= len(self.mission):
             return mav.MAV_RESULT_DENIED
         if not self.set_current(seq, reset=reset_param == 1.0):

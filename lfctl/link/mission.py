@@ -311,10 +311,10 @@ def validate_item(item: MissionItem, count: int) -> int:
         for k, (value, top) in enumerate(((item.param2, 23), (item.param3, 59), (item.param4, 59))):
             if not (_whole(value) and -1 <= value <= top):  # -1: any
                 return mav.MAV_MISSION_INVALID_PARAM2 + k
-    if cmd == DO_JUMP:
-        if not (_whole(item.param1) and 1 <= item.param1 < count):
-            return mav.MAV_MISSION_INVALID_PARAM1
-        if not (_whole(item.param2) and -1 <= item.param2 <= JUMP_REPEAT_MAX):
+    if cmd == DO_JUMP:  # target and repeat count are integers on Rover: a fraction is cut off
+        if not 1 <= math.trunc(item.param1) < count:
+            return mav.MAV_MISSION_ERROR  # MissionItemProtocol_Waypoints::append_item's answer
+        if not -1 <= math.trunc(item.param2) <= JUMP_REPEAT_MAX:
             return mav.MAV_MISSION_INVALID_PARAM2
     if cmd == DO_CHANGE_SPEED and not (
         item.param2 == -1 or (math.isfinite(item.param2) and 0 < item.param2 <= SPEED_MAX_MPS)
@@ -512,11 +512,11 @@ def walk_mission(
             if hold == math.inf:
                 return legs, ()
         elif it.command == DO_JUMP:
-            if _whole(it.param1) and _whole(it.param2):
-                left = jumps_left.setdefault(i, int(it.param2))
+            if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
+                left = jumps_left.setdefault(i, math.trunc(it.param2))
                 if left != 0:
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
-                    i = int(it.param1)
+                    i = math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it
             blocked = any(b.command not in SKIPPED_NAV for b in before)

@@ -172,6 +172,9 @@ def good_mission(n: int = 3) -> list[Item]:
         (Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=INF), mav.MAV_MISSION_INVALID_PARAM2),
         (Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=NAN), mav.MAV_MISSION_INVALID_PARAM2),
         (Item(2, mav.MAV_CMD_NAV_WAYPOINT, p1=NAN), mav.MAV_MISSION_INVALID_PARAM1),
+        # a jump to item 0 or past the mission: MissionItemProtocol_Waypoints::append_item's ERROR
+        (Item(2, mav.MAV_CMD_DO_JUMP, p1=9, p2=1), mav.MAV_MISSION_ERROR),
+        (Item(2, mav.MAV_CMD_DO_JUMP, p1=0.5, p2=1), mav.MAV_MISSION_ERROR),
     ],
 )
 def test_a_mission_item_that_is_not_a_number_is_refused_and_the_old_mission_stays(
@@ -1797,6 +1800,10 @@ def test_do_set_mission_current_tells_the_new_item_at_once_and_a_reset_restarts_
     assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2, 1) == mav.MAV_RESULT_ACCEPTED
     assert not bench.ep.mission_complete and bench.ep.current_seq == 2
     assert bench.ep.mission_restarts == restarts + 1
+    # param1 is cast to an unsigned integer, as Rover casts it: 1.9 is item 1, -1 no item
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1.9) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.current_seq == 1
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, -1) == mav.MAV_RESULT_DENIED
 
 
 def test_change_speed_results_as_rovers(bench: Bench) -> None:

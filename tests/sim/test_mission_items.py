@@ -304,6 +304,15 @@ def test_a_waypoints_or_loiters_wait_is_whole_seconds_as_rovers_16_bit_time() ->
     assert waits == [0.0, 2.0, 3.0, 2.5]  # NAV_DELAY's seconds are a float on Rover
 
 
+def test_a_fractional_jump_is_cut_to_whole_numbers_as_rovers_integers() -> None:
+    home = local_mission([], HOME)[0]
+    wps = [dataclasses.replace(it, seq=k) for k, it in enumerate(local_mission([(1.0, 0.0), (2.0, 0.0)], HOME))][1:]
+    jump = MissionItem(3, mav.MAV_FRAME_MISSION, mav.MAV_CMD_DO_JUMP, 1.7, 2.9)  # to item 1, twice
+    assert validate_item(jump, 4) == mav.MAV_MISSION_ACCEPTED
+    legs = to_legs([home, *wps, jump], HOME)
+    assert [leg.seq for leg in legs] == [1, 2, 1, 2, 1, 2]
+
+
 def test_a_negative_hold_is_none_as_on_a_rover() -> None:
     wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, -5.0, x=129600000, y=1)
     assert validate_item(wp, 2) == mav.MAV_MISSION_ACCEPTED
