@@ -21,6 +21,7 @@ import contextlib
 import ctypes
 import logging
 import math
+import os
 import re
 import threading
 import zipfile
@@ -31,7 +32,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from fmpy import read_model_description
+from fmpy import platform as fmpy_platform
+from fmpy import read_model_description, supported_platforms
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
@@ -164,10 +166,15 @@ class RoleMap:
         FMU's own origin to the vehicle's initial pose.
     units : Mapping[str, str]
         role -> unit, for FMUs that declare none or declare it wrongly.
+    explicit : frozenset of str
+        The roles mapped by hand (``[vehicles.map]``): an initial-pose role among them is no
+        longer optional, a mistyped name is an error rather than a role skipped.
     """
 
     names: Mapping[str, str] = field(default_factory=lambda: {r: r for r in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES)})
     units: Mapping[str, str] = field(default_factory=dict)
+    #: the roles a user mapped by hand: an optional one must then exist
+    explicit: frozenset[str] = frozenset()
 
 
 BUILTIN_ROLE_MAP = RoleMap()
@@ -185,6 +192,50 @@ class FmuVariable:
     unit: str  # declared on the variable or on its type
     start: str  # start value as text
     description: str  # the FMU's description of it
+
+
+#: fmi2Fatal / fmi3Fatal
+FATAL = 4
+#: the integer types of parameters and their bit widths (FMI 2's Enumeration is an Integer,
+#: FMI 3's an Int64)
+_INT_BITS = {"Integer": 32, "Int8": 8, "Int16": 16, "Int32": 32, "Int64": 64, "UInt8": 8, "UInt16": 16,
+             "UInt32": 32, "UInt64": 64}  # fmt: skip
+
+
+def _setter(fmi_version: int, kind: str) -> str:
+    """fmpy's setter of a variable of type ``kind`` (``setReal``, ``setInt32``, ...)."""
+    if kind == "Enumeration":
+        return "setInteger" if fmi_version == 2 else "setInt64"
+    return f"set{kind}"
+
+
+def _typed_value(path: Path, name: str, kind: str, value: object) -> object:
+    """A scenario's value for parameter ``name`` as its FMI type takes it; ConfigError naming
+    the parameter where it cannot (a fraction for an integer, 2 for a Boolean, a text)."""
+    if kind in ("Real", "Float64", "Float32"):
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"{path}: parameter {name!r} is a {kind}, got {value!r}")
+        return float(value)
+    if kind == "Boolean":
+        if value in (0, 1):  # (True and False are 1 and 0)
+            return bool(value)
+        raise ConfigError(f"{path}: parameter {name!r} is a Boolean: give true, false, 1 or 0, got {value!r}")
+    if kind in _INT_BITS or kind == "Enumeration":
+        bits = _INT_BITS.get(kind, 32)
+        lo, hi = (0, 2**bits - 1) if kind.startswith("UInt") else (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or value != int(value)
+            or not lo <= value <= hi
+        ):
+            raise ConfigError(
+                f"{path}: parameter {name!r} is an {kind}: give a whole number in [{lo}, {hi}], got {value!r}"
+            )
+        return int(value)
+    raise ConfigError(
+        f"{path}: parameter {name!r} has type {kind}, which lfctl does not set (numbers and Booleans only)"
+    )
 
 
 def _status_text(status: int) -> str:
@@ -230,6 +281,14 @@ class FmuLibrary:
             )
         if self.md.coSimulation is None:
             raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
+        have = [p for p in supported_platforms(str(self.path)) if p != "c-code"]
+        if fmpy_platform not in have:
+            raise FmuError(
+                f"{self.path}: no binary for this platform ({fmpy_platform}); it has "
+                f"{', '.join(have) or 'none'} (lfctl does not compile a user FMU's sources)",
+                model=str(self.path),
+                call="load",
+            )
         self.identifier: str = self.md.coSimulation.modelIdentifier
         if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", self.identifier or ""):
             # it names the library file and our folder: never a path
@@ -309,7 +368,7 @@ class FmuLibrary:
         scale: dict[str, float] = {}
         for role in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES):
             name = role_map.names.get(role)
-            optional = role in POSE_ROLES
+            optional = role in POSE_ROLES and role not in role_map.explicit
             if name is None or (optional and name not in self.variables):
                 if optional:
                     continue
@@ -327,7 +386,16 @@ class FmuLibrary:
                     f"{var.causality!r}, expected {want!r}"
                 )
             if var.type not in ("Real", "Float64"):
-                raise ConfigError(f"{self.path}: variable {name!r} has type {var.type}, expected a Real/Float64")
+                raise ConfigError(
+                    f"{self.path}: variable {name!r} mapped to role {role!r} has type {var.type}, expected a Real/Float64"
+                )
+            if getattr(var, "dimensions", None):
+                raise ConfigError(
+                    f"{self.path}: variable {name!r} mapped to role {role!r} is an array, expected a scalar"
+                )
+            if name in self.role_names.values():
+                other = next(r for r, n in self.role_names.items() if n == name)
+                raise ConfigError(f"{self.path}: variable {name!r} is mapped to two roles, {other!r} and {role!r}")
             unit = role_map.units.get(role) or self._unit_of(var) or ROLE_SI_UNIT[role]
             si, factor = UNIT_TO_SI.get(unit, (None, 0.0))
             if si != ROLE_SI_UNIT[role]:
@@ -380,6 +448,12 @@ class FmuLibrary:
         """
         if self._unzipdir is None:
             raise FmuError(f"{self.path}: library is closed", model=self.identifier, call="instantiate")
+        if self._instances and getattr(self.md.coSimulation, "canBeInstantiatedOnlyOncePerProcess", False):
+            raise ConfigError(
+                f"{self.path}: {self.identifier} declares canBeInstantiatedOnlyOncePerProcess, and "
+                f"{self._instances[0].name!r} has its one instance: lfctl steps every vehicle in one process, "
+                f"so {instance_name!r} cannot use it too"
+            )
         inst = FmuInstance(self, instance_name, parameters, pose, cmd_row, out_row, start_time_s)
         self._instances.append(inst)
         return inst
@@ -455,6 +529,11 @@ class FmuInstance:
         self.busy: str | None = None
         self.calls = 0
         self._slave: Any = None
+        #: a call returned Fatal: FMI allows no further call of any instance (not even to free it)
+        self._fatal = False
+        #: the FMU's own logging is on (with lfctl's debug logging): its messages say why it failed
+        self._logging = log.isEnabledFor(logging.DEBUG)
+        self._terminate: Any = None  # FMI 3's terminateSimulation flag of the last step
         _INSTANCES[id(self)] = self
         try:
             self._setup(parameters, pose, cmd_row, out_row)
@@ -473,17 +552,18 @@ class FmuInstance:
         md = lib.md
         common = dict(guid=md.guid, modelIdentifier=lib.identifier, unzipDirectory=lib._unzipdir, instanceName=name)
         prefix = "fmi2" if lib.fmi_version == 2 else "fmi3"
+        cwd = os.getcwd()  # fmpy goes into the library's folder to load it, and stays if that fails
         try:
             if lib.fmi_version == 2:
                 slave: Any = FMU2Slave(**common)
                 self._callbacks = fmi2CallbackFunctions()
                 self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
                 with self._in_call("fmi2Instantiate"):
-                    slave.instantiate(callbacks=self._callbacks)
+                    slave.instantiate(callbacks=self._callbacks, loggingOn=self._logging)
             else:
                 slave = FMU3Slave(**common)
                 with self._in_call("fmi3InstantiateCoSimulation"):
-                    slave.instantiate(logMessage=self._log3)
+                    slave.instantiate(logMessage=self._log3, loggingOn=self._logging)
             self._slave = slave
         except FmuError:
             raise
@@ -491,6 +571,8 @@ class FmuInstance:
             # name the user's .fmu, not the temporary folder it was unpacked into (gone by now)
             why = str(exc).replace(f"{lib._unzipdir}/", f"{lib.path} member ") if lib._unzipdir else str(exc)
             raise self._error(f"cannot instantiate {lib.identifier} as {name!r}: {why}", "Instantiate") from exc
+        finally:
+            os.chdir(cwd)  # (a folder removed with the library would leave the process nowhere)
         self._set_parameters(parameters, pose)
         dll = self._slave.dll
         c = self._slave.component
@@ -517,9 +599,10 @@ class FmuInstance:
             self._set = dll.fmi3SetFloat64
             self._get = dll.fmi3GetFloat64
             self._do = dll.fmi3DoStep
-            self._flags = [fmi3Boolean() for _ in range(3)]
+            self._flags = [fmi3Boolean() for _ in range(3)]  # eventHandlingNeeded, terminateSimulation, earlyReturn
             self._last = fmi3Float64()
             self._step_args = (True, *(ctypes.byref(f) for f in self._flags), ctypes.byref(self._last))
+            self._terminate = self._flags[1]
         self._nin, self._nout = n_in, n_out
         self._setup_calls()
         self.read()
@@ -551,6 +634,10 @@ class FmuInstance:
         log.log(level, "%s [%s] %s", self.name, _status_text(status), text)
 
     def _error(self, message: str, call: str, status: int | None = None) -> FmuError:
+        if status == FATAL:
+            self._fatal = True
+        if status is not None and not self.messages and not self._logging:
+            message += " (run with --debug to switch the FMU's own logging on: it may say why)"
         return FmuError(message, model=self.lib.identifier, call=call, status=status, log=self.messages)
 
     def _setup_calls(self) -> None:
@@ -573,29 +660,34 @@ class FmuInstance:
 
     def _set_parameters(self, parameters: Mapping[str, float], pose: tuple[float, float, float]) -> None:
         s = self._slave
-        values: dict[int, float] = {}
+        v = self.lib.fmi_version
+        # by the variable's type, each with its own setter: FMI 2 value references are unique
+        # per type only, so an Integer's may be a Real's too (fmpy's apply_start_values does so)
+        typed: dict[str, dict[int, object]] = {}
         for name, value in parameters.items():
             var = self.lib.variables.get(name)
             if var is None:
                 raise ConfigError(f"{self.lib.path}: parameter {name!r} does not exist in {self.lib.identifier}")
             if var.causality != "parameter":
                 raise ConfigError(f"{self.lib.path}: {name!r} has causality {var.causality!r}, not a parameter")
-            values[int(var.valueReference)] = float(value)
+            typed.setdefault(_setter(v, var.type), {})[int(var.valueReference)] = _typed_value(
+                self.lib.path, name, var.type, value
+            )
         if self.lib.pose_mapped:
+            reals = typed.setdefault(_setter(v, "Real" if v == 2 else "Float64"), {})
             for role, value in zip(POSE_ROLES, pose, strict=True):
-                values[self.lib.vr[role]] = value / self.lib.scale[role]
-        vrs, vals = list(values), list(values.values())
-        if self.lib.fmi_version == 2:
+                reals[self.lib.vr[role]] = value / self.lib.scale[role]
+        if v == 2:
             self._checked("fmi2SetupExperiment", s.setupExperiment, None, self._start_time_s)
-            if vrs:
-                self._checked("fmi2SetReal", s.setReal, vrs, vals)
+        for setter, values in typed.items():
+            self._checked(
+                f"fmi{v}{setter[0].upper()}{setter[1:]}", getattr(s, setter), list(values), list(values.values())
+            )
+        if v == 2:
             self._checked("fmi2EnterInitializationMode", s.enterInitializationMode)
-            self._checked("fmi2ExitInitializationMode", s.exitInitializationMode)
         else:
-            if vrs:
-                self._checked("fmi3SetFloat64", s.setFloat64, vrs, vals)
             self._checked("fmi3EnterInitializationMode", s.enterInitializationMode, startTime=self._start_time_s)
-            self._checked("fmi3ExitInitializationMode", s.exitInitializationMode)
+        self._checked(f"fmi{v}ExitInitializationMode", s.exitInitializationMode)
 
     # -- hot path ------------------------------------------------------------------------
     def step(self, dt_s: float) -> None:
@@ -609,19 +701,26 @@ class FmuInstance:
             The communication step, s.
         """
         # busy names the FMI call the FMU is in, for a watchdog (calls_in_progress)
+        # a Warning (1) is a call that did its work, "not quite right" (logged): go on
         self.busy = self._set_name
         status = self._set(*self._set_args)
-        if status == 0:
+        if status <= 1:
             self.busy = self._do_name
             status = self._do(self._c, self.t_s, dt_s, *self._step_args)
-            if status == 0:
+            if status <= 1:
                 self.busy = self._get_name
                 status = self._get(*self._get_args)
         call, self.busy = self.busy, None
         if _gate_closed:  # a watchdog is finishing the run: wait for it
             _pass_gate()
-        if status == 0:
+        if status <= 1:
             self.t_s += dt_s
+            if self._terminate is not None and self._terminate.value:
+                raise self._error(
+                    f"{self.lib.identifier} ({self.name}): {self._do_name} at t={self.t_s - dt_s:.6g} s asked to "
+                    "end the simulation (terminateSimulation)",
+                    self._do_name,
+                )
             return
         self._raise_status(call, status)
 
@@ -701,6 +800,8 @@ class FmuInstance:
         self._freed = True
         try:
             if self._slave is None:  # instantiation failed: nothing to free
+                return
+            if self._fatal:  # FMI: after Fatal no function may be called (freeing crashed some FMUs)
                 return
             v = self.lib.fmi_version
             # already in an error state: freeing is still right

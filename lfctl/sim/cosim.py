@@ -121,6 +121,7 @@ class Simulation:
         self._out_scale = np.ones((n, len(OUTPUT_ROLES)))
         self._origin = np.zeros((n, 3))  # north, east, yaw of the FMU origin (unmapped pose)
         self._libraries: dict[Path, FmuLibrary] = {}
+        self._mapped_by: dict[Path, tuple[str, RoleMap]] = {}  # who loaded each file, with which mapping
         self._instances: list[FmuInstance] = []
         self._tasks: list[_Task] = []
         self._sample_rate_hz = sample_rate_hz or config.sim.telemetry_rate_hz
@@ -161,7 +162,7 @@ class Simulation:
         if v.fmu is not None:
             path = Path(v.fmu).expanduser().resolve()
             names = {r: r for r in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES)} | dict(v.map)
-            role_map = RoleMap(names=names, units=dict(v.units))
+            role_map = RoleMap(names=names, units=dict(v.units), explicit=frozenset(v.map))
         else:
             if v.map or v.units:
                 raise ConfigError(f"vehicles[{v.name}]: map/units apply only to a user FMU (fmu = ...)")
@@ -170,6 +171,13 @@ class Simulation:
         key = path
         if key not in self._libraries:
             self._libraries[key] = FmuLibrary(path, role_map)
+            self._mapped_by[key] = (v.name, role_map)
+        first, mapped = self._mapped_by[key]
+        if mapped != role_map:  # one loaded file has one mapping: the second's would be ignored
+            raise ConfigError(
+                f"vehicles[{first}] and vehicles[{v.name}] use {path} with different map/units; "
+                "give both the same (or each its own copy of the file)"
+            )
         return self._libraries[key]
 
     @property
@@ -182,6 +190,7 @@ class Simulation:
         for lib in self._libraries.values():
             lib.close()
         self._libraries.clear()
+        self._mapped_by.clear()
         self._instances.clear()
         self._opened = False
 

@@ -264,12 +264,22 @@ def test_an_fmu_without_its_binary_is_named_not_its_temporary_folder(faulty: Bui
 
     from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, FmuInstance
 
-    fmu = tmp_path / "nobin.fmu"
-    with zipfile.ZipFile(faulty.fmi2) as src, zipfile.ZipFile(fmu, "w") as dst:
+    fmu, bad = tmp_path / "nobin.fmu", tmp_path / "badbin.fmu"
+    with zipfile.ZipFile(faulty.fmi2) as src, zipfile.ZipFile(fmu, "w") as dst, zipfile.ZipFile(bad, "w") as junk:
         for info in src.infolist():
-            if not info.filename.startswith("binaries/"):
-                dst.writestr(info, src.read(info))
+            name, data = info.filename, src.read(info)
+            if not name.startswith("binaries/"):
+                dst.writestr(name, data)
+                junk.writestr(name, data)
+            elif name.endswith(".so"):
+                junk.writestr(name, b"not a shared library")
+                dst.writestr(name.replace("linux64", "win64").replace(".so", ".dll"), data)  # another platform's only
+    # no binary for this platform: the file is unusable, said at load (exit 2), with what it has
+    with pytest.raises(FmuError, match=r"no binary for this platform \(linux64\); it has win64") as err:
+        FmuLibrary(fmu)
+    assert err.value.call == "load"
+    # a binary that does not load: named as the .fmu's member, not the temporary folder
     rows = np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
-    with FmuLibrary(fmu) as lib, pytest.raises(FmuError) as err:
+    with FmuLibrary(bad) as lib, pytest.raises(FmuError) as err:
         FmuInstance(lib, "leader", {}, (0.0, 0.0, 0.0), *rows, 0.0)
-    assert f"{fmu} member binaries/" in str(err.value) and "lfctl-" not in str(err.value)
+    assert f"{bad} member binaries/" in str(err.value) and "lfctl-" not in str(err.value)

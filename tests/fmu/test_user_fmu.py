@@ -1,0 +1,179 @@
+"""A user's FMU as fmpy and the FMI standard would have it: the flags and types its model
+description declares, the status and flags its calls return (FaultyRover, its model
+description edited where a test needs a declaration it lacks)."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lfctl.errors import ConfigError, FmuError
+from lfctl.fmu.build import BuiltModel
+from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuLibrary, RoleMap, _typed_value
+
+pytestmark = pytest.mark.fmu
+
+ROLES = {r: r for r in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES)}
+
+
+def edited(src: Path, dst: Path, edit) -> Path:
+    """``src`` with its modelDescription.xml passed through ``edit`` (text -> text)."""
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as b:
+        for info in a.infolist():
+            data = a.read(info)
+            if info.filename == "modelDescription.xml":
+                data = edit(data.decode()).encode()
+            b.writestr(info.filename, data)
+    return dst
+
+
+def rows() -> tuple[np.ndarray, np.ndarray]:
+    return np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
+
+
+def test_an_fmu_that_can_be_instantiated_once_per_process_serves_one_vehicle(
+    faulty: BuiltModel, tmp_path: Path
+) -> None:
+    once = edited(
+        faulty.fmi2,
+        tmp_path / "once.fmu",
+        lambda md: md.replace("<CoSimulation", '<CoSimulation canBeInstantiatedOnlyOncePerProcess="true"', 1),
+    )
+    with FmuLibrary(once) as lib:
+        lib.instantiate("f1", {}, (0.0, 0.0, 0.0), *rows())
+        with pytest.raises(ConfigError, match="canBeInstantiatedOnlyOncePerProcess, and 'f1' has its one instance"):
+            lib.instantiate("f2", {}, (0.0, 0.0, 0.0), *rows())
+
+
+def test_an_integer_parameter_goes_through_its_own_setter_and_must_be_whole(faulty: BuiltModel, tmp_path: Path) -> None:
+    """FMI 2 value references are unique per type only: an Integer parameter may share the
+    value reference of a Real one (here `fault`'s), and must not be set through fmi2SetReal."""
+    with zipfile.ZipFile(faulty.fmi2) as z:
+        vr = re.search(r'name="fault"\s+valueReference="(\d+)"', z.read("modelDescription.xml").decode())
+    assert vr is not None
+    mode = (
+        f'<ScalarVariable name="mode" valueReference="{vr.group(1)}" causality="parameter" '
+        'variability="fixed"><Integer start="0"/></ScalarVariable>'
+    )
+    fmu = edited(
+        faulty.fmi2, tmp_path / "int.fmu", lambda md: md.replace("</ModelVariables>", mode + "</ModelVariables>")
+    )
+    with FmuLibrary(fmu) as lib:
+        with pytest.raises(ConfigError, match=r"parameter 'mode' is an Integer: give a whole number .* got 0\.5"):
+            lib.instantiate("f1", {"mode": 0.5}, (0.0, 0.0, 0.0), *rows())
+        # FaultyRover has no Integer variables: it says so for fmi2SetInteger (fmi2SetReal
+        # would have set `fault` to 3)
+        with pytest.raises(FmuError, match="fmi2SetInteger returned Error") as err:
+            lib.instantiate("f1", {"mode": 3}, (0.0, 0.0, 0.0), *rows())
+        assert "no variables of this type" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("kind", "value", "taken"),
+    [("Real", 2, 2.0), ("Boolean", 1, True), ("Boolean", False, False), ("Int8", -128, -128), ("UInt16", 65535, 65535)],
+)
+def test_a_parameter_value_is_taken_as_its_type(kind: str, value: object, taken: object) -> None:
+    got = _typed_value(Path("x.fmu"), "p", kind, value)
+    assert got == taken and type(got) is type(taken)
+
+
+@pytest.mark.parametrize(
+    ("kind", "value", "says"),
+    [("Boolean", 2, "give true, false, 1 or 0"), ("Int8", 128, r"\[-128, 127\]"), ("UInt8", -1, r"\[0, 255\]"),
+     ("Integer", 1.5, "whole number"), ("Real", "1", "is a Real"), ("String", 1, "numbers and Booleans only")],
+)  # fmt: skip
+def test_a_parameter_value_its_type_cannot_hold_is_named(kind: str, value: object, says: str) -> None:
+    with pytest.raises(ConfigError, match=f"parameter 'p'.*{says}"):
+        _typed_value(Path("x.fmu"), "p", kind, value)
+
+
+def test_roles_mapped_by_hand_must_exist_and_one_variable_plays_one_role(faulty: BuiltModel) -> None:
+    typo = RoleMap(names=ROLES | {"north_0": "x0_typo"}, explicit=frozenset({"north_0"}))
+    with pytest.raises(ConfigError, match=r"variable 'x0_typo' \(mapped to role 'north_0'\) does not exist"):
+        FmuLibrary(faulty.fmi2, typo)
+    twice = RoleMap(names=ROLES | {"north": "east"}, explicit=frozenset({"north"}))
+    with pytest.raises(ConfigError, match="variable 'east' is mapped to two roles, 'north' and 'east'"):
+        FmuLibrary(faulty.fmi2, twice)
+
+
+def test_an_array_variable_cannot_play_a_role(faulty: BuiltModel, tmp_path: Path) -> None:
+    def yaw_array(md: str) -> str:
+        start = md.index('name="yaw"')
+        end = md.index("/>", start)
+        return md[:end] + '><Dimension start="2"/></Float64>' + md[end + 2 :]
+
+    fmu = edited(faulty.fmi3, tmp_path / "array.fmu", yaw_array)
+    with pytest.raises(ConfigError, match="variable 'yaw' mapped to role 'yaw' is an array, expected a scalar"):
+        FmuLibrary(fmu)
+
+
+def test_a_warning_from_dostep_is_a_step_done_and_terminate_simulation_ends_the_run(faulty: BuiltModel) -> None:
+    """fmi2Warning: "the computation can continue" (FMI 2.0, 2.1.3): the outputs are read and
+    the time moves on (lfctl's time fell a step behind the FMU's, and its next doStep was an
+    Error). FMI 3's terminateSimulation from doStep: the FMU asks to stop, and the run ends."""
+    with FmuLibrary(faulty.fmi2) as lib:
+        cmd, out = rows()
+        inst = lib.instantiate("f1", {}, (0.0, 0.0, 0.0), cmd, out)
+        real_do = inst._do
+        inst._do = lambda *args: real_do(*args) or 1  # each step done, with a warning
+        cmd[:] = (1.0, 0.0)
+        for _ in range(3):
+            inst.step(0.1)
+        assert inst.t_s == pytest.approx(0.3) and out[0] == pytest.approx(0.3)
+    with FmuLibrary(faulty.fmi3) as lib:
+        inst = lib.instantiate("f1", {}, (0.0, 0.0, 0.0), *rows())
+        real_do = inst._do
+
+        def asks_to_stop(*args: object) -> int:
+            status = real_do(*args)
+            inst._flags[1].value = True  # terminateSimulation
+            return status
+
+        inst.step(0.1)
+        inst._do = asks_to_stop
+        with pytest.raises(FmuError, match=r"fmi3DoStep at t=0\.1 s asked to end the simulation"):
+            inst.step(0.1)
+
+
+def test_two_vehicles_on_one_fmu_file_need_one_mapping(faulty: BuiltModel, tmp_path: Path) -> None:
+    from lfctl.config import parse_config
+    from lfctl.sim.cosim import Simulation
+
+    text = f"""
+name = "shared"
+[[vehicles]]
+name = "leader"
+role = "leader"
+fmu = "{faulty.fmi2}"
+[[vehicles]]
+name = "f1"
+role = "follower"
+fmu = "{faulty.fmi2}"
+north_m = -1.5
+[vehicles.units]
+yaw = "deg"
+"""
+    cfg = parse_config(text)
+    with pytest.raises(ConfigError, match=r"vehicles\[leader\] and vehicles\[f1\] use .* with different map/units"):
+        Simulation(cfg).open()
+    same = dataclasses.replace(cfg, vehicles=(cfg.vehicles[0], dataclasses.replace(cfg.vehicles[1], units={})))
+    with Simulation(same):
+        pass
+
+
+def test_after_a_fatal_status_no_function_of_the_fmu_is_called(faulty: BuiltModel) -> None:
+    """FMI 2.0, 2.1.3: after fmi2Fatal "it is not possible to call any other function" (a
+    pythonfmu FMU crashed the process in the fmi2Terminate lfctl called while freeing)."""
+    calls: list[str] = []
+    with FmuLibrary(faulty.fmi2) as lib:
+        inst = lib.instantiate("f1", {}, (0.0, 0.0, 0.0), *rows())
+        inst._slave.terminate = lambda: calls.append("terminate")
+        inst._do = lambda *args: 4  # fmi2Fatal
+        with pytest.raises(FmuError, match="returned Fatal"):
+            inst.step(0.1)
+    assert calls == []
