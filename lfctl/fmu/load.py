@@ -89,6 +89,8 @@ UNIT_TO_SI = {
     "rad/s": ("rad/s", 1.0),
     "deg/s": ("rad/s", math.pi / 180.0),
 }
+#: each SI unit of a role as exponents of the FMI base units (m, s; rad apart, see _si_of)
+_SI_EXPONENTS = {"m": (1, 0), "m/s": (1, -1), "rad": (0, 0), "rad/s": (0, -1)}
 FMI_STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 #: largest magnitude each output may have, SI: past it, or not finite (NaN, inf), the FMU has
 #: failed and stepping stops with an FmuError. Far beyond any ground vehicle, and within what
@@ -334,8 +336,9 @@ class FmuLibrary:
             raise FmuError(f"FMU file {p} does not exist", model=str(p), call="load") from exc
         except zipfile.BadZipFile as exc:
             raise FmuError(f"{p} is not an FMU: not a readable zip archive ({exc})", model=str(p), call="load") from exc
-        except Exception as exc:
-            raise FmuError(f"{p} has no valid modelDescription.xml: {exc}", model=str(p), call="load") from exc
+        except Exception as exc:  # (fmpy's validation lists its findings on lines of their own)
+            why = "; ".join(line.strip("- ") for line in str(exc).splitlines() if line.strip())
+            raise FmuError(f"{p} has no valid modelDescription.xml: {why}", model=str(p), call="load") from exc
 
     @staticmethod
     def variables_of(md: Any) -> list[FmuVariable]:
@@ -397,7 +400,7 @@ class FmuLibrary:
                 other = next(r for r, n in self.role_names.items() if n == name)
                 raise ConfigError(f"{self.path}: variable {name!r} is mapped to two roles, {other!r} and {role!r}")
             unit = role_map.units.get(role) or self._unit_of(var) or ROLE_SI_UNIT[role]
-            si, factor = UNIT_TO_SI.get(unit, (None, 0.0))
+            si, factor = UNIT_TO_SI.get(unit) or self._si_of(unit, ROLE_SI_UNIT[role])
             if si != ROLE_SI_UNIT[role]:
                 raise ConfigError(
                     f"{self.path}: variable {name!r} for role {role!r} has unit {unit!r}; expected one "
@@ -408,6 +411,20 @@ class FmuLibrary:
             self.role_names[role] = name
             self.role_units[role] = unit
         return vr, scale, all(r in vr for r in POSE_ROLES)
+
+    def _si_of(self, unit: str, want: str) -> tuple[str | None, float]:
+        """A unit the model description defines (``<UnitDefinitions>``) as ``want``'s base
+        units times a factor, with no offset, as (``want``, factor); else (None, 0). An angle's
+        ``rad`` exponent may be 0 or 1 (FMI's rad is dimensionless: a yaw rate in 1/s is rad/s)."""
+        for u in getattr(self.md, "unitDefinitions", None) or ():
+            b = u.baseUnit
+            if u.name != unit or b is None:
+                continue
+            others = (b.kg, b.A, b.K, b.mol, b.cd)
+            angle = want.startswith("rad") and b.rad in (0, 1)
+            if (b.m, b.s) == _SI_EXPONENTS[want] and not any(others) and (angle or b.rad == 0) and not b.offset:
+                return want, float(b.factor)
+        return None, 0.0
 
     @staticmethod
     def _unit_of(var: Any) -> str | None:

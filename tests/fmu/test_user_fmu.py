@@ -5,6 +5,7 @@ description edited where a test needs a declaration it lacks)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import zipfile
 from pathlib import Path
@@ -177,3 +178,39 @@ def test_after_a_fatal_status_no_function_of_the_fmu_is_called(faulty: BuiltMode
         with pytest.raises(FmuError, match="returned Fatal"):
             inst.step(0.1)
     assert calls == []
+
+
+@pytest.mark.parametrize(
+    ("unit", "base", "scale"),
+    [("degree", 'rad="1" factor="0.017453292519943295"', math.pi / 180), ("mrad", 'rad="1" factor="0.001"', 1e-3),
+     ("1/s", 's="-1"', None), ("furlong", 'm="1" factor="201.168"', None), ("degC", 'K="1" offset="273.15"', None)],
+)  # fmt: skip
+def test_a_unit_the_fmu_defines_is_converted_by_its_base_unit(
+    faulty: BuiltModel, tmp_path: Path, unit: str, base: str, scale: float | None
+) -> None:
+    """A unit name lfctl's table lacks, defined in <UnitDefinitions> as the role's base units
+    times a factor (FMI 2.0, 2.2.2), converts by that factor; other dimensions are refused.
+    (The yaw role here; 1/s for yaw_rate, below.)"""
+
+    def yaw_in(md: str) -> str:
+        md = md.replace("<UnitDefinitions>", f'<UnitDefinitions><Unit name="{unit}"><BaseUnit {base}/></Unit>', 1)
+        start = md.index('name="yaw"')
+        return md[:start] + md[start:].replace('unit="rad"', f'unit="{unit}"', 1)
+
+    fmu = edited(faulty.fmi2, tmp_path / "unit.fmu", yaw_in)
+    if scale is None:
+        with pytest.raises(ConfigError, match=f"has unit '{unit}'; expected one convertible to rad"):
+            FmuLibrary(fmu)
+        return
+    with FmuLibrary(fmu) as lib:
+        assert lib.scale["yaw"] == pytest.approx(scale)
+
+
+def test_a_yaw_rate_in_1_per_s_is_rad_per_s(faulty: BuiltModel, tmp_path: Path) -> None:
+    def rate_in(md: str) -> str:
+        md = md.replace("<UnitDefinitions>", '<UnitDefinitions><Unit name="1/s"><BaseUnit s="-1"/></Unit>', 1)
+        start = md.index('name="yaw_rate"')
+        return md[:start] + md[start:].replace('unit="rad/s"', 'unit="1/s"', 1)
+
+    with FmuLibrary(edited(faulty.fmi2, tmp_path / "rate.fmu", rate_in)) as lib:
+        assert lib.scale["yaw_rate"] == 1.0
