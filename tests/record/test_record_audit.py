@@ -257,7 +257,7 @@ def test_a_file_cut_inside_a_finished_chunk_keeps_that_chunks_whole_messages(tmp
 
     # chunks of the default size: a zstd block is inflated whole, and a 4 KiB chunk is one block
     cfg = load_config(EXAMPLES / "convoy.toml")
-    cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=60.0))
+    cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=20.0))
     run_scenario(cfg, record_to=tmp_path / "run.mcap")
     data = (tmp_path / "run.mcap").read_bytes()
     with (tmp_path / "run.mcap").open("rb") as f:
