@@ -49,41 +49,50 @@ def _local(it: MissionItem, home: tuple[float, float, float]) -> tuple[float, fl
     return n, e
 
 
-def validate_fence(items: list[MissionItem]) -> tuple[int, int] | None:
-    """The first problem of a fence list as (item index, MAV_MISSION_RESULT), or None.
+def validate_fence(items: list[MissionItem]) -> tuple[int, int, str] | None:
+    """The first problem of a whole fence list as (item index, MAV_MISSION_RESULT, Rover's
+    words for it), or None: as ArduPilot's ``AC_PolyFence_loader::validate_fence``, which a
+    fence upload meets when its last item has come, and which answers MAV_MISSION_ERROR.
 
-    Polygon vertices must come in runs of exactly the count their param1 gives (3 to
-    :data:`MAX_VERTICES`), circles need a positive radius, positions must be on the Earth.
+    Polygon vertices come in runs of exactly the count their param1 gives (3 to
+    :data:`MAX_VERTICES`), all of one kind; a circle has a positive radius and comes between
+    polygons; there is at most one return point; every place is on the Earth.
 
     Parameters
     ----------
     items : list of MissionItem
         The whole fence, item 0 first (a fence has no home item).
     """
-    i = 0
-    while i < len(items):
-        it = items[i]
+    error = mav.MAV_MISSION_ERROR
+    left, want, kind = 0, 0, 0  # vertices still to come in the polygon begun, its count and command
+    seen_return = False
+    for i, it in enumerate(items):
         if it.command not in FENCE_COMMANDS:
-            return i, mav.MAV_MISSION_UNSUPPORTED
-        if not (-90.0 <= it.lat_deg <= 90.0):
-            return i, mav.MAV_MISSION_INVALID_PARAM5_X
-        if not (-180.0 <= it.lon_deg <= 180.0):
-            return i, mav.MAV_MISSION_INVALID_PARAM6_Y
+            return i, mav.MAV_MISSION_UNSUPPORTED, "not a fence item"
         if it.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION):
-            if not (math.isfinite(it.param1) and 3 <= it.param1 <= MAX_VERTICES and it.param1 == int(it.param1)):
-                return i, mav.MAV_MISSION_INVALID_PARAM1
-            count = int(it.param1)
-            run = items[i : i + count]
-            if len(run) < count or any(r.command != it.command or r.param1 != it.param1 for r in run):
-                return i, mav.MAV_MISSION_INVALID_PARAM1
-            for k, r in enumerate(run):
-                if not (-90.0 <= r.lat_deg <= 90.0 and -180.0 <= r.lon_deg <= 180.0):
-                    return i + k, mav.MAV_MISSION_INVALID_PARAM5_X
-            i += count
-            continue
-        if it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION) and not (math.isfinite(it.param1) and it.param1 > 0):
-            return i, mav.MAV_MISSION_INVALID_PARAM1
-        i += 1
+            count = int(it.param1) if math.isfinite(it.param1) else 0
+            if not 3 <= count <= MAX_VERTICES:
+                return i, error, f"Invalid vertex count ({count})"
+            if left == 0:
+                left, want, kind = count, count, it.command
+            elif it.command != kind:
+                return i, error, f"Received incorrect vertex type (want={kind} got={it.command})"
+            elif count != want:
+                return i, error, f"Unexpected vertex count want={want} got={count}"
+            left -= 1
+        elif left:
+            return i, error, f"Received incorrect type (want={kind} got={it.command})"
+        elif it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
+            if not (math.isfinite(it.param1) and it.param1 > 0):
+                return i, error, "Non-positive circle radius"
+        elif it.command == RETURN_POINT:
+            if seen_return:
+                return i, error, "Multiple return points"  # (the spec allows one)
+            seen_return = True
+        if not (-90.0 <= it.lat_deg <= 90.0 and -180.0 <= it.lon_deg <= 180.0):
+            return i, error, "Bad lat or lon"
+    if left:
+        return len(items) - 1, error, "Incorrect item count"
     return None
 
 

@@ -21,7 +21,15 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.fence import FENCE_COMMANDS, RALLY_COMMANDS, validate_fence
-from lfctl.link.mission import PLACE_FRAMES, RAW_XY, STORES_LOCATION, MissionItem, validate_item
+from lfctl.link.mission import (
+    PLACE_FRAMES,
+    POLYGON_EXCLUSION,
+    POLYGON_INCLUSION,
+    RAW_XY,
+    STORES_LOCATION,
+    MissionItem,
+    validate_item,
+)
 
 __all__ = ["MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
 
@@ -102,15 +110,22 @@ def item_result(item: MissionItem, mission_type: int, count: int) -> int:
     """
     if mission_type == MISSION:
         return validate_item(item, count)
-    # as ArduPilot's MissionItemProtocol_Fence / _Rally converters
-    allowed = FENCE_COMMANDS if mission_type == FENCE else RALLY_COMMANDS
-    if item.command not in allowed:
+    if mission_type == FENCE:  # as MissionItemProtocol_Fence's converter: the rest when the list is whole
+        if item.frame not in PLACE_FRAMES:
+            return mav.MAV_MISSION_UNSUPPORTED_FRAME
+        if item.command not in FENCE_COMMANDS:
+            return mav.MAV_MISSION_UNSUPPORTED
+        if item.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION) and not item.param1 <= 255:
+            return mav.MAV_MISSION_INVALID_PARAM1  # (a vertex count is a byte)
+        return mav.MAV_MISSION_ACCEPTED
+    # as MissionItemProtocol_Rally's converter
+    if item.command not in RALLY_COMMANDS:
         return mav.MAV_MISSION_UNSUPPORTED
     if not (-90.0 <= item.lat_deg <= 90.0):
         return mav.MAV_MISSION_INVALID_PARAM5_X
     if not (-180.0 <= item.lon_deg <= 180.0):
         return mav.MAV_MISSION_INVALID_PARAM6_Y
-    if mission_type == RALLY and not -32768 <= item.z <= 32767:
+    if not -32768 <= item.z <= 32767:
         return mav.MAV_MISSION_INVALID_PARAM7  # a rally point's altitude is an int16, m
     if item.frame not in PLACE_FRAMES:
         return mav.MAV_MISSION_UNSUPPORTED_FRAME  # a place above sea level, home or the terrain
@@ -134,7 +149,8 @@ def list_problem(items: list[MissionItem], mission_type: int) -> tuple[int, int]
     for it in items:
         if (result := item_result(it, mission_type, len(items))) != mav.MAV_MISSION_ACCEPTED:
             return it.seq, result
-    return validate_fence(items) if mission_type == FENCE else None
+    bad = validate_fence(items) if mission_type == FENCE else None
+    return None if bad is None else bad[:2]
 
 
 def _item_message(
@@ -409,11 +425,14 @@ class MissionServer:
     def _check_item(self, item: MissionItem, up: _Upload) -> int:
         return item_result(item, up.mission_type, up.count)
 
-    def _refuse(self, up: _Upload, seq: int, result: int) -> None:
+    def _refuse(self, up: _Upload, seq: int, result: int, why: str = "") -> None:
         self._uploads.pop(up.mission_type, None)  # the list in force stays as it was
-        self._ack(up.sysid, up.compid, result, up.mission_type)
+        if why:  # a whole fence refused: Rover's words for the problem, then its verdict
+            self.statustext(why)
+            self.statustext("Fence validation failed")
         name = mav.enums["MAV_MISSION_RESULT"][result].name
         self.statustext(f"{MISSION_TYPES[up.mission_type].capitalize()} rejected at item {seq}: {name}")
+        self._ack(up.sysid, up.compid, result, up.mission_type)
 
     def tick(self, t_s: float) -> None:
         """Re-ask for an item that did not come; cancel an upload that has had none for

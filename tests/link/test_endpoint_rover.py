@@ -390,8 +390,21 @@ def test_fence_and_rally_are_kept_apart_from_the_mission(bench: Bench) -> None:
 
 def test_a_mission_item_in_a_fence_upload_and_a_broken_polygon_are_refused(bench: Bench) -> None:
     assert upload(bench, good_mission(), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_UNSUPPORTED
+    # the whole list is checked when its last item has come, as AC_PolyFence_loader's
+    # validate_fence: MAV_MISSION_ERROR, Rover's words for the problem in a STATUSTEXT
     short = fence_square()[:3]  # says 4 vertices, has 3
-    assert upload(bench, short, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_INVALID_PARAM1
+    assert upload(bench, short, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ERROR
+    texts = [t for _, t in bench.ep.statustexts]
+    assert texts[-3:] == [
+        "Incorrect item count",
+        "Fence validation failed",
+        "Fence rejected at item 2: MAV_MISSION_ERROR",
+    ]
+    backs = [Item(k, mav.MAV_CMD_NAV_FENCE_RETURN_POINT, frame=mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT) for k in (4, 5)]
+    assert upload(bench, [*fence_square(), *backs], mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ERROR
+    assert "Multiple return points" in [t for _, t in bench.ep.statustexts]
+    in_mission_frame = [Item(0, mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, p1=5, frame=mav.MAV_FRAME_MISSION)]
+    assert upload(bench, in_mission_frame, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_UNSUPPORTED_FRAME
     assert bench.ep.fence.empty
 
 
