@@ -393,7 +393,7 @@ class MissionServer:
             return
         items = [up.items[i] for i in range(up.count)]
         if up.mission_type == FENCE and (bad := validate_fence(items)) is not None:
-            self._refuse(up, *bad)
+            self._refuse_fence(up, bad)
             return
         self.store(up.mission_type, items, up.sysid, up.compid)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
@@ -415,7 +415,7 @@ class MissionServer:
             whole = list(self.lists[FENCE])
             _put(whole, up.items)
             if (bad := validate_fence(whole)) is not None:
-                self._refuse(up, *bad)
+                self._refuse_fence(up, bad)
                 return
             self._edit(FENCE, up.items)
         held = self.lists[up.mission_type]
@@ -425,11 +425,16 @@ class MissionServer:
     def _check_item(self, item: MissionItem, up: _Upload) -> int:
         return item_result(item, up.mission_type, up.count)
 
-    def _refuse(self, up: _Upload, seq: int, result: int, why: str = "") -> None:
+    def _refuse_fence(self, up: _Upload, bad: tuple[int, int, str]) -> None:
+        """A whole fence refused (:func:`validate_fence`): Rover's words for the problem, then
+        its verdict (AC_PolyFence_loader::write_fence's)."""
+        seq, result, why = bad
+        self._refuse(up, seq, result, why, "Fence validation failed")
+
+    def _refuse(self, up: _Upload, seq: int, result: int, *texts: str) -> None:
         self._uploads.pop(up.mission_type, None)  # the list in force stays as it was
-        if why:  # a whole fence refused: Rover's words for the problem, then its verdict
-            self.statustext(why)
-            self.statustext("Fence validation failed")
+        for text in texts:  # what the vehicle says of the problem, before the NACK
+            self.statustext(text)
         name = mav.enums["MAV_MISSION_RESULT"][result].name
         self.statustext(f"{MISSION_TYPES[up.mission_type].capitalize()} rejected at item {seq}: {name}")
         self._ack(up.sysid, up.compid, result, up.mission_type)
