@@ -316,9 +316,9 @@ def validate_item(item: MissionItem, count: int) -> int:
             return mav.MAV_MISSION_ERROR  # MissionItemProtocol_Waypoints::append_item's answer
         if not -1 <= math.trunc(item.param2) <= JUMP_REPEAT_MAX:
             return mav.MAV_MISSION_INVALID_PARAM2
-    if cmd == DO_CHANGE_SPEED and not (
-        item.param2 == -1 or (math.isfinite(item.param2) and 0 < item.param2 <= SPEED_MAX_MPS)
-    ):
+    if cmd == DO_CHANGE_SPEED and not item.param2 <= SPEED_MAX_MPS:
+        # any other speed is stored, as on Rover (AP_Mission checks none); one under 0.05 m/s
+        # (-1 "no change", 0) changes nothing when the item runs
         return mav.MAV_MISSION_INVALID_PARAM2
     if cmd in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE) and not math.isfinite(item.param1):
         return mav.MAV_MISSION_INVALID_PARAM1

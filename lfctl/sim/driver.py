@@ -27,7 +27,7 @@ from lfctl.frames import wrap_pi
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.los import LosOutput
 from lfctl.guidance.smc import BearingGains, SlidingModeController
-from lfctl.link.endpoint import MODES, NavReport, VehicleEndpoint
+from lfctl.link.endpoint import MODES, WP_SPEED_MIN_MPS, NavReport, VehicleEndpoint
 from lfctl.link.mission import (
     ACTED_ON,
     CONDITION_DELAY,
@@ -435,7 +435,7 @@ class VehicleDriver:
         elif cmd == CONDITION_DISTANCE:
             self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
         elif cmd == DO_CHANGE_SPEED:
-            if it.param2 > 0:  # -1: no change
+            if it.param2 >= WP_SPEED_MIN_MPS:  # Rover's set_speed_max takes no slower speed (-1: no change)
                 ep.set_speed(it.param2)
                 ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
             ep.item_done(it.seq)

@@ -171,6 +171,7 @@ def good_mission(n: int = 3) -> list[Item]:
         (Item(2, mav.MAV_CMD_DO_JUMP, p1=1, p2=INF), mav.MAV_MISSION_INVALID_PARAM2),
         (Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=INF), mav.MAV_MISSION_INVALID_PARAM2),
         (Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=NAN), mav.MAV_MISSION_INVALID_PARAM2),
+        (Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=101), mav.MAV_MISSION_INVALID_PARAM2),  # lfctl's limit
         (Item(2, mav.MAV_CMD_NAV_WAYPOINT, p1=NAN), mav.MAV_MISSION_INVALID_PARAM1),
         # a jump to item 0 or past the mission: MissionItemProtocol_Waypoints::append_item's ERROR
         (Item(2, mav.MAV_CMD_DO_JUMP, p1=9, p2=1), mav.MAV_MISSION_ERROR),

@@ -407,6 +407,21 @@ def test_a_missions_speed_holds_over_a_new_current_item_and_ends_when_auto_is_en
     assert speed_between(again, 30.0, 38.0) == pytest.approx(0.4, abs=0.02)
 
 
+@pytest.mark.parametrize("speed", [0.0, 0.04, -5.0])
+def test_a_speed_too_slow_for_rover_is_stored_and_changes_nothing(speed: float) -> None:
+    # AP_Mission stores any speed; Rover's AR_WPNav::set_speed_max takes none under 0.05 m/s,
+    # so the item runs without its "speed:" text and the waypoints stay at WP_SPEED (0.4 m/s)
+    slow = item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, speed)
+    assert validate_item(dataclasses.replace(slow, seq=1), 3) == mav.MAV_MISSION_ACCEPTED
+
+    def upload(links: Links) -> None:
+        store(slow, places(links.home, (8.0, 0.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=15.0)
+    assert speed_between(rep, 6.0, 12.0) == pytest.approx(0.4, abs=0.02)
+    assert "Mission: 1 ChangeSpeed" in texts(links) and not any(s.startswith("speed:") for s in texts(links))
+
+
 def test_auto_entered_again_drives_back_to_the_item_under_way_and_waits_its_whole_time() -> None:
     def upload(links: Links) -> None:
         store(places(links.home, (4.0, 0.0, 20.0)), places(links.home, (4.0, 6.0)))(links)
