@@ -240,6 +240,40 @@ def _typed_value(path: Path, name: str, kind: str, value: object) -> object:
     )
 
 
+def _bounds(var: Any) -> tuple[float, float]:
+    """A numeric variable's declared range: its own min and max, else its declared type's
+    (FMI: the variable's attributes override the type's), else unbounded."""
+    declared = var.declaredType
+
+    def bound(attr: str, default: float) -> float:
+        text = getattr(var, attr, None)
+        if text is None and declared is not None:
+            text = getattr(declared, attr, None)
+        if text is None:
+            return default
+        try:
+            return float(text)
+        except (TypeError, ValueError):
+            return default  # (a Boolean's or a text's: not a number's range)
+
+    return bound("min", -math.inf), bound("max", math.inf)
+
+
+def _out_of_range(var: Any, value: object) -> str | None:
+    """Why ``value`` is outside ``var``'s declared min and max (None when it is inside, or
+    the variable is not a number)."""
+    if var.type in ("Boolean", "String", "Binary", "Clock") or isinstance(value, bool):
+        return None
+    try:
+        x = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    lo, hi = _bounds(var)
+    if lo <= x <= hi:
+        return None
+    return f"outside its declared range [{lo:g}, {hi:g}]"
+
+
 def _status_text(status: int) -> str:
     return FMI_STATUS[status] if 0 <= status < len(FMI_STATUS) else f"illegal status {status}"
 
@@ -300,6 +334,16 @@ class FmuLibrary:
                 call="load",
             )
         self.variables = {v.name: v for v in self.md.modelVariables}
+        for var in self.md.modelVariables:
+            # FMI: a start value lies within the variable's min and max; one outside is a
+            # model description no tool can trust (fmpy's validation does not look)
+            why = None if var.start is None or var.shape else _out_of_range(var, var.start)
+            if why is not None:
+                raise FmuError(
+                    f"{self.path}: variable {var.name!r} has start value {var.start} {why}",
+                    model=str(self.path),
+                    call="load",
+                )
         #: role -> FMU variable name and declared (or overridden) unit, for messages
         self.role_names: dict[str, str] = {}
         self.role_units: dict[str, str] = {}
@@ -690,6 +734,9 @@ class FmuInstance:
             typed.setdefault(_setter(v, var.type), {})[int(var.valueReference)] = _typed_value(
                 self.lib.path, name, var.type, value
             )
+            why = _out_of_range(var, value)
+            if why is not None:  # FMI: a value set outside min and max is the caller's error
+                raise ConfigError(f"{self.lib.path}: parameter {name!r} = {value!r} is {why} in {self.lib.identifier}")
         if self.lib.pose_mapped:
             reals = typed.setdefault(_setter(v, "Real" if v == 2 else "Float64"), {})
             for role, value in zip(POSE_ROLES, pose, strict=True):

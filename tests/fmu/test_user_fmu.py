@@ -93,6 +93,37 @@ def test_a_parameter_value_its_type_cannot_hold_is_named(kind: str, value: objec
         _typed_value(Path("x.fmu"), "p", kind, value)
 
 
+def test_a_value_outside_a_variables_declared_range_is_refused_by_name(faulty: BuiltModel, tmp_path: Path) -> None:
+    # FMI: min <= start <= max, and a value set outside them is the caller's error; the
+    # range is the variable's own, else its declared type's
+    def ranged(md: str) -> str:
+        md = md.replace(
+            "<DefaultExperiment",
+            '<TypeDefinitions><SimpleType name="Delay"><Real unit="s" min="0" max="30"/></SimpleType>'
+            "</TypeDefinitions><DefaultExperiment",
+            1,
+        )
+        md = md.replace('<Real unit="s" start="0.0" />', '<Real declaredType="Delay" unit="s" start="0.0" />', 1)
+        return md.replace('<Real start="0.0" />', '<Real start="0.0" min="0" max="5" />', 1)  # fault
+
+    fmu = edited(faulty.fmi2, tmp_path / "ranged.fmu", ranged)
+    with FmuLibrary(fmu) as lib:
+        with pytest.raises(ConfigError, match=r"parameter 'fault' = 7 is outside its declared range \[0, 5\]"):
+            lib.instantiate("f1", {"fault": 7}, (0.0, 0.0, 0.0), *rows())
+        with pytest.raises(ConfigError, match=r"parameter 'fault_at' = -1\.5 is outside its declared range \[0, 30\]"):
+            lib.instantiate("f1", {"fault_at": -1.5}, (0.0, 0.0, 0.0), *rows())
+        lib.instantiate("f1", {"fault": 5, "fault_at": 30}, (0.0, 0.0, 0.0), *rows())  # the bounds are inside
+    bad_start = edited(
+        faulty.fmi2,
+        tmp_path / "bad-start.fmu",
+        lambda md: md.replace('<Real unit="s" start="0.01" />', '<Real unit="s" start="0.01" min="0.02" />', 1),
+    )
+    with pytest.raises(
+        FmuError, match=r"variable 'internal_step' has start value 0\.01 outside its declared range \[0\.02, inf\]"
+    ):
+        FmuLibrary(bad_start)
+
+
 def test_roles_mapped_by_hand_must_exist_and_one_variable_plays_one_role(faulty: BuiltModel) -> None:
     typo = RoleMap(names=ROLES | {"north_0": "x0_typo"}, explicit=frozenset({"north_0"}))
     with pytest.raises(ConfigError, match=r"variable 'x0_typo' \(mapped to role 'north_0'\) does not exist"):
