@@ -39,6 +39,7 @@ __all__ = [
     "MISSION_TEXT_NAMES",
     "NAV_DELAY",
     "NAV_LOITER_TIME",
+    "NAV_LOITER_TURNS",
     "NAV_LOITER_UNLIM",
     "NAV_RETURN_TO_LAUNCH",
     "NAV_WAYPOINT",
@@ -76,6 +77,7 @@ __all__ = [
 
 NAV_WAYPOINT = mav.MAV_CMD_NAV_WAYPOINT  # 16
 NAV_LOITER_UNLIM = mav.MAV_CMD_NAV_LOITER_UNLIM  # 17
+NAV_LOITER_TURNS = mav.MAV_CMD_NAV_LOITER_TURNS  # 18
 NAV_LOITER_TIME = mav.MAV_CMD_NAV_LOITER_TIME  # 19
 NAV_RETURN_TO_LAUNCH = mav.MAV_CMD_NAV_RETURN_TO_LAUNCH  # 20
 NAV_DELAY = mav.MAV_CMD_NAV_DELAY  # 93
@@ -94,8 +96,9 @@ def _commands(*names: str) -> frozenset[int]:
 
 
 #: the navigation commands a Rover flies: to a place (waypoint; loiter for a time or for
-#: ever), home or the nearest rally point (RTL), or a wait where it stands (NAV_DELAY)
-FLOWN = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH, NAV_DELAY))
+#: ever), home or the nearest rally point (RTL), a wait where it stands (NAV_DELAY), or
+#: turns round a circle (NAV_LOITER_TURNS, as Rover 4.5 and later drive it)
+FLOWN = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH, NAV_DELAY))
 #: the commands that run beside the navigation and act on what lfctl has: the speed, home,
 #: driving in reverse, the fence; and the conditions that hold the ones after them back
 ACTED_ON = frozenset(
@@ -112,11 +115,11 @@ NOTHING_FITTED = _commands(
     "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
 )  # fmt: skip
 #: the commands a mission may hold that a Rover passes over when their turn comes (aircraft's
-#: take-offs and landings, splines, circles, an offboard computer's turn, a heading to reach):
+#: take-offs and landings, splines, an offboard computer's turn, a heading to reach):
 #: taken, as Rover's mission library takes them, and tried and passed over in turn
 SKIPPED = _commands(
-    "NAV_LOITER_TURNS", "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT",
-    "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
+    "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT",
+    "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
     "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
     "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
     "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",

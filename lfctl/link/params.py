@@ -109,6 +109,10 @@ def default_params(sysid: int) -> dict[str, Param]:
         "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
         "CRUISE_THROTTLE": Param(50, 0, 100, "%", "throttle at CRUISE_SPEED (VFR_HUD's throttle)", kind=INT8),
         "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
+        "CIRC_SPEED": Param(0.0, 0.0, 10.0, "m/s", "speed round a mission's NAV_LOITER_TURNS circle; 0: WP_SPEED"),
+        "TURN_RADIUS": Param(
+            0.9, 0.0, 100.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
+        ),
         "GUID_TIMEOUT": Param(
             3.0, 0.1, 5.0, "s", "GUIDED: stop when no velocity or turn-rate setpoint arrives for this long"
         ),

@@ -24,6 +24,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.config import Config
 from lfctl.frames import wrap_pi
+from lfctl.guidance.circle import RADIUS_MIN_M, CircleGuidance, circle_radius_m
 from lfctl.guidance.leader import AutopilotSettings, LeaderAutopilot
 from lfctl.guidance.los import LosOutput
 from lfctl.guidance.smc import BearingGains, SlidingModeController
@@ -35,6 +36,7 @@ from lfctl.link.mission import (
     DO_CHANGE_SPEED,
     NAV_DELAY,
     NAV_LOITER_TIME,
+    NAV_LOITER_TURNS,
     NAV_RETURN_TO_LAUNCH,
     NOTHING_FITTED,
     PLACES,
@@ -137,11 +139,13 @@ class VehicleDriver:
         self._restarts = 0  # the endpoint's mission restarts (from item 0) the legs know of
         self._completed = False  # ... and it is finished
         self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
+        self._yaw = 0.0  # the way it drives this step (its tail's, in reverse), rad
         self._distance = 0.0  # how far it is from the leg's end, m
         self._goto: LeaderAutopilot | None = None
         self._goto_key: tuple[object, ...] = ()
         self._goto_done = False
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
+        self._circle: tuple[int, CircleGuidance, float] | None = None  # (leg, guidance, the speed it last took)
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
         """The vehicle's command at ``t_s`` (kept in :attr:`command`); where it steers goes to
@@ -219,6 +223,7 @@ class VehicleDriver:
             )
         me = world.vehicle(self.index)
         self._pos = (me.north_m, me.east_m)
+        self._yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad  # the way it drives
         key = (ep.mission_version, ep.mission_edits)
         if self._key != key or self._autopilot is None:
             edited = self._autopilot is not None and self._key[:1] == key[:1]
@@ -236,7 +241,13 @@ class VehicleDriver:
             ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
         if self._holding is not None and not ap.waiting(t_s):
             self._finish(self._holding[0], t_s)  # its wait is over: the next item begins before it is reached
-        yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
+        yaw = self._yaw
+        if self._circle is not None and self._circle[0] == self._leg and not ep.mission_complete:
+            cmd = self._round(t_s, yaw)
+            if cmd is not None:
+                return cmd
+            if ep.mission_complete or self._circle is not None:
+                return 0.0, 0.0  # the mission ended, or another circle began: it steers from the next step
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         self._distance = out.los.distance_to_go_m
         for k in out.los.reached:
@@ -300,7 +311,7 @@ class VehicleDriver:
         self._autopilot = LeaderAutopilot(
             [(g.north_m, g.east_m, g.hold_s) for g in self._legs], settings, self._pos, one_per_step=True
         )
-        self._holding, self._queue, self._condition = None, [], None
+        self._holding, self._queue, self._condition, self._circle = None, [], None, None
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
@@ -326,6 +337,8 @@ class VehicleDriver:
             ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))  # Rover's RTL start
         elif leg.command == NAV_DELAY or (item.x, item.y) == (0, 0):
             self._place(k, self._pos)  # here: where the vehicle is as the item begins
+        if leg.command == NAV_LOITER_TURNS:
+            self._start_circle(k, item)
         if leg.command == NAV_DELAY:
             wait = leg.hold_s
             if item.param1 <= 0:  # until a time of day, from now (reached a step later at the soonest)
@@ -335,6 +348,58 @@ class VehicleDriver:
             ep.statustext(f"Delaying {int(wait)} sec", mav.MAV_SEVERITY_INFO)
         self._distance = math.dist(self._pos, ap.follower.waypoints[k])
         self._run_items(t_s)
+
+    def _start_circle(self, k: int, item: MissionItem) -> None:
+        """Leg ``k`` is a NAV_LOITER_TURNS: set up its circle as Rover's ``do_circle`` and
+        ``ModeCircle::set_center`` do. The radius is param3's as AP_Mission keeps it (its sign
+        the direction, negative counter-clockwise), at least 0.1 m and raised to
+        ``TURN_RADIUS``; the turns param1's, whole, at most 255; the speed ``CIRC_SPEED``, else
+        ``WP_SPEED`` (not a DO_CHANGE_SPEED from before the circle: one during it counts),
+        limited to what the turn allows. Rover's warnings are said."""
+        ep, leg = self.endpoint, self._legs[k]
+        radius = max(circle_radius_m(item.param3), RADIUS_MIN_M)
+        turn_radius = ep.param("TURN_RADIUS")
+        if radius < turn_radius:
+            radius = turn_radius
+            ep.statustext(f"Circle: radius increased to TURN_RADIUS ({turn_radius:4.1f})", mav.MAV_SEVERITY_WARNING)
+        settings = autopilot_settings(self.cfg)
+        circle = CircleGuidance(
+            (leg.north_m, leg.east_m),
+            radius,
+            item.param3 < 0,
+            float(min(255, max(0, math.trunc(item.param1)))),
+            ep.param("CIRC_SPEED") or ep.param("WP_SPEED"),
+            max(turn_radius, 0.2 if radius >= 0.5 else 0.1),  # Rover's reached_edge distance
+            settings.lookahead_m or 0.8,
+            settings.heading,
+            self._pos,
+            self._yaw,
+        )
+        if (ep.param("CIRC_SPEED") or ep.param("WP_SPEED")) > circle.speed_limit_mps():
+            ep.statustext(f"Circle: max speed is {circle.speed_mps:4.1f}", mav.MAV_SEVERITY_WARNING)
+        self._circle = (k, circle, ep.speed_mps)
+
+    def _round(self, t_s: float, yaw: float) -> tuple[float, float] | None:
+        """A step of the circle under way: its command; None once its turns are done (the
+        item is then done, and the next leg has begun from where the vehicle is)."""
+        ep, ap = self.endpoint, self._autopilot
+        assert self._circle is not None and ap is not None
+        k, circle, seen = self._circle
+        if ep.speed_mps != seen:  # a DO_CHANGE_SPEED while it circles (Rover's ModeCircle takes it)
+            circle.set_speed(ep.speed_mps)
+            self._circle = (k, circle, ep.speed_mps)
+        if circle.done:
+            self._circle = None
+            ap.follower.index, ap.follower.prev = k + 1, self._pos  # the next leg from here
+            self._finish(k, t_s)
+            return None
+        out = circle.step(*self._pos, yaw, self.step_s)
+        self._distance = out.distance_m
+        self._run_items(t_s)
+        heading = out.heading_cmd_rad + math.pi if ep.reversed else out.heading_cmd_rad
+        to_target = math.atan2(out.target_ned_m[1] - self._pos[1], out.target_ned_m[0] - self._pos[0])
+        ep.steering(NavReport(heading, to_target, out.distance_m, out.cross_track_m, out.target_ned_m))
+        return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
     def _search(self, t_s: float) -> None:
         """What AP_Mission's search for the next navigation item does with the items before

@@ -639,3 +639,64 @@ def test_a_partial_update_edits_the_mission_being_flown_without_starting_it_agai
     ep = links.endpoints[0]
     assert ep.mission_complete and [i + 1 for i, _t in rep.waypoints_reached] == [1, 2, 3]
     assert [s for t, s in ep.statustexts if t > 35.0 and ("Reached" in s or "Complete" in s)] == []
+
+
+def circle_item(
+    links_home: tuple[float, float, float], centre: tuple[float, float], turns: float, radius: float
+) -> MissionItem:
+    c = places(links_home, centre)[0]
+    return MissionItem(0, c.frame, mav.MAV_CMD_NAV_LOITER_TURNS, turns, 0.0, radius, x=c.x, y=c.y)
+
+
+@pytest.mark.parametrize("ccw", [False, True])
+def test_loiter_turns_drives_to_the_edge_then_round_the_circle_in_its_direction(ccw: bool) -> None:
+    # Rover 4.5's circle in AUTO: out to the edge on the line from the centre (6, 0) through
+    # the vehicle (at home: the edge at (4, 0)), once round at 2 m (param3 negative: counter-
+    # clockwise) at WP_SPEED (0.4 m/s), then on to the next waypoint
+    def upload(links: Links) -> None:
+        store(circle_item(links.home, (6.0, 0.0), 1.0, -2.0 if ccw else 2.0), places(links.home, (0.0, 0.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=70.0)
+    said = links.endpoints[0].statustexts
+    started = {text: t_s for t_s, text in said if text.startswith("Mission:") and t_s > 0.4}
+    assert list(started) == ["Mission: 1 LoitTurns", "Mission: 2 WP"]
+    t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
+    r = np.hypot(track[:, 0] - 6.0, track[:, 1])
+    first = int(np.argmax(r < 2.9))  # on the circle: within TURN_RADIUS (0.9 m) of its edge
+    assert abs(track[first, 0] - 3.1) < 0.2 and abs(track[first, 1]) < 0.2  # towards the edge nearest home
+    # once round (12.6 m at 0.4 m/s) takes about 31 s, and then the next item begins
+    t_done = started["Mission: 2 WP"]
+    assert t_done - t[first] == pytest.approx(2 * math.pi * 2.0 / 0.4, abs=3.0)
+    circling = (t > t[first] + 3.0) & (t < t_done - 1.0)
+    assert np.all(np.abs(r[circling] - 2.0) < 0.2)  # drawn in from 0.9 m outside ...
+    assert np.all(np.abs(r[circling & (t > t[first] + 8.0)] - 2.0) < 0.05)  # ... onto it
+    # all four sides, and the first in the circle's direction: clockwise from the south edge
+    # (NED) is west, counter-clockwise east
+    assert track[circling, 0].max() > 7.9 and track[circling, 1].max() > 1.9 and track[circling, 1].min() < -1.9
+    quarter = int(np.argmax(circling & (np.abs(track[:, 0] - 6.0) < 0.3)))
+    assert (track[quarter, 1] > 0) == ccw
+    assert math.hypot(*(track[np.argmin(np.abs(t - t_done))] - (4.0, 0.0))) < 0.3  # back where it began
+    assert math.hypot(*leader_at(rep, 70.0)) < 0.5  # then home, the next waypoint
+    assert rep.waypoints_reached[-1][0] == 1  # (the waypoint; a circle is not one)
+
+
+def test_a_circle_smaller_than_the_turning_radius_is_raised_to_it_and_zero_turns_end_at_once() -> None:
+    # Rover's check_config_radius and verify_circle; radius 0.5 (under TURN_RADIUS 0.9)
+    def upload(links: Links) -> None:
+        store(
+            circle_item(links.home, (3.0, 0.0), 0.0, 2.0),
+            circle_item(links.home, (3.0, 0.0), 2.7, 0.5),  # 2 turns (whole), raised to 0.9 m
+            places(links.home, (3.0, 3.0)),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0)
+    said = links.endpoints[0].statustexts
+    at = {text: t_s for t_s, text in said if t_s > 0.4}
+    assert "Circle: radius increased to TURN_RADIUS ( 0.9)" in at
+    assert at["Mission: 2 LoitTurns"] - at["Mission: 1 LoitTurns"] < 0.2  # no turns: done at once
+    t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
+    r = np.hypot(track[:, 0] - 3.0, track[:, 1])
+    circling = (t > at["Mission: 2 LoitTurns"] + 8.0) & (t < at["Mission: 3 WP"] - 1.0)
+    assert np.median(r[circling]) == pytest.approx(0.9, abs=0.1)
+    # twice round 0.9 m: 11.3 m at 0.4 m/s, about 28 s
+    assert 25.0 < at["Mission: 3 WP"] - at["Mission: 2 LoitTurns"] < 40.0
