@@ -58,6 +58,7 @@ __all__ = [
     "Leg",
     "MissionFile",
     "MissionItem",
+    "as_stored",
     "check_site",
     "command_name",
     "far_place",
@@ -326,6 +327,54 @@ def validate_item(item: MissionItem, count: int) -> int:
     if cmd in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE) and not math.isfinite(item.param1):
         return mav.MAV_MISSION_INVALID_PARAM1
     return mav.MAV_MISSION_ACCEPTED
+
+
+def _int_as(x: float, lo: int, hi: int) -> float:
+    """``x`` through C's float-to-integer conversion into a field of ``[lo, hi]``: cut to a
+    whole number, held at the field's ends (as an ARM flight controller converts it)."""
+    return float(min(hi, max(lo, math.trunc(x)))) if math.isfinite(x) else 0.0
+
+
+def as_stored(item: MissionItem) -> MissionItem:
+    """A mission item as a Rover keeps it, and so gives it back when the mission is
+    downloaded and reads it when the item runs (``AP_Mission::mavlink_int_to_mission_cmd``
+    and back): for the commands lfctl carries out, the params the command has no room for
+    are 0 and each kept param takes its field's type (a waypoint's wait a 16-bit whole
+    number, 2.5 s kept as 2; DO_JUMP's target and count whole; a loiter's direction
+    the sign of its radius, or +-1). Other commands are kept as sent.
+
+    Parameters
+    ----------
+    item : MissionItem
+        An item that passed :func:`validate_item`.
+    """
+    c, p1, p2, p3, p4 = item.command, item.param1, item.param2, item.param3, item.param4
+    u16 = 65535
+    if c == NAV_WAYPOINT:
+        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+    elif c == NAV_LOITER_UNLIM:
+        r = _int_as(abs(p3), 0, u16)
+        params = (0.0, 0.0, -r if p3 < 0 else r, 0.0)
+    elif c == NAV_LOITER_TURNS:
+        r = math.trunc(abs(p3)) if abs(p3) <= 255 else 10 * min(255, math.trunc(abs(p3) * 0.1))
+        params = (_int_as(min(255.0, p1), 0, 255), 0.0, -float(r) if p3 < 0 else float(r), 1.0 if p4 > 0 else 0.0)
+    elif c == NAV_LOITER_TIME:
+        params = (_int_as(p1, 0, u16), 0.0, -1.0 if p3 < 0 else 1.0, 1.0 if p4 > 0 else 0.0)
+    elif c == NAV_RETURN_TO_LAUNCH:
+        params = (0.0, 0.0, 0.0, 0.0)
+    elif c == NAV_DELAY:  # seconds a float, the time of day's fields 8-bit
+        params = (p1, _int_as(p2, -128, 127), _int_as(p3, -128, 127), _int_as(p4, -128, 127))
+    elif c in (CONDITION_DELAY, CONDITION_DISTANCE):
+        params = (p1, 0.0, 0.0, 0.0)
+    elif c == DO_JUMP:
+        params = (_int_as(p1, 0, u16), _int_as(p2, -32768, 32767), 0.0, 0.0)
+    elif c == DO_CHANGE_SPEED:
+        params = (_int_as(p1, 0, 255), p2, p3, 0.0)
+    elif c in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE):
+        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+    else:
+        return item
+    return replace(item, param1=params[0], param2=params[1], param3=params[2], param4=params[3])
 
 
 #: the short names ArduPilot's mission library gives the commands it starts, in its

@@ -28,6 +28,7 @@ from lfctl.link.mission import (
     RAW_XY,
     STORES_LOCATION,
     MissionItem,
+    as_stored,
     validate_item,
 )
 
@@ -241,7 +242,7 @@ class MissionServer:
         sysid, compid : int
             Who changed it (0: the vehicle itself, e.g. a mission stored at boot).
         """
-        self.lists[mission_type] = list(items)
+        self.lists[mission_type] = [as_stored(it) for it in items] if mission_type == MISSION else list(items)
         if mission_type == MISSION:
             self.current_seq = 1 if len(items) > 1 else 0
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
@@ -379,11 +380,11 @@ class MissionServer:
         if result != mav.MAV_MISSION_ACCEPTED:
             self._refuse(up, item.seq, result)
             return
-        up.items[item.seq] = item
+        up.items[item.seq] = as_stored(item) if mission_type == MISSION else item
         up.next_seq += 1
         up.received_at = t_s
         if up.partial and up.mission_type != FENCE:
-            self._edit(up.mission_type, {item.seq: item})  # as Rover's replace_item: in force at once
+            self._edit(up.mission_type, {item.seq: up.items[item.seq]})  # as Rover's replace_item: in force at once
         if up.next_seq <= up.last:
             self._request_next(up, t_s)
             return

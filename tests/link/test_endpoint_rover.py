@@ -1667,6 +1667,45 @@ def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_point
     assert [it.frame for it in download(bench, mav.MAV_MISSION_TYPE_RALLY)] == [3]  # type: ignore[attr-defined]
 
 
+def test_a_downloaded_item_has_the_params_rover_keeps_in_their_types(bench: Bench) -> None:
+    # AP_Mission keeps each command's params in fields of its own types and gives them back
+    # so: a waypoint's wait in 16 bits (2.5 -> 2; its yaw, NaN, and radii not kept), a
+    # loiter's direction as the sign of its radius or +-1, a circle's turns and radius in
+    # bytes, DO_JUMP's target and count whole, a speed type in a byte, the speed as sent
+    lat, lon = (int(round(v * 1e7)) for v in ned_to_geodetic(3.0, 0.0, 0.0, *HOME)[:2])
+    rel, nan = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, math.nan
+    sent = [
+        (16, (0, 0, 0, 0)),
+        (16, (2.5, 1.5, 3.0, nan)),  # wait, acceptance radius, pass radius, yaw
+        (17, (7.0, 0, -12.7, 0)),  # loiter for ever, counter-clockwise 12.7 m
+        (18, (2.9, 0, -300.0, 0.5)),  # two turns (of 2.9), 300 m counter-clockwise, xtrack
+        (19, (10.9, 0, 4.0, 0)),  # loiter 10 s, clockwise
+        (20, (1, 2, 3, 4)),
+        (177, (1.7, 2.9, 5, 0)),  # jump to 1, twice
+        (178, (1.6, 0.45, 30.5, 0)),  # ground speed 0.45 m/s, throttle 30.5 %
+        (194, (1.0, 0, 0, 0)),
+        (112, (2.5, 0, 0, 0)),  # a condition's seconds: a float
+    ]
+    mission = [
+        mav.MAVLink_mission_item_int_message(1, 1, k, rel, cmd, 0, 1, *p, lat + k, lon, 0, 0)
+        for k, (cmd, p) in enumerate(sent)
+    ]
+    assert upload(bench, mission) == mav.MAV_MISSION_ACCEPTED
+    back = [(it.param1, it.param2, it.param3, it.param4) for it in download(bench, mav.MAV_MISSION_TYPE_MISSION)]  # type: ignore[attr-defined]
+    assert back[1:] == [
+        (2.0, 0.0, 0.0, 0.0),
+        (0.0, 0.0, -12.0, 0.0),
+        (2.0, 0.0, -300.0, 1.0),
+        (10.0, 0.0, 1.0, 0.0),
+        (0.0, 0.0, 0.0, 0.0),
+        (1.0, 2.0, 0.0, 0.0),
+        (1.0, pytest.approx(0.45), 30.5, 0.0),
+        (1.0, 0.0, 0.0, 0.0),
+        (2.5, 0.0, 0.0, 0.0),
+    ]
+    assert bench.ep.mission[1].param1 == 2.0  # and the vehicle reads them as kept
+
+
 def test_a_received_mission_is_said_in_rovers_words_and_a_clear_is_silent(bench: Bench) -> None:
     # scripts written for ArduPilot wait for "Flight plan received" after an upload
     assert upload(bench, good_mission(3)) == mav.MAV_MISSION_ACCEPTED
