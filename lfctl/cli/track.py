@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.vision.perception import BannerPerception
 
     roi = parse_roi(args.roi) if args.roi else None
+    _check_paths(args.source, args.out)
     scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
     writer = None
@@ -134,7 +135,57 @@ def run(args: argparse.Namespace) -> int:
                 writer.release()
     if n == 0:
         raise ConfigError(f"video source {args.source!r} gave no frames")
+    if writer is not None:
+        _check_written(args.out, n)
     if (args.max_frames is None or n < args.max_frames) and declared is not None and n < declared - 1:
-        # (a container's count may be one off): a cut or damaged file ends early
-        print(f"lfctl track: {args.source} ended after {n} of the {declared} frames it declares", file=sys.stderr)
+        # (a container's count may be one off, and is an estimate from the duration in some
+        # containers): a file that ends well short of it is cut or damaged
+        said = f"{args.source} ended after {n} of the {declared} frames it declares"
+        if n < SHORT_END * declared:
+            raise ConfigError(f"{said}: the file is cut or damaged (the {n} frames read were tracked)")
+        print(f"lfctl track: {said}", file=sys.stderr)
     return 0
+
+
+#: a video file that ends before this share of the frames its container declares is an error
+SHORT_END = 0.9
+
+
+def _check_paths(source: str, out: str | None) -> None:
+    """Refuse a named pipe or socket as the source (it would block with no end: a camera
+    or a stream is given by index or URL), and an --out that is the source itself."""
+    import os
+    import stat
+    from pathlib import Path
+
+    from lfctl.errors import ConfigError
+
+    try:
+        mode = os.stat(source).st_mode
+    except (OSError, ValueError):
+        return  # a camera index or a URL (or no such file: the video source says so)
+    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+        raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
+    if out is not None and Path(out).exists() and os.path.samefile(source, out):
+        raise ConfigError(f"--out {out} is the video being tracked: give another file")
+    if out is not None and Path(out).resolve() == Path(source).resolve():
+        raise ConfigError(f"--out {out} is the video being tracked: give another file")
+
+
+def _check_written(out: str, frames: int) -> None:
+    """The annotated video holds the frames written (OpenCV's writer does not report a failed
+    write, a full disk say)."""
+    import cv2
+
+    from lfctl.errors import ConfigError
+
+    cap = cv2.VideoCapture(str(out))
+    try:
+        held = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0) if cap.isOpened() else 0
+    finally:
+        cap.release()
+    if held < frames - 1:
+        raise ConfigError(
+            f"--out {out}: {frames} annotated frames were written but the file holds {held} "
+            "(is the disk full?); the JSON lines above have every frame"
+        )

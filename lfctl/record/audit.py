@@ -423,6 +423,7 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
         findings.append(
             Finding("warning", f"the recovered log has no messages on {', '.join(lacking)}", kind="recovery")
         )
+    findings += _outside_the_run(c)
     findings.extend(_bad_json_findings(c))
     # -- provenance -------------------------------------------------------------------------
     hashes = {m.get("name", ""): m.get("sha256", "") for k, m in c.metadata.items() if k.startswith("sha256:")}
@@ -486,6 +487,41 @@ def _end_findings(c: Contents, end: dict[str, str] | None, recovered: bool) -> l
     if reason.startswith("error"):
         return [Finding("error", f"the run ended abnormally{_at(end)}: {reason}", kind="run")]
     return [Finding("warning", f"the run ended early{_at(end)}: {reason or '(no reason given)'}", kind="run")]
+
+
+#: how far a message's log time may lie before the run's start or after its end, s (a
+#: message logged as the run ends, the clock's own rounding)
+OUTSIDE_SLACK_S = 5.0
+
+
+def _outside_the_run(c: Contents) -> list[Finding]:
+    """Messages whose log times lie outside the run: before its start (``run.start_time_ns``)
+    or after its end (metadata ``end``'s ``t_s``), by more than :data:`OUTSIDE_SLACK_S`. A
+    foreign file's wall-clock times against a start of 0, or one stray time, are named per
+    topic, not taken as the run's length."""
+    try:
+        end_s = float(c.metadata.get("end", {}).get("t_s", "nan"))
+    except (TypeError, ValueError):
+        end_s = math.nan
+    top = end_s + OUTSIDE_SLACK_S if math.isfinite(end_s) else math.inf
+    out = []
+    for topic, msgs in sorted(c.messages.items()):
+        times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
+        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
+        times = (times - float(c.start_ns)) / 1e9
+        bad = (times < -OUTSIDE_SLACK_S) | (times > top)
+        if bad.any():
+            span = "its start" if not math.isfinite(top) else f"0 .. {end_s:.2f} s"
+            out.append(
+                Finding(
+                    "error",
+                    f"{topic}: {int(bad.sum())} of {len(times)} messages logged outside the run "
+                    f"(t = {times[bad].min():.6g} .. {times[bad].max():.6g} s against {span}, "
+                    f"run.start_time_ns {c.start_ns})",
+                    kind="content",
+                )
+            )
+    return out
 
 
 def _expected_topics(run: _Run) -> dict[str, float]:

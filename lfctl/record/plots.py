@@ -39,6 +39,26 @@ __all__ = ["TIME_MARK_S", "plot_all"]
 
 #: a time mark on every trajectory this often, s of simulation time
 TIME_MARK_S = 10.0
+#: the most time marks a track gets, and the most bins a rate over time is counted in: a
+#: log's times come from the file, and may span years
+MAX_MARKS = 40
+MAX_BINS = 2000
+
+
+def mark_step_s(end_s: float) -> float:
+    """Time between marks on a track that ends at ``end_s``: :data:`TIME_MARK_S`, or a whole
+    multiple of it that keeps the marks to :data:`MAX_MARKS`.
+
+    Parameters
+    ----------
+    end_s : float
+        The track's last time, s.
+    """
+    if not (math.isfinite(end_s) and end_s > TIME_MARK_S * MAX_MARKS):
+        return TIME_MARK_S
+    return TIME_MARK_S * math.ceil(end_s / (TIME_MARK_S * MAX_MARKS))
+
+
 #: marks nearer than this share of the time axis to the one before share its label
 LABEL_GAP_FRAC = 0.02
 #: a pose series' line is broken where no pose came for this many usual steps
@@ -164,15 +184,16 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
         later = [t for t in changed if t > t0]  # not the upload that put this one there
         what = f"the mission's places at {t0:g} s" + (f", changed at {later[0]:g} s" if later else "")
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
-    for k, v in enumerate(vehicles):
-        t, a = _track(c, v)
+    tracks = [(k, v, *_track(c, v)) for k, v in enumerate(vehicles)]
+    step = mark_step_s(max((float(t[-1]) for _k, _v, t, _a in tracks if len(t)), default=0.0))
+    for k, v, t, a in tracks:
         if not len(t):
             continue
         col = _colour(k)
         ax.plot(a[:, 0], a[:, 1], color=col, lw=1.5, label=v)
         ax.plot(a[0, 0], a[0, 1], "o", color=col, ms=9, mfc="white", mew=2)
         ax.plot(a[-1, 0], a[-1, 1], "s", color=col, ms=8)
-        for mark in np.arange(TIME_MARK_S, t[-1] + 1e-9, TIME_MARK_S):
+        for mark in np.arange(step, t[-1] + 1e-9, step):
             i = int(np.searchsorted(t, mark))
             if i < len(t):
                 ax.plot(a[i, 0], a[i, 1], ".", color="black", ms=6)
@@ -181,7 +202,7 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
                 )
     ax.plot([], [], "o", color="grey", mfc="white", label="start")
     ax.plot([], [], "s", color="grey", label="end")
-    ax.plot([], [], ".", color="black", label=f"every {TIME_MARK_S:g} s (labelled in s)")
+    ax.plot([], [], ".", color="black", label=f"every {step:g} s (labelled in s)")
     ax.set_xlabel("east of home (m)")
     ax.set_ylabel("north of home (m)")
     ax.set_aspect("equal")
@@ -311,7 +332,8 @@ def _link(plt: Any, c: Contents, path: Path) -> bool:
         return False
     fig, (a1, a2, a3) = plt.subplots(3, 1, figsize=(11, 9), sharex=True)
     end = max((msgs[-1][0] for msgs in links.values() if msgs), default=1.0)
-    bins = np.arange(0.0, max(end, 1.0) + 1.0, 1.0)
+    width = max(1.0, math.ceil(end / MAX_BINS)) if math.isfinite(end) else 1.0  # s per bin
+    bins = np.arange(0.0, max(end, 1.0) + width, width)
     any_ack = False
     most_latency_ms = 0.0
     order = [v for v in c.metadata.get("run", {}).get("vehicles", "").split(",") if v]
@@ -322,7 +344,9 @@ def _link(plt: Any, c: Contents, path: Path) -> bool:
             times = [t for t, m in msgs if m["direction"] == direction]
             if times:
                 counts, edges = np.histogram(times, bins=bins)
-                a1.step(edges[:-1], counts, where="post", color=_colour(k), ls=ls, label=f"{vehicle} {direction}")
+                a1.step(
+                    edges[:-1], counts / width, where="post", color=_colour(k), ls=ls, label=f"{vehicle} {direction}"
+                )
         _commands, acks = ack_latencies(msgs)
         if acks:
             any_ack = True

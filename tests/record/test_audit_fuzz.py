@@ -702,7 +702,7 @@ def test_directories_devices_and_sockets_are_refused(logs, tmp_path: Path, capsy
 # -- crafted content with valid CRCs ---------------------------------------------------------------
 def rewrite(src: Path, dst: Path, run: dict[str, str] | None = None, extra=(), end=None, attach=None) -> Path:
     """``src`` written again with mcap's Writer (valid CRCs), with run metadata values
-    replaced, ``extra`` (topic, payload) messages added, metadata ``end`` and attachments
+    replaced, ``extra`` (topic, payload[, time s]) messages added, metadata ``end`` and attachments
     (name -> bytes) replaced."""
     c = audit(src).contents
     with dst.open("wb") as f:
@@ -720,10 +720,11 @@ def rewrite(src: Path, dst: Path, run: dict[str, str] | None = None, extra=(), e
             topics[ch.topic] = w.register_channel(ch.topic, ch.message_encoding, schemas.get(ch.schema_id, 0))
             for t, data in c.by_channel[cid]:
                 w.add_message(topics[ch.topic], t, data, t, 0)
-        for k, (topic, data) in enumerate(extra):
+        for k, (topic, data, *when) in enumerate(extra):
             if topic not in topics:
                 topics[topic] = w.register_channel(topic, "json", 0)
-            at = c.start_ns + 5_000_000_000 + k  # 5 s into the run (log times are on the epoch clock)
+            # 5 s into the run, or the time given, s (log times are on the epoch clock)
+            at = c.start_ns + int((when[0] if when else 5.0) * 1e9) + k
             w.add_message(topics[topic], at, data, at, 0)
         w.finish()
     return dst
@@ -822,6 +823,22 @@ def test_plots_of_a_hostile_log_stay_in_their_folder(logs, tmp_path: Path, capsy
         "follower1_pose.png",
         "link.png",
     }
+
+
+@pytest.mark.parametrize(("topic", "late_s"), [("/mavlink/leader", 1e5), ("/leader/pose", 1e9), ("/tf", -3600.0)])
+def test_a_message_logged_far_outside_the_run_is_a_finding_and_the_plots_stay_bounded(
+    logs, tmp_path: Path, capsys: pytest.CaptureFixture[str], topic: str, late_s: float
+) -> None:
+    # one stray log time (or a foreign file's wall-clock times) must not become the run's
+    # length: the plots' time marks and rate bins were sized by it (memory without end)
+    src = audit(logs["zstd"]).contents
+    payload = next(iter(src.messages[topic]))[1]
+    p = rewrite(logs["zstd"], tmp_path / "late.mcap", extra=[(topic, payload, late_s)])
+    rep = audit(p)
+    (f,) = [x for x in rep.findings if "outside the run" in x.what]
+    assert f.level == "error" and topic in f.what and "1 of" in f.what
+    rc, _ = run_cli(["audit", str(p), "--plot", str(tmp_path / "plots")], capsys)
+    assert rc == 1 and (tmp_path / "plots" / "trajectories.png").is_file()
 
 
 def test_a_run_that_ended_with_an_error_or_was_killed_never_passes(logs, tmp_path: Path) -> None:

@@ -57,12 +57,13 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
     assert np.sqrt(np.mean(err**2)) < 0.02
     assert "ended after" not in capsys.readouterr().err  # the whole file: nothing to say
     # the same file cut short (a copy that stopped, a damaged card): said, with what it declares
+    # well short of it is an error (exit 2), after every frame read was tracked and printed
     cut = tmp_path / "cut.avi"
     cut.write_bytes(video.read_bytes()[: video.stat().st_size // 2])
-    assert main(["track", str(cut)]) == 0
+    assert main(["track", str(cut)]) == 2
     captured = capsys.readouterr()
     n = len([line for line in captured.out.splitlines() if line.startswith("{")])
-    assert 0 < n < 30 and f"{cut} ended after {n} of the 30 frames it declares" in captured.err
+    assert 0 < n < 27 and f"{cut} ended after {n} of the 30 frames it declares: the file is cut" in captured.err
 
 
 @pytest.mark.parametrize(
@@ -89,6 +90,23 @@ def test_bad_input_is_named(argv: list[str], message: str, tmp_path: Path, capsy
         assert stop.value.code == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and "Assertion failed" not in err
+
+
+def test_a_pipe_or_the_video_itself_as_out_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import os
+
+    fifo = tmp_path / "camera.mp4"
+    os.mkfifo(fifo)  # opened, it would block for ever, deaf to Ctrl-C
+    assert main(["track", str(fifo), "--roi", "1,1,5,5"]) == 2
+    assert "is a named pipe or socket" in capsys.readouterr().err
+    video = tmp_path / "v.mp4"
+    video.write_bytes((footage_dir() / "bikes.mp4").read_bytes())
+    link = tmp_path / "link.mp4"
+    link.symlink_to(video)
+    for out in (video, link):
+        assert main(["track", str(video), "--roi", "1,2,30,30", "--out", str(out)]) == 2
+        assert "is the video being tracked" in capsys.readouterr().err
+    assert video.read_bytes() == (footage_dir() / "bikes.mp4").read_bytes()  # untouched
 
 
 def test_a_shipped_scenario_is_taken_by_name(capsys: pytest.CaptureFixture[str]) -> None:
