@@ -1000,6 +1000,7 @@ def parse_config(text: str, name: str = "scenario") -> Config:
     ConfigError
         Bad TOML, unknown key, wrong type or out-of-range value.
     """
+    text = text.removeprefix("\ufeff")  # a byte-order mark some editors write: not TOML, no meaning
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -167,3 +167,28 @@ def test_config_from_table_builds_what_parse_config_builds_and_leaves_the_table_
     table["sensing"]["range_noise_m"] = -1.0
     with pytest.raises(ConfigError, match=r"sensing\.range_noise_m must be within \[0, 100\], got -1\.0"):
         config_from_table(table)
+
+
+def test_a_byte_order_mark_before_the_scenario_is_read_past(tmp_path: Path) -> None:
+    text = (Path(__file__).parent.parent / "examples" / "convoy.toml").read_text()
+    p = tmp_path / "bom.toml"
+    p.write_bytes(b"\xef\xbb\xbf" + text.encode())  # as some Windows editors save it
+    plain = load_config(Path(__file__).parent.parent / "examples" / "convoy.toml")
+    assert load_config(p).vehicles == plain.vehicles and load_config(p).mission == plain.mission
+
+
+def test_an_odd_camera_size_with_h264_recording_names_the_keys(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from lfctl.cli import main
+
+    text = (Path(__file__).parent.parent / "examples" / "convoy.toml").read_text()
+    assert "[camera]\n" in text
+    p = tmp_path / "odd.toml"
+    p.write_text(
+        text.replace("[camera]\n", "[camera]\nwidth_px = 641\nheight_px = 479\n", 1)
+        + f'\n[recording]\ndir = "{tmp_path}"\n'
+    )
+    assert main(["sim", str(p), "--duration", "0.2", "-q"]) != 0
+    err = capsys.readouterr().err
+    assert "camera.width_px x height_px is 641x479" in err and 'image_format = "jpeg"' in err and "Traceback" not in err

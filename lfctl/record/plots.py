@@ -89,7 +89,11 @@ def _colour(k: int) -> tuple[float, float, float]:
 
 
 def _save(plt: Any, fig: Any, path: Path) -> None:
+    """Write the figure as ``path``: a symbolic link there is replaced by the picture, not
+    followed (it would write over the file it points at)."""
     fig.tight_layout()
+    if path.is_symlink():
+        path.unlink()
     fig.savefig(path, dpi=100)
     plt.close(fig)
 

@@ -32,8 +32,10 @@ import datetime as dt
 import hashlib
 import importlib.metadata
 import json
+import logging
 import math
 import platform
+import shutil
 import subprocess
 import time
 import zipfile
@@ -188,6 +190,27 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
 
 class RecordError(LfctlError, OSError):
     """The log could not be written or served; the message names the file or address."""
+
+
+#: the logger the foxglove SDK's MCAP writer reports its failed writes on
+FOXGLOVE_LOGGER = "foxglove.log_sink_set"
+
+
+class _WriteErrors(logging.Filter):
+    """Keeps a recorder's first failed write from the foxglove SDK's logger, and drops the
+    repeats (one a message)."""
+
+    def __init__(self, recorder: Recorder) -> None:
+        super().__init__()
+        self.recorder = recorder
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = record.getMessage()
+        if "error logging message" not in text:
+            return True
+        if self.recorder._write_error is None:
+            self.recorder._write_error = text.split(":", 1)[-1].strip()
+        return False
 
 
 def sha256(data: bytes) -> str:
@@ -379,6 +402,11 @@ class Recorder:
         self._closed = False
         self._hashes: dict[str, str] = {}
         self._flushed_at = time.monotonic()
+        # the MCAP writer reports a failed write (a full disk) as a warning on its logger and
+        # refuses every write after it: the first is kept and ends the run (_written)
+        self._write_error: str | None = None
+        self._write_filter = _WriteErrors(self)
+        logging.getLogger(FOXGLOVE_LOGGER).addFilter(self._write_filter)
         if self.path is not None:
             rec = cfg.recording
             options = MCAPWriteOptions(
@@ -422,15 +450,35 @@ class Recorder:
     def flush(self) -> None:
         """End the chunk in progress and hand everything written so far to the OS."""
         if self._mcap is not None:
-            self._mcap.flush()
+            try:
+                self._mcap.flush()
+            except (RuntimeError, OSError) as exc:
+                self._write_error = self._write_error or str(exc)
         self._flushed_at = time.monotonic()
+        self._check_written()
 
     def _written(self) -> None:
         """Count a message; flush when a second of wall time has passed (a killed run loses
         at most about that much)."""
         self.messages += 1
+        self._check_written()
         if time.monotonic() - self._flushed_at >= FLUSH_INTERVAL_S:
             self.flush()
+
+    def _check_written(self) -> None:
+        """A write that failed ends the run with an error naming the log and why (the
+        writer takes nothing after it): what reached the file before it is recoverable."""
+        if self._write_error is None or self.path is None:
+            return
+        why = self._write_error
+        try:
+            free = shutil.disk_usage(self.path.parent).free
+            why += f"; {free} bytes free on its device"
+        except OSError:
+            pass
+        raise RecordError(
+            f"cannot write the run log {self.path}: {why} (`lfctl audit --recover` keeps what was written)"
+        )
 
     @property
     def live_port(self) -> int | None:
@@ -989,8 +1037,12 @@ class Recorder:
         values : dict of str
             Its key-value pairs.
         """
-        if self._mcap is not None:
-            self._mcap.write_metadata(name, values)
+        if self._mcap is not None and self._write_error is None:  # (after a failed write: none taken)
+            try:
+                self._mcap.write_metadata(name, values)
+            except (RuntimeError, OSError) as exc:
+                self._write_error = str(exc)
+                self._check_written()
 
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
         """One guidance step of a follower (``/<follower>/controller``).
@@ -1089,8 +1141,15 @@ class Recorder:
 
     # -- the end ---------------------------------------------------------------------------------
     def _close_file(self) -> None:
-        if self._mcap is not None:
-            self._mcap.close()
+        logging.getLogger(FOXGLOVE_LOGGER).removeFilter(self._write_filter)
+        mcap, self._mcap = self._mcap, None
+        if mcap is None:
+            return
+        try:
+            mcap.close()
+        except (RuntimeError, OSError) as exc:
+            if self._write_error is None:  # (after a failed write: already said)
+                raise RecordError(f"cannot finish the run log {self.path}: {exc}") from None
 
     def close(self, reason: str = "completed", t_s: float | None = None) -> None:
         """Finish the file (why the run ended: metadata ``end``; summary, indexes, footer) and
@@ -1107,10 +1166,13 @@ class Recorder:
             return
         self._closed = True
         try:
-            if self._mcap is not None:
+            if self._mcap is not None and self._write_error is None:
                 end = {"reason": reason} | ({"t_s": repr(t_s)} if t_s is not None else {})
-                self._mcap.write_metadata("end", end)
-                self._close_file()
+                try:
+                    self._mcap.write_metadata("end", end)
+                except (RuntimeError, OSError) as exc:
+                    self._write_error = str(exc)
+            self._close_file()
         finally:
             if self._server is not None:
                 self._server.stop()

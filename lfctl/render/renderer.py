@@ -35,6 +35,7 @@ from lfctl.render.textures import (
     banner_texture,
     ground_texture,
     noise_texture,
+    panel_sizes,
     periodic_pyramid,
     prop_texture,
     real_banner_texture,
@@ -104,6 +105,14 @@ def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     z = float(a[0] * b[1] - a[1] * b[0])
     n = math.sqrt(x * x + y * y + z * z) or 1.0
     return np.array([x / n, y / n, z / n])
+
+
+def _panel_sizes(scene: SceneConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """The props' and the occluders' texture sizes (width, height) px, within one budget."""
+    sizes = panel_sizes(
+        [(p.width_m, p.height_m) for p in scene.props] + [(o.width_m, o.height_m) for o in scene.occluders]
+    )
+    return sizes[: len(scene.props)], sizes[len(scene.props) :]
 
 
 @dataclass(frozen=True)
@@ -249,12 +258,10 @@ class Renderer:
         self._ground_tiles = [
             np.tile(cv2.cvtColor(t, cv2.COLOR_BGR2BGRA), (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels
         ]
-        self.prop_tex = [prop_texture(p, banner, rng) for p in scene.props]
+        props_px, occluders_px = _panel_sizes(scene)
+        self.prop_tex = [prop_texture(p, banner, rng, size) for p, size in zip(scene.props, props_px, strict=True)]
         occ_rng = np.random.default_rng(seed + 1)
-        self.occluder_tex = [
-            noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
-            for o in scene.occluders
-        ]
+        self.occluder_tex = [noise_texture(occ_rng, h, w, (90, 80, 60), 20.0, 2) for w, h in occluders_px]
         w, h = camera.width_px, camera.height_px
         noise_rng = np.random.default_rng(seed + 2)
         # noise frames as (positive, negative) uint8 halves: two saturating uint8 ops per frame
@@ -820,12 +827,13 @@ class Renderer:
         ]
         self._ground_reps = reps
         self._ground_scratch = np.zeros((camera.height_px, camera.width_px, 4), np.uint8)
-        self.prop_tex = [real_wall_texture(p, plates.facade if plates else None, banner, rng) for p in scene.props]
-        occ_rng = np.random.default_rng(seed + 1)
-        self.occluder_tex = [
-            noise_texture(occ_rng, max(8, int(o.height_m * 200)), max(8, int(o.width_m * 200)), (90, 80, 60), 20.0, 2)
-            for o in scene.occluders
+        props_px, occluders_px = _panel_sizes(scene)
+        facades = plates.facade if plates else None
+        self.prop_tex = [
+            real_wall_texture(p, facades, banner, rng, size) for p, size in zip(scene.props, props_px, strict=True)
         ]
+        occ_rng = np.random.default_rng(seed + 1)
+        self.occluder_tex = [noise_texture(occ_rng, h, w, (90, 80, 60), 20.0, 2) for w, h in occluders_px]
         self._sky = self._sky_image()
         # the distant background: a 360-degree strip, one pixel per pixel of the image at the
         # focal length, its foot on the horizon; doubled so any slice of it is contiguous

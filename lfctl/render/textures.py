@@ -5,6 +5,7 @@ occluders. Periodic where they tile (the floor), so no seams show.
 from __future__ import annotations
 
 import colorsys
+import math
 from collections.abc import Sequence
 
 import cv2
@@ -21,6 +22,7 @@ __all__ = [
     "ground_texture",
     "hue_bgr",
     "noise_texture",
+    "panel_sizes",
     "periodic_noise",
     "periodic_pyramid",
     "prop_texture",
@@ -134,8 +136,39 @@ def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, flo
     return noise_texture(rng, 512, 512, (128, 130, 132), 18.0, 3), 128.0
 
 
-def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generator) -> np.ndarray:
-    """Texture of a prop panel by kind (see :class:`~lfctl.config.PropConfig`), 200 px per m.
+#: a panel's texture resolution, px per m, and the most pixels one panel's longer side or all
+#: the scene's panels together get (a large panel, or many, at full resolution would take
+#: gigabytes: a 100 m wall 20000 px square)
+PANEL_PX_PER_M = 200
+PANEL_MAX_SIDE_PX = 2048
+PANELS_MAX_PX = 48_000_000
+
+
+def panel_sizes(dims_m: Sequence[tuple[float, float]]) -> list[tuple[int, int]]:
+    """Texture sizes (width, height) px for panels of ``(width_m, height_m)``: at
+    :data:`PANEL_PX_PER_M`, a panel's longer side at most :data:`PANEL_MAX_SIDE_PX`, and all of
+    them together within :data:`PANELS_MAX_PX` (each scaled down alike), 8 px at least.
+
+    Parameters
+    ----------
+    dims_m : sequence of (width_m, height_m)
+        The panels' sizes, m.
+    """
+    sizes = []
+    for w_m, h_m in dims_m:
+        w, h = max(1.0, w_m * PANEL_PX_PER_M), max(1.0, h_m * PANEL_PX_PER_M)
+        k = min(1.0, PANEL_MAX_SIDE_PX / max(w, h))
+        sizes.append((w * k, h * k))
+    total = sum(w * h for w, h in sizes)
+    k = min(1.0, math.sqrt(PANELS_MAX_PX / total)) if total > 0 else 1.0
+    return [(max(8, int(w * k)), max(8, int(h * k))) for w, h in sizes]
+
+
+def prop_texture(
+    prop: PropConfig, banner: BannerConfig, rng: np.random.Generator, size_px: tuple[int, int] | None = None
+) -> np.ndarray:
+    """Texture of a prop panel by kind (see :class:`~lfctl.config.PropConfig`), 200 px per m
+    (or ``size_px``, width and height, from :func:`panel_sizes`).
 
     Parameters
     ----------
@@ -145,9 +178,10 @@ def prop_texture(prop: PropConfig, banner: BannerConfig, rng: np.random.Generato
         The banner, whose marker hue and panel colour distractors copy.
     rng : np.random.Generator
         The texture's random stream.
+    size_px : (int, int), optional
+        The texture's width and height, px.
     """
-    w = max(8, int(prop.width_m * 200))
-    h = max(8, int(prop.height_m * 200))
+    w, h = size_px or panel_sizes([(prop.width_m, prop.height_m)])[0]
     marker = hue_bgr(banner.marker_hue_deg, banner.marker_saturation, 0.85)
     if prop.kind == "distractor":
         # the markers' hue, flat, at a lower saturation (a red box is rarely the markers' red)
@@ -333,7 +367,11 @@ def real_ground_texture(
 
 
 def real_wall_texture(
-    prop: PropConfig, photos: Sequence[np.ndarray] | None, banner: BannerConfig, rng: np.random.Generator
+    prop: PropConfig,
+    photos: Sequence[np.ndarray] | None,
+    banner: BannerConfig,
+    rng: np.random.Generator,
+    size_px: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """A prop's realistic texture: a wall faced with a photographed facade (tiled along its
     width at its height), anything else as :func:`prop_texture`.
@@ -348,12 +386,13 @@ def real_wall_texture(
         For distractors, as :func:`prop_texture`.
     rng : np.random.Generator
         Choices.
+    size_px : (int, int), optional
+        The texture's width and height, px (:func:`panel_sizes`).
     """
     if prop.kind != "wall" or not photos:
-        return prop_texture(prop, banner, rng)
+        return prop_texture(prop, banner, rng, size_px)
     photo = photos[int(rng.integers(len(photos)))]
-    h = max(8, int(prop.height_m * 200))
-    w = max(8, int(prop.width_m * 200))
+    w, h = size_px or panel_sizes([(prop.width_m, prop.height_m)])[0]
     tw = max(8, int(round(photo.shape[1] * h / photo.shape[0])))
     tile = cv2.resize(photo, (tw, h), interpolation=cv2.INTER_CUBIC)
     reps = w // tw + 2

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from lfctl.config import Config
-from lfctl.errors import LfctlError
+from lfctl.errors import ConfigError, LfctlError
 from lfctl.record.video import H264Encoder
 from lfctl.sim.camera_sensor import CameraSample, CameraSensor
 from lfctl.sim.world import WorldState
@@ -126,6 +126,11 @@ class _Cameras:
         if enc is None:
             fps = min(rec.image_rate_hz, self.cfg.sim.camera_rate_hz)
             h, w = frame.shape[:2]
+            if w % 2 or h % 2:
+                raise ConfigError(
+                    f"camera.width_px x height_px is {w}x{h}: H.264 recording (recording.image_format) needs both "
+                    'even; make them even, or set recording.image_format = "jpeg"'
+                )
             enc = self._video[follower] = H264Encoder(w, h, fps, rec.video_bitrate_kbps, rec.video_gop)
         return enc.encode(frame).data, time.perf_counter() - t0
 
@@ -136,6 +141,8 @@ class _Cameras:
         if enc is None:
             fps = self.cfg.sim.camera_rate_hz
             h, w = frame.shape[:2]
+            if w % 2 or h % 2:
+                raise ConfigError(f"camera.width_px x height_px is {w}x{h}: the H.264 stream (--video) needs both even")
             enc = self._stream[follower] = H264Encoder(w, h, fps, live.video_bitrate_kbps, max(1, round(fps)))
         if live.video_annotated:
             m = sample.measurement

@@ -841,6 +841,19 @@ def test_a_message_logged_far_outside_the_run_is_a_finding_and_the_plots_stay_bo
     assert rc == 1 and (tmp_path / "plots" / "trajectories.png").is_file()
 
 
+def test_a_plot_replaces_a_link_in_its_folder_and_writes_nothing_through_it(
+    logs, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    precious = tmp_path / "precious.txt"
+    precious.write_text("keep me")
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    (plots / "link.png").symlink_to(precious)
+    rc, _ = run_cli(["audit", str(logs["zstd"]), "--plot", str(plots)], capsys)
+    assert rc == 0 and precious.read_text() == "keep me"
+    assert not (plots / "link.png").is_symlink() and (plots / "link.png").read_bytes()[:4] == b"\x89PNG"
+
+
 def test_a_run_that_ended_with_an_error_or_was_killed_never_passes(logs, tmp_path: Path) -> None:
     err = audit(write_log(tmp_path / "error.mcap", reason="error: ValueError: the disk went away"))
     (f,) = [x for x in err.findings if x.level == "error"]

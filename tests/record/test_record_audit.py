@@ -477,6 +477,27 @@ def test_two_runs_in_the_same_second_keep_both_logs(tmp_path: Path) -> None:
     assert audit(second.path).contents.metadata["which"] == {"run": "second"}
 
 
+def test_a_write_the_disk_refuses_ends_the_run_naming_the_log_and_why(tmp_path: Path) -> None:
+    # the foxglove SDK's writer reports a failed write (a full disk) as a warning on its
+    # logger, once a message, and refuses every write after it; the recorder ends the run
+    # at the first with one error naming the log, and finishes what it can
+    import logging
+
+    from lfctl.record.writer import FOXGLOVE_LOGGER, RecordError
+
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    rec = Recorder(tmp_path / "r.mcap", cfg)
+    mission = {"event": "reached", "index": 0, "active": 0, "count": 1}
+    rec.json("/leader/mission", "lfctl.Mission", 0.0, mission)
+    full = 'McapError(Io(Os { code: 28, kind: StorageFull, message: "No space left on device" }))'
+    logging.getLogger(FOXGLOVE_LOGGER).warning("error logging message: %s", full)
+    with pytest.raises(RecordError, match=r"cannot write the run log .*r\.mcap: McapError.*No space left on device"):
+        rec.json("/leader/mission", "lfctl.Mission", 0.1, mission)
+    rec.metadata("link.leader", {"datagrams": "1"})  # after it: taken and dropped, not raised again
+    rec.close("error: RecordError")
+    assert logging.getLogger(FOXGLOVE_LOGGER).filters == []  # (the next run's recorder starts clean)
+
+
 def test_the_recorder_hands_a_chunk_to_the_os_every_second(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import lfctl.record.writer as writer
 
