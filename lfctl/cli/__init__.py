@@ -6,6 +6,8 @@ shows tracebacks."""
 from __future__ import annotations
 
 import argparse
+import contextlib
+import faulthandler
 import importlib
 import logging
 import os
@@ -56,6 +58,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGTERM, _terminate)
+    if not faulthandler.is_enabled():
+        # a crash in native code (an FMU's doStep, say) prints the Python stack it was under
+        # (the FMU's call named in it) instead of ending the process without a word
+        with contextlib.suppress(AttributeError, ValueError, OSError):
+            faulthandler.enable()
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
         return int(args.func(args))

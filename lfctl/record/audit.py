@@ -259,6 +259,63 @@ def _bad_json_findings(c: Contents) -> list[Finding]:
     return out
 
 
+def _protobuf_class(schema_name: str) -> Any:
+    """The message class of a Foxglove protobuf schema (``foxglove.PoseInFrame``), None for
+    any other (a foreign file's own schemas are not checked)."""
+    import importlib
+
+    prefix, _, name = schema_name.partition(".")
+    if prefix != "foxglove" or not name.isidentifier():
+        return None
+    try:
+        module = importlib.import_module(f"foxglove_schemas_protobuf.{name}_pb2")
+    except ImportError:
+        return None
+    return getattr(module, name, None)
+
+
+def _bad_protobuf_findings(c: Contents) -> list[Finding]:
+    """Messages on a Foxglove protobuf channel that do not decode as its schema, carry fields
+    the schema does not have (garbage often parses as unknown fields), or lack the timestamp
+    a schema with one always has in a log (an empty payload parses as an empty message)."""
+    from google.protobuf.message import DecodeError
+    from google.protobuf.unknown_fields import UnknownFieldSet
+
+    out = []
+    for ch_id, ch in sorted(c.channels.items(), key=lambda kv: kv[1].topic):
+        schema = c.schemas.get(ch.schema_id)
+        if ch.message_encoding != "protobuf" or schema is None:
+            continue
+        cls = _protobuf_class(schema.name)
+        msgs = c.by_channel.get(ch_id)
+        if cls is None or not msgs:
+            continue
+        bad: list[tuple[int, float, str]] = []
+        stamped = "timestamp" in cls.DESCRIPTOR.fields_by_name
+        for i, (t, data) in enumerate(msgs):
+            try:
+                m = cls.FromString(data)
+                why = "fields its schema does not have" if len(UnknownFieldSet(m)) else None
+                if why is None and stamped and not m.HasField("timestamp"):
+                    why = "no timestamp"  # (an empty payload parses as an empty message)
+            except (DecodeError, RuntimeError, ValueError) as exc:
+                why = f"does not decode ({exc})"
+            if why is not None:
+                bad.append((i, c.sim_s(t), why))
+        if bad:
+            i, t, why = bad[0]
+            out.append(
+                Finding(
+                    "error",
+                    f"{len(bad)} of {len(msgs)} messages on {ch.topic} are not valid {schema.name} "
+                    f"(first: message {i} at t = {t:.3f} s: {why}); figures leave them out",
+                    msgs.offset(i) if hasattr(msgs, "offset") else None,
+                    "content",
+                )
+            )
+    return out
+
+
 # -- the run metadata --------------------------------------------------------------------------------
 @dataclass
 class _Run:
@@ -425,6 +482,7 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
         )
     findings += _outside_the_run(c)
     findings.extend(_bad_json_findings(c))
+    findings.extend(_bad_protobuf_findings(c))
     # -- provenance -------------------------------------------------------------------------
     hashes = {m.get("name", ""): m.get("sha256", "") for k, m in c.metadata.items() if k.startswith("sha256:")}
     for name, data in c.attachments.items():
