@@ -87,7 +87,12 @@ def run(args: argparse.Namespace) -> int:
                     break
                 if perception is None:
                     h, w = frame.shape[:2]
-                    camera = dataclasses.replace(scen.camera if scen else CameraConfig(), width_px=w, height_px=h)
+                    try:
+                        camera = dataclasses.replace(scen.camera if scen else CameraConfig(), width_px=w, height_px=h)
+                    except ConfigError as exc:  # (its message names the scenario's key)
+                        raise ConfigError(
+                            f"{args.source}: its frames are {w}x{h} px, which the tracker cannot take ({exc})"
+                        ) from None
                     perception = BannerPerception.from_config(
                         camera,
                         _watched_banner(scen) if scen else BannerConfig(),

@@ -606,7 +606,9 @@ def _at(end: dict[str, str]) -> str:
         t = float(end.get("t_s", ""))
     except ValueError:
         return ""
-    return f" at t = {t:.2f} s" if math.isfinite(t) else ""
+    if not math.isfinite(t):
+        return ""
+    return f" at t = {t:.2f} s" if abs(t) < 1e9 else f" at t = {t:.6g} s (not a run's time)"
 
 
 def _rounded(value: float | None, digits: int, scale: float = 1.0) -> float | None:
