@@ -297,7 +297,10 @@ def write_whole(path: Path) -> Iterator[Path]:
         The file to write.
     """
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.{secrets.token_hex(4)}.partial{path.suffix}")
-    os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    try:
+        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+    except OSError as exc:  # named as the file asked for, not the hidden one beside it
+        raise type(exc)(exc.errno, f"cannot write {path} ({exc.strerror})") from None
     try:
         yield tmp
         os.replace(tmp, path)

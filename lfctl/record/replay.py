@@ -73,6 +73,8 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     if follower is not None and followers and follower not in followers:
         raise ConfigError(f"{path} has no follower {follower!r} (its followers: {', '.join(followers)})")
     name = follower or (followers[0] if followers else "")
+    if not name:  # a file lfctl did not write, or one whose run metadata names no follower
+        raise ConfigError(f"{path} names no follower in its run metadata: give --follower NAME")
     count = len(c.messages.get(image_topic(name, "h264"), []) or c.messages.get(image_topic(name, "jpeg"), []))
     images = recorded_frames(c.messages, name)
     run = report.figures.get("run", {})
