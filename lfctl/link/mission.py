@@ -341,7 +341,8 @@ def as_stored(item: MissionItem) -> MissionItem:
     and back): for the commands lfctl carries out, the params the command has no room for
     are 0 and each kept param takes its field's type (a waypoint's wait a 16-bit whole
     number, 2.5 s kept as 2; DO_JUMP's target and count whole; a loiter's direction
-    the sign of its radius, or +-1). Other commands are kept as sent.
+    the sign of its radius, -0 too, or +-1; a circle's turns whole, or 256ths below one).
+    Other commands are kept as sent.
 
     Parameters
     ----------
@@ -352,12 +353,13 @@ def as_stored(item: MissionItem) -> MissionItem:
     u16 = 65535
     if c == NAV_WAYPOINT:
         params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
-    elif c == NAV_LOITER_UNLIM:
-        r = _int_as(abs(p3), 0, u16)
-        params = (0.0, 0.0, -r if p3 < 0 else r, 0.0)
+    elif c == NAV_LOITER_UNLIM:  # (the direction a flag of its own: a radius of -0 is counter-clockwise)
+        params = (0.0, 0.0, math.copysign(_int_as(abs(p3), 0, u16), p3), 0.0)
     elif c == NAV_LOITER_TURNS:
         r = math.trunc(abs(p3)) if abs(p3) <= 255 else 10 * min(255, math.trunc(abs(p3) * 0.1))
-        params = (_int_as(min(255.0, p1), 0, 255), 0.0, -float(r) if p3 < 0 else float(r), 1.0 if p4 > 0 else 0.0)
+        # turns in a byte; 0 < turns < 1 in 256ths of a turn (a flag says so)
+        turns = math.trunc(p1 * 256.0) / 256.0 if 0.0 < p1 < 1.0 else _int_as(min(255.0, p1), 0, 255)
+        params = (turns, 0.0, math.copysign(float(r), p3), 1.0 if p4 > 0 else 0.0)
     elif c == NAV_LOITER_TIME:
         params = (_int_as(p1, 0, u16), 0.0, -1.0 if p3 < 0 else 1.0, 1.0 if p4 > 0 else 0.0)
     elif c == NAV_RETURN_TO_LAUNCH:

@@ -259,25 +259,28 @@ def _bad_json_findings(c: Contents) -> list[Finding]:
     return out
 
 
-def _protobuf_class(schema_name: str) -> Any:
-    """The message class of a Foxglove protobuf schema (``foxglove.PoseInFrame``), None for
-    any other (a foreign file's own schemas are not checked)."""
-    import importlib
+def _protobuf_class(schema: Any) -> Any:
+    """The message class a protobuf channel's schema describes, built from the schema's own
+    FileDescriptorSet in the file (so a file is read as it was written, whatever schema
+    package is installed); None when the schema data does not describe its message."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+    from google.protobuf.message import DecodeError
 
-    prefix, _, name = schema_name.partition(".")
-    if prefix != "foxglove" or not name.isidentifier():
-        return None
     try:
-        module = importlib.import_module(f"foxglove_schemas_protobuf.{name}_pb2")
-    except ImportError:
+        files = descriptor_pb2.FileDescriptorSet.FromString(schema.data)
+        pool = descriptor_pool.DescriptorPool()
+        for f in files.file:
+            pool.Add(f)
+        return message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+    except (DecodeError, KeyError, TypeError, ValueError, RuntimeError):
         return None
-    return getattr(module, name, None)
 
 
 def _bad_protobuf_findings(c: Contents) -> list[Finding]:
-    """Messages on a Foxglove protobuf channel that do not decode as its schema, carry fields
-    the schema does not have (garbage often parses as unknown fields), or lack the timestamp
-    a schema with one always has in a log (an empty payload parses as an empty message)."""
+    """Messages on a protobuf channel that do not decode as the schema the file gives it,
+    carry fields the schema does not have (garbage often parses as unknown fields), or lack
+    the timestamp a schema with one always has in a log (an empty payload parses as an empty
+    message). A schema whose data does not describe its message is not checked."""
     from google.protobuf.message import DecodeError
     from google.protobuf.unknown_fields import UnknownFieldSet
 
@@ -286,7 +289,7 @@ def _bad_protobuf_findings(c: Contents) -> list[Finding]:
         schema = c.schemas.get(ch.schema_id)
         if ch.message_encoding != "protobuf" or schema is None:
             continue
-        cls = _protobuf_class(schema.name)
+        cls = _protobuf_class(schema)
         msgs = c.by_channel.get(ch_id)
         if cls is None or not msgs:
             continue

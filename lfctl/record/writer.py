@@ -197,20 +197,26 @@ FOXGLOVE_LOGGER = "foxglove.log_sink_set"
 
 
 class _WriteErrors(logging.Filter):
-    """Keeps a recorder's first failed write from the foxglove SDK's logger, and drops the
-    repeats (one a message)."""
+    """The foxglove SDK's MCAP writer reports each message it could not write (after a
+    failed write, a full disk say, every one) as a warning on its logger: the first is let
+    through and kept (its words say why), the repeats are dropped. One for the process:
+    a warning does not say which file it was, so the recorder whose flush then fails says
+    it, with these words."""
 
-    def __init__(self, recorder: Recorder) -> None:
+    def __init__(self) -> None:
         super().__init__()
-        self.recorder = recorder
+        self.first: str | None = None
 
     def filter(self, record: logging.LogRecord) -> bool:
         text = record.getMessage()
         if "error logging message" not in text:
             return True
-        if self.recorder._write_error is None:
-            self.recorder._write_error = text.split(":", 1)[-1].strip()
-        return False
+        seen, self.first = self.first is not None, self.first or text.split(":", 1)[-1].strip()
+        return not seen
+
+
+_WRITE_ERRORS = _WriteErrors()
+logging.getLogger(FOXGLOVE_LOGGER).addFilter(_WRITE_ERRORS)
 
 
 def sha256(data: bytes) -> str:
@@ -402,11 +408,10 @@ class Recorder:
         self._closed = False
         self._hashes: dict[str, str] = {}
         self._flushed_at = time.monotonic()
-        # the MCAP writer reports a failed write (a full disk) as a warning on its logger and
-        # refuses every write after it: the first is kept and ends the run (_written)
+        # a failed write (a full disk) makes the MCAP writer refuse every write after it: the
+        # next flush says so (within FLUSH_INTERVAL_S), and ends the run (_check_written)
         self._write_error: str | None = None
-        self._write_filter = _WriteErrors(self)
-        logging.getLogger(FOXGLOVE_LOGGER).addFilter(self._write_filter)
+        _WRITE_ERRORS.first = None  # (the writer's words for a failure before this log's)
         if self.path is not None:
             rec = cfg.recording
             options = MCAPWriteOptions(
@@ -453,15 +458,21 @@ class Recorder:
             try:
                 self._mcap.flush()
             except (RuntimeError, OSError) as exc:
-                self._write_error = self._write_error or str(exc)
+                self._failed(exc)
         self._flushed_at = time.monotonic()
         self._check_written()
+
+    def _failed(self, exc: BaseException) -> None:
+        """A write to the log failed: kept (the first), with the writer's own words for why
+        when it logged them."""
+        if self._write_error is None:
+            why = _WRITE_ERRORS.first
+            self._write_error = f"{exc}" + (f" ({why})" if why else "")
 
     def _written(self) -> None:
         """Count a message; flush when a second of wall time has passed (a killed run loses
         at most about that much)."""
         self.messages += 1
-        self._check_written()
         if time.monotonic() - self._flushed_at >= FLUSH_INTERVAL_S:
             self.flush()
 
@@ -1041,7 +1052,7 @@ class Recorder:
             try:
                 self._mcap.write_metadata(name, values)
             except (RuntimeError, OSError) as exc:
-                self._write_error = str(exc)
+                self._failed(exc)
                 self._check_written()
 
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
@@ -1141,15 +1152,13 @@ class Recorder:
 
     # -- the end ---------------------------------------------------------------------------------
     def _close_file(self) -> None:
-        logging.getLogger(FOXGLOVE_LOGGER).removeFilter(self._write_filter)
         mcap, self._mcap = self._mcap, None
         if mcap is None:
             return
         try:
             mcap.close()
         except (RuntimeError, OSError) as exc:
-            if self._write_error is None:  # (after a failed write: already said)
-                raise RecordError(f"cannot finish the run log {self.path}: {exc}") from None
+            self._failed(exc)
 
     def close(self, reason: str = "completed", t_s: float | None = None) -> None:
         """Finish the file (why the run ended: metadata ``end``; summary, indexes, footer) and
@@ -1171,11 +1180,12 @@ class Recorder:
                 try:
                     self._mcap.write_metadata("end", end)
                 except (RuntimeError, OSError) as exc:
-                    self._write_error = str(exc)
+                    self._failed(exc)
             self._close_file()
         finally:
             if self._server is not None:
                 self._server.stop()
+        self._check_written()  # a log that could not be finished is an error, said once
 
     def discard(self) -> None:
         """Close and delete the file (a run that never started has nothing to keep)."""

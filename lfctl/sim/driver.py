@@ -145,7 +145,8 @@ class VehicleDriver:
         self._goto_key: tuple[object, ...] = ()
         self._goto_done = False
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
-        self._circle: tuple[int, CircleGuidance, float] | None = None  # (leg, guidance, the speed it last took)
+        # the circle under way: (leg, guidance, the waypoints' speed as it began: DO_CHANGE_SPEED)
+        self._circle: tuple[int, CircleGuidance, float | None] | None = None
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
         """The vehicle's command at ``t_s`` (kept in :attr:`command`); where it steers goes to
@@ -232,7 +233,7 @@ class VehicleDriver:
                 # goes on with the places of the items still to come, as on Rover
                 self._key = key
             else:
-                self._start_mission(t_s)
+                self._start_mission(t_s, edited)
         ap = self._autopilot
         assert ap is not None
         if ap.settings.cruise_speed_mps != ep.speed_mps:
@@ -279,11 +280,15 @@ class VehicleDriver:
             self._place(k, (leg.north_m, leg.east_m))
         return True
 
-    def _start_mission(self, t_s: float) -> None:
+    def _start_mission(self, t_s: float, edited: bool = False) -> None:
         """(Re)start the mission from its current item, from where the vehicle is: a new or
         changed mission, a new current item, or AUTO entered again (Rover restarts the item
-        under way, its wait and the DO commands with it)."""
+        under way, its wait and the DO commands with it). ``edited``: the mission flown was
+        edited in place; a circle under way goes on with the turns it has done (Rover's
+        ``replace_cmd`` does not restart the command running)."""
         ep = self.endpoint
+        circling = self._circle if edited else None
+        circling_seq = self._legs[circling[0]].seq if circling is not None else None
         # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
         # for a new or finished mission, a restart from item 0, or DO_SET_MISSION_CURRENT's
         # reset, param2 1: each bumps the endpoint's mission_restarts)
@@ -315,6 +320,8 @@ class VehicleDriver:
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
+            if circling is not None and self._circle is not None and self._legs[0].seq == circling_seq:
+                self._circle = (0, circling[1], circling[2])
             if pending:  # the DO command that was running starts again, and those behind it
                 self._queue = pending + self._queue
                 self._run_items(t_s)
@@ -366,8 +373,8 @@ class VehicleDriver:
         circle = CircleGuidance(
             (leg.north_m, leg.east_m),
             radius,
-            item.param3 < 0,
-            float(min(255, max(0, math.trunc(item.param1)))),
+            math.copysign(1.0, item.param3) < 0,  # (-0 too: AP_Mission keeps the direction apart)
+            max(0.0, item.param1),  # as kept (as_stored): whole turns, or 256ths below one
             ep.param("CIRC_SPEED") or ep.param("WP_SPEED"),
             max(turn_radius, 0.2 if radius >= 0.5 else 0.1),  # Rover's reached_edge distance
             settings.lookahead_m or 0.8,
@@ -377,17 +384,19 @@ class VehicleDriver:
         )
         if (ep.param("CIRC_SPEED") or ep.param("WP_SPEED")) > circle.speed_limit_mps():
             ep.statustext(f"Circle: max speed is {circle.speed_mps:4.1f}", mav.MAV_SEVERITY_WARNING)
-        self._circle = (k, circle, ep.speed_mps)
+        self._circle = (k, circle, ep.desired_speed_mps)
 
     def _round(self, t_s: float, yaw: float) -> tuple[float, float] | None:
         """A step of the circle under way: its command; None once its turns are done (the
         item is then done, and the next leg has begun from where the vehicle is)."""
         ep, ap = self.endpoint, self._autopilot
         assert self._circle is not None and ap is not None
-        k, circle, seen = self._circle
-        if ep.speed_mps != seen:  # a DO_CHANGE_SPEED while it circles (Rover's ModeCircle takes it)
+        k, circle, kept = self._circle
+        if ep.desired_speed_mps != kept:
+            # a ground station's DO_CHANGE_SPEED while it circles: Rover's ModeAuto gives it to
+            # the circle alone, the waypoints' speed stays as it was
             circle.set_speed(ep.speed_mps)
-            self._circle = (k, circle, ep.speed_mps)
+            ep.desired_speed_mps = kept
         if circle.done:
             self._circle = None
             ap.follower.index, ap.follower.prev = k + 1, self._pos  # the next leg from here
@@ -500,7 +509,12 @@ class VehicleDriver:
         elif cmd == CONDITION_DISTANCE:
             self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
         elif cmd == DO_CHANGE_SPEED:
-            if it.param2 >= WP_SPEED_MIN_MPS:  # Rover's set_speed_max takes no slower speed (-1: no change)
+            circling = self._circle is not None and self._circle[0] == self._leg
+            if circling and it.param2 > 0:  # Rover's ModeCircle::set_desired_speed: the circle's alone
+                assert self._circle is not None
+                self._circle[1].set_speed(it.param2)
+                ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)
+            elif not circling and it.param2 >= WP_SPEED_MIN_MPS:  # set_speed_max takes no slower (-1: none)
                 ep.set_speed(it.param2)
                 ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
             ep.item_done(it.seq)

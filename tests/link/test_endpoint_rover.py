@@ -1685,6 +1685,7 @@ def test_a_downloaded_item_has_the_params_rover_keeps_in_their_types(bench: Benc
         (178, (1.6, 0.45, 30.5, 0)),  # ground speed 0.45 m/s, throttle 30.5 %
         (194, (1.0, 0, 0, 0)),
         (112, (2.5, 0, 0, 0)),  # a condition's seconds: a float
+        (18, (0.3, 0, -0.5, 0)),  # 0.3 turns in 256ths; counter-clockwise at a radius kept as 0
     ]
     mission = [
         mav.MAVLink_mission_item_int_message(1, 1, k, rel, cmd, 0, 1, *p, lat + k, lon, 0, 0)
@@ -1702,7 +1703,9 @@ def test_a_downloaded_item_has_the_params_rover_keeps_in_their_types(bench: Benc
         (1.0, pytest.approx(0.45), 30.5, 0.0),
         (1.0, 0.0, 0.0, 0.0),
         (2.5, 0.0, 0.0, 0.0),
+        (76 / 256, 0.0, 0.0, 0.0),
     ]
+    assert math.copysign(1.0, back[-1][2]) == -1.0  # the direction kept apart from the radius: -0
     assert bench.ep.mission[1].param1 == 2.0  # and the vehicle reads them as kept
 
 

@@ -477,10 +477,13 @@ def test_two_runs_in_the_same_second_keep_both_logs(tmp_path: Path) -> None:
     assert audit(second.path).contents.metadata["which"] == {"run": "second"}
 
 
-def test_a_write_the_disk_refuses_ends_the_run_naming_the_log_and_why(tmp_path: Path) -> None:
-    # the foxglove SDK's writer reports a failed write (a full disk) as a warning on its
-    # logger, once a message, and refuses every write after it; the recorder ends the run
-    # at the first with one error naming the log, and finishes what it can
+def test_a_write_the_disk_refuses_ends_the_run_naming_the_log_and_why(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the foxglove SDK's writer reports each message it could not write (a full disk) as a
+    # warning on its logger, and its next flush fails: the run ends there with one error
+    # naming the log and the writer's own words, the repeats of the warning dropped, and a
+    # log that cannot be finished is an error from close() too
     import logging
 
     from lfctl.record.writer import FOXGLOVE_LOGGER, RecordError
@@ -490,12 +493,27 @@ def test_a_write_the_disk_refuses_ends_the_run_naming_the_log_and_why(tmp_path: 
     mission = {"event": "reached", "index": 0, "active": 0, "count": 1}
     rec.json("/leader/mission", "lfctl.Mission", 0.0, mission)
     full = 'McapError(Io(Os { code: 28, kind: StorageFull, message: "No space left on device" }))'
-    logging.getLogger(FOXGLOVE_LOGGER).warning("error logging message: %s", full)
-    with pytest.raises(RecordError, match=r"cannot write the run log .*r\.mcap: McapError.*No space left on device"):
-        rec.json("/leader/mission", "lfctl.Mission", 0.1, mission)
-    rec.metadata("link.leader", {"datagrams": "1"})  # after it: taken and dropped, not raised again
-    rec.close("error: RecordError")
-    assert logging.getLogger(FOXGLOVE_LOGGER).filters == []  # (the next run's recorder starts clean)
+    for _ in range(3):
+        logging.getLogger(FOXGLOVE_LOGGER).warning("error logging message: %s", full)
+    assert capsys.readouterr().err.count("No space left") <= 1  # the first said, not each
+    real = rec._mcap
+
+    def failed(*_args: object) -> None:
+        raise RuntimeError("FoxgloveError: MCAP error: attempted another write after a write method failed")
+
+    monkeypatch.setattr(
+        rec, "_mcap", type("Broken", (), {"flush": failed, "write_metadata": failed, "close": failed})()
+    )
+    with pytest.raises(RecordError, match=r"cannot write the run log .*r\.mcap: .*write method failed.*No space left"):
+        rec.flush()
+    rec.metadata("link.leader", {"datagrams": "1"})  # after it: not taken, not raised again
+    with pytest.raises(RecordError, match="cannot write the run log"):
+        rec.close("error: RecordError")
+    real.close()
+    other = Recorder(tmp_path / "next.mcap", cfg)  # the next log in the process is not blamed
+    other.json("/leader/mission", "lfctl.Mission", 0.0, mission)
+    other.close()
+    assert audit(other.path).contents.metadata["end"]["reason"] == "completed"
 
 
 def test_the_recorder_hands_a_chunk_to_the_os_every_second(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -700,3 +700,22 @@ def test_a_circle_smaller_than_the_turning_radius_is_raised_to_it_and_zero_turns
     assert np.median(r[circling]) == pytest.approx(0.9, abs=0.1)
     # twice round 0.9 m: 11.3 m at 0.4 m/s, about 28 s
     assert 25.0 < at["Mission: 3 WP"] - at["Mission: 2 LoitTurns"] < 40.0
+
+
+def test_a_speed_change_during_a_circle_is_the_circles_alone() -> None:
+    # Rover's ModeAuto::set_desired_speed in its circle submode: the circle takes the speed
+    # (the second DO_CHANGE_SPEED starts once the circle has), the waypoint after it drives
+    # at the speed set before the circle (0.2), not the circle's (0.3)
+    def upload(links: Links) -> None:
+        store(
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
+            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
+            places(links.home, (3.0, 8.0)),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=75.0)
+    at = {text: t_s for t_s, text in links.endpoints[0].statustexts if t_s > 0.4}
+    t_done = at["Mission: 4 WP"]
+    assert speed_between(rep, t_done - 12.0, t_done - 1.0) == pytest.approx(0.3, abs=0.02)
+    assert speed_between(rep, t_done + 12.0, t_done + 22.0) == pytest.approx(0.2, abs=0.02)
