@@ -269,7 +269,7 @@ def _out_of_range(var: Any, value: object) -> str | None:
     except (TypeError, ValueError):
         return None
     lo, hi = _bounds(var)
-    if lo <= x <= hi:
+    if lo <= x <= hi or math.isnan(x):  # (NaN is a value xs:double has, no range's)
         return None
     return f"outside its declared range [{lo:g}, {hi:g}]"
 

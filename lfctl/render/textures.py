@@ -140,7 +140,7 @@ def ground_texture(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, flo
 #: the scene's panels together get (a large panel, or many, at full resolution would take
 #: gigabytes: a 100 m wall 20000 px square)
 PANEL_PX_PER_M = 200
-PANEL_MAX_SIDE_PX = 2048
+PANEL_MAX_SIDE_PX = 4096
 PANELS_MAX_PX = 48_000_000
 
 
