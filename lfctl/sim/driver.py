@@ -360,9 +360,10 @@ class VehicleDriver:
         """Leg ``k`` is a NAV_LOITER_TURNS: set up its circle as Rover's ``do_circle`` and
         ``ModeCircle::set_center`` do. The radius is param3's as AP_Mission keeps it (its sign
         the direction, negative counter-clockwise), at least 0.1 m and raised to
-        ``TURN_RADIUS``; the turns param1's, whole, at most 255; the speed ``CIRC_SPEED``, else
-        ``WP_SPEED`` (not a DO_CHANGE_SPEED from before the circle: one during it counts),
-        limited to what the turn allows. Rover's warnings are said."""
+        ``TURN_RADIUS``; the turns param1's as AP_Mission keeps them (whole up to 255, or in
+        256ths below one); the speed ``CIRC_SPEED``, else ``WP_SPEED`` (not a DO_CHANGE_SPEED
+        from before the circle: one during it is the circle's alone), limited to what the turn
+        allows. Rover's warnings are said."""
         ep, leg = self.endpoint, self._legs[k]
         radius = max(circle_radius_m(item.param3), RADIUS_MIN_M)
         turn_radius = ep.param("TURN_RADIUS")
