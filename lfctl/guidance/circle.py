@@ -129,7 +129,13 @@ class CircleGuidance:
 
     def set_speed(self, speed_mps: float) -> bool:
         """A new speed round the circle, as Rover's ``ModeCircle::set_desired_speed``: taken
-        when positive, limited to :meth:`speed_limit_mps`. True when it was cut to the limit."""
+        when positive, limited to :meth:`speed_limit_mps`. True when it was cut to the limit.
+
+        Parameters
+        ----------
+        speed_mps : float
+            The speed asked for, m/s.
+        """
         if not speed_mps > 0:
             return False
         limit = self.speed_limit_mps()
