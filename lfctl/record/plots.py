@@ -189,7 +189,11 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
         what = f"the mission's places at {t0:g} s" + (f", changed at {later[0]:g} s" if later else "")
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")
     tracks = [(k, v, *_track(c, v)) for k, v in enumerate(vehicles)]
-    step = mark_step_s(max((float(t[-1]) for _k, _v, t, _a in tracks if len(t)), default=0.0))
+    # marks over the time the tracks span (a foreign file's times may start far from 0)
+    first_s = min((float(t[0]) for _k, _v, t, _a in tracks if len(t)), default=0.0)
+    last_s = max((float(t[-1]) for _k, _v, t, _a in tracks if len(t)), default=0.0)
+    step = mark_step_s(last_s - first_s)
+    first_mark = max(step, math.ceil(first_s / step) * step)
     for k, v, t, a in tracks:
         if not len(t):
             continue
@@ -197,7 +201,7 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
         ax.plot(a[:, 0], a[:, 1], color=col, lw=1.5, label=v)
         ax.plot(a[0, 0], a[0, 1], "o", color=col, ms=9, mfc="white", mew=2)
         ax.plot(a[-1, 0], a[-1, 1], "s", color=col, ms=8)
-        for mark in np.arange(step, t[-1] + 1e-9, step):
+        for mark in np.arange(first_mark, t[-1] + 1e-9, step):
             i = int(np.searchsorted(t, mark))
             if i < len(t):
                 ax.plot(a[i, 0], a[i, 1], ".", color="black", ms=6)
