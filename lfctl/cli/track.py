@@ -171,9 +171,7 @@ def _check_paths(source: str, out: str | None) -> None:
         return  # a camera index or a URL (or no such file: the video source says so)
     if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
         raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
-    if out is not None and Path(out).exists() and os.path.samefile(source, out):
-        raise ConfigError(f"--out {out} is the video being tracked: give another file")
-    if out is not None and Path(out).resolve() == Path(source).resolve():
+    if out is not None and Path(out).exists() and os.path.samefile(source, out):  # (links too)
         raise ConfigError(f"--out {out} is the video being tracked: give another file")
 
 

@@ -380,11 +380,11 @@ class MissionServer:
         if result != mav.MAV_MISSION_ACCEPTED:
             self._refuse(up, item.seq, result)
             return
-        up.items[item.seq] = as_stored(item) if mission_type == MISSION else item
+        up.items[item.seq] = item
         up.next_seq += 1
         up.received_at = t_s
         if up.partial and up.mission_type != FENCE:
-            self._edit(up.mission_type, {item.seq: up.items[item.seq]})  # as Rover's replace_item: in force at once
+            self._edit(up.mission_type, {item.seq: item})  # as Rover's replace_item: in force at once
         if up.next_seq <= up.last:
             self._request_next(up, t_s)
             return
@@ -403,9 +403,10 @@ class MissionServer:
         """Items of a list changed in place (each replacing the one at its number, or added
         at the end): the same list object, so the mission being flown is the same mission,
         edited (its DO_JUMP counts, its state and its number stay, as Rover's replace_cmd
-        leaves them)."""
+        leaves them); a mission's items as Rover keeps them (:func:`as_stored`), as
+        :meth:`store` keeps a whole list."""
         held = self.lists[mission_type]
-        _put(held, items)
+        _put(held, {k: as_stored(it) for k, it in items.items()} if mission_type == MISSION else items)
         self.on_edit(mission_type, held)
 
     def _finish_partial(self, up: _Upload) -> None:

@@ -465,9 +465,7 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
                 level = "error" if c.footer else "warning"
                 findings.append(Finding(level, f"expected topic {topic} is missing", kind="content"))
             continue
-        times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
-        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
-        times = (times - float(c.start_ns)) / 1e9  # simulation time, s
+        times = _sim_times(c, msgs)
         gaps = np.diff(times)
         big = gaps > 3 * period + 1e-6
         if big.any():
@@ -550,6 +548,13 @@ def _end_findings(c: Contents, end: dict[str, str] | None, recovered: bool) -> l
     return [Finding("warning", f"the run ended early{_at(end)}: {reason or '(no reason given)'}", kind="run")]
 
 
+def _sim_times(c: Contents, msgs: Any) -> np.ndarray:
+    """A topic's messages' log times as simulation time, s (as :meth:`Contents.sim_s`)."""
+    times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
+    times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
+    return (times - float(c.start_ns)) / 1e9
+
+
 #: how far a message's log time may lie before the run's start or after its end, s (a
 #: message logged as the run ends, the clock's own rounding)
 OUTSIDE_SLACK_S = 5.0
@@ -567,9 +572,7 @@ def _outside_the_run(c: Contents) -> list[Finding]:
     top = end_s + OUTSIDE_SLACK_S if math.isfinite(end_s) else math.inf
     out = []
     for topic, msgs in sorted(c.messages.items()):
-        times = np.frombuffer(msgs.log_times, np.uint64) if isinstance(msgs, MessageStore) else None
-        times = (times if times is not None else np.array([t for t, _ in msgs], np.uint64)).astype(float)
-        times = (times - float(c.start_ns)) / 1e9
+        times = _sim_times(c, msgs)
         bad = (times < -OUTSIDE_SLACK_S) | (times > top)
         if bad.any():
             span = "its start" if not math.isfinite(top) else f"0 .. {end_s:.2f} s"

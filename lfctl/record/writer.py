@@ -28,6 +28,7 @@ and JSON-schema channels ``/<follower>/tracker``, ``/<follower>/pose_estimate``,
 from __future__ import annotations
 
 import base64
+import contextlib
 import datetime as dt
 import hashlib
 import importlib.metadata
@@ -39,7 +40,7 @@ import shutil
 import subprocess
 import time
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -455,19 +456,21 @@ class Recorder:
     def flush(self) -> None:
         """End the chunk in progress and hand everything written so far to the OS."""
         if self._mcap is not None:
-            try:
+            with self._writing():
                 self._mcap.flush()
-            except (RuntimeError, OSError) as exc:
-                self._failed(exc)
         self._flushed_at = time.monotonic()
         self._check_written()
 
-    def _failed(self, exc: BaseException) -> None:
-        """A write to the log failed: kept (the first), with the writer's own words for why
-        when it logged them."""
-        if self._write_error is None:
-            why = _WRITE_ERRORS.first
-            self._write_error = f"{exc}" + (f" ({why})" if why else "")
+    @contextlib.contextmanager
+    def _writing(self) -> Iterator[None]:
+        """A write to the log that may fail: the first failure is kept, with the writer's own
+        words for why when it logged them (:meth:`_check_written` says it)."""
+        try:
+            yield
+        except (RuntimeError, OSError) as exc:
+            if self._write_error is None:
+                why = _WRITE_ERRORS.first
+                self._write_error = f"{exc}" + (f" ({why})" if why else "")
 
     def _written(self) -> None:
         """Count a message; flush when a second of wall time has passed (a killed run loses
@@ -1049,11 +1052,9 @@ class Recorder:
             Its key-value pairs.
         """
         if self._mcap is not None and self._write_error is None:  # (after a failed write: none taken)
-            try:
+            with self._writing():
                 self._mcap.write_metadata(name, values)
-            except (RuntimeError, OSError) as exc:
-                self._failed(exc)
-                self._check_written()
+            self._check_written()
 
     def controller(self, t_s: float, follower: str, payload: dict[str, Any]) -> None:
         """One guidance step of a follower (``/<follower>/controller``).
@@ -1155,10 +1156,8 @@ class Recorder:
         mcap, self._mcap = self._mcap, None
         if mcap is None:
             return
-        try:
+        with self._writing():
             mcap.close()
-        except (RuntimeError, OSError) as exc:
-            self._failed(exc)
 
     def close(self, reason: str = "completed", t_s: float | None = None) -> None:
         """Finish the file (why the run ended: metadata ``end``; summary, indexes, footer) and
@@ -1177,10 +1176,8 @@ class Recorder:
         try:
             if self._mcap is not None and self._write_error is None:
                 end = {"reason": reason} | ({"t_s": repr(t_s)} if t_s is not None else {})
-                try:
+                with self._writing():
                     self._mcap.write_metadata("end", end)
-                except (RuntimeError, OSError) as exc:
-                    self._failed(exc)
             self._close_file()
         finally:
             if self._server is not None:

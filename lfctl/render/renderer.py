@@ -107,12 +107,15 @@ def _unit_cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([x / n, y / n, z / n])
 
 
-def _panel_sizes(scene: SceneConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
-    """The props' and the occluders' texture sizes (width, height) px, within one budget."""
+def _panels(scene: SceneConfig, seed: int) -> tuple[list[tuple[int, int]], list[np.ndarray]]:
+    """The props' texture sizes (width, height) px, and the occluders' textures, all within
+    one budget (:func:`panel_sizes`)."""
     sizes = panel_sizes(
         [(p.width_m, p.height_m) for p in scene.props] + [(o.width_m, o.height_m) for o in scene.occluders]
     )
-    return sizes[: len(scene.props)], sizes[len(scene.props) :]
+    occ_rng = np.random.default_rng(seed + 1)
+    occluders = [noise_texture(occ_rng, h, w, (90, 80, 60), 20.0, 2) for w, h in sizes[len(scene.props) :]]
+    return sizes[: len(scene.props)], occluders
 
 
 @dataclass(frozen=True)
@@ -258,10 +261,8 @@ class Renderer:
         self._ground_tiles = [
             np.tile(cv2.cvtColor(t, cv2.COLOR_BGR2BGRA), (GROUND_TILES, GROUND_TILES, 1)) for t in self._ground_levels
         ]
-        props_px, occluders_px = _panel_sizes(scene)
+        props_px, self.occluder_tex = _panels(scene, seed)
         self.prop_tex = [prop_texture(p, banner, rng, size) for p, size in zip(scene.props, props_px, strict=True)]
-        occ_rng = np.random.default_rng(seed + 1)
-        self.occluder_tex = [noise_texture(occ_rng, h, w, (90, 80, 60), 20.0, 2) for w, h in occluders_px]
         w, h = camera.width_px, camera.height_px
         noise_rng = np.random.default_rng(seed + 2)
         # noise frames as (positive, negative) uint8 halves: two saturating uint8 ops per frame
@@ -827,13 +828,11 @@ class Renderer:
         ]
         self._ground_reps = reps
         self._ground_scratch = np.zeros((camera.height_px, camera.width_px, 4), np.uint8)
-        props_px, occluders_px = _panel_sizes(scene)
+        props_px, self.occluder_tex = _panels(scene, seed)
         facades = plates.facade if plates else None
         self.prop_tex = [
             real_wall_texture(p, facades, banner, rng, size) for p, size in zip(scene.props, props_px, strict=True)
         ]
-        occ_rng = np.random.default_rng(seed + 1)
-        self.occluder_tex = [noise_texture(occ_rng, h, w, (90, 80, 60), 20.0, 2) for w, h in occluders_px]
         self._sky = self._sky_image()
         # the distant background: a 360-degree strip, one pixel per pixel of the image at the
         # focal length, its foot on the horizon; doubled so any slice of it is contiguous

@@ -371,19 +371,20 @@ class VehicleDriver:
             radius = turn_radius
             ep.statustext(f"Circle: radius increased to TURN_RADIUS ({turn_radius:4.1f})", mav.MAV_SEVERITY_WARNING)
         settings = autopilot_settings(self.cfg)
+        speed = ep.param("CIRC_SPEED") or ep.param("WP_SPEED")
         circle = CircleGuidance(
             (leg.north_m, leg.east_m),
             radius,
             math.copysign(1.0, item.param3) < 0,  # (-0 too: AP_Mission keeps the direction apart)
             max(0.0, item.param1),  # as kept (as_stored): whole turns, or 256ths below one
-            ep.param("CIRC_SPEED") or ep.param("WP_SPEED"),
+            speed,
             max(turn_radius, 0.2 if radius >= 0.5 else 0.1),  # Rover's reached_edge distance
             settings.lookahead_m or 0.8,
             settings.heading,
             self._pos,
             self._yaw,
         )
-        if (ep.param("CIRC_SPEED") or ep.param("WP_SPEED")) > circle.speed_limit_mps():
+        if speed > circle.speed_limit_mps():
             ep.statustext(f"Circle: max speed is {circle.speed_mps:4.1f}", mav.MAV_SEVERITY_WARNING)
         self._circle = (k, circle, ep.desired_speed_mps)
 
