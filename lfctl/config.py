@@ -202,6 +202,11 @@ class SimConfig(_Section):
     #: processes besides the main one that render and track followers' cameras: -1 one per
     #: spare core (at most one per follower beyond the first), 0 none
     camera_workers: int = _f(-1, Bound(-1, 64, integer=True))
+    #: where the FMUs run: "auto" a user FMU (a vehicle's ``fmu``) in a process of its own and
+    #: the built-in models in this one; "separate" every FMU in that process; "main" all here
+    fmu_process: Literal["auto", "separate", "main"] = "auto"
+    #: an FMU in a process of its own may take this long over one step before the run ends, s
+    fmu_step_timeout_s: float = _f(10.0, Bound(0.01, 86400))
 
     def _check(self) -> None:
         if self.duration_s / self.dt_s > MAX_STEPS:

@@ -51,6 +51,7 @@ class FmuError(LfctlError, RuntimeError):
         status: int | None = None,
         log: list[str] | None = None,
     ) -> None:
+        self.message = message  # what went wrong, without the FMU's last word
         self.model = model
         self.call = call
         self.status = status

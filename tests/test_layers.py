@@ -11,7 +11,7 @@ import lfctl
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
     "errors", "checks", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
-    "link", "follower", "record", "sim", "sweep", "bench", "cli",
+    "link", "follower", "record", "sim", "sweep", "bench", "cli", "workers",
 }  # fmt: skip
 
 #: layer -> what it may import from lfctl (a package, or one module of it)
@@ -19,6 +19,7 @@ ALLOWED = {
     "__init__": set(),
     "__main__": {"cli"},
     "errors": set(),
+    "workers": set(),
     "checks": {"errors"},
     "frames": set(),
     "config": {"checks", "data", "errors"},
@@ -29,7 +30,7 @@ ALLOWED = {
     "guidance": {"frames", "guidance", "vision.track_state"},
     "metrics": {"vision.track_state"},
     "render": {"config", "data", "errors", "frames", "vision", "render"},
-    "fmu": {"data", "errors", "fmu"},
+    "fmu": {"data", "errors", "fmu", "workers"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
     "record": {"checks", "config", "errors", "frames", "metrics", "vision", "record"},

@@ -3,7 +3,9 @@
 For 1, 2, 10 and 50 SkidSteerRover vehicles at dt = 10 ms: microseconds per vehicle-step and
 real-time factor of the master (scheduler + scripted commands at 20 Hz + world state), and in
 the same run the bare fmpy loop (setReal, doStep, getReal per vehicle per step) over the same
-FMU; ratio = master / baseline (below 1 means the master is faster than bare fmpy).
+FMU; ratio = master / baseline (below 1 means the master is faster than bare fmpy). Then the
+master again with every FMU in a process of its own (``sim.fmu_process = "separate"``, the
+default for a user FMU): what containing a crash costs, per step and per vehicle-step.
 """
 
 from __future__ import annotations
@@ -27,17 +29,18 @@ __all__ = ["main"]
 DT_S = 0.01
 
 
-def scenario(n: int, duration_s: float) -> str:
-    text = f"[sim]\ndt_s = {DT_S}\nduration_s = {duration_s}\n"
+def scenario(n: int, duration_s: float, fmu_process: str = "main") -> str:
+    text = f"[sim]\ndt_s = {DT_S}\nduration_s = {duration_s}\nfmu_process = '{fmu_process}'\n"
     for i in range(n):
         role = "leader" if i == 0 else "follower"
         text += f'[[vehicles]]\nname = "v{i}"\nrole = "{role}"\neast_m = {i * 2.0}\n'
     return text
 
 
-def run_master(n: int, duration_s: float) -> float:
-    """Wall seconds for the master to run n vehicles for duration_s."""
-    cfg = parse_config(scenario(n, duration_s), "bench")
+def run_master(n: int, duration_s: float, fmu_process: str = "main") -> float:
+    """Wall seconds for the master to run n vehicles for duration_s (their FMUs where
+    ``fmu_process`` says)."""
+    cfg = parse_config(scenario(n, duration_s, fmu_process), "bench")
     with Simulation(cfg) as sim:
 
         def script(t_s: float) -> None:
@@ -96,10 +99,14 @@ def main(quick: bool = False) -> None:
         repeats = 1 if quick else 3
         master = min(run_master(n, duration) for _ in range(repeats))
         base = min(run_baseline(fmu, n, duration) for _ in range(repeats))
+        apart = min(run_master(n, duration, "separate") for _ in range(repeats))
         vehicle_steps = n * duration / DT_S
-        m_us, b_us = master / vehicle_steps * 1e6, base / vehicle_steps * 1e6
+        m_us, b_us, a_us = (x / vehicle_steps * 1e6 for x in (master, base, apart))
         ratio = m_us / b_us
-        rows.append((n, duration, m_us, duration / master, b_us, duration / base, ratio))
+        step_cost_us = (apart - master) / (duration / DT_S) * 1e6
+        rows.append(
+            (n, duration, m_us, duration / master, b_us, duration / base, ratio, a_us, duration / apart, step_cost_us)
+        )
         results.append(
             {
                 "vehicles": n,
@@ -109,12 +116,27 @@ def main(quick: bool = False) -> None:
                 "fmpy_baseline_us_per_vehicle_step": round(b_us, 3),
                 "fmpy_baseline_real_time_factor": round(duration / base, 1),
                 "master_over_baseline_ratio": round(ratio, 3),
+                "separate_process_us_per_vehicle_step": round(a_us, 3),
+                "separate_process_real_time_factor": round(duration / apart, 1),
+                "separate_process_cost_us_per_step": round(step_cost_us, 2),
             }
         )
     print_table(
-        ("vehicles", "sim s", "master us/veh-step", "master RTF", "fmpy us/veh-step", "fmpy RTF", "ratio master/fmpy"),
+        (
+            "vehicles",
+            "sim s",
+            "master us/veh-step",
+            "master RTF",
+            "fmpy us/veh-step",
+            "fmpy RTF",
+            "ratio master/fmpy",
+            "separate us/veh-step",
+            "separate RTF",
+            "separate cost us/step",
+        ),
         rows,
     )
+    print("separate: every FMU in a process of its own (sim.fmu_process); its cost per step is over the master's")
     print_json("cosim", results)
 
 

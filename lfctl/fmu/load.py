@@ -26,10 +26,10 @@ import re
 import threading
 import zipfile
 from collections import deque
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from fmpy import platform as fmpy_platform
@@ -50,10 +50,15 @@ __all__ = [
     "FmuInstance",
     "FmuLibrary",
     "FmuVariable",
+    "InCall",
     "RoleMap",
     "calls_in_progress",
+    "check_output_row",
     "discard_extractions",
     "hold_returns",
+    "returned_from_call",
+    "unwatch_calls",
+    "watch_calls",
 ]
 
 log = logging.getLogger(__name__)
@@ -105,7 +110,7 @@ KEPT_MESSAGES = 100
 # values atomically under the GIL), and the gate a thread returning from an FMI call passes
 # while a watchdog holds it (hold_returns).
 _LIBRARIES: dict[int, FmuLibrary] = {}
-_INSTANCES: dict[int, FmuInstance] = {}
+_INSTANCES: dict[int, InCall] = {}
 _gate_lock = threading.Lock()
 _gate_closed = False
 _swept = False
@@ -134,7 +139,61 @@ def hold_returns() -> Iterator[None]:
             _gate_closed = False
 
 
-def calls_in_progress() -> list[tuple[FmuInstance, str, tuple[object, ...]]]:
+class InCall(Protocol):
+    """What :func:`calls_in_progress` reads of an FMU instance: an :class:`FmuInstance`, or
+    one stepped in another process (:class:`lfctl.fmu.host.HostedInstance`)."""
+
+    @property
+    def name(self) -> str:
+        """The instance's name (the vehicle's)."""
+        ...
+
+    @property
+    def busy(self) -> str | None:
+        """The FMI call it is inside now, None between calls."""
+        ...
+
+    @property
+    def t_s(self) -> float:
+        """The simulation time of its step, s."""
+        ...
+
+    @property
+    def calls(self) -> int:
+        """Slow-path calls made: with :attr:`t_s`, it tells one call from the next."""
+        ...
+
+
+def watch_calls(instance: InCall) -> None:
+    """Have :func:`calls_in_progress` look at ``instance`` too, until :func:`unwatch_calls`.
+
+    Parameters
+    ----------
+    instance : InCall
+        An FMU instance stepped by this process's main thread in some other way.
+    """
+    _INSTANCES[id(instance)] = instance
+
+
+def unwatch_calls(instance: InCall) -> None:
+    """Stop looking at ``instance`` (see :func:`watch_calls`); safe to call twice.
+
+    Parameters
+    ----------
+    instance : InCall
+        As given to :func:`watch_calls`.
+    """
+    _INSTANCES.pop(id(instance), None)
+
+
+def returned_from_call() -> None:
+    """A watched call (:func:`watch_calls`) returned: wait here while a watchdog holds the
+    return gate (:func:`hold_returns`), as an FMI call made in this process does."""
+    if _gate_closed:
+        _pass_gate()
+
+
+def calls_in_progress() -> list[tuple[InCall, str, tuple[object, ...]]]:
     """Every FMI call some thread is inside now: (instance, FMI function, key).
 
     The key is the same for as long as the same call goes on, so a watchdog polling this
@@ -290,6 +349,10 @@ class FmuLibrary:
         The FMU file (FMI 2.0 or 3.0, Co-Simulation).
     role_map : RoleMap
         Which variables play lfctl's roles (default: the built-in models' names).
+    extracted : str or Path, optional
+        A folder this FMU file was already extracted into by another :class:`FmuLibrary`
+        (in another process: :mod:`lfctl.fmu.host`), used as it is and left in place on
+        :meth:`close`; by default the file is extracted into a folder of this library's own.
 
     Raises
     ------
@@ -300,8 +363,11 @@ class FmuLibrary:
         A role is unmapped, or mapped to a variable of the wrong causality, type or unit.
     """
 
-    def __init__(self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP) -> None:
+    def __init__(
+        self, path: str | Path, role_map: RoleMap = BUILTIN_ROLE_MAP, extracted: str | Path | None = None
+    ) -> None:
         self.path = Path(path)
+        self.role_map = role_map
         self._dir: ExtractionDir | None = None
         self._unzipdir: str | None = None
         self._instances: list[FmuInstance] = []
@@ -348,11 +414,14 @@ class FmuLibrary:
         self.role_names: dict[str, str] = {}
         self.role_units: dict[str, str] = {}
         self.vr, self.scale, self.pose_mapped = self._resolve_roles(role_map)
+        _LIBRARIES[id(self)] = self
+        if extracted is not None:  # another library's folder: not this one's to remove
+            self._unzipdir = str(extracted)
+            return
         global _swept
         if not _swept:  # once per process: folders left by runs that were killed
             _swept = True
             remove_stale_extractions()
-        _LIBRARIES[id(self)] = self
         try:
             self._dir = ExtractionDir(self.identifier)
             extract_archive(self.path, self._dir.files)
@@ -479,6 +548,11 @@ class FmuLibrary:
             return str(declared.unit)
         return None
 
+    @property
+    def extraction(self) -> str | None:
+        """The folder the FMU file is extracted into (None once closed)."""
+        return self._unzipdir
+
     # -- instances ------------------------------------------------------------------------
     def instantiate(
         self,
@@ -488,6 +562,7 @@ class FmuLibrary:
         cmd_row: np.ndarray,
         out_row: np.ndarray,
         start_time_s: float = 0.0,
+        make: Callable[..., FmuInstance] | None = None,
     ) -> FmuInstance:
         """Create, parameterise and initialise one instance (see :class:`FmuInstance`).
 
@@ -506,6 +581,9 @@ class FmuLibrary:
             Contiguous float64 (5,) each step fills: north, east, yaw, speed, yaw rate, FMU units.
         start_time_s : float
             The simulation's start time, s.
+        make : callable, optional
+            Builds the instance from :class:`FmuInstance`'s arguments (a subclass of it);
+            default :class:`FmuInstance`.
         """
         if self._unzipdir is None:
             raise FmuError(f"{self.path}: library is closed", model=self.identifier, call="instantiate")
@@ -515,7 +593,7 @@ class FmuLibrary:
                 f"{self._instances[0].name!r} has its one instance: lfctl steps every vehicle in one process, "
                 f"so {instance_name!r} cannot use it too"
             )
-        inst = FmuInstance(self, instance_name, parameters, pose, cmd_row, out_row, start_time_s)
+        inst = (make or FmuInstance)(self, instance_name, parameters, pose, cmd_row, out_row, start_time_s)
         self._instances.append(inst)
         return inst
 
@@ -537,6 +615,41 @@ class FmuLibrary:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def check_output_row(lib: FmuLibrary, instance: str, row: Sequence[float], t_s: float) -> None:
+    """Raise FmuError if an output of ``row`` is not finite or beyond :data:`OUTPUT_BOUNDS`.
+
+    The message names the FMU (model identifier and file), the instance, the variable and
+    its role, the value and the simulation time it is the output at.
+
+    Parameters
+    ----------
+    lib : FmuLibrary
+        The FMU file the instance is of (its roles' names, units and scales).
+    instance : str
+        The instance's name (the vehicle's).
+    row : sequence of float
+        Its outputs as read, FMU units, in :data:`OUTPUT_ROLES` order.
+    t_s : float
+        The simulation time they are the outputs at, s.
+    """
+    for k, role in enumerate(OUTPUT_ROLES):
+        raw = float(row[k])
+        si = raw * lib.scale[role]
+        if math.isfinite(si) and abs(si) <= OUTPUT_BOUNDS[role]:
+            continue
+        unit = lib.role_units.get(role, "")
+        if not math.isfinite(raw):
+            why = "is not a finite number"
+        else:
+            why = f"is beyond the bound |{role}| <= {OUTPUT_BOUNDS[role]:g} {ROLE_SI_UNIT[role]}"
+        raise FmuError(
+            f"FMU {lib.identifier} ({lib.path}), instance {instance!r}: output {lib.role_names[role]!r} "
+            f"(role {role}) = {raw!r} {unit} at t = {t_s:.6g} s {why}",
+            model=lib.identifier,
+            call="fmi2GetReal" if lib.fmi_version == 2 else "fmi3GetFloat64",
+        )
 
 
 class FmuInstance:
@@ -789,28 +902,9 @@ class FmuInstance:
         self._raise_status(call, status)
 
     def check_outputs(self) -> None:
-        """Raise FmuError if an output read last is not finite or beyond :data:`OUTPUT_BOUNDS`.
-
-        The message names the FMU (model identifier and file), the instance, the variable
-        and its role, the value and the simulation time it is the output at.
-        """
-        lib = self.lib
-        for k, role in enumerate(OUTPUT_ROLES):
-            raw = self._out[k]
-            si = raw * lib.scale[role]
-            if math.isfinite(si) and abs(si) <= OUTPUT_BOUNDS[role]:
-                continue
-            unit = lib.role_units.get(role, "")
-            if not math.isfinite(raw):
-                why = "is not a finite number"
-            else:
-                why = f"is beyond the bound |{role}| <= {OUTPUT_BOUNDS[role]:g} {ROLE_SI_UNIT[role]}"
-            raise FmuError(
-                f"FMU {lib.identifier} ({lib.path}), instance {self.name!r}: output {lib.role_names[role]!r} "
-                f"(role {role}) = {raw!r} {unit} at t = {self.t_s:.6g} s {why}",
-                model=lib.identifier,
-                call=self._get_name,
-            )
+        """Raise FmuError if an output read last is not finite or beyond :data:`OUTPUT_BOUNDS`
+        (see :func:`check_output_row`)."""
+        check_output_row(self.lib, self.name, self._out, self.t_s)
 
     def _raise_status(self, call: str, status: int) -> None:
         if status == 1:  # warning: keep going, it was logged

@@ -16,7 +16,6 @@ import contextlib
 import math
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -37,10 +36,9 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.draw import annotate
 from lfctl.vision.track_state import RelativeMeasurement
+from lfctl.workers import start_worker
 
 __all__ = ["CameraJob", "CameraPool", "CameraResult", "CameraWorkerError", "default_workers"]
-
-_PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 class CameraWorkerError(LfctlError, RuntimeError):
@@ -256,19 +254,7 @@ class CameraPool:
             cv2.setNumThreads(1)  # a core per process: OpenCV's own threads would only fight them
         try:
             for group in groups[1:]:
-                # a fresh interpreter running this module (no fork: the parent has threads;
-                # not multiprocessing's spawn, which re-imports the caller's __main__)
-                ours, theirs = socket.socketpair()
-                env = dict(os.environ)
-                env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-                with theirs:
-                    proc = subprocess.Popen(
-                        [sys.executable, "-m", "lfctl.sim.camera_pool", str(theirs.fileno())],
-                        pass_fds=(theirs.fileno(),),
-                        env=env,
-                        stdin=subprocess.DEVNULL,
-                    )
-                conn = Connection(ours.detach())
+                proc, conn = start_worker("lfctl.sim.camera_pool")
                 self._procs.append((proc, conn))
                 self._send(len(self._procs), proc, conn, (cfg, group, threaded))
             self._local = _Cameras(cfg, groups[0], threaded)

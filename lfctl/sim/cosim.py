@@ -21,6 +21,7 @@ import numpy as np
 from lfctl.config import Config, VehicleConfig
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.build import build_model
+from lfctl.fmu.host import FmuHost, HostedInstance
 from lfctl.fmu.load import (
     INPUT_ROLES,
     OUTPUT_BOUNDS,
@@ -110,11 +111,10 @@ class Simulation:
         self.names = tuple(v.name for v in config.vehicles)
         self.index = {n: i for i, n in enumerate(self.names)}
         n = len(self.names)
-        # FMU-unit rows the instances read and write directly (no copies per step)
-        self._cmd_raw = np.zeros((n, len(INPUT_ROLES)))
-        self._out_raw = np.zeros((n, len(OUTPUT_ROLES)))
+        # FMU-unit rows the instances read and write directly (no copies per step); shared
+        # with the FMU process when some vehicle's FMU runs in one (open())
+        self._use_rows(np.zeros((n, len(INPUT_ROLES))), np.zeros((n, len(OUTPUT_ROLES))))
         # the output check (step()): raw outputs times 1 / (their bound in FMU units)
-        self._out_flat = self._out_raw.reshape(-1)  # a view: the outputs as one vector
         self._out_weight = np.ones_like(self._out_flat)
         self._out_scratch = np.zeros_like(self._out_flat)
         self._in_scale = np.ones((n, len(INPUT_ROLES)))
@@ -122,7 +122,9 @@ class Simulation:
         self._origin = np.zeros((n, 3))  # north, east, yaw of the FMU origin (unmapped pose)
         self._libraries: dict[Path, FmuLibrary] = {}
         self._mapped_by: dict[Path, tuple[str, RoleMap]] = {}  # who loaded each file, with which mapping
-        self._instances: list[FmuInstance] = []
+        self._instances: list[FmuInstance | HostedInstance] = []  # every vehicle's, in order
+        self._local: list[FmuInstance] = []  # those stepped in this process
+        self._host: FmuHost | None = None  # the process stepping the others
         self._tasks: list[_Task] = []
         self._sample_rate_hz = sample_rate_hz or config.sim.telemetry_rate_hz
         self._cache_dir = cache_dir
@@ -134,10 +136,30 @@ class Simulation:
         #: wall seconds spent in each task and in FMU stepping ("physics"): the cost split
         self.task_time_s: dict[str, float] = {}
 
+    def _use_rows(self, cmd: np.ndarray, out: np.ndarray) -> None:
+        self._cmd_raw, self._out_raw = cmd, out
+        self._out_flat = out.reshape(-1)  # a view: the outputs as one vector
+
+    def separate(self, v: VehicleConfig) -> bool:
+        """Whether vehicle ``v``'s FMU runs in a process of its own (``sim.fmu_process``:
+        "auto" for a user FMU, "separate" for every one, "main" for none).
+
+        Parameters
+        ----------
+        v : VehicleConfig
+            One of the scenario's vehicles.
+        """
+        mode = self.config.sim.fmu_process
+        return mode == "separate" or (mode == "auto" and v.fmu is not None)
+
     # -- lifetime ------------------------------------------------------------------------
     def open(self) -> Simulation:
-        """Build (if needed) and load every FMU, instantiate and initialise each vehicle."""
+        """Build (if needed) and load every FMU, instantiate and initialise each vehicle
+        (those :meth:`separate` says in one process of their own, :mod:`lfctl.fmu.host`)."""
         try:
+            if any(self.separate(v) for v in self.config.vehicles):
+                self._host = FmuHost(len(self.names), self.config.sim.fmu_step_timeout_s)
+                self._use_rows(self._host.cmd, self._host.out)
             for i, v in enumerate(self.config.vehicles):
                 lib = self._library(v)
                 self._in_scale[i] = [1.0 / lib.scale[r] for r in INPUT_ROLES]
@@ -147,10 +169,13 @@ class Simulation:
                 ]
                 if not lib.pose_mapped:
                     self._origin[i] = (v.north_m, v.east_m, v.yaw_rad)
-                inst = lib.instantiate(
-                    v.name, v.parameters, (v.north_m, v.east_m, v.yaw_rad), self._cmd_raw[i], self._out_raw[i]
-                )
-                self._instances.append(inst)
+                pose = (v.north_m, v.east_m, v.yaw_rad)
+                if self._host is not None and self.separate(v):
+                    self._instances.append(self._host.add(i, lib, v.name, v.parameters, pose))
+                else:
+                    local = lib.instantiate(v.name, v.parameters, pose, self._cmd_raw[i], self._out_raw[i])
+                    self._instances.append(local)
+                    self._local.append(local)
         except BaseException:
             self.close()
             raise
@@ -186,12 +211,18 @@ class Simulation:
         return list(self._libraries)
 
     def close(self) -> None:
-        """Free every FMU instance and extracted folder."""
-        for lib in self._libraries.values():
-            lib.close()
+        """Free every FMU instance, end the FMU process, remove every extracted folder."""
+        try:
+            if self._host is not None:
+                self._host.close()
+        finally:
+            self._host = None
+            for lib in self._libraries.values():
+                lib.close()
         self._libraries.clear()
         self._mapped_by.clear()
         self._instances.clear()
+        self._local.clear()
         self._opened = False
 
     def __enter__(self) -> Simulation:
@@ -294,8 +325,13 @@ class Simulation:
                 task.next_tick = task.start_tick + round(task.runs * task.ticks_per_run)
         dt = self.dt_s
         t0 = clock()
-        for inst in self._instances:
+        host = self._host
+        if host is not None:  # its process steps while this one steps the rest
+            host.start_step(dt)
+        for inst in self._local:
             inst.step(dt)
+        if host is not None:
+            host.finish_step()
         w = np.multiply(self._out_flat, self._out_weight, out=self._out_scratch)
         if not w.dot(w) <= 1.0:  # False for NaN too
             for inst in self._instances:

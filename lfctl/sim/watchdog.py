@@ -34,6 +34,7 @@ import time
 from collections.abc import Callable, Iterator
 from typing import TextIO
 
+from lfctl.fmu.host import end_hosts
 from lfctl.fmu.load import calls_in_progress, discard_extractions, hold_returns
 
 __all__ = ["GRACE_S", "POLL_S", "BlockedCallWatchdog", "finish_on_abandon"]
@@ -156,6 +157,7 @@ class BlockedCallWatchdog:
             except Exception as exc:  # the process ends either way; say what was lost
                 self._say(f"lfctl: could not finish the run: {type(exc).__name__}: {exc}")
         with contextlib.suppress(Exception):
+            end_hosts()  # FMUs in processes of their own
             discard_extractions()
         self._say(f"lfctl: error: {message} by {signal.Signals(signum).name}")
         os._exit(128 + signum)

@@ -7,7 +7,16 @@ from pathlib import Path
 from support import free_udp_ports
 
 #: FaultyRover's `fault` parameter
-NAN, INF, HUGE, HANG, FAR = 1, 2, 3, 4, 5
+NAN, INF, HUGE, HANG, FAR, SEGV, EXIT, ABORT = 1, 2, 3, 4, 5, 6, 7, 8
+
+
+def alive(pid: int) -> bool:
+    """Process ``pid`` is running (one that ended but is not reaped yet, a zombie, is not)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
 
 
 def faulty_scenario(fmu: Path, fault: int, fault_at: float, log_dir: Path, duration_s: float = 3.0) -> str:

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from fmu_faults import HANG, faulty_scenario
+from fmu_faults import HANG, alive, faulty_scenario
 
 from lfctl.fmu.build import BuiltModel
 from lfctl.record.audit import audit
@@ -32,13 +32,15 @@ def start_sim(scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DE
     )
 
 
+@pytest.mark.parametrize("where", ["main", "separate"])  # the FMUs in lfctl's process, or in one of their own
 @pytest.mark.parametrize(("fmi", "sig", "code"), [(2, signal.SIGTERM, 143), (3, signal.SIGINT, 130)])
 def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
-    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int
+    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int, where: str
 ) -> None:
     scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
     tmp.mkdir()
-    scen.write_text(faulty_scenario(faulty.path(fmi), HANG, 0.5, logs, duration_s=5.0))
+    text = faulty_scenario(faulty.path(fmi), HANG, 0.5, logs, duration_s=5.0)
+    scen.write_text(text.replace("[sim]", f"[sim]\nfmu_process = '{where}'"))
     proc = start_sim(scen, tmp, mark)
     try:
         deadline = time.monotonic() + 60
@@ -46,6 +48,7 @@ def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
             time.sleep(0.05)
         assert mark.exists(), "the FMU never got stuck"
         time.sleep(0.3)
+        stuck = int(mark.read_text())  # the process the FMU runs in
         assert proc.poll() is None  # stuck
         t0 = time.monotonic()
         proc.send_signal(sig)
@@ -67,6 +70,8 @@ def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
     assert report.figures["end"]["reason"] == f"error: FMU FaultyRover (f1) blocked in {call} at t = 0.5 s; terminated"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(0.5)
     assert list(tmp.iterdir()) == []  # the extracted FMU went too
+    assert (stuck == proc.pid) == (where == "main")
+    assert not alive(stuck)  # the FMU's own process ended with the run
 
 
 def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ from lfctl.cli import main
 from lfctl.config import parse_config
 from lfctl.errors import FmuError
 from lfctl.fmu.build import BuiltModel
+from lfctl.fmu.host import HostedInstance
 from lfctl.fmu.load import KEPT_MESSAGES, OUTPUT_BOUNDS, FmuInstance, FmuLibrary, RoleMap
 from lfctl.record.audit import audit
 from lfctl.sim.cosim import Simulation
@@ -87,15 +88,19 @@ def test_the_master_checks_every_step(faulty: BuiltModel) -> None:
         assert np.isfinite(sim.state().pos_ned_m[0]).all()
 
 
-def test_far_but_within_bounds_is_not_an_error(faulty: BuiltModel, monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("where", ["main", "separate"])
+def test_far_but_within_bounds_is_not_an_error(faulty: BuiltModel, monkeypatch: pytest.MonkeyPatch, where: str) -> None:
     # 9e5 m north and east: the one-vector check says "look closer", the closer look is fine
     looks = []
-    check = FmuInstance.check_outputs
-    monkeypatch.setattr(FmuInstance, "check_outputs", lambda self: looks.append(self.t_s) or check(self))
-    with Simulation(parse_config(_two_vehicles(faulty.fmi2, FAR, 0.1))) as sim:
+    for cls in (FmuInstance, HostedInstance):
+        check = cls.check_outputs
+        monkeypatch.setattr(cls, "check_outputs", lambda self, check=check: looks.append(self.t_s) or check(self))
+    text = _two_vehicles(faulty.fmi2, FAR, 0.1).replace("[sim]", f"[sim]\nfmu_process = '{where}'")
+    with Simulation(parse_config(text)) as sim:
         sim.run(0.3)
         assert tuple(sim.state().pos_ned_m[1]) == (9e5, 9e5)
-    assert len(looks) == 2 + 2 * 20  # two at instantiation; after t = 0.1 s, both, every step
+    # after t = 0.1 s, both, every step; in this process, two at instantiation too
+    assert len(looks) == 2 * 20 + (2 if where == "main" else 0)
 
 
 def test_sim_exits_1_with_one_line_and_the_log_says_why(

@@ -1,7 +1,9 @@
 /* FaultyRover (config.h): a kinematic unicycle with faults on request. Test-only. */
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 #include "model_core.h"
 
@@ -16,7 +18,10 @@ static void hang(void) {
     const char *mark = getenv("LFCTL_TEST_FMU_MARK");
     if (mark) {
         FILE *f = fopen(mark, "w");
-        if (f) fclose(f);
+        if (f) {
+            fprintf(f, "%ld", (long)getpid());
+            fclose(f);
+        }
     }
     while (forever) {
     }
@@ -30,6 +35,9 @@ void model_initialize(const double *v, double *x) {
 
 void model_derivatives(const double *v, const double *x, double *dx) {
     if (faulty(v, 4)) hang();
+    if (faulty(v, 6)) raise(SIGSEGV);
+    if (faulty(v, 7)) exit(0);
+    if (faulty(v, 8)) abort();
     dx[X_NORTH] = v[VR_speed_cmd] * cos(x[X_YAW]);
     dx[X_EAST] = v[VR_speed_cmd] * sin(x[X_YAW]);
     dx[X_YAW] = v[VR_yaw_rate_cmd];
