@@ -245,10 +245,14 @@ class VehicleDriver:
         yaw = self._yaw
         if self._circle is not None and self._circle[0] == self._leg and not ep.mission_complete:
             cmd = self._round(t_s, yaw)
+            for _ in self._legs:  # another circle began: it steers now (bounded: each is a leg)
+                if cmd is not None or self._circle is None or ep.mission_complete:
+                    break
+                cmd = self._round(t_s, yaw)
             if cmd is not None:
                 return cmd
             if ep.mission_complete or self._circle is not None:
-                return 0.0, 0.0  # the mission ended, or another circle began: it steers from the next step
+                return 0.0, 0.0  # the mission ended (or circles of no turns went on past the bound)
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         self._distance = out.los.distance_to_go_m
         for k in out.los.reached:

@@ -719,3 +719,22 @@ def test_a_speed_change_during_a_circle_is_the_circles_alone() -> None:
     t_done = at["Mission: 4 WP"]
     assert speed_between(rep, t_done - 12.0, t_done - 1.0) == pytest.approx(0.3, abs=0.02)
     assert speed_between(rep, t_done + 12.0, t_done + 22.0) == pytest.approx(0.2, abs=0.02)
+
+
+def test_one_circle_after_another_drives_on_without_stopping() -> None:
+    # two LOITER_TURNS in a row round one centre: the second begins where the first ends and
+    # is steered from the same guidance step (it used to command a stop for one step)
+    def upload(links: Links) -> None:
+        store(
+            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
+            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
+            places(links.home, (3.0, 4.0)),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0)
+    at = {text: t_s for t_s, text in links.endpoints[0].statustexts if t_s > 0.4}
+    t_next = at["Mission: 2 LoitTurns"]
+    assert 20.0 < t_next - at["Mission: 1 LoitTurns"] < 35.0  # once round 1.5 m at 0.4 m/s, from 1.5 m out
+    t, speed = rep.result.t_s, rep.result.speed_mps[:, 0]
+    around = (t > t_next - 1.0) & (t < t_next + 1.0)
+    assert speed[around].min() > 0.39, speed[around]
