@@ -17,8 +17,10 @@ shared block, so a crash, a hang or a stop while an FMU is stuck is reported as 
 in one process, and a watchdog (:func:`~lfctl.fmu.load.calls_in_progress`) sees the call.
 
 The archive is extracted once, by the main process; the worker loads the library from that
-folder. A worker ends with the main process (Linux: the parent-death signal; elsewhere when
-its connection closes, or :func:`end_hosts`).
+folder. A worker ends with the main process: when its connection closes, when it finds its
+parent gone (:func:`lfctl.workers.watch_parent`, even while an FMU call is stuck), or by
+:func:`end_hosts`. It runs in a process group of its own, so Ctrl-C and a signal to lfctl's
+group reach lfctl alone, which stops the run between steps and then ends the worker.
 """
 
 from __future__ import annotations
@@ -33,13 +35,13 @@ import pickle
 import signal
 import struct
 import subprocess
-import sys
 import tempfile
+import time
 import traceback
 from collections import deque
 from collections.abc import Mapping
 from multiprocessing.connection import Connection
-from typing import IO, Any
+from typing import IO, Any, NoReturn
 
 import numpy as np
 
@@ -55,7 +57,7 @@ from lfctl.fmu.load import (
     unwatch_calls,
     watch_calls,
 )
-from lfctl.workers import start_worker
+from lfctl.workers import start_worker, watch_parent, worker_fds
 
 __all__ = ["SETUP_TIMEOUT_S", "STOP_GRACE_S", "FmuHost", "HostedInstance", "end_hosts"]
 
@@ -198,6 +200,7 @@ class FmuHost:
         self._waiting = False  # a reply is awaited: the worker's call is in progress for a watchdog
         self._dt_s = 0.0  # the step in flight
         self._in_flight = False
+        self._closed = False
         self._fd, self._file = _shared_file(_Block.size(rows))
         self._buffer = mmap.mmap(self._fd, _Block.size(rows))
         self._block = _Block(self._buffer, rows)
@@ -212,7 +215,7 @@ class FmuHost:
         _HOSTS[id(self)] = self
         try:
             level = logging.getLogger("lfctl").getEffectiveLevel()
-            self._request(("hello", rows, os.getpid(), level), SETUP_TIMEOUT_S)
+            self._request(("hello", rows, os.getpid(), level), (SETUP_TIMEOUT_S, "the setup's limit, SETUP_TIMEOUT_S"))
         except BaseException:
             self.close()
             raise
@@ -249,6 +252,8 @@ class FmuHost:
         FmuError, ConfigError
             As :meth:`FmuLibrary.instantiate` raises them in the worker, or the worker died.
         """
+        if self._closed:
+            raise FmuError("FmuHost.add after close()", model=lib.identifier, call="host")
         if slot in self._names or not 0 <= slot < len(self.cmd):
             raise ValueError(f"slot {slot!r} is taken or outside 0..{len(self.cmd) - 1}")
         if lib.extraction is None:
@@ -256,6 +261,7 @@ class FmuHost:
         inst = HostedInstance(self, slot, lib, name, start_time_s)
         self._names[slot] = (lib.identifier, name)
         self._instances.append(inst)  # (its name in an error while it is set up)
+        watch_calls(inst)  # (a watchdog sees its setup calls too)
         request = (
             "add",
             slot,
@@ -268,13 +274,18 @@ class FmuHost:
             start_time_s,
         )
         try:
-            self._request(request, max(self.timeout_s, SETUP_TIMEOUT_S))
+            self._request(request, self._setup_timeout())
         except BaseException:
+            unwatch_calls(inst)
             self._instances.remove(inst)
             del self._names[slot]
             raise
-        watch_calls(inst)
         return inst
+
+    def _setup_timeout(self) -> tuple[float, str]:
+        if self.timeout_s >= SETUP_TIMEOUT_S:
+            return self.timeout_s, "sim.fmu_step_timeout_s"
+        return SETUP_TIMEOUT_S, "the setup's limit, SETUP_TIMEOUT_S"
 
     @property
     def pid(self) -> int:
@@ -305,6 +316,8 @@ class FmuHost:
         dt_s : float
             The communication step, s.
         """
+        if self._closed or self._in_flight:
+            raise RuntimeError("FmuHost.start_step " + ("after close()" if self._closed else "before finish_step()"))
         self._dt_s = dt_s
         self._send(_STEP + struct.pack("<d", dt_s))
         self._in_flight = True
@@ -321,10 +334,10 @@ class FmuHost:
             Ctrl-C or SIGTERM came while waiting, and the step ended within
             :data:`STOP_GRACE_S` (else FmuError: the FMU is stuck, and was ended).
         """
-        try:
-            data = self._reply(self.timeout_s)
-        finally:
-            self._in_flight = False
+        if not self._in_flight:
+            raise RuntimeError("FmuHost.finish_step without start_step()")
+        data = self._reply((self.timeout_s, "sim.fmu_step_timeout_s"))
+        self._in_flight = False
         if data:
             self._raise(data)
         for inst in self._instances:
@@ -337,54 +350,73 @@ class FmuHost:
         except OSError:  # broken pipe: the worker is gone
             raise self._failure("died", None) from None
 
-    def _request(self, request: tuple[Any, ...], timeout_s: float) -> Any:
+    def _request(self, request: tuple[Any, ...], limit: tuple[float, str]) -> Any:
         """Send a request and return its answer (FmuError, ConfigError as the worker raised)."""
         self._send(_REQUEST + pickle.dumps(request))
-        data = self._reply(timeout_s)
+        data = self._reply(limit)
         if data[:1] != _VALUE:
             self._raise(data)
         return pickle.loads(data[1:])
 
-    def _reply(self, timeout_s: float) -> bytes:
+    def _reply(self, limit: tuple[float, str]) -> bytes:
+        """The worker's answer, within ``limit`` (seconds, and the setting they come from)."""
         self._waiting = True
         try:
             try:
-                ready = self._conn.poll(timeout_s)
+                ready = self._conn.poll(limit[0])
             except KeyboardInterrupt:
-                # a stop asked for mid-step: it comes between steps, so let the step end
-                # (microseconds) unless the FMU is stuck in it
-                if not self._conn.poll(STOP_GRACE_S):
-                    raise self._failure("stuck", None) from None
-                with contextlib.suppress(EOFError, OSError):
-                    self._conn.recv_bytes()
-                raise
+                self._stop()
             if not ready:
-                raise self._failure("timeout", timeout_s)
+                raise self._failure("timeout", limit)
             return self._conn.recv_bytes()
         except (EOFError, OSError):
-            raise self._failure("died", None) from None
+            raise self._failure("died") from None
         finally:
             self._waiting = False
             returned_from_call()
 
+    def _stop(self) -> NoReturn:
+        """Ctrl-C or SIGTERM came while the worker was in a call: a stop comes between steps,
+        so let the call end (microseconds) and raise KeyboardInterrupt, unless it goes on for
+        :data:`STOP_GRACE_S` (FmuError: stuck in an FMU's call; the worker is killed; outside
+        any FMU's call, the worker is killed and the stop goes on). Further stops meanwhile
+        are the same stop; a worker that dies meanwhile is reported (EOFError)."""
+        deadline = time.monotonic() + STOP_GRACE_S
+        while True:
+            try:
+                if self._conn.poll(max(0.0, deadline - time.monotonic())):
+                    self._conn.recv_bytes()
+                    break
+                if time.monotonic() >= deadline:
+                    if self._block.where()[0] in self._names:
+                        raise self._failure("stuck") from None
+                    self._kill()  # in no FMU's call (still starting, say): a plain stop
+                    break
+            except KeyboardInterrupt:
+                continue
+        self._in_flight = False
+        raise KeyboardInterrupt
+
     def _raise(self, data: bytes) -> None:
         """Raise the error the worker sent."""
-        kind, message, model, call, status, messages = pickle.loads(data[1:])
+        kind, message, model, call, status, messages, slot = pickle.loads(data[1:])
         if kind == "ConfigError":
             raise ConfigError(message)
         if kind == "FmuError":
             for inst in self._instances:
-                if model == inst.lib.identifier:
+                if inst.slot == slot:
                     inst.messages.extend(messages)
             raise FmuError(message, model=model, call=call, status=status, log=messages)
         raise FmuError(f"the process stepping FMUs failed: {message}", model=model, call="host")
 
-    def _failure(self, what: str, timeout_s: float | None) -> FmuError:
+    def _failure(self, what: str, limit: tuple[float, str] | None = None) -> FmuError:
         """The worker died, overran a step, or is stuck after a stop: kill it, and say
         which FMU was in which call at what time, and how its process ended."""
         slot, call = self._block.where()
         stuck_in = call if slot in self._names else ""
         self._kill()
+        self._in_flight = False
+        timeout_s, setting = limit or (0.0, "")
         code = self._proc.returncode
         if code is None or what != "died":
             how = ""
@@ -401,7 +433,7 @@ class FmuHost:
             elif what == "timeout":
                 message = (
                     f"{who} did not return from {stuck_in} within {timeout_s:g} s at t = {t_s:.6g} s "
-                    "(sim.fmu_step_timeout_s); its process was ended"
+                    f"({setting}); its process was ended"
                 )
             else:
                 message = f"{who} blocked in {stuck_in} at t = {t_s:.6g} s; terminated"
@@ -409,7 +441,9 @@ class FmuHost:
         names = ", ".join(f"{n} ({m})" for m, n in self._names.values()) or "no FMU yet"
         if what == "died":
             return FmuError(f"the process stepping FMUs for {names} ended ({how})", call="host")
-        return FmuError(f"the process stepping FMUs for {names} did not answer within {timeout_s} s", call="host")
+        return FmuError(
+            f"the process stepping FMUs for {names} did not answer within {timeout_s:g} s ({setting})", call="host"
+        )
 
     # -- lifetime -----------------------------------------------------------------------
     def _kill(self) -> None:
@@ -421,13 +455,22 @@ class FmuHost:
 
     def close(self) -> None:
         """Free every instance in the worker and end it (killed if it does not end); safe to
-        call twice."""
+        call twice. A step still under way (an error elsewhere, a stop) is given
+        :data:`STOP_GRACE_S` to end first, so that its FMUs are terminated and freed."""
+        if self._closed:
+            return
+        self._closed = True
         _HOSTS.pop(id(self), None)
         for inst in self._instances:
             unwatch_calls(inst)
         proc = getattr(self, "_proc", None)
         if proc is not None and proc.poll() is None:
-            if self._in_flight:  # an unfinished step (an error elsewhere, a stop): no waiting on it
+            if self._in_flight:
+                with contextlib.suppress(EOFError, OSError, KeyboardInterrupt):
+                    if self._conn.poll(STOP_GRACE_S):
+                        self._conn.recv_bytes()
+                        self._in_flight = False
+            if self._in_flight:  # stuck: no waiting on it
                 self._kill()
             else:
                 with contextlib.suppress(OSError):
@@ -435,9 +478,11 @@ class FmuHost:
                 try:
                     proc.wait(5.0)
                 except subprocess.TimeoutExpired:
+                    log.warning("the process stepping FMUs did not end within 5 s of close(): killed")
                     self._kill()
         if proc is not None:
             self._conn.close()
+        self._instances.clear()  # (they refer to this host: no cycle left to the collector)
         self._release()
 
     def _release(self) -> None:
@@ -477,17 +522,6 @@ class _Reported(FmuInstance):
         self._block.enter(self._slot, call)
 
 
-def _end_with_parent(parent: int) -> None:
-    """Have the kernel kill this process when its parent ends (Linux), and end now if that
-    has already happened."""
-    if sys.platform.startswith("linux"):
-        with contextlib.suppress(OSError, AttributeError):
-            pr_set_pdeathsig = 1
-            ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
-    if os.getppid() != parent:
-        os._exit(1)
-
-
 class _Worker:
     """What the worker process holds: the shared block, the libraries and the instances."""
 
@@ -495,19 +529,21 @@ class _Worker:
         self.fd = fd
         self.block: _Block | None = None
         self.libraries: dict[str, FmuLibrary] = {}
-        self.instances: list[FmuInstance] = []
+        self.instances: list[_Reported] = []
+        self.slot = -1  # the instance a request or step is about
 
     def handle(self, request: tuple[Any, ...]) -> Any:
         kind = request[0]
         if kind == "hello":
             _kind, rows, parent, level = request
-            _end_with_parent(parent)
+            watch_parent(parent)
             logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
             self.block = _Block(mmap.mmap(self.fd, _Block.size(rows)), rows)
             return None
         if kind == "add":
             _kind, slot, path, role_map, folder, name, parameters, pose, start_time_s = request
             assert self.block is not None
+            self.slot = slot
             lib = self.libraries.get(path)
             if lib is None:
                 lib = self.libraries[path] = FmuLibrary(path, role_map, extracted=folder)
@@ -515,12 +551,14 @@ class _Worker:
             inst = lib.instantiate(
                 name, parameters, pose, self.block.cmd[slot], self.block.out[slot], start_time_s, make
             )
+            assert isinstance(inst, _Reported)
             self.instances.append(inst)
             return None
         raise ValueError(f"unknown request {kind!r}")
 
     def step(self, dt_s: float) -> None:
         for inst in self.instances:
+            self.slot = inst._slot
             inst.step(dt_s)
 
     def close(self) -> None:
@@ -528,13 +566,14 @@ class _Worker:
             lib.close()
 
 
-def _error_reply(exc: BaseException) -> bytes:
+def _error_reply(exc: BaseException, slot: int) -> bytes:
+    """An error for the main process: its kind, message, FMU fields, and the instance's slot."""
     if isinstance(exc, FmuError):
-        fields = ("FmuError", exc.message, exc.model, exc.call, exc.status, list(exc.log))
+        fields = ("FmuError", exc.message, exc.model, exc.call, exc.status, list(exc.log), slot)
     elif isinstance(exc, ConfigError):
-        fields = ("ConfigError", str(exc), "", "", None, [])
+        fields = ("ConfigError", str(exc), "", "", None, [], slot)
     else:
-        fields = ("bug", "".join(traceback.format_exception(exc)), "", "", None, [])
+        fields = ("bug", "".join(traceback.format_exception(exc)), "", "", None, [], slot)
     return _ERROR + pickle.dumps(fields)
 
 
@@ -549,7 +588,7 @@ def _worker_main(conn: Connection, fd: int) -> None:
                 try:
                     worker.step(struct.unpack("<d", data[1:])[0])
                 except Exception as exc:
-                    conn.send_bytes(_error_reply(exc))
+                    conn.send_bytes(_error_reply(exc, worker.slot))
                 else:
                     conn.send_bytes(b"")
                 continue
@@ -559,7 +598,7 @@ def _worker_main(conn: Connection, fd: int) -> None:
             try:
                 value = worker.handle(request)
             except Exception as exc:
-                conn.send_bytes(_error_reply(exc))
+                conn.send_bytes(_error_reply(exc, worker.slot))
             else:
                 conn.send_bytes(_VALUE + pickle.dumps(value))
     except (EOFError, OSError):
@@ -572,4 +611,5 @@ if __name__ == "__main__":
     # run from the module under its real name, so that what it unpickles names lfctl.fmu.host
     from lfctl.fmu import host
 
-    host._worker_main(Connection(int(sys.argv[1])), int(sys.argv[2]))
+    conn_fd, rows_fd = worker_fds()
+    host._worker_main(Connection(conn_fd), rows_fd)

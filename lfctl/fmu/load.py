@@ -371,9 +371,12 @@ class FmuLibrary:
         self._dir: ExtractionDir | None = None
         self._unzipdir: str | None = None
         self._instances: list[FmuInstance] = []
-        if not self.path.is_file():
+        # another library's folder holds what it checked and extracted from the file: read
+        # that, not the file again (which may have been replaced since)
+        source = Path(extracted) if extracted is not None else self.path
+        if extracted is None and not self.path.is_file():
             raise FmuError(f"FMU file {self.path} does not exist", model=str(self.path), call="load")
-        self.md = self.describe(self.path)
+        self.md = self.describe(source)
         self.fmi_version = int(self.md.fmiVersion.split(".")[0])
         if self.fmi_version not in (2, 3):
             raise FmuError(
@@ -383,7 +386,7 @@ class FmuLibrary:
             )
         if self.md.coSimulation is None:
             raise FmuError(f"{self.path}: not a Co-Simulation FMU", model=str(self.path), call="load")
-        have = [p for p in supported_platforms(str(self.path)) if p != "c-code"]
+        have = [p for p in supported_platforms(str(source)) if p != "c-code"]
         if fmpy_platform not in have:
             raise FmuError(
                 f"{self.path}: no binary for this platform ({fmpy_platform}); it has "
@@ -439,10 +442,11 @@ class FmuLibrary:
         Parameters
         ----------
         path : str or Path
-            The FMU file.
+            The FMU file, or a folder an :class:`FmuLibrary` extracted one into.
         """
         p = Path(path)
-        read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
+        if not p.is_dir():
+            read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
         try:
             return read_model_description(str(p))
         except FileNotFoundError as exc:

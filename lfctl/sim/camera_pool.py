@@ -17,7 +17,6 @@ import math
 import os
 import signal
 import subprocess
-import sys
 import time
 import traceback
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -36,7 +35,7 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.draw import annotate
 from lfctl.vision.track_state import RelativeMeasurement
-from lfctl.workers import start_worker
+from lfctl.workers import start_worker, worker_fds
 
 __all__ = ["CameraJob", "CameraPool", "CameraResult", "CameraWorkerError", "default_workers"]
 
@@ -369,4 +368,4 @@ if __name__ == "__main__":
     # lfctl.sim.camera_pool classes, not __main__ ones
     from lfctl.sim import camera_pool
 
-    camera_pool._worker_main(Connection(int(sys.argv[1])))
+    camera_pool._worker_main(Connection(worker_fds()[0]))

@@ -7,7 +7,7 @@ from pathlib import Path
 from support import free_udp_ports
 
 #: FaultyRover's `fault` parameter
-NAN, INF, HUGE, HANG, FAR, SEGV, EXIT, ABORT = 1, 2, 3, 4, 5, 6, 7, 8
+NAN, INF, HUGE, HANG, FAR, SEGV, EXIT, ABORT, INIT_HANG = 1, 2, 3, 4, 5, 6, 7, 8, 9
 
 
 def alive(pid: int) -> bool:

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 import pytest
-from fmu_faults import HANG, alive, faulty_scenario
+from fmu_faults import HANG, INIT_HANG, alive, faulty_scenario
 
 from lfctl.fmu.build import BuiltModel
 from lfctl.record.audit import audit
@@ -33,10 +33,14 @@ def start_sim(scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DE
 
 
 @pytest.mark.parametrize("where", ["main", "separate"])  # the FMUs in lfctl's process, or in one of their own
-@pytest.mark.parametrize(("fmi", "sig", "code"), [(2, signal.SIGTERM, 143), (3, signal.SIGINT, 130)])
+@pytest.mark.parametrize(
+    ("fmi", "sig", "code", "signals"),
+    [(2, signal.SIGTERM, 143, 1), (3, signal.SIGINT, 130, 1), (2, signal.SIGINT, 130, 3)],
+)
 def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
-    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int, where: str
+    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int, signals: int, where: str
 ) -> None:
+    # (three Ctrl-C in a row are one stop)
     scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
     tmp.mkdir()
     text = faulty_scenario(faulty.path(fmi), HANG, 0.5, logs, duration_s=5.0)
@@ -51,7 +55,9 @@ def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
         stuck = int(mark.read_text())  # the process the FMU runs in
         assert proc.poll() is None  # stuck
         t0 = time.monotonic()
-        proc.send_signal(sig)
+        for _ in range(signals):
+            proc.send_signal(sig)
+            time.sleep(0.05)
         rc = proc.wait(timeout=10)
         took = time.monotonic() - t0
     finally:
@@ -97,4 +103,70 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
     (log,) = logs.glob("*.mcap")
     assert audit(log).figures["end"]["reason"] == "interrupted"
     assert proc.stdout is not None and f"log          {log}  (interrupted;" in proc.stdout.read()  # where it went
+    assert list(tmp.iterdir()) == []
+
+
+@pytest.mark.parametrize("where", ["main", "separate"])
+def test_a_signal_ends_a_run_stuck_in_the_fmus_initialisation(faulty: BuiltModel, tmp_path: Path, where: str) -> None:
+    # (FaultyRover initialises its state as its parameters are set: it spins in fmi2SetReal)
+    scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
+    tmp.mkdir()
+    text = faulty_scenario(faulty.fmi2, INIT_HANG, 0.0, logs)
+    scen.write_text(text.replace("[sim]", f"[sim]\nfmu_process = '{where}'"))
+    proc = start_sim(scen, tmp, mark)
+    try:
+        deadline = time.monotonic() + 60
+        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert mark.exists(), "the FMU never got stuck"
+        stuck = int(mark.read_text())
+        proc.send_signal(signal.SIGTERM)
+        rc = proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    assert (rc, err) == (
+        143,
+        "lfctl: error: FMU FaultyRover (f1) blocked in fmi2SetReal at t = 0 s; terminated by SIGTERM\n",
+    )
+    assert list(tmp.iterdir()) == []
+    assert not alive(stuck)
+
+
+def test_a_signal_to_the_whole_process_group_stops_a_healthy_run(faulty: BuiltModel, tmp_path: Path) -> None:
+    # as `timeout` and service managers stop a command: lfctl's FMU process is in a group of
+    # its own, so lfctl alone gets it and stops between steps as for Ctrl-C
+    scen, tmp, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "logs"
+    tmp.mkdir()
+    scen.write_text(
+        faulty_scenario(faulty.fmi2, 0, 0.0, logs, duration_s=600.0).replace("[sim]", "[sim]\nclock = 'realtime'")
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfctl", "sim", str(scen), "-q"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, TMPDIR=str(tmp)),
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(1.0)
+        workers = [int(p) for p in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()]
+        assert workers and all(os.getpgid(w) != os.getpgid(proc.pid) for w in workers)
+        os.killpg(proc.pid, signal.SIGTERM)
+        rc = proc.wait(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.stderr is not None
+    assert (rc, proc.stderr.read()) == (130, "lfctl: interrupted\n")
+    (log,) = logs.glob("*.mcap")
+    assert audit(log).figures["end"]["reason"] == "interrupted"
     assert list(tmp.iterdir()) == []

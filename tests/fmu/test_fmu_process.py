@@ -214,3 +214,40 @@ def test_the_fmu_process_ends_with_the_process_that_started_it(faulty: BuiltMode
         if parent.poll() is None:
             parent.kill()
             parent.wait()
+
+
+def test_the_fmu_process_outlives_the_thread_that_started_it(faulty: BuiltModel) -> None:
+    # (Linux's parent-death signal would have killed it with that thread)
+    text = _scenario(faulty.fmi2, 0, 0.0, Path("unused")).replace("[recording]", "[recording]\nenabled = false")
+    sim = Simulation(parse_config(text))
+    opener = threading.Thread(target=sim.open)
+    opener.start()
+    opener.join()
+    try:
+        time.sleep(1.0)  # the worker looks for its parent every 0.5 s
+        sim.set_command("f1", 0.5, 0.0)
+        sim.run(0.5)
+        assert sim.state().pos_ned_m[1, 0] == pytest.approx(-1.5 + 0.25)
+    finally:
+        sim.close()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_the_fmu_process_passes_on_no_descriptor_and_ignores_the_current_folder(
+    faulty: BuiltModel, tmp_path: Path
+) -> None:
+    with FmuLibrary(faulty.fmi2) as lib, FmuHost(1) as host:
+        host.add(0, lib, "f1", {}, (0.0, 0.0, 0.0))
+        cmdline = Path(f"/proc/{host.pid}/cmdline").read_bytes().split(b"\0")[:-1]
+        assert cmdline[1:4] == [b"-P", b"-m", b"lfctl.fmu.host"]
+        for fd in cmdline[4:]:  # its connection and the shared rows: close-on-exec in it
+            flags = next(x for x in Path(f"/proc/{host.pid}/fdinfo/{int(fd)}").read_text().splitlines() if "flags" in x)
+            assert int(flags.split()[1], 8) & os.O_CLOEXEC, (fd, flags)
+    # a numpy.py in the folder lfctl runs from is not the worker's numpy
+    (tmp_path / "numpy.py").write_text("raise ImportError('the wrong numpy')\n")
+    scen = tmp_path / "s.toml"
+    scen.write_text(_scenario(faulty.fmi2, 0, 0.0, tmp_path / "logs"))
+    run = subprocess.run(
+        [sys.executable, "-P", "-m", "lfctl", "sim", str(scen), "-q"], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert (run.returncode, run.stderr) == (0, "")

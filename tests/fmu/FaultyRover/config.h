@@ -4,6 +4,7 @@
  *   fault 4: doStep never returns (it spins; writes its process id to $LFCTL_TEST_FMU_MARK first, if set)
  *   fault 5: north and east are 9e5 m (far, yet within lfctl's 1e6 m bound: no error)
  *   fault 6: doStep raises SIGSEGV  fault 7: doStep calls exit(0)  fault 8: doStep aborts
+ *   fault 9: initialisation never returns (spins, as fault 4)
  * X(name, causality, variability, start, unit, description); value references from 1. */
 #ifndef LFCTL_CONFIG_H
 #define LFCTL_CONFIG_H
@@ -22,7 +23,7 @@
     X(yaw, OUTPUT, CONTINUOUS, 0.0, "rad", "Heading from north, clockwise")                   \
     X(speed, OUTPUT, CONTINUOUS, 0.0, "m/s", "Forward speed over ground")                     \
     X(yaw_rate, OUTPUT, CONTINUOUS, 0.0, "rad/s", "Yaw rate, positive clockwise")             \
-    X(fault, PARAMETER, FIXED, 0.0, "1", "0 none, 1 NaN, 2 inf, 3 1e308, 4 hang, 5 far, 6 SIGSEGV, 7 exit, 8 abort")\
+    X(fault, PARAMETER, FIXED, 0.0, "1", "0 none, 1 NaN, 2 inf, 3 1e308, 4 hang, 5 far, 6 SIGSEGV, 7 exit, 8 abort, 9 init hang")\
     X(fault_at, PARAMETER, FIXED, 0.0, "s", "When the fault starts")                          \
     X(internal_step, PARAMETER, FIXED, 0.01, "s", "Fixed RK4 sub-step inside doStep")         \
     X(north_0, PARAMETER, FIXED, 0.0, "m", "Initial north position")                          \

@@ -28,6 +28,7 @@ static void hang(void) {
 }
 
 void model_initialize(const double *v, double *x) {
+    if ((int)v[VR_fault] == 9) hang();
     x[X_NORTH] = v[VR_north_0];
     x[X_EAST] = v[VR_east_0];
     x[X_YAW] = v[VR_yaw_0];
