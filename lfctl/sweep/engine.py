@@ -53,7 +53,16 @@ from lfctl import __version__
 from lfctl.data import models_dir
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sim.camera_pool import usable_cores
-from lfctl.sweep.results import SweepSummary, append_row, read_journal, read_meta, report, write_meta, write_tables
+from lfctl.sweep.results import (
+    JOURNAL,
+    SweepSummary,
+    append_row,
+    read_journal,
+    read_meta,
+    report,
+    write_meta,
+    write_tables,
+)
 from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, load_sweep, plan
 from lfctl.sweep.task import LOG_MODES, execute, failed_row
 
@@ -297,7 +306,15 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
                 f"{folder} was run by other lfctl code (digest {str(meta.get('code'))[:12]}, now {code[:12]}): "
                 "resuming would mix two versions' results; use another --out"
             )
-        return read_journal(folder)
+        rows = read_journal(folder)
+        planned = {r.run: r.variant for r in p.runs}
+        for row in rows:
+            if planned.get(row["run"], -1) != row["variant"]:
+                raise ConfigError(
+                    f"{folder / JOURNAL}: a row of run {row['run']}, variant {row['variant']}, which is not one of "
+                    f"this sweep's {len(p.runs)} runs"
+                )
+        return rows
     if folder.exists() and any(folder.iterdir()):
         raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
     beside = _files_beside(p)  # before anything is written: a bad name leaves no folder behind
@@ -335,6 +352,19 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(spec.scenario.parent / rel, dest)
     return []
+
+
+def _unmake(folder: Path, existed: bool) -> None:
+    """Take back what :func:`_prepare` wrote into a folder that held no sweep (it was empty
+    or not there)."""
+    if not existed:
+        shutil.rmtree(folder, ignore_errors=True)
+        return
+    for entry in folder.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
 
 
 #: the files a sweep writes at the top of its folder (the scenario's own files are copied beside them)
@@ -401,6 +431,21 @@ def local_cluster(n_workers: int) -> Iterator[str]:
         cluster.close()
 
 
+def _check_address(scheduler: str) -> None:
+    """``--scheduler`` is ``tcp://`` or ``tls://``, a host and a port within 1..65535."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    form = f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}"
+    if not scheduler.startswith(("tcp://", "tls://")):
+        raise ConfigError(form)
+    try:
+        host, port = parse_host_port(parse_address(scheduler)[1])
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"{form}: {exc}") from None
+    if not host or not 1 <= int(port) <= 65535:
+        raise ConfigError(f"{form}: the host must be given and the port within 1..65535")
+
+
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]:
     """A client and its cluster (None for a scheduler of one's own) and their description."""
     from distributed import Client
@@ -415,6 +460,12 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
         client = Client(scheduler, timeout="10s")
     except (OSError, TimeoutError) as exc:
         raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+    except TypeError as exc:  # tls:// without Dask's TLS settings
+        raise ConfigError(f"--scheduler {scheduler}: {exc} (set distributed.comm.tls in Dask's config)") from None
+    except Exception as exc:  # a peer that is not a Dask scheduler: its bytes make no sense as one
+        raise LfctlError(
+            f"what answers at {scheduler} is not a Dask scheduler ({type(exc).__name__}: {str(exc)[:200]})"
+        ) from None
     want = workers or 1
     try:
         client.wait_for_workers(want, timeout=60)
@@ -520,11 +571,14 @@ def run_sweep(
         raise ConfigError(f"--logs must be one of {', '.join(LOG_MODES)}, got {logs!r}")
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers must be >= 1, got {workers}")
-    if scheduler is not None and not scheduler.startswith(("tcp://", "tls://")):
-        raise ConfigError(f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}")
+    if scheduler is not None:
+        _check_address(scheduler)
     p = sweep if isinstance(sweep, SweepPlan) else plan(sweep if isinstance(sweep, SweepSpec) else load_sweep(sweep))
-    folder = Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name
+    # the folder the kernel would write to: "nosuch/.." (or a link and "..") is the folder above,
+    # which must pass the same checks
+    folder = (Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name).resolve()
     code = code_digest()
+    existed, was_sweep = folder.exists(), (folder / "sweep.json").exists()
     done_rows = _prepare(folder, p, resume, code)
     have = {int(r["run"]) for r in done_rows}
     todo = collections.deque(r for r in p.runs if r.run not in have)
@@ -546,8 +600,13 @@ def run_sweep(
 
     try:
         if todo:
-            client, cluster, engine = _connect(scheduler, workers)
-            _check_workers(client, code)
+            try:
+                client, cluster, engine = _connect(scheduler, workers)
+                _check_workers(client, code)
+            except BaseException:
+                if not was_sweep:  # no sweep ran here: leave the folder as it was found
+                    _unmake(folder, existed)
+                raise
             log.info("sweep %s: %d runs to do on %s", p.spec.name, len(todo), engine)
         started = last_row = time.perf_counter()
         slots, slots_at = 1, -math.inf

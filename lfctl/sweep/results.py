@@ -95,11 +95,18 @@ def read_meta(out_dir: Path) -> dict[str, Any]:
     if not Path(out_dir).is_dir():
         raise ConfigError(f"{out_dir}: {'not a folder' if Path(out_dir).exists() else 'no such folder'}")
     try:
-        return dict(json.loads((out_dir / META).read_text()))
+        meta = json.loads((out_dir / META).read_text())
     except FileNotFoundError:
         raise ConfigError(f"{out_dir} holds no sweep (no {META})") from None
     except (OSError, ValueError) as exc:
         raise ConfigError(f"{out_dir / META}: cannot read it: {exc}") from None
+    if not isinstance(meta, dict):
+        raise ConfigError(f"{out_dir / META}: not a sweep's description (a JSON object), got {type(meta).__name__}")
+    for key in ("keys", "followers"):
+        value = meta.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ConfigError(f"{out_dir / META}: {key!r} must be a list of names, got {value!r}")
+    return meta
 
 
 def append_row(out_dir: Path, row: dict[str, Any]) -> None:
@@ -136,12 +143,24 @@ def read_journal(out_dir: Path) -> list[dict[str, Any]]:
     if not path.exists():
         return []
     rows: dict[int, dict[str, Any]] = {}
-    for line in path.read_text(encoding="utf-8").splitlines():
+    lines = path.read_bytes().splitlines()
+    for k, raw in enumerate(lines):
         try:
-            row = json.loads(line)
-        except ValueError:
-            continue
-        rows[int(row["run"])] = row
+            row = json.loads(raw.decode("utf-8"))
+        except ValueError:  # (a UnicodeDecodeError too)
+            if raw.startswith(b'{"run": ') or k == len(lines) - 1:
+                continue  # a row cut short by a crash (a resume appends after it): its run is run again
+            raise ConfigError(f"{path}, line {k + 1}: not a JSON row ({raw[:40]!r}...)") from None
+        fields = [row.get(f) for f in ("run", "variant", "status")] if isinstance(row, dict) else [None] * 3
+        run, variant, status = fields
+        if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in (run, variant)) or not (
+            isinstance(status, str)
+        ):
+            raise ConfigError(
+                f"{path}, line {k + 1}: not a run's row (run and variant numbers and a status; got "
+                f"run {run!r}, variant {variant!r}, status {status!r})"
+            )
+        rows[run] = row
     return [rows[k] for k in sorted(rows)]
 
 
@@ -227,7 +246,7 @@ def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
     """
     path = Path(out_dir) / "runs.parquet"
     try:
-        return list(pq.read_table(path).to_pylist())
+        table = pq.read_table(path)
     except FileNotFoundError:
         journal = Path(out_dir) / JOURNAL
         hint = (
@@ -238,6 +257,10 @@ def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
         raise ConfigError(f"{out_dir} has no results table (runs.parquet): {hint}") from None
     except (OSError, pa.ArrowException) as exc:
         raise ConfigError(f"{path}: cannot read it: {exc}") from None
+    missing = [c for c in ("run", "variant", "status") if c not in table.column_names]
+    if missing:
+        raise ConfigError(f"{path}: not a sweep's results table (no column {', '.join(map(repr, missing))})")
+    return list(table.to_pylist())
 
 
 def mean_ci(

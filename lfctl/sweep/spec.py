@@ -60,6 +60,8 @@ from lfctl.errors import ConfigError
 
 __all__ = [
     "DISTRIBUTIONS",
+    "MAX_RUNS",
+    "MAX_VARIANTS",
     "Run",
     "SweepPlan",
     "SweepSpec",
@@ -86,6 +88,15 @@ DISTRIBUTIONS = {
 _TOP_KEYS = ("name", "scenario", "seeds", "repetitions", "images", "set", "grid", "random", "description")
 #: keys a sweep may not vary: the seed comes from ``seeds``; runs in parallel cannot share UDP ports
 _RESERVED = {"sim.seed": "seeds", "name": "the sweep's name"}
+#: most variants (grid combinations x samples) one sweep may have: each is built and checked
+#: before anything runs, and written to the sweep's folder
+MAX_VARIANTS = 10_000
+#: most runs (variants x seeds x repetitions) one sweep may have
+MAX_RUNS = 100_000
+#: the largest scenario seed (``sim.seed``'s range)
+_MAX_SEED = 2**63 - 1
+#: the largest integer [random] may draw (numpy's int64, with hi + 1)
+_MAX_INT = 2**63 - 2
 
 
 @dataclass(frozen=True)
@@ -401,8 +412,12 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"scenario {scenario}: cannot read it: {exc}") from exc
     sweep_name = data.get("name", name)
-    if not isinstance(sweep_name, str) or not re.fullmatch(r"[A-Za-z0-9_.\-]+", sweep_name):
-        raise ConfigError(f"name must be letters, digits, '.', '-' or '_', got {sweep_name!r}")
+    if (
+        not isinstance(sweep_name, str)
+        or not re.fullmatch(r"[A-Za-z0-9_.\-]+", sweep_name)
+        or not sweep_name.strip(".")  # "." and "..": folders already there, not a sweep's own
+    ):
+        raise ConfigError(f"name must be letters, digits, '.', '-' or '_' (not dots alone), got {sweep_name!r}")
     fixed = _section(data, "set", lambda v: False)
     grid = []
     for key, values in _section(data, "grid", lambda v: False):
@@ -412,8 +427,15 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     random, samples, sample_seed = _random(data.get("random", {}))
     seeds = _seeds(data.get("seeds"), base)
     repetitions = data.get("repetitions", 1)
-    if isinstance(repetitions, bool) or not isinstance(repetitions, int) or repetitions < 1:
-        raise ConfigError(f"repetitions must be an integer >= 1, got {repetitions!r}")
+    if isinstance(repetitions, bool) or not isinstance(repetitions, int) or not 1 <= repetitions <= MAX_RUNS:
+        raise ConfigError(f"repetitions must be an integer within 1..{MAX_RUNS}, got {repetitions!r}")
+    variants = math.prod(len(v) for _, v in grid) * max(1, samples)
+    runs = variants * len(seeds) * repetitions
+    if variants > MAX_VARIANTS or runs > MAX_RUNS:
+        raise ConfigError(
+            f"the sweep has {variants} variants (grid combinations x samples) and {runs} runs (x seeds x "
+            f"repetitions); at most {MAX_VARIANTS} variants and {MAX_RUNS} runs: split it into several sweeps"
+        )
     images = data.get("images", False)
     if not isinstance(images, bool):
         raise ConfigError(f"images must be true or false, got {images!r}")
@@ -462,8 +484,8 @@ def _random(table: Any) -> tuple[list[tuple[str, str, tuple[Any, ...]]], int, in
         if samples is not None:
             raise ConfigError("random.samples is given but [random] names no key to sample")
         return [], 0, 0
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise ConfigError(f"random.samples must be an integer >= 1, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= MAX_VARIANTS:
+        raise ConfigError(f"random.samples must be an integer within 1..{MAX_VARIANTS}, got {samples!r}")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ConfigError(f"random.seed must be an integer >= 0, got {seed!r}")
     out = []
@@ -489,6 +511,8 @@ def _distribution(key: str, kind: str, params: Any) -> tuple[Any, ...]:
     a, b = params
     if not (math.isfinite(a) and math.isfinite(b)):
         raise ConfigError(f"{where} parameters must be finite, got {params!r}")
+    if kind == "uniform" and not math.isfinite(b - a):
+        raise ConfigError(f"{where}: hi - lo must be a finite number, got {params!r}")
     if kind == "normal":
         if b < 0:
             raise ConfigError(f"{where} sigma must be >= 0, got {b!r}")
@@ -498,6 +522,8 @@ def _distribution(key: str, kind: str, params: Any) -> tuple[Any, ...]:
         raise ConfigError(f"{where} needs lo > 0, got {params!r}")
     if kind == "integers" and not (isinstance(a, int) and isinstance(b, int)):
         raise ConfigError(f"{where} needs integer bounds, got {params!r}")
+    if kind == "integers" and not -_MAX_INT <= a <= b <= _MAX_INT:
+        raise ConfigError(f"{where} bounds must be within +-{_MAX_INT} (64-bit integers), got {params!r}")
     return (a, b)
 
 
@@ -507,18 +533,22 @@ def _seeds(value: Any, base: dict[str, Any]) -> tuple[int, ...]:
         seed = sim.get("seed", 0) if isinstance(sim, dict) else 0
         return (seed if isinstance(seed, int) and not isinstance(seed, bool) else 0,)
     if isinstance(value, int) and not isinstance(value, bool):
-        if value < 1:
-            raise ConfigError(f"seeds must be a count >= 1 (seeds 1..n) or a list of seeds, got {value!r}")
+        if not 1 <= value <= MAX_RUNS:
+            raise ConfigError(
+                f"seeds must be a count within 1..{MAX_RUNS} (seeds 1..n) or a list of seeds, got {value!r}"
+            )
         return tuple(range(1, value + 1))
     if (
         isinstance(value, list)
         and value
-        and all(isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in value)
+        and all(isinstance(s, int) and not isinstance(s, bool) and 0 <= s <= _MAX_SEED for s in value)
     ):
         if len(set(value)) != len(value):
             raise ConfigError(f"seeds must not repeat (use repetitions), got {value!r}")
         return tuple(value)
-    raise ConfigError(f"seeds must be a count >= 1 or a non-empty list of integers >= 0, got {value!r}")
+    raise ConfigError(
+        f"seeds must be a count >= 1 or a non-empty list of integers within 0..{_MAX_SEED}, got {value!r}"
+    )
 
 
 # ----------------------------------------------------------------------------------------

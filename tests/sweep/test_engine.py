@@ -238,3 +238,50 @@ def test_a_scheduler_or_worker_with_other_lfctl_code_is_named() -> None:
         _check_workers(_Cluster(ModuleNotFoundError("No module named 'lfctl'"), {}), me[1])
     with pytest.raises(LfctlError, match=r"workers run other lfctl code .*: tcp://w2 \(lfctl 0.0.1, code 0ther"):
         _check_workers(_Cluster(me, {"tcp://w1": me, "tcp://w2": ("0.0.1", "0ther" * 8)}), me[1])
+
+
+def test_a_folder_is_checked_where_the_path_leads_and_a_failed_start_leaves_nothing(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    folder, _rows = reference
+    (tmp_path / "runs.csv").write_text("precious\n")
+    # "nosuch/.." is tmp_path itself, which holds a file: refused, nothing written
+    with pytest.raises(ConfigError, match="exists and is not a sweep's folder"):
+        run_sweep(folder / "s.toml", tmp_path / "nosuch" / "..", workers=1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs.csv"]
+    assert (tmp_path / "runs.csv").read_text() == "precious\n"
+    # a scheduler that is not there: the folder it would have made is not left half-made
+    with pytest.raises(LfctlError, match="cannot reach the Dask scheduler"):
+        run_sweep(folder / "s.toml", tmp_path / "new", scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "new").exists()
+    for address, why in (
+        ("tcp://", "missing port"),
+        ("tcp://127.0.0.1:99999", "the port within 1..65535"),
+        ("udp://127.0.0.1:8786", "an address such as tcp://HOST:8786"),
+    ):
+        with pytest.raises(ConfigError, match=why):
+            run_sweep(folder / "s.toml", tmp_path / "new", scheduler=address)
+
+
+@pytest.mark.parametrize(
+    ("line", "why"),
+    [
+        (b"\x9a\xff garbage", r"line 9: not a JSON row"),
+        (b"[1, 2]", r"line 9: not a run's row"),
+        (b'{"x": 1}', r"line 9: not a run's row .* got run None"),
+        (b'{"run": 99999, "variant": 0, "status": "ok"}', r"a row of run 99999, variant 0, which is not one of"),
+    ],
+)
+def test_a_damaged_journal_is_named_on_resume(
+    reference: tuple[Path, list[dict]], tmp_path: Path, line: bytes, why: str
+) -> None:
+    import shutil
+
+    folder, _rows = reference
+    out = tmp_path / "out"
+    shutil.copytree(folder / "out", out)
+    first = (out / "runs.jsonl").read_bytes().splitlines()[0]
+    with open(out / "runs.jsonl", "ab") as f:  # (a bad last line is one cut short: not this)
+        f.write(line + b"\n" + first + b"\n")
+    with pytest.raises(ConfigError, match=why):
+        run_sweep(folder / "s.toml", out, resume=True)

@@ -78,11 +78,29 @@ def test_set_key_errors_name_the_key(key: str, message: str) -> None:
         ),
         (HEAD + "[random]\nsamples = 3\n'sim.dt_s' = { uniform = [1, 0] }\n", r"uniform needs lo <= hi, got \[1, 0\]"),
         (HEAD + "[random]\nsamples = 3\n'sim.dt_s' = { loguniform = [0, 1] }\n", r"loguniform needs lo > 0"),
-        (HEAD + "[random]\n'sim.dt_s' = { uniform = [0, 1] }\n", r"random\.samples must be an integer >= 1, got None"),
+        (
+            HEAD + "[random]\n'sim.dt_s' = { uniform = [0, 1] }\n",
+            r"random\.samples must be an integer within 1\.\.10000, got None",
+        ),
         (HEAD + "[random]\nsamples = 2\n", r"random\.samples is given but \[random\] names no key"),
-        (HEAD + "seeds = 0\n", r"seeds must be a count >= 1"),
+        (HEAD + "seeds = 0\n", r"seeds must be a count within 1\.\.100000"),
         (HEAD + "seeds = [1, 1]\n", r"seeds must not repeat \(use repetitions\)"),
-        (HEAD + "repetitions = 0\n", r"repetitions must be an integer >= 1, got 0"),
+        (HEAD + "repetitions = 0\n", r"repetitions must be an integer within 1\.\.100000, got 0"),
+        (HEAD + "seeds = 1000000000\n", r"seeds must be a count within 1\.\.100000 .*, got 1000000000"),
+        (HEAD + "seeds = [99999999999999999999]\n", r"list of integers within 0\.\.9223372036854775807"),
+        (HEAD + "name = '..'\n", r"name must be .*\(not dots alone\), got '\.\.'"),
+        (
+            HEAD + "[random]\nsamples = 2\n'sim.dt_s' = { uniform = [-1.7e308, 1.7e308] }\n",
+            r"uniform: hi - lo must be a finite number",
+        ),
+        (
+            HEAD + "[random]\nsamples = 2\n'sim.seed' = { integers = [0, 99999999999999999999] }\n",
+            r"integers bounds must be within \+-9223372036854775806",
+        ),
+        (
+            HEAD + "[grid]\n" + "".join(f"'k{i}' = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n" for i in range(10)),
+            r"the sweep has 10000000000 variants .* at most 10000 variants and 100000 runs",
+        ),
         (HEAD + "[grid]\n'sim.seed' = [1, 2]\n", r"'sim\.seed' cannot be varied by a sweep: it is set by seeds"),
         (
             HEAD + "[set]\n'sim.dt_s' = 0.01\n[grid]\n'sim.dt_s' = [0.01, 0.02]\n",
