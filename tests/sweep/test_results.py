@@ -150,3 +150,18 @@ def test_a_table_write_stopped_midway_leaves_the_old_file_whole(
     assert (tmp_path / "runs.csv").read_bytes() == before  # the old table, whole
     assert [r["run"] for r in read_rows(tmp_path)] == [0, 1, 2]  # the Parquet file was written before: whole too
     assert sorted(p.name for p in tmp_path.iterdir()) == ["runs.csv", "runs.parquet"]  # no part left behind
+
+
+def test_a_foreign_table_or_description_is_named(tmp_path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from lfctl.sweep.results import read_meta, read_rows
+
+    pq.write_table(pa.table({"a": [1, 2]}), tmp_path / "runs.parquet")
+    with pytest.raises(ConfigError, match=r"runs.parquet: not a sweep's results table \(no column 'run', 'variant'"):
+        read_rows(tmp_path)
+    for text, why in (("[1]", "not a sweep's description"), ('{"keys": 5}', "'keys' must be a list of names")):
+        (tmp_path / "sweep.json").write_text(text)
+        with pytest.raises(ConfigError, match=why):
+            read_meta(tmp_path)
