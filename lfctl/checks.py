@@ -29,6 +29,7 @@ __all__ = [
     "check_name",
     "check_port",
     "check_text",
+    "printable",
     "read_text_file",
     "write_whole",
 ]
@@ -150,6 +151,21 @@ def check_text(key: str, value: object, max_len: int = 256) -> str:
 
 
 PORT = Bound(1, 65535, integer=True)
+
+
+def printable(text: str, keep: str = "") -> str:
+    """``text`` safe to show on a terminal: control characters (an escape sequence's ESC
+    among them, but those in ``keep``) and lone surrogates written as Python escapes.
+
+    Parameters
+    ----------
+    text : str
+        Text from elsewhere (a file, a peer).
+    keep : str
+        Characters to leave as they are (``"\n"``).
+    """
+    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return "".join(ch if ch in keep or ch.isprintable() else repr(ch)[1:-1] for ch in text)
 
 
 def check_port(key: str, value: object) -> int:

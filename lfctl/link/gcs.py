@@ -11,6 +11,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.mission import MissionItem, command_name
@@ -449,8 +450,10 @@ def mode_name(custom_mode: int) -> str:
 
 
 def text_field(value: str | bytes) -> str:
-    """A MAVLink char[] field as text (pymavlink gives bytes or str, NUL-padded)."""
-    return (value.decode(errors="replace") if isinstance(value, bytes) else value).rstrip("\x00")
+    """A MAVLink char[] field as text (pymavlink gives bytes or str, NUL-padded), its control
+    characters escaped: a peer's STATUSTEXT is shown on terminals (an escape sequence in it
+    would clear the screen or retitle the window)."""
+    return printable((value.decode(errors="replace") if isinstance(value, bytes) else value).rstrip("\x00"))
 
 
 @dataclass

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from mcap.writer import CompressionType, Writer
 
-from lfctl.checks import write_whole
+from lfctl.checks import printable, write_whole
 from lfctl.errors import ConfigError
 from lfctl.metrics import SETTLE_S, formation_metrics, track_episodes
 from lfctl.record.mcap_read import (
@@ -1053,13 +1053,7 @@ def format_report(report: AuditReport) -> str:
         lines.append(
             f"  sender {sender}: {s['packets']} packets heard, {s['lost']} lost by its sequence ({s['loss_pct']} %)"
         )
-    return _printable("\n".join(lines))
-
-
-def _printable(text: str) -> str:
-    """``text`` with control characters (but newlines) and lone surrogates escaped."""
-    text = text.encode("utf-8", "backslashreplace").decode("utf-8")
-    return "".join(ch if ch == "\n" or ch.isprintable() else repr(ch)[1:-1] for ch in text)
+    return printable("\n".join(lines), keep="\n")
 
 
 def plot(report: AuditReport, out_dir: Path) -> list[Path]:

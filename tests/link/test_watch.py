@@ -124,3 +124,13 @@ def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], backgr
     assert set(last) == {1, 2}
     assert last[1]["mode"] == "HOLD" and last[1]["mission_total"] == 4  # stored, waiting for a ground station
     assert last[2]["mode"] == "GUIDED" and last[2]["armed"] and last[2]["north_m"] == pytest.approx(-1.5, abs=0.1)
+
+
+def test_a_peers_escape_sequence_is_shown_not_obeyed() -> None:
+    # a STATUSTEXT that would clear the screen and retitle the window
+    table = FleetTable()
+    table.add(message(heartbeat(15, True), 2), 0.0)
+    table.add(message(mav.MAVLink_statustext_message(6, b"\x1b[2J\x1b]0;pwned\x07 ok"), 2), 0.0)
+    (row,) = fleet_rows(table, 0.5)
+    assert row["text"] == "\\x1b[2J\\x1b]0;pwned\\x07 ok"
+    assert "\x1b" not in render_fleet([row])[1] and "\x07" not in render_fleet([row])[1]
