@@ -14,8 +14,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
-from lfctl.link.mission import MissionItem, command_name
-from lfctl.link.mission_server import MISSION_TYPES
+from lfctl.link.fence import RALLY_POINT, validate_fence
+from lfctl.link.mission import PLACE_FRAMES, MissionItem, command_name, validate_item
+from lfctl.link.mission_server import CAPACITY, FENCE, MISSION, MISSION_TYPES
 from lfctl.link.port import CHECK_LINK, MavPort
 
 __all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_name"]
@@ -383,7 +384,7 @@ class GroundStation:
                     self.wait(
                         ("MISSION_COUNT",),
                         timeout_s=self.timeout_s / retries,
-                        where=lambda m: m.mission_type == mission_type,
+                        where=lambda m: m.mission_type == mission_type and _to_us(m),
                     ).count
                 )
                 break
@@ -392,6 +393,13 @@ class GroundStation:
         if count is None:
             raise LinkTimeoutError(
                 "MISSION_COUNT", sysid=self.target, timeout_s=self.timeout_s, detail=f"{retries} requests"
+            )
+        most = CAPACITY[mission_type] + (1 if mission_type == MISSION else 0)  # (and home)
+        if count > most:
+            self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_NO_SPACE, mission_type))
+            raise MissionProtocolError(
+                f"{MISSION_TYPES[mission_type]} download: the vehicle says it holds {count} items; a Rover holds at "
+                f"most {most}: not downloaded"
             )
         items: list[MissionItem] = []
         while len(items) < count:
@@ -402,7 +410,7 @@ class GroundStation:
                     m = self.wait(
                         ("MISSION_ITEM_INT",),
                         timeout_s=self.timeout_s / retries,
-                        where=lambda m, s=seq: m.seq == s and m.mission_type == mission_type,
+                        where=lambda m, s=seq: m.seq == s and m.mission_type == mission_type and _to_us(m),
                     )
                     break
                 except LinkTimeoutError:
@@ -417,6 +425,10 @@ class GroundStation:
                     m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4, m.x, m.y, m.z, m.autocontinue
                 )
             )
+        problem = downloaded_problem(items, mission_type)
+        if problem is not None:
+            self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_ERROR, mission_type))
+            raise MissionProtocolError(f"{MISSION_TYPES[mission_type]} download: {problem}: not saved")
         self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_ACCEPTED, mission_type))
         return items
 
@@ -447,6 +459,49 @@ def _pid(m: Any) -> str:
 def mode_name(custom_mode: int) -> str:
     """The Rover mode's name (``AUTO``), or ``mode N`` for a number Rover does not define."""
     return MODE_NAMES.get(custom_mode, f"mode {custom_mode}")
+
+
+def _to_us(m: Any) -> bool:
+    """A message addressed to this ground station (or to every one)."""
+    return m.target_system in (0, GCS_SYSID) and m.target_component in (0, GCS_COMPID)
+
+
+def downloaded_problem(items: list[MissionItem], mission_type: int) -> str | None:
+    """What makes a downloaded list unfit to keep (a value no vehicle stores, which the file it
+    is saved to could not be uploaded from), or None.
+
+    A mission's items are checked as an upload's are (:func:`~lfctl.link.mission.validate_item`;
+    a command lfctl's vehicles do not take is kept: a real vehicle may); a fence's as Rover
+    checks a whole fence; rally points for their place.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        As downloaded (a mission's item 0 is home).
+    mission_type : int
+        MAV_MISSION_TYPE of the list.
+    """
+    if mission_type == MISSION:
+        for it in items:
+            result = validate_item(it, len(items))
+            if result not in (mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_UNSUPPORTED):
+                return (
+                    f"item {it.seq} ({command_name(it.command)}: params {it.param1:g}, {it.param2:g}, {it.param3:g}, "
+                    f"{it.param4:g}, at {it.lat_deg:.7f}, {it.lon_deg:.7f}, {it.z:g}) refused by an upload ({_result_name('MAV_MISSION_RESULT', result)})"
+                )
+        return None
+    for it in items:
+        if it.frame not in PLACE_FRAMES:
+            return f"item {it.seq} ({command_name(it.command)}) is in frame {it.frame}, not a global one"
+    if mission_type == FENCE:
+        found = validate_fence(items)
+        return None if found is None else f"item {found[0]}: {found[2]}"
+    for it in items:
+        if it.command != RALLY_POINT:
+            return f"item {it.seq} ({command_name(it.command)}) is not a rally point"
+        if not (-90.0 <= it.lat_deg <= 90.0 and -180.0 <= it.lon_deg <= 180.0 and math.isfinite(it.z)):
+            return f"item {it.seq}: no place on the Earth ({it.lat_deg}, {it.lon_deg}, {it.z})"
+    return None
 
 
 def text_field(value: str | bytes) -> str:
