@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 import cv2
@@ -10,7 +12,11 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 
-__all__ = ["VideoSource"]
+__all__ = ["STREAM_TIMEOUT_S", "VideoSource"]
+
+#: how long a stream (a URL) may take to open, and to give its next frame, s: a silent one
+#: is an error (opening) or its end (reading), not a process blocked for ever
+STREAM_TIMEOUT_S = 10.0
 
 
 class VideoSource:
@@ -24,17 +30,39 @@ class VideoSource:
     Raises
     ------
     ConfigError
-        A file that does not exist, or a source OpenCV cannot open or read a frame from.
+        A file that does not exist, a named pipe or socket (it would block with no end), a
+        stream that does not open within :data:`STREAM_TIMEOUT_S`, or a source OpenCV cannot
+        open or read a frame from.
     """
 
     def __init__(self, source: str) -> None:
         self.name = source
         target: str | int = int(source) if source.isdigit() else source
-        if isinstance(target, str) and "://" not in target and not Path(target).exists():
-            raise ConfigError(f"video source {source!r} does not exist (give a file, a camera index or a stream URL)")
-        self._cap = cv2.VideoCapture(target)
+        stream = isinstance(target, str) and "://" in target
+        if isinstance(target, str) and not stream:
+            try:
+                mode = os.stat(target).st_mode
+            except (OSError, ValueError):
+                raise ConfigError(
+                    f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
+                ) from None
+            if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
+                raise ConfigError(
+                    f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)"
+                )
+        if stream:
+            ms = int(STREAM_TIMEOUT_S * 1000)
+            params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
+            self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
+        else:
+            self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
-            raise ConfigError(f"cannot open video source {source!r} with OpenCV (unsupported format or no such camera)")
+            why = f"no stream within {STREAM_TIMEOUT_S:g} s, or" if stream else ""
+            raise ConfigError(
+                f"cannot open video source {source[:200]!r} with OpenCV ({why} unsupported format or no such camera)".replace(
+                    "( ", "("
+                )
+            )
 
     @property
     def fps(self) -> float:

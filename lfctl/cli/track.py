@@ -157,20 +157,15 @@ SHORT_END = 0.9
 
 
 def _check_paths(source: str, out: str | None) -> None:
-    """Refuse a named pipe or socket as the source (it would block with no end: a camera
-    or a stream is given by index or URL), and an --out that is the source itself."""
+    """Refuse an --out that is the source itself (a named pipe or socket as the source is
+    refused by the video source)."""
     import os
-    import stat
     from pathlib import Path
 
     from lfctl.errors import ConfigError
 
-    try:
-        mode = os.stat(source).st_mode
-    except (OSError, ValueError):
+    if not Path(source).exists():
         return  # a camera index or a URL (or no such file: the video source says so)
-    if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
-        raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
     if out is not None and Path(out).exists() and os.path.samefile(source, out):  # (links too)
         raise ConfigError(f"--out {out} is the video being tracked: give another file")
 
