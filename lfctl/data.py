@@ -154,8 +154,8 @@ def resolve_mission(arg: str | Path) -> Path:
         shipped ones. A path with a folder is returned as it is, for the reader to judge.
     """
     p = Path(arg)
-    if p.is_file() or (p.name != str(arg) and not _shipped_path(p)):
-        return p  # a path with a folder is the user's file: reading it names what is wrong
+    if p.exists() or (p.name != str(arg) and not _shipped_path(p)):
+        return p  # a file here (a pipe, a folder: its reader says so), or a path with a folder: the user's
     found = find_example(p.name, ".waypoints")
     if found is not None:
         return found

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.checks import read_text_file
+from lfctl.checks import read_text_file, write_whole
 from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
 
@@ -1069,8 +1069,15 @@ def save_mission(
         The file; a ``.plan`` suffix writes a QGroundControl plan.
     fence, rally : list of MissionItem, optional
         The geofence's and the rally points' items, for a plan (WPL holds the mission only).
+
+    Raises
+    ------
+    ConfigError
+        ``path`` is there and is not a regular file (a named pipe would block the write).
     """
     p = Path(path)
+    if p.exists() and not p.is_file():
+        raise ConfigError(f"{p} is there and is not a regular file: give a file to save the mission to")
     if p.suffix == ".plan":
         home = items[0] if items else MissionItem(0, 0, NAV_WAYPOINT)
         plan = {
@@ -1104,7 +1111,8 @@ def save_mission(
                 ],
             },
         }
-        p.write_text(json.dumps(plan, indent=2, allow_nan=False))
+        with write_whole(p) as tmp:
+            tmp.write_text(json.dumps(plan, indent=2, allow_nan=False))
         return
     rows = ["QGC WPL 110"]
     for it in items:
@@ -1123,4 +1131,5 @@ def save_mission(
             it.autocontinue,
         ]
         rows.append("\t".join(str(v) for v in vals))
-    p.write_text("\n".join(rows) + "\n")
+    with write_whole(p) as tmp:
+        tmp.write_text("\n".join(rows) + "\n")

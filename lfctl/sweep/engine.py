@@ -315,6 +315,8 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
                     f"this sweep's {len(p.runs)} runs"
                 )
         return rows
+    if folder.exists() and not folder.is_dir():
+        raise ConfigError(f"{folder} is there and is not a folder: choose another --out")
     if folder.exists() and any(folder.iterdir()):
         raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
     beside = _files_beside(p)  # before anything is written: a bad name leaves no folder behind

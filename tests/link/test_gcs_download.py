@@ -5,7 +5,9 @@ ground station: refused with the item and its values named, and nothing saved.""
 from __future__ import annotations
 
 import math
+import os
 import threading
+from pathlib import Path
 
 import pytest
 from pymavlink import mavutil
@@ -98,3 +100,19 @@ def test_what_is_unfit_in_a_fence_or_rally_list_is_named() -> None:
     rally = MissionItem(0, GLOBAL, mav.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, 130000000, 776000000, math.inf)
     assert downloaded_problem([rally], RALLY) == "item 0: no place on the Earth (13.0, 77.6, inf)"
     assert downloaded_problem([HOME], MISSION) is None
+
+
+def test_a_mission_is_not_saved_into_a_named_pipe_and_a_pipe_is_no_mission(tmp_path: Path) -> None:
+    from lfctl.data import resolve_mission
+    from lfctl.errors import ConfigError
+    from lfctl.link.mission import load_mission_file, save_mission
+
+    fifo = tmp_path / "m.waypoints"
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match="is there and is not a regular file"):
+        save_mission([HOME], fifo)  # (the write would block for ever)
+    with pytest.raises(ConfigError, match="not a regular file"):
+        load_mission_file(resolve_mission(str(fifo)))
+    save_mission([HOME], tmp_path / "m2.waypoints")
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary left
+    assert len(load_mission_file(tmp_path / "m2.waypoints").mission) == 1
