@@ -20,7 +20,10 @@ from lfctl.record.audit import audit
 pytestmark = [pytest.mark.fmu, pytest.mark.integration]
 
 
-def start_sim(scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DEVNULL) -> subprocess.Popen[str]:
+def start_sim(
+    scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DEVNULL, group: bool = False
+) -> subprocess.Popen[str]:
+    """``lfctl sim`` (with ``group``, in a process group of its own, as a service manager starts it)."""
     env = dict(os.environ, TMPDIR=str(tmp), LFCTL_TEST_FMU_MARK=str(mark))
     return subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scenario), "-q"],
@@ -29,21 +32,28 @@ def start_sim(scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DE
         text=True,
         env=env,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
+        start_new_session=group,
     )
 
 
 @pytest.mark.parametrize("where", ["main", "separate"])  # the FMUs in lfctl's process, or in one of their own
 @pytest.mark.parametrize(
-    ("fmi", "sig", "code", "signals"),
-    [(2, signal.SIGTERM, 143, 1), (3, signal.SIGINT, 130, 1), (2, signal.SIGINT, 130, 3)],
+    ("fmi", "sig", "code", "signals", "phase"),
+    [
+        (2, signal.SIGTERM, 143, 1, "step"),
+        (3, signal.SIGINT, 130, 1, "step"),
+        (2, signal.SIGINT, 130, 3, "step"),  # (three Ctrl-C in a row are one stop)
+        (2, signal.SIGTERM, 143, 1, "setup"),  # stuck as it is set up, before the first step
+    ],
 )
-def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
-    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int, signals: int, where: str
+def test_a_signal_ends_a_run_stuck_in_an_fmu_call_within_a_second(
+    faulty: BuiltModel, tmp_path: Path, fmi: int, sig: signal.Signals, code: int, signals: int, phase: str, where: str
 ) -> None:
-    # (three Ctrl-C in a row are one stop)
     scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
     tmp.mkdir()
-    text = faulty_scenario(faulty.path(fmi), HANG, 0.5, logs, duration_s=5.0)
+    # (FaultyRover initialises its state as its parameters are set: stuck in setup, it spins in fmi2SetReal)
+    fault, call, t = (HANG, f"fmi{fmi}DoStep", "0.5") if phase == "step" else (INIT_HANG, f"fmi{fmi}SetReal", "0")
+    text = faulty_scenario(faulty.path(fmi), fault, 0.5, logs, duration_s=5.0)
     scen.write_text(text.replace("[sim]", f"[sim]\nfmu_process = '{where}'"))
     proc = start_sim(scen, tmp, mark)
     try:
@@ -67,32 +77,41 @@ def test_a_signal_ends_a_run_stuck_in_dostep_within_a_second(
     assert proc.stderr is not None
     err = proc.stderr.read()
     assert rc == code and took < 2.0, (rc, took, err)
-    call = "fmi2DoStep" if fmi == 2 else "fmi3DoStep"
-    assert err == f"lfctl: error: FMU FaultyRover (f1) blocked in {call} at t = 0.5 s; terminated by {sig.name}\n"
+    assert err == f"lfctl: error: FMU FaultyRover (f1) blocked in {call} at t = {t} s; terminated by {sig.name}\n"
+    assert list(tmp.iterdir()) == []  # the extracted FMU went too
+    assert (stuck == proc.pid) == (where == "main")
+    assert not alive(stuck)  # the FMU's own process ended with the run
+    if phase == "setup":
+        return
     (log,) = logs.glob("*.mcap")
     report = audit(log)
     # a whole, finished file: its one error is the run's abnormal end
     assert [f.kind for f in report.findings if f.level == "error"] == ["run"], report.findings
     assert report.figures["end"]["reason"] == f"error: FMU FaultyRover (f1) blocked in {call} at t = 0.5 s; terminated"
     assert float(report.figures["end"]["t_s"]) == pytest.approx(0.5)
-    assert list(tmp.iterdir()) == []  # the extracted FMU went too
-    assert (stuck == proc.pid) == (where == "main")
-    assert not alive(stuck)  # the FMU's own process ended with the run
 
 
-def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tmp_path: Path) -> None:
+@pytest.mark.parametrize("group", [False, True])
+def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tmp_path: Path, group: bool) -> None:
+    # SIGTERM to lfctl, or to its whole process group as `timeout` and service managers send
+    # it: the FMU's process is in a group of its own, so lfctl alone gets it either way
     scen, tmp, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "logs"
     tmp.mkdir()
     scen.write_text(
         faulty_scenario(faulty.fmi2, 0, 0.0, logs, duration_s=600.0).replace("[sim]", "[sim]\nclock = 'realtime'")
     )
-    proc = start_sim(scen, tmp, tmp_path / "unused", stdout=subprocess.PIPE)
+    proc = start_sim(scen, tmp, tmp_path / "unused", stdout=subprocess.PIPE, group=group)
     try:
         deadline = time.monotonic() + 60
         while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(1.0)
-        proc.send_signal(signal.SIGTERM)
+        workers = [int(p) for p in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()]
+        assert workers and all(os.getpgid(w) != os.getpgid(proc.pid) for w in workers)
+        if group:
+            os.killpg(proc.pid, signal.SIGTERM)
+        else:
+            proc.send_signal(signal.SIGTERM)
         rc = proc.wait(timeout=10)
     finally:
         if proc.poll() is None:
@@ -103,70 +122,4 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
     (log,) = logs.glob("*.mcap")
     assert audit(log).figures["end"]["reason"] == "interrupted"
     assert proc.stdout is not None and f"log          {log}  (interrupted;" in proc.stdout.read()  # where it went
-    assert list(tmp.iterdir()) == []
-
-
-@pytest.mark.parametrize("where", ["main", "separate"])
-def test_a_signal_ends_a_run_stuck_in_the_fmus_initialisation(faulty: BuiltModel, tmp_path: Path, where: str) -> None:
-    # (FaultyRover initialises its state as its parameters are set: it spins in fmi2SetReal)
-    scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
-    tmp.mkdir()
-    text = faulty_scenario(faulty.fmi2, INIT_HANG, 0.0, logs)
-    scen.write_text(text.replace("[sim]", f"[sim]\nfmu_process = '{where}'"))
-    proc = start_sim(scen, tmp, mark)
-    try:
-        deadline = time.monotonic() + 60
-        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert mark.exists(), "the FMU never got stuck"
-        stuck = int(mark.read_text())
-        proc.send_signal(signal.SIGTERM)
-        rc = proc.wait(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.stderr is not None
-    err = proc.stderr.read()
-    assert (rc, err) == (
-        143,
-        "lfctl: error: FMU FaultyRover (f1) blocked in fmi2SetReal at t = 0 s; terminated by SIGTERM\n",
-    )
-    assert list(tmp.iterdir()) == []
-    assert not alive(stuck)
-
-
-def test_a_signal_to_the_whole_process_group_stops_a_healthy_run(faulty: BuiltModel, tmp_path: Path) -> None:
-    # as `timeout` and service managers stop a command: lfctl's FMU process is in a group of
-    # its own, so lfctl alone gets it and stops between steps as for Ctrl-C
-    scen, tmp, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "logs"
-    tmp.mkdir()
-    scen.write_text(
-        faulty_scenario(faulty.fmi2, 0, 0.0, logs, duration_s=600.0).replace("[sim]", "[sim]\nclock = 'realtime'")
-    )
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "lfctl", "sim", str(scen), "-q"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=dict(os.environ, TMPDIR=str(tmp)),
-        start_new_session=True,
-    )
-    try:
-        deadline = time.monotonic() + 60
-        while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        time.sleep(1.0)
-        workers = [int(p) for p in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()]
-        assert workers and all(os.getpgid(w) != os.getpgid(proc.pid) for w in workers)
-        os.killpg(proc.pid, signal.SIGTERM)
-        rc = proc.wait(timeout=30)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.stderr is not None
-    assert (rc, proc.stderr.read()) == (130, "lfctl: interrupted\n")
-    (log,) = logs.glob("*.mcap")
-    assert audit(log).figures["end"]["reason"] == "interrupted"
     assert list(tmp.iterdir()) == []

@@ -648,6 +648,19 @@ def circle_item(
     return MissionItem(0, c.frame, mav.MAV_CMD_NAV_LOITER_TURNS, turns, 0.0, radius, x=c.x, y=c.y)
 
 
+def fly(
+    duration_s: float, parts: Callable[[tuple[float, float, float]], list[list[MissionItem] | MissionItem]]
+) -> tuple[RunReport, dict[str, float]]:
+    """Run with the mission ``parts(home)`` stored at 0.5 s; the run, and when the leader said
+    each of its STATUSTEXTs after that (the last time for one said twice)."""
+
+    def upload(links: Links) -> None:
+        store(*parts(links.home))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=duration_s)
+    return rep, {text: t_s for t_s, text in links.endpoints[0].statustexts if t_s > 0.4}
+
+
 @pytest.mark.parametrize("ccw", [False, True])
 def test_loiter_turns_drives_to_the_edge_then_round_the_circle_in_its_direction(ccw: bool) -> None:
     # Rover 4.5's circle in AUTO: out to the edge on the line from the centre (6, 0) through
@@ -706,16 +719,15 @@ def test_a_speed_change_during_a_circle_is_the_circles_alone() -> None:
     # Rover's ModeAuto::set_desired_speed in its circle submode: the circle takes the speed
     # (the second DO_CHANGE_SPEED starts once the circle has), the waypoint after it drives
     # at the speed set before the circle (0.2), not the circle's (0.3)
-    def upload(links: Links) -> None:
-        store(
+    rep, at = fly(
+        75.0,
+        lambda home: [
             item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2),
             item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
-            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
-            places(links.home, (3.0, 8.0)),
-        )(links)
-
-    rep, links = run_with({0.5: upload}, duration_s=75.0)
-    at = {text: t_s for t_s, text in links.endpoints[0].statustexts if t_s > 0.4}
+            circle_item(home, (3.0, 0.0), 1.0, 1.5),
+            places(home, (3.0, 8.0)),
+        ],
+    )
     t_done = at["Mission: 4 WP"]
     assert speed_between(rep, t_done - 12.0, t_done - 1.0) == pytest.approx(0.3, abs=0.02)
     assert speed_between(rep, t_done + 12.0, t_done + 22.0) == pytest.approx(0.2, abs=0.02)
@@ -724,15 +736,14 @@ def test_a_speed_change_during_a_circle_is_the_circles_alone() -> None:
 def test_one_circle_after_another_drives_on_without_stopping() -> None:
     # two LOITER_TURNS in a row round one centre: the second begins where the first ends and
     # is steered from the same guidance step (it used to command a stop for one step)
-    def upload(links: Links) -> None:
-        store(
-            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
-            circle_item(links.home, (3.0, 0.0), 1.0, 1.5),
-            places(links.home, (3.0, 4.0)),
-        )(links)
-
-    rep, links = run_with({0.5: upload}, duration_s=60.0)
-    at = {text: t_s for t_s, text in links.endpoints[0].statustexts if t_s > 0.4}
+    rep, at = fly(
+        60.0,
+        lambda home: [
+            circle_item(home, (3.0, 0.0), 1.0, 1.5),
+            circle_item(home, (3.0, 0.0), 1.0, 1.5),
+            places(home, (3.0, 4.0)),
+        ],
+    )
     t_next = at["Mission: 2 LoitTurns"]
     assert 20.0 < t_next - at["Mission: 1 LoitTurns"] < 35.0  # once round 1.5 m at 0.4 m/s, from 1.5 m out
     t, speed = rep.result.t_s, rep.result.speed_mps[:, 0]
