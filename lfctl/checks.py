@@ -9,6 +9,7 @@ the command line turns into exit code 2.
 from __future__ import annotations
 
 import contextlib
+import errno
 import math
 import os
 import re
@@ -31,6 +32,7 @@ __all__ = [
     "check_text",
     "printable",
     "read_text_file",
+    "save_text",
     "write_whole",
 ]
 
@@ -322,3 +324,41 @@ def write_whole(path: Path) -> Iterator[Path]:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def save_text(path: str | Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to a file the user named, as a user expects it written.
+
+    A regular file (or a new one) is replaced whole (:func:`write_whole`), through a link to
+    it; a device (``/dev/null``, a terminal) or a pipe that someone reads (``/dev/stdout`` on
+    a pipe) is written as it is. A folder, and a named pipe no one reads (the write would
+    block for ever), are a ConfigError naming the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    text : str
+        What to write.
+    """
+    p = Path(path)
+    try:
+        mode = os.stat(p).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:
+        raise ConfigError(f"cannot write {p}: {exc.strerror or exc}") from None
+    if mode is None or stat.S_ISREG(mode):
+        with write_whole(p.resolve()) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+        return
+    if stat.S_ISDIR(mode):
+        raise ConfigError(f"{p} is a folder: give a file to write to")
+    try:  # a pipe with no reader: ENXIO at once, rather than a write that never ends
+        fd = os.open(p, os.O_WRONLY | (os.O_NONBLOCK if stat.S_ISFIFO(mode) else 0))
+    except OSError as exc:
+        why = "a named pipe no one reads" if exc.errno == errno.ENXIO else (exc.strerror or str(exc))
+        raise ConfigError(f"cannot write {p}: {why}") from None
+    with os.fdopen(fd, "wb") as f:
+        os.set_blocking(fd, True)
+        f.write(text.encode("utf-8"))

@@ -16,7 +16,7 @@ from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.fence import RALLY_POINT, validate_fence
 from lfctl.link.mission import PLACE_FRAMES, MissionItem, command_name, validate_item
-from lfctl.link.mission_server import CAPACITY, FENCE, MISSION, MISSION_TYPES
+from lfctl.link.mission_server import FENCE, MISSION, MISSION_TYPES
 from lfctl.link.port import CHECK_LINK, MavPort
 
 __all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_name"]
@@ -393,13 +393,6 @@ class GroundStation:
         if count is None:
             raise LinkTimeoutError(
                 "MISSION_COUNT", sysid=self.target, timeout_s=self.timeout_s, detail=f"{retries} requests"
-            )
-        most = CAPACITY[mission_type] + (1 if mission_type == MISSION else 0)  # (and home)
-        if count > most:
-            self.send(mav.MAVLink_mission_ack_message(self.target, 1, mav.MAV_MISSION_NO_SPACE, mission_type))
-            raise MissionProtocolError(
-                f"{MISSION_TYPES[mission_type]} download: the vehicle says it holds {count} items; a Rover holds at "
-                f"most {most}: not downloaded"
             )
         items: list[MissionItem] = []
         while len(items) < count:

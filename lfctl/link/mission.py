@@ -12,7 +12,7 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.checks import read_text_file, write_whole
+from lfctl.checks import read_text_file, save_text
 from lfctl.errors import ConfigError
 from lfctl.frames import geodetic_to_ned
 
@@ -1073,11 +1073,9 @@ def save_mission(
     Raises
     ------
     ConfigError
-        ``path`` is there and is not a regular file (a named pipe would block the write).
+        ``path`` is a folder, or a named pipe no one reads (:func:`lfctl.checks.save_text`).
     """
     p = Path(path)
-    if p.exists() and not p.is_file():
-        raise ConfigError(f"{p} is there and is not a regular file: give a file to save the mission to")
     if p.suffix == ".plan":
         home = items[0] if items else MissionItem(0, 0, NAV_WAYPOINT)
         plan = {
@@ -1111,8 +1109,7 @@ def save_mission(
                 ],
             },
         }
-        with write_whole(p) as tmp:
-            tmp.write_text(json.dumps(plan, indent=2, allow_nan=False))
+        save_text(p, json.dumps(plan, indent=2, allow_nan=False))
         return
     rows = ["QGC WPL 110"]
     for it in items:
@@ -1131,5 +1128,4 @@ def save_mission(
             it.autocontinue,
         ]
         rows.append("\t".join(str(v) for v in vals))
-    with write_whole(p) as tmp:
-        tmp.write_text("\n".join(rows) + "\n")
+    save_text(p, "\n".join(rows) + "\n")

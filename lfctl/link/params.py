@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfctl.checks import read_text_file
+from lfctl.checks import read_text_file, save_text
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -299,4 +299,4 @@ def save_param_file(values: dict[str, float], path: str | Path, fmt: str = "mavp
         lines += [f"{sysid}\t1\t{name}\t{value!r}\t9" for name, value in sorted(values.items())]
     else:
         raise ConfigError(f"parameter file format must be 'mavproxy' or 'qgc', got {fmt!r}")
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    save_text(path, "\n".join(lines) + "\n")

@@ -35,6 +35,7 @@ import math
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -288,8 +289,9 @@ def _followers(p: SweepPlan) -> list[str]:
     return names
 
 
-def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[str, Any]]:
-    """Make or check the sweep's folder; returns the rows already there."""
+def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[str, Any]] | None:
+    """Check the sweep's folder; returns the rows already there, or None for a folder to
+    make (:func:`_make`: an empty or missing one), without writing anything."""
     if (folder / "sweep.json").exists():
         meta = read_meta(folder)
         if not resume:
@@ -319,7 +321,14 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
         raise ConfigError(f"{folder} is there and is not a folder: choose another --out")
     if folder.exists() and any(folder.iterdir()):
         raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
-    beside = _files_beside(p)  # before anything is written: a bad name leaves no folder behind
+    _files_beside(p)  # a bad name: refused before anything is made
+    return None
+
+
+def _make(folder: Path, p: SweepPlan, code: str) -> None:
+    """Make a new sweep's folder: its description, sweep file, scenario, variants and the
+    files the scenario names beside it."""
+    beside = _files_beside(p)
     (folder / "variants").mkdir(parents=True, exist_ok=True)
     spec = p.spec
     write_meta(
@@ -353,20 +362,6 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
                 raise ConfigError(f"{rel} would be copied outside the sweep's folder, to {dest.resolve()}")
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(spec.scenario.parent / rel, dest)
-    return []
-
-
-def _unmake(folder: Path, existed: bool) -> None:
-    """Take back what :func:`_prepare` wrote into a folder that held no sweep (it was empty
-    or not there)."""
-    if not existed:
-        shutil.rmtree(folder, ignore_errors=True)
-        return
-    for entry in folder.iterdir():
-        if entry.is_dir() and not entry.is_symlink():
-            shutil.rmtree(entry, ignore_errors=True)
-        else:
-            entry.unlink(missing_ok=True)
 
 
 #: the files a sweep writes at the top of its folder (the scenario's own files are copied beside them)
@@ -448,6 +443,30 @@ def _check_address(scheduler: str) -> None:
         raise ConfigError(f"{form}: the host must be given and the port within 1..65535")
 
 
+#: how long what answers at --scheduler may take to speak first, as a Dask scheduler does, s
+PROBE_S = 10.0
+
+
+def _probe(scheduler: str) -> None:
+    """What listens at a ``tcp://`` address speaks first, as a Dask scheduler does (its
+    handshake): a peer that takes the connection and says nothing would hold Dask's client
+    for ever (its timeout does not cover the handshake)."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    host, port = parse_host_port(parse_address(scheduler)[1])
+    try:
+        with socket.create_connection((host, int(port)), timeout=PROBE_S) as conn:
+            conn.settimeout(PROBE_S)
+            if not conn.recv(1):
+                raise LfctlError(f"what answers at {scheduler} closed the connection at once: not a Dask scheduler")
+    except TimeoutError:
+        raise LfctlError(
+            f"what answers at {scheduler} said nothing within {PROBE_S:g} s: not a Dask scheduler (which speaks first)"
+        ) from None
+    except OSError as exc:
+        raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc.strerror or exc}") from None
+
+
 def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]:
     """A client and its cluster (None for a scheduler of one's own) and their description."""
     from distributed import Client
@@ -458,6 +477,8 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
         client = Client(cluster)
         client.register_plugin(_IgnoreSigint())
         return client, cluster, f"Dask LocalCluster, {n} worker processes x 1 thread; a crashed run is retried once"
+    if scheduler.startswith("tcp://"):
+        _probe(scheduler)
     try:
         client = Client(scheduler, timeout="10s")
     except (OSError, TimeoutError) as exc:
@@ -580,9 +601,9 @@ def run_sweep(
     # which must pass the same checks
     folder = (Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name).resolve()
     code = code_digest()
-    existed, was_sweep = folder.exists(), (folder / "sweep.json").exists()
-    done_rows = _prepare(folder, p, resume, code)
-    have = {int(r["run"]) for r in done_rows}
+    done_rows = _prepare(folder, p, resume, code)  # (checks only: a new folder is made once the cluster is up)
+    made = done_rows is not None
+    have = {int(r["run"]) for r in done_rows or []}
     todo = collections.deque(r for r in p.runs if r.run not in have)
     fn = task or execute
     where = str(folder.resolve())
@@ -602,13 +623,14 @@ def run_sweep(
 
     try:
         if todo:
-            try:
-                client, cluster, engine = _connect(scheduler, workers)
-                _check_workers(client, code)
-            except BaseException:
-                if not was_sweep:  # no sweep ran here: leave the folder as it was found
-                    _unmake(folder, existed)
-                raise
+            client, cluster, engine = _connect(scheduler, workers)
+            _check_workers(client, code)
+        if not made:
+            if _prepare(folder, p, resume, code) is not None:  # (checked again: another process's meanwhile?)
+                raise ConfigError(f"{folder}: another sweep was started there meanwhile; use another --out")
+            _make(folder, p, code)
+            made = True
+        if todo:
             log.info("sweep %s: %d runs to do on %s", p.spec.name, len(todo), engine)
         started = last_row = time.perf_counter()
         slots, slots_at = 1, -math.inf
@@ -655,7 +677,8 @@ def run_sweep(
     except KeyboardInterrupt:
         if client is not None and pending:
             client.cancel(list(pending), force=True)
-        _finish(folder, p, plots)
+        if made:
+            _finish(folder, p, plots)
         raise
     finally:
         if client is not None:

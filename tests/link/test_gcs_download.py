@@ -1,5 +1,5 @@
 """A mission, fence or rally download from a vehicle that sends what no Rover stores (NaN,
-a place off the Earth, 65535 items, a fence in a local frame) or items meant for another
+a place off the Earth, a fence in a local frame) or items meant for another
 ground station: refused with the item and its values named, and nothing saved."""
 
 from __future__ import annotations
@@ -57,13 +57,6 @@ def _vehicle(count: int, item: MissionItem, to: tuple[int, int]) -> tuple[str, t
     ("count", "item", "to", "error", "why"),
     [
         (
-            65535,
-            HOME,
-            (GCS_SYSID, GCS_COMPID),
-            MissionProtocolError,
-            "says it holds 65535 items; a Rover holds at most 2001",
-        ),
-        (
             2,
             MissionItem(0, GLOBAL, mav.MAV_CMD_NAV_WAYPOINT, math.nan, math.inf, 0, 0, 2147483647, 0, 0),
             (GCS_SYSID, GCS_COMPID),
@@ -102,17 +95,21 @@ def test_what_is_unfit_in_a_fence_or_rally_list_is_named() -> None:
     assert downloaded_problem([HOME], MISSION) is None
 
 
-def test_a_mission_is_not_saved_into_a_named_pipe_and_a_pipe_is_no_mission(tmp_path: Path) -> None:
+def test_a_mission_is_saved_as_a_user_expects_and_never_blocks(tmp_path: Path) -> None:
     from lfctl.data import resolve_mission
     from lfctl.errors import ConfigError
     from lfctl.link.mission import load_mission_file, save_mission
 
     fifo = tmp_path / "m.waypoints"
     os.mkfifo(fifo)
-    with pytest.raises(ConfigError, match="is there and is not a regular file"):
+    with pytest.raises(ConfigError, match="a named pipe no one reads"):
         save_mission([HOME], fifo)  # (the write would block for ever)
     with pytest.raises(ConfigError, match="not a regular file"):
         load_mission_file(resolve_mission(str(fifo)))
-    save_mission([HOME], tmp_path / "m2.waypoints")
+    save_mission([HOME], os.devnull)  # a device is written as it is
+    (tmp_path / "real.waypoints").write_text("old\n")
+    (tmp_path / "link.waypoints").symlink_to("real.waypoints")
+    save_mission([HOME], tmp_path / "link.waypoints")  # through the link, which stays one
+    assert (tmp_path / "link.waypoints").is_symlink()
+    assert len(load_mission_file(tmp_path / "real.waypoints").mission) == 1
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary left
-    assert len(load_mission_file(tmp_path / "m2.waypoints").mission) == 1

@@ -266,7 +266,6 @@ def test_a_folder_is_checked_where_the_path_leads_and_a_failed_start_leaves_noth
 @pytest.mark.parametrize(
     ("line", "why"),
     [
-        (b"\x9a\xff garbage", r"line 9: not a JSON row"),
         (b"[1, 2]", r"line 9: not a run's row"),
         (b'{"x": 1}', r"line 9: not a run's row .* got run None"),
         (b'{"run": 99999, "variant": 0, "status": "ok"}', r"a row of run 99999, variant 0, which is not one of"),
