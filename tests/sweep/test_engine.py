@@ -284,3 +284,19 @@ def test_a_damaged_journal_is_named_on_resume(
         f.write(line + b"\n" + first + b"\n")
     with pytest.raises(ConfigError, match=why):
         run_sweep(folder / "s.toml", out, resume=True)
+
+
+def test_a_peer_that_says_nothing_is_not_taken_for_a_scheduler(
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import socket
+
+    import lfctl.sweep.engine as engine
+
+    monkeypatch.setattr(engine, "PROBE_S", 0.5)
+    folder, _rows = reference
+    with socket.create_server(("127.0.0.1", 0)) as silent:  # takes connections, never speaks
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        with pytest.raises(LfctlError, match=r"said nothing within 0.5 s: not a Dask scheduler"):
+            run_sweep(folder / "s.toml", tmp_path / "new", scheduler=address)
+    assert not (tmp_path / "new").exists()
