@@ -256,7 +256,7 @@ def test_a_sweep_flies_a_mission_file_beside_its_scenario_from_any_folder(
 def test_a_sweeps_folder_keeps_the_mission_file_so_each_variant_runs_again(tmp_path: Path) -> None:
     """The folder's scenario.toml and variants/*.toml name the plan as the scenario did
     ("plans/route.plan", beside it): a copy lies there for each."""
-    from lfctl.sweep.engine import _prepare
+    from lfctl.sweep.engine import _make, _prepare
     from lfctl.sweep.spec import parse_sweep, plan
 
     base = parse_config(SCENARIO.format(mission=""))
@@ -266,7 +266,9 @@ def test_a_sweeps_folder_keeps_the_mission_file_so_each_variant_runs_again(tmp_p
     scenario(folder, 'file = "plans/route.plan"')
     text = 'scenario = "scenarios/run.toml"\nseeds = 1\n[grid]\n"mission.cruise_speed_mps" = [0.2, 0.3]\n'
     out = tmp_path / "out"
-    assert _prepare(out, plan(parse_sweep(text, base_dir=tmp_path)), False, "code") == []
+    p = plan(parse_sweep(text, base_dir=tmp_path))
+    assert _prepare(out, p, False, "code") is None  # a new folder, to make
+    _make(out, p, "code")
     original.write_text("{")  # edited after the sweep: the folder keeps what it flew
     for toml in (out / "scenario.toml", *sorted((out / "variants").glob("*.toml"))):
         cfg = load_config(toml)
@@ -275,8 +277,13 @@ def test_a_sweeps_folder_keeps_the_mission_file_so_each_variant_runs_again(tmp_p
 
 
 def test_a_sweep_copies_only_what_its_scenario_names_beside_it_and_never_over_its_own_files(tmp_path: Path) -> None:
-    from lfctl.sweep.engine import _prepare
+    from lfctl.sweep.engine import _make, _prepare
     from lfctl.sweep.spec import parse_sweep, plan
+
+    def make(out: Path) -> None:
+        p = plan(parse_sweep(text, base_dir=tmp_path))
+        assert _prepare(out, p, False, "code") is None
+        _make(out, p, "code")
 
     base = parse_config(SCENARIO.format(mission=""))
     folder = tmp_path / "scenarios"
@@ -285,10 +292,10 @@ def test_a_sweep_copies_only_what_its_scenario_names_beside_it_and_never_over_it
     text = 'scenario = "scenarios/run.toml"\nseeds = 1\n[grid]\n"mission.cruise_speed_mps" = [0.2, 0.3]\n'
     # a roundabout relative name lands where it points; an absolute one is used where it is
     scenario(folder, 'file = "plans/../plans/route.plan"')
-    _prepare(tmp_path / "a", plan(parse_sweep(text, base_dir=tmp_path)), False, "code")
+    make(tmp_path / "a")
     assert (tmp_path / "a" / "plans" / "route.plan").is_file() and not (tmp_path / "plans").exists()
     scenario(folder, f"file = {json.dumps(str(plan_file))}")
-    _prepare(tmp_path / "b", plan(parse_sweep(text, base_dir=tmp_path)), False, "code")
+    make(tmp_path / "b")
     assert not (tmp_path / "b" / "plans").exists()
     # a plan saved as sweep.json would take the sweep's own file's place
     (folder / "sweep.json").write_text(plan_file.read_text())
