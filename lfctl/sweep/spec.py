@@ -657,6 +657,10 @@ def plan(spec: SweepSpec) -> SweepPlan:
 
                 found = scenario_mission(cfg)  # a bad mission file: one line now, not a failed row a run
                 missions[cfg.mission.file] = hashlib.sha256(found.data).hexdigest() if found is not None else ""
+            for veh in cfg.vehicles:  # a user FMU that is no file: one line now, not a failed row a run
+                if veh.fmu is not None and not Path(veh.fmu).is_file():
+                    why = "does not exist" if not Path(veh.fmu).exists() else "is not a regular file"
+                    raise ConfigError(f"vehicles[{veh.name}].fmu {veh.fmu} {why}")
         except ConfigError as exc:
             where = f"{spec.path}: " if spec.path is not None else ""
             raise ConfigError(f"{where}{_label(index, values)}: {exc}") from None

@@ -114,6 +114,13 @@ def test_bad_sweep_files_name_the_key(text: str, message: str) -> None:
         parse_sweep(text)
 
 
+@pytest.mark.parametrize(("fmu", "why"), [("/dev/zero", "is not a regular file"), ("/nonesuch.fmu", "does not exist")])
+def test_a_user_fmu_that_is_no_file_is_refused_before_anything_runs(fmu: str, why: str) -> None:
+    spec = parse_sweep(HEAD + f"[set]\n'vehicles[0].fmu' = '{fmu}'\n")
+    with pytest.raises(ConfigError, match=rf"variant 0: vehicles\[leader\]\.fmu {fmu} {why}"):
+        plan(spec)
+
+
 def test_every_variant_is_built_before_anything_runs_and_an_error_names_variant_and_key() -> None:
     spec = parse_sweep(HEAD + "[grid]\n'guidance.controller' = ['smc', 'p']\n'sensing.range_noise_m' = [0.01, -1.0]\n")
     with pytest.raises(
