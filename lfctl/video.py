@@ -57,11 +57,9 @@ class VideoSource:
         else:
             self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
-            why = f"no stream within {STREAM_TIMEOUT_S:g} s, or" if stream else ""
+            why = f"no stream within {STREAM_TIMEOUT_S:g} s, or " if stream else ""
             raise ConfigError(
-                f"cannot open video source {source[:200]!r} with OpenCV ({why} unsupported format or no such camera)".replace(
-                    "( ", "("
-                )
+                f"cannot open video source {source[:200]!r} with OpenCV ({why}unsupported format or no such camera)"
             )
 
     @property

@@ -195,8 +195,7 @@ class FmuHost:
         if rows < 1 or not timeout_s > 0:
             raise ValueError(f"FmuHost needs rows >= 1 and timeout_s > 0, got {rows!r}, {timeout_s!r}")
         self.timeout_s = timeout_s
-        self._instances: list[HostedInstance] = []
-        self._names: dict[int, tuple[str, str]] = {}  # slot -> (model identifier, instance name)
+        self._instances: dict[int, HostedInstance] = {}  # by slot
         self._waiting = False  # a reply is awaited: the worker's call is in progress for a watchdog
         self._dt_s = 0.0  # the step in flight
         self._in_flight = False
@@ -254,13 +253,12 @@ class FmuHost:
         """
         if self._closed:
             raise FmuError("FmuHost.add after close()", model=lib.identifier, call="host")
-        if slot in self._names or not 0 <= slot < len(self.cmd):
+        if slot in self._instances or not 0 <= slot < len(self.cmd):
             raise ValueError(f"slot {slot!r} is taken or outside 0..{len(self.cmd) - 1}")
         if lib.extraction is None:
             raise FmuError(f"{lib.path}: library is closed", model=lib.identifier, call="instantiate")
         inst = HostedInstance(self, slot, lib, name, start_time_s)
-        self._names[slot] = (lib.identifier, name)
-        self._instances.append(inst)  # (its name in an error while it is set up)
+        self._instances[slot] = inst  # (its name in an error while it is set up)
         watch_calls(inst)  # (a watchdog sees its setup calls too)
         request = (
             "add",
@@ -277,8 +275,7 @@ class FmuHost:
             self._request(request, self._setup_timeout())
         except BaseException:
             unwatch_calls(inst)
-            self._instances.remove(inst)
-            del self._names[slot]
+            del self._instances[slot]
             raise
         return inst
 
@@ -340,7 +337,7 @@ class FmuHost:
         self._in_flight = False
         if data:
             self._raise(data)
-        for inst in self._instances:
+        for inst in self._instances.values():
             inst.t_s += self._dt_s
 
     # -- the connection -----------------------------------------------------------------
@@ -388,7 +385,7 @@ class FmuHost:
                     self._conn.recv_bytes()
                     break
                 if time.monotonic() >= deadline:
-                    if self._block.where()[0] in self._names:
+                    if self._block.where()[0] in self._instances:
                         raise self._failure("stuck") from None
                     self._kill()  # in no FMU's call (still starting, say): a plain stop
                     break
@@ -403,9 +400,8 @@ class FmuHost:
         if kind == "ConfigError":
             raise ConfigError(message)
         if kind == "FmuError":
-            for inst in self._instances:
-                if inst.slot == slot:
-                    inst.messages.extend(messages)
+            if slot in self._instances:
+                self._instances[slot].messages.extend(messages)
             raise FmuError(message, model=model, call=call, status=status, log=messages)
         raise FmuError(f"the process stepping FMUs failed: {message}", model=model, call="host")
 
@@ -413,7 +409,7 @@ class FmuHost:
         """The worker died, overran a step, or is stuck after a stop: kill it, and say
         which FMU was in which call at what time, and how its process ended."""
         slot, call = self._block.where()
-        stuck_in = call if slot in self._names else ""
+        stuck_in = call if slot in self._instances else ""
         self._kill()
         self._in_flight = False
         timeout_s, setting = limit or (0.0, "")
@@ -425,9 +421,9 @@ class FmuHost:
         else:
             how = f"exit code {code}"
         if stuck_in:
-            model, name = self._names[slot]
-            t_s = next(i.t_s for i in self._instances if i.slot == slot)
-            who = f"FMU {model} ({name})"
+            inst = self._instances[slot]
+            model, t_s = inst.lib.identifier, inst.t_s
+            who = f"FMU {model} ({inst.name})"
             if what == "died":
                 message = f"{who} ended its process in {stuck_in} at t = {t_s:.6g} s ({how})"
             elif what == "timeout":
@@ -438,7 +434,7 @@ class FmuHost:
             else:
                 message = f"{who} blocked in {stuck_in} at t = {t_s:.6g} s; terminated"
             return FmuError(message, model=model, call=stuck_in)
-        names = ", ".join(f"{n} ({m})" for m, n in self._names.values()) or "no FMU yet"
+        names = ", ".join(f"{i.name} ({i.lib.identifier})" for i in self._instances.values()) or "no FMU yet"
         if what == "died":
             return FmuError(f"the process stepping FMUs for {names} ended ({how})", call="host")
         return FmuError(
@@ -461,7 +457,7 @@ class FmuHost:
             return
         self._closed = True
         _HOSTS.pop(id(self), None)
-        for inst in self._instances:
+        for inst in self._instances.values():
             unwatch_calls(inst)
         proc = getattr(self, "_proc", None)
         if proc is not None and proc.poll() is None:

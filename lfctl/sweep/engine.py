@@ -428,8 +428,9 @@ def local_cluster(n_workers: int) -> Iterator[str]:
         cluster.close()
 
 
-def _check_address(scheduler: str) -> None:
-    """``--scheduler`` is ``tcp://`` or ``tls://``, a host and a port within 1..65535."""
+def _check_address(scheduler: str) -> tuple[str, int]:
+    """``--scheduler`` is ``tcp://`` or ``tls://``, a host and a port within 1..65535: its
+    host and port."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
     form = f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}"
@@ -441,6 +442,7 @@ def _check_address(scheduler: str) -> None:
         raise ConfigError(f"{form}: {exc}") from None
     if not host or not 1 <= int(port) <= 65535:
         raise ConfigError(f"{form}: the host must be given and the port within 1..65535")
+    return host, int(port)
 
 
 #: how long what answers at --scheduler may take to speak first, as a Dask scheduler does, s
@@ -451,11 +453,8 @@ def _probe(scheduler: str) -> None:
     """What listens at a ``tcp://`` address speaks first, as a Dask scheduler does (its
     handshake): a peer that takes the connection and says nothing would hold Dask's client
     for ever (its timeout does not cover the handshake)."""
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    host, port = parse_host_port(parse_address(scheduler)[1])
     try:
-        with socket.create_connection((host, int(port)), timeout=PROBE_S) as conn:
+        with socket.create_connection(_check_address(scheduler), timeout=PROBE_S) as conn:
             conn.settimeout(PROBE_S)
             if not conn.recv(1):
                 raise LfctlError(f"what answers at {scheduler} closed the connection at once: not a Dask scheduler")
@@ -626,7 +625,7 @@ def run_sweep(
             client, cluster, engine = _connect(scheduler, workers)
             _check_workers(client, code)
         if not made:
-            if _prepare(folder, p, resume, code) is not None:  # (checked again: another process's meanwhile?)
+            if folder.exists() and any(folder.iterdir()):  # (another process's sweep, made meanwhile?)
                 raise ConfigError(f"{folder}: another sweep was started there meanwhile; use another --out")
             _make(folder, p, code)
             made = True
