@@ -45,6 +45,7 @@ import uuid
 from collections.abc import Callable, Iterator
 from concurrent.futures import CancelledError
 from dataclasses import dataclass, field
+from multiprocessing import resource_tracker
 from pathlib import Path
 from typing import Any
 
@@ -395,15 +396,28 @@ def _local_cluster(n_workers: int) -> Any:
     import dask
     from distributed import LocalCluster
 
-    with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
-        return LocalCluster(
-            n_workers=n_workers,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
-            silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
-        )
+    # The cluster's threads (its event loop, which starts and restarts the worker processes)
+    # are made with SIGINT blocked, and the processes keep that mask: Ctrl-C in the terminal
+    # reaches only lfctl's main thread, which decides what stops, even while a worker is still
+    # importing (an interrupt there printed Dask's tracebacks and ended the sweep with exit 1).
+    # One pressed while the cluster starts is held and handled as soon as it is up.
+    # multiprocessing's resource tracker is started first, here: started from the cluster's
+    # thread it would unblock SIGINT there (resource_tracker.ensure_running) before the
+    # workers are spawned.
+    resource_tracker.ensure_running()
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
+            return LocalCluster(
+                n_workers=n_workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
+                silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
+            )
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 @contextlib.contextmanager

@@ -10,6 +10,7 @@ import re
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -117,3 +118,28 @@ def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_
     else:
         assert "cancelled the running runs" in err and "lfctl: interrupted" in err
         assert len(table) == 1 + len(lines) and len(lines) < 12
+
+
+@pytest.mark.integration
+def test_ctrl_c_while_the_cluster_starts_stops_the_sweep_before_any_run(tmp_path: Path) -> None:
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(TRUTH.format(top="seeds = 3\n", duration=15.0))
+    proc = _start(sweep, tmp_path / "out")
+    try:
+        assert proc.stderr is not None
+        said = proc.stderr.readline()
+        while not said.startswith("folder"):  # printed before the cluster starts
+            assert said, "lfctl sweep ended before it started its cluster"
+            said = proc.stderr.readline()
+        time.sleep(1.0)  # the workers are importing (about 2 s here): a Ctrl-C in the terminal reaches them
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    # the workers never see it (they start with SIGINT blocked); lfctl takes it as a stop once
+    # the cluster is up: no Dask traceback, no run, and the folder says how to go on
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "stopping     no more runs start; 0 running finish" in err, err
+    assert "stopped      0 of 3 runs have rows" in err and out == ""
