@@ -167,11 +167,11 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         if show_bar:
             print(file=sys.stderr)
-        what = "cancelled the running runs" if cancelled.is_set() else "interrupted"
         if (out_dir / "sweep.json").exists():
+            what = "cancelled the running runs" if cancelled.is_set() else "interrupted"
             print(f"{what}; the finished runs are in {out_dir} (--resume goes on)", file=sys.stderr)
         else:
-            print(f"{what} before the sweep began: nothing was written", file=sys.stderr)
+            print("interrupted before the sweep began: nothing was written", file=sys.stderr)
         raise
     finally:
         for sig, handler in handlers.items():

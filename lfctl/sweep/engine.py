@@ -39,6 +39,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import tomllib
 import uuid
@@ -392,32 +393,44 @@ def _files_beside(p: SweepPlan) -> list[Path]:
 
 
 def _local_cluster(n_workers: int) -> Any:
-    """The sweep's ``LocalCluster``: ``n_workers`` processes of one thread, quiet, on 127.0.0.1."""
+    """The sweep's ``LocalCluster``: ``n_workers`` processes of one thread, quiet, on 127.0.0.1.
+
+    It is made by a thread with SIGINT blocked, so its threads (its event loop, which starts
+    and restarts the worker processes) have it blocked and so do the processes: Ctrl-C in the
+    terminal reaches only lfctl's main thread, which decides what stops, even while a worker
+    is still importing (an interrupt there printed Dask's tracebacks and ended the sweep with
+    exit 1). The main thread waits for it with Ctrl-C open (a third press interrupts).
+    multiprocessing's resource tracker is started first, here: started from the cluster's
+    thread, it would unblock SIGINT there before the workers are spawned
+    (``resource_tracker.ensure_running`` leaves SIGINT unblocked when it is done).
+    """
     import dask
     from distributed import LocalCluster
 
-    # The cluster's threads (its event loop, which starts and restarts the worker processes)
-    # are made with SIGINT blocked, and the processes keep that mask: Ctrl-C in the terminal
-    # reaches only lfctl's main thread, which decides what stops, even while a worker is still
-    # importing (an interrupt there printed Dask's tracebacks and ended the sweep with exit 1).
-    # One pressed while the cluster starts is held and handled as soon as it is up.
-    # multiprocessing's resource tracker is started first, here: started from the cluster's
-    # thread it would unblock SIGINT there (resource_tracker.ensure_running) before the
-    # workers are spawned.
     resource_tracker.ensure_running()
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
-            return LocalCluster(
-                n_workers=n_workers,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
-                silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
-            )
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+    made: dict[str, Any] = {}
+
+    def make() -> None:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            with dask.config.set({**QUIET_WORKERS, "distributed.scheduler.allowed-failures": 1}):
+                made["cluster"] = LocalCluster(
+                    n_workers=n_workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",  # its HTTP server binds a port even without a dashboard: any free one
+                    silence_logs=logging.CRITICAL,  # a dead worker is the sweep's to report, as a row
+                )
+        except BaseException as exc:  # raised again in the caller's thread
+            made["error"] = exc
+
+    starter = threading.Thread(target=make, name="lfctl-cluster-start", daemon=True)
+    starter.start()
+    starter.join()
+    if "error" in made:
+        raise made["error"]
+    return made["cluster"]
 
 
 @contextlib.contextmanager
