@@ -82,6 +82,9 @@ AUTOPILOT_MODES = frozenset(MODES[n] for n in ("AUTO", "GUIDED", "RTL", "SMART_R
 #: component ids: a ground station (MAV_COMP_ID_MISSIONPLANNER) and a companion computer
 GCS_COMPID = 190
 COMPANION_COMPID = 191
+#: the Rover release whose answers the vehicle gives (AUTOPILOT_VERSION's flight_sw_version,
+#: an official build: ground stations gate features on it)
+ROVER_VERSION = (4, 6, 0)
 #: SET_POSITION_TARGET_LOCAL_NED type_mask using only the velocity and the yaw rate
 TYPE_MASK_SPEED_YAWRATE = 1479
 #: inbound work per tick: the most datagrams and bytes read (more are dropped and counted)
@@ -89,6 +92,8 @@ MAX_DATAGRAMS_PER_TICK = 256
 MAX_BYTES_PER_TICK = 32 * 1024
 #: a datagram longer than this is not what a ground station sends (one frame is <= 280 bytes)
 MAX_DATAGRAM_BYTES = 4 * 1024
+#: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
+MAX_ROUTES = 20
 #: the longest STATUSTEXT sent, in chunks (four of MAVLink's 50 bytes)
 STATUSTEXT_MAX_BYTES = 200
 #: SmartRTL keeps at most this many points of the way back (the oldest are thinned out)
@@ -295,6 +300,13 @@ class VehicleEndpoint:
         self.rally: list[tuple[float, float]] = []
         self.stats = LinkStats()
         self.tap = tap
+        #: components of this system that are not the autopilot and are reached another way
+        #: (the vehicle's cameras): what is addressed to them is not acted on here
+        self.routed_components: set[int] = set()
+        # the senders seen, (system, component, channel), as ArduPilot's MAVLink routing learns
+        # its routes (at most MAX_ROUTES); the channel a message came on (network or memory)
+        self._routes: set[tuple[int, int, str]] = set()
+        self._channel = "memory"
         self.statustexts: list[tuple[float, str]] = []
         self.t_s = 0.0
         self._boot_mode = MODES[mode]  # the mode it starts in, and starts in again on a reboot
@@ -543,9 +555,17 @@ class VehicleEndpoint:
         self.stats.bad += 0 if good or unknown else 1
         if good:
             self.link.accept_peer(addr)
+        self._channel = "memory" if addr[0] == "memory" else "network"
         for m in good:
+            self._learn_route(m)
             self._handle(m, signed)
         return len(good)
+
+    def _learn_route(self, m: Any) -> None:
+        """Remember who sent ``m`` and on which channel (ArduPilot's ``learn_route``)."""
+        route = (m.get_srcSystem(), m.get_srcComponent(), self._channel)
+        if route[:2] != (self.sysid, 1) and route not in self._routes and len(self._routes) < MAX_ROUTES:
+            self._routes.add(route)
 
     def _handle(self, m: Any, signed: bool) -> None:
         try:
@@ -560,14 +580,28 @@ class VehicleEndpoint:
             log.exception("%s: handling %s failed", self.name, m.get_type())
 
     def _for_me(self, m: Any, field: str = "target_system") -> bool:
-        """Aimed at this vehicle's autopilot: system 0 or this one and, where the message names
-        one, component 0 or 1 (Rover's routing forwards what is aimed at another component of
-        its system and does not act on it)."""
+        """To be acted on by this vehicle's autopilot, as Rover's MAVLink routing decides
+        (``MAVLink_routing::check_and_forward``): aimed at system 0 or this one and, where the
+        message names one, at component 0 or 1, or at another component that Rover would not
+        forward it to: one it has heard from on no other channel (a message Rover cannot
+        pass on is acted on by the autopilot itself). What is aimed at the vehicle's cameras,
+        or at a component heard on the other channel, is passed on by Rover and not acted on."""
         target = getattr(m, field, self.sysid)
-        if target not in (0, self.sysid) or getattr(m, "target_component", 0) not in (0, 1):
+        component = getattr(m, "target_component", 0)
+        if target not in (0, self.sysid) or (component not in (0, 1) and self._forwarded(target, component)):
             self.stats.other_sysid += 1
             return False
         return True
+
+    def _forwarded(self, target: int, component: int) -> bool:
+        """Whether Rover would pass a message for ``(target, component)`` on to another
+        channel: to a broadcast system, to every sender heard elsewhere; else to that one."""
+        if component in self.routed_components:
+            return True
+        return any(
+            channel != self._channel and (target == 0 or (sysid, compid) == (target, component))
+            for sysid, compid, channel in self._routes
+        )
 
     def _dispatch(self, m: Any, signed: bool = False) -> None:
         self.stats.messages += 1
@@ -708,13 +742,14 @@ class VehicleEndpoint:
         custom_mode : int
             The Rover mode number (a value of :data:`MODES`).
         """
+        custom_mode &= 0xFF  # Rover's mode number is a byte: 260 is HOLD's 4
         if custom_mode == self.mode:
             return True  # as Rover: already there, nothing changes (a GUIDED target is kept)
         if custom_mode in OTHER_ROVER_MODES:
             self.statustext(f"{OTHER_ROVER_MODES[custom_mode]} mode not supported", mav.MAV_SEVERITY_WARNING)
             return False
         if custom_mode not in MODE_NAMES:
-            self.statustext(f"Unknown mode {custom_mode}")
+            self.statustext(f"No such mode {custom_mode}", mav.MAV_SEVERITY_WARNING)  # AP_Vehicle's words
             return False
         if custom_mode == MODES["FOLLOW"]:
             # ArduPilot's FOLLOW chases another vehicle's GLOBAL_POSITION_INT; lfctl follows by
@@ -798,6 +833,8 @@ class VehicleEndpoint:
             msg_id = _as_int(p[0], 0, 2**24 - 1)
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
+            if msg_id == mav.MAVLINK_MSG_ID_MESSAGE_INTERVAL:  # as Rover: GET_MESSAGE_INTERVAL of param2's id
+                return self._get_interval(p[1])
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
             self._once.append(msg_id)
@@ -903,14 +940,14 @@ class VehicleEndpoint:
     def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
-        does not send is FAILED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
+        does not send is DENIED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
         ACCEPTED and stays unsent)."""
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
         if msg_id is None or not _finite(interval_us) or interval_us < -1:
             return mav.MAV_RESULT_DENIED
         if msg_id not in self._intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
-            return mav.MAV_RESULT_FAILED
+            return mav.MAV_RESULT_DENIED  # Rover 4.5 and later (MAVSDK: "Command Denied"); FAILED before
         if interval_us == -1:
             self._stream(msg_id, math.inf)
         elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
@@ -1169,9 +1206,9 @@ class VehicleEndpoint:
             m.seq, m.frame, m.command, m.param1, m.param2, m.param3, m.param4,
             int(to_int(m.x * scale)), int(to_int(m.y * scale)), m.z, m.autocontinue,
         )  # fmt: skip
-        self._mission_item(m, item)
+        self._mission_item(m, item, float_item=True)
 
-    def _mission_item(self, m: Any, item: MissionItem) -> None:
+    def _mission_item(self, m: Any, item: MissionItem, float_item: bool = False) -> None:
         mtype = getattr(m, "mission_type", MISSION)
         if m.current == 2 and mtype == MISSION:  # a guided "go here"
             ok = self._guided_location(item)
@@ -1185,6 +1222,8 @@ class VehicleEndpoint:
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
             return
         self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)
+        if float_item:  # after the item is handled, as Rover
+            self.missions.warn_float(mtype, "got MISSION_ITEM; GCS should send MISSION_ITEM_INT")
 
     def _guided_location(self, item: MissionItem) -> bool:
         if self.mode != MODES["GUIDED"]:
@@ -1751,8 +1790,8 @@ class VehicleEndpoint:
             self.send(
                 mav.MAVLink_home_position_message(
                     int(round(hlat * 1e7)), int(round(hlon * 1e7)), int(round(halt * 1000)),
-                    hn, he, -self.home_up_m, [1, 0, 0, 0], 0, 0, 0,
-                )
+                    hn, he, -self.home_up_m, [math.nan] * 4, 0, 0, 0, self._boot_us(),
+                )  # as Rover's send_home_position: no orientation (NaN), the time since boot
             )  # fmt: skip
         elif name == "FENCE_STATUS":
             if self.param("FENCE_ENABLE"):
@@ -1777,9 +1816,15 @@ class VehicleEndpoint:
             )
             self.send(
                 mav.MAVLink_autopilot_version_message(
-                    caps, 0x04050000, 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
+                    caps, _version_word(*ROVER_VERSION), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
                 )
             )
+
+
+def _version_word(major: int, minor: int, patch: int) -> int:
+    """AUTOPILOT_VERSION's flight_sw_version as ArduPilot packs it: major, minor, patch and
+    the firmware type (FIRMWARE_VERSION_TYPE_OFFICIAL) a byte each."""
+    return major << 24 | minor << 16 | patch << 8 | mav.FIRMWARE_VERSION_TYPE_OFFICIAL
 
 
 def _whole_degrees(angle_rad: float) -> int:

@@ -225,8 +225,33 @@ class MissionServer:
         self.current_seq = 0
         self._uploads: dict[int, _Upload] = {}  # by mission type: a fence and a mission may come at once
         self._t_s = 0.0
+        # Rover's warnings about the float messages said since each list's upload last began
+        self._warned: dict[int, set[str]] = {t: set() for t in MISSION_TYPES}
 
     # -- helpers ---------------------------------------------------------------------------
+    def warn_float(self, mission_type: int, text: str) -> None:
+        """Rover's warning that a client used a float message (MISSION_ITEM, MISSION_REQUEST)
+        where the ``_INT`` one is meant: once until an upload of the list begins again
+        (``MissionItemProtocol``'s ``mission_item_warning_sent``, ``mission_request_warning_sent``).
+
+        Parameters
+        ----------
+        mission_type : int
+            MAV_MISSION_TYPE of the list.
+        text : str
+            The warning.
+        """
+        warned = self._warned.get(mission_type)
+        if warned is not None and text not in warned:
+            warned.add(text)
+            self.statustext(text)
+
+    def _begin(self, up: _Upload) -> None:
+        """An upload (or a partial one) begins: it is asked for its first item."""
+        self._uploads[up.mission_type] = up
+        self._warned[up.mission_type].clear()
+        self._request_next(up, up.received_at)
+
     def _ack(self, sysid: int, compid: int, result: int, mission_type: int) -> None:
         self.send(mav.MAVLink_mission_ack_message(sysid, compid, result, mission_type))
 
@@ -297,8 +322,7 @@ class MissionServer:
             )
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             return
-        self._uploads[mtype] = up = _Upload(mtype, m.count, *src, received_at=t_s, last=m.count - 1)
-        self._request_next(up, t_s)
+        self._begin(_Upload(mtype, m.count, *src, received_at=t_s, last=m.count - 1))
 
     def _request_next(self, up: _Upload, t_s: float) -> None:
         up.sent_at = t_s
@@ -335,10 +359,7 @@ class MissionServer:
             self._ack(*src, mav.MAV_MISSION_NO_SPACE, mtype)
             return
         count = max(len(base), last + 1)
-        self._uploads[mtype] = up = _Upload(
-            mtype, count, *src, next_seq=first, received_at=t_s, partial=True, last=last
-        )
-        self._request_next(up, t_s)
+        self._begin(_Upload(mtype, count, *src, next_seq=first, received_at=t_s, partial=True, last=last))
 
     def on_item(self, item: MissionItem, mission_type: int, sysid: int, compid: int, t_s: float) -> None:
         """One uploaded item (from MISSION_ITEM_INT, or a converted MISSION_ITEM). As Rover's
@@ -455,7 +476,11 @@ class MissionServer:
             if t_s - up.received_at > UPLOAD_TIMEOUT_S:
                 del self._uploads[mtype]
                 self._ack(up.sysid, up.compid, mav.MAV_MISSION_OPERATION_CANCELLED, up.mission_type)
-                self.statustext(f"{MISSION_TYPES[mtype].capitalize()} upload timed out waiting for item {up.next_seq}")
+                # Rover's words ("Mission upload timeout"), then which item did not come
+                self.statustext(
+                    f"{MISSION_TYPES[mtype].capitalize()} upload timeout: item {up.next_seq} "
+                    f"did not come in {UPLOAD_TIMEOUT_S:g} s"
+                )
             elif t_s - up.sent_at > ITEM_TIMEOUT_S:
                 self._request_next(up, t_s)
 
@@ -494,8 +519,12 @@ class MissionServer:
         if self._uploading(mtype, src):
             return
         if not 0 <= m.seq < len(items):
+            if not float_item:  # as Rover, the count first, "to educate the GCS" (not for MISSION_REQUEST)
+                self.send(mav.MAVLink_mission_count_message(*src, len(items), mtype))
             self._ack(*src, mav.MAV_MISSION_INVALID_SEQUENCE, mtype)
             return
+        if float_item:
+            self.warn_float(mtype, "got MISSION_REQUEST; use MISSION_REQUEST_INT!")
         it = items[m.seq]
         if mtype == MISSION and m.seq == 0 and self.home is not None:
             it = self.home()  # as Rover's AP_Mission reads item 0: home now
@@ -503,7 +532,8 @@ class MissionServer:
         self.send(_item_message(it, *src, current, mtype, float_item))
 
     def on_clear(self, m: Any, t_s: float) -> None:
-        """MISSION_CLEAR_ALL: clear the list named (MAV_MISSION_TYPE_ALL: all three).
+        """MISSION_CLEAR_ALL: clear the list named (MAV_MISSION_TYPE_ALL is no list: as Rover,
+        MAV_MISSION_UNSUPPORTED and nothing cleared).
 
         Parameters
         ----------
@@ -514,23 +544,18 @@ class MissionServer:
         """
         self._t_s = t_s
         mtype, src = _addressed(m)
-        if mtype == mav.MAV_MISSION_TYPE_ALL:
-            types = list(MISSION_TYPES)
-        elif mtype in MISSION_TYPES:
-            types = [mtype]
-        else:
+        if mtype not in MISSION_TYPES:
             self._ack(*src, mav.MAV_MISSION_UNSUPPORTED, mtype)
             return
-        # as Rover: not while one of them is being uploaded, nor the mission while it is flown
+        # as Rover: not while it is being uploaded, nor the mission while it is flown
         # (MAV_MISSION_ERROR; nothing is cleared)
-        flown = MISSION in types and self.running()
-        if flown or any(t in self._uploads for t in types):
+        flown = mtype == MISSION and self.running()
+        if flown or mtype in self._uploads:
             self._ack(*src, mav.MAV_MISSION_ERROR, mtype)
             if flown:
                 self.statustext("Mission is running: not cleared")
             return
-        for t in types:
-            self.store(t, [], *src)
+        self.store(mtype, [], *src)
         self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
 
     @property

@@ -190,6 +190,7 @@ class Links:
                 self.cameras.append(camera)
                 link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
+            ep.routed_components = {c.compid for c in self.cameras if c.sysid == 1 + i}
             if start_ns is not None:
                 ep.epoch_us = start_ns // 1000  # SYSTEM_TIME on the log's clock
             # where it starts, before the set-up below ticks it: a disarmed vehicle's home is

@@ -70,6 +70,12 @@ class Bench:
         assert len(acks) == 1, f"{len(acks)} acks for command {cmd}"
         return int(acks[0].result)
 
+    def command_to(self, component: int, cmd: int, *p: float) -> int:
+        """A COMMAND_LONG to ``component`` of this system: its ACK's result."""
+        self.send(mav.MAVLink_command_long_message(1, component, cmd, 0, *p, *([0.0] * (7 - len(p)))))
+        (ack,) = [m for m in self.tick() if m.get_type() == "COMMAND_ACK" and m.command == cmd]
+        return int(ack.result)
+
     def set_mode(self, name: str) -> int:
         return self.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES[name])
 
@@ -783,10 +789,9 @@ def test_the_mission_is_not_cleared_while_it_is_flown(bench: Bench) -> None:
     assert upload(bench, good_mission(4)) == mav.MAV_MISSION_ACCEPTED
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
     assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
-    for mtype in (mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_ALL):
-        bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mtype))
-        assert _acks(bench.tick()) == [mav.MAV_MISSION_ERROR]  # AP_Mission::clear refuses while running
-        assert len(bench.ep.mission) == 4
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_ERROR]  # AP_Mission::clear refuses while running
+    assert len(bench.ep.mission) == 4
     assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
     bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
     assert _acks(bench.tick()) == [mav.MAV_MISSION_ACCEPTED] and bench.ep.mission == []
@@ -940,7 +945,9 @@ def test_request_data_stream_sets_rovers_stream_groups(bench: Bench) -> None:
 
 def test_message_intervals_as_ardupilot(bench: Bench) -> None:
     att = mav.MAVLINK_MSG_ID_ATTITUDE
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100000) == mav.MAV_RESULT_FAILED  # not sent here
+    # a message not sent here: DENIED, with Rover's text (MAVSDK's "Command Denied" against Rover 4.5+)
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100000) == mav.MAV_RESULT_DENIED
+    assert bench.ep.statustexts[-1][1] == "No ap_message for mavlink id (12345)"
     assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, 12345) == mav.MAV_RESULT_FAILED
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED  # as 1 ms (below)
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
@@ -1145,7 +1152,7 @@ def test_a_message_not_sent_is_refused_without_a_text_when_requested_once(bench:
         (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]
         assert ack.result == mav.MAV_RESULT_FAILED and _count(out, "STATUSTEXT") == 0
     # a stream asked for: ArduPilot says it has no such message
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 397, 1e6) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 397, 1e6) == mav.MAV_RESULT_DENIED
     assert any("No ap_message for mavlink id (397)" in t for _, t in bench.ep.statustexts)
 
 
@@ -1397,12 +1404,33 @@ def test_an_autopilot_mode_starts_forwards_at_its_default_speed(bench: Bench) ->
     assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.3) == mav.MAV_RESULT_ACCEPTED  # RTL takes a speed
 
 
-def test_commands_and_parameters_for_another_component_are_not_acted_on(bench: Bench) -> None:
+def _from_network(bench: Bench, msg: object, sender: mav.MAVLink) -> None:
+    """``msg`` from ``sender``, as if it came over UDP (the endpoint's other channel)."""
+    bench.a.inbox.append((msg.pack(sender), ("127.0.0.1", 14550)))  # type: ignore[attr-defined]
+
+
+def test_what_is_for_another_component_is_acted_on_as_rover_routes_it(bench: Bench) -> None:
+    # MAVLink_routing::check_and_forward: a component Rover has heard on another channel gets
+    # the message passed on, not acted on; one it has no route to, or a route on the channel
+    # the message came on, leaves it to the autopilot (a COMMAND_LONG to component 25 is ACKed)
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    _from_network(bench, mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3), companion)
     bench.send(mav.MAVLink_command_long_message(1, 191, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0))
+    bench.ep.routed_components = {100}  # the vehicle's camera, reached on its own channel
     bench.send(mav.MAVLink_param_set_message(1, 100, b"WP_SPEED", 3.0, mav.MAV_PARAM_TYPE_REAL32))
     out = bench.tick()
     assert not bench.ep.armed and bench.ep.param("WP_SPEED") == 2.0
     assert not [m for m in out if m.get_type() in ("COMMAND_ACK", "PARAM_VALUE")]
+    assert bench.command_to(25, mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED  # no route to 25
+    bench.send(mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3))  # the ground station, on the memory channel
+    ground = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    _from_network(bench, mav.MAVLink_command_long_message(1, 191, 400, 0, 1, 0, 0, 0, 0, 0, 0), ground)
+    bench.tick()  # the companion is on that channel: Rover passes nothing on, and acts on it
+    assert bench.ep.armed
+    # a broadcast to the system, naming a component: passed on to every sender heard elsewhere
+    _from_network(bench, mav.MAVLink_command_long_message(0, 25, 400, 0, 0, 0, 0, 0, 0, 0, 0), ground)
+    bench.tick()
+    assert bench.ep.armed
 
 
 def test_param_value_answers_a_set_and_a_read_by_name_with_index_minus_1(bench: Bench) -> None:
@@ -1521,7 +1549,9 @@ def test_the_banner_on_request_and_before_a_parameter_list_as_rover(bench: Bench
     assert kinds[:3] == ["STATUSTEXT", "STATUSTEXT", "PARAM_VALUE"]
     texts = [m for m in out if m.get_type() == "STATUSTEXT"]
     assert [m.severity for m in texts] == [mav.MAV_SEVERITY_INFO] * 2
-    bench.send(mav.MAVLink_param_request_list_message(1, 191))  # another component's list: nothing
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)  # heard over the network: Rover routes to it
+    _from_network(bench, mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3), companion)
+    bench.send(mav.MAVLink_param_request_list_message(1, 191))  # that component's list: nothing
     assert not [m for m in bench.tick() if m.get_type() in ("STATUSTEXT", "PARAM_VALUE")]
 
 
@@ -1609,7 +1639,7 @@ def test_messages_for_equipment_not_fitted_are_accepted_and_system_time_is_sent(
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, battery, 0, 0, 0, 0, 0, 0))
     (interval,) = [m for m in bench.tick() if m.get_type() == "MESSAGE_INTERVAL"]
     assert interval.interval_us == 1_000_000
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_RAW_IMU, 1e6) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_RAW_IMU, 1e6) == mav.MAV_RESULT_DENIED
     # SYSTEM_TIME with the EXTRA3 group: the run's start plus the simulation time; the group
     # sets the battery's rate too (Rover's STREAM_EXTRA3), and "default" is the group's rate
     t0 = time.time()
@@ -1873,3 +1903,57 @@ def test_change_speed_results_as_rovers(bench: Bench) -> None:
     assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 4, 0.5) == mav.MAV_RESULT_DENIED  # SPEED_TYPE_ENUM_END
     assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 7, 0.5) == mav.MAV_RESULT_ACCEPTED  # any other: ground speed
     assert bench.ep.desired_speed_mps == pytest.approx(0.5)
+
+
+def test_mission_protocol_details_as_rover(bench: Bench) -> None:
+    item_warning = "got MISSION_ITEM; GCS should send MISSION_ITEM_INT"
+    request_warning = "got MISSION_REQUEST; use MISSION_REQUEST_INT!"
+
+    def warnings() -> list[str]:
+        return [t for _, t in bench.ep.statustexts if t in (item_warning, request_warning)]
+
+    # the float MISSION_ITEM: Rover's warning once a transfer, again in the next one
+    assert upload(bench, good_mission(3), as_float=True) == mav.MAV_MISSION_ACCEPTED
+    assert warnings() == [item_warning]
+    assert upload(bench, good_mission(3), as_float=True) == mav.MAV_MISSION_ACCEPTED
+    assert warnings() == [item_warning] * 2
+    # the float MISSION_REQUEST: answered, with its warning once
+    for seq in (1, 2):
+        bench.send(mav.MAVLink_mission_request_message(1, 1, seq, mav.MAV_MISSION_TYPE_MISSION))
+        assert _count(bench.tick(), "MISSION_ITEM") == 1
+    assert warnings() == [item_warning] * 2 + [request_warning]
+    # an item past the list: its count first ("to educate the GCS"), then INVALID_SEQUENCE
+    bench.send(mav.MAVLink_mission_request_int_message(1, 1, 99, mav.MAV_MISSION_TYPE_MISSION))
+    out = [m for m in bench.tick() if m.get_type() in ("MISSION_COUNT", "MISSION_ACK")]
+    assert [m.get_type() for m in out] == ["MISSION_COUNT", "MISSION_ACK"]
+    assert out[0].count == 3 and out[1].type == mav.MAV_MISSION_INVALID_SEQUENCE
+    # MAV_MISSION_TYPE_ALL is no list Rover keeps: UNSUPPORTED, nothing cleared
+    bench.send(mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_ALL))
+    assert _acks(bench.tick()) == [mav.MAV_MISSION_UNSUPPORTED] and len(bench.ep.mission) == 3
+
+
+def test_mode_numbers_messages_and_versions_as_rover(bench: Bench) -> None:
+    custom = mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    assert bench.command(mav.MAV_CMD_DO_SET_MODE, custom, 2) == mav.MAV_RESULT_FAILED  # Rover has no mode 2
+    assert bench.ep.statustexts[-1][1] == "No such mode 2"
+    assert bench.command(mav.MAV_CMD_DO_SET_MODE, custom, MODES["GUIDED"]) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_MODE, custom, 256 + MODES["HOLD"]) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.mode == MODES["HOLD"]  # the mode number is a byte, as Rover's set_mode takes it
+    # REQUEST_MESSAGE of MESSAGE_INTERVAL is GET_MESSAGE_INTERVAL of param2's message
+    att = mav.MAVLINK_MSG_ID_ATTITUDE
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 250_000) == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 244, att, 0, 0, 0, 0, 0))
+    out = bench.tick()
+    (interval,) = [m for m in out if m.get_type() == "MESSAGE_INTERVAL"]
+    assert (interval.message_id, interval.interval_us) == (att, 250_000)
+    assert [m.result for m in out if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_ACCEPTED]
+    # HOME_POSITION without an orientation (NaN) and with the time since boot; the version
+    # is an official Rover 4.6.0's word
+    bench.tick(1.0)
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
+    (home,) = [m for m in bench.tick() if m.get_type() == "HOME_POSITION"]
+    assert all(math.isnan(q) for q in home.q) and home.time_usec == pytest.approx(bench.t * 1e6, abs=1e5)
+    request = (mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION, 0, 0, 0, 0, 0, 0)
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+    (version,) = [m for m in bench.tick() if m.get_type() == "AUTOPILOT_VERSION"]
+    assert version.flight_sw_version == 0x040600FF

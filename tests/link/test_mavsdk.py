@@ -305,7 +305,7 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
             out["epoch_us"] = await telemetry.unix_epoch_time()
             q = await telemetry.attitude_quaternion()
             out["q"] = (q.w, q.x, q.y, q.z)
-            if out["epoch_us"] and any(out["q"]):
+            if out["epoch_us"] and any(out["q"]) and all(map(math.isfinite, out["q"])):  # not MAVSDK's NaN "unknown"
                 break
             await asyncio.sleep(0.1)
         # MAVSDK has no call for Rover's MANUAL: the mode as a command, the way its users send one

@@ -196,8 +196,8 @@ def test_a_second_mission_is_counted_on_its_own_in_the_summary_and_the_audit(tmp
 def test_nothing_reached_after_a_clear_counts_against_the_cleared_mission_in_both(tmp_path: Path) -> None:
     from lfctl.record.audit import audit
 
-    def clear(links: Links) -> None:  # a clear of every list (MAV_MISSION_TYPE_ALL)
-        send(links, mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_ALL))
+    def clear(links: Links) -> None:
+        send(links, mav.MAVLink_mission_clear_all_message(1, 1, mav.MAV_MISSION_TYPE_MISSION))
 
     rep, _links = run_with({1.0: mode("HOLD"), 2.0: clear}, duration_s=4.0, record_to=tmp_path / "c.mcap")
     fig = audit(tmp_path / "c.mcap").figures
