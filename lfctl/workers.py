@@ -9,17 +9,28 @@ the install (editable, wheel, a source tree on ``PYTHONPATH``).
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from multiprocessing.connection import Connection
 
 __all__ = ["start_worker", "watch_parent", "worker_fds"]
 
 _PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+#: the worker's parent, for the worker to check (environment variable)
+_PARENT_ENV = "LFCTL_WORKER_PARENT"
+#: Linux's prctl option for the signal a process gets when its parent goes
+_PR_SET_PDEATHSIG = 1
+# Workers are started by one thread that lives as long as the process: Linux's parent-death
+# signal (below) fires when the *thread* that started a process ends, and the threads that
+# open simulations come and go.
+_spawner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-spawner")
 
 
 def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subprocess.Popen[bytes], Connection]:
@@ -42,16 +53,18 @@ def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subpr
     ours, theirs = socket.socketpair()
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
+    env[_PARENT_ENV] = str(os.getpid())
     try:
         with theirs:
             fds = (theirs.fileno(), *extra_fds)
-            proc = subprocess.Popen(
+            proc = _spawner.submit(
+                subprocess.Popen,
                 [sys.executable, "-P", "-m", module, *(str(fd) for fd in fds)],
                 pass_fds=fds,
                 env=env,
                 stdin=subprocess.DEVNULL,
                 process_group=0,
-            )
+            ).result()
     except BaseException:
         ours.close()
         raise
@@ -62,10 +75,23 @@ def worker_fds() -> tuple[int, ...]:
     """In a worker: the file descriptors :func:`start_worker` gave it (its connection's
     first), made non-inheritable, so that a process the worker's code starts (an FMU that
     runs a program) does not hold them open after the worker has gone."""
+    _die_with_parent()
     fds = tuple(int(a) for a in sys.argv[1:])
     for fd in fds:
         os.set_inheritable(fd, False)
     return fds
+
+
+def _die_with_parent() -> None:
+    """On Linux, have the kernel kill this worker when its parent ends (``PR_SET_PDEATHSIG``):
+    unlike :func:`watch_parent`'s thread, it acts while native code holds the interpreter's
+    lock (an FMU library whose constructor never returns, as ``dlopen`` runs it)."""
+    parent = os.environ.pop(_PARENT_ENV, None)
+    if not sys.platform.startswith("linux") or parent is None:
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0 and os.getppid() != int(parent):
+        os._exit(1)  # the parent had already gone
 
 
 def watch_parent(parent: int, every_s: float = 0.5) -> None:
@@ -73,8 +99,8 @@ def watch_parent(parent: int, every_s: float = 0.5) -> None:
 
     A daemon thread looks every ``every_s``: it acts even while the worker's main thread is
     stuck in native code that released the interpreter lock (an FMU's ``doStep``), after its
-    parent was killed without a chance to end it. (Linux's parent-death signal would fire
-    when the thread that started the worker ends, not its process.)
+    parent was killed without a chance to end it. On Linux the parent-death signal
+    (:func:`worker_fds`) also covers native code that holds the lock.
 
     Parameters
     ----------

@@ -732,14 +732,18 @@ class FmuInstance:
         prefix = "fmi2" if lib.fmi_version == 2 else "fmi3"
         cwd = os.getcwd()  # fmpy goes into the library's folder to load it, and stays if that fails
         try:
+            # the library's load runs its constructors (dlopen, with Python's lock held): a
+            # call a watchdog must see as much as the FMI ones
             if lib.fmi_version == 2:
-                slave: Any = FMU2Slave(**common)
+                with self._in_call("dlopen"):
+                    slave: Any = FMU2Slave(**common)
                 self._callbacks = fmi2CallbackFunctions()
                 self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
                 with self._in_call("fmi2Instantiate"):
                     slave.instantiate(callbacks=self._callbacks, loggingOn=self._logging)
             else:
-                slave = FMU3Slave(**common)
+                with self._in_call("dlopen"):
+                    slave = FMU3Slave(**common)
                 with self._in_call("fmi3InstantiateCoSimulation"):
                     slave.instantiate(logMessage=self._log3, loggingOn=self._logging)
             self._slave = slave

@@ -21,10 +21,10 @@ pytestmark = [pytest.mark.fmu, pytest.mark.integration]
 
 
 def start_sim(
-    scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DEVNULL, group: bool = False
+    scenario: Path, tmp: Path, mark: Path, stdout: int = subprocess.DEVNULL, group: bool = False, **env_vars: str
 ) -> subprocess.Popen[str]:
     """``lfctl sim`` (with ``group``, in a process group of its own, as a service manager starts it)."""
-    env = dict(os.environ, TMPDIR=str(tmp), LFCTL_TEST_FMU_MARK=str(mark))
+    env = dict(os.environ, TMPDIR=str(tmp), LFCTL_TEST_FMU_MARK=str(mark), **env_vars)
     return subprocess.Popen(
         [sys.executable, "-m", "lfctl", "sim", str(scenario), "-q"],
         stdout=stdout,
@@ -91,6 +91,43 @@ def test_a_signal_ends_a_run_stuck_in_an_fmu_call_within_a_second(
     assert float(report.figures["end"]["t_s"]) == pytest.approx(0.5)
 
 
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+def test_an_fmu_stuck_as_its_library_loads_is_stopped_and_dies_with_lfctl(
+    faulty: BuiltModel, tmp_path: Path, sig: signal.Signals
+) -> None:
+    # a library constructor that never returns holds the worker's interpreter lock (dlopen):
+    # lfctl's watchdog sees the load as a call, and the kernel ends the worker with lfctl
+    scen, tmp, mark, logs = tmp_path / "s.toml", tmp_path / "tmp", tmp_path / "stuck", tmp_path / "logs"
+    tmp.mkdir()
+    scen.write_text(faulty_scenario(faulty.fmi2, 0, 0.0, logs).replace("[sim]", "[sim]\nfmu_process = 'separate'"))
+    proc = start_sim(scen, tmp, mark, LFCTL_TEST_FMU_LOAD_HANG="1")
+    try:
+        deadline = time.monotonic() + 60
+        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert mark.exists(), "the FMU never got stuck"
+        time.sleep(0.3)
+        stuck = int(mark.read_text())
+        assert proc.poll() is None and stuck != proc.pid  # stuck, in the worker
+        proc.send_signal(sig)
+        rc = proc.wait(timeout=10)
+        deadline = time.monotonic() + 5
+        while alive(stuck) and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert not alive(stuck)  # no worker left behind, however lfctl ended
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    if sig == signal.SIGTERM:
+        assert rc == 143
+        assert err == "lfctl: error: FMU FaultyRover (leader) blocked in dlopen at t = 0 s; terminated by SIGTERM\n"
+    else:
+        assert rc == -signal.SIGKILL
+
+
 @pytest.mark.parametrize("group", [False, True])
 def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tmp_path: Path, group: bool) -> None:
     # SIGTERM to lfctl, or to its whole process group as `timeout` and service managers send
@@ -106,7 +143,9 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
         while not list(logs.glob("*.mcap")) and time.monotonic() < deadline:
             time.sleep(0.05)
         time.sleep(1.0)
-        workers = [int(p) for p in Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split()]
+        workers = [
+            int(p) for t in Path(f"/proc/{proc.pid}/task").iterdir() for p in (t / "children").read_text().split()
+        ]
         assert workers and all(os.getpgid(w) != os.getpgid(proc.pid) for w in workers)
         if group:
             os.killpg(proc.pid, signal.SIGTERM)

@@ -27,6 +27,11 @@ static void hang(void) {
     }
 }
 
+/* stuck as the library is loaded (dlopen runs this), before any FMI call */
+__attribute__((constructor)) static void hang_on_load(void) {
+    if (getenv("LFCTL_TEST_FMU_LOAD_HANG")) hang();
+}
+
 void model_initialize(const double *v, double *x) {
     if ((int)v[VR_fault] == 9) hang();
     x[X_NORTH] = v[VR_north_0];
