@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import logging
 import math
 import os
 import re
 import secrets
 import stat
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,12 +26,14 @@ from lfctl.errors import ConfigError
 __all__ = [
     "NAME_PATTERN",
     "Bound",
+    "LogGuard",
     "check_connection",
     "check_host_port",
     "check_inside",
     "check_name",
     "check_port",
     "check_text",
+    "guard_log",
     "printable",
     "read_text_file",
     "save_text",
@@ -168,6 +172,65 @@ def printable(text: str, keep: str = "") -> str:
     """
     text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     return "".join(ch if ch in keep or ch.isprintable() else repr(ch)[1:-1] for ch in text)
+
+
+class LogGuard(logging.Filter):
+    """Log lines bound for a terminal, tamed: a network peer (a Foxglove client sending
+    garbage, a ground station's bad requests) or an FMU can make a logger speak with its own
+    text as often as it likes. Each line's control characters are escaped (a peer's escape
+    sequences do not reach the terminal) and it is cut to :attr:`max_chars`; unless
+    ``burst`` is None, a logger says at most ``burst`` lines in ``window_s`` seconds, and its
+    next line after that says how many were left out.
+
+    Attach it to the handler that writes to the terminal (``handler.addFilter``).
+
+    Parameters
+    ----------
+    burst : int or None
+        Lines per logger per window (None: no limit, as with ``--debug``).
+    window_s : float
+        The window, s.
+    max_chars : int
+        The longest line kept; the rest is cut, saying how much.
+    """
+
+    def __init__(self, burst: int | None = 20, window_s: float = 10.0, max_chars: int = 1000) -> None:
+        super().__init__()
+        self.burst, self.window_s, self.max_chars = burst, window_s, max_chars
+        self._windows: dict[str, tuple[float, int, int]] = {}  # logger -> (start, lines, left out)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        note = ""
+        if self.burst is not None:
+            now = time.monotonic()
+            start, lines, left_out = self._windows.get(record.name, (now, 0, 0))
+            if now - start >= self.window_s:
+                note = f"({left_out} more lines of {record.name} left out) " if left_out else ""
+                start, lines, left_out = now, 0, 0
+            if lines >= self.burst:
+                self._windows[record.name] = (start, lines, left_out + 1)
+                return False
+            self._windows[record.name] = (start, lines + 1, left_out)
+        text = printable(record.getMessage())
+        if len(text) > self.max_chars:
+            text = f"{text[: self.max_chars]}... ({len(text) - self.max_chars} more characters)"
+        record.msg, record.args = note + text, None
+        return True
+
+
+def guard_log(debug: bool = False) -> None:
+    """Put a :class:`LogGuard` on the root logger's stream handlers (after
+    ``logging.basicConfig``); with ``debug``, lines are escaped and cut but not limited.
+
+    Parameters
+    ----------
+    debug : bool
+        Every line is wanted (``--debug``).
+    """
+    for handler in logging.getLogger().handlers:
+        # basicConfig's own (not a test harness's capture handlers), once
+        if type(handler) is logging.StreamHandler and not any(isinstance(f, LogGuard) for f in handler.filters):
+            handler.addFilter(LogGuard(burst=None if debug else 20))
 
 
 def check_port(key: str, value: object) -> int:

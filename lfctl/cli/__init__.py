@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from lfctl import __version__
+from lfctl.checks import guard_log
 from lfctl.cli.options import OneLineParser
 from lfctl.errors import ConfigError, FmuError, LfctlError
 
@@ -64,6 +65,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         with contextlib.suppress(AttributeError, ValueError, OSError):
             faulthandler.enable()
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    guard_log(debug=args.debug)
     try:
         return int(args.func(args))
     except KeyboardInterrupt:

@@ -45,6 +45,7 @@ from typing import IO, Any, NoReturn
 
 import numpy as np
 
+from lfctl.checks import guard_log
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.load import (
     INPUT_ROLES,
@@ -534,6 +535,7 @@ class _Worker:
             _kind, rows, parent, level = request
             watch_parent(parent)
             logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+            guard_log(debug=level <= logging.DEBUG)  # an FMU's own messages, as many as it likes
             self.block = _Block(mmap.mmap(self.fd, _Block.size(rows)), rows)
             return None
         if kind == "add":

@@ -29,6 +29,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError
 from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
@@ -229,7 +230,9 @@ class Companion:
         severity : int
             MAV_SEVERITY (default WARNING).
         """
-        self.port.send(mav.MAVLink_statustext_message(severity, text.encode()[:50]))
+        self.port.send(
+            mav.MAVLink_statustext_message(severity, printable(text).encode()[:50])
+        )  # a peer's bytes escaped
 
     # -- from the vehicle -------------------------------------------------------------------
     def poll(self, t_s: float, timeout_s: float = 0.0) -> int:

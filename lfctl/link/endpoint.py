@@ -29,6 +29,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl import __version__
+from lfctl.checks import printable
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
@@ -480,6 +481,7 @@ class VehicleEndpoint:
         severity : int
             MAV_SEVERITY (default WARNING).
         """
+        text = printable(text)  # a peer's bytes in it (a parameter name) are escaped: MAVProxy prints it raw
         self.statustexts.append((self.t_s, text))
         log.log(logging.WARNING if severity <= mav.MAV_SEVERITY_WARNING else logging.INFO, "%s: %s", self.name, text)
         data = text.encode()[:STATUSTEXT_MAX_BYTES]

@@ -1957,3 +1957,9 @@ def test_mode_numbers_messages_and_versions_as_rover(bench: Bench) -> None:
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
     (version,) = [m for m in bench.tick() if m.get_type() == "AUTOPILOT_VERSION"]
     assert version.flight_sw_version == 0x040600FF
+
+
+def test_a_peers_control_characters_are_escaped_in_the_texts_sent_back(bench: Bench) -> None:
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"\x1b[2J\x1b]0;X\x07", 1.0, mav.MAV_PARAM_TYPE_REAL32))
+    (text,) = [m for m in bench.tick() if m.get_type() == "STATUSTEXT"]
+    assert text.text == r"Unknown parameter \x1b[2J\x1b]0;X\x07"  # MAVProxy prints it as it comes
