@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -74,6 +75,34 @@ def test_fmu_build_prints_both_versions(capsys: pytest.CaptureFixture[str]) -> N
 def test_unknown_benchmark_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "nope"]) == 2
     assert "unknown benchmark 'nope' (known: cosim" in capsys.readouterr().err
+    assert main(["bench", ""]) == 2  # an unset "$NAME": not a run of every benchmark
+    assert "unknown benchmark '' (known: cosim" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder"])
+def test_bench_results_that_cannot_be_written_are_refused_before_any_benchmark_runs(
+    tmp_path: Path, kind: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import lfctl.bench
+    from lfctl.errors import ConfigError
+
+    target = tmp_path / "bench-results.json"
+    if kind == "fifo":
+        os.mkfifo(target)
+    else:
+        target.mkdir()
+    monkeypatch.setattr(lfctl.bench, "_run_child", lambda *a: pytest.fail("a benchmark ran"))
+    with pytest.raises(ConfigError, match=r"bench-results\.json is not a regular file"):
+        lfctl.bench.run_all(("cosim",), out_dir=tmp_path)
+
+
+def test_a_failed_benchmark_says_its_last_line_only(capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.bench import _run_child
+
+    outcome = _run_child("no_such_benchmark", quick=True)  # its process fails with a traceback
+    err = capsys.readouterr().err
+    assert outcome.result is None and "Traceback" not in err
+    assert err.startswith("lfctl bench no_such_benchmark failed (exit 1): ") and len(err.splitlines()) == 1
 
 
 @pytest.mark.slow

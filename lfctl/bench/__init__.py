@@ -6,10 +6,15 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
+import stat
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+
+from lfctl.checks import printable, save_text
+from lfctl.errors import ConfigError
 
 __all__ = ["NAMES", "BenchOutcome", "run_all", "run_one"]
 
@@ -55,9 +60,13 @@ def _run_child(name: str, quick: bool) -> BenchOutcome:
     print(proc.stdout, end="", flush=True)
     lines = proc.stdout.strip().splitlines()
     if proc.returncode != 0 or not lines or not lines[-1].startswith("{"):
-        err = proc.stderr.strip()[-2000:] or f"exit {proc.returncode}, no JSON line"
-        print(err, file=sys.stderr)
-        return BenchOutcome(name, lines, None, f"exit {proc.returncode}: {err.splitlines()[-1] if err else ''}")
+        # its last line (a traceback's is the error), not the whole of it
+        last = printable(proc.stderr.strip().splitlines()[-1]) if proc.stderr.strip() else "no JSON line"
+        print(
+            f"lfctl bench {name} failed (exit {proc.returncode}): {last}; `lfctl --debug bench {name}` shows all",
+            file=sys.stderr,
+        )
+        return BenchOutcome(name, lines, None, f"exit {proc.returncode}: {last}")
     return BenchOutcome(name, lines[:-1], json.loads(lines[-1]))
 
 
@@ -74,6 +83,9 @@ def run_all(names: tuple[str, ...] = NAMES, quick: bool = False, out_dir: Path =
     out_dir : Path
         Where the result files go.
     """
+    md_path, json_path = out_dir / "bench-results.md", out_dir / "bench-results.json"
+    for path in (md_path, json_path):  # before an hour of benchmarks, not after
+        _check_result_file(path)
     outcomes = []
     for name in names:
         print(f"== lfctl bench {name}", flush=True)
@@ -81,7 +93,26 @@ def run_all(names: tuple[str, ...] = NAMES, quick: bool = False, out_dir: Path =
     md = ["# lfctl bench results", ""]
     for o in outcomes:
         md += [f"## {o.name}", "", *(o.table if o.result is not None else [f"FAILED ({o.error})"]), ""]
-    (out_dir / "bench-results.md").write_text("\n".join(md) + "\n")
+    save_text(md_path, "\n".join(md) + "\n")
     results = {o.name: o.result for o in outcomes if o.result is not None}
-    (out_dir / "bench-results.json").write_text(json.dumps(results, indent=1) + "\n")
+    save_text(json_path, json.dumps(results, indent=1) + "\n")
     return outcomes
+
+
+def _check_result_file(path: Path) -> None:
+    """A results file can be written: absent or a regular file (through a link), in a
+    folder this process may write in; a ConfigError naming it otherwise (a folder, a named
+    pipe, a device)."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        mode = None
+    except OSError as exc:
+        raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
+    if mode is not None and not stat.S_ISREG(mode):
+        raise ConfigError(
+            f"{path} is not a regular file: lfctl bench writes its results there (move it, or run elsewhere)"
+        )
+    folder = path.resolve().parent
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ConfigError(f"cannot write {path}: the folder {folder} is not writable")

@@ -40,13 +40,13 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.bench import run_all, run_one
     from lfctl.errors import ConfigError, LfctlError
 
-    if args.name and args.name not in NAMES:
+    if args.name is not None and args.name not in NAMES:  # '' too (an unset "$NAME"): not every benchmark
         raise ConfigError(f"unknown benchmark {args.name!r} (known: {', '.join(NAMES)})")
     if args.fuzz and args.name != "link":
         raise ConfigError("--fuzz goes with the link benchmark: lfctl bench link --fuzz")
     if args.soak_s is not None and not args.fuzz:
         raise ConfigError("--soak-s goes with --fuzz: lfctl bench link --fuzz --soak-s S")
-    if args.name:
+    if args.name is not None:
         print(f"== lfctl bench {args.name}{' --fuzz' if args.fuzz else ''}", flush=True)
         run_one(args.name, args.quick, args.fuzz, args.soak_s)
         return 0
