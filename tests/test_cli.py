@@ -198,3 +198,28 @@ def test_help_lists_every_operation_and_prints_no_escapes(
         main(argv)
     out = " ".join(capsys.readouterr().out.split())  # argparse wraps to the terminal's width
     assert all(s in out for s in said) and not any(s in out for s in not_said)
+
+
+def test_fmu_build_into_a_cache_that_is_a_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "afile").write_text("mine\n")
+    assert main(["fmu", "build", "--cache-dir", str(tmp_path / "afile")]) == 2
+    assert f"the FMU cache {tmp_path / 'afile'} is not a folder" in capsys.readouterr().err
+    assert (tmp_path / "afile").read_text() == "mine\n"
+
+
+def test_fmu_info_escapes_the_fmus_own_control_characters(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import zipfile
+
+    from lfctl.fmu.build import build_model
+
+    src = build_model("KinematicUnicycle").fmi2
+    bad = tmp_path / "bad.fmu"
+    with zipfile.ZipFile(src) as a, zipfile.ZipFile(bad, "w", zipfile.ZIP_DEFLATED) as b:
+        for info in a.infolist():
+            data = a.read(info)
+            if info.filename == "modelDescription.xml":
+                data = data.replace(b'description="Kinematic unicycle', b'description="&#155;2J&#10;FAKE', 1)
+            b.writestr(info.filename, data)
+    assert main(["fmu", "info", str(bad)]) == 0
+    out = capsys.readouterr().out
+    assert "\x9b" not in out and r"description  \x9b2J\nFAKE" in out

@@ -27,7 +27,7 @@ from pathlib import Path
 import fmpy
 
 from lfctl.data import builtin_models, models_dir, user_cache
-from lfctl.errors import BuildToolError, FmuError
+from lfctl.errors import BuildToolError, ConfigError, FmuError
 
 __all__ = [
     "BuiltModel",
@@ -396,7 +396,10 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
     built = BuiltModel(src.identifier, root / f"{src.identifier}.fmi2.fmu", root / f"{src.identifier}.fmi3.fmu")
     if not force and built.fmi2.is_file() and built.fmi3.is_file():
         return built
-    root.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        root.parent.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise ConfigError(f"the FMU cache {root.parent} is not a folder") from None
     # one builder at a time per entry: the workers of a sweep on a cold cache start together,
     # and a second build replacing the first would pull the files from under its readers
     with _locked(root.parent / f".{root.name}.lock"):

@@ -35,6 +35,7 @@ import pickle
 import signal
 import struct
 import subprocess
+import sys
 import tempfile
 import time
 import traceback
@@ -578,6 +579,9 @@ def _error_reply(exc: BaseException, slot: int) -> bytes:
 def _worker_main(conn: Connection, fd: int) -> None:
     """The worker: serve requests and steps until told to close or the connection ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides when a run ends
+    # an FMU that closes the worker's descriptors makes their objects fail as they are
+    # collected: a debug line for each, not Python's traceback (the run's error says the rest)
+    sys.unraisablehook = lambda u: log.debug("worker: %s: %s", u.exc_type.__name__, u.exc_value)
     worker = _Worker(fd)
     try:
         while True:

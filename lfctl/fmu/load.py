@@ -375,7 +375,8 @@ class FmuLibrary:
         # that, not the file again (which may have been replaced since)
         source = Path(extracted) if extracted is not None else self.path
         if extracted is None and not self.path.is_file():
-            raise FmuError(f"FMU file {self.path} does not exist", model=str(self.path), call="load")
+            why = "is not a regular file" if os.path.lexists(self.path) else "does not exist"
+            raise FmuError(f"FMU file {self.path} {why}", model=str(self.path), call="load")
         self.md = self.describe(source)
         self.fmi_version = int(self.md.fmiVersion.split(".")[0])
         if self.fmi_version not in (2, 3):
@@ -540,7 +541,10 @@ class FmuLibrary:
             others = (b.kg, b.A, b.K, b.mol, b.cd)
             angle = want.startswith("rad") and b.rad in (0, 1)
             if (b.m, b.s) == _SI_EXPONENTS[want] and not any(others) and (angle or b.rad == 0) and not b.offset:
-                return want, float(b.factor)
+                factor = float(b.factor)
+                if not (math.isfinite(factor) and factor > 0):  # 0 would freeze the vehicle, inf overflow
+                    raise ConfigError(f"{self.path}: unit {unit!r} has factor {factor:g}; it must be finite and > 0")
+                return want, factor
         return None, 0.0
 
     @staticmethod

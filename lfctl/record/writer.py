@@ -431,6 +431,8 @@ class Recorder:
                 self._server = foxglove.start_server(name=f"lfctl {cfg.name}", host=host, port=port, context=self._ctx)
             except RuntimeError as exc:
                 self._close_file()
+                if self.path is not None:  # made a moment ago (never over a file), with nothing in it
+                    self.path.unlink(missing_ok=True)
                 raise RecordError(f"cannot serve Foxglove on {host}:{port}: {exc}") from exc
         if self._mcap is not None:
             self._provenance()

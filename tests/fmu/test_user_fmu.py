@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import re
 import zipfile
 from pathlib import Path
@@ -235,6 +236,29 @@ def test_a_unit_the_fmu_defines_is_converted_by_its_base_unit(
         return
     with FmuLibrary(fmu) as lib:
         assert lib.scale["yaw"] == pytest.approx(scale)
+
+
+@pytest.mark.parametrize("factor", ["0", "-1", "1e999", "NaN"])
+def test_a_unit_factor_that_is_not_finite_and_positive_is_refused(
+    faulty: BuiltModel, tmp_path: Path, factor: str
+) -> None:
+    # factor 0 froze the vehicle at 0, 0 and ran "successfully"; 1e999 (inf) failed later, unclearly
+    def north_in(md: str) -> str:
+        md = md.replace(
+            "<UnitDefinitions>", f'<UnitDefinitions><Unit name="bad"><BaseUnit m="1" factor="{factor}"/></Unit>', 1
+        )
+        start = md.index('name="north"')
+        return md[:start] + md[start:].replace('unit="m"', 'unit="bad"', 1)
+
+    with pytest.raises(ConfigError, match=rf"unit 'bad' has factor {float(factor):g}; it must be finite and > 0"):
+        FmuLibrary(edited(faulty.fmi2, tmp_path / "bad.fmu", north_in))
+
+
+def test_an_fmu_path_that_is_no_regular_file_is_named_as_such(tmp_path: Path) -> None:
+    os.mkfifo(tmp_path / "pipe.fmu")
+    for path, why in ((tmp_path / "pipe.fmu", "is not a regular file"), (tmp_path / "none.fmu", "does not exist")):
+        with pytest.raises(FmuError, match=f"FMU file {path} {why}"):
+            FmuLibrary(path)
 
 
 def test_a_yaw_rate_in_1_per_s_is_rad_per_s(faulty: BuiltModel, tmp_path: Path) -> None:

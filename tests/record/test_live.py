@@ -179,14 +179,18 @@ def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp
     assert audit(log).ok
 
 
-def test_live_on_a_port_in_use_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_live_on_a_port_in_use_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)  # the log would go to ./logs
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
-        code = main(["sim", "convoy", "--duration", "1", "--no-record", "--live", f"127.0.0.1:{port}", "-q"])
+        code = main(["sim", "convoy", "--duration", "1", "--live", f"127.0.0.1:{port}", "-q"])
     err = capsys.readouterr().err
     assert code == 1 and f"127.0.0.1:{port}" in err and "Traceback" not in err
+    assert not list(tmp_path.rglob("*.mcap"))  # no empty log left behind, which audit would fail
 
 
 @pytest.mark.parametrize("value", ["nohost", "127.0.0.1:99999", ":80"])
