@@ -33,7 +33,8 @@ from typing import Any, Protocol
 
 import numpy as np
 from fmpy import platform as fmpy_platform
-from fmpy import read_model_description, supported_platforms
+from fmpy import platform_tuple as fmpy_platform_tuple
+from fmpy import read_model_description, sharedLibraryExtension, supported_platforms
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
@@ -660,6 +661,12 @@ def check_output_row(lib: FmuLibrary, instance: str, row: Sequence[float], t_s: 
         )
 
 
+def _library_member(lib: FmuLibrary) -> str:
+    """Where an FMU keeps its library for this platform (FMI 3 names the folder by a tuple)."""
+    folder = fmpy_platform_tuple if lib.fmi_version == 3 else fmpy_platform
+    return f"binaries/{folder}/{lib.identifier}{sharedLibraryExtension}"
+
+
 class FmuInstance:
     """One vehicle's FMU instance, stepped through preallocated ctypes arrays.
 
@@ -735,12 +742,14 @@ class FmuInstance:
         common = dict(guid=md.guid, modelIdentifier=lib.identifier, unzipDirectory=lib._unzipdir, instanceName=name)
         prefix = "fmi2" if lib.fmi_version == 2 else "fmi3"
         cwd = os.getcwd()  # fmpy goes into the library's folder to load it, and stays if that fails
+        self._load_check(lib)
+        slave: Any = None
         try:
             # the library's load runs its constructors (dlopen, with Python's lock held): a
             # call a watchdog must see as much as the FMI ones
             if lib.fmi_version == 2:
                 with self._in_call("dlopen"):
-                    slave: Any = FMU2Slave(**common)
+                    slave = FMU2Slave(**common)
                 self._callbacks = fmi2CallbackFunctions()
                 self._callbacks.logger = fmi2CallbackLoggerTYPE(self._log2)
                 with self._in_call("fmi2Instantiate"):
@@ -756,6 +765,13 @@ class FmuInstance:
         except Exception as exc:
             # name the user's .fmu, not the temporary folder it was unpacked into (gone by now)
             why = str(exc).replace(f"{lib._unzipdir}/", f"{lib.path} member ") if lib._unzipdir else str(exc)
+            if slave is None:  # the library did not load (fmpy's words name it twice: keep dlerror's)
+                member = _library_member(lib)
+                raise FmuError(
+                    f"{lib.path}: cannot load {member}: {why.rsplit(f'{member}: ', 1)[-1]}",
+                    model=lib.identifier,
+                    call="load",
+                ) from exc
             raise self._error(f"cannot instantiate {lib.identifier} as {name!r}: {why}", "Instantiate") from exc
         finally:
             os.chdir(cwd)  # (a folder removed with the library would leave the process nowhere)
@@ -792,6 +808,20 @@ class FmuInstance:
         self._nin, self._nout = n_in, n_out
         self._setup_calls()
         self.read()
+
+    def _load_check(self, lib: FmuLibrary) -> None:
+        """The FMU's library for this platform is there: an FmuError of the file (``call``
+        "load", exit 2) naming the member otherwise, before anything is loaded."""
+        folder = lib._unzipdir
+        if folder is None:
+            return
+        member = _library_member(lib)
+        if not os.path.isfile(os.path.join(folder, member)):
+            raise FmuError(
+                f"{lib.path} has no {member}, the library its modelIdentifier {lib.identifier!r} names",
+                model=lib.identifier,
+                call="load",
+            )
 
     @contextlib.contextmanager
     def _in_call(self, call: str) -> Iterator[None]:

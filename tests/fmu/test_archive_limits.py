@@ -282,4 +282,27 @@ def test_an_fmu_without_its_binary_is_named_not_its_temporary_folder(faulty: Bui
     rows = np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
     with FmuLibrary(bad) as lib, pytest.raises(FmuError) as err:
         FmuInstance(lib, "leader", {}, (0.0, 0.0, 0.0), *rows, 0.0)
-    assert f"{bad} member binaries/" in str(err.value) and "lfctl-" not in str(err.value)
+    # (a file that cannot be used: exit 2, dlerror's reason once)
+    assert str(err.value).startswith(f"{bad}: cannot load binaries/linux64/FaultyRover.so: ")
+    assert "lfctl-" not in str(err.value) and err.value.call == "load"
+
+
+def test_an_fmu_whose_identifier_names_no_library_is_named_at_load(faulty: BuiltModel, tmp_path: Path) -> None:
+    import numpy as np
+
+    from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, FmuInstance
+
+    other = tmp_path / "other.fmu"
+    with zipfile.ZipFile(faulty.fmi2) as src, zipfile.ZipFile(other, "w") as dst:
+        for info in src.infolist():
+            data = src.read(info)
+            if info.filename == "modelDescription.xml":
+                data = data.replace(b'modelIdentifier="FaultyRover"', b'modelIdentifier="Other"')
+            dst.writestr(info.filename, data)
+    rows = np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
+    with FmuLibrary(other) as lib, pytest.raises(FmuError) as err:
+        FmuInstance(lib, "leader", {}, (0.0, 0.0, 0.0), *rows, 0.0)
+    assert (
+        str(err.value) == (f"{other} has no binaries/linux64/Other.so, the library its modelIdentifier 'Other' names")
+        and err.value.call == "load"
+    )
