@@ -37,6 +37,7 @@ __all__ = [
     "printable",
     "read_text_file",
     "save_text",
+    "target_mode",
     "write_whole",
 ]
 
@@ -389,6 +390,23 @@ def write_whole(path: Path) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+def target_mode(path: Path) -> int | None:
+    """The mode of the file a path to be written leads to (through links), None when there
+    is none yet; a ConfigError naming it when it cannot be looked at.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    """
+    try:
+        return os.stat(path).st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
+
+
 def save_text(path: str | Path, text: str) -> None:
     """Write ``text`` (UTF-8) to a file the user named, as a user expects it written.
 
@@ -405,12 +423,7 @@ def save_text(path: str | Path, text: str) -> None:
         What to write.
     """
     p = Path(path)
-    try:
-        mode = os.stat(p).st_mode
-    except FileNotFoundError:
-        mode = None
-    except OSError as exc:
-        raise ConfigError(f"cannot write {p}: {exc.strerror or exc}") from None
+    mode = target_mode(p)
     if mode is None or stat.S_ISREG(mode):
         with write_whole(p.resolve()) as tmp:
             tmp.write_text(text, encoding="utf-8")

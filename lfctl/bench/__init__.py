@@ -13,7 +13,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from lfctl.checks import printable, save_text
+from lfctl.checks import printable, save_text, target_mode
 from lfctl.errors import ConfigError
 
 __all__ = ["NAMES", "BenchOutcome", "run_all", "run_one"]
@@ -103,12 +103,7 @@ def _check_result_file(path: Path) -> None:
     """A results file can be written: absent or a regular file (through a link), in a
     folder this process may write in; a ConfigError naming it otherwise (a folder, a named
     pipe, a device)."""
-    try:
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        mode = None
-    except OSError as exc:
-        raise ConfigError(f"cannot write {path}: {exc.strerror or exc}") from None
+    mode = target_mode(path)
     if mode is not None and not stat.S_ISREG(mode):
         raise ConfigError(
             f"{path} is not a regular file: lfctl bench writes its results there (move it, or run elsewhere)"

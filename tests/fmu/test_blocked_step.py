@@ -36,6 +36,17 @@ def start_sim(
     )
 
 
+def wait_stuck(proc: subprocess.Popen[str], mark: Path) -> int:
+    """Wait until the FMU marks itself stuck (at most 60 s); the process it is stuck in."""
+    deadline = time.monotonic() + 60
+    while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert mark.exists(), "the FMU never got stuck"
+    time.sleep(0.3)
+    assert proc.poll() is None  # stuck, lfctl still running
+    return int(mark.read_text())
+
+
 @pytest.mark.parametrize("where", ["main", "separate"])  # the FMUs in lfctl's process, or in one of their own
 @pytest.mark.parametrize(
     ("fmi", "sig", "code", "signals", "phase"),
@@ -57,13 +68,7 @@ def test_a_signal_ends_a_run_stuck_in_an_fmu_call_within_a_second(
     scen.write_text(text.replace("[sim]", f"[sim]\nfmu_process = '{where}'"))
     proc = start_sim(scen, tmp, mark)
     try:
-        deadline = time.monotonic() + 60
-        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert mark.exists(), "the FMU never got stuck"
-        time.sleep(0.3)
-        stuck = int(mark.read_text())  # the process the FMU runs in
-        assert proc.poll() is None  # stuck
+        stuck = wait_stuck(proc, mark)  # the process the FMU runs in
         t0 = time.monotonic()
         for _ in range(signals):
             proc.send_signal(sig)
@@ -102,13 +107,8 @@ def test_an_fmu_stuck_as_its_library_loads_is_stopped_and_dies_with_lfctl(
     scen.write_text(faulty_scenario(faulty.fmi2, 0, 0.0, logs).replace("[sim]", "[sim]\nfmu_process = 'separate'"))
     proc = start_sim(scen, tmp, mark, LFCTL_TEST_FMU_LOAD_HANG="1")
     try:
-        deadline = time.monotonic() + 60
-        while not mark.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert mark.exists(), "the FMU never got stuck"
-        time.sleep(0.3)
-        stuck = int(mark.read_text())
-        assert proc.poll() is None and stuck != proc.pid  # stuck, in the worker
+        stuck = wait_stuck(proc, mark)
+        assert stuck != proc.pid  # in the worker
         proc.send_signal(sig)
         rc = proc.wait(timeout=10)
         deadline = time.monotonic() + 5

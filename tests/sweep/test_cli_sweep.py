@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -79,6 +80,23 @@ def _start(sweep: Path, out: Path) -> subprocess.Popen[str]:
     )
 
 
+def _line_where(proc: subprocess.Popen[str], wanted: Callable[[str], bool]) -> str:
+    """The first line of the sweep's stderr that is ``wanted`` (it must not end before)."""
+    assert proc.stderr is not None
+    while True:
+        said = proc.stderr.readline()
+        assert said, "lfctl sweep ended before saying what the test waits for"
+        if wanted(said):
+            return said
+
+
+def _end(proc: subprocess.Popen[str]) -> None:
+    """Kill the sweep's process group if it is still running."""
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
 @pytest.mark.integration
 @pytest.mark.parametrize("presses", [1, 2])
 def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_path: Path, presses: int) -> None:
@@ -92,21 +110,15 @@ def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_
     proc = _start(sweep, tmp_path / "out")
     try:
         assert proc.stdout is not None
-        assert proc.stderr is not None
         first = json.loads(proc.stdout.readline())  # a run has finished: others are running
         os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers too
-        said = ""
-        while "stopping" not in said:  # the sweep took the first Ctrl-C
-            said = proc.stderr.readline()
-            assert said, "lfctl sweep ended without saying it is stopping"
+        said = _line_where(proc, lambda line: "stopping" in line)  # the sweep took the first Ctrl-C
         assert re.search(r"; [12] running finish", said), said  # the long run at least
         if presses == 2:
             os.killpg(proc.pid, signal.SIGINT)
         out, err = proc.communicate(timeout=120)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        _end(proc)
     assert proc.returncode == 130, err
     lines = [first] + [json.loads(line) for line in out.splitlines()]
     table = (tmp_path / "out" / "runs.csv").read_text().splitlines()
@@ -127,20 +139,14 @@ def test_ctrl_c_while_the_cluster_starts_stops_the_sweep_before_any_run(tmp_path
     sweep.write_text(TRUTH.format(top="seeds = 3\n", duration=15.0))
     proc = _start(sweep, tmp_path / "out")
     try:
-        assert proc.stderr is not None
-        said = proc.stderr.readline()
-        while not said.startswith("folder"):  # printed before the cluster starts
-            assert said, "lfctl sweep ended before it started its cluster"
-            said = proc.stderr.readline()
+        _line_where(proc, lambda line: line.startswith("folder"))  # printed before the cluster starts
         time.sleep(1.0)  # the workers are importing (about 2 s here): a Ctrl-C in the terminal reaches them
         for _ in range(presses):
             os.killpg(proc.pid, signal.SIGINT)
             time.sleep(0.2)
         out, err = proc.communicate(timeout=120)
     finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+        _end(proc)
     # the workers never see it (they start with SIGINT blocked): no Dask traceback, no run
     assert proc.returncode == 130, err
     assert "Traceback" not in err and out == "", err
