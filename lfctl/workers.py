@@ -11,14 +11,15 @@ from __future__ import annotations
 
 import ctypes
 import os
+import queue
 import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from multiprocessing.connection import Connection
+from typing import Any
 
 __all__ = ["start_worker", "watch_parent", "worker_fds"]
 
@@ -27,10 +28,64 @@ _PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 _PARENT_ENV = "LFCTL_WORKER_PARENT"
 #: Linux's prctl option for the signal a process gets when its parent goes
 _PR_SET_PDEATHSIG = 1
-# Workers are started by one thread that lives as long as the process: Linux's parent-death
-# signal (below) fires when the *thread* that started a process ends, and the threads that
-# open simulations come and go.
-_spawner = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-spawner")
+# Workers are started by one daemon thread that lives as long as the process (never joined,
+# not even at exit): Linux's parent-death signal (below) fires when the *thread* that started
+# a process ends, and the threads that open simulations come and go. Made on first use in each
+# process: a forked child has the parent's queue but not its thread.
+_spawner_lock = threading.Lock()
+_spawner_jobs: queue.SimpleQueue[Any] | None = None
+_spawner_pid = -1
+
+
+def _forget_spawner() -> None:
+    global _spawner_lock, _spawner_jobs
+    _spawner_lock, _spawner_jobs = threading.Lock(), None
+
+
+os.register_at_fork(after_in_child=_forget_spawner)
+
+
+def _spawner() -> queue.SimpleQueue[Any]:
+    global _spawner_jobs, _spawner_pid
+    with _spawner_lock:
+        if _spawner_jobs is None or _spawner_pid != os.getpid():
+            _spawner_jobs, _spawner_pid = queue.SimpleQueue(), os.getpid()
+            threading.Thread(target=_spawn_jobs, args=(_spawner_jobs,), name="lfctl-spawner", daemon=True).start()
+        return _spawner_jobs
+
+
+def _spawn_jobs(jobs: queue.SimpleQueue[Any]) -> None:
+    while True:
+        args, kwargs, box, done = jobs.get()
+        try:
+            box["proc"] = subprocess.Popen(args, **kwargs)
+        except BaseException as exc:  # given to the caller
+            box["error"] = exc
+        finally:
+            done.set()
+
+
+def _popen(args: list[str], **kwargs: Any) -> subprocess.Popen[bytes]:
+    """``subprocess.Popen(args, **kwargs)`` run by the spawner thread. A Ctrl-C while it runs
+    waits for it and ends the process it started before going on up (its descriptors are the
+    caller's to close, and must not be closed while it still passes them on)."""
+    box: dict[str, Any] = {}
+    done = threading.Event()
+    _spawner().put((args, kwargs, box, done))
+    interrupted = False
+    while not done.is_set():
+        try:
+            done.wait()
+        except KeyboardInterrupt:
+            interrupted = True
+    if "error" in box:
+        raise box["error"]
+    proc: subprocess.Popen[bytes] = box["proc"]
+    if interrupted:
+        proc.kill()
+        proc.wait()
+        raise KeyboardInterrupt
+    return proc
 
 
 def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subprocess.Popen[bytes], Connection]:
@@ -57,14 +112,13 @@ def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subpr
     try:
         with theirs:
             fds = (theirs.fileno(), *extra_fds)
-            proc = _spawner.submit(
-                subprocess.Popen,
+            proc = _popen(
                 [sys.executable, "-P", "-m", module, *(str(fd) for fd in fds)],
                 pass_fds=fds,
                 env=env,
                 stdin=subprocess.DEVNULL,
                 process_group=0,
-            ).result()
+            )
     except BaseException:
         ours.close()
         raise

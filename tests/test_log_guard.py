@@ -19,6 +19,7 @@ def _logger(guard: LogGuard) -> tuple[logging.Logger, io.StringIO]:
     handler.addFilter(guard)
     log = logging.getLogger(f"test-guard-{id(guard)}")
     log.propagate = False
+    log.setLevel(logging.DEBUG)
     log.handlers = [handler]
     return log, out
 
@@ -33,21 +34,35 @@ def test_a_peers_escape_sequences_are_escaped_and_a_long_line_cut() -> None:
     assert lines[1].endswith("B" * 40 + "... (60 more characters)")
 
 
-def test_a_logger_that_speaks_too_often_is_held_back_and_says_how_much(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_warning_said_too_often_is_held_back_and_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
     now = [100.0]
     monkeypatch.setattr(lfctl.checks.time, "monotonic", lambda: now[0])
-    log, out = _logger(LogGuard(burst=3, window_s=10.0))
+    log, out = _logger(LogGuard(burst=2, window_s=10.0))
     for k in range(50):
-        log.warning("bad datagram %d", k)
+        log.warning("Unknown parameter %s", f"JUNK{k}")  # a peer's flood
+        if k == 10:
+            log.warning("%s: %s", "leader", "Fence breached")  # the vehicle's own warning is not held back
+            log.warning("%s: %s", "leader", "Unknown parameter A")  # (logged as the endpoint logs its texts)
+            log.info("Reached waypoint %d", 1)  # nor progress (-v)
     now[0] += 10.0
-    log.warning("later")
-    assert out.getvalue().splitlines()[-4:] == [
-        f"{log.name}: bad datagram 0",
-        f"{log.name}: bad datagram 1",
-        f"{log.name}: bad datagram 2",
-        f"{log.name}: (47 more lines of {log.name} left out) later",
+    log.warning("Unknown parameter %s", "LATER")
+    assert [line.split(": ", 1)[1] for line in out.getvalue().splitlines()] == [
+        "Unknown parameter JUNK0",
+        "Unknown parameter JUNK1",
+        "(more like this held back for 10 s) Unknown parameter JUNK2",
+        "leader: Fence breached",
+        "leader: Unknown parameter A",
+        "Reached waypoint 1",
+        "(47 more like this held back) Unknown parameter LATER",
     ]
     debug, out = _logger(LogGuard(burst=None))  # --debug: every line
     for k in range(50):
         debug.warning("bad datagram %d", k)
     assert len(out.getvalue().splitlines()) == 50
+
+
+def test_a_bad_log_call_is_reported_by_logging_as_without_the_guard(capsys: pytest.CaptureFixture[str]) -> None:
+    log, out = _logger(LogGuard())
+    log.warning("%d items", "not a number")  # the caller goes on; logging says "--- Logging error ---"
+    log.warning("after")
+    assert out.getvalue().splitlines()[-1].endswith(": after") and "Logging error" in capsys.readouterr().err

@@ -63,7 +63,8 @@ def _run_child(name: str, quick: bool) -> BenchOutcome:
         # its last line (a traceback's is the error), not the whole of it
         last = printable(proc.stderr.strip().splitlines()[-1]) if proc.stderr.strip() else "no JSON line"
         print(
-            f"lfctl bench {name} failed (exit {proc.returncode}): {last}; `lfctl --debug bench {name}` shows all",
+            f"lfctl bench {name} failed (exit {proc.returncode}): {last}; "
+            f"`lfctl --debug bench {name}{' --quick' if quick else ''}` shows all",
             file=sys.stderr,
         )
         return BenchOutcome(name, lines, None, f"exit {proc.returncode}: {last}")
@@ -104,7 +105,7 @@ def _check_result_file(path: Path) -> None:
     folder this process may write in; a ConfigError naming it otherwise (a folder, a named
     pipe, a device)."""
     mode = target_mode(path)
-    if mode is not None and not stat.S_ISREG(mode):
+    if mode is not None and not (stat.S_ISREG(mode) or stat.S_ISCHR(mode)):  # a device (/dev/null) is written
         raise ConfigError(
             f"{path} is not a regular file: lfctl bench writes its results there (move it, or run elsewhere)"
         )

@@ -576,12 +576,20 @@ def _error_reply(exc: BaseException, slot: int) -> bytes:
     return _ERROR + pickle.dumps(fields)
 
 
+def _unraisable(u: Any) -> None:
+    """An FMU that closes the worker's descriptors makes their objects fail as they are
+    collected: a debug line for each, not Python's traceback (the run's error says the rest).
+    Anything else is Python's to report."""
+    if issubclass(u.exc_type, OSError) and u.object is not None and "__del__" in repr(u.object):
+        log.debug("worker: %s: %s", u.exc_type.__name__, u.exc_value)
+        return
+    sys.__unraisablehook__(u)
+
+
 def _worker_main(conn: Connection, fd: int) -> None:
     """The worker: serve requests and steps until told to close or the connection ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides when a run ends
-    # an FMU that closes the worker's descriptors makes their objects fail as they are
-    # collected: a debug line for each, not Python's traceback (the run's error says the rest)
-    sys.unraisablehook = lambda u: log.debug("worker: %s: %s", u.exc_type.__name__, u.exc_value)
+    sys.unraisablehook = _unraisable
     worker = _Worker(fd)
     try:
         while True:

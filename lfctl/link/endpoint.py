@@ -1223,9 +1223,9 @@ class VehicleEndpoint:
             result = validate_item(item, max(2, len(self.mission)))
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
             return
-        self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)
-        if float_item:  # after the item is handled, as Rover
+        if float_item:  # before the item is handled, as Rover's handle_mission_item
             self.missions.warn_float(mtype, "got MISSION_ITEM; GCS should send MISSION_ITEM_INT")
+        self.missions.on_item(item, mtype, m.get_srcSystem(), m.get_srcComponent(), self.t_s)
 
     def _guided_location(self, item: MissionItem) -> bool:
         if self.mode != MODES["GUIDED"]:

@@ -652,6 +652,8 @@ def run_sweep(
             client, cluster, engine = _connect(scheduler, workers)
             _check_workers(client, code)
         if not made:
+            if cancel is not None and cancel():  # cancelled while the cluster started: nothing made
+                raise KeyboardInterrupt
             if folder.exists() and any(folder.iterdir()):  # (another process's sweep, made meanwhile?)
                 raise ConfigError(f"{folder}: another sweep was started there meanwhile; use another --out")
             _make(folder, p, code)

@@ -232,6 +232,39 @@ def test_the_fmu_process_outlives_the_thread_that_started_it(faulty: BuiltModel)
         sim.close()
 
 
+def test_fmu_processes_start_after_a_fork_and_while_the_interpreter_exits(tmp_path: Path) -> None:
+    # workers are started by one thread of the process: a forked child (multiprocessing's
+    # default) has not that thread and makes its own; at exit, a thread still running keeps
+    # its worker (the starting thread is a daemon, never joined)
+    script = tmp_path / "forks.py"
+    script.write_text(
+        textwrap.dedent("""
+        import faulthandler, os, threading, time
+        from lfctl.fmu.host import FmuHost
+        FmuHost(1).close()
+        pid = os.fork()
+        if pid == 0:
+            faulthandler.dump_traceback_later(20, exit=True)
+            FmuHost(1).close()
+            os._exit(0)
+        print("child", os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]), flush=True)
+        ready = threading.Event()
+        def late():
+            host = FmuHost(1)
+            ready.set()
+            time.sleep(1.0)  # the main thread has returned: the interpreter is exiting
+            print("late worker", host._proc.poll(), flush=True)
+            FmuHost(1).close()
+            host.close()
+            print("late start ok", flush=True)
+        threading.Thread(target=late).start()
+        ready.wait()
+        """)
+    )
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert out.stdout.splitlines() == ["child 0", "late worker None", "late start ok"], out.stderr
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_the_fmu_process_passes_on_no_descriptor_and_ignores_the_current_folder(
     faulty: BuiltModel, tmp_path: Path
