@@ -566,7 +566,9 @@ class VehicleEndpoint:
     def _learn_route(self, m: Any) -> None:
         """Remember who sent ``m`` and on which channel (ArduPilot's ``learn_route``)."""
         route = (m.get_srcSystem(), m.get_srcComponent(), self._channel)
-        if route[:2] != (self.sysid, 1) and route not in self._routes and len(self._routes) < MAX_ROUTES:
+        if route[0] == 0 or route[:2] == (self.sysid, 1):  # (no sender, or this autopilot's own id)
+            return
+        if route not in self._routes and len(self._routes) < MAX_ROUTES:
             self._routes.add(route)
 
     def _handle(self, m: Any, signed: bool) -> None:
