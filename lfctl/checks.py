@@ -10,13 +10,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import logging
 import math
 import os
 import re
 import secrets
 import stat
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,14 +24,12 @@ from lfctl.errors import ConfigError
 __all__ = [
     "NAME_PATTERN",
     "Bound",
-    "LogGuard",
     "check_connection",
     "check_host_port",
     "check_inside",
     "check_name",
     "check_port",
     "check_text",
-    "guard_log",
     "printable",
     "read_text_file",
     "save_text",
@@ -173,82 +169,6 @@ def printable(text: str, keep: str = "") -> str:
     """
     text = text.encode("utf-8", "backslashreplace").decode("utf-8")
     return "".join(ch if ch in keep or ch.isprintable() else repr(ch)[1:-1] for ch in text)
-
-
-class LogGuard(logging.Filter):
-    """Log lines bound for a terminal, tamed: a network peer (a Foxglove client sending
-    garbage, a ground station's bad requests) or an FMU can make a logger speak with its own
-    text as often as it likes. Each line's control characters are escaped (a peer's escape
-    sequences do not reach the terminal) and it is cut to ``max_chars``. Unless ``burst`` is
-    None, one kind of warning or error (a logger's lines that start with the same two
-    words, numbers aside) is said at most
-    ``burst`` times in ``window_s`` seconds: the next says that more like it are held back,
-    and the first after the window how many were. Other lines of the same logger, and lines
-    below WARNING (``-v``'s progress), are not held back.
-
-    Attach it to the handler that writes to the terminal (``handler.addFilter``).
-
-    Parameters
-    ----------
-    burst : int or None
-        Lines of one kind per window (None: no limit, as with ``--debug``).
-    window_s : float
-        The window, s.
-    max_chars : int
-        The longest line kept; the rest is cut, saying how much.
-    """
-
-    def __init__(self, burst: int | None = 20, window_s: float = 10.0, max_chars: int = 1000) -> None:
-        super().__init__()
-        self.burst, self.window_s, self.max_chars = burst, window_s, max_chars
-        # (logger, format) -> (the window's start, lines said in it, lines held back)
-        self._windows: dict[tuple[str, object], tuple[float, int, int]] = {}
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        try:
-            text = record.getMessage()
-        except Exception:  # a bad log call: logging reports it as it would without the guard
-            return True
-        note = ""
-        if self.burst is not None and record.levelno >= logging.WARNING:
-            key, now = (record.name, _kind(text)), time.monotonic()
-            start, said, held = self._windows.get(key, (now, 0, 0))
-            if now - start >= self.window_s:
-                note = f"({held} more like this held back) " if held else ""
-                start, said, held = now, 0, 0
-            if said > self.burst:
-                self._windows[key] = (start, said, held + 1)
-                return False
-            if said == self.burst:
-                note = f"(more like this held back for {self.window_s:g} s) "
-            self._windows[key] = (start, said + 1, held)
-        text = printable(text)
-        if len(text) > self.max_chars:
-            text = f"{text[: self.max_chars]}... ({len(text) - self.max_chars} more characters)"
-        record.msg, record.args = note + text, None
-        return True
-
-
-def _kind(text: str) -> str:
-    """What kind of line a log line is: its first two words, numbers as ``#`` (a peer's text
-    comes after the words that say what happened: "Unknown parameter JUNK7", "v: Unknown
-    parameter JUNK7", "Invalid message from 127.0.0.1:5000: ...")."""
-    return " ".join(re.sub(r"\d+", "#", text).split()[:2])
-
-
-def guard_log(debug: bool = False) -> None:
-    """Put a :class:`LogGuard` on the root logger's stream handlers (after
-    ``logging.basicConfig``); with ``debug``, lines are escaped and cut but not limited.
-
-    Parameters
-    ----------
-    debug : bool
-        Every line is wanted (``--debug``).
-    """
-    for handler in logging.getLogger().handlers:
-        # basicConfig's own (not a test harness's capture handlers), once
-        if type(handler) is logging.StreamHandler and not any(isinstance(f, LogGuard) for f in handler.filters):
-            handler.addFilter(LogGuard(burst=None if debug else 20))
 
 
 def check_port(key: str, value: object) -> int:

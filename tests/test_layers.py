@@ -11,7 +11,7 @@ import lfctl
 ROOT = Path(lfctl.__file__).parent
 EVERYTHING = {
     "errors", "checks", "frames", "config", "data", "schedule", "video", "metrics", "vision", "guidance", "render", "fmu",
-    "link", "follower", "record", "sim", "sweep", "bench", "cli", "workers",
+    "link", "follower", "record", "sim", "sweep", "bench", "cli", "workers", "logs",
 }  # fmt: skip
 
 #: layer -> what it may import from lfctl (a package, or one module of it)
@@ -21,6 +21,7 @@ ALLOWED = {
     "errors": set(),
     "workers": set(),
     "checks": {"errors"},
+    "logs": {"checks"},
     "frames": set(),
     "config": {"checks", "data", "errors"},
     "data": {"errors"},
@@ -30,7 +31,7 @@ ALLOWED = {
     "guidance": {"frames", "guidance", "vision.track_state"},
     "metrics": {"vision.track_state"},
     "render": {"config", "data", "errors", "frames", "vision", "render"},
-    "fmu": {"data", "errors", "fmu", "workers"},
+    "fmu": {"data", "errors", "fmu", "logs", "workers"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
     "record": {"checks", "config", "errors", "frames", "metrics", "vision", "record"},

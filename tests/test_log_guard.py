@@ -8,8 +8,8 @@ import logging
 
 import pytest
 
-import lfctl.checks
-from lfctl.checks import LogGuard
+import lfctl.logs
+from lfctl.logs import LogGuard
 
 
 def _logger(guard: LogGuard) -> tuple[logging.Logger, io.StringIO]:
@@ -36,7 +36,7 @@ def test_a_peers_escape_sequences_are_escaped_and_a_long_line_cut() -> None:
 
 def test_a_warning_said_too_often_is_held_back_and_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
     now = [100.0]
-    monkeypatch.setattr(lfctl.checks.time, "monotonic", lambda: now[0])
+    monkeypatch.setattr(lfctl.logs.time, "monotonic", lambda: now[0])
     log, out = _logger(LogGuard(burst=2, window_s=10.0))
     for k in range(50):
         log.warning("Unknown parameter %s", f"JUNK{k}")  # a peer's flood

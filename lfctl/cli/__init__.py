@@ -16,9 +16,9 @@ import sys
 from collections.abc import Sequence
 
 from lfctl import __version__
-from lfctl.checks import guard_log
 from lfctl.cli.options import OneLineParser
 from lfctl.errors import ConfigError, FmuError, LfctlError
+from lfctl.logs import guard_log
 
 __all__ = ["build_parser", "main"]
 

@@ -46,7 +46,6 @@ from typing import IO, Any, NoReturn
 
 import numpy as np
 
-from lfctl.checks import guard_log
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.load import (
     INPUT_ROLES,
@@ -59,6 +58,7 @@ from lfctl.fmu.load import (
     unwatch_calls,
     watch_calls,
 )
+from lfctl.logs import guard_log
 from lfctl.workers import start_worker, watch_parent, worker_fds
 
 __all__ = ["SETUP_TIMEOUT_S", "STOP_GRACE_S", "FmuHost", "HostedInstance", "end_hosts"]
