@@ -34,7 +34,6 @@ _PR_SET_PDEATHSIG = 1
 # process: a forked child has the parent's queue but not its thread.
 _spawner_lock = threading.Lock()
 _spawner_jobs: queue.SimpleQueue[Any] | None = None
-_spawner_pid = -1
 
 
 def _forget_spawner() -> None:
@@ -46,10 +45,10 @@ os.register_at_fork(after_in_child=_forget_spawner)
 
 
 def _spawner() -> queue.SimpleQueue[Any]:
-    global _spawner_jobs, _spawner_pid
+    global _spawner_jobs
     with _spawner_lock:
-        if _spawner_jobs is None or _spawner_pid != os.getpid():
-            _spawner_jobs, _spawner_pid = queue.SimpleQueue(), os.getpid()
+        if _spawner_jobs is None:
+            _spawner_jobs = queue.SimpleQueue()
             threading.Thread(target=_spawn_jobs, args=(_spawner_jobs,), name="lfctl-spawner", daemon=True).start()
         return _spawner_jobs
 

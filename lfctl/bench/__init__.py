@@ -101,9 +101,9 @@ def run_all(names: tuple[str, ...] = NAMES, quick: bool = False, out_dir: Path =
 
 
 def _check_result_file(path: Path) -> None:
-    """A results file can be written: absent or a regular file (through a link), in a
-    folder this process may write in; a ConfigError naming it otherwise (a folder, a named
-    pipe, a device)."""
+    """A results file can be written: absent, a regular file (through a link) or a device
+    (``/dev/null``), in a folder this process may write in; a ConfigError naming it otherwise
+    (a folder, a named pipe, whose write would block until someone reads it)."""
     mode = target_mode(path)
     if mode is not None and not (stat.S_ISREG(mode) or stat.S_ISCHR(mode)):  # a device (/dev/null) is written
         raise ConfigError(

@@ -951,7 +951,7 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_DENIED
         if msg_id not in self._intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
-            return mav.MAV_RESULT_DENIED  # Rover 4.5 and later (MAVSDK: "Command Denied"); FAILED before
+            return mav.MAV_RESULT_DENIED  # Rover's newest source (MAVSDK: "Command Denied"); older: FAILED
         if interval_us == -1:
             self._stream(msg_id, math.inf)
         elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
