@@ -17,11 +17,11 @@ class LogGuard(logging.Filter):
     garbage, a ground station's bad requests) or an FMU can make a logger speak with its own
     text as often as it likes. Each line's control characters are escaped (a peer's escape
     sequences do not reach the terminal) and it is cut to ``max_chars``. Unless ``burst`` is
-    None, one kind of warning or error (a logger's lines that start with the same two
-    words, numbers aside) is said at most
-    ``burst`` times in ``window_s`` seconds: the next says that more like it are held back,
-    and the first after the window how many were. Other lines of the same logger, and lines
-    below WARNING (``-v``'s progress), are not held back.
+    None, one kind of warning or error (a logger's lines that start with the same two words,
+    numbers aside: :func:`_kind`) is said at most ``burst`` times in ``window_s`` seconds: the
+    next says that more like it are held back, and the first after the window how many were.
+    Other lines of the same logger, and lines below WARNING (``-v``'s progress), are not held
+    back.
 
     Attach it to the handler that writes to the terminal (``handler.addFilter``).
 
@@ -38,8 +38,8 @@ class LogGuard(logging.Filter):
     def __init__(self, burst: int | None = 20, window_s: float = 10.0, max_chars: int = 1000) -> None:
         super().__init__()
         self.burst, self.window_s, self.max_chars = burst, window_s, max_chars
-        # (logger, format) -> (the window's start, lines said in it, lines held back)
-        self._windows: dict[tuple[str, object], tuple[float, int, int]] = {}
+        # (logger, kind of line) -> (the window's start, lines said in it, lines held back)
+        self._windows: dict[tuple[str, str], tuple[float, int, int]] = {}
 
     def filter(self, record: logging.LogRecord) -> bool:
         try:
