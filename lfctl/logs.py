@@ -21,7 +21,10 @@ class LogGuard(logging.Filter):
     numbers aside: :func:`_kind`) is said at most ``burst`` times in ``window_s`` seconds: the
     next says that more like it are held back, and the first after the window how many were.
     Other lines of the same logger, and lines below WARNING (``-v``'s progress), are not held
-    back.
+    back. At most ``max_kinds`` kinds are counted at once (a peer that makes every line a new
+    kind grows neither the count nor the output without end): a new kind takes the place of
+    kinds whose window has ended (the lines they held back are said with it); with none ended,
+    its lines are held back too, and said when a kind's place comes free.
 
     Attach it to the handler that writes to the terminal (``handler.addFilter``).
 
@@ -33,13 +36,19 @@ class LogGuard(logging.Filter):
         The window, s.
     max_chars : int
         The longest line kept; the rest is cut, saying how much.
+    max_kinds : int
+        The most kinds of line counted at once.
     """
 
-    def __init__(self, burst: int | None = 20, window_s: float = 10.0, max_chars: int = 1000) -> None:
+    def __init__(
+        self, burst: int | None = 20, window_s: float = 10.0, max_chars: int = 1000, max_kinds: int = 1000
+    ) -> None:
         super().__init__()
-        self.burst, self.window_s, self.max_chars = burst, window_s, max_chars
+        self.burst, self.window_s, self.max_chars, self.max_kinds = burst, window_s, max_chars, max_kinds
         # (logger, kind of line) -> (the window's start, lines said in it, lines held back)
         self._windows: dict[tuple[str, str], tuple[float, int, int]] = {}
+        self._unplaced = 0  # lines held back for want of a place (max_kinds), not yet said
+        self._full_until = 0.0  # with every place taken: no kind's window ends before this
 
     def filter(self, record: logging.LogRecord) -> bool:
         try:
@@ -49,21 +58,39 @@ class LogGuard(logging.Filter):
         note = ""
         if self.burst is not None and record.levelno >= logging.WARNING:
             key, now = (record.name, _kind(text)), time.monotonic()
+            if key not in self._windows and len(self._windows) >= self.max_kinds and not self._make_room(now):
+                self._unplaced += 1
+                return False
+            if key not in self._windows and self._unplaced:
+                note, self._unplaced = f"({self._unplaced} more lines of other kinds held back) ", 0
             start, said, held = self._windows.get(key, (now, 0, 0))
             if now - start >= self.window_s:
-                note = f"({held} more like this held back) " if held else ""
+                note = f"({held} more like this held back) " if held else note
                 start, said, held = now, 0, 0
             if said > self.burst:
                 self._windows[key] = (start, said, held + 1)
                 return False
             if said == self.burst:
-                note = f"(more like this held back for {self.window_s:g} s) "
+                note += f"(more like this held back for {self.window_s:g} s) "
             self._windows[key] = (start, said + 1, held)
         text = printable(text)
         if len(text) > self.max_chars:
             text = f"{text[: self.max_chars]}... ({len(text) - self.max_chars} more characters)"
         record.msg, record.args = note + text, None
         return True
+
+    def _make_room(self, now: float) -> bool:
+        """Forget the kinds whose window has ended (their held-back lines join those to be said
+        with the next new kind); whether there is room for a new one now. Between the windows'
+        ends the kinds are not looked through again (a flood of new kinds costs no more a line)."""
+        if now < self._full_until:
+            return False
+        ended = [k for k, (start, _said, _held) in self._windows.items() if now - start >= self.window_s]
+        for k in ended:
+            self._unplaced += self._windows.pop(k)[2]
+        if not ended:
+            self._full_until = min(start for start, _said, _held in self._windows.values()) + self.window_s
+        return bool(ended)
 
 
 def _kind(text: str) -> str:

@@ -66,3 +66,26 @@ def test_a_bad_log_call_is_reported_by_logging_as_without_the_guard(capsys: pyte
     log.warning("%d items", "not a number")  # the caller goes on; logging says "--- Logging error ---"
     log.warning("after")
     assert out.getvalue().splitlines()[-1].endswith(": after") and "Logging error" in capsys.readouterr().err
+
+
+def test_kinds_past_the_most_counted_are_held_back_and_said_later(monkeypatch: pytest.MonkeyPatch) -> None:
+    now = [100.0]
+    monkeypatch.setattr(lfctl.logs.time, "monotonic", lambda: now[0])
+    guard = LogGuard(burst=2, window_s=10.0, max_kinds=3)
+    log, out = _logger(guard)
+    for k in range(3):
+        log.warning("kind%s one", chr(ord("a") + k))  # three kinds: every place taken
+    log.warning("kinda one")  # a kind already counted is still said
+    for k in range(500):
+        log.warning("new%s kind", chr(ord("A") + k % 26) * (1 + k // 26))  # a flood of new kinds: held back
+    assert len(guard._windows) == 3
+    now[0] += 10.0
+    log.warning("later one")  # the windows have ended: their places are free again
+    assert [line.split(": ", 1)[1] for line in out.getvalue().splitlines()] == [
+        "kinda one",
+        "kindb one",
+        "kindc one",
+        "kinda one",
+        "(500 more lines of other kinds held back) later one",
+    ]
+    assert set(guard._windows) == {(log.name, "later one")}
