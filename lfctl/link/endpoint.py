@@ -121,7 +121,17 @@ STREAMS = {
     "ATTITUDE_QUATERNION": 0.0,  # sent when asked for (MAVSDK's attitude quaternion)
     "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, and with GET_HOME_POSITION
     "SYSTEM_TIME": 0.0,  # sent when asked for, or with the EXTRA3 group (MAVSDK's unix epoch time)
+    # sent when asked for (and as each item is done): the last item reached, as Rover repeats it
+    "MISSION_ITEM_REACHED": 0.0,
 }
+#: MISSION_ITEM_REACHED's seq before any item was reached since the autopilot started (Rover's
+#: AP_MISSION_CMD_INDEX_NONE, what a GCS_MAVLINK channel starts with)
+NO_ITEM_REACHED = 0xFFFF
+#: PARAM_VALUE's rate as Rover's parameter stream has it (SRn_PARAMS, 10 Hz by default), and
+#: the bounds Rover forces on a rate set for it (a vehicle must always be able to send its
+#: parameters), s
+PARAM_STREAM_PERIOD_S = 0.1
+PARAM_PERIOD_BOUNDS_S = (0.1, 1.0)
 #: messages Rover knows (GCS_MAVLINK::mavlink_id_to_ap_message_id) for equipment lfctl's
 #: vehicles have not fitted: a battery monitor, a rangefinder, an RPM sensor, ESC telemetry,
 #: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
@@ -362,6 +372,8 @@ class VehicleEndpoint:
         # a message not streamed by default is not due until asked for
         self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
         self._once: list[int] = []
+        self._reached_seq = NO_ITEM_REACHED  # the last MISSION_ITEM_REACHED sent since the start
+        self._param_period_s = PARAM_STREAM_PERIOD_S  # PARAM_VALUE's rate (SET_MESSAGE_INTERVAL)
         self._gcs_seen: float | None = None
         self.rc = RcOverrides()  # RC_CHANNELS_OVERRIDE and MANUAL_CONTROL: MANUAL's sticks
         self._rc_refused: set[int] = set()  # senders told that their sticks are not taken ...
@@ -811,7 +823,7 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         p = [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7]
-        self._ack(m, self._command(m.command, p, None, mav.MAV_FRAME_GLOBAL))
+        self._ack(m, self._command(m.command, p, None, mav.MAV_FRAME_GLOBAL, m.target_component))
         if self._reboot_due:
             self.reboot()
 
@@ -819,13 +831,16 @@ class VehicleEndpoint:
         if not self._for_me(m):
             return
         p = [m.param1, m.param2, m.param3, m.param4, float(m.x), float(m.y), m.z]
-        self._ack(m, self._command(m.command, p, (m.x, m.y), m.frame))
+        self._ack(m, self._command(m.command, p, (m.x, m.y), m.frame, m.target_component))
         if self._reboot_due:
             self.reboot()
 
-    def _command(self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:
+    def _command(
+        self, cmd: int, p: list[float], latlon_e7: tuple[int, int] | None, frame: int, target_component: int = 0
+    ) -> int:
         """The MAV_RESULT of one command; ``latlon_e7`` is COMMAND_INT's x, y (degE7), ``frame``
-        its frame (a COMMAND_LONG's is GLOBAL, as ArduPilot reads a location in one)."""
+        its frame (a COMMAND_LONG's is GLOBAL, as ArduPilot reads a location in one),
+        ``target_component`` the component the command was addressed to (0: all)."""
         if cmd == mav.MAV_CMD_COMPONENT_ARM_DISARM:
             return self._arm_command(p[0], p[1])
         if cmd == mav.MAV_CMD_DO_SET_MODE:
@@ -839,6 +854,11 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_DENIED
             if msg_id == mav.MAVLINK_MSG_ID_MESSAGE_INTERVAL:  # as Rover: GET_MESSAGE_INTERVAL of param2's id
                 return self._get_interval(p[1])
+            if msg_id == MSG_IDS["PARAM_VALUE"]:
+                # as Rover: PARAM_VALUE is its parameter stream (param2 is not read), and asking
+                # for it sends the next parameters of a list under way, nothing otherwise; lfctl
+                # sends a list whole at once, so none is ever under way and nothing goes out
+                return mav.MAV_RESULT_ACCEPTED
             if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
             self._once.append(msg_id)
@@ -849,7 +869,7 @@ class VehicleEndpoint:
             self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
-            return self._reboot_command(p)
+            return self._reboot_command(p, target_component)
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
             self._banner()
             return mav.MAV_RESULT_ACCEPTED
@@ -864,7 +884,7 @@ class VehicleEndpoint:
             self._once += [MSG_IDS["HOME_POSITION"], MSG_IDS["GPS_GLOBAL_ORIGIN"]]  # as Rover: both
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
-            return self._set_interval(p[0], p[1])
+            return self._set_interval(p[0], p[1], p[2])
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             return self._get_interval(p[0])
         if cmd == mav.MAV_CMD_MISSION_START:
@@ -941,14 +961,25 @@ class VehicleEndpoint:
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
-    def _set_interval(self, msg_id_f: float, interval_us: float) -> int:
+    def _set_interval(self, msg_id_f: float, interval_us: float, response_target: float = 0.0) -> int:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
         does not send is DENIED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
-        ACCEPTED and stays unsent)."""
+        ACCEPTED and stays unsent). A response target (param3) other than 0, the sender's own
+        link, is DENIED before anything else is looked at, as Rover's
+        ``handle_command_set_message_interval``. PARAM_VALUE's rate is Rover's parameter
+        stream's, kept within :data:`PARAM_PERIOD_BOUNDS_S` (-1 and 0 are its fastest)."""
+        if response_target != 0:  # NaN too: Rover's is_zero is false for it
+            return mav.MAV_RESULT_DENIED
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
         if msg_id is None or not _finite(interval_us) or interval_us < -1:
             return mav.MAV_RESULT_DENIED
+        if msg_id == MSG_IDS["PARAM_VALUE"]:
+            # as Rover: the parameter stream is never stopped (0 ms, from -1 or from the
+            # default, is forced to 100 ms) and never slower than 1 s
+            lo, hi = PARAM_PERIOD_BOUNDS_S
+            self._param_period_s = min(max(interval_us / 1e6, lo), hi)
+            return mav.MAV_RESULT_ACCEPTED
         if msg_id not in self._intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
             return mav.MAV_RESULT_DENIED  # Rover's newest source (MAVSDK: "Command Denied"); older: FAILED
@@ -972,6 +1003,9 @@ class VehicleEndpoint:
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
         if msg_id is None:
             return mav.MAV_RESULT_DENIED
+        if msg_id == MSG_IDS["PARAM_VALUE"]:  # Rover's parameter stream: always has a rate
+            self.send(mav.MAVLink_message_interval_message(msg_id, int(round(self._param_period_s * 1e6))))
+            return mav.MAV_RESULT_ACCEPTED
         period = self._intervals.get(msg_id)
         if period is None:
             self.send(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
@@ -1081,10 +1115,15 @@ class VehicleEndpoint:
         return None
 
     # -- parameters -------------------------------------------------------------------------
-    def _reboot_command(self, p: list[float]) -> int:
+    def _reboot_command(self, p: list[float], target_component: int = 0) -> int:
         """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN as Rover takes it: param1 1 reboots the autopilot
         (3, into its bootloader, and shutting down are not lfctl's: UNSUPPORTED); an armed
-        vehicle only with param6 = :data:`FORCE_REBOOT`. The ACK goes out first, as on Rover."""
+        vehicle only with param6 = :data:`FORCE_REBOOT`. The ACK goes out first, as on Rover.
+        Addressed to another component of this system (one the autopilot acts for, having no
+        route to it), it is DENIED before anything else, as Rover's ``handle_preflight_reboot``:
+        a reboot meant for a camera or a companion must not restart the autopilot."""
+        if target_component not in (0, 1):
+            return mav.MAV_RESULT_DENIED
         if self.armed and p[5] != FORCE_REBOOT:
             return mav.MAV_RESULT_FAILED  # checked first, as Rover: armed, any param1 is FAILED
         if p[0] != 1.0:
@@ -1338,7 +1377,7 @@ class VehicleEndpoint:
         next_seq : int, optional
             The navigation item that comes next (MISSION_CURRENT; default: the item after).
         """
-        self.send(mav.MAVLink_mission_item_reached_message(seq))
+        self._item_reached(seq)
         after = seq + 1 if next_seq is None else next_seq
         self.missions.current_seq = min(after, max(0, len(self.mission) - 1))
         if seq >= len(self.mission) - 1 if last is None else last:
@@ -1371,6 +1410,12 @@ class VehicleEndpoint:
         seq : int
             The item.
         """
+        self._item_reached(seq)
+
+    def _item_reached(self, seq: int) -> None:
+        """Send MISSION_ITEM_REACHED for ``seq`` and remember it: as Rover's channels keep the
+        last one, a REQUEST_MESSAGE (or a rate) for it sends it again."""
+        self._reached_seq = seq
         self.send(mav.MAVLink_mission_item_reached_message(seq))
 
     def run_mission_item(self, item: MissionItem) -> None:
@@ -1498,7 +1543,7 @@ class VehicleEndpoint:
     def guided_reached(self) -> None:
         """The vehicle reached its GUIDED location: tell the ground station (item 0), once."""
         if self.guided is not None and self.guided.kind == "location":
-            self.send(mav.MAVLink_mission_item_reached_message(0))
+            self._item_reached(0)
             self.guided = None  # stop there
             self._guided_arrived = True
 
@@ -1788,6 +1833,9 @@ class VehicleEndpoint:
             )
         elif name == "MISSION_CURRENT":
             self.send(self._mission_current(self.current_seq))
+        elif name == "MISSION_ITEM_REACHED":
+            # as Rover's: the last item reached since the autopilot started, or 65535 (none yet)
+            self.send(mav.MAVLink_mission_item_reached_message(self._reached_seq))
         elif name == "HOME_POSITION":
             hn, he = self.home_point()
             hlat, hlon, halt = self._home_geodetic()

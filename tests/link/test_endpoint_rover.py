@@ -1963,3 +1963,156 @@ def test_a_peers_control_characters_are_escaped_in_the_texts_sent_back(bench: Be
     bench.send(mav.MAVLink_param_set_message(1, 1, b"\x1b[2J\x1b]0;X\x07", 1.0, mav.MAV_PARAM_TYPE_REAL32))
     (text,) = [m for m in bench.tick() if m.get_type() == "STATUSTEXT"]
     assert text.text == r"Unknown parameter \x1b[2J\x1b]0;X\x07"  # MAVProxy prints it as it comes
+
+
+# -- REQUEST_MESSAGE, SET_MESSAGE_INTERVAL and reboots as Rover's GCS_Common answers them ------
+
+
+def _answer(bench: Bench, msg: object) -> tuple[int, list[object]]:
+    """Send one command; its ACK's result and everything else that came back with it."""
+    bench.send(msg)
+    out = bench.tick()
+    (ack,) = [m for m in out if m.get_type() == "COMMAND_ACK"]  # type: ignore[attr-defined]
+    return int(ack.result), [m for m in out if m.get_type() != "COMMAND_ACK"]  # type: ignore[attr-defined]
+
+
+def _request(bench: Bench, msg_id: float, param2: float = 0.0) -> tuple[int, list[object]]:
+    return _answer(
+        bench, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, param2, 0, 0, 0, 0, 0)
+    )
+
+
+def _interval_of(bench: Bench, msg_id: int) -> tuple[int, int]:
+    """GET_MESSAGE_INTERVAL: the ACK's result and MESSAGE_INTERVAL's interval, us."""
+    result, out = _answer(
+        bench, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, msg_id, 0, 0, 0, 0, 0, 0)
+    )
+    (interval,) = [m for m in out if m.get_type() == "MESSAGE_INTERVAL"]  # type: ignore[attr-defined]
+    assert interval.message_id == msg_id  # type: ignore[attr-defined]
+    return result, int(interval.interval_us)  # type: ignore[attr-defined]
+
+
+def _reached(out: list[object]) -> list[int]:
+    return [int(m.seq) for m in out if m.get_type() == "MISSION_ITEM_REACHED"]  # type: ignore[attr-defined]
+
+
+def test_mission_item_reached_is_sent_again_when_asked_for_as_rover(bench: Bench) -> None:
+    reached = mav.MAVLINK_MSG_ID_MISSION_ITEM_REACHED
+    bench.tick()
+    # Rover maps it (MSG_MISSION_ITEM_REACHED) and sends its channel's last index, which is
+    # AP_MISSION_CMD_INDEX_NONE (65535) until an item is reached
+    result, out = _request(bench, reached)
+    assert (result, _reached(out)) == (mav.MAV_RESULT_ACCEPTED, [0xFFFF])
+    assert upload(bench, good_mission(4)) == mav.MAV_MISSION_ACCEPTED
+    bench.ep.reached(1)
+    bench.ep.item_done(2)  # a DO command done: the last one reached too
+    assert _reached(bench.tick()) == [1, 2]  # each told as it is done
+    result, out = _request(bench, reached)
+    assert (result, _reached(out)) == (mav.MAV_RESULT_ACCEPTED, [2])
+    # not streamed unless asked for (-1), and streamed at the rate asked for
+    assert _interval_of(bench, reached) == (mav.MAV_RESULT_ACCEPTED, -1)
+    assert not _reached([m for _ in range(60) for m in bench.tick(0.02)])
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, reached, 200_000) == mav.MAV_RESULT_ACCEPTED
+    assert _interval_of(bench, reached) == (mav.MAV_RESULT_ACCEPTED, 200_000)
+    streamed = _reached([m for _ in range(50) for m in bench.tick(0.02)])
+    assert streamed == [2] * len(streamed) and 4 <= len(streamed) <= 6
+    # a reboot starts the channel afresh: none reached yet
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    for _ in range(150):
+        bench.tick(0.02)
+    assert not bench.ep.rebooting
+    result, out = _request(bench, reached)
+    assert (result, _reached(out)) == (mav.MAV_RESULT_ACCEPTED, [0xFFFF])
+
+
+def test_guided_arrival_is_the_last_item_reached(bench: Bench) -> None:
+    bench.tick()
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    x, y = (int(round(v * 1e7)) for v in ned_to_geodetic(5.0, 5.0, 0.0, *HOME)[:2])
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, 0, x, y, 0))
+    bench.tick()
+    bench.ep.guided_reached()
+    assert _reached(bench.tick()) == [0]  # Rover's word for a GUIDED arrival
+    result, out = _request(bench, mav.MAVLINK_MSG_ID_MISSION_ITEM_REACHED)
+    assert (result, _reached(out)) == (mav.MAV_RESULT_ACCEPTED, [0])
+
+
+def test_param_value_is_rovers_parameter_stream(bench: Bench) -> None:
+    pv = mav.MAVLINK_MSG_ID_PARAM_VALUE
+    bench.tick()
+    # Rover maps PARAM_VALUE to its parameter stream (MSG_NEXT_PARAM), which has nothing to
+    # send when no list is under way; param2 is not a parameter index to it
+    for index in (0.0, 3.0):
+        result, out = _request(bench, pv, index)
+        assert result == mav.MAV_RESULT_ACCEPTED
+        assert _count(out, "PARAM_VALUE") == 0
+    # its rate: SRn_PARAMS' 10 Hz; kept within 100 ms .. 1 s, never stopped
+    assert _interval_of(bench, pv) == (mav.MAV_RESULT_ACCEPTED, 100_000)
+    for asked, kept in ((250_000, 250_000), (5e6, 1_000_000), (20_000, 100_000), (-1, 100_000), (0, 100_000)):
+        assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, asked) == mav.MAV_RESULT_ACCEPTED
+        assert _interval_of(bench, pv) == (mav.MAV_RESULT_ACCEPTED, kept)
+    assert not any("No ap_message" in text for _t, text in bench.ep.statustexts)
+    # REQUEST_MESSAGE of MESSAGE_INTERVAL answers for it as GET_MESSAGE_INTERVAL does
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, 400_000) == mav.MAV_RESULT_ACCEPTED
+    result, out = _request(bench, mav.MAVLINK_MSG_ID_MESSAGE_INTERVAL, pv)
+    (interval,) = [m for m in out if m.get_type() == "MESSAGE_INTERVAL"]  # type: ignore[attr-defined]
+    assert (result, interval.message_id, interval.interval_us) == (mav.MAV_RESULT_ACCEPTED, pv, 400_000)  # type: ignore[attr-defined]
+    # a parameter list still goes out whole, each PARAM_VALUE once
+    bench.send(mav.MAVLink_param_request_list_message(1, 1))
+    listed = [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]  # type: ignore[attr-defined]
+    assert len(listed) == len(bench.ep.params)
+
+
+@pytest.mark.parametrize("long", [True, False])
+def test_set_message_interval_with_a_response_target_is_denied(bench: Bench, long: bool) -> None:
+    att = mav.MAVLINK_MSG_ID_ATTITUDE
+    for target in (1, 2, -1, NAN):  # Rover: anything but 0 (this link) is DENIED, first
+        assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 1e6, target, long=long) == mav.MAV_RESULT_DENIED
+    assert bench.ep._intervals[att] == pytest.approx(0.1)  # the rate is untouched
+    texts = len(bench.ep.statustexts)
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 1e5, 1, long=long) == mav.MAV_RESULT_DENIED
+    assert len(bench.ep.statustexts) == texts  # refused before the message is looked up
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 1e6, 0, long=long) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep._intervals[att] == pytest.approx(1.0)
+
+
+def test_a_reboot_for_another_component_is_denied(bench: Bench) -> None:
+    reboot = mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
+    bench.tick()
+    # no route to component 25 or 191: the autopilot acts on it, and Rover's
+    # handle_preflight_reboot refuses a reboot not meant for it (nor for all)
+    for component in (25, 191):
+        assert bench.command_to(component, reboot, 1) == mav.MAV_RESULT_DENIED
+    bench.send(mav.MAVLink_command_int_message(1, 25, 0, reboot, 0, 0, 1, 0, 0, 0, 0, 0, 0))
+    assert [m.result for m in bench.tick() if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_DENIED]  # type: ignore[attr-defined]
+    bench.ep.set_armed(True)  # checked before the armed check: DENIED, not FAILED, forced or not
+    assert bench.command_to(25, reboot, 1) == mav.MAV_RESULT_DENIED
+    assert bench.command_to(25, reboot, 1, 0, 0, 0, 0, 20190226) == mav.MAV_RESULT_DENIED
+    assert not bench.ep.rebooting and bench.ep.armed
+    bench.ep.set_armed(False)
+    assert bench.command_to(25, reboot, 3) == mav.MAV_RESULT_DENIED  # before param1 is looked at
+    assert bench.command_to(0, reboot, 1) == mav.MAV_RESULT_ACCEPTED  # to all: the autopilot too
+    assert bench.ep.rebooting
+
+
+@pytest.mark.parametrize(
+    ("msg_id", "name"),
+    [
+        (mav.MAVLINK_MSG_ID_MISSION_CURRENT, "MISSION_CURRENT"),
+        (mav.MAVLINK_MSG_ID_HOME_POSITION, "HOME_POSITION"),
+        (mav.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, "EXTENDED_SYS_STATE"),
+        (mav.MAVLINK_MSG_ID_SYS_STATUS, "SYS_STATUS"),
+        (mav.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, "GPS_GLOBAL_ORIGIN"),
+        (mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION"),
+        (mav.MAVLINK_MSG_ID_SYSTEM_TIME, "SYSTEM_TIME"),
+        (mav.MAVLINK_MSG_ID_MISSION_ITEM_REACHED, "MISSION_ITEM_REACHED"),
+        (mav.MAVLINK_MSG_ID_BATTERY_STATUS, None),  # no battery monitor: accepted, nothing comes
+        (mav.MAVLINK_MSG_ID_PARAM_VALUE, None),  # no parameter list under way
+    ],
+)
+def test_messages_a_ground_station_requests_are_answered_as_rover(bench: Bench, msg_id: int, name: str | None) -> None:
+    bench.tick()  # every stream's first message has gone out; none is due again for 0.1 s
+    result, out = _request(bench, msg_id)
+    assert result == mav.MAV_RESULT_ACCEPTED
+    sent = [m.get_type() for m in out]  # type: ignore[attr-defined]
+    assert sent == ([name] if name else [])
