@@ -32,7 +32,7 @@ from lfctl import __version__
 from lfctl.checks import printable
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
-from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, rally_points
+from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
@@ -363,6 +363,7 @@ class VehicleEndpoint:
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
+        self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
         self.fence_breaches = 0
         self._fence_breach_ms = 0
         self._text_id = 0
@@ -919,14 +920,17 @@ class VehicleEndpoint:
         return mav.MAV_RESULT_UNSUPPORTED
 
     def prearm_failures(self) -> list[str]:
-        """What keeps this vehicle from arming now, as Rover's pre-arm checks say it (none
-        with ``ARMING_CHECK`` 0, or once armed): its mode (RTL and SmartRTL do not allow
-        arming, ``Mode::allows_arming``) and, with the parameter checks on (``ARMING_CHECK``
-        1 or bit 32), a ``WP_SPEED`` of 0."""
+        """What keeps this vehicle from arming now, as Rover's pre-arm checks say it, in
+        their order (none with ``ARMING_CHECK`` 0, or once armed): the fence (whatever
+        ``ARMING_CHECK``'s bits, see :meth:`_fence_failure`), then, with the parameter checks
+        on (``ARMING_CHECK`` 1 or bit 32), a ``WP_SPEED`` of 0, then its mode (RTL and SmartRTL
+        do not allow arming, ``Mode::allows_arming``)."""
         checks = int(self.param("ARMING_CHECK"))
         if self.armed or checks == 0:
             return []
         failures = []
+        if (fence := self._fence_failure()) is not None:
+            failures.append(fence)
         if checks & (ARMING_CHECK_ALL | ARMING_CHECK_PARAMETERS) and self.param("WP_SPEED") <= 0:
             failures.append("WP_SPEED too low")
         if self.mode in NOT_ARMABLE:
@@ -1447,10 +1451,31 @@ class VehicleEndpoint:
         return min(candidates, key=lambda p: math.hypot(p[0] - north_m, p[1] - east_m))
 
     def _fence_present(self) -> bool:
-        """A fence there is to check: FENCE_TYPE's circle, or its polygons with some uploaded."""
+        """A fence there is to check, as Rover's ``AC_Fence::present``: FENCE_TYPE's circle
+        (or an altitude bit), or its polygons with some fence item uploaded."""
         fence_type = int(self.param("FENCE_TYPE"))
-        circle = bool(fence_type & FENCE_TYPE_CIRCLE) and self.param("FENCE_RADIUS") > 0
-        return circle or (bool(fence_type & FENCE_TYPE_POLYGON) and not self.fence.empty)
+        polygons = bool(fence_type & FENCE_TYPE_POLYGON) and not self.fence.empty
+        return bool(fence_type & ~FENCE_TYPE_POLYGON & 0x0F) or polygons
+
+    def _fence_failure(self) -> str | None:
+        """The fence's pre-arm failure, as Rover's ``AC_Fence::pre_arm_check`` words it (run
+        by ``AP_Arming::fence_checks``, which no ``ARMING_CHECK`` bit turns off), or None:
+        "Fences enabled, but none selected" with ``FENCE_ENABLE`` on and no fence to check;
+        with it on, an inclusion circle narrower than ``FENCE_MARGIN`` ("Polygon fence margin
+        is greater than inclusion circle radius"), then "Vehicle breaching Polygon fence" (or
+        Circle, or both) while the vehicle is outside the fence. The checks on values lfctl's
+        parameter ranges already rule out (a negative radius or margin) cannot fail here."""
+        if not self.param("FENCE_ENABLE"):
+            return None
+        if not self._fence_present():
+            return "Fences enabled, but none selected"
+        fence_type = int(self.param("FENCE_TYPE"))
+        margin = self.param("FENCE_MARGIN")
+        if fence_type & FENCE_TYPE_POLYGON and any(r < margin for *_, r in self.fence.inclusion_circles):
+            return "Polygon fence margin is greater than inclusion circle radius"
+        if self._breached_fences:
+            return f"Vehicle breaching {fence_names(self._breached_fences)}"
+        return None
 
     def _within_fence(self, north_m: float, east_m: float) -> bool:
         """A destination the fence allows (Rover refuses guided targets outside it)."""
@@ -1621,9 +1646,13 @@ class VehicleEndpoint:
     def _check_fence(self) -> None:
         if not self.param("FENCE_ENABLE"):
             self.fence_breach = None
+            self._breached_fences = 0
             return
         n, e = self.state["north_m"], self.state["east_m"]
         breach = self._breach(n, e)
+        # as Rover's AC_Fence::check: what is breached is kept armed or not (arming needs none)
+        fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
+        self._breached_fences = self.fence.breaches(n, e, fence_type, radius, self.home_point())
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
             self._fence_breach_ms = self._boot_ms()
@@ -1739,16 +1768,19 @@ class VehicleEndpoint:
                 )
             )
         elif name == "SYS_STATUS":
-            # the geofence as Rover reports it: present, enabled with FENCE_ENABLE, healthy
-            # unless breached (MAVProxy says "fence breach" when the health bit drops)
+            # the geofence as Rover's AC_Fence reports it: present when there is a fence to
+            # check, enabled with FENCE_ENABLE unless FENCE_ACTION is 0 (report only),
+            # healthy unless breached (MAVProxy says "fence breach" when the health bit drops)
             fence = mav.MAV_SYS_STATUS_GEOFENCE
-            enabled = SENSORS | (fence if self.param("FENCE_ENABLE") else 0)
-            health = SENSORS | (fence if self.fence_breach is None else 0)
+            present = self._fence_present()
+            acting = present and self.param("FENCE_ENABLE") and int(self.param("FENCE_ACTION")) != FENCE_REPORT
+            enabled = SENSORS | (fence if acting else 0)
+            health = SENSORS | (fence if not (present and self.fence_breach is not None) else 0)
             if self.prearm_failures():  # QGroundControl's "Ready To Fly" / "Not Ready"
                 health &= ~mav.MAV_SYS_STATUS_PREARM_CHECK
             self.send(
                 mav.MAVLink_sys_status_message(
-                    SENSORS | fence, enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
+                    SENSORS | (fence if present else 0), enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
                 )
             )
         elif name == "NAV_CONTROLLER_OUTPUT":

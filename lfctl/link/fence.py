@@ -33,6 +33,7 @@ __all__ = [
     "FENCE_TYPE_POLYGON",
     "RALLY_COMMANDS",
     "Fence",
+    "fence_names",
     "rally_points",
     "validate_fence",
 ]
@@ -42,6 +43,26 @@ RALLY_COMMANDS = {RALLY_POINT}
 #: FENCE_TYPE bits a rover uses
 FENCE_TYPE_CIRCLE = 2
 FENCE_TYPE_POLYGON = 4
+#: every FENCE_TYPE bit, in AC_Fence's order (max altitude, circle, polygon, min altitude), with
+#: the name Rover gives each in its texts (``AC_Fence::get_fence_names``)
+FENCE_NAMES = ((1, "Max Alt"), (FENCE_TYPE_CIRCLE, "Circle"), (FENCE_TYPE_POLYGON, "Polygon"), (8, "Min Alt"))
+
+
+def fence_names(fences: int) -> str:
+    """The fences of a FENCE_TYPE bitmask as Rover names them: "Polygon fence", "Circle and
+    Polygon fences", "Max Alt, Circle and Polygon fences" (``AC_Fence::get_fence_names``);
+    empty for none.
+
+    Parameters
+    ----------
+    fences : int
+        A bitmask of FENCE_TYPE bits.
+    """
+    names = [name for bit, name in FENCE_NAMES if fences & bit]
+    if not names:
+        return ""
+    listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+    return f"{listed} fence{'s' if len(names) > 1 else ''}"
 
 
 def _local(it: MissionItem, home: tuple[float, float, float]) -> tuple[float, float]:
@@ -175,7 +196,7 @@ class Fence:
         radius_m: float,
         home_ned: tuple[float, float] = (0.0, 0.0),
     ) -> str | None:
-        """What the vehicle at (north, east) breaches, or None.
+        """What the vehicle at (north, east) breaches ("circle" before "polygon"), or None.
 
         Parameters
         ----------
@@ -188,18 +209,45 @@ class Fence:
         home_ned : (north_m, east_m)
             Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
         """
-        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) > radius_m:
+        breached = self.breaches(north_m, east_m, fence_type, radius_m, home_ned)
+        if breached & FENCE_TYPE_CIRCLE:
             return "circle"
-        if fence_type & FENCE_TYPE_POLYGON:
-            if any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons):
-                return "polygon"
-            if any(_inside_polygon(north_m, east_m, p) for p in self.exclusion_polygons):
-                return "polygon"
-            if any(math.hypot(north_m - n, east_m - e) > r for n, e, r in self.inclusion_circles):
-                return "polygon"
-            if any(math.hypot(north_m - n, east_m - e) < r for n, e, r in self.exclusion_circles):
-                return "polygon"
-        return None
+        return "polygon" if breached & FENCE_TYPE_POLYGON else None
+
+    def breaches(
+        self,
+        north_m: float,
+        east_m: float,
+        fence_type: int,
+        radius_m: float,
+        home_ned: tuple[float, float] = (0.0, 0.0),
+    ) -> int:
+        """Every fence the vehicle at (north, east) breaches, as FENCE_TYPE bits (0: none), as
+        AC_Fence keeps its breached fences: the circle of ``radius_m`` around home, and the
+        stored shapes together as the polygon fence.
+
+        Parameters
+        ----------
+        north_m, east_m : float
+            The vehicle, local NED, m.
+        fence_type : int
+            FENCE_TYPE: bit 2 the circle of ``radius_m`` around home, bit 4 the stored shapes.
+        radius_m : float
+            FENCE_RADIUS, m.
+        home_ned : (north_m, east_m)
+            Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
+        """
+        breached = 0
+        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) > radius_m:
+            breached |= FENCE_TYPE_CIRCLE
+        if fence_type & FENCE_TYPE_POLYGON and (
+            any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons)
+            or any(_inside_polygon(north_m, east_m, p) for p in self.exclusion_polygons)
+            or any(math.hypot(north_m - n, east_m - e) > r for n, e, r in self.inclusion_circles)
+            or any(math.hypot(north_m - n, east_m - e) < r for n, e, r in self.exclusion_circles)
+        ):
+            breached |= FENCE_TYPE_POLYGON
+        return breached
 
 
 def rally_points(items: list[MissionItem], home: tuple[float, float, float]) -> list[tuple[float, float]]:

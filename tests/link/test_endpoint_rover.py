@@ -2116,3 +2116,79 @@ def test_messages_a_ground_station_requests_are_answered_as_rover(bench: Bench, 
     assert result == mav.MAV_RESULT_ACCEPTED
     sent = [m.get_type() for m in out]  # type: ignore[attr-defined]
     assert sent == ([name] if name else [])
+
+
+# -- the fence in the pre-arm checks, as Rover's AP_Arming::fence_checks / AC_Fence::pre_arm_check
+
+
+def _sys_status(bench: Bench) -> object:
+    (status,) = [m for m in bench.tick(1.0) if m.get_type() == "SYS_STATUS"][-1:]
+    return status
+
+
+def test_arming_outside_an_enabled_fence_fails_as_rover_whatever_arming_check_selects(bench: Bench) -> None:
+    assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    bench.ep.params["FENCE_ENABLE"].value = 1
+    bench.state = dict(STATE, north_m=7.0, east_m=1.0)  # outside the square
+    status = _sys_status(bench)
+    assert not status.onboard_control_sensors_health & mav.MAV_SYS_STATUS_PREARM_CHECK  # type: ignore[attr-defined]
+    assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.statustexts[-1][1] == "PreArm: Vehicle breaching Polygon fence"
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
+    assert bench.ep.statustexts[-1][1] == "Arm: Vehicle breaching Polygon fence" and not bench.ep.armed
+    # no ARMING_CHECK bit turns the fence's check off (0 turns every check off, as on Rover)
+    bench.ep.params["ARMING_CHECK"].value = 64
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
+    # outside the FENCE_RADIUS circle (round home, put here) too: both named, in AC_Fence's order
+    bench.state = dict(STATE)
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 1) == mav.MAV_RESULT_ACCEPTED
+    bench.ep.params["FENCE_RADIUS"].value = 30.0
+    bench.state = dict(STATE, north_m=40.0, east_m=0.0)
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_RUN_PREARM_CHECKS) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.statustexts[-1][1] == "PreArm: Vehicle breaching Circle and Polygon fences"
+    # back inside: it arms
+    bench.state = dict(STATE, north_m=1.0, east_m=1.0)
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
+    # a fence switched off is not checked
+    bench.ep.set_armed(False)
+    bench.ep.params["FENCE_ENABLE"].value = 0
+    bench.state = dict(STATE, north_m=7.0, east_m=1.0)
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+
+
+def test_an_enabled_fence_with_nothing_to_check_or_a_circle_inside_the_margin_fails_prearm(bench: Bench) -> None:
+    bench.ep.params["FENCE_TYPE"].value = 4  # polygons only, none uploaded
+    bench.ep.params["FENCE_ENABLE"].value = 1
+    bench.tick()
+    assert bench.ep.prearm_failures() == ["Fences enabled, but none selected"]
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
+    assert bench.ep.statustexts[-1][1] == "Arm: Fences enabled, but none selected"
+    # an inclusion circle narrower than FENCE_MARGIN (2 m)
+    lat, lon = int(HOME[0] * 1e7), int(HOME[1] * 1e7)
+    circle = [Item(0, mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, p1=1.5, x=lat, y=lon, frame=mav.MAV_FRAME_GLOBAL_INT)]
+    assert upload(bench, circle, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    bench.tick()
+    assert bench.ep.prearm_failures()[0] == "Polygon fence margin is greater than inclusion circle radius"
+    bench.ep.params["FENCE_MARGIN"].value = 1.0
+    bench.state = dict(STATE, north_m=0.5, east_m=0.5)
+    bench.tick()
+    assert bench.ep.prearm_failures() == []
+
+
+@pytest.mark.parametrize(("action", "enabled"), [(0, False), (1, True), (2, True)])
+def test_sys_status_says_the_fence_is_enabled_only_when_it_acts_as_rover(
+    bench: Bench, action: int, enabled: bool
+) -> None:
+    # AC_Fence::sys_status_enabled: FENCE_ACTION 0 (report only) is not enabled
+    bench.ep.params["FENCE_ENABLE"].value = 1
+    bench.ep.params["FENCE_ACTION"].value = action
+    status = _sys_status(bench)
+    assert bool(status.onboard_control_sensors_enabled & mav.MAV_SYS_STATUS_GEOFENCE) == enabled  # type: ignore[attr-defined]
+    assert status.onboard_control_sensors_present & mav.MAV_SYS_STATUS_GEOFENCE  # type: ignore[attr-defined]
+    bench.ep.params["FENCE_ENABLE"].value = 0
+    status = _sys_status(bench)
+    assert not status.onboard_control_sensors_enabled & mav.MAV_SYS_STATUS_GEOFENCE  # type: ignore[attr-defined]
