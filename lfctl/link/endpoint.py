@@ -303,6 +303,7 @@ class VehicleEndpoint:
             running=self._mission_running,
             home=self._home_item,
             on_edit=self._list_edited,
+            on_received=self._list_received,
         )
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.mission_restarts = 0  # bumps when the mission restarts or is reset (DO_JUMP's counts afresh)
@@ -1192,14 +1193,17 @@ class VehicleEndpoint:
         if mission_type == MISSION:
             self.mission_version += 1
             self.mission_complete = False
-            if items:  # Rover's words on a mission received (scripts wait for them); a clear is silent
-                self.statustext("Flight plan received", mav.MAV_SEVERITY_INFO)
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
-            self.statustext(f"Fence accepted: {len(items)} items", mav.MAV_SEVERITY_INFO)
         elif mission_type == RALLY:
             self.rally = rally_points(items, self.home)
-            self.statustext(f"Rally accepted: {len(items)} points", mav.MAV_SEVERITY_INFO)
+
+    def _list_received(self, mission_type: int) -> None:
+        """An upload ended accepted. As Rover's MissionItemProtocol_*::complete: a mission's
+        (of no items, or a partial update, too) is "Flight plan received", which scripts wait
+        for; a fence's and the rally points' end without a word (a clear is never said)."""
+        if mission_type == MISSION:
+            self.statustext("Flight plan received", mav.MAV_SEVERITY_INFO)
 
     def _list_edited(self, mission_type: int, items: list[MissionItem]) -> None:
         """Items changed in place (a partial update): the mission is the same mission, edited

@@ -1,8 +1,9 @@
 """The vehicle side of the MAVLink mission protocol, for the three lists ArduPilot keeps apart:
 the MISSION (item 0 is home), the FENCE and the RALLY points.
 
-Upload (MISSION_COUNT, then the vehicle asks for each item with MISSION_REQUEST_INT, with
-per-item timeouts and retries, and ends with MISSION_ACK), download (MISSION_REQUEST_LIST,
+Upload (MISSION_COUNT, then the vehicle asks for each item with MISSION_REQUEST, as Rover's
+MissionItemProtocol asks, and takes MISSION_ITEM_INT, with per-item timeouts and retries, and
+ends with MISSION_ACK), download (MISSION_REQUEST_LIST,
 MISSION_COUNT, MISSION_REQUEST_INT -> MISSION_ITEM_INT), clear (MISSION_CLEAR_ALL) and the
 current item. An upload is checked item by item and as a whole before it replaces the list
 in force; a refused upload leaves it as it was (a partial update, MISSION_WRITE_PARTIAL_LIST,
@@ -203,6 +204,10 @@ class MissionServer:
     home : callable, optional
         Home now, as item 0 (:func:`~lfctl.link.mission.home_item`): a mission download's
         item 0, as Rover answers it whatever was uploaded as item 0.
+    on_received : callable, optional
+        Told ``mission_type`` when an upload of a list ends accepted (a whole one, one of no
+        items, or a partial update), before the ACK goes out: where Rover's
+        ``MissionItemProtocol::complete`` speaks (a MISSION_CLEAR_ALL is not an upload).
     """
 
     def __init__(
@@ -213,11 +218,13 @@ class MissionServer:
         running: Callable[[], bool] | None = None,
         home: Callable[[], MissionItem] | None = None,
         on_edit: Callable[[int, list[MissionItem]], None] | None = None,
+        on_received: Callable[[int], None] | None = None,
     ) -> None:
         self.send = send
         self.statustext = statustext
         self.on_change = on_change
         self.on_edit = on_edit or (lambda mission_type, items: None)
+        self.on_received = on_received or (lambda mission_type: None)
         self.running = running or (lambda: False)
         self.home = home
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
@@ -311,8 +318,10 @@ class MissionServer:
         if not self._may_upload(mtype, src):
             return
         if m.count == 0:
+            # as Rover: an upload with nothing to ask for is complete at once (and said so)
             self._uploads.pop(mtype, None)
             self.store(mtype, [], *src)
+            self.on_received(mtype)
             self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
             return
         if m.count > CAPACITY[mtype]:
@@ -325,8 +334,11 @@ class MissionServer:
         self._begin(_Upload(mtype, m.count, *src, received_at=t_s, last=m.count - 1))
 
     def _request_next(self, up: _Upload, t_s: float) -> None:
+        """Ask for the next item. As Rover's ``MissionItemProtocol::queued_request_send``:
+        with MISSION_REQUEST (40), which ArduPilot's ground stations (MAVProxy, MAVSDK for an
+        ArduPilot vehicle, QGroundControl) answer with MISSION_ITEM_INT, taken without a word."""
         up.sent_at = t_s
-        self.send(mav.MAVLink_mission_request_int_message(up.sysid, up.compid, up.next_seq, up.mission_type))
+        self.send(mav.MAVLink_mission_request_message(up.sysid, up.compid, up.next_seq, up.mission_type))
 
     def on_write_partial(self, m: Any, t_s: float) -> None:
         """MISSION_WRITE_PARTIAL_LIST: items ``start_index`` .. ``end_index`` of a list are
@@ -418,6 +430,7 @@ class MissionServer:
             self._refuse_fence(up, bad)
             return
         self.store(up.mission_type, items, up.sysid, up.compid)
+        self.on_received(up.mission_type)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
     def _edit(self, mission_type: int, items: dict[int, MissionItem]) -> None:
@@ -443,6 +456,7 @@ class MissionServer:
             self._edit(FENCE, up.items)
         held = self.lists[up.mission_type]
         self.changes.append(ListChange(MISSION_TYPES[up.mission_type], self._t_s, up.sysid, up.compid, len(held), True))
+        self.on_received(up.mission_type)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
     def _check_item(self, item: MissionItem, up: _Upload) -> int:

@@ -137,7 +137,7 @@ def upload(bench: Bench, items: list, mission_type: int = mav.MAV_MISSION_TYPE_M
         for m in bench.tick():
             if m.get_type() == "MISSION_ACK":
                 return int(m.type)
-            if m.get_type() == "MISSION_REQUEST_INT":
+            if m.get_type() == "MISSION_REQUEST":
                 it = items[m.seq]
                 if as_float:
                     bench.send(
@@ -812,10 +812,10 @@ def test_while_one_ground_station_uploads_another_is_refused_and_the_upload_comp
     items = good_mission(3)
     other = mav.MAVLink(None, srcSystem=254, srcComponent=190)
     bench.send(mav.MAVLink_mission_count_message(1, 1, 3, 0))
-    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST"]
     assert req.seq == 0
     bench.send(_item_msg(items[0]))
-    assert [m.seq for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"] == [1]
+    assert [m.seq for m in bench.tick() if m.get_type() == "MISSION_REQUEST"] == [1]
     for msg, expect in (
         (mav.MAVLink_mission_request_list_message(1, 1, 0), mav.MAV_MISSION_DENIED),
         (mav.MAVLink_mission_request_int_message(1, 1, 0, 0), mav.MAV_MISSION_DENIED),
@@ -855,7 +855,7 @@ def test_an_abandoned_upload_is_asked_again_and_cancelled_after_8_s(bench: Bench
     asked, acks = 0, []
     for _ in range(79):  # 7.9 s
         out = bench.tick(0.1)
-        asked += sum(m.get_type() == "MISSION_REQUEST_INT" for m in out)
+        asked += sum(m.get_type() == "MISSION_REQUEST" for m in out)
         acks += _acks(out)
     assert acks == [] and asked >= 7  # still open: asked again, not yet given up
     for _ in range(5):
@@ -1784,7 +1784,7 @@ def test_a_partial_list_update_replaces_items_in_place_as_mavproxys_wp_changealt
     assert upload(bench, _square(4)) == mav.MAV_MISSION_ACCEPTED
     assert bench.ep.set_current(3)
     bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 2, 2, 0))
-    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST"]
     assert req.seq == 2
     moved = Item(2, 16, x=129609999)
     bench.send(
@@ -1800,7 +1800,7 @@ def test_a_partial_list_update_replaces_items_in_place_as_mavproxys_wp_changealt
     assert bench.ep.current_seq == 3  # the current item stays
     # one past the end adds an item; a range past that, or backwards, is refused as Rover's
     bench.send(mav.MAVLink_mission_write_partial_list_message(1, 1, 5, 5, 0))
-    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST_INT"]
+    (req,) = [m for m in bench.tick() if m.get_type() == "MISSION_REQUEST"]
     bench.send(mav.MAVLink_mission_item_int_message(1, 1, 5, moved.frame, 16, 0, 1, 0, 0, 0, 0, moved.x, moved.y, 0, 0))
     bench.tick()
     assert len(bench.ep.mission) == 6
@@ -2192,3 +2192,64 @@ def test_sys_status_says_the_fence_is_enabled_only_when_it_acts_as_rover(
     bench.ep.params["FENCE_ENABLE"].value = 0
     status = _sys_status(bench)
     assert not status.onboard_control_sensors_enabled & mav.MAV_SYS_STATUS_GEOFENCE  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(
+    "mission_type", [mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_FENCE, mav.MAV_MISSION_TYPE_RALLY]
+)
+def test_an_upload_is_asked_for_with_mission_request_and_mission_item_int_is_taken_silently(
+    bench: Bench, mission_type: int
+) -> None:
+    # as Rover's MissionItemProtocol::queued_request_send: MISSION_REQUEST (40), never _INT;
+    # the MISSION_ITEM_INT a ground station answers with draws no float-item warning
+    rally = [Item(k, mav.MAV_CMD_NAV_RALLY_POINT, x=129602100 + k, frame=mav.MAV_FRAME_GLOBAL_INT) for k in range(2)]
+    items = {mav.MAV_MISSION_TYPE_MISSION: good_mission(3), mav.MAV_MISSION_TYPE_FENCE: fence_square()}.get(
+        mission_type, rally
+    )
+    bench.send(mav.MAVLink_mission_count_message(1, 1, len(items), mission_type))
+    asked, result = [], None
+    for _ in range(len(items) + 3):
+        for m in bench.tick():
+            assert m.get_type() != "MISSION_REQUEST_INT"
+            if m.get_type() == "MISSION_ACK":
+                result = m.type
+            if m.get_type() == "MISSION_REQUEST":
+                assert (m.target_system, m.target_component, m.mission_type) == (255, 190, mission_type)
+                asked.append(m.seq)
+                it = items[m.seq]
+                bench.send(
+                    mav.MAVLink_mission_item_int_message(
+                        1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
+                        it.x, it.y, it.z, mission_type,
+                    )
+                )  # fmt: skip
+    assert asked == list(range(len(items))) and result == mav.MAV_MISSION_ACCEPTED
+    assert not [t for _, t in bench.ep.statustexts if "MISSION_ITEM" in t]
+
+
+def test_upload_texts_are_rovers_fence_and_rally_silent_and_an_empty_mission_upload_received(bench: Bench) -> None:
+    # MissionItemProtocol_*::complete: the mission says "Flight plan received" (a count of 0
+    # completes an upload at once, and says it too); a fence or rally upload ends silently,
+    # and a MISSION_CLEAR_ALL of any list is only ACKed
+    def texts_of(action: object) -> list[str]:
+        before = len(bench.ep.statustexts)
+        if callable(action):
+            action()
+        else:
+            bench.send(action)
+            bench.tick()
+        return [t for _, t in bench.ep.statustexts[before:]]
+
+    rally = [Item(0, mav.MAV_CMD_NAV_RALLY_POINT, x=129602100, y=776690100, frame=mav.MAV_FRAME_GLOBAL_INT)]
+    assert texts_of(lambda: upload(bench, fence_square(), mav.MAV_MISSION_TYPE_FENCE)) == []
+    assert texts_of(lambda: upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY)) == []
+    assert not bench.ep.fence.empty and len(bench.ep.rally) == 1
+    for mtype in (mav.MAV_MISSION_TYPE_FENCE, mav.MAV_MISSION_TYPE_RALLY):
+        assert texts_of(mav.MAVLink_mission_clear_all_message(1, 1, mtype)) == []
+    assert bench.ep.fence.empty and not bench.ep.rally
+    assert texts_of(lambda: upload(bench, good_mission(3))) == ["Flight plan received"]
+    assert texts_of(mav.MAVLink_mission_count_message(1, 1, 0, mav.MAV_MISSION_TYPE_MISSION)) == [
+        "Flight plan received"
+    ]
+    assert not bench.ep.mission
+    assert texts_of(mav.MAVLink_mission_count_message(1, 1, 0, mav.MAV_MISSION_TYPE_FENCE)) == []
