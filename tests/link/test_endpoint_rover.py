@@ -1794,6 +1794,8 @@ def test_a_partial_list_update_replaces_items_in_place_as_mavproxys_wp_changealt
     assert [(m.get_type(), getattr(m, "type", None)) for m in out if m.get_type() == "MISSION_ACK"] == [
         ("MISSION_ACK", mav.MAV_MISSION_ACCEPTED)
     ]
+    # Rover's transfer_is_complete says so for a partial update too
+    assert [m.text for m in out if m.get_type() == "STATUSTEXT"] == ["Flight plan received"]
     mission = bench.ep.mission
     assert len(mission) == 5 and mission[2].x == 129609999 and mission[2].z == 7.0
     assert [it.x for k, it in enumerate(mission) if k != 2] == [129602000, 129602100, 129602300, 129602400]
