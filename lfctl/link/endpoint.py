@@ -1706,6 +1706,21 @@ class VehicleEndpoint:
             return None
         return self._nav[0]
 
+    def _guided_nav_bearing(self) -> int | None:
+        """NAV_CONTROLLER_OUTPUT's nav_bearing in GUIDED without a place to drive to, or None
+        (not GUIDED, or a place it is on its way to: the driver's report says that). As
+        Rover's ModeGuided, which reports in every submode: stopped, or on a turn-rate and
+        speed target, everything 0; on a heading and speed target, that heading (-180 to 180,
+        whole degrees, as the int16 field takes Rover's wrap_180 of it) until it times out;
+        no bearing to a destination, no distance, no cross-track error."""
+        g = self.guided
+        if self.mode != MODES["GUIDED"] or (g is not None and g.kind == "location"):
+            return None
+        live = g is not None and not (g.times_out and self.t_s - g.t_s > max(0.1, self.param("GUID_TIMEOUT")))
+        if live and g is not None and g.kind == "heading" and math.isfinite(g.heading_rad):
+            return int(math.degrees(wrap_pi(g.heading_rad)))
+        return 0
+
     def _nav_context(self) -> tuple[object, ...]:
         return (self.mode, self.armed, self.reversed, self.mission_version, self.guided)
 
@@ -1798,6 +1813,8 @@ class VehicleEndpoint:
                         min(int(nav.distance_m), 0xFFFF), 0.0, 0.0, -nav.cross_track_m,  # Rover's: + left
                     )
                 )  # fmt: skip
+            elif nav is None and (heading := self._guided_nav_bearing()) is not None:
+                self.send(mav.MAVLink_nav_controller_output_message(0.0, 0.0, heading, 0, 0, 0.0, 0.0, 0.0))
         elif name == "POSITION_TARGET_GLOBAL_INT":
             # Rover's, where its mode has a destination: the place only (everything else
             # ignored), at the ground's altitude above sea level, as MAVProxy's map shows it

@@ -1189,11 +1189,17 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
         out = [m for _ in range(int(seconds / 0.02)) for m in bench.tick(0.02)]
         return [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
 
+    def stopped(got: list[object]) -> bool:  # GUIDED stopped: ModeGuided's Stop submode, all 0
+        return bool(got) and all(
+            (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (0, 0, 0, 0)  # type: ignore[attr-defined]
+            for n in got
+        )
+
     report = NavReport(math.radians(-10.6), math.radians(350.2), 12.7, -0.4, (12.0, -2.0))  # 0.4 m left of its leg
     bench.ep.steering(report)
     assert navs() == []  # HOLD: not an autopilot mode, as on Rover
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
-    assert navs() == []  # the report was for HOLD: not sent once the mode changed
+    assert stopped(navs())  # the report was for HOLD: not sent once the mode changed
     bench.ep.steering(report)
     got = navs()
     assert len(got) == 2  # 2 Hz, in EXTENDED_STATUS
@@ -1215,7 +1221,7 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
     assert _count(out, "NAV_CONTROLLER_OUTPUT") == _count(out, "POSITION_TARGET_GLOBAL_INT") == 0
     assert bench.ep.stats.handler_errors == 0
     bench.ep.steering(None)
-    assert navs() == []  # no destination (speed and turn-rate setpoints): nothing to say
+    assert stopped(navs())  # no destination: GUIDED stopped, as Rover reports it
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTENDED_STATUS, 10, 1))
     bench.tick()
     bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0, (3.0, 0.0)))
@@ -1224,7 +1230,7 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
         bench.ep.set_armed(True)
         bench.ep.steering(NavReport(0.0, 0.0, 3.0, 0.0, (3.0, 0.0)))
         change()
-        assert navs(0.2) == []  # what it steered for changed: nothing stale goes out
+        assert stopped(navs(0.2))  # what it steered for changed: nothing stale goes out
 
 
 def test_qgroundcontrols_connect_sequence_gets_every_answer_and_no_warning(bench: Bench) -> None:
@@ -2255,3 +2261,31 @@ def test_upload_texts_are_rovers_fence_and_rally_silent_and_an_empty_mission_upl
     ]
     assert not bench.ep.mission
     assert texts_of(mav.MAVLink_mission_count_message(1, 1, 0, mav.MAV_MISSION_TYPE_FENCE)) == []
+
+
+def test_nav_controller_output_in_guided_without_a_place_as_rovers_mode_guided(bench: Bench) -> None:
+    # ModeGuided reports in every submode (an autopilot mode): stopped, turn rate and speed:
+    # all 0; heading and speed: that heading as wrap_180, whole degrees; HOLD and MANUAL: none
+    def last_nav() -> object | None:
+        out = [m for _ in range(30) for m in bench.tick(0.02)]
+        navs = [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
+        return navs[-1] if navs else None
+
+    for mode in ("HOLD", "MANUAL"):
+        assert bench.set_mode(mode) == mav.MAV_RESULT_ACCEPTED
+        assert last_nav() is None
+    bench.ep.set_armed(True)
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    n = last_nav()
+    assert n is not None and (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (0, 0, 0, 0)  # type: ignore[attr-defined]
+    q = (math.cos(math.radians(175.25)), 0.0, 0.0, math.sin(math.radians(175.25)))  # heading 350.5 deg
+    bench.send(mav.MAVLink_set_attitude_target_message(0, 1, 1, 0b00000111, q, 0, 0, 0, 0.5))
+    n = last_nav()
+    assert n is not None and (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (-9, 0, 0, 0)  # type: ignore[attr-defined]
+    bench.tick(3.5)  # not renewed within GUID_TIMEOUT: stopped
+    n = last_nav()
+    assert n is not None and n.nav_bearing == 0  # type: ignore[attr-defined]
+    bench.send(mav.MAVLink_set_attitude_target_message(0, 1, 1, 0b00000011, (1, 0, 0, 0), 0, 0, 0.25, 0.5))
+    n = last_nav()
+    assert bench.ep.guided is not None and bench.ep.guided.kind == "rate"
+    assert n is not None and (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (0, 0, 0, 0)  # type: ignore[attr-defined]
