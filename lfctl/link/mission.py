@@ -335,6 +335,31 @@ def _int_as(x: float, lo: int, hi: int) -> float:
     return float(min(hi, max(lo, math.trunc(x)))) if math.isfinite(x) else 0.0
 
 
+#: for the commands lfctl does not carry out, what AP_Mission keeps of an item and gives
+#: back in a download (``AP_Mission::mission_cmd_to_mavlink_int``): the params kept (by
+#: number) and, for a command that stores no place, which of x, y and z it keeps; the rest
+#: come back 0, as its zero-initialised packet has them
+KEPT_FIELDS: dict[int, tuple[str, str]] = {
+    getattr(mav, f"MAV_CMD_{command}"): (params, xyz)
+    for command, params, xyz in (
+        ("NAV_LAND", "14", ""), ("NAV_TAKEOFF", "1", ""), ("NAV_CONTINUE_AND_CHANGE_ALT", "1", ""),
+        ("NAV_LOITER_TO_ALT", "24", ""), ("NAV_SPLINE_WAYPOINT", "1", ""), ("NAV_GUIDED_ENABLE", "1", ""),
+        ("CONDITION_YAW", "1234", ""), ("DO_SET_RELAY", "12", ""), ("DO_REPEAT_RELAY", "123", ""),
+        ("DO_SET_SERVO", "12", ""), ("DO_REPEAT_SERVO", "1234", ""), ("DO_LAND_START", "", ""),
+        ("DO_GO_AROUND", "", ""), ("DO_SET_ROI", "1", ""), ("DO_DIGICAM_CONFIGURE", "1234", "xyz"),
+        ("DO_DIGICAM_CONTROL", "1234", "xy"), ("DO_MOUNT_CONTROL", "123", ""), ("DO_SET_CAM_TRIGG_DIST", "13", ""),
+        ("DO_PARACHUTE", "1", ""), ("DO_SPRAYER", "1", ""), ("DO_AUX_FUNCTION", "12", ""),
+        ("DO_INVERTED_FLIGHT", "1", ""), ("DO_GRIPPER", "12", ""), ("DO_GUIDED_LIMITS", "1234", ""),
+        ("DO_AUTOTUNE_ENABLE", "1", ""), ("NAV_ALTITUDE_WAIT", "123", ""), ("NAV_VTOL_TAKEOFF", "", ""),
+        ("NAV_VTOL_LAND", "1", ""), ("DO_VTOL_TRANSITION", "1", ""), ("DO_ENGINE_CONTROL", "123", ""),
+        ("NAV_PAYLOAD_PLACE", "1", ""), ("NAV_SET_YAW_SPEED", "123", ""), ("DO_WINCH", "1234", ""),
+        ("DO_SET_RESUME_REPEAT_DIST", "1", ""), ("DO_SEND_SCRIPT_MESSAGE", "1234", ""),
+        ("NAV_SCRIPT_TIME", "1234", "xy"), ("NAV_ATTITUDE_TIME", "1234", "x"), ("DO_PAUSE_CONTINUE", "1", ""),
+        ("DO_GIMBAL_MANAGER_PITCHYAW", "1234", "xz"),
+    )
+}  # fmt: skip
+
+
 def as_stored(item: MissionItem) -> MissionItem:
     """A mission item as a Rover keeps it, and so gives it back when the mission is
     downloaded and reads it when the item runs (``AP_Mission::mavlink_int_to_mission_cmd``
@@ -342,13 +367,24 @@ def as_stored(item: MissionItem) -> MissionItem:
     are 0 and each kept param takes its field's type (a waypoint's wait a 16-bit whole
     number, 2.5 s kept as 2; DO_JUMP's target and count whole; a loiter's direction
     the sign of its radius, -0 too, or +-1; a circle's turns whole, or 256ths below one).
-    Other commands are kept as sent.
+    A command that stores no place (DO_JUMP, DO_CHANGE_SPEED, the conditions, ...) has x,
+    y and z 0, but for the few that keep numbers there (a camera's, a gimbal's); for the
+    other commands the params and numbers they have no room for are 0 (:data:`KEPT_FIELDS`),
+    the rest as sent.
 
     Parameters
     ----------
     item : MissionItem
         An item that passed :func:`validate_item`.
     """
+    if item.command not in STORES_LOCATION:
+        xyz = KEPT_FIELDS.get(item.command, ("", ""))[1]
+        item = replace(
+            item,
+            x=item.x if "x" in xyz else 0,
+            y=item.y if "y" in xyz else 0,
+            z=item.z if "z" in xyz else 0.0,
+        )
     c, p1, p2, p3, p4 = item.command, item.param1, item.param2, item.param3, item.param4
     u16 = 65535
     if c == NAV_WAYPOINT:
@@ -374,6 +410,10 @@ def as_stored(item: MissionItem) -> MissionItem:
         params = (_int_as(p1, 0, 255), p2, p3, 0.0)
     elif c in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE):
         params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+    elif c in KEPT_FIELDS:
+        kept = KEPT_FIELDS[c][0]
+        q = [p if str(k) in kept else 0.0 for k, p in enumerate((p1, p2, p3, p4), start=1)]
+        params = (q[0], q[1], q[2], q[3])
     else:
         return item
     return replace(item, param1=params[0], param2=params[1], param3=params[2], param4=params[3])

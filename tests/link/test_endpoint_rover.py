@@ -2289,3 +2289,30 @@ def test_nav_controller_output_in_guided_without_a_place_as_rovers_mode_guided(b
     n = last_nav()
     assert bench.ep.guided is not None and bench.ep.guided.kind == "rate"
     assert n is not None and (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (0, 0, 0, 0)  # type: ignore[attr-defined]
+
+
+def test_a_downloaded_command_without_a_place_has_x_y_z_0_and_only_the_params_rover_keeps(bench: Bench) -> None:
+    # AP_Mission::mission_cmd_to_mavlink_int fills a zeroed packet with the command's own
+    # fields: a command that stores no place comes back with x = y = z = 0 (a NaN z too),
+    # but for the camera's and gimbal's numbers kept there; params it has no room for are 0
+    lat, lon = int(HOME[0] * 1e7), int(HOME[1] * 1e7)
+    nan = math.nan
+    sent = [
+        (16, (0, 0, 0, 0), (lat, lon, 5.0)),
+        (177, (1, 2, 0, 0), (lat, lon, nan)),  # DO_JUMP
+        (178, (1, 0.5, 40, 0), (123, 456, 7.0)),  # DO_CHANGE_SPEED
+        (112, (2.0, 0, 0, 0), (9, 9, 9.0)),  # CONDITION_DELAY
+        (183, (5, 1500, 7, 8), (1, 2, 3.0)),  # DO_SET_SERVO: channel and PWM only
+        (203, (1, 2, 3, 4), (5, 6, 7.0)),  # DO_DIGICAM_CONTROL: x (shoot) and y (id) kept
+        (179, (0, 0, 0, 0), (lat, lon + 10, 2.0)),  # DO_SET_HOME stores a place: kept
+    ]
+    mission = [
+        mav.MAVLink_mission_item_int_message(1, 1, k, mav.MAV_FRAME_GLOBAL_INT, cmd, 0, 1, *p, *xyz, 0)
+        for k, (cmd, p, xyz) in enumerate(sent)
+    ]
+    assert upload(bench, mission) == mav.MAV_MISSION_ACCEPTED
+    back = download(bench, mav.MAV_MISSION_TYPE_MISSION)
+    got = [(it.x, it.y, it.z) for it in back[1:]]  # type: ignore[attr-defined]
+    assert got == [(0, 0, 0.0), (0, 0, 0.0), (0, 0, 0.0), (0, 0, 0.0), (5, 6, 0.0), (lat, lon + 10, 2.0)]
+    assert (back[4].param3, back[4].param4) == (0.0, 0.0)  # type: ignore[attr-defined]
+    assert (back[4].param1, back[4].param2) == (5.0, 1500.0)  # type: ignore[attr-defined]
