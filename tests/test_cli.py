@@ -223,3 +223,20 @@ def test_fmu_info_escapes_the_fmus_own_control_characters(tmp_path: Path, capsys
     assert main(["fmu", "info", str(bad)]) == 0
     out = capsys.readouterr().out
     assert "\x9b" not in out and r"description  \x9b2J\nFAKE" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "debug", "verbose"),
+    [
+        (["sim", "convoy", "--debug"], True, False),  # after the command, as users type it
+        (["--debug", "sim", "convoy"], True, False),
+        (["sim", "convoy"], False, False),
+        (["gcs", "param", "get", "WP_SPEED", "-v"], False, True),  # after a command's action too
+        (["-v", "fmu", "info", "unicycle", "--debug"], True, True),
+    ],
+)
+def test_global_options_are_taken_before_or_after_the_command(argv: list[str], debug: bool, verbose: bool) -> None:
+    from lfctl.cli import build_parser
+
+    args = build_parser().parse_args(argv)
+    assert (args.debug, args.verbose) == (debug, verbose)

@@ -1,6 +1,7 @@
 """The `lfctl` command line: one module per command, each parsing its arguments, calling the
 library and printing; nothing else. Exit codes: 0 success, 1 the run or check failed, 2 bad
-input (usage, scenario, mission, parameter or FMU file). Errors print as one line naming the bad input; ``--debug``
+input (usage, scenario, mission, parameter or FMU file), 130 stopped by Ctrl-C (SIGINT), 143
+by SIGTERM. Errors print as one line naming the bad input; ``--debug``
 shows tracebacks."""
 
 from __future__ import annotations
@@ -20,12 +21,34 @@ from lfctl.cli.options import OneLineParser
 from lfctl.errors import ConfigError, FmuError, LfctlError
 from lfctl.logs import guard_log
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "stop_exit_code", "stopped_by"]
 
 #: FmuError.call values that mean the FMU file itself is unusable (exit 2, like a bad scenario)
 FMU_FILE_CALLS = ("load", "extract")
 #: the commands, in the order `lfctl --help` lists them; each is a module here
 COMMANDS = ("sim", "sweep", "gcs", "follow", "audit", "replay", "track", "fmu", "bench")
+
+
+#: the signal that last asked the command to stop (SIGINT: Ctrl-C, or a KeyboardInterrupt of
+#: Python's own)
+_stop_signal = [int(signal.SIGINT)]
+
+
+def stopped_by(signum: int) -> None:
+    """Note the signal (SIGINT or SIGTERM) that asks the command to stop: its exit code is
+    128 + that signal's number, as a shell reports a process the signal ended (130, 143).
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    """
+    _stop_signal[0] = signum
+
+
+def stop_exit_code() -> int:
+    """The exit code of a command stopped by a signal: 130 after SIGINT, 143 after SIGTERM."""
+    return 128 + _stop_signal[0]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -39,7 +62,24 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"lfctl.cli.{name}").register(sub)
+    _global_options_anywhere(p)
     return p
+
+
+def _global_options_anywhere(parser: argparse.ArgumentParser) -> None:
+    """``--debug`` and ``-v`` after a command too (``lfctl sim convoy --debug``), as well as
+    before it: each command's parser, down to the last action, takes them (with no default of
+    its own, so one given before the command stands)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):  # (an alias maps to the same parser)
+                child.add_argument(
+                    "--debug", action="store_true", default=argparse.SUPPRESS, help="as before the command"
+                )
+                child.add_argument(
+                    "-v", "--verbose", action="store_true", default=argparse.SUPPRESS, help="as before the command"
+                )
+                _global_options_anywhere(child)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -56,6 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     # SIGTERM ends a command like Ctrl-C (`lfctl sim` turns both into a stop between steps)
     def _terminate(signum: int, frame: object) -> None:
+        stopped_by(signum)
         raise KeyboardInterrupt
 
     signal.signal(signal.SIGTERM, _terminate)
@@ -69,8 +110,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except KeyboardInterrupt:
-        print("lfctl: interrupted", file=sys.stderr)
-        return 130
+        code = stop_exit_code()
+        print("lfctl: terminated" if code == 128 + signal.SIGTERM else "lfctl: interrupted", file=sys.stderr)
+        return code
     except BrokenPipeError:  # `lfctl ... | head`: the reader left; not an error of ours
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())

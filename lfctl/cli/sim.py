@@ -12,6 +12,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from lfctl.cli import stopped_by
 from lfctl.cli.options import integer, number
 from lfctl.data import example_names
 
@@ -242,6 +243,7 @@ def run(args: argparse.Namespace) -> int:
     requested = threading.Event()
 
     def ask_stop(signum: int, frame: object) -> None:
+        stopped_by(signum)
         if requested.is_set():
             raise KeyboardInterrupt
         requested.set()

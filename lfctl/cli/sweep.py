@@ -12,6 +12,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from lfctl.cli import stop_exit_code, stopped_by
 from lfctl.cli.options import counted
 from lfctl.data import example_names
 
@@ -147,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
     requested, cancelled = threading.Event(), threading.Event()
 
     def ask_stop(signum: int, frame: object) -> None:
+        stopped_by(signum)
         if cancelled.is_set():
             raise KeyboardInterrupt
         (cancelled if requested.is_set() else requested).set()
@@ -193,5 +195,5 @@ def run(args: argparse.Namespace) -> int:
             f"`lfctl sweep {args.sweep} --out {out_dir} --resume` finishes the sweep",
             file=human,
         )
-        return 130
+        return stop_exit_code()
     return 1 if result.failed else 0

@@ -157,7 +157,7 @@ def test_a_signal_still_stops_a_healthy_run_between_steps(faulty: BuiltModel, tm
             proc.kill()
             proc.wait()
     assert proc.stderr is not None
-    assert (rc, proc.stderr.read()) == (130, "lfctl: interrupted\n")
+    assert (rc, proc.stderr.read()) == (143, "lfctl: terminated\n")  # 128 + SIGTERM, as the watchdog's
     (log,) = logs.glob("*.mcap")
     assert audit(log).figures["end"]["reason"] == "interrupted"
     assert proc.stdout is not None and f"log          {log}  (interrupted;" in proc.stdout.read()  # where it went

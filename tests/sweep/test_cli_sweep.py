@@ -98,8 +98,10 @@ def _end(proc: subprocess.Popen[str]) -> None:
 
 
 @pytest.mark.integration
-@pytest.mark.parametrize("presses", [1, 2])
-def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_path: Path, presses: int) -> None:
+@pytest.mark.parametrize(("presses", "sig"), [(1, signal.SIGINT), (2, signal.SIGINT), (1, signal.SIGTERM)])
+def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(
+    tmp_path: Path, presses: int, sig: signal.Signals
+) -> None:
     sweep = tmp_path / "s.toml"
     # short and long runs take turns (15 and 400 s simulated, about 0.1 and 3 s): when the
     # first short one has finished, a long one is surely running for seconds
@@ -110,8 +112,13 @@ def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_
     proc = _start(sweep, tmp_path / "out")
     try:
         assert proc.stdout is not None
-        first = json.loads(proc.stdout.readline())  # a run has finished: others are running
-        os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers too
+        line = proc.stdout.readline()
+        assert line, f"the sweep ended before a row (exit {proc.wait()}): {proc.communicate()[1]}"
+        first = json.loads(line)  # a run has finished: others are running
+        if sig == signal.SIGINT:
+            os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group, workers too
+        else:
+            proc.send_signal(signal.SIGTERM)  # `kill`: lfctl stops as on Ctrl-C
         said = _line_where(proc, lambda line: "stopping" in line)  # the sweep took the first Ctrl-C
         assert re.search(r"; [12] running finish", said), said  # the long run at least
         if presses == 2:
@@ -119,7 +126,7 @@ def test_ctrl_c_stops_submitting_and_lets_running_runs_finish_twice_cancels(tmp_
         out, err = proc.communicate(timeout=120)
     finally:
         _end(proc)
-    assert proc.returncode == 130, err
+    assert proc.returncode == 128 + sig, err  # 130 after Ctrl-C, 143 after SIGTERM, as a shell says
     lines = [first] + [json.loads(line) for line in out.splitlines()]
     table = (tmp_path / "out" / "runs.csv").read_text().splitlines()
     if presses == 1:
