@@ -21,7 +21,7 @@ from lfctl.cli.options import OneLineParser
 from lfctl.errors import ConfigError, FmuError, LfctlError
 from lfctl.logs import guard_log
 
-__all__ = ["build_parser", "main", "stop_exit_code", "stopped_by"]
+__all__ = ["build_parser", "main", "quiet_stdout", "stop_exit_code", "stopped_by"]
 
 #: FmuError.call values that mean the FMU file itself is unusable (exit 2, like a bad scenario)
 FMU_FILE_CALLS = ("load", "extract")
@@ -49,6 +49,14 @@ def stopped_by(signum: int) -> None:
 def stop_exit_code() -> int:
     """The exit code of a command stopped by a signal: 130 after SIGINT, 143 after SIGTERM."""
     return 128 + _stop_signal[0]
+
+
+def quiet_stdout() -> None:
+    """Send what is still to be written to stdout to /dev/null: its reader has left (a
+    pipe's, `lfctl ... | head`), and Python's last flush at exit must not fail on it."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -114,8 +122,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("lfctl: terminated" if code == 128 + signal.SIGTERM else "lfctl: interrupted", file=sys.stderr)
         return code
     except BrokenPipeError:  # `lfctl ... | head`: the reader left; not an error of ours
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        quiet_stdout()
         return 0
     except (ConfigError, FileNotFoundError) as exc:
         if args.debug:

@@ -12,7 +12,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from lfctl.cli import stop_exit_code, stopped_by
+from lfctl.cli import quiet_stdout, stop_exit_code, stopped_by
 from lfctl.cli.options import counted
 from lfctl.data import example_names
 
@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"folder       {out_dir}", file=human, flush=True)
 
-    announced, stopping = threading.Event(), threading.Event()
+    announced, stopping, reader_gone = threading.Event(), threading.Event(), threading.Event()
 
     def progress(state: SweepProgress, row: dict[str, Any] | None) -> None:
         if not announced.is_set():
@@ -137,8 +137,15 @@ def run(args: argparse.Namespace) -> int:
                 file=sys.stderr,
                 flush=True,
             )
-        if row is not None and pipe:
-            print(json.dumps(row, default=str), flush=True)
+        if row is not None and pipe and not reader_gone.is_set():
+            try:
+                print(json.dumps(row, default=str), flush=True)
+            except BrokenPipeError:  # `lfctl sweep ... | head`: stop as on Ctrl-C, the folder whole
+                quiet_stdout()
+                reader_gone.set()
+                stopped_by(signal.SIGPIPE)
+                requested.set()
+                print("stdout       its reader left (a closed pipe): the sweep stops", file=sys.stderr, flush=True)
         if show_bar:
             print(_bar(state), end="", file=sys.stderr, flush=True)
 

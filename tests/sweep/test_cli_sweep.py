@@ -163,3 +163,26 @@ def test_ctrl_c_while_the_cluster_starts_stops_the_sweep_before_any_run(tmp_path
     else:  # the third press interrupts the start itself
         assert "interrupted before the sweep began: nothing was written" in err, err
         assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.integration
+def test_a_reader_that_leaves_stops_the_sweep_as_ctrl_c_does(tmp_path: Path) -> None:
+    # `lfctl sweep ... | head -1`: the closed pipe stops the sweep with its folder whole (it
+    # ended with exit 0 and half a folder: rows, no tables)
+    sweep = tmp_path / "s.toml"
+    sweep.write_text(TRUTH.format(top="seeds = 8\n", duration=15.0))
+    proc = _start(sweep, tmp_path / "out")
+    try:
+        assert proc.stdout is not None and proc.stderr is not None
+        line = proc.stdout.readline()
+        assert line, f"the sweep ended before a row (exit {proc.wait()}): {proc.stderr.read()}"
+        proc.stdout.close()  # the reader leaves
+        rc = proc.wait(timeout=120)
+        err = proc.stderr.read()
+    finally:
+        _end(proc)
+    assert rc == 141, err  # 128 + SIGPIPE, as a shell reports a writer whose reader left
+    assert "stdout       its reader left (a closed pipe): the sweep stops" in err
+    assert f"--out {tmp_path / 'out'} --resume` finishes the sweep" in err and "Traceback" not in err
+    rows = (tmp_path / "out" / "runs.csv").read_text().splitlines()
+    assert 2 <= len(rows) < 9 and (tmp_path / "out" / "summary.md").exists()
