@@ -13,7 +13,12 @@ from typing import Any
 from lfctl.checks import Bound, check_connection, check_name
 from lfctl.errors import ConfigError
 
-__all__ = ["OneLineParser", "connection", "integer", "name", "number", "param_name"]
+__all__ = ["TRACKER_KINDS", "OneLineParser", "connection", "integer", "name", "number", "param_name"]
+
+
+#: ``--tracker``'s names (``track``, ``replay``) -> the tracker kind: ``hue-only`` as the
+#: benchmark tables name the paper's baseline, ``hue`` as the library does
+TRACKER_KINDS = {"full": "full", "hs-lbp": "hs-lbp", "hue-only": "hue", "hue": "hue"}
 
 
 class OneLineParser(argparse.ArgumentParser):

@@ -6,9 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from lfctl.cli.options import name
-
-KINDS = {"hue-only": "hue", "hue": "hue", "hs-lbp": "hs-lbp", "full": "full"}
+from lfctl.cli.options import TRACKER_KINDS, name
 
 
 def register(sub: Any) -> None:
@@ -19,7 +17,7 @@ def register(sub: Any) -> None:
         description="Decode the recorded camera frames and run a tracker on them; compare with the recorded track and the truth.",
     )
     rp.add_argument("file", type=Path, help="an .mcap log recorded with sensing = 'camera'")
-    rp.add_argument("--tracker", choices=tuple(KINDS), default="full", help="tracker to replay (default: full)")
+    rp.add_argument("--tracker", choices=tuple(TRACKER_KINDS), default="full", help="tracker to replay (default: full)")
     rp.add_argument("--follower", type=name, help="which follower's camera (default: the first)")
     rp.set_defaults(func=run)
 
@@ -28,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     """Replay and print both success rates."""
     from lfctl.record.replay import MIN_VISIBLE, replay
 
-    r = replay(args.file, KINDS[args.tracker], args.follower)
+    r = replay(args.file, TRACKER_KINDS[args.tracker], args.follower)
     print(f"replayed {r.frames} frames of {r.follower} from {args.file}")
     print(
         f"  recorded tracker (full):  success {r.recorded_success:.3f}  "

@@ -9,7 +9,7 @@ import math
 import sys
 from typing import TYPE_CHECKING, Any
 
-from lfctl.cli.options import integer, number, video_out
+from lfctl.cli.options import TRACKER_KINDS, integer, number, video_out
 
 if TYPE_CHECKING:
     from lfctl.config import BannerConfig, Config
@@ -25,7 +25,7 @@ def register(sub: Any) -> None:
     t.add_argument("source", help="video file, camera index (0) or stream URL")
     t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
     t.add_argument("--out", type=video_out, help="write an annotated video here (.mp4, .avi, .mkv or .mov)")
-    t.add_argument("--tracker", choices=("full", "hs-lbp", "hue"), default="full", help="tracker kind (default: full)")
+    t.add_argument("--tracker", choices=tuple(TRACKER_KINDS), default="full", help="tracker kind (default: full)")
     t.add_argument("--no-markers", action="store_true", help="histogram path only (objects without the banner)")
     t.add_argument(
         "--marker-hue-deg",
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
                     perception = BannerPerception.from_config(
                         camera,
                         _watched_banner(scen) if scen else BannerConfig(),
-                        kind=args.tracker,
+                        kind=TRACKER_KINDS[args.tracker],
                         use_markers=not args.no_markers,
                         marker_hue_deg=args.marker_hue_deg,
                     )

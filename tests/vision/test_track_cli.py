@@ -113,3 +113,24 @@ def test_a_shipped_scenario_is_taken_by_name(capsys: pytest.CaptureFixture[str])
     video = str(footage_dir() / "bikes.mp4")
     assert main(["track", video, "--roi", "1,2,30,30", "--scenario", "vee", "--max-frames", "2"]) == 0
     assert len(records(capsys)) == 2
+
+
+@pytest.mark.parametrize(("name", "kind"), [("hue-only", "hue"), ("hue", "hue"), ("hs-lbp", "hs-lbp")])
+def test_the_tracker_names_are_replays(
+    name: str, kind: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`--tracker` takes the names `lfctl replay` takes (`hue-only` was refused here)."""
+    import lfctl.vision.perception as perception
+
+    made: list[str] = []
+    real = perception.BannerPerception.from_config
+
+    def spy(*args: object, **kwargs: object) -> perception.BannerPerception:
+        made.append(str(kwargs["kind"]))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(perception.BannerPerception, "from_config", spy)
+    seq = load_sequence(footage_dir() / "labels" / "carphone_bowtie.json")
+    roi = ",".join(str(v) for v in seq.init_box or ())
+    assert main(["track", str(seq.video), "--roi", roi, "--tracker", name, "--max-frames", "3"]) == 0
+    assert made == [kind] and len(records(capsys)) == 3
