@@ -42,22 +42,24 @@ def run(args: argparse.Namespace) -> int:
     if problem:  # said before a long audit
         raise ConfigError(f"--recover {args.recover}: {problem}")
     report = audit(args.file)
-    if args.strict:
-        report.findings.extend(check_thresholds(report))
+    # --strict's limits are a section of their own: a run outside them is not a broken log
+    limits = check_thresholds(report) if args.strict else None
+    limits_ok = limits is None or not any(f.level == "error" for f in limits)
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "file": report.path,
-                    "ok": report.ok,
-                    "findings": [f.__dict__ for f in report.findings],
-                    "figures": report.figures,
-                },
-                indent=1,
-            )
-        )
+        doc = {
+            "file": report.path,
+            "ok": report.ok and limits_ok,
+            "findings": [f.__dict__ for f in report.findings],
+            "figures": report.figures,
+        }
+        if limits is not None:
+            doc["limits"] = [f.__dict__ for f in limits]
+        print(json.dumps(doc, indent=1))
     else:
         print(format_report(report))
+        if limits is not None:
+            print("limits (--strict): " + ("OK" if limits_ok else "FAILED"))
+            print("\n".join(f"  {f.line()}" for f in limits) or "  within the scenario's [audit] limits")
     if args.plot:
         made = plot(report, args.plot)
         for p in made:
@@ -67,4 +69,4 @@ def run(args: argparse.Namespace) -> int:
     if args.recover:
         n = recover(report, args.recover)
         print(f"recovered {n} messages into {args.recover}", file=sys.stderr)
-    return 0 if report.ok else 1
+    return 0 if report.ok and limits_ok else 1

@@ -299,15 +299,23 @@ def test_non_mcap_files_get_a_clear_error(
     assert not (tmp_path / "plots").exists()  # nothing to plot: no empty PNGs
 
 
-def test_strict_fails_on_the_scenarios_limits(truth_log, tmp_path: Path) -> None:
+def test_strict_fails_on_the_scenarios_limits(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     path, _ = truth_log
     assert main(["audit", str(path), "--strict"]) == 0
+    assert "limits (--strict): OK\n  within the scenario's [audit] limits" in capsys.readouterr().out
     text = (EXAMPLES / "convoy.toml").read_text() + "\n[audit]\nmax_range_err_rms_frac = 0.0001\n"
     cfg = load_config(EXAMPLES / "convoy.toml")
     cfg = small_chunks(dataclasses.replace(cfg, source=text), tmp_path, "truth", 8.0)
     p = tmp_path / "strict.mcap"
     run_scenario(cfg, record_to=p)
     assert main(["audit", str(p), "--strict"]) == 1
+    out = capsys.readouterr().out
+    # a run outside its limits is not a broken log: the two are said apart
+    assert "integrity: OK\n  no findings" in out
+    assert "limits (--strict): FAILED\n  ERROR: follower1: range error RMS" in out
+    assert main(["audit", str(p), "--strict", "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["ok"] is False and doc["findings"] == [] and doc["limits"][0]["level"] == "error"
 
 
 def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
