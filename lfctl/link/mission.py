@@ -512,6 +512,10 @@ class Leg:
     #: the DO_JUMPs' repeats left as this leg was reached in the walk, (item, left) for each
     #: jump met so far: a mission resumed here goes on counting from them
     jumps: tuple[tuple[int, int], ...] = ()
+    #: the counted jumps taken on the way from the leg before to this one, (item, times
+    #: taken, repeats), as Rover says each ("Mission: 3 Jump 1/2"); a jump repeated for ever
+    #: is not counted, and not said
+    jumped: tuple[tuple[int, int, int], ...] = ()
 
 
 def to_legs(
@@ -579,6 +583,7 @@ def walk_mission(
     blocked = False
     here = start
     jumps_left: dict[int, int] = dict(jumps)
+    jumped: list[tuple[int, int, int]] = []  # since the last leg: (item, times taken, repeats)
     i = start_seq
     # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
     # at each other) add no legs: the walk is bounded too, not only the legs it yields
@@ -601,15 +606,18 @@ def walk_mission(
                 hold = it.param1
             else:
                 hold = 0.0
-            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items())))
-            before, blocked = [], False
+            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items()), tuple(jumped)))
+            before, blocked, jumped = [], False, []
             if hold == math.inf:
                 return legs, ()
         elif it.command == DO_JUMP:
             if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
-                left = jumps_left.setdefault(i, math.trunc(it.param2))
+                repeats = math.trunc(it.param2)
+                left = jumps_left.setdefault(i, repeats)
                 if left != 0:
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
+                    if left > 0:
+                        jumped.append((i, repeats - left + 1, repeats))
                     i = math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it

@@ -342,6 +342,8 @@ class VehicleDriver:
         self._leg, self._queue, self._condition = k, list(leg.before), None
         self._search(t_s)
         item = ep.mission[leg.seq]
+        for jump, taken, repeats in leg.jumped:  # as AP_Mission says each counted jump, first
+            ep.statustext(f"Mission: {jump} Jump {taken}/{repeats}", mav.MAV_SEVERITY_INFO)
         ep.statustext(mission_text(item), mav.MAV_SEVERITY_INFO)
         if leg.command == NAV_RETURN_TO_LAUNCH:  # home or a rally point as they are now
             self._place(k, ep.rtl_destination(*self._pos))

@@ -311,6 +311,10 @@ def test_a_fractional_jump_is_cut_to_whole_numbers_as_rovers_integers() -> None:
     assert validate_item(jump, 4) == mav.MAV_MISSION_ACCEPTED
     legs = to_legs([home, *wps, jump], HOME)
     assert [leg.seq for leg in legs] == [1, 2, 1, 2, 1, 2]
+    # the counted jumps each leg is reached by, as Rover says them: (item, times taken, of)
+    assert [leg.jumped for leg in legs] == [(), (), ((3, 1, 2),), (), ((3, 2, 2),), ()]
+    forever = dataclasses.replace(jump, param2=-1.0)  # repeated for ever: not counted, not said
+    assert not any(leg.jumped for leg in to_legs([home, *wps, forever], HOME))
 
 
 def test_a_negative_hold_is_none_as_on_a_rover() -> None:
@@ -532,6 +536,20 @@ def with_jump(links: Links) -> None:
         item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0),  # back to 1, once
         places(links.home, (0.0, 0.0)),
     )(links)
+
+
+def test_a_jump_taken_is_said_before_the_item_it_leads_to() -> None:
+    _rep, links = run_with({0.5: with_jump}, duration_s=60.0)
+    started = [s for s in texts(links, after_s=0.4) if s.startswith("Mission:")]
+    # AP_Mission's increment_jump_times_run, then the item the jump leads to starts
+    assert started == [
+        "Mission: 1 WP",
+        "Mission: 2 WP",
+        "Mission: 3 Jump 1/1",
+        "Mission: 1 WP",
+        "Mission: 2 WP",
+        "Mission: 4 WP",
+    ]
 
 
 def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_resume_its_condition() -> None:
