@@ -83,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
     key = signing_key_from_passphrase(args.signing_passphrase)
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
-        gcs.wait_heartbeat()
+        if args.action != "watch":  # watch shows every vehicle as it is heard, from none
+            gcs.wait_heartbeat()
         action = args.action
         if plan is not None:  # upload
             _warn_if_far(gcs, plan, args.file)
@@ -172,6 +173,9 @@ def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | Non
 STALE_S = 3.0
 #: redraws per second
 WATCH_HZ = 2.0
+#: on a pipe, the first update waits this long for the vehicles on the link (each sends its
+#: heartbeat once a second), s: a snapshot (``--count 1``) lists them all
+WATCH_SETTLE_S = 1.2
 
 
 def _cell(value: object, fmt: str) -> str:
@@ -254,7 +258,9 @@ def render_fleet(rows: list[dict[str, Any]]) -> list[str]:
 
 def watch(gcs: Any, count: int | None, out: Any = None) -> None:
     """Every vehicle heard, until Ctrl-C (or ``count`` updates): on a terminal a screen that
-    redraws in place; on a pipe one JSON object per update.
+    redraws in place; on a pipe one JSON object per update, the first once a vehicle has been
+    heard and every vehicle has had time to be (:data:`WATCH_SETTLE_S`), or with none after
+    the ground station's timeout.
 
     Parameters
     ----------
@@ -282,10 +288,17 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
             gcs.heartbeat()
             m = gcs.next_message(0.05)
             now = time.monotonic()
-            if m is not None:
+            for _ in range(1000):  # what has come in before the table is shown (a flood: in parts)
+                if m is None:
+                    break
                 table.add(m, now)
+                m = gcs.next_message(0.0)
             if now < next_draw:
                 continue
+            if not screen and shown == 0 and now - t0 < gcs.timeout_s:
+                heard = any(r.autopilot for r in table.rows.values())
+                if not heard or now - t0 < WATCH_SETTLE_S:
+                    continue  # a snapshot lists the vehicles, not the moment before they are heard
             next_draw = now + 1.0 / WATCH_HZ
             shown += 1
             rows = fleet_rows(table, now)

@@ -72,6 +72,8 @@ def test_a_lost_followers_no_value_is_null_in_the_json_not_nan() -> None:
 class FakeStation:
     """Gives the scripted messages, one per call, then nothing."""
 
+    timeout_s = 5.0
+
     def __init__(self, msgs: list[object]) -> None:
         self.msgs = msgs
 
@@ -134,3 +136,44 @@ def test_a_peers_escape_sequence_is_shown_not_obeyed() -> None:
     (row,) = fleet_rows(table, 0.5)
     assert row["text"] == "\\x1b[2J\\x1b]0;pwned\\x07 ok"
     assert "\x1b" not in render_fleet([row])[1] and "\x07" not in render_fleet([row])[1]
+
+
+@pytest.mark.integration
+@pytest.mark.fmu
+def test_a_one_update_snapshot_lists_the_vehicles_and_needs_no_target(
+    capsys: pytest.CaptureFixture[str], background_run, free_udp_ports
+) -> None:
+    # `watch --count 1 | jq`: its one update was the moment before anything was heard (no
+    # vehicles), and watch waited for system 1's heartbeat, so a follower's own link (system 2)
+    # needed --target 2
+    gcs_port = free_udp_ports(3)
+    base = gcs_port + 1
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(
+        cfg,
+        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=30.0),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
+    )
+    with background_run(cfg, realtime=True) as errors:
+        rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "1"])
+        follower = main(
+            ["gcs", "--connect", f"udpout:127.0.0.1:{base + 1}", "--timeout", "10", "watch", "--count", "1"]
+        )
+    assert not errors, errors
+    assert (rc, follower) == (0, 0)
+    first, second = (json.loads(line) for line in capsys.readouterr().out.splitlines())
+    assert {v["sysid"] for v in first["vehicles"]} == {1, 2}  # both, in the first and only update
+    assert {v["sysid"] for v in second["vehicles"]} == {2}  # the follower's link: no --target needed
+
+
+def test_a_snapshot_with_no_vehicle_waits_the_timeout_then_says_none(free_udp_ports) -> None:
+    from lfctl.link.gcs import GroundStation
+
+    port = free_udp_ports(1)
+    out = io.StringIO()
+    gcs = GroundStation(f"udpin:127.0.0.1:{port}", timeout_s=1.5)
+    try:
+        watch(gcs, 1, out)  # nobody on the link: one update after the timeout, with none
+    finally:
+        gcs.close()
+    assert json.loads(out.getvalue())["vehicles"] == []
