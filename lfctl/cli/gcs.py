@@ -117,10 +117,13 @@ def run(args: argparse.Namespace) -> int:
             gcs.clear()
             print("mission cleared")
         elif action in ("mode", "arm", "disarm"):
+            t0 = time.monotonic()
             result = gcs.set_mode(args.mode) if action == "mode" else gcs.arm(action == "arm")
             name = result_name(result)
             print(f"{action} {args.mode}: {name}" if action == "mode" else f"{action}: {name}")
             if name != "MAV_RESULT_ACCEPTED":
+                for text in gcs.said_since(t0):  # the vehicle's reasons ("PreArm: ...")
+                    print(f"vehicle: {text}", file=sys.stderr)
                 return 1
         elif action == "param":
             return _param(gcs, args, wanted)
@@ -156,15 +159,17 @@ def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | Non
                       + (", ..." if len(skipped) > 8 else ""))  # fmt: skip
         refused = []
         for name, value in wanted.items():
+            t0 = time.monotonic()
             got = gcs.param_set(name, value)
             if args.param_action == "set":
                 print(f"{name} = {got:g}")
             if not (math.isfinite(value) and math.isclose(got, value, rel_tol=1e-6, abs_tol=1e-6)):
-                refused.append(f"{name} kept {got:g} (refused {value:g})")
+                why = "; ".join(gcs.said_since(t0))  # the vehicle's reason ("WP_SPEED rejected: ...")
+                refused.append(f"{name} kept {got:g} (refused {value:g}" + (f": {why})" if why else ")"))
         if args.param_action == "load":
             print(f"set {len(wanted) - len(refused)} of {len(wanted)} parameters from {args.file}")
         if refused:
-            print(f"lfctl: error: {'; '.join(refused)}; see the vehicle's STATUSTEXT", file=sys.stderr)
+            print(f"lfctl: error: {'; '.join(refused)}", file=sys.stderr)
             return 1
     return 0
 

@@ -3,8 +3,10 @@ pymavlink, system 255, component 190. Every wait has a timeout and a clear error
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -71,6 +73,9 @@ class GroundStation:
         self.heartbeats = heartbeats
         self.timeout_s = timeout_s
         self._hb_at = -math.inf
+        #: the target's STATUSTEXTs heard while waiting for answers, (monotonic time, text
+        #: escaped), the newest 20: a refusal's reason (:meth:`said_since`)
+        self.said: deque[tuple[float, str]] = deque(maxlen=20)
         self.port = (
             connect if isinstance(connect, MavPort) else MavPort.open(connect, GCS_SYSID, GCS_COMPID, signing_key)
         )
@@ -142,9 +147,28 @@ class GroundStation:
             m = self.next_message(min(0.1, max(0.0, deadline - time.monotonic())))
             if m is None:
                 continue
+            if m.get_type() == "STATUSTEXT" and m.get_srcSystem() == self.target:
+                self.said.append((time.monotonic(), printable(text_field(m.text))))
             if m.get_type() in kinds and m.get_srcSystem() == self.target and (where is None or where(m)):
                 return m
         raise LinkTimeoutError("/".join(kinds), sysid=self.target, timeout_s=limit, detail=CHECK_LINK)
+
+    def said_since(self, t0: float, linger_s: float = 0.5) -> list[str]:
+        """What the vehicle said (STATUSTEXT) since ``t0``, waiting up to ``linger_s`` for a
+        first text when none has come yet (a refusal's reason may follow its answer).
+
+        Parameters
+        ----------
+        t0 : float
+            ``time.monotonic()`` as the request went out.
+        linger_s : float
+            Longest wait for a text, s.
+        """
+        deadline = time.monotonic() + linger_s
+        while not any(t >= t0 for t, _text in self.said) and time.monotonic() < deadline:
+            with contextlib.suppress(LinkTimeoutError):
+                self.wait(("STATUSTEXT",), timeout_s=max(0.0, deadline - time.monotonic()))
+        return [text for t, text in self.said if t >= t0]
 
     def wait_heartbeat(self) -> Any:
         """The vehicle's next HEARTBEAT (from its autopilot, component 1)."""
@@ -433,12 +457,14 @@ class GroundStation:
         mission_type : int
             MAV_MISSION_TYPE: the mission, the fence, the rally points, or ALL.
         """
+        t0 = time.monotonic()
         self.send(mav.MAVLink_mission_clear_all_message(self.target, 1, mission_type))
         m = self.wait(("MISSION_ACK",), where=lambda m: m.mission_type == mission_type)
         if m.type != mav.MAV_MISSION_ACCEPTED:
             result = _result_name("MAV_MISSION_RESULT", m.type)
             what = MISSION_TYPES.get(mission_type, "list")
-            raise MissionProtocolError(f"{what} clear refused: {result}", result=result)
+            why = "; ".join(self.said_since(t0))
+            raise MissionProtocolError(f"{what} clear refused: {result}" + (f" ({why})" if why else ""), result=result)
 
     def close(self) -> None:
         """Close the connection."""

@@ -396,8 +396,11 @@ def test_a_refused_param_set_exits_1(live: LiveEndpoint, capsys: pytest.CaptureF
     with pytest.raises(SystemExit) as stop:  # NaN is refused before anything is sent
         main([*connect, "WP_SPEED", "nan"])
     assert stop.value.code == 2
+    capsys.readouterr()
     assert main([*connect, "WP_SPEED", "1000"]) == 1
-    assert "refused" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    # with the vehicle's reason, which was only on the vehicle's console
+    assert err == "lfctl: error: WP_SPEED kept 2 (refused 1000: WP_SPEED rejected: 1000 outside 0..100 m/s)\n", err
     assert main([*connect, "WP_SPEED", "0.5"]) == 0
 
 
@@ -628,4 +631,29 @@ def test_nav_set_yaw_speed_is_unsupported_as_on_a_current_rover(live: LiveEndpoi
     ack = g.wait(("COMMAND_ACK",), where=lambda m: m.command == mav.MAV_CMD_NAV_SET_YAW_SPEED)
     assert ack.result == mav.MAV_RESULT_UNSUPPORTED
     assert live.ep.guided is None and live.ep.mode == MODES["GUIDED"]
+    g.close()
+
+
+def test_a_refused_arm_says_the_vehicles_reasons(live: LiveEndpoint, capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.cli import main
+
+    live.ep.params["WP_SPEED"].value = 0.0  # Rover's parameter check will not arm it
+    connect = ["gcs", "--connect", f"udpout:127.0.0.1:{live.port}", "--timeout", "3"]
+    assert main([*connect, "arm"]) == 1
+    out, err = capsys.readouterr()
+    assert out == "arm: MAV_RESULT_FAILED\n"
+    assert "vehicle: Arm: WP_SPEED too low" in err.splitlines(), err
+
+
+def test_a_refused_clear_says_the_vehicles_reason(live: LiveEndpoint) -> None:
+    from lfctl.errors import MissionProtocolError
+
+    g = live.gcs()
+    g.upload(local_mission(SQUARE, HOME))
+    assert g.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED and g.arm(True) == mav.MAV_RESULT_ACCEPTED
+    # Rover says why after its MISSION_ACK: the ground station waits a moment for it
+    with pytest.raises(
+        MissionProtocolError, match=r"^mission clear refused: MAV_MISSION_ERROR \(Mission is running: not cleared\)$"
+    ):
+        g.clear()
     g.close()
