@@ -113,6 +113,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         # (the FMU's call named in it) instead of ending the process without a word
         with contextlib.suppress(AttributeError, ValueError, OSError):
             faulthandler.enable()
+    if not args.debug:
+        # OpenCV's and its FFmpeg's own warnings, read as OpenCV starts (a camera index that is
+        # not there, a slice FFmpeg complains of and decodes all the same): lfctl says what
+        # matters in its own line; --debug, or the variables set by the user, show them
+        os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+        os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     guard_log(debug=args.debug)
     try:

@@ -134,3 +134,18 @@ def test_the_tracker_names_are_replays(
     roi = ",".join(str(v) for v in seq.init_box or ())
     assert main(["track", str(seq.video), "--roi", roi, "--tracker", name, "--max-frames", "3"]) == 0
     assert made == [kind] and len(records(capsys)) == 3
+
+
+def test_a_camera_that_is_not_there_is_one_line_without_opencvs_own_warnings(tmp_path: Path) -> None:
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if not k.startswith("OPENCV_")}
+    done = subprocess.run(
+        [sys.executable, "-m", "lfctl", "track", "7"], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert done.returncode == 2
+    assert (
+        done.stderr == "lfctl: error: cannot open video source '7' with OpenCV (unsupported format or no such camera)\n"
+    )
