@@ -240,3 +240,14 @@ def test_global_options_are_taken_before_or_after_the_command(argv: list[str], d
 
     args = build_parser().parse_args(argv)
     assert (args.debug, args.verbose) == (debug, verbose)
+
+
+@pytest.mark.parametrize("name", ["vision_aruco", "e2e"])
+def test_a_benchmark_module_takes_help_and_refuses_a_misspelt_option(name: str) -> None:
+    # `python -m lfctl.bench.vision_aruco --help` ran the whole benchmark
+    run = [sys.executable, "-m", f"lfctl.bench.{name}"]
+    helped = subprocess.run([*run, "--help"], capture_output=True, text=True, timeout=120)
+    assert helped.returncode == 0 and helped.stdout.startswith(f"usage: python3 -m lfctl.bench.{name} [-h] [--quick]")
+    wrong = subprocess.run([*run, "--quik"], capture_output=True, text=True, timeout=120)
+    assert (wrong.returncode, wrong.stdout) == (2, "")
+    assert "unrecognized arguments: --quik" in wrong.stderr

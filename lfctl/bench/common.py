@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import platform
-from collections.abc import Sequence
+import sys
+from collections.abc import Callable, Sequence
 
-__all__ = ["print_json", "print_table"]
+__all__ = ["print_json", "print_table", "run_as_script"]
 
 
 def print_table(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
@@ -54,3 +56,24 @@ def print_json(benchmark: str, results: object) -> None:
             }
         )
     )
+
+
+def run_as_script(main: Callable[[bool], None], doc: str | None, argv: Sequence[str] | None = None) -> None:
+    """``python -m lfctl.bench.NAME [--quick]``: run a benchmark's ``main`` with the command
+    line's ``--quick``; ``--help`` says what it measures, anything else is refused (a
+    misspelt option used to run the whole benchmark).
+
+    Parameters
+    ----------
+    main : callable
+        The benchmark's ``main(quick)``.
+    doc : str or None
+        Its module's docstring (the help's description).
+    argv : sequence of str, optional
+        The arguments (default ``sys.argv[1:]``).
+    """
+    spec = getattr(sys.modules["__main__"], "__spec__", None)
+    prog = f"python3 -m {spec.name}" if spec is not None else None  # (run as a module, as lfctl bench does)
+    parser = argparse.ArgumentParser(prog=prog, description=(doc or "").strip().split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true", help="shorter runs (a smoke check)")
+    main(parser.parse_args(argv).quick)

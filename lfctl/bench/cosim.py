@@ -11,14 +11,13 @@ default for a user FMU): what containing a crash costs, per step and per vehicle
 from __future__ import annotations
 
 import shutil
-import sys
 import time
 from pathlib import Path
 
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.config import parse_config
 from lfctl.fmu.build import build_model
 from lfctl.sim.cosim import Simulation
@@ -141,4 +140,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

@@ -19,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import os
-import sys
 import tempfile
 import time
 from collections.abc import Iterator
@@ -28,7 +27,7 @@ from pathlib import Path
 import cv2
 
 from lfctl.bench import render_cost
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.config import load_config
 from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
@@ -198,4 +197,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

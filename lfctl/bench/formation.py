@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.config import load_config
 from lfctl.data import examples_dir
 from lfctl.sim.runner import run_scenario
@@ -121,4 +120,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

@@ -12,14 +12,13 @@ import random
 import select
 import socket
 import statistics
-import sys
 import threading
 import time
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.link.endpoint import VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import local_mission
@@ -185,4 +184,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

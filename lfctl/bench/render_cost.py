@@ -24,13 +24,12 @@ import dataclasses
 import math
 import os
 import statistics
-import sys
 import time
 from collections.abc import Callable
 
 import cv2
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.config import BannerConfig, CameraConfig, SceneConfig, load_config
 from lfctl.data import examples_dir
 from lfctl.render.renderer import Renderer, VehiclePose
@@ -171,4 +170,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

@@ -32,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sim.runner import run_scenario
 from lfctl.sweep.engine import SweepResult, local_cluster, run_sweep, scheduler_processes
@@ -199,4 +199,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

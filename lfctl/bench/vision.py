@@ -35,14 +35,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
 import cv2
 import numpy as np
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.bench.footage import LabelledSequence, load_sequences, start_boxes
 from lfctl.bench.vision_aruco import compare as aruco_compare
 from lfctl.config import BannerConfig, CameraConfig
@@ -625,4 +624,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)

@@ -22,14 +22,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import numpy as np
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import print_json, print_table, run_as_script
 from lfctl.render.renderer import Renderer, VehiclePose
 from lfctl.render.sequences import FPS, make_sequence
 from lfctl.vision.perception import BannerPerception
@@ -188,4 +187,4 @@ def main(quick: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    main("--quick" in sys.argv)
+    run_as_script(main, __doc__)
