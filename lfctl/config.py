@@ -998,7 +998,7 @@ def parse_config(text: str, name: str = "scenario") -> Config:
     text : str
         The TOML.
     name : str
-        The scenario's name when the text sets none; error messages start with it.
+        The scenario's name when the text sets none.
 
     Raises
     ------
@@ -1009,9 +1009,9 @@ def parse_config(text: str, name: str = "scenario") -> Config:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{name}: not valid TOML: {exc}") from exc
+        raise ConfigError(f"not valid TOML: {exc}") from exc  # (load_config names the file, as for a bad key)
     except RecursionError:
-        raise ConfigError(f"{name}: arrays or tables nested too deeply to read") from None
+        raise ConfigError("arrays or tables nested too deeply to read") from None
     return config_from_table(data, name, text)
 
 

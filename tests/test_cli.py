@@ -42,6 +42,9 @@ def test_bad_scenario_exits_2_with_one_line(tmp_path: Path, capsys: pytest.Captu
     assert main(["sim", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "sim.dt_s must be within [0.0001, 1], got -1.0" in err and "Traceback" not in err
+    bad.write_text("[sim\n")  # named once, as a bad key is ("bad.toml: bad: not valid TOML" named it twice)
+    assert main(["sim", str(bad)]) == 2
+    assert capsys.readouterr().err.startswith(f"lfctl: error: {bad}: not valid TOML: Expected ']'")
 
 
 def test_corrupt_user_fmu_is_bad_input_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -251,3 +254,11 @@ def test_a_benchmark_module_takes_help_and_refuses_a_misspelt_option(name: str) 
     wrong = subprocess.run([*run, "--quik"], capture_output=True, text=True, timeout=120)
     assert (wrong.returncode, wrong.stdout) == (2, "")
     assert "unrecognized arguments: --quik" in wrong.stderr
+
+
+def test_audit_names_a_plot_folder_it_cannot_make(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")  # a folder cannot be made under a file
+    assert main(["audit", str(ROOT / "examples" / "convoy.toml"), "--plot", str(blocker / "plots")]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == f"lfctl: error: --plot {blocker / 'plots'}: cannot make the folder (Not a directory)\n"

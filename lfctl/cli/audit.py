@@ -38,6 +38,11 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(problem)
     if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
         raise ConfigError(f"--plot {args.plot}: not a directory")
+    if args.plot is not None:  # made now, so a folder that cannot be is said before a long audit
+        try:
+            args.plot.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(f"--plot {args.plot}: cannot make the folder ({exc.strerror or exc})") from None
     problem = recover_target_problem(args.recover, args.file) if args.recover is not None else None
     if problem:  # said before a long audit
         raise ConfigError(f"--recover {args.recover}: {problem}")

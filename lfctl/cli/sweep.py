@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from lfctl.cli import quiet_stdout, stop_exit_code, stopped_by
-from lfctl.cli.options import counted
+from lfctl.cli.options import counted, integer
 from lfctl.data import example_names
 
 if TYPE_CHECKING:
@@ -39,7 +39,7 @@ def register(sub: Any) -> None:
     )
     s.add_argument(
         "--workers",
-        type=int,
+        type=integer(1, 10**6),
         metavar="N",
         help="local worker processes (default: one per core); with --scheduler, wait for N workers to join",
     )

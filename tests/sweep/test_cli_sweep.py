@@ -46,8 +46,12 @@ def test_bad_variants_and_arguments_are_one_line_naming_them(
     assert "invalid choice: 'some'" in capsys.readouterr().err  # argparse names the choices
     assert main(["sweep", str(ok), "--scheduler", "127.0.0.1:8786"]) == 2
     assert "--scheduler must be an address such as tcp://HOST:8786" in capsys.readouterr().err
-    assert main(["sweep", str(ok), "--workers", "0"]) == 2
-    assert "--workers must be >= 1, got 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="2"):  # when the command line is read: before the plan is printed
+        main(["sweep", str(ok), "--workers", "0"])
+    assert capsys.readouterr() == (
+        "",
+        "lfctl sweep: error: argument --workers: must be within 1..1000000, got 0 (see lfctl sweep --help)\n",
+    )
     assert not (tmp_path / "sweeps").exists()  # options are checked before the folder is made
 
 
