@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -38,11 +39,15 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(problem)
     if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
         raise ConfigError(f"--plot {args.plot}: not a directory")
-    if args.plot is not None:  # made now, so a folder that cannot be is said before a long audit
+    made_plot_dir = False
+    if args.plot is not None and not args.plot.exists():
+        # made now, so a folder that cannot be is said before a long audit (removed again
+        # below if nothing is plotted into it)
         try:
-            args.plot.mkdir(parents=True, exist_ok=True)
+            args.plot.mkdir(parents=True)
         except OSError as exc:
             raise ConfigError(f"--plot {args.plot}: cannot make the folder ({exc.strerror or exc})") from None
+        made_plot_dir = True
     problem = recover_target_problem(args.recover, args.file) if args.recover is not None else None
     if problem:  # said before a long audit
         raise ConfigError(f"--recover {args.recover}: {problem}")
@@ -71,6 +76,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"plot: {p}", file=sys.stderr)
         if not made:
             print(f"no plots: nothing readable in {args.file}", file=sys.stderr)
+            if made_plot_dir:
+                with contextlib.suppress(OSError):  # (something else put a file there meanwhile)
+                    args.plot.rmdir()
     if args.recover:
         n = recover(report, args.recover)
         print(f"recovered {n} messages into {args.recover}", file=sys.stderr)

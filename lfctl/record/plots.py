@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import textwrap
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -88,10 +90,14 @@ def _colour(k: int) -> tuple[float, float, float]:
     return PALETTE[0 if k == 0 else 1 + (k - 1) % (len(PALETTE) - 1)]
 
 
-def _save(plt: Any, fig: Any, path: Path) -> None:
+def _save(plt: Any, fig: Any, path: Path, key: Sequence[str] = ()) -> None:
     """Write the figure as ``path``: a symbolic link there is replaced by the picture, not
-    followed (it would write over the file it points at)."""
-    fig.tight_layout()
+    followed (it would write over the file it points at). ``key``: the numbered marks'
+    names (:func:`_marks`), written under the plots, as many lines as they need."""
+    lines = textwrap.wrap("   ".join(key), width=int(fig.get_figwidth() * 15)) if key else []
+    if lines:
+        fig.text(0.01, 0.005, "\n".join(lines), fontsize=8, va="bottom", ha="left")
+    fig.tight_layout(rect=(0.0, (0.02 + 0.13 * len(lines)) / fig.get_figheight() if lines else 0.0, 1.0, 1.0))
     if path.is_symlink():
         path.unlink()
     fig.savefig(path, dpi=100)
@@ -220,24 +226,33 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     _save(plt, fig, path)
 
 
-def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> None:
+def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> list[str]:
     """Scenario events (red dotted) and mode changes (grey dashed) as vertical lines; with
-    ``label``, their names, those closer than :data:`LABEL_GAP_FRAC` of the time axis to the
-    one before written as one label (side by side they overlap), inside the axes."""
-    top = ax.get_ylim()[1]
+    ``label``, a number over each line, just above the axes, and the key's entries
+    returned (``"2 lighting key: gain 1 (40.0 s)"``): names written along the lines ran over
+    the curves. Marks closer than :data:`LABEL_GAP_FRAC` of the time axis to the one before
+    share a number (side by side the numbers overlap)."""
     for t, _text in events:
         ax.axvline(t, color="tab:red", ls=":", lw=1.2)
     for t, _vehicle, _mode in modes:
         ax.axvline(t, color="grey", ls="--", lw=0.8)
     if not label:
-        return
+        return []
     lo, hi = ax.get_xlim()
     gap = LABEL_GAP_FRAC * (hi - lo)
-    for (t, text), ha, color in (
-        *((g, "left", "tab:red") for g in _grouped([(t, x) for t, x in events], gap)),
-        *((g, "right", "dimgrey") for g in _grouped([(t, f"{v}: {m}") for t, v, m in modes], gap)),
-    ):
-        ax.text(t, top, " " + text, rotation=90, va="top", ha=ha, fontsize=7, color=color, clip_on=True)
+    groups = sorted(
+        [(t, x, "tab:red") for t, x in _grouped(events, gap)]
+        + [(t, x, "dimgrey") for t, x in _grouped([(t, f"{v}: {m}") for t, v, m in modes], gap)],
+        key=lambda g: g[0],
+    )
+    keys = []
+    for k, (t, text, color) in enumerate(groups, start=1):
+        ax.annotate(
+            str(k), xy=(t, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2), textcoords="offset points",
+            ha="center", va="bottom", fontsize=7, color=color, fontweight="bold", annotation_clip=True,
+        )  # fmt: skip
+        keys.append(f"{k} {text} ({t:.1f} s)")
+    return keys
 
 
 def _broken(t: np.ndarray, series: list[np.ndarray]) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -294,8 +309,9 @@ def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
     a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
     a3.set_ylim(-0.3, 2.3)
     a3.set_xlabel("simulation time (s)")
+    keys: list[str] = []
     for ax, label in ((a1, True), (a2, False), (a3, False)):
-        _marks(ax, events, modes, label)
+        keys += _marks(ax, events, modes, label)
         ax.grid(alpha=0.3)
     if events:
         a1.plot([], [], color="tab:red", ls=":", label="scenario event")
@@ -303,8 +319,8 @@ def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
         a1.plot([], [], color="grey", ls="--", label="mode change")
     a1.legend(loc="lower right", fontsize=8)
     a2.legend(loc="lower right", fontsize=8)
-    a1.set_title(f"{follower}: formation errors (truth) and track state")
-    _save(plt, fig, path)
+    a1.set_title(f"{follower}: formation errors (truth) and track state", pad=14)  # room for the numbers
+    _save(plt, fig, path, key=keys)
     return True
 
 

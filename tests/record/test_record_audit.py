@@ -603,3 +603,24 @@ def test_plot_lines_break_at_gaps_and_close_marks_share_a_label() -> None:
         (42.0, "b"),
         (60.0, "d"),
     ]
+
+
+def test_marks_are_numbered_over_the_plot_and_named_in_a_key_under_it() -> None:
+    # names written along the lines ran over the curves
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from lfctl.record.plots import _marks
+
+    fig, ax = plt.subplots()
+    ax.plot([0.0, 70.0], [0.0, 1.0])
+    keys = _marks(
+        ax, [(30.0, "occluder"), (40.0, "lighting key: gain 1"), (40.5, "gust")], [(10.0, "leader", "AUTO")], True
+    )
+    assert keys == ["1 leader: AUTO (10.0 s)", "2 occluder (30.0 s)", "3 lighting key: gain 1 / gust (40.0 s)"]
+    numbers = [(a.get_text(), a.get_color()) for a in ax.texts]
+    assert numbers == [("1", "dimgrey"), ("2", "tab:red"), ("3", "tab:red")]
+    assert _marks(ax, [(30.0, "x")], [], False) == []  # the plots below: lines only
+    plt.close(fig)
