@@ -200,6 +200,7 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     last_s = max((float(t[-1]) for _k, _v, t, _a in tracks if len(t)), default=0.0)
     step = mark_step_s(last_s - first_s)
     first_mark = max(step, math.ceil(first_s / step) * step)
+    times: list[tuple[float, float, str, Any]] = []  # (east, north, label, colour) of each time dot
     for k, v, t, a in tracks:
         if not len(t):
             continue
@@ -211,19 +212,37 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
             i = int(np.searchsorted(t, mark))
             if i < len(t):
                 ax.plot(a[i, 0], a[i, 1], ".", color="black", ms=6)
-                ax.annotate(
-                    f"{mark:g}", (a[i, 0], a[i, 1]), xytext=(3, -10), textcoords="offset points", fontsize=7, color=col
-                )
+                times.append((float(a[i, 0]), float(a[i, 1]), f"{mark:g}", col))
     ax.plot([], [], "o", color="grey", mfc="white", label="start")
     ax.plot([], [], "s", color="grey", label="end")
     ax.plot([], [], ".", color="black", label=f"every {step:g} s (labelled in s)")
     ax.set_xlabel("east of home (m)")
     ax.set_ylabel("north of home (m)")
     ax.set_aspect("equal")
+    _time_labels(ax, times)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     ax.set_title(f"{run.get('scenario', '')} seed {run.get('seed', '')}: trajectories (top view)")
     _save(plt, fig, path)
+
+
+#: a time label nearer than this to one already written is left out (its dot stays), px
+LABEL_CLEARANCE_PX = (16.0, 9.0)
+
+
+def _time_labels(ax: Any, labels: list[tuple[float, float, str, Any]]) -> None:
+    """Each time dot's label beside it, in order (the leader's first), but none within
+    :data:`LABEL_CLEARANCE_PX` of one already written: where vehicles pass the same place,
+    labels piled up into an unreadable blot."""
+    ax.apply_aspect()  # the equal-aspect limits, so pixel distances are the picture's
+    written: list[tuple[float, float]] = []
+    dx, dy = LABEL_CLEARANCE_PX
+    for east, north, text, col in labels:
+        x, y = ax.transData.transform((east, north))
+        if any(abs(x - wx) < dx and abs(y - wy) < dy for wx, wy in written):
+            continue
+        written.append((x, y))
+        ax.annotate(text, (east, north), xytext=(3, -10), textcoords="offset points", fontsize=7, color=col)
 
 
 def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> list[str]:

@@ -624,3 +624,19 @@ def test_marks_are_numbered_over_the_plot_and_named_in_a_key_under_it() -> None:
     assert numbers == [("1", "dimgrey"), ("2", "tab:red"), ("3", "tab:red")]
     assert _marks(ax, [(30.0, "x")], [], False) == []  # the plots below: lines only
     plt.close(fig)
+
+
+def test_time_labels_where_tracks_meet_are_not_piled_up() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from lfctl.record.plots import _time_labels
+
+    fig, ax = plt.subplots(figsize=(4, 4))
+    ax.plot([0.0, 10.0], [0.0, 10.0])
+    # three vehicles' 20 s dots on one spot, and one far from them: the first and the far one
+    _time_labels(ax, [(5.0, 5.0, "20", "C0"), (5.01, 5.0, "20", "C1"), (5.0, 5.02, "30", "C2"), (9.0, 1.0, "40", "C3")])
+    assert [(a.get_text(), a.get_color()) for a in ax.texts] == [("20", "C0"), ("40", "C3")]
+    plt.close(fig)
