@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import logging
 import re
+import threading
 import time
 
 from lfctl.checks import printable
@@ -23,8 +24,9 @@ class LogGuard(logging.Filter):
     Other lines of the same logger, and lines below WARNING (``-v``'s progress), are not held
     back. At most ``max_kinds`` kinds are counted at once (a peer that makes every line a new
     kind grows neither the count nor the output without end): a new kind takes the place of
-    kinds whose window has ended (the lines they held back are said with it); with none ended,
-    its lines are held back too, and said when a kind's place comes free.
+    kinds whose window has ended; with none ended, its lines are held back too. Those, and the
+    lines held back of a kind whose place was taken, are counted on the first line let
+    through once a place has come free ("(N more warnings held back)"). Threads may share one.
 
     Attach it to the handler that writes to the terminal (``handler.addFilter``).
 
@@ -49,6 +51,7 @@ class LogGuard(logging.Filter):
         self._windows: dict[tuple[str, str], tuple[float, int, int]] = {}
         self._unplaced = 0  # lines held back for want of a place (max_kinds), not yet said
         self._full_until = 0.0  # with every place taken: no kind's window ends before this
+        self._lock = threading.Lock()
 
     def filter(self, record: logging.LogRecord) -> bool:
         try:
@@ -57,32 +60,42 @@ class LogGuard(logging.Filter):
             return True
         note = ""
         if self.burst is not None and record.levelno >= logging.WARNING:
-            key, now = (record.name, _kind(text)), time.monotonic()
-            if key not in self._windows and len(self._windows) >= self.max_kinds and not self._make_room(now):
-                self._unplaced += 1
+            with self._lock:  # (logging runs filters outside its handler's lock: threads share the table)
+                passed = self._count((record.name, _kind(text)), time.monotonic())
+            if passed is None:
                 return False
-            if key not in self._windows and self._unplaced:
-                note, self._unplaced = f"({self._unplaced} more lines of other kinds held back) ", 0
-            start, said, held = self._windows.get(key, (now, 0, 0))
-            if now - start >= self.window_s:
-                note = f"({held} more like this held back) " if held else note
-                start, said, held = now, 0, 0
-            if said > self.burst:
-                self._windows[key] = (start, said, held + 1)
-                return False
-            if said == self.burst:
-                note += f"(more like this held back for {self.window_s:g} s) "
-            self._windows[key] = (start, said + 1, held)
+            note = passed
         text = printable(text)
         if len(text) > self.max_chars:
             text = f"{text[: self.max_chars]}... ({len(text) - self.max_chars} more characters)"
         record.msg, record.args = note + text, None
         return True
 
+    def _count(self, key: tuple[str, str], now: float) -> str | None:
+        """Count a line of kind ``key``: None to hold it back, else the note it goes out with."""
+        note, burst = "", self.burst or 0  # (called with a burst only)
+        if key not in self._windows and len(self._windows) >= self.max_kinds and not self._make_room(now):
+            self._unplaced += 1
+            return None
+        if self._unplaced and now >= self._full_until:  # a place has come free: say what waited
+            note, self._unplaced = f"({self._unplaced} more warnings held back) ", 0
+        start, said, held = self._windows.get(key, (now, 0, 0))
+        if now - start >= self.window_s:
+            note += f"({held} more like this held back) " if held else ""
+            start, said, held = now, 0, 0
+        if said > burst:
+            self._windows[key] = (start, said, held + 1)
+            return None
+        if said == burst:
+            note += f"(more like this held back for {self.window_s:g} s) "
+        self._windows[key] = (start, said + 1, held)
+        return note
+
     def _make_room(self, now: float) -> bool:
-        """Forget the kinds whose window has ended (their held-back lines join those to be said
-        with the next new kind); whether there is room for a new one now. Between the windows'
-        ends the kinds are not looked through again (a flood of new kinds costs no more a line)."""
+        """Forget the kinds whose window has ended (the lines they held back join those said
+        with the next line let through); whether there is room for a new kind now. Between
+        the windows' ends the kinds are not looked through again (a flood of new kinds costs
+        no more a line)."""
         if now < self._full_until:
             return False
         ended = [k for k, (start, _said, _held) in self._windows.items() if now - start >= self.window_s]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import logging
+import sys
 
 import pytest
 
@@ -80,12 +81,51 @@ def test_kinds_past_the_most_counted_are_held_back_and_said_later(monkeypatch: p
         log.warning("new%s kind", chr(ord("A") + k % 26) * (1 + k // 26))  # a flood of new kinds: held back
     assert len(guard._windows) == 3
     now[0] += 10.0
-    log.warning("later one")  # the windows have ended: their places are free again
+    log.warning("kinda one")  # a kind already counted, once a place is free: it says what waited
+    log.warning("later one")  # and a new kind takes a free place
     assert [line.split(": ", 1)[1] for line in out.getvalue().splitlines()] == [
         "kinda one",
         "kindb one",
         "kindc one",
         "kinda one",
-        "(500 more lines of other kinds held back) later one",
+        "(500 more warnings held back) kinda one",
+        "later one",
     ]
-    assert set(guard._windows) == {(log.name, "later one")}
+    assert set(guard._windows) == {(log.name, "kinda one"), (log.name, "later one")}
+
+
+def test_threads_share_a_full_table_without_an_error_reaching_the_caller() -> None:
+    import threading
+
+    guard = LogGuard(burst=1, window_s=0.0005, max_kinds=50)
+    log, _out = _logger(guard)
+    errors: list[BaseException] = []
+
+    def flood(k: int) -> None:
+        try:
+            for n in range(3000):
+                log.warning("w%s kind", _letters(k * 3000 + n))  # new kinds, windows ending all the time
+        except BaseException as exc:  # what reached the caller (a KeyError from the table)
+            errors.append(exc)
+
+    threads = [threading.Thread(target=flood, args=(k,)) for k in range(8)]
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # threads switch between any two steps, as under load
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(switch)
+    assert errors == [] and len(guard._windows) <= 50
+
+
+def _letters(n: int) -> str:
+    """``n`` written in letters (a kind of line ignores digits)."""
+    out = ""
+    while True:
+        n, r = divmod(n, 26)
+        out += chr(ord("a") + r)
+        if not n:
+            return out
