@@ -127,11 +127,11 @@ STREAMS = {
 #: MISSION_ITEM_REACHED's seq before any item was reached since the autopilot started (Rover's
 #: AP_MISSION_CMD_INDEX_NONE, what a GCS_MAVLINK channel starts with)
 NO_ITEM_REACHED = 0xFFFF
-#: PARAM_VALUE's rate as Rover's parameter stream has it (SRn_PARAMS, 10 Hz by default), and
-#: the bounds Rover forces on a rate set for it (a vehicle must always be able to send its
-#: parameters), s
+#: PARAM_VALUE's rate as Rover's parameter stream has it (SRn_PARAMS, 10 Hz by default), s,
+#: and the slowest Rover lets a rate set for it be, ms (a vehicle must always be able to send
+#: its parameters: a stop is this default instead)
 PARAM_STREAM_PERIOD_S = 0.1
-PARAM_PERIOD_BOUNDS_S = (0.1, 1.0)
+PARAM_SLOWEST_MS = 1000
 #: messages Rover knows (GCS_MAVLINK::mavlink_id_to_ap_message_id) for equipment lfctl's
 #: vehicles have not fitted: a battery monitor, a rangefinder, an RPM sensor, ESC telemetry,
 #: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
@@ -973,17 +973,19 @@ class VehicleEndpoint:
         ACCEPTED and stays unsent). A response target (param3) other than 0, the sender's own
         link, is DENIED before anything else is looked at, as Rover's
         ``handle_command_set_message_interval``. PARAM_VALUE's rate is Rover's parameter
-        stream's, kept within :data:`PARAM_PERIOD_BOUNDS_S` (-1 and 0 are its fastest)."""
+        stream's: never stopped (-1 and 0 are its default, 100 ms), never slower than
+        :data:`PARAM_SLOWEST_MS`."""
         if response_target != 0:  # NaN too: Rover's is_zero is false for it
             return mav.MAV_RESULT_DENIED
         msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
         if msg_id is None or not _finite(interval_us) or interval_us < -1:
             return mav.MAV_RESULT_DENIED
         if msg_id == MSG_IDS["PARAM_VALUE"]:
-            # as Rover: the parameter stream is never stopped (0 ms, from -1 or from the
-            # default, is forced to 100 ms) and never slower than 1 s
-            lo, hi = PARAM_PERIOD_BOUNDS_S
-            self._param_period_s = min(max(interval_us / 1e6, lo), hi)
+            # as Rover's set_ap_message_interval for its parameter stream: never stopped (-1,
+            # 0 ms, is 100 ms, as is the default, 0) and never slower than 1 s; a faster rate
+            # is kept (whole ms; under 1 ms is 1 ms, as for any message)
+            ms = 0 if interval_us <= 0 else max(1, int(interval_us // 1000))
+            self._param_period_s = PARAM_STREAM_PERIOD_S if ms == 0 else min(ms, PARAM_SLOWEST_MS) / 1000
             return mav.MAV_RESULT_ACCEPTED
         if msg_id not in self._intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
