@@ -262,3 +262,14 @@ def test_audit_names_a_plot_folder_it_cannot_make(tmp_path: Path, capsys: pytest
     assert main(["audit", str(ROOT / "examples" / "convoy.toml"), "--plot", str(blocker / "plots")]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err == f"lfctl: error: --plot {blocker / 'plots'}: cannot make the folder (Not a directory)\n"
+
+
+def test_audit_leaves_no_plot_folders_when_nothing_is_plotted(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    garbage = tmp_path / "g.mcap"
+    garbage.write_bytes(b"not a log")
+    assert main(["audit", str(garbage), "--plot", str(tmp_path / "a" / "b")]) == 1  # nothing readable
+    assert main(["audit", str(garbage), "--plot", str(tmp_path / "c"), "--recover", str(garbage)]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.mcap"]  # neither a/ nor a/b/ nor c/ stays
+    assert "--recover" in capsys.readouterr().err

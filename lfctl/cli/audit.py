@@ -39,47 +39,56 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(problem)
     if args.plot is not None and args.plot.exists() and not args.plot.is_dir():
         raise ConfigError(f"--plot {args.plot}: not a directory")
-    made_plot_dir = False
-    if args.plot is not None and not args.plot.exists():
-        # made now, so a folder that cannot be is said before a long audit (removed again
-        # below if nothing is plotted into it)
-        try:
-            args.plot.mkdir(parents=True)
-        except OSError as exc:
-            raise ConfigError(f"--plot {args.plot}: cannot make the folder ({exc.strerror or exc})") from None
-        made_plot_dir = True
     problem = recover_target_problem(args.recover, args.file) if args.recover is not None else None
     if problem:  # said before a long audit
         raise ConfigError(f"--recover {args.recover}: {problem}")
-    report = audit(args.file)
-    # --strict's limits are a section of their own: a run outside them is not a broken log
-    limits = check_thresholds(report) if args.strict else None
-    limits_ok = limits is None or not any(f.level == "error" for f in limits)
-    if args.json:
-        doc = {
-            "file": report.path,
-            "ok": report.ok and limits_ok,
-            "findings": [f.__dict__ for f in report.findings],
-            "figures": report.figures,
-        }
-        if limits is not None:
-            doc["limits"] = [f.__dict__ for f in limits]
-        print(json.dumps(doc, indent=1))
-    else:
-        print(format_report(report))
-        if limits is not None:
-            print("limits (--strict): " + ("OK" if limits_ok else "FAILED"))
-            print("\n".join(f"  {f.line()}" for f in limits) or "  within the scenario's [audit] limits")
-    if args.plot:
-        made = plot(report, args.plot)
-        for p in made:
-            print(f"plot: {p}", file=sys.stderr)
-        if not made:
-            print(f"no plots: nothing readable in {args.file}", file=sys.stderr)
-            if made_plot_dir:
+    made = _make_folder(args.plot) if args.plot is not None else []
+    plotted: list[Path] = []
+    try:
+        report = audit(args.file)
+        # --strict's limits are a section of their own: a run outside them is not a broken log
+        limits = check_thresholds(report) if args.strict else None
+        limits_ok = limits is None or not any(f.level == "error" for f in limits)
+        if args.json:
+            doc = {
+                "file": report.path,
+                "ok": report.ok and limits_ok,
+                "findings": [f.__dict__ for f in report.findings],
+                "figures": report.figures,
+            }
+            if limits is not None:
+                doc["limits"] = [f.__dict__ for f in limits]
+            print(json.dumps(doc, indent=1))
+        else:
+            print(format_report(report))
+            if limits is not None:
+                print("limits (--strict): " + ("OK" if limits_ok else "FAILED"))
+                print("\n".join(f"  {f.line()}" for f in limits) or "  within the scenario's [audit] limits")
+        if args.plot:
+            plotted = plot(report, args.plot)
+            for p in plotted:
+                print(f"plot: {p}", file=sys.stderr)
+            if not plotted:
+                print(f"no plots: nothing readable in {args.file}", file=sys.stderr)
+    finally:
+        if not plotted:  # the folders made for plots that never came (none, an error, Ctrl-C)
+            for folder in reversed(made):
                 with contextlib.suppress(OSError):  # (something else put a file there meanwhile)
-                    args.plot.rmdir()
+                    folder.rmdir()
     if args.recover:
         n = recover(report, args.recover)
         print(f"recovered {n} messages into {args.recover}", file=sys.stderr)
     return 0 if report.ok and limits_ok else 1
+
+
+def _make_folder(folder: Path) -> list[Path]:
+    """Make ``folder`` and the folders above it that are missing, now, so one that cannot be
+    is said before a long audit; the folders made, from the top down."""
+    from lfctl.errors import ConfigError
+
+    missing = [f for f in (folder, *folder.parents) if not f.exists()][::-1]
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--plot {folder}: cannot make the folder ({exc.strerror or exc})") from None
+    return missing
