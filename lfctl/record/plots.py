@@ -226,6 +226,10 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
     _save(plt, fig, path)
 
 
+#: the errors plot's key under the plots: at most this many numbered entries, and names in one
+KEY_ENTRIES = 12
+KEY_NAMES = 3
+
 #: a time label nearer than this to one already written is left out (its dot stays), px
 LABEL_CLEARANCE_PX = (16.0, 9.0)
 
@@ -266,11 +270,16 @@ def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, st
     )
     keys = []
     for k, (t, text, color) in enumerate(groups, start=1):
+        names = text.split(" / ")
+        if len(names) > KEY_NAMES:  # a burst of mode changes: the first few, and how many more
+            text = " / ".join([*names[:KEY_NAMES], f"{len(names) - KEY_NAMES} more"])
         ax.annotate(
             str(k), xy=(t, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2), textcoords="offset points",
             ha="center", va="bottom", fontsize=7, color=color, fontweight="bold", annotation_clip=True,
         )  # fmt: skip
         keys.append(f"{k} {text} ({t:.1f} s)")
+    if len(keys) > KEY_ENTRIES:  # the key stays a few lines under the plots (the log has them all)
+        keys = [*keys[:KEY_ENTRIES], f"{KEY_ENTRIES + 1}-{len(keys)}: see the log's /log topic"]
     return keys
 
 

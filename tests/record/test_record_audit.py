@@ -624,6 +624,14 @@ def test_marks_are_numbered_over_the_plot_and_named_in_a_key_under_it() -> None:
     assert numbers == [("1", "dimgrey"), ("2", "tab:red"), ("3", "tab:red")]
     assert _marks(ax, [(30.0, "x")], [], False) == []  # the plots below: lines only
     plt.close(fig)
+    # a thousand mode changes: the key stays a few lines (it grew to 19,000 characters)
+    fig, ax = plt.subplots()
+    ax.plot([0.0, 500.0], [0.0, 1.0])
+    modes = [(0.5 * i, "follower1", "HOLD" if i % 2 else "GUIDED") for i in range(1, 1001)]
+    keys = _marks(ax, [], modes, True)
+    assert len(keys) == 13 and keys[-1].startswith("13-") and keys[-1].endswith(": see the log's /log topic")
+    assert keys[0] == "1 follower1: HOLD / follower1: GUIDED / follower1: HOLD / 19 more (0.5 s)"
+    plt.close(fig)
 
 
 def test_time_labels_where_tracks_meet_are_not_piled_up() -> None:
