@@ -203,4 +203,6 @@ def run(args: argparse.Namespace) -> int:
             file=human,
         )
         return stop_exit_code()
+    if reader_gone.is_set():  # at the last row: every run ran, but not every row was read
+        return stop_exit_code()
     return 1 if result.failed else 0
