@@ -100,6 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     parser = build_parser()
     args = parser.parse_args(argv)
+    stopped_by(signal.SIGINT)  # (a command run before in this process may have noted another)
     level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
 
     # SIGTERM ends a command like Ctrl-C (`lfctl sim` turns both into a stop between steps)

@@ -32,7 +32,7 @@ from lfctl import __version__
 from lfctl.checks import printable
 from lfctl.frames import ned_to_geodetic, wrap_pi
 from lfctl.link import ftp
-from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, fence_names, rally_points
+from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
@@ -1655,10 +1655,10 @@ class VehicleEndpoint:
             self._breached_fences = 0
             return
         n, e = self.state["north_m"], self.state["east_m"]
-        breach = self._breach(n, e)
         # as Rover's AC_Fence::check: what is breached is kept armed or not (arming needs none)
         fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
         self._breached_fences = self.fence.breaches(n, e, fence_type, radius, self.home_point())
+        breach = breach_name(self._breached_fences)
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
             self._fence_breach_ms = self._boot_ms()

@@ -33,6 +33,7 @@ __all__ = [
     "FENCE_TYPE_POLYGON",
     "RALLY_COMMANDS",
     "Fence",
+    "breach_name",
     "fence_names",
     "rally_points",
     "validate_fence",
@@ -63,6 +64,20 @@ def fence_names(fences: int) -> str:
         return ""
     listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
     return f"{listed} fence{'s' if len(names) > 1 else ''}"
+
+
+def breach_name(breached: int) -> str | None:
+    """The breach a FENCE_TYPE bitmask of breached fences is reported as: "circle" before
+    "polygon", None for none.
+
+    Parameters
+    ----------
+    breached : int
+        What :meth:`Fence.breaches` gives.
+    """
+    if breached & FENCE_TYPE_CIRCLE:
+        return "circle"
+    return "polygon" if breached & FENCE_TYPE_POLYGON else None
 
 
 def _local(it: MissionItem, home: tuple[float, float, float]) -> tuple[float, float]:
@@ -209,10 +224,7 @@ class Fence:
         home_ned : (north_m, east_m)
             Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
         """
-        breached = self.breaches(north_m, east_m, fence_type, radius_m, home_ned)
-        if breached & FENCE_TYPE_CIRCLE:
-            return "circle"
-        return "polygon" if breached & FENCE_TYPE_POLYGON else None
+        return breach_name(self.breaches(north_m, east_m, fence_type, radius_m, home_ned))
 
     def breaches(
         self,

@@ -147,7 +147,8 @@ class GroundStation:
             m = self.next_message(min(0.1, max(0.0, deadline - time.monotonic())))
             if m is None:
                 continue
-            if m.get_type() == "STATUSTEXT" and m.get_srcSystem() == self.target:
+            if m.get_type() == "STATUSTEXT" and m.get_srcSystem() == self.target and m.get_srcComponent() == 1:
+                # the autopilot's (not its camera's or companion's): a refusal's reason
                 self.said.append((time.monotonic(), printable(text_field(m.text))))
             if m.get_type() in kinds and m.get_srcSystem() == self.target and (where is None or where(m)):
                 return m
