@@ -1492,7 +1492,7 @@ class VehicleEndpoint:
     def _breach(self, north_m: float, east_m: float) -> str | None:
         """What (north, east) breaches of the fence as FENCE_TYPE and FENCE_RADIUS set it."""
         fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        return self.fence.breach(north_m, east_m, fence_type, radius, self.home_point())
+        return breach_name(self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point()))
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:

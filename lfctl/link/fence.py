@@ -203,29 +203,6 @@ class Fence:
             self.inclusion_polygons or self.exclusion_polygons or self.inclusion_circles or self.exclusion_circles
         )
 
-    def breach(
-        self,
-        north_m: float,
-        east_m: float,
-        fence_type: int,
-        radius_m: float,
-        home_ned: tuple[float, float] = (0.0, 0.0),
-    ) -> str | None:
-        """What the vehicle at (north, east) breaches ("circle" before "polygon"), or None.
-
-        Parameters
-        ----------
-        north_m, east_m : float
-            The vehicle, local NED, m.
-        fence_type : int
-            FENCE_TYPE: bit 2 the circle of ``radius_m`` around home, bit 4 the stored shapes.
-        radius_m : float
-            FENCE_RADIUS, m.
-        home_ned : (north_m, east_m)
-            Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
-        """
-        return breach_name(self.breaches(north_m, east_m, fence_type, radius_m, home_ned))
-
     def breaches(
         self,
         north_m: float,

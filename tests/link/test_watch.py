@@ -6,6 +6,7 @@ import dataclasses
 import io
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -105,9 +106,9 @@ def test_on_a_pipe_each_update_is_one_json_object() -> None:
     assert json.loads(lines[-1])["vehicles"][0]["mode"] == "HOLD"
 
 
-@pytest.mark.integration
-@pytest.mark.fmu
-def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run, free_udp_ports) -> None:
+def _watched_convoy(free_udp_ports) -> tuple[Any, int, int]:
+    """The convoy with truth sensing for 30 s, its vehicles sending to a free ground station
+    port: (the scenario, that port, the leader's port; the follower's is the next)."""
     gcs_port = free_udp_ports(3)  # the ground station's, then the two vehicles'
     base = gcs_port + 1
     cfg = load_config(EXAMPLES / "convoy.toml")
@@ -116,6 +117,13 @@ def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], backgr
         sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=30.0),
         link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
     )
+    return cfg, gcs_port, base
+
+
+@pytest.mark.integration
+@pytest.mark.fmu
+def test_watch_a_realtime_run_as_json(capsys: pytest.CaptureFixture[str], background_run, free_udp_ports) -> None:
+    cfg, gcs_port, _base = _watched_convoy(free_udp_ports)
     with background_run(cfg, realtime=True) as errors:
         rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "6"])
     assert not errors, errors
@@ -146,14 +154,7 @@ def test_a_one_update_snapshot_lists_the_vehicles_and_needs_no_target(
     # `watch --count 1 | jq`: its one update was the moment before anything was heard (no
     # vehicles), and watch waited for system 1's heartbeat, so a follower's own link (system 2)
     # needed --target 2
-    gcs_port = free_udp_ports(3)
-    base = gcs_port + 1
-    cfg = load_config(EXAMPLES / "convoy.toml")
-    cfg = dataclasses.replace(
-        cfg,
-        sim=dataclasses.replace(cfg.sim, sensing="truth", duration_s=30.0),
-        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{gcs_port}"),
-    )
+    cfg, gcs_port, base = _watched_convoy(free_udp_ports)
     with background_run(cfg, realtime=True) as errors:
         rc = main(["gcs", "--connect", f"udpin:127.0.0.1:{gcs_port}", "--timeout", "10", "watch", "--count", "1"])
         follower = main(
