@@ -202,7 +202,6 @@ def run(args: argparse.Namespace) -> int:
             f"`lfctl sweep {args.sweep} --out {out_dir} --resume` finishes the sweep",
             file=human,
         )
-        return stop_exit_code()
-    if reader_gone.is_set():  # at the last row: every run ran, but not every row was read
+    if result.stopped or reader_gone.is_set():  # (its reader gone at the last row: not every row was read)
         return stop_exit_code()
     return 1 if result.failed else 0

@@ -1487,12 +1487,13 @@ class VehicleEndpoint:
         """A destination the fence allows (Rover refuses guided targets outside it)."""
         if not self.param("FENCE_ENABLE"):
             return True
-        return self._breach(north_m, east_m) is None
+        return not self._breaches(north_m, east_m)
 
-    def _breach(self, north_m: float, east_m: float) -> str | None:
-        """What (north, east) breaches of the fence as FENCE_TYPE and FENCE_RADIUS set it."""
+    def _breaches(self, north_m: float, east_m: float) -> int:
+        """The fences (north, east) breaches as FENCE_TYPE and FENCE_RADIUS set them, as
+        FENCE_TYPE bits (0: none)."""
         fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        return breach_name(self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point()))
+        return self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point())
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:
@@ -1656,8 +1657,7 @@ class VehicleEndpoint:
             return
         n, e = self.state["north_m"], self.state["east_m"]
         # as Rover's AC_Fence::check: what is breached is kept armed or not (arming needs none)
-        fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        self._breached_fences = self.fence.breaches(n, e, fence_type, radius, self.home_point())
+        self._breached_fences = self._breaches(n, e)
         breach = breach_name(self._breached_fences)
         if breach is not None and self.fence_breach is None:
             self.fence_breaches += 1
