@@ -36,7 +36,9 @@ role = "follower"
 """
 
 
-def scripted_run(text: str, duration_s: float | None = None):
+def scripted_run(text: str, duration_s: float | None = None, loaded: list[Path] | None = None):
+    """The scenario's run with its scripted commands; the FMU files it loaded are added to
+    ``loaded`` when given."""
     cfg = parse_config(text)
     with Simulation(cfg) as sim:
 
@@ -46,6 +48,8 @@ def scripted_run(text: str, duration_s: float | None = None):
                 sim.set_command(i, v, r)
 
         sim.add_task("script", 20.0, script)
+        if loaded is not None:
+            loaded.extend(sim.fmu_paths)
         return sim.run(duration_s)
 
 
@@ -104,12 +108,20 @@ def test_set_command_rejects_non_finite() -> None:
 
 
 def test_fmi3_vehicle_runs_like_fmi2() -> None:
-    a = scripted_run(TWO)
+    from fmpy import read_model_description
+
+    loaded_2: list[Path] = []
+    loaded_3: list[Path] = []
+    a = scripted_run(TWO, loaded=loaded_2)
     b = scripted_run(
         TWO.replace('name = "f1"', 'name = "f1"\nfmi_version = 3').replace(
             "yaw_deg = 90", "yaw_deg = 90\nfmi_version = 3"
-        )
+        ),
+        loaded=loaded_3,
     )
+    # the key reaches the loader: each run loaded one file, of the version asked for
+    assert [read_model_description(str(p)).fmiVersion for p in loaded_2] == ["2.0"]
+    assert [read_model_description(str(p)).fmiVersion for p in loaded_3] == ["3.0"]
     np.testing.assert_allclose(a.pos_ned_m, b.pos_ned_m, atol=1e-9)
 
 
