@@ -277,6 +277,12 @@ class VehicleConfig(_Section):
                 if role not in VEHICLE_ROLES:
                     raise ConfigError(f"{key}.{table}: unknown role {role!r} (roles: {', '.join(VEHICLE_ROLES)})")
                 check_text(f"{key}.{table}.{role}", text)
+        if self.fmu is None and (self.map or self.units):
+            table = "map" if self.map else "units"
+            raise ConfigError(
+                f"{key}.{table}: map and units apply only to a user FMU (fmu = ...); "
+                f"model {self.model!r} has its own names, got {dict(getattr(self, table))!r}"
+            )
 
 
 @dataclass(frozen=True)

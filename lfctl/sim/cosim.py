@@ -189,8 +189,6 @@ class Simulation:
             names = {r: r for r in (*INPUT_ROLES, *OUTPUT_ROLES, *POSE_ROLES)} | dict(v.map)
             role_map = RoleMap(names=names, units=dict(v.units), explicit=frozenset(v.map))
         else:
-            if v.map or v.units:
-                raise ConfigError(f"vehicles[{v.name}]: map/units apply only to a user FMU (fmu = ...)")
             path = build_model(v.model, self._cache_dir).path(v.fmi_version)
             role_map = RoleMap()
         key = path
