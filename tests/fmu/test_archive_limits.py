@@ -8,7 +8,6 @@ import io
 import re
 import struct
 import tempfile
-import time
 import zipfile
 import zlib
 from pathlib import Path
@@ -88,7 +87,6 @@ def leftovers(where: Path) -> list[Path]:
 def test_a_zip_bomb_is_refused_before_a_byte_is_written(
     faulty: BuiltModel, tmp_path: Path, tmpdir_for_fmus: Path
 ) -> None:
-    t0 = time.perf_counter()
     raw, crc = zeros_bomb(600)
     md = zipfile.ZipFile(faulty.fmi2).read("modelDescription.xml")
     bomb = raw_zip(
@@ -98,7 +96,6 @@ def test_a_zip_bomb_is_refused_before_a_byte_is_written(
             ("resources/zeros.bin", raw, crc, 600 * 2**20),
         ],
     )
-    assert time.perf_counter() - t0 < 5.0
     assert bomb.stat().st_size < 2**20  # 600 MiB of zeros in under 1 MiB: a real, readable bomb
     with zipfile.ZipFile(bomb) as z, z.open("resources/zeros.bin") as f:
         assert f.read(4096) == b"\0" * 4096

@@ -179,17 +179,19 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
             if ep.mode == MODES["MANUAL"] and ep.armed and abs(ep.state["speed_mps"] - expected) < 0.02:
                 driven.append(ep.state["speed_mps"])
             time.sleep(0.1)
-        quit_at = time.monotonic()
+        quit_t = ep.t_s  # the vehicle's clock (simulated time), not the wall's
         proc.send_signal(signal.SIGINT)
         out, _ = proc.communicate(timeout=20)
-        deadline = quit_at + 15
+        deadline = time.monotonic() + 15
         while time.monotonic() < deadline and abs(ep.state["speed_mps"]) > 0.01:
             time.sleep(0.1)
-        stopped_after = time.monotonic() - quit_at
+        stopped_after = ep.t_s - quit_t
         still_manual = ep.mode == MODES["MANUAL"]
     assert not errors, errors
     assert len(driven) == 20, out  # 2 s at the speed the stick asks for
-    assert still_manual and 1.0 < stopped_after < 10.0, out  # RC_OVERRIDE_TIME (3 s) after the last override
+    assert still_manual and 1.0 < stopped_after < 10.0, (
+        out
+    )  # RC_OVERRIDE_TIME (3 s, vehicle time) after the last override
     # MAVProxy asks for the parameters over MAVLink FTP first: refused at once, it lists them
     # with PARAM_REQUEST_LIST within the session (it waited about 11 s for FTP before)
     assert re.search(r"Received \d+ parameters", out) and "FTP: request timed out" not in out, out

@@ -18,7 +18,6 @@ import struct
 import subprocess
 import sys
 import textwrap
-import time
 import tracemalloc
 import zlib
 from pathlib import Path
@@ -175,8 +174,7 @@ def finish(parts: list[bytes]) -> bytes:
 
 MEASURE = textwrap.dedent(
     """
-    import json, resource, sys, time
-    t = time.time()
+    import json, resource, sys
     from lfctl.record.audit import audit
     out = []
     for path in sys.argv[1:]:
@@ -187,13 +185,14 @@ MEASURE = textwrap.dedent(
             peak_kb = next(int(line.split()[1]) for line in f if line.startswith("VmHWM:"))
     except OSError:
         peak_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(json.dumps({"s": time.time() - t, "rss_mb": peak_kb / 1024, "reports": out}))
+    print(json.dumps({"rss_mb": peak_kb / 1024, "reports": out}))
     """
 )
 
 
 def measure(*paths: Path, timeout: float = 60) -> dict:
-    """Audit the files in a fresh process: its peak RSS (MB), wall time (s) and findings."""
+    """Audit the files in a fresh process: its peak RSS (MB) and findings; a
+    process still running after ``timeout`` seconds fails the test (a hang, not a speed)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run(
         [sys.executable, "-c", MEASURE, *map(str, paths)],
@@ -573,7 +572,7 @@ def bombs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 def test_zstd_and_lz4_bombs_are_refused_in_bounded_memory(bombs, compression: str) -> None:
     names = [n for n in bombs if n.startswith(compression)]
     got = measure(*(bombs[n] for n in names))
-    assert got["rss_mb"] < 300 and got["s"] < 20, got
+    assert got["rss_mb"] < 300, got
     for name, rep in zip(names, got["reports"], strict=True):
         (err,) = [f for f in rep["findings"] if f["level"] == "error"]
         assert err["offset"] == 8 + len(header()) and err["kind"] in ("limit", "corrupt"), (name, err)
@@ -594,7 +593,7 @@ def test_200_mb_of_zeros_is_not_read_into_memory(logs, tmp_path: Path) -> None:
     with after_log.open("r+b") as f:
         f.truncate(after_log.stat().st_size + 200_000_000)
     got = measure(after_magic, after_log)
-    assert got["rss_mb"] < 150 and got["s"] < 10, got
+    assert got["rss_mb"] < 150, got
     (first,), second = (
         [f for f in r["findings"] if f["level"] == "error"] for r in got["reports"]
     )  # fmt: skip
@@ -639,7 +638,7 @@ def test_each_limit_is_named_when_a_file_passes_it(logs, tmp_path: Path) -> None
 @pytest.mark.integration
 def test_two_million_tiny_messages_stop_at_the_default_limit_in_bounded_memory(tmp_path: Path) -> None:
     got = measure(flood(tmp_path / "flood.mcap", 2_100_000), timeout=120)
-    assert got["rss_mb"] < 400 and got["s"] < 60, got
+    assert got["rss_mb"] < 400, got
     err = next(f for f in got["reports"][0]["findings"] if f["level"] == "error")
     assert "more than 2000000 messages (MAX_MESSAGES)" in err["what"]
 
@@ -651,7 +650,6 @@ def test_a_fifo_is_refused_without_blocking(tmp_path: Path, capsys: pytest.Captu
     os.mkfifo(fifo)
     link = tmp_path / "link.mcap"
     link.symlink_to(fifo)
-    t = time.time()
     got = measure(fifo, link, timeout=30)
     for rep in got["reports"]:
         (err,) = rep["findings"]
@@ -671,7 +669,6 @@ def test_a_fifo_is_refused_without_blocking(tmp_path: Path, capsys: pytest.Captu
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
-    assert time.time() - t < 30
 
 
 def test_directories_devices_and_sockets_are_refused(logs, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
