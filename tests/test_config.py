@@ -123,6 +123,9 @@ def test_the_reference_page_lists_every_key_with_its_range() -> None:
     from lfctl.config import reference
 
     page = (Path(__file__).parents[1] / "docs" / "scenario-reference.md").read_text()
+    table = reference().splitlines()
+    assert table[0] == "| key | type | default | accepted |" and len(table) > 100  # a row a key
+    assert "| `sim.dt_s` | number | 0.01 | within [0.0001, 1] |" in table
     assert page.endswith(reference()), (
         "docs/scenario-reference.md is stale: regenerate it from lfctl.config.reference()"
     )

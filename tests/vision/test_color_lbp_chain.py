@@ -90,7 +90,9 @@ def test_blobs_chain_codes_are_each_contours_own(mask: np.ndarray) -> None:
     # blobs() codes every contour in one pass; each must be chain_code of that contour alone
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     want = {(int(c[0, 0, 0]), int(c[0, 0, 1])): chain_code(c) if len(c) > 1 else [] for c in contours}
-    for b in blobs(mask, min_area_px=0.0):
+    found = blobs(mask, min_area_px=0.0)
+    assert sorted(b.start for b in found) == sorted(want)  # every contour, once
+    for b in found:
         assert list(b.codes) == want[b.start]
         assert b.perimeter_px == pytest.approx(chain_perimeter(list(b.codes)) + 4.0)
 
