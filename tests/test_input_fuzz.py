@@ -199,6 +199,10 @@ LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
         ('name = "a\\u0000b"\n' + LEADER, r"name must be 1-64 letters"),
         (LEADER + 'model = "../fmu_models/SkidSteerRover"\n', r"vehicles\[leader\]\.model must be 1-64 letters"),
         (LEADER + "[vehicles.map]\nfly = 'x'\n", r"vehicles\[leader\]\.map: unknown role 'fly'"),
+        (
+            LEADER + "[vehicles.units]\nyaw = 'deg'\n",
+            r"vehicles\[leader\]\.units: map and units apply only to a user FMU .* got \{'yaw': 'deg'\}",
+        ),
         ("[camera]\nk1 = nan\n" + LEADER, r"camera\.k1 must be within"),
         ("[camera]\nwidth_px = 8192\nheight_px = 8192\n" + LEADER, r"camera\.width_px must be within 16\.\.4096"),
         ("[camera]\nwidth_px = 4096\nheight_px = 4096\n" + LEADER, r"at most 8847360 pixels"),
