@@ -1,7 +1,7 @@
 """The same scenario and seed give the same run, to the bit: digests of the trajectories,
 commands and track states of runs pinned when the code was restructured. A digest that
 changes means behaviour changed; if that was meant, say so in the commit and pin anew
-(print the new digest with `python -m pytest ... -k pinned -s`).
+(print the new digest with `python -m pytest ... -k pinned -s -n 0`).
 
 The camera runs also depend on OpenCV's own arithmetic: OpenCV 5.1 rounds a few rendered
 pixels one grey level apart from 5.0 (0.002-0.005 % of a frame), which a closed loop carries
