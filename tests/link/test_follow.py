@@ -128,6 +128,7 @@ def test_the_companion_port_shows_every_packet_both_ways_and_odd_ones_do_not_bre
     no_value = mav.MAVLink_named_value_float_message(7, b"rng_err", math.nan).pack(rover)
     unknown_id = bytes([0xFD, 4, 0, 0, 7, 1, 1]) + (60123).to_bytes(3, "little") + b"\x01\x02\x03\x04\x00\x00"
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))  # loopback only
         for data in (position, heartbeat_v1, unknown_id, no_value, b"\x00junk\xfd\x01", position[:9]):
             s.sendto(data, port.connection.port.getsockname())
         deadline = time.monotonic() + 5.0
@@ -238,6 +239,7 @@ def _gcs_to(port: MavPort) -> tuple[socket.socket, mav.MAVLink]:
     """A ground station's socket and codec (system 255), sending to ``port`` as the rover's
     MAVLink routing would forward it."""
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))  # loopback only
     return s, mav.MAVLink(None, srcSystem=255, srcComponent=190)
 
 
