@@ -5,6 +5,7 @@ standing rover (a vehicle endpoint on loopback UDP) for `lfctl follow`."""
 from __future__ import annotations
 
 import contextlib
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -18,6 +19,15 @@ from lfctl.fmu.build import BuiltModel, build_model
 
 #: where the standing rover stands (its local origin): lat deg, lon deg, alt m
 ROVER_HOME = (12.96, 77.67, 900.0)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """In a pytest-xdist worker, Ctrl-C is taken as it is in a plain pytest process: execnet
+    starts workers with SIGINT ignored, which the programs the tests start would inherit
+    (an ignored SIGINT stays ignored across exec), so an `lfctl follow` a test interrupts
+    would not stop, and a test that interrupts its own thread would get no KeyboardInterrupt."""
+    if hasattr(config, "workerinput") and signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(scope="session")
