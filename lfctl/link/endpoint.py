@@ -21,6 +21,7 @@ from __future__ import annotations
 import base64
 import logging
 import math
+import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -230,6 +231,7 @@ class LinkStats:
     rebooting: int = 0  # messages that came while the autopilot restarted (recorded, not acted on)
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
+    send_errors: int = 0  # a message of ours held a value its field cannot (a bug: logged, not sent)
 
 
 def _finite(*values: float) -> bool:
@@ -311,6 +313,7 @@ class VehicleEndpoint:
         self.fence = Fence()
         self.rally: list[tuple[float, float]] = []
         self.stats = LinkStats()
+        self._unsendable: set[str] = set()  # kinds of message a send_error has been logged for
         self.tap = tap
         #: components of this system that are not the autopilot and are reached another way
         #: (the vehicle's cameras): what is addressed to them is not acted on here
@@ -480,7 +483,14 @@ class VehicleEndpoint:
         """
         if self.rebooting:
             return
-        data = pack_next(msg, self.mav)
+        try:
+            data = pack_next(msg, self.mav)
+        except struct.error as exc:  # a bug, but the run goes on: the first of each kind is logged
+            self.stats.send_errors += 1
+            if msg.get_type() not in self._unsendable:
+                self._unsendable.add(msg.get_type())
+                log.error("%s: %s not sent, a field out of its range (%s): %s", self.name, msg.get_type(), exc, msg)
+            return
         self.link.send(data)
         if self.tap is not None:
             self.tap("out", msg, data)
@@ -1546,8 +1556,17 @@ class VehicleEndpoint:
             if "ACC_IGNORE" in target:
                 self.statustext(f"Ignoring {message}; set ACC_IGNORE in mask", mav.MAV_SEVERITY_INFO)
             return
-        if target.kind == "location" and not self._within_fence(target.north_m, target.east_m):
-            return
+        if target.kind == "location":
+            lat, lon, _alt = ned_to_geodetic(target.north_m, target.east_m, 0.0, *self.home)
+            if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+                # a place no Location holds (Rover's would clamp it to a pole): refused, named
+                self.statustext(
+                    f"Ignoring {message}; target {target.north_m:.4g} m N {target.east_m:.4g} m E is off the Earth",
+                    mav.MAV_SEVERITY_INFO,
+                )
+                return
+            if not self._within_fence(target.north_m, target.east_m):
+                return
         self.guided = target
         self._guided_stale_reported = False
 

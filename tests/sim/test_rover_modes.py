@@ -117,6 +117,42 @@ def test_a_guided_mission_item_is_a_go_here_too() -> None:
     assert math.hypot(end[0] - 2.0, end[1] + 3.0) <= 0.5
 
 
+def test_a_guided_target_off_the_earth_is_refused_by_name_and_one_at_a_pole_is_driven_to() -> None:
+    # 1e38 m north once ended the run: the destination's latitude did not fit
+    # POSITION_TARGET_GLOBAL_INT (struct.error in the telemetry, "internal error")
+    def far(x: float, y: float, frame: int = mav.MAV_FRAME_LOCAL_NED) -> Callable[[Links], None]:
+        mask = 0b110111111000  # the position only
+        msg = mav.MAVLink_set_position_target_local_ned_message(0, 1, 1, frame, mask, x, y, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+        return lambda links: send(links, msg)
+
+    sent: list[object] = []
+
+    def watch(links: Links) -> None:
+        links.endpoints[0].tap = lambda d, m, raw: sent.append(m) if d == "out" else None
+
+    rep, links = run_with(
+        {
+            1.0: watch,
+            4.0: mode("GUIDED"),
+            4.5: far(1e38, 0.0),
+            5.0: far(3e37, -3e37, mav.MAV_FRAME_BODY_OFFSET_NED),
+            5.5: far(-1e9, 1e9, mav.MAV_FRAME_LOCAL_OFFSET_NED),
+            6.0: far(-9.9e6, 0.0),  # 89 deg south of home: on the Earth
+        },
+        duration_s=8.0,
+    )
+    ep = links.endpoints[0]
+    texts = [t for _t, t in ep.statustexts if "off the Earth" in t]
+    assert len(texts) == 3, texts  # the body frame's is turned by the leader's heading
+    assert texts[0] == "Ignoring SET_POSITION_TARGET_LOCAL_NED; target 1e+38 m N 0 m E is off the Earth"
+    assert texts[2] == "Ignoring SET_POSITION_TARGET_LOCAL_NED; target -1e+09 m N 1e+09 m E is off the Earth"
+    assert ep.stats.send_errors == 0 and ep.stats.handler_errors == 0
+    assert ep.guided is not None and ep.guided.north_m == -9.9e6  # the one on the Earth is taken
+    targets = [m for m in sent if m.get_type() == "POSITION_TARGET_GLOBAL_INT"]  # type: ignore[attr-defined]
+    assert targets and targets[-1].lat_int < -75e7  # type: ignore[attr-defined]  # and flown towards
+    assert rep.leader_modes[-1][0] == "GUIDED"
+
+
 def test_rtl_returns_to_the_nearest_of_home_and_the_rally_points() -> None:
     def rally(links: Links) -> None:
         x, y = latlon(links, 6.0, 2.0)  # nearer than home once the leader is at the first waypoint
