@@ -53,6 +53,10 @@ HEARTBEAT_PERIOD_S = 1.0
 log = logging.getLogger(__name__)
 
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
+#: the largest magnitude of each odometry field the companion takes from its vehicle: 1000 km
+#: from the local origin (LOCAL_POSITION_NED x, y, m), 1000 m/s (vx, vy), a turn and a half
+#: of yaw (ATTITUDE, rad; ArduPilot's is within +-pi): nothing a ground vehicle reports
+PLAUSIBLE = {"x": 1e6, "y": 1e6, "vx": 1e3, "vy": 1e3, "yaw": 3 * math.pi}
 
 
 @dataclass
@@ -101,8 +105,9 @@ class Companion:
         #: its own parameters (``LFC_*``): a ground station may set them while it runs
         self.params = formation_params()
         self.param_server = ParamServer(self.params, self.port.send, self.statustext)
-        #: the vehicle's position and attitude messages passed over for a value that is not a number
-        self.non_finite = 0
+        #: the vehicle's position and attitude messages passed over for a value that is not a
+        #: number or past any ground vehicle's (:data:`PLAUSIBLE`)
+        self.passed_over = 0
         self._heartbeat_t_s: float | None = None
 
     def param(self, name: str) -> float:
@@ -271,26 +276,34 @@ class Companion:
         if kind == "HEARTBEAT":
             v.heard, v.mode, v.armed = True, m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
-            if self._finite(kind, m.x, m.y, m.vx, m.vy):
+            if self._plausible(kind, ("x", m.x), ("y", m.y), ("vx", m.vx), ("vy", m.vy)):
                 v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
         elif kind == "ATTITUDE":
-            if self._finite(kind, m.yaw):
+            if self._plausible(kind, ("yaw", m.yaw)):
                 v.yaw_rad = m.yaw
         elif kind == "GLOBAL_POSITION_INT":
             v.global_t_s = t_s
             known = (m.lat, m.lon) != (0, 0) and abs(m.lat) <= 900_000_000 and abs(m.lon) <= 1_800_000_000
             v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
 
-    def _finite(self, kind: str, *values: float) -> bool:
-        """Whether the vehicle's ``kind`` holds only numbers: ArduPilot sends none that is
-        not, so one that does is damaged or not the autopilot's, and is passed over (the
-        odometry keeps its last values; a NaN there would stay in the formation filter for
-        good). The first is said in the log, the rest counted in :attr:`non_finite`."""
-        if all(math.isfinite(x) for x in values):
+    def _plausible(self, kind: str, *fields: tuple[str, float]) -> bool:
+        """Whether the vehicle's ``kind`` holds only numbers within :data:`PLAUSIBLE`:
+        ArduPilot sends none that is not, so one that does is damaged or not the
+        autopilot's, and is passed over (the odometry keeps its last values; a NaN or a
+        1e38 there would stay in the formation filter for good). The first is said in the
+        log, naming the field and value, the rest counted in :attr:`passed_over`."""
+        bad = next(((f, x) for f, x in fields if not abs(x) <= PLAUSIBLE[f]), None)
+        if bad is None:
             return True
-        if not self.non_finite:
-            log.warning("%s from the vehicle with a value that is not a number: passed over (and any after it)", kind)
-        self.non_finite += 1
+        if not self.passed_over:
+            log.warning(
+                "%s from the vehicle with %s = %r, not a number or past %g: passed over (and any like it after it)",
+                kind,
+                bad[0],
+                bad[1],
+                PLAUSIBLE[bad[0]],
+            )
+        self.passed_over += 1
         return False
 
     def _param_request(self, m: Any, kind: str) -> None:

@@ -97,9 +97,10 @@ def test_the_companion_takes_the_rovers_global_position_and_asks_for_it() -> Non
     assert (v.lat_deg, v.lon_deg, v.alt_m, v.global_t_s) == (None, None, None, 2.0)
 
 
-def test_a_position_or_attitude_that_is_not_a_number_is_passed_over() -> None:
-    """From the rover's address, a NaN in LOCAL_POSITION_NED or ATTITUDE (ArduPilot sends
-    none) would go into the odometry and stay in the formation filter: it is passed over."""
+def test_a_position_or_attitude_that_is_not_a_number_is_passed_over(caplog: pytest.LogCaptureFixture) -> None:
+    """From the rover's address, a NaN or a 1e38 in LOCAL_POSITION_NED or ATTITUDE (ArduPilot
+    sends none) would go into the odometry and stay in the formation filter: it is passed
+    over."""
     a, b = MemoryLink.pair("rover", "companion")
     rover = mav.MAVLink(None, srcSystem=1, srcComponent=1)
     companion = Companion(MavPort.memory(b, 1, COMPANION_COMPID), 1)
@@ -107,14 +108,19 @@ def test_a_position_or_attitude_that_is_not_a_number_is_passed_over() -> None:
             mav.MAVLink_attitude_message(1000, 0.0, 0.0, 0.3, 0.0, 0.0, 0.0))  # fmt: skip
     nans = (mav.MAVLink_local_position_ned_message(1100, math.nan, -1.0, 0.0, 0.5, 0.0, 0.0),
             mav.MAVLink_local_position_ned_message(1100, 2.0, -1.0, 0.0, math.inf, 0.0, 0.0),
-            mav.MAVLink_attitude_message(1100, 0.0, 0.0, math.nan, 0.0, 0.0, 0.0))  # fmt: skip
+            mav.MAVLink_attitude_message(1100, 0.0, 0.0, math.nan, 0.0, 0.0, 0.0),
+            mav.MAVLink_local_position_ned_message(1100, 1e38, -1.0, 0.0, 0.5, 0.0, 0.0),
+            mav.MAVLink_local_position_ned_message(1100, 2.0, -1.0, 0.0, -2e3, 0.0, 0.0),
+            mav.MAVLink_attitude_message(1100, 0.0, 0.0, 1e38, 0.0, 0.0, 0.0))  # fmt: skip
     for t, msgs in ((1.0, good), (1.1, nans)):
         for m in msgs:
             a.send(m.pack(rover))
         companion.poll(t)
     v = companion.vehicle
     assert (v.north_m, v.east_m, v.speed_mps, v.yaw_rad, v.t_s) == (2.0, -1.0, 0.5, pytest.approx(0.3), 1.0)
-    assert companion.non_finite == 3
+    assert companion.passed_over == 6
+    (said,) = [r.getMessage() for r in caplog.records if "passed over" in r.getMessage()]  # once
+    assert said.startswith("LOCAL_POSITION_NED from the vehicle with x = nan, not a number or past 1e+06")
 
 
 def test_the_companion_port_shows_every_packet_both_ways_and_odd_ones_do_not_break_the_log() -> None:
