@@ -3,10 +3,11 @@
 A `lfctl sim --realtime` process (leader + follower, truth sensing, recording on) is started
 as a user starts it. Then:
 
-1. fuzz: at least 100,000 datagrams (random bytes; MAVLink 1 and 2 frames of every message id
-   with NaN, infinities and extremes; mutated, truncated, bad-CRC, unknown-id and forged-
-   signature frames; see :mod:`lfctl.bench.fuzz`) are sent as fast as one sender can to both
-   vehicles' ports;
+1. fuzz: with the leader in GUIDED and armed (so that setpoints are acted on), at least
+   100,000 datagrams (random bytes; MAVLink 1 and 2 frames of every message id with NaN,
+   infinities, extremes and their enums' values; frames of the messages a vehicle handles,
+   addressed to it; mutated, truncated, bad-CRC, unknown-id and forged-signature frames; see
+   :mod:`lfctl.bench.fuzz`) are sent as fast as one sender can to both vehicles' ports;
 2. then a ground station must still upload a mission, change the mode and arm;
 3. soak: two ground stations connect, talk for a few seconds and leave, again and again, while
    the process's resident memory is sampled;
@@ -117,6 +118,18 @@ def flood(base: int, n: int) -> float:
     return time.perf_counter() - t0
 
 
+def guided_and_armed(base: int) -> None:
+    """The leader in GUIDED and armed before the flood: the fuzz's setpoints (NaN, 1e38, a
+    pole) reach the code that takes a GUIDED target, and the ones it takes are driven to."""
+    g = GroundStation(f"udpout:127.0.0.1:{base}", target_system=1, timeout_s=5.0)
+    try:
+        g.wait_heartbeat()
+        if g.set_mode("GUIDED") != 0 or g.arm(True) != 0:
+            raise RuntimeError(f"the leader did not take GUIDED and arm before the flood: {[t for _, t in g.said]}")
+    finally:
+        g.close()
+
+
 def still_a_vehicle(base: int) -> dict[str, bool]:
     """Mission upload, mode change and arming work after the flood."""
     out = {"upload": False, "mode": False, "arm": False}
@@ -200,6 +213,7 @@ def main(quick: bool = False, soak_s: float | None = None) -> None:
         crashes: list[str] = []
         try:
             time.sleep(1.0)
+            guided_and_armed(base)
             rss_before = rss_mb(proc.pid)
             seconds = flood(base, n)
             time.sleep(1.0)  # what is queued gets read
@@ -224,9 +238,9 @@ def main(quick: bool = False, soak_s: float | None = None) -> None:
         stats = link_stats(logs[0]) if logs else {}
         if not logs:
             crashes.append("no log")
-        handler_errors = sum(s.get("handler_errors", 0) for s in stats.values())
-        if handler_errors:
-            crashes.append(f"{handler_errors} handler errors")
+        for kind in ("handler_errors", "send_errors"):  # each a bug, logged and survived
+            if errors := sum(s.get(kind, 0) for s in stats.values()):
+                crashes.append(f"{errors} {kind.replace('_', ' ')}")
     handled = sum(s.get("remote", 0) for s in stats.values())
     warm = samples[1:] if len(samples) > 2 else samples
     growth = (max(warm) / warm[0] - 1.0) if warm else float("nan")
