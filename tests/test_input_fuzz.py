@@ -127,15 +127,8 @@ def test_accepted_mutations_run(
             cfg = parse_config(text, name)
         except ConfigError:
             continue
-        if len(cfg.vehicles) <= 2 and name != "user_fmu" and path[0] in (
-            "sim",
-            "vehicles",
-            "mission",
-            "guidance",
-            "sensing",
-            "link",
-            "script",
-        ):
+        runs = ("sim", "vehicles", "mission", "guidance", "sensing", "link", "script")  # sections a run uses
+        if len(cfg.vehicles) <= 2 and name != "user_fmu" and path[0] in runs:
             accepted.append((text, path, value))
     for text, path, value in rng.sample(accepted, 12):
         scen = tmp_path / "s.toml"
