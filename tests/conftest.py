@@ -22,11 +22,13 @@ ROVER_HOME = (12.96, 77.67, 900.0)
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    """In a pytest-xdist worker, Ctrl-C is taken as it is in a plain pytest process: execnet
-    starts workers with SIGINT ignored, which the programs the tests start would inherit
-    (an ignored SIGINT stays ignored across exec), so an `lfctl follow` a test interrupts
-    would not stop, and a test that interrupts its own thread would get no KeyboardInterrupt."""
-    if hasattr(config, "workerinput") and signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    """Ctrl-C is taken as an interactive pytest takes it, however pytest was started: a
+    process started in the background by a non-interactive shell (`pytest &`, as CI may run
+    it) has SIGINT ignored, and the programs the tests start would inherit that (an ignored
+    signal stays ignored across exec): an `lfctl follow` a test interrupts would not stop,
+    and a test that interrupts its own thread would get no KeyboardInterrupt. Each
+    pytest-xdist worker runs this too."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
 

@@ -31,7 +31,6 @@ def start_sim(
         stderr=subprocess.PIPE,
         text=True,
         env=env,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
         start_new_session=group,
     )
 

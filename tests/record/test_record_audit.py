@@ -450,7 +450,6 @@ def test_ctrl_c_or_sigterm_ends_a_camera_run_with_a_whole_log_and_no_workers_lef
         [sys.executable, "-m", "lfctl", "sim", str(scen), "-q"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # a background shell ignores it
     )
     try:
         # stepping, with its camera worker: the log has grown past its header (a chunk reaches
