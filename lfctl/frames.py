@@ -15,7 +15,16 @@ import math
 
 import numpy as np
 
-__all__ = ["body_to_ned", "geodetic_to_ned", "ned_to_body", "ned_to_geodetic", "range_bearing", "rot_z", "wrap_pi"]
+__all__ = [
+    "body_to_ned",
+    "geodetic_to_ned",
+    "ned_to_body",
+    "ned_to_geodetic",
+    "on_earth",
+    "range_bearing",
+    "rot_z",
+    "wrap_pi",
+]
 
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius
 
@@ -99,16 +108,18 @@ def geodetic_to_ned(
         Home altitude, m (the local frame's z = 0).
     """
     dlat = math.radians(lat_deg - home_lat_deg)
-    dlon = math.radians(lon_deg - home_lon_deg)
+    dlon = math.radians((lon_deg - home_lon_deg + 180.0) % 360.0 - 180.0)  # the short way round
     north = dlat * EARTH_RADIUS_M
-    east = dlon * EARTH_RADIUS_M * math.cos(math.radians(home_lat_deg))
+    east = dlon * EARTH_RADIUS_M * _longitude_scale(home_lat_deg)
     return north, east, home_alt_m - alt_m
 
 
 def ned_to_geodetic(
     north_m: float, east_m: float, down_m: float, home_lat_deg: float, home_lon_deg: float, home_alt_m: float
 ) -> tuple[float, float, float]:
-    """Inverse of :func:`geodetic_to_ned`: (lat_deg, lon_deg, alt_m).
+    """Inverse of :func:`geodetic_to_ned`: (lat_deg, lon_deg, alt_m), the longitude wrapped
+    into [-180, 180) (east of the 180th meridian is west of it). The latitude is not limited:
+    past +-90 is no place (:func:`on_earth`).
 
     Parameters
     ----------
@@ -120,8 +131,20 @@ def ned_to_geodetic(
         Home altitude, m (the local frame's z = 0).
     """
     lat = home_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
-    lon = home_lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(home_lat_deg))))
-    return lat, lon, home_alt_m - down_m
+    lon = home_lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * _longitude_scale(home_lat_deg)))
+    return lat, (lon + 180.0) % 360.0 - 180.0, home_alt_m - down_m
+
+
+def _longitude_scale(lat_deg: float) -> float:
+    """Metres east per metre of the equator's arc at this latitude: cos(lat), at least 0.01
+    (as ArduPilot keeps it, so a home at a pole still has an east)."""
+    return max(math.cos(math.radians(lat_deg)), 0.01)
+
+
+def on_earth(lat_deg: float, lon_deg: float) -> bool:
+    """Whether a latitude and longitude (degrees) name a place: both numbers, the latitude
+    within +-90 and the longitude within +-180."""
+    return -90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0
 
 
 def rot_z(yaw_rad: float) -> np.ndarray:

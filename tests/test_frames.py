@@ -45,3 +45,19 @@ def test_geodetic_round_trip_and_scale() -> None:
     n, e, d = geodetic_to_ned(lat, lon, alt, *home)
     assert (n, e, d) == pytest.approx((100.0, -50.0, -2.0), abs=1e-6)
     assert lat - home[0] == pytest.approx(100.0 / 111319.49, rel=1e-4)
+
+
+def test_the_180th_meridian_is_crossed_the_short_way_and_a_pole_still_has_an_east() -> None:
+    from lfctl.frames import on_earth
+
+    home = (-16.8, 179.9995, 10.0)  # Taveuni, Fiji
+    lat, lon, _ = ned_to_geodetic(0.0, 100.0, 0.0, *home)
+    # 100 m east is 0.000938 deg of longitude there (100 / (6378137 cos 16.8 deg) rad): past 180
+    assert lat == pytest.approx(-16.8) and lon == pytest.approx(-180.0 + 0.000439, abs=2e-6)
+    assert geodetic_to_ned(lat, lon, 10.0, *home)[:2] == pytest.approx((0.0, 100.0), abs=1e-6)
+    # at the pole cos(lat) = 0: the scale is held at 0.01 (5 km east: 4.49 deg of longitude)
+    assert ned_to_geodetic(0.0, 5000.0, 0.0, 90.0, 10.0, 0.0)[1] == pytest.approx(
+        10.0 + math.degrees(5000.0 / 63781.37)
+    )
+    assert on_earth(90.0, -180.0) and not on_earth(90.0001, 0.0) and not on_earth(0.0, 180.0001)
+    assert not on_earth(math.nan, 0.0) and not on_earth(0.0, math.inf)

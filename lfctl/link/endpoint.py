@@ -31,7 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl import __version__
 from lfctl.checks import printable
-from lfctl.frames import ned_to_geodetic, wrap_pi
+from lfctl.frames import EARTH_RADIUS_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
@@ -1291,7 +1291,7 @@ class VehicleEndpoint:
     def _guided_location(self, item: MissionItem) -> bool:
         if self.mode != MODES["GUIDED"]:
             return False  # only in GUIDED, as Rover
-        if not (-90.0 <= item.lat_deg <= 90.0 and -180.0 <= item.lon_deg <= 180.0):
+        if not on_earth(item.lat_deg, item.lon_deg):
             return False
         n, e = global_to_local(item.x, item.y, self.home)
         if not self._within_fence(n, e):
@@ -1536,7 +1536,7 @@ class VehicleEndpoint:
             return
         n, e = 0.0, 0.0
         if not m.type_mask & 0b111:
-            if not (-90e7 <= m.lat_int <= 90e7 and -180e7 <= m.lon_int <= 180e7):
+            if not on_earth(m.lat_int / 1e7, m.lon_int / 1e7):
                 return
             n, e = global_to_local(m.lat_int, m.lon_int, self.home)
         target = position_target(
@@ -1558,8 +1558,10 @@ class VehicleEndpoint:
             return
         if target.kind == "location":
             lat, lon, _alt = ned_to_geodetic(target.north_m, target.east_m, 0.0, *self.home)
-            if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
-                # a place no Location holds (Rover's would clamp it to a pole): refused, named
+            half_earth_m = math.pi * EARTH_RADIUS_M  # no place is farther along the ground
+            if not (abs(target.north_m) <= half_earth_m and abs(target.east_m) <= half_earth_m and on_earth(lat, lon)):
+                # past a pole or farther than half the Earth (a 1e38, a fuzzer's): Rover's
+                # Location would fold it back over the pole or wrap it; refused here, named
                 self.statustext(
                     f"Ignoring {message}; target {target.north_m:.4g} m N {target.east_m:.4g} m E is off the Earth",
                     mav.MAV_SEVERITY_INFO,
@@ -1972,7 +1974,7 @@ def _command_latlon(p: list[float], latlon_e7: tuple[int, int] | None) -> tuple[
         if not _finite(p[4], p[5]):
             return None
         lat_e7, lon_e7 = int(round(p[4] * 1e7)), int(round(p[5] * 1e7))
-    if not (-90e7 <= lat_e7 <= 90e7 and -180e7 <= lon_e7 <= 180e7):
+    if not on_earth(lat_e7 / 1e7, lon_e7 / 1e7):
         return None
     return lat_e7, lon_e7
 

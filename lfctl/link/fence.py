@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.frames import geodetic_to_ned
+from lfctl.frames import geodetic_to_ned, on_earth
 from lfctl.link.mission import (
     CIRCLE_EXCLUSION,
     CIRCLE_INCLUSION,
@@ -125,7 +125,7 @@ def validate_fence(items: list[MissionItem]) -> tuple[int, int, str] | None:
             if seen_return:
                 return i, error, "Multiple return points"  # (the spec allows one)
             seen_return = True
-        if not (-90.0 <= it.lat_deg <= 90.0 and -180.0 <= it.lon_deg <= 180.0):
+        if not on_earth(it.lat_deg, it.lon_deg):
             return i, error, "Bad lat or lon"
     if left:
         return len(items) - 1, error, "Incorrect item count"

@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
+from lfctl.frames import on_earth
 from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.fence import RALLY_POINT, validate_fence
 from lfctl.link.mission import PLACE_FRAMES, MissionItem, command_name, validate_item
@@ -519,7 +520,7 @@ def downloaded_problem(items: list[MissionItem], mission_type: int) -> str | Non
     for it in items:
         if it.command != RALLY_POINT:
             return f"item {it.seq} ({command_name(it.command)}) is not a rally point"
-        if not (-90.0 <= it.lat_deg <= 90.0 and -180.0 <= it.lon_deg <= 180.0 and math.isfinite(it.z)):
+        if not (on_earth(it.lat_deg, it.lon_deg) and math.isfinite(it.z)):
             return f"item {it.seq}: no place on the Earth ({it.lat_deg}, {it.lon_deg}, {it.z})"
     return None
 

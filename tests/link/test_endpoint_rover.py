@@ -229,16 +229,17 @@ def test_unknown_message_ids_and_nan_fields_are_logged_not_fatal(bench: Bench) -
     assert any('"nan"' in r for r in bench.records)
 
 
-def test_thousands_of_fuzzed_datagrams_crash_nothing_and_the_vehicle_still_answers(bench: Bench) -> None:
-    sent = 0
+def test_thousands_of_fuzzed_datagrams_crash_nothing_and_the_vehicle_still_answers() -> None:
+    bench = guided_bench()  # setpoints are acted on (until a fuzzed command changes the mode)
+    sent = before = bench.ep.stats.datagrams  # the mode command's
     for chunk_start in range(0, 3000, 200):
         for d in datagrams(chunk_start, 200):
             bench.raw(d)
             sent += 1
         bench.tick()
         bench.tick()
-    assert sent > 2500 and bench.ep.stats.datagrams == sent  # every one read
-    assert bench.ep.stats.handler_errors == 0
+    assert sent - before > 2500 and bench.ep.stats.datagrams == sent  # every one read
+    assert bench.ep.stats.handler_errors == bench.ep.stats.send_errors == 0
     # still a vehicle: a mode change and a mission upload work
     bench.ep.force_mode("HOLD")
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
@@ -512,6 +513,37 @@ def test_acceleration_not_ignored_is_refused_with_rovers_message() -> None:
     # longer than 50 bytes: two chunks with one id, as ArduPilot sends it
     assert len(texts) == 2 and texts[0].id == texts[1].id != 0 and (texts[0].chunk_seq, texts[1].chunk_seq) == (0, 1)
     assert "".join(t.text for t in texts) == "Ignoring SET_POSITION_TARGET_LOCAL_NED; set ACC_IGNORE in mask"
+
+
+@pytest.mark.parametrize(
+    ("home", "x", "y", "taken"),
+    [
+        ((-16.8, 179.9995, 10.0), 0.0, 100.0, True),  # across the 180th meridian (Taveuni): a place
+        ((89.9999, 10.0, 0.0), 0.0, 5000.0, True),  # beside the pole: east is still somewhere
+        (HOME, 1e38, 0.0, False),
+        (HOME, 0.0, -2.1e7, False),  # farther than half the Earth
+        (HOME, 9e6, 0.0, False),  # past the North Pole
+    ],
+)
+def test_a_location_target_is_refused_only_off_the_earth(home, x: float, y: float, taken: bool) -> None:  # type: ignore[no-untyped-def]
+    b = guided_bench()
+    b.ep.home = home
+    mask = 0b110111111000  # the position only
+    b.send(
+        mav.MAVLink_set_position_target_local_ned_message(
+            0, 1, 1, mav.MAV_FRAME_LOCAL_NED, mask, x, y, 0, 0, 0, 0, 0, 0, 0, 0, 0
+        )
+    )
+    msgs = b.tick()
+    for _ in range(5):  # and it is sent as Rover's destination, packed
+        msgs += b.tick(0.1)
+    said = "".join(m.text for m in msgs if m.get_type() == "STATUSTEXT")
+    if taken:
+        assert b.ep.guided is not None and (b.ep.guided.north_m, b.ep.guided.east_m) == (x, y) and not said
+    else:
+        assert b.ep.guided is None
+        assert said == f"Ignoring SET_POSITION_TARGET_LOCAL_NED; target {x:.4g} m N {y:.4g} m E is off the Earth"
+    assert b.ep.stats.send_errors == b.ep.stats.handler_errors == 0
 
 
 def test_setpoints_outside_guided_are_ignored_as_on_rover(bench: Bench) -> None:
