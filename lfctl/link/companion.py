@@ -31,6 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError
+from lfctl.frames import EARTH_RADIUS_M, on_earth
 from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
 from lfctl.link.param_server import ParamServer
@@ -53,10 +54,12 @@ HEARTBEAT_PERIOD_S = 1.0
 log = logging.getLogger(__name__)
 
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
-#: the largest magnitude of each odometry field the companion takes from its vehicle: 1000 km
-#: from the local origin (LOCAL_POSITION_NED x, y, m), 1000 m/s (vx, vy), a turn and a half
-#: of yaw (ATTITUDE, rad; ArduPilot's is within +-pi): nothing a ground vehicle reports
-PLAUSIBLE = {"x": 1e6, "y": 1e6, "vx": 1e3, "vy": 1e3, "yaw": 3 * math.pi}
+#: the largest magnitude of each odometry field the companion takes from its vehicle: half
+#: the Earth's circumference from the local origin (LOCAL_POSITION_NED x, y, m: ArduPilot's
+#: public origin stays where it was set, however far the vehicle goes, but no place is
+#: farther), 1000 m/s (vx, vy), a turn and a half of yaw (ATTITUDE, rad; ArduPilot's is within
+#: +-pi)
+PLAUSIBLE = {"x": math.pi * EARTH_RADIUS_M, "y": math.pi * EARTH_RADIUS_M, "vx": 1e3, "vy": 1e3, "yaw": 3 * math.pi}
 
 
 @dataclass
@@ -283,13 +286,12 @@ class Companion:
                 v.yaw_rad = m.yaw
         elif kind == "GLOBAL_POSITION_INT":
             v.global_t_s = t_s
-            known = (m.lat, m.lon) != (0, 0) and abs(m.lat) <= 900_000_000 and abs(m.lon) <= 1_800_000_000
+            known = (m.lat, m.lon) != (0, 0) and on_earth(m.lat / 1e7, m.lon / 1e7)
             v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
 
     def _plausible(self, kind: str, *fields: tuple[str, float]) -> bool:
         """Whether the vehicle's ``kind`` holds only numbers within :data:`PLAUSIBLE`:
-        ArduPilot sends none that is not, so one that does is damaged or not the
-        autopilot's, and is passed over (the odometry keeps its last values; a NaN or a
+        one that does not is damaged or not the autopilot's, and is passed over (the odometry keeps its last values; a NaN or a
         1e38 there would stay in the formation filter for good). The first is said in the
         log, naming the field and value, the rest counted in :attr:`passed_over`."""
         bad = next(((f, x) for f, x in fields if not abs(x) <= PLAUSIBLE[f]), None)
