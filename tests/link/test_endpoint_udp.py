@@ -277,7 +277,9 @@ def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None
     g.wait(("ATTITUDE",))  # one that may have left before the new interval
     boot_ms = [g.wait(("ATTITUDE",)).time_boot_ms for _ in range(15)]
     gaps = np.diff(boot_ms)  # the vehicle's clock, not the wall's
-    assert np.median(gaps) <= 30, boot_ms  # 20 ms (50 Hz), from 100 ms (10 Hz)
+    # 20 ms (50 Hz) from 100 ms (10 Hz); a gap is whole ticks of this wall-clock endpoint
+    # (10 ms sleeps), so a busy machine's slow ticks lengthen it, but not near 100 ms
+    assert np.median(gaps) <= 60, boot_ms
     assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
     assert g.param_set("WP_SPEED", 550.0) == pytest.approx(0.42)  # out of range: refused, value kept
     assert g.param_set("WP_SPEED", math.nan) == pytest.approx(0.42)
