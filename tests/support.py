@@ -9,7 +9,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "wait_until"]
+from lfctl.bench.common import free_udp_ports
+
+__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "loopback_udp", "wait_until"]
 
 #: a scenario's two vehicles as the small closed-loop tests write them: the leader at home,
 #: follower ``f1`` 1.5 m behind it (TOML, to put between a scenario's other tables)
@@ -23,26 +25,12 @@ north_m = -1.5
 """
 
 
-def free_udp_ports(n: int) -> int:
-    """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let go)."""
-    for _ in range(50):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-        if base + n > 65000:
-            continue
-        socks = []
-        try:
-            for k in range(n):
-                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
-                socks[-1].bind(("127.0.0.1", base + k))
-        except OSError:
-            continue
-        finally:
-            for s in socks:
-                s.close()
-        return base
-    raise RuntimeError(f"no {n} free consecutive UDP ports")
+def loopback_udp() -> socket.socket:
+    """A UDP socket bound to 127.0.0.1 on a port the kernel picks: a test's sender, which
+    would otherwise be bound to every interface when it first sends."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    return s
 
 
 def wait_until(predicate: Callable[[], bool], timeout_s: float = 10.0) -> bool:

@@ -1,14 +1,18 @@
-"""Shared helpers for the benchmark scripts: table printing and the closing JSON line."""
+"""Shared helpers for the benchmark scripts: table printing, the closing JSON line, free
+loopback ports."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
+import random
+import socket
 import sys
 from collections.abc import Callable, Sequence
 
-__all__ = ["print_json", "print_table", "run_as_script"]
+__all__ = ["free_udp_ports", "print_json", "print_table", "run_as_script"]
 
 
 def print_table(headers: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
@@ -77,3 +81,55 @@ def run_as_script(main: Callable[[bool], None], doc: str | None, argv: Sequence[
     parser = argparse.ArgumentParser(prog=prog, description=(doc or "").strip().split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="shorter runs (a smoke check)")
     main(parser.parse_args(argv).quick)
+
+
+#: where :func:`free_udp_ports` looks first: from here up to the kernel's ephemeral ports
+PORTS_FROM = 10000
+
+
+def free_udp_ports(n: int) -> int:
+    """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let
+    go, for a program started next to bind).
+
+    They are looked for at random below the kernel's ephemeral range
+    (``/proc/sys/net/ipv4/ip_local_port_range``, 32768 up by default), where no socket that
+    another program opens on port 0 meanwhile can take them; within it when there is no
+    room below.
+
+    Parameters
+    ----------
+    n : int
+        How many consecutive ports.
+
+    Raises
+    ------
+    RuntimeError
+        No such run of ports found in 200 tries.
+    """
+    try:
+        ephemeral = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])  # noqa: SIM115
+    except (OSError, ValueError, IndexError):
+        ephemeral = 32768
+    below = ephemeral - n > PORTS_FROM + 1000
+    rnd = random.Random(os.getpid() ^ int.from_bytes(os.urandom(4), "little"))
+    for _ in range(200):
+        if below:
+            base = rnd.randrange(PORTS_FROM, ephemeral - n)
+        else:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+                probe.bind(("127.0.0.1", 0))
+                base = probe.getsockname()[1]
+            if base + n > 65535:
+                continue
+        socks: list[socket.socket] = []
+        try:
+            for k in range(n):
+                socks.append(socket.socket(socket.AF_INET, socket.SOCK_DGRAM))
+                socks[-1].bind(("127.0.0.1", base + k))
+        except OSError:
+            continue
+        finally:
+            for sock in socks:
+                sock.close()
+        return base
+    raise RuntimeError(f"no {n} free consecutive UDP ports on 127.0.0.1")

@@ -32,7 +32,7 @@ import threading
 import time
 from pathlib import Path
 
-from lfctl.bench.common import print_json, print_table
+from lfctl.bench.common import free_udp_ports, print_json, print_table
 from lfctl.bench.fuzz import datagrams
 from lfctl.errors import LinkTimeoutError
 from lfctl.link.gcs import GroundStation
@@ -62,23 +62,6 @@ dir = "{logs}"
 """
 
 
-def free_base_port() -> int:
-    """A port p with p and p + 1 free on 127.0.0.1."""
-    for _ in range(100):
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a:
-            a.bind(("127.0.0.1", 0))
-            base = a.getsockname()[1]
-            if base > 65000:
-                continue
-            try:
-                with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
-                    b.bind(("127.0.0.1", base + 1))
-            except OSError:
-                continue
-        return base
-    raise RuntimeError("no two free consecutive UDP ports")
-
-
 def rss_mb(pid: int) -> float:
     """Resident memory of a process, MB (Linux /proc)."""
     text = Path(f"/proc/{pid}/status").read_text()
@@ -87,7 +70,7 @@ def rss_mb(pid: int) -> float:
 
 
 def start_sim(tmp: Path) -> tuple[subprocess.Popen[str], int]:
-    base = free_base_port()
+    base = free_udp_ports(2)
     scenario = tmp / "fuzz.toml"
     scenario.write_text(SCENARIO.format(port=base, logs=tmp / "logs"))
     proc = subprocess.Popen(

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
+from support import loopback_udp
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
@@ -232,8 +233,7 @@ def test_garbage_is_dropped_and_counted_and_the_endpoint_keeps_serving(live: Liv
     bad_crc = bytearray(good)
     bad_crc[-1] ^= 0xFF
     unknown = bytearray(b"\xfd\x00\x00\x00\xff\xbe\x01\xe8\x03\x00")  # message id 1000, empty payload
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))  # loopback only
+    s = loopback_udp()
     for k in range(3000):
         kind = k % 5
         if kind == 0:
@@ -354,8 +354,7 @@ def test_a_replayed_signed_packet_is_refused_even_after_garbage() -> None:
     live = LiveEndpoint(signing_key=key)
     sender = mav.MAVLink(None, srcSystem=254, srcComponent=190)
     setup_signing(sender, key)
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    sock.bind(("127.0.0.1", 0))  # loopback only
+    sock = loopback_udp()
     try:
         manual = mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["MANUAL"]).pack(sender)
         sock.sendto(manual, ("127.0.0.1", live.port))

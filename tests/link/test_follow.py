@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v10 import ardupilotmega as mav1
 from pymavlink.dialects.v20 import ardupilotmega as mav
-from support import left_stopped, wait_until
+from support import left_stopped, loopback_udp, wait_until
 
 from lfctl.cli import main
 from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S, LiveView
@@ -133,8 +133,7 @@ def test_the_companion_port_shows_every_packet_both_ways_and_odd_ones_do_not_bre
     heartbeat_v1 = mav1.MAVLink_heartbeat_message(10, 3, 0, 15, 3, 3).pack(old)
     no_value = mav.MAVLink_named_value_float_message(7, b"rng_err", math.nan).pack(rover)
     unknown_id = bytes([0xFD, 4, 0, 0, 7, 1, 1]) + (60123).to_bytes(3, "little") + b"\x01\x02\x03\x04\x00\x00"
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))  # loopback only
+    with loopback_udp() as s:
         for data in (position, heartbeat_v1, unknown_id, no_value, b"\x00junk\xfd\x01", position[:9]):
             s.sendto(data, port.connection.port.getsockname())
         deadline = time.monotonic() + 5.0
@@ -244,8 +243,7 @@ def test_the_live_view_says_when_the_rover_has_no_global_position_once_per_chang
 def _gcs_to(port: MavPort) -> tuple[socket.socket, mav.MAVLink]:
     """A ground station's socket and codec (system 255), sending to ``port`` as the rover's
     MAVLink routing would forward it."""
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))  # loopback only
+    s = loopback_udp()
     return s, mav.MAVLink(None, srcSystem=255, srcComponent=190)
 
 
