@@ -245,8 +245,8 @@ class VehicleConfig(_Section):
     yaw_rad: float = _f(0.0, Bound(-360, 360))  # initial heading, rad (TOML yaw_deg)
     #: FMU parameter name -> value
     parameters: Mapping[str, float] = _f(factory=dict, max_items=MAX_LIST)
-    map: Mapping[str, str] = _f(factory=dict, note="keys: the roles (see below)")
-    units: Mapping[str, str] = _f(factory=dict, note="keys: the roles (see below)")
+    map: Mapping[str, str] = _f(factory=dict, note="a user FMU's only (with fmu); keys: the roles (see below)")
+    units: Mapping[str, str] = _f(factory=dict, note="a user FMU's only (with fmu); keys: the roles (see below)")
     # follower only: whom to follow and where (the formation controller holds this slot)
     target: str | None = _f(None, name=True)  # the vehicle it follows (None: as [formation] says)
     #: commanded range to the target, m (None: as [formation] says)

@@ -189,9 +189,8 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
         still_manual = ep.mode == MODES["MANUAL"]
     assert not errors, errors
     assert len(driven) == 20, out  # 2 s at the speed the stick asks for
-    assert still_manual and 1.0 < stopped_after < 10.0, (
-        out
-    )  # RC_OVERRIDE_TIME (3 s, vehicle time) after the last override
+    # RC_OVERRIDE_TIME (3 s, on the vehicle's clock) after the last override
+    assert still_manual and 1.0 < stopped_after < 10.0, out
     # MAVProxy asks for the parameters over MAVLink FTP first: refused at once, it lists them
     # with PARAM_REQUEST_LIST within the session (it waited about 11 s for FTP before)
     assert re.search(r"Received \d+ parameters", out) and "FTP: request timed out" not in out, out
