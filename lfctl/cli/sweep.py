@@ -106,6 +106,10 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.debug:  # Dask reports each worker's start and stop; a dead one is the sweep's to report, as a row
         logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        # a cluster interrupted while it starts leaves its comms' futures failed and unread,
+        # which asyncio reports with a traceback as they are collected (after "lfctl:
+        # interrupted"): Dask's loop is the only one a sweep runs
+        logging.getLogger("asyncio").setLevel(logging.CRITICAL)
 
     p = plan(load_sweep(args.sweep))  # every variant is built and checked before anything runs
     out_dir = Path(args.out) if args.out else Path("sweeps") / p.spec.name
