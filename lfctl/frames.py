@@ -142,8 +142,14 @@ def _longitude_scale(lat_deg: float) -> float:
 
 
 def on_earth(lat_deg: float, lon_deg: float) -> bool:
-    """Whether a latitude and longitude (degrees) name a place: both numbers, the latitude
-    within +-90 and the longitude within +-180."""
+    """Whether a latitude and longitude name a place: both numbers, the latitude within +-90
+    and the longitude within +-180.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : float
+        Latitude and longitude, degrees.
+    """
     return -90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0
 
 
