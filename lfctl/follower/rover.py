@@ -5,11 +5,13 @@ wall clock. The stack (:class:`~lfctl.follower.stack.Follower`) and the percepti
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
@@ -22,6 +24,11 @@ __all__ = ["RoverRun", "RoverStep", "follow_rover"]
 
 #: setpoints of zero sent when the run ends, so the rover is left standing
 STOP_SETPOINTS = 3
+#: the rover's LOCAL_POSITION_NED older than this is said to be missing (the stack then
+#: steers on the last position it had: the camera still closes the loop)
+ODOMETRY_STALE_S = 1.0
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -70,8 +77,9 @@ def follow_rover(
     (and arms it with ``arm``), then each period: read the rover's messages (and answer a
     ground station's parameter requests), take a frame, perceive it, run the stack with the
     companion's ``LFC_*`` parameters (set from ``settings`` at the start; a ground station
-    may change them). The companion's heartbeat goes out once a second. The rover is sent
-    zero setpoints at the end, however it ends.
+    may change them). The companion's heartbeat goes out once a second. Odometry that stops
+    coming for :data:`ODOMETRY_STALE_S` is said in the log and to the ground station, and
+    again when it comes back. The rover is sent zero setpoints at the end, however it ends.
 
     Parameters
     ----------
@@ -112,12 +120,14 @@ def follow_rover(
     t0 = time.monotonic()
     now = clock if clock is not None else lambda: time.monotonic() - t0
     steps = frames = 0
-    t_s = now()
+    t_s = t_start = now()
+    stale = False
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
             companion.poll(t_s)
             companion.heartbeat(t_s)
+            stale = _say_odometry(companion, name, t_s, t_start, stale)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
                 break
@@ -137,3 +147,19 @@ def follow_rover(
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)
     return RoverRun(steps, frames)
+
+
+def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, stale: bool) -> bool:
+    """Whether the rover's odometry is missing now (none for :data:`ODOMETRY_STALE_S`, or none
+    yet that long after the start); the change is said in the log and to the ground station
+    (STATUSTEXT), once each way."""
+    last = companion.vehicle.t_s
+    now_stale = t_s - (t_start if last is None else last) > ODOMETRY_STALE_S
+    if now_stale and not stale:
+        text = f"{name}: no LOCAL_POSITION_NED for {ODOMETRY_STALE_S:g} s"
+        log.warning("%s: the stack steers on its last position", text)
+        companion.statustext(text)
+    elif stale and not now_stale:
+        log.info("%s: LOCAL_POSITION_NED again", name)
+        companion.statustext(f"{name}: LOCAL_POSITION_NED again", mav.MAV_SEVERITY_INFO)
+    return now_stale

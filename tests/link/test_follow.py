@@ -348,6 +348,56 @@ def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banne
     assert any(m.get_type() == "HEARTBEAT" and m.type == mav.MAV_TYPE_ONBOARD_CONTROLLER for m in heard)
 
 
+def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is_its_return(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    from lfctl.config import parse_config
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.video import VideoSource
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    texts: list[tuple[float, str]] = []
+    stopped_at: list[float] = []
+    with standing_rover() as rover:
+        rover.tap = lambda d, m, raw: (
+            texts.append((time.monotonic(), m.text)) if d == "in" and m.get_type() == "STATUSTEXT" else None
+        )
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+        sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
+
+        def interval(us: float) -> None:  # a ground station's SET_MESSAGE_INTERVAL to the rover
+            cmd = mav.MAVLink_command_long_message(
+                1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, us, 0, 0, 0, 0, 0
+            )
+            sock.sendto(cmd.pack(gcs), ("127.0.0.1", rover.link.port))
+
+        def on_step(step: Any) -> None:
+            if not stopped_at and step.t_s > 0.5:  # the rover stops sending its position
+                stopped_at.append(time.monotonic())
+                interval(-1)
+            elif len(stopped_at) == 1 and any("no LOCAL_POSITION_NED" in text for _t, text in texts):
+                stopped_at.append(time.monotonic())
+                interval(50_000)  # and starts again
+
+        try:
+            with VideoSource(str(banner_video(100))) as video, caplog.at_level("INFO", "lfctl.follower.rover"):
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                             timeout_s=5.0, max_frames=90, on_step=on_step)  # fmt: skip
+        finally:
+            sock.close()
+            companion.close()
+    said = [(t, text) for t, text in texts if "LOCAL_POSITION_NED" in text]
+    assert [text for _t, text in said] == ["rover: no LOCAL_POSITION_NED for 1 s", "rover: LOCAL_POSITION_NED again"]
+    assert stopped_at[0] < said[0][0] and stopped_at[1] < said[1][0]  # each after what it tells of
+    logged = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
+    assert logged == ["rover: no LOCAL_POSITION_NED for 1 s: the stack steers on its last position",
+                      "rover: LOCAL_POSITION_NED again"]  # fmt: skip
+
+
 def test_a_slot_the_companion_could_not_hold_as_a_parameter_is_refused_at_the_start() -> None:
     # LFC_RANGE is 0.1..1000 m: a value outside would be one a ground station could not set back
     from lfctl.link.params import formation_params, set_values
