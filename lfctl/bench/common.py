@@ -11,6 +11,7 @@ import random
 import socket
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 __all__ = ["free_udp_ports", "print_json", "print_table", "run_as_script"]
 
@@ -83,18 +84,21 @@ def run_as_script(main: Callable[[bool], None], doc: str | None, argv: Sequence[
     main(parser.parse_args(argv).quick)
 
 
-#: where :func:`free_udp_ports` looks first: from here up to the kernel's ephemeral ports
-PORTS_FROM = 10000
+#: where :func:`free_udp_ports` looks first: from here up to the kernel's ephemeral ports or
+#: PORTS_BELOW, whichever is lower (above MAVLink's fixed ports, 14540-14600, that programs
+#: send to without binding; below Kubernetes' node ports, 30000 up)
+PORTS_FROM = 15000
+PORTS_BELOW = 30000
 
 
 def free_udp_ports(n: int) -> int:
     """A base port with ``n`` free consecutive UDP ports on 127.0.0.1 (found free, then let
     go, for a program started next to bind).
 
-    They are looked for at random below the kernel's ephemeral range
-    (``/proc/sys/net/ipv4/ip_local_port_range``, 32768 up by default), where no socket that
-    another program opens on port 0 meanwhile can take them; within it when there is no
-    room below.
+    They are looked for at random from :data:`PORTS_FROM` up to the kernel's ephemeral range
+    (``/proc/sys/net/ipv4/ip_local_port_range``, 32768 up by default) or :data:`PORTS_BELOW`,
+    where no socket that another program opens on port 0 meanwhile can take them; among the
+    ephemeral ports when there is no room there.
 
     Parameters
     ----------
@@ -107,19 +111,20 @@ def free_udp_ports(n: int) -> int:
         No such run of ports found in 200 tries.
     """
     try:
-        ephemeral = int(open("/proc/sys/net/ipv4/ip_local_port_range").read().split()[0])  # noqa: SIM115
+        ephemeral = int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
     except (OSError, ValueError, IndexError):
         ephemeral = 32768
-    below = ephemeral - n > PORTS_FROM + 1000
+    top = min(ephemeral, PORTS_BELOW)
+    below = top - n > PORTS_FROM + 1000
     rnd = random.Random(os.getpid() ^ int.from_bytes(os.urandom(4), "little"))
     for _ in range(200):
         if below:
-            base = rnd.randrange(PORTS_FROM, ephemeral - n)
+            base = rnd.randrange(PORTS_FROM, top - n)
         else:
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
                 probe.bind(("127.0.0.1", 0))
                 base = probe.getsockname()[1]
-            if base + n > 65535:
+            if base + n > 65536:
                 continue
         socks: list[socket.socket] = []
         try:

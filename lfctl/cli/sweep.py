@@ -21,6 +21,17 @@ if TYPE_CHECKING:
     from lfctl.sweep.results import SweepSummary
 
 
+class _DaskCommUnread(logging.Filter):
+    """Drops asyncio's "exception was never retrieved" for a Dask or Tornado comm's error (a
+    cluster's connections cut by an interrupt); passes every other record."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if exc is None or "exception was never retrieved" not in str(record.msg):
+            return True
+        return type(exc).__module__.split(".")[0] not in ("distributed", "tornado")
+
+
 def register(sub: Any) -> None:
     """Add the ``sweep`` command to the parser."""
     s = sub.add_parser(
@@ -108,8 +119,10 @@ def run(args: argparse.Namespace) -> int:
         logging.getLogger("distributed").setLevel(logging.CRITICAL)
         # a cluster interrupted while it starts leaves its comms' futures failed and unread,
         # which asyncio reports with a traceback as they are collected (after "lfctl:
-        # interrupted"): Dask's loop is the only one a sweep runs
-        logging.getLogger("asyncio").setLevel(logging.CRITICAL)
+        # interrupted"): those, and only those, are kept back
+        asyncio_log = logging.getLogger("asyncio")
+        if not any(isinstance(f, _DaskCommUnread) for f in asyncio_log.filters):
+            asyncio_log.addFilter(_DaskCommUnread())
 
     p = plan(load_sweep(args.sweep))  # every variant is built and checked before anything runs
     out_dir = Path(args.out) if args.out else Path("sweeps") / p.spec.name

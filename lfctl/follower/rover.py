@@ -24,8 +24,9 @@ __all__ = ["RoverRun", "RoverStep", "follow_rover"]
 
 #: setpoints of zero sent when the run ends, so the rover is left standing
 STOP_SETPOINTS = 3
-#: the rover's LOCAL_POSITION_NED older than this is said to be missing (the stack then
-#: steers on the last position it had: the camera still closes the loop)
+#: the rover's LOCAL_POSITION_NED older than this, or three control periods if that is
+#: longer, is said to be missing (the stack then steers on the last position it had: the
+#: camera still closes the loop)
 ODOMETRY_STALE_S = 1.0
 
 log = logging.getLogger(__name__)
@@ -78,8 +79,8 @@ def follow_rover(
     ground station's parameter requests), take a frame, perceive it, run the stack with the
     companion's ``LFC_*`` parameters (set from ``settings`` at the start; a ground station
     may change them). The companion's heartbeat goes out once a second. Odometry that stops
-    coming for :data:`ODOMETRY_STALE_S` is said in the log and to the ground station, and
-    again when it comes back. The rover is sent zero setpoints at the end, however it ends.
+    coming for :data:`ODOMETRY_STALE_S` (or three periods) is said in the log and to the
+    ground station, and again when it comes back. The rover is sent zero setpoints at the end, however it ends.
 
     Parameters
     ----------
@@ -122,12 +123,14 @@ def follow_rover(
     steps = frames = 0
     t_s = t_start = now()
     stale = False
+    stale_s = max(ODOMETRY_STALE_S, 3.0 / rate_hz)  # an odometry message a period: one late is not missing
+    companion.vehicle.t_s = None  # what came while waiting was stamped on the wait's own clock
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
             companion.poll(t_s)
             companion.heartbeat(t_s)
-            stale = _say_odometry(companion, name, t_s, t_start, stale)
+            stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
                 break
@@ -149,17 +152,19 @@ def follow_rover(
     return RoverRun(steps, frames)
 
 
-def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, stale: bool) -> bool:
-    """Whether the rover's odometry is missing now (none for :data:`ODOMETRY_STALE_S`, or none
-    yet that long after the start); the change is said in the log and to the ground station
-    (STATUSTEXT), once each way."""
+def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, stale: bool, stale_s: float) -> bool:
+    """Whether the rover's odometry is missing now (none for ``stale_s``, or none yet that long
+    after the start); the change is said in the log and to the ground station (STATUSTEXT,
+    the name cut so that the line fits one), once each way."""
     last = companion.vehicle.t_s
-    now_stale = t_s - (t_start if last is None else last) > ODOMETRY_STALE_S
+    now_stale = t_s - (t_start if last is None else last) > stale_s
+    who = name[:20]
     if now_stale and not stale:
-        text = f"{name}: no LOCAL_POSITION_NED for {ODOMETRY_STALE_S:g} s"
-        log.warning("%s: the stack steers on its last position", text)
-        companion.statustext(text)
+        log.warning(
+            "%s: no odometry (LOCAL_POSITION_NED) for %g s: the stack steers on its last position", name, stale_s
+        )
+        companion.statustext(f"{who}: no odometry for {stale_s:g} s")
     elif stale and not now_stale:
-        log.info("%s: LOCAL_POSITION_NED again", name)
-        companion.statustext(f"{name}: LOCAL_POSITION_NED again", mav.MAV_SEVERITY_INFO)
+        log.info("%s: odometry (LOCAL_POSITION_NED) back", name)
+        companion.statustext(f"{who}: odometry back", mav.MAV_SEVERITY_INFO)
     return now_stale

@@ -377,7 +377,7 @@ def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is
             if not stopped_at and step.t_s > 0.5:  # the rover stops sending its position
                 stopped_at.append(time.monotonic())
                 interval(-1)
-            elif len(stopped_at) == 1 and any("no LOCAL_POSITION_NED" in text for _t, text in texts):
+            elif len(stopped_at) == 1 and any("no odometry" in text for _t, text in texts):
                 stopped_at.append(time.monotonic())
                 interval(50_000)  # and starts again
 
@@ -390,12 +390,30 @@ def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is
         finally:
             sock.close()
             companion.close()
-    said = [(t, text) for t, text in texts if "LOCAL_POSITION_NED" in text]
-    assert [text for _t, text in said] == ["rover: no LOCAL_POSITION_NED for 1 s", "rover: LOCAL_POSITION_NED again"]
+    said = [(t, text) for t, text in texts if "odometry" in text]
+    assert [text for _t, text in said] == ["rover: no odometry for 1 s", "rover: odometry back"]
     assert stopped_at[0] < said[0][0] and stopped_at[1] < said[1][0]  # each after what it tells of
     logged = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
-    assert logged == ["rover: no LOCAL_POSITION_NED for 1 s: the stack steers on its last position",
-                      "rover: LOCAL_POSITION_NED again"]  # fmt: skip
+    assert logged == ["rover: no odometry (LOCAL_POSITION_NED) for 1 s: the stack steers on its last position",
+                      "rover: odometry (LOCAL_POSITION_NED) back"]  # fmt: skip
+
+
+def test_odometry_is_missing_after_three_periods_at_a_slow_rate_and_each_line_fits_one_statustext() -> None:
+    from types import SimpleNamespace
+
+    from lfctl.follower.rover import _say_odometry
+
+    said: list[tuple[str, int]] = []
+    companion = SimpleNamespace(vehicle=SimpleNamespace(t_s=None), statustext=lambda t, sev=4: said.append((t, sev)))
+    name = "a-follower-with-a-name-of-forty-letters"
+    stale = False
+    for t, last in ((0.5, None), (1.2, None), (1.5, 1.5), (3.4, 1.5), (4.6, 1.5), (5.0, 5.0)):
+        companion.vehicle.t_s = last
+        stale = _say_odometry(companion, name, t, 0.0, stale, 3.0)  # type: ignore[arg-type]  # 1 Hz: 3 s
+    # none yet at 1.2 s is not missing at 1 Hz; 3.1 s after the last one is
+    assert said == [("a-follower-with-a-na: no odometry for 3 s", mav.MAV_SEVERITY_WARNING),
+                    ("a-follower-with-a-na: odometry back", mav.MAV_SEVERITY_INFO)]  # fmt: skip
+    assert all(len(text.encode()) <= 50 for text, _sev in said)  # one STATUSTEXT each
 
 
 def test_a_slot_the_companion_could_not_hold_as_a_parameter_is_refused_at_the_start() -> None:

@@ -215,3 +215,19 @@ def test_a_reader_that_leaves_stops_the_sweep_as_ctrl_c_does(tmp_path: Path, see
         assert f"--out {tmp_path / 'out'} --resume` finishes the sweep" in err and 2 <= len(rows) < 9
     else:
         assert len(rows) == 3  # both ran
+
+
+def test_only_a_dask_comms_unread_error_is_kept_from_asyncios_log() -> None:
+    import logging
+
+    from distributed.comm.core import CommClosedError
+
+    from lfctl.cli.sweep import _DaskCommUnread
+
+    def record(exc: BaseException, msg: str = "Future exception was never retrieved") -> logging.LogRecord:
+        return logging.LogRecord("asyncio", logging.ERROR, __file__, 1, msg, None, (type(exc), exc, None))
+
+    keep = _DaskCommUnread().filter
+    assert not keep(record(CommClosedError("in <TCP (closed) Scheduler Broadcast>: Stream is closed")))
+    assert keep(record(ValueError("a bug of ours")))  # another error stays in the log
+    assert keep(record(CommClosedError("x"), "Task was destroyed but it is pending!"))  # another message too
