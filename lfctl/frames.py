@@ -27,6 +27,7 @@ __all__ = [
 ]
 
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius
+HALF_EARTH_M = math.pi * EARTH_RADIUS_M  # no place is farther along the ground, m
 
 
 def wrap_pi(angle_rad: float) -> float:

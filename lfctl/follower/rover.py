@@ -80,7 +80,8 @@ def follow_rover(
     companion's ``LFC_*`` parameters (set from ``settings`` at the start; a ground station
     may change them). The companion's heartbeat goes out once a second. Odometry that stops
     coming for :data:`ODOMETRY_STALE_S` (or three periods) is said in the log and to the
-    ground station, and again when it comes back. The rover is sent zero setpoints at the end, however it ends.
+    ground station, and again when it comes back. The rover is sent zero setpoints at the
+    end, however it ends.
 
     Parameters
     ----------

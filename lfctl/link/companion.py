@@ -31,7 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError
-from lfctl.frames import EARTH_RADIUS_M, on_earth
+from lfctl.frames import HALF_EARTH_M, on_earth
 from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
 from lfctl.link.param_server import ParamServer
@@ -59,7 +59,7 @@ PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
 #: public origin stays where it was set, however far the vehicle goes, but no place is
 #: farther), 1000 m/s (vx, vy), a turn and a half of yaw (ATTITUDE, rad; ArduPilot's is within
 #: +-pi)
-PLAUSIBLE = {"x": math.pi * EARTH_RADIUS_M, "y": math.pi * EARTH_RADIUS_M, "vx": 1e3, "vy": 1e3, "yaw": 3 * math.pi}
+PLAUSIBLE = {"x": HALF_EARTH_M, "y": HALF_EARTH_M, "vx": 1e3, "vy": 1e3, "yaw": 3 * math.pi}
 
 
 @dataclass
@@ -290,10 +290,11 @@ class Companion:
             v.lat_deg, v.lon_deg, v.alt_m = (m.lat / 1e7, m.lon / 1e7, m.alt / 1000.0) if known else (None, None, None)
 
     def _plausible(self, kind: str, *fields: tuple[str, float]) -> bool:
-        """Whether the vehicle's ``kind`` holds only numbers within :data:`PLAUSIBLE`:
-        one that does not is damaged or not the autopilot's, and is passed over (the odometry keeps its last values; a NaN or a
-        1e38 there would stay in the formation filter for good). The first is said in the
-        log, naming the field and value, the rest counted in :attr:`passed_over`."""
+        """Whether the vehicle's ``kind`` holds only numbers within :data:`PLAUSIBLE`: one
+        that does not is damaged or not the autopilot's, and is passed over (the odometry
+        keeps its last values; a NaN or a 1e38 there would stay in the formation filter for
+        good). The first is said in the log, naming the field and value, the rest counted in
+        :attr:`passed_over`."""
         bad = next(((f, x) for f, x in fields if not abs(x) <= PLAUSIBLE[f]), None)
         if bad is None:
             return True

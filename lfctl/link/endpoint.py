@@ -31,7 +31,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl import __version__
 from lfctl.checks import printable
-from lfctl.frames import EARTH_RADIUS_M, ned_to_geodetic, on_earth, wrap_pi
+from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
@@ -1558,8 +1558,8 @@ class VehicleEndpoint:
             return
         if target.kind == "location":
             lat, lon, _alt = ned_to_geodetic(target.north_m, target.east_m, 0.0, *self.home)
-            half_earth_m = math.pi * EARTH_RADIUS_M  # no place is farther along the ground
-            if not (abs(target.north_m) <= half_earth_m and abs(target.east_m) <= half_earth_m and on_earth(lat, lon)):
+            far = max(abs(target.north_m), abs(target.east_m))
+            if not (far <= HALF_EARTH_M and on_earth(lat, lon)):
                 # past a pole or farther than half the Earth (a 1e38, a fuzzer's): Rover's
                 # Location would fold it back over the pole or wrap it; refused here, named
                 self.statustext(
