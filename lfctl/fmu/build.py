@@ -4,7 +4,8 @@ A model folder holds ``config.h`` (identity and the variable table as an X-macro
 ``model.c``; ``fmu_models/common`` holds the model core and the two FMI wrappers. The variable
 table is the single source: the C core compiles it, and this module parses it to write both
 ``modelDescription.xml`` files. Builds land in a content-hashed cache (sources, compiler
-version, flags), so a second call costs only the hash.
+version, flags), so a second call costs only the hash; without a compiler on PATH, a build
+of the same sources by any compiler is taken from it.
 """
 
 from __future__ import annotations
@@ -311,6 +312,26 @@ def cache_key(src: ModelSource, compiler_version: str) -> str:
     return h.hexdigest()[:16]
 
 
+#: in each cache entry: the cache key of its sources without the compiler's version, so that
+#: a machine whose compiler has gone (a rover's computer, a slimmed image) still finds them
+SOURCES_KEY_FILE = "sources.key"
+
+
+def _built_from_same_sources(src: ModelSource, cache_root: Path) -> BuiltModel | None:
+    """The newest cache entry built from ``src``'s sources (and this generator, flags and
+    fmpy) by any compiler, or None: what runs when no compiler is on PATH."""
+    want = cache_key(src, "")
+    found: list[tuple[int, BuiltModel]] = []
+    for entry in cache_root.glob(f"{src.identifier}-*"):
+        built = BuiltModel(src.identifier, entry / f"{src.identifier}.fmi2.fmu", entry / f"{src.identifier}.fmi3.fmu")
+        try:
+            if (entry / SOURCES_KEY_FILE).read_text().strip() == want and built.fmi2.is_file() and built.fmi3.is_file():
+                found.append(((entry / SOURCES_KEY_FILE).stat().st_mtime_ns, built))
+        except OSError:
+            continue  # an entry from before the file, or one being replaced
+    return max(found, key=lambda f: f[0])[1] if found else None
+
+
 def default_cache_dir() -> Path:
     """Where built FMUs are kept: the user cache directory (``~/.cache/lfctl/fmu`` on Linux)."""
     return user_cache("fmu")
@@ -390,11 +411,22 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
         Rebuild even when the cache has this content hash.
     """
     src = parse_model_source(folder)
-    compiler = find_compiler()
+    cache_root = cache_dir or default_cache_dir()
+    try:
+        compiler = find_compiler()
+    except BuildToolError:
+        earlier = None if force else _built_from_same_sources(src, cache_root)
+        if earlier is None:
+            raise
+        log.info("no C compiler on PATH: the %s FMUs built earlier from these sources run", src.identifier)
+        return earlier
     key = cache_key(src, _compiler_version(compiler))
-    root = (cache_dir or default_cache_dir()) / f"{src.identifier}-{key}"
+    root = cache_root / f"{src.identifier}-{key}"
     built = BuiltModel(src.identifier, root / f"{src.identifier}.fmi2.fmu", root / f"{src.identifier}.fmi3.fmu")
     if not force and built.fmi2.is_file() and built.fmi3.is_file():
+        if not (root / SOURCES_KEY_FILE).is_file():  # an entry built before the file was kept
+            with contextlib.suppress(OSError):
+                (root / SOURCES_KEY_FILE).write_text(cache_key(src, "") + "\n")
         return built
     try:
         root.parent.mkdir(parents=True, exist_ok=True)
@@ -412,6 +444,7 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
             out_dir.mkdir()
             for fmi in (2, 3):
                 _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
+            (out_dir / SOURCES_KEY_FILE).write_text(cache_key(src, "") + "\n")
             if root.exists():
                 shutil.rmtree(root)
             os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible

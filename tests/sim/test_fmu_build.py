@@ -95,6 +95,29 @@ def test_no_compiler_gives_an_error_saying_what_to_install(monkeypatch: pytest.M
         build_model("SkidSteerRover", tmp_path)
 
 
+def test_without_a_compiler_the_same_sources_built_earlier_run(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a rover's computer that built its FMUs once and lost its compiler (or an image without one)
+    built = build_model("KinematicUnicycle", tmp_path)
+    (built.fmi2.parent / fmu_build.SOURCES_KEY_FILE).unlink()  # as an entry built by an older lfctl
+    build_model("KinematicUnicycle", tmp_path)  # a cache hit with a compiler marks it
+    monkeypatch.setattr(shutil, "which", lambda name: None)
+    with caplog.at_level("INFO", logger="lfctl.fmu.build"):
+        assert build_model("KinematicUnicycle", tmp_path) == built
+    assert "no C compiler on PATH: the KinematicUnicycle FMUs built earlier" in caplog.text
+    with pytest.raises(BuildToolError, match=r"no C compiler on PATH"):
+        build_model("KinematicUnicycle", tmp_path, force=True)  # a rebuild needs one
+    with pytest.raises(BuildToolError, match=r"no C compiler on PATH"):
+        build_model("SkidSteerRover", tmp_path)  # never built here
+    # other sources (an edited model) are not taken for these
+    edited = tmp_path / "edited"
+    shutil.copytree(data.models_dir() / "KinematicUnicycle", edited)
+    (edited / "model.c").write_text((edited / "model.c").read_text() + "\n/* edited */\n")
+    with pytest.raises(BuildToolError, match=r"no C compiler on PATH"):
+        fmu_build.build_model_folder(edited, tmp_path)
+
+
 def test_unknown_model_is_named() -> None:
     with pytest.raises(FmuError, match=r"unknown built-in model 'Tank'.*SkidSteerRover"):
         build_model("Tank")
