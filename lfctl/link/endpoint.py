@@ -963,6 +963,9 @@ class VehicleEndpoint:
 
     def set_armed(self, armed: bool) -> None:
         """Arm or disarm (home stays where the vehicle was while disarmed, see :attr:`home_ned`).
+        As Rover's ``AP_Arming_Rover::disarm``: disarmed in any mode but AUTO, the mission is
+        reset (``AP_Mission::reset``), so AUTO next starts it from its first item with
+        DO_JUMP's counts afresh; disarmed in AUTO, it resumes where it was.
 
         Parameters
         ----------
@@ -974,6 +977,8 @@ class VehicleEndpoint:
         if armed != self.armed:
             self.armed = armed
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
+            if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
+                self.set_current(1, reset=True)
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
     def _set_interval(self, msg_id_f: float, interval_us: float, response_target: float = 0.0) -> int:

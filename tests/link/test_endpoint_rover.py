@@ -1906,6 +1906,26 @@ def test_item_0_restarts_the_mission_and_the_echo_says_what_was_asked(bench: Ben
     assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (2, 3, mav.MISSION_STATE_ACTIVE, 1)
 
 
+def test_disarming_outside_auto_resets_the_mission_and_in_auto_keeps_its_place(bench: Bench) -> None:
+    # Rover's AP_Arming_Rover::disarm: mission.reset() unless the mode is AUTO, so "HOLD,
+    # disarm, arm, AUTO" starts the mission again from its first item
+    assert upload(bench, _square(3)) == mav.MAV_MISSION_ACCEPTED
+    bench.ep.set_armed(True)
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.set_current(3)
+    restarts = bench.ep.mission_restarts
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED  # in AUTO
+    assert (bench.ep.current_seq, bench.ep.mission_restarts) == (3, restarts)
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED  # in HOLD
+    assert (bench.ep.current_seq, bench.ep.mission_restarts) == (1, restarts + 1)
+    assert not bench.ep.mission_complete
+    # disarming again while disarmed changes nothing
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.mission_restarts == restarts + 1
+
+
 def test_do_set_mission_current_tells_the_new_item_at_once_and_a_reset_restarts_a_finished_mission(
     bench: Bench,
 ) -> None:
