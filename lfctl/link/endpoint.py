@@ -35,7 +35,7 @@ from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, validate_item
+from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, jump_tag_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
@@ -905,6 +905,15 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["AUTO"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
             return self._set_current_command(p[0], p[1])
+        if cmd == mav.MAV_CMD_DO_JUMP_TAG:
+            # as Rover's handle_command_do_jump_tag: the first JUMP_TAG of the tag becomes the
+            # current item (AP_Mission::jump_to_tag); no such tag, FAILED
+            tag = math.trunc(p[0]) if _finite(p[0]) and 0 <= p[0] < 65536 else None
+            seq = jump_tag_item(self.mission, tag) if tag is not None else 0
+            if seq == 0 or not self.set_current(seq):
+                return mav.MAV_RESULT_FAILED
+            self._once.append(MSG_IDS["MISSION_CURRENT"])
+            return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_REPOSITION:

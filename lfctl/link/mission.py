@@ -27,9 +27,11 @@ __all__ = [
     "DO_CHANGE_SPEED",
     "DO_FENCE_ENABLE",
     "DO_JUMP",
+    "DO_JUMP_TAG",
     "DO_SET_HOME",
     "DO_SET_REVERSE",
     "FLOWN",
+    "JUMP_TAG",
     "LOCATION_ALT_MAX_M",
     "MAX_EXPANDED",
     "MAX_FILE_BYTES",
@@ -64,6 +66,7 @@ __all__ = [
     "far_place",
     "home_item",
     "is_nav",
+    "jump_tag_item",
     "load_mission",
     "load_mission_file",
     "local_mission",
@@ -89,6 +92,8 @@ DO_CHANGE_SPEED = mav.MAV_CMD_DO_CHANGE_SPEED  # 178
 DO_SET_HOME = mav.MAV_CMD_DO_SET_HOME  # 179
 DO_SET_REVERSE = mav.MAV_CMD_DO_SET_REVERSE  # 194
 DO_FENCE_ENABLE = mav.MAV_CMD_DO_FENCE_ENABLE  # 207
+JUMP_TAG = mav.MAV_CMD_JUMP_TAG  # 600
+DO_JUMP_TAG = mav.MAV_CMD_DO_JUMP_TAG  # 601
 
 
 def _commands(*names: str) -> frozenset[int]:
@@ -114,6 +119,7 @@ NOTHING_FITTED = _commands(
     "IMAGE_STOP_CAPTURE", "VIDEO_START_CAPTURE", "VIDEO_STOP_CAPTURE", "DO_GRIPPER", "DO_SPRAYER",
     "DO_AUX_FUNCTION", "DO_PARACHUTE", "DO_SEND_SCRIPT_MESSAGE", "DO_SET_RESUME_REPEAT_DIST",
     "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
+    "SET_CAMERA_ZOOM", "SET_CAMERA_FOCUS", "SET_CAMERA_SOURCE",
 )  # fmt: skip
 #: the commands a mission may hold that a Rover passes over when their turn comes (aircraft's
 #: take-offs and landings, splines, an offboard computer's turn, a heading to reach):
@@ -124,6 +130,7 @@ SKIPPED = _commands(
     "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
     "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
     "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",
+    "DO_RETURN_PATH_START",
 )  # fmt: skip
 #: the skipped ones that are navigation (AP_Mission::is_nav_cmd): tried ("Mission: N
 #: Takeoff") and passed over, as a Rover's mission moves on when one fails to start
@@ -137,8 +144,10 @@ SKIPPED_NAV = frozenset(
 #: limits of a guided turn within AUTO, which it takes without a word (lfctl skips that turn)
 SKIPPED_SAID = SKIPPED - SKIPPED_NAV - {mav.MAV_CMD_DO_GUIDED_LIMITS}
 #: every command a mission may hold, as ArduPilot's mission library takes them on upload
-#: (AP_Mission::mavlink_int_to_mission_cmd); any other is MAV_MISSION_UNSUPPORTED
-SUPPORTED = FLOWN | ACTED_ON | NOTHING_FITTED | SKIPPED | {DO_JUMP}
+#: (AP_Mission::mavlink_int_to_mission_cmd); any other is MAV_MISSION_UNSUPPORTED. A
+#: JUMP_TAG marks its place with a tag (param1) and does nothing else; a DO_JUMP_TAG is a
+#: DO_JUMP to the first JUMP_TAG of its tag (none: the mission ends there)
+SUPPORTED = FLOWN | ACTED_ON | NOTHING_FITTED | SKIPPED | {DO_JUMP, JUMP_TAG, DO_JUMP_TAG}
 #: the navigation commands that end a leg somewhere: a waypoint the summary counts
 PLACES = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH))
 #: the commands that store a place (AP_Mission::stores_location): their latitude and
@@ -147,7 +156,7 @@ STORES_LOCATION = _commands(
     "NAV_WAYPOINT", "NAV_LOITER_UNLIM", "NAV_LOITER_TURNS", "NAV_LOITER_TIME", "NAV_LAND", "NAV_TAKEOFF",
     "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT", "NAV_GUIDED_ENABLE",
     "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND", "NAV_PAYLOAD_PLACE", "DO_SET_HOME", "DO_LAND_START",
-    "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION",
+    "DO_GO_AROUND", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_RETURN_PATH_START",
 )  # fmt: skip
 #: the commands whose x and y are not a place: the float MISSION_ITEM carries them as they
 #: are, where for every other command it carries degrees (AP_Mission's conversions between
@@ -315,11 +324,11 @@ def validate_item(item: MissionItem, count: int) -> int:
         for k, (value, top) in enumerate(((item.param2, 23), (item.param3, 59), (item.param4, 59))):
             if not (_whole(value) and -1 <= value <= top):  # -1: any
                 return mav.MAV_MISSION_INVALID_PARAM2 + k
-    if cmd == DO_JUMP:  # target and repeat count are integers on Rover: a fraction is cut off
-        if not 1 <= math.trunc(item.param1) < count:
-            return mav.MAV_MISSION_ERROR  # MissionItemProtocol_Waypoints::append_item's answer
-        if not -1 <= math.trunc(item.param2) <= JUMP_REPEAT_MAX:
-            return mav.MAV_MISSION_INVALID_PARAM2
+    if cmd == DO_JUMP and not 1 <= math.trunc(item.param1) < count:  # Rover cuts a fraction off
+        return mav.MAV_MISSION_ERROR  # MissionItemProtocol_Waypoints::append_item's answer
+    # a tag needs no JUMP_TAG on upload: one may come later
+    if cmd in (DO_JUMP, DO_JUMP_TAG) and not -1 <= math.trunc(item.param2) <= JUMP_REPEAT_MAX:
+        return mav.MAV_MISSION_INVALID_PARAM2
     if cmd == DO_CHANGE_SPEED and not item.param2 <= SPEED_MAX_MPS:
         # any other speed is stored, as on Rover (AP_Mission checks none); one under 0.05 m/s
         # (-1 "no change", 0) changes nothing when the item runs
@@ -404,8 +413,10 @@ def as_stored(item: MissionItem) -> MissionItem:
         params = (p1, _int_as(p2, -128, 127), _int_as(p3, -128, 127), _int_as(p4, -128, 127))
     elif c in (CONDITION_DELAY, CONDITION_DISTANCE):
         params = (p1, 0.0, 0.0, 0.0)
-    elif c == DO_JUMP:
+    elif c in (DO_JUMP, DO_JUMP_TAG):
         params = (_int_as(p1, 0, u16), _int_as(p2, -32768, 32767), 0.0, 0.0)
+    elif c == JUMP_TAG:
+        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
     elif c == DO_CHANGE_SPEED:
         params = (_int_as(p1, 0, 255), p2, p3, 0.0)
     elif c in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE):
@@ -443,20 +454,40 @@ MISSION_TEXT_NAMES = {
         ("DO_MOUNT_CONTROL", "MountControl"), ("DO_WINCH", "Winch"), ("DO_SEND_SCRIPT_MESSAGE", "Scripting"),
         ("DO_GO_AROUND", "Go Around"), ("NAV_SCRIPT_TIME", "NavScriptTime"), ("NAV_ATTITUDE_TIME", "NavAttitudeTime"),
         ("DO_PAUSE_CONTINUE", "PauseContinue"), ("DO_GIMBAL_MANAGER_PITCHYAW", "GimbalPitchYaw"),
+        ("DO_RETURN_PATH_START", "ReturnPathStart"), ("JUMP_TAG", "Tag"), ("DO_JUMP_TAG", "JumpToTag"),
+        ("IMAGE_START_CAPTURE", "ImageStartCapture"), ("IMAGE_STOP_CAPTURE", "ImageStopCapture"),
+        ("SET_CAMERA_ZOOM", "SetCameraZoom"), ("SET_CAMERA_FOCUS", "SetCameraFocus"),
+        ("SET_CAMERA_SOURCE", "SetCameraSource"), ("VIDEO_START_CAPTURE", "VideoStartCapture"),
+        ("VIDEO_STOP_CAPTURE", "VideoStopCapture"),
     )
 }  # fmt: skip
 
 
 def mission_text(item: MissionItem) -> str:
     """What ArduPilot's mission library says as it starts an item: ``Mission: 3 WP`` (``?``
-    for a command its table has no name for).
+    for a command its table has no name for), a JUMP_TAG with its tag (``Mission: 4 Tag 7``).
 
     Parameters
     ----------
     item : MissionItem
         The item it starts.
     """
-    return f"Mission: {item.seq} {MISSION_TEXT_NAMES.get(item.command, '?')}"
+    text = f"Mission: {item.seq} {MISSION_TEXT_NAMES.get(item.command, '?')}"
+    return f"{text} {int(item.param1)}" if item.command == JUMP_TAG else text
+
+
+def jump_tag_item(items: list[MissionItem], tag: float) -> int:
+    """The item number of the first JUMP_TAG of ``tag`` in a mission (home first), or 0 when
+    none has it (``AP_Mission::get_index_of_jump_tag``).
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    tag : float
+        The tag (a DO_JUMP_TAG's param1, as stored: a whole number).
+    """
+    return next((k for k, it in enumerate(items[1:], start=1) if it.command == JUMP_TAG and it.param1 == tag), 0)
 
 
 def command_name(cmd: int) -> str:
@@ -516,6 +547,9 @@ class Leg:
     #: taken, repeats), as Rover says each ("Mission: 3 Jump 1/2"); a jump repeated for ever
     #: is not counted, and not said
     jumped: tuple[tuple[int, int, int], ...] = ()
+    #: how many of :attr:`jumped` were taken before the first of :attr:`before` was met: said
+    #: before it (a DO_JUMP_TAG back to a JUMP_TAG says the jump, then the tag)
+    jumps_first: int = 0
 
 
 def to_legs(
@@ -584,6 +618,7 @@ def walk_mission(
     here = start
     jumps_left: dict[int, int] = dict(jumps)
     jumped: list[tuple[int, int, int]] = []  # since the last leg: (item, times taken, repeats)
+    first_met: int | None = None  # jumps taken since the last leg when its first item before was met
     i = start_seq
     # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
     # at each other) add no legs: the walk is bounded too, not only the legs it yields
@@ -606,11 +641,14 @@ def walk_mission(
                 hold = it.param1
             else:
                 hold = 0.0
-            legs.append(Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items()), tuple(jumped)))
-            before, blocked, jumped = [], False, []
+            first = len(jumped) if first_met is None else first_met
+            legs.append(
+                Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items()), tuple(jumped), first)
+            )
+            before, blocked, jumped, first_met = [], False, [], None
             if hold == math.inf:
                 return legs, ()
-        elif it.command == DO_JUMP:
+        elif it.command in (DO_JUMP, DO_JUMP_TAG):
             if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
                 repeats = math.trunc(it.param2)
                 left = jumps_left.setdefault(i, repeats)
@@ -618,13 +656,16 @@ def walk_mission(
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
                     if left > 0:
                         jumped.append((i, repeats - left + 1, repeats))
-                    i = math.trunc(it.param1)
+                    # a tag no JUMP_TAG has is item 0: the mission ends here, as on Rover
+                    i = jump_tag_item(items, it.param1) if it.command == DO_JUMP_TAG else math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it
             blocked = any(b.command not in SKIPPED_NAV for b in before)
             before.append(it)
         elif not blocked:
             before.append(it)
+        if before and first_met is None:
+            first_met = len(jumped)
         i += 1
     return legs, tuple(before)
 

@@ -34,6 +34,7 @@ from lfctl.link.mission import (
     CONDITION_DELAY,
     CONDITION_DISTANCE,
     DO_CHANGE_SPEED,
+    JUMP_TAG,
     NAV_DELAY,
     NAV_LOITER_TIME,
     NAV_LOITER_TURNS,
@@ -340,10 +341,12 @@ class VehicleDriver:
         ap = self._autopilot
         assert ap is not None
         self._leg, self._queue, self._condition = k, list(leg.before), None
+        # as AP_Mission says each counted jump as it passes it: the ones before the first
+        # item met, then the search's items, then the rest
+        self._say_jumps(leg.jumped[: leg.jumps_first])
         self._search(t_s)
+        self._say_jumps(leg.jumped[leg.jumps_first :])
         item = ep.mission[leg.seq]
-        for jump, taken, repeats in leg.jumped:  # as AP_Mission says each counted jump, first
-            ep.statustext(f"Mission: {jump} Jump {taken}/{repeats}", mav.MAV_SEVERITY_INFO)
         ep.statustext(mission_text(item), mav.MAV_SEVERITY_INFO)
         if leg.command == NAV_RETURN_TO_LAUNCH:  # home or a rally point as they are now
             self._place(k, ep.rtl_destination(*self._pos))
@@ -417,6 +420,10 @@ class VehicleDriver:
         to_target = math.atan2(out.target_ned_m[1] - self._pos[1], out.target_ned_m[0] - self._pos[0])
         ep.steering(NavReport(heading, to_target, out.distance_m, out.cross_track_m, out.target_ned_m))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    def _say_jumps(self, jumps: tuple[tuple[int, int, int], ...]) -> None:
+        for jump, taken, repeats in jumps:
+            self.endpoint.statustext(f"Mission: {jump} Jump {taken}/{repeats}", mav.MAV_SEVERITY_INFO)
 
     def _search(self, t_s: float) -> None:
         """What AP_Mission's search for the next navigation item does with the items before
@@ -530,6 +537,8 @@ class VehicleDriver:
             ep.run_mission_item(it)
         elif cmd in NOTHING_FITTED:
             ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
+        elif cmd == JUMP_TAG:
+            pass  # a place the tag names: the mission library says it and moves on
         else:  # a DO command a Rover does not carry out
             if cmd in SKIPPED_SAID:
                 ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)

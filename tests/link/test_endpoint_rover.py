@@ -1906,6 +1906,18 @@ def test_item_0_restarts_the_mission_and_the_echo_says_what_was_asked(bench: Ben
     assert (echo.seq, echo.total, echo.mission_state, echo.mission_mode) == (2, 3, mav.MISSION_STATE_ACTIVE, 1)
 
 
+def test_do_jump_tag_as_a_command_makes_the_tag_current_and_a_missing_tag_fails(bench: Bench) -> None:
+    # Rover's handle_command_do_jump_tag: AP_Mission::jump_to_tag, the first JUMP_TAG of the tag
+    items = [Item(0, 16), Item(1, 16), Item(2, mav.MAV_CMD_JUMP_TAG, p1=7), Item(3, 16, x=129602100)]
+    items += [Item(4, mav.MAV_CMD_JUMP_TAG, p1=7), Item(5, 16, x=129602200)]
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, 7) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.current_seq == 2
+    for tag in (8, -1, math.nan):
+        assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, tag) == mav.MAV_RESULT_FAILED
+    assert bench.ep.current_seq == 2
+
+
 def test_disarming_outside_auto_resets_the_mission_and_in_auto_keeps_its_place(bench: Bench) -> None:
     # Rover's AP_Arming_Rover::disarm: mission.reset() unless the mode is AUTO, so "HOLD,
     # disarm, arm, AUTO" starts the mission again from its first item

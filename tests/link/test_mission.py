@@ -12,7 +12,16 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.link.mission import DO_CHANGE_SPEED, DO_JUMP, MAX_EXPANDED, MissionItem, local_mission, to_legs
+from lfctl.link.mission import (
+    DO_CHANGE_SPEED,
+    DO_JUMP,
+    DO_JUMP_TAG,
+    JUMP_TAG,
+    MAX_EXPANDED,
+    MissionItem,
+    local_mission,
+    to_legs,
+)
 
 HOME = (12.96, 77.67, 900.0)
 
@@ -50,6 +59,25 @@ def test_do_jump_repeats_its_loop_the_given_number_of_times() -> None:
     items += local_mission([(2.0, 0.0)], HOME)[1:]
     legs = to_legs(renumbered(items), HOME)
     assert [leg.seq for leg in legs] == [1, 2, 1, 2, 1, 2, 4]
+
+
+def test_a_jump_to_a_tag_goes_to_the_first_jump_tag_of_it_and_a_missing_tag_ends_the_mission() -> None:
+    # 1 WP, 2 JUMP_TAG 7, 3 WP, 4 DO_JUMP_TAG 7 once, 5 JUMP_TAG 7 (a second of the tag: not
+    # the one jumped to), 6 WP: 1 3 (3) 6, as AP_Mission::get_index_of_jump_tag finds it
+    items = local_mission([(1.0, 0.0)], HOME)
+    items.append(MissionItem(2, 0, JUMP_TAG, 7.0))
+    items += local_mission([(1.0, 1.0)], HOME)[1:]
+    items.append(MissionItem(4, 0, DO_JUMP_TAG, 7.0, 1.0))
+    items.append(MissionItem(5, 0, JUMP_TAG, 7.0))
+    items += local_mission([(2.0, 0.0)], HOME)[1:]
+    legs = to_legs(renumbered(items), HOME)
+    assert [leg.seq for leg in legs] == [1, 3, 3, 6]
+    assert [[it.seq for it in leg.before] for leg in legs] == [[], [2], [2], [5]]
+    # said as a DO_JUMP's ("Mission: 4 Jump 1/1"), before the tag it leads to
+    assert (legs[2].jumped, legs[2].jumps_first) == (((4, 1, 1),), 1)
+    # a tag no JUMP_TAG has: the mission ends at the jump (MAVLink: "should complete the mission")
+    missing = [*items[:4], MissionItem(4, 0, DO_JUMP_TAG, 8.0, 1.0), *items[5:]]
+    assert [leg.seq for leg in to_legs(renumbered(missing), HOME)] == [1, 3]
 
 
 def test_legs_start_from_the_current_item() -> None:

@@ -552,6 +552,34 @@ def test_a_jump_taken_is_said_before_the_item_it_leads_to() -> None:
     ]
 
 
+def test_a_tagged_jump_is_flown_and_said_as_rover_says_it() -> None:
+    # Mission Planner's and QGroundControl's tagged loops: JUMP_TAG marks the place, DO_JUMP_TAG
+    # goes back to it (MISSION_ITEM_INT 600 and 601, refused as UNSUPPORTED until ArduPilot's
+    # mission library took them)
+    def with_tag(links: Links) -> None:
+        store(
+            places(links.home, (3.0, 0.0)),
+            item(mav.MAV_CMD_JUMP_TAG, 7.0),
+            places(links.home, (3.0, 3.0)),
+            item(mav.MAV_CMD_DO_JUMP_TAG, 7.0, 1.0),  # back to the tag, once
+            places(links.home, (0.0, 0.0)),
+        )(links)
+
+    rep, links = run_with({0.5: with_tag}, duration_s=70.0)
+    started = [s for s in texts(links, after_s=0.4) if s.startswith("Mission:")]
+    assert started == [
+        "Mission: 1 WP",
+        "Mission: 2 Tag 7",
+        "Mission: 3 WP",
+        "Mission: 4 Jump 1/1",
+        "Mission: 2 Tag 7",
+        "Mission: 3 WP",
+        "Mission: 5 WP",
+    ]
+    assert "Mission Complete" in texts(links)
+    assert math.hypot(*leader_at(rep, 69.0)) <= 0.6  # home at the end
+
+
 def test_auto_entered_again_or_a_new_current_item_keeps_the_jump_counts_and_a_resume_its_condition() -> None:
     def with_condition(links: Links) -> None:
         store(
