@@ -245,6 +245,23 @@ def test_global_options_are_taken_before_or_after_the_command(argv: list[str], d
     assert (args.debug, args.verbose) == (debug, verbose)
 
 
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["sim", "convoy", "--durration", "3"], "lfctl sim: error: unrecognized arguments: --durration 3 (see lfctl sim --help)"),
+        (["fmu", "build", "--nope"], "lfctl fmu build: error: unrecognized arguments: --nope (see lfctl fmu build --help)"),
+        (["gcs", "upload", "m.plan", "-x"], "lfctl gcs upload: error: unrecognized arguments: -x (see lfctl gcs upload --help)"),
+    ],
+)  # fmt: skip
+def test_a_misspelt_option_is_named_with_the_help_that_lists_the_commands_options(
+    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the top-level --help lists no command's options: "(see lfctl --help)" sent users nowhere
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2 and capsys.readouterr().err == said + "\n"
+
+
 @pytest.mark.parametrize("name", ["vision_aruco", "e2e"])
 def test_a_benchmark_module_takes_help_and_refuses_a_misspelt_option(name: str) -> None:
     # `python -m lfctl.bench.vision_aruco --help` ran the whole benchmark

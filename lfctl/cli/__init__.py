@@ -90,6 +90,16 @@ def _global_options_anywhere(parser: argparse.ArgumentParser) -> None:
                 _global_options_anywhere(child)
 
 
+def _used_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The innermost command's parser that ``args`` came through (``lfctl gcs ... upload``'s)."""
+    while True:
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        name = getattr(args, sub.dest, None) if sub is not None else None
+        if sub is None or name not in sub.choices:
+            return parser
+        parser = sub.choices[name]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit code.
 
@@ -99,7 +109,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         The arguments (default ``sys.argv[1:]``).
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # said by the command's own parser, whose --help lists its options
+        _used_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     stopped_by(signal.SIGINT)  # (a command run before in this process may have noted another)
     level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
 
