@@ -33,6 +33,7 @@ paper's, detection and pose error against range and angle under the same tiers.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import time
@@ -346,7 +347,7 @@ def real_section(results: list[dict], peers: tuple[str, ...]) -> dict:
         where = [n for n in full if labelled_get(labelled, n, "CSRT") >= 0.9]
         criteria["csrt_at_least_0.9_on"] = where
         criteria["full_below_0.9_there"] = [n for n in where if full[n]["success"] < 0.9]
-    print("full tracker on real footage, what breaks each rule:", criteria)
+    print("full tracker on real footage, what breaks each rule:", json.dumps(criteria))
     return {
         "sequences": {r["name"]: {k: v for k, v in r.items() if k not in ("name", "ms")} for r in results},
         "criteria": criteria,
@@ -402,7 +403,7 @@ def starts_section(real_results: list[dict], start_results: list[dict], n: int) 
         where = [name for name, t in table.items() if "CSRT" in t and t["CSRT"]["success_median"] >= 0.9]
         criteria["csrt_median_at_least_0.9_on"] = where
         criteria["full_median_below_0.9_there"] = [name for name in where if full[name]["success_median"] < 0.9]
-    print("full tracker over the start boxes, what breaks each rule (on the medians):", criteria)
+    print("full tracker over the start boxes, what breaks each rule (on the medians):", json.dumps(criteria))
     return {"sequences": table, "criteria": criteria}
 
 
@@ -606,7 +607,7 @@ def main(quick: bool = False) -> None:
     )
     summary["full_found_smaller_frames_tiers"] = found_tiers
     summary["full_found_smaller_frames_real"] = found_real
-    print("summary:", summary)
+    print("summary:", json.dumps(summary))
     print()
     aruco = aruco_compare(quick)
     print_json(

@@ -29,7 +29,15 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Audit the file; print the report (or JSON); plot and recover when asked."""
     from lfctl.errors import ConfigError
-    from lfctl.record.audit import audit, check_thresholds, format_report, plot, recover, recover_target_problem
+    from lfctl.record.audit import (
+        audit,
+        check_thresholds,
+        format_report,
+        plot,
+        recover,
+        recover_target_problem,
+        run_values,
+    )
     from lfctl.record.mcap_read import regular_file_problem
 
     if not args.file.exists() and not args.file.is_symlink():
@@ -54,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
                 "file": report.path,
                 "ok": report.ok and limits_ok,
                 "findings": [f.__dict__ for f in report.findings],
-                "figures": report.figures,
+                "figures": {**report.figures, "run": run_values(report.figures.get("run") or {})},
             }
             if limits is not None:
                 doc["limits"] = [f.__dict__ for f in limits]

@@ -361,6 +361,34 @@ def _period(run: dict[str, str], key: str, default_hz: float, problems: list[str
     return 1.0 / hz
 
 
+#: the run metadata's numbers (MCAP metadata holds text), as :func:`run_values` types them
+RUN_INTEGERS = ("seed", "video_bitrate_kbps", "video_gop", "waypoints")
+RUN_FLOATS = ("dt_s", "duration_s", "telemetry_rate_hz", "guidance_rate_hz", "camera_rate_hz", "image_rate_hz")
+
+
+def run_values(run: dict[str, str]) -> dict[str, object]:
+    """The run metadata with its numbers as numbers and ``images`` as a boolean, for a
+    machine-readable report (a value that does not read as its type stays the text it is:
+    the audit's findings name it).
+
+    Parameters
+    ----------
+    run : dict of str to str
+        The log's ``run`` metadata.
+    """
+    out: dict[str, object] = dict(run)
+    for key, kind in [(k, int) for k in RUN_INTEGERS] + [(k, float) for k in RUN_FLOATS]:
+        try:
+            value = kind(run[key])
+        except (KeyError, ValueError):
+            continue
+        if math.isfinite(value):
+            out[key] = value
+    if run.get("images") in ("true", "false"):
+        out["images"] = run["images"] == "true"
+    return out
+
+
 def _parse_run(run: dict[str, str]) -> _Run:
     r = _Run()
     p = r.problems

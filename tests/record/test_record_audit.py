@@ -322,6 +322,9 @@ def test_json_and_plots(truth_log, tmp_path: Path, capsys: pytest.CaptureFixture
     assert main(["audit", str(truth_log[0]), "--json", "--plot", str(tmp_path / "plots")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["ok"] and out["figures"]["followers"][0]["follower"] == "follower1"
+    run = out["figures"]["run"]  # numbers as numbers (the metadata holds text)
+    assert isinstance(run["seed"], int) and isinstance(run["duration_s"], float) and run["images"] is False
+    assert isinstance(run["scenario"], str)
     for name in ("trajectories", "follower1_errors", "link"):
         assert (tmp_path / "plots" / f"{name}.png").stat().st_size > 1000
     assert not (tmp_path / "plots" / "follower1_pose.png").exists()  # truth sensing: no camera pose to plot
