@@ -347,5 +347,5 @@ def run(args: argparse.Namespace) -> int:
             companion.close()
             if view is not None:
                 view.close()
-    print(f"sent {done.steps} setpoints; {done.frames} frames")
+    print(done.summary())
     return 0

@@ -19,6 +19,7 @@ from lfctl.link.companion import Companion
 from lfctl.link.params import set_values
 from lfctl.video import VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
+from lfctl.vision.track_state import TrackStatus
 
 __all__ = ["RoverRun", "RoverStep", "follow_rover"]
 
@@ -54,6 +55,18 @@ class RoverRun:
 
     steps: int  # guidance steps run (setpoints sent, not counting the final stops)
     frames: int  # frames read from the camera
+    tracking: int = 0  # steps whose frame showed the target (TRACKING)
+    occluded: int = 0  # steps coasting on a hidden target (OCCLUDED), or before it was first found
+    lost: int = 0  # steps with the target lost (LOST)
+
+    def summary(self) -> str:
+        """One line: what was sent, and how often the target was seen."""
+        line = f"sent {self.steps} setpoints; {self.frames} frames"
+        if self.steps:
+            line += f"; target tracking in {self.tracking}, occluded in {self.occluded}, lost in {self.lost} steps"
+            if self.tracking == 0:
+                line += " (never seen: check the camera, the banner and its markers' hue)"
+        return line
 
 
 def follow_rover(
@@ -122,6 +135,7 @@ def follow_rover(
     t0 = time.monotonic()
     now = clock if clock is not None else lambda: time.monotonic() - t0
     steps = frames = 0
+    seen_as = dict.fromkeys(TrackStatus, 0)
     t_s = t_start = now()
     stale = False
     stale_s = max(ODOMETRY_STALE_S, 3.0 / rate_hz)  # an odometry message a period: one late is not missing
@@ -144,13 +158,16 @@ def follow_rover(
             stack.tune_from_params(companion.param)
             out = stack.step(t_s, seen.measurement, odom)
             steps += 1
+            seen_as[seen.measurement.status] += 1
             if on_step is not None:
                 on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:], fix))
             time.sleep(max(0.0, period - (now() - t_s)))
     finally:
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)
-    return RoverRun(steps, frames)
+    return RoverRun(
+        steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST]
+    )
 
 
 def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, stale: bool, stale_s: float) -> bool:

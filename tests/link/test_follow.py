@@ -338,7 +338,8 @@ def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banne
         finally:
             sock.close()
             companion.close()
-    assert done.steps == 40
+    assert done.steps == 40 and done.tracking + done.occluded + done.lost == 40 and done.tracking > 0
+    assert done.summary().startswith(f"sent 40 setpoints; 40 frames; target tracking in {done.tracking}, ")
     assert slots[0][1:] == (1.5, "smc")  # the settings' slot, as the companion's parameters say it
     moved = [k for k, r, law in slots if r == 2.5 and law in ("trail", "smc")]
     assert moved and moved[0] >= 5 and slots[-1][1] == 2.5  # taken on a later step, and kept
@@ -426,3 +427,13 @@ def test_a_slot_the_companion_could_not_hold_as_a_parameter_is_refused_at_the_st
     with pytest.raises(ConfigError, match=r"lfctl follow: LFC_RANGE would be 0\.05, outside its 0\.1\.\.1000 m"):
         set_values(params, {"LFC_RANGE": 0.05}, "lfctl follow")
     assert params["LFC_RANGE"].value == 20.0
+
+
+def test_a_run_that_never_saw_its_target_says_so() -> None:
+    from lfctl.follower.rover import RoverRun
+
+    assert RoverRun(60, 60, 0, 60, 0).summary() == (
+        "sent 60 setpoints; 60 frames; target tracking in 0, occluded in 60, lost in 0 steps"
+        " (never seen: check the camera, the banner and its markers' hue)"
+    )
+    assert RoverRun(0, 0).summary() == "sent 0 setpoints; 0 frames"
