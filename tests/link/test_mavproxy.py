@@ -34,7 +34,17 @@ def mavproxy(tmp_path_factory: pytest.TempPathFactory) -> Path:
     made = subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", str(venv)], capture_output=True)
     try:
         pip = subprocess.run(
-            [str(venv / "bin" / "pip"), "install", "-q", "--no-deps", "MAVProxy==1.8.75", "pyserial"],
+            # --ignore-installed: a MAVProxy already in the system's site-packages would be
+            # "already satisfied" and leave the venv without its script (the test then skipped)
+            [
+                str(venv / "bin" / "pip"),
+                "install",
+                "-q",
+                "--no-deps",
+                "--ignore-installed",
+                "MAVProxy==1.8.75",
+                "pyserial",
+            ],
             capture_output=True,
             text=True,
             timeout=300,
