@@ -159,7 +159,7 @@ def print_report(report: RunReport) -> None:
     print(f"wall time    {result.wall_time_s:.3f} s  (x{result.real_time_factor:.1f} real time{spread})")
     modes = ", ".join(f"{name} {secs:.1f} s" for name, secs in report.leader_modes) or "none"
     if report.leader_mode == "auto":
-        reached = ", ".join(f"{i + 1}@{t:.1f}s" for i, t in report.waypoints_reached) or "none"
+        reached = ", ".join(f"{i + 1}@{round(t, 2)}s" for i, t in report.waypoints_reached) or "none"
         print(f"leader       {modes}; {report.n_reached}/{report.n_waypoints} waypoints reached ({reached})")
     else:
         print(f"leader       {modes}; scripted speed / yaw-rate profile (no [mission] waypoints)")

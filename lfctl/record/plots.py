@@ -180,7 +180,7 @@ def _trajectories(plt: Any, report: AuditReport, path: Path) -> None:
             n, e = wp[0], wp[1]
             ax.add_patch(plt.Circle((e, n), r, fill=False, ls="--", lw=1, color="tab:cyan"))
             ax.plot(e, n, "x", color="tab:cyan", ms=8, mew=2)
-            when = f" @{reached[k]:.1f} s" if k in reached else ("" if changed else " (not reached)")
+            when = f" @{reached[k]} s" if k in reached else ("" if changed else " (not reached)")
             ax.annotate(f"WP{k}{when}", (e, n), xytext=(6, 6), textcoords="offset points", color="teal", fontsize=9)
         what = f"the scenario's waypoints, replaced or cleared at {changed[0]:g} s" if changed else "waypoints"
         ax.plot([], [], "x", color="tab:cyan", label=f"{what} (acceptance {r:g} m)")

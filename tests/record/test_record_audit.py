@@ -195,7 +195,9 @@ def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:
     assert kinds[:first_chunk].count("Attachment") == 2 and kinds[:first_chunk].count("Metadata") >= 4
 
 
-def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log) -> None:
+def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log, capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.cli.sim import print_report
+
     path, report = truth_log
     rep = audit(path)
     assert rep.ok
@@ -208,6 +210,10 @@ def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log) -> None:
     for state, secs in m.time_in_state_s.items():
         assert f["time_in_state_s"][state] == pytest.approx(secs, abs=1e-6)
     assert [w["index"] - 1 for w in rep.figures["mission"]] == [i for i, _ in report.waypoints_reached]
+    # the same times, written the same way (the run's summary said 13.0 where the audit said 12.95)
+    said = ", ".join(f"{w['index']}@{w['t_s']}s" for w in rep.figures["mission"])
+    print_report(report)
+    assert said and said in format_report(rep) and said in capsys.readouterr().out
     # an episode is time without TRACKING, worded as such (its states' seconds are the columns)
     for e in f["occlusion_episodes"]:
         line = f"not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']})"
