@@ -16,7 +16,8 @@ __all__ = ["Address", "Fanout", "LossyLink", "MemoryLink", "UdpLink"]
 
 #: a datagram's peer: (host, port); in memory ("memory", 0)
 Address = tuple[str, int]
-#: a ground station that has sent nothing valid for this long stops getting telemetry, s
+#: a ground station that has sent nothing valid for this long stops getting telemetry (but
+#: the one heard last, which keeps it as a Rover's UDP port keeps the client it heard), s
 PEER_TIMEOUT_S = 30.0
 #: ground stations a vehicle talks to at once
 MAX_PEERS = 16
@@ -28,7 +29,9 @@ class UdpLink:
     pymavlink's ``udpin`` replies to the last sender, so a stray datagram redirects the
     stream; this link replies only to peers that sent *valid* MAVLink (the endpoint says so
     with :meth:`accept_peer`), plus fixed ``udpout`` targets. A peer silent for
-    :data:`PEER_TIMEOUT_S` is forgotten; when :data:`MAX_PEERS` are all still talking, a new
+    :data:`PEER_TIMEOUT_S` is forgotten, but the one heard last: as a Rover's UDP port keeps
+    sending to the client it heard, a script that sends one command and then only listens
+    keeps its telemetry. When :data:`MAX_PEERS` are all still talking, a new
     one is refused (counted), so a flood of new source ports cannot evict a ground station
     that is in use. The port is bound exclusively: a second program (or a second run)
     cannot share it.
@@ -109,7 +112,8 @@ class UdpLink:
             One packed MAVLink packet.
         """
         now = self._clock()
-        for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S)):
+        last = max(self.peers, key=self.peers.__getitem__) if self.peers else None
+        for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S or a == last)):
             try:
                 self.sock.sendto(data, addr)
                 self.tx_datagrams += 1

@@ -464,6 +464,32 @@ def test_a_crowd_of_new_senders_does_not_evict_the_ground_station_in_use() -> No
         link.close()
 
 
+def test_a_client_that_only_listens_keeps_its_telemetry_and_older_silent_ones_are_dropped() -> None:
+    # a pymavlink logger that sent one heartbeat and then only listens lost its stream after
+    # the peer timeout; a Rover's UDP port keeps sending to the client it heard
+    now = [0.0]
+    link = UdpLink(("127.0.0.1", 0), clock=lambda: now[0])
+    listeners = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2)]
+    try:
+        for sock in listeners:
+            sock.bind(("127.0.0.1", 0))
+            sock.settimeout(2.0)
+        old, last = (("127.0.0.1", s.getsockname()[1]) for s in listeners)
+        link.accept_peer(old)
+        now[0] += 1.0
+        link.accept_peer(last)
+        now[0] += 600.0  # both silent for ten minutes
+        link.send(b"x")
+        assert listeners[1].recv(16) == b"x"  # the one heard last still gets it
+        listeners[0].settimeout(0.2)
+        with pytest.raises(TimeoutError):
+            listeners[0].recv(16)  # an older silent one does not
+    finally:
+        link.close()
+        for sock in listeners:
+            sock.close()
+
+
 def test_a_plans_fence_and_rally_points_go_up_and_come_back_with_its_mission(
     live: LiveEndpoint, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
