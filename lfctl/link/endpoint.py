@@ -33,7 +33,7 @@ from lfctl import __version__
 from lfctl.checks import printable
 from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link import ftp
-from lfctl.link.fence import FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
+from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, jump_tag_item, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
@@ -203,6 +203,10 @@ REBOOT_S = 2.0
 FORCE_REBOOT = 20190226
 #: FENCE_ACTION values (Rover's FailsafeAction)
 FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
+#: after a circle breach, AC_Fence's backup circle: this much farther out it is breached again, m
+CIRCLE_BACKUP_M = 20.0
+#: farther than this outside the circle, a breach's action is HOLD (AC_FENCE_GIVE_UP_DISTANCE), m
+FENCE_GIVE_UP_M = 100.0
 
 
 @dataclass(frozen=True)
@@ -368,6 +372,7 @@ class VehicleEndpoint:
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
+        self._circle_backup_m = 0.0  # AC_Fence's backup circle's radius (0: the circle not breached)
         self.fence_breaches = 0
         self._fence_breach_ms = 0
         self._text_id = 0
@@ -1686,28 +1691,50 @@ class VehicleEndpoint:
             self.statustext("Failsafe: ground station heartbeat lost, HOLD")
 
     def _check_fence(self) -> None:
+        """As Rover's ``fence_check`` on ``AC_Fence::check``: a fence newly breached is said
+        and acted on (armed). The circle is breached again each time the vehicle goes
+        :data:`CIRCLE_BACKUP_M` farther out than where it last breached it (AC_Fence's backup
+        circle), so a vehicle driven on outwards meets the action again; and more than
+        :data:`FENCE_GIVE_UP_M` outside the circle the action is HOLD, whatever FENCE_ACTION
+        says (``AC_FENCE_GIVE_UP_DISTANCE``; a polygon's breach has no distance)."""
         if not self.param("FENCE_ENABLE"):
             self.fence_breach = None
             self._breached_fences = 0
+            self._circle_backup_m = 0.0
             return
         n, e = self.state["north_m"], self.state["east_m"]
         # as Rover's AC_Fence::check: what is breached is kept armed or not (arming needs none)
-        self._breached_fences = self._breaches(n, e)
+        before, self._breached_fences = self._breached_fences, self._breaches(n, e)
+        new = self._breached_fences & ~before
         breach = breach_name(self._breached_fences)
-        if breach is not None and self.fence_breach is None:
+        outside_m = 0.0
+        if self._breached_fences & FENCE_TYPE_CIRCLE:
+            home = self.home_point()
+            out = math.hypot(n - home[0], e - home[1])
+            if new & FENCE_TYPE_CIRCLE or out >= self._circle_backup_m:
+                new |= FENCE_TYPE_CIRCLE
+                self._circle_backup_m = out + CIRCLE_BACKUP_M
+                outside_m = out - self.param("FENCE_RADIUS")
+        else:
+            self._circle_backup_m = 0.0
+        if new:
             self.fence_breaches += 1
             self._fence_breach_ms = self._boot_ms()
             self.statustext(f"Fence breached: {breach}", mav.MAV_SEVERITY_CRITICAL)
             if self.armed:
-                self._fence_action()
+                self._fence_action(give_up=outside_m > FENCE_GIVE_UP_M)
             self._next_due[MSG_IDS["FENCE_STATUS"]] = self.t_s
         elif breach is None and self.fence_breach is not None:
             self.statustext("Fence breach cleared", mav.MAV_SEVERITY_INFO)
         self.fence_breach = breach
 
-    def _fence_action(self) -> None:
+    def _fence_action(self, give_up: bool = False) -> None:
         action = int(self.param("FENCE_ACTION"))
         if action == FENCE_REPORT:
+            return
+        if give_up:  # too far out to drive back: stop where it is
+            if self.mode != MODES["HOLD"]:
+                self.set_mode(MODES["HOLD"])
             return
         if action == FENCE_DISARM:
             self.set_armed(False)
