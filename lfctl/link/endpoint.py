@@ -332,6 +332,7 @@ class VehicleEndpoint:
         self._boot_t_s = 0.0  # when the autopilot last started: time_boot_ms counts from here
         self._booting_until = -math.inf  # rebooting (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) until then
         self._reboot_due = False  # a reboot was accepted: it starts after the ACK has gone out
+        self._params_erased = False  # PREFLIGHT_STORAGE param1 2: the defaults come back at the reboot
         #: each message's stream-group rate as REQUEST_DATA_STREAM last set it: kept across a
         #: reboot, as Rover keeps its SRn_ parameters (SET_MESSAGE_INTERVAL's rates are not)
         self._group_period: dict[int, float] = {}
@@ -887,6 +888,15 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
             return self._reboot_command(p, target_component)
+        if cmd == mav.MAV_CMD_PREFLIGHT_STORAGE:
+            # as Rover (QGroundControl's "Reset all to firmware's defaults"): param1 2 erases the
+            # parameters, which take their defaults when the autopilot next starts; any other
+            # storage action is not one lfctl's vehicle has
+            if p[0] != 2.0:
+                return mav.MAV_RESULT_DENIED
+            self._params_erased = True
+            self.statustext("All parameters reset, reboot board", mav.MAV_SEVERITY_WARNING)
+            return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
             self._banner()
             return mav.MAV_RESULT_ACCEPTED
@@ -1174,8 +1184,13 @@ class VehicleEndpoint:
         following the vehicle, no GUIDED target, time_boot_ms and the MAVLink sequence from 0)
         and says "ArduPilot Ready". Parameters, REQUEST_DATA_STREAM's rates, the mission
         (from its first item), the fence and the rally points are kept, as a Rover keeps them
-        in storage. The vehicle stays where it is; disarmed, it stops."""
+        in storage; parameters erased (PREFLIGHT_STORAGE) come back at Rover's defaults. The
+        vehicle stays where it is; disarmed, it stops."""
         self._reboot_due = False
+        if self._params_erased:
+            self._params_erased = False
+            for name, fresh in default_params(self.sysid).items():
+                self.params[name].value = fresh.value
         self._start()
         self.missions.restart()
         self.mission_version += 1

@@ -1947,6 +1947,27 @@ def test_do_jump_tag_as_a_command_makes_the_tag_current_and_a_missing_tag_fails(
     assert bench.ep.current_seq == 2
 
 
+def test_preflight_storage_2_erases_the_parameters_and_the_reboot_brings_the_defaults(bench: Bench) -> None:
+    # QGroundControl's "Reset all to firmware's defaults": Rover's AP_Param::erase_all, said
+    # "All parameters reset, reboot board"; the values in force stay until the reboot
+    bench.ep.params["WP_SPEED"].value = 0.5
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_STORAGE, 1) == mav.MAV_RESULT_DENIED
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_STORAGE, 0, 2, 0, 0, 0, 0, 0, 0))
+    out = bench.tick()
+    assert [(m.result) for m in out if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_ACCEPTED]
+    assert "All parameters reset, reboot board" in [m.text for m in out if m.get_type() == "STATUSTEXT"]
+    assert bench.ep.param("WP_SPEED") == 0.5
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    for _ in range(200):
+        bench.tick(0.02)
+    assert not bench.ep.rebooting and bench.ep.param("WP_SPEED") == 2.0  # Rover's default
+    bench.ep.params["WP_SPEED"].value = 0.7
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    for _ in range(200):
+        bench.tick(0.02)
+    assert bench.ep.param("WP_SPEED") == 0.7  # a plain reboot keeps them
+
+
 def test_disarming_outside_auto_resets_the_mission_and_in_auto_keeps_its_place(bench: Bench) -> None:
     # Rover's AP_Arming_Rover::disarm: mission.reset() unless the mode is AUTO, so "HOLD,
     # disarm, arm, AUTO" starts the mission again from its first item
