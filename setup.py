@@ -1,18 +1,33 @@
 """Packaging beyond what pyproject.toml can say: the top-level folders ``fmu_models/`` (the
 vehicle models' C sources), ``examples/`` and ``footage/`` (labelled real video for the vision
-benchmark) travel inside the package, as ``lfctl/fmu_models``, ``lfctl/examples`` and ``lfctl/footage``, so a wheel builds its FMUs and runs the
-examples by name from any directory (``lfctl.data`` finds them in either place)."""
+benchmark) travel inside the package, as ``lfctl/fmu_models``, ``lfctl/examples`` and
+``lfctl/footage``, so a wheel builds its FMUs and runs the examples by name from any directory
+(``lfctl.data`` finds them in either place). Each of their folders is named as a package of
+its own (``lfctl.examples.sweeps``), as setuptools wants every folder of package data to be."""
+
+from pathlib import Path
 
 from setuptools import find_packages, setup
 
-DATA = {"lfctl.fmu_models": "fmu_models", "lfctl.examples": "examples", "lfctl.footage": "footage"}
+ROOTS = {"lfctl.fmu_models": "fmu_models", "lfctl.examples": "examples", "lfctl.footage": "footage"}
+
+
+def _data_packages() -> dict[str, str]:
+    """Every folder under the data roots as a package name -> its folder."""
+    out = {}
+    for package, root in ROOTS.items():
+        for folder in [Path(root), *sorted(p for p in Path(root).rglob("*") if p.is_dir())]:
+            if "__pycache__" in folder.parts:
+                continue
+            rel = folder.relative_to(root).parts
+            out[".".join((package, *rel))] = folder.as_posix()
+    return out
+
+
+DATA = _data_packages()
 
 setup(
     packages=[*find_packages(include=["lfctl", "lfctl.*"]), *DATA],
     package_dir=DATA,
-    package_data={
-        "lfctl.fmu_models": ["**/*"],
-        "lfctl.examples": ["*", "sweeps/*", "sweeps/scenarios/*"],
-        "lfctl.footage": ["**/*"],
-    },
+    package_data={package: ["*"] for package in DATA},
 )
