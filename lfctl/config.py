@@ -789,18 +789,23 @@ class Config:
             raise ConfigError(f"vehicles.name must be unique, got {sorted(dup)!r} more than once")
         leaders = [v.name for v in self.vehicles if v.role == "leader"]
         if len(leaders) != 1:
-            raise ConfigError(f'vehicles: need exactly one role = "leader", got {len(leaders)} ({leaders!r})')
+            raise ConfigError(
+                f'vehicles: need exactly one role = "leader", got {len(leaders)}'
+                + (f" ({', '.join(leaders)})" if leaders else "")
+            )
         if self.vehicles[0].role != "leader":
             raise ConfigError(f"vehicles: the leader must come first, got {self.vehicles[0].name!r} first")
         for v in self.vehicles:
             if v.target is not None and v.target not in names:
-                raise ConfigError(f"vehicles[{v.name}].target names an unknown vehicle {v.target!r} (known: {names})")
+                raise ConfigError(
+                    f"vehicles[{v.name}].target names an unknown vehicle {v.target!r} (known: {', '.join(names)})"
+                )
             if v.target == v.name:
                 raise ConfigError(f"vehicles[{v.name}].target cannot be the vehicle itself")
         for i, occ in enumerate(self.scene.occluders):
             if occ.follower and occ.follower not in names:
                 raise ConfigError(
-                    f"scene.occluders[{i}].follower names an unknown vehicle {occ.follower!r} (known: {names})"
+                    f"scene.occluders[{i}].follower names an unknown vehicle {occ.follower!r} (known: {', '.join(names)})"
                 )
         if self.banner.kind == "aruco":
             self._check_tag_ids()
@@ -904,6 +909,22 @@ def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", None) or str(tp).replace("typing.", "")
 
 
+def toml_value(value: object, limit: int = 80) -> str:
+    """A value as a scenario file writes it (``true``, ``[1, 2]``, ``{a = 1}``), for an error
+    message: what the user wrote, not Python's spelling of it; cut to ``limit`` characters."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, list):
+        text = "[" + ", ".join(toml_value(v, limit) for v in value) + "]"
+    elif isinstance(value, dict):
+        text = "{" + ", ".join(f"{k} = {toml_value(v, limit)}" for k, v in value.items()) + "}"
+    elif isinstance(value, str):
+        text = repr(value)  # a TOML literal string when it holds no quote
+    else:
+        text = str(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def _convert(value: Any, tp: Any, key: str) -> Any:
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
@@ -914,31 +935,31 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         return _convert(value, inner[0], key)
     if origin is Literal:
         if value not in args:
-            raise ConfigError(f"{key} must be one of {', '.join(repr(a) for a in args)}, got {value!r}")
+            raise ConfigError(f"{key} must be one of {', '.join(repr(a) for a in args)}, got {toml_value(value)}")
         return value
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
-            raise ConfigError(f"{key} must be a table, got {value!r}")
+            raise ConfigError(f"{key} must be a table, got {toml_value(value)}")
         return _build(tp, value, key)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{key} must be a number, got {value!r}")
+            raise ConfigError(f"{key} must be a number, got {toml_value(value)}")
         return float(value)
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key} must be an integer, got {value!r}")
+            raise ConfigError(f"{key} must be an integer, got {toml_value(value)}")
         return value
     if tp is str:
         if not isinstance(value, str):
-            raise ConfigError(f"{key} must be a string, got {value!r}")
+            raise ConfigError(f"{key} must be a string, got {toml_value(value)}")
         return value
     if tp is bool:
         if not isinstance(value, bool):
-            raise ConfigError(f"{key} must be true or false, got {value!r}")
+            raise ConfigError(f"{key} must be true or false, got {toml_value(value)}")
         return value
     if origin is tuple:
         if not isinstance(value, list):
-            raise ConfigError(f"{key} must be an array, got {value!r}")
+            raise ConfigError(f"{key} must be an array, got {toml_value(value)}")
         item = args[0]
         out = []
         for i, v in enumerate(value):
@@ -953,7 +974,7 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         return tuple(out)
     if origin in (Mapping, dict, typing.Mapping):
         if not isinstance(value, dict):
-            raise ConfigError(f"{key} must be a table, got {value!r}")
+            raise ConfigError(f"{key} must be a table, got {toml_value(value)}")
         return {k: _convert(v, args[1], f"{key}.{k}") for k, v in value.items()}
     raise TypeError(f"config field type {_type_name(tp)} not handled")  # a bug in this module
 

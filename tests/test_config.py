@@ -54,13 +54,13 @@ def test_defaults_fill_the_sim_section() -> None:
         (FOLLOWER.format(n=1), r"need exactly one role = \"leader\", got 0"),
         (
             LEADER + LEADER.replace('"leader"\nrole', '"l2"\nrole'),
-            r"need exactly one role = \"leader\", got 2 \(\['leader', 'l2'\]\)",
+            r"need exactly one role = \"leader\", got 2 \(leader, l2\)",
         ),
         (LEADER + LEADER, r"vehicles\.name must be unique, got \['leader'\]"),
         (FOLLOWER.format(n=1) + LEADER, r"the leader must come first, got 'f1' first"),
         (LEADER + 'role2 = "x"\n', r"unknown key 'vehicles\[leader\]\.role2'"),
         (LEADER + "yaw_rad = 1.0\n", r"unknown key 'vehicles\[leader\]\.yaw_rad'.*yaw_deg"),
-        (LEADER + "north_m = true\n", r"vehicles\[leader\]\.north_m must be a number, got True"),
+        (LEADER + "north_m = true\n", r"vehicles\[leader\]\.north_m must be a number, got true"),
         (LEADER + "fmi_version = 1\n", r"vehicles\[leader\]\.fmi_version must be within 2\.\.3, got 1"),
         ('[[vehicles]]\nrole = "leader"\n', r"vehicles\[0\]: missing required key\(s\) 'name'"),
         ('[[vehicles]]\nname = "a b"\nrole = "leader"\n', r"vehicles\.name must be 1-64 letters, digits"),
@@ -195,3 +195,20 @@ def test_an_odd_camera_size_with_h264_recording_names_the_keys(
     assert main(["sim", str(p), "--duration", "0.2", "-q"]) != 0
     err = capsys.readouterr().err
     assert "camera.width_px x height_px is 641x479" in err and 'image_format = "jpeg"' in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("value", "written"),
+    [
+        (True, "true"),
+        ([1, "a", False], "[1, 'a', false]"),
+        ({"x": 1.5, "on": True}, "{x = 1.5, on = true}"),
+        ("long", "'long'"),
+        (list(range(100)), "[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 2..."),
+    ],
+)
+def test_a_bad_value_is_named_as_the_scenario_file_writes_it(value: object, written: str) -> None:
+    # "got True" named a TOML true in Python's words
+    from lfctl.config import toml_value
+
+    assert toml_value(value) == written
