@@ -6,6 +6,8 @@ so their protocol code does not care which."""
 from __future__ import annotations
 
 import os
+import re
+import socket
 from collections import deque
 from collections.abc import Callable
 from typing import Any, Protocol
@@ -61,6 +63,34 @@ def pack_next(msg: Any, m: Any) -> bytes:
     m.total_packets_sent += 1
     m.total_bytes_sent += len(data)
     return data
+
+
+#: pymavlink's network connection strings: KIND:HOST:PORT
+_NETWORK = re.compile(r"(udp|udpin|udpout|udpbcast|tcp|tcpin):(.*):([^:]*)")
+
+
+def _check_network_address(connect: str) -> None:
+    """A network connection string's host and port, checked before pymavlink takes them: it
+    takes ``udpout:999.1.1.1:14550`` and then drops every datagram it cannot send, so a
+    mistyped address looked like a vehicle that never answers.
+
+    Raises
+    ------
+    LinkError
+        The port is not a number in 1..65535 (0 too where we listen), or the host does not
+        resolve to an address.
+    """
+    m = _NETWORK.fullmatch(connect)
+    if m is None:
+        return  # a serial device, a file, or a form pymavlink itself refuses
+    kind, host, port = m.groups()
+    listening = kind in ("udp", "udpin", "tcpin")
+    if not port.isdigit() or not (0 if listening else 1) <= int(port) <= 65535:
+        raise LinkError(connect, f"port {port!r} is not a port number (1..65535)")
+    try:
+        socket.getaddrinfo(host or None, int(port))
+    except (OSError, UnicodeError) as exc:
+        raise LinkError(connect, f"host {host!r} is not an address here ({exc})") from None
 
 
 class MavPort:
@@ -135,6 +165,7 @@ class MavPort:
         LinkError
             The connection could not be opened (bad string, port in use, no such device).
         """
+        _check_network_address(connect)
         # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
         # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
         os.environ["MAVLINK20"] = "1"

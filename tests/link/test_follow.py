@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 import socket
 import time
 from typing import Any
@@ -437,3 +438,19 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
         " (never seen: check the camera, the banner and its markers' hue)"
     )
     assert RoverRun(0, 0).summary() == "sent 0 setpoints; 0 frames"
+
+
+@pytest.mark.parametrize(
+    ("connect", "said"),
+    [
+        ("udpout:999.1.1.1:14550", "host '999.1.1.1' is not an address here"),
+        ("udpout:127.0.0.1:0", "port '0' is not a port number"),
+        ("tcp:127.0.0.1:x", "port 'x' is not a port number"),
+    ],
+)
+def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> None:
+    # pymavlink took udpout:999.1.1.1 and dropped every datagram: "no HEARTBEAT" after the timeout
+    from lfctl.errors import LinkError
+
+    with pytest.raises(LinkError, match=re.escape(said)):
+        MavPort.open(connect, 255, 190)
