@@ -19,6 +19,7 @@ from lfctl.sweep.results import (
     read_rows,
     report,
     summarise,
+    summary_markdown,
     write_meta,
     write_tables,
 )
@@ -61,6 +62,18 @@ def test_summary_counts_failures_and_takes_figures_from_ok_runs_only() -> None:
     assert s[0]["f1.range_err_rms_m.mean"] == 2.0 and s[0]["f1.range_err_rms_m.ci95_lo"] < 2.0
     assert s[1]["f1.range_err_rms_m.ci95_lo"] is None  # one run: no interval
     assert s[1]["sensing.range_noise_m"] == 0.1
+
+
+def test_a_headline_figure_no_variant_has_is_said_not_dropped_in_silence() -> None:
+    # a sweep of 5 s runs (no longer than the settling time) had no range error column and no word why
+    rows = [_row(0, 0, 1.0), _row(1, 1, None)]
+    s = summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m", "f1.lost_s"])
+    text = summary_markdown(s, ["sensing.range_noise_m"], ["f1"])
+    assert "| range_err_rms_m |" in text.splitlines()[0] + " |"  # some variant has it: shown
+    assert "no figures for bearing_err_rms_deg, chattering_per_s, track_success in any variant" in text
+    none = summary_markdown(summarise([_row(0, 0, None)], ["sensing.range_noise_m"], ["f1.range_err_rms_m"]),
+                            ["sensing.range_noise_m"], ["f1"])  # fmt: skip
+    assert "no figures for range_err_rms_m, " in none and "settling time" in none
 
 
 def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summary_and_plots(tmp_path: Path) -> None:
