@@ -44,7 +44,7 @@ log = logging.getLogger(__name__)
 
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fvisibility=hidden", "-fPIC", "-shared")
 #: Bump when the generated XML or archive layout changes, to invalidate old caches.
-GENERATOR_VERSION = "3"
+GENERATOR_VERSION = "4"
 
 _UNIT_BASE = {  # unit name -> SI base-unit exponents for <BaseUnit>
     "m": {"m": 1},
@@ -176,7 +176,7 @@ def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
             modelName=src.identifier,
             guid=src.token,
             description=src.description,
-            generationTool=f"lfctl {GENERATOR_VERSION}",
+            generationTool=f"lfctl FMU generator {GENERATOR_VERSION}",
             variableNamingConvention="flat",
             numberOfEventIndicators="0",
         )
@@ -213,7 +213,7 @@ def model_description_xml(src: ModelSource, fmi_version: int) -> bytes:
             modelName=src.identifier,
             instantiationToken=src.token,
             description=src.description,
-            generationTool=f"lfctl {GENERATOR_VERSION}",
+            generationTool=f"lfctl FMU generator {GENERATOR_VERSION}",
             variableNamingConvention="flat",
         )
         ET.SubElement(
