@@ -64,6 +64,15 @@ def test_fmu_info_lists_variables_with_units(capsys: pytest.CaptureFixture[str])
     assert "input" in line and "rad/s" in line
 
 
+def test_fmu_info_refuses_a_version_it_would_ignore_for_a_file(capsys: pytest.CaptureFixture[str]) -> None:
+    from lfctl.fmu.build import build_model
+
+    fmi3 = build_model("SkidSteerRover").fmi3
+    assert main(["fmu", "info", str(fmi3), "--fmi-version", "2"]) == 2  # an FMI 3 file was shown as asked for 2
+    assert "--fmi-version picks a built-in model's FMU" in capsys.readouterr().err
+    assert main(["fmu", "info", str(fmi3)]) == 0 and "FMI 3.0" in capsys.readouterr().out
+
+
 def test_fmu_info_unknown_target_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["fmu", "info", "NoSuchModel"]) == 2
     assert "neither an FMU file nor a built-in model" in capsys.readouterr().err

@@ -25,7 +25,7 @@ def register(sub: Any) -> None:
     fi = fsub.add_parser("info", help="list an FMU's variables with units (a file, or a built-in model name)")
     fi.add_argument("fmu", help="an .fmu file or a built-in model name such as SkidSteerRover")
     fi.add_argument(
-        "--fmi-version", type=int, choices=(2, 3), default=2, help="for a built-in model: which FMI version"
+        "--fmi-version", type=int, choices=(2, 3), help="for a built-in model: which FMI version (default 2)"
     )
     fi.add_argument("--cache-dir", type=Path, help="cache root (default: the user cache dir)")
     fi.set_defaults(func=run_info)
@@ -63,7 +63,9 @@ def run_info(args: argparse.Namespace) -> int:
             raise ConfigError(
                 f"{args.fmu!r} is neither an FMU file nor a built-in model ({', '.join(available_models())})"
             )
-        path = build_model(args.fmu, args.cache_dir).path(args.fmi_version)
+        path = build_model(args.fmu, args.cache_dir).path(args.fmi_version or 2)
+    elif args.fmi_version is not None:  # a file is the version it is: the option would be ignored
+        raise ConfigError(f"--fmi-version picks a built-in model's FMU; {args.fmu} is a file, shown as it is")
     md = FmuLibrary.describe(path)
     cs = md.coSimulation
     # the FMU's own text is anyone's: its control characters escaped (a newline would break

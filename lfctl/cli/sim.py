@@ -31,7 +31,9 @@ def register(sub: Any) -> None:
         description="Run a scenario (a TOML file, or a shipped example by name: "
         f"{', '.join(example_names()) or 'none found'}) in the co-simulation and print a summary.",
     )
-    s.add_argument("scenario", help="scenario TOML file, or the name of a shipped example such as convoy, column5 or vee")
+    s.add_argument(
+        "scenario", help="scenario TOML file, or the name of a shipped example such as convoy, column5 or vee"
+    )
     s.add_argument(
         "--duration",
         type=number(0, 1e6, lo_open=True, unit="s"),
