@@ -299,3 +299,8 @@ def test_audit_leaves_no_plot_folders_when_nothing_is_plotted(
     assert main(["audit", str(garbage), "--plot", str(tmp_path / "c"), "--recover", str(garbage)]) == 2
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.mcap"]  # neither a/ nor a/b/ nor c/ stays
     assert "--recover" in capsys.readouterr().err
+
+
+def test_gcs_watch_refuses_a_target_it_would_ignore(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["gcs", "--target", "2", "watch", "--count", "1"]) == 2
+    assert "--target is not for watch" in capsys.readouterr().err

@@ -25,7 +25,9 @@ def register(sub: Any) -> None:
         type=connection,
         help="pymavlink connection (default: the leader of lfctl sim --realtime)",
     )
-    g.add_argument("--target", type=integer(1, 255), default=1, help="target system id (leader 1, follower n: 1+n)")
+    g.add_argument(
+        "--target", type=integer(1, 255), help="target system id (leader 1, follower n: 1+n; default 1; not for watch)"
+    )
     g.add_argument(
         "--timeout", type=number(0, 3600, lo_open=True, unit="s"), default=5.0, help="seconds to wait for each answer"
     )
@@ -71,6 +73,7 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
     from lfctl.data import resolve_mission
+    from lfctl.errors import ConfigError
     from lfctl.link.gcs import GroundStation, result_name
     from lfctl.link.mission import command_name, load_mission_file, save_mission
     from lfctl.link.mission_server import FENCE, RALLY
@@ -81,6 +84,9 @@ def run(args: argparse.Namespace) -> int:
     plan = load_mission_file(resolve_mission(args.file)) if args.action == "upload" else None
     wanted = load_param_file(args.file) if args.action == "param" and args.param_action == "load" else None
     key = signing_key_from_passphrase(args.signing_passphrase)
+    if args.action == "watch" and args.target is not None:  # it would be ignored: watch shows every vehicle
+        raise ConfigError("--target is not for watch: it shows every vehicle heard on the link")
+    args.target = args.target or 1
     gcs = GroundStation(args.connect, target_system=args.target, timeout_s=args.timeout, signing_key=key)
     try:
         if args.action != "watch":  # watch shows every vehicle as it is heard, from none
