@@ -1,15 +1,20 @@
 """Packaging beyond what pyproject.toml can say: the top-level folders ``fmu_models/`` (the
 vehicle models' C sources), ``examples/`` and ``footage/`` (labelled real video for the vision
-benchmark) travel inside the package, as ``lfctl/fmu_models``, ``lfctl/examples`` and
-``lfctl/footage``, so a wheel builds its FMUs and runs the examples by name from any directory
-(``lfctl.data`` finds them in either place). Each of their folders is named as a package of
+benchmark) and ``docs/`` travel inside the package, as ``lfctl/fmu_models``, ``lfctl/examples``,
+``lfctl/footage`` and ``lfctl/docs``, so a wheel builds its FMUs, runs the examples by name
+from any directory and has the pages its help names (``lfctl.data`` finds them in either place). Each of their folders is named as a package of
 its own (``lfctl.examples.sweeps``), as setuptools wants every folder of package data to be."""
 
 from pathlib import Path
 
 from setuptools import find_packages, setup
 
-ROOTS = {"lfctl.fmu_models": "fmu_models", "lfctl.examples": "examples", "lfctl.footage": "footage"}
+ROOTS = {
+    "lfctl.fmu_models": "fmu_models",
+    "lfctl.examples": "examples",
+    "lfctl.footage": "footage",
+    "lfctl.docs": "docs",
+}
 
 
 def _data_packages() -> dict[str, str]:

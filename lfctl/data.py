@@ -15,6 +15,7 @@ from pathlib import Path
 from lfctl.errors import ConfigError
 
 __all__ = [
+    "docs_dir",
     "example_names",
     "examples_dir",
     "find_example",
@@ -67,6 +68,11 @@ def builtin_models() -> tuple[str, ...]:
 def examples_dir() -> Path:
     """The folder of shipped example scenarios (``convoy.toml``, ...) and missions."""
     return _folder("examples")
+
+
+def docs_dir() -> Path:
+    """The folder of the documentation pages (``audit.md``, ``architecture.md``, ...)."""
+    return _folder("docs")
 
 
 def footage_dir() -> Path:

@@ -53,6 +53,7 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     assert "lfctl/fmu_models/common/model_core.c" in names and "lfctl/examples/convoy.toml" in names
     assert "lfctl/bench/cosim.py" in names and not any(n.startswith("tests/") for n in names)
     assert "lfctl/examples/sweeps/noise.toml" in names and "lfctl/examples/sweeps/scenarios/ablation.toml" in names
+    assert "lfctl/docs/audit.md" in names and "lfctl/footage/labels/vtest_blackcoat.json" in names
 
     venv = tmp_path / "venv"
     _run([sys.executable, "-m", "venv", str(venv)], tmp_path)
@@ -74,6 +75,10 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     (log,) = (empty / "logs").glob("*.mcap")
     audit = _run(["lfctl", "audit", str(log)], empty, env)
     assert "integrity: OK" in audit and "(installed)" in audit
+    # the page its help names is there, inside the installed package
+    helped = _run(["lfctl", "audit", "--help"], empty, env)
+    page = Path(helped.split("Reading is bounded (", 1)[1].split(")", 1)[0].replace("\n", "").replace(" ", ""))
+    assert str(page).startswith(str(venv)) and page.is_file(), page
 
 
 @pytest.mark.slow

@@ -12,11 +12,13 @@ from typing import Any
 
 def register(sub: Any) -> None:
     """Add the ``audit`` command to the parser."""
+    from lfctl.data import docs_dir
+
     a = sub.add_parser(
         "audit",
         help="check a run's MCAP log: integrity, provenance, formation/link/mission figures",
         description="Audit an MCAP run log. Exit 0 when intact (and, with --strict, within the scenario's limits), "
-        "1 otherwise, 2 when the path is not a regular file. Reading is bounded (docs/audit.md).",
+        f"1 otherwise, 2 when the path is not a regular file. Reading is bounded ({docs_dir() / 'audit.md'}).",
     )
     a.add_argument("file", type=Path, help="an .mcap log (logs/<run>.mcap)")
     a.add_argument("--json", action="store_true", help="machine-readable report")
