@@ -18,6 +18,7 @@ import os
 import re
 import shutil
 import subprocess
+import sysconfig
 import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
@@ -44,7 +45,7 @@ log = logging.getLogger(__name__)
 
 CFLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-fvisibility=hidden", "-fPIC", "-shared")
 #: Bump when the generated XML or archive layout changes, to invalidate old caches.
-GENERATOR_VERSION = "4"
+GENERATOR_VERSION = "3"
 
 _UNIT_BASE = {  # unit name -> SI base-unit exponents for <BaseUnit>
     "m": {"m": 1},
@@ -317,10 +318,16 @@ def cache_key(src: ModelSource, compiler_version: str) -> str:
 SOURCES_KEY_FILE = "sources.key"
 
 
+def _sources_key(src: ModelSource) -> str:
+    """The cache key of ``src``'s sources without the compiler's version, on this machine's
+    platform (a cache copied from another architecture never matches)."""
+    return cache_key(src, f"any compiler, {sysconfig.get_platform()}")
+
+
 def _built_from_same_sources(src: ModelSource, cache_root: Path) -> BuiltModel | None:
     """The newest cache entry built from ``src``'s sources (and this generator, flags and
     fmpy) by any compiler, or None: what runs when no compiler is on PATH."""
-    want = cache_key(src, "")
+    want = _sources_key(src)
     found: list[tuple[int, BuiltModel]] = []
     for entry in cache_root.glob(f"{src.identifier}-*"):
         built = BuiltModel(src.identifier, entry / f"{src.identifier}.fmi2.fmu", entry / f"{src.identifier}.fmi3.fmu")
@@ -426,7 +433,7 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
     if not force and built.fmi2.is_file() and built.fmi3.is_file():
         if not (root / SOURCES_KEY_FILE).is_file():  # an entry built before the file was kept
             with contextlib.suppress(OSError):
-                (root / SOURCES_KEY_FILE).write_text(cache_key(src, "") + "\n")
+                (root / SOURCES_KEY_FILE).write_text(_sources_key(src) + "\n")
         return built
     try:
         root.parent.mkdir(parents=True, exist_ok=True)
@@ -444,7 +451,7 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
             out_dir.mkdir()
             for fmi in (2, 3):
                 _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
-            (out_dir / SOURCES_KEY_FILE).write_text(cache_key(src, "") + "\n")
+            (out_dir / SOURCES_KEY_FILE).write_text(_sources_key(src) + "\n")
             if root.exists():
                 shutil.rmtree(root)
             os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible

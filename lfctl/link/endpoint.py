@@ -923,8 +923,9 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_DO_JUMP_TAG:
             # as Rover's handle_command_do_jump_tag: the first JUMP_TAG of the tag becomes the
             # current item (AP_Mission::jump_to_tag); no such tag, FAILED
-            tag = math.trunc(p[0]) if _finite(p[0]) and 0 <= p[0] < 65536 else None
-            seq = jump_tag_item(self.mission, tag) if tag is not None else 0
+            if not (_finite(p[0]) and 0 <= p[0] <= 65535):
+                return mav.MAV_RESULT_DENIED  # not a tag (Rover: above UINT16_MAX)
+            seq = jump_tag_item(self.mission, math.trunc(p[0]))
             if seq == 0 or not self.set_current(seq):
                 return mav.MAV_RESULT_FAILED
             self._once.append(MSG_IDS["MISSION_CURRENT"])

@@ -363,6 +363,8 @@ KEPT_FIELDS: dict[int, tuple[str, str]] = {
         ("NAV_VTOL_LAND", "1", ""), ("DO_VTOL_TRANSITION", "1", ""), ("DO_ENGINE_CONTROL", "123", ""),
         ("NAV_PAYLOAD_PLACE", "1", ""), ("NAV_SET_YAW_SPEED", "123", ""), ("DO_WINCH", "1234", ""),
         ("DO_SET_RESUME_REPEAT_DIST", "1", ""), ("DO_SEND_SCRIPT_MESSAGE", "1234", ""),
+        ("SET_CAMERA_ZOOM", "12", ""), ("SET_CAMERA_FOCUS", "12", ""), ("SET_CAMERA_SOURCE", "123", ""),
+        ("DO_RETURN_PATH_START", "", ""),
         ("NAV_SCRIPT_TIME", "1234", "xy"), ("NAV_ATTITUDE_TIME", "1234", "x"), ("DO_PAUSE_CONTINUE", "1", ""),
         ("DO_GIMBAL_MANAGER_PITCHYAW", "1234", "xz"),
     )
@@ -465,7 +467,7 @@ MISSION_TEXT_NAMES = {
 
 def mission_text(item: MissionItem) -> str:
     """What ArduPilot's mission library says as it starts an item: ``Mission: 3 WP`` (``?``
-    for a command its table has no name for), a JUMP_TAG with its tag (``Mission: 4 Tag 7``).
+    for a command its table has no name for), a JUMP_TAG with its p1 (``Mission: 4 Tag 0``).
 
     Parameters
     ----------
@@ -473,7 +475,9 @@ def mission_text(item: MissionItem) -> str:
         The item it starts.
     """
     text = f"Mission: {item.seq} {MISSION_TEXT_NAMES.get(item.command, '?')}"
-    return f"{text} {int(item.param1)}" if item.command == JUMP_TAG else text
+    # AP_Mission::start_command adds the item's p1, which for a JUMP_TAG is not its tag (that
+    # is kept in content.jump.target): a Rover says "Tag 0" whatever the tag
+    return f"{text} 0" if item.command == JUMP_TAG else text
 
 
 def jump_tag_item(items: list[MissionItem], tag: float) -> int:
@@ -649,6 +653,8 @@ def walk_mission(
             if hold == math.inf:
                 return legs, ()
         elif it.command in (DO_JUMP, DO_JUMP_TAG):
+            if it.command == DO_JUMP_TAG and jump_tag_item(items, it.param1) == 0:
+                break  # a tag no JUMP_TAG has ends the mission, whatever the count (get_next_cmd)
             if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
                 repeats = math.trunc(it.param2)
                 left = jumps_left.setdefault(i, repeats)
@@ -656,7 +662,6 @@ def walk_mission(
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
                     if left > 0:
                         jumped.append((i, repeats - left + 1, repeats))
-                    # a tag no JUMP_TAG has is item 0: the mission ends here, as on Rover
                     i = jump_tag_item(items, it.param1) if it.command == DO_JUMP_TAG else math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it

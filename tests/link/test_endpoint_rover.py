@@ -1942,8 +1942,9 @@ def test_do_jump_tag_as_a_command_makes_the_tag_current_and_a_missing_tag_fails(
     assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
     assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, 7) == mav.MAV_RESULT_ACCEPTED
     assert bench.ep.current_seq == 2
-    for tag in (8, -1, math.nan):
-        assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, tag) == mav.MAV_RESULT_FAILED
+    assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, 8) == mav.MAV_RESULT_FAILED  # no item has it
+    for tag in (65536, -1, math.nan):  # not a tag
+        assert bench.command(mav.MAV_CMD_DO_JUMP_TAG, tag) == mav.MAV_RESULT_DENIED
     assert bench.ep.current_seq == 2
 
 

@@ -76,8 +76,9 @@ def test_a_jump_to_a_tag_goes_to_the_first_jump_tag_of_it_and_a_missing_tag_ends
     # said as a DO_JUMP's ("Mission: 4 Jump 1/1"), before the tag it leads to
     assert (legs[2].jumped, legs[2].jumps_first) == (((4, 1, 1),), 1)
     # a tag no JUMP_TAG has: the mission ends at the jump (MAVLink: "should complete the mission")
-    missing = [*items[:4], MissionItem(4, 0, DO_JUMP_TAG, 8.0, 1.0), *items[5:]]
-    assert [leg.seq for leg in to_legs(renumbered(missing), HOME)] == [1, 3]
+    for count in (1.0, 0.0):  # whatever the count: Rover's get_next_cmd checks the target first
+        missing = [*items[:4], MissionItem(4, 0, DO_JUMP_TAG, 8.0, count), *items[5:]]
+        assert [leg.seq for leg in to_legs(renumbered(missing), HOME)] == [1, 3]
 
 
 def test_legs_start_from_the_current_item() -> None:
@@ -331,3 +332,22 @@ def test_fence_and_rally_items_are_places_and_mission_items_always_continue_as_o
     wp = MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_NAV_WAYPOINT, x=x, y=y, autocontinue=0)
     assert _item_message(wp, 255, 190, 0, MISSION).autocontinue == 1
     assert _item_message(dataclasses.replace(vertex, autocontinue=0), 255, 190, 0, FENCE).autocontinue == 0
+
+
+@pytest.mark.parametrize(
+    ("command", "kept"),
+    [
+        (mav.MAV_CMD_SET_CAMERA_ZOOM, (1.0, 2.0, 0.0, 0.0)),
+        (mav.MAV_CMD_SET_CAMERA_FOCUS, (1.0, 2.0, 0.0, 0.0)),
+        (mav.MAV_CMD_SET_CAMERA_SOURCE, (1.0, 2.0, 3.0, 0.0)),
+        (mav.MAV_CMD_DO_RETURN_PATH_START, (0.0, 0.0, 0.0, 0.0)),
+        (JUMP_TAG, (1.0, 0.0, 0.0, 0.0)),
+        (DO_JUMP_TAG, (1.0, 2.0, 0.0, 0.0)),
+    ],
+)
+def test_the_newer_commands_keep_what_ap_mission_keeps(command: int, kept: tuple[float, ...]) -> None:
+    # AP_Mission::mavlink_int_to_mission_cmd's fields: a download gives back these, the rest 0
+    from lfctl.link.mission import as_stored
+
+    it = as_stored(MissionItem(1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command, 1.0, 2.0, 3.0, 4.0))
+    assert (it.param1, it.param2, it.param3, it.param4) == kept

@@ -569,10 +569,10 @@ def test_a_tagged_jump_is_flown_and_said_as_rover_says_it() -> None:
     started = [s for s in texts(links, after_s=0.4) if s.startswith("Mission:")]
     assert started == [
         "Mission: 1 WP",
-        "Mission: 2 Tag 7",
+        "Mission: 2 Tag 0",
         "Mission: 3 WP",
         "Mission: 4 Jump 1/1",
-        "Mission: 2 Tag 7",
+        "Mission: 2 Tag 0",
         "Mission: 3 WP",
         "Mission: 5 WP",
     ]
