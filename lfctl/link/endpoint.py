@@ -207,6 +207,9 @@ FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_
 CIRCLE_BACKUP_M = 20.0
 #: farther than this outside the circle, a breach's action is HOLD (AC_FENCE_GIVE_UP_DISTANCE), m
 FENCE_GIVE_UP_M = 100.0
+#: a mode change while breached gives the pilot this long before a new breach is acted on
+#: (AC_Fence::manual_recovery_start, AC_FENCE_MANUAL_RECOVERY_TIME_MIN), s
+FENCE_RECOVERY_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -374,6 +377,7 @@ class VehicleEndpoint:
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
         self._circle_backup_m = 0.0  # AC_Fence's backup circle's radius (0: the circle not breached)
+        self._fence_recovery_until = -math.inf  # no new breach acted on before this (manual recovery), s
         self.fence_breaches = 0
         self._fence_breach_ms = 0
         self._text_id = 0
@@ -803,6 +807,8 @@ class VehicleEndpoint:
         return False
 
     def _enter(self, custom_mode: int) -> None:
+        if custom_mode != self.mode and self._breached_fences:  # Rover's set_mode
+            self._fence_recovery_until = self.t_s + FENCE_RECOVERY_S
         if custom_mode != self.mode:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
             self.modes.append((self.t_s, custom_mode))
@@ -1712,7 +1718,10 @@ class VehicleEndpoint:
         :data:`CIRCLE_BACKUP_M` farther out than where it last breached it (AC_Fence's backup
         circle), so a vehicle driven on outwards meets the action again; and more than
         :data:`FENCE_GIVE_UP_M` outside the circle the action is HOLD, whatever FENCE_ACTION
-        says (``AC_FENCE_GIVE_UP_DISTANCE``; a polygon's breach has no distance)."""
+        says (``AC_FENCE_GIVE_UP_DISTANCE``; a polygon's breach has no distance). For
+        :data:`FENCE_RECOVERY_S` after a mode change made while breached (the fence's own, or a
+        ground station's taking the vehicle back) no new breach is acted on, as Rover's
+        ``set_mode`` starts AC_Fence's manual recovery; what is breached is still kept."""
         if not self.param("FENCE_ENABLE"):
             self.fence_breach = None
             self._breached_fences = 0
@@ -1733,6 +1742,8 @@ class VehicleEndpoint:
                 outside_m = out - self.param("FENCE_RADIUS")
         else:
             self._circle_backup_m = 0.0
+        if new and self.t_s < self._fence_recovery_until:
+            new = 0  # the pilot's time to bring it back
         if new:
             self.fence_breaches += 1
             self._fence_breach_ms = self._boot_ms()

@@ -439,16 +439,17 @@ def test_a_fence_breach_is_reported_and_sends_the_vehicle_home(bench: Bench) -> 
 
 def test_a_circle_breach_is_met_again_20_m_farther_out_and_past_100_m_the_action_is_hold(bench: Bench) -> None:
     # Rover's fence_check on AC_Fence::check: after a circle breach a backup circle 20 m
-    # farther out is breached again (the action again), and more than 100 m outside the fence
+    # farther out is breached again (the action again), once the 10 s of manual recovery a
+    # mode change starts have passed; more than 100 m outside the fence
     # (AC_FENCE_GIVE_UP_DISTANCE) the action is HOLD whatever FENCE_ACTION says
     ep = bench.ep
     ep.params["FENCE_ENABLE"].value, ep.params["FENCE_TYPE"].value, ep.params["FENCE_RADIUS"].value = 1, 2, 30
     ep.set_armed(True)
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
 
-    def at(north_m: float) -> list[object]:
+    def at(north_m: float, dt: float = 0.02) -> list[object]:
         bench.state = dict(STATE, north_m=north_m, east_m=0.0)  # where the commands' ticks find it too
-        return bench.tick()
+        return bench.tick(dt)
 
     def breached(msgs: list[object]) -> int:
         return sum(1 for m in msgs if m.get_type() == "STATUSTEXT" and m.text.startswith("Fence breached"))
@@ -457,13 +458,17 @@ def test_a_circle_breach_is_met_again_20_m_farther_out_and_past_100_m_the_action
     assert breached(at(31.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 1
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED  # the ground station takes it on outwards
     assert breached(at(45.0)) == 0 and ep.mode == MODES["GUIDED"]  # inside the backup circle (51 m)
-    assert breached(at(51.5)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 2
+    assert breached(at(51.5)) == 0 and ep.mode == MODES["GUIDED"]  # past it, but within the 10 s of recovery
+    # the checks go on during the recovery (AC_Fence's last step is the recovery's): the
+    # backup circle moved out to 71.5 m
+    assert breached(at(52.0, dt=10.0)) == 0 and ep.mode == MODES["GUIDED"]
+    assert breached(at(72.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 2
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
-    assert breached(at(140.0)) == 1 and ep.mode == MODES["HOLD"]  # 110 m outside: HOLD, not RTL
+    assert breached(at(140.0, dt=10.0)) == 1 and ep.mode == MODES["HOLD"]  # 110 m outside: HOLD, not RTL
     at(10.0)  # back inside: cleared, and the next breach is a first one again
     assert ep.fence_breach is None and ep._circle_backup_m == 0.0
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
-    assert breached(at(31.0)) == 1 and ep.mode == MODES["RTL"]
+    assert breached(at(31.0, dt=10.0)) == 1 and ep.mode == MODES["RTL"]
 
 
 # -- GUIDED -------------------------------------------------------------------------------------
