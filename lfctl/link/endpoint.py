@@ -335,7 +335,9 @@ class VehicleEndpoint:
         self._boot_t_s = 0.0  # when the autopilot last started: time_boot_ms counts from here
         self._booting_until = -math.inf  # rebooting (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN) until then
         self._reboot_due = False  # a reboot was accepted: it starts after the ACK has gone out
-        self._params_erased = False  # PREFLIGHT_STORAGE param1 2: the defaults come back at the reboot
+        #: PREFLIGHT_STORAGE param1 2: each parameter's value then; the ones still at it take
+        #: their defaults at the reboot (a parameter set since is stored, as AP_Param keeps it)
+        self._params_erased: dict[str, float] | None = None
         #: each message's stream-group rate as REQUEST_DATA_STREAM last set it: kept across a
         #: reboot, as Rover keeps its SRn_ parameters (SET_MESSAGE_INTERVAL's rates are not)
         self._group_period: dict[int, float] = {}
@@ -900,7 +902,7 @@ class VehicleEndpoint:
             # storage action is not one lfctl's vehicle has
             if p[0] != 2.0:
                 return mav.MAV_RESULT_DENIED
-            self._params_erased = True
+            self._params_erased = {name: prm.value for name, prm in self.params.items()}
             self.statustext("All parameters reset, reboot board", mav.MAV_SEVERITY_WARNING)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
@@ -1191,13 +1193,15 @@ class VehicleEndpoint:
         following the vehicle, no GUIDED target, time_boot_ms and the MAVLink sequence from 0)
         and says "ArduPilot Ready". Parameters, REQUEST_DATA_STREAM's rates, the mission
         (from its first item), the fence and the rally points are kept, as a Rover keeps them
-        in storage; parameters erased (PREFLIGHT_STORAGE) come back at Rover's defaults. The
+        in storage; parameters erased (PREFLIGHT_STORAGE) and not set since come back at
+        Rover's defaults. The
         vehicle stays where it is; disarmed, it stops."""
         self._reboot_due = False
-        if self._params_erased:
-            self._params_erased = False
+        if self._params_erased is not None:
+            erased, self._params_erased = self._params_erased, None
             for name, fresh in default_params(self.sysid).items():
-                self.params[name].value = fresh.value
+                if self.params[name].value == erased[name]:  # not set since the erase
+                    self.params[name].value = fresh.value
         self._start()
         self.missions.restart()
         self.mission_version += 1

@@ -1963,10 +1963,13 @@ def test_preflight_storage_2_erases_the_parameters_and_the_reboot_brings_the_def
     assert [(m.result) for m in out if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_ACCEPTED]
     assert "All parameters reset, reboot board" in [m.text for m in out if m.get_type() == "STATUSTEXT"]
     assert bench.ep.param("WP_SPEED") == 0.5
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_RADIUS", 3.5, mav.MAV_PARAM_TYPE_REAL32))
+    bench.tick()  # set after the erase: stored, as AP_Param stores it, and kept
     assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
     for _ in range(200):
         bench.tick(0.02)
     assert not bench.ep.rebooting and bench.ep.param("WP_SPEED") == 2.0  # Rover's default
+    assert bench.ep.param("WP_RADIUS") == 3.5
     bench.ep.params["WP_SPEED"].value = 0.7
     assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
     for _ in range(200):
