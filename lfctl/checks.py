@@ -199,7 +199,7 @@ def check_host_port(key: str, value: str, *, allow_any_port: bool = False) -> tu
         Accept port 0.
     """
     host, sep, port = value.rpartition(":")
-    if not sep or not host or not port.isdigit() or len(port) > 5:
+    if not sep or not host or not (port.isascii() and port.isdigit()) or len(port) > 5:
         raise ConfigError(f"{key} must be HOST:PORT, got {_show(value)}")
     bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
     if not re.fullmatch(r"[A-Za-z0-9.:_-]{1,253}", bare):
@@ -211,7 +211,7 @@ def check_host_port(key: str, value: str, *, allow_any_port: bool = False) -> tu
 
 
 #: pymavlink connection prefixes taking HOST:PORT
-_NET_PREFIXES = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")
+NET_PREFIXES = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")
 
 
 def check_connection(key: str, value: str) -> str:
@@ -227,7 +227,7 @@ def check_connection(key: str, value: str) -> str:
     """
     check_text(key, value)
     prefix, sep, rest = value.partition(":")
-    if sep and prefix in _NET_PREFIXES:
+    if sep and prefix in NET_PREFIXES:
         check_host_port(key, rest)
         return value
     device, _, baud = value.partition(",")
@@ -240,7 +240,7 @@ def check_connection(key: str, value: str) -> str:
 
 
 def _int(text: str) -> int | None:
-    return int(text) if text.isdigit() and len(text) <= 9 else None
+    return int(text) if text.isascii() and text.isdigit() and len(text) <= 9 else None
 
 
 def check_inside(key: str, base: Path, path: Path) -> Path:

@@ -6,7 +6,6 @@ so their protocol code does not care which."""
 from __future__ import annotations
 
 import os
-import re
 import socket
 from collections import deque
 from collections.abc import Callable
@@ -15,7 +14,8 @@ from typing import Any, Protocol
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.errors import LinkError
+from lfctl.checks import NET_PREFIXES, check_host_port
+from lfctl.errors import ConfigError, LinkError
 from lfctl.link.signing import setup_signing
 
 __all__ = ["CHECK_LINK", "DatagramLink", "MavPort", "pack_next"]
@@ -65,10 +65,6 @@ def pack_next(msg: Any, m: Any) -> bytes:
     return data
 
 
-#: pymavlink's network connection strings: KIND:HOST:PORT
-_NETWORK = re.compile(r"(udp|udpin|udpout|udpbcast|tcp|tcpin):(.*):([^:]*)")
-
-
 def _check_network_address(connect: str) -> None:
     """A network connection string's host and port, checked before pymavlink takes them: it
     takes ``udpout:999.1.1.1:14550`` and then drops every datagram it cannot send, so a
@@ -77,18 +73,18 @@ def _check_network_address(connect: str) -> None:
     Raises
     ------
     LinkError
-        The port is not a number in 1..65535 (0 too where we listen), or the host does not
-        resolve to an address.
+        Not HOST:PORT with a port in 1..65535 (0 too where we listen), or a host that does
+        not resolve to an address.
     """
-    m = _NETWORK.fullmatch(connect)
-    if m is None:
+    kind, sep, rest = connect.partition(":")
+    if not (sep and kind in NET_PREFIXES):
         return  # a serial device, a file, or a form pymavlink itself refuses
-    kind, host, port = m.groups()
-    listening = kind in ("udp", "udpin", "tcpin")
-    if not port.isdigit() or not (0 if listening else 1) <= int(port) <= 65535:
-        raise LinkError(connect, f"port {port!r} is not a port number (1..65535)")
     try:
-        socket.getaddrinfo(host or None, int(port))
+        host, port = check_host_port("the address", rest, allow_any_port=kind in ("udp", "udpin", "tcpin"))
+    except ConfigError as exc:
+        raise LinkError(connect, str(exc)) from None
+    try:
+        socket.getaddrinfo(host.strip("[]"), port)
     except (OSError, UnicodeError) as exc:
         raise LinkError(connect, f"host {host!r} is not an address here ({exc})") from None
 

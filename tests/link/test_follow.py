@@ -444,8 +444,9 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
     ("connect", "said"),
     [
         ("udpout:999.1.1.1:14550", "host '999.1.1.1' is not an address here"),
-        ("udpout:127.0.0.1:0", "port '0' is not a port number"),
-        ("tcp:127.0.0.1:x", "port 'x' is not a port number"),
+        ("udpout:127.0.0.1:0", "the address must be HOST:PORT with a port within 1..65535"),
+        ("tcp:127.0.0.1:x", "the address must be HOST:PORT"),
+        ("udpout:127.0.0.1:\u00b2", "the address must be HOST:PORT"),  # a digit to str.isdigit, not to int()
     ],
 )
 def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> None:
