@@ -367,8 +367,10 @@ def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], fol
             mean, lo, hi = s.get(f"{m}.mean"), s.get(f"{m}.ci95_lo"), s.get(f"{m}.ci95_hi")
             cells.append(_num(mean) + (f" [{_num(lo)}, {_num(hi)}]" if lo is not None else ""))
         lines.append("| " + " | ".join(cells) + " |")
-    left_out = [fig for fig in HEADLINE if not any(m.endswith(f".{fig}") for m in shown)]
-    if left_out:  # said, not dropped in silence
+    left_out = [(f"{f}.{fig}" if prefix else fig) for f in followers for fig in HEADLINE if f"{f}.{fig}" not in shown]
+    if left_out and not any(s["ok"] for s in summary):  # said, not dropped in silence
+        lines += ["", "no figures: no run succeeded (the failed column and the rows' error say why)"]
+    elif left_out:
         lines += ["", f"no figures for {', '.join(left_out)} in any variant (runs no longer than the"
                   f" {SETTLE_S:g} s settling time have no errors; a camera figure needs camera sensing)"]  # fmt: skip
     return "\n".join(lines) + "\n"

@@ -74,6 +74,8 @@ def test_a_headline_figure_no_variant_has_is_said_not_dropped_in_silence() -> No
     none = summary_markdown(summarise([_row(0, 0, None)], ["sensing.range_noise_m"], ["f1.range_err_rms_m"]),
                             ["sensing.range_noise_m"], ["f1"])  # fmt: skip
     assert "no figures for range_err_rms_m, " in none and "settling time" in none
+    failed = summarise([_row(0, 0, None, "error", error="FmuError: x")], ["sensing.range_noise_m"], ["f1.lost_s"])
+    assert "no figures: no run succeeded" in summary_markdown(failed, ["sensing.range_noise_m"], ["f1"])
 
 
 def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summary_and_plots(tmp_path: Path) -> None:
