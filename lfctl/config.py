@@ -147,7 +147,7 @@ def _check_fields(obj: Any, prefix: str) -> None:
                     items[j].check(f"{key}[{i}] {md['names'][j]}", x)
         choices = _literals(type(obj)).get(f.name)
         if choices is not None and value not in choices:
-            raise ConfigError(f"{key} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+            raise ConfigError(f"{key} must be one of {', '.join(repr(c) for c in choices)}, got {toml_value(value)}")
 
 
 @functools.cache
@@ -281,7 +281,7 @@ class VehicleConfig(_Section):
             table = "map" if self.map else "units"
             raise ConfigError(
                 f"{key}.{table}: map and units apply only to a user FMU (fmu = ...); "
-                f"model {self.model!r} has its own names, got {dict(getattr(self, table))!r}"
+                f"model {self.model!r} has its own names, got {toml_value(dict(getattr(self, table)))}"
             )
 
 
@@ -1065,11 +1065,11 @@ def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: 
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])
     if not isinstance(vehicles, list):
-        raise ConfigError(f"vehicles must be an array of tables ([[vehicles]]), got {vehicles!r}")
+        raise ConfigError(f"vehicles must be an array of tables ([[vehicles]]), got {toml_value(vehicles)}")
     tables = []
     for i, v in enumerate(vehicles):
         if not isinstance(v, dict):
-            raise ConfigError(f"vehicles[{i}] must be a table, got {v!r}")
+            raise ConfigError(f"vehicles[{i}] must be a table, got {toml_value(v)}")
         tables.append(v)
     data["vehicles"] = tables
     # Vehicle errors name the vehicle: build them one by one with their name in the key.
