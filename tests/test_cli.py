@@ -260,6 +260,8 @@ def test_global_options_are_taken_before_or_after_the_command(argv: list[str], d
         (["sim", "convoy", "--durration", "3"], "lfctl sim: error: unrecognized arguments: --durration 3 (see lfctl sim --help)"),
         (["fmu", "build", "--nope"], "lfctl fmu build: error: unrecognized arguments: --nope (see lfctl fmu build --help)"),
         (["gcs", "upload", "m.plan", "-x"], "lfctl gcs upload: error: unrecognized arguments: -x (see lfctl gcs upload --help)"),
+        (["gcs", "upload", "m.plan", "--target", "2"], "lfctl gcs upload: error: --target is an option of lfctl gcs: give it before 'upload' (see lfctl gcs upload --help)"),
+        (["--bogus", "sim", "convoy"], "lfctl: error: unrecognized arguments: --bogus (see lfctl --help)"),
     ],
 )  # fmt: skip
 def test_a_misspelt_option_is_named_with_the_help_that_lists_the_commands_options(

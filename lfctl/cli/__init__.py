@@ -90,14 +90,40 @@ def _global_options_anywhere(parser: argparse.ArgumentParser) -> None:
                 _global_options_anywhere(child)
 
 
-def _used_parser(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
-    """The innermost command's parser that ``args`` came through (``lfctl gcs ... upload``'s)."""
+def _parser_chain(
+    parser: argparse.ArgumentParser, args: argparse.Namespace
+) -> list[tuple[argparse.ArgumentParser, str | None]]:
+    """The parsers ``args`` came through, outermost first, each with the command word that
+    chose it (None for the outermost): ``lfctl``, ``lfctl gcs``, ``lfctl gcs upload``."""
+    chain: list[tuple[argparse.ArgumentParser, str | None]] = [(parser, None)]
     while True:
-        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        sub = next((a for a in chain[-1][0]._actions if isinstance(a, argparse._SubParsersAction)), None)
         name = getattr(args, sub.dest, None) if sub is not None else None
         if sub is None or name not in sub.choices:
-            return parser
-        parser = sub.choices[name]
+            return chain
+        chain.append((sub.choices[name], name))
+
+
+def _unknown_error(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, argv: Sequence[str], unknown: list[str]
+) -> None:
+    """Say what was not understood, by the parser of the command it was given to (its --help
+    lists that command's options); an option of an outer command given after an inner one is
+    told where it goes (``lfctl gcs upload m.plan --target 2``)."""
+    chain = _parser_chain(parser, args)
+    words = list(argv)
+    at = words.index(unknown[0]) if unknown[0] in words else len(words)
+    owner, place = 0, 0  # the innermost command whose word comes before the stray one
+    for i in range(1, len(chain)):
+        name = chain[i][1]
+        if name is None or name not in words[place:at]:
+            break
+        place, owner = words.index(name, place) + 1, i
+    option = unknown[0].split("=", 1)[0]
+    for j in range(owner - 1, -1, -1):
+        if option in chain[j][0]._option_string_actions:
+            chain[owner][0].error(f"{option} is an option of {chain[j][0].prog}: give it before {chain[j + 1][1]!r}")
+    chain[owner][0].error(f"unrecognized arguments: {' '.join(unknown)}")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -109,9 +135,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         The arguments (default ``sys.argv[1:]``).
     """
     parser = build_parser()
-    args, unknown = parser.parse_known_args(argv)
-    if unknown:  # said by the command's own parser, whose --help lists its options
-        _used_parser(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
+    words = list(sys.argv[1:] if argv is None else argv)
+    args, unknown = parser.parse_known_args(words)
+    if unknown:
+        _unknown_error(parser, args, words, unknown)
     stopped_by(signal.SIGINT)  # (a command run before in this process may have noted another)
     level = logging.DEBUG if args.debug else (logging.INFO if args.verbose else logging.WARNING)
 
