@@ -364,6 +364,8 @@ def _period(run: dict[str, str], key: str, default_hz: float, problems: list[str
 #: the run metadata's numbers (MCAP metadata holds text), as :func:`run_values` types them
 RUN_INTEGERS = ("seed", "video_bitrate_kbps", "video_gop", "waypoints")
 RUN_FLOATS = ("dt_s", "duration_s", "telemetry_rate_hz", "guidance_rate_hz", "camera_rate_hz", "image_rate_hz")
+_INTEGER = re.compile(r"-?[0-9]{1,18}")
+_DECIMAL = re.compile(r"-?[0-9]{1,18}(\.[0-9]*)?([eE][-+]?[0-9]{1,3})?")
 
 
 def run_values(run: dict[str, str]) -> dict[str, object]:
@@ -377,13 +379,10 @@ def run_values(run: dict[str, str]) -> dict[str, object]:
         The log's ``run`` metadata.
     """
     out: dict[str, object] = dict(run)
-    for key, kind in [(k, int) for k in RUN_INTEGERS] + [(k, float) for k in RUN_FLOATS]:
-        try:
-            value = kind(run[key])
-        except (KeyError, ValueError):
-            continue
-        if math.isfinite(value):
-            out[key] = value
+    for key, kind, form in [(k, int, _INTEGER) for k in RUN_INTEGERS] + [(k, float, _DECIMAL) for k in RUN_FLOATS]:
+        text = run.get(key)
+        if isinstance(text, str) and form.fullmatch(text):  # as the recorder writes them: no "7_0", no "+7"
+            out[key] = kind(text)
     if run.get("images") in ("true", "false"):
         out["images"] = run["images"] == "true"
     return out

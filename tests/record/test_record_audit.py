@@ -656,3 +656,11 @@ def test_time_labels_where_tracks_meet_are_not_piled_up() -> None:
     _time_labels(ax, [(5.0, 5.0, "20", "C0"), (5.01, 5.0, "20", "C1"), (5.0, 5.02, "30", "C2"), (9.0, 1.0, "40", "C3")])
     assert [(a.get_text(), a.get_color()) for a in ax.texts] == [("20", "C0"), ("40", "C3")]
     plt.close(fig)
+
+
+def test_run_metadata_numbers_are_typed_only_as_the_recorder_writes_them() -> None:
+    from lfctl.record.audit import run_values
+
+    typed = run_values({"seed": "7_0", "video_gop": "+7", "waypoints": "4", "duration_s": "70.0", "dt_s": "1e-05"})
+    assert typed == {"seed": "7_0", "video_gop": "+7", "waypoints": 4, "duration_s": 70.0, "dt_s": 1e-05}
+    assert run_values({"images": "yes", "camera_rate_hz": "inf"}) == {"images": "yes", "camera_rate_hz": "inf"}
