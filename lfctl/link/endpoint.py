@@ -1011,7 +1011,12 @@ class VehicleEndpoint:
             self.armed = armed
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
             if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
+                complete = self.mission_complete
                 self.set_current(1, reset=True)
+                # AP_Mission::reset leaves no item under way (MISSION_CURRENT seq 0) and the
+                # mission's state as it was; AUTO then starts it from item 1
+                self.missions.current_seq = 0
+                self.mission_complete = complete
         self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
 
     def _set_interval(self, msg_id_f: float, interval_us: float, response_target: float = 0.0) -> int:

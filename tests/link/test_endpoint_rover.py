@@ -1990,11 +1990,22 @@ def test_disarming_outside_auto_resets_the_mission_and_in_auto_keeps_its_place(b
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
     assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED  # in HOLD
-    assert (bench.ep.current_seq, bench.ep.mission_restarts) == (1, restarts + 1)
+    assert (bench.ep.current_seq, bench.ep.mission_restarts) == (0, restarts + 1)  # no item under way
     assert not bench.ep.mission_complete
+    # a finished mission stays finished (AP_Mission::reset keeps the state); AUTO starts it again
+    bench.ep.set_armed(True)
+    bench.ep.complete_mission()
+    bench.ep.set_armed(False)
+    assert bench.ep.mission_complete and bench.ep.current_seq == 0
+    bench.ep.set_armed(True)
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    assert not bench.ep.mission_complete and bench.ep.current_seq == 1
+    assert bench.set_mode("HOLD") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.set_armed(False)
+    restarts = bench.ep.mission_restarts
     # disarming again while disarmed changes nothing
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
-    assert bench.ep.mission_restarts == restarts + 1
+    assert bench.ep.mission_restarts == restarts
 
 
 def test_do_set_mission_current_tells_the_new_item_at_once_and_a_reset_restarts_a_finished_mission(
