@@ -306,3 +306,24 @@ def test_audit_leaves_no_plot_folders_when_nothing_is_plotted(
 def test_gcs_watch_refuses_a_target_it_would_ignore(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["gcs", "--target", "2", "watch", "--count", "1"]) == 2
     assert "--target is not for watch" in capsys.readouterr().err
+
+
+def test_a_lockstep_run_with_a_live_view_says_it_goes_as_fast_as_it_can(capsys: pytest.CaptureFixture[str]) -> None:
+    # a 20 s run sent its video in 5 s of wall time, and nothing said why
+    assert main(["sim", "vee", "--duration", "0.2", "--live", "127.0.0.1:0", "--no-record", "-q"]) == 0
+    assert "note: lockstep runs as fast as it can" in capsys.readouterr().err
+
+
+def test_a_realtime_run_says_how_to_start_the_leaders_mission(
+    tmp_path: Path, free_udp_ports, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the README's live demo showed a scene that never moved: the leader waits for a ground station
+    base = free_udp_ports(2)
+    scen = tmp_path / "rt.toml"
+    scen.write_text(
+        (ROOT / "examples" / "convoy.toml").read_text() + f'\n[link]\nudp_base_port = {base}\ngcs_udpout = ""\n'
+    )
+    assert main(["sim", str(scen), "--realtime", "--sensing", "truth", "--duration", "0.3", "--no-record", "-q"]) == 0
+    out = capsys.readouterr().out
+    hint = f"leader       waits in HOLD, disarmed, its mission stored: `lfctl gcs --connect udpout:127.0.0.1:{base} mode AUTO`"
+    assert hint in out

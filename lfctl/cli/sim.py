@@ -122,7 +122,7 @@ def announce_live(port: int, host: str, layout: Path) -> None:
     print(f"foxglove     ws://{host}:{port}  (layout: {layout})", flush=True)
 
 
-def live_layout(follower: str, leader: str, image_format: str) -> Path:
+def live_layout(follower: str, leader: str, image_format: str, camera: bool = True) -> Path:
     """The Foxglove layout that shows this run: the shipped one when its names fit
     (``follower1`` behind ``leader``, H.264), else one made for it in the user cache
     (``~/.cache/lfctl/layouts``).
@@ -135,15 +135,18 @@ def live_layout(follower: str, leader: str, image_format: str) -> Path:
         The vehicle its 3D view follows.
     image_format : str
         ``h264`` or ``jpeg``, as ``[recording] image_format``.
+    camera : bool
+        The run has a camera (camera sensing); without one the layout has no camera panel.
     """
     from lfctl.data import examples_dir, user_cache
     from lfctl.record.layout import layout_json
 
-    if (follower, leader, image_format) == ("follower1", "leader", "h264"):
+    if (follower, leader, image_format, camera) == ("follower1", "leader", "h264", True):
         return examples_dir() / "foxglove-layout.json"
-    path = user_cache("layouts") / f"{leader}-{follower}-{image_format}.json"
+    kind = image_format if camera else "no-camera"
+    path = user_cache("layouts") / f"{leader}-{follower}-{kind}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(layout_json(follower, leader, image_format))
+    path.write_text(layout_json(follower, leader, image_format, camera))
     return path
 
 
@@ -231,6 +234,14 @@ def run(args: argparse.Namespace) -> int:
                 + (f", udpout {cfg.link.gcs_udpout}" if cfg.link.gcs_udpout else ""),
                 flush=True,
             )
+        leader_port = links.ports.get(cfg.leader.name)
+        if cfg.sim.clock == "realtime" and leader_port is not None and cfg.mission.waypoints:
+            # a ground station starts the mission, as on a Rover: say how, or the scene never moves
+            host = "127.0.0.1" if cfg.link.udp_host in ("0.0.0.0", "") else cfg.link.udp_host  # (all addresses)
+            gcs = f"lfctl gcs --connect udpout:{host}:{leader_port}"
+            print(
+                f"leader       waits in HOLD, disarmed, its mission stored: `{gcs} mode AUTO`, then `arm`", flush=True
+            )
 
     def progress(t_s: float, wall_s: float) -> None:
         if show:
@@ -253,11 +264,19 @@ def run(args: argparse.Namespace) -> int:
     live = live_address(args.live, cfg.live.foxglove, "--live")
     video = live_address(args.video, cfg.live.video, "--video")
     first = cfg.followers[0].name if cfg.followers else "follower1"
-    layout = live_layout(first, cfg.leader.name, cfg.recording.image_format) if live is not None else Path()
+    camera = cfg.sim.sensing == "camera"
+    layout = live_layout(first, cfg.leader.name, cfg.recording.image_format, camera) if live is not None else Path()
     check_video(cfg, video)  # refused before it is announced
     if video is not None:
         for k, v in enumerate(cfg.followers):
             print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)
+    if (live is not None or video is not None) and cfg.sim.clock != "realtime":
+        print(
+            "note: lockstep runs as fast as it can, and the live view and video go as fast with it;"
+            " --realtime paces them for a viewer or a player",
+            file=sys.stderr,
+            flush=True,
+        )
     path: Path | None = run_path(cfg) if cfg.recording.enabled and not args.no_record else None
     handlers = {sig: signal.signal(sig, ask_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     logged: list[Path] = []

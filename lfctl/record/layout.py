@@ -16,7 +16,9 @@ from lfctl.record.writer import MAP_FRAME, image_topic
 __all__ = ["layout_json"]
 
 
-def layout_json(follower: str = "follower1", leader: str = "leader", image_format: str = "h264") -> str:
+def layout_json(
+    follower: str = "follower1", leader: str = "leader", image_format: str = "h264", camera: bool = True
+) -> str:
     """The layout as JSON (Foxglove: Layout, Import from file).
 
     Parameters
@@ -27,8 +29,11 @@ def layout_json(follower: str = "follower1", leader: str = "leader", image_forma
         The vehicle the 3D view follows.
     image_format : str
         ``h264`` (``/<follower>/camera/video``) or ``jpeg`` (``.../image/compressed``).
+    camera : bool
+        The run has a camera (camera sensing): without one there is no camera panel, whose
+        topics would never come.
     """
-    camera = fl.ImagePanel(
+    image = fl.ImagePanel(
         title=f"{follower} camera",
         config=fl.ImageConfig(
             image_mode=fl.ImageModeConfig(
@@ -66,7 +71,7 @@ def layout_json(follower: str = "follower1", leader: str = "leader", image_forma
                 2,
                 _split(
                     "column",
-                    (3, camera),
+                    *([(3, image)] if camera else []),
                     (2, fl.MapPanel(title="map", config=fl.MapConfig())),
                     (2, fl.LogPanel(title="log", config=fl.LogConfig(topic_to_render="/log"))),
                 ),

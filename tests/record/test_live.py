@@ -516,3 +516,17 @@ def test_the_layout_live_prints_shows_the_runs_own_follower_and_images(
     follower = cfg.followers[0].name
     assert video_topic in text and f"/{follower}/controller.range_error_m" in text
     assert "/follower1/" not in text or follower == "follower1"
+
+
+def test_a_run_without_a_camera_gets_a_layout_without_a_camera_panel(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the vee (truth sensing) got a layout whose camera topics never came
+    from lfctl.cli.sim import live_layout
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    path = live_layout("r1", "leader", "h264", camera=False)
+    text = path.read_text()
+    assert path.is_relative_to(tmp_path) and "/camera/" not in text
+    assert "/r1/controller.range_error_m" in text and '"/log"' in text
+    assert live_layout("follower1", "leader", "h264", camera=False) != EXAMPLES / "foxglove-layout.json"
