@@ -1199,8 +1199,7 @@ class VehicleEndpoint:
         and says "ArduPilot Ready". Parameters, REQUEST_DATA_STREAM's rates, the mission
         (from its first item), the fence and the rally points are kept, as a Rover keeps them
         in storage; parameters erased (PREFLIGHT_STORAGE) and not set since come back at
-        Rover's defaults. The
-        vehicle stays where it is; disarmed, it stops."""
+        Rover's defaults. The vehicle stays where it is; disarmed, it stops."""
         self._reboot_due = False
         if self._params_erased is not None:
             erased, self._params_erased = self._params_erased, None
