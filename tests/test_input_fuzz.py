@@ -194,7 +194,7 @@ LEADER = '[[vehicles]]\nname = "leader"\nrole = "leader"\n'
         (LEADER + "[vehicles.map]\nfly = 'x'\n", r"vehicles\[leader\]\.map: unknown role 'fly'"),
         (
             LEADER + "[vehicles.units]\nyaw = 'deg'\n",
-            r"vehicles\[leader\]\.units: map and units apply only to a user FMU .* got \{'yaw': 'deg'\}",
+            r"vehicles\[leader\]\.units: map and units apply only to a user FMU .* got \{yaw = 'deg'\}",
         ),
         ("[camera]\nk1 = nan\n" + LEADER, r"camera\.k1 must be within"),
         ("[camera]\nwidth_px = 8192\nheight_px = 8192\n" + LEADER, r"camera\.width_px must be within 16\.\.4096"),
