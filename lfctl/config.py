@@ -568,7 +568,11 @@ class OccluderConfig(_Section):
     """One [[scene.occluders]]: a panel that crosses between a follower and its target.
 
     At ``t_s`` it appears ``lateral_m`` to the side of the line of sight, ``fraction`` of the
-    way from the follower to the target, and moves across it at ``speed_mps``.
+    way from the follower to the target, and moves across it at ``speed_mps``. Its path is
+    fixed in the world when it appears: it reaches that line after ``lateral_m /
+    speed_mps`` (3 s with the defaults), by when a pair driving at 0.3 m/s has moved on and
+    the panel may pass behind the follower; a nearer, shorter crossing (``fraction`` 0.6,
+    ``lateral_m`` 0.8) hides the target from a moving follower.
     """
 
     _key = "scene.occluders"

@@ -703,7 +703,9 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
                 for e in track_episodes(t, status, step_s)
             ],
         }
-        poses = [m for _, m in _json_messages(c, f"/{f}/pose_estimate") if m["truth_range_m"] <= 3.0]
+        every = [m for _, m in _json_messages(c, f"/{f}/pose_estimate")]
+        poses = [m for m in every if m["truth_range_m"] <= POSE_RANGE_M]
+        fig["pose_samples"] = [len(poses), len(every)]  # within POSE_RANGE_M, all
         if poses:
             pr = np.array([(m["range_m"] - m["truth_range_m"]) / m["truth_range_m"] for m in poses])
             pb = np.array([m["bearing_deg"] - m["truth_bearing_deg"] for m in poses])
@@ -712,6 +714,11 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
         out.append(fig)
     return out
 
+
+#: the pose errors count the poses of a target at most this far (the truth's range), m: the
+#: banner's markers are a few pixels each beyond it, and the figures are those of the range
+#: the pose is made for; the report says how many poses that leaves out
+POSE_RANGE_M = 3.0
 
 #: a sender silent this long, then heard again, started a new session (a new process,
 #: a reconnect): its sequence restarts, which is not loss
@@ -1056,6 +1063,12 @@ def format_report(report: AuditReport) -> str:
                 f"  {f['follower']:<10} {f['target']:<8} {cells[0]:>9} {cells[1]:>9} {cells[2]:>11} {cells[3]:>11} "
                 f"{cells[4]:>9} {cells[5]:>10} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
             )
+            within, every = f.get("pose_samples", (0, 0))
+            if every > within:
+                lines.append(
+                    f"    pose errors from the {within} of {every} poses with the target within {POSE_RANGE_M:g} m"
+                    " (the truth's range); the others are not counted"
+                )
             for e in f["occlusion_episodes"]:
                 lines.append(  # the episode's time counts in occluded s and lost s by state
                     f"    not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']}), "
