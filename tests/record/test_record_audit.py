@@ -664,3 +664,18 @@ def test_run_metadata_numbers_are_typed_only_as_the_recorder_writes_them() -> No
     typed = run_values({"seed": "7_0", "video_gop": "+7", "waypoints": "4", "duration_s": "70.0", "dt_s": "1e-05"})
     assert typed == {"seed": "7_0", "video_gop": "+7", "waypoints": 4, "duration_s": 70.0, "dt_s": 1e-05}
     assert run_values({"images": "yes", "camera_rate_hz": "inf"}) == {"images": "yes", "camera_rate_hz": "inf"}
+
+
+def test_the_pose_errors_say_how_many_poses_they_leave_out(camera_log, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a follower 4.5 m back showed "-" for its pose errors with no word why
+    from lfctl.record import audit as audit_module
+
+    path, _ = camera_log
+    (f,) = audit(path).figures["followers"]
+    within, every = f["pose_samples"]
+    assert every > 0 and within == every  # the convoy's slot is 1.5 m: every pose counts
+    assert "poses with the target within" not in format_report(audit(path))
+    monkeypatch.setattr(audit_module, "POSE_RANGE_M", 1.0)  # as if the slot were beyond the range
+    rep = audit(path)
+    assert rep.figures["followers"][0]["pose_samples"] == [0, every]
+    assert f"pose errors from the 0 of {every} poses with the target within 1 m" in format_report(rep)
