@@ -173,7 +173,10 @@ def print_report(report: RunReport) -> None:
         print(f"             {c.kind} {what} by system {c.sysid} at {c.t_s:.1f} s")
     if report.metrics and cfg.script.followers == "formation":
         print()
-        print(f"errors after {SETTLE_S:g} s settling; bearing is the target's bearing from the follower's heading")
+        print(
+            f"errors after {SETTLE_S:g} s settling (min sep over the whole run);"
+            " bearing is the target's bearing from the follower's heading"
+        )
         print("path RMS: the follower's distance from the path its target drove, less the slot's sideways offset")
         head = (
             "follower", "target", "range_m", "bearing", "rng RMS m", "rng max m", "brg RMS deg", "brg max deg",

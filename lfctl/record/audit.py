@@ -1042,7 +1042,7 @@ def format_report(report: AuditReport) -> str:
     lines.append("integrity: " + ("OK" if report.ok else "FAILED"))
     lines += [f"  {f.line()}" for f in report.findings] or ["  no findings"]
     if fig.get("followers"):
-        lines.append(f"formation (after {SETTLE_S:g} s settling):")
+        lines.append(f"formation (errors after {SETTLE_S:g} s settling; min sep over the whole run):")
         lines.append(
             f"  {'follower':<10} {'target':<8} {'rng RMS m':>9} {'rng max m':>9} {'brg RMS deg':>11} {'brg max deg':>11} {'min sep m':>9} {'path RMS m':>10} {'tracking s':>10} {'occluded s':>10} {'lost s':>6} {'pose rng %':>10} {'pose brg deg':>12}"
         )
