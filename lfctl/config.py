@@ -813,6 +813,18 @@ class Config:
                 )
         if self.banner.kind == "aruco":
             self._check_tag_ids()
+        else:  # a key that would be taken and ignored is refused, as map and units without an FMU are
+            tagged = [v.name for v in self.vehicles if v.aruco_id is not None]
+            if tagged:
+                raise ConfigError(
+                    f"vehicles[{tagged[0]}].aruco_id: a tag id applies only to an ArUco banner"
+                    f' (banner.kind = "aruco"), got banner.kind = {self.banner.kind!r}'
+                )
+        if self.scene.textures == "footage" and self.scene.realism == "off":
+            raise ConfigError(
+                'scene.textures = "footage": photographed textures apply only with scene.realism = "on"'
+                " (the flat look paints its own)"
+            )
         if self.guidance.controller == "trail":
             for name, slot in self.slots().items():
                 if abs(slot.bearing_rad) > math.radians(TRAIL_MAX_BEARING_DEG) + 1e-12:

@@ -95,6 +95,9 @@ def test_defaults_fill_the_sim_section() -> None:
             LEADER + "model = 'Tank'\n",
             r"vehicles\[leader\]\.model must be one of KinematicUnicycle, SkidSteerRover, got 'Tank'",
         ),
+        # keys that would be taken and ignored (a scenario author's audit found them run silently)
+        (LEADER + "aruco_id = 5\n", r"vehicles\[leader\]\.aruco_id: a tag id applies only to an ArUco banner"),
+        (LEADER + "[scene]\ntextures = 'footage'\n", r"photographed textures apply only with scene\.realism = \"on\""),
     ],
 )
 def test_bad_scenarios_name_the_key(text: str, message: str) -> None:
