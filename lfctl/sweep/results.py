@@ -340,6 +340,12 @@ def _num(value: float | None) -> str:
     return f"{value:.3g}" if abs(value) < 1000 else f"{value:.0f}"
 
 
+def _key_text(value: Any) -> str:
+    """A swept value in the summary's table: a float to 4 significant digits (a value drawn
+    at random would print all 16), the rest as the tables hold it."""
+    return f"{value:.4g}" if isinstance(value, float) else str(_cell(value))
+
+
 def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], followers: Sequence[str]) -> str:
     """The headline figures (:data:`HEADLINE`) per variant as a Markdown table: ``mean [lo, hi]``.
 
@@ -362,7 +368,7 @@ def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], fol
     head = ["variant", *keys, "ok/runs", *[(m if prefix else m.split(".", 1)[1]) for m in shown]]
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
     for s in summary:
-        cells = [str(s["variant"]), *[str(_cell(s.get(k))) for k in keys], f"{s['ok']}/{s['runs']}"]
+        cells = [str(s["variant"]), *[_key_text(s.get(k)) for k in keys], f"{s['ok']}/{s['runs']}"]
         for m in shown:
             mean, lo, hi = s.get(f"{m}.mean"), s.get(f"{m}.ci95_lo"), s.get(f"{m}.ci95_hi")
             cells.append(_num(mean) + (f" [{_num(lo)}, {_num(hi)}]" if lo is not None else ""))

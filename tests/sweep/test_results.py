@@ -180,3 +180,11 @@ def test_a_foreign_table_or_description_is_named(tmp_path: Path) -> None:
         (tmp_path / "sweep.json").write_text(text)
         with pytest.raises(ConfigError, match=why):
             read_meta(tmp_path)
+
+
+def test_a_value_drawn_at_random_is_shown_to_four_digits_in_the_summary() -> None:
+    rows = [dict(_row(0, 0, 1.0), **{"sensing.range_noise_m": 1.875286399814001})]
+    text = summary_markdown(
+        summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m"]), ["sensing.range_noise_m"], ["f1"]
+    )
+    assert "| 0 | 1.875 | 1/1 |" in text and "1.8752" not in text
