@@ -67,6 +67,7 @@ __all__ = [
     "home_item",
     "is_nav",
     "jump_tag_item",
+    "jump_tag_items",
     "load_mission",
     "load_mission_file",
     "local_mission",
@@ -480,9 +481,25 @@ def mission_text(item: MissionItem) -> str:
     return f"{text} 0" if item.command == JUMP_TAG else text
 
 
+def jump_tag_items(items: list[MissionItem]) -> dict[float, int]:
+    """Each tag of a mission (home first) to the item number of its first JUMP_TAG, as
+    ``AP_Mission::get_index_of_jump_tag`` finds it (a tag missing here: item 0, none).
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    """
+    first: dict[float, int] = {}
+    for k, it in enumerate(items[1:], start=1):
+        if it.command == JUMP_TAG:
+            first.setdefault(it.param1, k)
+    return first
+
+
 def jump_tag_item(items: list[MissionItem], tag: float) -> int:
     """The item number of the first JUMP_TAG of ``tag`` in a mission (home first), or 0 when
-    none has it (``AP_Mission::get_index_of_jump_tag``).
+    none has it (:func:`jump_tag_items`).
 
     Parameters
     ----------
@@ -491,7 +508,7 @@ def jump_tag_item(items: list[MissionItem], tag: float) -> int:
     tag : float
         The tag (a DO_JUMP_TAG's param1, as stored: a whole number).
     """
-    return next((k for k, it in enumerate(items[1:], start=1) if it.command == JUMP_TAG and it.param1 == tag), 0)
+    return jump_tag_items(items).get(tag, 0)
 
 
 def command_name(cmd: int) -> str:
@@ -623,6 +640,7 @@ def walk_mission(
     jumps_left: dict[int, int] = dict(jumps)
     jumped: list[tuple[int, int, int]] = []  # since the last leg: (item, times taken, repeats)
     first_met: int | None = None  # jumps taken since the last leg when its first item before was met
+    tags = jump_tag_items(items)  # looked up once: the walk may pass a jump thousands of times
     i = start_seq
     # jumps between items with no waypoint in between (a DO_JUMP to itself, two that point
     # at each other) add no legs: the walk is bounded too, not only the legs it yields
@@ -653,7 +671,8 @@ def walk_mission(
             if hold == math.inf:
                 return legs, ()
         elif it.command in (DO_JUMP, DO_JUMP_TAG):
-            if it.command == DO_JUMP_TAG and jump_tag_item(items, it.param1) == 0:
+            target = tags.get(it.param1, 0) if it.command == DO_JUMP_TAG else None
+            if target == 0:
                 break  # a tag no JUMP_TAG has ends the mission, whatever the count (get_next_cmd)
             if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
                 repeats = math.trunc(it.param2)
@@ -662,7 +681,7 @@ def walk_mission(
                     jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
                     if left > 0:
                         jumped.append((i, repeats - left + 1, repeats))
-                    i = jump_tag_item(items, it.param1) if it.command == DO_JUMP_TAG else math.trunc(it.param1)
+                    i = target if target is not None else math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it
             blocked = any(b.command not in SKIPPED_NAV for b in before)
