@@ -15,7 +15,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
-from lfctl.link.companion import Companion
+from lfctl.link.companion import COMMAND_TRIES, Companion
+from lfctl.link.endpoint import MODES
+from lfctl.link.gcs import mode_name, result_name
 from lfctl.link.params import set_values
 from lfctl.video import VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
@@ -58,10 +60,16 @@ class RoverRun:
     tracking: int = 0  # steps whose frame showed the target (TRACKING)
     occluded: int = 0  # steps coasting on a hidden target (OCCLUDED), or before it was first found
     lost: int = 0  # steps with the target lost (LOST)
+    #: steps while the rover last said it was in GUIDED and armed: the setpoints it carried out
+    #: (in another mode, or disarmed, ArduPilot ignores them)
+    guided: int = 0
 
     def summary(self) -> str:
-        """One line: what was sent, and how often the target was seen."""
-        line = f"sent {self.steps} setpoints; {self.frames} frames"
+        """One line: what was sent, how many the rover took, and how often the target was seen."""
+        line = f"sent {self.steps} setpoints"
+        if self.steps:
+            line += f" (the rover in GUIDED and armed for {self.guided})"
+        line += f"; {self.frames} frames"
         if self.steps:
             line += f"; target tracking in {self.tracking}, occluded in {self.occluded}, lost in {self.lost} steps"
             if self.tracking == 0:
@@ -88,13 +96,17 @@ def follow_rover(
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
     Waits for the rover's heartbeat, asks for its odometry at ``rate_hz``, puts it in GUIDED
-    (and arms it with ``arm``), then each period: read the rover's messages (and answer a
+    (and arms it with ``arm``), each request waiting for the rover's answer and sent again
+    when none comes (a refusal or silence is said in the log with the rover's reason, and the
+    run goes on: the rover ignores setpoints until it is in GUIDED and armed), then each period: read the rover's messages (and answer a
     ground station's parameter requests), take a frame, perceive it, run the stack with the
     companion's ``LFC_*`` parameters (set from ``settings`` at the start; a ground station
     may change them). The companion's heartbeat goes out once a second. Odometry that stops
     coming for :data:`ODOMETRY_STALE_S` (or three periods) is said in the log and to the
-    ground station, and again when it comes back. The rover is sent zero setpoints at the
-    end, however it ends.
+    ground station, and again when it comes back. The rover's mode and arming changes (its
+    pilot or a ground station taking it out of GUIDED, or putting it back) and what its
+    autopilot says (STATUSTEXT) are said in the log; the companion never takes the rover
+    back into GUIDED itself. The rover is sent zero setpoints at the end, however it ends.
 
     Parameters
     ----------
@@ -127,14 +139,22 @@ def follow_rover(
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
     companion.wait_vehicle(timeout_s, rate_hz)
-    companion.set_guided()
-    if arm:
-        companion.arm()
+    _say_heard(companion, name)  # what it said before: its banner, a failing pre-arm check
+    guided = MODES["GUIDED"]
+    if _ask(companion, name, "GUIDED", mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, guided):
+        companion.vehicle.mode = guided  # its answer follows the change; its HEARTBEAT may lag
+    # what the log has said of the rover: a change after it (even one during the requests) is said
+    state = (guided if companion.vehicle.mode == guided else companion.vehicle.mode, companion.vehicle.armed)
+    if arm and _ask(companion, name, "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0):
+        companion.vehicle.armed = True
+        state = (state[0], True)
+    elif not arm and companion.vehicle.armed is False:
+        log.warning("%s: the rover is disarmed: it takes the setpoints once it is armed", name)
     stack = Follower(name, settings, companion, step_rate_hz=rate_hz, status_rate_hz=status_rate_hz)
     period = 1.0 / rate_hz
     t0 = time.monotonic()
     now = clock if clock is not None else lambda: time.monotonic() - t0
-    steps = frames = 0
+    steps = frames = obeyed = 0
     seen_as = dict.fromkeys(TrackStatus, 0)
     t_s = t_start = now()
     stale = False
@@ -146,6 +166,8 @@ def follow_rover(
             companion.poll(t_s)
             companion.heartbeat(t_s)
             stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
+            _say_heard(companion, name)
+            state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
                 break
@@ -158,6 +180,7 @@ def follow_rover(
             stack.tune_from_params(companion.param)
             out = stack.step(t_s, seen.measurement, odom)
             steps += 1
+            obeyed += v.mode == guided and bool(v.armed)
             seen_as[seen.measurement.status] += 1
             if on_step is not None:
                 on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:], fix))
@@ -166,8 +189,70 @@ def follow_rover(
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)
     return RoverRun(
-        steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST]
+        steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST], obeyed
     )
+
+
+def _ask(companion: Companion, name: str, what: str, cmd: int, *params: float) -> bool:
+    """A start-up command (``what``: ``GUIDED``, ``arm``), awaited; whether the rover took it.
+    A refusal or silence is said in the log with what the rover said meanwhile (Rover says
+    its reason before it answers: "Flight mode change failed", "Arm: ...")."""
+    result = companion.request(cmd, *params)
+    if result == mav.MAV_RESULT_ACCEPTED:
+        _say_heard(companion, name)
+        return True
+    said = [text for _severity, text in companion.heard]
+    companion.heard.clear()
+    answer = f"no answer to {COMMAND_TRIES} tries" if result is None else result_name(result)
+    if said:
+        answer += "; it said: " + " / ".join(said)
+    asked = "GUIDED" if what == "GUIDED" else "to arm"
+    log.warning(
+        "%s: the rover %s %s (%s): it ignores the setpoints until it is %s; the follower goes on and says when it is",
+        name,
+        "did not answer the request for" if result is None else "refused",
+        asked,
+        answer,
+        "in GUIDED (set it from the ground station or the transmitter)"
+        if what == "GUIDED"
+        else "armed (arm it yourself)",
+    )
+    return False
+
+
+def _say_heard(companion: Companion, name: str) -> None:
+    """What the rover's autopilot said since the last call, in the log: its warnings (a
+    failing pre-arm check, a mode change refused, a failsafe) as warnings, the rest as info."""
+    while companion.heard:
+        severity, text = companion.heard.popleft()
+        level = logging.WARNING if severity <= mav.MAV_SEVERITY_WARNING else logging.INFO
+        log.log(level, "%s: the rover says: %s", name, text)
+
+
+def _say_rover_state(
+    companion: Companion, name: str, was: tuple[int | None, bool | None]
+) -> tuple[int | None, bool | None]:
+    """Say in the log when the rover's mode or arming changes (its HEARTBEAT): out of GUIDED,
+    or disarmed, it ignores the setpoints, and the companion does not take it back (its
+    pilot or ground station did that); back in GUIDED and armed it follows again."""
+    v = companion.vehicle
+    mode, armed = v.mode, v.armed
+    if mode is not None and mode != was[0]:
+        if mode == MODES["GUIDED"]:
+            log.info("%s: the rover is in GUIDED: it takes the setpoints%s", name, "" if armed else " once armed")
+        else:
+            log.warning(
+                "%s: the rover is in %s, not GUIDED: it ignores the setpoints until it is put back in GUIDED "
+                "(the follower does not take it back)",
+                name,
+                mode_name(mode),
+            )
+    if armed is not None and armed != was[1]:
+        if armed:
+            log.info("%s: the rover is armed", name)
+        else:
+            log.warning("%s: the rover is disarmed: it does not move until it is armed again", name)
+    return mode, armed
 
 
 def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, stale: bool, stale_s: float) -> bool:

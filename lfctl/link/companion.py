@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,6 +35,7 @@ from lfctl.errors import LinkTimeoutError
 from lfctl.frames import HALF_EARTH_M, on_earth
 from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
+from lfctl.link.gcs import result_name, text_field
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import formation_params
 from lfctl.link.port import CHECK_LINK, MavPort
@@ -50,6 +52,13 @@ ODOMETRY_MSG_IDS = (
 )
 #: the companion's HEARTBEAT period, s (MAVLink's 1 Hz)
 HEARTBEAT_PERIOD_S = 1.0
+#: a command that waits for its answer (:meth:`Companion.request`): how long each try waits for
+#: the COMMAND_ACK, s, and how many tries go out (the same COMMAND_LONG again, its
+#: confirmation counting up, as MAVLink's command protocol asks of a sender)
+COMMAND_TRY_S = 1.0
+COMMAND_TRIES = 3
+#: the vehicle's STATUSTEXTs kept for the caller (:attr:`Companion.heard`), the newest
+HEARD_MAX = 100
 #: the parameter protocol's requests
 log = logging.getLogger(__name__)
 
@@ -111,6 +120,11 @@ class Companion:
         #: the vehicle's position and attitude messages passed over for a value that is not a
         #: number or past any ground vehicle's (:data:`PLAUSIBLE`)
         self.passed_over = 0
+        #: what the vehicle's autopilot said (STATUSTEXT), (MAV_SEVERITY, text escaped), oldest
+        #: first, the newest :data:`HEARD_MAX`: a caller reads them off (``popleft``) to show them
+        self.heard: deque[tuple[int, str]] = deque(maxlen=HEARD_MAX)
+        #: the autopilot's last COMMAND_ACK result for each command, addressed to the companion
+        self.acks: dict[int, int] = {}
         self._heartbeat_t_s: float | None = None
 
     def param(self, name: str) -> float:
@@ -173,12 +187,45 @@ class Companion:
         p = [*params, *([0.0] * (7 - len(params)))]
         self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, 0, *p))
 
+    def request(self, cmd: int, *params: float, try_s: float = COMMAND_TRY_S, tries: int = COMMAND_TRIES) -> int | None:
+        """A COMMAND_LONG to the vehicle's autopilot that waits for its COMMAND_ACK, sent again
+        (confirmation 1, 2, ...) when none comes within ``try_s``; an IN_PROGRESS answer waits
+        on. Everything else that comes meanwhile is taken as :meth:`poll` takes it. Returns
+        the MAV_RESULT, or None when no answer came to any try (a lossy link, or an autopilot
+        that does not answer).
+
+        Parameters
+        ----------
+        cmd : int
+            The MAV_CMD.
+        *params : float
+            param1, param2, ... (up to 7; the rest are 0).
+        try_s : float
+            Longest wait for each try's answer, s.
+        tries : int
+            Sends, at most.
+        """
+        p = [*params, *([0.0] * (7 - len(params)))]
+        start = time.monotonic()
+        for attempt in range(tries):
+            self.acks.pop(cmd, None)
+            self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, min(attempt, 255), *p))
+            deadline = time.monotonic() + try_s
+            while (left := deadline - time.monotonic()) > 0:
+                self.poll(time.monotonic() - start, min(0.05, left))
+                result = self.acks.pop(cmd, None)
+                if result == mav.MAV_RESULT_IN_PROGRESS:
+                    deadline = time.monotonic() + try_s  # being carried out: its final answer follows
+                elif result is not None:
+                    return result
+        return None
+
     def set_guided(self) -> None:
-        """Ask for GUIDED mode."""
+        """Ask for GUIDED mode (the answer is not awaited: :meth:`request` waits for it)."""
         self.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["GUIDED"])
 
     def arm(self, on: bool = True) -> None:
-        """Ask to arm (or disarm).
+        """Ask to arm (or disarm) (the answer is not awaited: :meth:`request` waits for it).
 
         Parameters
         ----------
@@ -284,6 +331,11 @@ class Companion:
         elif kind == "ATTITUDE":
             if self._plausible(kind, ("yaw", m.yaw)):
                 v.yaw_rad = m.yaw
+        elif kind == "COMMAND_ACK":
+            if m.target_component in (0, COMPANION_COMPID):  # ours (0: pymavlink's MAVLink 1 ack)
+                self.acks[m.command] = m.result
+        elif kind == "STATUSTEXT":
+            self.heard.append((m.severity, text_field(m.text)))
         elif kind == "GLOBAL_POSITION_INT":
             v.global_t_s = t_s
             known = (m.lat, m.lon) != (0, 0) and on_earth(m.lat / 1e7, m.lon / 1e7)
@@ -350,9 +402,11 @@ class Companion:
                 mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), list(answer))
             )
 
-    def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> None:
+    def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> dict[int, int | None]:
         """Say hello until the vehicle's heartbeat is heard, then ask for its position (local
-        and global) and attitude at ``odometry_rate_hz``.
+        and global) and attitude at ``odometry_rate_hz``, each request waiting for its answer
+        (:meth:`request`). A request refused or not answered is said in the log, with what to
+        set on the vehicle instead. Returns each message id's MAV_RESULT (None: no answer).
 
         Parameters
         ----------
@@ -372,11 +426,25 @@ class Companion:
             self._send_heartbeat()
             self.poll(time.monotonic() - start, 0.2)
             if self.vehicle.heard:
-                interval_us = 1e6 / odometry_rate_hz
-                for msg_id in ODOMETRY_MSG_IDS:
-                    self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, interval_us)
-                return
+                return {msg_id: self._ask_stream(msg_id, odometry_rate_hz) for msg_id in ODOMETRY_MSG_IDS}
         raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=CHECK_LINK)
+
+    def _ask_stream(self, msg_id: int, rate_hz: float) -> int | None:
+        """MAV_CMD_SET_MESSAGE_INTERVAL for one message, awaited; a refusal or silence is said,
+        with the ArduPilot stream-rate parameter that sends the message otherwise."""
+        result = self.request(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / rate_hz)
+        if result != mav.MAV_RESULT_ACCEPTED:
+            name = mav.mavlink_map[msg_id].msgname
+            log.warning(
+                "the vehicle %s %s at %g Hz (%s): set its stream rate instead (ArduPilot: SRn_%s on its "
+                "companion's serial port n)",
+                "did not answer the request for" if result is None else "refused",
+                name,
+                rate_hz,
+                f"no COMMAND_ACK to {COMMAND_TRIES} tries" if result is None else result_name(result),
+                "EXTRA1" if msg_id == mav.MAVLINK_MSG_ID_ATTITUDE else "POSITION",
+            )
+        return result
 
     def close(self) -> None:
         """Close the connection."""

@@ -340,7 +340,10 @@ def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banne
             sock.close()
             companion.close()
     assert done.steps == 40 and done.tracking + done.occluded + done.lost == 40 and done.tracking > 0
-    assert done.summary().startswith(f"sent 40 setpoints; 40 frames; target tracking in {done.tracking}, ")
+    assert done.guided == 0  # not armed: the rover ignored every setpoint, and the summary says so
+    assert done.summary().startswith(
+        f"sent 40 setpoints (the rover in GUIDED and armed for 0); 40 frames; target tracking in {done.tracking}, "
+    )
     assert slots[0][1:] == (1.5, "smc")  # the settings' slot, as the companion's parameters say it
     moved = [k for k, r, law in slots if r == 2.5 and law in ("trail", "smc")]
     assert moved and moved[0] >= 5 and slots[-1][1] == 2.5  # taken on a later step, and kept
@@ -395,7 +398,9 @@ def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is
     said = [(t, text) for t, text in texts if "odometry" in text]
     assert [text for _t, text in said] == ["rover: no odometry for 1 s", "rover: odometry back"]
     assert stopped_at[0] < said[0][0] and stopped_at[1] < said[1][0]  # each after what it tells of
-    logged = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
+    logged = [
+        r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover" and "odometry" in r.getMessage()
+    ]
     assert logged == ["rover: no odometry (LOCAL_POSITION_NED) for 1 s: the stack steers on its last position",
                       "rover: odometry (LOCAL_POSITION_NED) back"]  # fmt: skip
 
@@ -433,9 +438,9 @@ def test_a_slot_the_companion_could_not_hold_as_a_parameter_is_refused_at_the_st
 def test_a_run_that_never_saw_its_target_says_so() -> None:
     from lfctl.follower.rover import RoverRun
 
-    assert RoverRun(60, 60, 0, 60, 0).summary() == (
-        "sent 60 setpoints; 60 frames; target tracking in 0, occluded in 60, lost in 0 steps"
-        " (never seen: check the camera, the banner and its markers' hue)"
+    assert RoverRun(60, 60, 0, 60, 0, guided=55).summary() == (
+        "sent 60 setpoints (the rover in GUIDED and armed for 55); 60 frames; target tracking in 0, occluded"
+        " in 60, lost in 0 steps (never seen: check the camera, the banner and its markers' hue)"
     )
     assert RoverRun(0, 0).summary() == "sent 0 setpoints; 0 frames"
 
@@ -455,3 +460,97 @@ def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> N
 
     with pytest.raises(LinkError, match=re.escape(said)):
         MavPort.open(connect, 255, 190)
+
+
+# -- the rover's answers: awaited, sent again, refusals and mode changes said -----------------------
+def _memory_rover(drop: int = 0) -> tuple[VehicleEndpoint, Companion, list[int]]:
+    """A rover endpoint and its companion on an in-memory link, the rover ticking at each read;
+    the rover ignores its first ``drop`` COMMAND_LONGs (lost on the way). Returns the rover,
+    the companion and the confirmation field of each COMMAND_LONG the rover got."""
+    a, b = MemoryLink.pair("rover", "companion")
+    rover = VehicleEndpoint("rover", 1, a, HOME)
+    still = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+    t0 = time.monotonic()
+    companion = Companion(MavPort.memory(b, 1, COMPANION_COMPID, lambda: rover.tick(time.monotonic() - t0, still)), 1)
+    got: list[int] = []
+    carry_out = rover._on_command_long
+
+    def lossy(m: Any) -> None:
+        got.append(m.confirmation)
+        if len(got) > drop:
+            carry_out(m)
+
+    rover._on_command_long = lossy  # type: ignore[method-assign]
+    return rover, companion, got
+
+
+def test_a_command_lost_on_the_way_is_sent_again_and_its_answer_returned() -> None:
+    rover, companion, got = _memory_rover(drop=2)
+    result = companion.request(mav.MAV_CMD_DO_SET_MODE, 1, MODES["GUIDED"], try_s=0.2)
+    assert result == mav.MAV_RESULT_ACCEPTED and rover.mode == MODES["GUIDED"]
+    assert got == [0, 1, 2]  # MAVLink's command protocol: the confirmation counts the tries
+    rover, companion, got = _memory_rover(drop=5)
+    assert companion.request(mav.MAV_CMD_DO_SET_MODE, 1, MODES["GUIDED"], try_s=0.05, tries=3) is None
+    assert got == [0, 1, 2] and rover.mode != MODES["GUIDED"]
+
+
+def test_a_refused_stream_request_is_said_with_the_parameter_to_set(caplog: pytest.LogCaptureFixture) -> None:
+    rover, companion, _got = _memory_rover()
+    rover._set_interval = lambda *p: mav.MAV_RESULT_DENIED  # type: ignore[method-assign]
+    answers = companion.wait_vehicle(2.0, 20.0)
+    assert set(answers.values()) == {mav.MAV_RESULT_DENIED}
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("refused ATTITUDE at 20 Hz (MAV_RESULT_DENIED)" in t and "SRn_EXTRA1" in t for t in said)
+    assert any("refused LOCAL_POSITION_NED" in t and "SRn_POSITION" in t for t in said)
+
+
+def test_a_rover_that_will_not_arm_is_said_with_its_reason_and_the_run_goes_on(
+    banner_video, standing_rover, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    # Rover's pre-arm check: WP_SPEED 0 fails it ("Arm: WP_SPEED too low", MAV_RESULT_FAILED)
+    with standing_rover() as rover:
+        rover.params["WP_SPEED"].value = 0.0
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}", "--camera",
+                   str(banner_video(20)), "--arm", "--max-frames", "10", "--timeout", "5"])  # fmt: skip
+        assert not rover.armed
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert rc == 0 and any(
+        "the rover refused to arm (MAV_RESULT_FAILED; it said: Arm: WP_SPEED too low)" in t for t in said
+    ), said
+    assert "sent 10 setpoints (the rover in GUIDED and armed for 0)" in capsys.readouterr().out
+
+
+def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    from lfctl.config import parse_config
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.video import VideoSource
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    modes: list[int] = []
+    with standing_rover() as rover:
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+
+        def on_step(step: Any) -> None:
+            modes.append(rover.mode)
+            if len(modes) == 10:  # the pilot's mode switch: MANUAL
+                rover.set_mode(MODES["MANUAL"])
+            elif len(modes) == 35:  # and the disarm switch
+                rover.set_armed(False)
+
+        try:
+            with VideoSource(str(banner_video(60))) as video:
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                    arm=True, timeout_s=5.0, max_frames=50, on_step=on_step)  # fmt: skip
+        finally:
+            companion.close()
+    assert modes[0] == MODES["GUIDED"] and modes[-1] == MODES["MANUAL"]  # never taken back
+    assert 9 <= done.guided < 50  # GUIDED and armed until the switch reached it (a heartbeat a second)
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("the rover is in MANUAL, not GUIDED: it ignores the setpoints" in t for t in said), said
+    assert said[-1] == "rover: the rover is disarmed: it does not move until it is armed again"
