@@ -90,6 +90,9 @@ TAG_DICTIONARIES: dict[str, tuple[int, int]] = {
 #: the widest slot bearing the trail law holds, deg (lfctl.guidance.formation.TRAIL_MAX_BEARING_RAD:
 #: config may not import guidance, a test keeps the two equal)
 TRAIL_MAX_BEARING_DEG = 30.0
+#: the sliding-mode law holds slots below this bearing either side: abeam, the follower's
+#: speed no longer changes the range, and past it the range law's sign turns round
+SMC_MAX_BEARING_DEG = 90.0
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -825,6 +828,14 @@ class Config:
                 'scene.textures = "footage": photographed textures apply only with scene.realism = "on"'
                 " (the flat look paints its own)"
             )
+        if self.guidance.controller == "smc":
+            for name, slot in self.slots().items():
+                if abs(slot.bearing_rad) >= math.radians(SMC_MAX_BEARING_DEG) - 1e-12:
+                    raise ConfigError(
+                        f"vehicles[{name}]: a slot at bearing {math.degrees(slot.bearing_rad):g} deg is at or past the "
+                        f'side, which guidance.controller = "smc" cannot hold (its speed sets the range along the '
+                        f'line of sight: below {SMC_MAX_BEARING_DEG:g} deg): use "p"'
+                    )
         if self.guidance.controller == "trail":
             for name, slot in self.slots().items():
                 if abs(slot.bearing_rad) > math.radians(TRAIL_MAX_BEARING_DEG) + 1e-12:

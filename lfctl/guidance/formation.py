@@ -49,6 +49,10 @@ TRAIL_MIN_RANGE = 0.6
 #: (from 35 deg to the side, on the inside of a right-angle corner, a follower reaches the
 #: corner as its target turns it and turns the long way round)
 TRAIL_MAX_BEARING_RAD = math.radians(30.0)  # lfctl.config.TRAIL_MAX_BEARING_DEG, which a test keeps equal
+#: the sliding-mode law holds slots below this bearing; one at or past it (the follower abeam
+#: of its target or ahead) is held by the P law (lfctl.config.SMC_MAX_BEARING_DEG, which a
+#: test keeps equal)
+SMC_MAX_BEARING_RAD = math.radians(90.0)
 #: the trail law keeps the target this far inside the picture's edge besides the banner's own
 #: half-width, rad: the tracker's window and search region need the room
 VIEW_MARGIN_RAD = math.radians(5.0)
@@ -294,6 +298,9 @@ class FormationController:
         self.bearing_smc = SlidingModeController(settings.bearing)
         self._odom: deque[Odometry] = deque(maxlen=64)
         self._t_last_meas = -math.inf
+        # the time of the last measurement fused (its image time): one handed again (a camera
+        # slower than the guidance steps) is not fused again
+        self._t_fused = -math.inf
         self._t_prev: float | None = None
         self._target_heading: float | None = None
         # the search once LOST: the turn's direction (+1 right, -1 left), its heading a step
@@ -336,8 +343,11 @@ class FormationController:
             self._law = st.controller
             self._trail_restart = True  # the trail has not been kept while another law drove
             self.bearing_smc.reset()
-        wide = st.controller == "trail" and abs(st.bearing_cmd_rad) > TRAIL_MAX_BEARING_RAD
-        law = "smc" if wide else st.controller
+        law = st.controller
+        if law == "trail" and abs(st.bearing_cmd_rad) > TRAIL_MAX_BEARING_RAD:
+            law = "smc"  # a ground station set a slot wider than the trail law holds (LFC_BEARING)
+        if law == "smc" and abs(st.bearing_cmd_rad) >= SMC_MAX_BEARING_RAD:
+            law = "p"  # ... or one at or past the side: the position law holds any slot
         dt = 0.0 if self._t_prev is None else odom.t_s - self._t_prev
         self._t_prev = odom.t_s
         self._odom.append(odom)
@@ -346,26 +356,24 @@ class FormationController:
             est.predict(dt)
         bearing = _value(meas.bearing_rad) if meas is not None and meas.status is TrackStatus.TRACKING else None
         measured_range = _value(meas.range_m) if meas is not None and bearing is not None else None
+        if measured_range is not None and measured_range <= 0.0:
+            measured_range = None  # no distance (a sensor's garbage): the bearing alone counts
         stale = odom.t_s - self._t_last_meas > st.coast_s + st.slowdown_s
         # a bearing-only sighting can keep a running filter alive, not start one
-        fresh = measured_range is not None or (bearing is not None and est.initialised and not stale)
+        sighted = measured_range is not None or (bearing is not None and est.initialised and not stale)
+        # each measurement is fused once: one handed again (the camera slower than the steps)
+        # adds nothing the filter has not taken, and taken again it would shrink the filter's
+        # uncertainty as if it were new
+        fresh = sighted and meas is not None and meas.t_s > self._t_fused
         if fresh and meas is not None and bearing is not None:
+            self._t_fused = meas.t_s
             at = self._odometry_at(meas.t_s)
             R = None
             if measured_range is not None:
-                rng = measured_range
+                dn, de = body_to_ned(measured_range * math.cos(bearing), measured_range * math.sin(bearing), at.yaw_rad)
+                n, e = at.north_m + dn, at.east_m + de
             else:
-                # bearing only: place the fix at the filter's own range along the measured
-                # bearing, with a large variance along the line of sight and a small one across
-                pn, pe = est.position
-                rng = max(0.1, math.hypot(pn - at.north_m, pe - at.east_m))
-                los = at.yaw_rad + bearing
-                u = np.array([math.cos(los), math.sin(los)])
-                v = np.array([-u[1], u[0]])
-                R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * (rng * 0.02) ** 2
-            fwd, right = rng * math.cos(bearing), rng * math.sin(bearing)
-            dn, de = body_to_ned(fwd, right, at.yaw_rad)
-            n, e = at.north_m + dn, at.east_m + de
+                n, e, R = self._bearing_fix(meas, bearing, at)
             if not est.initialised or stale:
                 est.init(n, e)
                 self._trail_restart = True  # a target found afresh: its old trail is not its path now
@@ -378,7 +386,9 @@ class FormationController:
         since = odom.t_s - self._t_last_meas
         sensor_lost = meas is not None and meas.status is TrackStatus.LOST
         self._timed_out = not fresh and (self._timed_out or since > st.coast_s + st.slowdown_s)
-        if fresh:
+        if fresh or (sighted and since <= st.coast_s):
+            # the latest frame showed it (one handed again is still the latest frame, until
+            # it is older than the coast: a camera that stopped is then a target unseen)
             self.status = TrackStatus.TRACKING
         elif sensor_lost or not est.initialised or self._timed_out:
             self.status = TrackStatus.LOST
@@ -397,9 +407,9 @@ class FormationController:
         (tn, te), (vn, ve) = est.position, est.significant_velocity()
         dx, dy = tn - odom.north_m, te - odom.east_m
         rng, brg = self._relative(odom)
+        if st.controller == "trail" and law != "trail":  # a slot too wide for the trail (LFC_BEARING)
+            self._trail_restart = True
         if law == "smc":
-            if st.controller == "trail":  # a slot too wide for the trail (LFC_BEARING): the paper's law holds it
-                self._trail_restart = True
             speed, yaw_rate = self._smc(dx, dy, vn, ve, rng, brg, odom, dt)
         elif law == "trail":
             speed, yaw_rate = self._trail(tn, te, vn, ve, odom, dt, fresh)
@@ -518,12 +528,38 @@ class FormationController:
         banner = math.atan2(st.banner_half_m, st.range_cmd_m)
         return max(st.view_half_fov_rad - banner - VIEW_MARGIN_RAD, abs(st.bearing_cmd_rad))
 
+    def _heading_of_target(self, vn: float, ve: float, yaw_rad: float) -> float:
+        """The target's heading, rad: the way it moves (``vn``, ``ve``, m/s) when it moves, else
+        the last such, else the follower's own ``yaw_rad`` (a follower in formation faces as
+        its target does)."""
+        if math.hypot(vn, ve) > 0.05:
+            self._target_heading = math.atan2(ve, vn)
+        return self._target_heading if self._target_heading is not None else yaw_rad
+
+    def _bearing_fix(self, meas: RelativeMeasurement, bearing: float, at: Odometry) -> tuple[float, float, np.ndarray]:
+        """A bearing-only sighting as a position fix of the target's reference point (north,
+        east, m) and its covariance: the ray from where it starts (the camera, on the follower
+        at its pose ``at``) meets the seen point (the banner, behind the target's reference
+        point along its heading) at the filter's own distance to that point; the target's
+        point is then that far ahead of it. The variance is large along the line of sight and
+        small across it."""
+        est = self.estimator
+        dn, de = body_to_ned(*meas.origin_body_m, at.yaw_rad)
+        on, oe = at.north_m + dn, at.east_m + de
+        heading = self._heading_of_target(*est.significant_velocity(), at.yaw_rad)
+        back_n, back_e = meas.seen_back_m * math.cos(heading), meas.seen_back_m * math.sin(heading)
+        pn, pe = est.position
+        rng = max(0.1, math.hypot(pn - back_n - on, pe - back_e - oe))
+        los = at.yaw_rad + bearing
+        u = np.array([math.cos(los), math.sin(los)])
+        v = np.array([-u[1], u[0]])
+        R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * (rng * 0.02) ** 2
+        return on + rng * u[0] + back_n, oe + rng * u[1] + back_e, R
+
     def _p_baseline(self, tn: float, te: float, vn: float, ve: float, odom: Odometry) -> tuple[float, float]:
         """AP_Follow style: desired velocity = target velocity + P x offset error."""
         st = self.settings
-        if math.hypot(vn, ve) > 0.05:
-            self._target_heading = math.atan2(ve, vn)
-        heading = self._target_heading if self._target_heading is not None else odom.yaw_rad
+        heading = self._heading_of_target(vn, ve, odom.yaw_rad)
         # the slot: range_cmd behind the target, seen at bearing_cmd from an aligned follower
         back, side = body_to_ned(
             -st.range_cmd_m * math.cos(st.bearing_cmd_rad), -st.range_cmd_m * math.sin(st.bearing_cmd_rad), heading

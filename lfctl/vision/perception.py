@@ -233,11 +233,18 @@ class BannerPerception:
         return RelativeMeasurement(t_s, status if status is not TrackStatus.TRACKING else TrackStatus.OCCLUDED)
 
     def _window_measurement(self, t_s: float, track: TrackState) -> RelativeMeasurement:
-        """Bearing only, from the tracked window's centre column (its size says too little)."""
+        """Bearing only, from the tracked window's centre (its size says too little): the ray
+        from the camera (the lens taken out) to the banner, given with the camera's mount and
+        the banner's place on the leader, so that the formation filter places it between the
+        two vehicles' reference points."""
         assert track.bbox is not None
         x, y, w, h = track.bbox
-        K = self.camera.K
-        ray_cam = np.array([(x + w / 2.0 - K[0, 2]) / K[0, 0], (y + h / 2.0 - K[1, 2]) / K[1, 1], 1.0])
-        ray_body = self.camera.R_body_from_cam @ ray_cam
+        cam = self.camera
+        centre = np.array([[[x + w / 2.0, y + h / 2.0]]], np.float64)
+        u, v = cv2.undistortPoints(centre, cam.K, cam.dist).reshape(2)  # normalised image coordinates
+        ray_body = cam.R_body_from_cam @ np.array([u, v, 1.0])
         bearing = math.atan2(ray_body[1], ray_body[0])
-        return RelativeMeasurement(t_s, TrackStatus.TRACKING, None, bearing, WINDOW_QUALITY * track.quality)
+        origin = (float(cam.mount_body_m[0]), float(cam.mount_body_m[1]))
+        return RelativeMeasurement(
+            t_s, TrackStatus.TRACKING, None, bearing, WINDOW_QUALITY * track.quality, origin, self.banner.back_m
+        )

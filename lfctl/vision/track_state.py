@@ -37,6 +37,13 @@ class RelativeMeasurement:
         when the target was not seen.
     quality : float
         0..1 confidence (1 for truth sensing).
+    origin_body_m : tuple of float
+        For a bearing-only measurement: where its ray starts, forward and right of the
+        follower's reference point, m (a camera's mount). A measurement with a range is
+        between the two reference points already, and leaves it at (0, 0).
+    seen_back_m : float
+        For a bearing-only measurement: how far behind the target's reference point, along
+        the target's heading, the point the ray was taken to lies, m (a banner on its back).
     """
 
     t_s: float
@@ -44,3 +51,5 @@ class RelativeMeasurement:
     range_m: float | None = None
     bearing_rad: float | None = None
     quality: float = 0.0
+    origin_body_m: tuple[float, float] = (0.0, 0.0)
+    seen_back_m: float = 0.0

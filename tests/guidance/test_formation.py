@@ -217,3 +217,60 @@ def test_target_estimator_one_predict_and_update_by_hand() -> None:
     S = 0.07390625 + 0.01
     assert est.position == pytest.approx((1.0 + 0.2 * 0.07390625 / S, 2.0))
     assert est.velocity == pytest.approx((0.2 * 0.130625 / S, 0.0))
+
+
+# -- a bearing-only sighting: the camera's ray to the banner, placed between the reference points ----------
+MOUNT_M, BACK_M = (0.12, 0.0), 0.155  # the default camera's mount (forward, right) and banner's offset
+
+
+@pytest.mark.parametrize("slot_deg", [0.0, 15.0, 30.0, -30.0])
+def test_bearing_only_sightings_of_a_still_target_in_its_slot_keep_it_there(slot_deg: float) -> None:
+    # follower at the origin facing north; the leader's reference point 1.5 m away at the
+    # slot's bearing, facing north too, its banner 0.155 m behind it (south). The camera, 0.12 m
+    # ahead of the follower's reference point, sees the banner at (by hand, for 30 deg:
+    # leader (1.2990, 0.75), banner (1.1440, 0.75), from the camera (1.0240, 0.75): 36.22 deg)
+    b = math.radians(slot_deg)
+    lead_n, lead_e = 1.5 * math.cos(b), 1.5 * math.sin(b)
+    seen = math.atan2(lead_e - MOUNT_M[1], lead_n - BACK_M - MOUNT_M[0])
+    if slot_deg == 30.0:
+        assert math.degrees(seen) == pytest.approx(36.22, abs=0.01)
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5, bearing_cmd_rad=b))
+    still = Odometry(0.0, 0.0, 0.0, 0.0, 0.0)
+    out = ctl.step(meas(0.0, 1.5, b), still)  # one fix with a range (between the reference points)
+    for k in range(1, 21):  # then 1 s of bearing-only sightings from the camera
+        t = k * DT
+        sighting = RelativeMeasurement(t, TrackStatus.TRACKING, None, seen, 0.5, MOUNT_M, BACK_M)
+        out = ctl.step(sighting, Odometry(t, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.TRACKING
+    assert math.degrees(out.bearing_est_rad) == pytest.approx(slot_deg, abs=0.2)  # not the camera's 36 deg
+    assert out.range_est_m == pytest.approx(1.5, abs=0.02)
+    assert abs(out.yaw_rate_radps) < 0.02  # in its slot: no turn
+
+
+def test_a_measurement_handed_again_is_not_fused_again_and_a_frozen_one_times_out() -> None:
+    s = FormationSettings(range_cmd_m=1.5, coast_s=1.0, slowdown_s=0.5, search_yaw_rate_radps=0.0)
+    once, again = FormationController(s), FormationController(s)
+    first = meas(0.0, 2.0)
+    for k in range(3):  # a camera at a third of the guidance rate: the same sample three steps running
+        t = k * DT
+        once.step(first if k == 0 else None, Odometry(t, 0.0, 0.0, 0.0, 0.0))
+        out = again.step(first, Odometry(t, 0.0, 0.0, 0.0, 0.0))
+        assert out.status is TrackStatus.TRACKING  # the latest frame showed it
+    assert (again.estimator.kf.P == once.estimator.kf.P).all()  # taken once, as if not handed again
+    assert (again.estimator.kf.x == once.estimator.kf.x).all()
+    statuses = {}
+    for k in range(3, 40):  # the camera stopped: its last sample, handed on and on
+        t = k * DT
+        statuses[round(t, 2)] = again.step(first, Odometry(t, 0.0, 0.0, 0.0, 0.0)).status
+    assert statuses[1.0] is TrackStatus.TRACKING and statuses[1.2] is TrackStatus.OCCLUDED
+    assert statuses[1.6] is TrackStatus.LOST  # past the coast and the slow-down: as unseen
+
+
+@pytest.mark.parametrize("bad_range", [0.0, -1.0])
+def test_a_range_of_zero_or_less_is_no_range(bad_range: float) -> None:
+    # the bearing alone counts: it cannot start a filter, and in a running one it is a sighting
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    assert ctl.step(meas(0.0, bad_range), Odometry(0.0, 0.0, 0.0, 0.0, 0.0)).status is TrackStatus.LOST
+    ctl.step(meas(DT, 2.0), Odometry(DT, 0.0, 0.0, 0.0, 0.0))
+    out = ctl.step(meas(2 * DT, bad_range), Odometry(2 * DT, 0.0, 0.0, 0.0, 0.0))
+    assert out.status is TrackStatus.TRACKING and out.range_est_m == pytest.approx(2.0, abs=0.05)

@@ -304,3 +304,22 @@ def test_a_scenario_with_a_slot_too_wide_for_the_trail_is_refused() -> None:
     assert ok.guidance.controller == "trail"
     with pytest.raises(ConfigError, match=r"vehicles\[f1\]: a slot at bearing -35 deg is wider than .*at most 30 deg"):
         parse_config(head + "bearing_deg = -35\n[guidance]\ncontroller = 'trail'\n")
+
+
+def test_a_slot_at_or_past_the_side_is_refused_for_the_sliding_mode_law_and_held_by_p_when_set_live() -> None:
+    from lfctl.config import SMC_MAX_BEARING_DEG, parse_config
+    from lfctl.errors import ConfigError
+    from lfctl.guidance.formation import SMC_MAX_BEARING_RAD
+
+    assert math.radians(SMC_MAX_BEARING_DEG) == SMC_MAX_BEARING_RAD  # config may not import guidance
+    head = '[[vehicles]]\nname = "leader"\nrole = "leader"\n[[vehicles]]\nname = "f1"\nrole = "follower"\n'
+    assert parse_config(head + "bearing_deg = 89\n").slots()["f1"].bearing_rad == pytest.approx(math.radians(89))
+    with pytest.raises(ConfigError, match=r'vehicles\[f1\]: a slot at bearing -90 deg is at or past the side.*use "p"'):
+        parse_config(head + "bearing_deg = -90\n")
+    assert parse_config(head + "bearing_deg = 120\n[guidance]\ncontroller = 'p'\n").guidance.controller == "p"
+    # a ground station sets 100 deg while the sliding-mode law drives (LFC_BEARING): the P law holds it
+    abeam = dataclasses.replace(TRAIL, controller="smc", bearing_cmd_rad=math.radians(100.0))
+    straight = lambda t: (0.3 * t, 0.0)  # noqa: E731
+    p_law = dataclasses.replace(abeam, controller="p")
+    assert follow(straight, 10.0, abeam)[-20:] == pytest.approx(follow(straight, 10.0, p_law)[-20:])
+    assert follow(straight, 30.0, abeam)[-1] == pytest.approx(1.5, abs=0.15)  # and holds it

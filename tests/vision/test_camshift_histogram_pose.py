@@ -96,6 +96,37 @@ def test_pose_of_a_known_marker_layout() -> None:
         assert math.degrees(est.rel_heading_rad) == pytest.approx(25, abs=2.0), est.method
 
 
+def test_the_papers_estimate_takes_depth_from_the_vertical_focal_length() -> None:
+    # a square facing the camera 2 m ahead, 0.4 m right, side 0.14 m; fx 500, fy 520 (non-square
+    # pixels). By hand: each pair is 520 * 0.14 / 2 = 36.4 px tall, so z = 520 * 0.14 / 36.4 = 2.0;
+    # the pairs' columns sit at 320 + 500 * (0.4 -+ 0.07) / 2, so x = 2.0 * 100 / 500 = 0.4
+    K = np.array([[500.0, 0, 320], [0, 520.0, 240], [0, 0, 1]])
+    est = paper_pose(projected_square(K, np.array([0.4, 0.0, 2.0]), 0.0, 0.14), K, 0.14)
+    assert est is not None
+    assert est.centre_cam_m == pytest.approx([0.4, 0.0, 2.0], abs=1e-9)
+    assert est.range_m == pytest.approx(math.hypot(0.4, 2.0), abs=1e-9)  # the mean focal length: 1.96 m
+
+
+def test_a_pnp_answer_of_not_a_number_is_no_pose_and_the_papers_estimate_is_taken(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # OpenCV's IPPE_SQUARE says "ok" with a NaN translation on a few exact, noise-free squares
+    # (about 1 in 20 of random poses of the default banner, none with 0.05 px of noise)
+    from lfctl.vision.banner import BannerGeometry
+    from lfctl.vision.perception import BannerPerception
+
+    K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    pts = projected_square(K, np.array([0.3, -0.05, 2.0]), math.radians(25), 0.14)
+    nan = np.full((3, 1), np.nan)
+    monkeypatch.setattr(cv2, "solvePnP", lambda *a, **k: (True, np.zeros((3, 1)), nan))
+    assert pnp_pose(pts, K, None, 0.14) is None
+    cam = CameraConfig()
+    perception = BannerPerception.from_config(cam, BannerConfig(), (1.5, 0.0))
+    side = BannerGeometry.from_config(BannerConfig()).square_m
+    found = perception.marker_pose(projected_square(perception.camera.K, np.array([0.3, -0.05, 2.0]), 0.4, side))
+    assert found is not None and found.method == "paper" and math.isfinite(found.range_m)
+
+
 @pytest.fixture(scope="module")
 def renderer() -> Renderer:
     return Renderer(CameraConfig(), BannerConfig(), SceneConfig(), 7)
