@@ -866,6 +866,8 @@ class FmuInstance:
             self._get_args = (self._c, self._vr_out, self._nout, self._out, self._nout)
 
     def _checked(self, call: str, fn: Any, *args: Any, **kwargs: Any) -> None:
+        if self._freed:
+            self._refuse_freed(call=call)
         try:
             with self._in_call(call):
                 fn(*args, **kwargs)
@@ -1013,3 +1015,14 @@ class FmuInstance:
             # fmpy's freeInstance would also dlclose; the library is shared, so leave it loaded.
         finally:
             _INSTANCES.pop(id(self), None)
+            # the hot path's calls now refuse, without reaching into the freed FMU (a call
+            # there reads freed memory, and the next one could end the process)
+            self._set = self._do = self._get = self._refuse_freed
+
+    def _refuse_freed(self, *_args: Any, call: str | None = None) -> int:
+        call = call or self.busy or "a call"  # the hot path names its call in busy
+        raise self._error(
+            f"{self.lib.identifier} ({self.name}): {call} after the instance was freed (FmuInstance.free or "
+            "FmuLibrary.close): instantiate it again",
+            call,
+        )

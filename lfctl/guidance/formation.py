@@ -107,6 +107,11 @@ class FormationSettings:
         Position noise of a measurement placed in the world, m (filter R).
     accel_sigma_mps2 : float
         Target acceleration noise, m/s^2 (filter Q).
+
+    The defaults are the controller's own (no reversing: ``range.min_speed_mps`` 0); the
+    settings a scenario gives its follower, with its gains, reverse speed, coast and camera
+    view, are :func:`lfctl.follower.stack.formation_settings`'s. A value out of its range
+    (not a number, a range of 0 or less, an unknown law) is a ValueError naming it.
     """
 
     range_cmd_m: float = 1.5
@@ -124,6 +129,22 @@ class FormationSettings:
     search_yaw_rate_radps: float = 0.0
     meas_sigma_m: float = 0.03
     accel_sigma_mps2: float = 0.3
+
+    def __post_init__(self) -> None:
+        if self.controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {', '.join(CONTROLLERS)}, got {self.controller!r}")
+        if not abs(self.bearing_cmd_rad) <= math.pi:  # NaN too
+            raise ValueError(f"bearing_cmd_rad must be within -pi..pi, got {self.bearing_cmd_rad!r}")
+        if not 0.0 < self.view_half_fov_rad <= math.pi:
+            raise ValueError(f"view_half_fov_rad must be within (0, pi], got {self.view_half_fov_rad!r}")
+        positive = ("range_cmd_m", "trail_lookahead_m", "slowdown_s", "meas_sigma_m", "accel_sigma_mps2")
+        at_least_0 = ("banner_half_m", "p_gain_per_s", "p_heading_gain_per_s", "coast_s", "search_yaw_rate_radps")
+        for name in positive + at_least_0:
+            value = getattr(self, name)
+            if not (0.0 < value < math.inf if name in positive else 0.0 <= value < math.inf):
+                raise ValueError(
+                    f"{name} must be a number {'above' if name in positive else 'of at least'} 0, got {value!r}"
+                )
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from lfctl.record.video import decode_h264
 from lfctl.record.writer import image_topic
 from lfctl.vision.boxes import iou
 from lfctl.vision.frames import FrameError
-from lfctl.vision.tracker import Tracker, TrackerSettings
+from lfctl.vision.tracker import Tracker, TrackerSettings, tracker_kind
 
 __all__ = ["ReplayResult", "recorded_frames", "replay"]
 
@@ -50,7 +50,7 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     ----------
     path : Path
         An MCAP log recorded with camera sensing and images.
-    kind : "full", "hs-lbp" or "hue"
+    kind : "full", "hs-lbp" or "hue" ("hue-only" too; ConfigError for another)
         The tracker to replay.
     follower : str, optional
         Whose camera (default the first follower).
@@ -61,6 +61,10 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
         The path is not a regular file, the log holds no images for the follower (or none
         that decodes), or no frame with a truth box.
     """
+    try:
+        kind = tracker_kind(kind)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
     report = audit(path)
     unusable = next((f for f in report.findings if f.kind == "file"), None)
     if unusable is not None:
@@ -87,7 +91,7 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
             "(was it run with sensing = 'camera' and recording.images = true?)"
         )
     recorded = dict(_json_messages(c, f"/{name}/tracker"))  # valid messages only, by t in s
-    tracker = Tracker(TrackerSettings(kind=kind))  # type: ignore[arg-type]
+    tracker = Tracker(TrackerSettings(kind=kind))
     ok_new = ok_old = n = markers_new = markers_old = 0
     unreadable = count - len(images)
     started = False

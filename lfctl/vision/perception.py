@@ -27,7 +27,7 @@ from lfctl.vision.boxes import Box
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.pose import MarkerPose, paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
-from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState
+from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState, tracker_kind
 
 __all__ = ["BannerPerception", "Perception", "slot_box"]
 
@@ -137,7 +137,7 @@ class BannerPerception:
             The scenario's sections.
         slot : (range_m, bearing_rad), optional
             The follower's slot: the tracker starts on the banner nearest where it shows.
-        kind : "full", "hs-lbp" or "hue"
+        kind : "full", "hs-lbp" or "hue" ("hue-only" too; ValueError for another)
             The tracker (see :class:`TrackerSettings`).
         use_markers : bool
             Use the banner's markers (pose, reacquisition); False tracks any object by its
@@ -145,6 +145,7 @@ class BannerPerception:
         marker_hue_deg : float, optional
             The markers' hue, degrees (default the banner's).
         """
+        kind = tracker_kind(kind)  # a wrong name refused, with a tag banner too
         cam = CameraModel.from_config(camera)
         geometry = BannerGeometry.from_config(banner)
         expected = slot_box(cam, geometry, *slot) if slot is not None else None
@@ -152,7 +153,7 @@ class BannerPerception:
             tag = ArucoSettings(banner.aruco_dictionary, banner.aruco_id, geometry.panel_over_side)
             return BannerPerception(cam, geometry, tag, expected)
         settings = TrackerSettings(
-            kind=kind,  # type: ignore[arg-type]
+            kind=kind,
             marker_hue_deg=banner.marker_hue_deg if marker_hue_deg is None else marker_hue_deg,
             marker_saturation=banner.marker_saturation,
             marker_over_side=geometry.marker_size_m / geometry.side_m,

@@ -53,6 +53,7 @@ Pure: frames in, :class:`TrackState` out; no clock, file or socket.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, replace
 from typing import Literal
@@ -106,6 +107,25 @@ EXACT_SIZE_VAR = 0.02**2
 #: confident centres needed before a hidden target coasts on their fitted motion (see
 #: ``TrackerSettings.motion_fit_frames``); with fewer, on the centre filter's
 MOTION_FIT_MIN = 5
+
+
+#: the tracker's kinds (:attr:`TrackerSettings.kind`)
+TRACKER_KIND_NAMES = ("full", "hs-lbp", "hue")
+
+
+def tracker_kind(kind: str) -> Literal["full", "hs-lbp", "hue"]:
+    """A tracker kind's name as :class:`TrackerSettings` takes it: ``full``, ``hs-lbp`` or
+    ``hue`` (``hue-only``, the benchmark tables' name, is ``hue``); ValueError for another.
+
+    Parameters
+    ----------
+    kind : str
+        The name given.
+    """
+    name = "hue" if kind == "hue-only" else kind
+    if name not in TRACKER_KIND_NAMES:
+        raise ValueError(f"tracker kind must be one of {', '.join(TRACKER_KIND_NAMES)} (or hue-only), got {kind!r}")
+    return name  # type: ignore[return-value]
 
 
 @dataclass(frozen=True)
@@ -336,6 +356,10 @@ class TrackerSettings:
     calibration_shrink: float = 0.25
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", tracker_kind(self.kind))
+        for name in ("search_scale", "ring_scale"):
+            if not 0.0 < getattr(self, name) < math.inf:  # NaN too
+                raise ValueError(f"{name} must be a positive number, got {getattr(self, name)!r}")
         if not self.sprawl_growth >= 0.0:  # NaN too; inf: never looked for smaller
             raise ValueError(f"sprawl_growth must be >= 0 (inf: off), got {self.sprawl_growth!r}")
         if not all(0.0 < k < 1.0 for k in self.sprawl_scales):

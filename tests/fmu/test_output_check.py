@@ -126,3 +126,20 @@ def test_an_fmu_that_logs_without_end_keeps_only_the_newest_messages(faulty: Bui
             with pytest.raises(FmuError):
                 inst.set_real({"fault_at": 1.0})
         assert len(inst.messages) == KEPT_MESSAGES
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_a_freed_instance_refuses_every_call_without_reaching_the_fmu(faulty: BuiltModel, version: int) -> None:
+    # a call into a freed FMU reads freed memory: the second step after free() ended the process
+    with FmuLibrary(faulty.path(version)) as lib:
+        inst, _cmd, _out = _instance(lib, 0, 0.0)
+        inst.step(0.01)
+        inst.free()
+        for _ in range(3):
+            with pytest.raises(FmuError, match=r"\(f1\): fmi[23]Set\w+ after the instance was freed"):
+                inst.step(0.01)
+        with pytest.raises(FmuError, match=r"fmi[23]Get\w+ after the instance was freed"):
+            inst.read()
+        with pytest.raises(FmuError, match="Reset after the instance was freed"):
+            inst.reset({}, (0.0, 0.0, 0.0))
+        inst.free()  # still safe twice

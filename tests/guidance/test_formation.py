@@ -274,3 +274,20 @@ def test_a_range_of_zero_or_less_is_no_range(bad_range: float) -> None:
     ctl.step(meas(DT, 2.0), Odometry(DT, 0.0, 0.0, 0.0, 0.0))
     out = ctl.step(meas(2 * DT, bad_range), Odometry(2 * DT, 0.0, 0.0, 0.0, 0.0))
     assert out.status is TrackStatus.TRACKING and out.range_est_m == pytest.approx(2.0, abs=0.05)
+
+
+@pytest.mark.parametrize(
+    ("change", "said"),
+    [
+        ({"range_cmd_m": math.nan}, "range_cmd_m must be a number above 0, got nan"),
+        ({"range_cmd_m": -1.0}, "range_cmd_m must be a number above 0, got -1.0"),
+        ({"controller": "pid"}, "controller must be one of smc, p, trail, got 'pid'"),
+        ({"bearing_cmd_rad": 4.0}, r"bearing_cmd_rad must be within -pi..pi, got 4.0"),
+        ({"slowdown_s": 0.0}, "slowdown_s must be a number above 0"),
+        ({"coast_s": math.inf}, "coast_s must be a number of at least 0, got inf"),
+    ],
+)
+def test_settings_out_of_their_range_are_refused_naming_the_value(change: dict, said: str) -> None:
+    # a NaN slot made a NaN speed command; an unknown law ran the P law under its own name
+    with pytest.raises(ValueError, match=said):
+        FormationSettings(**change)

@@ -896,3 +896,11 @@ def test_an_attached_scenario_nested_too_deeply_fails_strict(logs, tmp_path: Pat
     p = rewrite(logs["zstd"], tmp_path / "deep.mcap", attach={"scenario.toml": deep})
     rc, out = run_cli(["audit", str(p), "--strict"], capsys)
     assert rc == 1 and "nested too deeply" in out and "SHA-256" in out
+
+
+def test_replay_with_an_unknown_tracker_kind_is_refused_before_the_log_is_read(tmp_path: Path) -> None:
+    from lfctl.errors import ConfigError
+    from lfctl.record.replay import replay
+
+    with pytest.raises(ConfigError, match="tracker kind must be one of full, hs-lbp, hue .*got 'bogus'"):
+        replay(tmp_path / "none.mcap", kind="bogus")

@@ -197,3 +197,18 @@ def test_floor_is_coarser_towards_the_horizon() -> None:
     assert levels == sorted(levels, reverse=True) and levels[0] == 3 and levels[-1] == 0
     # contiguous, down to the bottom row of the half-resolution layer
     assert all(a[1] == b[0] for a, b in itertools.pairwise(bands)) and bands[-1][1] == r._half_size[1]
+
+
+def test_a_tracker_kind_is_one_of_three_and_hue_only_is_hue() -> None:
+    # a wrong name ran hs-lbp silently, the CLI's own "hue-only" among them
+    from lfctl.vision.perception import BannerPerception
+    from lfctl.vision.tracker import TrackerSettings
+
+    assert TrackerSettings(kind="hue-only").kind == "hue"
+    for bad in ("csrt", "Full", ""):
+        with pytest.raises(ValueError, match=f"tracker kind must be one of full, hs-lbp, hue \\(or hue-only\\), got '{bad}'"):
+            TrackerSettings(kind=bad)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="got 'csrt'"):
+        BannerPerception.from_config(CameraConfig(), BannerConfig(kind="aruco"), kind="csrt")
+    with pytest.raises(ValueError, match="ring_scale must be a positive number, got nan"):
+        TrackerSettings(ring_scale=math.nan)
