@@ -902,5 +902,5 @@ def test_replay_with_an_unknown_tracker_kind_is_refused_before_the_log_is_read(t
     from lfctl.errors import ConfigError
     from lfctl.record.replay import replay
 
-    with pytest.raises(ConfigError, match="tracker kind must be one of full, hs-lbp, hue .*got 'bogus'"):
+    with pytest.raises(ConfigError, match=r"tracker kind must be one of full, hs-lbp, hue .*got 'bogus'"):
         replay(tmp_path / "none.mcap", kind="bogus")

@@ -206,7 +206,9 @@ def test_a_tracker_kind_is_one_of_three_and_hue_only_is_hue() -> None:
 
     assert TrackerSettings(kind="hue-only").kind == "hue"
     for bad in ("csrt", "Full", ""):
-        with pytest.raises(ValueError, match=f"tracker kind must be one of full, hs-lbp, hue \\(or hue-only\\), got '{bad}'"):
+        with pytest.raises(
+            ValueError, match=f"tracker kind must be one of full, hs-lbp, hue \\(or hue-only\\), got '{bad}'"
+        ):
             TrackerSettings(kind=bad)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="got 'csrt'"):
         BannerPerception.from_config(CameraConfig(), BannerConfig(kind="aruco"), kind="csrt")
