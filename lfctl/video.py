@@ -24,8 +24,8 @@ class VideoSource:
 
     Parameters
     ----------
-    source : str
-        A camera index (``0``), a video file or a stream URL (``rtsp://...``).
+    source : str, int or os.PathLike
+        A camera index (``0`` or ``"0"``), a video file (a path) or a stream URL (``rtsp://...``).
 
     Raises
     ------
@@ -35,7 +35,10 @@ class VideoSource:
         open or read a frame from.
     """
 
-    def __init__(self, source: str) -> None:
+    def __init__(self, source: str | int | os.PathLike[str]) -> None:
+        if isinstance(source, bool) or not isinstance(source, str | int | os.PathLike):
+            raise ConfigError(f"video source must be a camera index, a file or a stream URL, got {source!r}")
+        source = os.fspath(source) if isinstance(source, os.PathLike) else str(source)
         self.name = source
         target: str | int = int(source) if source.isdigit() else source
         stream = isinstance(target, str) and "://" in target

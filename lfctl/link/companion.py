@@ -135,6 +135,8 @@ class Companion:
         name : str
             ``LFC_RANGE``, ``LFC_BEARING``, ... (:func:`lfctl.link.params.formation_params`).
         """
+        if name not in self.params:
+            raise KeyError(f"{name!r} is not one of the companion's parameters ({', '.join(self.params)})")
         return self.params[name].value
 
     def heartbeat(self, t_s: float) -> None:

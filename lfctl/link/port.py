@@ -6,6 +6,7 @@ so their protocol code does not care which."""
 from __future__ import annotations
 
 import os
+import re
 import socket
 from collections import deque
 from collections.abc import Callable
@@ -78,7 +79,16 @@ def _check_network_address(connect: str) -> None:
     """
     kind, sep, rest = connect.partition(":")
     if not (sep and kind in NET_PREFIXES):
-        return  # a serial device, a file, or a form pymavlink itself refuses
+        # pymavlink takes anything else for a serial device (or a log file) and says only
+        # that it cannot import pyserial: name what the string should have been
+        device = connect.partition(",")[0]
+        if not (os.path.exists(device) or re.fullmatch(r"COM\d+", device, re.IGNORECASE)):
+            raise LinkError(
+                connect,
+                "not a MAVLink address (udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT) nor a serial "
+                "device here (/dev/ttyUSB0,921600)",
+            )
+        return
     try:
         host, port = check_host_port("the address", rest, allow_any_port=kind in ("udp", "udpin", "tcpin"))
     except ConfigError as exc:

@@ -440,6 +440,12 @@ def run_scenario(
     RecordError
         The log cannot be created, or the WebSocket cannot listen there.
     """
+    if not isinstance(cfg, Config):  # a scenario's name or path: it must be loaded first
+        raise ConfigError(
+            f"run_scenario takes a Config (load_config(resolve_scenario(...))), got {type(cfg).__name__} {cfg!r}"
+        )
+    if duration_s is not None:  # checked as the scenario's sim.duration_s is
+        cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=duration_s))
     law = controller or cfg.guidance.controller
     if law not in CONTROLLERS:
         raise ConfigError(f"controller must be one of {', '.join(map(repr, CONTROLLERS))}, got {law!r}")

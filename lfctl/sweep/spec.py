@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import datetime
 import hashlib
 import itertools
 import json
@@ -48,7 +49,7 @@ import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 
 import numpy as np
@@ -587,6 +588,26 @@ def _with_keys(base: dict[str, Any], keys: Iterable[tuple[str, Any]], name: str)
     return config_from_table(table, name, tomli_w.dumps(table))
 
 
+def _toml_value(key: str, value: Any) -> Any:
+    """``value`` as TOML holds it: numpy numbers and arrays, tuples and paths as their plain
+    Python forms; ConfigError naming ``key`` for a value TOML has no form for (None among them:
+    a key left out takes its default)."""
+    if isinstance(value, bool | int | float | str | datetime.date | datetime.time):
+        return value
+    if isinstance(value, np.generic | np.ndarray):
+        return _toml_value(key, value.tolist())
+    if isinstance(value, PurePath):
+        return str(value)
+    if isinstance(value, list | tuple):
+        return [_toml_value(key, v) for v in value]
+    if isinstance(value, Mapping):
+        return {str(k): _toml_value(key, v) for k, v in value.items()}
+    what = "None" if value is None else f"a value of type {type(value).__name__}"
+    raise ConfigError(
+        f"{key}: {what} is not a TOML value (a number, string, bool, array or table){' (leave the key out for its default)' if value is None else ''}"
+    )
+
+
 def with_keys(cfg: Config, keys: Mapping[str, Any]) -> Config:
     """A scenario with keys changed as a sweep changes them: dotted keys set on the tables
     of its TOML (:attr:`Config.source`), then built and validated as a scenario file is, so
@@ -610,7 +631,7 @@ def with_keys(cfg: Config, keys: Mapping[str, Any]) -> Config:
         base = tomllib.loads(cfg.source)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{cfg.name}: its source is not TOML ({exc}): was it built by load_config?") from None
-    out = _with_keys(base, keys.items(), cfg.name)
+    out = _with_keys(base, ((key, _toml_value(key, value)) for key, value in keys.items()), cfg.name)
     # paths load_config resolved beside the scenario stay so, unless a key changes them
     if "mission.file" not in keys and out.mission.file is not None:
         out = dataclasses.replace(out, mission=dataclasses.replace(out.mission, file=cfg.mission.file))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from lfctl.errors import LfctlError
@@ -45,9 +47,15 @@ def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[i
     shape : tuple of int
         The frame's shape; only H and W are read.
     """
-    if len(roi) != 4:
+    try:
+        values = [float(v) for v in roi]
+    except (TypeError, ValueError):
+        raise FrameError(f"ROI must be four numbers x, y, w, h; got {roi!r}") from None
+    if len(values) != 4:
         raise FrameError(f"ROI must be x, y, w, h; got {roi!r}")
-    x, y, w, h = (int(round(v)) for v in roi)
+    if not all(math.isfinite(v) for v in values):
+        raise FrameError(f"ROI must be four finite numbers x, y, w, h; got {roi!r}")
+    x, y, w, h = (int(round(v)) for v in values)
     H, W = shape[:2]
     if w <= 0 or h <= 0:
         raise FrameError(f"ROI {x},{y},{w},{h} must have a positive width and height")

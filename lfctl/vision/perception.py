@@ -25,6 +25,7 @@ from lfctl.vision.aruco import ArucoSettings, ArucoTracker
 from lfctl.vision.banner import BannerGeometry
 from lfctl.vision.boxes import Box
 from lfctl.vision.camera_model import CameraModel
+from lfctl.vision.frames import FrameError
 from lfctl.vision.pose import MarkerPose, paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState, tracker_kind
@@ -177,7 +178,19 @@ class BannerPerception:
         roi : Box, optional
             Start on this window (x, y, w, h) instead of searching for the markers; used
             only while not started.
+
+        Raises
+        ------
+        FrameError
+            A bad frame, or one of another size than the camera model's (its intrinsics
+            would place the target wrongly: build the perception for the frames' size).
         """
+        cam = self.camera
+        if getattr(frame, "shape", None) is not None and frame.shape[:2] != (cam.height, cam.width):
+            raise FrameError(
+                f"frame is {frame.shape[1]}x{frame.shape[0]}, the camera model {cam.width}x{cam.height}: give the "
+                "camera config the frames' width_px and height_px (and their intrinsics)"
+            )
         track: TrackState | None
         if not self.started:
             if roi is not None:

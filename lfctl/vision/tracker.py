@@ -384,7 +384,9 @@ class TrackState:
 
     frame: int  # index of the frame since init (0 for the first)
     status: TrackStatus  # TRACKING, OCCLUDED (coasting) or LOST
-    bbox: Box | None  # the target's window; while OCCLUDED the predicted one; None when LOST
+    #: the target's window; while OCCLUDED the predicted one (None once that has left the frame); None
+    #: when LOST
+    bbox: Box | None
     quality: float  # 0..1
     distance: float  # Bhattacharyya distance of the window to the model (1 when unknown)
     markers: np.ndarray | None  # (4, 2) TL, TR, BR, BL when the constellation was seen
@@ -486,6 +488,7 @@ class Tracker:
         )
         self.frame_index = -1
         self.window: Box | None = None
+        self._frame_size: tuple[int, int] | None = None  # (height, width) of the frames it started on
         self.status = TrackStatus.LOST
         self._lut: np.ndarray | None = None
         self._ref_hist: np.ndarray | None = None
@@ -536,6 +539,7 @@ class Tracker:
         frame = check_bgr(frame)
         roi = check_roi(roi, frame.shape)
         self.frame_index = 0
+        self._frame_size = (frame.shape[0], frame.shape[1])
         self._exposure.start(frame)
         self._learn(frame, roi)
         if self.s.kind == "full":
@@ -669,11 +673,18 @@ class Tracker:
         Raises
         ------
         FrameError
-            A bad frame, or the tracker was never started.
+            A bad frame, one of another size than the tracker started on, or the tracker
+            was never started.
         """
         frame = check_bgr(frame)
         if self._lut is None or self.window is None:
             raise FrameError("tracker not initialised: call init(frame, roi) or init_from_markers(frame) first")
+        if (frame.shape[0], frame.shape[1]) != self._frame_size:
+            h, w = self._frame_size or (0, 0)
+            raise FrameError(
+                f"frame is {frame.shape[1]}x{frame.shape[0]}, the tracker started on {w}x{h}: "
+                "start it again (init) on frames of the new size"
+            )
         self.frame_index += 1
         if self.s.kind == "full":
             self._exposure.update(frame)

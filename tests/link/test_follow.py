@@ -452,6 +452,8 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
         ("udpout:127.0.0.1:0", "the address must be HOST:PORT with a port within 1..65535"),
         ("tcp:127.0.0.1:x", "the address must be HOST:PORT"),
         ("udpout:127.0.0.1:\u00b2", "the address must be HOST:PORT"),  # a digit to str.isdigit, not to int()
+        ("nonsense", "not a MAVLink address (udpin:HOST:PORT"),  # pymavlink: "No module named 'serial'"
+        ("/dev/ttyNOPE0,57600", "nor a serial device here"),
     ],
 )
 def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> None:

@@ -211,3 +211,30 @@ def test_with_keys_changes_a_loaded_scenario_as_a_sweep_would() -> None:
     assert parse_config(changed.source, "convoy") == changed
     with pytest.raises(ConfigError, match=r"guidance\.controller must be one of 'smc', 'p', 'trail', got 'pid'"):
         with_keys(cfg, {"guidance.controller": "pid"})
+
+
+def test_with_keys_takes_numpy_values_tuples_and_paths_and_names_a_value_toml_cannot_hold() -> None:
+    # a sweep script built on np.arange gave numpy integers: a raw TypeError naming no key
+    import numpy as np
+
+    cfg = load_config(resolve_scenario("convoy"))
+    changed = with_keys(
+        cfg, {"sim.seed": np.int64(3), "sensing.dropouts": np.array([[1.0, 2.0]]), "recording.dir": Path("/tmp/x")}
+    )
+    assert changed.sim.seed == 3 and changed.sensing.dropouts == ((1.0, 2.0),) and changed.recording.dir == "/tmp/x"
+    assert with_keys(cfg, {"sensing.dropouts": ((1.0, 2.0),)}).sensing.dropouts == ((1.0, 2.0),)
+    with pytest.raises(ConfigError, match=r"sim\.duration_s: None is not a TOML value .*leave the key out"):
+        with_keys(cfg, {"sim.duration_s": None})
+    with pytest.raises(ConfigError, match=r"sim\.seed: a value of type object is not a TOML value"):
+        with_keys(cfg, {"sim.seed": object()})
+
+
+def test_run_scenario_checks_its_duration_and_its_scenario_as_a_file_would() -> None:
+    from lfctl.sim.runner import run_scenario
+
+    cfg = load_config(resolve_scenario("convoy"))
+    for bad in (-1.0, 0.0, math.nan, 1e12):
+        with pytest.raises(ConfigError, match=r"sim\.duration_s must be within \(0, 1e6\]"):
+            run_scenario(cfg, duration_s=bad)
+    with pytest.raises(ConfigError, match=r"run_scenario takes a Config .*got str 'convoy'"):
+        run_scenario("convoy")  # type: ignore[arg-type]

@@ -214,3 +214,26 @@ def test_a_tracker_kind_is_one_of_three_and_hue_only_is_hue() -> None:
         BannerPerception.from_config(CameraConfig(), BannerConfig(kind="aruco"), kind="csrt")
     with pytest.raises(ValueError, match="ring_scale must be a positive number, got nan"):
         TrackerSettings(ring_scale=math.nan)
+
+
+def test_a_frame_of_another_size_is_refused_by_the_tracker_and_the_perception() -> None:
+    # the trackers reported TRACKING with a window outside a smaller frame; a perception built for
+    # 640x480 gave a 36 deg bearing for a target at 27 deg in 768x576 frames
+    from lfctl.vision.frames import FrameError
+    from lfctl.vision.perception import BannerPerception
+    from lfctl.vision.tracker import Tracker, TrackerSettings
+
+    frame = np.zeros((240, 320, 3), np.uint8)
+    frame[100:140, 100:140] = (0, 0, 255)
+    for kind in ("hue", "hs-lbp", "full"):
+        tracker = Tracker(TrackerSettings(kind=kind))
+        tracker.init(frame, (100, 100, 40, 40))
+        with pytest.raises(FrameError, match="frame is 640x480, the tracker started on 320x240"):
+            tracker.update(np.zeros((480, 640, 3), np.uint8))
+        assert tracker.update(frame).status is not None  # the right size goes on
+    for roi in (None, (math.nan, 1, 2, 3)):
+        with pytest.raises(FrameError, match="ROI must be four"):
+            Tracker().init(frame, roi)  # type: ignore[arg-type]
+    perception = BannerPerception.from_config(CameraConfig(), BannerConfig())
+    with pytest.raises(FrameError, match="frame is 768x576, the camera model 640x480"):
+        perception.step(0.0, np.zeros((576, 768, 3), np.uint8), (10, 10, 20, 20))
