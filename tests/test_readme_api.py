@@ -31,3 +31,12 @@ def test_readme_python_example_imports_and_calls_what_exists() -> None:
                     assert len(node.args) <= len(params), f"{node.func.id}: too many arguments"
                     for kw in node.keywords:
                         assert kw.arg in params, f"{node.func.id}() has no argument {kw.arg!r}"
+
+
+def test_readme_tracker_example_runs_and_tracks_the_cyclist_after_the_vans(capsys) -> None:
+    # the example on shipped footage is quick: run it as written
+    code = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if "load_sequence" in b)
+    exec(compile(code, "README.md", "exec"), {})
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[1] for line in lines[:6]] == ["occluded", "occluded", *["tracking"] * 4]  # hidden 10-25
+    assert lines[-1] == "TrackStatus.LOST 0.0 0.0"  # a bearing alone starts no formation filter

@@ -298,7 +298,7 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
         meta = read_meta(folder)
         if not resume:
             raise ConfigError(
-                f"{folder} already holds sweep {meta.get('name')!r}: pass --resume to finish it, or another --out"
+                f"{folder} already holds sweep {meta.get('name')!r}: finish it with --resume (resume=True), or give another --out (out_dir)"
             )
         if meta.get("digest") != p.digest:
             raise ConfigError(
@@ -617,9 +617,9 @@ def run_sweep(
     from distributed import wait
 
     if logs not in LOG_MODES:
-        raise ConfigError(f"--logs must be one of {', '.join(LOG_MODES)}, got {logs!r}")
+        raise ConfigError(f"--logs (logs) must be one of {', '.join(LOG_MODES)}, got {logs!r}")
     if workers is not None and workers < 1:
-        raise ConfigError(f"--workers must be >= 1, got {workers}")
+        raise ConfigError(f"--workers (workers) must be >= 1, got {workers}")
     if scheduler is not None:
         _check_address(scheduler)
     p = sweep if isinstance(sweep, SweepPlan) else plan(sweep if isinstance(sweep, SweepSpec) else load_sweep(sweep))

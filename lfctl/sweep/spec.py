@@ -645,6 +645,24 @@ def with_keys(cfg: Config, keys: Mapping[str, Any]) -> Config:
     return dataclasses.replace(out, vehicles=vehicles)
 
 
+#: the fields of a SweepSpec its source TOML sets
+_SOURCE_FIELDS = ("name", "scenario", "fixed", "grid", "random", "samples", "sample_seed", "seeds", "repetitions",
+                  "images", "description")  # fmt: skip
+
+
+def _check_source(spec: SweepSpec) -> None:
+    """ConfigError when ``spec``'s fields are not what its source says (changed after it was
+    read, with ``dataclasses.replace``): the sweep's folder keeps the source as its record."""
+    again = parse_sweep(spec.source, spec.name, spec.path.parent if spec.path is not None else None)
+    changed = [f for f in _SOURCE_FIELDS if getattr(again, f) != getattr(spec, f)]
+    if changed:
+        raise ConfigError(
+            f"sweep {spec.name!r}: its {', '.join(changed)} differ from its source TOML (changed after it was read): "
+            "write the change into the TOML text and read that with parse_sweep(text, name, base_dir), so that "
+            "the sweep's folder records what ran"
+        )
+
+
 def plan(spec: SweepSpec) -> SweepPlan:
     """Build and validate every variant and list every run, before anything runs.
 
@@ -660,8 +678,11 @@ def plan(spec: SweepSpec) -> SweepPlan:
     Raises
     ------
     ConfigError
-        A variant that does not build: the message names the variant, its values and the key.
+        A variant that does not build: the message names the variant, its values and the key;
+        or a spec whose fields were changed after it was read, so that its source (the
+        ``sweep.toml`` its folder keeps) no longer says what runs.
     """
+    _check_source(spec)
     variants = []
     missions: dict[str, str] = {}  # each mission file the variants fly -> its SHA-256
     for index, values in enumerate(_combinations(spec)):

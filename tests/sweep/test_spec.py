@@ -238,3 +238,18 @@ def test_run_scenario_checks_its_duration_and_its_scenario_as_a_file_would() -> 
             run_scenario(cfg, duration_s=bad)
     with pytest.raises(ConfigError, match=r"run_scenario takes a Config .*got str 'convoy'"):
         run_scenario("convoy")  # type: ignore[arg-type]
+
+
+def test_a_spec_changed_after_it_was_read_is_refused_and_one_read_from_changed_text_plans() -> None:
+    # the folder's sweep.toml is the spec's source: a spec cut down with dataclasses.replace ran 4
+    # runs and kept the 400-run file as its record
+    import dataclasses
+
+    spec = load_sweep("noise")
+    cut = dataclasses.replace(spec, seeds=(1, 2))
+    with pytest.raises(ConfigError, match=r"sweep 'noise': its seeds differ from its source TOML"):
+        plan(cut)
+    text = spec.source.replace("seeds = 10", "seeds = [1, 2]")
+    assert text != spec.source
+    small = parse_sweep(text, "noise", spec.path.parent)
+    assert small.seeds == (1, 2) and len(plan(small).runs) == len(plan(spec).runs) // 5
