@@ -35,7 +35,15 @@ from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
-from lfctl.link.mission import LOCATION_ALT_MAX_M, RAW_XY, MissionItem, home_item, jump_tag_item, validate_item
+from lfctl.link.mission import (
+    DO_JUMP,
+    LOCATION_ALT_MAX_M,
+    RAW_XY,
+    MissionItem,
+    home_item,
+    jump_tag_item,
+    validate_item,
+)
 from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
@@ -74,6 +82,7 @@ FORCE_ARM = (2989.0, 21196.0)
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: Rover's other modes, which lfctl does not fly (named when refused)
 OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
+OTHER_ROVER_MODES_INITIALISING = 16
 #: Rover's period of the "PreArm:" texts while a check fails, and their delay once one starts
 #: failing, s (AP_Arming::update)
 PREARM_DISPLAY_S, PREARM_SOON_S = 30.0, 4.0
@@ -423,6 +432,26 @@ class VehicleEndpoint:
         """The mission item the vehicle is heading for (0: none)."""
         return self.missions.current_seq
 
+    @property
+    def mission_current(self) -> int:
+        """The item MISSION_CURRENT names, as Rover's ``AP_Mission::get_current_nav_index``:
+        0 while no item is under way (after an upload, a restart or a disarm); while the
+        mission is not running, the navigation command at or after the item set, as
+        ``set_current_cmd`` loads it (a DO command set before it still runs first)."""
+        seq = self.current_seq
+        if seq == 0 or self.mode == MODES["AUTO"]:
+            return seq
+        seen: set[int] = set()
+        mission = self.mission
+        while 0 < seq < len(mission) and seq not in seen:
+            seen.add(seq)
+            it = mission[seq]
+            if it.command <= mav.MAV_CMD_NAV_LAST:  # AP_Mission::is_nav_cmd
+                return seq
+            jump = int(it.param1) if it.command == DO_JUMP else -1
+            seq = jump if 0 < jump < len(mission) else seq + 1
+        return self.current_seq
+
     def param(self, name: str) -> float:
         """A parameter's value now.
 
@@ -768,9 +797,19 @@ class VehicleEndpoint:
         """A mode change a ground station asked for (SET_MODE, DO_SET_MODE): only a custom
         mode is taken (else DENIED), FAILED when the mode is refused (Rover's
         ``_set_mode_common``)."""
+        if base_mode == mav.MAV_MODE_FLAG_DECODE_POSITION_SAFETY:
+            return self._safety_switch(custom_mode == 0)
         if not base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             return mav.MAV_RESULT_DENIED
         return mav.MAV_RESULT_ACCEPTED if self.set_mode(custom_mode) else mav.MAV_RESULT_FAILED
+
+    @staticmethod
+    def _safety_switch(outputs_on: bool) -> int:
+        """The safety switch asked for (SET_MODE with base_mode 128 alone, custom_mode 0 off
+        and 1 on; MAV_CMD_DO_SET_SAFETY_SWITCH_STATE): the vehicle is a board without one, its
+        outputs always live (SYS_STATUS says so), as Rover on such a board answers: off is
+        ACCEPTED (``force_safety_off`` does nothing), on FAILED (``force_safety_on`` cannot)."""
+        return mav.MAV_RESULT_ACCEPTED if outputs_on else mav.MAV_RESULT_FAILED
 
     def set_mode(self, custom_mode: int) -> bool:
         """Switch mode as Rover would (the next HEARTBEAT goes out at once); False, with a
@@ -785,9 +824,10 @@ class VehicleEndpoint:
         custom_mode &= 0xFF  # Rover's mode number is a byte: 260 is HOLD's 4
         if custom_mode == self.mode:
             return True  # as Rover: already there, nothing changes (a GUIDED target is kept)
-        if custom_mode in OTHER_ROVER_MODES:
-            self.statustext(f"{OTHER_ROVER_MODES[custom_mode]} mode not supported", mav.MAV_SEVERITY_WARNING)
-            return False
+        if custom_mode == OTHER_ROVER_MODES_INITIALISING:
+            return self._refuse_mode(None)  # Rover's ModeInitializing never starts: its failure alone
+        if custom_mode in OTHER_ROVER_MODES:  # a Rover mode lfctl's vehicle has not: it fails as Rover's do
+            return self._refuse_mode(f"{OTHER_ROVER_MODES[custom_mode]} mode not supported")
         if custom_mode not in MODE_NAMES:
             self.statustext(f"No such mode {custom_mode}", mav.MAV_SEVERITY_WARNING)  # AP_Vehicle's words
             return False
@@ -802,9 +842,10 @@ class VehicleEndpoint:
         self._enter(custom_mode)
         return True
 
-    def _refuse_mode(self, why: str, severity: int = mav.MAV_SEVERITY_WARNING) -> bool:
-        """A mode that cannot start: its reason, then Rover's "Flight mode change failed"."""
-        self.statustext(why, severity)
+    def _refuse_mode(self, why: str | None, severity: int = mav.MAV_SEVERITY_WARNING) -> bool:
+        """A mode that cannot start: its reason (if any), then Rover's "Flight mode change failed"."""
+        if why is not None:
+            self.statustext(why, severity)
         self.statustext("Flight mode change failed", mav.MAV_SEVERITY_WARNING)
         return False
 
@@ -908,6 +949,10 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
             self._banner()
             return mav.MAV_RESULT_ACCEPTED
+        if cmd == mav.MAV_CMD_DO_SET_SAFETY_SWITCH_STATE:
+            if p[0] not in (mav.SAFETY_SWITCH_STATE_SAFE, mav.SAFETY_SWITCH_STATE_DANGEROUS):
+                return mav.MAV_RESULT_DENIED
+            return self._safety_switch(p[0] == mav.SAFETY_SWITCH_STATE_DANGEROUS)
         if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
             if self.armed:
                 return mav.MAV_RESULT_TEMPORARILY_REJECTED
@@ -1984,7 +2029,7 @@ class VehicleEndpoint:
                 mav.MAVLink_attitude_message(t_ms, 0.0, 0.0, wrap_pi(s["yaw_rad"]), 0.0, 0.0, s["yaw_rate_radps"])
             )
         elif name == "MISSION_CURRENT":
-            self.send(self._mission_current(self.current_seq))
+            self.send(self._mission_current(self.mission_current))
         elif name == "MISSION_ITEM_REACHED":
             # as Rover's: the last item reached since the autopilot started, or 65535 (none yet)
             self.send(mav.MAVLink_mission_item_reached_message(self._reached_seq))

@@ -276,7 +276,7 @@ class MissionServer:
         """
         self.lists[mission_type] = [as_stored(it) for it in items] if mission_type == MISSION else list(items)
         if mission_type == MISSION:
-            self.current_seq = 1 if len(items) > 1 else 0
+            self.current_seq = 0  # as Rover after an upload: no item under way (AUTO starts at item 1)
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
         self.on_change(mission_type, self.lists[mission_type])
 
@@ -582,7 +582,7 @@ class MissionServer:
         """The autopilot restarted: an upload under way is lost (its ground station times
         out) and the mission starts again from its first item; the lists stay."""
         self._uploads.clear()
-        self.current_seq = 1 if len(self.lists[MISSION]) > 1 else 0
+        self.current_seq = 0  # no item under way until AUTO starts the mission at item 1
 
     def set_current(self, seq: int) -> bool:
         """Make mission item ``seq`` current (False when there is no such waypoint item).

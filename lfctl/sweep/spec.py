@@ -134,6 +134,8 @@ class SweepSpec:
         What the sweep is for (free text).
     path : Path or None
         The sweep file (None when parsed from text); errors name it.
+    base_dir : Path or None
+        Where a relative ``scenario`` path started when the source was read.
     """
 
     name: str
@@ -150,6 +152,7 @@ class SweepSpec:
     source: str = ""
     description: str = ""
     path: Path | None = None
+    base_dir: Path | None = None
 
     @property
     def keys(self) -> list[str]:
@@ -465,6 +468,7 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
         images=images,
         source=text,
         description=description,
+        base_dir=base_dir,
     )
 
 
@@ -653,7 +657,7 @@ _SOURCE_FIELDS = ("name", "scenario", "fixed", "grid", "random", "samples", "sam
 def _check_source(spec: SweepSpec) -> None:
     """ConfigError when ``spec``'s fields are not what its source says (changed after it was
     read, with ``dataclasses.replace``): the sweep's folder keeps the source as its record."""
-    again = parse_sweep(spec.source, spec.name, spec.path.parent if spec.path is not None else None)
+    again = parse_sweep(spec.source, spec.name, spec.base_dir)
     changed = [f for f in _SOURCE_FIELDS if getattr(again, f) != getattr(spec, f)]
     if changed:
         raise ConfigError(

@@ -1600,10 +1600,10 @@ def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(benc
     home = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
     assert home.relative_alt == 0
     # storage is kept: the parameter, REQUEST_DATA_STREAM's rate (Rover's SRn_: POSITION at
-    # 2 Hz), the mission from its first item
+    # 2 Hz), the mission, with no item under way (MISSION_CURRENT 0: AUTO starts it at item 1)
     assert bench.ep.param("WP_SPEED") == 1.5
     assert 2 <= _count(out, "GLOBAL_POSITION_INT") <= 3
-    assert len(bench.ep.mission) == len(good_mission()) and bench.ep.current_seq == 1
+    assert len(bench.ep.mission) == len(good_mission()) and bench.ep.current_seq == 0
     assert bench.ep.stats.handler_errors == 0
 
 
@@ -1650,7 +1650,10 @@ def test_a_rover_mode_lfctl_does_not_fly_is_named_and_a_failed_change_says_so(be
     assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
     bench.send(mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 1))
     bench.tick()
-    assert bench.ep.statustexts[-1][1] == "ACRO mode not supported"
+    assert [t for _, t in bench.ep.statustexts[-2:]] == ["ACRO mode not supported", "Flight mode change failed"]
+    n = len(bench.ep.statustexts)
+    assert bench.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 16) == mav.MAV_RESULT_FAILED
+    assert [t for _, t in bench.ep.statustexts[n:]] == ["Flight mode change failed"]  # INITIALISING never starts
     assert bench.set_mode("AUTO") == mav.MAV_RESULT_FAILED  # no mission
     assert [t for _, t in bench.ep.statustexts[-2:]] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]
 
@@ -2452,3 +2455,35 @@ def test_a_downloaded_command_without_a_place_has_x_y_z_0_and_only_the_params_ro
     assert got == [(0, 0, 0.0), (0, 0, 0.0), (0, 0, 0.0), (0, 0, 0.0), (5, 6, 0.0), (lat, lon + 10, 2.0)]
     assert (back[4].param3, back[4].param4) == (0.0, 0.0)  # type: ignore[attr-defined]
     assert (back[4].param1, back[4].param2) == (5.0, 1500.0)  # type: ignore[attr-defined]
+
+
+def test_the_safety_switch_of_a_board_without_one_as_rover_answers(bench: Bench) -> None:
+    # MAVProxy's `arm safetyoff`: MAV_CMD_DO_SET_SAFETY_SWITCH_STATE, then SET_MODE with base_mode 128
+    def set_mode_ack(custom: int) -> int:
+        bench.send(mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_DECODE_POSITION_SAFETY, custom))
+        (ack,) = [m for m in bench.tick() if m.get_type() == "COMMAND_ACK"]
+        return int(ack.result)
+
+    assert set_mode_ack(0) == mav.MAV_RESULT_ACCEPTED  # off: the outputs are live already
+    assert set_mode_ack(1) == mav.MAV_RESULT_FAILED  # on: there is no switch to turn on
+    cmd = mav.MAV_CMD_DO_SET_SAFETY_SWITCH_STATE
+    assert bench.command(cmd, mav.SAFETY_SWITCH_STATE_DANGEROUS) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(cmd, mav.SAFETY_SWITCH_STATE_SAFE) == mav.MAV_RESULT_FAILED
+    assert bench.command(cmd, 7) == mav.MAV_RESULT_DENIED
+    assert bench.ep.mode == MODES["HOLD"]  # no mode change came of it
+
+
+def test_mission_current_names_no_item_until_auto_and_the_navigation_item_a_set_lands_on(bench: Bench) -> None:
+    # Rover's get_current_nav_index: 0 after an upload; set_current_cmd on a DO item (mission not
+    # running) loads the navigation command after it, and the DO runs first when AUTO starts
+    items = [*good_mission(2), Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=0.7), good_mission(4)[3]]
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+
+    def current() -> int:
+        return [m for m in bench.tick(1.1) if m.get_type() == "MISSION_CURRENT"][-1].seq
+
+    assert current() == 0
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2) == mav.MAV_RESULT_ACCEPTED
+    assert current() == 3 and bench.ep.current_seq == 2  # told: the waypoint; kept: the DO before it
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == mav.MAV_RESULT_ACCEPTED
+    assert current() == 1
