@@ -41,12 +41,17 @@ class MarkerPose:
     bearing_rad : float
         Bearing of the banner centre from the camera's axis, clockwise positive, rad.
     rel_heading_rad : float
-        The leader's heading minus the camera's, clockwise positive, rad.
+        The leader's heading minus the camera's, clockwise positive, rad, in the camera's
+        x-z plane (the horizontal one for a level camera; :func:`to_vehicle_frame` takes it
+        into the horizontal for a pitched one).
     quality : float
         0..1: from the reprojection error (PnP) or from how far the two marker pairs'
         spacing is from the square's side (the paper's estimator).
     method : str
         The estimator: ``"pnp"`` or ``"paper"``.
+    right_cam : np.ndarray or None
+        The banner's right axis in the camera frame, a unit vector (PnP's; None from the
+        paper's estimator, which measures in the x-z plane only).
     """
 
     centre_cam_m: np.ndarray
@@ -55,6 +60,7 @@ class MarkerPose:
     rel_heading_rad: float
     quality: float
     method: str
+    right_cam: np.ndarray | None = None
 
 
 def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose | None:
@@ -143,7 +149,7 @@ def pnp_pose(centres: np.ndarray, K: np.ndarray, dist: np.ndarray | None, side_m
     x_axis = R[:, 0]  # the banner's right axis in the camera frame
     rel = wrap_pi(math.atan2(-x_axis[2], x_axis[0]))
     quality = max(0.0, 1.0 - err / 3.0)
-    return MarkerPose(t.copy(), math.hypot(t[0], t[2]), math.atan2(t[0], t[2]), rel, quality, "pnp")
+    return MarkerPose(t.copy(), math.hypot(t[0], t[2]), math.atan2(t[0], t[2]), rel, quality, "pnp", x_axis.copy())
 
 
 def to_vehicle_frame(
@@ -152,7 +158,9 @@ def to_vehicle_frame(
     """Range (m), bearing (rad) and relative heading between the vehicles' reference points.
 
     The banner centre is moved from the camera frame into the follower's body frame (FRD),
-    then ``banner_offset_m`` forward along the leader's heading to its reference point.
+    then ``banner_offset_m`` forward along the leader's heading to its reference point. The
+    heading is the banner's right axis turned into the body frame when the pose has it
+    (PnP), so that a pitched camera measures it in the horizontal.
 
     Parameters
     ----------
@@ -166,6 +174,11 @@ def to_vehicle_frame(
         How far the banner is behind the leader's reference point, m.
     """
     p = mount_body_m + R_body_from_cam @ pose.centre_cam_m
-    fwd = p[0] + banner_offset_m * math.cos(pose.rel_heading_rad)
-    right = p[1] + banner_offset_m * math.sin(pose.rel_heading_rad)
-    return math.hypot(fwd, right), math.atan2(right, fwd), pose.rel_heading_rad
+    rel = pose.rel_heading_rad
+    if pose.right_cam is not None:  # the banner's right axis in the body frame, levelled: exact at any pitch
+        right_body = R_body_from_cam @ pose.right_cam
+        if math.hypot(right_body[0], right_body[1]) > 1e-6:
+            rel = math.atan2(-right_body[0], right_body[1])
+    fwd = p[0] + banner_offset_m * math.cos(rel)
+    right = p[1] + banner_offset_m * math.sin(rel)
+    return math.hypot(fwd, right), math.atan2(right, fwd), rel

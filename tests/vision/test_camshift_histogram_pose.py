@@ -237,3 +237,23 @@ def test_a_frame_of_another_size_is_refused_by_the_tracker_and_the_perception() 
     perception = BannerPerception.from_config(CameraConfig(), BannerConfig())
     with pytest.raises(FrameError, match="frame is 768x576, the camera model 640x480"):
         perception.step(0.0, np.zeros((576, 768, 3), np.uint8), (10, 10, 20, 20))
+
+
+@pytest.mark.parametrize("pitch_deg", [0.0, 10.0, 20.0])
+def test_the_leaders_heading_and_place_from_a_pitched_camera_are_measured_in_the_horizontal(pitch_deg: float) -> None:
+    # the leader 2 m away at 8 deg, turned 25 deg; PnP's heading in the camera's x-z plane is
+    # 24.67 deg at 10 deg pitch and 23.66 at 20 (atan(cos p tan 25)): levelled, 25 exactly
+    import dataclasses
+
+    from lfctl.vision.banner import BannerGeometry
+
+    banner = BannerGeometry.from_config(BannerConfig())
+    cam = CameraModel.from_config(dataclasses.replace(CameraConfig(), pitch_rad=math.radians(pitch_deg)))
+    b, yaw = math.radians(8.0), math.radians(25.0)
+    uv = np.array([cam.project_body(p)[:2] for p in banner.markers_ned(2.0 * math.cos(b), 2.0 * math.sin(b), yaw)])
+    pose = pnp_pose(uv, cam.K, None, banner.square_m)
+    assert pose is not None
+    in_plane = math.degrees(math.atan(math.cos(math.radians(pitch_deg)) * math.tan(yaw)))
+    assert math.degrees(pose.rel_heading_rad) == pytest.approx(in_plane, abs=0.01)
+    rng, brg, rel = to_vehicle_frame(pose, cam.mount_body_m, cam.R_body_from_cam, banner.back_m)
+    assert (rng, math.degrees(brg), math.degrees(rel)) == pytest.approx((2.0, 8.0, 25.0), abs=1e-3)
