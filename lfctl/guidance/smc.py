@@ -24,6 +24,11 @@ __all__ = [
 ]
 
 
+#: the bearing law's error rate is a difference over at least this long, s: over a step
+#: shorter (a paced loop's hiccup) a 0.1 rad change would read as a rate of thousands
+MIN_RATE_DT_S = 1e-3
+
+
 def sat(x: float) -> float:
     """Unit saturation: ``x`` clipped to [-1, 1] (the boundary-layer ``sgn``).
 
@@ -241,10 +246,11 @@ class SlidingModeController:
         err_rad : float
             The error now (see :func:`smc_yaw_rate_radps`), rad.
         dt_s : float
-            Time since the previous step, s (<= 0: the rate is taken as 0).
+            Time since the previous step, s (under :data:`MIN_RATE_DT_S`, 0 among them: the
+            rate is taken as 0, not a difference over no time).
         feedforward_radps : float
             The equivalent control, rad/s.
         """
-        rate = 0.0 if self._prev_err is None or dt_s <= 0 else wrap_pi(err_rad - self._prev_err) / dt_s
+        rate = 0.0 if self._prev_err is None or not dt_s >= MIN_RATE_DT_S else wrap_pi(err_rad - self._prev_err) / dt_s
         self._prev_err = err_rad
         return smc_yaw_rate_radps(err_rad, rate, self.gains, feedforward_radps)

@@ -100,3 +100,14 @@ def test_gains_reject_bad_values() -> None:
         RangeGains(min_speed_mps=1.0, max_speed_mps=0.5)
     with pytest.raises(ValueError, match="lam_s must be >= 0"):
         BearingGains(lam_s=-1.0)
+
+
+def test_the_bearing_laws_rate_is_not_a_difference_over_almost_no_time() -> None:
+    # a 0.1 rad change over 1e-9 s read as a rate of 1e8 rad/s: the full-scale turn
+    from lfctl.guidance.smc import MIN_RATE_DT_S, BearingGains, SlidingModeController
+
+    over_nothing, over_a_step = SlidingModeController(BearingGains()), SlidingModeController(BearingGains())
+    over_nothing.step(0.0, 0.05)
+    over_a_step.step(0.0, 0.05)
+    assert over_nothing.step(0.1, 1e-9) == SlidingModeController(BearingGains()).step(0.1, 0.05)  # as a first step
+    assert over_a_step.step(0.1, MIN_RATE_DT_S) != over_nothing.step(0.1, 0.05)
