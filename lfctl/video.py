@@ -38,9 +38,10 @@ class VideoSource:
     def __init__(self, source: str | int | os.PathLike[str]) -> None:
         if isinstance(source, bool) or not isinstance(source, str | int | os.PathLike):
             raise ConfigError(f"video source must be a camera index, a file or a stream URL, got {source!r}")
-        source = os.fspath(source) if isinstance(source, os.PathLike) else str(source)
+        path = isinstance(source, os.PathLike)  # a path is a file, even one named "7"
+        source = os.fspath(source) if path else str(source)
         self.name = source
-        target: str | int = int(source) if source.isdigit() else source
+        target: str | int = int(source) if source.isdigit() and not path else source
         stream = isinstance(target, str) and "://" in target
         if isinstance(target, str) and not stream:
             try:

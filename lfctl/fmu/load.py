@@ -1021,6 +1021,7 @@ class FmuInstance:
 
     def _refuse_freed(self, *_args: Any, call: str | None = None) -> int:
         call = call or self.busy or "a call"  # the hot path names its call in busy
+        self.busy = None  # no call went into the FMU
         raise self._error(
             f"{self.lib.identifier} ({self.name}): {call} after the instance was freed (FmuInstance.free or "
             "FmuLibrary.close): instantiate it again",

@@ -144,7 +144,7 @@ def follow_rover(
     if _ask(companion, name, "GUIDED", mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, guided):
         companion.vehicle.mode = guided  # its answer follows the change; its HEARTBEAT may lag
     # what the log has said of the rover: a change after it (even one during the requests) is said
-    state = (guided if companion.vehicle.mode == guided else companion.vehicle.mode, companion.vehicle.armed)
+    state = (companion.vehicle.mode, companion.vehicle.armed)
     if arm and _ask(companion, name, "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0):
         companion.vehicle.armed = True
         state = (state[0], True)
@@ -206,12 +206,14 @@ def _ask(companion: Companion, name: str, what: str, cmd: int, *params: float) -
     answer = f"no answer to {COMMAND_TRIES} tries" if result is None else result_name(result)
     if said:
         answer += "; it said: " + " / ".join(said)
-    asked = "GUIDED" if what == "GUIDED" else "to arm"
+    if result is None:
+        outcome = "did not answer the request for GUIDED" if what == "GUIDED" else "did not answer the request to arm"
+    else:
+        outcome = "refused GUIDED" if what == "GUIDED" else "refused to arm"
     log.warning(
-        "%s: the rover %s %s (%s): it ignores the setpoints until it is %s; the follower goes on and says when it is",
+        "%s: the rover %s (%s): it ignores the setpoints until it is %s; the follower goes on and says when it is",
         name,
-        "did not answer the request for" if result is None else "refused",
-        asked,
+        outcome,
         answer,
         "in GUIDED (set it from the ground station or the transmitter)"
         if what == "GUIDED"

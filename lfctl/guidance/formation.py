@@ -32,6 +32,7 @@ import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
 
+from lfctl.errors import ConfigError
 from lfctl.frames import body_to_ned, wrap_pi
 from lfctl.guidance.smc import BearingGains, RangeGains, SlidingModeController, clamp, smc_speed_mps
 from lfctl.guidance.trail import Trail, trail_speed_mps
@@ -49,6 +50,9 @@ TRAIL_MIN_RANGE = 0.6
 #: (from 35 deg to the side, on the inside of a right-angle corner, a follower reaches the
 #: corner as its target turns it and turns the long way round)
 TRAIL_MAX_BEARING_RAD = math.radians(30.0)  # lfctl.config.TRAIL_MAX_BEARING_DEG, which a test keeps equal
+#: a target estimated faster than this moves the way its velocity points (a bearing-only
+#: sighting then places the banner's offset along it), m/s
+MOVING_MPS = 0.1
 #: the sliding-mode law holds slots below this bearing; one at or past it (the follower abeam
 #: of its target or ahead) is held by the P law (lfctl.config.SMC_MAX_BEARING_DEG, which a
 #: test keeps equal)
@@ -111,7 +115,7 @@ class FormationSettings:
     The defaults are the controller's own (no reversing: ``range.min_speed_mps`` 0); the
     settings a scenario gives its follower, with its gains, reverse speed, coast and camera
     view, are :func:`lfctl.follower.stack.formation_settings`'s. A value out of its range
-    (not a number, a range of 0 or less, an unknown law) is a ValueError naming it.
+    (not a number, a range of 0 or less, an unknown law) is a ConfigError (a ValueError) naming it.
     """
 
     range_cmd_m: float = 1.5
@@ -132,17 +136,17 @@ class FormationSettings:
 
     def __post_init__(self) -> None:
         if self.controller not in CONTROLLERS:
-            raise ValueError(f"controller must be one of {', '.join(CONTROLLERS)}, got {self.controller!r}")
+            raise ConfigError(f"controller must be one of {', '.join(CONTROLLERS)}, got {self.controller!r}")
         if not abs(self.bearing_cmd_rad) <= math.pi:  # NaN too
-            raise ValueError(f"bearing_cmd_rad must be within -pi..pi, got {self.bearing_cmd_rad!r}")
+            raise ConfigError(f"bearing_cmd_rad must be within -pi..pi, got {self.bearing_cmd_rad!r}")
         if not 0.0 < self.view_half_fov_rad <= math.pi:
-            raise ValueError(f"view_half_fov_rad must be within (0, pi], got {self.view_half_fov_rad!r}")
+            raise ConfigError(f"view_half_fov_rad must be within (0, pi], got {self.view_half_fov_rad!r}")
         positive = ("range_cmd_m", "trail_lookahead_m", "slowdown_s", "meas_sigma_m", "accel_sigma_mps2")
         at_least_0 = ("banner_half_m", "p_gain_per_s", "p_heading_gain_per_s", "coast_s", "search_yaw_rate_radps")
         for name in positive + at_least_0:
             value = getattr(self, name)
             if not (0.0 < value < math.inf if name in positive else 0.0 <= value < math.inf):
-                raise ValueError(
+                raise ConfigError(
                     f"{name} must be a number {'above' if name in positive else 'of at least'} 0, got {value!r}"
                 )
 
@@ -322,6 +326,7 @@ class FormationController:
         # the time of the last measurement fused (its image time): one handed again (a camera
         # slower than the guidance steps) is not fused again
         self._t_fused = -math.inf
+        self._sample_gap: float | None = None  # between the last two measurements fused (their times), s
         self._t_prev: float | None = None
         self._target_heading: float | None = None
         # the search once LOST: the turn's direction (+1 right, -1 left), its heading a step
@@ -387,6 +392,8 @@ class FormationController:
         # uncertainty as if it were new
         fresh = sighted and meas is not None and meas.t_s > self._t_fused
         if fresh and meas is not None and bearing is not None:
+            if math.isfinite(self._t_fused):
+                self._sample_gap = meas.t_s - self._t_fused
             self._t_fused = meas.t_s
             at = self._odometry_at(meas.t_s)
             R = None
@@ -407,9 +414,11 @@ class FormationController:
         since = odom.t_s - self._t_last_meas
         sensor_lost = meas is not None and meas.status is TrackStatus.LOST
         self._timed_out = not fresh and (self._timed_out or since > st.coast_s + st.slowdown_s)
-        if fresh or (sighted and since <= st.coast_s):
-            # the latest frame showed it (one handed again is still the latest frame, until
-            # it is older than the coast: a camera that stopped is then a target unseen)
+        # a measurement handed again is the latest frame while the next is not yet due (twice
+        # the gap between the last two; until there are two, the coast or two steps): a
+        # camera that stopped is then a target unseen, and coasts
+        due = max(st.coast_s, 2.0 * dt) if self._sample_gap is None else 2.0 * self._sample_gap
+        if fresh or (sighted and since <= due):
             self.status = TrackStatus.TRACKING
         elif sensor_lost or not est.initialised or self._timed_out:
             self.status = TrackStatus.LOST
@@ -562,19 +571,25 @@ class FormationController:
         east, m) and its covariance: the ray from where it starts (the camera, on the follower
         at its pose ``at``) meets the seen point (the banner, behind the target's reference
         point along its heading) at the filter's own distance to that point; the target's
-        point is then that far ahead of it. The variance is large along the line of sight and
-        small across it."""
+        point is then that far ahead of it. The target's heading is the way it moves while it
+        clearly moves (:data:`MOVING_MPS`), else taken as the follower's own (a follower in
+        formation faces as its target does); the variance is large along the line of sight,
+        and across it the bearing's own plus what the heading may misplace the offset by (a
+        fifth of it while moving, all of it when the heading is taken)."""
         est = self.estimator
         dn, de = body_to_ned(*meas.origin_body_m, at.yaw_rad)
         on, oe = at.north_m + dn, at.east_m + de
-        heading = self._heading_of_target(*est.significant_velocity(), at.yaw_rad)
+        vn, ve = est.significant_velocity()
+        moving = math.hypot(vn, ve) > MOVING_MPS
+        heading = math.atan2(ve, vn) if moving else at.yaw_rad
         back_n, back_e = meas.seen_back_m * math.cos(heading), meas.seen_back_m * math.sin(heading)
         pn, pe = est.position
         rng = max(0.1, math.hypot(pn - back_n - on, pe - back_e - oe))
         los = at.yaw_rad + bearing
         u = np.array([math.cos(los), math.sin(los)])
         v = np.array([-u[1], u[0]])
-        R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * (rng * 0.02) ** 2
+        offset_sd = meas.seen_back_m * (0.2 if moving else 1.0)
+        R = np.outer(u, u) * 0.5**2 + np.outer(v, v) * ((rng * 0.02) ** 2 + offset_sd**2)
         return on + rng * u[0] + back_n, oe + rng * u[1] + back_e, R
 
     def _p_baseline(self, tn: float, te: float, vn: float, ve: float, odom: Odometry) -> tuple[float, float]:

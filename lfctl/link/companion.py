@@ -57,6 +57,8 @@ HEARTBEAT_PERIOD_S = 1.0
 #: confirmation counting up, as MAVLink's command protocol asks of a sender)
 COMMAND_TRY_S = 1.0
 COMMAND_TRIES = 3
+#: the longest a command answered IN_PROGRESS is waited for, from its first send, s
+IN_PROGRESS_MAX_S = 10.0
 #: the vehicle's STATUSTEXTs kept for the caller (:attr:`Companion.heard`), the newest
 HEARD_MAX = 100
 #: the parameter protocol's requests
@@ -191,10 +193,13 @@ class Companion:
 
     def request(self, cmd: int, *params: float, try_s: float = COMMAND_TRY_S, tries: int = COMMAND_TRIES) -> int | None:
         """A COMMAND_LONG to the vehicle's autopilot that waits for its COMMAND_ACK, sent again
-        (confirmation 1, 2, ...) when none comes within ``try_s``; an IN_PROGRESS answer waits
-        on. Everything else that comes meanwhile is taken as :meth:`poll` takes it. Returns
-        the MAV_RESULT, or None when no answer came to any try (a lossy link, or an autopilot
-        that does not answer).
+        (confirmation 1, 2, ...) when none comes within ``try_s``. An IN_PROGRESS answer stops
+        the sending (the command is being carried out: sent again it would start afresh) and
+        waits for the final answer up to :data:`IN_PROGRESS_MAX_S`. Everything else that
+        comes meanwhile is taken as :meth:`poll` takes it, one message at a time, and the
+        companion's heartbeat goes on; however fast messages come, the wait ends at its
+        deadline. Returns the MAV_RESULT, or None when no final answer came (a lossy link, or
+        an autopilot that does not answer).
 
         Parameters
         ----------
@@ -209,17 +214,28 @@ class Companion:
         """
         p = [*params, *([0.0] * (7 - len(params)))]
         start = time.monotonic()
-        for attempt in range(tries):
-            self.acks.pop(cmd, None)
-            self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, min(attempt, 255), *p))
-            deadline = time.monotonic() + try_s
-            while (left := deadline - time.monotonic()) > 0:
-                self.poll(time.monotonic() - start, min(0.05, left))
-                result = self.acks.pop(cmd, None)
-                if result == mav.MAV_RESULT_IN_PROGRESS:
-                    deadline = time.monotonic() + try_s  # being carried out: its final answer follows
-                elif result is not None:
-                    return result
+        deadline = start + try_s * tries
+        sent = 0
+        next_send = start
+        beat = -math.inf
+        self.acks.pop(cmd, None)
+        while (now := time.monotonic()) < deadline:
+            if sent < tries and now >= next_send:
+                self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, min(sent, 255), *p))
+                sent += 1
+                next_send = now + try_s
+            if now - beat >= HEARTBEAT_PERIOD_S:  # on this wait's own clock: the caller's may differ
+                beat = now
+                self._send_heartbeat()
+            m = self.port.recv(min(0.05, max(0.0, min(deadline, next_send) - now)))
+            if m is not None:
+                self._take(m, now - start)
+            result = self.acks.pop(cmd, None)
+            if result == mav.MAV_RESULT_IN_PROGRESS:
+                sent = tries  # no more sends: the final answer follows
+                deadline = max(deadline, start + IN_PROGRESS_MAX_S)
+            elif result is not None:
+                return result
         return None
 
     def set_guided(self) -> None:
@@ -334,7 +350,8 @@ class Companion:
             if self._plausible(kind, ("yaw", m.yaw)):
                 v.yaw_rad = m.yaw
         elif kind == "COMMAND_ACK":
-            if m.target_component in (0, COMPANION_COMPID):  # ours (0: pymavlink's MAVLink 1 ack)
+            # ours (0: a MAVLink 1 ack has no target fields)
+            if m.target_system in (0, self.port.sysid) and m.target_component in (0, COMPANION_COMPID):
                 self.acks[m.command] = m.result
         elif kind == "STATUSTEXT":
             self.heard.append((m.severity, text_field(m.text)))

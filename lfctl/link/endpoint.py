@@ -448,7 +448,8 @@ class VehicleEndpoint:
             it = mission[seq]
             if it.command <= mav.MAV_CMD_NAV_LAST:  # AP_Mission::is_nav_cmd
                 return seq
-            jump = int(it.param1) if it.command == DO_JUMP else -1
+            # a DO_JUMP with repeats to make is followed (one of 0 repeats is passed, as Rover's)
+            jump = int(it.param1) if it.command == DO_JUMP and it.param2 != 0 else -1
             seq = jump if 0 < jump < len(mission) else seq + 1
         return self.current_seq
 

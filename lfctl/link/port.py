@@ -79,15 +79,7 @@ def _check_network_address(connect: str) -> None:
     """
     kind, sep, rest = connect.partition(":")
     if not (sep and kind in NET_PREFIXES):
-        # pymavlink takes anything else for a serial device (or a log file) and says only
-        # that it cannot import pyserial: name what the string should have been
-        device = connect.partition(",")[0]
-        if not (os.path.exists(device) or re.fullmatch(r"COM\d+", device, re.IGNORECASE)):
-            raise LinkError(
-                connect,
-                "not a MAVLink address (udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT) nor a serial "
-                "device here (/dev/ttyUSB0,921600)",
-            )
+        _check_serial_device(connect)
         return
     try:
         host, port = check_host_port("the address", rest, allow_any_port=kind in ("udp", "udpin", "tcpin"))
@@ -97,6 +89,29 @@ def _check_network_address(connect: str) -> None:
         socket.getaddrinfo(host.strip("[]"), port)
     except (OSError, UnicodeError) as exc:
         raise LinkError(connect, f"host {host!r} is not an address here ({exc})") from None
+
+
+def _check_serial_device(connect: str) -> None:
+    """LinkError for a string pymavlink would open as a serial port when there is no such
+    device: it says only that it cannot import pyserial, or waits. Every other form it takes
+    (its other prefixes, HOST:PORT, a log file) is left to it."""
+    lowered = connect.lower()
+    if lowered.startswith(_OTHER_PREFIXES) or lowered.endswith((".bin", ".px4log", ".log")):
+        return
+    device = connect if os.path.exists(connect) else connect.partition(",")[0]
+    if ":" in device and device.rsplit(".", 1)[-1].lower() not in ("mavlink", "log", "raw", "tlog"):
+        return  # HOST:PORT: pymavlink's legacy UDP form
+    if os.path.exists(device) or re.fullmatch(r"(\\\\\.\\)?COM\d+", device, re.IGNORECASE):
+        return
+    raise LinkError(
+        connect,
+        f"no such serial device {device!r} here (unplugged, or a typo?), nor a log file; a network link is "
+        "udpin:HOST:PORT, udpout:HOST:PORT, udp:, udpbcast:, tcp:HOST:PORT or tcpin:",
+    )
+
+
+#: pymavlink's connection prefixes besides the network ones lfctl checks (it opens each itself)
+_OTHER_PREFIXES = ("uds:", "unix:", "wsserver:", "ws:", "wss:", "mcast:", "csv:")
 
 
 class MavPort:

@@ -61,10 +61,7 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
         The path is not a regular file, the log holds no images for the follower (or none
         that decodes), or no frame with a truth box.
     """
-    try:
-        kind = tracker_kind(kind)
-    except ValueError as exc:
-        raise ConfigError(str(exc)) from None
+    kind = tracker_kind(kind)  # ConfigError for a name that is none
     report = audit(path)
     unusable = next((f for f in report.findings if f.kind == "file"), None)
     if unusable is not None:

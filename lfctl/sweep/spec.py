@@ -468,7 +468,7 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
         images=images,
         source=text,
         description=description,
-        base_dir=base_dir,
+        base_dir=base_dir if base_dir is not None else Path.cwd(),  # where a relative path started
     )
 
 
@@ -657,11 +657,18 @@ _SOURCE_FIELDS = ("name", "scenario", "fixed", "grid", "random", "samples", "sam
 def _check_source(spec: SweepSpec) -> None:
     """ConfigError when ``spec``'s fields are not what its source says (changed after it was
     read, with ``dataclasses.replace``): the sweep's folder keeps the source as its record."""
+    if not spec.source:  # built in Python, not read: there is no record to contradict
+        return
     again = parse_sweep(spec.source, spec.name, spec.base_dir)
-    changed = [f for f in _SOURCE_FIELDS if getattr(again, f) != getattr(spec, f)]
+
+    def same(a: Any, b: Any) -> bool:  # NaN in a grid equals itself here
+        return json.dumps(a, sort_keys=True, default=repr) == json.dumps(b, sort_keys=True, default=repr)
+
+    changed = [f for f in _SOURCE_FIELDS if not same(getattr(again, f), getattr(spec, f))]
     if changed:
         raise ConfigError(
-            f"sweep {spec.name!r}: its {', '.join(changed)} differ from its source TOML (changed after it was read): "
+            f"sweep {spec.name!r}: its {', '.join(changed)} {'differs' if len(changed) == 1 else 'differ'} from its "
+            "source TOML (changed after it was read): "
             "write the change into the TOML text and read that with parse_sweep(text, name, base_dir), so that "
             "the sweep's folder records what ran"
         )

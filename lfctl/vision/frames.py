@@ -47,6 +47,8 @@ def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[i
     shape : tuple of int
         The frame's shape; only H and W are read.
     """
+    if isinstance(roi, str | bytes):
+        raise FrameError(f"ROI must be four numbers x, y, w, h; got {roi!r}")
     try:
         values = [float(v) for v in roi]
     except (TypeError, ValueError):

@@ -138,7 +138,7 @@ class BannerPerception:
             The scenario's sections.
         slot : (range_m, bearing_rad), optional
             The follower's slot: the tracker starts on the banner nearest where it shows.
-        kind : "full", "hs-lbp" or "hue" ("hue-only" too; ValueError for another)
+        kind : "full", "hs-lbp" or "hue" ("hue-only" too; ConfigError for another)
             The tracker (see :class:`TrackerSettings`).
         use_markers : bool
             Use the banner's markers (pose, reacquisition); False tracks any object by its

@@ -61,6 +61,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from lfctl.errors import ConfigError
 from lfctl.vision.appearance import AppearanceGate
 from lfctl.vision.boxes import Box, clip_box, iou
 from lfctl.vision.camshift import camshift_in_roi, meanshift_in_roi
@@ -115,7 +116,7 @@ TRACKER_KIND_NAMES = ("full", "hs-lbp", "hue")
 
 def tracker_kind(kind: str) -> Literal["full", "hs-lbp", "hue"]:
     """A tracker kind's name as :class:`TrackerSettings` takes it: ``full``, ``hs-lbp`` or
-    ``hue`` (``hue-only``, the benchmark tables' name, is ``hue``); ValueError for another.
+    ``hue`` (``hue-only``, the benchmark tables' name, is ``hue``); ConfigError for another.
 
     Parameters
     ----------
@@ -124,7 +125,7 @@ def tracker_kind(kind: str) -> Literal["full", "hs-lbp", "hue"]:
     """
     name = "hue" if kind == "hue-only" else kind
     if name not in TRACKER_KIND_NAMES:
-        raise ValueError(f"tracker kind must be one of {', '.join(TRACKER_KIND_NAMES)} (or hue-only), got {kind!r}")
+        raise ConfigError(f"tracker kind must be one of {', '.join(TRACKER_KIND_NAMES)} (or hue-only), got {kind!r}")
     return name  # type: ignore[return-value]
 
 
@@ -359,23 +360,23 @@ class TrackerSettings:
         object.__setattr__(self, "kind", tracker_kind(self.kind))
         for name in ("search_scale", "ring_scale"):
             if not 0.0 < getattr(self, name) < math.inf:  # NaN too
-                raise ValueError(f"{name} must be a positive number, got {getattr(self, name)!r}")
+                raise ConfigError(f"{name} must be a positive number, got {getattr(self, name)!r}")
         if not self.sprawl_growth >= 0.0:  # NaN too; inf: never looked for smaller
-            raise ValueError(f"sprawl_growth must be >= 0 (inf: off), got {self.sprawl_growth!r}")
+            raise ConfigError(f"sprawl_growth must be >= 0 (inf: off), got {self.sprawl_growth!r}")
         if not all(0.0 < k < 1.0 for k in self.sprawl_scales):
-            raise ValueError(f"sprawl_scales must each be between 0 and 1 (exclusive), got {self.sprawl_scales!r}")
+            raise ConfigError(f"sprawl_scales must each be between 0 and 1 (exclusive), got {self.sprawl_scales!r}")
         if not 0.0 <= self.sprawl_margin <= 1.0:
-            raise ValueError(f"sprawl_margin must be within 0..1, got {self.sprawl_margin!r}")
+            raise ConfigError(f"sprawl_margin must be within 0..1, got {self.sprawl_margin!r}")
         if not 0.0 <= self.turn_step_deg < 90.0:  # NaN too
-            raise ValueError(f"turn_step_deg must be in [0, 90) (0: off), got {self.turn_step_deg!r}")
+            raise ConfigError(f"turn_step_deg must be in [0, 90) (0: off), got {self.turn_step_deg!r}")
         if not -1.0 <= self.turn_rigid <= 1.0:
-            raise ValueError(f"turn_rigid must be a correlation within -1..1, got {self.turn_rigid!r}")
+            raise ConfigError(f"turn_rigid must be a correlation within -1..1, got {self.turn_rigid!r}")
         if not self.turn_margin >= 0.0:
-            raise ValueError(f"turn_margin must be >= 0, got {self.turn_margin!r}")
+            raise ConfigError(f"turn_margin must be >= 0, got {self.turn_margin!r}")
         if not 0.0 <= self.calibration_shrink <= 1.0:  # NaN too
-            raise ValueError(f"calibration_shrink must be within 0..1, got {self.calibration_shrink!r}")
+            raise ConfigError(f"calibration_shrink must be within 0..1, got {self.calibration_shrink!r}")
         if not (isinstance(self.motion_fit_frames, int) and self.motion_fit_frames >= 0):
-            raise ValueError(f"motion_fit_frames must be a whole number >= 0, got {self.motion_fit_frames!r}")
+            raise ConfigError(f"motion_fit_frames must be a whole number >= 0, got {self.motion_fit_frames!r}")
 
 
 @dataclass(frozen=True)

@@ -291,3 +291,17 @@ def test_settings_out_of_their_range_are_refused_naming_the_value(change: dict, 
     # a NaN slot made a NaN speed command; an unknown law ran the P law under its own name
     with pytest.raises(ValueError, match=said):
         FormationSettings(**change)
+
+
+def test_a_camera_at_half_the_guidance_rate_is_tracking_throughout_even_without_a_coast() -> None:
+    # with coast_s 0 each repeated sample read as OCCLUDED: TOTOTO, the speed cut every other step
+    s = FormationSettings(range_cmd_m=1.5, coast_s=0.0, slowdown_s=0.5)
+    ctl = FormationController(s)
+    seen = []
+    for k in range(40):  # guidance at 20 Hz, a camera sample every other step (10 Hz)
+        t = k * DT
+        sample = meas(2 * (k // 2) * DT, 2.0)
+        seen.append(ctl.step(sample, Odometry(t, 0.0, 0.0, 0.0, 0.0)).status)
+    assert seen == [TrackStatus.TRACKING] * 40
+    frozen = [ctl.step(meas(38 * DT, 2.0), Odometry(t, 0.0, 0.0, 0.0, 0.0)).status for t in (2.05, 2.1, 2.2, 2.3)]
+    assert frozen == [TrackStatus.TRACKING, TrackStatus.TRACKING, TrackStatus.OCCLUDED, TrackStatus.OCCLUDED]

@@ -452,8 +452,8 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
         ("udpout:127.0.0.1:0", "the address must be HOST:PORT with a port within 1..65535"),
         ("tcp:127.0.0.1:x", "the address must be HOST:PORT"),
         ("udpout:127.0.0.1:\u00b2", "the address must be HOST:PORT"),  # a digit to str.isdigit, not to int()
-        ("nonsense", "not a MAVLink address (udpin:HOST:PORT"),  # pymavlink: "No module named 'serial'"
-        ("/dev/ttyNOPE0,57600", "nor a serial device here"),
+        ("nonsense", "no such serial device 'nonsense' here"),  # pymavlink: "No module named 'serial'"
+        ("/dev/ttyNOPE0,57600", "no such serial device '/dev/ttyNOPE0' here (unplugged, or a typo?)"),
     ],
 )
 def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> None:
@@ -556,3 +556,60 @@ def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("the rover is in MANUAL, not GUIDED: it ignores the setpoints" in t for t in said), said
     assert said[-1] == "rover: the rover is disarmed: it does not move until it is armed again"
+
+
+class _ScriptedRover:
+    """A port whose rover floods the link with HEARTBEATs and answers each COMMAND_LONG as
+    ``answer(sends, t)`` says (None: not at all): the companion's side of it."""
+
+    def __init__(self, answer) -> None:
+        self.sysid, self.sent, self.answer, self.t0 = 1, [], answer, time.monotonic()
+        self.codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def send(self, msg: Any) -> None:
+        if msg.get_type() == "COMMAND_LONG":
+            self.sent.append(msg.confirmation)
+
+    def recv(self, timeout_s: float = 0.0) -> Any:
+        t = time.monotonic() - self.t0
+        result = self.answer(len(self.sent), t) if self.sent else None
+        if result is not None:
+            msg = mav.MAVLink_command_ack_message(mav.MAV_CMD_DO_SET_MODE, result, 0, 0, 1, COMPANION_COMPID)
+        else:
+            msg = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 0, 4, 3)
+        return self.codec.decode(bytearray(msg.pack(self.codec)))
+
+
+def test_a_request_ends_at_its_deadline_on_a_link_that_never_stops_talking() -> None:
+    # it hung before, reading on for as long as messages came (pytest-timeout fails a hang)
+    port = _ScriptedRover(lambda sends, t: None)
+    assert Companion(port, 1).request(mav.MAV_CMD_DO_SET_MODE, 1, 15, try_s=0.1, tries=3) is None  # type: ignore[arg-type]
+    assert port.sent == [0, 1, 2]  # three tries, then done
+
+
+def test_a_request_in_progress_is_not_sent_again_and_waits_for_its_final_answer() -> None:
+    # IN_PROGRESS every message for 0.5 s (beyond a try's 0.1 s), then ACCEPTED
+    port = _ScriptedRover(lambda sends, t: mav.MAV_RESULT_IN_PROGRESS if t < 0.5 else mav.MAV_RESULT_ACCEPTED)
+    assert Companion(port, 1).request(mav.MAV_CMD_DO_SET_MODE, 1, 15, try_s=0.1, tries=3) == mav.MAV_RESULT_ACCEPTED  # type: ignore[arg-type]
+    assert port.sent == [0]
+
+
+def test_a_rover_that_does_not_answer_is_said_and_the_run_goes_on(caplog: pytest.LogCaptureFixture) -> None:
+    from lfctl.follower.rover import _ask
+
+    companion = Companion(_ScriptedRover(lambda sends, t: None), 1)  # type: ignore[arg-type]
+    companion.request = lambda cmd, *p: None  # type: ignore[method-assign]  (three silent tries)
+    assert not _ask(companion, "f1", "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
+    assert not _ask(companion, "f1", "GUIDED", mav.MAV_CMD_DO_SET_MODE, 1, 15)
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert said[0].startswith("f1: the rover did not answer the request to arm (no answer to 3 tries): it ignores")
+    assert said[1].startswith("f1: the rover did not answer the request for GUIDED (no answer to 3 tries)")
+
+
+@pytest.mark.parametrize(
+    "connect", ["127.0.0.1:14550", "mcast:", "uds:/tmp/x.sock", "wsserver:127.0.0.1:1", r"\\.\COM10", "COM3"]
+)
+def test_every_other_form_pymavlink_opens_is_left_to_it(connect: str) -> None:
+    from lfctl.link.port import _check_serial_device
+
+    _check_serial_device(connect)  # no LinkError: pymavlink's own forms, not a missing serial device

@@ -247,7 +247,7 @@ def test_a_spec_changed_after_it_was_read_is_refused_and_one_read_from_changed_t
 
     spec = load_sweep("noise")
     cut = dataclasses.replace(spec, seeds=(1, 2))
-    with pytest.raises(ConfigError, match=r"sweep 'noise': its seeds differ from its source TOML"):
+    with pytest.raises(ConfigError, match=r"sweep .noise.: its seeds differs from its source TOML"):
         plan(cut)
     text = spec.source.replace("seeds = 10", "seeds = [1, 2]")
     assert text != spec.source
