@@ -28,7 +28,7 @@ ALLOWED = {
     "schedule": set(),
     "video": {"errors"},
     "vision": {"config", "errors", "frames", "vision"},
-    "guidance": {"frames", "guidance", "vision.track_state"},
+    "guidance": {"errors", "frames", "guidance", "vision.track_state"},
     "metrics": {"vision.track_state"},
     "render": {"config", "data", "errors", "frames", "vision", "render"},
     "fmu": {"data", "errors", "fmu", "logs", "workers"},

@@ -32,12 +32,12 @@ PINNED_TRUTH = {
 #: runs that sense by camera, per OpenCV release (major.minor)
 PINNED_CAMERA = {
     "5.0": {
-        ("convoy", 12.0): "fa812bb29be7d97666c4fcc6e50c214ec3c45f854ed1819e5f8d0723c5d490ff",
-        ("vee", 8.0): "3b38a6eba614fc3d2ea685cdbd9ba34e792d7bf2613116cef2b5528e26d61e39",
+        ("convoy", 12.0): "953fd7828f782df4df61045502854ee8d08c0faff3da86729a246b864a824ba6",
+        ("vee", 8.0): "9770d132951ca2ad8789075984687194981fad771b7423e9549f44a5759089cb",
     },
     "5.1": {
-        ("convoy", 12.0): "bf48b8ac4abcccbc14b320f10bf5b2c44a106131fc20089897df49dbd83e1e07",
-        ("vee", 8.0): "b63c17a6221a7f69bf02bcf29bba8fda230a196ffb8f6d83d62b8084c04fe85f",
+        ("convoy", 12.0): "3d9243c93c157c48e4acf89a9750177d73befe4a93f6d89ad121415e1e2cf62b",
+        ("vee", 8.0): "693c1e6810b7664383f481a29f007bf2a890ad38168ce8bfc935434d080fedeb",
     },
 }
 
