@@ -392,8 +392,9 @@ class FormationController:
         # uncertainty as if it were new
         fresh = sighted and meas is not None and meas.t_s > self._t_fused
         if fresh and meas is not None and bearing is not None:
-            if math.isfinite(self._t_fused):
-                self._sample_gap = meas.t_s - self._t_fused
+            gap = meas.t_s - self._t_fused
+            if math.isfinite(gap) and (self._sample_gap is None or gap <= 3.0 * self._sample_gap):
+                self._sample_gap = gap  # the camera's pace (a gap across an occlusion is not)
             self._t_fused = meas.t_s
             at = self._odometry_at(meas.t_s)
             R = None

@@ -305,3 +305,17 @@ def test_a_camera_at_half_the_guidance_rate_is_tracking_throughout_even_without_
     assert seen == [TrackStatus.TRACKING] * 40
     frozen = [ctl.step(meas(38 * DT, 2.0), Odometry(t, 0.0, 0.0, 0.0, 0.0)).status for t in (2.05, 2.1, 2.2, 2.3)]
     assert frozen == [TrackStatus.TRACKING, TrackStatus.TRACKING, TrackStatus.OCCLUDED, TrackStatus.OCCLUDED]
+
+
+def test_a_gap_across_an_occlusion_is_not_taken_for_the_cameras_pace() -> None:
+    # after 2 s unseen, a frozen camera's last sample must not stay TRACKING for twice that gap
+    s = FormationSettings(range_cmd_m=1.5, coast_s=3.0, slowdown_s=0.5)
+    ctl = FormationController(s)
+    for k in range(10):  # a sample every step
+        ctl.step(meas(k * DT, 2.0), Odometry(k * DT, 0.0, 0.0, 0.0, 0.0))
+    for k in range(10, 50):  # hidden 2 s
+        ctl.step(RelativeMeasurement(k * DT, TrackStatus.OCCLUDED), Odometry(k * DT, 0.0, 0.0, 0.0, 0.0))
+    back = meas(50 * DT, 2.0)
+    states = [ctl.step(back, Odometry(k * DT, 0.0, 0.0, 0.0, 0.0)).status for k in range(50, 56)]
+    # due after 2 x 0.05 s (the step at exactly 0.1 s is on the boundary), not after 2 x 2 s
+    assert states[:2] == [TrackStatus.TRACKING] * 2 and states[3:] == [TrackStatus.OCCLUDED] * 3
