@@ -82,7 +82,8 @@ FORCE_ARM = (2989.0, 21196.0)
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: Rover's other modes, which lfctl does not fly (named when refused)
 OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
-OTHER_ROVER_MODES_INITIALISING = 16
+#: Rover's INITIALISING mode, which never starts on request (ModeInitializing::_enter)
+INITIALISING_MODE = 16
 #: Rover's period of the "PreArm:" texts while a check fails, and their delay once one starts
 #: failing, s (AP_Arming::update)
 PREARM_DISPLAY_S, PREARM_SOON_S = 30.0, 4.0
@@ -797,7 +798,7 @@ class VehicleEndpoint:
     def _mode_command(self, base_mode: int, custom_mode: int) -> int:
         """A mode change a ground station asked for (SET_MODE, DO_SET_MODE): only a custom
         mode is taken (else DENIED), FAILED when the mode is refused (Rover's
-        ``_set_mode_common``)."""
+        ``_set_mode_common``); base_mode 128 alone is the safety switch (:meth:`_safety_switch`)."""
         if base_mode == mav.MAV_MODE_FLAG_DECODE_POSITION_SAFETY:
             return self._safety_switch(custom_mode == 0)
         if not base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
@@ -825,7 +826,7 @@ class VehicleEndpoint:
         custom_mode &= 0xFF  # Rover's mode number is a byte: 260 is HOLD's 4
         if custom_mode == self.mode:
             return True  # as Rover: already there, nothing changes (a GUIDED target is kept)
-        if custom_mode == OTHER_ROVER_MODES_INITIALISING:
+        if custom_mode == INITIALISING_MODE:
             return self._refuse_mode(None)  # Rover's ModeInitializing never starts: its failure alone
         if custom_mode in OTHER_ROVER_MODES:  # a Rover mode lfctl's vehicle has not: it fails as Rover's do
             return self._refuse_mode(f"{OTHER_ROVER_MODES[custom_mode]} mode not supported")
