@@ -96,7 +96,8 @@ def follow_rover(
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
     Waits for the rover's heartbeat, asks for its odometry at ``rate_hz``, puts it in GUIDED
-    (and arms it with ``arm``), each request waiting for the rover's answer and sent again
+    (and arms it with ``arm``, only once it is in GUIDED: armed in another mode, AUTO or RTL,
+    it would drive off on its own), each request waiting for the rover's answer and sent again
     when none comes (a refusal or silence is said in the log with the rover's reason, and the
     run goes on: the rover ignores setpoints until it is in GUIDED and armed), then each period: read the rover's messages (and answer a
     ground station's parameter requests), take a frame, perceive it, run the stack with the
@@ -141,11 +142,15 @@ def follow_rover(
     companion.wait_vehicle(timeout_s, rate_hz)
     _say_heard(companion, name)  # what it said before: its banner, a failing pre-arm check
     guided = MODES["GUIDED"]
-    if _ask(companion, name, "GUIDED", mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, guided):
+    in_guided = _ask(companion, name, "GUIDED", mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, guided)
+    if in_guided:
         companion.vehicle.mode = guided  # its answer follows the change; its HEARTBEAT may lag
     # what the log has said of the rover: a change after it (even one during the requests) is said
     state = (companion.vehicle.mode, companion.vehicle.armed)
-    if arm and _ask(companion, name, "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0):
+    if arm and not in_guided:
+        # armed in the mode it is in, a rover in AUTO or RTL would drive off on its own
+        log.warning("%s: not arming the rover: it is not in GUIDED (arm it yourself once it is)", name)
+    elif arm and _ask(companion, name, "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0):
         companion.vehicle.armed = True
         state = (state[0], True)
     elif not arm and companion.vehicle.armed is False:

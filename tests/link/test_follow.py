@@ -613,3 +613,22 @@ def test_every_other_form_pymavlink_opens_is_left_to_it(connect: str) -> None:
     from lfctl.link.port import _check_serial_device
 
     _check_serial_device(connect)  # no LinkError: pymavlink's own forms, not a missing serial device
+
+
+def test_a_rover_that_refuses_guided_is_not_armed(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # armed in the mode it is in (AUTO, RTL) a rover would drive off on its own: --arm waits for GUIDED
+    with standing_rover() as rover:
+        keep = rover.set_mode
+
+        def no_guided(custom_mode: int) -> bool:  # as Rover armed without a position estimate
+            return rover._refuse_mode(None) if custom_mode == MODES["GUIDED"] else keep(custom_mode)
+
+        rover.set_mode = no_guided
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}", "--camera",
+                   str(banner_video(20)), "--arm", "--max-frames", "10", "--timeout", "5"])  # fmt: skip
+        assert rc == 0 and not rover.armed and rover.mode == MODES["HOLD"]
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("refused GUIDED (MAV_RESULT_FAILED; it said: Flight mode change failed)" in t for t in said), said
+    assert "rover: not arming the rover: it is not in GUIDED (arm it yourself once it is)" in said
