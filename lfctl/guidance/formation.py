@@ -360,7 +360,11 @@ class FormationController:
         ValueError
             An odometry value that is not a number (it would stay in the target's filter for
             good), named.
+        TypeError
+            ``odom`` that is not an :class:`Odometry`.
         """
+        if not isinstance(odom, Odometry):
+            raise TypeError(f"odometry must be an Odometry(t_s, north_m, east_m, yaw_rad, speed_mps), got {odom!r}")
         for name in ("t_s", "north_m", "east_m", "yaw_rad", "speed_mps"):
             if not math.isfinite(getattr(odom, name)):
                 raise ValueError(f"odometry {name} is {getattr(odom, name)!r}: the formation law needs a number")

@@ -53,3 +53,7 @@ class RelativeMeasurement:
     quality: float = 0.0
     origin_body_m: tuple[float, float] = (0.0, 0.0)
     seen_back_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.status, TrackStatus):  # a string here read as "not seen"
+            raise TypeError(f"status must be a TrackStatus (TrackStatus.TRACKING, ...), got {self.status!r}")

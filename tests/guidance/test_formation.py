@@ -319,3 +319,11 @@ def test_a_gap_across_an_occlusion_is_not_taken_for_the_cameras_pace() -> None:
     states = [ctl.step(back, Odometry(k * DT, 0.0, 0.0, 0.0, 0.0)).status for k in range(50, 56)]
     # due after 2 x 0.05 s (the step at exactly 0.1 s is on the boundary), not after 2 x 2 s
     assert states[:2] == [TrackStatus.TRACKING] * 2 and states[3:] == [TrackStatus.OCCLUDED] * 3
+
+
+def test_a_status_or_an_odometry_of_the_wrong_type_is_named() -> None:
+    # a string status was read as "not seen"; a tuple odometry gave an AttributeError
+    with pytest.raises(TypeError, match=r"status must be a TrackStatus .*got 'tracking'"):
+        RelativeMeasurement(0.0, "tracking", 2.0, 0.0)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"odometry must be an Odometry\(t_s, north_m, .*got \(0.0, 0, 0, 0, 0\)"):
+        FormationController(FormationSettings()).step(None, (0.0, 0, 0, 0, 0))  # type: ignore[arg-type]
