@@ -15,9 +15,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
-from lfctl.link.companion import COMMAND_TRIES, Companion
+from lfctl.link.companion import Companion, answer_name
 from lfctl.link.endpoint import MODES
-from lfctl.link.gcs import mode_name, result_name
+from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
 from lfctl.video import VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
@@ -198,6 +198,13 @@ def follow_rover(
     )
 
 
+#: a start-up request's words: (what was asked for, what was refused, what the rover must be)
+_ASKED = {
+    "GUIDED": ("the request for GUIDED", "GUIDED", "in GUIDED (set it from the ground station or the transmitter)"),
+    "arm": ("the request to arm", "to arm", "armed (arm it yourself)"),
+}
+
+
 def _ask(companion: Companion, name: str, what: str, cmd: int, *params: float) -> bool:
     """A start-up command (``what``: ``GUIDED``, ``arm``), awaited; whether the rover took it.
     A refusal or silence is said in the log with what the rover said meanwhile (Rover says
@@ -208,21 +215,14 @@ def _ask(companion: Companion, name: str, what: str, cmd: int, *params: float) -
         return True
     said = [text for _severity, text in companion.heard]
     companion.heard.clear()
-    answer = f"no answer to {COMMAND_TRIES} tries" if result is None else result_name(result)
-    if said:
-        answer += "; it said: " + " / ".join(said)
-    if result is None:
-        outcome = "did not answer the request for GUIDED" if what == "GUIDED" else "did not answer the request to arm"
-    else:
-        outcome = "refused GUIDED" if what == "GUIDED" else "refused to arm"
+    answer = answer_name(result) + ("; it said: " + " / ".join(said) if said else "")
+    request, refused, must_be = _ASKED[what]
     log.warning(
         "%s: the rover %s (%s): it ignores the setpoints until it is %s; the follower goes on and says when it is",
         name,
-        outcome,
+        f"did not answer {request}" if result is None else f"refused {refused}",
         answer,
-        "in GUIDED (set it from the ground station or the transmitter)"
-        if what == "GUIDED"
-        else "armed (arm it yourself)",
+        must_be,
     )
     return False
 

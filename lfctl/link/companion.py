@@ -97,6 +97,18 @@ class VehicleReport:
     alt_m: float | None = None  # altitude above mean sea level, m
 
 
+def answer_name(result: int | None) -> str:
+    """What :meth:`Companion.request` got, in words: the MAV_RESULT's name, or that no answer
+    came to any try.
+
+    Parameters
+    ----------
+    result : int or None
+        Its return value.
+    """
+    return f"no answer to {COMMAND_TRIES} tries" if result is None else result_name(result)
+
+
 def _time_ms(t_s: float) -> int:
     return int(t_s * 1000) & 0xFFFFFFFF
 
@@ -188,8 +200,11 @@ class Companion:
         *params : float
             param1, param2, ... (up to 7; the rest are 0).
         """
+        self._send_command(cmd, 0, params)
+
+    def _send_command(self, cmd: int, confirmation: int, params: tuple[float, ...]) -> None:
         p = [*params, *([0.0] * (7 - len(params)))]
-        self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, 0, *p))
+        self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, min(confirmation, 255), *p))
 
     def request(self, cmd: int, *params: float, try_s: float = COMMAND_TRY_S, tries: int = COMMAND_TRIES) -> int | None:
         """A COMMAND_LONG to the vehicle's autopilot that waits for its COMMAND_ACK, sent again
@@ -212,7 +227,6 @@ class Companion:
         tries : int
             Sends, at most.
         """
-        p = [*params, *([0.0] * (7 - len(params)))]
         start = time.monotonic()
         deadline = start + try_s * tries
         sent = 0
@@ -221,7 +235,7 @@ class Companion:
         self.acks.pop(cmd, None)
         while (now := time.monotonic()) < deadline:
             if sent < tries and now >= next_send:
-                self.port.send(mav.MAVLink_command_long_message(self.target, 1, cmd, min(sent, 255), *p))
+                self._send_command(cmd, sent, params)
                 sent += 1
                 next_send = now + try_s
             if now - beat >= HEARTBEAT_PERIOD_S:  # on this wait's own clock: the caller's may differ
@@ -460,7 +474,7 @@ class Companion:
                 "did not answer the request for" if result is None else "refused",
                 name,
                 rate_hz,
-                f"no COMMAND_ACK to {COMMAND_TRIES} tries" if result is None else result_name(result),
+                answer_name(result),
                 "EXTRA1" if msg_id == mav.MAVLINK_MSG_ID_ATTITUDE else "POSITION",
             )
         return result

@@ -47,9 +47,9 @@ def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[i
     shape : tuple of int
         The frame's shape; only H and W are read.
     """
-    if isinstance(roi, str | bytes):
-        raise FrameError(f"ROI must be four numbers x, y, w, h; got {roi!r}")
     try:
+        if isinstance(roi, str | bytes):  # iterable, but no window
+            raise TypeError
         values = [float(v) for v in roi]
     except (TypeError, ValueError):
         raise FrameError(f"ROI must be four numbers x, y, w, h; got {roi!r}") from None
