@@ -13,8 +13,8 @@ to a simulated vehicle's endpoint.
 On a real rover it is a MAVLink component of its own, as a companion board is: it sends its
 HEARTBEAT once a second (:meth:`Companion.heartbeat`), holds the formation parameters
 ``LFC_*`` (:func:`lfctl.link.params.formation_params`) and answers the parameter protocol for
-them, and refuses commands addressed to it (COMMAND_ACK UNSUPPORTED) and MAVLink FTP (it
-has no files). A ground station reaches it through the rover's MAVLink routing: ArduPilot
+them, over MAVLink FTP too (``@PARAM/param.pck``), and refuses commands addressed to it
+(COMMAND_ACK UNSUPPORTED). A ground station reaches it through the rover's MAVLink routing: ArduPilot
 forwards what is addressed to component 191, or to every component, to the link the
 companion talks on.
 """
@@ -33,12 +33,12 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError
 from lfctl.frames import HALF_EARTH_M, on_earth
-from lfctl.link import ftp
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
+from lfctl.link.ftp import FtpFile, FtpServer
 from lfctl.link.gcs import result_name, text_field
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import formation_params
-from lfctl.link.port import CHECK_LINK, MavPort
+from lfctl.link.port import CHECK_LINK, MavPort, statustext_messages
 
 __all__ = ["COMPANION_COMPID", "Companion", "VehicleReport"]
 
@@ -130,7 +130,13 @@ class Companion:
         self.vehicle = VehicleReport()
         #: its own parameters (``LFC_*``): a ground station may set them while it runs
         self.params = formation_params()
+        self._text_id = 0  # the last long text's chunk id
         self.param_server = ParamServer(self.params, self.port.send, self.statustext)
+        self.ftp = FtpServer(
+            {"@PARAM/param.pck": FtpFile(self.param_server.packed, lambda data, s, c: self.param_server.upload(data))},
+            self._send_ftp,
+            self.statustext,
+        )
         #: the vehicle's position and attitude messages passed over for a value that is not a
         #: number or past any ground vehicle's (:data:`PLAUSIBLE`)
         self.passed_over = 0
@@ -313,13 +319,15 @@ class Companion:
         Parameters
         ----------
         text : str
-            The line; cut to 50 bytes.
+            The line (longer than 50 bytes: in chunks; at most 200).
         severity : int
             MAV_SEVERITY (default WARNING).
         """
-        self.port.send(
-            mav.MAVLink_statustext_message(severity, printable(text).encode()[:50])
-        )  # a peer's bytes escaped
+        data = printable(text).encode()  # a peer's bytes escaped
+        if len(data) > 50:
+            self._text_id = self._text_id % 65535 + 1
+        for msg in statustext_messages(data, severity, self._text_id):
+            self.port.send(msg)
 
     # -- from the vehicle -------------------------------------------------------------------
     def poll(self, t_s: float, timeout_s: float = 0.0) -> int:
@@ -424,16 +432,14 @@ class Companion:
         )
 
     def _ftp(self, m: Any) -> None:
-        """MAVLink FTP addressed to this component: it has no files (:mod:`lfctl.link.ftp`),
-        said at once, so that a ground station asking for its parameter file (MAVProxy's
-        ``param fetch``) falls back to PARAM_REQUEST_LIST without waiting out its timeout."""
-        if m.target_system != self.target or m.target_component != COMPANION_COMPID:
-            return
-        answer = ftp.reply(bytes(m.payload))
-        if answer is not None:
-            self.port.send(
-                mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), list(answer))
-            )
+        """MAVLink FTP addressed to this component: its parameters as ``@PARAM/param.pck``
+        (:mod:`lfctl.link.ftp`), which MAVProxy's ``param fetch`` reads and a ground station
+        may write back; any other file is refused at once."""
+        if m.target_system == self.target and m.target_component == COMPANION_COMPID:
+            self.ftp.handle(bytes(m.payload), m.get_srcSystem(), m.get_srcComponent())
+
+    def _send_ftp(self, payload: bytes, sysid: int, compid: int) -> None:
+        self.port.send(mav.MAVLink_file_transfer_protocol_message(0, sysid, compid, list(payload)))
 
     def wait_vehicle(self, timeout_s: float, odometry_rate_hz: float) -> dict[int, int | None]:
         """Say hello until the vehicle's heartbeat is heard, then ask for its position (local

@@ -25,6 +25,7 @@ import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -32,8 +33,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl import __version__
 from lfctl.checks import printable
 from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
-from lfctl.link import ftp
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
+from lfctl.link.ftp import FtpFile, FtpServer
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import (
     DO_JUMP,
@@ -44,10 +45,10 @@ from lfctl.link.mission import (
     jump_tag_item,
     validate_item,
 )
-from lfctl.link.mission_server import FENCE, MISSION, RALLY, MissionServer
+from lfctl.link.mission_server import FENCE, MISSION, MISSION_TYPES, RALLY, MissionServer
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, default_params
-from lfctl.link.port import pack_next
+from lfctl.link.port import pack_next, statustext_messages
 from lfctl.link.rc import PilotInput, RcOverrides
 from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
 
@@ -106,8 +107,6 @@ MAX_BYTES_PER_TICK = 32 * 1024
 MAX_DATAGRAM_BYTES = 4 * 1024
 #: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
 MAX_ROUTES = 20
-#: the longest STATUSTEXT sent, in chunks (four of MAVLink's 50 bytes)
-STATUSTEXT_MAX_BYTES = 200
 #: SmartRTL keeps at most this many points of the way back (the oldest are thinned out)
 SRTL_POINTS = 300
 #: MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
@@ -324,6 +323,7 @@ class VehicleEndpoint:
             on_edit=self._list_edited,
             on_received=self._list_received,
         )
+        self.ftp = FtpServer(self._ftp_files(), self._send_ftp, self.statustext)
         self.mission_version = 0  # bumps when the mission or the current item changes
         self.mission_restarts = 0  # bumps when the mission restarts or is reset (DO_JUMP's counts afresh)
         self.mission_edits = 0  # bumps when items of the mission are changed in place (a partial update)
@@ -551,17 +551,11 @@ class VehicleEndpoint:
         text = printable(text)  # a peer's bytes in it (a parameter name) are escaped: MAVProxy prints it raw
         self.statustexts.append((self.t_s, text))
         log.log(logging.WARNING if severity <= mav.MAV_SEVERITY_WARNING else logging.INFO, "%s: %s", self.name, text)
-        data = text.encode()[:STATUSTEXT_MAX_BYTES]
-        if len(data) <= 50:
-            self.send(mav.MAVLink_statustext_message(severity, data))
-            return
-        # MAVLink 2: a longer text goes in 50-byte chunks sharing an id; a short chunk ends it
-        self._text_id = self._text_id % 65535 + 1
-        chunks = [data[k : k + 50] for k in range(0, len(data), 50)]
-        if len(chunks[-1]) == 50:
-            chunks.append(b"")
-        for seq, chunk in enumerate(chunks):
-            self.send(mav.MAVLink_statustext_message(severity, chunk, self._text_id, seq))
+        data = text.encode()
+        if len(data) > 50:
+            self._text_id = self._text_id % 65535 + 1
+        for msg in statustext_messages(data, severity, self._text_id):
+            self.send(msg)
 
     # -- incoming --------------------------------------------------------------------------
     def receive(self) -> int:
@@ -726,15 +720,33 @@ class VehicleEndpoint:
             self.statustext("Failsafe cleared: ground station back", mav.MAV_SEVERITY_INFO)
 
     def _on_file_transfer_protocol(self, m: Any) -> None:
-        """MAVLink FTP: no files here (:mod:`lfctl.link.ftp`), said at once so that a ground
-        station falls back to PARAM_REQUEST_LIST without waiting out its FTP timeout."""
-        if not self._for_me(m):  # (its target_network is not looked at, as Rover)
-            return
-        answer = ftp.reply(bytes(m.payload))
-        if answer is not None:
-            self.send(
-                mav.MAVLink_file_transfer_protocol_message(0, m.get_srcSystem(), m.get_srcComponent(), list(answer))
+        """MAVLink FTP: the parameters and the three lists as files (:mod:`lfctl.link.ftp`)."""
+        if self._for_me(m):  # (its target_network is not looked at, as Rover)
+            self.ftp.handle(bytes(m.payload), m.get_srcSystem(), m.get_srcComponent())
+
+    def _send_ftp(self, payload: bytes, sysid: int, compid: int) -> None:
+        self.send(mav.MAVLink_file_transfer_protocol_message(0, sysid, compid, list(payload)))
+
+    def _ftp_files(self) -> dict[str, FtpFile]:
+        """The files a Rover serves over MAVLink FTP that this vehicle has: its parameters
+        (``@PARAM/param.pck``) and its mission, fence and rally points (``@MISSION``)."""
+        files = {
+            "@PARAM/param.pck": FtpFile(self.param_server.packed, lambda data, s, c: self.param_server.upload(data))
+        }
+        for mtype, name in MISSION_TYPES.items():
+            files[f"@MISSION/{name}.dat"] = FtpFile(
+                partial(self._list_file, mtype),
+                lambda data, sysid, compid, mtype=mtype: self.missions.upload_packed(
+                    mtype, data, sysid, compid, self.t_s
+                ),
+                partial(self.missions.packed_size, mtype),
             )
+        return files
+
+    def _list_file(self, mission_type: int, query: str) -> bytes:
+        if query:
+            raise ValueError(f"{MISSION_TYPES[mission_type]}.dat takes no options, got {query!r}")
+        return self.missions.packed(mission_type, 0, 0)
 
     # -- pilot input ----------------------------------------------------------------------------
     def _from_my_gcs(self, m: Any) -> bool:
@@ -2063,6 +2075,7 @@ class VehicleEndpoint:
                 | mav.MAV_PROTOCOL_CAPABILITY_SET_ATTITUDE_TARGET
                 | mav.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
                 | mav.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+                | mav.MAV_PROTOCOL_CAPABILITY_FTP
                 | mav.MAV_PROTOCOL_CAPABILITY_MAVLINK2
             )
             self.send(

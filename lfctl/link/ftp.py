@@ -1,61 +1,425 @@
-"""MAVLink FTP (FILE_TRANSFER_PROTOCOL) answered as a vehicle with no files to serve.
+"""MAVLink FTP (FILE_TRANSFER_PROTOCOL): a vehicle's virtual files, served as ArduPilot's
+``GCS_FTP`` serves them.
 
 A ground station asks for files over MAVLink FTP before it falls back to other messages:
-MAVProxy, for one, first asks for ``@PARAM/param.pck`` and, with no answer, waits about 11 s
-before it lists the parameters with PARAM_REQUEST_LIST. lfctl's vehicles keep no files (a
-Rover serves its parameters, logs and scripts there), so every request that names a file
-is refused at once with FileNotFound (a read or write on a session too: none has a file
-open), a command ArduPilot does not know with UnknownCommand, and None and the session
-commands are acknowledged, as ArduPilot's ``GCS_FTP`` answers each when it has no file to
-serve; the ground station then falls back without waiting.
+MAVProxy fetches ``@PARAM/param.pck`` instead of listing the parameters one message at a
+time, and ``wp ftp``, ``fence ftp`` and ``rally ftp`` fetch ``@MISSION/mission.dat``,
+``fence.dat`` and ``rally.dat`` (pymavlink's ``mavftp`` the same). A vehicle keeps no other
+files (a Rover also serves its SD card, logs and scripts): any other name is FileNotFound, at
+once, so a ground station that wanted one does not wait out its timeout.
+
+What :class:`FtpServer` answers, as ``GCS_FTP::Session::handle_request``: OpenFileRO (the
+file is read whole then, so a download is one consistent copy, and its size is given),
+ReadFile and BurstReadFile (a burst is at most :data:`BURST_PACKETS` replies, the last marked
+``burst_complete``; reading past the end is EndOfFile), ListDirectory, CalcFileCRC32
+(ArduPilot's CRC-32: zlib's polynomial from a zero seed, without the final inversion),
+CreateFile and OpenFileWO on a writable file, WriteFile, TerminateSession (which hands a
+written file over: refused, the reply is FailErrno with EINVAL and a line of text says why),
+ResetSessions, None; RemoveFile, CreateDirectory, RemoveDirectory and Rename are
+FileNotFound (nothing can be removed or made), and TruncateFile and anything newer
+UnknownCommand. Each reply carries the request's sequence number plus one and its session;
+a request sent again (its reply lost) gets the same reply again, not a second action.
+
+Sessions are the ground station's numbers, one open file each, at most :data:`MAX_SESSIONS`
+at a time over all senders; one idle for :data:`SESSION_TIMEOUT_S` may be taken over, and one
+idle for :data:`SESSION_KILL_S` is closed (a file being written is then dropped, unread).
 
 The payload is MAVLink FTP's (``seq_number`` uint16, ``session``, ``opcode``, ``size``,
-``req_opcode``, ``burst_complete``, padding, ``offset`` uint32, then data), and each reply
-carries the request's sequence number plus one and its session, with the offset 0 but for
-ListDirectory's, as ArduPilot's ``GCS_MAVLINK::ftp_worker``.
+``req_opcode``, ``burst_complete``, padding, ``offset`` uint32, then up to 239 bytes of data).
 """
 
 from __future__ import annotations
 
+import errno
 import struct
+import time
+import zlib
+from collections import OrderedDict
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
-__all__ = ["ACK", "ERR_FILE_NOT_FOUND", "ERR_UNKNOWN_COMMAND", "NAK", "reply"]
+__all__ = [
+    "ACK",
+    "BURST_PACKETS",
+    "DATA_BYTES",
+    "ERR_END_OF_FILE",
+    "ERR_FAIL",
+    "ERR_FAIL_ERRNO",
+    "ERR_FILE_NOT_FOUND",
+    "ERR_INVALID_DATA_SIZE",
+    "ERR_NO_SESSIONS",
+    "ERR_UNKNOWN_COMMAND",
+    "MAX_SESSIONS",
+    "NAK",
+    "FtpFile",
+    "FtpServer",
+    "ardupilot_crc32",
+]
 
 #: the reply opcodes
 ACK, NAK = 128, 129
-#: the errors a NAK carries in its first data byte
-ERR_UNKNOWN_COMMAND, ERR_FILE_NOT_FOUND = 7, 10
-#: None, TerminateSession, ResetSessions: acknowledged (no session is open)
-_ACKNOWLEDGED = frozenset((0, 1, 2))
-#: ListDirectory, OpenFileRO, ReadFile, CreateFile, WriteFile, RemoveFile, CreateDirectory,
-#: RemoveDirectory, OpenFileWO, Rename, CalcFileCRC32, BurstReadFile: no such file (reads and
-#: writes: no file open on the session)
-_NOT_FOUND = frozenset((3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 14, 15))
-LIST_DIRECTORY = 3
+#: the errors a NAK carries in its first data byte (FailErrno: an errno in the second)
+ERR_FAIL, ERR_FAIL_ERRNO, ERR_INVALID_DATA_SIZE, ERR_NO_SESSIONS = 1, 2, 3, 5
+ERR_END_OF_FILE, ERR_UNKNOWN_COMMAND, ERR_FILE_NOT_FOUND = 6, 7, 10
+#: the request opcodes
+(
+    OP_NONE,
+    OP_TERMINATE,
+    OP_RESET,
+    OP_LIST,
+    OP_OPEN_RO,
+    OP_READ,
+    OP_CREATE,
+    OP_WRITE,
+    OP_REMOVE,
+    OP_MKDIR,
+    OP_RMDIR,
+    OP_OPEN_WO,
+    OP_TRUNCATE,
+    OP_RENAME,
+    OP_CRC,
+    OP_BURST,
+) = range(16)
 _HEADER = struct.Struct("<HBBBBBBI")
+#: the payload's length, and the data it carries after the header
 PAYLOAD_BYTES = 251
+DATA_BYTES = PAYLOAD_BYTES - _HEADER.size
+#: the most replies one BurstReadFile gets before the ground station asks for more
+BURST_PACKETS = 64
+#: sessions open at once (over all senders)
+MAX_SESSIONS = 4
+#: a session this long idle may be taken over by another, or its file reopened, s (ArduPilot's)
+SESSION_TIMEOUT_S = 3.0
+#: a session this long idle is closed, s (ArduPilot's)
+SESSION_KILL_S = 20.0
+#: the largest file a ground station may write, bytes (a mission of 2,000 items is 76,010)
+MAX_WRITE_BYTES = 1 << 17
+#: replies kept for requests sent again
+_KEPT_REPLIES = 32
 
 
-def reply(payload: bytes) -> bytes | None:
-    """The reply payload to one FILE_TRANSFER_PROTOCOL request's payload; None for a reply
-    (an ACK or NAK sent to us) or a payload too short to hold a header.
+def ardupilot_crc32(data: bytes) -> int:
+    """ArduPilot's ``crc_crc32`` of ``data`` from a zero seed (what CalcFileCRC32 answers):
+    the standard reflected CRC-32 without zlib's initial and final inversions.
 
     Parameters
     ----------
-    payload : bytes
-        The request's 251-byte payload.
+    data : bytes
+        The file.
     """
-    if len(payload) < _HEADER.size:
+    return zlib.crc32(data, 0xFFFFFFFF) ^ 0xFFFFFFFF
+
+
+@dataclass
+class FtpFile:
+    """One file a vehicle serves.
+
+    Parameters
+    ----------
+    read : callable
+        The file now, given what followed ``?`` in the name asked for (``""``: nothing);
+        raises ValueError naming what it cannot take there.
+    write : callable, optional
+        Takes a written file whole, with its writer's system and component: returns None
+        when taken, else why not. None: the file is read-only.
+    size : callable, optional
+        The file's size now, bytes, for a listing (None: the length of what ``read`` gives).
+    """
+
+    read: Callable[[str], bytes]
+    write: Callable[[bytes, int, int], str | None] | None = None
+    size: Callable[[], int] | None = None
+
+
+@dataclass
+class _Session:
+    key: tuple[int, int, int]  # sysid, compid, session number
+    last_s: float
+    path: str = ""
+    content: bytes | None = None  # a file open for reading
+    written: bytearray | None = None  # a file open for writing
+    file: FtpFile | None = None
+    replies: list[bytes] = field(default_factory=list)
+
+    @property
+    def open(self) -> bool:
+        return self.content is not None or self.written is not None
+
+    def close(self) -> None:
+        self.path, self.content, self.written, self.file = "", None, None, None
+
+
+class FtpServer:
+    """Serves ``files`` over MAVLink FTP (the module's docstring gives what is answered how).
+
+    Parameters
+    ----------
+    files : dict of str to FtpFile
+        The files by path (``"@PARAM/param.pck"``); their directories are listed from it.
+    send : callable
+        Sends one reply payload (:data:`PAYLOAD_BYTES`) to a system and component.
+    say : callable
+        Says a line of text to the ground station (a written file refused, and why).
+    clock : callable
+        Now, s (sessions' idle times).
+    """
+
+    def __init__(
+        self,
+        files: dict[str, FtpFile],
+        send: Callable[[bytes, int, int], None],
+        say: Callable[[str], None],
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.files = files
+        self._send = send
+        self._say = say
+        self._clock = clock
+        self._sessions: dict[tuple[int, int, int], _Session] = {}
+        # each session's last request (its sequence number and opcode) and the replies it got,
+        # kept for that request sent again
+        self._last: OrderedDict[tuple[int, int, int], tuple[int, int, list[bytes]]] = OrderedDict()
+
+    # -- the requests ----------------------------------------------------------------------
+    def handle(self, payload: bytes, sysid: int, compid: int) -> None:
+        """Answer one FILE_TRANSFER_PROTOCOL payload from ``sysid``/``compid``; a reply sent
+        to us (an ACK or a NAK) and a payload too short for a header are ignored.
+
+        Parameters
+        ----------
+        payload : bytes
+            The message's payload.
+        sysid, compid : int
+            Its sender.
+        """
+        if len(payload) < _HEADER.size:
+            return
+        seq, session, opcode, size, _req, _burst, _pad, offset = _HEADER.unpack_from(payload)
+        if opcode in (ACK, NAK):
+            return
+        data = bytes(payload[_HEADER.size : _HEADER.size + min(size, DATA_BYTES)])
+        key = (sysid, compid, session)
+        now = self._clock()
+        self._expire(now)
+        last = self._last.get(key)
+        if last is not None and last[:2] == (seq, opcode) and opcode != OP_RESET:
+            self._deliver(last[2], sysid, compid)  # sent again: its reply was lost
+            return
+        head = (seq, session, opcode, offset)
+        if opcode == OP_RESET:
+            for k in [k for k in self._sessions if k[:2] == (sysid, compid)]:
+                del self._sessions[k]  # a file being written is dropped
+            for k in [k for k in self._last if k[:2] == (sysid, compid)]:
+                del self._last[k]  # a client starting afresh may use the same numbers again
+            replies = [self._reply(head, ACK)]
+        elif opcode == OP_TERMINATE:
+            closing = self._sessions.pop(key, None)
+            why = None if closing is None else self._finish(closing)
+            replies = [self._nak(head, ERR_FAIL_ERRNO, errno.EINVAL) if why else self._reply(head, ACK)]
+        elif opcode == OP_NONE:
+            replies = [self._reply(head, ACK)]
+        elif opcode == OP_LIST:
+            replies = [self._list(head, size, data)]
+        elif opcode in (OP_REMOVE, OP_MKDIR, OP_RMDIR, OP_RENAME):
+            replies = [self._nak(head, ERR_FILE_NOT_FOUND)]  # nothing here can be removed or made
+        elif opcode == OP_CRC:
+            replies = [self._crc(head, size, data)]
+        elif opcode in (OP_OPEN_RO, OP_READ, OP_BURST, OP_CREATE, OP_OPEN_WO, OP_WRITE):
+            s = self._session(key, now)
+            if s is None:
+                replies = [self._nak(head, ERR_NO_SESSIONS)]
+            else:
+                idle_s, s.last_s = now - s.last_s, now
+                replies = self._on_session(s, head, size, data, idle_s)
+        else:  # TruncateFile, ListDirectoryWithTime and anything newer: unknown to ArduPilot
+            replies = [self._nak(head, ERR_UNKNOWN_COMMAND)]
+        self._last[key] = (seq, opcode, replies)
+        self._last.move_to_end(key)
+        while len(self._last) > _KEPT_REPLIES:
+            self._last.popitem(last=False)
+        self._deliver(replies, sysid, compid)
+
+    def _on_session(
+        self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes, idle_s: float
+    ) -> list[bytes]:
+        opcode = head[2]
+        if opcode in (OP_OPEN_RO, OP_CREATE, OP_OPEN_WO):
+            if opcode == OP_OPEN_RO and s.content is not None and idle_s > SESSION_TIMEOUT_S:
+                s.close()  # as ArduPilot: its ground station timed out on the open's reply
+            return [self._open(s, head, size, data)]
+        if not s.open:
+            return [self._nak(head, ERR_FILE_NOT_FOUND)]  # no file open on the session
+        if opcode == OP_WRITE:
+            return [self._write(s, head, data)]
+        if s.content is None:
+            return [self._nak(head, ERR_FAIL)]  # a read on a file open for writing
+        if opcode == OP_READ:
+            return [self._read(s.content, head, min(size, DATA_BYTES))]
+        return self._burst(s.content, head, min(size, DATA_BYTES) or DATA_BYTES)
+
+    def _open(self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
+        """OpenFileRO, CreateFile or OpenFileWO: one file a session; its name checked as
+        ArduPilot's ``check_name_len``; a read takes the file whole now."""
+        if s.open:
+            return self._nak(head, ERR_FAIL)
+        name = _name(size, data)
+        if name is None:
+            return self._nak(head, ERR_INVALID_DATA_SIZE)
+        path, _, query = name.lstrip("/").partition("?")
+        f = self.files.get(path)
+        if f is None:
+            return self._nak(head, ERR_FILE_NOT_FOUND)
+        if head[2] != OP_OPEN_RO:
+            if f.write is None:
+                return self._nak(head, ERR_FAIL_ERRNO, errno.EACCES)
+            s.path, s.file, s.written = path, f, bytearray()
+            return self._reply(head, ACK)
+        try:
+            content = f.read(query)
+        except ValueError as exc:
+            self._say(f"FTP: {name} not read: {exc}")
+            return self._nak(head, ERR_FAIL_ERRNO, errno.EINVAL)
+        s.path, s.file, s.content = path, f, content
+        return self._reply(head, ACK, struct.pack("<I", len(content)))
+
+    def _read(self, content: bytes, head: tuple[int, int, int, int], size: int) -> bytes:
+        offset = head[3]
+        chunk = content[offset : offset + size]
+        if not chunk:
+            return self._nak(head, ERR_END_OF_FILE)
+        return self._reply(head, ACK, chunk, offset=offset)
+
+    def _burst(self, content: bytes, head: tuple[int, int, int, int], size: int) -> list[bytes]:
+        """BurstReadFile: the file from the offset asked for in replies of ``size`` bytes,
+        each with the next sequence number, ending in EndOfFile at the end (marked
+        ``burst_complete``), or after :data:`BURST_PACKETS` with the last one marked."""
+        seq, session, opcode, offset = head
+        out = []
+        for k in range(BURST_PACKETS):
+            h = (seq + k, session, opcode, offset)
+            chunk = content[offset : offset + size]
+            if not chunk:
+                out.append(self._nak(h, ERR_END_OF_FILE, burst=True))
+                break
+            out.append(self._reply(h, ACK, chunk, offset=offset, burst=k == BURST_PACKETS - 1))
+            offset += len(chunk)
+        return out
+
+    def _write(self, s: _Session, head: tuple[int, int, int, int], data: bytes) -> bytes:
+        if s.written is None:
+            return self._nak(head, ERR_FAIL)  # a write on a file open for reading
+        offset = head[3]
+        if offset + len(data) > MAX_WRITE_BYTES:
+            return self._nak(head, ERR_FAIL_ERRNO, errno.ENOSPC)
+        if len(s.written) < offset + len(data):
+            s.written.extend(bytes(offset + len(data) - len(s.written)))
+        s.written[offset : offset + len(data)] = data
+        return self._reply(head, ACK, offset=offset)
+
+    def _finish(self, s: _Session) -> str | None:
+        """Close the session; a written file is handed over (why it was refused, or None)."""
+        written, f, path = s.written, s.file, s.path
+        s.close()
+        if written is None or f is None or f.write is None:
+            return None
+        sysid, compid, _ = s.key
+        why = f.write(bytes(written), sysid, compid)
+        if why is not None:
+            self._say(f"FTP: {path} refused: {why}")
+        return why
+
+    def _list(self, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
+        """ListDirectory: from the entry the offset names, as many as fit ("F<name>\\t<size>"
+        for a file, "D<name>" for a directory, each ending in a NUL); none left: EndOfFile."""
+        name = _name(size, data)
+        if name is None:
+            return self._nak(head, ERR_INVALID_DATA_SIZE)
+        entries = self._entries(name.strip("/"))
+        if entries is None:
+            return self._nak(head, ERR_FILE_NOT_FOUND)
+        out = b""
+        for entry in entries[head[3] :]:
+            if len(out) + len(entry) > DATA_BYTES:
+                break
+            out += entry
+        if not out:
+            return self._nak(head, ERR_END_OF_FILE)
+        return self._reply(head, ACK, out, offset=head[3])
+
+    def _entries(self, directory: str) -> list[bytes] | None:
+        """A directory's entries, or None when there is no such directory."""
+        if directory == "":
+            return [f"D{d}\0".encode() for d in dict.fromkeys(p.split("/")[0] for p in self.files)]
+        out = []
+        for path, f in self.files.items():
+            folder, _, base = path.rpartition("/")
+            if folder == directory:
+                out.append(f"F{base}\t{_size(f)}\0".encode())
+        return out or None
+
+    def _crc(self, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
+        name = _name(size, data)
+        if name is None:
+            return self._nak(head, ERR_INVALID_DATA_SIZE)
+        f = self.files.get(name.lstrip("/"))
+        if f is None:
+            return self._nak(head, ERR_FILE_NOT_FOUND)
+        return self._reply(head, ACK, struct.pack("<I", ardupilot_crc32(f.read(""))))
+
+    # -- sessions and replies ----------------------------------------------------------------
+    def _session(self, key: tuple[int, int, int], now: float) -> _Session | None:
+        """The session ``key`` names, opened if new: in a free slot, or one idle for
+        :data:`SESSION_TIMEOUT_S` taken over; None when every slot is busy."""
+        s = self._sessions.get(key)
+        if s is not None:
+            return s
+        if len(self._sessions) >= MAX_SESSIONS:
+            oldest = min(self._sessions.values(), key=lambda x: x.last_s)
+            if now - oldest.last_s < SESSION_TIMEOUT_S:
+                return None
+            del self._sessions[oldest.key]
+        s = self._sessions[key] = _Session(key, now)
+        return s
+
+    def _expire(self, now: float) -> None:
+        for k in [k for k, s in self._sessions.items() if now - s.last_s > SESSION_KILL_S]:
+            del self._sessions[k]
+
+    def _deliver(self, replies: list[bytes], sysid: int, compid: int) -> None:
+        for r in replies:
+            self._send(r, sysid, compid)
+
+    @staticmethod
+    def _reply(
+        head: tuple[int, int, int, int], opcode: int, data: bytes = b"", offset: int = 0, burst: bool = False
+    ) -> bytes:
+        seq, session, req, _ = head
+        out = _HEADER.pack((seq + 1) & 0xFFFF, session, opcode, len(data), req, int(burst), 0, offset) + data
+        return out.ljust(PAYLOAD_BYTES, b"\0")
+
+    def _nak(self, head: tuple[int, int, int, int], error: int, code: int | None = None, burst: bool = False) -> bytes:
+        """A NAK; its offset is 0 but for a listing's and a burst's end (as ArduPilot's)."""
+        data = bytes([error]) if code is None else bytes([error, code])
+        return self._reply(head, NAK, data, offset=head[3] if head[2] == OP_LIST or burst else 0, burst=burst)
+
+
+def _name(size: int, data: bytes) -> str | None:
+    """The path a request names, or None when its size does not match it (ArduPilot's
+    ``check_name_len``: the size is the name's length, or one more for its NUL)."""
+    if size == 0 or size > DATA_BYTES:
         return None
-    seq, session, opcode, _size, _req, _burst, _pad, offset = _HEADER.unpack_from(payload)
-    if opcode in (ACK, NAK):
+    raw = data[:size]
+    name = raw.split(b"\0", 1)[0]
+    if len(name) != size and not (len(name) == size - 1 and raw[-1:] == b"\0"):
         return None
-    if opcode in _ACKNOWLEDGED:
-        op, data = ACK, b""
-    elif opcode in _NOT_FOUND:
-        op, data = NAK, bytes([ERR_FILE_NOT_FOUND])
-    else:  # TruncateFile, ListDirectoryWithTime and anything newer: unknown to ArduPilot
-        op, data = NAK, bytes([ERR_UNKNOWN_COMMAND])
-    offset = offset if opcode == LIST_DIRECTORY else 0
-    head = _HEADER.pack((seq + 1) & 0xFFFF, session, op, len(data), opcode, 0, 0, offset)
-    return (head + data).ljust(PAYLOAD_BYTES, b"\0")
+    return name.decode("utf-8", errors="replace")
+
+
+def _size(f: FtpFile) -> int:
+    """A file's size for a listing (its content now; a file that cannot be read whole: 0)."""
+    if f.size is not None:
+        return f.size()
+    try:
+        return len(f.read(""))
+    except ValueError:
+        return 0

@@ -10,11 +10,20 @@ in force; a refused upload leaves it as it was (a partial update, MISSION_WRITE_
 edits the list in place item by item as Rover's does: one refused half way keeps what came).
 An item that comes when no upload of its list is under way is MAV_MISSION_ERROR, as Rover
 answers it. No operation on one list touches another.
+
+Each list is also a file over MAVLink FTP, as ArduPilot's ``AP_Filesystem_Mission`` serves
+it (``@MISSION/mission.dat``, ``fence.dat``, ``rally.dat``; MAVProxy's ``wp ftp``, ``fence
+ftp``, ``rally ftp`` and their ``ftpload``): a 10-byte header (magic 0x763d, the
+MAV_MISSION_TYPE, options, the first item's number, the number of items, each a
+little-endian uint16), then each item as MISSION_ITEM_INT's 38-byte payload. An uploaded file
+is checked as an upload by the mission protocol is, item by item and whole, and replaces the
+list, or (option 1, "no clear": the mission only) replaces and adds items from its first.
 """
 
 from __future__ import annotations
 
 import math
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,7 +42,7 @@ from lfctl.link.mission import (
     validate_item,
 )
 
-__all__ = ["MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
+__all__ = ["LIST_FILE_MAGIC", "MISSION_TYPES", "ListChange", "MissionServer", "item_result", "list_problem"]
 
 MISSION, FENCE, RALLY = mav.MAV_MISSION_TYPE_MISSION, mav.MAV_MISSION_TYPE_FENCE, mav.MAV_MISSION_TYPE_RALLY
 #: the lists a vehicle keeps, by MAV_MISSION_TYPE
@@ -45,6 +54,16 @@ CAPACITY = {MISSION: 2000, FENCE: 200, RALLY: 50}
 ITEM_TIMEOUT_S = 0.25
 #: an upload that has had no item for this long is cancelled (Rover's upload_timeout_ms)
 UPLOAD_TIMEOUT_S = 8.0
+
+
+#: a list file's magic number (``@MISSION/*.dat``), and its header: magic, MAV_MISSION_TYPE,
+#: options, the first item's number, the number of items
+LIST_FILE_MAGIC = 0x763D
+_FILE_HEADER = struct.Struct("<HHHHH")
+#: the option that updates the mission from the file's first item on, keeping the rest
+NO_CLEAR = 1
+#: a list file's item: MISSION_ITEM_INT's payload, in pymavlink's wire order
+_ITEM = mav.MAVLink_mission_item_int_message
 
 
 @dataclass
@@ -228,6 +247,8 @@ class MissionServer:
         self.running = running or (lambda: False)
         self.home = home
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
+        self._revision = 0  # bumps when a list's items change (a file's items are packed again)
+        self._packed: dict[int, tuple[tuple[int, ...], bytes]] = {}  # each list's items as a file's, past home
         self.changes: list[ListChange] = []
         self.current_seq = 0
         self._uploads: dict[int, _Upload] = {}  # by mission type: a fence and a mission may come at once
@@ -275,6 +296,7 @@ class MissionServer:
             Who changed it (0: the vehicle itself, e.g. a mission stored at boot).
         """
         self.lists[mission_type] = [as_stored(it) for it in items] if mission_type == MISSION else list(items)
+        self._revision += 1
         if mission_type == MISSION:
             self.current_seq = 0  # as Rover after an upload: no item under way (AUTO starts at item 1)
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
@@ -441,6 +463,7 @@ class MissionServer:
         :meth:`store` keeps a whole list."""
         held = self.lists[mission_type]
         _put(held, {k: as_stored(it) for k, it in items.items()} if mission_type == MISSION else items)
+        self._revision += 1
         self.on_edit(mission_type, held)
 
     def _finish_partial(self, up: _Upload) -> None:
@@ -497,6 +520,108 @@ class MissionServer:
                 )
             elif t_s - up.sent_at > ITEM_TIMEOUT_S:
                 self._request_next(up, t_s)
+
+    # -- the lists as files (MAVLink FTP) --------------------------------------------------
+    def packed(self, mission_type: int, sysid: int, compid: int) -> bytes:
+        """The list as its ``@MISSION`` file (the module's docstring gives the format): each
+        item as a download gives it to ``sysid``/``compid`` (the mission's item 0 is home now).
+
+        Parameters
+        ----------
+        mission_type : int
+            MAV_MISSION_TYPE of the list.
+        sysid, compid : int
+            Who reads it (each item's target).
+        """
+        items = self.lists[mission_type]
+        live_home = mission_type == MISSION and self.home is not None and bool(items)
+        key = (self._revision, self.current_seq, sysid, compid, len(items))
+        cached = self._packed.get(mission_type)
+        if cached is None or cached[0] != key:  # (a full mission takes ~7 ms to pack: not on each open)
+            cached = key, b"".join(self._packed_item(it, sysid, compid, mission_type) for it in items[live_home:])
+            self._packed[mission_type] = cached
+        head = _FILE_HEADER.pack(LIST_FILE_MAGIC, mission_type, 0, 0, len(items))
+        home = self._packed_item(self.home(), sysid, compid, mission_type) if live_home and self.home else b""
+        return head + home + cached[1]
+
+    def _packed_item(self, it: MissionItem, sysid: int, compid: int, mission_type: int) -> bytes:
+        current = int(mission_type == MISSION and it.seq == self.current_seq)
+        m = _item_message(it, sysid, compid, current, mission_type)
+        return _ITEM.unpacker.pack(*(getattr(m, f) for f in _ITEM.ordered_fieldnames))
+
+    def packed_size(self, mission_type: int) -> int:
+        """The size of the list's file (:meth:`packed`), bytes.
+
+        Parameters
+        ----------
+        mission_type : int
+            MAV_MISSION_TYPE of the list.
+        """
+        return _FILE_HEADER.size + len(self.lists[mission_type]) * _ITEM.unpacker.size
+
+    def upload_packed(self, mission_type: int, data: bytes, sysid: int, compid: int, t_s: float) -> str | None:
+        """Take an uploaded ``@MISSION`` file: the list it holds replaces the list in force
+        (or, with the "no clear" option, updates the mission from its first item), checked as
+        an upload by the mission protocol is. Returns None when it was taken, else why not
+        (nothing changed).
+
+        Parameters
+        ----------
+        mission_type : int
+            MAV_MISSION_TYPE of the file written.
+        data : bytes
+            The file.
+        sysid, compid : int
+            Who wrote it.
+        t_s : float
+            Now, s.
+        """
+        self._t_s = t_s
+        name = MISSION_TYPES[mission_type]
+        if len(data) < _FILE_HEADER.size:
+            return f"{len(data)} bytes, fewer than the header's {_FILE_HEADER.size}"
+        magic, dtype, options, start, count = _FILE_HEADER.unpack_from(data)
+        size = _ITEM.unpacker.size
+        if magic != LIST_FILE_MAGIC:
+            return f"magic 0x{magic:04x}, not 0x{LIST_FILE_MAGIC:04x}"
+        if dtype != mission_type:
+            return f"its header is for list type {dtype}, the file is the {name}'s ({mission_type})"
+        if options & ~NO_CLEAR:
+            return f"options 0x{options:x}: only 0x{NO_CLEAR:x} (no clear) is known"
+        if len(data) != _FILE_HEADER.size + count * size:
+            return f"the header gives {count} items, the file has {len(data) - _FILE_HEADER.size} bytes after it, not {count * size}"
+        if mission_type in self._uploads:
+            return f"an upload of the {name} by the mission protocol is under way"
+        items = []
+        for i in range(count):
+            raw = data[_FILE_HEADER.size + i * size : _FILE_HEADER.size + (i + 1) * size]
+            if not any(raw):
+                return f"item {start + i} is all zeros (the file was not written whole)"
+            f = dict(zip(_ITEM.ordered_fieldnames, _ITEM.unpacker.unpack(raw), strict=True))
+            items.append(
+                MissionItem(start + i, f["frame"], f["command"], f["param1"], f["param2"], f["param3"], f["param4"],
+                            f["x"], f["y"], f["z"], f["autocontinue"])
+            )  # fmt: skip
+        if options & NO_CLEAR:
+            if mission_type != MISSION:
+                return f"the {name} is only replaced whole (no clear is for the mission)"
+            held = self.lists[MISSION]
+            if start > len(held):
+                return f"its first item {start} is past the mission's end ({len(held)} items)"
+            whole = list(held)
+            _put(whole, {it.seq: it for it in items})
+            if (why := _list_refusal(whole, MISSION)) is not None:
+                return why
+            self._edit(MISSION, {it.seq: it for it in items})
+            self.changes.append(ListChange(name, t_s, sysid, compid, len(held), True))
+        else:
+            if start:
+                return f"its first item is {start}: a whole {name} starts at 0 (or give the no-clear option)"
+            if (why := _list_refusal(items, mission_type)) is not None:
+                return why
+            self.store(mission_type, items, sysid, compid)
+        self.on_received(mission_type)
+        return None
 
     # -- download, clear, current ----------------------------------------------------------
     def on_request_list(self, m: Any) -> None:
@@ -596,6 +721,18 @@ class MissionServer:
             return False
         self.current_seq = seq
         return True
+
+
+def _list_refusal(items: list[MissionItem], mission_type: int) -> str | None:
+    """Why a whole list would be refused (:func:`list_problem`; a fence's with Rover's
+    words), or None."""
+    problem = list_problem(items, mission_type)
+    if problem is None:
+        return None
+    seq, result = problem
+    why = f"item {seq}: {mav.enums['MAV_MISSION_RESULT'][result].name}"
+    bad = validate_fence(items) if mission_type == FENCE else None
+    return why if bad is None or bad[0] != seq else f"{why} ({bad[2]})"
 
 
 def _put(held: list[MissionItem], items: dict[int, MissionItem]) -> None:

@@ -1,17 +1,36 @@
 """The MAVLink parameter protocol over a table of :class:`~lfctl.link.params.Param`, answered
 as ArduPilot answers it: the vehicle endpoint's parameters (component 1) and, on a real
-rover, the companion's ``LFC_*`` (component 191) go through the same code."""
+rover, the companion's ``LFC_*`` (component 191) go through the same code.
+
+The same table is also a file over MAVLink FTP, ``@PARAM/param.pck``, in ArduPilot's packed
+format (``AP_Filesystem_Param``), which MAVProxy and pymavlink's ``mavftp`` fetch instead of
+the parameter list when the vehicle serves it: a 6-byte header (magic 0x671b, or 0x671c with
+default values; the number of parameters in the file; the number the vehicle has), then per
+parameter one byte of type (AP_Param's: 1 int8, 2 int16, 3 int32, 4 float) and flags (bit 0:
+its default follows its value), one byte of the name's length past the part it shares with
+the previous name (minus one, high nibble) and that shared length (low nibble), the rest of
+the name, then the value (and the default), little-endian. A file of this format written
+back sets the parameters it names (ArduPilot's parameter upload), each as a PARAM_SET would.
+"""
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.link.params import Param
+from lfctl.link.params import INT8, INT16, INT32, REAL32, Param
 
-__all__ = ["ParamServer", "param_text"]
+__all__ = ["PACKED_MAGIC", "PACKED_MAGIC_DEFAULTS", "ParamServer", "pack_params", "param_text", "unpack_params"]
+
+#: ``@PARAM/param.pck``'s magic numbers: without and with default values
+PACKED_MAGIC, PACKED_MAGIC_DEFAULTS = 0x671B, 0x671C
+_PACKED_HEADER = struct.Struct("<HHH")
+#: AP_Param's type numbers in the packed file, and each one's struct format, by MAV_PARAM_TYPE
+_AP_TYPE = {INT8: (1, "b"), INT16: (2, "h"), INT32: (3, "i"), REAL32: (4, "f")}
+_AP_FORMAT = {ap: fmt for ap, fmt in _AP_TYPE.values()}
 
 
 def param_text(value: str | bytes) -> str:
@@ -23,6 +42,103 @@ def param_text(value: str | bytes) -> str:
         The field as pymavlink gives it.
     """
     return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
+
+
+def _packed_value(fmt: str, value: float) -> bytes:
+    """``value`` as the packed file holds it (an integer type's value is an integer already)."""
+    return struct.pack("<" + fmt, value if fmt == "f" else int(value))
+
+
+def pack_params(
+    params: dict[str, Param],
+    defaults: dict[str, float] | None = None,
+    start: int = 0,
+    count: int = 0,
+) -> bytes:
+    """``params`` as ``@PARAM/param.pck`` (the module's docstring gives the format).
+
+    Parameters
+    ----------
+    params : dict of str to Param
+        The table, in list order.
+    defaults : dict of str to float, optional
+        Each parameter's default: given, the file is the "with defaults" kind (magic
+        0x671c), each parameter not at its default followed by it.
+    start, count : int
+        The first parameter in the file (its index in the list) and how many (0: the rest),
+        as ``param.pck?start=N&count=C`` asks.
+    """
+    names = list(params)[start:]
+    if count:
+        names = names[:count]
+    out = bytearray(
+        _PACKED_HEADER.pack(PACKED_MAGIC if defaults is None else PACKED_MAGIC_DEFAULTS, len(names), len(params))
+    )
+    last = b""
+    for name in names:
+        p = params[name]
+        ap_type, fmt = _AP_TYPE[p.kind]
+        raw = name.encode()
+        common = 0
+        while common < min(len(raw), len(last), 15) and raw[common] == last[common]:
+            common += 1
+        if common == len(raw):  # a name that is the start of the one before: one byte of it told
+            common -= 1
+        default = None if defaults is None else defaults.get(name)
+        with_default = default is not None and default != p.value
+        out += bytes([ap_type | (int(with_default) << 4), common | ((len(raw) - common - 1) << 4)])
+        out += raw[common:] + _packed_value(fmt, p.value)
+        if with_default:
+            out += _packed_value(fmt, default)
+        last = raw
+    return bytes(out)
+
+
+def unpack_params(data: bytes) -> list[tuple[str, float]]:
+    """The (name, value) pairs of an uploaded ``@PARAM/param.pck``, checked as ArduPilot
+    checks an upload: the header's magic (0x671b: an upload carries no defaults) and its
+    length (the third number is the file's length), each parameter's type, flags and name.
+
+    Parameters
+    ----------
+    data : bytes
+        The file.
+
+    Raises
+    ------
+    ValueError
+        What is wrong with the file, and where.
+    """
+    if len(data) < _PACKED_HEADER.size:
+        raise ValueError(f"{len(data)} bytes, fewer than the header's {_PACKED_HEADER.size}")
+    magic, count, length = _PACKED_HEADER.unpack_from(data)
+    if magic != PACKED_MAGIC:
+        raise ValueError(f"magic 0x{magic:04x}, not 0x{PACKED_MAGIC:04x}")
+    if length != len(data):
+        raise ValueError(f"the header gives the file's length as {length}, it is {len(data)} bytes")
+    out: list[tuple[str, float]] = []
+    pos, last = _PACKED_HEADER.size, b""
+    for k in range(count):
+        where = f"parameter {k + 1} of {count} (byte {pos})"
+        if pos + 2 > len(data):
+            raise ValueError(f"{where}: the file ends")
+        kind, flags, lens = data[pos] & 0x0F, data[pos] >> 4, data[pos + 1]
+        fmt = _AP_FORMAT.get(kind)
+        if fmt is None:
+            raise ValueError(f"{where}: type {kind}, not 1-4")
+        if flags:
+            raise ValueError(f"{where}: flags {flags} (an upload carries no defaults)")
+        common, name_len = lens & 0x0F, (lens >> 4) + 1
+        if common > len(last) or common + name_len > 16:
+            raise ValueError(f"{where}: a name of {common} + {name_len} bytes after {last.decode(errors='replace')!r}")
+        size = struct.calcsize("<" + fmt)
+        if pos + 2 + name_len + size > len(data):
+            raise ValueError(f"{where}: the file ends")
+        raw = last[:common] + data[pos + 2 : pos + 2 + name_len]
+        (value,) = struct.unpack_from("<" + fmt, data, pos + 2 + name_len)
+        out.append((raw.decode(errors="replace"), float(value)))
+        pos, last = pos + 2 + name_len + size, raw
+    return out
 
 
 class ParamServer:
@@ -48,6 +164,8 @@ class ParamServer:
         self.params = params
         self._send = send
         self._say = say
+        #: each parameter's default: its value when the server was made (the table's defaults)
+        self.defaults = {name: p.value for name, p in params.items()}
 
     def value_message(self, name: str, indexed: bool = True) -> Any:
         """PARAM_VALUE for ``name``: with its index in the list, or (``indexed`` False) index -1.
@@ -115,16 +233,79 @@ class ParamServer:
         if name is None:
             self._say(f"Unknown parameter {param_text(m.param_id)}", mav.MAV_SEVERITY_WARNING)
             return None
+        taken = self.set_value(name, m.param_value)
+        self._send(self.value_message(name, indexed=False))
+        return name if taken else None
+
+    def set_value(self, name: str, value: float) -> bool:
+        """Store ``value`` in the parameter ``name`` if it takes it (:meth:`Param.accepts`);
+        a refusal is said in a line of text. Returns whether it was stored.
+
+        Parameters
+        ----------
+        name : str
+            A parameter of the table.
+        value : float
+            The value asked for.
+        """
         p = self.params[name]
-        taken = p.accepts(m.param_value)
-        if taken:
-            p.value = p.stored(m.param_value)
-        elif p.readonly:
+        if p.accepts(value):
+            p.value = p.stored(value)
+            return True
+        if p.readonly:
             self._say(f"Param write denied ({name})", mav.MAV_SEVERITY_WARNING)  # ArduPilot's text
         else:
             self._say(
-                f"{name} rejected: {m.param_value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip(),
-                mav.MAV_SEVERITY_WARNING,
+                f"{name} rejected: {value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip(), mav.MAV_SEVERITY_WARNING
             )
-        self._send(self.value_message(name, indexed=False))
-        return name if taken else None
+        return False
+
+    def packed(self, query: str = "") -> bytes:
+        """``@PARAM/param.pck`` now, for a file read over MAVLink FTP, with the options a
+        ground station adds to the name (``?withdefaults=1&start=N&count=C``, as ArduPilot's).
+
+        Parameters
+        ----------
+        query : str
+            What follows the ``?`` in the name asked for (``""``: none).
+
+        Raises
+        ------
+        ValueError
+            An option ArduPilot refuses (its value named): start or count past 65534,
+            withdefaults other than 0 or 1, start past the last parameter, or an unknown one.
+        """
+        opts = {"start": 0, "count": 0, "withdefaults": 0}
+        for part in filter(None, query.split("&")):
+            key, _, raw = part.partition("=")
+            if key not in opts or not raw.isdigit():
+                raise ValueError(f"param.pck option {part!r}: start=N, count=N or withdefaults=0/1")
+            opts[key] = int(raw)
+            if opts[key] > (1 if key == "withdefaults" else 0xFFFE):
+                raise ValueError(f"param.pck option {part!r} out of range")
+        if opts["start"] >= len(self.params):
+            raise ValueError(f"param.pck start={opts['start']}: there are {len(self.params)} parameters")
+        defaults = self.defaults if opts["withdefaults"] else None
+        return pack_params(self.params, defaults, opts["start"], opts["count"])
+
+    def upload(self, data: bytes) -> str | None:
+        """Set the parameters an uploaded ``@PARAM/param.pck`` names, each as a PARAM_SET
+        would (out of range or read-only: not set, said); a name the table lacks is skipped
+        and said, as ArduPilot skips it. Returns None when the file was read, else why it
+        could not be (nothing set).
+
+        Parameters
+        ----------
+        data : bytes
+            The file.
+        """
+        try:
+            values = unpack_params(data)
+        except ValueError as exc:
+            return f"param.pck not read: {exc}"
+        unknown = [name for name, _ in values if name not in self.params]
+        taken = sum(self.set_value(name, value) for name, value in values if name in self.params)
+        if unknown:
+            self._say(f"Param upload: no such parameter {', '.join(unknown)}"[:200], mav.MAV_SEVERITY_WARNING)
+        self._say(f"Param upload: {taken} of {len(values)} set", mav.MAV_SEVERITY_INFO)
+        return None

@@ -19,10 +19,36 @@ from lfctl.checks import NET_PREFIXES, check_host_port
 from lfctl.errors import ConfigError, LinkError
 from lfctl.link.signing import setup_signing
 
-__all__ = ["CHECK_LINK", "DatagramLink", "MavPort", "pack_next"]
+__all__ = ["CHECK_LINK", "STATUSTEXT_MAX_BYTES", "DatagramLink", "MavPort", "pack_next", "statustext_messages"]
+
+#: the longest line of text sent (in 50-byte STATUSTEXT chunks), bytes
+STATUSTEXT_MAX_BYTES = 200
 
 #: what to check when a vehicle does not answer
 CHECK_LINK = "is the vehicle up, the address right, and, if it signs its link, the passphrase the same?"
+
+
+def statustext_messages(data: bytes, severity: int, text_id: int) -> list[Any]:
+    """STATUSTEXT messages for one line of text: one when it fits in 50 bytes, else (MAVLink
+    2, as ArduPilot sends a long text) 50-byte chunks sharing ``text_id``, a short chunk (an
+    empty one if need be) ending it.
+
+    Parameters
+    ----------
+    data : bytes
+        The line, at most :data:`STATUSTEXT_MAX_BYTES` (longer is cut).
+    severity : int
+        MAV_SEVERITY.
+    text_id : int
+        The chunks' id (1-65535), new for each long line.
+    """
+    data = data[:STATUSTEXT_MAX_BYTES]
+    if len(data) <= 50:
+        return [mav.MAVLink_statustext_message(severity, data)]
+    chunks = [data[k : k + 50] for k in range(0, len(data), 50)]
+    if len(chunks[-1]) == 50:
+        chunks.append(b"")
+    return [mav.MAVLink_statustext_message(severity, chunk, text_id, seq) for seq, chunk in enumerate(chunks)]
 
 
 class DatagramLink(Protocol):

@@ -9,6 +9,7 @@ import json
 import math
 import struct
 import time
+from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -1735,17 +1736,26 @@ def test_messages_for_equipment_not_fitted_are_accepted_and_system_time_is_sent(
     assert last.time_unix_usec / 1e6 - last.time_boot_ms / 1e3 == pytest.approx(t0, abs=5.0)
 
 
-def test_mavlink_ftp_is_refused_at_once_to_the_asker_and_only_for_this_vehicle(bench: Bench) -> None:
-    name = b"@PARAM/param.pck?withdefaults=1"
-    payload = list((struct.pack("<HBBBBBBI", 7, 0, 4, len(name), 0, 0, 0, 0) + name).ljust(251, b"\0"))
-    bench.send(mav.MAVLink_file_transfer_protocol_message(0, 1, 1, payload))
-    (answer,) = [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+def test_mavlink_ftp_answers_the_asker_and_only_for_this_vehicle(bench: Bench) -> None:
+    def ask(seq: int, opcode: int, name: bytes, target: int = 1, network: int = 0) -> list[Any]:
+        payload = list((struct.pack("<HBBBBBBI", seq, 0, opcode, len(name), 0, 0, 0, 0) + name).ljust(251, b"\0"))
+        bench.send(mav.MAVLink_file_transfer_protocol_message(network, target, 1, payload))
+        return [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+
+    (answer,) = ask(7, 4, b"@PARAM/param.pck?withdefaults=1")  # OpenFileRO: its size
     assert (answer.target_system, answer.target_component) == (255, 190)
-    assert struct.unpack_from("<HBB", bytes(answer.payload)) == (8, 0, 129) and answer.payload[12] == 10
-    bench.send(mav.MAVLink_file_transfer_protocol_message(0, 2, 1, payload))  # another vehicle's
-    assert not [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
-    bench.send(mav.MAVLink_file_transfer_protocol_message(3, 1, 1, payload))  # the network is not looked at
-    assert [m for m in bench.tick() if m.get_type() == "FILE_TRANSFER_PROTOCOL"]
+    size = len(bench.ep.param_server.packed("withdefaults=1"))
+    assert struct.unpack_from("<HBBB", bytes(answer.payload)) == (8, 0, 128, 4)
+    assert struct.unpack_from("<I", bytes(answer.payload), 12) == (size,)
+    assert ask(8, 1, b"") != []  # TerminateSession
+    assert ask(9, 4, b"@PARAM/param.pck", target=2) == []  # another vehicle's
+    assert ask(10, 4, b"@PARAM/param.pck", network=3) != []  # the network is not looked at
+    (missing,) = ask(11, 14, b"APM/LOGS/00000001.BIN")  # a Rover's log: no such file here
+    assert struct.unpack_from("<HBBB", bytes(missing.payload)) == (12, 0, 129, 1) and missing.payload[12] == 10
+    # AUTOPILOT_VERSION says MAVLink FTP is served, as a Rover's does
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0))
+    (version,) = [m for m in bench.tick() if m.get_type() == "AUTOPILOT_VERSION"]
+    assert version.capabilities & mav.MAV_PROTOCOL_CAPABILITY_FTP
 
 
 def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_points(bench: Bench) -> None:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import io
 import math
 import random
 import socket
+import struct
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -686,3 +689,95 @@ def test_a_refused_clear_says_the_vehicles_reason(live: LiveEndpoint) -> None:
     ):
         g.clear()
     g.close()
+
+
+# -- MAVLink FTP with pymavlink's own client (mavftp, MAVProxy's ftp module made a library) --
+def ftp_client(live: LiveEndpoint) -> tuple[Any, Any]:
+    from pymavlink import mavutil
+    from pymavlink.mavftp import MAVFTP
+
+    conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{live.port}", source_system=255, source_component=190)
+    conn.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+    assert conn.wait_heartbeat(timeout=5) is not None
+    return conn, MAVFTP(conn, 1, 1)
+
+
+def mission_file(items: list[MissionItem], mission_type: int = mav.MAV_MISSION_TYPE_MISSION) -> bytes:
+    """A list as MAVProxy's `wp ftpload` writes it: the 10-byte header, then MISSION_ITEM_INT payloads."""
+    out = struct.pack("<HHHHH", 0x763D, mission_type, 0, 0, len(items))
+    unit = mav.MAVLink_mission_item_int_message
+    for it in items:
+        m = unit(1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
+                 it.x, it.y, it.z, mission_type)  # fmt: skip
+        out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
+    return out
+
+
+def ftp_put(client: Any, data: bytes, remote: str) -> int:
+    client.cmd_put(["-", remote], fh=io.BytesIO(data))
+    return int(client.process_ftp_reply("put", timeout=10).error_code)
+
+
+def ftp_get(client: Any, remote: str, local: Path) -> bytes:
+    client.cmd_get([remote, str(local)])
+    assert client.process_ftp_reply("get", timeout=10).error_code == 0
+    return local.read_bytes()
+
+
+def test_pymavlink_fetches_the_parameters_with_their_defaults_over_ftp(live: LiveEndpoint, tmp_path: Path) -> None:
+    conn, client = ftp_client(live)
+    live.ep.params["WP_SPEED"].value = 3.5  # a value the ground station set: its default 2 follows it
+    client.cmd_getparams([str(tmp_path / "values.parm"), str(tmp_path / "defaults.parm")])
+    assert client.process_ftp_reply("getparams", timeout=10).error_code == 0
+    values = dict(line.split(",") for line in (tmp_path / "values.parm").read_text().splitlines())
+    defaults = dict(line.split(",") for line in (tmp_path / "defaults.parm").read_text().splitlines())
+    assert {k: float(v) for k, v in values.items()} == {k: p.value for k, p in live.ep.params.items()}
+    assert float(defaults["WP_SPEED"]) == 2.0 and float(defaults["SYSID_THISMAV"]) == 1
+    conn.close()
+
+
+def test_a_mission_goes_up_and_comes_back_over_ftp_as_by_the_mission_protocol(
+    live: LiveEndpoint, tmp_path: Path
+) -> None:
+    conn, client = ftp_client(live)
+    items = local_mission(SQUARE, HOME)
+    assert ftp_put(client, mission_file(items), "@MISSION/mission.dat") == 0
+    assert [(i.seq, i.command, i.x, i.y, i.param1) for i in live.ep.mission] == [
+        (i.seq, i.command, i.x, i.y, i.param1) for i in items
+    ]
+    assert live.ep.statustexts[-1][1] == "Flight plan received"
+    g = live.gcs()
+    by_protocol = g.download()
+    g.close()
+    data = ftp_get(client, "@MISSION/mission.dat", tmp_path / "mission.dat")
+    assert struct.unpack_from("<HHHHH", data) == (0x763D, 0, 0, 0, len(items))
+    unit = mav.MAVLink_mission_item_int_message
+    size = unit.unpacker.size
+    got = [dict(zip(unit.ordered_fieldnames, unit.unpacker.unpack(data[10 + k * size : 10 + (k + 1) * size]), strict=True))
+           for k in range(len(items))]  # fmt: skip
+    assert [(f["seq"], f["command"], f["x"], f["y"], f["param1"]) for f in got] == [
+        (i.seq, i.command, i.x, i.y, i.param1) for i in by_protocol
+    ]
+    # a refused file (a latitude past the pole) changes nothing and says which item and why
+    bad = [*items[:2], MissionItem(2, items[2].frame, 16, x=950_000_000, y=items[2].y)]
+    # (pymavlink's put, as MAVProxy's, does not read the refusal in the reply to its
+    # TerminateSession: what its user sees is the vehicle's text)
+    ftp_put(client, mission_file(bad), "@MISSION/mission.dat")
+    assert len(live.ep.mission) == len(items)
+    assert live.ep.statustexts[-1][1] == "FTP: @MISSION/mission.dat refused: item 2: MAV_MISSION_INVALID_PARAM5_X"
+    conn.close()
+
+
+def test_parameters_written_as_a_file_are_set_as_param_set_sets_them(live: LiveEndpoint) -> None:
+    from lfctl.link.param_server import pack_params
+    from lfctl.link.params import Param
+
+    conn, client = ftp_client(live)
+    upload = {"WP_SPEED": Param(4.5, 0, 100, "", ""), "WP_RADIUS": Param(-1.0, -10, 10, "", "")}
+    data = bytearray(pack_params(upload))
+    struct.pack_into("<H", data, 4, len(data))  # an upload's header gives the file's length
+    assert ftp_put(client, bytes(data), "@PARAM/param.pck") == 0
+    assert live.ep.param("WP_SPEED") == 4.5 and live.ep.param("WP_RADIUS") == 2.0  # -1 is outside 0..100
+    texts = [t for _, t in live.ep.statustexts[-2:]]
+    assert texts == ["WP_RADIUS rejected: -1 outside 0..100 m", "Param upload: 1 of 2 set"]
+    conn.close()

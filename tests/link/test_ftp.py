@@ -1,55 +1,449 @@
-"""MAVLink FTP answered as a vehicle with no files: each request gets its reply at once, with
-the request's sequence number plus one, so a ground station falls back without waiting."""
+"""MAVLink FTP: the packed parameter file and the list files by hand, and the server's answer
+to each request as ArduPilot's GCS_FTP gives it (sessions, reads, bursts, writes, listings,
+CRCs, requests sent again), and to bytes that are no request at all."""
 
 from __future__ import annotations
 
+import errno
 import struct
+import zlib
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
+from pymavlink.dialects.v20 import ardupilotmega as mav
+from pymavlink.mavftp import MAVFTP
 
 from lfctl.link import ftp
+from lfctl.link.mission import MissionItem
+from lfctl.link.mission_server import FENCE, MISSION, MissionServer
+from lfctl.link.param_server import ParamServer, pack_params, unpack_params
+from lfctl.link.params import INT8, INT16, INT32, REAL32, Param
 
 HEADER = struct.Struct("<HBBBBBBI")
 
 
-def request(seq: int, opcode: int, data: bytes = b"", session: int = 0, offset: int = 0) -> bytes:
-    return (HEADER.pack(seq, session, opcode, len(data), 0, 0, 0, offset) + data).ljust(251, b"\0")
+def request(
+    seq: int, opcode: int, data: bytes = b"", session: int = 0, offset: int = 0, size: int | None = None
+) -> bytes:
+    n = len(data) if size is None else size
+    return (HEADER.pack(seq, session, opcode, n, 0, 0, 0, offset) + data).ljust(251, b"\0")
+
+
+def parse(reply: bytes) -> tuple[tuple[int, ...], bytes]:
+    head = HEADER.unpack_from(reply)
+    return head, reply[12 : 12 + head[3]]
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+class Served:
+    """A server over two files (one writable), its replies and texts kept."""
+
+    def __init__(self) -> None:
+        self.content = bytes(range(256)) * 3 + b"end"  # 771 bytes
+        self.written: list[tuple[bytes, int, int]] = []
+        self.refuse: str | None = None
+        self.replies: list[tuple[bytes, int, int]] = []
+        self.texts: list[str] = []
+        self.clock = Clock()
+        files = {
+            "@SYS/data.bin": ftp.FtpFile(self.read),
+            "@SYS/in.bin": ftp.FtpFile(lambda q: b"", self.write),
+        }
+        self.server = ftp.FtpServer(
+            files, lambda p, s, c: self.replies.append((p, s, c)), self.texts.append, self.clock
+        )
+
+    def read(self, query: str) -> bytes:
+        if query:
+            raise ValueError(f"no options, got {query!r}")
+        return self.content
+
+    def write(self, data: bytes, sysid: int, compid: int) -> str | None:
+        self.written.append((data, sysid, compid))
+        return self.refuse
+
+    def ask(self, payload: bytes, sysid: int = 255, compid: int = 190) -> list[tuple[tuple[int, ...], bytes]]:
+        self.replies.clear()
+        self.server.handle(payload, sysid, compid)
+        assert all(len(p) == 251 and (s, c) == (sysid, compid) for p, s, c in self.replies)
+        return [parse(p) for p, _, _ in self.replies]
+
+
+# -- the packed parameter file ---------------------------------------------------------------
+TABLE = {
+    "WP_SPEED": Param(2.5, 0.0, 100.0, "m/s", ""),
+    "WP_RADIUS": Param(2.0, 0.0, 100.0, "m", ""),
+    "CRUISE_THROTTLE": Param(50, 0, 100, "%", "", kind=INT8),
+}
+
+
+def test_the_packed_parameter_file_by_hand() -> None:
+    out = pack_params(TABLE)
+    assert out == (
+        b"\x1b\x67\x03\x00\x03\x00"  # magic 0x671b, 3 in the file, 3 in all
+        + b"\x04\x70WP_SPEED\x00\x00\x20\x40"  # float; 8 new bytes (7 << 4), none shared; 2.5
+        + b"\x04\x53RADIUS\x00\x00\x00\x40"  # "WP_" shared (3), 6 new (5 << 4); 2.0
+        + b"\x01\xe0CRUISE_THROTTLE\x32"  # int8; 15 new; 50
+    )
+    # with defaults: WP_SPEED's (2.0) follows its value (flag 1 in the type's high nibble)
+    with_defaults = pack_params(TABLE, {"WP_SPEED": 2.0, "WP_RADIUS": 2.0, "CRUISE_THROTTLE": 50})
+    assert with_defaults[:2] == b"\x1c\x67"
+    assert with_defaults[6:20] == b"\x14\x70WP_SPEED\x00\x00\x20\x40" and with_defaults[20:24] == b"\x00\x00\x00\x40"
+    # start and count, as param.pck?start=1&count=1 asks: one in the file, three in all
+    assert pack_params(TABLE, start=1, count=1) == b"\x1b\x67\x01\x00\x03\x00\x04\x80WP_RADIUS\x00\x00\x00\x40"
+
+
+def test_pymavlink_reads_the_file_as_a_rover_s() -> None:
+    # pymavlink's own decoder (MAVProxy's is the same code), a name that is the start of
+    # the one before included (one byte of it is told again)
+    table = dict(TABLE) | {
+        "LFC_RANGE2": Param(-3.25, -10, 10, "", ""),
+        "LFC_RANGE": Param(7, 0, 20, "", "", kind=INT16),
+        "LFC_BIG": Param(-70000, -1e6, 1e6, "", "", kind=INT32),
+    }
+    data = pack_params(table, {name: 0.0 for name in table})
+    decoded = MAVFTP.ftp_param_decode(data)
+    assert decoded is not None
+    assert {n.decode(): v for n, v, _ in decoded.params} == {n: p.value for n, p in table.items()}
+    assert {n.decode(): v for n, v, _ in decoded.defaults} == dict.fromkeys(table, 0.0)
+    assert [t for _, _, t in decoded.params] == [4, 4, 1, 4, 2, 3]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.dictionaries(
+        st.text("ABCDEFGHIJKLMNOPQRSTUVWXYZ_0123456789", min_size=1, max_size=16),
+        st.tuples(st.sampled_from([INT8, INT16, INT32, REAL32]), st.integers(-100, 100)),
+        min_size=1,
+        max_size=40,
+    )
+)
+def test_any_table_comes_back_whole_through_pymavlink(raw: dict[str, tuple[int, int]]) -> None:
+    table = {name: Param(float(v), -1000, 1000, "", "", kind=kind) for name, (kind, v) in raw.items()}
+    decoded = MAVFTP.ftp_param_decode(pack_params(table))
+    assert decoded is not None
+    assert [(n.decode(), v) for n, v, _ in decoded.params] == [(n, p.value) for n, p in table.items()]
+    # and an upload of the same (its header's third number is the file's length) reads back
+    data = bytearray(pack_params(table))
+    struct.pack_into("<H", data, 4, len(data))
+    assert unpack_params(bytes(data)) == [(n, p.value) for n, p in table.items()]
 
 
 @pytest.mark.parametrize(
-    ("opcode", "answer", "error"),
+    ("damage", "words"),
     [
-        (4, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # OpenFileRO @PARAM/param.pck: MAVProxy's first ask
-        (3, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # ListDirectory
-        (14, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # CalcFileCRC32
-        (15, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # BurstReadFile: no file open on the session
-        (5, ftp.NAK, ftp.ERR_FILE_NOT_FOUND),  # ReadFile
-        (12, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),  # TruncateFile: ArduPilot has none
-        (16, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),  # ListDirectoryWithTime: MAVProxy falls back to 3
-        (99, ftp.NAK, ftp.ERR_UNKNOWN_COMMAND),
-        (0, ftp.ACK, None),  # None
-        (1, ftp.ACK, None),  # TerminateSession
-        (2, ftp.ACK, None),  # ResetSessions
+        (lambda d: b"\x1c" + d[1:], "magic 0x671c"),  # an upload carries no defaults
+        (lambda d: d[:4] + b"\x09\x00" + d[6:], "length as 9"),
+        (lambda d: d[:6] + b"\x14" + d[7:], "flags 1"),
+        (lambda d: d[:6] + b"\x07" + d[7:], "type 7"),
+        (lambda d: d[:6] + b"\x04\x7f" + d[8:], r"a name of 15 \+ 8 bytes"),
+        (lambda d: d[:3], "3 bytes"),
     ],
 )
-def test_each_request_is_answered_at_once(opcode: int, answer: int, error: int | None) -> None:
-    out = ftp.reply(request(0xFFFF, opcode, b"@PARAM/param.pck?withdefaults=1", session=3, offset=12))
-    assert out is not None and len(out) == 251
-    seq, session, op, size, req_opcode, burst, _pad, offset = HEADER.unpack_from(out)
-    # the sequence wraps; the offset is ListDirectory's only, as ArduPilot's setup_reply
-    assert (seq, session, op, req_opcode, burst, offset) == (0, 3, answer, opcode, 0, 12 if opcode == 3 else 0)
-    assert (size, out[12]) == ((1, error) if error is not None else (0, 0))
+def test_a_damaged_upload_is_refused_naming_the_fault(damage, words: str) -> None:
+    data = bytearray(pack_params(TABLE))
+    struct.pack_into("<H", data, 4, len(data))
+    with pytest.raises(ValueError, match=words):
+        unpack_params(damage(bytes(data)))
+
+
+def test_an_uploaded_file_sets_what_a_param_set_would_and_names_the_rest() -> None:
+    table = {name: Param(p.value, p.lo, p.hi, p.unit, p.description, kind=p.kind) for name, p in TABLE.items()}
+    said: list[str] = []
+    server = ParamServer(table, lambda m: None, lambda text, severity: said.append(text))
+    upload = {
+        "WP_SPEED": Param(4.0, 0, 100, "", ""),
+        "WP_RADIUS": Param(500.0, 0, 1000, "", ""),  # outside 0..100
+        "NO_SUCH": Param(1.0, 0, 10, "", ""),
+    }
+    data = bytearray(pack_params(upload))
+    struct.pack_into("<H", data, 4, len(data))
+    assert server.upload(bytes(data)) is None
+    assert (table["WP_SPEED"].value, table["WP_RADIUS"].value) == (4.0, 2.0)
+    assert said == [
+        "WP_RADIUS rejected: 500 outside 0..100 m",
+        "Param upload: no such parameter NO_SUCH",
+        "Param upload: 1 of 3 set",
+    ]
+    assert server.upload(b"\x1b\x67") == "param.pck not read: 2 bytes, fewer than the header's 6"
+    assert table["WP_SPEED"].value == 4.0
+    # the defaults are the values the table had when the server was made
+    assert server.defaults == {"WP_SPEED": 2.5, "WP_RADIUS": 2.0, "CRUISE_THROTTLE": 50}
+
+
+@pytest.mark.parametrize(
+    ("query", "words"),
+    [
+        ("start=3", "start=3: there are 3"),
+        ("withdefaults=2", "out of range"),
+        ("count=x", "'count=x'"),
+        ("foo=1", "'foo=1'"),
+    ],
+)
+def test_param_file_options_ardupilot_refuses_are_named(query: str, words: str) -> None:
+    server = ParamServer(dict(TABLE), lambda m: None, lambda text, severity: None)
+    with pytest.raises(ValueError, match=words):
+        server.packed(query)
+    assert server.packed("withdefaults=1&start=2")[:6] == b"\x1c\x67\x01\x00\x03\x00"
+
+
+# -- the server --------------------------------------------------------------------------
+def test_a_file_is_opened_read_in_parts_and_closed() -> None:
+    s = Served()
+    ((head, data),) = s.ask(request(10, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=2))
+    # seq + 1, the session, ACK, 4 bytes (the size), the request's opcode
+    assert head[:5] == (11, 2, ftp.ACK, 4, ftp.OP_OPEN_RO) and struct.unpack("<I", data) == (771,)
+    ((head, data),) = s.ask(request(11, ftp.OP_READ, session=2, offset=700, size=239))
+    assert head[2] == ftp.ACK and head[7] == 700 and data == s.content[700:]
+    ((head, data),) = s.ask(request(12, ftp.OP_READ, session=2, offset=771, size=239))
+    assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_END_OF_FILE]))
+    ((head, _),) = s.ask(request(13, ftp.OP_TERMINATE, session=2))
+    assert head[2] == ftp.ACK
+    ((head, data),) = s.ask(request(14, ftp.OP_READ, session=2, size=10))
+    assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_FILE_NOT_FOUND]))  # no file open on it now
+
+
+def test_a_burst_sends_the_file_in_numbered_parts_and_ends_at_its_end() -> None:
+    s = Served()
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    replies = s.ask(request(1, ftp.OP_BURST, offset=100, size=200))
+    assert [h[0] for h, _ in replies] == [2, 3, 4, 5, 6]  # one sequence number each
+    assert [h[7] for h, _ in replies] == [100, 300, 500, 700, 771]
+    assert b"".join(d for h, d in replies if h[2] == ftp.ACK) == s.content[100:]
+    last_head, last = replies[-1]
+    assert (last_head[2], last, last_head[5]) == (ftp.NAK, bytes([ftp.ERR_END_OF_FILE]), 1)  # burst complete
+    # a long file: BURST_PACKETS parts, the last marked complete, and the rest on asking again
+    s.content = bytes(300 * ftp.BURST_PACKETS)
+    s.ask(request(0, ftp.OP_RESET))
+    s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=1))
+    replies = s.ask(request(2, ftp.OP_BURST, session=1))
+    assert len(replies) == ftp.BURST_PACKETS and all(h[2] == ftp.ACK for h, _ in replies)
+    assert [h[5] for h, _ in replies] == [0] * (ftp.BURST_PACKETS - 1) + [1]
+    # the rest: 19,200 - 64 x 239 = 3,904 bytes, 17 parts (16 of 239, one of 80), then the end
+    rest = s.ask(request(3, ftp.OP_BURST, session=1, offset=ftp.BURST_PACKETS * ftp.DATA_BYTES))
+    assert [len(d) for _, d in rest] == [239] * 16 + [80, 1]
+
+
+def test_a_request_sent_again_gets_the_same_reply_not_a_second_action() -> None:
+    s = Served()
+    s.refuse = "item 1: MAV_MISSION_INVALID_PARAM5_X"
+    s.ask(request(0, ftp.OP_CREATE, b"@SYS/in.bin\0"))  # the name with its NUL, as MAVProxy sends it
+    s.ask(request(1, ftp.OP_WRITE, b"hello", offset=3))
+    first = s.ask(request(2, ftp.OP_TERMINATE))
+    assert first[0][0][2] == ftp.NAK and first[0][1] == bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL])
+    assert s.written == [(b"\0\0\0hello", 255, 190)]
+    assert s.texts == ["FTP: @SYS/in.bin refused: item 1: MAV_MISSION_INVALID_PARAM5_X"]
+    assert s.ask(request(2, ftp.OP_TERMINATE)) == first  # its reply lost: the refusal again
+    assert len(s.written) == 1
+    # another sender's same numbers are its own
+    assert s.ask(request(2, ftp.OP_TERMINATE), sysid=254)[0][0][2] == ftp.ACK
+
+
+@pytest.mark.parametrize(
+    ("opcode", "data", "error"),
+    [
+        (ftp.OP_OPEN_RO, b"@PARAM/none.pck", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_OPEN_RO, b"", ftp.ERR_INVALID_DATA_SIZE),
+        (ftp.OP_CRC, b"APM/LOGS/1.BIN", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_LIST, b"APM/LOGS", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_READ, b"", ftp.ERR_FILE_NOT_FOUND),  # no file open on the session
+        (ftp.OP_BURST, b"", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_WRITE, b"x", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_REMOVE, b"@SYS/data.bin", ftp.ERR_FILE_NOT_FOUND),  # nothing can be removed
+        (ftp.OP_RENAME, b"@SYS/data.bin\0x", ftp.ERR_FILE_NOT_FOUND),
+        (ftp.OP_TRUNCATE, b"@SYS/data.bin", ftp.ERR_UNKNOWN_COMMAND),  # ArduPilot has none
+        (16, b"/", ftp.ERR_UNKNOWN_COMMAND),  # ListDirectoryWithTime: MAVProxy falls back to 3
+        (99, b"", ftp.ERR_UNKNOWN_COMMAND),
+    ],
+)
+def test_what_is_not_here_is_refused_at_once(opcode: int, data: bytes, error: int) -> None:
+    s = Served()
+    ((head, answer),) = s.ask(request(0xFFFF, opcode, data, session=3, offset=12))
+    # the sequence wraps; the offset only a listing's, as ArduPilot's setup_reply
+    assert head[:3] == (0, 3, ftp.NAK) and head[4] == opcode and answer == bytes([error])
+    assert head[7] == (12 if opcode == ftp.OP_LIST else 0)
+
+
+def test_one_file_a_session_a_read_only_file_and_a_read_on_a_written_one() -> None:
+    s = Served()
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    assert s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/data.bin"))[0][1] == bytes([ftp.ERR_FAIL])
+    assert s.ask(request(2, ftp.OP_WRITE, b"x"))[0][1] == bytes([ftp.ERR_FAIL])  # open for reading
+    assert s.ask(request(3, ftp.OP_CREATE, b"@SYS/data.bin", session=1))[0][1] == bytes(
+        [ftp.ERR_FAIL_ERRNO, errno.EACCES]
+    )
+    s.ask(request(4, ftp.OP_OPEN_WO, b"@SYS/in.bin", session=1))
+    assert s.ask(request(5, ftp.OP_READ, session=1, size=5))[0][1] == bytes([ftp.ERR_FAIL])
+    too_far = s.ask(request(6, ftp.OP_WRITE, b"x", session=1, offset=ftp.MAX_WRITE_BYTES))
+    assert too_far[0][1] == bytes([ftp.ERR_FAIL_ERRNO, errno.ENOSPC])
+    # a ground station that timed out on its open's reply may open again after 3 s
+    s.clock.t += ftp.SESSION_TIMEOUT_S + 0.1
+    assert s.ask(request(7, ftp.OP_OPEN_RO, b"@SYS/data.bin"))[0][0][2] == ftp.ACK
+
+
+def test_sessions_are_limited_and_idle_ones_taken_over_or_closed() -> None:
+    s = Served()
+    for k in range(ftp.MAX_SESSIONS):
+        assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))[0][0][2] == ftp.ACK
+    assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][1] == bytes([ftp.ERR_NO_SESSIONS])
+    s.clock.t += ftp.SESSION_TIMEOUT_S + 0.1  # every session idle: the oldest is taken over
+    assert s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][0][2] == ftp.ACK
+    s.clock.t += ftp.SESSION_KILL_S + 0.1  # all closed: a read finds no file open
+    assert s.ask(request(2, ftp.OP_READ, session=9, size=4))[0][1] == bytes([ftp.ERR_FILE_NOT_FOUND])
+    # ResetSessions closes the sender's sessions (a file being written dropped, unread)
+    s.ask(request(3, ftp.OP_CREATE, b"@SYS/in.bin", session=5))
+    s.ask(request(4, ftp.OP_WRITE, b"abc", session=5))
+    assert s.ask(request(5, ftp.OP_RESET))[0][0][2] == ftp.ACK
+    assert s.ask(request(6, ftp.OP_TERMINATE, session=5))[0][0][2] == ftp.ACK and s.written == []
+
+
+def test_directories_list_from_the_offset_and_end_with_end_of_file() -> None:
+    s = Served()
+    ((head, data),) = s.ask(request(0, ftp.OP_LIST, b"/"))
+    assert (head[2], data) == (ftp.ACK, b"D@SYS\0")
+    ((head, data),) = s.ask(request(1, ftp.OP_LIST, b"@SYS/"))
+    assert data == b"F data.bin\t771\0F in.bin\t0\0".replace(b"F ", b"F")
+    ((head, data),) = s.ask(request(2, ftp.OP_LIST, b"@SYS", offset=1))
+    assert (head[7], data) == (1, b"Fin.bin\t0\0")
+    assert s.ask(request(3, ftp.OP_LIST, b"@SYS", offset=2))[0][1] == bytes([ftp.ERR_END_OF_FILE])
+
+
+def test_a_crc_is_ardupilots() -> None:
+    s = Served()
+    ((head, data),) = s.ask(request(0, ftp.OP_CRC, b"@SYS/data.bin"))
+    crc = struct.unpack("<I", data)[0]
+    assert head[2] == ftp.ACK and crc == ftp.ardupilot_crc32(s.content)
+
+    # ArduPilot's crc_crc32 from a zero seed, bit by bit: the reflected polynomial, no
+    # inversions (over "123456789": 0x2dfd2d88, where zlib's CRC-32 is 0xcbf43926)
+    def by_bits(data: bytes) -> int:
+        c = 0
+        for b in data:
+            c ^= b
+            for _ in range(8):
+                c = (c >> 1) ^ (0xEDB88320 if c & 1 else 0)
+        return c
+
+    assert by_bits(s.content) == crc and ftp.ardupilot_crc32(b"123456789") == 0x2DFD2D88 != zlib.crc32(b"123456789")
+
+
+def test_an_option_a_file_cannot_take_is_refused_and_said() -> None:
+    s = Served()
+    ((head, data),) = s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin?x=1"))
+    assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL]))
+    assert s.texts == ["FTP: @SYS/data.bin?x=1 not read: no options, got 'x=1'"]
 
 
 def test_replies_and_scraps_get_no_answer() -> None:
-    assert ftp.reply(request(5, ftp.ACK)) is None
-    assert ftp.reply(request(5, ftp.NAK)) is None
-    assert ftp.reply(b"\x01\x02") is None
+    s = Served()
+    assert s.ask(request(5, ftp.ACK)) == [] and s.ask(request(5, ftp.NAK)) == [] and s.ask(b"\x01\x02") == []
 
 
-@given(st.binary(max_size=260))
-def test_any_bytes_are_answered_or_ignored_never_raise(data: bytes) -> None:
-    out = ftp.reply(data)
-    assert out is None or len(out) == 251
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.binary(min_size=0, max_size=260), max_size=12))
+def test_any_bytes_are_answered_or_ignored_never_raise(payloads: list[bytes]) -> None:
+    s = Served()
+    for p in payloads:
+        assert all(len(d) <= ftp.DATA_BYTES for _, d in s.ask(p))
+
+
+# -- the lists as files --------------------------------------------------------------------
+LAT, LON = 129_602_000, 776_690_000
+
+
+def lists() -> tuple[MissionServer, list[tuple[int, list[MissionItem]]], list[str]]:
+    changed: list[tuple[int, list[MissionItem]]] = []
+    said: list[str] = []
+    home = MissionItem(0, 0, 16, x=LAT, y=LON, z=900.0)
+    ms = MissionServer(
+        lambda m: None, said.append, lambda t, items: changed.append((t, list(items))), home=lambda: home
+    )
+    return ms, changed, said
+
+
+def list_file(items: list[MissionItem], mission_type: int = MISSION, options: int = 0, start: int = 0) -> bytes:
+    out = struct.pack("<HHHHH", 0x763D, mission_type, options, start, len(items))
+    unit = mav.MAVLink_mission_item_int_message
+    for it in items:
+        m = unit(1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
+                 it.x, it.y, it.z, mission_type)  # fmt: skip
+        out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
+    return out
+
+
+def wp(seq: int, north_e7: int = 1000, hold_s: float = 0.0) -> MissionItem:
+    return MissionItem(seq, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, 16, hold_s, x=LAT + north_e7, y=LON)
+
+
+def test_a_list_file_by_hand_and_back() -> None:
+    ms, changed, _ = lists()
+    assert ms.packed(MISSION, 0, 0) == b"\x3d\x76\x00\x00\x00\x00\x00\x00\x00\x00"  # magic 0x763d, no items
+    items = [wp(0), wp(1), wp(2, 2000, hold_s=3.0)]
+    assert ms.upload_packed(MISSION, list_file(items), 255, 190, 1.0) is None
+    assert [(i.seq, i.x, i.param1) for i in ms.lists[MISSION]] == [
+        (0, LAT + 1000, 0.0),
+        (1, LAT + 1000, 0.0),
+        (2, LAT + 2000, 3.0),
+    ]
+    assert changed[-1][0] == MISSION and ms.changes[-1].sysid == 255
+    data = ms.packed(MISSION, 0, 0)
+    assert len(data) == 10 + 3 * 38 == ms.packed_size(MISSION)
+    # item 0 is home now (as a download's), its `current` 1 (no item under way after an upload)
+    unit = mav.MAVLink_mission_item_int_message
+    first = dict(zip(unit.ordered_fieldnames, unit.unpacker.unpack(data[10:48]), strict=True))
+    assert (first["seq"], first["x"], first["z"], first["current"], first["frame"]) == (0, LAT, 900.0, 1, 0)
+    # the no-clear option replaces item 2 and adds item 3, keeping the rest
+    assert ms.upload_packed(MISSION, list_file([wp(0, 5000), wp(1, 6000)], options=1, start=2), 255, 190, 2.0) is None
+    assert [i.x - LAT for i in ms.lists[MISSION]] == [1000, 1000, 5000, 6000]
+    assert ms.changes[-1].edit
+
+
+@pytest.mark.parametrize(
+    ("data", "why"),
+    [
+        (b"\x3d\x76\x00", "3 bytes, fewer than the header's 10"),
+        (b"\x3d\x77" + list_file([wp(0)])[2:], "magic 0x773d"),
+        (list_file([wp(0)], mission_type=FENCE), "its header is for list type 1, the file is the mission's (0)"),
+        (list_file([wp(0)], options=2), "options 0x2"),
+        (list_file([wp(0), wp(1)])[:-1], "the header gives 2 items, the file has 75 bytes after it, not 76"),
+        (list_file([wp(0)]) + bytes(38), "the header gives 1 items"),
+        (struct.pack("<HHHHH", 0x763D, 0, 0, 0, 1) + bytes(38), "item 0 is all zeros"),
+        (list_file([wp(0), wp(1)], start=1), "its first item is 1"),
+        (list_file([wp(0), wp(1)], options=1, start=5), "its first item 5 is past the mission's end (0 items)"),
+        (list_file([wp(0), MissionItem(1, 3, 16, x=950_000_000, y=LON)]), "item 1: MAV_MISSION_INVALID_PARAM5_X"),
+        (list_file([wp(0), wp(1), MissionItem(2, 0, 177, 9, 1)]), "item 2: MAV_MISSION_ERROR"),  # DO_JUMP to 9
+    ],
+)
+def test_a_list_file_the_vehicle_would_not_take_changes_nothing_and_says_why(data: bytes, why: str) -> None:
+    ms, changed, _ = lists()
+    assert why in (ms.upload_packed(MISSION, data, 255, 190, 1.0) or "")
+    assert changed == [] and ms.changes == []
+
+
+def test_a_fence_file_is_checked_whole_with_rovers_words_and_not_during_another_upload() -> None:
+    ms, _, _ = lists()
+    v = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    tri = [
+        MissionItem(k, 0, v, 3, x=LAT + dx, y=LON + dy)
+        for k, (dx, dy) in enumerate(((9000, 0), (0, 9000), (-9000, -9000)))
+    ]
+    assert (
+        ms.upload_packed(FENCE, list_file(tri[:2], FENCE), 255, 190, 1.0)
+        == "item 1: MAV_MISSION_ERROR (Incorrect item count)"
+    )
+    assert ms.upload_packed(FENCE, list_file(tri, FENCE, options=1), 255, 190, 1.0) == (
+        "the fence is only replaced whole (no clear is for the mission)"
+    )
+    assert ms.upload_packed(FENCE, list_file(tri, FENCE), 255, 190, 1.0) is None and len(ms.lists[FENCE]) == 3
+    ms.on_count(mav.MAVLink_mission_count_message(1, 1, 2, FENCE), 2.0)  # (from "nobody": pymavlink's default ids)
+    assert ms.upload_packed(FENCE, list_file(tri, FENCE), 255, 190, 2.0) == (
+        "an upload of the fence by the mission protocol is under way"
+    )

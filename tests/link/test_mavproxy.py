@@ -201,14 +201,13 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
     assert len(driven) == 20, out  # 2 s at the speed the stick asks for
     # RC_OVERRIDE_TIME (3 s, on the vehicle's clock) after the last override
     assert still_manual and 1.0 < stopped_after < 10.0, out
-    # MAVProxy asks for the parameters over MAVLink FTP first: refused at once, it lists them
-    # with PARAM_REQUEST_LIST within the session (it waited about 11 s for FTP before)
-    assert re.search(r"Received \d+ parameters", out) and "FTP: request timed out" not in out, out
+    # MAVProxy asks for the parameters over MAVLink FTP first, and gets @PARAM/param.pck
+    assert re.search(r"Received \d+ parameters \(ftp\)", out) and "FTP: request timed out" not in out, out
 
 
 def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy: Path, tmp_path: Path) -> None:
     # `lfctl follow`'s companion (component 191) as MAVProxy reaches it on a rover: its own
-    # heartbeat, its parameter file refused over FTP at once, then the list and the sets
+    # heartbeat, its parameter file over MAVLink FTP, then the sets
     import queue
     import threading
 
@@ -244,7 +243,7 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
         return False
 
     try:
-        fetched = wait_for(r"Received 6 parameters")  # FTP refused: no 11 s wait before the list
+        fetched = wait_for(r"Received 6 parameters \(ftp\)")  # @PARAM/param.pck
         proc.stdin.write("param set LFC_RANGE 2.5\nparam set LFC_LAW 2\n")
         proc.stdin.flush()
         deadline = time.monotonic() + 5.0
@@ -253,6 +252,8 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
         proc.stdin.write("param show LFC_*\n")
         proc.stdin.flush()
         shown = wait_for(r"LFC_RANGE\s+2\.5")
+        # its heartbeat: MAVProxy says so when it has it (after the parameters, at times)
+        detected = any("Detected vehicle 1:191" in x for x in said) or wait_for(r"Detected vehicle 1:191", 10.0)
     finally:
         proc.kill()
         proc.wait(timeout=10)
@@ -260,10 +261,86 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
         server.join(timeout=5)
         companion.close()
     out = "".join(said)
-    assert fetched and "Detected vehicle 1:191" in out, out[-2000:]
-    assert "timed out" not in out  # its FTP refused at once, the list asked for at once
+    assert fetched and detected, out[-2000:]
+    assert "timed out" not in out
     assert shown, out[-2000:]  # its PARAM_VALUE answers reached MAVProxy's table
     assert (companion.param("LFC_RANGE"), companion.param("LFC_LAW")) == (2.5, 2)
+
+
+def test_mavproxy_moves_the_lists_and_parameters_as_files_over_mavlink_ftp(mavproxy: Path, tmp_path: Path) -> None:
+    # MAVProxy's `wp ftpload`, `fence ftpload`, `wp ftp` and `ftp list` against a vehicle
+    # endpoint over UDP (no simulation needed): the files a Rover serves, in its formats
+    import queue
+    import threading
+
+    from lfctl.link.endpoint import VehicleEndpoint
+    from lfctl.link.transport import UdpLink
+
+    home = (12.9602, 77.6690, 900.0)
+    udp = UdpLink(("127.0.0.1", 0))
+    ep = VehicleEndpoint("leader", 1, udp, home)
+    stop = threading.Event()
+    state = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+
+    def serve() -> None:
+        t0 = time.monotonic()
+        while not stop.is_set():
+            ep.tick(time.monotonic() - t0, state)
+            time.sleep(0.01)
+
+    server = threading.Thread(target=serve, daemon=True)
+    server.start()
+    lat, lon = home[:2]
+    mission = wpl(
+        tmp_path / "m.txt", [(16, 0, 0, lat, lon), (16, 0, 0, lat + 1e-4, lon), (16, 2, 0, lat + 1e-4, lon + 1e-4)]
+    )
+    fence = wpl(tmp_path / "f.txt", [(5001, 3, 0, lat + a, lon + b) for a, b in ((1e-3, 0), (0, 1e-3), (-1e-3, -1e-3))])
+    bad = wpl(tmp_path / "bad.txt", [(16, 0, 0, lat, lon), (16, 0, 0, 95.0, lon)])  # past the pole
+    proc, lines = start_interactive(mavproxy, udp.port, 1, f"wp ftpload {mission}", tmp_path)
+    assert proc.stdin is not None
+    said: list[str] = []
+
+    def wait_for(pattern: str, timeout_s: float = 20.0) -> bool:
+        if any(re.search(pattern, x) for x in said):  # said already (MAVProxy's order varies)
+            return True
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                said.append(lines.get(timeout=0.2))
+            except queue.Empty:
+                continue
+            if re.search(pattern, said[-1]):
+                return True
+        return False
+
+    def send(line: str) -> None:
+        proc.stdin.write(line + "\n")  # type: ignore[union-attr]
+        proc.stdin.flush()  # type: ignore[union-attr]
+
+    try:
+        got_params = wait_for(r"Received 2\d parameters \(ftp\)")  # @PARAM/param.pck, not the list
+        sent = wait_for(r"Sent waypoint of length 3")
+        send(f"fence ftpload {fence}")
+        fenced = wait_for(r"Sent fence item of length 3")
+        send("wp ftp")
+        fetched = wait_for(r"Saved 3 waypoints")
+        send("ftp list @MISSION")
+        listed = wait_for(r"fence\.dat\s+124")  # 10 + 3 x 38 bytes
+        send(f"wp ftpload {bad}")
+        refused = wait_for(r"AP: FTP: @MISSION/mission\.dat refused: item 1: MAV_MISSION_INVALID_PARAM5_X")
+    finally:
+        proc.kill()
+        proc.wait(timeout=10)
+        stop.set()
+        server.join(timeout=5)
+        udp.close()
+    out = "".join(said)
+    assert got_params and sent and fenced and fetched and listed and refused, out[-3000:]
+    assert [(i.x, i.y, i.param1) for i in ep.mission[1:]] == [
+        (round((lat + 1e-4) * 1e7), round(lon * 1e7), 0.0),
+        (round((lat + 1e-4) * 1e7), round((lon + 1e-4) * 1e7), 2.0),
+    ]  # the refused file changed nothing
+    assert len(ep.missions.lists[1]) == 3 and len(ep.fence.inclusion_polygons) == 1
 
 
 def test_mavproxy_edits_an_uploaded_mission_in_place_with_wp_changealt(
