@@ -21,6 +21,7 @@ __all__ = [
     "find_example",
     "footage_dir",
     "models_dir",
+    "resolve_footage",
     "resolve_mission",
     "resolve_scenario",
     "user_cache",
@@ -141,6 +142,27 @@ def resolve_scenario(arg: str | Path) -> Path:
         return found
     known = ", ".join(example_names()) or "none found"
     raise ConfigError(f"scenario {str(arg)!r} is neither a file nor a shipped example (examples: {known})")
+
+
+def resolve_footage(arg: str) -> str:
+    """A video argument with shipped footage found by name: ``bikes.mp4`` or
+    ``footage/bikes.mp4`` where there is no such file here is the shipped clip (a wheel's
+    user has no ``footage`` folder); anything else (a file here, a camera index, a URL, a
+    path with other folders) as it is, for the video source to judge.
+
+    Parameters
+    ----------
+    arg : str
+        What was given as the video source.
+    """
+    p = Path(arg)
+    if "://" in arg or arg.isdigit() or p.exists():
+        return arg
+    if len(p.parts) == 1 or (len(p.parts) == 2 and p.parts[0] == "footage"):
+        shipped = footage_dir() / p.name
+        if shipped.is_file():
+            return str(shipped)
+    return arg
 
 
 def resolve_mission(arg: str | Path) -> Path:

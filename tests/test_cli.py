@@ -185,7 +185,10 @@ def test_a_run_that_fails_later_leaves_a_finished_log_that_says_why(tmp_path: Pa
 
 def test_the_summarys_state_times_add_up_to_the_run(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "convoy", "--duration", "3", "--sensing", "truth", "--no-record", "-q"]) == 0
-    row = next(line for line in capsys.readouterr().out.splitlines() if line.startswith("follower1  leader"))
+    out, err = capsys.readouterr()
+    # a name, not a file here: which file ran is said (an edited copy here would be convoy.toml)
+    assert err.splitlines()[0] == f"lfctl sim: convoy is the shipped example {ROOT / 'examples' / 'convoy.toml'}"
+    row = next(line for line in out.splitlines() if line.startswith("follower1  leader"))
     tracking, occluded, lost = (float(v) for v in row.split()[-3:])
     assert tracking + occluded + lost == pytest.approx(3.0, abs=0.011)  # to 0.01 s, not 0.1 each
 

@@ -29,3 +29,17 @@ def test_a_silent_stream_is_an_error_after_the_timeout(monkeypatch: pytest.Monke
         port = s.getsockname()[1]
     with pytest.raises(ConfigError, match=r"cannot open video source 'udp://127.0.0.1:\d+' .*no stream within 1 s"):
         VideoSource(f"udp://127.0.0.1:{port}")
+
+
+def test_shipped_clips_are_found_by_name_and_named_when_missing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from lfctl.data import footage_dir, resolve_footage
+
+    monkeypatch.chdir(tmp_path)  # no footage folder here, as for a wheel's user
+    shipped = str(footage_dir() / "bikes.mp4")
+    assert resolve_footage("bikes.mp4") == shipped and resolve_footage("footage/bikes.mp4") == shipped
+    (tmp_path / "bikes.mp4").write_bytes(b"mine")
+    assert resolve_footage("bikes.mp4") == "bikes.mp4"  # a file here is the user's
+    for given in ("0", "rtsp://10.0.0.2/cam", "clips/bikes.mp4", "nosuch.mp4"):
+        assert resolve_footage(given) == given
+    with pytest.raises(ConfigError, match=f"the shipped clips, by name: {footage_dir()}"):
+        VideoSource("nosuch.mp4")

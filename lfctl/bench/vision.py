@@ -36,7 +36,9 @@ import dataclasses
 import json
 import math
 import os
+import sys
 import time
+from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor
 
 import cv2
@@ -466,6 +468,21 @@ def recovery_frames(vis: list[float], ious: list[float]) -> list[int]:
     return out
 
 
+def _stage(pool: ProcessPoolExecutor, label: str, fn: Callable[..., dict], jobs: list) -> list[dict]:
+    """``fn`` over ``jobs`` in the pool, in order; on a terminal, stderr counts them done (a
+    run takes minutes; a pipe gets the tables only)."""
+    out: list[dict] = []
+    shown = sys.stderr.isatty()
+    results: Iterable[dict] = pool.map(fn, jobs)
+    for r in results:
+        out.append(r)
+        if shown:
+            print(f"\rbench vision: {label} {len(out)}/{len(jobs)}", end="", file=sys.stderr, flush=True)
+    if shown:
+        print(file=sys.stderr)
+    return out
+
+
 def main(quick: bool = False) -> None:
     """Run the benchmark, print its table and JSON line (``quick``: shorter runs)."""
     n_frames = 90 if quick else 300
@@ -480,9 +497,12 @@ def main(quick: bool = False) -> None:
     start_kinds = (*OURS, *(k for k in ("CSRT",) if k in peers))
     labelled = [seq for seq in sequences if not seq.no_banner]
     with ProcessPoolExecutor(workers) as pool:
-        real_results = list(pool.map(run_real, [(seq, peers) for seq in sequences]))
-        start_results = list(pool.map(run_starts, [(seq, start_kinds, n_starts) for seq in labelled]))
-        results = list(pool.map(run_job, jobs))
+        real_results = _stage(pool, "real footage, clips", run_real, [(seq, peers) for seq in sequences])
+        start_results = _stage(
+            pool, f"real footage from {n_starts} start boxes, clips", run_starts,
+            [(seq, start_kinds, n_starts) for seq in labelled],
+        )  # fmt: skip
+        results = _stage(pool, "rendered tiers, runs", run_job, jobs)
     real = real_section(real_results, peers)
     print()
     real["start_boxes"] = starts_section(real_results, start_results, n_starts)

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from lfctl.cli import stopped_by
 from lfctl.cli.options import integer, number
-from lfctl.data import example_names
+from lfctl.data import example_names, examples_dir
 
 if TYPE_CHECKING:
     from lfctl.config import Config
@@ -30,6 +30,7 @@ def register(sub: Any) -> None:
         help="run a scenario and print a summary",
         description="Run a scenario (a TOML file, or a shipped example by name: "
         f"{', '.join(example_names()) or 'none found'}) in the co-simulation and print a summary.",
+        epilog=f"The shipped examples (copy one to edit it): {examples_dir()}",
     )
     s.add_argument(
         "scenario", help="scenario TOML file, or the name of a shipped example such as convoy, column5 or vee"
@@ -219,7 +220,10 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.sim.runner import check_video, run_scenario
     from lfctl.sim.watchdog import BlockedCallWatchdog
 
-    cfg = apply_options(load_config(resolve_scenario(args.scenario)), args)
+    path = resolve_scenario(args.scenario)
+    if path != Path(args.scenario):  # a name, not a file here: say which file runs
+        print(f"lfctl sim: {args.scenario} is the shipped example {path}", file=sys.stderr)
+    cfg = apply_options(load_config(path), args)
     log.info(
         "scenario %s: %d vehicles, %.1f s, dt %.3g s, %s clock",
         cfg.name,

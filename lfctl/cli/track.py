@@ -22,7 +22,7 @@ def register(sub: Any) -> None:
         help="run the tracker on a video file, camera index or stream; JSON line per frame",
         description="Track the leader's banner (or any object from --roi) in a video; prints one JSON line per frame and can write an annotated video.",
     )
-    t.add_argument("source", help="video file, camera index (0) or stream URL")
+    t.add_argument("source", help="video file, camera index (0) or stream URL; or a shipped clip by name (bikes.mp4)")
     t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
     t.add_argument("--out", type=video_out, help="write an annotated video here (.mp4, .avi, .mkv or .mov)")
     t.add_argument("--tracker", choices=tuple(TRACKER_KINDS), default="full", help="tracker kind (default: full)")
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from lfctl.config import BannerConfig, CameraConfig, load_config
-    from lfctl.data import resolve_scenario
+    from lfctl.data import resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.video import VideoSource
     from lfctl.vision.draw import annotate
@@ -73,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.vision.perception import BannerPerception
 
     roi = parse_roi(args.roi) if args.roi else None
+    args.source = resolve_footage(args.source)
     _check_paths(args.source, args.out)
     scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
