@@ -31,7 +31,9 @@ def test_a_silent_stream_is_an_error_after_the_timeout(monkeypatch: pytest.Monke
         VideoSource(f"udp://127.0.0.1:{port}")
 
 
-def test_shipped_clips_are_found_by_name_and_named_when_missing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_shipped_clips_are_found_by_name_and_named_when_missing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from lfctl.data import footage_dir, resolve_footage
 
     monkeypatch.chdir(tmp_path)  # no footage folder here, as for a wheel's user
