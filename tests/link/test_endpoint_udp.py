@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
-from support import loopback_udp
+from support import loopback_udp, wait_until
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
@@ -781,3 +781,42 @@ def test_parameters_written_as_a_file_are_set_as_param_set_sets_them(live: LiveE
     texts = [t for _, t in live.ep.statustexts[-2:]]
     assert texts == ["WP_RADIUS rejected: -1 outside 0..100 m", "Param upload: 1 of 2 set"]
     conn.close()
+
+
+def test_mavsdk_lists_downloads_compares_and_uploads_over_ftp(live: LiveEndpoint, tmp_path: Path) -> None:
+    # MAVSDK's Ftp plugin (its own MAVLink FTP client, C++), as a user's ground software uses it
+    pytest.importorskip("mavsdk")
+    import asyncio
+
+    from pymavlink.mavftp import MAVFTP
+
+    async def session() -> dict:
+        from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+        from mavsdk.asyncio.plugins.ftp.ftp import FtpAsync
+
+        sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+        try:
+            await sdk.add_any_connection(f"udpout://127.0.0.1:{live.port}")
+            system = await sdk.first_autopilot(timeout_s=15.0)
+            ftp = FtpAsync(system)
+            out: dict = {"listed": await ftp.list_directory("@MISSION")}
+            (tmp_path / "got").mkdir()
+            async for _ in ftp.download("@PARAM/param.pck", str(tmp_path / "got"), True):
+                pass
+            out["same"] = await ftp.are_files_identical(str(tmp_path / "got" / "param.pck"), "@PARAM/param.pck")
+            (tmp_path / "up").mkdir()
+            (tmp_path / "up" / "mission.dat").write_bytes(mission_file(local_mission(SQUARE, HOME)))
+            async for _ in ftp.upload(str(tmp_path / "up" / "mission.dat"), "@MISSION"):
+                pass
+            return out
+        finally:
+            sdk.destroy()
+
+    out = asyncio.run(asyncio.wait_for(session(), 60))
+    assert sorted(e.name for e in out["listed"].entries) == ["fence.dat", "mission.dat", "rally.dat"]
+    decoded = MAVFTP.ftp_param_decode((tmp_path / "got" / "param.pck").read_bytes())
+    assert decoded is not None and {n.decode(): v for n, v, _ in decoded.params} == pytest.approx(
+        {k: p.value for k, p in live.ep.params.items()}, rel=1e-7
+    )  # (float32 in the file)
+    assert out["same"]  # its CRC-32 of the local copy is the vehicle's
+    assert wait_until(lambda: len(live.ep.mission) == len(SQUARE) + 1)
