@@ -11,7 +11,7 @@ from typing import Any
 
 from lfctl.bench.common import free_udp_ports
 
-__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "loopback_udp", "wait_until"]
+__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "list_file", "loopback_udp", "wait_until"]
 
 #: a scenario's two vehicles as the small closed-loop tests write them: the leader at home,
 #: follower ``f1`` 1.5 m behind it (TOML, to put between a scenario's other tables)
@@ -48,3 +48,20 @@ def left_stopped(rover: Any) -> bool:
     """The rover's last guided target is zero speed and zero turn rate."""
     g = rover.guided
     return g is not None and g.kind == "rate" and (g.speed_mps, g.yaw_rate_radps) == (0.0, 0.0)
+
+
+def list_file(items: list[Any], mission_type: int = 0, options: int = 0, start: int = 0) -> bytes:
+    """A list of MissionItem as ArduPilot's ``@MISSION/*.dat`` file, as MAVProxy's `wp
+    ftpload` writes it: the 10-byte header (magic 0x763d, list type, options, first item,
+    count), then each item's MISSION_ITEM_INT payload."""
+    import struct
+
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
+    out = struct.pack("<HHHHH", 0x763D, mission_type, options, start, len(items))
+    unit = mav.MAVLink_mission_item_int_message
+    for it in items:
+        m = unit(1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
+                 it.x, it.y, it.z, mission_type)  # fmt: skip
+        out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
+    return out

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
-from support import loopback_udp, wait_until
+from support import list_file, loopback_udp, wait_until
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
 from lfctl.link.endpoint import MODES, VehicleEndpoint
@@ -702,17 +702,6 @@ def ftp_client(live: LiveEndpoint) -> tuple[Any, Any]:
     return conn, MAVFTP(conn, 1, 1)
 
 
-def mission_file(items: list[MissionItem], mission_type: int = mav.MAV_MISSION_TYPE_MISSION) -> bytes:
-    """A list as MAVProxy's `wp ftpload` writes it: the 10-byte header, then MISSION_ITEM_INT payloads."""
-    out = struct.pack("<HHHHH", 0x763D, mission_type, 0, 0, len(items))
-    unit = mav.MAVLink_mission_item_int_message
-    for it in items:
-        m = unit(1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
-                 it.x, it.y, it.z, mission_type)  # fmt: skip
-        out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
-    return out
-
-
 def ftp_put(client: Any, data: bytes, remote: str) -> int:
     client.cmd_put(["-", remote], fh=io.BytesIO(data))
     return int(client.process_ftp_reply("put", timeout=10).error_code)
@@ -741,7 +730,7 @@ def test_a_mission_goes_up_and_comes_back_over_ftp_as_by_the_mission_protocol(
 ) -> None:
     conn, client = ftp_client(live)
     items = local_mission(SQUARE, HOME)
-    assert ftp_put(client, mission_file(items), "@MISSION/mission.dat") == 0
+    assert ftp_put(client, list_file(items), "@MISSION/mission.dat") == 0
     assert [(i.seq, i.command, i.x, i.y, i.param1) for i in live.ep.mission] == [
         (i.seq, i.command, i.x, i.y, i.param1) for i in items
     ]
@@ -762,7 +751,7 @@ def test_a_mission_goes_up_and_comes_back_over_ftp_as_by_the_mission_protocol(
     bad = [*items[:2], MissionItem(2, items[2].frame, 16, x=950_000_000, y=items[2].y)]
     # (pymavlink's put, as MAVProxy's, does not read the refusal in the reply to its
     # TerminateSession: what its user sees is the vehicle's text)
-    ftp_put(client, mission_file(bad), "@MISSION/mission.dat")
+    ftp_put(client, list_file(bad), "@MISSION/mission.dat")
     assert len(live.ep.mission) == len(items)
     assert live.ep.statustexts[-1][1] == "FTP: @MISSION/mission.dat refused: item 2: MAV_MISSION_INVALID_PARAM5_X"
     conn.close()
@@ -805,7 +794,7 @@ def test_mavsdk_lists_downloads_compares_and_uploads_over_ftp(live: LiveEndpoint
                 pass
             out["same"] = await ftp.are_files_identical(str(tmp_path / "got" / "param.pck"), "@PARAM/param.pck")
             (tmp_path / "up").mkdir()
-            (tmp_path / "up" / "mission.dat").write_bytes(mission_file(local_mission(SQUARE, HOME)))
+            (tmp_path / "up" / "mission.dat").write_bytes(list_file(local_mission(SQUARE, HOME)))
             async for _ in ftp.upload(str(tmp_path / "up" / "mission.dat"), "@MISSION"):
                 pass
             return out

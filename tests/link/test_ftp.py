@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 from pymavlink.mavftp import MAVFTP
+from support import list_file
 
 from lfctl.link import ftp
 from lfctl.link.mission import MissionItem
@@ -367,16 +368,6 @@ def lists() -> tuple[MissionServer, list[tuple[int, list[MissionItem]]], list[st
         lambda m: None, said.append, lambda t, items: changed.append((t, list(items))), home=lambda: home
     )
     return ms, changed, said
-
-
-def list_file(items: list[MissionItem], mission_type: int = MISSION, options: int = 0, start: int = 0) -> bytes:
-    out = struct.pack("<HHHHH", 0x763D, mission_type, options, start, len(items))
-    unit = mav.MAVLink_mission_item_int_message
-    for it in items:
-        m = unit(1, 1, it.seq, it.frame, it.command, 0, 1, it.param1, it.param2, it.param3, it.param4,
-                 it.x, it.y, it.z, mission_type)  # fmt: skip
-        out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
-    return out
 
 
 def wp(seq: int, north_e7: int = 1000, hold_s: float = 0.0) -> MissionItem:

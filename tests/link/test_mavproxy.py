@@ -7,13 +7,15 @@ a virtual environment the test makes; where it cannot be installed the test says
 
 from __future__ import annotations
 
+import contextlib
 import os
+import queue
 import re
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -79,7 +81,6 @@ def start_interactive(
 ) -> tuple[subprocess.Popen[str], Any]:
     """MAVProxy on ``udpout`` to ``port`` for ``component``, running ``first`` (its --cmd) and
     then what is written to its stdin, as a user types; with a queue of its output lines."""
-    import queue
     import threading
 
     env = {k: v for k, v in os.environ.items() if k != "MAVLINK20"}
@@ -92,6 +93,60 @@ def start_interactive(
     assert proc.stdout is not None
     threading.Thread(target=lambda: [lines.put(x) for x in proc.stdout], daemon=True).start()  # type: ignore[union-attr]
     return proc, lines
+
+
+class Said:
+    """What an interactive MAVProxy has printed, read as it comes."""
+
+    def __init__(self, lines: Any) -> None:
+        self.lines = lines
+        self.said: list[str] = []
+
+    def wait_for(self, pattern: str, timeout_s: float = 20.0) -> bool:
+        """Whether a line matching ``pattern`` was printed already or comes within ``timeout_s``
+        (MAVProxy's order of what it prints varies with the timing)."""
+        if any(re.search(pattern, x) for x in self.said):
+            return True
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                self.said.append(self.lines.get(timeout=0.2))
+            except queue.Empty:
+                continue
+            if re.search(pattern, self.said[-1]):
+                return True
+        return False
+
+    @property
+    def out(self) -> str:
+        return "".join(self.said)
+
+
+@contextlib.contextmanager
+def interactive_against(
+    mavproxy: Path, port: int, component: int, first: str, cwd: Path, step: Callable[[float], None]
+) -> Iterator[tuple[subprocess.Popen[str], Said]]:
+    """An interactive MAVProxy (:func:`start_interactive`) against a peer that ``step(t)``
+    runs in a thread (t: seconds since it started) until MAVProxy has been stopped."""
+    import threading
+
+    stop = threading.Event()
+
+    def serve() -> None:
+        t0 = time.monotonic()
+        while not stop.is_set():
+            step(time.monotonic() - t0)
+
+    server = threading.Thread(target=serve, daemon=True)
+    server.start()
+    proc, lines = start_interactive(mavproxy, port, component, first, cwd)
+    try:
+        yield proc, Said(lines)
+    finally:
+        proc.kill()
+        proc.wait(timeout=10)
+        stop.set()
+        server.join(timeout=5)
 
 
 def wpl(path: Path, rows: list[tuple[int, float, float, float, float]]) -> Path:
@@ -208,59 +263,33 @@ def test_mavproxy_drives_the_leader_in_manual_with_rc_and_the_override_times_out
 def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy: Path, tmp_path: Path) -> None:
     # `lfctl follow`'s companion (component 191) as MAVProxy reaches it on a rover: its own
     # heartbeat, its parameter file over MAVLink FTP, then the sets
-    import queue
-    import threading
-
     from lfctl.link.companion import COMPANION_COMPID, Companion
     from lfctl.link.port import MavPort
 
     companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
     port = companion.port.connection.port.getsockname()[1]
-    stop = threading.Event()
 
-    def serve() -> None:
-        t0 = time.monotonic()
-        while not stop.is_set():
-            t = time.monotonic() - t0
-            companion.poll(t, 0.05)
-            companion.heartbeat(t)
-
-    server = threading.Thread(target=serve, daemon=True)
-    server.start()
-    proc, lines = start_interactive(mavproxy, port, COMPANION_COMPID, "param fetch", tmp_path)
-    assert proc.stdin is not None
-    said: list[str] = []
-
-    def wait_for(pattern: str, timeout_s: float = 20.0) -> bool:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            try:
-                said.append(lines.get(timeout=0.2))
-            except queue.Empty:
-                continue
-            if re.search(pattern, said[-1]):
-                return True
-        return False
+    def step(t: float) -> None:
+        companion.poll(t, 0.05)
+        companion.heartbeat(t)
 
     try:
-        fetched = wait_for(r"Received 6 parameters \(ftp\)")  # @PARAM/param.pck
-        proc.stdin.write("param set LFC_RANGE 2.5\nparam set LFC_LAW 2\n")
-        proc.stdin.flush()
-        deadline = time.monotonic() + 5.0
-        while companion.param("LFC_LAW") != 2 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        proc.stdin.write("param show LFC_*\n")
-        proc.stdin.flush()
-        shown = wait_for(r"LFC_RANGE\s+2\.5")
-        # its heartbeat: MAVProxy says so when it has it (after the parameters, at times)
-        detected = any("Detected vehicle 1:191" in x for x in said) or wait_for(r"Detected vehicle 1:191", 10.0)
+        with interactive_against(mavproxy, port, COMPANION_COMPID, "param fetch", tmp_path, step) as (proc, console):
+            assert proc.stdin is not None
+            fetched = console.wait_for(r"Received 6 parameters \(ftp\)")  # @PARAM/param.pck
+            proc.stdin.write("param set LFC_RANGE 2.5\nparam set LFC_LAW 2\n")
+            proc.stdin.flush()
+            deadline = time.monotonic() + 5.0
+            while companion.param("LFC_LAW") != 2 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            proc.stdin.write("param show LFC_*\n")
+            proc.stdin.flush()
+            shown = console.wait_for(r"LFC_RANGE\s+2\.5")
+            # its heartbeat: MAVProxy says so when it has it (after the parameters, at times)
+            detected = console.wait_for(r"Detected vehicle 1:191", 10.0)
     finally:
-        proc.kill()
-        proc.wait(timeout=10)
-        stop.set()
-        server.join(timeout=5)
         companion.close()
-    out = "".join(said)
+    out = console.out
     assert fetched and detected, out[-2000:]
     assert "timed out" not in out
     assert shown, out[-2000:]  # its PARAM_VALUE answers reached MAVProxy's table
@@ -270,71 +299,44 @@ def test_mavproxy_fetches_and_sets_the_rover_companions_lfc_parameters(mavproxy:
 def test_mavproxy_moves_the_lists_and_parameters_as_files_over_mavlink_ftp(mavproxy: Path, tmp_path: Path) -> None:
     # MAVProxy's `wp ftpload`, `fence ftpload`, `wp ftp` and `ftp list` against a vehicle
     # endpoint over UDP (no simulation needed): the files a Rover serves, in its formats
-    import queue
-    import threading
-
     from lfctl.link.endpoint import VehicleEndpoint
     from lfctl.link.transport import UdpLink
 
     home = (12.9602, 77.6690, 900.0)
     udp = UdpLink(("127.0.0.1", 0))
     ep = VehicleEndpoint("leader", 1, udp, home)
-    stop = threading.Event()
     state = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
 
-    def serve() -> None:
-        t0 = time.monotonic()
-        while not stop.is_set():
-            ep.tick(time.monotonic() - t0, state)
-            time.sleep(0.01)
+    def step(t: float) -> None:
+        ep.tick(t, state)
+        time.sleep(0.01)
 
-    server = threading.Thread(target=serve, daemon=True)
-    server.start()
     lat, lon = home[:2]
     mission = wpl(
         tmp_path / "m.txt", [(16, 0, 0, lat, lon), (16, 0, 0, lat + 1e-4, lon), (16, 2, 0, lat + 1e-4, lon + 1e-4)]
     )
     fence = wpl(tmp_path / "f.txt", [(5001, 3, 0, lat + a, lon + b) for a, b in ((1e-3, 0), (0, 1e-3), (-1e-3, -1e-3))])
     bad = wpl(tmp_path / "bad.txt", [(16, 0, 0, lat, lon), (16, 0, 0, 95.0, lon)])  # past the pole
-    proc, lines = start_interactive(mavproxy, udp.port, 1, f"wp ftpload {mission}", tmp_path)
-    assert proc.stdin is not None
-    said: list[str] = []
-
-    def wait_for(pattern: str, timeout_s: float = 20.0) -> bool:
-        if any(re.search(pattern, x) for x in said):  # said already (MAVProxy's order varies)
-            return True
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            try:
-                said.append(lines.get(timeout=0.2))
-            except queue.Empty:
-                continue
-            if re.search(pattern, said[-1]):
-                return True
-        return False
-
-    def send(line: str) -> None:
-        proc.stdin.write(line + "\n")  # type: ignore[union-attr]
-        proc.stdin.flush()  # type: ignore[union-attr]
-
     try:
-        got_params = wait_for(r"Received 2\d parameters \(ftp\)")  # @PARAM/param.pck, not the list
-        sent = wait_for(r"Sent waypoint of length 3")
-        send(f"fence ftpload {fence}")
-        fenced = wait_for(r"Sent fence item of length 3")
-        send("wp ftp")
-        fetched = wait_for(r"Saved 3 waypoints")
-        send("ftp list @MISSION")
-        listed = wait_for(r"fence\.dat\s+124")  # 10 + 3 x 38 bytes
-        send(f"wp ftpload {bad}")
-        refused = wait_for(r"AP: FTP: @MISSION/mission\.dat refused: item 1: MAV_MISSION_INVALID_PARAM5_X")
+        with interactive_against(mavproxy, udp.port, 1, f"wp ftpload {mission}", tmp_path, step) as (proc, console):
+
+            def send(line: str) -> None:
+                proc.stdin.write(line + "\n")  # type: ignore[union-attr]
+                proc.stdin.flush()  # type: ignore[union-attr]
+
+            got_params = console.wait_for(r"Received 2\d parameters \(ftp\)")  # @PARAM/param.pck, not the list
+            sent = console.wait_for(r"Sent waypoint of length 3")
+            send(f"fence ftpload {fence}")
+            fenced = console.wait_for(r"Sent fence item of length 3")
+            send("wp ftp")
+            fetched = console.wait_for(r"Saved 3 waypoints")
+            send("ftp list @MISSION")
+            listed = console.wait_for(r"fence\.dat\s+124")  # 10 + 3 x 38 bytes
+            send(f"wp ftpload {bad}")
+            refused = console.wait_for(r"AP: FTP: @MISSION/mission\.dat refused: item 1: MAV_MISSION_INVALID_PARAM5_X")
     finally:
-        proc.kill()
-        proc.wait(timeout=10)
-        stop.set()
-        server.join(timeout=5)
         udp.close()
-    out = "".join(said)
+    out = console.out
     assert got_params and sent and fenced and fetched and listed and refused, out[-3000:]
     assert [(i.x, i.y, i.param1) for i in ep.mission[1:]] == [
         (round((lat + 1e-4) * 1e7), round(lon * 1e7), 0.0),
