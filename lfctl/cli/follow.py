@@ -348,4 +348,6 @@ def run(args: argparse.Namespace) -> int:
             if view is not None:
                 view.close()
     print(done.summary())
+    if done.interrupted:
+        raise KeyboardInterrupt  # said and ended as any command stopped so
     return 0

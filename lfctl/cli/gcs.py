@@ -72,9 +72,11 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
+    from pymavlink.dialects.v20 import ardupilotmega as mav
+
     from lfctl.data import resolve_mission
     from lfctl.errors import ConfigError
-    from lfctl.link.gcs import GroundStation, result_name
+    from lfctl.link.gcs import IN_PROGRESS_MAX_S, GroundStation, result_name
     from lfctl.link.mission import command_name, load_mission_file, save_mission
     from lfctl.link.mission_server import FENCE, RALLY
     from lfctl.link.params import load_param_file
@@ -126,6 +128,8 @@ def run(args: argparse.Namespace) -> int:
             t0 = time.monotonic()
             result = gcs.set_mode(args.mode) if action == "mode" else gcs.arm(action == "arm")
             name = result_name(result)
+            if result == mav.MAV_RESULT_IN_PROGRESS:
+                name += f" (no final answer within {IN_PROGRESS_MAX_S:g} s)"
             print(f"{action} {args.mode}: {name}" if action == "mode" else f"{action}: {name}")
             if name != "MAV_RESULT_ACCEPTED":
                 for text in gcs.said_since(t0):  # the vehicle's reasons ("PreArm: ...")
@@ -148,10 +152,14 @@ def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | Non
         for k, v in gcs.param_list().items():
             print(f"{k:<16} {v:g}")
     elif args.param_action == "get":
-        print(f"{args.name} = {gcs.param_get(args.name):g}")
+        value = gcs.param_get(args.name)
+        print(f"{args.name} = {value:g}")
+        if not math.isfinite(value):
+            print(f"lfctl: error: system {args.target} gave {args.name} as {value}: not a number", file=sys.stderr)
+            return 1
     elif args.param_action == "save":
         values = gcs.param_list()
-        save_param_file(values, args.file, args.format, args.target)
+        save_param_file(values, args.file, args.format, args.target)  # (refuses what could not load back)
         print(f"saved {len(values)} parameters to {args.file}")
     else:
         wanted = {args.name: args.value} if from_file is None else from_file

@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
-from lfctl.link.companion import Companion, answer_name
+from lfctl.link.companion import Companion, answer_name, unanswered
 from lfctl.link.endpoint import MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
@@ -31,6 +31,10 @@ STOP_SETPOINTS = 3
 #: longer, is said to be missing (the stack then steers on the last position it had: the
 #: camera still closes the loop)
 ODOMETRY_STALE_S = 1.0
+#: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
+#: once a second): its mode and arming are then not known, and setpoints are not counted as
+#: carried out
+HEARTBEAT_STALE_S = 3.0
 
 log = logging.getLogger(__name__)
 
@@ -60,9 +64,15 @@ class RoverRun:
     tracking: int = 0  # steps whose frame showed the target (TRACKING)
     occluded: int = 0  # steps coasting on a hidden target (OCCLUDED), or before it was first found
     lost: int = 0  # steps with the target lost (LOST)
-    #: steps while the rover last said it was in GUIDED and armed: the setpoints it carried out
-    #: (in another mode, or disarmed, ArduPilot ignores them)
+    #: steps while the rover said, in a HEARTBEAT no older than :data:`HEARTBEAT_STALE_S`,
+    #: that it was in GUIDED and armed: the setpoints it carried out (in another mode, or
+    #: disarmed, ArduPilot ignores them)
     guided: int = 0
+    #: what the link brought that was passed over: bytes or packets that were no MAVLink of
+    #: the dialect, and odometry that was not a number or past any ground vehicle's
+    junk: int = 0
+    passed_over: int = 0
+    interrupted: bool = False  # ended by Ctrl-C (SIGINT) or SIGTERM
 
     def summary(self) -> str:
         """One line: what was sent, how many the rover took, and how often the target was seen."""
@@ -74,6 +84,10 @@ class RoverRun:
             line += f"; target tracking in {self.tracking}, occluded in {self.occluded}, lost in {self.lost} steps"
             if self.tracking == 0:
                 line += " (never seen: check the camera, the banner and its markers' hue)"
+        if self.junk or self.passed_over:
+            line += f"; passed over: {self.junk} junk packets, {self.passed_over} odometry messages"
+        if self.interrupted:
+            line += "; interrupted"
         return line
 
 
@@ -165,12 +179,16 @@ def follow_rover(
     stale = False
     stale_s = max(ODOMETRY_STALE_S, 3.0 / rate_hz)  # an odometry message a period: one late is not missing
     companion.vehicle.t_s = None  # what came while waiting was stamped on the wait's own clock
+    companion.vehicle.heartbeat_t_s = t_start  # (heard while waiting; restamped on this clock)
+    link = _LinkWatch(companion, name)
+    interrupted = False
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
             companion.poll(t_s)
             companion.heartbeat(t_s)
             stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
+            beating = link.check(t_s)
             _say_heard(companion, name)
             state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None
@@ -185,17 +203,20 @@ def follow_rover(
             stack.tune_from_params(companion.param)
             out = stack.step(t_s, seen.measurement, odom)
             steps += 1
-            obeyed += v.mode == guided and bool(v.armed)
+            obeyed += beating and v.mode == guided and bool(v.armed)
             seen_as[seen.measurement.status] += 1
             if on_step is not None:
                 on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:], fix))
             time.sleep(max(0.0, period - (now() - t_s)))
+    except KeyboardInterrupt:  # Ctrl-C, SIGTERM: the run ends here, its figures said
+        interrupted = True
     finally:
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)
     return RoverRun(
-        steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST], obeyed
-    )
+        steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST],
+        obeyed, companion.port.junk, companion.passed_over, interrupted,
+    )  # fmt: skip
 
 
 #: a start-up request's words: (what was asked for, what was refused, what the rover must be)
@@ -220,11 +241,65 @@ def _ask(companion: Companion, name: str, what: str, cmd: int, *params: float) -
     log.warning(
         "%s: the rover %s (%s): it ignores the setpoints until it is %s; the follower goes on and says when it is",
         name,
-        f"did not answer {request}" if result is None else f"refused {refused}",
+        f"did not answer {request}" if unanswered(result) else f"refused {refused}",
         answer,
         must_be,
     )
     return False
+
+
+class _LinkWatch:
+    """Says in the log what happens on the rover's link besides its messages: its HEARTBEAT
+    stopping and coming back, another autopilot talking on it, a flood that a step cannot
+    read whole, packets that are no MAVLink; each once, until it changes."""
+
+    def __init__(self, companion: Companion, name: str) -> None:
+        self.companion, self.name = companion, name
+        self.beating = True
+        self.others: set[int] = set()
+        self.overloaded = companion.overloaded
+        self.junk = companion.port.junk
+
+    def check(self, t_s: float) -> bool:
+        """Say what changed; whether the rover's HEARTBEAT is fresh."""
+        c, name = self.companion, self.name
+        last = c.vehicle.heartbeat_t_s
+        beating = last is not None and t_s - last <= HEARTBEAT_STALE_S
+        if beating != self.beating:
+            if beating:
+                log.info("%s: the rover's HEARTBEAT is back", name)
+            else:
+                log.warning(
+                    "%s: no HEARTBEAT from the rover (system %d) for %g s: rebooted, or the link is down; "
+                    "its mode and arming are not known, the setpoints go on",
+                    name,
+                    c.target,
+                    HEARTBEAT_STALE_S,
+                )
+            self.beating = beating
+        for sysid in sorted(c.other_autopilots - self.others):
+            log.warning(
+                "%s: system %d's autopilot talks on this link; the companion follows system %d (--target)",
+                name,
+                sysid,
+                c.target,
+            )
+            self.others.add(sysid)
+        if c.overloaded > self.overloaded and self.overloaded == 0:
+            log.warning(
+                "%s: the link brings more than a step reads (a flood?): the rest waits for the next step; "
+                "the heartbeat and the setpoints keep their rate",
+                name,
+            )
+        self.overloaded = c.overloaded
+        if c.port.junk > self.junk and self.junk == 0:
+            log.warning(
+                "%s: passed over a packet that is no MAVLink of the dialect (cut, corrupt, or an unknown "
+                "message id); the closing line counts them",
+                name,
+            )
+        self.junk = c.port.junk
+        return beating
 
 
 def _say_heard(companion: Companion, name: str) -> None:

@@ -40,7 +40,7 @@ from lfctl.link.param_server import ParamServer
 from lfctl.link.params import formation_params
 from lfctl.link.port import CHECK_LINK, MavPort, statustext_messages
 
-__all__ = ["COMPANION_COMPID", "Companion", "VehicleReport"]
+__all__ = ["COMPANION_COMPID", "Companion", "VehicleReport", "answer_name", "unanswered"]
 
 #: the formation status names a ground station shows (NAMED_VALUE_FLOAT, 10 characters at most)
 STATUS_NAMES = (b"rng_err", b"brg_err", b"trk_q")
@@ -61,6 +61,13 @@ COMMAND_TRIES = 3
 IN_PROGRESS_MAX_S = 10.0
 #: the vehicle's STATUSTEXTs kept for the caller (:attr:`Companion.heard`), the newest
 HEARD_MAX = 100
+#: the most messages, and the longest time, one :meth:`Companion.poll` takes: a link that
+#: brings more (a flood) leaves the rest for the next step, so the heartbeat and the
+#: setpoints keep their rate (a rover sends about 60 a second)
+POLL_MAX_MESSAGES = 500
+POLL_MAX_S = 0.05
+#: the other autopilots heard on the link that are remembered (each is said once)
+OTHER_AUTOPILOTS_MAX = 16
 #: the parameter protocol's requests
 log = logging.getLogger(__name__)
 
@@ -84,6 +91,7 @@ class VehicleReport:
     """
 
     heard: bool = False  # a HEARTBEAT from the vehicle's autopilot has come
+    heartbeat_t_s: float | None = None  # when its last HEARTBEAT came, on the companion's clock
     mode: int | None = None  # its custom mode (Rover mode number, see endpoint.MODES)
     armed: bool | None = None  # its HEARTBEAT's safety-armed flag
     t_s: float | None = None
@@ -106,7 +114,26 @@ def answer_name(result: int | None) -> str:
     result : int or None
         Its return value.
     """
+    if result == mav.MAV_RESULT_IN_PROGRESS:
+        return f"answered IN_PROGRESS, no final answer within {IN_PROGRESS_MAX_S:g} s"
     return f"no answer to {COMMAND_TRIES} tries" if result is None else result_name(result)
+
+
+def unanswered(result: int | None) -> bool:
+    """Whether :meth:`Companion.request` got no final answer (none at all, or IN_PROGRESS only).
+
+    Parameters
+    ----------
+    result : int or None
+        Its return value.
+    """
+    return result is None or result == mav.MAV_RESULT_IN_PROGRESS
+
+
+def _autopilot(m: Any) -> bool:
+    """A HEARTBEAT a vehicle's autopilot sends (not a ground station's, a camera's or an
+    onboard program's: their autopilot field is INVALID, or their type a GCS)."""
+    return m.autopilot != mav.MAV_AUTOPILOT_INVALID and m.type != mav.MAV_TYPE_GCS
 
 
 def _time_ms(t_s: float) -> int:
@@ -133,13 +160,21 @@ class Companion:
         self._text_id = 0  # the last long text's chunk id
         self.param_server = ParamServer(self.params, self.port.send, self.statustext)
         self.ftp = FtpServer(
-            {"@PARAM/param.pck": FtpFile(self.param_server.packed, lambda data, s, c: self.param_server.upload(data))},
+            {
+                "@PARAM/param.pck": FtpFile(
+                    self.param_server.packed, lambda data, s, c: self.param_server.upload(data), options=True
+                )
+            },
             self._send_ftp,
             self.statustext,
         )
         #: the vehicle's position and attitude messages passed over for a value that is not a
         #: number or past any ground vehicle's (:data:`PLAUSIBLE`)
         self.passed_over = 0
+        #: polls that stopped at :data:`POLL_MAX_MESSAGES` or :data:`POLL_MAX_S` with more waiting
+        self.overloaded = 0
+        #: other systems whose autopilot (a vehicle's HEARTBEAT, component 1) talks on the link
+        self.other_autopilots: set[int] = set()
         #: what the vehicle's autopilot said (STATUSTEXT), (MAV_SEVERITY, text escaped), oldest
         #: first, the newest :data:`HEARD_MAX`: a caller reads them off (``popleft``) to show them
         self.heard: deque[tuple[int, str]] = deque(maxlen=HEARD_MAX)
@@ -219,8 +254,8 @@ class Companion:
         waits for the final answer up to :data:`IN_PROGRESS_MAX_S`. Everything else that
         comes meanwhile is taken as :meth:`poll` takes it, one message at a time, and the
         companion's heartbeat goes on; however fast messages come, the wait ends at its
-        deadline. Returns the MAV_RESULT, or None when no final answer came (a lossy link, or
-        an autopilot that does not answer).
+        deadline. Returns the MAV_RESULT, None when no answer came (a lossy link, or an
+        autopilot that does not answer), or IN_PROGRESS when no final one followed it.
 
         Parameters
         ----------
@@ -238,6 +273,7 @@ class Companion:
         sent = 0
         next_send = start
         beat = -math.inf
+        progress = None
         self.acks.pop(cmd, None)
         while (now := time.monotonic()) < deadline:
             if sent < tries and now >= next_send:
@@ -247,16 +283,17 @@ class Companion:
             if now - beat >= HEARTBEAT_PERIOD_S:  # on this wait's own clock: the caller's may differ
                 beat = now
                 self._send_heartbeat()
-            m = self.port.recv(min(0.05, max(0.0, min(deadline, next_send) - now)))
+            until = min(deadline, next_send) if sent < tries else deadline  # (no send due: the answer)
+            m = self.port.recv(min(0.05, max(0.0, until - now)))
             if m is not None:
                 self._take(m, now - start)
             result = self.acks.pop(cmd, None)
             if result == mav.MAV_RESULT_IN_PROGRESS:
-                sent = tries  # no more sends: the final answer follows
+                sent = progress = tries  # no more sends: the final answer follows
                 deadline = max(deadline, start + IN_PROGRESS_MAX_S)
             elif result is not None:
                 return result
-        return None
+        return None if progress is None else mav.MAV_RESULT_IN_PROGRESS
 
     def set_guided(self) -> None:
         """Ask for GUIDED mode (the answer is not awaited: :meth:`request` waits for it)."""
@@ -341,11 +378,16 @@ class Companion:
         timeout_s : float
             Longest wait for the first message, s.
         """
+        self.ftp.tick()  # a written file whose session went idle is handed over
         n = 0
+        until = time.monotonic() + POLL_MAX_S
         m = self.port.recv(timeout_s)
         while m is not None:
             n += 1
             self._take(m, t_s)
+            if n >= POLL_MAX_MESSAGES or time.monotonic() >= until:
+                self.overloaded += 1  # the rest waits for the next step
+                break
             m = self.port.recv()
         return n
 
@@ -361,10 +403,14 @@ class Companion:
             self._ftp(m)
             return
         if m.get_srcSystem() != self.target or m.get_srcComponent() != 1:
+            if kind == "HEARTBEAT" and _autopilot(m) and len(self.other_autopilots) < OTHER_AUTOPILOTS_MAX:
+                self.other_autopilots.add(m.get_srcSystem())
             return
         kind, v = m.get_type(), self.vehicle
         if kind == "HEARTBEAT":
-            v.heard, v.mode, v.armed = True, m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+            if _autopilot(m):  # (a ground station's or another program's from 1/1 is not the rover's)
+                v.heard, v.heartbeat_t_s = True, t_s
+                v.mode, v.armed = m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
             if self._plausible(kind, ("x", m.x), ("y", m.y), ("vx", m.vx), ("vy", m.vy)):
                 v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
@@ -477,7 +523,7 @@ class Companion:
             log.warning(
                 "the vehicle %s %s at %g Hz (%s): set its stream rate instead (ArduPilot: SRn_%s on its "
                 "companion's serial port n)",
-                "did not answer the request for" if result is None else "refused",
+                "did not answer the request for" if unanswered(result) else "refused",
                 name,
                 rate_hz,
                 answer_name(result),

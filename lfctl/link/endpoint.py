@@ -731,22 +731,22 @@ class VehicleEndpoint:
         """The files a Rover serves over MAVLink FTP that this vehicle has: its parameters
         (``@PARAM/param.pck``) and its mission, fence and rally points (``@MISSION``)."""
         files = {
-            "@PARAM/param.pck": FtpFile(self.param_server.packed, lambda data, s, c: self.param_server.upload(data))
+            "@PARAM/param.pck": FtpFile(
+                self.param_server.packed,
+                lambda data, s, c: self.param_server.upload(data),
+                options=True,
+                on_open=self._banner,  # as Rover's (the banner a parameter list starts with)
+            )
         }
         for mtype, name in MISSION_TYPES.items():
             files[f"@MISSION/{name}.dat"] = FtpFile(
-                partial(self._list_file, mtype),
+                lambda _query, mtype=mtype: self.missions.packed(mtype),
                 lambda data, sysid, compid, mtype=mtype: self.missions.upload_packed(
                     mtype, data, sysid, compid, self.t_s
                 ),
                 partial(self.missions.packed_size, mtype),
             )
         return files
-
-    def _list_file(self, mission_type: int, query: str) -> bytes:
-        if query:
-            raise ValueError(f"{MISSION_TYPES[mission_type]}.dat takes no options, got {query!r}")
-        return self.missions.packed(mission_type, 0, 0)
 
     # -- pilot input ----------------------------------------------------------------------------
     def _from_my_gcs(self, m: Any) -> bool:
@@ -1267,6 +1267,7 @@ class VehicleEndpoint:
                     self.params[name].value = fresh.value
         self._start()
         self.missions.restart()
+        self.ftp = FtpServer(self._ftp_files(), self._send_ftp, self.statustext)  # its sessions were in RAM
         self.mission_version += 1
         self.mav.seq = 0
         self.modes.append((self.t_s, self.mode))
@@ -1737,6 +1738,7 @@ class VehicleEndpoint:
         if self.rebooting:
             return  # a reboot was asked for
         self.missions.tick(t_s)
+        self.ftp.tick()
         self._check_gcs_failsafe(t_s)
         self._report_prearm(t_s)
         self._check_fence()

@@ -17,12 +17,22 @@ CreateFile and OpenFileWO on a writable file, WriteFile, TerminateSession (which
 written file over: refused, the reply is FailErrno with EINVAL and a line of text says why),
 ResetSessions, None; RemoveFile, CreateDirectory, RemoveDirectory and Rename are
 FileNotFound (nothing can be removed or made), and TruncateFile and anything newer
-UnknownCommand. Each reply carries the request's sequence number plus one and its session;
-a request sent again (its reply lost) gets the same reply again, not a second action.
+UnknownCommand; a request whose size is past the payload's 239 bytes is InvalidDataSize.
+Each reply carries the request's sequence number plus one and its session; a request sent
+again within :data:`SESSION_TIMEOUT_S` (its reply lost) gets the same reply again, not a
+second action.
 
 Sessions are the ground station's numbers, one open file each, at most :data:`MAX_SESSIONS`
 at a time over all senders; one idle for :data:`SESSION_TIMEOUT_S` may be taken over, and one
-idle for :data:`SESSION_KILL_S` is closed (a file being written is then dropped, unread).
+idle for :data:`SESSION_KILL_S` is closed (:meth:`FtpServer.tick`). However a session with a
+written file closes (its TerminateSession lost, a ResetSessions, a takeover, idleness), the
+file is handed over as ArduPilot's ``close`` hands it over: a file not written whole is
+refused by its checks, and said.
+
+Replies are rationed, as a vehicle's link is: at most :data:`REPLIES_PER_S` a second on
+average (:data:`REPLY_BURST` at once); a request that finds none left goes unanswered, as
+ArduPilot drops a request its queue has no room for (the ground station asks again), and a
+burst ends early, marked complete (the ground station asks for the rest).
 
 The payload is MAVLink FTP's (``seq_number`` uint16, ``session``, ``opcode``, ``size``,
 ``req_opcode``, ``burst_complete``, padding, ``offset`` uint32, then up to 239 bytes of data).
@@ -51,6 +61,10 @@ __all__ = [
     "ERR_UNKNOWN_COMMAND",
     "MAX_SESSIONS",
     "NAK",
+    "REPLIES_PER_S",
+    "REPLY_BURST",
+    "SESSION_KILL_S",
+    "SESSION_TIMEOUT_S",
     "FtpFile",
     "FtpServer",
     "ardupilot_crc32",
@@ -96,6 +110,10 @@ SESSION_KILL_S = 20.0
 MAX_WRITE_BYTES = 1 << 17
 #: replies kept for requests sent again
 _KEPT_REPLIES = 32
+#: the replies a second the server sends on average, and at most at once (a 2,000-item
+#: mission, 318 replies, takes about a second; a hostile peer cannot make the vehicle flood)
+REPLIES_PER_S = 400.0
+REPLY_BURST = 256.0
 
 
 def ardupilot_crc32(data: bytes) -> int:
@@ -124,11 +142,18 @@ class FtpFile:
         when taken, else why not. None: the file is read-only.
     size : callable, optional
         The file's size now, bytes, for a listing (None: the length of what ``read`` gives).
+    options : bool
+        The name may carry options after ``?`` (``param.pck?withdefaults=1``); for a file
+        without, a name with them is no such file (ArduPilot compares the whole name).
+    on_open : callable, optional
+        Called when the file is opened for reading (ArduPilot's banner on param.pck).
     """
 
     read: Callable[[str], bytes]
     write: Callable[[bytes, int, int], str | None] | None = None
     size: Callable[[], int] | None = None
+    options: bool = False
+    on_open: Callable[[], None] | None = None
 
 
 @dataclass
@@ -176,9 +201,18 @@ class FtpServer:
         self._say = say
         self._clock = clock
         self._sessions: dict[tuple[int, int, int], _Session] = {}
-        # each session's last request (its sequence number and opcode) and the replies it got,
-        # kept for that request sent again
-        self._last: OrderedDict[tuple[int, int, int], tuple[int, int, list[bytes]]] = OrderedDict()
+        # each session's last request (its sequence number and opcode), when, and the replies
+        # it got, kept for that request sent again
+        self._last: OrderedDict[tuple[int, int, int], tuple[int, int, float, list[bytes]]] = OrderedDict()
+        self._tokens = REPLY_BURST
+        self._tokens_t = clock()
+        #: requests that went unanswered because the replies' ration was spent
+        self.unanswered = 0
+
+    def tick(self) -> None:
+        """Close the sessions idle for :data:`SESSION_KILL_S` (a written file is handed over):
+        call it now and then, so a file whose TerminateSession was lost is not held for ever."""
+        self._expire(self._clock())
 
     # -- the requests ----------------------------------------------------------------------
     def handle(self, payload: bytes, sysid: int, compid: int) -> None:
@@ -200,15 +234,23 @@ class FtpServer:
         data = bytes(payload[_HEADER.size : _HEADER.size + min(size, DATA_BYTES)])
         key = (sysid, compid, session)
         now = self._clock()
+        self._tokens = min(REPLY_BURST, self._tokens + (now - self._tokens_t) * REPLIES_PER_S)
+        self._tokens_t = now
+        if self._tokens < 1.0:
+            self.unanswered += 1  # as lost: the ground station asks again
+            return
         self._expire(now)
         last = self._last.get(key)
-        if last is not None and last[:2] == (seq, opcode) and opcode != OP_RESET:
-            self._deliver(last[2], sysid, compid)  # sent again: its reply was lost
+        if last is not None and last[:2] == (seq, opcode) and now - last[2] <= SESSION_TIMEOUT_S and opcode != OP_RESET:
+            self._tokens -= len(last[3])
+            self._deliver(last[3], sysid, compid)  # sent again: its reply was lost
             return
         head = (seq, session, opcode, offset)
-        if opcode == OP_RESET:
+        if size > DATA_BYTES:
+            replies = [self._nak(head, ERR_INVALID_DATA_SIZE)]  # (ArduPilot's first check of any request)
+        elif opcode == OP_RESET:
             for k in [k for k in self._sessions if k[:2] == (sysid, compid)]:
-                del self._sessions[k]  # a file being written is dropped
+                self._finish(self._sessions.pop(k))  # (a written file is handed over, as ArduPilot closes it)
             for k in [k for k in self._last if k[:2] == (sysid, compid)]:
                 del self._last[k]  # a client starting afresh may use the same numbers again
             replies = [self._reply(head, ACK)]
@@ -233,10 +275,13 @@ class FtpServer:
                 replies = self._on_session(s, head, size, data, idle_s)
         else:  # TruncateFile, ListDirectoryWithTime and anything newer: unknown to ArduPilot
             replies = [self._nak(head, ERR_UNKNOWN_COMMAND)]
-        self._last[key] = (seq, opcode, replies)
-        self._last.move_to_end(key)
-        while len(self._last) > _KEPT_REPLIES:
-            self._last.popitem(last=False)
+        no_room = replies[0][3] == NAK and replies[0][12] == ERR_NO_SESSIONS
+        if not no_room:  # (a refusal for want of room is not kept: asked again, there may be room)
+            self._last[key] = (seq, opcode, now, replies)
+            self._last.move_to_end(key)
+            while len(self._last) > _KEPT_REPLIES:
+                self._last.popitem(last=False)
+        self._tokens -= len(replies)
         self._deliver(replies, sysid, compid)
 
     def _on_session(
@@ -254,8 +299,8 @@ class FtpServer:
         if s.content is None:
             return [self._nak(head, ERR_FAIL)]  # a read on a file open for writing
         if opcode == OP_READ:
-            return [self._read(s.content, head, min(size, DATA_BYTES))]
-        return self._burst(s.content, head, min(size, DATA_BYTES) or DATA_BYTES)
+            return [self._read(s.content, head, size)]
+        return self._burst(s.content, head, size or DATA_BYTES, max(1, min(BURST_PACKETS, int(self._tokens))))
 
     def _open(self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
         """OpenFileRO, CreateFile or OpenFileWO: one file a session; its name checked as
@@ -267,7 +312,7 @@ class FtpServer:
             return self._nak(head, ERR_INVALID_DATA_SIZE)
         path, _, query = name.lstrip("/").partition("?")
         f = self.files.get(path)
-        if f is None:
+        if f is None or ("?" in name and not f.options):
             return self._nak(head, ERR_FILE_NOT_FOUND)
         if head[2] != OP_OPEN_RO:
             if f.write is None:
@@ -280,6 +325,8 @@ class FtpServer:
             self._say(f"FTP: {name} not read: {exc}")
             return self._nak(head, ERR_FAIL_ERRNO, errno.EINVAL)
         s.path, s.file, s.content = path, f, content
+        if f.on_open is not None:
+            f.on_open()
         return self._reply(head, ACK, struct.pack("<I", len(content)))
 
     def _read(self, content: bytes, head: tuple[int, int, int, int], size: int) -> bytes:
@@ -289,19 +336,19 @@ class FtpServer:
             return self._nak(head, ERR_END_OF_FILE)
         return self._reply(head, ACK, chunk, offset=offset)
 
-    def _burst(self, content: bytes, head: tuple[int, int, int, int], size: int) -> list[bytes]:
+    def _burst(self, content: bytes, head: tuple[int, int, int, int], size: int, packets: int) -> list[bytes]:
         """BurstReadFile: the file from the offset asked for in replies of ``size`` bytes,
         each with the next sequence number, ending in EndOfFile at the end (marked
-        ``burst_complete``), or after :data:`BURST_PACKETS` with the last one marked."""
+        ``burst_complete``), or after ``packets`` with the last one marked."""
         seq, session, opcode, offset = head
         out = []
-        for k in range(BURST_PACKETS):
+        for k in range(packets):
             h = (seq + k, session, opcode, offset)
             chunk = content[offset : offset + size]
             if not chunk:
                 out.append(self._nak(h, ERR_END_OF_FILE, burst=True))
                 break
-            out.append(self._reply(h, ACK, chunk, offset=offset, burst=k == BURST_PACKETS - 1))
+            out.append(self._reply(h, ACK, chunk, offset=offset, burst=k == packets - 1))
             offset += len(chunk)
         return out
 
@@ -377,13 +424,13 @@ class FtpServer:
             oldest = min(self._sessions.values(), key=lambda x: x.last_s)
             if now - oldest.last_s < SESSION_TIMEOUT_S:
                 return None
-            del self._sessions[oldest.key]
+            self._finish(self._sessions.pop(oldest.key))  # taken over: a written file is handed over
         s = self._sessions[key] = _Session(key, now)
         return s
 
     def _expire(self, now: float) -> None:
         for k in [k for k, s in self._sessions.items() if now - s.last_s > SESSION_KILL_S]:
-            del self._sessions[k]
+            self._finish(self._sessions.pop(k))
 
     def _deliver(self, replies: list[bytes], sysid: int, compid: int) -> None:
         for r in replies:

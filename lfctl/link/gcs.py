@@ -26,6 +26,19 @@ __all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_nam
 
 #: the ground station's system id, as QGroundControl and MAVProxy use
 GCS_SYSID = 255
+#: a command answered IN_PROGRESS: the longest wait for its final answer, s
+IN_PROGRESS_MAX_S = 10.0
+#: a parameter list that brings no new parameter for this long asks for the missing ones by
+#: index, at most PARAM_ROUNDS times (PARAM_READS_PER_ROUND requests a round), s
+PARAM_GAP_S = 1.0
+PARAM_ROUNDS = 3
+PARAM_READS_PER_ROUND = 200
+#: a mission upload stops when the vehicle has asked for this many items per item (a lost
+#: item is asked for again; one asked for without end is a fault), plus a few
+UPLOAD_SENDS_PER_ITEM = 5
+UPLOAD_SENDS_SPARE = 20
+#: the formation values (NAMED_VALUE_FLOAT) kept per vehicle in `lfctl gcs watch`
+FORMATION_NAMES_MAX = 16
 
 
 def _result_name(enum: str, value: int) -> str:
@@ -199,16 +212,37 @@ class GroundStation:
         for attempt in range(retries):
             self.send(mav.MAVLink_command_long_message(self.target, 1, cmd, attempt, *p))
             try:
-                ack = self.wait(("COMMAND_ACK",), timeout_s=self.timeout_s / retries, where=lambda m: m.command == cmd)
-                return int(ack.result)
+                ack = self.wait(("COMMAND_ACK",), timeout_s=self.timeout_s / retries, where=self._ack_of(cmd))
             except LinkTimeoutError:
                 continue
+            if ack.result != mav.MAV_RESULT_IN_PROGRESS:
+                return int(ack.result)
+            try:  # being carried out: sent again it would start afresh; its final answer follows
+                final = self.wait(
+                    ("COMMAND_ACK",),
+                    timeout_s=IN_PROGRESS_MAX_S,
+                    where=lambda m: self._ack_of(cmd)(m) and m.result != mav.MAV_RESULT_IN_PROGRESS,
+                )
+            except LinkTimeoutError:
+                return int(mav.MAV_RESULT_IN_PROGRESS)  # no final answer: the caller says so
+            return int(final.result)
         raise LinkTimeoutError(
             f"COMMAND_ACK for {_result_name('MAV_CMD', cmd)}",
             sysid=self.target,
             timeout_s=self.timeout_s,
             detail=f"{retries} tries",
         )
+
+    def _ack_of(self, cmd: int) -> Callable[[Any], bool]:
+        """Which COMMAND_ACK answers our ``cmd``: the autopilot's (component 1, as it was sent
+        there; a camera's or a companion's is not), addressed to us (0: a MAVLink 1 ack)."""
+        me = (self.port.sysid, self.port.compid)
+
+        def ours(m: Any) -> bool:
+            to = (getattr(m, "target_system", 0), getattr(m, "target_component", 0))
+            return m.command == cmd and m.get_srcComponent() == 1 and (to == (0, 0) or to == me)
+
+        return ours
 
     def home(self, timeout_s: float | None = None) -> tuple[float, float, float] | None:
         """The vehicle's home (latitude deg, longitude deg, altitude m above mean sea level),
@@ -296,14 +330,49 @@ class GroundStation:
         return float(m.param_value)
 
     def param_list(self) -> dict[str, float]:
-        """Every parameter and its value (PARAM_REQUEST_LIST)."""
+        """Every parameter and its value (PARAM_REQUEST_LIST), in the vehicle's order. As
+        MAVProxy and QGroundControl fetch them: the indexes still missing when the list
+        stalls for :data:`PARAM_GAP_S` are asked for one by one (PARAM_REQUEST_READ by index),
+        :data:`PARAM_ROUNDS` times; a parameter sent again (another ground station's set)
+        is no progress.
+
+        Raises
+        ------
+        LinkTimeoutError
+            No PARAM_VALUE at all, or indexes still missing after the last round (named).
+        """
         self.send(mav.MAVLink_param_request_list_message(self.target, 1))
-        first = self.wait(("PARAM_VALUE",))
-        out = {_pid(first): float(first.param_value)}
-        while len(out) < first.param_count:
-            m = self.wait(("PARAM_VALUE",))
-            out[_pid(m)] = float(m.param_value)
-        return out
+        listed = lambda m: m.param_index != 0xFFFF  # noqa: E731 (0xFFFF: an answer to a set or read by name)
+        first = self.wait(("PARAM_VALUE",), where=listed)
+        count = int(first.param_count)
+        got: dict[int, tuple[str, float]] = {int(first.param_index): (_pid(first), float(first.param_value))}
+        rounds, progress_at = 0, time.monotonic()
+        while len(got) < count:
+            try:
+                m = self.wait(("PARAM_VALUE",), timeout_s=max(0.0, progress_at + PARAM_GAP_S - time.monotonic()))
+            except LinkTimeoutError:
+                m = None
+            if m is not None and listed(m) and m.param_index < count and m.param_index not in got:
+                got[int(m.param_index)] = (_pid(m), float(m.param_value))
+                progress_at = time.monotonic()
+                continue
+            if time.monotonic() < progress_at + PARAM_GAP_S:
+                continue  # a parameter sent again, or another's: no progress, but the list may go on
+            missing = [k for k in range(count) if k not in got]
+            if rounds >= PARAM_ROUNDS:
+                shown = ", ".join(map(str, missing[:10])) + (", ..." if len(missing) > 10 else "")
+                raise LinkTimeoutError(
+                    "PARAM_VALUE",
+                    sysid=self.target,
+                    timeout_s=PARAM_GAP_S,
+                    detail=f"got {len(got)} of {count} parameters; still missing index {shown} after "
+                    f"{PARAM_ROUNDS} requests of each; {CHECK_LINK}",
+                )
+            rounds += 1
+            for k in missing[:PARAM_READS_PER_ROUND]:
+                self.send(mav.MAVLink_param_request_read_message(self.target, 1, b"", k))
+            progress_at = time.monotonic()
+        return {name: value for _k, (name, value) in sorted(got.items())}
 
     # -- missions --------------------------------------------------------------------------------
     def upload(
@@ -340,21 +409,25 @@ class GroundStation:
         LinkTimeoutError
             It stayed silent through every restart.
         """
+        sends = 0
+        stray: int | None = None  # a refusal that came before anything was asked for
         for _attempt in range(restarts + 1):
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
             asked = False
             last: MissionItem | None = None  # the item sent last: a refusal is of it
+            quiet_until = time.monotonic() + item_timeout_s * 3  # a request moves it on; nothing else does
             while True:
                 try:
                     m = self.wait(
                         ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
-                        timeout_s=item_timeout_s * 3,
+                        timeout_s=max(0.0, quiet_until - time.monotonic()),
                         where=lambda m: m.mission_type == mission_type,
                     )
                 except LinkTimeoutError:
                     break  # restart from MISSION_COUNT
                 if m.get_type() == "MISSION_ACK":
                     if m.type == mav.MAV_MISSION_ERROR and not asked:
+                        stray = m.type
                         continue  # a stray item's answer, from before our count
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
@@ -371,8 +444,23 @@ class GroundStation:
                         f"mission upload: vehicle asked for item {m.seq}, the mission has {len(items)} items (0..{len(items) - 1})",
                         received_seq=m.seq,
                     )
+                sends += 1
+                if sends > UPLOAD_SENDS_PER_ITEM * len(items) + UPLOAD_SENDS_SPARE:
+                    raise MissionProtocolError(
+                        f"mission upload: system {self.target} asked for item {m.seq} again and again "
+                        f"({sends} items sent for {len(items)}): stopped",
+                        received_seq=m.seq,
+                    )
                 asked, last = True, items[m.seq]
+                quiet_until = time.monotonic() + item_timeout_s * 3
                 self._send_item(last, mission_type)
+        if stray is not None:
+            result = _result_name("MAV_MISSION_RESULT", stray)
+            raise MissionProtocolError(
+                f"{MISSION_TYPES.get(mission_type, 'list')} refused by system {self.target} before any item was "
+                f"asked for: {result}, to each of {restarts + 1} counts",
+                result=result,
+            )
         raise LinkTimeoutError(
             "answer to the mission upload", sysid=self.target, detail=f"{restarts + 1} attempts from MISSION_COUNT"
         )
@@ -586,6 +674,8 @@ class FleetTable:
             row.lat_deg, row.lon_deg = m.lat / 1e7, m.lon / 1e7
             row.speed_mps = math.hypot(m.vx, m.vy) / 100
         elif kind == "NAMED_VALUE_FLOAT":
-            row.formation[text_field(m.name)] = float(m.value)
+            name = text_field(m.name)
+            if name in row.formation or len(row.formation) < FORMATION_NAMES_MAX:  # (new names: not without end)
+                row.formation[name] = float(m.value)
         elif kind == "STATUSTEXT":
             row.text = text_field(m.text)

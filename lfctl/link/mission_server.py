@@ -522,31 +522,29 @@ class MissionServer:
                 self._request_next(up, t_s)
 
     # -- the lists as files (MAVLink FTP) --------------------------------------------------
-    def packed(self, mission_type: int, sysid: int, compid: int) -> bytes:
+    def packed(self, mission_type: int) -> bytes:
         """The list as its ``@MISSION`` file (the module's docstring gives the format): each
-        item as a download gives it to ``sysid``/``compid`` (the mission's item 0 is home now).
+        item as a download gives it (the mission's item 0 is home now), addressed to no one.
 
         Parameters
         ----------
         mission_type : int
             MAV_MISSION_TYPE of the list.
-        sysid, compid : int
-            Who reads it (each item's target).
         """
         items = self.lists[mission_type]
         live_home = mission_type == MISSION and self.home is not None and bool(items)
-        key = (self._revision, self.current_seq, sysid, compid, len(items))
+        key = (self._revision, self.current_seq, len(items))
         cached = self._packed.get(mission_type)
         if cached is None or cached[0] != key:  # (a full mission takes ~7 ms to pack: not on each open)
-            cached = key, b"".join(self._packed_item(it, sysid, compid, mission_type) for it in items[live_home:])
+            cached = key, b"".join(self._packed_item(it, mission_type) for it in items[live_home:])
             self._packed[mission_type] = cached
         head = _FILE_HEADER.pack(LIST_FILE_MAGIC, mission_type, 0, 0, len(items))
-        home = self._packed_item(self.home(), sysid, compid, mission_type) if live_home and self.home else b""
+        home = self._packed_item(self.home(), mission_type) if live_home and self.home else b""
         return head + home + cached[1]
 
-    def _packed_item(self, it: MissionItem, sysid: int, compid: int, mission_type: int) -> bytes:
+    def _packed_item(self, it: MissionItem, mission_type: int) -> bytes:
         current = int(mission_type == MISSION and it.seq == self.current_seq)
-        m = _item_message(it, sysid, compid, current, mission_type)
+        m = _item_message(it, 0, 0, current, mission_type)
         return _ITEM.unpacker.pack(*(getattr(m, f) for f in _ITEM.ordered_fieldnames))
 
     def packed_size(self, mission_type: int) -> int:

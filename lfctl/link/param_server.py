@@ -233,13 +233,14 @@ class ParamServer:
         if name is None:
             self._say(f"Unknown parameter {param_text(m.param_id)}", mav.MAV_SEVERITY_WARNING)
             return None
-        taken = self.set_value(name, m.param_value)
+        refused = self.set_value(name, m.param_value)
         self._send(self.value_message(name, indexed=False))
-        return name if taken else None
+        return name if refused is None else None
 
-    def set_value(self, name: str, value: float) -> bool:
+    def set_value(self, name: str, value: float, quiet: bool = False) -> str | None:
         """Store ``value`` in the parameter ``name`` if it takes it (:meth:`Param.accepts`);
-        a refusal is said in a line of text. Returns whether it was stored.
+        returns None when stored, else why not, which is also said in a line of text unless
+        ``quiet``.
 
         Parameters
         ----------
@@ -247,18 +248,20 @@ class ParamServer:
             A parameter of the table.
         value : float
             The value asked for.
+        quiet : bool
+            Do not say a refusal (the caller says them together).
         """
         p = self.params[name]
         if p.accepts(value):
             p.value = p.stored(value)
-            return True
+            return None
         if p.readonly:
-            self._say(f"Param write denied ({name})", mav.MAV_SEVERITY_WARNING)  # ArduPilot's text
+            why = f"Param write denied ({name})"  # ArduPilot's text
         else:
-            self._say(
-                f"{name} rejected: {value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip(), mav.MAV_SEVERITY_WARNING
-            )
-        return False
+            why = f"{name} rejected: {value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
+        if not quiet:
+            self._say(why, mav.MAV_SEVERITY_WARNING)
+        return why
 
     def packed(self, query: str = "") -> bytes:
         """``@PARAM/param.pck`` now, for a file read over MAVLink FTP, with the options a
@@ -290,9 +293,10 @@ class ParamServer:
 
     def upload(self, data: bytes) -> str | None:
         """Set the parameters an uploaded ``@PARAM/param.pck`` names, each as a PARAM_SET
-        would (out of range or read-only: not set, said); a name the table lacks is skipped
-        and said, as ArduPilot skips it. Returns None when the file was read, else why it
-        could not be (nothing set).
+        would (out of range or read-only: not set); a name the table lacks is skipped, as
+        ArduPilot skips it. What was set and what was not is said in one line of text (a
+        file may name thousands). Returns None when the file was read, else why it could not
+        be (nothing set).
 
         Parameters
         ----------
@@ -303,9 +307,20 @@ class ParamServer:
             values = unpack_params(data)
         except ValueError as exc:
             return f"param.pck not read: {exc}"
-        unknown = [name for name, _ in values if name not in self.params]
-        taken = sum(self.set_value(name, value) for name, value in values if name in self.params)
+        refused: dict[str, str] = {}  # by name: a file may name one many times
+        unknown: dict[str, None] = {}
+        taken = 0
+        for name, value in values:
+            if name not in self.params:
+                unknown[name] = None
+            elif self.set_value(name, value, quiet=True) is not None:
+                refused[name] = "read-only" if self.params[name].readonly else f"{value:g}"
+            else:
+                taken += 1
+        line = f"Param upload: {taken} of {len(values)} set"
+        if refused:
+            line += "; refused " + ", ".join(f"{n} ({w})" for n, w in refused.items())
         if unknown:
-            self._say(f"Param upload: no such parameter {', '.join(unknown)}"[:200], mav.MAV_SEVERITY_WARNING)
-        self._say(f"Param upload: {taken} of {len(values)} set", mav.MAV_SEVERITY_INFO)
+            line += "; no such parameter " + ", ".join(unknown)
+        self._say(line, mav.MAV_SEVERITY_WARNING if refused or unknown else mav.MAV_SEVERITY_INFO)
         return None

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfctl.checks import read_text_file, save_text
+from lfctl.checks import printable, read_text_file, save_text
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -291,7 +291,20 @@ def save_param_file(values: dict[str, float], path: str | Path, fmt: str = "mavp
         MAVProxy's ``NAME VALUE`` lines, or QGroundControl's tab-separated table.
     sysid : int
         The vehicle's system id (the QGroundControl format names it).
+
+    Raises
+    ------
+    ConfigError
+        A name or a value :func:`load_param_file` could not read back (named), or an unknown
+        format; nothing is written then.
     """
+    bad = [f"{name!r} = {value}" for name, value in values.items() if not _valid_name(name) or not math.isfinite(value)]
+    if bad:
+        shown = ", ".join(bad[:5]) + (", ..." if len(bad) > 5 else "")
+        raise ConfigError(
+            f"not saving {path}: {len(bad)} parameters could not be loaded back (a name of letters, digits "
+            f"and _ up to {MAX_NAME_LEN}, a finite value): {printable(shown)}"
+        )
     if fmt == "mavproxy":
         lines = [f"{name:<16} {_number(value)}" for name, value in sorted(values.items())]
     elif fmt == "qgc":

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import os
 import re
+import select
 import socket
+import time
 from collections import deque
 from collections.abc import Callable
 from typing import Any, Protocol
@@ -136,6 +138,30 @@ def _check_serial_device(connect: str) -> None:
     )
 
 
+#: the most datagrams one :meth:`MavPort.recv` reads looking for a message before it gives
+#: its caller back control (a flood of junk does not hold the caller)
+MAX_DATAGRAMS_PER_RECV = 256
+#: the most peers a ``udpin`` port answers at once (each that sent a good packet, the latest
+#: kept: pymavlink's own list grows with every sender)
+MAX_UDP_CLIENTS = 8
+
+
+def _reset_parser(parser: Any) -> None:
+    """Forget what a MAVLink parser holds of an unfinished packet: a datagram carries whole
+    packets, so a cut one must not swallow the next datagram's."""
+    parser.buf = bytearray()
+    parser.buf_index = 0
+    parser.expected_length = mav.HEADER_LEN_V1 + 2
+    parser.have_prefix_error = False
+
+
+def _lean_post_message(m: Any) -> None:
+    """What pymavlink's ``mavfile.post_message`` does that lfctl needs (the time it came).
+    Its own keeps the last message of every type name, every parameter and every sender:
+    a peer sending new message ids or names would grow them without bound."""
+    m._timestamp = time.time()
+
+
 #: pymavlink's connection prefixes besides the network ones lfctl checks (it opens each itself)
 _OTHER_PREFIXES = ("uds:", "unix:", "wsserver:", "ws:", "wss:", "mcast:", "csv:")
 
@@ -165,6 +191,15 @@ class MavPort:
         (received; garbage the parser could not frame is not shown), the pymavlink message
         and its bytes as they travelled. Called in the sender's or reader's thread: keep it
         cheap, and do not raise.
+    junk : int
+        Received bytes that were no MAVLink packet (a cut or corrupt frame, noise), and
+        packets of message ids the dialect lacks: dropped, counted here (the latter still
+        shown to :attr:`tap`, as they travelled).
+    received, lost : int
+        Good packets received, and those missing from each sender's sequence numbers.
+
+    Over UDP each datagram is read on its own (a cut packet at its end is junk, not the
+    start of the next datagram's), and what pymavlink would keep of every message is not kept.
     """
 
     def __init__(
@@ -183,8 +218,16 @@ class MavPort:
         self.connection = connection
         self.link = link
         self.pump = pump
+        self.junk = 0
+        self.received = 0
+        self.lost = 0
+        self._seq: dict[tuple[int, int], int] = {}
+        self._udp = False
         if connection is not None:
             self.mav = connection.mav
+            self.mav.robust_parsing = True
+            connection.post_message = _lean_post_message
+            self._udp = isinstance(connection, mavutil.mavudp)
         else:
             self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=compid)
             self.mav.robust_parsing = True
@@ -268,19 +311,89 @@ class MavPort:
         timeout_s : float
             Longest wait, s; 0 returns at once.
         """
-        if self.connection is not None:
+        if self._queue:
+            m = self._queue.popleft()
+        elif self._udp:
+            m = self._recv_udp(timeout_s)
+        elif self.connection is not None:
             m = self.connection.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
+            if m is not None and not self._good(m):
+                m = None
         else:
-            if not self._queue:
-                if self.pump is not None:
-                    self.pump()
-                assert self.link is not None
-                for data, _addr in self.link.recv():
-                    self._queue.extend(m for m in (self._parser.parse_buffer(data) or []) if m.get_type() != "BAD_DATA")
+            if self.pump is not None:
+                self.pump()
+            assert self.link is not None
+            for data, _addr in self.link.recv():
+                self._take_datagram(data, self._parser)
             m = self._queue.popleft() if self._queue else None
-        if m is not None and self.tap is not None and m.get_type() != "BAD_DATA":
+        if m is not None and self.tap is not None:
             self.tap("in", m, bytes(m.get_msgbuf()))
         return m
+
+    def _good(self, m: Any) -> bool:
+        """A message of the dialect (not junk the parser framed, nor an id it lacks); the rest
+        counted in :attr:`junk`. The good ones are counted in :attr:`received`, and the gaps
+        in each sender's sequence numbers in :attr:`lost` (as a ground station counts link loss)."""
+        kind = m.get_type()
+        if kind == "BAD_DATA" or kind.startswith("UNKNOWN_"):
+            self.junk += 1
+            if kind != "BAD_DATA" and self.tap is not None:
+                self.tap("in", m, bytes(m.get_msgbuf()))  # framed: a log keeps it, the caller never sees it
+            return False
+        self.received += 1
+        src = (m.get_srcSystem(), m.get_srcComponent())
+        last = self._seq.get(src)
+        if last is not None:
+            self.lost += (m.get_seq() - last - 1) % 256
+        elif len(self._seq) >= 256:  # (a crowd of senders: forget them, not the count)
+            self._seq.clear()
+        self._seq[src] = m.get_seq()
+        return True
+
+    def _take_datagram(self, data: bytes, parser: Any) -> int:
+        """The messages of one datagram into the queue, read on their own; how many."""
+        _reset_parser(parser)
+        got = [m for m in (parser.parse_buffer(data) or []) if self._good(m)]
+        if len(parser.buf) > parser.buf_index:  # a packet cut short at the datagram's end
+            self.junk += 1
+        _reset_parser(parser)
+        self._queue.extend(got)
+        return len(got)
+
+    def _recv_udp(self, timeout_s: float) -> Any | None:
+        """The next message over UDP: datagrams are read one at a time, each on its own, up
+        to :data:`MAX_DATAGRAMS_PER_RECV` while they hold none, waiting up to ``timeout_s``
+        for the first. A ``udpin`` port answers the senders of good packets (the latest
+        :data:`MAX_UDP_CLIENTS`); a ``udpbcast`` one the last of them."""
+        conn = self.connection
+        deadline = time.monotonic() + timeout_s
+        for _ in range(MAX_DATAGRAMS_PER_RECV):
+            wait = max(0.0, deadline - time.monotonic())
+            try:
+                ready, _, _ = select.select([conn.port], [], [], wait)
+                if not ready:
+                    return None
+                data, addr = conn.port.recvfrom(65535)
+            except (OSError, ValueError):  # ICMP port unreachable (no peer yet), a closed socket
+                if wait <= 0:
+                    return None
+                continue
+            if self._take_datagram(data, conn.mav):
+                self._heard_from(addr)
+                return self._queue.popleft()
+        return None
+
+    def _heard_from(self, addr: tuple[str, int]) -> None:
+        conn = self.connection
+        if conn.udp_server:
+            conn.clients.add(addr)
+            conn.clients_last_alive[addr] = time.time()
+            while len(conn.clients) > MAX_UDP_CLIENTS:
+                oldest = min(conn.clients, key=lambda a: conn.clients_last_alive.get(a, 0.0))
+                conn.clients.discard(oldest)
+                conn.clients_last_alive.pop(oldest, None)
+        elif conn.broadcast:
+            conn.last_address = addr
 
     def close(self) -> None:
         """Close the connection (an in-memory link is its owner's to close)."""

@@ -138,12 +138,14 @@ def test_the_companion_port_shows_every_packet_both_ways_and_odd_ones_do_not_bre
         for data in (position, heartbeat_v1, unknown_id, no_value, b"\x00junk\xfd\x01", position[:9]):
             s.sendto(data, port.connection.port.getsockname())
         deadline = time.monotonic() + 5.0
-        while len(seen) < 4 and time.monotonic() < deadline:
+        while port.junk < 4 and time.monotonic() < deadline:
             port.recv(0.1)
     port.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_ONBOARD_CONTROLLER, 8, 0, 0, 4, 3))
     port.close()
     # what could be framed (a message id the dialect does not know too), as it travelled;
-    # garbage and a cut frame are not shown
+    # garbage and a cut frame are not shown. The unknown id, the garbage (twice: its bytes, and
+    # the frame it starts at its end) and the cut frame are counted as junk (each datagram is
+    # read on its own: a cut frame swallows nothing after it)
     assert [(d, m.get_type()) for d, m, _ in seen] == [
         ("in", "GLOBAL_POSITION_INT"),
         ("in", "HEARTBEAT"),
@@ -152,6 +154,7 @@ def test_the_companion_port_shows_every_packet_both_ways_and_odd_ones_do_not_bre
         ("out", "HEARTBEAT"),
     ]
     assert [raw for _, _, raw in seen[:4]] == [position, heartbeat_v1, unknown_id, no_value]
+    assert port.junk == 4 and port.received == 3
     assert mav.MAVLink(None).parse_buffer(seen[4][2])[0].get_srcComponent() == COMPANION_COMPID
     # on /mavlink/<rover> as the rover sees it: what the companion sent went in, the rest came out
     cfg = parse_config(DEFAULT_SCENARIO, "follow")
@@ -632,3 +635,43 @@ def test_a_rover_that_refuses_guided_is_not_armed(
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("refused GUIDED (MAV_RESULT_FAILED; it said: Flight mode change failed)" in t for t in said), said
     assert "rover: not arming the rover: it is not in GUIDED (arm it yourself once it is)" in said
+
+
+def test_a_rover_gone_silent_is_said_its_setpoints_not_counted_and_ctrl_c_keeps_the_figures(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # the rover's HEARTBEAT stops at step 10: the closing line counted every setpoint as
+    # carried out on its last word, however old; and Ctrl-C lost the closing line
+    from lfctl.config import parse_config
+    from lfctl.follower.rover import HEARTBEAT_STALE_S, follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.link.endpoint import MSG_IDS
+    from lfctl.video import VideoSource
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    steps: list[float] = []
+    with standing_rover() as rover:
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+
+        def on_step(step: Any) -> None:
+            steps.append(step.t_s)
+            if len(steps) == 10:
+                rover._intervals[MSG_IDS["HEARTBEAT"]] = math.inf  # silent from here
+            if len(steps) > 10 and step.t_s - steps[9] > HEARTBEAT_STALE_S + 3.0:
+                raise KeyboardInterrupt  # the user's Ctrl-C
+
+        try:
+            with VideoSource(str(banner_video(200))) as video:
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                    arm=True, timeout_s=5.0, on_step=on_step)  # fmt: skip
+        finally:
+            companion.close()
+    assert done.interrupted and done.summary().endswith("; interrupted") and done.steps == len(steps)
+    # carried out while its heartbeat was fresh (10 steps, its last heartbeat up to 1 s later,
+    # then HEARTBEAT_STALE_S more at 20 Hz), not in the seconds after
+    assert 10 <= done.guided <= 10 + (1.0 + HEARTBEAT_STALE_S) * 20 + 5 and done.steps - done.guided >= 30
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("no HEARTBEAT from the rover (system 1) for 3 s" in t for t in said), said

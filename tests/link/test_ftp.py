@@ -54,8 +54,9 @@ class Served:
         self.replies: list[tuple[bytes, int, int]] = []
         self.texts: list[str] = []
         self.clock = Clock()
+        self.opened = 0
         files = {
-            "@SYS/data.bin": ftp.FtpFile(self.read),
+            "@SYS/data.bin": ftp.FtpFile(self.read, options=True, on_open=self.on_open),
             "@SYS/in.bin": ftp.FtpFile(lambda q: b"", self.write),
         }
         self.server = ftp.FtpServer(
@@ -64,8 +65,11 @@ class Served:
 
     def read(self, query: str) -> bytes:
         if query:
-            raise ValueError(f"no options, got {query!r}")
+            raise ValueError(f"no such option, got {query!r}")
         return self.content
+
+    def on_open(self) -> None:
+        self.opened += 1
 
     def write(self, data: bytes, sysid: int, compid: int) -> str | None:
         self.written.append((data, sysid, compid))
@@ -169,11 +173,8 @@ def test_an_uploaded_file_sets_what_a_param_set_would_and_names_the_rest() -> No
     struct.pack_into("<H", data, 4, len(data))
     assert server.upload(bytes(data)) is None
     assert (table["WP_SPEED"].value, table["WP_RADIUS"].value) == (4.0, 2.0)
-    assert said == [
-        "WP_RADIUS rejected: 500 outside 0..100 m",
-        "Param upload: no such parameter NO_SUCH",
-        "Param upload: 1 of 3 set",
-    ]
+    # one line however many were refused (a file may name thousands), with what was not set
+    assert said == ["Param upload: 1 of 3 set; refused WP_RADIUS (500); no such parameter NO_SUCH"]
     assert server.upload(b"\x1b\x67") == "param.pck not read: 2 bytes, fewer than the header's 6"
     assert table["WP_SPEED"].value == 4.0
     # the defaults are the values the table had when the server was made
@@ -299,11 +300,74 @@ def test_sessions_are_limited_and_idle_ones_taken_over_or_closed() -> None:
     assert s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][0][2] == ftp.ACK
     s.clock.t += ftp.SESSION_KILL_S + 0.1  # all closed: a read finds no file open
     assert s.ask(request(2, ftp.OP_READ, session=9, size=4))[0][1] == bytes([ftp.ERR_FILE_NOT_FOUND])
-    # ResetSessions closes the sender's sessions (a file being written dropped, unread)
+    # ResetSessions closes the sender's sessions; a file written is handed over, as
+    # ArduPilot's close hands it over (one not written whole is refused by its own checks)
     s.ask(request(3, ftp.OP_CREATE, b"@SYS/in.bin", session=5))
     s.ask(request(4, ftp.OP_WRITE, b"abc", session=5))
-    assert s.ask(request(5, ftp.OP_RESET))[0][0][2] == ftp.ACK
-    assert s.ask(request(6, ftp.OP_TERMINATE, session=5))[0][0][2] == ftp.ACK and s.written == []
+    assert s.ask(request(5, ftp.OP_RESET))[0][0][2] == ftp.ACK and s.written == [(b"abc", 255, 190)]
+    assert s.ask(request(6, ftp.OP_TERMINATE, session=5))[0][0][2] == ftp.ACK and len(s.written) == 1
+
+
+def test_a_written_file_whose_terminate_was_lost_is_handed_over_when_its_session_closes() -> None:
+    # pymavlink's put sends TerminateSession once: lost, the file is not lost with it
+    s = Served()
+    s.ask(request(0, ftp.OP_CREATE, b"@SYS/in.bin", session=1))
+    s.ask(request(1, ftp.OP_WRITE, b"whole", session=1))
+    s.clock.t += ftp.SESSION_KILL_S - 1
+    s.server.tick()
+    assert s.written == []  # not yet: its ground station may still close it
+    s.clock.t += 2
+    s.server.tick()  # idle for SESSION_KILL_S: closed, handed over
+    assert s.written == [(b"whole", 255, 190)]
+    # taken over by another session while every slot is busy (and this one idle)
+    s.ask(request(2, ftp.OP_CREATE, b"@SYS/in.bin", session=2))
+    s.ask(request(3, ftp.OP_WRITE, b"next", session=2))
+    for k in range(3, 3 + ftp.MAX_SESSIONS - 1):
+        s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))
+    s.clock.t += ftp.SESSION_TIMEOUT_S + 0.1
+    s.refuse = "not whole"
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))
+    assert s.written[-1] == (b"next", 255, 190) and s.texts == ["FTP: @SYS/in.bin refused: not whole"]
+
+
+def test_a_reply_is_sent_again_only_while_fresh_and_a_refusal_for_want_of_room_never() -> None:
+    s = Served()
+    first = s.ask(request(1, ftp.OP_CRC, b"@SYS/data.bin"))
+    s.content = b"changed"
+    assert s.ask(request(1, ftp.OP_CRC, b"@SYS/data.bin")) == first  # sent again at once: the same reply
+    s.clock.t += ftp.SESSION_TIMEOUT_S + 0.1
+    again = s.ask(request(1, ftp.OP_CRC, b"@SYS/data.bin"))  # long after: a new request, answered anew
+    assert struct.unpack("<I", again[0][1]) == (ftp.ardupilot_crc32(b"changed"),)
+    for k in range(ftp.MAX_SESSIONS):
+        s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))
+    assert s.ask(request(7, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][1] == bytes([ftp.ERR_NO_SESSIONS])
+    s.clock.t += ftp.SESSION_TIMEOUT_S + 0.1
+    assert s.ask(request(7, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][0][2] == ftp.ACK  # room now
+
+
+def test_replies_are_rationed_so_no_peer_can_make_the_vehicle_flood() -> None:
+    s = Served()
+    s.content = bytes(239 * 1000)
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    sent = sum(len(s.ask(request(k, ftp.OP_BURST, offset=0))) for k in range(1, 200))  # all at one instant
+    assert sent <= ftp.REPLY_BURST and s.server.unanswered > 0
+    # a second later, a whole burst again, its last reply marked complete (asked for more, it goes on)
+    s.clock.t += 1.0
+    replies = s.ask(request(500, ftp.OP_BURST, offset=0))
+    assert len(replies) == ftp.BURST_PACKETS and replies[-1][0][5] == 1
+    # over a second, the ration's refill and no more
+    total = 0
+    for k in range(100):
+        s.clock.t += 0.01
+        total += len(s.ask(request(600 + k, ftp.OP_BURST, offset=0)))
+    assert total <= ftp.REPLIES_PER_S * 1.0 + ftp.REPLY_BURST
+
+
+def test_a_size_past_the_payload_is_refused_as_ardupilot_refuses_it() -> None:
+    s = Served()
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    assert s.ask(request(1, ftp.OP_READ, size=240))[0][1] == bytes([ftp.ERR_INVALID_DATA_SIZE])
+    assert s.ask(request(2, ftp.OP_READ, size=239))[0][0][2] == ftp.ACK and s.opened == 1
 
 
 def test_directories_list_from_the_offset_and_end_with_end_of_file() -> None:
@@ -340,7 +404,9 @@ def test_an_option_a_file_cannot_take_is_refused_and_said() -> None:
     s = Served()
     ((head, data),) = s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin?x=1"))
     assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL]))
-    assert s.texts == ["FTP: @SYS/data.bin?x=1 not read: no options, got 'x=1'"]
+    assert s.texts == ["FTP: @SYS/data.bin?x=1 not read: no such option, got 'x=1'"] and s.opened == 0
+    # a file that takes no options: the name with them is no such file (ArduPilot compares it whole)
+    assert s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/in.bin?x=1", session=1))[0][1] == bytes([ftp.ERR_FILE_NOT_FOUND])
 
 
 def test_replies_and_scraps_get_no_answer() -> None:
@@ -376,7 +442,7 @@ def wp(seq: int, north_e7: int = 1000, hold_s: float = 0.0) -> MissionItem:
 
 def test_a_list_file_by_hand_and_back() -> None:
     ms, changed, _ = lists()
-    assert ms.packed(MISSION, 0, 0) == b"\x3d\x76\x00\x00\x00\x00\x00\x00\x00\x00"  # magic 0x763d, no items
+    assert ms.packed(MISSION) == b"\x3d\x76\x00\x00\x00\x00\x00\x00\x00\x00"  # magic 0x763d, no items
     items = [wp(0), wp(1), wp(2, 2000, hold_s=3.0)]
     assert ms.upload_packed(MISSION, list_file(items), 255, 190, 1.0) is None
     assert [(i.seq, i.x, i.param1) for i in ms.lists[MISSION]] == [
@@ -385,7 +451,7 @@ def test_a_list_file_by_hand_and_back() -> None:
         (2, LAT + 2000, 3.0),
     ]
     assert changed[-1][0] == MISSION and ms.changes[-1].sysid == 255
-    data = ms.packed(MISSION, 0, 0)
+    data = ms.packed(MISSION)
     assert len(data) == 10 + 3 * 38 == ms.packed_size(MISSION)
     # item 0 is home now (as a download's), its `current` 1 (no item under way after an upload)
     unit = mav.MAVLink_mission_item_int_message

@@ -1,0 +1,240 @@
+"""The companion (`lfctl follow`) and the ground station (`lfctl gcs`) against peers that are
+not lfctl's simulator: cut packets, floods, unknown message ids, commands answered
+IN_PROGRESS and never again, acks from the wrong component, missions asked for without end,
+parameter lists with holes. Nothing a peer sends may end, hang or lock them, or lose data."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mav
+from support import loopback_udp
+
+from lfctl.errors import ConfigError, LinkTimeoutError, MissionProtocolError
+from lfctl.link import companion as companion_module
+from lfctl.link.companion import COMPANION_COMPID, POLL_MAX_MESSAGES, Companion, answer_name
+from lfctl.link.gcs import FORMATION_NAMES_MAX, FleetTable, GroundStation
+from lfctl.link.mission import MissionItem
+from lfctl.link.params import save_param_file
+from lfctl.link.port import MavPort
+
+pytestmark = pytest.mark.integration
+ROVER = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+
+
+def position(k: int) -> bytes:
+    return mav.MAVLink_local_position_ned_message(k, float(k), 0.0, 0.0, 0.0, 0.0, 0.0).pack(ROVER)
+
+
+def test_a_cut_packet_swallows_none_of_the_datagrams_after_it() -> None:
+    # pymavlink keeps one parse buffer across datagrams: a 2-byte v2 header announcing 255
+    # bytes took the next ten positions with it (and a cut packet before each COMMAND_ACK
+    # made a rover that answered everything look silent)
+    port = MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID)
+    got: list[int] = []
+    with loopback_udp() as s:
+        for data in (position(1), b"\xfd\xff", *(position(k) for k in range(2, 12))):
+            s.sendto(data, port.connection.port.getsockname())
+        deadline = time.monotonic() + 5.0
+        while len(got) < 11 and time.monotonic() < deadline:
+            m = port.recv(0.1)
+            if m is not None:
+                got.append(m.time_boot_ms)
+    port.close()
+    assert got == list(range(1, 12)) and port.junk == 1
+
+
+def test_unknown_message_ids_are_counted_and_nothing_is_kept_of_them() -> None:
+    # pymavlink's connection kept the last message of every type name (UNKNOWN_<id>: 2**24)
+    port = MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID)
+    with loopback_udp() as s:
+        for k in range(200):  # (within the kernel's socket buffer)
+            msg_id = 70_000 + k
+            frame = bytes([0xFD, 4, 0, 0, k % 256, 1, 1]) + msg_id.to_bytes(3, "little") + b"\x01\x02\x03\x04\x00\x00"
+            s.sendto(frame, port.connection.port.getsockname())
+        s.sendto(position(7), port.connection.port.getsockname())
+        deadline = time.monotonic() + 5.0
+        m = None
+        while m is None and time.monotonic() < deadline:
+            m = port.recv(0.1)
+    kept = list(port.connection.messages)
+    port.close()
+    assert m is not None and m.time_boot_ms == 7 and port.junk == 200
+    assert not any(k.startswith("UNKNOWN") for k in kept)
+
+
+def test_a_flood_is_read_a_bounded_amount_a_step_and_said_as_such() -> None:
+    # 40 heartbeats a datagram from another system, faster than a step reads: each poll takes
+    # at most POLL_MAX_MESSAGES, so the heartbeat and the setpoints keep their rate
+    companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
+    other = mav.MAVLink(None, srcSystem=42, srcComponent=1)
+    beat = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 0, 4, 3)
+    datagram = b"".join(beat.pack(other) for _ in range(40))
+    with loopback_udp() as s:
+        address = companion.port.connection.port.getsockname()
+        for _ in range(100):
+            s.sendto(datagram, address)
+        s.sendto(position(3), address)
+        time.sleep(0.2)
+        first = companion.poll(0.0)
+        reads = [first]
+        while companion.vehicle.t_s is None and len(reads) < 50:
+            reads.append(companion.poll(0.1 * len(reads)))
+    companion.close()
+    assert first <= POLL_MAX_MESSAGES and companion.overloaded >= 1
+    assert companion.vehicle.north_m == 3.0  # the rover's message behind the flood, not lost
+    assert companion.other_autopilots == {42} and not companion.vehicle.heard  # not the rover's
+
+
+class _AnsweredOnce:
+    """A port whose autopilot answers the first COMMAND_LONG IN_PROGRESS, then nothing; it
+    records each read's timeout."""
+
+    def __init__(self) -> None:
+        self.sysid, self.sent, self.timeouts, self.junk = 1, 0, [], 0
+        self.codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+
+    def send(self, msg: Any) -> None:
+        self.sent += msg.get_type() == "COMMAND_LONG"
+
+    def recv(self, timeout_s: float = 0.0) -> Any:
+        self.timeouts.append(timeout_s)
+        if len(self.timeouts) > 1:
+            time.sleep(timeout_s)  # nothing more comes: a read waits as long as it was told
+            return None
+        ack = mav.MAVLink_command_ack_message(
+            mav.MAV_CMD_DO_SET_MODE, mav.MAV_RESULT_IN_PROGRESS, 0, 0, 1, COMPANION_COMPID
+        )
+        return self.codec.decode(bytearray(ack.pack(self.codec)))
+
+
+def test_an_answer_in_progress_and_then_silence_waits_without_spinning(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the wait read with a zero timeout in a tight loop (100 % CPU for 10 s a request)
+    monkeypatch.setattr(companion_module, "IN_PROGRESS_MAX_S", 0.5)
+    port = _AnsweredOnce()
+    result = Companion(port, 1).request(mav.MAV_CMD_DO_SET_MODE, 1, 15, try_s=0.1, tries=3)  # type: ignore[arg-type]
+    assert result == mav.MAV_RESULT_IN_PROGRESS and port.sent == 1
+    assert len(port.timeouts) < 40  # each read waits for the answer (about 10 of 0.05 s; it spun)
+    assert answer_name(result) == "answered IN_PROGRESS, no final answer within 0.5 s"
+
+
+# -- the ground station against a scripted vehicle -------------------------------------------
+@contextlib.contextmanager
+def vehicle(answer: Callable[[Any, Callable[[Any], None]], None]) -> Iterator[GroundStation]:
+    """A vehicle (system 1) on loopback UDP that beats once a second and hands each message
+    it gets to ``answer(m, send)``; a ground station connected to it."""
+    port = MavPort.open("udpin:127.0.0.1:0", 1, 1)
+    stop = threading.Event()
+
+    def run() -> None:
+        beat = 0.0
+        while not stop.is_set():
+            if time.monotonic() - beat >= 1.0:
+                beat = time.monotonic()
+                port.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 4, 4, 3))
+            m = port.recv(0.02)
+            if m is not None:
+                answer(m, send)
+
+    def send(x: Any) -> None:  # a message from the autopilot, or bytes packed by someone else
+        port.connection.write(x) if isinstance(x, bytes) else port.send(x)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    g = GroundStation(f"udpout:127.0.0.1:{port.connection.port.getsockname()[1]}", target_system=1, timeout_s=3.0)
+    try:
+        g.wait_heartbeat()
+        yield g
+    finally:
+        g.close()
+        stop.set()
+        thread.join(timeout=5)
+        port.close()
+
+
+def test_an_ack_from_another_component_or_to_another_station_is_not_the_answer() -> None:
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() != "COMMAND_LONG":
+            return
+        camera = mav.MAVLink_command_ack_message(m.command, mav.MAV_RESULT_DENIED, 0, 0, 255, 190)
+        send(camera.pack(mav.MAVLink(None, srcSystem=1, srcComponent=100)))  # the vehicle's camera's, to us
+        send(mav.MAVLink_command_ack_message(m.command, mav.MAV_RESULT_DENIED, 0, 0, 42, 42))  # to someone else
+        send(mav.MAVLink_command_ack_message(m.command, mav.MAV_RESULT_IN_PROGRESS, 50, 0, 255, 190))
+        send(mav.MAVLink_command_ack_message(m.command, mav.MAV_RESULT_ACCEPTED, 0, 0, 255, 190))
+
+    with vehicle(answer) as g:
+        assert g.arm() == mav.MAV_RESULT_ACCEPTED  # past the stranger's DENIED and the IN_PROGRESS
+
+
+def test_a_vehicle_asking_for_an_item_without_end_ends_the_upload_with_an_error() -> None:
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() in ("MISSION_COUNT", "MISSION_ITEM_INT"):
+            send(mav.MAVLink_mission_request_int_message(255, 190, 0, 0))
+
+    items = [MissionItem(k, 3, 16, x=129_600_000 + k, y=776_700_000) for k in range(3)]
+    with vehicle(answer) as g, pytest.raises(MissionProtocolError, match="asked for item 0 again and again"):
+        g.upload(items)
+
+
+def test_a_vehicle_refusing_every_count_before_asking_is_named_not_called_silent() -> None:
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() == "MISSION_COUNT":
+            send(mav.MAVLink_mission_ack_message(255, 190, mav.MAV_MISSION_ERROR, 0))
+
+    items = [MissionItem(k, 3, 16, x=129_600_000 + k, y=776_700_000) for k in range(2)]
+    with (
+        vehicle(answer) as g,
+        pytest.raises(MissionProtocolError, match="before any item was asked for: MAV_MISSION_ERROR"),
+    ):
+        g.upload(items, item_timeout_s=0.1, restarts=2)
+
+
+def _params(send: Callable[[Any], None], indexes: range, count: int) -> None:
+    for k in indexes:
+        send(mav.MAVLink_param_value_message(f"P{k}".encode(), float(k), mav.MAV_PARAM_TYPE_REAL32, count, k))
+
+
+def test_a_parameter_lost_from_the_list_is_asked_for_by_index() -> None:
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() == "PARAM_REQUEST_LIST":
+            _params(send, range(10), 11)  # index 10 lost on the way
+        elif m.get_type() == "PARAM_REQUEST_READ" and m.param_index == 10:
+            _params(send, range(10, 11), 11)
+
+    with vehicle(answer) as g:
+        assert g.param_list() == {f"P{k}": float(k) for k in range(11)}
+
+
+def test_a_parameter_never_sent_ends_the_list_with_its_index_named() -> None:
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() == "PARAM_REQUEST_LIST":
+            _params(send, range(10), 11)
+        elif m.get_type() == "PARAM_REQUEST_READ":
+            _params(send, range(0, 1), 11)  # (only ever P0 again: no progress)
+
+    with vehicle(answer) as g, pytest.raises(LinkTimeoutError, match="got 10 of 11 parameters; still missing index 10"):
+        g.param_list()
+
+
+def test_parameters_that_could_not_be_loaded_back_are_not_saved(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"2 parameters could not be loaded back.*'A B' = 1.0, 'NANP' = nan"):
+        save_param_file({"WP_SPEED": 2.0, "A B": 1.0, "NANP": math.nan}, tmp_path / "p.parm")
+    assert not (tmp_path / "p.parm").exists()
+
+
+def test_the_watch_keeps_a_bounded_number_of_formation_values() -> None:
+    table = FleetTable()
+    codec = mav.MAVLink(None, srcSystem=1, srcComponent=COMPANION_COMPID)
+    for k in range(200):
+        m = mav.MAVLink_named_value_float_message(0, f"n{k}".encode(), 1.0)
+        table.add(codec.decode(bytearray(m.pack(codec))), 0.0)
+    m = mav.MAVLink_named_value_float_message(0, b"n0", 2.0)
+    table.add(codec.decode(bytearray(m.pack(codec))), 1.0)
+    assert len(table.rows[1].formation) == FORMATION_NAMES_MAX and table.rows[1].formation["n0"] == 2.0
