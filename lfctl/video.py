@@ -47,11 +47,8 @@ class VideoSource:
             try:
                 mode = os.stat(target).st_mode
             except (OSError, ValueError):
-                from lfctl.data import footage_dir
-
                 raise ConfigError(
-                    f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
-                    f" the shipped clips, by name: {footage_dir()})"
+                    f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
                 ) from None
             if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
                 raise ConfigError(

@@ -32,7 +32,7 @@ def test_a_silent_stream_is_an_error_after_the_timeout(monkeypatch: pytest.Monke
 
 
 def test_shipped_clips_are_found_by_name_and_named_when_missing(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     from lfctl.data import footage_dir, resolve_footage
 
@@ -43,5 +43,7 @@ def test_shipped_clips_are_found_by_name_and_named_when_missing(
     assert resolve_footage("bikes.mp4") == "bikes.mp4"  # a file here is the user's
     for given in ("0", "rtsp://10.0.0.2/cam", "clips/bikes.mp4", "nosuch.mp4"):
         assert resolve_footage(given) == given
-    with pytest.raises(ConfigError, match=f"the shipped clips, by name: {footage_dir()}"):
-        VideoSource("nosuch.mp4")
+    from lfctl.cli import main
+
+    assert main(["track", "nosuch.mp4", "--max-frames", "1"]) == 2
+    assert f"or a shipped clip by name, from {footage_dir()}" in capsys.readouterr().err

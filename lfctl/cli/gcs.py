@@ -72,8 +72,6 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Connect, do the action, print the outcome."""
-    from pymavlink.dialects.v20 import ardupilotmega as mav
-
     from lfctl.data import resolve_mission
     from lfctl.errors import ConfigError
     from lfctl.link.gcs import IN_PROGRESS_MAX_S, GroundStation, result_name
@@ -128,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
             t0 = time.monotonic()
             result = gcs.set_mode(args.mode) if action == "mode" else gcs.arm(action == "arm")
             name = result_name(result)
-            if result == mav.MAV_RESULT_IN_PROGRESS:
+            if name == "MAV_RESULT_IN_PROGRESS":
                 name += f" (no final answer within {IN_PROGRESS_MAX_S:g} s)"
             print(f"{action} {args.mode}: {name}" if action == "mode" else f"{action}: {name}")
             if name != "MAV_RESULT_ACCEPTED":

@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from lfctl.config import BannerConfig, CameraConfig, load_config
-    from lfctl.data import resolve_footage, resolve_scenario
+    from lfctl.data import footage_dir, resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.video import VideoSource
     from lfctl.vision.draw import annotate
@@ -75,6 +76,11 @@ def run(args: argparse.Namespace) -> int:
     roi = parse_roi(args.roi) if args.roi else None
     args.source = resolve_footage(args.source)
     _check_paths(args.source, args.out)
+    if "://" not in args.source and not args.source.isdigit() and not os.path.lexists(args.source):
+        raise ConfigError(
+            f"video source {args.source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
+            f" or a shipped clip by name, from {footage_dir()})"
+        )
     scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
     writer = None
