@@ -3,7 +3,10 @@
 COMMAND_LONG -> COMMAND_ACK round trip (median, p99) over loopback UDP against (a) a vehicle
 endpoint streaming its full telemetry while a second endpoint streams too, and (b) a minimal
 pymavlink responder that only answers, in the same run; the time to upload a 100-item mission
-at 0 % and 20 % datagram loss; how many datagrams per second one endpoint parses.
+at 0 % and 20 % datagram loss; the parameters and that mission fetched by the messages
+(PARAM_REQUEST_LIST, the mission protocol) and as files over MAVLink FTP (pymavlink's
+``mavftp``, the client MAVProxy's is), at 0 % and 20 % loss; how many datagrams per second
+one endpoint parses.
 """
 
 from __future__ import annotations
@@ -12,8 +15,10 @@ import random
 import select
 import socket
 import statistics
+import tempfile
 import threading
 import time
+from pathlib import Path
 
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -99,6 +104,51 @@ def minimal_responder() -> tuple[int, threading.Event]:
     return port, stop
 
 
+def fetch_both_ways(loss: float) -> dict[str, tuple[float, float, bool]]:
+    """The parameters and a 100-item mission fetched from one endpoint (``loss`` of the
+    datagrams lost both ways): by PARAM_REQUEST_LIST and the mission protocol (lfctl's ground
+    station), and as ``@PARAM/param.pck`` and ``@MISSION/mission.dat`` over MAVLink FTP
+    (pymavlink's client); seconds each way, and whether the FTP copies are the vehicle's."""
+    from pymavlink.mavftp import MAVFTP
+
+    eps, stop, th = start_endpoints(1, loss)
+    ep = eps[0]
+    out: dict[str, tuple[float, float, bool]] = {}
+    try:
+        ep.store_mission(local_mission([(float(k % 10), float(k // 10)) for k in range(100)], HOME))
+        g = GroundStation(f"udpout:127.0.0.1:{port_of(ep)}", timeout_s=10.0)
+        g.wait_heartbeat()
+        t0 = time.perf_counter()
+        g.param_list()
+        params_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        g.download()
+        mission_s = time.perf_counter() - t0
+        g.close()
+        conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port_of(ep)}", source_system=255, source_component=190)
+        conn.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        conn.wait_heartbeat(timeout=5)
+        client = MAVFTP(conn, 1, 1)
+        with tempfile.TemporaryDirectory() as tmp:
+            for name, remote, want in (
+                ("parameters", "@PARAM/param.pck", ep.param_server.packed),
+                ("100-item mission", "@MISSION/mission.dat", lambda: ep.missions.packed(0)),
+            ):
+                local = Path(tmp) / remote.rsplit("/", 1)[1]
+                t0 = time.perf_counter()
+                client.cmd_get([remote, str(local)])
+                client.process_ftp_reply("get", timeout=30)
+                dt = time.perf_counter() - t0
+                whole = local.exists() and local.read_bytes() == want()
+                out[name] = (round(params_s if name == "parameters" else mission_s, 3), round(dt, 3), whole)
+        conn.close()
+    finally:
+        stop.set()
+        th.join()
+        ep.link.close()
+    return out
+
+
 def pct(values: list[float], q: float) -> float:
     return sorted(values)[min(len(values) - 1, int(q * len(values)))]
 
@@ -153,6 +203,18 @@ def main(quick: bool = False) -> None:
         results[f"upload_100_items_s_loss_{int(loss * 100)}pct"] = dt
     print()
     print_table(("datagram loss (both ways)", "100-item upload s", "complete"), up_rows)
+    # the parameters and the mission fetched by the messages and as files (MAVLink FTP)
+    ftp_rows = []
+    for loss in (0.0, 0.2):
+        got = fetch_both_ways(loss)
+        ftp_rows += [(f"{name}, {int(loss * 100)} % loss", *got[name]) for name in ("parameters", "100-item mission")]
+        for name, (by_messages, by_ftp, whole) in got.items():
+            key = name.split()[-1]
+            results[f"fetch_{key}_messages_s_loss_{int(loss * 100)}pct"] = by_messages
+            results[f"fetch_{key}_ftp_s_loss_{int(loss * 100)}pct"] = by_ftp
+            results[f"fetch_{key}_ftp_whole_loss_{int(loss * 100)}pct"] = whole
+    print()
+    print_table(("fetched", "by the messages s", "by MAVLink FTP s", "FTP copy whole"), ftp_rows)
     # parse rate: datagrams per second one endpoint reads, decodes and handles
     udp = UdpLink(("127.0.0.1", 0))
     ep = VehicleEndpoint("v", 1, udp, HOME)

@@ -37,6 +37,9 @@ PARAM_READS_PER_ROUND = 200
 #: item is asked for again; one asked for without end is a fault), plus a few
 UPLOAD_SENDS_PER_ITEM = 5
 UPLOAD_SENDS_SPARE = 20
+#: a downloaded item not come is asked for again after this long at least, s (four round
+#: trips of the count's request if longer: a slow radio link's answers are not overtaken)
+DOWNLOAD_RESEND_S = 0.25
 #: the formation values (NAMED_VALUE_FLOAT) kept per vehicle in `lfctl gcs watch`
 FORMATION_NAMES_MAX = 16
 
@@ -479,7 +482,9 @@ class GroundStation:
         Parameters
         ----------
         retries : int
-            Requests for the count and for each item, sharing :attr:`timeout_s`.
+            Requests for the count, sharing :attr:`timeout_s`. Each item is asked for again
+            every few round trips (at least :data:`DOWNLOAD_RESEND_S`) for up to
+            :attr:`timeout_s`.
         mission_type : int
             MAV_MISSION_TYPE: the mission, the fence or the rally points.
 
@@ -488,10 +493,11 @@ class GroundStation:
         LinkTimeoutError
             No MISSION_COUNT came.
         MissionProtocolError
-            An item never came.
+            An item never came within :attr:`timeout_s`.
         """
         count = None
         for _ in range(retries):
+            sent_at = time.monotonic()
             self.send(mav.MAVLink_mission_request_list_message(self.target, 1, mission_type))
             try:
                 count = int(
@@ -508,23 +514,27 @@ class GroundStation:
             raise LinkTimeoutError(
                 "MISSION_COUNT", sysid=self.target, timeout_s=self.timeout_s, detail=f"{retries} requests"
             )
+        # an item not come is asked for again after a few round trips (the count's), at least
+        # DOWNLOAD_RESEND_S, at most a retry's share of the timeout, until the timeout
+        resend_s = min(self.timeout_s / retries, max(DOWNLOAD_RESEND_S, 4 * (time.monotonic() - sent_at)))
         items: list[MissionItem] = []
         while len(items) < count:
             seq = len(items)
-            for _ in range(retries):
+            deadline, asked = time.monotonic() + self.timeout_s, 0
+            m = None
+            while m is None and time.monotonic() < deadline:
                 self.send(mav.MAVLink_mission_request_int_message(self.target, 1, seq, mission_type))
-                try:
+                asked += 1
+                with contextlib.suppress(LinkTimeoutError):
                     m = self.wait(
                         ("MISSION_ITEM_INT",),
-                        timeout_s=self.timeout_s / retries,
+                        timeout_s=min(resend_s, max(0.0, deadline - time.monotonic())),
                         where=lambda m, s=seq: m.seq == s and m.mission_type == mission_type and _to_us(m),
                     )
-                    break
-                except LinkTimeoutError:
-                    continue
-            else:
+            if m is None:
                 raise MissionProtocolError(
-                    f"mission download: expected item {seq}, received none after {retries} requests",
+                    f"mission download: expected item {seq}, received none within {self.timeout_s:g} s "
+                    f"({asked} requests)",
                     expected_seq=seq,
                 )
             items.append(
