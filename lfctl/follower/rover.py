@@ -68,10 +68,8 @@ class RoverRun:
     #: that it was in GUIDED and armed: the setpoints it carried out (in another mode, or
     #: disarmed, ArduPilot ignores them)
     guided: int = 0
-    #: what the link brought that was passed over: bytes or packets that were no MAVLink of
-    #: the dialect, and odometry that was not a number or past any ground vehicle's
-    junk: int = 0
-    passed_over: int = 0
+    junk: int = 0  # what the link brought that was no MAVLink of the dialect (cut, corrupt, unknown ids)
+    passed_over: int = 0  # odometry messages passed over: not a number, or past any ground vehicle's
     interrupted: bool = False  # ended by Ctrl-C (SIGINT) or SIGTERM
 
     def summary(self) -> str:
@@ -257,8 +255,7 @@ class _LinkWatch:
         self.companion, self.name = companion, name
         self.beating = True
         self.others: set[int] = set()
-        self.overloaded = companion.overloaded
-        self.junk = companion.port.junk
+        self.said_overload = self.said_junk = False  # (what came while starting is said too)
 
     def check(self, t_s: float) -> bool:
         """Say what changed; whether the rover's HEARTBEAT is fresh."""
@@ -285,20 +282,20 @@ class _LinkWatch:
                 c.target,
             )
             self.others.add(sysid)
-        if c.overloaded > self.overloaded and self.overloaded == 0:
+        if c.overloaded and not self.said_overload:
+            self.said_overload = True
             log.warning(
                 "%s: the link brings more than a step reads (a flood?): the rest waits for the next step; "
                 "the heartbeat and the setpoints keep their rate",
                 name,
             )
-        self.overloaded = c.overloaded
-        if c.port.junk > self.junk and self.junk == 0:
+        if c.port.junk and not self.said_junk:
+            self.said_junk = True
             log.warning(
                 "%s: passed over a packet that is no MAVLink of the dialect (cut, corrupt, or an unknown "
                 "message id); the closing line counts them",
                 name,
             )
-        self.junk = c.port.junk
         return beating
 
 

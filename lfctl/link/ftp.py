@@ -234,8 +234,8 @@ class FtpServer:
         data = bytes(payload[_HEADER.size : _HEADER.size + min(size, DATA_BYTES)])
         key = (sysid, compid, session)
         now = self._clock()
-        self._tokens = min(REPLY_BURST, self._tokens + (now - self._tokens_t) * REPLIES_PER_S)
-        self._tokens_t = now
+        self._tokens = min(REPLY_BURST, self._tokens + max(0.0, now - self._tokens_t) * REPLIES_PER_S)
+        self._tokens_t = now  # (a clock set back refills nothing and takes nothing)
         if self._tokens < 1.0:
             self.unanswered += 1  # as lost: the ground station asks again
             return

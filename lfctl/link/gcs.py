@@ -29,10 +29,11 @@ GCS_SYSID = 255
 #: a command answered IN_PROGRESS: the longest wait for its final answer, s
 IN_PROGRESS_MAX_S = 10.0
 #: a parameter list that brings no new parameter for this long asks for the missing ones by
-#: index, at most PARAM_ROUNDS times (PARAM_READS_PER_ROUND requests a round), s
+#: index, PARAM_READS_PER_ROUND at a time (ArduPilot queues 20 reads and drops the rest); it
+#: gives up after PARAM_ROUNDS rounds in a row that brought none, s
 PARAM_GAP_S = 1.0
 PARAM_ROUNDS = 3
-PARAM_READS_PER_ROUND = 200
+PARAM_READS_PER_ROUND = 20
 #: a mission upload stops when the vehicle has asked for this many items per item (a lost
 #: item is asked for again; one asked for without end is a fault), plus a few
 UPLOAD_SENDS_PER_ITEM = 5
@@ -239,11 +240,12 @@ class GroundStation:
     def _ack_of(self, cmd: int) -> Callable[[Any], bool]:
         """Which COMMAND_ACK answers our ``cmd``: the autopilot's (component 1, as it was sent
         there; a camera's or a companion's is not), addressed to us (0: a MAVLink 1 ack)."""
-        me = (self.port.sysid, self.port.compid)
+        me = self.port.sysid, self.port.compid
 
         def ours(m: Any) -> bool:
-            to = (getattr(m, "target_system", 0), getattr(m, "target_component", 0))
-            return m.command == cmd and m.get_srcComponent() == 1 and (to == (0, 0) or to == me)
+            to_system, to_component = getattr(m, "target_system", 0), getattr(m, "target_component", 0)
+            to_us = to_system == 0 or (to_system == me[0] and to_component in (0, me[1]))
+            return m.command == cmd and m.get_srcComponent() == 1 and to_us
 
         return ours
 
@@ -346,10 +348,11 @@ class GroundStation:
         """
         self.send(mav.MAVLink_param_request_list_message(self.target, 1))
         listed = lambda m: m.param_index != 0xFFFF  # noqa: E731 (0xFFFF: an answer to a set or read by name)
-        first = self.wait(("PARAM_VALUE",), where=listed)
+        first = self.wait(("PARAM_VALUE",), where=lambda m: listed(m) and m.param_index < m.param_count)
         count = int(first.param_count)
         got: dict[int, tuple[str, float]] = {int(first.param_index): (_pid(first), float(first.param_value))}
-        rounds, progress_at = 0, time.monotonic()
+        rounds, progress_at, before = 0, time.monotonic(), 0
+        asked: set[int] = set()  # the round of reads under way
         while len(got) < count:
             try:
                 m = self.wait(("PARAM_VALUE",), timeout_s=max(0.0, progress_at + PARAM_GAP_S - time.monotonic()))
@@ -358,10 +361,14 @@ class GroundStation:
             if m is not None and listed(m) and m.param_index < count and m.param_index not in got:
                 got[int(m.param_index)] = (_pid(m), float(m.param_value))
                 progress_at = time.monotonic()
-                continue
-            if time.monotonic() < progress_at + PARAM_GAP_S:
+                asked.discard(int(m.param_index))
+                if asked or before == 0:
+                    continue  # (the list goes on, or the round's answers do)
+            elif time.monotonic() < progress_at + PARAM_GAP_S:
                 continue  # a parameter sent again, or another's: no progress, but the list may go on
             missing = [k for k in range(count) if k not in got]
+            rounds = 0 if len(got) > before else rounds + 1  # (rounds in a row that brought none)
+            before = len(got)
             if rounds >= PARAM_ROUNDS:
                 shown = ", ".join(map(str, missing[:10])) + (", ..." if len(missing) > 10 else "")
                 raise LinkTimeoutError(
@@ -369,10 +376,12 @@ class GroundStation:
                     sysid=self.target,
                     timeout_s=PARAM_GAP_S,
                     detail=f"got {len(got)} of {count} parameters; still missing index {shown} after "
-                    f"{PARAM_ROUNDS} requests of each; {CHECK_LINK}",
+                    f"{PARAM_ROUNDS} rounds of requests that brought none; {CHECK_LINK}",
                 )
-            rounds += 1
-            for k in missing[:PARAM_READS_PER_ROUND]:
+            if not missing:
+                break
+            asked = set(missing[:PARAM_READS_PER_ROUND])  # (the next round as soon as one is answered whole)
+            for k in sorted(asked):
                 self.send(mav.MAVLink_param_request_read_message(self.target, 1, b"", k))
             progress_at = time.monotonic()
         return {name: value for _k, (name, value) in sorted(got.items())}
@@ -412,9 +421,10 @@ class GroundStation:
         LinkTimeoutError
             It stayed silent through every restart.
         """
-        sends = 0
         stray: int | None = None  # a refusal that came before anything was asked for
+        strays = 0
         for _attempt in range(restarts + 1):
+            sends = 0
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
             asked = False
             last: MissionItem | None = None  # the item sent last: a refusal is of it
@@ -430,7 +440,7 @@ class GroundStation:
                     break  # restart from MISSION_COUNT
                 if m.get_type() == "MISSION_ACK":
                     if m.type == mav.MAV_MISSION_ERROR and not asked:
-                        stray = m.type
+                        stray, strays = m.type, strays + 1
                         continue  # a stray item's answer, from before our count
                     if m.type != mav.MAV_MISSION_ACCEPTED:
                         result = _result_name("MAV_MISSION_RESULT", m.type)
@@ -461,7 +471,7 @@ class GroundStation:
             result = _result_name("MAV_MISSION_RESULT", stray)
             raise MissionProtocolError(
                 f"{MISSION_TYPES.get(mission_type, 'list')} refused by system {self.target} before any item was "
-                f"asked for: {result}, to each of {restarts + 1} counts",
+                f"asked for: {result} ({strays} times in {restarts + 1} counts, and nothing asked for)",
                 result=result,
             )
         raise LinkTimeoutError(

@@ -138,9 +138,15 @@ def _check_serial_device(connect: str) -> None:
     )
 
 
-#: the most datagrams one :meth:`MavPort.recv` reads looking for a message before it gives
-#: its caller back control (a flood of junk does not hold the caller)
+#: the most datagrams, and the longest time, one :meth:`MavPort.recv` reads looking for a
+#: message before it gives its caller back control (a flood of junk does not hold the caller)
 MAX_DATAGRAMS_PER_RECV = 256
+MAX_RECV_S = 0.02
+#: a datagram longer than this is junk, not parsed (a vehicle's are at most a few MAVLink
+#: packets; pymavlink parses byte by byte: 64 KB of junk cost it 40 ms)
+MAX_DATAGRAM_BYTES = 8 * 1024
+#: MAVLink's start bytes (2, 1): a datagram is parsed from the first of them
+_STARTS = (b"\xfd", b"\xfe")
 #: the most peers a ``udpin`` port answers at once (each that sent a good packet, the latest
 #: kept: pymavlink's own list grows with every sender)
 MAX_UDP_CLIENTS = 8
@@ -316,9 +322,7 @@ class MavPort:
         elif self._udp:
             m = self._recv_udp(timeout_s)
         elif self.connection is not None:
-            m = self.connection.recv_match(blocking=timeout_s > 0, timeout=timeout_s if timeout_s > 0 else None)
-            if m is not None and not self._good(m):
-                m = None
+            m = self._recv_stream(timeout_s)
         else:
             if self.pump is not None:
                 self.pump()
@@ -350,8 +354,33 @@ class MavPort:
         self._seq[src] = m.get_seq()
         return True
 
+    def _recv_stream(self, timeout_s: float) -> Any | None:
+        """The next message on a stream connection (serial, TCP: a packet may come in
+        pieces), waiting up to ``timeout_s``; at most :data:`MAX_RECV_S` past that is spent
+        on bytes that make no message."""
+        conn = self.connection
+        deadline = time.monotonic() + timeout_s
+        give_up = deadline + MAX_RECV_S
+        while True:
+            m = conn.recv_msg()
+            if m is not None and self._good(m):
+                return m
+            now = time.monotonic()
+            if now >= give_up or (m is None and now >= deadline):
+                return None
+            if m is None:
+                conn.select(min(0.05, max(0.0, deadline - now)))
+
     def _take_datagram(self, data: bytes, parser: Any) -> int:
-        """The messages of one datagram into the queue, read on their own; how many."""
+        """The messages of one datagram into the queue, read on their own, from its first
+        start byte; how many."""
+        starts = [i for i in (data.find(b) for b in _STARTS) if i >= 0]
+        if len(data) > MAX_DATAGRAM_BYTES or not starts:
+            self.junk += 1
+            return 0
+        if min(starts):
+            self.junk += 1  # (bytes before the first packet)
+            data = data[min(starts) :]
         _reset_parser(parser)
         got = [m for m in (parser.parse_buffer(data) or []) if self._good(m)]
         if len(parser.buf) > parser.buf_index:  # a packet cut short at the datagram's end
@@ -367,8 +396,12 @@ class MavPort:
         :data:`MAX_UDP_CLIENTS`); a ``udpbcast`` one the last of them."""
         conn = self.connection
         deadline = time.monotonic() + timeout_s
+        give_up = deadline + MAX_RECV_S
         for _ in range(MAX_DATAGRAMS_PER_RECV):
-            wait = max(0.0, deadline - time.monotonic())
+            now = time.monotonic()
+            if now >= give_up:
+                return None
+            wait = max(0.0, deadline - now)
             try:
                 ready, _, _ = select.select([conn.port], [], [], wait)
                 if not ready:

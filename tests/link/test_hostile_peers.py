@@ -212,6 +212,24 @@ def test_a_parameter_lost_from_the_list_is_asked_for_by_index() -> None:
         assert g.param_list() == {f"P{k}": float(k) for k in range(11)}
 
 
+def test_many_parameters_lost_are_asked_for_as_fast_as_ardupilot_takes_reads() -> None:
+    # ArduPilot queues 20 PARAM_REQUEST_READs and drops the rest: 100 lost of 300 take rounds
+    window = {"t": 0.0, "n": 0}
+
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        if m.get_type() == "PARAM_REQUEST_LIST":
+            _params(send, range(200), 300)  # 200..299 lost
+        elif m.get_type() == "PARAM_REQUEST_READ":
+            if time.monotonic() - window["t"] > 0.2:
+                window["t"], window["n"] = time.monotonic(), 0
+            window["n"] += 1
+            if window["n"] <= 20:
+                _params(send, range(m.param_index, m.param_index + 1), 300)
+
+    with vehicle(answer) as g:
+        assert g.param_list() == {f"P{k}": float(k) for k in range(300)}
+
+
 def test_a_parameter_never_sent_ends_the_list_with_its_index_named() -> None:
     def answer(m: Any, send: Callable[[Any], None]) -> None:
         if m.get_type() == "PARAM_REQUEST_LIST":
@@ -238,3 +256,95 @@ def test_the_watch_keeps_a_bounded_number_of_formation_values() -> None:
     m = mav.MAVLink_named_value_float_message(0, b"n0", 2.0)
     table.add(codec.decode(bytearray(m.pack(codec))), 1.0)
     assert len(table.rows[1].formation) == FORMATION_NAMES_MAX and table.rows[1].formation["n0"] == 2.0
+
+
+def _heartbeats(n: int) -> bytes:
+    codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    out = b""
+    for _ in range(n):
+        out += mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 0, 4, 3).pack(codec)
+        codec.seq = (codec.seq + 1) % 256
+    return out
+
+
+def _read_all(port: MavPort, want: int) -> list[Any]:
+    got: list[Any] = []
+    deadline = time.monotonic() + 5.0
+    while len(got) < want and time.monotonic() < deadline:
+        m = port.recv(0.1)
+        if m is not None:
+            got.append(m)
+    return got
+
+
+def test_a_vehicle_on_tcp_is_heard_packets_split_anywhere() -> None:
+    # ArduPilot SITL's tcp:5760: a stream, where a packet may come in pieces (and the port's
+    # own reading of the stream must not pass over senders pymavlink had not registered)
+    import socket
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+    beats = _heartbeats(11)
+    data = beats[: 10 * 21] + b"\x00junk" + beats[10 * 21 :]  # (a v2 heartbeat is 21 bytes)
+
+    def vehicle() -> None:
+        conn, _ = server.accept()
+        for k in range(0, len(data), 7):  # in 7-byte pieces
+            conn.sendall(data[k : k + 7])
+            time.sleep(0.002)
+        time.sleep(2.0)
+        conn.close()
+
+    threading.Thread(target=vehicle, daemon=True).start()
+    port = MavPort.open(f"tcp:127.0.0.1:{server.getsockname()[1]}", 255, 190)
+    try:
+        got = _read_all(port, 11)
+    finally:
+        port.close()
+        server.close()
+    assert [(m.get_type(), m.get_srcSystem()) for m in got] == [("HEARTBEAT", 1)] * 11
+    assert port.lost == 0
+
+
+def test_a_vehicle_on_a_serial_port_is_heard() -> None:
+    # a companion on the rover's telemetry UART: a pseudo-terminal stands in for it
+    import os
+    import pty
+
+    parent, child = pty.openpty()
+    try:
+        import tty
+
+        tty.setraw(child)
+        port = MavPort.open(f"{os.ttyname(child)},115200", 255, 190)
+        try:
+            os.write(parent, _heartbeats(5))
+            got = _read_all(port, 5)
+        finally:
+            port.close()
+    finally:
+        os.close(parent)
+        with contextlib.suppress(OSError):
+            os.close(child)
+    assert [(m.get_type(), m.get_srcSystem()) for m in got] == [("HEARTBEAT", 1)] * 5
+
+
+def test_large_junk_datagrams_are_passed_over_unparsed() -> None:
+    # pymavlink parses byte by byte: 64 KB of junk took it 40 ms a datagram, seconds a read
+    port = MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID)
+    parsed: list[int] = []
+    parse = port.connection.mav.parse_buffer
+    port.connection.mav.parse_buffer = lambda data: parsed.append(len(data)) or parse(data)
+    with loopback_udp() as s:
+        for _ in range(3):
+            s.sendto(b"\xfd" * 60_000, port.connection.port.getsockname())  # start bytes all through
+        s.sendto(b"no start byte here", port.connection.port.getsockname())
+        s.sendto(position(5), port.connection.port.getsockname())
+        deadline = time.monotonic() + 5.0
+        m = None
+        while m is None and time.monotonic() < deadline:
+            m = port.recv(0.1)
+    port.close()
+    assert m is not None and m.time_boot_ms == 5 and port.junk == 4
+    assert parsed == [len(position(5))]  # only the packet was parsed
