@@ -724,6 +724,14 @@ class VehicleEndpoint:
         if self._for_me(m):  # (its target_network is not looked at, as Rover)
             self.ftp.handle(bytes(m.payload), m.get_srcSystem(), m.get_srcComponent())
 
+    def _on_log_request_list(self, m: Any) -> None:
+        """A simulated vehicle keeps no onboard (dataflash) logs, its run goes to the MCAP
+        file: MAVLink's answer for none, one LOG_ENTRY with id 0 and num_logs 0, so a ground
+        station's log list (QGroundControl's Onboard Logs, MAVProxy's `log list`) is empty
+        at once instead of waiting out its timeout."""
+        if self._for_me(m):
+            self.send(mav.MAVLink_log_entry_message(0, 0, 0, 0, 0))
+
     def _send_ftp(self, payload: bytes, sysid: int, compid: int) -> None:
         self.send(mav.MAVLink_file_transfer_protocol_message(0, sysid, compid, list(payload)))
 

@@ -2497,3 +2497,12 @@ def test_mission_current_names_no_item_until_auto_and_the_navigation_item_a_set_
     assert current() == 3 and bench.ep.current_seq == 2  # told: the waypoint; kept: the DO before it
     assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 1) == mav.MAV_RESULT_ACCEPTED
     assert current() == 1
+
+
+def test_a_log_list_is_answered_at_once_with_no_logs(bench: Bench) -> None:
+    # MAVLink's answer when there are none (QGroundControl's Onboard Logs waited out its timeout)
+    bench.send(mav.MAVLink_log_request_list_message(1, 1, 0, 0xFFFF))
+    (entry,) = [m for m in bench.tick() if m.get_type() == "LOG_ENTRY"]
+    assert (entry.id, entry.num_logs, entry.last_log_num, entry.size) == (0, 0, 0, 0)
+    bench.send(mav.MAVLink_log_request_list_message(2, 1, 0, 0xFFFF))  # another vehicle's
+    assert not [m for m in bench.tick() if m.get_type() == "LOG_ENTRY"]
