@@ -525,9 +525,9 @@ def test_a_rover_that_will_not_arm_is_said_with_its_reason_and_the_run_goes_on(
     assert "sent 10 setpoints (the rover in GUIDED and armed for 0)" in capsys.readouterr().out
 
 
-def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
-    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
-) -> None:
+def _follow(rover: VehicleEndpoint, video_path: Any, on_step: Any, max_frames: int | None = None) -> Any:
+    """`follow_rover` with the default scenario's follower on ``rover`` (armed, 20 Hz), from
+    the video at ``video_path``; each step to ``on_step``."""
     from lfctl.config import parse_config
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
@@ -535,9 +535,22 @@ def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
     from lfctl.vision.perception import BannerPerception
 
     cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+    try:
+        with VideoSource(str(video_path)) as video:
+            perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+            settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+            return follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                arm=True, timeout_s=5.0, max_frames=max_frames, on_step=on_step)  # fmt: skip
+    finally:
+        companion.close()
+
+
+def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
     modes: list[int] = []
     with standing_rover() as rover:
-        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
 
         def on_step(step: Any) -> None:
             modes.append(rover.mode)
@@ -546,14 +559,7 @@ def test_a_pilot_taking_the_rover_out_of_guided_is_said_and_not_fought(
             elif len(modes) == 35:  # and the disarm switch
                 rover.set_armed(False)
 
-        try:
-            with VideoSource(str(banner_video(60))) as video:
-                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
-                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
-                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
-                                    arm=True, timeout_s=5.0, max_frames=50, on_step=on_step)  # fmt: skip
-        finally:
-            companion.close()
+        done = _follow(rover, banner_video(60), on_step, max_frames=50)
     assert modes[0] == MODES["GUIDED"] and modes[-1] == MODES["MANUAL"]  # never taken back
     assert 9 <= done.guided < 50  # GUIDED and armed until the switch reached it (a heartbeat a second)
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
@@ -642,17 +648,11 @@ def test_a_rover_gone_silent_is_said_its_setpoints_not_counted_and_ctrl_c_keeps_
 ) -> None:
     # the rover's HEARTBEAT stops at step 10: the closing line counted every setpoint as
     # carried out on its last word, however old; and Ctrl-C lost the closing line
-    from lfctl.config import parse_config
-    from lfctl.follower.rover import HEARTBEAT_STALE_S, follow_rover
-    from lfctl.follower.stack import formation_settings
+    from lfctl.follower.rover import HEARTBEAT_STALE_S
     from lfctl.link.endpoint import MSG_IDS
-    from lfctl.video import VideoSource
-    from lfctl.vision.perception import BannerPerception
 
-    cfg = parse_config(DEFAULT_SCENARIO, "follow")
     steps: list[float] = []
     with standing_rover() as rover:
-        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
 
         def on_step(step: Any) -> None:
             steps.append(step.t_s)
@@ -661,14 +661,7 @@ def test_a_rover_gone_silent_is_said_its_setpoints_not_counted_and_ctrl_c_keeps_
             if len(steps) > 10 and step.t_s - steps[9] > HEARTBEAT_STALE_S + 3.0:
                 raise KeyboardInterrupt  # the user's Ctrl-C
 
-        try:
-            with VideoSource(str(banner_video(200))) as video:
-                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
-                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
-                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
-                                    arm=True, timeout_s=5.0, on_step=on_step)  # fmt: skip
-        finally:
-            companion.close()
+        done = _follow(rover, banner_video(200), on_step)
     assert done.interrupted and done.summary().endswith("; interrupted") and done.steps == len(steps)
     # carried out while its heartbeat was fresh (10 steps, its last heartbeat up to 1 s later,
     # then HEARTBEAT_STALE_S more at 20 Hz), not in the seconds after
