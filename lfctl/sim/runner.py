@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
+import logging
 import math
 import time
 from collections.abc import Callable, Iterator
@@ -48,6 +49,8 @@ from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
 
 __all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -450,6 +453,8 @@ def run_scenario(
     if law not in CONTROLLERS:
         raise ConfigError(f"controller must be one of {', '.join(map(repr, CONTROLLERS))}, got {law!r}")
     check_video(cfg, video)
+    for problem in cfg.slots_out_of_view():
+        log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:
         with _recording(record_to, cfg, sim, live) as recorder:
