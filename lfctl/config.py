@@ -891,29 +891,6 @@ class Config:
         """
         return dataclasses.replace(self.banner, aruco_id=self.tag_ids()[name])
 
-    def slots_out_of_view(self) -> list[str]:
-        """Each follower whose slot puts its target where its sensor cannot see it, said: a
-        bearing past half the camera's horizontal field of view (camera sensing) or the truth
-        sensor's (``sensing.fov_deg``), or a range past ``sensing.max_range_m`` (truth
-        sensing). Such a follower, once in its slot, loses its target (a formation may mean
-        it: a scenario that tests the search); a run says so as it starts."""
-        out = []
-        camera = self.sim.sensing == "camera"
-        half = self.camera.hfov_rad / 2 if camera else self.sensing.fov_rad / 2
-        for name, slot in self.slots().items():
-            if abs(slot.bearing_rad) > half:
-                view = "the camera's view" if camera else "the truth sensor's field of view"
-                out.append(
-                    f"{name}'s slot puts {slot.target} at {math.degrees(slot.bearing_rad):g} deg, outside "
-                    f"{view} (+-{math.degrees(half):g} deg): once in its slot it will not see its target"
-                )
-            if not camera and slot.range_m > self.sensing.max_range_m:
-                out.append(
-                    f"{name}'s slot keeps {slot.target} at {slot.range_m:g} m, past the truth sensor's "
-                    f"sensing.max_range_m ({self.sensing.max_range_m:g} m): once in its slot it will not see its target"
-                )
-        return out
-
     def slots(self) -> dict[str, Slot]:
         """Each follower's target, range and bearing: its own keys, else the formation shape."""
         f = self.formation

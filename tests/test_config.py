@@ -215,34 +215,3 @@ def test_a_bad_value_is_named_as_the_scenario_file_writes_it(value: object, writ
     from lfctl.config import toml_value
 
     assert toml_value(value) == written
-
-
-def test_a_slot_its_follower_cannot_see_from_is_named() -> None:
-    from lfctl.config import parse_config
-
-    text = """[sim]
-sensing = "camera"
-[camera]
-hfov_deg = 62
-[[vehicles]]
-name = "leader"
-role = "leader"
-[[vehicles]]
-name = "f1"
-role = "follower"
-north_m = -1.5
-bearing_deg = 40
-range_m = 1.5
-"""
-    (said,) = parse_config(text, "t").slots_out_of_view()
-    assert (
-        said
-        == "f1's slot puts leader at 40 deg, outside the camera's view (+-31 deg): once in its slot it will not see its target"
-    )
-    truth = text.replace('"camera"', '"truth"').replace("range_m = 1.5", "range_m = 12") + "[sensing]\nfov_deg = 60\n"
-    said = parse_config(truth, "t").slots_out_of_view()
-    assert [s.split(",")[0] for s in said] == [
-        "f1's slot puts leader at 40 deg",
-        "f1's slot keeps leader at 12 m",
-    ] and "past the truth sensor's sensing.max_range_m (10 m)" in said[1]
-    assert parse_config(text.replace("bearing_deg = 40", "bearing_deg = 30"), "t").slots_out_of_view() == []

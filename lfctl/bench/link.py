@@ -11,6 +11,7 @@ one endpoint parses.
 
 from __future__ import annotations
 
+import contextlib
 import random
 import select
 import socket
@@ -114,9 +115,11 @@ def fetch_both_ways(loss: float) -> dict[str, tuple[float, float, bool]]:
     eps, stop, th = start_endpoints(1, loss)
     ep = eps[0]
     out: dict[str, tuple[float, float, bool]] = {}
+    stack = contextlib.ExitStack()  # the clients, closed however the fetch ends
     try:
         ep.store_mission(local_mission([(float(k % 10), float(k // 10)) for k in range(100)], HOME))
         g = GroundStation(f"udpout:127.0.0.1:{port_of(ep)}", timeout_s=10.0)
+        stack.callback(g.close)
         g.wait_heartbeat()
         t0 = time.perf_counter()
         g.param_list()
@@ -124,8 +127,8 @@ def fetch_both_ways(loss: float) -> dict[str, tuple[float, float, bool]]:
         t0 = time.perf_counter()
         g.download()
         mission_s = time.perf_counter() - t0
-        g.close()
         conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port_of(ep)}", source_system=255, source_component=190)
+        stack.callback(conn.close)
         conn.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         conn.wait_heartbeat(timeout=5)
         client = MAVFTP(conn, 1, 1)
@@ -141,8 +144,8 @@ def fetch_both_ways(loss: float) -> dict[str, tuple[float, float, bool]]:
                 dt = time.perf_counter() - t0
                 whole = local.exists() and local.read_bytes() == want()
                 out[name] = (round(params_s if name == "parameters" else mission_s, 3), round(dt, 3), whole)
-        conn.close()
     finally:
+        stack.close()
         stop.set()
         th.join()
         ep.link.close()

@@ -338,8 +338,9 @@ class GroundStation:
         """Every parameter and its value (PARAM_REQUEST_LIST), in the vehicle's order. As
         MAVProxy and QGroundControl fetch them: the indexes still missing when the list
         stalls for :data:`PARAM_GAP_S` are asked for one by one (PARAM_REQUEST_READ by index),
-        :data:`PARAM_ROUNDS` times; a parameter sent again (another ground station's set)
-        is no progress.
+        :data:`PARAM_READS_PER_ROUND` at a time, the next round once one is answered whole
+        or stalls; :data:`PARAM_ROUNDS` rounds in a row that bring none end it. A parameter
+        sent again (another ground station's set) is no progress.
 
         Raises
         ------
@@ -422,7 +423,7 @@ class GroundStation:
             It stayed silent through every restart.
         """
         stray: int | None = None  # a refusal that came before anything was asked for
-        strays = 0
+        strays, ever_asked = 0, False
         for _attempt in range(restarts + 1):
             sends = 0
             self.send(mav.MAVLink_mission_count_message(self.target, 1, len(items), mission_type))
@@ -464,14 +465,15 @@ class GroundStation:
                         f"({sends} items sent for {len(items)}): stopped",
                         received_seq=m.seq,
                     )
-                asked, last = True, items[m.seq]
+                asked = ever_asked = True
+                last = items[m.seq]
                 quiet_until = time.monotonic() + item_timeout_s * 3
                 self._send_item(last, mission_type)
-        if stray is not None:
+        if stray is not None and not ever_asked:
             result = _result_name("MAV_MISSION_RESULT", stray)
             raise MissionProtocolError(
                 f"{MISSION_TYPES.get(mission_type, 'list')} refused by system {self.target} before any item was "
-                f"asked for: {result} ({strays} times in {restarts + 1} counts, and nothing asked for)",
+                f"asked for: {result} ({strays} times in {restarts + 1} counts)",
                 result=result,
             )
         raise LinkTimeoutError(
@@ -493,8 +495,8 @@ class GroundStation:
         ----------
         retries : int
             Requests for the count, sharing :attr:`timeout_s`. Each item is asked for again
-            every few round trips (at least :data:`DOWNLOAD_RESEND_S`) for up to
-            :attr:`timeout_s`.
+            after a few round trips (at least :data:`DOWNLOAD_RESEND_S`), then after twice as
+            long each time up to ``timeout_s / retries``, for up to :attr:`timeout_s`.
         mission_type : int
             MAV_MISSION_TYPE: the mission, the fence or the rally points.
 
@@ -524,23 +526,30 @@ class GroundStation:
             raise LinkTimeoutError(
                 "MISSION_COUNT", sysid=self.target, timeout_s=self.timeout_s, detail=f"{retries} requests"
             )
-        # an item not come is asked for again after a few round trips (the count's), at least
-        # DOWNLOAD_RESEND_S, at most a retry's share of the timeout, until the timeout
-        resend_s = min(self.timeout_s / retries, max(DOWNLOAD_RESEND_S, 4 * (time.monotonic() - sent_at)))
+        # an item not come is asked for again after a few round trips (the count's, then each
+        # item's answered at once), at least DOWNLOAD_RESEND_S; each time again for one item
+        # it waits twice as long, up to a retry's share of the timeout (a slow link is not
+        # flooded with requests it then answers twice), until the timeout
+        cap = max(DOWNLOAD_RESEND_S, self.timeout_s / retries)
+        resend_s = min(cap, max(DOWNLOAD_RESEND_S, 4 * (time.monotonic() - sent_at)))
         items: list[MissionItem] = []
         while len(items) < count:
             seq = len(items)
-            deadline, asked = time.monotonic() + self.timeout_s, 0
+            deadline, asked, wait_s = time.monotonic() + self.timeout_s, 0, resend_s
             m = None
             while m is None and time.monotonic() < deadline:
+                sent_at = time.monotonic()
                 self.send(mav.MAVLink_mission_request_int_message(self.target, 1, seq, mission_type))
                 asked += 1
                 with contextlib.suppress(LinkTimeoutError):
                     m = self.wait(
                         ("MISSION_ITEM_INT",),
-                        timeout_s=min(resend_s, max(0.0, deadline - time.monotonic())),
+                        timeout_s=min(wait_s, max(0.0, deadline - time.monotonic())),
                         where=lambda m, s=seq: m.seq == s and m.mission_type == mission_type and _to_us(m),
                     )
+                wait_s = min(2 * wait_s, cap)
+            if m is not None and asked == 1:  # answered at once: this link's round trip now
+                resend_s = min(cap, max(DOWNLOAD_RESEND_S, 4 * (time.monotonic() - sent_at)))
             if m is None:
                 raise MissionProtocolError(
                     f"mission download: expected item {seq}, received none within {self.timeout_s:g} s "

@@ -5,6 +5,7 @@ so their protocol code does not care which."""
 
 from __future__ import annotations
 
+import logging
 import os
 import re
 import select
@@ -25,6 +26,8 @@ __all__ = ["CHECK_LINK", "STATUSTEXT_MAX_BYTES", "DatagramLink", "MavPort", "pac
 
 #: the longest line of text sent (in 50-byte STATUSTEXT chunks), bytes
 STATUSTEXT_MAX_BYTES = 200
+
+log = logging.getLogger(__name__)
 
 #: what to check when a vehicle does not answer
 CHECK_LINK = "is the vehicle up, the address right, and, if it signs its link, the passphrase the same?"
@@ -225,6 +228,9 @@ class MavPort:
         self.link = link
         self.pump = pump
         self.junk = 0
+        #: the connection's peer closed it (a TCP link's end of file or reset): nothing more
+        #: will come (said once in the log)
+        self.closed = False
         self.received = 0
         self.lost = 0
         self._seq: dict[tuple[int, int], int] = {}
@@ -234,6 +240,9 @@ class MavPort:
             self.mav.robust_parsing = True
             connection.post_message = _lean_post_message
             self._udp = isinstance(connection, mavutil.mavudp)
+            # pymavlink prints "EOF on TCP socket" and tries again on every read once the peer
+            # has closed (150,000 lines a second): the port notes it once and reads no more
+            connection.handle_eof = connection.handle_disconnect = self._peer_closed
         else:
             self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=compid)
             self.mav.robust_parsing = True
@@ -354,15 +363,29 @@ class MavPort:
         self._seq[src] = m.get_seq()
         return True
 
+    def _peer_closed(self) -> None:
+        if not self.closed:
+            self.closed = True
+            log.warning("MAVLink link closed by its peer (end of file): nothing more comes on it")
+
     def _recv_stream(self, timeout_s: float) -> Any | None:
         """The next message on a stream connection (serial, TCP: a packet may come in
         pieces), waiting up to ``timeout_s``; at most :data:`MAX_RECV_S` past that is spent
-        on bytes that make no message."""
+        on bytes that make no message. On a link its peer closed, none (after the wait)."""
+        if self.closed:
+            time.sleep(max(0.0, timeout_s))
+            return None
         conn = self.connection
         deadline = time.monotonic() + timeout_s
         give_up = deadline + MAX_RECV_S
         while True:
-            m = conn.recv_msg()
+            try:
+                m = conn.recv_msg()
+            except OSError:  # (a reset: noted by _peer_closed before pymavlink raises it)
+                self._peer_closed()
+                m = None
+            if self.closed:
+                return None
             if m is not None and self._good(m):
                 return m
             now = time.monotonic()

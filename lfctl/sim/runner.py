@@ -48,7 +48,7 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario"]
+__all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario", "slots_out_of_view"]
 
 log = logging.getLogger(__name__)
 
@@ -375,6 +375,52 @@ class LinkTask:
                         self.recorder.event(t_s, ep.name, "armed" if ep.armed else "disarmed")
 
 
+def slots_out_of_view(cfg: Config) -> list[str]:
+    """Each follower whose slot puts its target where its sensor cannot see it, said. With
+    camera sensing: the target's banner not wholly in the picture when the follower holds its
+    slot (the camera's intrinsics and mount, the banner's place and size, as
+    :func:`~lfctl.vision.perception.slot_box` projects it); with truth sensing: a bearing past
+    half ``sensing.fov_deg`` or a range past ``sensing.max_range_m``. Such a follower, once
+    in its slot, loses its target (a scenario may mean it: one that tests the search);
+    :func:`run_scenario` says so as it starts.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+    """
+    from lfctl.vision.banner import BannerGeometry
+    from lfctl.vision.perception import slot_box
+
+    out = []
+    camera = CameraModel.from_config(cfg.camera) if cfg.sim.sensing == "camera" else None
+    for name, slot in cfg.slots().items():
+        where = f"{name}'s slot ({slot.range_m:g} m, {math.degrees(slot.bearing_rad):g} deg from {slot.target})"
+        if camera is not None:
+            box = slot_box(
+                camera, BannerGeometry.from_config(cfg.banner_of(slot.target)), slot.range_m, slot.bearing_rad
+            )
+            inside = box is not None and box[0] >= 0 and box[1] >= 0 and box[0] + box[2] <= camera.width
+            if not (inside and box is not None and box[1] + box[3] <= camera.height):
+                out.append(
+                    f"{where} leaves {slot.target}'s banner out of the {camera.width}x{camera.height} picture "
+                    f"(camera.hfov_deg {math.degrees(cfg.camera.hfov_rad):g}): once in its slot it will not see its target"
+                )
+            continue
+        half = cfg.sensing.fov_rad / 2
+        if abs(slot.bearing_rad) > half:
+            out.append(
+                f"{where} is outside the truth sensor's field of view (+-{math.degrees(half):g} deg): once in "
+                "its slot it will not see its target"
+            )
+        if slot.range_m > cfg.sensing.max_range_m:
+            out.append(
+                f"{where} is past the truth sensor's sensing.max_range_m ({cfg.sensing.max_range_m:g} m): once "
+                "in its slot it will not see its target"
+            )
+    return out
+
+
 def run_scenario(
     cfg: Config,
     *,
@@ -453,7 +499,7 @@ def run_scenario(
     if law not in CONTROLLERS:
         raise ConfigError(f"controller must be one of {', '.join(map(repr, CONTROLLERS))}, got {law!r}")
     check_video(cfg, video)
-    for problem in cfg.slots_out_of_view():
+    for problem in slots_out_of_view(cfg):
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:

@@ -165,8 +165,9 @@ def test_upload_and_download_complete_with_20_percent_loss_both_ways() -> None:
         g.wait_heartbeat()
         items = local_mission([(float(k), float(k % 3)) for k in range(1, 31)], HOME)
         # a round trip is lost with probability 1 - 0.8^2 = 0.36 (the loss follows the
-        # telemetry's wall-clock timing, so it differs between runs): 12 restarts and 16
-        # retries put a failed upload at 0.36^13 = 2e-6 and a download's at 32 x 0.36^16 = 3e-6
+        # telemetry's wall-clock timing, so it differs between runs): 12 restarts put a failed
+        # upload at 0.36^13 = 2e-6; a download asks for an item again every 0.25-0.31 s
+        # (16 retries of 5 s), at least 16 times: 32 x 0.36^16 = 3e-6
         g.upload(items, item_timeout_s=0.5, restarts=12)
         assert [(i.x, i.y) for i in g.download(retries=16)[1:]] == [(i.x, i.y) for i in items[1:]]
         g.close()

@@ -348,3 +348,32 @@ def test_large_junk_datagrams_are_passed_over_unparsed() -> None:
     port.close()
     assert m is not None and m.time_boot_ms == 5 and port.junk == 4
     assert parsed == [len(position(5))]  # only the packet was parsed
+
+
+def test_a_tcp_peer_that_closes_is_noted_once_and_read_no_more(capsys: pytest.CaptureFixture[str]) -> None:
+    # pymavlink printed "EOF on TCP socket" and tried again on every read: 150,000 lines a second
+    import socket
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(1)
+
+    def vehicle() -> None:
+        conn, _ = server.accept()
+        conn.sendall(_heartbeats(2))
+        time.sleep(0.2)
+        conn.close()
+
+    threading.Thread(target=vehicle, daemon=True).start()
+    port = MavPort.open(f"tcp:127.0.0.1:{server.getsockname()[1]}", 255, 190)
+    try:
+        got = _read_all(port, 2)
+        deadline = time.monotonic() + 5.0
+        while not port.closed and time.monotonic() < deadline:
+            assert port.recv(0.05) is None
+        reads = [port.recv(0.01) for _ in range(20)]
+    finally:
+        port.close()
+        server.close()
+    assert len(got) == 2 and port.closed and reads == [None] * 20
+    assert "EOF" not in capsys.readouterr().out
