@@ -277,32 +277,44 @@ def _read_all(port: MavPort, want: int) -> list[Any]:
     return got
 
 
-def test_a_vehicle_on_tcp_is_heard_packets_split_anywhere() -> None:
-    # ArduPilot SITL's tcp:5760: a stream, where a packet may come in pieces (and the port's
-    # own reading of the stream must not pass over senders pymavlink had not registered)
+@contextlib.contextmanager
+def tcp_vehicle(serve: Callable[[Any], None]) -> Iterator[MavPort]:
+    """A vehicle on a local TCP server that runs ``serve(connection)`` once a ground station
+    connects and then closes; a port connected to it."""
     import socket
 
     server = socket.socket()
     server.bind(("127.0.0.1", 0))
     server.listen(1)
-    beats = _heartbeats(11)
-    data = beats[: 10 * 21] + b"\x00junk" + beats[10 * 21 :]  # (a v2 heartbeat is 21 bytes)
 
     def vehicle() -> None:
         conn, _ = server.accept()
-        for k in range(0, len(data), 7):  # in 7-byte pieces
-            conn.sendall(data[k : k + 7])
-            time.sleep(0.002)
-        time.sleep(2.0)
+        serve(conn)
         conn.close()
 
     threading.Thread(target=vehicle, daemon=True).start()
     port = MavPort.open(f"tcp:127.0.0.1:{server.getsockname()[1]}", 255, 190)
     try:
-        got = _read_all(port, 11)
+        yield port
     finally:
         port.close()
         server.close()
+
+
+def test_a_vehicle_on_tcp_is_heard_packets_split_anywhere() -> None:
+    # ArduPilot SITL's tcp:5760: a stream, where a packet may come in pieces (and the port's
+    # own reading of the stream must not pass over senders pymavlink had not registered)
+    beats = _heartbeats(11)
+    data = beats[: 10 * 21] + b"\x00junk" + beats[10 * 21 :]  # (a v2 heartbeat is 21 bytes)
+
+    def serve(conn: Any) -> None:
+        for k in range(0, len(data), 7):  # in 7-byte pieces
+            conn.sendall(data[k : k + 7])
+            time.sleep(0.002)
+        time.sleep(2.0)
+
+    with tcp_vehicle(serve) as port:
+        got = _read_all(port, 11)
     assert [(m.get_type(), m.get_srcSystem()) for m in got] == [("HEARTBEAT", 1)] * 11
     assert port.lost == 0
 
@@ -352,28 +364,15 @@ def test_large_junk_datagrams_are_passed_over_unparsed() -> None:
 
 def test_a_tcp_peer_that_closes_is_noted_once_and_read_no_more(capsys: pytest.CaptureFixture[str]) -> None:
     # pymavlink printed "EOF on TCP socket" and tried again on every read: 150,000 lines a second
-    import socket
-
-    server = socket.socket()
-    server.bind(("127.0.0.1", 0))
-    server.listen(1)
-
-    def vehicle() -> None:
-        conn, _ = server.accept()
+    def serve(conn: Any) -> None:
         conn.sendall(_heartbeats(2))
         time.sleep(0.2)
-        conn.close()
 
-    threading.Thread(target=vehicle, daemon=True).start()
-    port = MavPort.open(f"tcp:127.0.0.1:{server.getsockname()[1]}", 255, 190)
-    try:
+    with tcp_vehicle(serve) as port:
         got = _read_all(port, 2)
         deadline = time.monotonic() + 5.0
         while not port.closed and time.monotonic() < deadline:
             assert port.recv(0.05) is None
         reads = [port.recv(0.01) for _ in range(20)]
-    finally:
-        port.close()
-        server.close()
     assert len(got) == 2 and port.closed and reads == [None] * 20
     assert "EOF" not in capsys.readouterr().out

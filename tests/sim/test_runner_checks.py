@@ -2,23 +2,22 @@
 
 from __future__ import annotations
 
+from support import LEADER_AND_FOLLOWER
+
 from lfctl.config import parse_config
 from lfctl.sim.runner import slots_out_of_view
 
-SCENARIO = """[sim]
+SCENARIO = (
+    """[sim]
 sensing = "camera"
 [camera]
 hfov_deg = 62
-[[vehicles]]
-name = "leader"
-role = "leader"
-[[vehicles]]
-name = "f1"
-role = "follower"
-north_m = -1.5
-bearing_deg = 30
+"""
+    + LEADER_AND_FOLLOWER
+    + """bearing_deg = 30
 range_m = 1.5
 """
+)
 
 
 def test_a_slot_whose_banner_leaves_the_picture_is_named() -> None:
