@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import logging
 import math
 import time
 from typing import TYPE_CHECKING, Any
@@ -15,6 +16,8 @@ if TYPE_CHECKING:
     from lfctl.vision.camera_model import CameraModel
 
 from lfctl.cli.options import connection, integer, number
+
+log = logging.getLogger(__name__)
 
 #: the setpoint rates `lfctl follow` takes, Hz
 RATE_HZ = (1.0, 100.0)
@@ -298,8 +301,9 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
     from lfctl.video import VideoSource
+    from lfctl.vision.banner import BannerGeometry
     from lfctl.vision.camera_model import CameraModel
-    from lfctl.vision.perception import BannerPerception
+    from lfctl.vision.perception import BannerPerception, banner_in_picture
 
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
     live = live_address(args.live, cfg.live.foxglove, "--live")
@@ -318,6 +322,15 @@ def run(args: argparse.Namespace) -> int:
         camera = dataclasses.replace(cfg.camera, width_px=w, height_px=h)
         banner = cfg.banner_of(slot.target)  # with ArUco tags, the target's own id
         perception = BannerPerception.from_config(camera, banner, (range_m, bearing_rad), kind=camera.tracker)
+        if not banner_in_picture(perception.camera, BannerGeometry.from_config(banner), range_m, bearing_rad):
+            log.warning(
+                "the slot (%g m, %g deg) leaves the target's banner out of the %dx%d picture: once there "
+                "the follower will not see its target (a wider lens, camera.hfov_deg, or a smaller bearing)",
+                range_m,
+                math.degrees(bearing_rad),
+                w,
+                h,
+            )
         view = None
         if live is not None or stream_to is not None:
             view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)

@@ -390,18 +390,15 @@ def slots_out_of_view(cfg: Config) -> list[str]:
         The scenario.
     """
     from lfctl.vision.banner import BannerGeometry
-    from lfctl.vision.perception import slot_box
+    from lfctl.vision.perception import banner_in_picture
 
     out = []
     camera = CameraModel.from_config(cfg.camera) if cfg.sim.sensing == "camera" else None
     for name, slot in cfg.slots().items():
         where = f"{name}'s slot ({slot.range_m:g} m, {math.degrees(slot.bearing_rad):g} deg from {slot.target})"
         if camera is not None:
-            box = slot_box(
-                camera, BannerGeometry.from_config(cfg.banner_of(slot.target)), slot.range_m, slot.bearing_rad
-            )
-            inside = box is not None and box[0] >= 0 and box[1] >= 0 and box[0] + box[2] <= camera.width
-            if not (inside and box is not None and box[1] + box[3] <= camera.height):
+            banner = BannerGeometry.from_config(cfg.banner_of(slot.target))
+            if not banner_in_picture(camera, banner, slot.range_m, slot.bearing_rad):
                 out.append(
                     f"{where} leaves {slot.target}'s banner out of the {camera.width}x{camera.height} picture "
                     f"(camera.hfov_deg {math.degrees(cfg.camera.hfov_rad):g}): once in its slot it will not see its target"

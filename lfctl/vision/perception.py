@@ -30,7 +30,7 @@ from lfctl.vision.pose import MarkerPose, paper_pose, pnp_pose, to_vehicle_frame
 from lfctl.vision.track_state import RelativeMeasurement, TrackStatus
 from lfctl.vision.tracker import Tracker, TrackerSettings, TrackState, tracker_kind
 
-__all__ = ["BannerPerception", "Perception", "slot_box"]
+__all__ = ["BannerPerception", "Perception", "banner_in_picture", "slot_box"]
 
 #: a bearing-only measurement from the tracked window counts for this much of the window's quality
 WINDOW_QUALITY = 0.3
@@ -85,6 +85,26 @@ def slot_box(camera: CameraModel, banner: BannerGeometry, range_m: float, bearin
     u, v, depth = seen
     side = camera.K[0, 0] * banner.panel_size_m / depth
     return int(round(u - side / 2)), int(round(v - side / 2)), max(1, int(round(side))), max(1, int(round(side)))
+
+
+def banner_in_picture(camera: CameraModel, banner: BannerGeometry, range_m: float, bearing_rad: float) -> bool:
+    """Whether the target's banner shows wholly in the picture when the follower holds its
+    slot (:func:`slot_box`): a follower whose slot leaves it out loses its target there.
+
+    Parameters
+    ----------
+    camera : CameraModel
+        The follower's camera.
+    banner : BannerGeometry
+        The target's banner.
+    range_m, bearing_rad : float
+        The slot: range (m) and bearing (rad, clockwise positive) of the target.
+    """
+    box = slot_box(camera, banner, range_m, bearing_rad)
+    if box is None:
+        return False
+    x, y, w, h = box
+    return x >= 0 and y >= 0 and x + w <= camera.width and y + h <= camera.height
 
 
 class BannerPerception:

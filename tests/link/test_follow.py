@@ -668,3 +668,14 @@ def test_a_rover_gone_silent_is_said_its_setpoints_not_counted_and_ctrl_c_keeps_
     assert 10 <= done.guided <= 10 + (1.0 + HEARTBEAT_STALE_S) * 20 + 5 and done.steps - done.guided >= 30
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("no HEARTBEAT from the rover (system 1) for 3 s" in t for t in said), said
+
+
+def test_a_slot_the_camera_cannot_see_from_is_said_at_the_start(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a 40 deg slot with the default 62 deg lens: the banner is out of the picture there
+    with standing_rover() as rover:
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}", "--camera",
+                   str(banner_video(5)), "--bearing", "40", "--max-frames", "3", "--timeout", "5"])  # fmt: skip
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert rc == 0 and any(t.startswith("the slot (1.5 m, 40 deg) leaves the target's banner out of") for t in said)
