@@ -93,12 +93,8 @@ def banner_in_picture(camera: CameraModel, banner: BannerGeometry, range_m: floa
 
     Parameters
     ----------
-    camera : CameraModel
-        The follower's camera.
-    banner : BannerGeometry
-        The target's banner.
-    range_m, bearing_rad : float
-        The slot: range (m) and bearing (rad, clockwise positive) of the target.
+    camera, banner, range_m, bearing_rad
+        As :func:`slot_box` takes them.
     """
     box = slot_box(camera, banner, range_m, bearing_rad)
     if box is None:
