@@ -34,7 +34,7 @@ from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError
 from lfctl.frames import HALF_EARTH_M, on_earth
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
-from lfctl.link.ftp import FtpFile, FtpServer
+from lfctl.link.ftp import FtpServer
 from lfctl.link.gcs import result_name, text_field
 from lfctl.link.param_server import ParamServer
 from lfctl.link.params import formation_params
@@ -159,15 +159,7 @@ class Companion:
         self.params = formation_params()
         self._text_id = 0  # the last long text's chunk id
         self.param_server = ParamServer(self.params, self.port.send, self.statustext)
-        self.ftp = FtpServer(
-            {
-                "@PARAM/param.pck": FtpFile(
-                    self.param_server.packed, lambda data, s, c: self.param_server.upload(data), options=True
-                )
-            },
-            self._send_ftp,
-            self.statustext,
-        )
+        self.ftp = FtpServer({"@PARAM/param.pck": self.param_server.ftp_file()}, self._send_ftp, self.statustext)
         #: the vehicle's position and attitude messages passed over for a value that is not a
         #: number or past any ground vehicle's (:data:`PLAUSIBLE`)
         self.passed_over = 0

@@ -739,12 +739,7 @@ class VehicleEndpoint:
         """The files a Rover serves over MAVLink FTP that this vehicle has: its parameters
         (``@PARAM/param.pck``) and its mission, fence and rally points (``@MISSION``)."""
         files = {
-            "@PARAM/param.pck": FtpFile(
-                self.param_server.packed,
-                lambda data, s, c: self.param_server.upload(data),
-                options=True,
-                on_open=self._banner,  # as Rover's (the banner a parameter list starts with)
-            )
+            "@PARAM/param.pck": self.param_server.ftp_file(on_open=self._banner),  # Rover's banner, as a list's
         }
         for mtype, name in MISSION_TYPES.items():
             files[f"@MISSION/{name}.dat"] = FtpFile(
@@ -1275,7 +1270,7 @@ class VehicleEndpoint:
                     self.params[name].value = fresh.value
         self._start()
         self.missions.restart()
-        self.ftp = FtpServer(self._ftp_files(), self._send_ftp, self.statustext)  # its sessions were in RAM
+        self.ftp.reset()  # its sessions were in RAM
         self.mission_version += 1
         self.mav.seq = 0
         self.modes.append((self.t_s, self.mode))

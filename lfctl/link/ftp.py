@@ -46,7 +46,7 @@ import time
 import zlib
 from collections import OrderedDict
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 __all__ = [
     "ACK",
@@ -164,7 +164,6 @@ class _Session:
     content: bytes | None = None  # a file open for reading
     written: bytearray | None = None  # a file open for writing
     file: FtpFile | None = None
-    replies: list[bytes] = field(default_factory=list)
 
     @property
     def open(self) -> bool:
@@ -200,14 +199,19 @@ class FtpServer:
         self._send = send
         self._say = say
         self._clock = clock
+        #: requests that went unanswered because the replies' ration was spent
+        self.unanswered = 0
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every session (a file being written is dropped, not handed over), every
+        kept reply, and the spent ration: as after the vehicle restarts."""
         self._sessions: dict[tuple[int, int, int], _Session] = {}
         # each session's last request (its sequence number and opcode), when, and the replies
         # it got, kept for that request sent again
         self._last: OrderedDict[tuple[int, int, int], tuple[int, int, float, list[bytes]]] = OrderedDict()
         self._tokens = REPLY_BURST
-        self._tokens_t = clock()
-        #: requests that went unanswered because the replies' ration was spent
-        self.unanswered = 0
+        self._tokens_t = self._clock()
 
     def tick(self) -> None:
         """Close the sessions idle for :data:`SESSION_KILL_S` (a written file is handed over):

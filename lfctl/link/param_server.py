@@ -21,6 +21,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
+from lfctl.link.ftp import FtpFile
 from lfctl.link.params import INT8, INT16, INT32, REAL32, Param
 
 __all__ = ["PACKED_MAGIC", "PACKED_MAGIC_DEFAULTS", "ParamServer", "pack_params", "param_text", "unpack_params"]
@@ -290,6 +291,17 @@ class ParamServer:
             raise ValueError(f"param.pck start={opts['start']}: there are {len(self.params)} parameters")
         defaults = self.defaults if opts["withdefaults"] else None
         return pack_params(self.params, defaults, opts["start"], opts["count"])
+
+    def ftp_file(self, on_open: Callable[[], None] | None = None) -> FtpFile:
+        """The table as MAVLink FTP's ``@PARAM/param.pck``: read with its options
+        (:meth:`packed`), written back (:meth:`upload`).
+
+        Parameters
+        ----------
+        on_open : callable, optional
+            Called when the file is opened for reading.
+        """
+        return FtpFile(self.packed, lambda data, _sysid, _compid: self.upload(data), options=True, on_open=on_open)
 
     def upload(self, data: bytes) -> str | None:
         """Set the parameters an uploaded ``@PARAM/param.pck`` names, each as a PARAM_SET
