@@ -456,8 +456,13 @@ class CameraConfig(_Section):
     fy_px: float = _f(0.0, Bound(0, 1e5))  # focal length, px; 0: fx
     cx_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
     cy_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
-    k1: float = _f(0.0, Bound(-10, 10))  # radial distortion (OpenCV model)
+    # lens distortion, OpenCV's model (a calibration's k1, k2, p1, p2, k3 as cv2.calibrateCamera
+    # gives them); the renderer bends its frames by them and the pose takes them out
+    k1: float = _f(0.0, Bound(-10, 10))  # radial distortion
     k2: float = _f(0.0, Bound(-10, 10))  # radial distortion, second coefficient
+    p1: float = _f(0.0, Bound(-1, 1))  # tangential distortion
+    p2: float = _f(0.0, Bound(-1, 1))  # tangential distortion, second coefficient
+    k3: float = _f(0.0, Bound(-100, 100))  # radial distortion, third coefficient
     mount_forward_m: float = _f(0.12, Bound(-10, 10))  # camera ahead of the vehicle's reference point, m
     mount_height_m: float = _f(0.2, Bound(0, 100))  # camera above the ground, m
     pitch_rad: float = _f(0.0, Bound(-60, 60))  # positive: nose up (TOML pitch_deg)

@@ -68,6 +68,8 @@ EFFECTS: dict[str, tuple[bool, Change]] = {
     "JPEG (quality 80)": (False, _cam(jpeg_quality=80)),
     "rolling shutter (30 ms)": (False, _cam(rolling_shutter_s=0.03)),
     "motion blur": (False, _cam(motion_blur=True)),
+    # a webcam's calibration: the frame drawn on the lens's canvas and bent (lfctl.render.lens)
+    "lens distortion (k1 -0.12, k2 0.03)": (False, _cam(k1=-0.12, k2=0.03)),
 }
 
 

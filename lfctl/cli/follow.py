@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import logging
 import math
 import time
@@ -302,7 +301,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.link.signing import signing_key_from_passphrase
     from lfctl.video import VideoSource
     from lfctl.vision.banner import BannerGeometry
-    from lfctl.vision.camera_model import CameraModel
+    from lfctl.vision.camera_model import CameraModel, at_frame_size
     from lfctl.vision.perception import BannerPerception, banner_in_picture
 
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
@@ -319,7 +318,9 @@ def run(args: argparse.Namespace) -> int:
         if first is None:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
         h, w = first.shape[:2]
-        camera = dataclasses.replace(cfg.camera, width_px=w, height_px=h)
+        camera, scaled = at_frame_size(cfg.camera, w, h)
+        if scaled:
+            log.warning("%s (the camera gave another size than [camera] says)", scaled)
         banner = cfg.banner_of(slot.target)  # with ArUco tags, the target's own id
         perception = BannerPerception.from_config(camera, banner, (range_m, bearing_rad), kind=camera.tracker)
         if not banner_in_picture(perception.camera, BannerGeometry.from_config(banner), range_m, bearing_rad):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import math
 import os
@@ -69,6 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.data import footage_dir, resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.video import VideoSource
+    from lfctl.vision.camera_model import at_frame_size
     from lfctl.vision.draw import annotate
     from lfctl.vision.frames import FrameError
     from lfctl.vision.perception import BannerPerception
@@ -95,11 +95,13 @@ def run(args: argparse.Namespace) -> int:
                 if perception is None:
                     h, w = frame.shape[:2]
                     try:
-                        camera = dataclasses.replace(scen.camera if scen else CameraConfig(), width_px=w, height_px=h)
+                        camera, scaled = at_frame_size(scen.camera if scen else CameraConfig(), w, h)
                     except ConfigError as exc:  # (its message names the scenario's key)
                         raise ConfigError(
                             f"{args.source}: its frames are {w}x{h} px, which the tracker cannot take ({exc})"
                         ) from None
+                    if scaled:
+                        print(f"lfctl track: {scaled}", file=sys.stderr)
                     perception = BannerPerception.from_config(
                         camera,
                         _watched_banner(scen) if scen else BannerConfig(),

@@ -923,7 +923,7 @@ class Recorder:
             width=camera.width,
             height=camera.height,
             distortion_model="plumb_bob",
-            D=[float(dist[0]), float(dist[1]), float(dist[2]), float(dist[3]), 0.0],
+            D=[float(d) for d in dist],  # plumb_bob: k1, k2, p1, p2, k3
             K=[float(v) for v in K.ravel()],
             R=[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0],
             P=[float(K[0, 0]), 0.0, float(K[0, 2]), 0.0, 0.0, float(K[1, 1]), float(K[1, 2]), 0.0, 0.0, 0.0, 1.0, 0.0],

@@ -28,6 +28,7 @@ import numpy as np
 from lfctl.config import BannerConfig, CameraConfig, LightKey, SceneConfig
 from lfctl.frames import rot_z, wrap_pi
 from lfctl.render import footage
+from lfctl.render.lens import Lens
 from lfctl.render.rover import EDGE_BGR, MESH, banner_edges, shadow_polygons, sun_direction, sun_light, visible_faces
 from lfctl.render.sensor import Sensor
 from lfctl.render.tag_texture import tag_banner_texture
@@ -223,23 +224,22 @@ class Renderer:
 
     def __init__(self, camera: CameraConfig, banner: BannerConfig, scene: SceneConfig, seed: int) -> None:
         self.cfg = camera
-        self.cam = CameraModel.from_config(camera)
+        true_cam = CameraModel.from_config(camera)
+        #: the camera's lens when it bends (distortion coefficients), else None
+        self.lens = Lens(true_cam) if np.any(true_cam.dist != 0) else None
+        #: the pinhole camera the scene is drawn with: the camera's own, or the lens's canvas
+        self.cam = true_cam if self.lens is None else self.lens.canvas_camera(true_cam)
+        self._fx = float(true_cam.K[0, 0])  # the picture's focal length (blur lengths), px
         self.banner = banner
         self.geometry = BannerGeometry.from_config(banner)
         self.scene = scene
         self.realism = scene.realism == "on"
         self._occ_state: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._pyramids: dict[int, list[np.ndarray]] = {}
-        self._undistort_maps = None
         self._static_props: dict[tuple[int, float], Plane] = {}  # see _props
         self._last_banner_frame: tuple[VehiclePose, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None
         self._tag_seed = seed + 4  # every tag's panel is printed on the same paper
         self._tag_tex: dict[int, np.ndarray] = {}  # by tag id (_tag_texture)
-        w, h = camera.width_px, camera.height_px
-        if abs(camera.k1) > 0 or abs(camera.k2) > 0:
-            # the scene is rendered ideal, then warped so straight lines bend as the lens bends them
-            m1, m2 = cv2.initUndistortRectifyMap(self.cam.K, self.cam.dist, None, self.cam.K, (w, h), cv2.CV_16SC2)
-            self._undistort_maps = (m1, m2)
         if self.realism:
             self._init_real(seed)
         else:
@@ -698,10 +698,10 @@ class Renderer:
             elif poly is not None and target_poly is not None:
                 nearer_polys.append(poly)  # painted after the target: nearer, may hide it
         truth = self._truth(t_s, R, c, follower, target, target_poly, nearer_polys)
-        if self._undistort_maps is not None:
-            img = cv2.remap(img, self._undistort_maps[0], self._undistort_maps[1], cv2.INTER_LINEAR)
+        if self.lens is not None:  # the scene was drawn ideal: bent now as the lens bends it
+            img = self.lens.bend(img)
         if self.cfg.motion_blur and abs(yaw_rate_radps) > 1e-3:
-            length = int(min(31, abs(yaw_rate_radps) / 60.0 * self.cam.K[0, 0]))
+            length = int(min(31, abs(yaw_rate_radps) / 60.0 * self._fx))
             if length >= 2:
                 img = cv2.blur(img, (length, 1))
         img = self._apply_light(img, t_s)
@@ -776,6 +776,14 @@ class Renderer:
         with np.errstate(divide="ignore", invalid="ignore"):
             uv = (K @ cam.T).T
             marks = uv[:, :2] / uv[:, 2:3]
+        if self.lens is not None:
+            # where the lens puts them, and the painted outlines (on the canvas) in the picture
+            ahead = cam[:, 2] > 0
+            if np.any(ahead):
+                marks[ahead] = self.lens.rays_to_image(cam[ahead, :2] / cam[ahead, 2:3])
+            if target_poly is not None:
+                target_poly = self.lens.polygon_to_image(target_poly)
+                nearer = [self.lens.polygon_to_image(p) for p in nearer]
         ban_cam = R @ (centre - c)
         rng = math.hypot(target.north_m - follower.north_m, target.east_m - follower.east_m)
         brg = wrap_pi(math.atan2(target.east_m - follower.east_m, target.north_m - follower.north_m) - follower.yaw_rad)
@@ -1204,10 +1212,10 @@ class Renderer:
             elif target_poly is not None:
                 nearer.extend(polys[0] + polys[1])
         truth = self._truth(t_s, R, c, follower, target, target_poly, nearer)
-        if self._undistort_maps is not None:
-            img = cv2.remap(img, self._undistort_maps[0], self._undistort_maps[1], cv2.INTER_LINEAR)
+        if self.lens is not None:  # the scene was drawn ideal: bent now as the lens bends it
+            img = self.lens.bend(img)
         gain, tint = self.light(t_s)
-        img = self.sensor.expose(img, t_s, gain * np.asarray(tint, float), yaw_rate_radps, float(self.cam.K[0, 0]))
+        img = self.sensor.expose(img, t_s, gain * np.asarray(tint, float), yaw_rate_radps, self._fx)
         return img, truth
 
     def _light_at(self, point: np.ndarray, normal: np.ndarray | None, cloud: tuple[float, float] | None) -> float:

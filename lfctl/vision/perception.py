@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from lfctl.config import BannerConfig, CameraConfig
@@ -234,8 +233,8 @@ class BannerPerception:
         if found is not None:
             return found
         if np.any(cam.dist != 0):  # the paper's estimate is a pinhole one: take the lens out first
-            pts = np.asarray(markers, np.float64).reshape(-1, 1, 2)
-            markers = cv2.undistortPoints(pts, cam.K, cam.dist, P=cam.K).reshape(-1, 2)
+            rays = cam.rays(markers)
+            markers = rays * (cam.K[0, 0], cam.K[1, 1]) + (cam.K[0, 2], cam.K[1, 2])
         return paper_pose(markers, cam.K, side)
 
     def vehicle_relative(self, pose: MarkerPose) -> tuple[float, float, float]:
@@ -270,8 +269,7 @@ class BannerPerception:
         assert track.bbox is not None
         x, y, w, h = track.bbox
         cam = self.camera
-        centre = np.array([[[x + w / 2.0, y + h / 2.0]]], np.float64)
-        u, v = cv2.undistortPoints(centre, cam.K, cam.dist).reshape(2)  # normalised image coordinates
+        u, v = cam.rays(np.array([[x + w / 2.0, y + h / 2.0]]))[0]  # normalised image coordinates
         ray_body = cam.R_body_from_cam @ np.array([u, v, 1.0])
         bearing = math.atan2(ray_body[1], ray_body[0])
         origin = (float(cam.mount_body_m[0]), float(cam.mount_body_m[1]))

@@ -66,6 +66,43 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
     assert 0 < n < 27 and f"{cut} ended after {n} of the 30 frames it declares: the file is cut" in captured.err
 
 
+def test_a_calibration_made_at_another_size_of_the_same_aspect_is_scaled_to_the_frames(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A camera calibrated at 1280 x 960 that gives 640 x 480 frames: its intrinsics are halved
+    (and said), so the pose is as true as with the frames' own; another aspect is refused."""
+    import math
+
+    from lfctl.data import examples_dir
+
+    video = tmp_path / "banner.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
+    truths = []
+    for _t, frame, truth in make_sequence("clear", 3, 20).frames():
+        writer.write(frame)
+        truths.append(truth)
+    writer.release()
+    fx = 320 / math.tan(math.radians(31))  # the rendered camera's: 62 deg across 640 px
+    text = (examples_dir() / "convoy.toml").read_text()
+    calibrated = f"[camera]\nwidth_px = 1280\nheight_px = 960\nfx_px = {2 * fx!r}\ncx_px = 639.5\ncy_px = 479.5\n"
+    scenario = tmp_path / "calibrated.toml"
+    scenario.write_text(text.replace("[camera]\n", calibrated, 1))
+    assert main(["track", str(video), "--scenario", str(scenario)]) == 0
+    captured = capsys.readouterr()
+    assert "camera intrinsics given for 1280x960 scaled by 0.5 to the frames' 640x480" in captured.err
+    recs = [json.loads(line) for line in captured.out.splitlines() if line.startswith("{")]
+    err = np.array(
+        [(r["pose"]["range_m"] - tr.range_m) / tr.range_m for r, tr in zip(recs, truths, strict=True) if "pose" in r]
+    )
+    assert len(err) >= 18 and np.sqrt(np.mean(err**2)) < 0.02
+    scenario.write_text(text.replace("[camera]\n", calibrated.replace("960", "720"), 1))
+    assert main(["track", str(video), "--scenario", str(scenario)]) == 2
+    assert (
+        "camera.fx_px and the other intrinsics hold at camera.width_px x height_px = 1280x720"
+        in capsys.readouterr().err
+    )
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
