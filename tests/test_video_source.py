@@ -3,8 +3,10 @@ file, and a stream that never sends (within STREAM_TIMEOUT_S)."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import socket
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -47,3 +49,114 @@ def test_shipped_clips_are_found_by_name_and_named_when_missing(
 
     assert main(["track", "nosuch.mp4", "--max-frames", "1"]) == 2
     assert f"or a shipped clip by name, from {footage_dir()}" in capsys.readouterr().err
+
+
+class FakeCamera:
+    """A camera making a numbered frame every ``period_s`` (as a driver does, read or not):
+    ``read`` waits for the next one; ``frames`` of them, then the end."""
+
+    def __init__(self, period_s: float = 0.005, frames: int = 10**6, stuck: bool = False) -> None:
+        import time
+
+        self.period_s, self.frames, self.stuck = period_s, frames, stuck
+        self.t0, self.made = time.monotonic(), 0
+        self.opened, self.released = True, False
+
+    def isOpened(self) -> bool:  # OpenCV's name
+        return self.opened
+
+    def read(self) -> tuple[bool, object]:
+        import time
+
+        import numpy as np
+
+        if self.stuck:  # a driver that hangs in a read (an unplugged camera)
+            time.sleep(3600)
+        if self.released:
+            raise AssertionError("read after release: OpenCV would crash here")
+        if self.made >= self.frames:
+            return False, None
+        self.made += 1
+        time.sleep(max(0.0, self.t0 + self.made * self.period_s - time.monotonic()))
+        return True, np.full((4, 4, 3), self.made % 256, np.uint8) if self.made < 256 else np.full(
+            (4, 4, 3), 255, np.uint8
+        )
+
+    def get(self, _prop: int) -> float:
+        return 0.0
+
+    def release(self) -> None:
+        self.released = True
+
+
+def wait_until(done: Callable[[], bool]) -> None:
+    import time
+
+    deadline = time.monotonic() + 30.0
+    while not done():
+        assert time.monotonic() < deadline
+        time.sleep(0.001)
+
+
+def test_a_slow_reader_of_a_live_camera_gets_its_newest_frame_and_the_rest_are_counted() -> None:
+    from lfctl.video import LatestFrames
+
+    camera = FakeCamera(period_s=0.001, frames=200)
+    latest = LatestFrames(camera, timeout_s=5.0)
+    taken: list[int] = []
+    for _ in range(8):  # a reader slower than the camera: five frames made between its reads
+        wait_until(lambda: camera.made >= (taken[-1] if taken else 0) + 5)
+        frame = latest.next()
+        assert frame is not None
+        taken.append(int(frame[0, 0, 0]))
+        assert camera.made - taken[-1] <= 1  # the newest (the reader may be making the next)
+    assert all(b - a >= 4 for a, b in itertools.pairwise(taken))  # never an old one, nor one twice
+    while latest.next() is not None:  # the rest, then the end
+        taken.append(-1)
+    assert latest.stop() and camera.made == 200
+    assert len(taken) + latest.skipped == 200  # every frame taken or counted as passed over
+
+
+def test_a_live_source_is_read_for_its_newest_frame_only_when_asked_and_a_file_never(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    import cv2
+
+    cameras: list[FakeCamera] = []
+
+    def opened(*_args: object) -> FakeCamera:
+        cameras.append(FakeCamera(period_s=0.005, frames=100))
+        return cameras[-1]
+
+    monkeypatch.setattr(cv2, "VideoCapture", opened)
+    with VideoSource("0", latest=True) as camera:
+        assert camera.live
+        first = camera.read()
+        assert first is not None
+        wait_until(lambda: cameras[-1].made >= int(first[0, 0, 0]) + 10)
+        newer = camera.read()
+        assert newer is not None and int(newer[0, 0, 0]) - int(first[0, 0, 0]) >= 9  # (the 10th may be in the making)
+        assert camera.skipped >= 8
+    assert cameras[-1].released
+    with VideoSource("0") as camera:  # not asked: every frame in turn
+        assert [int(camera.read()[0, 0, 0]) for _ in range(3)] == [1, 2, 3] and camera.skipped == 0
+    video = tmp_path / "v.avi"
+    video.write_bytes(b"x")
+    with VideoSource(str(video), latest=True) as clip:  # a file: every frame in turn
+        assert not clip.live and [int(clip.read()[0, 0, 0]) for _ in range(3)] == [1, 2, 3]
+
+
+def test_closing_a_camera_stuck_in_its_driver_returns_and_does_not_release_it_under_the_read(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import time
+
+    import cv2
+
+    monkeypatch.setattr(lfctl.video, "STREAM_TIMEOUT_S", 0.3)
+    stuck = FakeCamera(stuck=True)
+    monkeypatch.setattr(cv2, "VideoCapture", lambda *_a: stuck)
+    t0 = time.monotonic()
+    with VideoSource("0", latest=True) as camera:
+        assert camera.read() is None  # silent for the timeout: the source's end
+    assert time.monotonic() - t0 < 3.0 and not stuck.released

@@ -313,7 +313,7 @@ def run(args: argparse.Namespace) -> int:
     rate_hz = cfg.sim.guidance_rate_hz if args.rate is None else args.rate
     if not RATE_HZ[0] <= rate_hz <= RATE_HZ[1]:  # the scenario's guidance rate may be outside
         raise ConfigError(f"--rate must be within [{RATE_HZ[0]:g}, {RATE_HZ[1]:g}] Hz, got {rate_hz:g}")
-    with VideoSource(args.camera) as video:
+    with VideoSource(args.camera, latest=True) as video:  # a camera's newest frame each step
         first = video.read()
         if first is None:
             raise ConfigError(f"camera {args.camera!r} gave no frame")

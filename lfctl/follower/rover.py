@@ -71,6 +71,9 @@ class RoverRun:
     junk: int = 0  # what the link brought that was no MAVLink of the dialect (cut, corrupt, unknown ids)
     passed_over: int = 0  # odometry messages passed over: not a number, or past any ground vehicle's
     interrupted: bool = False  # ended by Ctrl-C (SIGINT) or SIGTERM
+    #: a live camera's frames passed over for a newer one: it made them faster than the steps
+    #: took them (each step takes the newest)
+    skipped: int = 0
 
     def summary(self) -> str:
         """One line: what was sent, how many the rover took, and how often the target was seen."""
@@ -78,6 +81,8 @@ class RoverRun:
         if self.steps:
             line += f" (the rover in GUIDED and armed for {self.guided})"
         line += f"; {self.frames} frames"
+        if self.skipped:
+            line += f" (and {self.skipped} older ones passed over for the newest)"
         if self.steps:
             line += f"; target tracking in {self.tracking}, occluded in {self.occluded}, lost in {self.lost} steps"
             if self.tracking == 0:
@@ -213,7 +218,7 @@ def follow_rover(
             companion.setpoint(t_s, 0.0, 0.0)
     return RoverRun(
         steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST],
-        obeyed, companion.port.junk, companion.passed_over, interrupted,
+        obeyed, companion.port.junk, companion.passed_over, interrupted, video.skipped,
     )  # fmt: skip
 
 

@@ -446,6 +446,14 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
         " in 60, lost in 0 steps (never seen: check the camera, the banner and its markers' hue)"
     )
     assert RoverRun(0, 0).summary() == "sent 0 setpoints; 0 frames"
+    # a live camera faster than the steps: each step took its newest frame
+    assert (
+        RoverRun(20, 20, 20, skipped=10)
+        .summary()
+        .startswith(
+            "sent 20 setpoints (the rover in GUIDED and armed for 0); 20 frames (and 10 older ones passed over for the newest)"
+        )
+    )
 
 
 @pytest.mark.parametrize(
