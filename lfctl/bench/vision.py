@@ -148,7 +148,7 @@ def run_job(job: tuple[str, int, int, tuple[str, ...]]) -> dict:
                 rec[k]["err"].append(math.nan)
             if k == "full" and st.markers is not None and truth.range_m <= 3.0:
                 for est in (
-                    paper_pose(st.markers, cam.K, seq.banner.side_m),
+                    paper_pose(st.markers, cam.K, seq.banner.side_m, cam.R_body_from_cam),
                     pnp_pose(st.markers, cam.K, None, seq.banner.side_m),
                 ):
                     if est is None:

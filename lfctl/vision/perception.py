@@ -235,7 +235,7 @@ class BannerPerception:
         if np.any(cam.dist != 0):  # the paper's estimate is a pinhole one: take the lens out first
             rays = cam.rays(markers)
             markers = rays * (cam.K[0, 0], cam.K[1, 1]) + (cam.K[0, 2], cam.K[1, 2])
-        return paper_pose(markers, cam.K, side)
+        return paper_pose(markers, cam.K, side, cam.R_body_from_cam)
 
     def vehicle_relative(self, pose: MarkerPose) -> tuple[float, float, float]:
         """Range (m), bearing (rad) and relative heading (rad) between the two vehicles'

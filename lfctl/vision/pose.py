@@ -37,9 +37,11 @@ class MarkerPose:
     centre_cam_m : np.ndarray
         Banner centre in the camera frame (x right, y down, z forward), m.
     range_m : float
-        Horizontal distance from the camera to the banner centre (x-z plane), m.
+        Horizontal distance from the camera to the banner centre, m: in the camera's x-z
+        plane (PnP), or level (the paper's estimator).
     bearing_rad : float
-        Bearing of the banner centre from the camera's axis, clockwise positive, rad.
+        Bearing of the banner centre from the camera's axis, clockwise positive, rad (level,
+        from the body's forward axis, for the paper's estimator).
     rel_heading_rad : float
         The leader's heading minus the camera's, clockwise positive, rad, in the camera's
         x-z plane (the horizontal one for a level camera; :func:`to_vehicle_frame` takes it
@@ -50,8 +52,8 @@ class MarkerPose:
     method : str
         The estimator: ``"pnp"`` or ``"paper"``.
     right_cam : np.ndarray or None
-        The banner's right axis in the camera frame, a unit vector (PnP's; None from the
-        paper's estimator, which measures in the x-z plane only).
+        The banner's right axis in the camera frame, a unit vector (the paper's estimator
+        gives it level: the pairs' horizontal offset).
     """
 
     centre_cam_m: np.ndarray
@@ -63,13 +65,26 @@ class MarkerPose:
     right_cam: np.ndarray | None = None
 
 
-def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose | None:
-    """Eq. 9-11 with the pinhole correction; None when a marker pair is under a pixel tall.
+#: the camera frame (x right, y down, z forward) in the body frame (FRD) of a level camera
+_LEVEL = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+_LEVEL.flags.writeable = False
 
-    The depth comes from each pair's height in pixels over the vertical focal length, the
-    sideways offset from the horizontal one. It takes the camera as level (the paper's rig):
-    pitched, the pairs look shorter and the range comes out short (about 2 % at 10 degrees,
-    5 % at 20), which is why :func:`pnp_pose`, exact at any pitch, is tried first.
+
+def paper_pose(
+    centres: np.ndarray, K: np.ndarray, side_m: float, R_body_from_cam: np.ndarray | None = None
+) -> MarkerPose | None:
+    """Eq. 9-11 with the pinhole correction, measured level; None when a marker pair is under a
+    pixel tall or not one above the other.
+
+    The paper's rig is a level camera, where a vertical marker pair ``E`` tall at horizontal
+    distance ``d`` spans ``f E / d`` pixels (eq. 10, pinhole form). Here each marker's ray is
+    turned into the vehicle's level frame first (``R_body_from_cam``: the mount's pitch), where
+    the same holds whatever the pitch: the pair's two rays climb ``tan_t`` and ``tan_b`` per
+    metre of horizontal distance, so ``d = E / (tan_b - tan_t)``, and each pair stands at ``d``
+    along its rays' horizontal direction (eq. 9 averages the two pairs, eq. 11 takes the
+    range). For a level camera this is the paper's estimate exactly; measured in the camera's
+    own frame, a camera pitched 10 or 20 degrees read ranges about 2 or 5 % short.
+    :func:`pnp_pose` is tried first; this is its fallback.
 
     Parameters
     ----------
@@ -79,27 +94,42 @@ def paper_pose(centres: np.ndarray, K: np.ndarray, side_m: float) -> MarkerPose 
         3x3 camera intrinsic matrix, pixels.
     side_m : float
         Side of the markers' square (the paper's E), m.
+    R_body_from_cam : np.ndarray, optional
+        3x3 rotation from the camera frame to the vehicle's body frame (FRD); None: a level
+        camera looking forward.
     """
     tl, tr, br, bl = np.asarray(centres, float)
+    if np.linalg.norm(bl - tl) < 1.0 or np.linalg.norm(br - tr) < 1.0:
+        return None
+    R = _LEVEL if R_body_from_cam is None else np.asarray(R_body_from_cam, float)
     fx, fy = float(K[0, 0]), float(K[1, 1])
     cx, cy = float(K[0, 2]), float(K[1, 2])
-    h_l, h_r = float(np.linalg.norm(bl - tl)), float(np.linalg.norm(br - tr))
-    if h_l < 1.0 or h_r < 1.0:
+    pts = np.array([tl, tr, br, bl])
+    rays = np.column_stack([(pts[:, 0] - cx) / fx, (pts[:, 1] - cy) / fy, np.ones(4)]) @ R.T  # FRD
+    flat = np.hypot(rays[:, 0], rays[:, 1])  # each ray's horizontal run per unit
+    if np.any(flat < 1e-9):
         return None
-    z_l, z_r = fy * side_m / h_l, fy * side_m / h_r  # eq. 10, pinhole form: a pair's height is vertical
-    u_l, u_r = (tl[0] + bl[0]) / 2 - cx, (tr[0] + br[0]) / 2 - cx
-    x_l, x_r = z_l * u_l / fx, z_r * u_r / fx
-    x_t, z_t = (x_l + x_r) / 2, (z_l + z_r) / 2  # eq. 9
-    v_mid = (tl[1] + tr[1] + br[1] + bl[1]) / 4 - cy
-    y_t = z_t * v_mid / fy
-    rng = math.hypot(x_t, z_t)  # eq. 11
-    bearing = math.atan2(x_t, z_t)
-    # the banner's right axis in the camera's x-z plane; turning right (clockwise) swings it to -z
-    rel = wrap_pi(math.atan2(-(z_r - z_l), x_r - x_l))
-    # quality: the pair gap (x_R - x_L) should be E cos(yaw); disagreement means a poor fit
-    width = math.hypot(x_r - x_l, z_r - z_l)
+    climb = rays[:, 2] / flat  # metres down per metre of horizontal distance
+    heading = rays[:, :2] / flat[:, None]  # unit horizontal directions
+    pairs = []
+    for top, bottom in ((0, 3), (1, 2)):  # left pair TL-BL, right pair TR-BR
+        drop = climb[bottom] - climb[top]
+        if drop <= 0:  # the "bottom" marker not below the top one: no pair to measure
+            return None
+        d = side_m / drop  # eq. 10, level: the pair's horizontal distance
+        where = d * (heading[top] + heading[bottom]) / 2
+        pairs.append(np.array([where[0], where[1], d * (climb[top] + climb[bottom]) / 2]))
+    left, right = pairs
+    centre_body = (left + right) / 2  # eq. 9
+    rng = math.hypot(centre_body[0], centre_body[1])  # eq. 11
+    bearing = math.atan2(centre_body[1], centre_body[0])
+    across = right[:2] - left[:2]  # the banner's right axis, level
+    rel = wrap_pi(math.atan2(-across[0], across[1]))
+    # quality: the pairs' gap should be E (the square's side); disagreement means a poor fit
+    width = float(np.linalg.norm(across))
     quality = max(0.0, 1.0 - abs(width - side_m) / side_m)
-    return MarkerPose(np.array([x_t, y_t, z_t]), rng, bearing, rel, quality, "paper")
+    right_cam = R.T @ np.array([across[0], across[1], 0.0]) / width if width > 0 else None
+    return MarkerPose(R.T @ centre_body, rng, bearing, rel, quality, "paper", right_cam)
 
 
 #: no lens distortion, for OpenCV (shared, never written)

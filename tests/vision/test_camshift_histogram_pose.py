@@ -107,6 +107,41 @@ def test_the_papers_estimate_takes_depth_from_the_vertical_focal_length() -> Non
     assert est.range_m == pytest.approx(math.hypot(0.4, 2.0), abs=1e-9)  # the mean focal length: 1.96 m
 
 
+@pytest.mark.parametrize("pitch_deg", [-20.0, -10.0, 10.0])
+def test_the_papers_estimate_is_measured_level_so_a_pitched_camera_reads_true_ranges(pitch_deg: float) -> None:
+    # a vertical square 2 m ahead and 0.3 m right of the camera, at its height, turned 20 deg;
+    # the camera pitched: its pixels put through the mount's rotation give the level geometry
+    from lfctl.vision.camera_model import CameraModel
+
+    cam = CameraModel.from_config(CameraConfig(pitch_rad=math.radians(pitch_deg)))
+    R = cam.R_body_from_cam
+    yaw = math.radians(20)
+    right = np.array([-math.sin(yaw), math.cos(yaw), 0.0])  # body FRD: the square's right axis
+    down = np.array([0.0, 0.0, 1.0])
+    centre = np.array([2.0, 0.3, 0.0])
+    h = 0.07
+    corners = [
+        centre - right * h - down * h,
+        centre + right * h - down * h,
+        centre + right * h + down * h,
+        centre - right * h + down * h,
+    ]
+    cam_pts = np.array([R.T @ c for c in corners])
+    uv = (cam.K @ cam_pts.T).T
+    pixels = uv[:, :2] / uv[:, 2:3]
+    level = paper_pose(pixels, cam.K, 0.14, R)
+    assert level is not None
+    assert level.range_m == pytest.approx(math.hypot(2.0, 0.3), abs=1e-9)
+    assert level.bearing_rad == pytest.approx(math.atan2(0.3, 2.0), abs=1e-9)
+    assert level.rel_heading_rad == pytest.approx(yaw, abs=1e-9) and level.quality == pytest.approx(1.0)
+    assert R @ level.centre_cam_m == pytest.approx(centre, abs=1e-9)
+    r, _b, rel = to_vehicle_frame(level, np.zeros(3), R, 0.0)
+    assert (r, rel) == pytest.approx((math.hypot(2.0, 0.3), yaw), abs=1e-9)
+    # measured in the camera's own frame, as before: the pitch reads the range short
+    tilted = paper_pose(pixels, cam.K, 0.14)
+    assert tilted is not None and tilted.range_m < 0.99 * level.range_m
+
+
 def test_a_pnp_answer_of_not_a_number_is_no_pose_and_the_papers_estimate_is_taken(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
