@@ -66,6 +66,8 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+#: a stream is sent at a tick this close before it is due, s (the ticks' float times)
+DUE_SLACK_S = 1e-6
 #: ArduPilot Rover custom mode numbers by name (the modes the endpoint knows)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
@@ -1750,9 +1752,15 @@ class VehicleEndpoint:
             self._send_by_id(msg_id)
         self._once.clear()
         for msg_id, period in self._intervals.items():
-            if t_s >= self._next_due.get(msg_id, 0.0):
+            due = self._next_due.get(msg_id, t_s)  # (a stream's first send is due now)
+            if t_s + DUE_SLACK_S >= due:
                 self._send_by_id(msg_id)
-                self._next_due[msg_id] = t_s + period if math.isfinite(period) else math.inf
+                # the stream keeps its phase: due again a period after it was due (after the
+                # tick it went in, a 0.1 s period that fell a float's width past a tick slipped
+                # a tick each time, and a 4 Hz stream on 50 Hz ticks ran at 3.85 Hz); one that
+                # has fallen a period behind (a pause, a new rate) starts again from now
+                after = due + period
+                self._next_due[msg_id] = (after if after > t_s else t_s + period) if math.isfinite(period) else math.inf
 
     def _report_prearm(self, t_s: float) -> None:
         """As Rover's AP_Arming::update: while a disarmed vehicle fails a pre-arm check, each

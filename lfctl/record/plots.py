@@ -4,7 +4,7 @@
   and end (square), a numbered mark every 10 s of simulation time; the mission's waypoints
   with their acceptance circles and the time each was reached.
 - ``<follower>_errors.png``: range and bearing error and the track state over time, with the
-  scenario's events (occluders, lighting keys, sensor dropouts), every mode change and the
+  scenario's events (occluders, lighting keys, sensor dropouts), every mode change after 0 s and the
   ``--strict`` limits (RMS limits, drawn as a band the error's RMS must stay inside).
 - ``<follower>_pose.png``: the camera's range and bearing estimate against the truth.
 - ``link.png``: message rates each way per vehicle, packets lost per sender (by its
@@ -252,7 +252,7 @@ def _time_labels(ax: Any, labels: list[tuple[float, float, str, Any]]) -> None:
 def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, str, str]], label: bool) -> list[str]:
     """Scenario events (red dotted) and mode changes (grey dashed) as vertical lines; with
     ``label``, a number over each line, just above the axes, and the key's entries
-    returned (``"2 lighting key: gain 1 (40.0 s)"``): names written along the lines ran over
+    returned (``"2 lighting key: gain 1 (40.0 s)"``; names written along the lines ran over
     the curves. Marks closer than :data:`LABEL_GAP_FRAC` of the time axis to the one before
     share a number (side by side the numbers overlap)."""
     for t, _text in events:
@@ -277,7 +277,7 @@ def _marks(ax: Any, events: list[tuple[float, str]], modes: list[tuple[float, st
             str(k), xy=(t, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2), textcoords="offset points",
             ha="center", va="bottom", fontsize=7, color=color, fontweight="bold", annotation_clip=True,
         )  # fmt: skip
-        keys.append(f"{k} {text} ({t:.1f} s)")
+        keys.append(f"{k} {text}")
     if len(keys) > KEY_ENTRIES:  # the key stays a few lines under the plots (the log has them all)
         keys = [*keys[:KEY_ENTRIES], f"{KEY_ENTRIES + 1}-{len(keys)}: see the log's /log topic"]
     return keys
@@ -294,14 +294,17 @@ def _broken(t: np.ndarray, series: list[np.ndarray]) -> tuple[np.ndarray, list[n
 
 
 def _grouped(marks: list[tuple[float, str]], gap: float) -> list[tuple[float, str]]:
-    """Marks in time order, each within ``gap`` of the group's first joined into it (" / ")."""
-    out: list[tuple[float, str]] = []
+    """Marks in time order, each within ``gap`` of the group's first joined into it (" / "),
+    each named with its own time (``"occluder (30.0 s) / lighting key: gain 1 (40.0 s)"``: on
+    a long run's axis marks minutes apart share a number, and the first's time was all the
+    key gave)."""
+    groups: list[list[tuple[float, str]]] = []
     for t, text in sorted(marks):
-        if out and t - out[-1][0] < gap:
-            out[-1] = (out[-1][0], f"{out[-1][1]} / {text}")
+        if groups and t - groups[-1][0][0] < gap:
+            groups[-1].append((t, text))
         else:
-            out.append((t, text))
-    return out
+            groups.append([(t, text)])
+    return [(g[0][0], " / ".join(f"{text} ({t:.1f} s)" for t, text in g)) for g in groups]
 
 
 def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:

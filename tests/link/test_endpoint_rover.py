@@ -1022,6 +1022,19 @@ def test_message_intervals_as_ardupilot(bench: Bench) -> None:
     assert _count(out, "ATTITUDE") == 0
 
 
+@pytest.mark.parametrize("start_s", [0.0, 255.0, 4090.0, 8190.0])
+def test_stream_rates_hold_however_long_the_run_has_gone(bench: Bench, start_s: float) -> None:
+    # each stream keeps its phase: sent again one period after it was due, not after the tick
+    # it went in (a 0.1 s period that landed a float's width past a 50 Hz tick slipped to the
+    # next: 9 Hz from 256 s on, 8.67 Hz from 4096 s), and a 4 Hz stream on 50 Hz ticks
+    # averages 4 Hz (0.24 and 0.26 s apart), not 3.85 Hz (every 0.26 s)
+    bench.t = start_s
+    bench.tick()
+    out = [m for _ in range(1000) for m in bench.tick(0.02)]  # 20 s
+    assert 199 <= _count(out, "ATTITUDE") <= 201  # 10 Hz
+    assert 79 <= _count(out, "VFR_HUD") <= 81  # 4 Hz
+
+
 def test_rtl_skips_a_rally_point_outside_the_fence(bench: Bench) -> None:
     # AP_Rally_Rover::is_valid: with the fence on, a rally point outside it is not a place to go
     assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED

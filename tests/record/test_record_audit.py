@@ -607,9 +607,9 @@ def test_plot_lines_break_at_gaps_and_close_marks_share_a_label() -> None:
     t2, (v,) = _broken(t, [np.array([1.0, 2.0, 3.0, 4.0, 5.0])])
     assert np.isnan(t2[3]) and np.isnan(v[3]) and list(t2[[0, 4]]) == [0.0, 1.5] and len(v) == 6
     assert _grouped([(42.0, "b"), (40.0, "a"), (40.5, "c"), (60.0, "d")], gap=1.0) == [
-        (40.0, "a / c"),
-        (42.0, "b"),
-        (60.0, "d"),
+        (40.0, "a (40.0 s) / c (40.5 s)"),
+        (42.0, "b (42.0 s)"),
+        (60.0, "d (60.0 s)"),
     ]
 
 
@@ -627,7 +627,11 @@ def test_marks_are_numbered_over_the_plot_and_named_in_a_key_under_it() -> None:
     keys = _marks(
         ax, [(30.0, "occluder"), (40.0, "lighting key: gain 1"), (40.5, "gust")], [(10.0, "leader", "AUTO")], True
     )
-    assert keys == ["1 leader: AUTO (10.0 s)", "2 occluder (30.0 s)", "3 lighting key: gain 1 / gust (40.0 s)"]
+    assert keys == [
+        "1 leader: AUTO (10.0 s)",
+        "2 occluder (30.0 s)",
+        "3 lighting key: gain 1 (40.0 s) / gust (40.5 s)",  # each with its own time
+    ]
     numbers = [(a.get_text(), a.get_color()) for a in ax.texts]
     assert numbers == [("1", "dimgrey"), ("2", "tab:red"), ("3", "tab:red")]
     assert _marks(ax, [(30.0, "x")], [], False) == []  # the plots below: lines only
@@ -638,7 +642,7 @@ def test_marks_are_numbered_over_the_plot_and_named_in_a_key_under_it() -> None:
     modes = [(0.5 * i, "follower1", "HOLD" if i % 2 else "GUIDED") for i in range(1, 1001)]
     keys = _marks(ax, [], modes, True)
     assert len(keys) == 13 and keys[-1].startswith("13-") and keys[-1].endswith(": see the log's /log topic")
-    assert keys[0] == "1 follower1: HOLD / follower1: GUIDED / follower1: HOLD / 19 more (0.5 s)"
+    assert keys[0] == "1 follower1: HOLD (0.5 s) / follower1: GUIDED (1.0 s) / follower1: HOLD (1.5 s) / 19 more"
     plt.close(fig)
 
 
