@@ -55,18 +55,21 @@ class LatestFrames:
         self._thread.start()
 
     def _read(self) -> None:
-        while not self._stopping:
-            try:
-                ok, frame = self._capture.read()
-            except Exception:  # a driver's error is the source's end, as a failed read is
-                ok, frame = False, None
-            with self._ready:
+        try:
+            while not self._stopping:
+                try:
+                    ok, frame = self._capture.read()
+                except Exception:  # a driver's error is the source's end, as a failed read is
+                    ok, frame = False, None
                 if not ok or frame is None:
-                    self._ended = True
-                    self._ready.notify_all()
                     return
-                self.skipped += self._frame is not None
-                self._frame = frame
+                with self._ready:
+                    self.skipped += self._frame is not None
+                    self._frame = frame
+                    self._ready.notify_all()
+        finally:  # ended, failed or stopped: a reader waiting is told at once
+            with self._ready:
+                self._ended = True
                 self._ready.notify_all()
 
     def next(self) -> np.ndarray | None:

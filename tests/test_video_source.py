@@ -160,3 +160,27 @@ def test_closing_a_camera_stuck_in_its_driver_returns_and_does_not_release_it_un
     with VideoSource("0", latest=True) as camera:
         assert camera.read() is None  # silent for the timeout: the source's end
     assert time.monotonic() - t0 < 3.0 and not stuck.released
+
+
+def test_a_reader_waiting_when_the_camera_stops_is_told_at_once() -> None:
+    import threading
+    import time
+
+    from lfctl.video import LatestFrames
+
+    camera = FakeCamera(period_s=0.001, frames=3)
+    latest = LatestFrames(camera, timeout_s=30.0)
+    t0 = time.monotonic()
+    taken = 0
+    while latest.next() is not None:
+        taken += 1
+    assert 1 <= taken <= 3 and time.monotonic() - t0 < 10.0  # its end said at once, not after 30 s
+    endless = FakeCamera(period_s=0.05)
+    live = LatestFrames(endless, timeout_s=30.0)
+    got: list[object] = []
+    reader = threading.Thread(target=lambda: [got.append(live.next()) for _ in range(1000)])
+    reader.start()
+    wait_until(lambda: len(got) >= 2)
+    assert live.stop()
+    reader.join(10.0)
+    assert not reader.is_alive() and got[-1] is None

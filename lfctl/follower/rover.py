@@ -185,6 +185,7 @@ def follow_rover(
     companion.vehicle.heartbeat_t_s = t_start  # (heard while waiting; restamped on this clock)
     link = _LinkWatch(companion, name)
     interrupted = False
+    skipped_before = video.skipped  # frames a live camera made while the rover was being set up
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
@@ -218,7 +219,7 @@ def follow_rover(
             companion.setpoint(t_s, 0.0, 0.0)
     return RoverRun(
         steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST],
-        obeyed, companion.port.junk, companion.passed_over, interrupted, video.skipped,
+        obeyed, companion.port.junk, companion.passed_over, interrupted, video.skipped - skipped_before,
     )  # fmt: skip
 
 

@@ -3,16 +3,21 @@
 A camera with distortion coefficients (OpenCV's model: radial ``k1``, ``k2``, ``k3`` and
 tangential ``p1``, ``p2``) puts a point whose ideal (pinhole) image is ``p`` at
 ``distort(p)``; the vision pipeline takes that out again (``cv2.solvePnP`` and
-``cv2.undistortPoints`` with the same coefficients). To match it, the renderer draws an
+:meth:`CameraModel.rays` with the same coefficients). To match it, the renderer draws an
 ideal pinhole picture on a *canvas* and :meth:`Lens.bend` resamples it: each output pixel
-takes the canvas's colour along that pixel's ray, which :meth:`CameraModel.rays` finds by
-inverting the lens model. A barrel lens (``k1 < 0``) sees more than a pinhole of the same
-focal length, so the canvas is a pinhole camera of the same size zoomed out just enough
-(focal length times :attr:`Lens.scale`, at most 1) to hold every output pixel's ray.
+takes the canvas's colour along that pixel's ray, which :func:`~lfctl.vision.camera_model.undistort`
+finds by inverting the lens model. A barrel lens (``k1 < 0``) sees more than a pinhole of the
+same focal length, so the canvas is a pinhole camera of the same size zoomed out just enough
+(focal length times :attr:`Lens.scale`, at most 1) to hold every output pixel's ray; its
+middle is then drawn at that much less resolution than the lens shows it.
 
-Coefficients that bend the picture's edge past where the model turns back on itself (a
-strong ``k1 < 0`` with a wide lens: the radial function stops growing inside the picture)
-describe no lens, and are refused naming them.
+The rays are found exactly on a grid of every :data:`GRID_PX`-th pixel and interpolated
+between (the map is smooth: a few thousandths of a pixel off), so a large frame's lens is
+built in a fraction of a second. What the truth says of the picture (the banner's box and
+visible share) is read from masks drawn on the canvas and bent as the frame is.
+
+Coefficients whose radial function stops growing inside the picture (a strong ``k1 < 0``
+with a wide lens) describe no lens: they are refused, naming them.
 """
 
 from __future__ import annotations
@@ -23,20 +28,36 @@ import cv2
 import numpy as np
 
 from lfctl.errors import ConfigError
+from lfctl.vision.boxes import Box
 from lfctl.vision.camera_model import CameraModel
 
-__all__ = ["Lens"]
+__all__ = ["GRID_PX", "Lens"]
 
-#: an output pixel whose ray does not come back to it within this many pixels through the
-#: lens model is past the model's reach (the coefficients are refused)
-ROUND_TRIP_PX = 0.5
+#: the rays are computed exactly at every this many pixels (and the picture's last row and
+#: column) and interpolated between
+GRID_PX = 8
 _NAMES = ("k1", "k2", "p1", "p2", "k3")
+
+
+def _grid(size: int) -> np.ndarray:
+    """Every GRID_PX-th pixel of a side, and its last."""
+    return np.unique(np.append(np.arange(0, size, GRID_PX), size - 1)).astype(np.float64)
+
+
+def _spread(at: np.ndarray, size: int) -> np.ndarray:
+    """Linear interpolation weights (size, len(at)) from grid points ``at`` to every pixel."""
+    w = np.zeros((size, len(at)))
+    idx = np.clip(np.searchsorted(at, np.arange(size), side="right") - 1, 0, len(at) - 2)
+    frac = (np.arange(size) - at[idx]) / (at[idx + 1] - at[idx])
+    w[np.arange(size), idx] = 1 - frac
+    w[np.arange(size), idx + 1] = frac
+    return w
 
 
 class Lens:
     """The lens of ``camera`` (which has some distortion): the canvas camera to render the
-    ideal picture with, the resampling that bends it, and the mapping of canvas points
-    (painted polygons) to the output's pixels.
+    ideal picture with, the resampling that bends it, and the truth of what the picture
+    shows of a painted polygon.
 
     Parameters
     ----------
@@ -51,25 +72,19 @@ class Lens:
 
     def __init__(self, camera: CameraModel) -> None:
         w, h = camera.width, camera.height
+        self.camera = camera
         self.K = camera.K
-        self.dist = np.asarray(camera.dist, np.float64)
-        u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-        pixels = np.stack([u.ravel(), v.ravel()], axis=-1)
-        rays = camera.rays(pixels)
-        back = self._through_lens(rays)
-        miss = np.hypot(*(back - pixels).T)
-        if not np.all(np.isfinite(miss)) or float(np.nanmax(miss)) > ROUND_TRIP_PX:
-            worst = int(np.nanargmax(np.where(np.isfinite(miss), miss, np.inf)))
-            coefficients = ", ".join(f"camera.{n} = {c:g}" for n, c in zip(_NAMES, self.dist, strict=True) if c != 0)
+        us, vs = _grid(w), _grid(h)
+        gu, gv = np.meshgrid(us, vs)
+        rays = camera.rays(np.column_stack([gu.ravel(), gv.ravel()]))
+        if not np.all(np.isfinite(rays)):
+            worst = int(np.flatnonzero(~np.isfinite(rays[:, 0]))[0])
+            coefficients = ", ".join(f"camera.{n} = {c:g}" for n, c in zip(_NAMES, camera.dist, strict=True) if c != 0)
             raise ConfigError(
                 f"{coefficients}: this lens model folds the picture back on itself (no ray for pixel "
-                f"({worst % w}, {worst // w}) of the {w}x{h} picture: its radial function stops growing inside "
-                "it); take the coefficients from a calibration of this lens"
+                f"({gu.ravel()[worst]:g}, {gv.ravel()[worst]:g}) of the {w}x{h} picture: its radial function "
+                "stops growing inside it); take the coefficients from a calibration of this lens"
             )
-        #: the largest ray (normalised radius) the picture holds: canvas points farther out are
-        #: outside the picture and are held to it before the lens maps them (past it the
-        #: model turns back and would bring them inside)
-        self.max_radius = float(np.max(np.hypot(rays[:, 0], rays[:, 1])))
         fx, fy, cx, cy = self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2]
         limits = [1.0]
         for lo, hi, f, c, size in (
@@ -86,9 +101,14 @@ class Lens:
         self.K_canvas[0, 0] *= self.scale
         self.K_canvas[1, 1] *= self.scale
         kc = self.K_canvas
-        map_x = (kc[0, 0] * rays[:, 0] + kc[0, 2]).reshape(h, w).astype(np.float32)
-        map_y = (kc[1, 1] * rays[:, 1] + kc[1, 2]).reshape(h, w).astype(np.float32)
+        wy, wx = _spread(vs, h), _spread(us, w)
+        map_x = (wy @ (kc[0, 0] * rays[:, 0] + kc[0, 2]).reshape(len(vs), len(us)) @ wx.T).astype(np.float32)
+        map_y = (wy @ (kc[1, 1] * rays[:, 1] + kc[1, 2]).reshape(len(vs), len(us)) @ wx.T).astype(np.float32)
         self._maps = cv2.convertMaps(map_x, map_y, cv2.CV_16SC2)
+        # the canvas pixels the picture shows (where its rays land), for the visible share
+        footprint = np.zeros((h, w), np.uint8)
+        footprint[np.clip(np.rint(map_y), 0, h - 1).astype(int), np.clip(np.rint(map_x), 0, w - 1).astype(int)] = 1
+        self._footprint = cv2.dilate(footprint, np.ones((3, 3), np.uint8))
 
     def canvas_camera(self, camera: CameraModel) -> CameraModel:
         """The pinhole camera the ideal picture is drawn with.
@@ -111,53 +131,38 @@ class Lens:
         return cv2.remap(canvas, self._maps[0], self._maps[1], cv2.INTER_LINEAR)
 
     def rays_to_image(self, rays: np.ndarray) -> np.ndarray:
-        """Output pixels (N, 2) of rays, those past the picture held to its largest first.
+        """Output pixels (N, 2) of rays, those past the picture held to its reach first
+        (:meth:`CameraModel.pixels`).
 
         Parameters
         ----------
         rays : np.ndarray
             (N, 2) normalised pinhole coordinates (x / z, y / z).
         """
-        rays = np.asarray(rays, np.float64).reshape(-1, 2)
-        r = np.hypot(rays[:, 0], rays[:, 1])
-        far = r > self.max_radius
-        if np.any(far):
-            rays = rays.copy()
-            rays[far] *= (self.max_radius / r[far])[:, None]
-        return self._through_lens(rays)
+        return self.camera.pixels(rays)
 
-    def canvas_to_image(self, points: np.ndarray) -> np.ndarray:
-        """Output pixels (N, 2) of canvas pixels.
+    def shown(self, target: np.ndarray, nearer: list[np.ndarray]) -> tuple[Box | None, float]:
+        """What the picture shows of a polygon painted on the canvas: its box in the picture
+        (None when it shows nowhere), and the share of it in view and not hidden by the
+        ``nearer`` polygons (its part outside the picture counts as hidden), read from masks
+        drawn on the canvas and bent as the frame is.
 
         Parameters
         ----------
-        points : np.ndarray
-            (N, 2) canvas pixels (a painted polygon's corners, say).
+        target : np.ndarray
+            (N, 2) the polygon on the canvas, px.
+        nearer : list of np.ndarray
+            Polygons painted over it, on the canvas.
         """
-        kc = self.K_canvas
-        p = np.asarray(points, np.float64).reshape(-1, 2)
-        rays = np.stack([(p[:, 0] - kc[0, 2]) / kc[0, 0], (p[:, 1] - kc[1, 2]) / kc[1, 1]], axis=-1)
-        return self.rays_to_image(rays)
-
-    def polygon_to_image(self, poly: np.ndarray, steps: int = 8) -> np.ndarray:
-        """A canvas polygon as the lens shows it, (N * steps, 2): each edge cut into ``steps``
-        pieces first, so that its bend shows in the outline.
-
-        Parameters
-        ----------
-        poly : np.ndarray
-            (N, 2) the polygon's corners on the canvas, px.
-        steps : int
-            Pieces each edge is cut into.
-        """
-        p = np.asarray(poly, np.float64).reshape(-1, 2)
-        nxt = np.roll(p, -1, axis=0)
-        t = np.arange(steps, dtype=np.float64)[None, :, None] / steps
-        dense = (p[:, None, :] + t * (nxt - p)[:, None, :]).reshape(-1, 2)
-        return self.canvas_to_image(dense)
-
-    def _through_lens(self, rays: np.ndarray) -> np.ndarray:
-        """Pixels of normalised rays through the camera's K and distortion (OpenCV's model)."""
-        pts = np.concatenate([rays, np.ones((len(rays), 1))], axis=1)
-        out, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), self.K, self.dist)
-        return out.reshape(-1, 2)
+        h, w = self._footprint.shape
+        mask = np.zeros((h, w), np.uint8)
+        cv2.fillPoly(mask, [np.round(target).astype(np.int32)], 255)
+        seen = cv2.remap(mask, self._maps[0], None, cv2.INTER_NEAREST)
+        if not cv2.countNonZero(seen):
+            return None, 0.0
+        box = tuple(int(v) for v in cv2.boundingRect(seen))
+        for poly in nearer:
+            cv2.fillPoly(mask, [np.round(poly).astype(np.int32)], 0)
+        full = abs(cv2.contourArea(np.asarray(target, np.float32)))
+        shown = cv2.countNonZero(cv2.bitwise_and(mask, mask, mask=self._footprint))
+        return box, (min(1.0, shown / full) if full > 0 else 0.0)  # type: ignore[return-value]

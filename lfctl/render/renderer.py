@@ -776,20 +776,19 @@ class Renderer:
         with np.errstate(divide="ignore", invalid="ignore"):
             uv = (K @ cam.T).T
             marks = uv[:, :2] / uv[:, 2:3]
-        if self.lens is not None:
-            # where the lens puts them, and the painted outlines (on the canvas) in the picture
+        if self.lens is not None:  # where the lens puts them
             ahead = cam[:, 2] > 0
-            if np.any(ahead):
-                marks[ahead] = self.lens.rays_to_image(cam[ahead, :2] / cam[ahead, 2:3])
-            if target_poly is not None:
-                target_poly = self.lens.polygon_to_image(target_poly)
-                nearer = [self.lens.polygon_to_image(p) for p in nearer]
+            marks[ahead] = self.lens.rays_to_image(cam[ahead, :2] / cam[ahead, 2:3])
+            marks[~ahead] = np.nan
         ban_cam = R @ (centre - c)
         rng = math.hypot(target.north_m - follower.north_m, target.east_m - follower.east_m)
         brg = wrap_pi(math.atan2(target.east_m - follower.east_m, target.north_m - follower.north_m) - follower.yaw_rad)
         rel = wrap_pi(target.yaw_rad - follower.yaw_rad)
         bbox, vis, in_view = None, 0.0, False
-        if target_poly is not None:
+        if target_poly is not None and self.lens is not None:  # (the polygons are on the canvas)
+            bbox, vis = self.lens.shown(target_poly, nearer)
+            in_view = bbox is not None
+        elif target_poly is not None:
             W, H = self.cfg.width_px, self.cfg.height_px
             x0, y0, x1, y1 = point_bounds(target_poly)
             cx0, cy0, cx1, cy1 = max(x0, 0), max(y0, 0), min(x1, W), min(y1, H)

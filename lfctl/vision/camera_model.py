@@ -9,23 +9,31 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
-import cv2
 import numpy as np
 
 from lfctl.config import CameraConfig
 from lfctl.errors import ConfigError
 from lfctl.frames import rot_z
 
-__all__ = ["CameraModel", "at_frame_size"]
+__all__ = ["CameraModel", "at_frame_size", "distort", "rising_radius", "undistort"]
 
-#: frames whose width and height scale the calibrated size by factors this far apart
-#: (relative) are another aspect, a crop of the sensor
-ASPECT_TOLERANCE = 0.01
+#: frames whose height differs from the calibrated height scaled by the widths' ratio by more
+#: than this are another aspect (a crop of the sensor, or rows padded), px
+ASPECT_TOLERANCE_PX = 1.0
 
-#: the lens model's inverse, iterated until it converges: OpenCV's default stops after five
-#: steps, which leaves about a tenth of a pixel at a strong lens's corners (k1 = -0.3)
-UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-10)
+#: the lens model's inverse: the radial part by bisection on its first rising branch (OpenCV's
+#: fixed-point inverse stops after five steps by default, a tenth of a pixel off at a strong
+#: lens's corners, and run longer cycles without converging on some wide lenses), then Newton
+#: steps on the whole model (tangential terms too)
+INVERSE_BISECTIONS = 60
+INVERSE_NEWTON_STEPS = 8
+#: a ray whose image through the model misses its pixel by more than this (normalised) is none
+INVERSE_TOLERANCE = 1e-9
+#: the radial function's first rising branch is looked for out to this radius (normalised:
+#: 87 degrees off the axis)
+RADIUS_LIMIT = 20.0
 
 
 def at_frame_size(camera: CameraConfig, width: int, height: int) -> tuple[CameraConfig, str | None]:
@@ -57,7 +65,7 @@ def at_frame_size(camera: CameraConfig, width: int, height: int) -> tuple[Camera
     if not given:
         return dataclasses.replace(camera, width_px=width, height_px=height), None
     sx, sy = width / W, height / H
-    if abs(sx / sy - 1) > ASPECT_TOLERANCE:
+    if abs(H * sx - height) > ASPECT_TOLERANCE_PX:
         raise ConfigError(
             f"camera.{given[0]} and the other intrinsics hold at camera.width_px x height_px = {W}x{H}, not "
             f"the frames' {width}x{height}: another aspect (a crop of the sensor, which scaling does not "
@@ -72,11 +80,14 @@ def at_frame_size(camera: CameraConfig, width: int, height: int) -> tuple[Camera
         width_px=width,
         height_px=height,
         fx_px=camera.fx_px * sx,
-        fy_px=camera.fy_px * sy,
+        fy_px=(camera.fy_px or camera.fx_px) * sy,  # (fy given as fx's: it scales with the height)
         cx_px=centre(camera.cx_px, sx),
         cy_px=centre(camera.cy_px, sy),
     )
-    return scaled, f"camera intrinsics given for {W}x{H} scaled by {sx:.4g} to the frames' {width}x{height}"
+    return scaled, (
+        f"camera intrinsics given for camera.width_px x height_px = {W}x{H} scaled by {sx:.4g} to the frames' "
+        f"{width}x{height} (if they were measured at {width}x{height}, give that size)"
+    )
 
 
 @dataclass(frozen=True)
@@ -160,14 +171,141 @@ class CameraModel:
         K = self.K
         return float(K[0, 0] * p[0] / p[2] + K[0, 2]), float(K[1, 1] * p[1] / p[2] + K[1, 2]), float(p[2])
 
+    @cached_property
+    def reach(self) -> float:
+        """The largest ray the picture holds (a normalised radius, x / z and y / z), on its
+        border: the lens model means nothing past it."""
+        w, h = self.width - 1.0, self.height - 1.0
+        edge = np.linspace(0.0, 1.0, 65)
+        border = np.concatenate(
+            [np.column_stack([edge * w, 0 * edge]), np.column_stack([edge * w, 0 * edge + h]),
+             np.column_stack([0 * edge, edge * h]), np.column_stack([0 * edge + w, edge * h])]
+        )  # fmt: skip
+        rays = self.rays(border)
+        return float(np.nanmax(np.hypot(rays[:, 0], rays[:, 1])))
+
+    @cached_property
+    def rising_to(self) -> float:
+        """How far out (a normalised radius) the lens model's radial function keeps growing
+        (:func:`rising_radius`)."""
+        return rising_radius(self.dist)
+
+    def pixels(self, rays: np.ndarray) -> np.ndarray:
+        """Pixels (N, 2) of rays through the lens (OpenCV's model). A ray past the picture's
+        :attr:`reach` is held to it first: past it a barrel lens's model turns back, and would
+        bring a point far outside the picture into it.
+
+        Parameters
+        ----------
+        rays : np.ndarray
+            (N, 2) normalised pinhole coordinates (x / z, y / z).
+        """
+        rays = np.asarray(rays, np.float64).reshape(-1, 2)
+        if not np.any(self.dist):
+            return rays * (self.K[0, 0], self.K[1, 1]) + (self.K[0, 2], self.K[1, 2])
+        r = np.hypot(rays[:, 0], rays[:, 1])
+        far = r > self.reach
+        if np.any(far):
+            rays = rays.copy()
+            rays[far] *= (self.reach / r[far])[:, None]
+        shown, _jac = distort(rays, self.dist)
+        return shown * (self.K[0, 0], self.K[1, 1]) + (self.K[0, 2], self.K[1, 2])
+
     def rays(self, pixels: np.ndarray) -> np.ndarray:
         """Normalised pinhole coordinates (x / z, y / z), (N, 2), of raw pixels (N, 2): the
-        lens taken out (to convergence, :data:`UNDISTORT_CRITERIA`).
+        lens taken out, exactly (:func:`undistort`); NaN for a pixel the model has no ray for
+        (past the radius where its radial function stops growing: a lens that folds).
 
         Parameters
         ----------
         pixels : np.ndarray
             (N, 2) pixels as the camera gives them (distorted).
         """
-        pts = np.asarray(pixels, np.float64).reshape(-1, 1, 2)
-        return cv2.undistortPoints(pts, self.K, self.dist, criteria=UNDISTORT_CRITERIA).reshape(-1, 2)
+        pts = np.asarray(pixels, np.float64).reshape(-1, 2)
+        seen = (pts - (self.K[0, 2], self.K[1, 2])) / (self.K[0, 0], self.K[1, 1])
+        return undistort(seen, self.dist, self.rising_to) if np.any(self.dist) else seen
+
+
+def distort(rays: np.ndarray, dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's lens model on normalised rays (N, 2): where each shows (normalised), and the
+    model's Jacobian there (N, 2, 2).
+
+    Parameters
+    ----------
+    rays : np.ndarray
+        (N, 2) pinhole coordinates.
+    dist : np.ndarray
+        k1, k2, p1, p2, k3 (fewer: the rest 0).
+    """
+    k1, k2, p1, p2, k3 = (list(np.asarray(dist, np.float64).ravel()) + [0.0] * 5)[:5]
+    x, y = rays[:, 0], rays[:, 1]
+    r2 = x * x + y * y
+    radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    slope = k1 + r2 * (2 * k2 + 3 * k3 * r2)  # d radial / d r2
+    out = np.column_stack(
+        [x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x), y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y]
+    )
+    jac = np.empty((len(rays), 2, 2))
+    jac[:, 0, 0] = radial + 2 * x * x * slope + 2 * p1 * y + 6 * p2 * x
+    jac[:, 0, 1] = 2 * x * y * slope + 2 * p1 * x + 2 * p2 * y
+    jac[:, 1, 0] = jac[:, 0, 1]
+    jac[:, 1, 1] = radial + 2 * y * y * slope + 6 * p1 * y + 2 * p2 * x
+    return out, jac
+
+
+def rising_radius(dist: np.ndarray) -> float:
+    """How far out (a normalised radius, at most :data:`RADIUS_LIMIT`) the radial function
+    ``r (1 + k1 r^2 + k2 r^4 + k3 r^6)`` of OpenCV's lens model keeps growing: past it the
+    model folds back and means nothing.
+
+    Parameters
+    ----------
+    dist : np.ndarray
+        k1, k2, p1, p2, k3.
+    """
+    k1, k2, _p1, _p2, k3 = (list(np.asarray(dist, np.float64).ravel()) + [0.0] * 5)[:5]
+    grid = np.linspace(0.0, RADIUS_LIMIT, 20001)
+    g2 = grid * grid
+    rising = 1 + g2 * (3 * k1 + g2 * (5 * k2 + 7 * k3 * g2))  # d(r radial(r^2)) / dr
+    falls = np.flatnonzero(rising <= 0)
+    return float(grid[falls[0]] if len(falls) else grid[-1])
+
+
+def undistort(seen: np.ndarray, dist: np.ndarray, top: float | None = None) -> np.ndarray:
+    """The rays (N, 2) that OpenCV's lens model shows at normalised points ``seen`` (N, 2);
+    NaN where it shows none.
+
+    The radial part first, by bisection on the radial function's first rising branch (from
+    the axis out to where it stops growing: past that the model folds and means nothing),
+    then Newton steps on the whole model from there. Exact where the lens is a lens; OpenCV's
+    fixed-point inverse cycles without converging at the edge of some wide lenses.
+
+    Parameters
+    ----------
+    seen : np.ndarray
+        (N, 2) normalised distorted coordinates.
+    dist : np.ndarray
+        k1, k2, p1, p2, k3.
+    top : float, optional
+        :func:`rising_radius` of ``dist`` (computed when not given).
+    """
+    k1, k2, _p1, _p2, k3 = (list(np.asarray(dist, np.float64).ravel()) + [0.0] * 5)[:5]
+    seen = np.asarray(seen, np.float64).reshape(-1, 2)
+    top = rising_radius(dist) if top is None else top
+    rd = np.hypot(seen[:, 0], seen[:, 1])
+    lo, hi = np.zeros_like(rd), np.full_like(rd, top)
+    for _ in range(INVERSE_BISECTIONS):
+        mid = (lo + hi) / 2
+        m2 = mid * mid
+        low = mid * (1 + m2 * (k1 + m2 * (k2 + m2 * k3))) < rd
+        lo, hi = np.where(low, mid, lo), np.where(low, hi, mid)
+    r = (lo + hi) / 2
+    scale = np.divide(r, rd, out=np.ones_like(rd), where=rd > 0)
+    rays = seen * scale[:, None]
+    for _ in range(INVERSE_NEWTON_STEPS):  # the tangential terms (and the bisection's last bits)
+        shown, jac = distort(rays, dist)
+        rays = rays - np.linalg.solve(jac, (shown - seen)[:, :, None])[:, :, 0]
+    shown, _ = distort(rays, dist)
+    miss = np.hypot(*(shown - seen).T)
+    rays[~(miss <= INVERSE_TOLERANCE) | (np.hypot(rays[:, 0], rays[:, 1]) > top)] = np.nan
+    return rays

@@ -71,19 +71,21 @@ def slot_box(camera: CameraModel, banner: BannerGeometry, range_m: float, bearin
     range_m, bearing_rad : float
         The slot: range (m) and bearing (rad, clockwise positive) of the target.
     """
-    body = np.array(
+    centre = np.array(
         [
             range_m * math.cos(bearing_rad) + banner.offset_body_m,
             range_m * math.sin(bearing_rad),
             -banner.centre_height_m,
         ]
     )
-    seen = camera.project_body(body)
-    if seen is None:
+    h = banner.panel_size_m / 2  # the panel square to the follower's axis (the same heading)
+    corners = centre + np.array([[0.0, -h, -h], [0.0, h, -h], [0.0, h, h], [0.0, -h, h]])
+    cam = (corners - camera.mount_body_m) @ camera.R_body_from_cam  # each row R^T p: camera frame
+    if np.any(cam[:, 2] <= 0.05):
         return None
-    u, v, depth = seen
-    side = camera.K[0, 0] * banner.panel_size_m / depth
-    return int(round(u - side / 2)), int(round(v - side / 2)), max(1, int(round(side))), max(1, int(round(side)))
+    px = camera.pixels(cam[:, :2] / cam[:, 2:3])  # through the lens
+    (x0, y0), (x1, y1) = px.min(axis=0), px.max(axis=0)
+    return int(round(x0)), int(round(y0)), max(1, int(round(x1 - x0))), max(1, int(round(y1 - y0)))
 
 
 def banner_in_picture(camera: CameraModel, banner: BannerGeometry, range_m: float, bearing_rad: float) -> bool:

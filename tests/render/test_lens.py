@@ -56,9 +56,57 @@ def test_a_barrel_lens_draws_on_a_zoomed_out_canvas_and_a_pincushion_on_the_came
     on_canvas = camera.rays(corners) * (kc[0, 0], kc[1, 1]) + (kc[0, 2], kc[1, 2])
     assert np.all((on_canvas >= -1e-6) & (on_canvas <= (639 + 1e-6, 479 + 1e-6)))
     assert min(on_canvas.min(), (639 - on_canvas[:, 0]).min(), (479 - on_canvas[:, 1]).min()) < 1e-6
-    assert barrel.canvas_to_image(on_canvas) == pytest.approx(corners, abs=1e-6)  # and back through the lens
+    assert camera.pixels(camera.rays(corners)) == pytest.approx(corners, abs=1e-9)  # and back through the lens
     pincushion = Lens(CameraModel.from_config(CameraConfig(k1=0.1)))
     assert pincushion.scale == 1.0
+
+
+def test_the_lens_model_is_opencvs_and_its_inverse_is_exact_even_where_opencvs_cycles() -> None:
+    from lfctl.vision.camera_model import distort
+
+    rng = np.random.default_rng(3)
+    rays = rng.uniform(-0.8, 0.8, (200, 2))
+    dist = np.array([-0.12, 0.03, 0.002, -0.001, -0.01])
+    pts, _ = cv2.projectPoints(np.column_stack([rays, np.ones(200)]), np.zeros(3), np.zeros(3), np.eye(3), dist)
+    assert distort(rays, dist)[0] == pytest.approx(pts.reshape(-1, 2), abs=1e-12)
+    # a wide lens (112 deg) whose radial function rises to the corners: OpenCV's fixed-point
+    # inverse cycles at its edge (178 px off at pixel (1, 10)); here every pixel's ray is exact
+    wide = CameraModel.from_config(CameraConfig(hfov_rad=math.radians(112.3), k1=-0.192, k2=0.271, k3=-0.064))
+    u, v = np.meshgrid(np.arange(0.0, 640.0, 3.0), np.arange(0.0, 480.0, 3.0))
+    pixels = np.column_stack([u.ravel(), v.ravel()])
+    assert wide.pixels(wide.rays(pixels)) == pytest.approx(pixels, abs=1e-7)
+    Lens(wide)  # and it is a lens: not refused
+    opencv = cv2.undistortPoints(np.array([[[1.0, 10.0]]]), wide.K, wide.dist)
+    assert np.abs(opencv.reshape(2) - wide.rays(np.array([[1.0, 10.0]]))[0]).max() > 0.1
+
+
+def test_what_a_lens_picture_shows_of_a_polygon_is_read_from_the_bent_masks() -> None:
+    lens = Lens(CameraModel.from_config(CameraConfig(**BARREL)))
+    outside = np.array([[-900.0, -200.0], [-300.0, -200.0], [-300.0, 700.0], [-900.0, 700.0]])  # left of the picture
+    assert lens.shown(outside, []) == (None, 0.0)  # (straight chords between held points showed 47,809 px)
+    square = np.array([[200.0, 150.0], [300.0, 150.0], [300.0, 250.0], [200.0, 250.0]])
+    box, share = lens.shown(square, [])
+    assert share == pytest.approx(1.0, abs=0.03) and box is not None
+    corners = lens.rays_to_image((square - lens.K_canvas[:2, 2]) / np.diag(lens.K_canvas)[:2])
+    assert box[0] == pytest.approx(corners[:, 0].min(), abs=2) and box[1] == pytest.approx(corners[:, 1].min(), abs=2)
+    left_half = np.array([[150.0, 100.0], [250.0, 100.0], [250.0, 300.0], [150.0, 300.0]])
+    assert lens.shown(square, [left_half])[1] == pytest.approx(0.5, abs=0.03)
+    half_out = square - (250.0, 0.0)  # half of it left of the canvas: hidden, and the picture
+    assert 0.35 < lens.shown(half_out, [])[1] < 0.5  # shows less than the canvas there
+
+
+def test_a_slot_is_judged_through_the_lens() -> None:
+    from lfctl.vision.banner import BannerGeometry
+    from lfctl.vision.perception import banner_in_picture, slot_box
+
+    wide = CameraModel.from_config(CameraConfig(hfov_rad=math.radians(100), k1=-0.28, k2=0.07))
+    banner = BannerGeometry.from_config(BannerConfig())
+    bearing = math.radians(40)
+    # a pinhole of this focal length puts the banner at x 616 of 640, its edge past the
+    # picture; the barrel lens draws it in at about x 546
+    box = slot_box(wide, banner, 1.5, bearing)
+    assert box is not None and 520 < box[0] + box[2] / 2 < 570
+    assert banner_in_picture(wide, banner, 1.5, bearing)
 
 
 @pytest.mark.parametrize("realism", ["off", "on"])
@@ -122,10 +170,12 @@ def test_a_calibration_scales_to_frames_of_its_aspect_and_refuses_another() -> N
     assert same is cal and note is None
     half, note = at_frame_size(cal, 768, 576)
     # by hand: fx 1000 x 0.5; pixel centres at whole numbers, so cx = (770 + 0.5) x 0.5 - 0.5
-    assert (half.width_px, half.height_px, half.fx_px, half.fy_px) == (768, 576, 500.0, 0.0)
+    assert (half.width_px, half.height_px, half.fx_px, half.fy_px) == (768, 576, 500.0, 500.0)
     assert (half.cx_px, half.cy_px) == (384.75, 287.25)
     assert half.k1 == -0.1 and note is not None and "1536x1152" in note and "768x576" in note
     by_fov, note = at_frame_size(CameraConfig(), 1280, 720)  # no calibration: the field of view holds
     assert (by_fov.width_px, by_fov.height_px, by_fov.fx_px, note) == (1280, 720, 0.0, None)
     with pytest.raises(ConfigError, match=r"camera\.fx_px .* 1536x1152, not the frames' 1280x720"):
         at_frame_size(cal, 1280, 720)
+    with pytest.raises(ConfigError, match="another aspect"):  # rows padded (1080 -> 1088): no scaling
+        at_frame_size(dataclasses.replace(cal, width_px=1920, height_px=1080, cx_px=960.0, cy_px=540.0), 1920, 1088)

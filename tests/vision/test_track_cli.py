@@ -89,7 +89,10 @@ def test_a_calibration_made_at_another_size_of_the_same_aspect_is_scaled_to_the_
     scenario.write_text(text.replace("[camera]\n", calibrated, 1))
     assert main(["track", str(video), "--scenario", str(scenario)]) == 0
     captured = capsys.readouterr()
-    assert "camera intrinsics given for 1280x960 scaled by 0.5 to the frames' 640x480" in captured.err
+    assert (
+        "camera intrinsics given for camera.width_px x height_px = 1280x960 scaled by 0.5 to the frames' 640x480"
+        in captured.err
+    )
     recs = [json.loads(line) for line in captured.out.splitlines() if line.startswith("{")]
     err = np.array(
         [(r["pose"]["range_m"] - tr.range_m) / tr.range_m for r, tr in zip(recs, truths, strict=True) if "pose" in r]
