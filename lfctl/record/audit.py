@@ -221,14 +221,31 @@ def _decoded(c: Contents, topic: str) -> tuple[list[tuple[float, dict[str, Any]]
         good: list[tuple[float, dict[str, Any]]] = []
         bad: list[tuple[int, float, str]] = []
         spec = _spec(topic)
+        slim = topic.startswith("/mavlink/")
         for i, (t, d) in enumerate(c.messages.get(topic, [])):
             m = _check_json(d, spec[1]) if spec else _check_json(d, {})
             if isinstance(m, str):
                 bad.append((i, c.sim_s(t), m))
             else:
-                good.append((c.sim_s(t), m))
+                good.append((c.sim_s(t), _slim_packet(m) if slim else m))
         c.decoded[topic] = (good, bad)
     return c.decoded[topic]
+
+
+#: the fields of a MAVLink packet the audit reads (commands, acks, mission acks); the rest of
+#: each packet's fields are not kept: a long run logs millions of packets
+PACKET_FIELDS = ("command", "target_system", "target_component", "type", "mission_type", "result")
+
+
+def _slim_packet(m: dict[str, Any]) -> dict[str, Any]:
+    """A decoded ``/mavlink/*`` packet with only what the audit reads: its header and
+    :data:`PACKET_FIELDS` (about a third of the memory of the whole packet)."""
+    fields = m["fields"]
+    kept = {k: fields[k] for k in PACKET_FIELDS if k in fields}
+    out = {"direction": m["direction"], "sysid": m["sysid"], "compid": m["compid"], "name": m["name"], "fields": kept}
+    if "seq" in m:
+        out["seq"] = m["seq"]
+    return out
 
 
 def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]]:
@@ -729,7 +746,8 @@ COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
 
 
 def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]]:
-    """Every ``/mavlink/<vehicle>`` topic's packets, decoded: (simulation time, packet).
+    """Every ``/mavlink/<vehicle>`` topic's packets, decoded: (simulation time, packet), each
+    packet with its header and only the fields the audit reads (:data:`PACKET_FIELDS`).
 
     Parameters
     ----------

@@ -804,7 +804,10 @@ class _Reader:
         c = self.c
         if self.messages >= self.lim.messages:
             raise self.fail(
-                start, f"more than {self.lim.messages} messages (MAX_MESSAGES): the audit stops here", "limit"
+                start,
+                f"more than {self.lim.messages} messages (MAX_MESSAGES): the audit stops here "
+                "(lfctl audit --max-messages N reads further)",
+                "limit",
             )
         self.messages += 1
         cid, seq, log_time, publish_time = _MESSAGE.unpack_from(buf, pos)

@@ -634,6 +634,20 @@ def test_each_limit_is_named_when_a_file_passes_it(logs, tmp_path: Path) -> None
     assert rep.figures["messages"] == full.figures["messages"] > rep.contents.payloads_dropped > 0
 
 
+def test_a_long_runs_log_is_read_whole_with_a_larger_message_limit(logs, capsys: pytest.CaptureFixture[str]) -> None:
+    # a clean 3-hour run's log (2.1 million messages) failed the audit at the default limit,
+    # and the command had no way to raise it
+    from lfctl.cli import main
+
+    n = audit(logs["zstd"]).figures["messages"]
+    assert main(["audit", str(logs["zstd"]), "--max-messages", str(n - 1)]) == 1
+    assert (
+        f"more than {n - 1} messages (MAX_MESSAGES): the audit stops here (lfctl audit --max-messages N reads further)"
+        in capsys.readouterr().out
+    )
+    assert main(["audit", str(logs["zstd"]), "--max-messages", str(n)]) == 0
+
+
 @pytest.mark.slow
 @pytest.mark.integration
 def test_two_million_tiny_messages_stop_at_the_default_limit_in_bounded_memory(tmp_path: Path) -> None:
