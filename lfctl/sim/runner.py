@@ -19,6 +19,7 @@ import itertools
 import logging
 import math
 import time
+from array import array
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,26 +54,32 @@ __all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario", "slots_o
 log = logging.getLogger(__name__)
 
 
+def _floats() -> array[float]:
+    return array("d")
+
+
 @dataclass
 class FollowerTrace:
-    """What one follower did, sampled at the guidance rate (errors against the truth)."""
+    """What one follower did, sampled at the guidance rate (errors against the truth). The
+    samples are kept as packed arrays (8 bytes a number: a list's floats took 32, and a long
+    run's trace grew by about 0.4 MB a simulated minute)."""
 
     name: str  # the follower
     target: str  # the vehicle it follows
     range_cmd_m: float  # its slot now (a ground station may move it): range, m
     bearing_cmd_rad: float  # and bearing, clockwise positive
-    t_s: list[float] = dataclasses.field(default_factory=list)  # sample times
-    range_m: list[float] = dataclasses.field(default_factory=list)  # truth
-    bearing_rad: list[float] = dataclasses.field(default_factory=list)  # truth
-    range_err_m: list[float] = dataclasses.field(default_factory=list)  # truth - the slot then
-    bearing_err_rad: list[float] = dataclasses.field(default_factory=list)  # truth - the slot, wrapped
-    separation_m: list[float] = dataclasses.field(default_factory=list)  # to the nearest vehicle
+    t_s: array[float] = dataclasses.field(default_factory=_floats)  # sample times
+    range_m: array[float] = dataclasses.field(default_factory=_floats)  # truth
+    bearing_rad: array[float] = dataclasses.field(default_factory=_floats)  # truth
+    range_err_m: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot then
+    bearing_err_rad: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot, wrapped
+    separation_m: array[float] = dataclasses.field(default_factory=_floats)  # to the nearest vehicle
     status: list[TrackStatus] = dataclasses.field(default_factory=list)  # the stack's track state
-    speed_cmd_mps: list[float] = dataclasses.field(default_factory=list)  # the commands sent
-    yaw_rate_cmd_radps: list[float] = dataclasses.field(default_factory=list)  # positive right
-    speed_mps: list[float] = dataclasses.field(default_factory=list)  # the follower's true speed
+    speed_cmd_mps: array[float] = dataclasses.field(default_factory=_floats)  # the commands sent
+    yaw_rate_cmd_radps: array[float] = dataclasses.field(default_factory=_floats)  # positive right
+    speed_mps: array[float] = dataclasses.field(default_factory=_floats)  # the follower's true speed
     #: off the path its target drove, less the slot's sideways offset (lfctl.metrics.PathHistory)
-    path_err_m: list[float] = dataclasses.field(default_factory=list)
+    path_err_m: array[float] = dataclasses.field(default_factory=_floats)
 
     def metrics(self, step_s: float) -> FormationMetrics:
         """The formation figures of this trace (see :mod:`lfctl.metrics`).
