@@ -40,14 +40,20 @@ def test_tracks_a_real_target_through_a_whole_video(capsys: pytest.CaptureFixtur
     assert out.is_file() and out.stat().st_size > 10_000
 
 
-def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    video = tmp_path / "banner.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
+def banner_video(path: Path, frames: int) -> list:
+    """A rendered banner (the clear tier, seed 3) written as an MJPG video: its frames' truths."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
     truths = []
-    for _t, frame, truth in make_sequence("clear", 3, 30).frames():
+    for _t, frame, truth in make_sequence("clear", 3, frames).frames():
         writer.write(frame)
         truths.append(truth)
     writer.release()
+    return truths
+
+
+def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    video = tmp_path / "banner.avi"
+    truths = banner_video(video, 30)
     assert main(["track", str(video)]) == 0
     recs = records(capsys)
     assert len(recs) == 30
@@ -76,12 +82,7 @@ def test_a_calibration_made_at_another_size_of_the_same_aspect_is_scaled_to_the_
     from lfctl.data import examples_dir
 
     video = tmp_path / "banner.avi"
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (640, 480))
-    truths = []
-    for _t, frame, truth in make_sequence("clear", 3, 20).frames():
-        writer.write(frame)
-        truths.append(truth)
-    writer.release()
+    truths = banner_video(video, 20)
     fx = 320 / math.tan(math.radians(31))  # the rendered camera's: 62 deg across 640 px
     text = (examples_dir() / "convoy.toml").read_text()
     calibrated = f"[camera]\nwidth_px = 1280\nheight_px = 960\nfx_px = {2 * fx!r}\ncx_px = 639.5\ncy_px = 479.5\n"
