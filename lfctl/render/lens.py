@@ -36,7 +36,6 @@ __all__ = ["GRID_PX", "Lens"]
 #: the rays are computed exactly at every this many pixels (and the picture's last row and
 #: column) and interpolated between
 GRID_PX = 8
-_NAMES = ("k1", "k2", "p1", "p2", "k3")
 
 
 def _grid(size: int) -> np.ndarray:
@@ -74,16 +73,14 @@ class Lens:
         w, h = camera.width, camera.height
         self.camera = camera
         self.K = camera.K
+        camera.check_lens()  # (a lens whose model folds inside the picture: refused)
         us, vs = _grid(w), _grid(h)
         gu, gv = np.meshgrid(us, vs)
         rays = camera.rays(np.column_stack([gu.ravel(), gv.ravel()]))
-        if not np.all(np.isfinite(rays)):
-            worst = int(np.flatnonzero(~np.isfinite(rays[:, 0]))[0])
-            coefficients = ", ".join(f"camera.{n} = {c:g}" for n, c in zip(_NAMES, camera.dist, strict=True) if c != 0)
+        if not np.all(np.isfinite(rays)):  # (past the border's check: a lens folding inside)
             raise ConfigError(
-                f"{coefficients}: this lens model folds the picture back on itself (no ray for pixel "
-                f"({gu.ravel()[worst]:g}, {gv.ravel()[worst]:g}) of the {w}x{h} picture: its radial function "
-                "stops growing inside it); take the coefficients from a calibration of this lens"
+                f"the camera's distortion has no ray for some pixels inside its {w}x{h} picture: "
+                "take the coefficients from a calibration of this lens"
             )
         fx, fy, cx, cy = self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2]
         limits = [1.0]

@@ -19,6 +19,8 @@ from lfctl.frames import rot_z
 
 __all__ = ["CameraModel", "at_frame_size", "distort", "rising_radius", "undistort"]
 
+#: the distortion coefficients' keys in [camera], in OpenCV's order
+DISTORTION_KEYS = ("k1", "k2", "p1", "p2", "k3")
 #: frames whose height differs from the calibrated height scaled by the widths' ratio by more
 #: than this are another aspect (a crop of the sensor, or rows padded), px
 ASPECT_TOLERANCE_PX = 1.0
@@ -172,17 +174,42 @@ class CameraModel:
         return float(K[0, 0] * p[0] / p[2] + K[0, 2]), float(K[1, 1] * p[1] / p[2] + K[1, 2]), float(p[2])
 
     @cached_property
-    def reach(self) -> float:
-        """The largest ray the picture holds (a normalised radius, x / z and y / z), on its
-        border: the lens model means nothing past it."""
+    def _border_rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels along the picture's border, and their rays (NaN past the lens model)."""
         w, h = self.width - 1.0, self.height - 1.0
         edge = np.linspace(0.0, 1.0, 65)
         border = np.concatenate(
             [np.column_stack([edge * w, 0 * edge]), np.column_stack([edge * w, 0 * edge + h]),
              np.column_stack([0 * edge, edge * h]), np.column_stack([0 * edge + w, edge * h])]
         )  # fmt: skip
-        rays = self.rays(border)
+        return border, self.rays(border)
+
+    @cached_property
+    def reach(self) -> float:
+        """The largest ray the picture holds (a normalised radius, x / z and y / z), on its
+        border: the lens model means nothing past it."""
+        rays = self._border_rays[1]
         return float(np.nanmax(np.hypot(rays[:, 0], rays[:, 1])))
+
+    def check_lens(self) -> None:
+        """Refuse distortion coefficients that fold the picture back on itself (the lens
+        model's radial function stops growing inside the picture: no ray for its edge).
+
+        Raises
+        ------
+        ConfigError
+            Naming the coefficients and a pixel with no ray.
+        """
+        border, rays = self._border_rays
+        lost = np.flatnonzero(~np.isfinite(rays[:, 0]))
+        if len(lost):
+            x, y = border[lost[0]]
+            given = ", ".join(f"camera.{n} = {c:g}" for n, c in zip(DISTORTION_KEYS, self.dist, strict=True) if c != 0)
+            raise ConfigError(
+                f"{given}: this lens model folds the picture back on itself (no ray for pixel ({x:g}, {y:g}) of "
+                f"the {self.width}x{self.height} picture: its radial function stops growing inside it); take the "
+                "coefficients from a calibration of this lens"
+            )
 
     @cached_property
     def rising_to(self) -> float:

@@ -165,6 +165,7 @@ class BannerPerception:
         """
         kind = tracker_kind(kind)  # a wrong name refused, with a tag banner too
         cam = CameraModel.from_config(camera)
+        cam.check_lens()  # (a real camera's too: no ray for the picture's edge is no lens)
         geometry = BannerGeometry.from_config(banner)
         expected = slot_box(cam, geometry, *slot) if slot is not None else None
         if banner.kind == "aruco":

@@ -99,7 +99,7 @@ def paper_pose(
         camera looking forward.
     """
     tl, tr, br, bl = np.asarray(centres, float)
-    if np.linalg.norm(bl - tl) < 1.0 or np.linalg.norm(br - tr) < 1.0:
+    if not np.all(np.isfinite(centres)) or np.linalg.norm(bl - tl) < 1.0 or np.linalg.norm(br - tr) < 1.0:
         return None
     R = _LEVEL if R_body_from_cam is None else np.asarray(R_body_from_cam, float)
     fx, fy = float(K[0, 0]), float(K[1, 1])

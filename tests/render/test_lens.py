@@ -179,3 +179,13 @@ def test_a_calibration_scales_to_frames_of_its_aspect_and_refuses_another() -> N
         at_frame_size(cal, 1280, 720)
     with pytest.raises(ConfigError, match="another aspect"):  # rows padded (1080 -> 1088): no scaling
         at_frame_size(dataclasses.replace(cal, width_px=1920, height_px=1080, cx_px=960.0, cy_px=540.0), 1920, 1088)
+
+
+def test_a_real_camera_whose_lens_folds_is_refused_before_it_tracks(capsys: pytest.CaptureFixture[str]) -> None:
+    # lfctl follow and lfctl track build no renderer: the perception refuses it, naming the key
+    with pytest.raises(ConfigError, match=r"camera\.k1 = -0\.3: this lens model folds"):
+        BannerPerception.from_config(CameraConfig(k1=-0.3), BannerConfig())
+    from lfctl.vision.pose import paper_pose
+
+    K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
+    assert paper_pose(np.array([[1.0, 1.0], [np.nan, 1.0], [9.0, 9.0], [1.0, 9.0]]), K, 0.14) is None
