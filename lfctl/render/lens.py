@@ -127,17 +127,6 @@ class Lens:
         """
         return cv2.remap(canvas, self._maps[0], self._maps[1], cv2.INTER_LINEAR)
 
-    def rays_to_image(self, rays: np.ndarray) -> np.ndarray:
-        """Output pixels (N, 2) of rays, those past the picture held to its reach first
-        (:meth:`CameraModel.pixels`).
-
-        Parameters
-        ----------
-        rays : np.ndarray
-            (N, 2) normalised pinhole coordinates (x / z, y / z).
-        """
-        return self.camera.pixels(rays)
-
     def shown(self, target: np.ndarray, nearer: list[np.ndarray]) -> tuple[Box | None, float]:
         """What the picture shows of a polygon painted on the canvas: its box in the picture
         (None when it shows nowhere), and the share of it in view and not hidden by the

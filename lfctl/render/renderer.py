@@ -778,7 +778,7 @@ class Renderer:
             marks = uv[:, :2] / uv[:, 2:3]
         if self.lens is not None:  # where the lens puts them
             ahead = cam[:, 2] > 0
-            marks[ahead] = self.lens.rays_to_image(cam[ahead, :2] / cam[ahead, 2:3])
+            marks[ahead] = self.lens.camera.pixels(cam[ahead, :2] / cam[ahead, 2:3])
             marks[~ahead] = np.nan
         ban_cam = R @ (centre - c)
         rng = math.hypot(target.north_m - follower.north_m, target.east_m - follower.east_m)

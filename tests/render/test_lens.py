@@ -87,7 +87,7 @@ def test_what_a_lens_picture_shows_of_a_polygon_is_read_from_the_bent_masks() ->
     square = np.array([[200.0, 150.0], [300.0, 150.0], [300.0, 250.0], [200.0, 250.0]])
     box, share = lens.shown(square, [])
     assert share == pytest.approx(1.0, abs=0.03) and box is not None
-    corners = lens.rays_to_image((square - lens.K_canvas[:2, 2]) / np.diag(lens.K_canvas)[:2])
+    corners = lens.camera.pixels((square - lens.K_canvas[:2, 2]) / np.diag(lens.K_canvas)[:2])
     assert box[0] == pytest.approx(corners[:, 0].min(), abs=2) and box[1] == pytest.approx(corners[:, 1].min(), abs=2)
     left_half = np.array([[150.0, 100.0], [250.0, 100.0], [250.0, 300.0], [150.0, 300.0]])
     assert lens.shown(square, [left_half])[1] == pytest.approx(0.5, abs=0.03)
