@@ -327,13 +327,14 @@ class MissionConfig(_Section):
     waypoints: tuple[tuple[float, ...], ...] = _f(
         (),
         max_items=MAX_WAYPOINTS,
-        items=(_POS, _POS, Bound(0, 86400)),
+        items=(_POS, _POS, Bound(0, 32767)),  # a hold: a NAV_WAYPOINT's, which Rover reads as a signed 16-bit count
         arity=(2, 3),
         names=("north_m", "east_m", "hold_s"),
         shape="[north_m, east_m] or [north_m, east_m, hold_s]",
     )
-    #: a waypoint is reached within this distance, m
-    acceptance_radius_m: float = _f(0.3, Bound(0, 1000, lo_open=True))
+    #: a waypoint driven through is reached within this distance, m (the leader's WP_RADIUS,
+    #: Rover's range; 0: only by passing it); a point it stops on is driven onto
+    acceptance_radius_m: float = _f(0.3, Bound(0, 100))
     cruise_speed_mps: float = _f(0.3, Bound(0, 100, lo_open=True))  # the leader's speed on straight legs, m/s
     #: LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
     lookahead_m: float = _f(0.8, Bound(0, 1000))

@@ -1,18 +1,22 @@
 """The leader's autopilot (AUTO): LOS waypoint guidance + sliding-mode heading control, with
-a speed profile that slows for sharp turns, waits where the mission says, and stops at the
-last waypoint."""
+a speed profile that slows for sharp turns, and stops on the waypoints where the mission
+waits or stops and on the last one."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 
 from lfctl.frames import wrap_pi
 from lfctl.guidance.los import LosOutput, WaypointFollower
 from lfctl.guidance.smc import BearingGains, SlidingModeController, clamp
 
-__all__ = ["AutopilotOutput", "AutopilotSettings", "LeaderAutopilot"]
+__all__ = ["CREEP_MPS", "AutopilotOutput", "AutopilotSettings", "LeaderAutopilot"]
+
+#: the slowest a vehicle approaching a point it stops on is asked to go, m/s (Rover's slowest
+#: waypoint speed, AR_WPNav's): its last few centimetres are driven, not approached for ever
+CREEP_MPS = 0.05
 
 
 @dataclass(frozen=True)
@@ -24,7 +28,7 @@ class AutopilotSettings:
     cruise_speed_mps : float
         Speed on straight legs, m/s.
     acceptance_radius_m : float
-        Waypoint switching radius, m.
+        Waypoint switching radius, >= 0, m.
     lookahead_m : float or None
         LOS lookahead on the path, m (None: pure pursuit of the waypoint).
     turn_slowdown : float
@@ -32,7 +36,7 @@ class AutopilotSettings:
     slow_distance_m : float
         Distance before a waypoint over which the turn slowdown is blended in, m.
     decel_mps2 : float
-        Deceleration used to stop at the last waypoint, m/s^2.
+        Deceleration used to stop on a waypoint (a wait there, the last one), m/s^2.
     heading : BearingGains
         Sliding-mode heading gains.
     """
@@ -73,6 +77,9 @@ class LeaderAutopilot:
         Reach at most one waypoint a step, even where several are within reach (a mission's
         items waiting where the one before ended): each begins, and may change its wait or
         speed, before the next is reached.
+    stop_at : collection of int
+        Waypoints it stops on though it waits there 0 s (a NAV_LOITER_TIME of 0 s); it stops
+        on every waypoint with a wait and on the last one anyway.
     """
 
     def __init__(
@@ -81,12 +88,18 @@ class LeaderAutopilot:
         settings: AutopilotSettings,
         start_ned_m: tuple[float, float],
         one_per_step: bool = False,
+        stop_at: Collection[int] = (),
     ) -> None:
         self.settings = settings
         self._most = 1 if one_per_step else None
         self.holds = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
+        self._stop_at = frozenset(stop_at)
         self.follower = WaypointFollower(
-            [(w[0], w[1]) for w in waypoints], settings.acceptance_radius_m, settings.lookahead_m, start_ned_m
+            [(w[0], w[1]) for w in waypoints],
+            settings.acceptance_radius_m,
+            settings.lookahead_m,
+            start_ned_m,
+            stops=_StopPoints(self),  # asked each step: a wait may be set as its leg begins
         )
         self.heading = SlidingModeController(settings.heading)
         self._hold_until = -math.inf
@@ -97,6 +110,18 @@ class LeaderAutopilot:
     def done(self) -> bool:
         """All waypoints reached."""
         return self.follower.done
+
+    def stops_at(self, index: int) -> bool:
+        """Whether it stops on waypoint ``index``: a wait there, the last one, or one of ``stop_at``.
+
+        Parameters
+        ----------
+        index : int
+            The waypoint.
+        """
+        if not 0 <= index < len(self.holds):
+            return False
+        return index == len(self.holds) - 1 or self.holds[index] > 0 or index in self._stop_at
 
     def waiting(self, t_s: float) -> bool:
         """Whether it is still waiting at a waypoint at ``t_s`` (its next step stands still).
@@ -147,9 +172,16 @@ class LeaderAutopilot:
         blend = clamp(1.0 - (los.distance_to_go_m - st.acceptance_radius_m) / st.slow_distance_m, 0.0, 1.0)
         speed *= 1.0 - st.turn_slowdown * (turn / math.pi) * blend
         speed *= max(0.0, math.cos(err)) ** 2
-        i = self.follower.index
-        if i == len(self.follower.waypoints) - 1 or self.holds[i] > 0:
-            speed = min(
-                speed, math.sqrt(2.0 * st.decel_mps2 * max(0.0, los.distance_to_go_m - 0.5 * st.acceptance_radius_m))
-            )
+        if self.stops_at(self.follower.index):  # onto the point itself, as Rover's stop waypoints
+            speed = min(speed, max(CREEP_MPS, math.sqrt(2.0 * st.decel_mps2 * los.distance_to_go_m)))
         return AutopilotOutput(speed, yaw_rate, los, 0.0)
+
+
+class _StopPoints:
+    """The waypoints an autopilot stops on, as its follower asks (``i in stops``)."""
+
+    def __init__(self, autopilot: LeaderAutopilot) -> None:
+        self._autopilot = autopilot
+
+    def __contains__(self, index: object) -> bool:
+        return isinstance(index, int) and self._autopilot.stops_at(index)

@@ -8,12 +8,17 @@ quadrant is right, and call eq. 14 what it is: a heading error, not a cross-trac
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Container, Sequence
 from dataclasses import dataclass
 
 from lfctl.frames import wrap_pi
 
+#: how near a point the vehicle stops at must have come along its track to have arrived, m
+#: (Rover's position controller brings it onto the point; this is the last of its approach)
+ARRIVAL_M = 0.05
+
 __all__ = [
+    "ARRIVAL_M",
     "LosOutput",
     "WaypointFollower",
     "cross_track_m",
@@ -141,19 +146,29 @@ class LosOutput:
 class WaypointFollower:
     """Switches through waypoints inside an acceptance radius and gives the LOS heading.
 
-    A waypoint counts as reached when the vehicle is inside ``acceptance_radius_m`` of it, or
-    when it has passed the waypoint's perpendicular (so a wide turn never circles back).
+    A waypoint the vehicle drives through counts as reached when the vehicle is inside
+    ``acceptance_radius_m`` of it, or when it has passed the waypoint's perpendicular (so a
+    wide turn never circles back). A waypoint it stops at (``stops``) is driven onto, as
+    ArduPilot's Rover does (AR_WPNav: a stop point is reached once the vehicle has come along
+    its track to the point, and is inside the radius or past the point's perpendicular): it
+    counts as reached within :data:`ARRIVAL_M` of the point along the track and inside the
+    radius, or past the perpendicular. A waypoint on the segment's start (nothing to drive)
+    is reached at once.
 
     Parameters
     ----------
     waypoints_ned_m : sequence of (north_m, east_m)
         The route; the vehicle's start pose is the segment start for the first one.
     acceptance_radius_m : float
-        Switching radius, > 0, m.
+        Switching radius, >= 0, m (0: a waypoint is reached only by passing it, as Rover's
+        WP_RADIUS 0).
     lookahead_m : float or None
         Lookahead distance for LOS on the path (None: pure pursuit of the waypoint, eq. 12).
     start_ned_m : (north_m, east_m)
         Where the vehicle starts: the first segment's start.
+    stops : container of int
+        The indices of the waypoints the vehicle stops at (a wait there, the route's end);
+        asked each step, so it may be one that changes.
     """
 
     def __init__(
@@ -162,14 +177,16 @@ class WaypointFollower:
         acceptance_radius_m: float,
         lookahead_m: float | None,
         start_ned_m: tuple[float, float] = (0.0, 0.0),
+        stops: Container[int] = frozenset(),
     ) -> None:
-        if not acceptance_radius_m > 0:
-            raise ValueError(f"acceptance_radius_m must be > 0, got {acceptance_radius_m!r}")
+        if not acceptance_radius_m >= 0 or not math.isfinite(acceptance_radius_m):
+            raise ValueError(f"acceptance_radius_m must be >= 0, got {acceptance_radius_m!r}")
         if lookahead_m is not None and not lookahead_m > 0:
             raise ValueError(f"lookahead_m must be > 0 or None, got {lookahead_m!r}")
         self.waypoints = [(float(n), float(e)) for n, e in waypoints_ned_m]
         self.acceptance_radius_m = acceptance_radius_m
         self.lookahead_m = lookahead_m
+        self.stops = stops
         self.index = 0
         self.prev = (float(start_ned_m[0]), float(start_ned_m[1]))
 
@@ -197,8 +214,11 @@ class WaypointFollower:
             wp = self.waypoints[self.index]
             dist = distance_to_go_m(north_m, east_m, *wp)
             seg_len = math.hypot(wp[0] - self.prev[0], wp[1] - self.prev[1])
-            passed = seg_len > 0 and along_track_m(north_m, east_m, self.prev, wp) >= seg_len
-            if dist > self.acceptance_radius_m and not passed:
+            along = along_track_m(north_m, east_m, self.prev, wp)
+            inside = dist <= self.acceptance_radius_m
+            if self.index in self.stops:  # driven onto: come along the track to it, then inside
+                inside = inside and along >= seg_len - ARRIVAL_M
+            if seg_len > 0 and not inside and along < seg_len:
                 break
             reached.append(self.index)
             self.prev = wp

@@ -1552,7 +1552,7 @@ class VehicleEndpoint:
         self._reached_seq = seq
         self.send(mav.MAVLink_mission_item_reached_message(seq))
 
-    def run_mission_item(self, item: MissionItem) -> None:
+    def run_mission_item(self, item: MissionItem, verified: bool = True) -> None:
         """Carry out a mission's DO command on the vehicle as the same command from a ground
         station would (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE), then say it is done.
 
@@ -1560,12 +1560,16 @@ class VehicleEndpoint:
         ----------
         item : MissionItem
             The item whose turn has come.
+        verified : bool
+            Say it is done (MISSION_ITEM_REACHED); False for an item the mission never checks
+            (the one started after the last navigation item, as the mission completes).
         """
         p = [item.param1, item.param2, item.param3, item.param4, float(item.x), float(item.y), item.z]
         # a mission's MISSION frame is above mean sea level, as AP_Mission reads a place in it
         frame = mav.MAV_FRAME_GLOBAL if item.frame == mav.MAV_FRAME_MISSION else item.frame
         self._command(item.command, p, (item.x, item.y), frame)
-        self.item_done(item.seq)
+        if verified:
+            self.item_done(item.seq)
 
     def rtl_destination(self, north_m: float, east_m: float) -> tuple[float, float]:
         """Where RTL drives from (north, east): the nearest of home and the rally points the

@@ -320,7 +320,7 @@ def validate_item(item: MissionItem, count: int) -> int:
             return mav.MAV_MISSION_UNSUPPORTED_FRAME
     timed = (NAV_WAYPOINT, NAV_LOITER_TIME, NAV_DELAY, CONDITION_DELAY, CONDITION_DISTANCE)
     if cmd in timed and not math.isfinite(item.param1):
-        return mav.MAV_MISSION_INVALID_PARAM1  # a hold, delay or distance (negative: none, as on Rover)
+        return mav.MAV_MISSION_INVALID_PARAM1  # a hold, delay or distance (a negative one: as Rover takes it)
     if cmd == NAV_DELAY and item.param1 <= 0:  # until a time of day (UTC): hour, minute, second
         for k, (value, top) in enumerate(((item.param2, 23), (item.param3, 59), (item.param4, 59))):
             if not (_whole(value) and -1 <= value <= top):  # -1: any
@@ -657,8 +657,10 @@ def walk_mission(
             if it.command == NAV_LOITER_UNLIM:
                 hold = math.inf
             elif it.command in (NAV_WAYPOINT, NAV_LOITER_TIME):
-                # whole seconds: Rover keeps this time in a 16-bit integer (AP_Mission's p1)
-                hold = float(math.floor(it.param1)) if it.param1 > 0 else 0.0
+                # whole seconds: Rover keeps this time in a 16-bit integer (AP_Mission's p1),
+                # which its do_nav_wp reads as signed: 32768 s and more wait none
+                whole = math.floor(it.param1) if it.param1 > 0 else 0
+                hold = float(whole) if whole < 32768 else 0.0
             elif it.command == NAV_DELAY and it.param1 > 0:  # NAV_DELAY's seconds are a float
                 hold = it.param1
             else:

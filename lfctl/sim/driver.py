@@ -319,7 +319,12 @@ class VehicleDriver:
             autopilot_settings(self.cfg), cruise_speed_mps=ep.speed_mps, acceptance_radius_m=ep.param("WP_RADIUS")
         )
         self._autopilot = LeaderAutopilot(
-            [(g.north_m, g.east_m, g.hold_s) for g in self._legs], settings, self._pos, one_per_step=True
+            [(g.north_m, g.east_m, g.hold_s) for g in self._legs],
+            settings,
+            self._pos,
+            one_per_step=True,
+            # Rover's do_nav_wp stops on a loiter's point however short the loiter
+            stop_at=[k for k, g in enumerate(self._legs) if g.command == NAV_LOITER_TIME],
         )
         self._holding, self._queue, self._condition, self._circle = None, [], None, None
         if self._legs:
@@ -350,7 +355,9 @@ class VehicleDriver:
         ep.statustext(mission_text(item), mav.MAV_SEVERITY_INFO)
         if leg.command == NAV_RETURN_TO_LAUNCH:  # home or a rally point as they are now
             self._place(k, ep.rtl_destination(*self._pos))
-            ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))  # Rover's RTL start
+            # Rover's RTL start: the item enters ModeRTL (its speed; Mode::enter drives forwards)
+            ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))
+            ep.reversed = False
         elif leg.command == NAV_DELAY or (item.x, item.y) == (0, 0):
             self._place(k, self._pos)  # here: where the vehicle is as the item begins
         if leg.command == NAV_LOITER_TURNS:
@@ -425,15 +432,17 @@ class VehicleDriver:
         for jump, taken, repeats in jumps:
             self.endpoint.statustext(f"Mission: {jump} Jump {taken}/{repeats}", mav.MAV_SEVERITY_INFO)
 
-    def _search(self, t_s: float) -> None:
+    def _search(self, t_s: float, verified: bool = True) -> None:
         """What AP_Mission's search for the next navigation item does with the items before
         it: each navigation item it cannot start is tried (and said), and the first DO
-        command or condition it meets is started; the others wait their turn."""
+        command or condition it meets is started; the others wait their turn. ``verified``:
+        the items started are checked afterwards (MISSION_ITEM_REACHED when done); not after
+        the last navigation item, where the mission completes first."""
         started, rest = False, []
         for it in self._queue:
             if it.command in SKIPPED_NAV or not started:
                 started = started or it.command not in SKIPPED_NAV
-                self._start_item(it, t_s)
+                self._start_item(it, t_s, verified)
             else:
                 rest.append(it)
         self._queue = rest
@@ -491,9 +500,10 @@ class VehicleDriver:
 
     def _end_mission(self, t_s: float) -> None:
         """No navigation item is left: the first item after the last one starts (a payload's
-        servo, say), then the mission is complete (AP_Mission's advance finds no more)."""
+        servo, say), then the mission is complete (AP_Mission's advance finds no more), so
+        that item is never checked and no MISSION_ITEM_REACHED says it was done."""
         self._queue = list(self._tail)
-        self._search(t_s)
+        self._search(t_s, verified=False)
         self._queue, self._condition = [], None
         self._completed = True
         self.endpoint.complete_mission()
@@ -512,15 +522,17 @@ class VehicleDriver:
                 continue
             self._start_item(self._queue.pop(0), t_s)
 
-    def _start_item(self, it: MissionItem, t_s: float) -> None:
+    def _start_item(self, it: MissionItem, t_s: float, verified: bool = True) -> None:
         """Start one DO command or condition of the mission (or try a navigation item a
-        Rover skips), saying so as ArduPilot's mission library does."""
+        Rover skips), saying so as ArduPilot's mission library does; ``verified``: say when
+        it is done (MISSION_ITEM_REACHED)."""
         ep, cmd = self.endpoint, it.command
+        done = ep.item_done if verified else _unverified
         ep.statustext(mission_text(it), mav.MAV_SEVERITY_INFO)
         if cmd in SKIPPED_NAV:
             return
         if cmd == CONDITION_DELAY:
-            self._condition = (it.seq, "time", t_s + max(0.0, it.param1))
+            self._condition = (it.seq, "time", t_s + condition_delay_s(it.param1))
         elif cmd == CONDITION_DISTANCE:
             self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
         elif cmd == DO_CHANGE_SPEED:
@@ -532,9 +544,9 @@ class VehicleDriver:
             elif not circling and it.param2 >= WP_SPEED_MIN_MPS:  # set_speed_max takes no slower (-1: none)
                 ep.set_speed(it.param2)
                 ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
-            ep.item_done(it.seq)
+            done(it.seq)
         elif cmd in ACTED_ON:
-            ep.run_mission_item(it)
+            ep.run_mission_item(it, verified)
         elif cmd in NOTHING_FITTED:
             ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
         elif cmd == JUMP_TAG:
@@ -542,7 +554,7 @@ class VehicleDriver:
         else:  # a DO command a Rover does not carry out
             if cmd in SKIPPED_SAID:
                 ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)
-            ep.item_done(it.seq)
+            done(it.seq)
 
     @property
     def distinct_reached(self) -> int:
@@ -609,6 +621,25 @@ class VehicleDriver:
         arrived = self._goto.done and not self._goto_done
         self._goto_done = self._goto.done
         return arrived, ((-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps)
+
+
+def condition_delay_s(seconds: float) -> float:
+    """How long a CONDITION_DELAY of ``seconds`` holds the items after it, s, with Rover's
+    arithmetic (``do_wait_delay``, ``verify_wait_delay``): whole milliseconds in a signed
+    32-bit integer (held at its ends, as an ARM flight controller converts it), compared
+    unsigned, so a negative delay waits about 49.7 days, not none.
+
+    Parameters
+    ----------
+    seconds : float
+        The item's param1 (finite), s.
+    """
+    ms = min(2**31 - 1, max(-(2**31), math.trunc(seconds * 1000.0)))
+    return (ms % 2**32) / 1000.0
+
+
+def _unverified(seq: int) -> None:
+    """An item started that is never checked: nothing is said when it is done."""
 
 
 def speed_max(cruise_speed_mps: float, cruise_throttle_pct: float) -> float:

@@ -76,8 +76,38 @@ def test_a_passed_waypoint_counts_as_reached_so_the_vehicle_never_circles_back()
     assert out.reached == (0,) and out.active_index == 1
 
 
+def test_a_stop_point_is_driven_onto_not_reached_at_the_radius() -> None:
+    # Rover's AR_WPNav: a waypoint it stops at is reached once the vehicle has come along the
+    # track to it (and is inside WP_RADIUS or past it); a point it drives through, at the radius
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=2.0, lookahead_m=1.0, stops={0})
+    assert wf.step(2.5, 0.0, 0.0).reached == ()  # 1.5 m short: inside the radius, not arrived
+    assert wf.step(3.9, 0.3, 0.0).reached == ()  # 0.1 m along the track short
+    out = wf.step(3.96, 0.3, 0.0)  # 0.04 m short (within ARRIVAL_M), 0.3 m to the side
+    assert out.reached == (0,) and out.active_index == 1
+    out = wf.step(4.0, 2.5, math.pi / 2)  # waypoint 1 is driven through: reached at the radius
+    assert out.reached == (1,) and out.done
+
+
+def test_a_zero_radius_reaches_a_waypoint_by_passing_it() -> None:
+    # WP_RADIUS 0 is in Rover's range: only the perpendicular (or the point itself) reaches
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=0.0, lookahead_m=1.0, stops={1})
+    assert wf.step(3.99, 0.0, 0.0).reached == ()
+    assert wf.step(4.01, 0.05, 0.0).reached == (0,)
+    assert wf.step(4.0, 3.999, math.pi / 2).reached == ()
+    assert wf.step(4.0, 4.0, math.pi / 2).reached == (1,)  # on the point
+
+
+def test_a_waypoint_on_the_segments_start_is_reached_at_once() -> None:
+    # a repeated waypoint, passed wide of the radius: nothing to drive back to
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 0.0), (8.0, 0.0)], acceptance_radius_m=0.3, lookahead_m=1.0)
+    out = wf.step(4.5, 1.0, 0.0)  # past the first's perpendicular, 1.1 m from the point
+    assert out.reached == (0, 1) and out.active_index == 2
+
+
 def test_invalid_settings_are_named() -> None:
-    with pytest.raises(ValueError, match="acceptance_radius_m must be > 0, got 0"):
-        WaypointFollower([(1.0, 1.0)], 0.0, None)
+    with pytest.raises(ValueError, match=r"acceptance_radius_m must be >= 0, got -0\.1"):
+        WaypointFollower([(1.0, 1.0)], -0.1, None)
+    with pytest.raises(ValueError, match="acceptance_radius_m must be >= 0, got nan"):
+        WaypointFollower([(1.0, 1.0)], math.nan, None)
     with pytest.raises(ValueError, match="lookahead_m must be > 0 or None, got -1"):
         WaypointFollower([(1.0, 1.0)], 0.3, -1.0)

@@ -28,6 +28,7 @@ from lfctl.link.mission import (
     validate_item,
 )
 from lfctl.link.mission_server import MISSION
+from lfctl.sim.driver import condition_delay_s
 from lfctl.sim.links import Links
 from lfctl.sim.runner import RunReport
 
@@ -795,3 +796,89 @@ def test_one_circle_after_another_drives_on_without_stopping() -> None:
     t, speed = rep.result.t_s, rep.result.speed_mps[:, 0]
     around = (t > t_next - 1.0) & (t < t_next + 1.0)
     assert speed[around].min() > 0.39, speed[around]
+
+
+# -- a second review against Rover's mode_auto.cpp and AR_WPNav --------------------------------
+def test_a_missions_rtl_drives_home_forwards_after_a_reverse_before_it() -> None:
+    # the RTL item enters Rover's RTL mode, whose Mode::enter clears DO_SET_REVERSE: it drove
+    # all the way home backwards
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (4.0, 0.0)),
+            item(mav.MAV_CMD_DO_SET_REVERSE, 1.0),
+            places(links.home, (2.0, 0.0)),
+            item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        )(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=50.0)
+    reached = dict(rep.waypoints_reached)  # items 1 and 3: indices 0 and 2
+    assert speed_between(rep, reached[0] + 1.0, reached[2] - 1.0) > 0.2  # (the speed's size)
+    t, speed = rep.result.t_s, rep.result.speed_mps[:, 0]
+    assert np.median(speed[(t > reached[0] + 1.0) & (t < reached[2] - 1.0)]) < -0.2  # backed to 2 m
+    home = speed[t > reached[2] + 0.5]  # it turns round on the spot, then drives home forwards
+    assert home.min() > -0.02 and home.max() > 0.3
+    assert not links.endpoints[0].reversed and links.endpoints[0].mission_complete
+    assert math.hypot(*leader_at(rep, 50.0)) <= 0.1  # onto home
+
+
+def test_the_command_after_the_last_waypoint_is_never_said_done(tmp_path: Path) -> None:
+    # AP_Mission starts it, then completes the mission before checking it: no
+    # MISSION_ITEM_REACHED for it, so the last one reached is the last waypoint's
+    def upload(links: Links) -> None:
+        store(places(links.home, (3.0, 0.0)), item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.2))(links)
+
+    _rep, links = run_with({0.5: upload}, duration_s=20.0, record_to=tmp_path / "m.mcap")
+    assert links.endpoints[0].mission_complete and "speed: 0.2 m/s" in texts(links)
+    reached = [f["seq"] for _t, _name, f in sent(tmp_path / "m.mcap", "MISSION_ITEM_REACHED")]
+    assert reached and reached[-1] == 1 and 2 not in reached
+
+
+def test_a_loiter_of_no_time_stops_on_its_point_and_a_long_wait_is_none() -> None:
+    # Rover's do_nav_wp stops a loiter on its point however short; its 16-bit wait is read
+    # signed, so 40000 s waits none
+    def upload(links: Links) -> None:
+        x, y = latlon(links, 4.0, 0.0)
+        loiter = dataclasses.replace(item(mav.MAV_CMD_NAV_LOITER_TIME, 0.0), x=x, y=y)
+        store(loiter, places(links.home, (4.0, 4.0, 40000.0)), places(links.home, (0.0, 4.0)))(links)
+
+    rep, links = run_with({0.5: upload}, duration_s=60.0)
+    reached = dict(rep.waypoints_reached)
+    assert set(reached) == {0, 1, 2} and links.endpoints[0].mission_complete  # the long wait waited none
+    t = rep.result.t_s
+    k = int(np.argmin(np.abs(t - reached[0])))
+    assert math.hypot(*(rep.result.pos_ned_m[k, 0] - np.array([4.0, 0.0]))) < 0.1  # on the loiter's point
+    near = np.abs(rep.result.speed_mps[(t > reached[0] - 1.0) & (t < reached[0] + 1.0), 0])
+    assert near.min() < 0.1  # it (nearly) stopped there (from 0.4 m/s), then turned for the next
+    assert math.hypot(*(leader_at(rep, 60.0) - np.array([0.0, 4.0]))) < 0.1  # onto the last point
+
+
+def test_a_negative_condition_delay_holds_the_commands_after_it_for_good() -> None:
+    # Rover's verify_wait_delay compares unsigned milliseconds: -1 s is about 49.7 days
+    assert condition_delay_s(-1.0) == pytest.approx(2**32 / 1000 - 1.0)
+    assert condition_delay_s(2.5) == 2.5 and condition_delay_s(0.0) == 0.0
+
+    def upload(links: Links) -> None:
+        store(
+            places(links.home, (2.0, 0.0)),
+            item(mav.MAV_CMD_CONDITION_DELAY, -1.0),
+            item(mav.MAV_CMD_DO_SET_REVERSE, 1.0),
+            places(links.home, (6.0, 0.0)),
+        )(links)
+
+    _rep, links = run_with({0.5: upload}, duration_s=30.0)
+    assert links.endpoints[0].mission_complete and not links.endpoints[0].reversed
+
+
+def test_a_zero_waypoint_radius_is_flown_as_rover_flies_it() -> None:
+    # WP_RADIUS 0 is in Rover's range: the waypoints are reached by passing them (it ended
+    # the run with a ValueError at the next mission, GUIDED place or RTL)
+    def zero(links: Links) -> None:
+        send(links, mav.MAVLink_param_set_message(1, 1, b"WP_RADIUS", 0.0, mav.MAV_PARAM_TYPE_REAL32))
+
+    def upload(links: Links) -> None:
+        store(places(links.home, (3.0, 0.0), (3.0, 3.0)), item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH))(links)
+
+    rep, links = run_with({0.3: zero, 0.5: upload}, duration_s=60.0)
+    assert links.endpoints[0].param("WP_RADIUS") == 0.0
+    assert links.endpoints[0].mission_complete and len(dict(rep.waypoints_reached)) == 3
+    assert math.hypot(*leader_at(rep, 60.0)) <= 0.1
