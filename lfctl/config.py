@@ -494,6 +494,22 @@ class CameraConfig(_Section):
                 f"camera.width_px x height_px must be at most {MAX_CAMERA_PIXELS} pixels, "
                 f"got {self.width_px}x{self.height_px} = {self.width_px * self.height_px}"
             )
+        # a calibration's principal point lies on the picture, and its focal lengths are a
+        # pinhole's (a field of view under 170 deg, as hfov_deg's): others are typing slips
+        for key, size, side in (("cx_px", self.width_px, "width_px"), ("cy_px", self.height_px, "height_px")):
+            value = getattr(self, key)
+            if value > size:
+                raise ConfigError(
+                    f"camera.{key} must lie on the picture (within 0..camera.{side} = {size}), got {value:g}"
+                )
+        for key, size, side in (("fx_px", self.width_px, "width_px"), ("fy_px", self.height_px, "height_px")):
+            value = getattr(self, key)
+            least = size / 2 / math.tan(math.radians(85.0))
+            if 0 < value < least:
+                raise ConfigError(
+                    f"camera.{key} = {value:g} px would be a field of view over 170 deg across camera.{side} = "
+                    f"{size} px (a pinhole's focal length is at least {least:.3g} px there)"
+                )
 
 
 @dataclass(frozen=True)

@@ -3,9 +3,11 @@
 
 from __future__ import annotations
 
+import math
 import os
 import stat
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
@@ -14,11 +16,66 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 
-__all__ = ["STREAM_TIMEOUT_S", "LatestFrames", "VideoSource"]
+__all__ = ["STREAM_TIMEOUT_S", "FileInfo", "LatestFrames", "VideoSource", "probe_file"]
 
 #: how long a stream (a URL) may take to open, and to give its next frame, s: a silent one
 #: is an error (opening) or its end (reading), not a process blocked for ever
 STREAM_TIMEOUT_S = 10.0
+
+#: FFmpeg's readers that draw a text file (ANSI art, an .nfo, a .bin such as an ArduPilot
+#: log) as pictures, and the codecs they give: such a file is not a video
+TEXT_FORMATS = frozenset({"tty", "bin", "xbin", "adf", "idf"})
+TEXT_CODECS = frozenset({"ansi", "bintext", "xbin", "idf"})
+
+
+@dataclass(frozen=True)
+class FileInfo:
+    """What a video file's container says of its first video stream (FFmpeg's, through PyAV)."""
+
+    format: str  # FFmpeg's name for the container ("mov,mp4,m4a,3gp,3g2,mj2", "matroska,webm")
+    codec: str  # the video codec
+    frames: int | None  # the frames it stores a count of (MP4, MOV, AVI); None where it stores none
+    duration_s: float | None  # the duration a Matroska or WebM file's head declares, s; else None
+
+
+def probe_file(path: str) -> FileInfo | str:
+    """What the container at ``path`` says (:class:`FileInfo`), or why FFmpeg could not open
+    it (its words), before OpenCV reads the frames.
+
+    Matroska and WebM store no frame count (OpenCV's is the duration times the nominal rate,
+    far off for a variable rate or a recorder that dropped frames), but write the duration
+    in their head, so a cut one ends well before it; an MPEG-TS states neither (its duration
+    is estimated from what is there).
+
+    Parameters
+    ----------
+    path : str
+        A video file.
+
+    Raises
+    ------
+    ConfigError
+        A file with no video stream (audio only), or one FFmpeg draws as text, not a video.
+    """
+    import av
+
+    try:
+        with av.open(path) as container:
+            streams = container.streams.video
+            name = container.format.name
+            info = None
+            if streams:
+                stream = streams[0]
+                duration = container.duration / 1e6 if "matroska" in name and container.duration else None
+                count = stream.frames if stream.frames > 0 else None
+                info = FileInfo(name, stream.codec_context.name, count, duration)
+    except (av.FFmpegError, OSError, EOFError, ValueError) as exc:
+        return str(getattr(exc, "strerror", None) or exc)
+    if info is None:
+        raise ConfigError(f"{path} has no video stream (audio only, or no frames)")
+    if name in TEXT_FORMATS or info.codec in TEXT_CODECS:
+        raise ConfigError(f"{path} is not a video: FFmpeg draws it as text (its {name!r} reader)")
+    return info
 
 
 class _Capture(Protocol):
@@ -119,17 +176,11 @@ class VideoSource:
         self.name = source
         target: str | int = int(source) if source.isdigit() and not path else source
         stream = isinstance(target, str) and "://" in target
+        #: what the file's container says (None for a camera or a stream)
+        self.info: FileInfo | None = None
+        why_not = ""  # FFmpeg's reason a file would not open
         if isinstance(target, str) and not stream:
-            try:
-                mode = os.stat(target).st_mode
-            except (OSError, ValueError):
-                raise ConfigError(
-                    f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
-                ) from None
-            if stat.S_ISFIFO(mode) or stat.S_ISSOCK(mode):
-                raise ConfigError(
-                    f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)"
-                )
+            self.info, why_not = self._check_file(source)
         if stream:
             ms = int(STREAM_TIMEOUT_S * 1000)
             params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
@@ -137,13 +188,47 @@ class VideoSource:
         else:
             self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
-            why = f"no stream within {STREAM_TIMEOUT_S:g} s, or " if stream else ""
+            if isinstance(target, int):
+                mine = f" (a file named {source!r} is here: give ./{source} for it)" if Path(source).is_file() else ""
+                raise ConfigError(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
+            if stream:
+                raise ConfigError(
+                    f"cannot open video source {source[:200]!r} with OpenCV (no stream within "
+                    f"{STREAM_TIMEOUT_S:g} s, or unsupported format)"
+                )
             raise ConfigError(
-                f"cannot open video source {source[:200]!r} with OpenCV ({why}unsupported format or no such camera)"
+                f"cannot read {source[:200]!r} as a video ({why_not or 'OpenCV cannot open it'}): not a video, or a "
+                "file cut short (an MP4 or MOV recording stopped before it finished has no index)"
             )
         #: a camera or a stream (frames come in real time), not a file
         self.live = isinstance(target, int) or stream
         self._latest = LatestFrames(self._cap, STREAM_TIMEOUT_S) if latest and self.live else None
+        self.frames_read = 0  # frames handed over
+        self._first_ms: float | None = None  # the first frame's time in the file, ms
+        self._last_ms = -math.inf
+        self._timed_frames = 0  # frames read up to the last one with a time of its own
+        #: the frames carry no times of their own (a raw H.264 or MJPEG stream): a frame's
+        #: time is counted from the declared rate
+        self.untimed = self.live
+
+    @staticmethod
+    def _check_file(source: str) -> tuple[FileInfo | None, str]:
+        """Refuse what is not a video file (missing, a directory, empty, a pipe, text); the
+        container's information, or FFmpeg's reason it would not open."""
+        try:
+            st = os.stat(source)
+        except (OSError, ValueError):
+            raise ConfigError(
+                f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
+            ) from None
+        if stat.S_ISFIFO(st.st_mode) or stat.S_ISSOCK(st.st_mode):
+            raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
+        if stat.S_ISDIR(st.st_mode):
+            raise ConfigError(f"{source} is a directory, not a video file")
+        if stat.S_ISREG(st.st_mode) and st.st_size == 0:
+            raise ConfigError(f"{source} is empty (0 bytes)")
+        info = probe_file(source)
+        return (info, "") if isinstance(info, FileInfo) else (None, info)
 
     @property
     def fps(self) -> float:
@@ -153,9 +238,30 @@ class VideoSource:
     @property
     def declared_frames(self) -> int | None:
         """How many frames a video file's container says it holds (None for a camera or a
-        stream, or a file that does not say)."""
-        n = self._cap.get(cv2.CAP_PROP_FRAME_COUNT)
-        return int(n) if n and n > 0 and Path(self.name).is_file() else None
+        stream, or a container that stores no count: OpenCV's figure for those is an
+        estimate from the duration, far off for a variable frame rate)."""
+        return self.info.frames if self.info is not None else None
+
+    @property
+    def pixel_aspect(self) -> tuple[int, int] | None:
+        """The sample (pixel) aspect ratio a file or stream declares when its pixels are not
+        square (a DV or DVD picture's 64:45, say), else None."""
+        num, den = (int(self._cap.get(p) or 0) for p in (cv2.CAP_PROP_SAR_NUM, cv2.CAP_PROP_SAR_DEN))
+        return (num, den) if num > 0 and den > 0 and num != den else None
+
+    @property
+    def declared_duration_s(self) -> float | None:
+        """The duration a Matroska or WebM file's head declares, s (None otherwise)."""
+        return self.info.duration_s if self.info is not None else None
+
+    @property
+    def time_s(self) -> float:
+        """The time of the frame last read, from the first frame's, s: the frame's own
+        timestamp in a file (right for a variable frame rate), else counted at :attr:`fps`."""
+        if self._first_ms is None:  # a camera, a stream, or none read yet
+            return max(0, self.frames_read - 1) / self.fps
+        timed_s = (self._last_ms - self._first_ms) / 1000.0
+        return timed_s + (self.frames_read - self._timed_frames) / self.fps  # (counted on once untimed)
 
     @property
     def skipped(self) -> int:
@@ -166,10 +272,21 @@ class VideoSource:
         """The next frame (BGR, uint8), or the newest (``latest``), or None at the end of the
         source."""
         if self._latest is not None:
-            return self._latest.next()
+            frame = self._latest.next()
+            self.frames_read += frame is not None
+            return frame
         ok, frame = self._cap.read()
         if not ok or frame is None:
             return None
+        self.frames_read += 1
+        if not self.untimed:
+            ms = float(self._cap.get(cv2.CAP_PROP_POS_MSEC))
+            if self._first_ms is None:
+                self._first_ms = ms
+            elif not ms > self._last_ms:  # a stream with no times (FFmpeg gives 0 for each)
+                self.untimed = True  # counted on from the last time it had, at the rate
+                return frame
+            self._last_ms, self._timed_frames = ms, self.frames_read
         return frame
 
     def close(self) -> None:

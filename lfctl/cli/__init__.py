@@ -126,6 +126,34 @@ def _unknown_error(
     chain[owner][0].error(f"unrecognized arguments: {' '.join(unknown)}")
 
 
+#: options whose value may start with a minus sign and a digit, as a list: "-10,-5,40,30"
+#: (argparse takes a word starting with "-" for an option unless it is one number)
+SIGNED_LIST_OPTIONS = ("--roi",)
+
+
+def _joined_values(words: list[str]) -> list[str]:
+    """``--roi -10,-5,40,30`` as ``--roi=-10,-5,40,30``, so that a box partly off the left or
+    top edge is taken as the value it is."""
+    out: list[str] = []
+    it = iter(words)
+    for word in it:
+        if word in SIGNED_LIST_OPTIONS:
+            value = next(it, None)
+            if value is not None and len(value) > 1 and value[0] == "-" and (value[1].isdigit() or value[1] == "."):
+                out.append(f"{word}={value}")
+                continue
+            out.append(word)
+            if value is not None:
+                out.append(value)
+            continue
+        if word == "--":
+            out.append(word)
+            out.extend(it)
+            break
+        out.append(word)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit code.
 
@@ -135,7 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         The arguments (default ``sys.argv[1:]``).
     """
     parser = build_parser()
-    words = list(sys.argv[1:] if argv is None else argv)
+    words = _joined_values(list(sys.argv[1:] if argv is None else argv))
     args, unknown = parser.parse_known_args(words)
     if unknown:
         _unknown_error(parser, args, words, unknown)

@@ -302,11 +302,17 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.video import VideoSource
     from lfctl.vision.banner import BannerGeometry
     from lfctl.vision.camera_model import CameraModel, at_frame_size
+    from lfctl.vision.frames import colourless
     from lfctl.vision.perception import BannerPerception, banner_in_picture
 
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
     live = live_address(args.live, cfg.live.foxglove, "--live")
     stream_to = live_address(args.video, cfg.live.video, "--video")
+    if not cfg.followers:
+        raise ConfigError(
+            f"{args.scenario}: the scenario has no follower; lfctl follow runs its first follower's stack "
+            '(its slot, gains and the banner it looks for): add a [[vehicles]] entry with role = "follower"'
+        )
     slot = cfg.slots()[cfg.followers[0].name]
     range_m = slot.range_m if args.range is None else args.range
     bearing_rad = slot.bearing_rad if args.bearing is None else math.radians(args.bearing)
@@ -318,10 +324,20 @@ def run(args: argparse.Namespace) -> int:
         if first is None:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
         h, w = first.shape[:2]
-        camera, scaled = at_frame_size(cfg.camera, w, h)
+        try:
+            camera, scaled = at_frame_size(cfg.camera, w, h)
+        except ConfigError as exc:  # (its message names the scenario's key)
+            raise ConfigError(
+                f"camera {args.camera!r}: its frames are {w}x{h} px, which lfctl cannot take ({exc})"
+            ) from None
         if scaled:
             log.warning("%s (the camera gave another size than [camera] says)", scaled)
         banner = cfg.banner_of(slot.target)  # with ArUco tags, the target's own id
+        if colourless(first) and banner.kind != "aruco":
+            log.warning(
+                "the camera's first frame has no colour (every pixel grey: a monochrome or infrared camera?): "
+                "the tracker follows the banner by its hue and saturation and will not find it"
+            )
         perception = BannerPerception.from_config(camera, banner, (range_m, bearing_rad), kind=camera.tracker)
         if not banner_in_picture(perception.camera, BannerGeometry.from_config(banner), range_m, bearing_rad):
             log.warning(

@@ -36,6 +36,12 @@ def register(sub: Any) -> None:
         "--scenario", help="take camera intrinsics and banner geometry from this scenario (a file, or a shipped name)"
     )
     t.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many frames")
+    t.add_argument(
+        "--fps",
+        type=number(0, 10000, lo_open=True, unit="fps"),
+        help="the frames' rate, for t_s (default: each frame's own time in a file; a raw .h264 or MJPEG "
+        "stream has none, and is counted at the rate FFmpeg assumes)",
+    )
     t.set_defaults(func=run)
 
 
@@ -50,6 +56,25 @@ def parse_roi(text: str) -> tuple[int, int, int, int]:
     if len(parts) != 4:
         raise ConfigError(f"--roi must be x,y,w,h (four numbers), got {text!r}")
     return parts[0], parts[1], parts[2], parts[3]
+
+
+def _say_odd_roi(roi: tuple[int, int, int, int], width: int, height: int) -> None:
+    """Say on stderr when --roi looks like a slip (the window is clipped to the frame): most
+    of it off the frame (another resolution's coordinates?), or most of the frame inside."""
+    x, y, w, h = roi
+    inside = max(0, min(x + w, width) - max(x, 0)) * max(0, min(y + h, height) - max(y, 0))
+    if 0 < inside < 0.5 * w * h:
+        print(
+            f"lfctl track: --roi {x},{y},{w},{h} lies mostly outside the {width}x{height} frame (coordinates of "
+            "another size or orientation?); its part inside is tracked",
+            file=sys.stderr,
+        )
+    elif inside > 0.5 * width * height:
+        print(
+            f"lfctl track: --roi {x},{y},{w},{h} holds more than half the {width}x{height} frame: the tracker "
+            "follows what it holds, mostly background",
+            file=sys.stderr,
+        )
 
 
 def _watched_banner(scen: Config) -> BannerConfig:
@@ -70,13 +95,18 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.video import VideoSource
     from lfctl.vision.camera_model import at_frame_size
     from lfctl.vision.draw import annotate
-    from lfctl.vision.frames import FrameError
+    from lfctl.vision.frames import FrameError, colourless
     from lfctl.vision.perception import BannerPerception
 
-    roi = parse_roi(args.roi) if args.roi else None
+    roi = parse_roi(args.roi) if args.roi is not None else None
     args.source = resolve_footage(args.source)
     _check_paths(args.source, args.out)
     if "://" not in args.source and not args.source.isdigit() and not os.path.lexists(args.source):
+        if "%" in args.source:
+            raise ConfigError(
+                f"{args.source[:200]!r}: lfctl track reads videos, not numbered image files: make a video of them "
+                "first (ffmpeg -framerate 30 -i frame_%04d.png clip.mp4)"
+            )
         raise ConfigError(
             f"video source {args.source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
             f" or a shipped clip by name, from {footage_dir()})"
@@ -85,8 +115,10 @@ def run(args: argparse.Namespace) -> int:
     n = 0
     writer = None
     with VideoSource(args.source) as video:
-        declared = video.declared_frames
+        declared, declared_s = video.declared_frames, video.declared_duration_s
+        rate = args.fps or video.fps
         perception = None
+        untimed_said = False
         try:
             while args.max_frames is None or n < args.max_frames:
                 frame = video.read()
@@ -94,6 +126,12 @@ def run(args: argparse.Namespace) -> int:
                     break
                 if perception is None:
                     h, w = frame.shape[:2]
+                    banner = _watched_banner(scen) if scen else BannerConfig()
+                    if colourless(frame) and banner.kind != "aruco":
+                        raise ConfigError(
+                            f"{args.source} has no colour (every pixel grey: a monochrome or infrared camera?): "
+                            "lfctl's trackers follow a target by its hue and saturation; give a colour video"
+                        )
                     try:
                         camera, scaled = at_frame_size(scen.camera if scen else CameraConfig(), w, h)
                     except ConfigError as exc:  # (its message names the scenario's key)
@@ -104,18 +142,46 @@ def run(args: argparse.Namespace) -> int:
                         print(f"lfctl track: {scaled}", file=sys.stderr)
                     perception = BannerPerception.from_config(
                         camera,
-                        _watched_banner(scen) if scen else BannerConfig(),
+                        banner,
                         kind=TRACKER_KINDS[args.tracker],
                         use_markers=not args.no_markers,
                         marker_hue_deg=args.marker_hue_deg,
                     )
+                    if roi is not None:
+                        _say_odd_roi(roi, w, h)
+                    sar = video.pixel_aspect
+                    if sar is not None:
+                        print(
+                            f"lfctl track: {args.source}'s pixels are not square (aspect {sar[0]}:{sar[1]}): --roi and "
+                            f"the boxes are in its {w}x{h} stored pixels, not the {round(w * sar[0] / sar[1])}x{h} "
+                            "picture a player shows",
+                            file=sys.stderr,
+                        )
+                    # the writer's codecs take even sizes (OpenCV would resize the frames,
+                    # moving every box off its pixels): an odd edge is padded
+                    pad_w, pad_h = w % 2, h % 2
+                    if args.out and (pad_w or pad_h):
+                        print(
+                            f"lfctl track: --out {args.out} is {w + pad_w}x{h + pad_h}, the {w}x{h} frames with a "
+                            "black edge (its codec takes even sizes)",
+                            file=sys.stderr,
+                        )
                     if args.out:
-                        writer = cv2.VideoWriter(str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), video.fps, (w, h))
+                        size = (w + pad_w, h + pad_h)
+                        writer = cv2.VideoWriter(str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), rate, size)
                         if not writer.isOpened():
                             raise ConfigError(
                                 f"cannot write {args.out} (check the directory and the .mp4/.avi extension)"
                             )
-                seen = perception.step(n / video.fps, frame, roi)
+                t_s = n / args.fps if args.fps else video.time_s
+                if video.untimed and not args.fps and not video.live and not untimed_said:
+                    untimed_said = True
+                    print(
+                        f"lfctl track: {args.source}'s frames carry no times (a raw stream): t_s counts them at "
+                        f"{video.fps:g} fps, the rate FFmpeg assumes; give --fps for the camera's",
+                        file=sys.stderr,
+                    )
+                seen = perception.step(t_s, frame, roi)
                 st = seen.track
                 if st is None and n == 0:
                     raise ConfigError(
@@ -123,7 +189,7 @@ def run(args: argparse.Namespace) -> int:
                     )
                 rec: dict[str, object] = {
                     "frame": n,
-                    "t_s": round(n / video.fps, 4),
+                    "t_s": round(t_s, 4),
                     "state": st.status.value if st is not None else "lost",
                     "bbox": list(st.bbox) if st is not None and st.bbox else None,
                     "quality": round(st.quality, 3) if st is not None else 0.0,
@@ -140,24 +206,37 @@ def run(args: argparse.Namespace) -> int:
                     }
                 print(json.dumps(rec), flush=True)
                 if writer is not None:
-                    writer.write(annotate(frame, st, f"{n} {rec['state']}"))
+                    drawn = annotate(frame, st, f"{n} {rec['state']}")
+                    if pad_w or pad_h:
+                        drawn = cv2.copyMakeBorder(drawn, 0, pad_h, 0, pad_w, cv2.BORDER_CONSTANT, value=0)
+                    writer.write(drawn)
                 n += 1
         except FrameError as exc:
             raise ConfigError(f"frame {n} of {args.source}: {exc}") from exc
         finally:
             if writer is not None:
                 writer.release()
+        last_s, timed = video.time_s, not video.untimed
     if n == 0:
         raise ConfigError(f"video source {args.source!r} gave no frames")
     if writer is not None:
         _check_written(args.out, n)
-    if (args.max_frames is None or n < args.max_frames) and declared is not None and n < declared - 1:
-        # (a container's count may be one off, and is an estimate from the duration in some
-        # containers): a file that ends well short of it is cut or damaged
+    whole = args.max_frames is None or n < args.max_frames
+    if whole and declared is not None and n < declared - 1:
+        # (a container's count may be one off): a file that ends well short of it is cut or damaged
         said = f"{args.source} ended after {n} of the {declared} frames it declares"
         if n < SHORT_END * declared:
             raise ConfigError(f"{said}: the file is cut or damaged (the {n} frames read were tracked)")
         print(f"lfctl track: {said}", file=sys.stderr)
+    elif whole and declared_s is not None and timed:
+        # a Matroska or WebM file stores no count but its duration: its last frame, and that
+        # frame's time on the screen, fall well short of it in a cut one
+        shown = last_s + 1.0 / rate
+        if shown < SHORT_END * declared_s:
+            raise ConfigError(
+                f"{args.source} ended at {shown:.2f} s of the {declared_s:.2f} s it declares: the file is cut or "
+                f"damaged (the {n} frames read were tracked)"
+            )
     return 0
 
 

@@ -67,6 +67,14 @@ def at_frame_size(camera: CameraConfig, width: int, height: int) -> tuple[Camera
     if not given:
         return dataclasses.replace(camera, width_px=width, height_px=height), None
     sx, sy = width / W, height / H
+    turned = abs(width * W / H - height) <= 2 * ASPECT_TOLERANCE_PX and (width > height) != (W > H)
+    if abs(H * sx - height) > ASPECT_TOLERANCE_PX and turned:
+        raise ConfigError(
+            f"camera.{given[0]} and the other intrinsics hold at camera.width_px x height_px = {W}x{H}, and the "
+            f"frames are {width}x{height}: the picture turned a quarter (a phone's upright recording carries a "
+            "rotation, which the video reader applies); lfctl does not turn a calibration: calibrate the camera "
+            f"from frames as the video gives them ({width}x{height}) and give that size"
+        )
     if abs(H * sx - height) > ASPECT_TOLERANCE_PX:
         raise ConfigError(
             f"camera.{given[0]} and the other intrinsics hold at camera.width_px x height_px = {W}x{H}, not "

@@ -8,7 +8,13 @@ import numpy as np
 
 from lfctl.errors import LfctlError
 
-__all__ = ["FrameError", "check_bgr", "check_roi"]
+__all__ = ["FrameError", "check_bgr", "check_roi", "colourless"]
+
+#: a pixel whose channels differ by more than this many grey levels has a colour
+GREY_SPREAD = 8
+#: a frame with fewer such pixels than this share has none (a mono or infrared camera's,
+#: with compression's faint tints)
+COLOURED_SHARE = 0.001
 
 
 class FrameError(LfctlError, ValueError):
@@ -65,3 +71,25 @@ def check_roi(roi: tuple[int, int, int, int], shape: tuple[int, ...]) -> tuple[i
     if x1 <= x0 or y1 <= y0:
         raise FrameError(f"ROI {x},{y},{w},{h} lies outside the {W}x{H} frame")
     return x0, y0, x1 - x0, y1 - y0
+
+
+def colourless(frame: np.ndarray) -> bool:
+    """Whether a BGR frame shows a scene with no colour: every pixel grey (a monochrome or
+    infrared camera, a grey video), give or take compression's faint tints, in a picture
+    that is not one flat level (a black frame as a camera starts says nothing). The
+    trackers follow hue and saturation, which such a frame has none of.
+
+    Parameters
+    ----------
+    frame : np.ndarray
+        H x W x 3 uint8 BGR.
+    """
+    sample = frame[::4, ::4].astype(np.int16)  # every 16th pixel is plenty to find colour
+    spread = sample.max(axis=2) - sample.min(axis=2)
+    grey = int(np.count_nonzero(spread > GREY_SPREAD)) < COLOURED_SHARE * spread.size
+    return grey and float(sample.std()) > FLAT_STD
+
+
+#: a frame whose grey levels spread less than this (standard deviation) is flat: black, or
+#: one level, which tells nothing of whether the camera sees colour
+FLAT_STD = 2.0

@@ -111,7 +111,7 @@ def test_a_calibration_made_at_another_size_of_the_same_aspect_is_scaled_to_the_
     ("argv", "message"),
     [
         (["track", "/nonexistent/video.mp4"], "does not exist"),
-        (["track", "__TEXT__"], "cannot open video source"),
+        (["track", "__TEXT__"], "cannot read"),
         (["track", "__VIDEO__", "--roi", "1,2,3"], "--roi must be x,y,w,h"),
         (["track", "__VIDEO__", "--roi", "9000,9000,10,10"], "lies outside the"),
         (["track", "__VIDEO__", "--roi", "1,2,30,30", "--out", "out.txt"], "must end in .mp4, .avi"),
@@ -188,5 +188,5 @@ def test_a_camera_that_is_not_there_is_one_line_without_opencvs_own_warnings(tmp
     )
     assert done.returncode == 2
     assert (
-        done.stderr == "lfctl: error: cannot open video source '7' with OpenCV (unsupported format or no such camera)\n"
+        done.stderr == "lfctl: error: cannot open camera 7 with OpenCV (no such camera, or it is busy)\n"
     )
