@@ -85,6 +85,9 @@ FORCE_ARM = (2989.0, 21196.0)
 MODE_NAMES = {v: k for k, v in MODES.items()}
 #: Rover's other modes, which lfctl does not fly (named when refused)
 OTHER_ROVER_MODES = {1: "ACRO", 3: "STEERING", 5: "LOITER", 7: "SIMPLE", 8: "DOCK", 9: "CIRCLE", 16: "INITIALISING"}
+ACRO_MODE = 1
+#: MIS_DONE_BEHAVE's values that leave AUTO at a mission's end (Rover's DoneBehaviour)
+MIS_DONE_ACRO, MIS_DONE_MANUAL = 2, 3
 #: Rover's INITIALISING mode, which never starts on request (ModeInitializing::_enter)
 INITIALISING_MODE = 16
 #: Rover's period of the "PreArm:" texts while a check fails, and their delay once one starts
@@ -1518,9 +1521,18 @@ class VehicleEndpoint:
             self.complete_mission()
 
     def complete_mission(self) -> None:
-        """The mission is done: AUTO stops where it is, and says so as Rover's exit_mission."""
+        """The mission is done, said as Rover's ``exit_mission``, which then does what
+        ``MIS_DONE_BEHAVE`` says: 0 stop in AUTO, 1 loiter in AUTO (holding its place, where
+        nothing pushes a simulated vehicle off it: it stays stopped), 2 ACRO (which lfctl's
+        vehicle has not: refused as a ground station's request is, and it stops in AUTO, as
+        Rover does when the mode will not start), 3 MANUAL."""
         self.mission_complete = True
         self.statustext("Mission Complete", mav.MAV_SEVERITY_NOTICE)
+        behave = int(self.param("MIS_DONE_BEHAVE"))
+        if behave == MIS_DONE_ACRO:
+            self.set_mode(ACRO_MODE)
+        elif behave == MIS_DONE_MANUAL:
+            self.set_mode(MODES["MANUAL"])
 
     def set_speed(self, speed_mps: float) -> None:
         """The speed a mission item sets for the waypoints after it (DO_CHANGE_SPEED, RTL's

@@ -110,6 +110,9 @@ def default_params(sysid: int) -> dict[str, Param]:
         "CRUISE_THROTTLE": Param(50, 0, 100, "%", "throttle at CRUISE_SPEED (VFR_HUD's throttle)", kind=INT8),
         "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
         "CIRC_SPEED": Param(0.0, 0.0, 10.0, "m/s", "speed round a mission's NAV_LOITER_TURNS circle; 0: WP_SPEED"),
+        "MIS_DONE_BEHAVE": Param(
+            0, 0, 3, "", "at a mission's end: 0 hold in AUTO, 1 loiter in AUTO, 2 ACRO, 3 MANUAL", kind=INT8
+        ),
         "TURN_RADIUS": Param(
             0.9, 0.0, 100.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
         ),

@@ -882,3 +882,31 @@ def test_a_zero_waypoint_radius_is_flown_as_rover_flies_it() -> None:
     assert links.endpoints[0].param("WP_RADIUS") == 0.0
     assert links.endpoints[0].mission_complete and len(dict(rep.waypoints_reached)) == 3
     assert math.hypot(*leader_at(rep, 60.0)) <= 0.1
+
+
+@pytest.mark.parametrize(
+    ("behave", "mode_after", "said"),
+    [
+        (0, "AUTO", []),
+        (1, "AUTO", []),  # loiter in AUTO: it holds its place
+        (2, "AUTO", ["ACRO mode not supported", "Flight mode change failed"]),  # no ACRO here: it stops in AUTO
+        (3, "MANUAL", []),
+    ],
+)
+def test_the_missions_end_does_what_mis_done_behave_says(behave: int, mode_after: str, said: list[str]) -> None:
+    from lfctl.link.endpoint import MODES
+
+    def set_behave(links: Links) -> None:
+        send(links, mav.MAVLink_param_set_message(1, 1, b"MIS_DONE_BEHAVE", behave, mav.MAV_PARAM_TYPE_INT8))
+
+    def upload(links: Links) -> None:
+        store(places(links.home, (3.0, 0.0)))(links)
+
+    rep, links = run_with({0.3: set_behave, 0.5: upload}, duration_s=25.0)
+    ep = links.endpoints[0]
+    assert ep.param("MIS_DONE_BEHAVE") == behave and ep.mission_complete
+    assert ep.mode == MODES[mode_after]
+    end = texts(links)[texts(links).index("Mission Complete") + 1 :]
+    assert [t for t in end if "mode" in t] == said
+    assert math.hypot(*(leader_at(rep, 25.0) - np.array([3.0, 0.0]))) < 0.1
+    assert abs(rep.result.final.vehicle(0).speed_mps) < 0.02

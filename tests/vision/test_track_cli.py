@@ -187,6 +187,4 @@ def test_a_camera_that_is_not_there_is_one_line_without_opencvs_own_warnings(tmp
         [sys.executable, "-m", "lfctl", "track", "7"], capture_output=True, text=True, env=env, timeout=120
     )
     assert done.returncode == 2
-    assert (
-        done.stderr == "lfctl: error: cannot open camera 7 with OpenCV (no such camera, or it is busy)\n"
-    )
+    assert done.stderr == "lfctl: error: cannot open camera 7 with OpenCV (no such camera, or it is busy)\n"
