@@ -13,6 +13,13 @@ A fault in the framing stops the reading (what was read before it is kept, for
 the reading goes on. A file cut short is called *truncated* only when it really ends inside
 a record; damage inside a complete file is *corrupt* or a *CRC mismatch*.
 
+A writer puts each Schema and Channel record in the data section once, in the first chunk
+that uses it, and repeats them all in the summary. So messages on a channel not defined yet
+are kept (as any message is, within the limits below) until a definition turns up, from a
+later record or from the summary: a damaged chunk that held definitions loses only its own
+messages when the file has its summary. Messages on a channel defined nowhere are dropped
+at the end (an error).
+
 Limits (module constants, the defaults of :class:`ReadLimits`; a finding names the one a
 file hit):
 
@@ -122,6 +129,18 @@ _MESSAGE = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish tim
 def _a(word: str) -> str:
     """``word`` with its indefinite article."""
     return f"{'an' if word[:1].lower() in 'aeiou' else 'a'} {word}"
+
+
+def _count(n: int, word: str) -> str:
+    """``1 channel`` / ``2 channels``."""
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def _refer(topics: list[str], schema_id: int) -> str:
+    """``channel '/a' refers to schema 3`` (``channels '/a' and 2 more refer ...``)."""
+    if len(topics) == 1:
+        return f"channel {topics[0]!r} refers to schema {schema_id}"
+    return f"channels {topics[0]!r} and {len(topics) - 1} more refer to schema {schema_id}"
 
 
 def _size(n: int) -> str:
@@ -543,6 +562,16 @@ class _Reader:
         self.last_time: dict[int, int] = {}
         #: (kind of anomaly, channel id) -> [count, first offset, first detail]
         self.anomalies: dict[tuple[str, int], list[Any]] = {}
+        #: the offset of the last chunk skipped (damaged, or past a limit): definitions in it are lost
+        self.skipped_chunk: int | None = None
+        #: channel id -> [messages read before its definition, the first one's offset, the
+        #: chunk skipped before it or None]: kept in ``by_channel`` until a definition turns up
+        self.held: dict[int, list[Any]] = {}
+        #: schema id -> [topics of the channels defined before it, the first one's offset,
+        #: the chunk skipped before it or None]
+        self.orphans: dict[int, list[Any]] = {}
+        #: skipped chunk's offset -> [channels, schemas] whose lost definitions the summary gave
+        self.restored: dict[int, list[int]] = {}
 
     # -- bytes --------------------------------------------------------------------------------
     def read(self, n: int, start: int) -> bytes:
@@ -688,7 +717,12 @@ class _Reader:
         elif op == MESSAGE:
             self.message_record(body, start)
         elif op == CHUNK:
-            self.chunk(cur, start)
+            try:
+                self.chunk(cur, start)
+            except _Fault as exc:
+                if exc.skip:  # skipped whole: any Schema or Channel record in it is lost
+                    self.skipped_chunk = start
+                raise
         elif op == MESSAGE_INDEX:
             cur.u16("channel id")
             entries = cur.sub("records")
@@ -758,6 +792,12 @@ class _Reader:
             self.anomaly("schema redefined", s.id, start, f"schema {s.id} is defined twice, differently")
         if old is None or self.summary_start is None:
             self.c.schemas[s.id] = s
+        waiting = self.orphans.pop(s.id, None)
+        if waiting is not None:
+            topics, first, skipped = waiting
+            self.defined_late(
+                "schema undefined", s.id, 1, first, skipped, f"{_refer(topics, s.id)} before it is defined", schema=True
+            )
 
     def define_channel(self, ch: Channel, start: int) -> None:
         c = self.c
@@ -766,16 +806,32 @@ class _Reader:
             self.anomaly("channel redefined", ch.id, start, f"channel {ch.id} is defined twice, differently")
         if old is not None and self.summary_start is not None:
             return  # the summary's copy
-        if ch.schema_id != 0 and ch.schema_id not in c.schemas:
-            self.anomaly(
-                "schema undefined",
-                ch.id,
-                start,
-                f"channel {ch.topic!r} refers to schema {ch.schema_id} before it is defined",
-            )
+        if ch.schema_id != 0 and ch.schema_id not in c.schemas:  # until a Schema record turns up
+            waiting = self.orphans.setdefault(ch.schema_id, [[], start, self.skipped_chunk])
+            waiting[0].append(ch.topic)
         c.channels[ch.id] = ch
         if ch.id not in c.by_channel:
             c.by_channel[ch.id] = MessageStore(self.blocks, self.block_offsets)
+        held = self.held.pop(ch.id, None)
+        if held is not None:  # its messages read so far are in by_channel already: in file order
+            n, first, skipped = held
+            detail = f"message on channel {ch.id} ({ch.topic}) before the channel is defined"
+            self.defined_late("channel undefined", ch.id, n, first, skipped, detail)
+
+    def defined_late(
+        self, key: str, ident: int, n: int, first: int, skipped: int | None, detail: str, schema: bool = False
+    ) -> None:
+        """A definition turned up for ``n`` messages (or a channel) read before it, the first
+        at ``first``. In the data section the writer's order is wrong: an error. From the
+        summary after a skipped chunk it stands in for the copy presumably lost with that
+        chunk: counted for one warning (see :meth:`finish`). From the summary with no chunk
+        skipped before, the data section never defined it: an error."""
+        if self.summary_start is not None:
+            if skipped is not None:
+                self.restored.setdefault(skipped, [0, 0])[int(schema)] += 1
+                return
+            detail += " (only the summary defines it)"
+        self.anomalies[(key, ident)] = [n, first, detail]
 
     def anomaly(self, key: str, channel: int, offset: int, detail: str) -> None:
         a = self.anomalies.get((key, channel))
@@ -813,14 +869,18 @@ class _Reader:
         cid, seq, log_time, publish_time = _MESSAGE.unpack_from(buf, pos)
         c.counts[cid] = c.counts.get(cid, 0) + 1
         store = c.by_channel.get(cid)
-        if store is None:
-            self.anomaly("channel undefined", cid, start, f"message on channel {cid} before the channel is defined")
-            return log_time
+        if store is None:  # kept until the channel is defined (a later chunk, the summary): see held
+            store = c.by_channel[cid] = MessageStore(self.blocks, self.block_offsets)
+        if cid not in c.channels:
+            held = self.held.get(cid)
+            if held is None:
+                self.held[cid] = [1, start, self.skipped_chunk]
+            else:
+                held[0] += 1
         prev = self.last_time.get(cid)
         if prev is not None and log_time < prev:
-            self.anomaly(
-                "time back", cid, start, f"log_time goes back on {c.channels[cid].topic}: {log_time} ns after {prev} ns"
-            )
+            name = c.channels[cid].topic if cid in c.channels else f"channel {cid}"
+            self.anomaly("time back", cid, start, f"log_time goes back on {name}: {log_time} ns after {prev} ns")
         self.last_time[cid] = log_time
         if block < 0:
             c.payloads_dropped += 1
@@ -1030,6 +1090,30 @@ class _Reader:
 
     def finish(self, fault: _Fault | None) -> None:
         c = self.c
+        for skipped, counts in self.restored.items():
+            what = " and ".join(_count(n, word) for n, word in zip(counts, ("channel", "schema"), strict=True) if n)
+            self.findings.append(
+                Finding(
+                    "warning",
+                    f"{what} used after this skipped Chunk {'is' if sum(counts) == 1 else 'are'} defined only in "
+                    "the summary (their definitions were presumably in the chunk): the summary's are used",
+                    skipped,
+                    "corrupt",
+                )
+            )
+        for cid, (n, first, skipped) in self.held.items():  # defined nowhere: nothing to read them with
+            del c.by_channel[cid]
+            lost = (
+                f"; its definition was presumably in the Chunk skipped at byte {skipped}" if skipped is not None else ""
+            )
+            detail = f"message on channel {cid}, which no intact Channel record defines{lost}"
+            self.anomalies[("channel undefined", cid)] = [n, first, detail]
+        for sid, (topics, first, skipped) in self.orphans.items():
+            lost = (
+                f"; its definition was presumably in the Chunk skipped at byte {skipped}" if skipped is not None else ""
+            )
+            detail = f"{_refer(topics, sid)}, which no intact Schema record defines{lost}"
+            self.anomalies[("schema undefined", sid)] = [1, first, detail]
         for (key, cid), (n, offset, detail) in self.anomalies.items():
             more = f" ({n} times)" if n > 1 else ""
             level = "error"

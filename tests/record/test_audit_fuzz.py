@@ -268,6 +268,90 @@ def test_a_flip_in_a_chunk_and_a_changed_digit_in_the_metadata_are_located(logs,
     assert crc.offset == run[0] and f"byte {i} bit 0" in crc.what and "Metadata record" in crc.what
 
 
+def _records_at(data: bytes, chunk_start: int) -> int:
+    """Where a Chunk record's compressed records begin."""
+    compression = int.from_bytes(data[chunk_start + 9 + 28 : chunk_start + 9 + 32], "little")
+    return chunk_start + 9 + 32 + compression + 8
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4"])
+def test_a_flip_in_the_chunk_that_defines_the_channels_loses_only_that_chunks_messages(
+    logs, tmp_path: Path, compression: str
+) -> None:
+    """The writer puts each Schema and Channel record in the data section once, in the first
+    chunk that uses it, and again in the summary. One flipped bit in the first chunk lost
+    every message on the channels it defined (all of the log's but those first used later),
+    though the summary defines them: the summary's definitions are used."""
+    log = logs[compression]
+    data = log.read_bytes()
+    start, end, _ = records_of(data, 6)[0]
+    c, _ = read_contents(log)
+    in_first = collections.Counter(
+        (c.channels[cid].topic, s.log_times[i], s.sequences[i])
+        for cid, s in c.by_channel.items()
+        for i in range(len(s))
+        if s.offset(i) == start
+    )
+    rest = message_keys(log) - in_first
+    assert in_first and rest
+    flipped = bytearray(data)
+    flipped[(_records_at(data, start) + end) // 2] ^= 0x10
+    bad = tmp_path / "flipped.mcap"
+    bad.write_bytes(flipped)
+    rep = audit(bad)
+    errors = [f for f in rep.findings if f.level == "error"]
+    assert errors[0].offset == start and errors[0].kind in ("crc", "corrupt"), errors
+    assert not any("missing" in f.what or "defined" in f.what for f in errors), errors
+    (used,) = [f for f in rep.findings if "defined only in the summary" in f.what]
+    assert used.level == "warning" and used.offset == start
+    assert rep.figures["messages"] == sum(rest.values())
+    out = tmp_path / "recovered.mcap"
+    assert recover(rep, out) == sum(rest.values())
+    assert message_keys(out) == rest  # every message of the other chunks, once
+    again = audit(out)
+    assert again.ok, again.findings
+
+
+def test_a_killed_logs_channels_defined_in_a_damaged_first_chunk_are_lost(tmp_path: Path) -> None:
+    """A killed run's log has no summary: the channels its first chunk defined are defined
+    nowhere else, so their messages cannot be read (docs/audit.md says so)."""
+    log = write_log(tmp_path / "killed.mcap", reason=None)
+    data = log.read_bytes()
+    start, end, _ = records_of(data, 6)[0]
+    flipped = bytearray(data)
+    flipped[(_records_at(data, start) + end) // 2] ^= 0x10
+    log.write_bytes(flipped)
+    rep = audit(log)
+    lost = [f for f in rep.findings if "which no intact Channel record defines" in f.what]
+    assert lost and all(f.level == "error" and f"the Chunk skipped at byte {start}" in f.what for f in lost)
+    assert "/leader/pose" not in rep.contents.messages and rep.figures["messages"] > 0
+
+
+def finish_with_summary(parts: list[bytes], summary: bytes) -> bytes:
+    """Like finish, with ``summary``'s records in the summary section."""
+    data = MAGIC + b"".join(parts)
+    data += record(15, struct.pack("<I", zlib.crc32(data)))
+    foot = struct.pack("<BQQQ", 2, 20, len(data), 0)
+    return data + summary + foot + struct.pack("<I", zlib.crc32(summary + foot)) + MAGIC
+
+
+def test_messages_read_before_their_channels_definition_are_kept_until_it_turns_up(tmp_path: Path) -> None:
+    """A definition later in the data section or only in the summary keeps the messages read
+    before it (each an error: the writer's order is wrong); a channel defined nowhere loses them."""
+    late = chunk(message(1, 0, 5, b"{}") + channel(1, "/late") + message(1, 1, 6, b"{}"))
+    parts = [header(), late, chunk(message(2, 0, 7, b"{}")), chunk(message(3, 0, 8, b"{}"))]
+    p = tmp_path / "order.mcap"
+    p.write_bytes(finish_with_summary(parts, channel(1, "/late") + channel(2, "/summary")))
+    rep = audit(p)
+    errors = {f.what for f in rep.findings if f.level == "error"}
+    assert "message on channel 1 (/late) before the channel is defined" in errors
+    assert "message on channel 2 (/summary) before the channel is defined (only the summary defines it)" in errors
+    assert "message on channel 3, which no intact Channel record defines" in errors
+    assert not any("Footer" in e or "CRC" in e for e in errors), errors
+    assert {t: len(m) for t, m in rep.contents.messages.items()} == {"/late": 2, "/summary": 1}
+    assert rep.figures["messages"] == 4 and recover(rep, tmp_path / "out.mcap") == 3
+
+
 def test_locate_flip_agrees_with_zlib() -> None:
     rng = random.Random(7)
     data = rng.randbytes(5000)
