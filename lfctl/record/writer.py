@@ -1207,7 +1207,14 @@ def _annotations(
     stamp: fm.Timestamp, track: TrackState | None, measurement: RelativeMeasurement | None
 ) -> fm.ImageAnnotations:
     """The tracked window (green tracking, orange coasting), the markers (magenta) and a line
-    of state, each stamped with the frame's time."""
+    of state, each stamped with the frame's time.
+
+    Foxglove's image coordinates have their origin at the top-left corner of the top-left
+    pixel: pixel (i, j) covers [i, i+1] x [j, j+1]. The window is a box of whole pixels whose
+    x..x+w spans its pixels' edges in those coordinates, as it is. The markers (blob
+    centroids, or an ArUco tag's corners) are sub-pixel points in OpenCV's convention, pixel
+    (i, j) centred at (i, j): they get half a pixel. The line of state is only placed.
+    """
     points, texts = [], []
     label = "not started"
     if track is not None:
@@ -1232,7 +1239,7 @@ def _annotations(
                 fm.PointsAnnotation(
                     timestamp=stamp,
                     type=fm.PointsAnnotationType.Points,
-                    points=[fm.Point2(x=float(u), y=float(v)) for u, v in track.markers],
+                    points=[fm.Point2(x=float(u) + 0.5, y=float(v) + 0.5) for u, v in track.markers],
                     outline_color=_colour(1.0, 0.0, 1.0),
                     thickness=6.0,
                 )
