@@ -211,7 +211,9 @@ def find_constellations(
     """
     look = look or BannerLook()
     mask = hue_window_mask(hsv, hue_deg, tolerance_deg, s_min, v_min)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, _OPEN_KERNEL)
+    # an opening whose dilation reaches back the way its erosion ate: OpenCV's MORPH_OPEN with
+    # an even kernel anchors both at its centre, (1, 1), which moves every blob 1 px down and right
+    mask = cv2.dilate(cv2.erode(mask, _OPEN_KERNEL, anchor=(1, 1)), _OPEN_KERNEL, anchor=(0, 0))
     cands = [b for b in blobs(mask, min_area_px=4.0) if b.is_square(0.6, 3.5)]  # foreshortened up to ~70 deg
     if len(cands) < 4:
         return []

@@ -36,7 +36,7 @@ PINNED_CAMERA = {
         ("vee", 8.0): "9770d132951ca2ad8789075984687194981fad771b7423e9549f44a5759089cb",
     },
     "5.1": {
-        ("convoy", 12.0): "3d9243c93c157c48e4acf89a9750177d73befe4a93f6d89ad121415e1e2cf62b",
+        ("convoy", 12.0): "be8a6debf81eccf03626ad481158477a7e74667f98b7ddd362c74f18d6b925bc",
         ("vee", 8.0): "693c1e6810b7664383f481a29f007bf2a890ad38168ce8bfc935434d080fedeb",
     },
 }
