@@ -32,7 +32,7 @@ PINNED_TRUTH = {
 #: runs that sense by camera, per OpenCV release (major.minor)
 PINNED_CAMERA = {
     "5.0": {
-        ("convoy", 12.0): "953fd7828f782df4df61045502854ee8d08c0faff3da86729a246b864a824ba6",
+        ("convoy", 12.0): "38a57a05bb8032c9ba004771e7391fa3722cb0d858c9c5cf2f0f6c75b9bd0dbc",
         ("vee", 8.0): "9770d132951ca2ad8789075984687194981fad771b7423e9549f44a5759089cb",
     },
     "5.1": {
