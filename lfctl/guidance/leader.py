@@ -111,6 +111,18 @@ class LeaderAutopilot:
         """All waypoints reached."""
         return self.follower.done
 
+    def set_acceptance_radius(self, radius_m: float) -> None:
+        """A new waypoint radius, from the next step on (a ground station's WP_RADIUS, which
+        Rover's AR_WPNav reads every update).
+
+        Parameters
+        ----------
+        radius_m : float
+            The radius, >= 0, m.
+        """
+        self.settings = replace(self.settings, acceptance_radius_m=radius_m)
+        self.follower.acceptance_radius_m = radius_m
+
     def stops_at(self, index: int) -> bool:
         """Whether it stops on waypoint ``index``: a wait there, the last one, or one of ``stop_at``.
 

@@ -910,3 +910,16 @@ def test_the_missions_end_does_what_mis_done_behave_says(behave: int, mode_after
     assert [t for t in end if "mode" in t] == said
     assert math.hypot(*(leader_at(rep, 25.0) - np.array([3.0, 0.0]))) < 0.1
     assert abs(rep.result.final.vehicle(0).speed_mps) < 0.02
+
+
+def test_a_waypoint_radius_set_on_the_way_acts_at_once() -> None:
+    # Rover's AR_WPNav reads WP_RADIUS every update; it acted only from the next mission start
+    def upload(links: Links) -> None:
+        store(places(links.home, (6.0, 0.0), (6.0, 6.0)))(links)
+
+    def wide(links: Links) -> None:
+        send(links, mav.MAVLink_param_set_message(1, 1, b"WP_RADIUS", 3.0, mav.MAV_PARAM_TYPE_REAL32))
+
+    rep, _links = run_with({0.5: upload, 1.0: wide}, duration_s=40.0)
+    k = int(np.argmin(np.abs(rep.result.t_s - dict(rep.waypoints_reached)[0])))
+    assert 2.5 < math.hypot(*(rep.result.pos_ned_m[k, 0] - np.array([6.0, 0.0]))) <= 3.0  # turned at 3 m
