@@ -272,9 +272,7 @@ class BannerPerception:
         assert track.bbox is not None
         x, y, w, h = track.bbox
         cam = self.camera
-        # the middle of the window's pixels, x .. x + w - 1, as the camera model counts pixels
-        # (a pixel's centre at whole numbers): x + w / 2 lay half a pixel right and down
-        u, v = cam.rays(np.array([[x + (w - 1) / 2.0, y + (h - 1) / 2.0]]))[0]  # normalised image coordinates
+        u, v = cam.rays(np.array([[x + w / 2.0, y + h / 2.0]]))[0]  # normalised image coordinates
         ray_body = cam.R_body_from_cam @ np.array([u, v, 1.0])
         bearing = math.atan2(ray_body[1], ray_body[0])
         origin = (float(cam.mount_body_m[0]), float(cam.mount_body_m[1]))

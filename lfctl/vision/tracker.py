@@ -396,9 +396,7 @@ class TrackState:
 
     @property
     def centre(self) -> tuple[float, float] | None:
-        """Centre of :attr:`bbox` (x, y), px, as the box's corners count (x + w / 2: the
-        middle of its pixels is half a pixel up and left of it, where pixel centres are at
-        whole numbers); None without a window."""
+        """Centre of :attr:`bbox` (x, y), px; None without a window."""
         if self.bbox is None:
             return None
         x, y, w, h = self.bbox

@@ -292,20 +292,3 @@ def test_the_leaders_heading_and_place_from_a_pitched_camera_are_measured_in_the
     assert math.degrees(pose.rel_heading_rad) == pytest.approx(in_plane, abs=0.01)
     rng, brg, rel = to_vehicle_frame(pose, cam.mount_body_m, cam.R_body_from_cam, banner.back_m)
     assert (rng, math.degrees(brg), math.degrees(rel)) == pytest.approx((2.0, 8.0, 25.0), abs=1e-3)
-
-
-def test_a_window_centred_on_the_optical_axis_gives_a_bearing_of_zero() -> None:
-    # the bearing-only measurement takes the middle of the window's pixels (x .. x + w - 1)
-    # through the camera, whose pixel centres are at whole numbers (cx 319.5 at 640 px): the
-    # box's x + w / 2 read every window half a pixel right (0.05 deg at this lens)
-    from lfctl.vision.perception import BannerPerception
-    from lfctl.vision.tracker import TrackState, TrackStatus
-
-    perception = BannerPerception.from_config(CameraConfig(), BannerConfig())
-    track = TrackState(3, TrackStatus.TRACKING, (300, 220, 40, 40), 1.0, 0.1, None, None)
-    seen = perception._window_measurement(0.0, track)
-    assert seen.bearing_rad == pytest.approx(0.0, abs=1e-12)
-    left = perception._window_measurement(
-        0.0, TrackState(3, TrackStatus.TRACKING, (299, 220, 40, 40), 1.0, 0.1, None, None)
-    )
-    assert left.bearing_rad == pytest.approx(-math.atan(1.0 / perception.camera.K[0, 0]), rel=1e-6)  # 1 px left
