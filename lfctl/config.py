@@ -327,7 +327,11 @@ class MissionConfig(_Section):
     waypoints: tuple[tuple[float, ...], ...] = _f(
         (),
         max_items=MAX_WAYPOINTS,
-        items=(_POS, _POS, Bound(0, 32767)),  # a hold: a NAV_WAYPOINT's, which Rover reads as a signed 16-bit count
+        items=(
+            _POS,
+            _POS,
+            Bound(0, 32768, hi_open=True),
+        ),  # a hold: a NAV_WAYPOINT's, whole seconds in Rover's signed 16 bits
         arity=(2, 3),
         names=("north_m", "east_m", "hold_s"),
         shape="[north_m, east_m] or [north_m, east_m, hold_s]",

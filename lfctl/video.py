@@ -35,7 +35,11 @@ class FileInfo:
     format: str  # FFmpeg's name for the container ("mov,mp4,m4a,3gp,3g2,mj2", "matroska,webm")
     codec: str  # the video codec
     frames: int | None  # the frames it stores a count of (MP4, MOV, AVI); None where it stores none
-    duration_s: float | None  # the duration a Matroska or WebM file's head declares, s; else None
+    #: the duration a Matroska or WebM file's head declares, s, where it is the video's: a file
+    #: of the one video stream starting at 0 (else None: audio may run longer, and a late
+    #: start counts in the duration)
+    duration_s: float | None
+    grey: bool  # its pixels are grey levels alone (a monochrome camera's format)
 
 
 def probe_file(path: str) -> FileInfo | str:
@@ -59,18 +63,28 @@ def probe_file(path: str) -> FileInfo | str:
     """
     import av
 
+    undecodable = False
     try:
         with av.open(path) as container:
             streams = container.streams.video
             name = container.format.name
             info = None
-            if streams:
+            if streams and streams[0].codec_context is None:  # no decoder for it in FFmpeg
+                undecodable = True
+            elif streams:
                 stream = streams[0]
-                duration = container.duration / 1e6 if "matroska" in name and container.duration else None
+                duration = None
+                alone = len(container.streams) == 1 and not (container.start_time or 0) > 0.5e6
+                if "matroska" in name and container.duration and alone:
+                    duration = container.duration / 1e6  # (microseconds)
                 count = stream.frames if stream.frames > 0 else None
-                info = FileInfo(name, stream.codec_context.name, count, duration)
+                pix_fmt = stream.codec_context.pix_fmt or ""
+                grey = pix_fmt.startswith(("gray", "ya", "mono"))
+                info = FileInfo(name, stream.codec_context.name, count, duration, grey)
     except (av.FFmpegError, OSError, EOFError, ValueError) as exc:
         return str(getattr(exc, "strerror", None) or exc)
+    if undecodable:
+        raise ConfigError(f"{path}: its video is in a format FFmpeg has no decoder for")
     if info is None:
         raise ConfigError(f"{path} has no video stream (audio only, or no frames)")
     if name in TEXT_FORMATS or info.codec in TEXT_CODECS:

@@ -148,13 +148,57 @@ def test_numbered_image_files_are_told_to_be_made_a_video(tmp_path: Path, capsys
     assert code == 2 and "reads videos, not numbered image files" in err
 
 
-def test_a_grey_camera_is_refused_and_a_black_first_frame_is_not(
+def test_a_grey_camera_is_refused_and_a_grey_or_dim_first_frame_said(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, lines, err = track(capsys, str(write(tmp_path / "ir.mp4", grey=True)), "--roi", "20,20,40,30")
-    assert code == 2 and not lines and "has no colour (every pixel grey" in err
+    mono = tmp_path / "ir.mkv"  # a monochrome camera's format: grey levels alone
+    with av.open(str(mono), "w") as out:
+        stream = out.add_stream("ffv1", rate=30)
+        stream.width, stream.height, stream.pix_fmt = SIZE[0], SIZE[1], "gray"
+        for i in range(3):
+            out.mux(stream.encode(av.VideoFrame.from_ndarray(picture(i, grey=True)[:, :, 0], format="gray")))
+        out.mux(stream.encode())
+    code, lines, err = track(capsys, str(mono), "--roi", "20,20,40,30")
+    assert code == 2 and not lines and "has no colour (its pixels are grey levels" in err
+    # grey pictures in a colour format (or a colour camera's dim first frame): said, not refused
+    code, lines, err = track(capsys, str(write(tmp_path / "grey.mp4", n=3, grey=True)), "--roi", "20,20,40,30")
+    assert code == 0 and len(lines) == 3 and "first frame has no colour" in err
+    code, lines, err = track(capsys, str(write(tmp_path / "colour.mp4", n=3)), "--roi", "20,20,40,30")
+    assert code == 0 and "colour" not in err
     assert not colourless(np.zeros((120, 160, 3), np.uint8))  # a camera starting black says nothing
     assert colourless(picture(0, grey=True)) and not colourless(picture(0))
+
+
+def test_a_video_ffmpeg_cannot_decode_is_named(tmp_path: Path) -> None:
+    clip = write(tmp_path / "c.mkv", n=2).read_bytes()
+    assert b"V_MPEG4/ISO/AVC" in clip
+    odd = tmp_path / "odd.mkv"
+    odd.write_bytes(clip.replace(b"V_MPEG4/ISO/AVC", b"V_NOTHING/KNOWN"))  # a codec id no decoder has
+    with pytest.raises(ConfigError, match="its video is in a format FFmpeg has no decoder for"):
+        VideoSource(str(odd))
+
+
+def test_a_whole_matroska_file_with_longer_audio_is_not_called_cut(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # its duration is the longest stream's (the audio's): not the video's
+    path = tmp_path / "talk.mkv"
+    with av.open(str(path), "w") as out:
+        video = out.add_stream("libx264", rate=30)
+        video.width, video.height, video.pix_fmt = SIZE[0], SIZE[1], "yuv420p"
+        audio = out.add_stream("pcm_s16le", rate=8000)
+        for i in range(30):  # 1 s of video
+            out.mux(video.encode(av.VideoFrame.from_ndarray(picture(i), format="bgr24")))
+        out.mux(video.encode())
+        for k in range(30):  # 3 s of audio
+            frame = av.AudioFrame.from_ndarray(np.zeros((1, 800), np.int16), format="s16", layout="mono")
+            frame.sample_rate, frame.pts = 8000, k * 800
+            out.mux(audio.encode(frame))
+        out.mux(audio.encode())
+    with VideoSource(str(path)) as video_source:
+        assert video_source.declared_duration_s is None
+    code, lines, err = track(capsys, str(path), "--roi", "20,20,40,30")
+    assert code == 0 and len(lines) == 30, err
 
 
 def test_a_box_partly_off_the_left_edge_is_a_box(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

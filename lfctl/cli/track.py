@@ -127,10 +127,16 @@ def run(args: argparse.Namespace) -> int:
                 if perception is None:
                     h, w = frame.shape[:2]
                     banner = _watched_banner(scen) if scen else BannerConfig()
-                    if colourless(frame) and banner.kind != "aruco":
+                    if banner.kind != "aruco" and video.info is not None and video.info.grey:
                         raise ConfigError(
-                            f"{args.source} has no colour (every pixel grey: a monochrome or infrared camera?): "
-                            "lfctl's trackers follow a target by its hue and saturation; give a colour video"
+                            f"{args.source} has no colour (its pixels are grey levels: a monochrome or infrared "
+                            "camera): lfctl's trackers follow a target by its hue and saturation; give a colour video"
+                        )
+                    if banner.kind != "aruco" and colourless(frame):  # (a dim or grey first frame may pass)
+                        print(
+                            f"lfctl track: {args.source}'s first frame has no colour (every pixel grey: a monochrome "
+                            "camera?); the trackers follow hue and saturation and will not hold a target in it",
+                            file=sys.stderr,
                         )
                     try:
                         camera, scaled = at_frame_size(scen.camera if scen else CameraConfig(), w, h)

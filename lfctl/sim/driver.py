@@ -361,7 +361,12 @@ class VehicleDriver:
             ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))
             ep.reversed = False
         elif leg.command == NAV_DELAY or (item.x, item.y) == (0, 0):
-            self._place(k, self._pos)  # here: where the vehicle is as the item begins
+            # here: where the vehicle is as the item begins, with nothing to drive (the leg
+            # starts there too): it is reached at once and stops there, as Rover's start_stop,
+            # not driven back to once the vehicle has coasted past it
+            self._place(k, self._pos)
+            if ap.follower.index == k:
+                ap.follower.prev = self._pos
         if leg.command == NAV_LOITER_TURNS:
             self._start_circle(k, item)
         if leg.command == NAV_DELAY:

@@ -923,3 +923,32 @@ def test_a_waypoint_radius_set_on_the_way_acts_at_once() -> None:
     rep, _links = run_with({0.5: upload, 1.0: wide}, duration_s=40.0)
     k = int(np.argmin(np.abs(rep.result.t_s - dict(rep.waypoints_reached)[0])))
     assert 2.5 < math.hypot(*(rep.result.pos_ned_m[k, 0] - np.array([6.0, 0.0]))) <= 3.0  # turned at 3 m
+
+
+def test_a_delay_after_a_waypoint_driven_through_waits_where_the_vehicle_stops() -> None:
+    # a NAV_DELAY is placed where the vehicle is as it begins; a fast vehicle coasts past
+    # that place in the step: the wait must begin at once (Rover's start_stop), not after
+    # turning round and driving back to it (a 3 s delay took 7.7 s)
+    import test_rover_modes as trm
+
+    fast = trm.SCENARIO.replace('role = "leader"', 'role = "leader"\nparameters = { max_wheel_speed = 2.0 }')
+    fast = fast.replace("max_speed_mps = 0.5", "max_speed_mps = 2.0")
+
+    def upload(links: Links) -> None:
+        store(
+            item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 1.5),
+            places(links.home, (6.0, 0.0)),
+            item(mav.MAV_CMD_NAV_DELAY, 3.0),
+            places(links.home, (6.0, 6.0)),
+        )(links)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(trm, "SCENARIO", fast)
+        rep, links = run_with({0.5: upload}, duration_s=30.0)
+    said = [(t, s) for t, s in links.endpoints[0].statustexts if t > 0.5]
+    begun = next(t for t, s in said if s == "Delaying 3 sec")
+    after = next(t for t, s in said if t > begun and s.startswith("Mission: 4"))
+    assert 3.0 <= after - begun < 3.3
+    t, north = rep.result.t_s, rep.result.pos_ned_m[:, 0, 0]
+    during = north[(t > begun) & (t < after)]
+    assert np.all(np.diff(during) >= -1e-6)  # it stopped going on, never drove back
