@@ -152,8 +152,9 @@ class WaypointFollower:
     ArduPilot's Rover does (AR_WPNav: a stop point is reached once the vehicle has come along
     its track to the point, and is inside the radius or past the point's perpendicular): it
     counts as reached within :data:`ARRIVAL_M` of the point along the track and inside the
-    radius, or past the perpendicular. A waypoint on the segment's start (nothing to drive)
-    is reached at once.
+    radius, or past the perpendicular; when its leg begins with the vehicle already past that
+    perpendicular (a sharp turn onto a short leg), the leg starts where the vehicle is. A
+    waypoint on the segment's start (nothing to drive) is reached at once.
 
     Parameters
     ----------
@@ -223,6 +224,13 @@ class WaypointFollower:
             reached.append(self.index)
             self.prev = wp
             self.index += 1
+            if not self.done and self.index in self.stops:
+                ahead = self.waypoints[self.index]
+                if along_track_m(north_m, east_m, wp, ahead) >= math.dist(wp, ahead) > 0:
+                    # already past the point it is to stop on (a sharp turn onto a short leg,
+                    # the last one reached at the radius before it): driven to from here, as
+                    # Rover's position controller brings it back, not taken as passed
+                    self.prev = (float(north_m), float(east_m))
         if self.done:
             last = self.waypoints[-1] if self.waypoints else (north_m, east_m)
             return LosOutput(

@@ -92,3 +92,14 @@ def test_every_route_ends_on_its_last_point(north: float, east: float, radius: f
     assert ap.done
     _, n, e = path[-1]
     assert math.hypot(n - north, e - east) < 0.15
+
+
+def test_a_stop_point_behind_the_vehicle_after_a_sharp_turn_is_driven_back_to() -> None:
+    # (10, 0) is reached 2 m before it, at (8, 0); the last point (9, 0) lies on a leg back
+    # from (10, 0), which the vehicle is already past: it stopped 0.85 m short, taking it as passed
+    s = AutopilotSettings(cruise_speed_mps=1.0, acceptance_radius_m=2.0)
+    ap = LeaderAutopilot([(10.0, 0.0), (9.0, 0.0)], s, (0.0, 0.0))
+    path, reached = drive(ap, 40.0)
+    assert ap.done and set(reached) == {0, 1}
+    _, n, e = path[-1]
+    assert math.hypot(n - 9.0, e) < 0.1
