@@ -389,7 +389,8 @@ class VehicleEndpoint:
         self.guided: GuidedTarget | None = None  # None: GUIDED stops
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
-        self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first
+        self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
+        self.path_started = armed  # a way back is kept from the first arming (Rover's set_home)
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
@@ -859,7 +860,7 @@ class VehicleEndpoint:
             return self._refuse_mode("FOLLOW mode not supported: use GUIDED")
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
             return self._refuse_mode("No Mission. Can't set AUTO.")
-        if custom_mode == MODES["SMART_RTL"] and not self.path:
+        if custom_mode == MODES["SMART_RTL"] and not self.path_started:
             return self._refuse_mode("SmartRTL unavailable: no path recorded")
         self._enter(custom_mode)
         return True
@@ -1077,6 +1078,8 @@ class VehicleEndpoint:
         if armed != self.armed:
             self.armed = armed
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
+            if armed:  # SmartRTL's way back starts here afresh (AP_Arming_Rover::arm: smart_rtl.set_home)
+                self.path, self.path_started = [], True
             if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
                 complete = self.mission_complete
                 self.set_current(1, reset=True)
@@ -1187,7 +1190,9 @@ class VehicleEndpoint:
         it); outside GUIDED only with the change-mode flag; a place off the globe, at 0, 0, or
         whose altitude is not a number, beyond 83 km or in a frame Rover cannot read is
         DENIED; GUIDED is entered, then a speed (param1 > 0) must be one GUIDED takes now
-        (FAILED from a GUIDED just entered, which is stopped), then the place is the target."""
+        (FAILED from a GUIDED just entered, which is stopped) and becomes the waypoint speed
+        (which a later DO_CHANGE_SPEED replaces, and later targets keep), then the place is
+        the target (FAILED outside the fence, the vehicle left in GUIDED, stopped)."""
         if latlon_e7 is None:
             return mav.MAV_RESULT_UNSUPPORTED
         change_modes = _finite(p[1]) and int(p[1]) & REPOSITION_CHANGE_MODE
@@ -1197,14 +1202,16 @@ class VehicleEndpoint:
         if where is None or where == (0, 0) or self._height_above_ground(p[6], frame) is None:
             return mav.MAV_RESULT_DENIED
         n, e = global_to_local(*where, self.home)
-        if not self._within_fence(n, e):
-            return mav.MAV_RESULT_FAILED
         if self.mode != MODES["GUIDED"] and not self.set_mode(MODES["GUIDED"]):
             return mav.MAV_RESULT_FAILED
         speed = p[0] if _finite(p[0]) and p[0] > 0 else 0.0
         if speed > 0 and not self._takes_speed(speed):
             return mav.MAV_RESULT_FAILED
-        self.guided = GuidedTarget("location", self.t_s, speed_mps=speed, north_m=n, east_m=e)
+        if speed > 0:  # the waypoint speed, as Rover's set_speed_max: a DO_CHANGE_SPEED replaces it
+            self.desired_speed_mps = speed
+        if not self._within_fence(n, e):  # (GUIDED entered first: as Rover, it is left there, stopped)
+            return mav.MAV_RESULT_FAILED
+        self.guided = GuidedTarget("location", self.t_s, north_m=n, east_m=e)
         return mav.MAV_RESULT_ACCEPTED
 
     def _set_home_command(self, p: list[float], latlon_e7: tuple[int, int] | None, frame: int) -> int:

@@ -169,6 +169,8 @@ def position_target(
         else:
             n, e = x, y
         return GuidedTarget("location", t_s, north_m=n, east_m=e)
+    if has_yaw and has_rate:  # Rover's handlers take one or the other: such a setpoint does nothing
+        return "both yaw and yaw rate are given (Rover takes one of them, and ignores this)"
     speed, heading = 0.0, 0.0
     if vel:
         speed = max(-speed_max_mps, min(speed_max_mps, math.hypot(vx, vy)))

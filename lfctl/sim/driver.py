@@ -145,6 +145,7 @@ class VehicleDriver:
         self._goto: LeaderAutopilot | None = None
         self._goto_key: tuple[object, ...] = ()
         self._goto_done = False
+        self._return_route: list[tuple[float, float]] = []  # RTL's or SmartRTL's, chosen as it began
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
         # the circle under way: (leg, guidance, the waypoints' speed as it began: DO_CHANGE_SPEED)
         self._circle: tuple[int, CircleGuidance, float | None] | None = None
@@ -595,13 +596,15 @@ class VehicleDriver:
         me = world.vehicle(self.index)
         # Rover's RTL speed (RTL_SPEED, else WP_SPEED) until a DO_CHANGE_SPEED in the mode
         speed = ep.desired_speed_mps or ep.param("RTL_SPEED") or ep.param("WP_SPEED")
-        if ep.mode == MODES["SMART_RTL"] and ep.path:
-            route = list(reversed(ep.path))
-            key: tuple[object, ...] = ("srtl", ep.modes[-1][0])
-        else:
-            route = [ep.rtl_destination(me.north_m, me.east_m)]
-            key = ("rtl", ep.modes[-1][0], route[0])
-        done, cmd = self._drive_to(route, key, speed, t_s, world)
+        smart = ep.mode == MODES["SMART_RTL"]
+        key: tuple[object, ...] = ("srtl" if smart else "rtl", ep.modes[-1][0])
+        if key != self._goto_key:  # the mode just entered: its way is chosen once, as it starts
+            # SmartRTL: the way back as recorded (what is left of it); RTL: home or the rally
+            # point best now (Rover's ModeRTL::_enter), kept if home or the points move
+            self._return_route = list(reversed(ep.path)) if smart else [ep.rtl_destination(me.north_m, me.east_m)]
+        done, cmd = self._drive_to(self._return_route, key, speed, t_s, world)
+        if smart and self._goto is not None:  # each point driven to is used up (AP_SmartRTL::pop_point)
+            del ep.path[len(self._goto.follower.waypoints) - self._goto.follower.index :]
         if done:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
         return cmd

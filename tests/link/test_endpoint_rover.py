@@ -643,7 +643,10 @@ def test_reposition_goes_there_in_guided_or_switches_with_the_flag(bench: Bench)
         bench.command(mav.MAV_CMD_DO_REPOSITION, 0.4, 0, 0, 0, lat * 1e7, lon * 1e7, 0, long=False)
         == mav.MAV_RESULT_ACCEPTED
     )
-    assert bench.ep.guided.speed_mps == pytest.approx(0.4)
+    # the waypoint speed, as Rover's set_speed_max: a DO_CHANGE_SPEED replaces it, later targets keep it
+    assert bench.ep.speed_mps == pytest.approx(0.4) and bench.ep.guided.speed_mps == 0.0
+    assert bench.command(mav.MAV_CMD_DO_CHANGE_SPEED, 1, 0.15, -1, 0, 0, 0, 0) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.speed_mps == pytest.approx(0.15)
     # lat/lon 0, 0 is refused, as Rover
     assert bench.command(mav.MAV_CMD_DO_REPOSITION, -1, 1, 0, 0, 0, 0, 0, long=False) == mav.MAV_RESULT_DENIED
     # as a COMMAND_LONG: UNSUPPORTED (Rover reads DO_REPOSITION's place from a COMMAND_INT only)

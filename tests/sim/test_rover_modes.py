@@ -450,3 +450,87 @@ def test_system_time_is_on_the_logs_clock(tmp_path) -> None:
     log_time_ns, fields = times[0]
     assert abs(fields["time_unix_usec"] * 1000 - log_time_ns) < 1e6  # within 1 ms
     assert fields["time_boot_ms"] == pytest.approx(2000, abs=100)
+
+
+# -- a review of GUIDED, RTL and SmartRTL against Rover's source ----------------------------------
+def test_smart_rtl_uses_up_its_way_back_and_a_second_one_stays_home() -> None:
+    # AP_SmartRTL::pop_point: each point driven to is gone; SmartRTL entered again at home
+    # stops there (it drove back out to (6, 6) and home again)
+    rep, links = run_with({34.0: mode("SMART_RTL"), 70.0: mode("HOLD"), 72.0: mode("SMART_RTL")}, duration_s=90.0)
+    t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
+    assert math.hypot(*track[np.argmin(np.abs(t - 70.0))]) <= 0.8  # home after the first
+    assert np.max(np.hypot(track[t >= 72.0, 0], track[t >= 72.0, 1])) <= 0.9  # and stays
+    assert links.endpoints[0].path == []
+    said = [s for _t, s in links.endpoints[0].statustexts]
+    assert said.count("Reached destination") == 2
+
+
+def test_arming_starts_the_way_back_afresh() -> None:
+    from lfctl.link.endpoint import MODES
+
+    ep = run_with({}, duration_s=5.0)[1].endpoints[0]
+    assert ep.path and ep.path_started
+    ep.set_armed(False)
+    ep.set_armed(True)  # AP_Arming_Rover::arm: smart_rtl.set_home, the old trips forgotten
+    assert ep.path == [] and ep.set_mode(MODES["SMART_RTL"])
+
+
+def test_rtl_keeps_the_place_it_chose_as_it_began() -> None:
+    # ModeRTL::_enter picks home (or a rally point) once: home moved on the way does not turn it
+    def rtl(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    def move_home(links: Links) -> None:
+        x, y = latlon(links, 6.0, 6.0)
+        send(
+            links,
+            mav.MAVLink_command_int_message(
+                1, 1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0, x, y, 0
+            ),
+        )
+
+    rep, links = run_with({16.0: rtl, 19.0: move_home}, duration_s=50.0)
+    assert links.endpoints[0].home_point() == pytest.approx((6.0, 6.0), abs=0.05)
+    assert math.hypot(*leader_at(rep, 50.0)) <= 0.3  # the home it set out for
+
+
+@pytest.mark.parametrize("type_mask", [455, 511])  # velocity + yaw + yaw rate; yaw + yaw rate
+def test_a_setpoint_giving_both_yaw_and_yaw_rate_is_ignored_as_rover_ignores_it(type_mask: int) -> None:
+    def go(links: Links) -> None:
+        send(
+            links,
+            mav.MAVLink_set_position_target_local_ned_message(
+                0, 1, 1, mav.MAV_FRAME_LOCAL_NED, type_mask, 0, 0, 0, 0.3, 0, 0, 0, 0, 0, 1.5, 0.0
+            ),
+        )
+
+    moves = {2.0: mode("GUIDED"), **{2.5 + 0.2 * k: go for k in range(20)}}
+    rep, _links = run_with(moves, duration_s=7.0)
+    t = rep.result.t_s
+    assert np.max(np.abs(rep.result.speed_mps[t > 3.0, 0])) < 0.02
+    yaw = np.unwrap(rep.result.yaw_rad[:, 0])
+    assert abs(yaw[-1] - yaw[np.argmin(np.abs(t - 2.5))]) < 0.02
+
+
+def test_a_reposition_outside_the_fence_leaves_the_vehicle_in_guided_stopped() -> None:
+    # handle_command_int_do_reposition enters GUIDED first; the place outside the fence then
+    # FAILS (it stayed in AUTO and drove on)
+    from lfctl.link.endpoint import MODES
+
+    def fence(links: Links) -> None:
+        for name, value in ((b"FENCE_TYPE", 2.0), (b"FENCE_RADIUS", 30.0), (b"FENCE_ENABLE", 1.0)):
+            send(links, mav.MAVLink_param_set_message(1, 1, name, value, mav.MAV_PARAM_TYPE_REAL32))
+
+    def away(links: Links) -> None:
+        x, y = latlon(links, 60.0, 0.0)
+        send(
+            links,
+            mav.MAVLink_command_int_message(
+                1, 1, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 1, 0, 0, x, y, 0
+            ),
+        )
+
+    rep, links = run_with({1.0: fence, 5.0: away}, duration_s=12.0)
+    ep = links.endpoints[0]
+    assert ep.mode == MODES["GUIDED"] and ep.guided is None
+    assert abs(rep.result.final.vehicle(0).speed_mps) < 0.02
