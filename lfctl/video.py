@@ -218,6 +218,7 @@ class VideoSource:
         self.live = isinstance(target, int) or stream
         self._latest = LatestFrames(self._cap, STREAM_TIMEOUT_S) if latest and self.live else None
         self.frames_read = 0  # frames handed over
+        self._pending: np.ndarray | None = None  # a frame given back (unread), handed over next
         self._first_ms: float | None = None  # the first frame's time in the file, ms
         self._last_ms = -math.inf
         self._timed_frames = 0  # frames read up to the last one with a time of its own
@@ -282,9 +283,25 @@ class VideoSource:
         """Frames passed over for a newer one (with ``latest`` on a live source; else 0)."""
         return self._latest.skipped if self._latest is not None else 0
 
+    def unread(self, frame: np.ndarray) -> None:
+        """Give back the frame last read: the next :meth:`read` returns it again (a file's
+        first frame, read to learn the picture's size, is still the first one used).
+
+        Parameters
+        ----------
+        frame : np.ndarray
+            The frame :meth:`read` last returned.
+        """
+        self._pending = frame
+        self.frames_read -= 1
+
     def read(self) -> np.ndarray | None:
         """The next frame (BGR, uint8), or the newest (``latest``), or None at the end of the
         source."""
+        if self._pending is not None:
+            frame, self._pending = self._pending, None
+            self.frames_read += 1
+            return frame
         if self._latest is not None:
             frame = self._latest.next()
             self.frames_read += frame is not None

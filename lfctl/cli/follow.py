@@ -323,6 +323,8 @@ def run(args: argparse.Namespace) -> int:
         first = video.read()
         if first is None:
             raise ConfigError(f"camera {args.camera!r} gave no frame")
+        if not video.live:
+            video.unread(first)  # a file's first frame is followed too (a camera's would be old by then)
         h, w = first.shape[:2]
         try:
             camera, scaled = at_frame_size(cfg.camera, w, h)

@@ -16,7 +16,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
 from lfctl.link.companion import Companion, answer_name, unanswered
-from lfctl.link.endpoint import MODES
+from lfctl.link.endpoint import COMPANION_COMPID, MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
 from lfctl.video import VideoSource
@@ -157,11 +157,20 @@ def follow_rover(
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
     companion.wait_vehicle(timeout_s, rate_hz)
+    v = companion.vehicle
+    log.info(
+        "%s: the rover (system %d) answers: %s, %s",
+        name,
+        companion.target,
+        mode_name(v.mode) if v.mode is not None else "mode not known",
+        {True: "armed", False: "disarmed", None: "arming not known"}[v.armed],
+    )
     _say_heard(companion, name)  # what it said before: its banner, a failing pre-arm check
     guided = MODES["GUIDED"]
     in_guided = _ask(companion, name, "GUIDED", mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, guided)
     if in_guided:
         companion.vehicle.mode = guided  # its answer follows the change; its HEARTBEAT may lag
+        log.info("%s: the rover took GUIDED", name)
     # what the log has said of the rover: a change after it (even one during the requests) is said
     state = (companion.vehicle.mode, companion.vehicle.armed)
     if arm and not in_guided:
@@ -170,6 +179,7 @@ def follow_rover(
     elif arm and _ask(companion, name, "arm", mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0):
         companion.vehicle.armed = True
         state = (state[0], True)
+        log.info("%s: the rover armed", name)
     elif not arm and companion.vehicle.armed is False:
         log.warning("%s: the rover is disarmed: it takes the setpoints once it is armed", name)
     stack = Follower(name, settings, companion, step_rate_hz=rate_hz, status_rate_hz=status_rate_hz)
@@ -191,8 +201,15 @@ def follow_rover(
             t_s = now()
             companion.poll(t_s)
             companion.heartbeat(t_s)
+            was_stale = stale
             stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
             beating = link.check(t_s)
+            if (stale and not was_stale) or link.came_back:
+                # a rover that rebooted (or whose streams stopped) sends only what its own
+                # stream rates say, on a companion's port perhaps nothing: asked again
+                link.came_back = False
+                companion.ask_streams_again(rate_hz)
+                log.info("%s: asked the rover for its odometry again", name)
             _say_heard(companion, name)
             state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None
@@ -206,6 +223,8 @@ def follow_rover(
             n_events = len(stack.events)
             stack.tune_from_params(companion.param)
             out = stack.step(t_s, seen.measurement, odom)
+            for event in stack.events[n_events:]:
+                log.info("%s", event.text)  # ("NAME: leader lost, ...", as the ground station reads it)
             steps += 1
             obeyed += beating and v.mode == guided and bool(v.armed)
             seen_as[seen.measurement.status] += 1
@@ -260,7 +279,9 @@ class _LinkWatch:
     def __init__(self, companion: Companion, name: str) -> None:
         self.companion, self.name = companion, name
         self.beating = True
+        self.came_back = False  # the HEARTBEAT came back since it was missing (until taken)
         self.others: set[int] = set()
+        self.said_companion = False
         self.said_overload = self.said_junk = False  # (what came while starting is said too)
 
     def check(self, t_s: float) -> bool:
@@ -271,6 +292,7 @@ class _LinkWatch:
         if beating != self.beating:
             if beating:
                 log.info("%s: the rover's HEARTBEAT is back", name)
+                self.came_back = True
             else:
                 log.warning(
                     "%s: no HEARTBEAT from the rover (system %d) for %g s: rebooted, or the link is down; "
@@ -288,6 +310,16 @@ class _LinkWatch:
                 c.target,
             )
             self.others.add(sysid)
+        if c.other_companion and not self.said_companion:
+            self.said_companion = True
+            log.warning(
+                "%s: another companion (system %d, component %d) talks on this link: two companions command "
+                "the rover in turn; stop the other (a follower in lfctl sim has its own: follow its leader, "
+                "system 1, instead)",
+                name,
+                c.target,
+                COMPANION_COMPID,
+            )
         if c.overloaded and not self.said_overload:
             self.said_overload = True
             log.warning(

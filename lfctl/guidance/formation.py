@@ -158,8 +158,8 @@ class FormationOutput:
     speed_mps: float  # forward speed command
     yaw_rate_radps: float  # yaw-rate command, positive right
     status: TrackStatus  # the controller's track state (see the module docstring)
-    range_est_m: float | None  # filter estimate of the range to the target now (None: no estimate yet)
-    bearing_est_rad: float | None  # and of its bearing, clockwise positive (None: no estimate yet)
+    range_est_m: float | None  # filter estimate of the range to the target now (None: no estimate yet, or LOST)
+    bearing_est_rad: float | None  # and of its bearing, clockwise positive (None: no estimate yet, or LOST)
     target_vel_ned_mps: tuple[float, float]  # the target's estimated velocity, north and east
     since_measurement_s: float  # since the last measurement was fused (inf before the first)
     #: the law the command came from: the settings' controller, but "smc" while a slot is too
@@ -433,9 +433,12 @@ class FormationController:
         if self.status is TrackStatus.LOST:
             self.bearing_smc.reset()
             if est.initialised:
-                rng, brg = self._relative(odom)
+                _rng, brg = self._relative(odom)  # (the side it was last seen on, for the search)
                 turn = self._look(odom, brg) if self._timed_out else 0.0
-                return FormationOutput(0.0, turn, self.status, rng, brg, est.velocity, since, law)
+                # no range or bearing said for a lost target: the filter's estimate runs on
+                # with its last velocity (26.9 m off for a leader 2 m away, on the ground
+                # station's rng_err), which is no measure of where it is
+                return FormationOutput(0.0, turn, self.status, None, None, est.velocity, since, law)
             return FormationOutput(0.0, 0.0, self.status, None, None, (0.0, 0.0), since, law)
 
         self._search = None

@@ -167,6 +167,9 @@ class Companion:
         self.overloaded = 0
         #: other systems whose autopilot (a vehicle's HEARTBEAT, component 1) talks on the link
         self.other_autopilots: set[int] = set()
+        #: a companion with this one's ids (the rover's system, component 191) talks on the link:
+        #: two companions would both command the rover
+        self.other_companion = False
         #: what the vehicle's autopilot said (STATUSTEXT), (MAV_SEVERITY, text escaped), oldest
         #: first, the newest :data:`HEARD_MAX`: a caller reads them off (``popleft``) to show them
         self.heard: deque[tuple[int, str]] = deque(maxlen=HEARD_MAX)
@@ -372,8 +375,8 @@ class Companion:
         """
         self.ftp.tick()  # a written file whose session went idle is handed over
         n = 0
-        until = time.monotonic() + POLL_MAX_S
         m = self.port.recv(timeout_s)
+        until = time.monotonic() + POLL_MAX_S  # the read's budget, from the first message (not the wait for it)
         while m is not None:
             n += 1
             self._take(m, t_s)
@@ -397,6 +400,8 @@ class Companion:
         if m.get_srcSystem() != self.target or m.get_srcComponent() != 1:
             if kind == "HEARTBEAT" and _autopilot(m) and len(self.other_autopilots) < OTHER_AUTOPILOTS_MAX:
                 self.other_autopilots.add(m.get_srcSystem())
+            if (m.get_srcSystem(), m.get_srcComponent()) == (self.target, COMPANION_COMPID):
+                self.other_companion = True  # another companion of this rover (never our own: not echoed back)
             return
         kind, v = m.get_type(), self.vehicle
         if kind == "HEARTBEAT":
@@ -504,7 +509,29 @@ class Companion:
             self.poll(time.monotonic() - start, 0.2)
             if self.vehicle.heard:
                 return {msg_id: self._ask_stream(msg_id, odometry_rate_hz) for msg_id in ODOMETRY_MSG_IDS}
-        raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=CHECK_LINK)
+        others = sorted(self.other_autopilots)
+        detail = CHECK_LINK
+        if others:  # heard, but not the one asked for: the likeliest slip
+            who = (
+                f"system {others[0]}'s autopilot talks"
+                if len(others) == 1
+                else ("the autopilots of systems " + ", ".join(str(o) for o in others) + " talk")
+            )
+            detail = f"{who} on this link: --target {others[0]}?"
+        raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=detail)
+
+    def ask_streams_again(self, rate_hz: float) -> None:
+        """Ask for the odometry streams once more, not awaiting the answers (the loop's steps
+        go on): a rover that rebooted, or whose streams stopped, sends only what its own
+        stream-rate parameters say, which on a companion's port may be nothing.
+
+        Parameters
+        ----------
+        rate_hz : float
+            Rate of LOCAL_POSITION_NED, ATTITUDE and GLOBAL_POSITION_INT to ask for, Hz.
+        """
+        for msg_id in ODOMETRY_MSG_IDS:
+            self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / rate_hz)
 
     def _ask_stream(self, msg_id: int, rate_hz: float) -> int | None:
         """MAV_CMD_SET_MESSAGE_INTERVAL for one message, awaited; a refusal or silence is said,

@@ -707,11 +707,16 @@ class VehicleEndpoint:
         self.statustext("Signing: new key in use", mav.MAV_SEVERITY_INFO)
 
     def _on_named_value_float(self, m: Any) -> None:
-        if self.forward is not None and m.get_srcComponent() != 1:
-            self.forward(bytes(m.get_msgbuf()))  # the companion's report, routed to the GCS
+        self._forward_report(m)
 
     def _on_statustext(self, m: Any) -> None:
-        if self.forward is not None and m.get_srcComponent() != 1:
+        self._forward_report(m)
+
+    def _forward_report(self, m: Any) -> None:
+        """The in-memory companion's report, routed to the ground station's network link; one
+        that came over the network (a companion there, ``lfctl follow``) is not sent back on
+        it, as Rover's routing forwards to the other channels only."""
+        if self.forward is not None and m.get_srcComponent() != 1 and self._channel == "memory":
             self.forward(bytes(m.get_msgbuf()))
 
     def _on_heartbeat(self, m: Any) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -327,3 +328,17 @@ def test_a_status_or_an_odometry_of_the_wrong_type_is_named() -> None:
         RelativeMeasurement(0.0, "tracking", 2.0, 0.0)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match=r"odometry must be an Odometry\(t_s, north_m, .*got \(0.0, 0, 0, 0, 0\)"):
         FormationController(FormationSettings()).step(None, (0.0, 0, 0, 0, 0))  # type: ignore[arg-type]
+
+
+def test_a_lost_target_has_no_range_or_bearing_said() -> None:
+    # the filter runs on with the last velocity while the target is unseen: its range for a
+    # lost leader grew without end (26.9 m for one 2 m away, on the ground station's rng_err)
+    ctl = FormationController(FormationSettings(range_cmd_m=1.5))
+    still = Odometry(0.0, 0.0, 0.0, 0.0, 0.0)
+    for k in range(20):  # the target walks off at 0.5 m/s, seen
+        out = ctl.step(meas(k * DT, 1.5 + 0.5 * k * DT), dataclasses.replace(still, t_s=k * DT))
+    assert out.status is TrackStatus.TRACKING and out.range_est_m is not None
+    for k in range(20, 400):  # then unseen for 19 s
+        out = ctl.step(None, dataclasses.replace(still, t_s=k * DT))
+    assert out.status is TrackStatus.LOST
+    assert out.range_est_m is None and out.bearing_est_rad is None

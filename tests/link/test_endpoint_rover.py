@@ -2522,3 +2522,19 @@ def test_a_log_list_is_answered_at_once_with_no_logs(bench: Bench) -> None:
     assert (entry.id, entry.num_logs, entry.last_log_num, entry.size) == (0, 0, 0, 0)
     bench.send(mav.MAVLink_log_request_list_message(2, 1, 0, 0xFFFF))  # another vehicle's
     assert not [m for m in bench.tick() if m.get_type() == "LOG_ENTRY"]
+
+
+def test_a_companions_report_is_routed_to_the_network_only_from_the_other_channel(bench: Bench) -> None:
+    # Rover's routing passes a message on to the other channels, never back on its own: a
+    # companion on the network (lfctl follow) had its own STATUSTEXTs echoed back to it
+    forwarded: list[bytes] = []
+    bench.ep.forward = forwarded.append
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    text = mav.MAVLink_statustext_message(mav.MAV_SEVERITY_INFO, b"rover: target lost")
+    bench.a.inbox.append((text.pack(companion), ("memory", 0)))  # the in-memory companion's
+    bench.tick()
+    assert len(forwarded) == 1
+    _from_network(bench, text, companion)
+    _from_network(bench, mav.MAVLink_named_value_float_message(0, b"rng_err", 0.2), companion)
+    bench.tick()
+    assert len(forwarded) == 1

@@ -404,7 +404,9 @@ def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is
     logged = [
         r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover" and "odometry" in r.getMessage()
     ]
+    # (missing, the odometry is asked for again: a rover that rebooted sends only its own stream rates)
     assert logged == ["rover: no odometry (LOCAL_POSITION_NED) for 1 s: the stack steers on its last position",
+                      "rover: asked the rover for its odometry again",
                       "rover: odometry (LOCAL_POSITION_NED) back"]  # fmt: skip
 
 
@@ -687,3 +689,97 @@ def test_a_slot_the_camera_cannot_see_from_is_said_at_the_start(
                    str(banner_video(5)), "--bearing", "40", "--max-frames", "3", "--timeout", "5"])  # fmt: skip
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert rc == 0 and any(t.startswith("the slot (1.5 m, 40 deg) leaves the target's banner out of") for t in said)
+
+
+class _SlowRover:
+    """A port whose rover answers a read after ``delay_s`` with two HEARTBEATs, then is quiet."""
+
+    def __init__(self, delay_s: float) -> None:
+        self.sysid, self.delay_s, self.queue = 1, delay_s, []
+        self.codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+        self.ftp = None
+
+    def send(self, msg: Any) -> None:
+        pass
+
+    def recv(self, timeout_s: float = 0.0) -> Any:
+        if not self.queue and timeout_s >= self.delay_s:
+            time.sleep(self.delay_s)
+            beat = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 0, 4, 3)
+            self.queue = [self.codec.decode(bytearray(beat.pack(self.codec))) for _ in range(2)]
+        return self.queue.pop(0) if self.queue else None
+
+
+def test_a_slow_first_answer_is_not_taken_for_a_flood() -> None:
+    # the read's 50 ms budget began before the wait for the first message: a rover answering
+    # 100 ms late with two packets was said to flood the link, in most runs of lfctl follow
+    companion = Companion(_SlowRover(0.1), 1)  # type: ignore[arg-type]
+    assert companion.poll(0.0, 0.2) == 2
+    assert companion.overloaded == 0
+
+
+def test_odometry_stopped_by_the_rover_is_asked_for_again_and_comes_back(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a rover that rebooted sends only its own stream rates (on a companion's port perhaps
+    # none): the start-up requests were never made again, and the follower steered on its
+    # last position for the rest of the run
+    from lfctl.config import parse_config
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.video import VideoSource
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    with standing_rover() as rover:
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+        sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
+        stopped: list[float] = []
+
+        def on_step(step: Any) -> None:
+            if not stopped and step.t_s > 0.5:  # its position stream stops, as after a reboot
+                stopped.append(step.t_s)
+                cmd = mav.MAVLink_command_long_message(
+                    1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, -1, 0, 0, 0, 0, 0
+                )
+                sock.sendto(cmd.pack(gcs), ("127.0.0.1", rover.link.port))
+
+        try:
+            with VideoSource(str(banner_video(100))) as video, caplog.at_level("INFO", "lfctl.follower.rover"):
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                             timeout_s=5.0, max_frames=90, on_step=on_step)  # fmt: skip
+        finally:
+            sock.close()
+            companion.close()
+    logged = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
+    assert "rover: asked the rover for its odometry again" in logged
+    assert logged.index("rover: odometry (LOCAL_POSITION_NED) back") > logged.index(
+        "rover: asked the rover for its odometry again"
+    )
+
+
+def test_a_wrong_target_is_told_the_system_that_talks_on_the_link() -> None:
+    from lfctl.errors import LinkTimeoutError
+
+    companion = Companion(_ScriptedRover(lambda sends, t: None), 2)  # type: ignore[arg-type]
+    with pytest.raises(LinkTimeoutError, match=r"system 1's autopilot talks on this link: --target 1\?"):
+        companion.wait_vehicle(0.3, 20.0)
+
+
+def test_another_companion_of_the_rover_on_the_link_is_said(caplog: pytest.LogCaptureFixture) -> None:
+    # a simulated follower's own companion (2/191) and lfctl follow took turns commanding it
+    from lfctl.follower.rover import _LinkWatch
+
+    companion = Companion(_ScriptedRover(lambda sends, t: None), 1)  # type: ignore[arg-type]
+    other = mav.MAVLink(None, srcSystem=1, srcComponent=COMPANION_COMPID)
+    text = mav.MAVLink_statustext_message(mav.MAV_SEVERITY_INFO, b"follower1: leader reacquired")
+    companion._take(other.decode(bytearray(text.pack(other))), 0.0)
+    assert companion.other_companion
+    companion.port.junk = 0  # type: ignore[attr-defined]
+    watch = _LinkWatch(companion, "rover")
+    watch.check(0.0)
+    watch.check(0.1)
+    said = [r.getMessage() for r in caplog.records if "another companion" in r.getMessage()]
+    assert len(said) == 1 and said[0].startswith("rover: another companion (system 1, component 191) talks")
