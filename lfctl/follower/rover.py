@@ -6,6 +6,7 @@ wall clock. The stack (:class:`~lfctl.follower.stack.Follower`) and the percepti
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -31,6 +32,8 @@ STOP_SETPOINTS = 3
 #: longer, is said to be missing (the stack then steers on the last position it had: the
 #: camera still closes the loop)
 ODOMETRY_STALE_S = 1.0
+#: while the rover's odometry is missing, it is asked for again this often, s
+REASK_S = 2.0
 #: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
 #: once a second): its mode and arming are then not known, and setpoints are not counted as
 #: carried out
@@ -194,6 +197,7 @@ def follow_rover(
     companion.vehicle.t_s = None  # what came while waiting was stamped on the wait's own clock
     companion.vehicle.heartbeat_t_s = t_start  # (heard while waiting; restamped on this clock)
     link = _LinkWatch(companion, name)
+    asked_at = -math.inf  # when the odometry was last asked for again
     interrupted = False
     skipped_before = video.skipped  # frames a live camera made while the rover was being set up
     try:
@@ -204,12 +208,15 @@ def follow_rover(
             was_stale = stale
             stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
             beating = link.check(t_s)
-            if (stale and not was_stale) or link.came_back:
+            if link.came_back or (stale and t_s - asked_at >= REASK_S):
                 # a rover that rebooted (or whose streams stopped) sends only what its own
-                # stream rates say, on a companion's port perhaps nothing: asked again
+                # stream rates say, on a companion's port perhaps nothing: asked again, and
+                # again while it is missing (a request may be lost, or sent mid-reboot)
+                if link.came_back or not was_stale:
+                    log.info("%s: asked the rover for its odometry again", name)
                 link.came_back = False
                 companion.ask_streams_again(rate_hz)
-                log.info("%s: asked the rover for its odometry again", name)
+                asked_at = t_s
             _say_heard(companion, name)
             state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None

@@ -344,6 +344,7 @@ class VehicleEndpoint:
         # its routes (at most MAX_ROUTES); the channel a message came on (network or memory)
         self._routes: set[tuple[int, int, str]] = set()
         self._channel = "memory"
+        self._sender: Any = None
         self.statustexts: list[tuple[float, str]] = []
         self.t_s = 0.0
         self._boot_mode = MODES[mode]  # the mode it starts in, and starts in again on a reboot
@@ -362,7 +363,8 @@ class VehicleEndpoint:
         #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
         #: to its log's start so that SYSTEM_TIME and the log share a clock
         self.epoch_us = time.time_ns() // 1000
-        self.forward: Callable[[bytes], None] | None = None  # routes companion reports to the GCS
+        #: routes companion reports to the GCS: (packet, an address not to send it to)
+        self.forward: Callable[[bytes, Any], None] | None = None
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
         #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
         self.time_budget_s: float | None = None
@@ -390,7 +392,9 @@ class VehicleEndpoint:
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
-        self.path_started = armed  # a way back is kept from the first arming (Rover's set_home)
+        #: a way back is kept from the first arming (lfctl's; Rover's starts with a position)
+        self.path_started = armed
+        self.path_generation = 0  # arming starts a new way back: counted
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
@@ -625,6 +629,7 @@ class VehicleEndpoint:
         if good:
             self.link.accept_peer(addr)
         self._channel = "memory" if addr[0] == "memory" else "network"
+        self._sender = addr  # the datagram's sender (a report is not routed back to it)
         for m in good:
             self._learn_route(m)
             self._handle(m, signed)
@@ -713,11 +718,12 @@ class VehicleEndpoint:
         self._forward_report(m)
 
     def _forward_report(self, m: Any) -> None:
-        """The in-memory companion's report, routed to the ground station's network link; one
-        that came over the network (a companion there, ``lfctl follow``) is not sent back on
-        it, as Rover's routing forwards to the other channels only."""
-        if self.forward is not None and m.get_srcComponent() != 1 and self._channel == "memory":
-            self.forward(bytes(m.get_msgbuf()))
+        """A companion's report, routed to the ground station on the network link: the
+        in-memory companion's to every peer there; one that came over the network (a
+        companion there, ``lfctl follow``) to every peer but its sender, as Rover's routing
+        never sends a message back where it came from."""
+        if self.forward is not None and m.get_srcComponent() != 1:
+            self.forward(bytes(m.get_msgbuf()), None if self._channel == "memory" else self._sender)
 
     def _on_heartbeat(self, m: Any) -> None:
         if m.type == mav.MAV_TYPE_GCS:
@@ -1085,6 +1091,7 @@ class VehicleEndpoint:
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
             if armed:  # SmartRTL's way back starts here afresh (AP_Arming_Rover::arm: smart_rtl.set_home)
                 self.path, self.path_started = [], True
+                self.path_generation += 1
             if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
                 complete = self.mission_complete
                 self.set_current(1, reset=True)

@@ -103,17 +103,22 @@ class UdpLink:
                 return
         self.peers[addr] = now
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, exclude: Address | None = None) -> None:
         """Send to every ``udpout`` target and every peer heard lately (a refused send is skipped).
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
+        exclude : address, optional
+            Not to this one (the sender of a message passed on: MAVLink routing never sends
+            a message back where it came from).
         """
         now = self._clock()
         last = max(self.peers, key=self.peers.__getitem__) if self.peers else None
         for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S or a == last)):
+            if addr == exclude:
+                continue
             try:
                 self.sock.sendto(data, addr)
                 self.tx_datagrams += 1

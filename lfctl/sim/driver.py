@@ -597,14 +597,14 @@ class VehicleDriver:
         # Rover's RTL speed (RTL_SPEED, else WP_SPEED) until a DO_CHANGE_SPEED in the mode
         speed = ep.desired_speed_mps or ep.param("RTL_SPEED") or ep.param("WP_SPEED")
         smart = ep.mode == MODES["SMART_RTL"]
-        key: tuple[object, ...] = ("srtl" if smart else "rtl", ep.modes[-1][0])
+        key: tuple[object, ...] = ("srtl" if smart else "rtl", ep.modes[-1][0], ep.path_generation if smart else 0)
         if key != self._goto_key:  # the mode just entered: its way is chosen once, as it starts
             # SmartRTL: the way back as recorded (what is left of it); RTL: home or the rally
             # point best now (Rover's ModeRTL::_enter), kept if home or the points move
             self._return_route = list(reversed(ep.path)) if smart else [ep.rtl_destination(me.north_m, me.east_m)]
         done, cmd = self._drive_to(self._return_route, key, speed, t_s, world)
-        if smart and self._goto is not None:  # each point driven to is used up (AP_SmartRTL::pop_point)
-            del ep.path[len(self._goto.follower.waypoints) - self._goto.follower.index :]
+        if smart and self._goto is not None:  # each point is used up as it sets out for it (AP_SmartRTL::pop_point)
+            del ep.path[max(0, len(self._goto.follower.waypoints) - self._goto.follower.index - 1) :]
         if done:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
         return cmd

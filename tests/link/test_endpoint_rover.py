@@ -2524,17 +2524,44 @@ def test_a_log_list_is_answered_at_once_with_no_logs(bench: Bench) -> None:
     assert not [m for m in bench.tick() if m.get_type() == "LOG_ENTRY"]
 
 
-def test_a_companions_report_is_routed_to_the_network_only_from_the_other_channel(bench: Bench) -> None:
-    # Rover's routing passes a message on to the other channels, never back on its own: a
-    # companion on the network (lfctl follow) had its own STATUSTEXTs echoed back to it
-    forwarded: list[bytes] = []
-    bench.ep.forward = forwarded.append
+def test_a_companions_report_is_routed_to_the_network_but_never_back_to_its_sender(bench: Bench) -> None:
+    # Rover's routing never sends a message back where it came from: a companion on the
+    # network (lfctl follow) had its own STATUSTEXTs echoed back to it; the ground station
+    # there still gets them
+    forwarded: list[tuple[bytes, object]] = []
+    bench.ep.forward = lambda data, exclude: forwarded.append((data, exclude))
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     text = mav.MAVLink_statustext_message(mav.MAV_SEVERITY_INFO, b"rover: target lost")
     bench.a.inbox.append((text.pack(companion), ("memory", 0)))  # the in-memory companion's
     bench.tick()
-    assert len(forwarded) == 1
+    assert [exclude for _d, exclude in forwarded] == [None]  # to every peer on the network
     _from_network(bench, text, companion)
     _from_network(bench, mav.MAVLink_named_value_float_message(0, b"rng_err", 0.2), companion)
     bench.tick()
-    assert len(forwarded) == 1
+    assert [exclude for _d, exclude in forwarded[1:]] == [("127.0.0.1", 14550)] * 2  # to all but the sender
+
+
+def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
+    import socket
+
+    from lfctl.link.transport import UdpLink
+
+    link = UdpLink(("127.0.0.1", 0))
+    a, b = (socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(2))
+    try:
+        for s in (a, b):
+            s.bind(("127.0.0.1", 0))
+            s.settimeout(1.0)
+            s.sendto(b"hello", ("127.0.0.1", link.port))
+        time.sleep(0.05)
+        for _data, addr in link.recv():  # both heard: peers (as MAVLink from them makes them)
+            link.accept_peer(addr)
+        link.send(b"report", exclude=a.getsockname())
+        assert b.recv(64) == b"report"
+        a.settimeout(0.2)
+        with pytest.raises(TimeoutError):
+            a.recv(64)
+    finally:
+        a.close()
+        b.close()
+        link.close()

@@ -84,6 +84,11 @@ async def session(port: int, home: tuple[float, float, float]) -> dict:
         await action.arm()
         await mission.start_mission()
         start = await telemetry.position()
+        for _ in range(25):  # MAVSDK's position is NaN until its first GLOBAL_POSITION_INT (slow on a loaded machine)
+            if math.isfinite(start.latitude_deg):
+                break
+            await asyncio.sleep(0.2)
+            start = await telemetry.position()
         for _ in range(40):  # up to 8 s for the mode to show and the rover to move
             await asyncio.sleep(0.2)
             out["mode"] = await telemetry.flight_mode()
