@@ -240,7 +240,9 @@ class VideoSource:
             raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
         if stat.S_ISDIR(st.st_mode):
             raise ConfigError(f"{source} is a directory, not a video file")
-        if stat.S_ISREG(st.st_mode) and st.st_size == 0:
+        if not stat.S_ISREG(st.st_mode):
+            return None, ""  # a device (a camera's /dev/video0): OpenCV opens it, nothing to probe
+        if st.st_size == 0:
             raise ConfigError(f"{source} is empty (0 bytes)")
         info = probe_file(source)
         return (info, "") if isinstance(info, FileInfo) else (None, info)
