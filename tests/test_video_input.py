@@ -269,3 +269,27 @@ def test_follow_with_a_scenario_without_a_follower_says_what_to_add(
     code = main(["follow", "--mavlink", "udpout:127.0.0.1:9", "--camera", os.devnull, "--scenario", str(scen)])
     err = capsys.readouterr().err
     assert code == 2 and "the scenario has no follower" in err and 'role = "follower"' in err
+
+
+def test_an_mp4_trimmed_without_reencoding_is_not_called_cut(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # ffmpeg -ss .. -c copy keeps the samples before the cut behind an edit list: the file
+    # stores 60 samples and shows 42 (it was refused as cut, 42 of the 60 frames it declares)
+    whole = write(tmp_path / "whole.mp4", n=60)
+    trimmed = tmp_path / "trimmed.mp4"
+    with av.open(str(whole)) as inp, av.open(str(trimmed), "w") as out:
+        ist = inp.streams.video[0]
+        ost = out.add_stream_from_template(ist)
+        skip = round(18 / (ist.time_base * 30))  # the first 18 frames' time, in the stream's units
+        for packet in inp.demux(ist):
+            if packet.dts is None:
+                continue
+            packet.pts -= skip
+            packet.dts -= skip
+            packet.stream = ost
+            out.mux(packet)
+    with av.open(str(trimmed)) as check:
+        assert check.streams.video[0].frames == 60  # the samples, kept
+    code, lines, err = track(capsys, str(trimmed), "--roi", "38,20,40,30")
+    assert code == 0 and len(lines) == 42 and "declares" not in err, err
