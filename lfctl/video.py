@@ -79,9 +79,11 @@ def probe_file(path: str) -> FileInfo | str:
                     duration = container.duration / 1e6  # (microseconds)
                 count = stream.frames if stream.frames > 0 else None
                 shown_s = float(stream.duration * stream.time_base) if stream.duration and stream.time_base else 0.0
-                if count is not None and shown_s > 0 and stream.average_rate:
+                if count is not None and shown_s > 0 and stream.average_rate and "mp4" in name:
                     # an MP4 trimmed with an edit list (ffmpeg -ss .. -c copy) keeps samples
-                    # it does not show: its count is of the samples, its duration of the shown
+                    # it does not show: its count is of the samples, its duration (from its
+                    # index, which a cut MP4 has not) of the shown; an AVI's duration may be
+                    # estimated from what is there, so its count stands
                     count = min(count, round(shown_s * float(stream.average_rate)))
                 pix_fmt = stream.codec_context.pix_fmt or ""
                 grey = pix_fmt.startswith(("gray", "ya", "mono"))
