@@ -99,7 +99,7 @@ class LeaderAutopilot:
             settings.acceptance_radius_m,
             settings.lookahead_m,
             start_ned_m,
-            stops=_StopPoints(self),  # asked each step: a wait may be set as its leg begins
+            stops=self.stops_at,  # asked each step: a wait may be set as its leg begins
         )
         self.heading = SlidingModeController(settings.heading)
         self._hold_until = -math.inf
@@ -112,16 +112,17 @@ class LeaderAutopilot:
         return self.follower.done
 
     def set_acceptance_radius(self, radius_m: float) -> None:
-        """A new waypoint radius, from the next step on (a ground station's WP_RADIUS, which
-        Rover's AR_WPNav reads every update).
+        """The waypoint radius from the next step on (a ground station's WP_RADIUS, which
+        Rover's AR_WPNav reads every update; the same one changes nothing).
 
         Parameters
         ----------
         radius_m : float
             The radius, >= 0, m.
         """
-        self.settings = replace(self.settings, acceptance_radius_m=radius_m)
-        self.follower.acceptance_radius_m = radius_m
+        if radius_m != self.settings.acceptance_radius_m:
+            self.settings = replace(self.settings, acceptance_radius_m=radius_m)
+            self.follower.acceptance_radius_m = radius_m
 
     def stops_at(self, index: int) -> bool:
         """Whether it stops on waypoint ``index``: a wait there, the last one, or one of ``stop_at``.
@@ -187,13 +188,3 @@ class LeaderAutopilot:
         if self.stops_at(self.follower.index):  # onto the point itself, as Rover's stop waypoints
             speed = min(speed, max(CREEP_MPS, math.sqrt(2.0 * st.decel_mps2 * los.distance_to_go_m)))
         return AutopilotOutput(speed, yaw_rate, los, 0.0)
-
-
-class _StopPoints:
-    """The waypoints an autopilot stops on, as its follower asks (``i in stops``)."""
-
-    def __init__(self, autopilot: LeaderAutopilot) -> None:
-        self._autopilot = autopilot
-
-    def __contains__(self, index: object) -> bool:
-        return isinstance(index, int) and self._autopilot.stops_at(index)

@@ -8,7 +8,7 @@ quadrant is right, and call eq. 14 what it is: a heading error, not a cross-trac
 from __future__ import annotations
 
 import math
-from collections.abc import Container, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from lfctl.frames import wrap_pi
@@ -167,9 +167,9 @@ class WaypointFollower:
         Lookahead distance for LOS on the path (None: pure pursuit of the waypoint, eq. 12).
     start_ned_m : (north_m, east_m)
         Where the vehicle starts: the first segment's start.
-    stops : container of int
-        The indices of the waypoints the vehicle stops at (a wait there, the route's end);
-        asked each step, so it may be one that changes.
+    stops : callable, optional
+        Whether the vehicle stops at waypoint ``i`` (a wait there, the route's end); asked
+        each step, so the answer may change (default: it stops at none).
     """
 
     def __init__(
@@ -178,7 +178,7 @@ class WaypointFollower:
         acceptance_radius_m: float,
         lookahead_m: float | None,
         start_ned_m: tuple[float, float] = (0.0, 0.0),
-        stops: Container[int] = frozenset(),
+        stops: Callable[[int], bool] | None = None,
     ) -> None:
         if not acceptance_radius_m >= 0 or not math.isfinite(acceptance_radius_m):
             raise ValueError(f"acceptance_radius_m must be >= 0, got {acceptance_radius_m!r}")
@@ -187,7 +187,7 @@ class WaypointFollower:
         self.waypoints = [(float(n), float(e)) for n, e in waypoints_ned_m]
         self.acceptance_radius_m = acceptance_radius_m
         self.lookahead_m = lookahead_m
-        self.stops = stops
+        self.stops = stops if stops is not None else _never
         self.index = 0
         self.prev = (float(start_ned_m[0]), float(start_ned_m[1]))
 
@@ -217,14 +217,14 @@ class WaypointFollower:
             seg_len = math.hypot(wp[0] - self.prev[0], wp[1] - self.prev[1])
             along = along_track_m(north_m, east_m, self.prev, wp)
             inside = dist <= self.acceptance_radius_m
-            if self.index in self.stops:  # driven onto: come along the track to it, then inside
+            if self.stops(self.index):  # driven onto: come along the track to it, then inside
                 inside = inside and along >= seg_len - ARRIVAL_M
             if seg_len > 0 and not inside and along < seg_len:
                 break
             reached.append(self.index)
             self.prev = wp
             self.index += 1
-            if not self.done and self.index in self.stops:
+            if not self.done and self.stops(self.index):
                 ahead = self.waypoints[self.index]
                 if along_track_m(north_m, east_m, wp, ahead) >= math.dist(wp, ahead) > 0:
                     # already past the point it is to stop on (a sharp turn onto a short leg,
@@ -258,3 +258,8 @@ class WaypointFollower:
         a = path_angle_rad(*self.prev, *self.waypoints[self.index])
         b = path_angle_rad(*self.waypoints[self.index], *self.waypoints[self.index + 1])
         return abs(wrap_pi(b - a))
+
+
+def _never(index: int) -> bool:
+    """No waypoint is stopped at (a :class:`WaypointFollower`'s default)."""
+    return False

@@ -392,9 +392,7 @@ class VehicleEndpoint:
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
-        #: a way back is kept from the first arming (lfctl's; Rover's starts with a position)
-        self.path_started = armed
-        self.path_generation = 0  # arming starts a new way back: counted
+        self.path_generation = int(armed)  # each arming starts a new way back: counted
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
@@ -478,6 +476,12 @@ class VehicleEndpoint:
     def speed_mps(self) -> float:
         """The speed AUTO, GUIDED and RTL drive at: a DO_CHANGE_SPEED, else WP_SPEED, m/s."""
         return self.desired_speed_mps if self.desired_speed_mps is not None else self.param("WP_SPEED")
+
+    @property
+    def path_started(self) -> bool:
+        """Whether a way back is kept: from the first arming (lfctl's; Rover's starts with a
+        position)."""
+        return self.path_generation > 0
 
     def home_point(self) -> tuple[float, float]:
         """Home in local NED, m: where the vehicle was when last disarmed (or a ground station
@@ -1090,7 +1094,7 @@ class VehicleEndpoint:
             self.armed = armed
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
             if armed:  # SmartRTL's way back starts here afresh (AP_Arming_Rover::arm: smart_rtl.set_home)
-                self.path, self.path_started = [], True
+                self.path = []
                 self.path_generation += 1
             if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
                 complete = self.mission_complete

@@ -242,8 +242,7 @@ class VehicleDriver:
             # a speed set on the way (a mission's or a ground station's DO_CHANGE_SPEED, RTL's
             # start, WP_SPEED): the latest wins, as Rover's one speed limit for its waypoints
             ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
-        if ap.settings.acceptance_radius_m != ep.param("WP_RADIUS"):  # set on the way: as Rover, at once
-            ap.set_acceptance_radius(ep.param("WP_RADIUS"))
+        ap.set_acceptance_radius(ep.param("WP_RADIUS"))  # set on the way: as Rover, at once
         if self._holding is not None and not ap.waiting(t_s):
             self._finish(self._holding[0], t_s)  # its wait is over: the next item begins before it is reached
         yaw = self._yaw
@@ -625,8 +624,7 @@ class VehicleDriver:
         elif self._goto.settings.cruise_speed_mps != speed:
             # a new speed on the way (DO_CHANGE_SPEED): the same route, from where it has got to
             self._goto.settings = dataclasses.replace(self._goto.settings, cruise_speed_mps=speed)
-        if self._goto.settings.acceptance_radius_m != ep.param("WP_RADIUS"):
-            self._goto.set_acceptance_radius(ep.param("WP_RADIUS"))
+        self._goto.set_acceptance_radius(ep.param("WP_RADIUS"))
         yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
         out = self._goto.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         ep.steering(_nav_report(out.los, ep.reversed, self._goto.follower.waypoints))

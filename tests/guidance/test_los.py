@@ -79,7 +79,7 @@ def test_a_passed_waypoint_counts_as_reached_so_the_vehicle_never_circles_back()
 def test_a_stop_point_is_driven_onto_not_reached_at_the_radius() -> None:
     # Rover's AR_WPNav: a waypoint it stops at is reached once the vehicle has come along the
     # track to it (and is inside WP_RADIUS or past it); a point it drives through, at the radius
-    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=2.0, lookahead_m=1.0, stops={0})
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=2.0, lookahead_m=1.0, stops={0}.__contains__)
     assert wf.step(2.5, 0.0, 0.0).reached == ()  # 1.5 m short: inside the radius, not arrived
     assert wf.step(3.9, 0.3, 0.0).reached == ()  # 0.1 m along the track short
     out = wf.step(3.96, 0.3, 0.0)  # 0.04 m short (within ARRIVAL_M), 0.3 m to the side
@@ -90,7 +90,7 @@ def test_a_stop_point_is_driven_onto_not_reached_at_the_radius() -> None:
 
 def test_a_zero_radius_reaches_a_waypoint_by_passing_it() -> None:
     # WP_RADIUS 0 is in Rover's range: only the perpendicular (or the point itself) reaches
-    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=0.0, lookahead_m=1.0, stops={1})
+    wf = WaypointFollower([(4.0, 0.0), (4.0, 4.0)], acceptance_radius_m=0.0, lookahead_m=1.0, stops={1}.__contains__)
     assert wf.step(3.99, 0.0, 0.0).reached == ()
     assert wf.step(4.01, 0.05, 0.0).reached == (0,)
     assert wf.step(4.0, 3.999, math.pi / 2).reached == ()
