@@ -51,6 +51,7 @@ from lfctl.link.params import ARMING_CHECK_ALL, ARMING_CHECK_PARAMETERS, Param, 
 from lfctl.link.port import pack_next, statustext_messages
 from lfctl.link.rc import PilotInput, RcOverrides
 from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
+from lfctl.link.smartrtl import clean as clean_way_back
 
 __all__ = [
     "COMPANION_COMPID",
@@ -112,8 +113,9 @@ MAX_BYTES_PER_TICK = 32 * 1024
 MAX_DATAGRAM_BYTES = 4 * 1024
 #: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
 MAX_ROUTES = 20
-#: SmartRTL keeps at most this many points of the way back (the oldest are thinned out)
-SRTL_POINTS = 300
+#: SmartRTL gives up its way back when no point could be kept for this long, s (Rover's
+#: SMARTRTL_TIMEOUT: the points used up and none cleaned away)
+SRTL_TIMEOUT_S = 15.0
 #: MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
 REPOSITION_CHANGE_MODE = 1
 
@@ -392,7 +394,13 @@ class VehicleEndpoint:
         self.reversed = False  # MAV_CMD_DO_SET_REVERSE
         self.desired_speed_mps: float | None = None  # MAV_CMD_DO_CHANGE_SPEED (None: WP_SPEED)
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
-        self.path_generation = int(armed)  # each arming starts a new way back: counted
+        self.path_generation = 0  # each arming starts a new way back: counted
+        self._path_cleaned = False  # the way, full, was cleaned and nothing added since
+        self._path_max = 0  # SRTL_POINTS as the way back began (Rover's: at boot)
+        self._path_active = False  # a way back is kept (SRTL_POINTS and SRTL_ACCURACY > 0, not given up)
+        self._path_saved_s = 0.0  # when a point was last kept, s
+        if armed:
+            self._start_path()
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
         self.fence_breach: str | None = None
         self._breached_fences = 0  # FENCE_TYPE bits breached at the last check (AC_Fence's)
@@ -480,8 +488,18 @@ class VehicleEndpoint:
     @property
     def path_started(self) -> bool:
         """Whether a way back is kept: from the first arming (lfctl's; Rover's starts with a
-        position)."""
-        return self.path_generation > 0
+        position), unless ``SRTL_POINTS`` or ``SRTL_ACCURACY`` was 0 then or the points ran
+        out (Rover's AP_SmartRTL ``is_active``)."""
+        return self.path_generation > 0 and self._path_active
+
+    def _start_path(self) -> None:
+        """A new way back (AP_SmartRTL::set_home, as the vehicle arms: where it is as the
+        tick ends is the way's first point)."""
+        self.path = []
+        self.path_generation += 1
+        self._path_max = int(self.param("SRTL_POINTS"))
+        self._path_active = self._path_max > 0 and self.param("SRTL_ACCURACY") > 0
+        self._path_saved_s = self.t_s
 
     def home_point(self) -> tuple[float, float]:
         """Home in local NED, m: where the vehicle was when last disarmed (or a ground station
@@ -876,7 +894,11 @@ class VehicleEndpoint:
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
             return self._refuse_mode("No Mission. Can't set AUTO.")
         if custom_mode == MODES["SMART_RTL"] and not self.path_started:
-            return self._refuse_mode("SmartRTL unavailable: no path recorded")
+            return self._refuse_mode(
+                "SmartRTL unavailable: no path recorded"
+                if self._path_active or not self.path_generation
+                else "SmartRTL unavailable: no path kept"
+            )
         self._enter(custom_mode)
         return True
 
@@ -902,6 +924,10 @@ class VehicleEndpoint:
                 # a finished mission starts again from its first item (AP_Mission::resume)
                 self.mission_version += 1
                 self.mission_complete = False
+        if custom_mode == MODES["SMART_RTL"] and self.mode != custom_mode:
+            # the way back cleaned of its straight runs' points and its loops before it is
+            # driven (ModeSmartRTL's WaitForPathCleanup: a thorough cleanup)
+            self.path = clean_way_back(self.path, self.param("SRTL_ACCURACY"))
         self.mode = custom_mode
         if custom_mode == MODES["GUIDED"]:
             self.guided = None  # entering GUIDED stops until a target comes
@@ -1094,8 +1120,7 @@ class VehicleEndpoint:
             self.armed = armed
             self.statustext("Throttle armed" if armed else "Throttle disarmed", mav.MAV_SEVERITY_INFO)  # Rover's
             if armed:  # SmartRTL's way back starts here afresh (AP_Arming_Rover::arm: smart_rtl.set_home)
-                self.path = []
-                self.path_generation += 1
+                self._start_path()
             if not armed and self.mode != MODES["AUTO"] and len(self.mission) > 1:
                 complete = self.mission_complete
                 self.set_current(1, reset=True)
@@ -1962,15 +1987,27 @@ class VehicleEndpoint:
         return int(min(100.0, abs(command) * cruise_throttle / cruise_speed))  # int16_t: truncated
 
     def _record_path(self) -> None:
-        """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes."""
-        if not self.armed or self.mode in (MODES["RTL"], MODES["SMART_RTL"]):
+        """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes, a point
+        each ``SRTL_ACCURACY`` (AP_SmartRTL::add_point). When the ``SRTL_POINTS`` are used up
+        the way is cleaned (its straight runs' points and its loops dropped); when that frees
+        none for :data:`SRTL_TIMEOUT_S`, SmartRTL is given up until the next arming."""
+        if not self.armed or not self._path_active or self.mode in (MODES["RTL"], MODES["SMART_RTL"]):
             return
         here = (self.state["north_m"], self.state["east_m"])
-        spacing = max(0.05, self.param("WP_RADIUS"))
-        if not self.path or math.hypot(here[0] - self.path[-1][0], here[1] - self.path[-1][1]) >= spacing:
+        accuracy = self.param("SRTL_ACCURACY")
+        if self.path and math.hypot(here[0] - self.path[-1][0], here[1] - self.path[-1][1]) < accuracy:
+            self._path_saved_s = self.t_s  # nothing to keep here (Rover's add_point succeeds)
+            return
+        if len(self.path) >= self._path_max and not self._path_cleaned and accuracy > 0:
+            self.path = clean_way_back(self.path, accuracy)
+            self._path_cleaned = True
+        if len(self.path) < self._path_max:
             self.path.append(here)
-            if len(self.path) > SRTL_POINTS:
-                self.path = self.path[::2]  # keep the whole way back, coarser
+            self._path_saved_s = self.t_s
+            self._path_cleaned = False
+        elif self.t_s - self._path_saved_s > SRTL_TIMEOUT_S:
+            self._path_active = False
+            self.statustext("SmartRTL deactivated: buffer full", mav.MAV_SEVERITY_WARNING)  # AP_SmartRTL's words
 
     def _send_by_id(self, msg_id: int) -> None:
         name = ID_NAMES.get(msg_id)

@@ -109,6 +109,21 @@ def default_params(sysid: int) -> dict[str, Param]:
         "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
         "CRUISE_THROTTLE": Param(50, 0, 100, "%", "throttle at CRUISE_SPEED (VFR_HUD's throttle)", kind=INT8),
         "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
+        "SRTL_ACCURACY": Param(
+            2.0,
+            0.0,
+            10.0,
+            "m",
+            "SmartRTL: a point of the way back each time the vehicle has moved this far; 0: none kept",
+        ),
+        "SRTL_POINTS": Param(
+            300,
+            0,
+            500,
+            "",
+            "SmartRTL: the most points of the way back (from the next arming); 0: none kept",
+            kind=INT16,
+        ),
         "CIRC_SPEED": Param(0.0, 0.0, 10.0, "m/s", "speed round a mission's NAV_LOITER_TURNS circle; 0: WP_SPEED"),
         "MIS_DONE_BEHAVE": Param(
             0, 0, 3, "", "at a mission's end: 0 hold in AUTO, 1 loiter in AUTO, 2 ACRO, 3 MANUAL", kind=INT8

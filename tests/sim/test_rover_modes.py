@@ -40,10 +40,13 @@ max_speed_mps = 0.5
 
 
 def run_with(
-    commands: dict[float, Callable[[Links], None]], duration_s: float = 40.0, record_to: Path | None = None
+    commands: dict[float, Callable[[Links], None]],
+    duration_s: float = 40.0,
+    record_to: Path | None = None,
+    scenario: str = SCENARIO,
 ) -> tuple[RunReport, Links]:
     """Run the scenario, sending ``commands[t]`` from a ground station at simulation time t."""
-    cfg = parse_config(SCENARIO, "modes")
+    cfg = parse_config(scenario, "modes")
     cfg = dataclasses.replace(cfg, sim=dataclasses.replace(cfg.sim, duration_s=duration_s))
     links: list[Links] = []
     pending = sorted(commands.items())
@@ -463,6 +466,21 @@ def test_smart_rtl_uses_up_its_way_back_and_a_second_one_stays_home() -> None:
     assert links.endpoints[0].path == []
     said = [s for _t, s in links.endpoints[0].statustexts]
     assert said.count("Reached destination") == 2
+
+
+def test_smart_rtl_does_not_drive_the_loop_its_way_out_made() -> None:
+    # out 8 m, left 4, back 4 and across the first leg at (4, 0) to (4, -3): SmartRTL from
+    # there drives to the crossing and home (AP_SmartRTL prunes the loop), not round (8, 4)
+    looped = SCENARIO.replace(
+        "waypoints = [[6.0, 0.0], [6.0, 6.0]]", "waypoints = [[8.0, 0.0], [8.0, 4.0], [4.0, 4.0], [4.0, -3.0]]"
+    )
+    rep, links = run_with({62.0: mode("SMART_RTL")}, duration_s=90.0, scenario=looped)
+    t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
+    assert math.hypot(track[np.argmin(np.abs(t - 62.0)), 0] - 4.0, track[np.argmin(np.abs(t - 62.0)), 1] + 3.0) < 0.5
+    back = track[t >= 62.0]
+    assert np.max(back[:, 0]) < 5.0 and np.max(back[:, 1]) < 1.0  # never out to (8, 0) nor up to (8, 4)
+    assert math.hypot(*track[-1]) <= 0.8
+    assert "Reached destination" in [s for _t, s in links.endpoints[0].statustexts]
 
 
 def test_arming_starts_the_way_back_afresh() -> None:

@@ -1,0 +1,136 @@
+"""SmartRTL's way back cleaned as a Rover cleans it (AP_SmartRTL): simplification at half
+SRTL_ACCURACY, loops pruned at 0.99 of it, hand-worked; and the endpoint's SRTL_ parameters,
+cleanup on entering SmartRTL and giving up when the points run out."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pymavlink.dialects.v20 import ardupilotmega as mav
+from test_endpoint_rover import Bench
+
+from lfctl.link.endpoint import MODES, SRTL_TIMEOUT_S
+from lfctl.link.smartrtl import clean, prune_loops, simplify
+
+
+def test_simplify_drops_points_near_the_line_between_those_kept() -> None:
+    pts = [(0.0, 0.0), (1.0, 0.4), (2.0, 0.0), (3.0, 0.0)]
+    # (1, 0.4) is 0.4 m off the chord (0, 0)-(3, 0): dropped within 0.5, kept within 0.3;
+    # then (2, 0) is 0.196 m off (1, 0.4)-(3, 0) (|(1, -0.4) x (2, -0.4)| / |(2, -0.4)|)
+    assert simplify(pts, 0.5) == [(0.0, 0.0), (3.0, 0.0)]
+    assert simplify(pts, 0.3) == [(0.0, 0.0), (1.0, 0.4), (3.0, 0.0)]
+    assert simplify(pts, 0.19) == pts
+    assert simplify(pts[:2], 10.0) == pts[:2]
+
+
+def test_a_leg_that_crosses_an_earlier_one_cuts_the_loop_at_the_crossing() -> None:
+    # out east 4 m, north 2, back west 2, then south across the first leg at (2, 0)
+    way = [(0.0, 0.0), (4.0, 0.0), (4.0, 2.0), (2.0, 2.0), (2.0, -2.0)]
+    assert prune_loops(way, 1.98) == [(0.0, 0.0), (2.0, 0.0), (2.0, -2.0)]
+
+
+def test_legs_that_pass_within_the_delta_are_joined_midway_between_their_closest_points() -> None:
+    way = [(0.0, 0.0), (4.0, 0.0), (4.0, 3.0), (2.0, 3.0), (2.0, 1.5)]
+    # the last leg ends 1.5 m from (2, 0) on the first: joined at (2, 0.75)
+    assert prune_loops(way, 1.98) == [(0.0, 0.0), (2.0, 0.75), (2.0, 1.5)]
+    # 1.5 m is not within 1.4 m: nothing cut
+    assert prune_loops(way, 1.4) == way
+
+
+def test_neighbouring_legs_are_never_a_loop() -> None:
+    v = [(0.0, 0.0), (4.0, 0.0), (0.0, 0.5)]  # a sharp turn: its two legs touch at the turn
+    assert prune_loops(v, 1.98) == v
+    assert clean(v, 2.0) == v
+
+
+def test_the_largest_loop_a_leg_closes_is_cut() -> None:
+    # two loops, the second inside the first's span: the last leg meets the first leg, so
+    # everything between goes
+    way = [(0.0, 0.0), (6.0, 0.0), (6.0, 3.0), (4.0, 3.0), (4.0, 1.0), (5.0, 1.0), (5.0, 4.0), (2.0, 4.0), (2.0, -2.0)]
+    assert prune_loops(way, 0.5) == [(0.0, 0.0), (2.0, 0.0), (2.0, -2.0)]
+
+
+points = st.lists(
+    st.tuples(st.floats(-50, 50, allow_nan=False), st.floats(-50, 50, allow_nan=False)), min_size=0, max_size=40
+)
+
+
+def _length(way: list[tuple[float, float]]) -> float:
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(way))
+
+
+@settings(max_examples=200, deadline=None)
+@given(points, st.floats(0.1, 10.0))
+def test_a_cleaned_way_starts_and_ends_where_it_did_and_is_no_longer(way: list, accuracy: float) -> None:
+    out = clean(way, accuracy)
+    assert len(out) <= len(way)
+    if way:
+        assert out[0] == way[0] and out[-1] == way[-1]  # home, and where the vehicle last was
+    assert _length(out) <= _length(way) + 1e-6
+
+
+# -- the endpoint ------------------------------------------------------------------------------
+def _drive(b: Bench, way: list[tuple[float, float]], step_m: float = 0.5) -> None:
+    """Tick the vehicle along ``way`` in steps of about ``step_m``."""
+    for (n0, e0), (n1, e1) in itertools.pairwise(way):
+        k = max(1, int(math.dist((n0, e0), (n1, e1)) / step_m))
+        for i in range(1, k + 1):
+            n, e = n0 + (n1 - n0) * i / k, e0 + (e1 - e0) * i / k
+            b.tick(state={"north_m": n, "east_m": e, "yaw_rad": 0.0, "speed_mps": 1.0, "yaw_rate_radps": 0.0})
+
+
+def _armed(**params: float) -> Bench:
+    b = Bench()
+    for name, value in params.items():
+        b.ep.params[name].value = value
+    b.state = {"north_m": 0.0, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+    b.tick()
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    return b
+
+
+def test_entering_smartrtl_cleans_the_loop_out_of_the_way_back() -> None:
+    b = _armed()
+    _drive(b, [(0.0, 0.0), (20.0, 0.0), (20.0, 10.0), (10.0, 10.0), (10.0, -10.0)])
+    recorded = list(b.ep.path)
+    assert len(recorded) > 20  # a point each 2 m (SRTL_ACCURACY)
+    assert b.set_mode("SMART_RTL") == mav.MAV_RESULT_ACCEPTED
+    # the way back: from (10, -10) to where it crossed its first leg, and home
+    assert b.ep.path == [(0.0, 0.0), pytest.approx((10.0, 0.0), abs=0.01), b.ep.path[-1]]
+    assert b.ep.path[-1] == recorded[-1]
+
+
+def test_srtl_accuracy_spaces_the_points() -> None:
+    b = _armed(SRTL_ACCURACY=5.0)
+    _drive(b, [(0.0, 0.0), (30.0, 0.0)])
+    assert [round(n) for n, _e in b.ep.path] == [0, 5, 10, 15, 20, 25, 30]
+
+
+def test_srtl_points_0_keeps_no_way_back_and_smartrtl_is_refused() -> None:
+    b = _armed(SRTL_POINTS=0)
+    _drive(b, [(0.0, 0.0), (10.0, 0.0)])
+    assert b.ep.path == []
+    assert b.set_mode("SMART_RTL") == mav.MAV_RESULT_FAILED
+    assert "SmartRTL unavailable: no path kept" in [s for _t, s in b.ep.statustexts]
+
+
+def test_points_used_up_and_none_freed_gives_smartrtl_up_until_the_next_arming() -> None:
+    b = _armed(SRTL_POINTS=10)
+    # a zigzag with nothing to simplify and no loop: 10 points fill the way
+    zig = [(4.0 * i, 0.0 if i % 2 == 0 else 4.0) for i in range(12)]
+    _drive(b, zig)
+    assert len(b.ep.path) == 10
+    assert b.ep.path_started
+    stay = {"north_m": zig[-1][0], "east_m": zig[-1][1] + 3.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}
+    for _ in range(int(SRTL_TIMEOUT_S / 0.02) + 60):  # a point due and no room for it, for 15 s
+        b.tick(state=stay)
+    assert "SmartRTL deactivated: buffer full" in [s for _t, s in b.ep.statustexts]
+    assert not b.ep.path_started
+    assert b.set_mode("SMART_RTL") == mav.MAV_RESULT_FAILED
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    assert b.ep.path_started and b.ep.mode != MODES["SMART_RTL"]
