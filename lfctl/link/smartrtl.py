@@ -72,19 +72,41 @@ def prune_loops(points: list[Point], delta_m: float) -> list[Point]:
     delta_m : float
         How close two legs must come to be taken to meet, m.
     """
-    pts = list(points)
-    i = len(pts) - 1  # the leg from point i - 1 to point i
-    while i >= 3:
-        earlier = np.asarray(pts[: i - 1], float)  # legs (j - 1, j) for j = 1 .. i - 2: none touches leg i
-        dist, mid = _segment_distances(np.asarray(pts[i - 1], float), np.asarray(pts[i], float), earlier)
-        hits = np.flatnonzero(dist < delta_m)
-        if hits.size:
-            j = int(hits[0]) + 1  # the oldest leg it meets: the largest loop
-            pts = [*pts[:j], (float(mid[hits[0], 0]), float(mid[hits[0], 1])), *pts[i:]]
-            i = j  # the joined leg (j - 1 to the midpoint) is checked next
-        else:
-            i -= 1
-    return pts
+    n = len(points)
+    if n < 4:
+        return list(points)
+    p = np.asarray(points, float)
+    # every pair of legs (leg k: point k - 1 to point k) that are not neighbours, at once
+    newer, older = np.nonzero(np.tri(n, n, -2, dtype=bool))
+    newer, older = newer[older >= 1], older[older >= 1]
+    lo, hi = np.minimum(p[:-1], p[1:]), np.maximum(p[:-1], p[1:])  # each leg's box (leg k: row k - 1)
+    gap = np.maximum(lo[older - 1] - hi[newer - 1], lo[newer - 1] - hi[older - 1]).max(axis=1)
+    newer, older = newer[gap < delta_m], older[gap < delta_m]  # boxes further apart: legs too
+    dist, mid = segment_distances(p[newer - 1], p[newer], p[older - 1], p[older])
+    near = np.full((n, n), np.inf)
+    near[newer, older] = dist
+    meet = np.zeros((n, n, 2))
+    meet[newer, older] = mid
+    way = [points[-1]]  # what is kept, newest first
+    i, end = n - 1, None  # the leg from point i - 1 to point i, or to ``end`` where legs were joined
+    while i >= 1:
+        if i >= 3:
+            if end is None:
+                hits = np.flatnonzero(near[i, 1 : i - 1] < delta_m) + 1
+                joints = meet[i]
+            else:  # a joined leg: not one of the legs measured above
+                d, m = segment_distances(p[i - 1], np.asarray(end), p[: i - 2], p[1 : i - 1])
+                hits = np.flatnonzero(d < delta_m) + 1
+                joints = np.vstack([np.zeros((1, 2)), m])
+            if hits.size:
+                j = int(hits[0])  # the oldest leg it meets: the largest loop
+                end = (float(joints[j, 0]), float(joints[j, 1]))
+                way.append(end)
+                i = j  # the leg from point j - 1 to the joint is checked next
+                continue
+        way.append(points[i - 1])
+        i, end = i - 1, None
+    return way[::-1]
 
 
 def clean(points: list[Point], accuracy_m: float) -> list[Point]:
@@ -109,41 +131,31 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
     return np.hypot(*(p - a - t[:, None] * ab).T)
 
 
-def _segment_distances(a: np.ndarray, b: np.ndarray, way: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The closest distance between segment a-b and each segment of ``way`` (its points
-    k and k + 1), and the point midway between the two closest points (2-D: the closest pair
-    is an end of one segment and the other segment, unless they cross)."""
-    c, d = way[:-1], way[1:]
-    candidates = []  # (distance, the point on a-b, the point on c-d) for each end's nearest
+def segment_distances(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The closest distance between segments a-b and c-d (arrays of (n, 2) points, or one
+    point to pair with every row of the others), and the point midway between the two
+    closest points. In 2-D the closest pair is an end of one segment and the nearest point
+    of the other, unless they cross, when they meet at the crossing."""
+    a, b, c, d = np.broadcast_arrays(*(np.asarray(x, float).reshape(-1, 2) for x in (a, b, c, d)))
 
-    def nearest(p: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
+    def nearest(q: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
         s = s1 - s0
         den = np.einsum("ij,ij->i", s, s)
-        t = np.where(den > 0, np.einsum("ij,ij->i", p - s0, s) / np.where(den > 0, den, 1.0), 0.0)
-        return s0 + np.clip(t, 0.0, 1.0)[:, None] * s
+        t = np.einsum("ij,ij->i", q - s0, s) / np.where(den > 0, den, 1.0)
+        return s0 + np.clip(np.where(den > 0, t, 0.0), 0.0, 1.0)[:, None] * s
 
-    n = len(c)
-    ab0, ab1 = np.broadcast_to(a, (n, 2)), np.broadcast_to(b, (n, 2))
-    for end, other in ((ab0, nearest(ab0, c, d)), (ab1, nearest(ab1, c, d))):
-        candidates.append((np.hypot(*(end - other).T), end, other))
-    for end in (c, d):
-        on_ab = nearest(end, ab0, ab1)
-        candidates.append((np.hypot(*(end - on_ab).T), on_ab, end))
-    dist = np.stack([x[0] for x in candidates])
+    pairs = [(a, nearest(a, c, d)), (b, nearest(b, c, d)), (nearest(c, a, b), c), (nearest(d, a, b), d)]
+    dist = np.stack([np.hypot(*(x - y).T) for x, y in pairs])
     best = np.argmin(dist, axis=0)
-    rows = np.arange(n)
-    p_ab = np.stack([x[1] for x in candidates])[best, rows]
-    p_cd = np.stack([x[2] for x in candidates])[best, rows]
-    out_d = dist[best, rows]
-    mid = (p_ab + p_cd) / 2
-    # segments that cross meet at their crossing
-    r, s = ab1 - ab0, d - c
+    rows = np.arange(len(a))
+    on_ab = np.stack([x for x, _y in pairs])[best, rows]
+    on_cd = np.stack([y for _x, y in pairs])[best, rows]
+    out_d, mid = dist[best, rows], (on_ab + on_cd) / 2
+    r, s = b - a, d - c
     den = r[:, 0] * s[:, 1] - r[:, 1] * s[:, 0]
-    q = c - ab0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (q[:, 0] * s[:, 1] - q[:, 1] * s[:, 0]) / den
-        u = (q[:, 0] * r[:, 1] - q[:, 1] * r[:, 0]) / den
+    q = c - a
+    safe = np.where(den != 0, den, 1.0)
+    t = (q[:, 0] * s[:, 1] - q[:, 1] * s[:, 0]) / safe
+    u = (q[:, 0] * r[:, 1] - q[:, 1] * r[:, 0]) / safe
     cross = (den != 0) & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
-    out_d = np.where(cross, 0.0, out_d)
-    mid = np.where(cross[:, None], ab0 + np.where(cross, t, 0.0)[:, None] * r, mid)
-    return out_d, mid
+    return np.where(cross, 0.0, out_d), np.where(cross[:, None], a + np.where(cross, t, 0.0)[:, None] * r, mid)

@@ -14,7 +14,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from test_endpoint_rover import Bench
 
 from lfctl.link.endpoint import MODES, SRTL_TIMEOUT_S
-from lfctl.link.smartrtl import clean, prune_loops, simplify
+from lfctl.link.smartrtl import clean, prune_loops, segment_distances, simplify
 
 
 def test_simplify_drops_points_near_the_line_between_those_kept() -> None:
@@ -71,6 +71,38 @@ def test_a_cleaned_way_starts_and_ends_where_it_did_and_is_no_longer(way: list, 
     if way:
         assert out[0] == way[0] and out[-1] == way[-1]  # home, and where the vehicle last was
     assert _length(out) <= _length(way) + 1e-6
+
+
+def _prune_one_leg_at_a_time(way: list[tuple[float, float]], delta: float) -> list[tuple[float, float]]:
+    """The pruning written plainly: each leg from the newest back against every earlier leg
+    that is not its neighbour, one pair at a time, the oldest it meets cut to."""
+    pts = list(way)
+    i = len(pts) - 1
+    while i >= 3:
+        for j in range(1, i - 1):
+            d, m = segment_distances(pts[i - 1], pts[i], pts[j - 1], pts[j])
+            if d[0] < delta:
+                pts = [*pts[:j], (float(m[0, 0]), float(m[0, 1])), *pts[i:]]
+                i = j
+                break
+        else:
+            i -= 1
+    return pts
+
+
+@settings(max_examples=200, deadline=None)
+@given(points, st.floats(0.1, 10.0))
+def test_pruning_all_pairs_at_once_cuts_what_one_pair_at_a_time_cuts(way: list, delta: float) -> None:
+    assert prune_loops(way, delta) == pytest.approx(_prune_one_leg_at_a_time(way, delta))
+
+
+def test_the_distance_between_two_legs() -> None:
+    d, m = segment_distances((0.0, 0.0), (4.0, 0.0), (2.0, 3.0), (2.0, 1.5))  # an end to the other's middle
+    assert d[0] == pytest.approx(1.5) and tuple(m[0]) == pytest.approx((2.0, 0.75))
+    d, m = segment_distances((0.0, 0.0), (4.0, 4.0), (0.0, 4.0), (4.0, 0.0))  # they cross at (2, 2)
+    assert d[0] == 0.0 and tuple(m[0]) == pytest.approx((2.0, 2.0))
+    d, _m = segment_distances((0.0, 0.0), (4.0, 0.0), (5.0, 1.0), (9.0, 1.0))  # parallel, end to end
+    assert d[0] == pytest.approx(math.sqrt(2.0))
 
 
 # -- the endpoint ------------------------------------------------------------------------------
