@@ -113,6 +113,27 @@ class LinkTimeoutError(LfctlError, TimeoutError):
         super().__init__(f"no {expected}{who}{within}" + (f" ({detail})" if detail else ""))
 
 
+class VehicleKindError(LfctlError):
+    """The vehicle on the link is not one lfctl may command (not an ArduPilot Rover or boat:
+    another vehicle's custom mode numbers mean other modes).
+
+    Parameters
+    ----------
+    sysid : int
+        Its system id.
+    kind : str
+        What its HEARTBEAT says it is (its MAV_TYPE and MAV_AUTOPILOT).
+    """
+
+    def __init__(self, sysid: int, kind: str) -> None:
+        self.sysid = sysid
+        self.kind = kind
+        super().__init__(
+            f"system {sysid} is {kind}, not an ArduPilot Rover: lfctl follow commands only Rovers (and boats), "
+            "whose mode 15 is GUIDED (on a Copter it is AUTOTUNE): --target another system?"
+        )
+
+
 class MissionProtocolError(LfctlError):
     """The mission protocol went out of sequence or was refused.
 

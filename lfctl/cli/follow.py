@@ -64,7 +64,7 @@ def register(sub: Any) -> None:
         "--rate",
         type=number(*RATE_HZ, unit="Hz"),
         help="setpoint rate, 1-100 Hz (default: the scenario's sim.guidance_rate_hz, 20); the rover stops "
-        "when setpoints are more than GUID_TIMEOUT (3 s) apart",
+        "when setpoints are more than 3 s apart (Rover 4.6)",
     )
     fo.add_argument("--arm", action="store_true", help="also arm the rover (default: you arm it)")
     fo.add_argument(

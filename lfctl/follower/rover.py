@@ -34,6 +34,11 @@ STOP_SETPOINTS = 3
 ODOMETRY_STALE_S = 1.0
 #: while the rover's odometry is missing, it is asked for again this often, s
 REASK_S = 2.0
+#: the odometry's rate is measured over this long, s: under :data:`SLOW_SHARE` of the rate
+#: asked for, something set the rover's stream rates since (a ground station's
+#: REQUEST_DATA_STREAM on the same link replaces them on ArduPilot), and it is asked again
+RATE_WINDOW_S = 3.0
+SLOW_SHARE = 0.5
 #: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
 #: once a second): its mode and arming are then not known, and setpoints are not counted as
 #: carried out
@@ -68,8 +73,9 @@ class RoverRun:
     occluded: int = 0  # steps coasting on a hidden target (OCCLUDED), or before it was first found
     lost: int = 0  # steps with the target lost (LOST)
     #: steps while the rover said, in a HEARTBEAT no older than :data:`HEARTBEAT_STALE_S`,
-    #: that it was in GUIDED and armed: the setpoints it carried out (in another mode, or
-    #: disarmed, ArduPilot ignores them)
+    #: that it was in GUIDED and armed, and its odometry came: the setpoints it carried out
+    #: (in another mode, or disarmed, ArduPilot ignores them, and so it does with no
+    #: position estimate and EKF origin, when it sends no LOCAL_POSITION_NED either)
     guided: int = 0
     junk: int = 0  # what the link brought that was no MAVLink of the dialect (cut, corrupt, unknown ids)
     passed_over: int = 0  # odometry messages passed over: not a number, or past any ground vehicle's
@@ -82,7 +88,7 @@ class RoverRun:
         """One line: what was sent, how many the rover took, and how often the target was seen."""
         line = f"sent {self.steps} setpoints"
         if self.steps:
-            line += f" (the rover in GUIDED and armed for {self.guided})"
+            line += f" (the rover in GUIDED, armed and with odometry for {self.guided})"
         line += f"; {self.frames} frames"
         if self.skipped:
             line += f" (and {self.skipped} older ones passed over for the newest)"
@@ -198,6 +204,8 @@ def follow_rover(
     companion.vehicle.heartbeat_t_s = t_start  # (heard while waiting; restamped on this clock)
     link = _LinkWatch(companion, name)
     asked_at = -math.inf  # when the odometry was last asked for again
+    rate_from = (t_start, companion.vehicle.positions)  # the odometry's rate is measured from here
+    slow_said = False
     interrupted = False
     skipped_before = video.skipped  # frames a live camera made while the rover was being set up
     try:
@@ -217,6 +225,14 @@ def follow_rover(
                 link.came_back = False
                 companion.ask_streams_again(rate_hz)
                 asked_at = t_s
+            if t_s - rate_from[0] >= RATE_WINDOW_S:
+                came = (companion.vehicle.positions - rate_from[1]) / (t_s - rate_from[0])
+                if not stale and came < SLOW_SHARE * rate_hz and t_s - asked_at >= REASK_S:
+                    _say_slow(name, came, rate_hz, slow_said)
+                    slow_said = True
+                    companion.ask_streams_again(rate_hz)
+                    asked_at = t_s
+                rate_from = (t_s, companion.vehicle.positions)
             _say_heard(companion, name)
             state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None
@@ -233,7 +249,7 @@ def follow_rover(
             for event in stack.events[n_events:]:
                 log.info("%s", event.text)  # ("NAME: leader lost, ...", as the ground station reads it)
             steps += 1
-            obeyed += beating and v.mode == guided and bool(v.armed)
+            obeyed += beating and v.t_s is not None and not stale and v.mode == guided and bool(v.armed)
             seen_as[seen.measurement.status] += 1
             if on_step is not None:
                 on_step(RoverStep(t_s, frame, seen, odom, out, stack.settings, stack.events[n_events:], fix))
@@ -386,7 +402,16 @@ def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, s
     last = companion.vehicle.t_s
     now_stale = t_s - (t_start if last is None else last) > stale_s
     who = name[:20]
-    if now_stale and not stale:
+    if now_stale and not stale and last is None:
+        log.warning(
+            "%s: no odometry (LOCAL_POSITION_NED) in the first %g s: an ArduPilot rover sends none without a "
+            "position estimate and EKF origin (a GPS fix, or another position source with the origin set by "
+            "SET_GPS_GLOBAL_ORIGIN), and then ignores every SET_POSITION_TARGET_LOCAL_NED: it moves once it has one",
+            name,
+            stale_s,
+        )
+        companion.statustext(f"{who}: no odometry yet")
+    elif now_stale and not stale:
         log.warning(
             "%s: no odometry (LOCAL_POSITION_NED) for %g s: the stack steers on its last position", name, stale_s
         )
@@ -395,3 +420,20 @@ def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, s
         log.info("%s: odometry (LOCAL_POSITION_NED) back", name)
         companion.statustext(f"{who}: odometry back", mav.MAV_SEVERITY_INFO)
     return now_stale
+
+
+def _say_slow(name: str, came_hz: float, rate_hz: float, said: bool) -> None:
+    """The rover's LOCAL_POSITION_NED comes at ``came_hz``, under half the ``rate_hz`` asked
+    for: said as a warning the first time (with what to set on the rover), in the log's
+    detail after."""
+    if said:
+        log.info("%s: LOCAL_POSITION_NED at %.1f Hz, not %g: asked again", name, came_hz, rate_hz)
+        return
+    log.warning(
+        "%s: the rover sends LOCAL_POSITION_NED at %.1f Hz, not the %g Hz asked for: asked again (a ground "
+        "station's REQUEST_DATA_STREAM on the same link sets ArduPilot's stream rates; on the companion's port "
+        "set SERIALn_OPTIONS bit 12, which ignores those requests, or the link is too slow for the rate)",
+        name,
+        came_hz,
+        rate_hz,
+    )

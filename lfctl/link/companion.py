@@ -31,7 +31,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import printable
-from lfctl.errors import LinkTimeoutError
+from lfctl.errors import LinkTimeoutError, VehicleKindError
 from lfctl.frames import HALF_EARTH_M, on_earth
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
 from lfctl.link.ftp import FtpServer
@@ -44,6 +44,8 @@ __all__ = ["COMPANION_COMPID", "Companion", "VehicleReport", "answer_name", "una
 
 #: the formation status names a ground station shows (NAMED_VALUE_FLOAT, 10 characters at most)
 STATUS_NAMES = (b"rng_err", b"brg_err", b"trk_q")
+#: the vehicles lfctl commands: an ArduPilot Rover (GCS_Rover::frame_type: a rover, or a boat)
+ROVER_TYPES = frozenset((mav.MAV_TYPE_GROUND_ROVER, mav.MAV_TYPE_SURFACE_BOAT))
 #: what the companion asks the vehicle to stream at the control rate (MAV_CMD_SET_MESSAGE_INTERVAL)
 ODOMETRY_MSG_IDS = (
     mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
@@ -94,6 +96,9 @@ class VehicleReport:
     heartbeat_t_s: float | None = None  # when its last HEARTBEAT came, on the companion's clock
     mode: int | None = None  # its custom mode (Rover mode number, see endpoint.MODES)
     armed: bool | None = None  # its HEARTBEAT's safety-armed flag
+    mav_type: int | None = None  # its HEARTBEAT's MAV_TYPE
+    autopilot: int | None = None  # its HEARTBEAT's MAV_AUTOPILOT
+    positions: int = 0  # LOCAL_POSITION_NED messages taken, all told (their rate: the odometry's)
     t_s: float | None = None
     north_m: float | None = None  # position, local NED, m (LOCAL_POSITION_NED)
     east_m: float | None = None  # position, local NED, m
@@ -134,6 +139,12 @@ def _autopilot(m: Any) -> bool:
     """A HEARTBEAT a vehicle's autopilot sends (not a ground station's, a camera's or an
     onboard program's: their autopilot field is INVALID, or their type a GCS)."""
     return m.autopilot != mav.MAV_AUTOPILOT_INVALID and m.type != mav.MAV_TYPE_GCS
+
+
+def _enum_name(enum: str, value: int | None) -> str:
+    """A MAVLink enum's entry by name (the number where the dialect has none)."""
+    entry = mav.enums[enum].get(value) if value is not None else None
+    return entry.name if entry is not None else f"{enum} {value}"
 
 
 def _time_ms(t_s: float) -> int:
@@ -398,7 +409,10 @@ class Companion:
             self._ftp(m)
             return
         if m.get_srcSystem() != self.target or m.get_srcComponent() != 1:
-            if kind == "HEARTBEAT" and _autopilot(m) and len(self.other_autopilots) < OTHER_AUTOPILOTS_MAX:
+            # (another component of the rover's own system, a gimbal's or a peripheral's that
+            # ArduPilot forwards, is not another vehicle's autopilot)
+            other = m.get_srcSystem() != self.target
+            if kind == "HEARTBEAT" and other and _autopilot(m) and len(self.other_autopilots) < OTHER_AUTOPILOTS_MAX:
                 self.other_autopilots.add(m.get_srcSystem())
             if (m.get_srcSystem(), m.get_srcComponent()) == (self.target, COMPANION_COMPID):
                 self.other_companion = True  # another companion of this rover (never our own: not echoed back)
@@ -407,10 +421,19 @@ class Companion:
         if kind == "HEARTBEAT":
             if _autopilot(m):  # (a ground station's or another program's from 1/1 is not the rover's)
                 v.heard, v.heartbeat_t_s = True, t_s
+                v.mav_type, v.autopilot = m.type, m.autopilot
                 v.mode, v.armed = m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
             if self._plausible(kind, ("x", m.x), ("y", m.y), ("vx", m.vx), ("vy", m.vy)):
-                v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, math.hypot(m.vx, m.vy), t_s
+                # forward speed, signed (backing up is negative): the ground velocity along the
+                # heading (ATTITUDE's, the last that came); its size until a heading has come
+                speed = (
+                    math.hypot(m.vx, m.vy)
+                    if v.yaw_rad is None
+                    else m.vx * math.cos(v.yaw_rad) + m.vy * math.sin(v.yaw_rad)
+                )
+                v.north_m, v.east_m, v.speed_mps, v.t_s = m.x, m.y, speed, t_s
+                v.positions += 1
         elif kind == "ATTITUDE":
             if self._plausible(kind, ("yaw", m.yaw)):
                 v.yaw_rad = m.yaw
@@ -508,6 +531,7 @@ class Companion:
             self._send_heartbeat()
             self.poll(time.monotonic() - start, 0.2)
             if self.vehicle.heard:
+                self._check_kind()
                 return {msg_id: self._ask_stream(msg_id, odometry_rate_hz) for msg_id in ODOMETRY_MSG_IDS}
         others = sorted(self.other_autopilots)
         detail = CHECK_LINK
@@ -519,6 +543,17 @@ class Companion:
             )
             detail = f"{who} on this link: --target {others[0]}?"
         raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=detail)
+
+    def _check_kind(self) -> None:
+        """Refuse a vehicle that is not an ArduPilot Rover or boat (its HEARTBEAT's type and
+        autopilot): its mode numbers are another vehicle's (15, Rover's GUIDED, is a Copter's
+        AUTOTUNE), and a PX4 vehicle's custom mode is laid out otherwise."""
+        v = self.vehicle
+        if v.autopilot == mav.MAV_AUTOPILOT_ARDUPILOTMEGA and v.mav_type in ROVER_TYPES:
+            return
+        raise VehicleKindError(
+            self.target, f"{_enum_name('MAV_TYPE', v.mav_type)} / {_enum_name('MAV_AUTOPILOT', v.autopilot)}"
+        )
 
     def ask_streams_again(self, rate_hz: float) -> None:
         """Ask for the odometry streams once more, not awaiting the answers (the loop's steps

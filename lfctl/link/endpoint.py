@@ -113,6 +113,9 @@ MAX_BYTES_PER_TICK = 32 * 1024
 MAX_DATAGRAM_BYTES = 4 * 1024
 #: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
 MAX_ROUTES = 20
+#: GUIDED stops a rate or heading target not renewed within this, s: fixed in Rover 4.6
+#: (``ModeGuided::update``; a GUID_TIMEOUT parameter came to Rover after 4.6)
+GUIDED_TIMEOUT_S = 3.0
 #: SmartRTL gives up its way back when no point could be kept for this long, s (Rover's
 #: SMARTRTL_TIMEOUT: the points used up and none cleaned away)
 SRTL_TIMEOUT_S = 15.0
@@ -1752,15 +1755,14 @@ class VehicleEndpoint:
 
     def guided_target(self) -> GuidedTarget | None:
         """The GUIDED target in force; a rate or heading target not renewed within
-        ``GUID_TIMEOUT`` is dropped (the vehicle stops) with Rover's STATUSTEXT, once."""
+        :data:`GUIDED_TIMEOUT_S` is dropped (the vehicle stops) with Rover's STATUSTEXT, once."""
         g = self.guided
         if g is None:
             return None
-        timeout = max(0.1, self.param("GUID_TIMEOUT"))
-        if g.times_out and self.t_s - g.t_s > timeout:
+        if g.times_out and self.t_s - g.t_s > GUIDED_TIMEOUT_S:
             if not self._guided_stale_reported:
                 self._guided_stale_reported = True
-                self.statustext(f"target not received last {timeout:.1f} secs, stopping")
+                self.statustext("target not received last 3secs, stopping")  # Rover 4.6's words
             return None
         return g
 
@@ -1951,7 +1953,7 @@ class VehicleEndpoint:
         g = self.guided
         if self.mode != MODES["GUIDED"] or (g is not None and g.kind == "location"):
             return None
-        live = g is not None and not (g.times_out and self.t_s - g.t_s > max(0.1, self.param("GUID_TIMEOUT")))
+        live = g is not None and not (g.times_out and self.t_s - g.t_s > GUIDED_TIMEOUT_S)
         if live and g is not None and g.kind == "heading" and math.isfinite(g.heading_rad):
             return int(math.degrees(wrap_pi(g.heading_rad)))
         return 0

@@ -11,7 +11,7 @@ A target is one of
 - ``location``: a place to drive to and stop at (a position setpoint, MAV_CMD_DO_REPOSITION,
   a MISSION_ITEM with current = 2).
 
-Rate and heading targets stop the vehicle when no new one arrives for ``GUID_TIMEOUT``;
+Rate and heading targets stop the vehicle when no new one arrives for 3 s (Rover 4.6's);
 a location target holds until reached. Pure: message fields and the vehicle's pose in, a
 target (or the reason it is ignored) out.
 """

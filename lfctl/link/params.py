@@ -131,9 +131,6 @@ def default_params(sysid: int) -> dict[str, Param]:
         "TURN_RADIUS": Param(
             0.9, 0.0, 100.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
         ),
-        "GUID_TIMEOUT": Param(
-            3.0, 0.1, 5.0, "s", "GUIDED: stop when no velocity or turn-rate setpoint arrives for this long"
-        ),
         "FS_GCS_ENABLE": Param(0, 0, 2, "", "1 or 2: HOLD when the ground station's heartbeat is lost", kind=INT8),
         "FS_GCS_TIMEOUT": Param(5.0, 2.0, 120.0, "s", "ground station heartbeat timeout"),
         "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence", kind=INT8),

@@ -2447,7 +2447,7 @@ def test_nav_controller_output_in_guided_without_a_place_as_rovers_mode_guided(b
     bench.send(mav.MAVLink_set_attitude_target_message(0, 1, 1, 0b00000111, q, 0, 0, 0, 0.5))
     n = last_nav()
     assert n is not None and (n.nav_bearing, n.target_bearing, n.wp_dist, n.xtrack_error) == (-9, 0, 0, 0)  # type: ignore[attr-defined]
-    bench.tick(3.5)  # not renewed within GUID_TIMEOUT: stopped
+    bench.tick(3.5)  # not renewed within 3 s: stopped
     n = last_nav()
     assert n is not None and n.nav_bearing == 0  # type: ignore[attr-defined]
     bench.send(mav.MAVLink_set_attitude_target_message(0, 1, 1, 0b00000011, (1, 0, 0, 0), 0, 0, 0.25, 0.5))

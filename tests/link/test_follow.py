@@ -345,7 +345,7 @@ def test_a_ground_station_moves_a_real_rovers_follower_with_lfc_parameters(banne
     assert done.steps == 40 and done.tracking + done.occluded + done.lost == 40 and done.tracking > 0
     assert done.guided == 0  # not armed: the rover ignored every setpoint, and the summary says so
     assert done.summary().startswith(
-        f"sent 40 setpoints (the rover in GUIDED and armed for 0); 40 frames; target tracking in {done.tracking}, "
+        f"sent 40 setpoints (the rover in GUIDED, armed and with odometry for 0); 40 frames; target tracking in {done.tracking}, "
     )
     assert slots[0][1:] == (1.5, "smc")  # the settings' slot, as the companion's parameters say it
     moved = [k for k, r, law in slots if r == 2.5 and law in ("trail", "smc")]
@@ -443,7 +443,7 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
     from lfctl.follower.rover import RoverRun
 
     assert RoverRun(60, 60, 0, 60, 0, guided=55).summary() == (
-        "sent 60 setpoints (the rover in GUIDED and armed for 55); 60 frames; target tracking in 0, occluded"
+        "sent 60 setpoints (the rover in GUIDED, armed and with odometry for 55); 60 frames; target tracking in 0, occluded"
         " in 60, lost in 0 steps (never seen: check the camera, the banner and its markers' hue)"
     )
     assert RoverRun(0, 0).summary() == "sent 0 setpoints; 0 frames"
@@ -452,7 +452,7 @@ def test_a_run_that_never_saw_its_target_says_so() -> None:
         RoverRun(20, 20, 20, skipped=10)
         .summary()
         .startswith(
-            "sent 20 setpoints (the rover in GUIDED and armed for 0); 20 frames (and 10 older ones passed over for the newest)"
+            "sent 20 setpoints (the rover in GUIDED, armed and with odometry for 0); 20 frames (and 10 older ones passed over for the newest)"
         )
     )
 
@@ -531,7 +531,7 @@ def test_a_rover_that_will_not_arm_is_said_with_its_reason_and_the_run_goes_on(
     assert rc == 0 and any(
         "the rover refused to arm (MAV_RESULT_FAILED; it said: Arm: WP_SPEED too low)" in t for t in said
     ), said
-    assert "sent 10 setpoints (the rover in GUIDED and armed for 0)" in capsys.readouterr().out
+    assert "sent 10 setpoints (the rover in GUIDED, armed and with odometry for 0)" in capsys.readouterr().out
 
 
 def _follow(rover: VehicleEndpoint, video_path: Any, on_step: Any, max_frames: int | None = None) -> Any:
@@ -740,3 +740,103 @@ def test_another_companion_of_the_rover_on_the_link_is_said(caplog: pytest.LogCa
     watch.check(0.1)
     said = [r.getMessage() for r in caplog.records if "another companion" in r.getMessage()]
     assert len(said) == 1 and said[0].startswith("rover: another companion (system 1, component 191) talks")
+
+
+# -- a review against ArduPilot Rover's source: what a real rover needs ---------------------------
+@pytest.mark.parametrize(
+    ("mav_type", "autopilot", "taken"),
+    [
+        (mav.MAV_TYPE_GROUND_ROVER, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, True),
+        (mav.MAV_TYPE_SURFACE_BOAT, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, True),  # Rover's boat frame
+        (mav.MAV_TYPE_QUADROTOR, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, False),  # its mode 15 is AUTOTUNE
+        (mav.MAV_TYPE_GROUND_ROVER, mav.MAV_AUTOPILOT_PX4, False),  # its custom mode is laid out otherwise
+    ],
+)
+def test_the_companion_commands_only_an_ardupilot_rover(mav_type: int, autopilot: int, taken: bool) -> None:
+    from lfctl.errors import VehicleKindError
+
+    a, b = MemoryLink.pair("vehicle", "companion")
+    vehicle = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    beat = mav.MAVLink_heartbeat_message(mav_type, autopilot, 0, 0, mav.MAV_STATE_STANDBY, 3)
+    sent: list[object] = []
+
+    def pump() -> None:  # the vehicle beats, and records what reaches it
+        a.send(beat.pack(vehicle))
+        sent.extend(data for data, _addr in a.recv(100))
+
+    companion = Companion(MavPort.memory(b, 1, COMPANION_COMPID, pump), 1)
+    if taken:
+        companion.wait_vehicle(0.3, 20.0)  # (the streams asked for, no answer: said, and on)
+        return
+    with pytest.raises(VehicleKindError, match=r"system 1 is MAV_TYPE_\w+ / MAV_AUTOPILOT_\w+, not an ArduPilot Rover"):
+        companion.wait_vehicle(1.0, 20.0)
+    parser = mav.MAVLink(None)
+    kinds = {m.get_type() for data in sent for m in (parser.parse_buffer(data) or [])}
+    assert "COMMAND_LONG" not in kinds  # nothing asked of it: no stream, no mode
+
+
+def test_the_rovers_speed_is_signed_along_its_heading_and_its_own_components_are_not_other_autopilots() -> None:
+    a, b = MemoryLink.pair("rover", "companion")
+    rover = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    gimbal = mav.MAVLink(None, srcSystem=1, srcComponent=154)  # ArduPilot forwards its HEARTBEAT
+    companion = Companion(MavPort.memory(b, 1, COMPANION_COMPID), 1)
+    yaw = math.radians(30.0)
+    for m, codec in (
+        (mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GIMBAL, mav.MAV_AUTOPILOT_ARDUPILOTMEGA, 0, 0, 4, 3), gimbal),
+        (mav.MAVLink_attitude_message(1000, 0.0, 0.0, yaw, 0.0, 0.0, 0.0), rover),
+        # backing up at 0.15 m/s: the ground velocity points opposite the heading
+        (mav.MAVLink_local_position_ned_message(1000, 1.0, 2.0, 0.0, -0.15 * math.cos(yaw), -0.15 * math.sin(yaw), 0.0), rover),
+    ):  # fmt: skip
+        a.send(m.pack(codec))
+    companion.poll(1.0)
+    assert companion.vehicle.speed_mps == pytest.approx(-0.15, abs=1e-6)  # (its size was taken: +0.15)
+    assert companion.other_autopilots == set()
+    a.send(
+        mav.MAVLink_local_position_ned_message(1100, 1.0, 2.0, 0.0, 0.2 * math.cos(yaw), 0.2 * math.sin(yaw), 0.0).pack(
+            rover
+        )
+    )
+    companion.poll(1.1)
+    assert companion.vehicle.speed_mps == pytest.approx(0.2, abs=1e-6)
+
+
+def test_a_rover_that_sends_no_local_position_is_said_to_need_an_ekf_origin_and_its_setpoints_not_counted(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Rover without a position estimate and EKF origin sends no LOCAL_POSITION_NED
+    # (GCS_MAVLINK::send_local_position) and drops every SET_POSITION_TARGET_LOCAL_NED
+    # (handle_set_position_target_local_ned: "need ekf origin"): the rover here takes the
+    # request for it and sends none
+    with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
+        send = rover.send
+        rover.send = lambda msg: None if msg.get_type() == "LOCAL_POSITION_NED" else send(msg)
+        run = _follow(rover, banner_video(60), None, max_frames=40)
+    assert run.steps == 40 and run.guided == 0  # in GUIDED and armed, but nothing taken
+    said = [r.getMessage() for r in caplog.records if "odometry" in r.getMessage()]
+    assert any("no odometry (LOCAL_POSITION_NED) in the first 1 s" in s and "EKF origin" in s for s in said), said
+
+
+def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a ground station on the rover's link sends REQUEST_DATA_STREAM (QGroundControl, Mission
+    # Planner and MAVProxy do as they connect): ArduPilot resets the stream's messages to its
+    # rate, LOCAL_POSITION_NED among them; never stale at 1 Hz, the odometry lagged for good
+    sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    asked: list[float] = []
+
+    def on_step(step: Any) -> None:
+        if not asked and step.t_s > 0.3:
+            asked.append(step.t_s)
+            req = mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 1, 1)
+            sock.sendto(req.pack(gcs), ("127.0.0.1", rover.link.port))
+
+    try:
+        with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
+            _follow(rover, banner_video(200), on_step, max_frames=180)
+            period = rover._intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
+    finally:
+        sock.close()
+    slow = [r.getMessage() for r in caplog.records if "LOCAL_POSITION_NED at" in r.getMessage()]
+    assert slow and "not the 20 Hz asked for: asked again" in slow[0] and "SERIALn_OPTIONS bit 12" in slow[0], slow
+    assert period == pytest.approx(0.05)  # 20 Hz again
