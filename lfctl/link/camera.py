@@ -105,6 +105,10 @@ class CameraComponent:
         self.t_s = 0.0
         self._heartbeat_at = -math.inf
         self.requests = 0  # requests answered (accepted or not)
+        #: the stream is sent (VIDEO_STOP_STREAMING stops it, VIDEO_START_STREAMING starts it)
+        self.streaming = True
+        #: told of each start and stop (the stream's sender pauses)
+        self.on_streaming: Callable[[bool], None] | None = None
 
     def _send(self, msg: Any) -> None:
         data = pack_next(msg, self.mav)
@@ -157,6 +161,9 @@ class CameraComponent:
         if self.tap is not None:
             self.tap("in", m, bytes(m.get_msgbuf()))
         self.requests += 1
+        if m.command in (mav.MAV_CMD_VIDEO_START_STREAMING, mav.MAV_CMD_VIDEO_STOP_STREAMING):
+            self._start_stop(m)
+            return
         msg_id = _LEGACY.get(m.command)
         if m.command == mav.MAV_CMD_REQUEST_MESSAGE:
             msg_id = int(m.param1)
@@ -165,6 +172,18 @@ class CameraComponent:
         self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
         if answer is not None:
             self._send(getattr(self, f"_{answer}")())
+
+    def _start_stop(self, m: Any) -> None:
+        """VIDEO_START_STREAMING / VIDEO_STOP_STREAMING (QGroundControl's as a vehicle is
+        chosen or left): param1 is the stream, 1 (the only one) or 0 (all); another is DENIED."""
+        if m.param1 not in (0.0, 1.0):
+            result = mav.MAV_RESULT_DENIED
+        else:
+            result = mav.MAV_RESULT_ACCEPTED
+            self.streaming = m.command == mav.MAV_CMD_VIDEO_START_STREAMING
+            if self.on_streaming is not None:
+                self.on_streaming(self.streaming)
+        self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
 
     def _camera_information(self) -> Any:
         vendor = list(_text("lfctl", 32).ljust(32, b"\0"))
@@ -195,7 +214,7 @@ class CameraComponent:
             1,
             1,
             mav.VIDEO_STREAM_TYPE_RTPUDP,
-            mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING,
+            self._flags(),
             *self._stream(),
             _text(self.name, 32),
             str(self.video_port).encode(),  # RTPUDP: the URI is the port the ground station listens on
@@ -203,7 +222,10 @@ class CameraComponent:
         )
 
     def _video_stream_status(self) -> Any:
-        return mav.MAVLink_video_stream_status_message(1, mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING, *self._stream())
+        return mav.MAVLink_video_stream_status_message(1, self._flags(), *self._stream())
+
+    def _flags(self) -> int:
+        return mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING if self.streaming else 0
 
     def _camera_settings(self) -> Any:
         return mav.MAVLink_camera_settings_message(

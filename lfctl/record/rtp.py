@@ -74,6 +74,11 @@ class RtpH264Sender:
         self.sock.setblocking(False)
         self.ssrc = int.from_bytes(os.urandom(4), "big") if ssrc is None else ssrc & 0xFFFFFFFF
         self.seq = int.from_bytes(os.urandom(2), "big")
+        #: the 90 kHz clock's start, random as RFC 3550 (5.1) asks: two runs' streams do not
+        #: look alike to a receiver that keeps state
+        self.timestamp0 = int.from_bytes(os.urandom(4), "big")
+        #: while True, frames are not sent (a ground station's VIDEO_STOP_STREAMING)
+        self.paused = False
         self.packets = 0  # datagrams sent
         self.dropped = 0  # datagrams the socket refused (nobody listening, buffer full)
         self.frames = 0  # access units sent
@@ -97,9 +102,11 @@ class RtpH264Sender:
         access_unit : bytes
             The frame's NAL units, Annex B.
         t_s : float
-            The frame's time, s (its RTP timestamp on the 90 kHz clock).
+            The frame's time, s (its RTP timestamp on the 90 kHz clock, from a random start).
         """
-        ts = int(round(t_s * CLOCK_HZ))
+        if self.paused:
+            return
+        ts = self.timestamp0 + int(round(t_s * CLOCK_HZ))
         nals = nal_units(access_unit)
         for k, nal in enumerate(nals):
             last = k == len(nals) - 1

@@ -160,6 +160,7 @@ class Links:
         self.peers: list[MemoryLink] = []  # the in-memory other ends (GCS for the leader, companion for followers)
         self.udp: list[UdpLink] = []
         self.cameras: list[CameraComponent] = []  # the followers' camera components (live video)
+        self.camera_of: dict[str, CameraComponent] = {}  # each streaming follower's, by its name
         gcs_out = []
         if lc.gcs_udpout:
             host, port = lc.gcs_udpout.rsplit(":", 1)
@@ -188,6 +189,7 @@ class Links:
                     tap=ep_tap,
                 )
                 self.cameras.append(camera)
+                self.camera_of[v.name] = camera
                 link = CameraRouter(link, [camera], key)
             ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
             ep.routed_components = {c.compid for c in self.cameras if c.sysid == 1 + i}

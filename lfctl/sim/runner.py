@@ -22,6 +22,7 @@ import time
 from array import array
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -531,6 +532,8 @@ def run_scenario(
                 if video is not None and video_ports is not None:
                     for name, port in video_ports.items():
                         senders[name] = RtpH264Sender(video[0], port)
+                        if name in links.camera_of:  # its camera component starts and stops it
+                            links.camera_of[name].on_streaming = partial(_pause_unless, senders[name])
                 if on_links is not None:
                     on_links(links)
                 report = _closed_loop(
@@ -663,3 +666,8 @@ def _closed_loop(
         leader_modes=[(name, secs) for name, secs in modes.items() if secs > 0],
         mission_changes=[c for c in leader_ep.missions.changes if c.t_s > 0 or c.sysid not in (0, 255)],
     )
+
+
+def _pause_unless(sender: RtpH264Sender, streaming: bool) -> None:
+    """A camera component's start or stop: its stream's sender sends or pauses."""
+    sender.paused = not streaming

@@ -38,7 +38,7 @@ from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.transport import UdpLink
 from lfctl.record.audit import audit
 from lfctl.record.layout import layout_json
-from lfctl.record.rtp import nal_units, sdp
+from lfctl.record.rtp import RtpH264Sender, nal_units, sdp
 from lfctl.record.video import H264Encoder, psnr
 from lfctl.record.writer import Recorder
 from lfctl.sim.runner import run_scenario
@@ -294,6 +294,59 @@ def test_the_camera_component_answers_a_ground_stations_requests() -> None:
     info = heard["VIDEO_STREAM_INFORMATION"]
     assert info.type == mav.VIDEO_STREAM_TYPE_RTPUDP and info.uri == "5600" and info.resolution_h == 640
     assert acks[mav.MAV_CMD_REQUEST_MESSAGE] == [mav.MAV_RESULT_ACCEPTED] * 2 + [mav.MAV_RESULT_UNSUPPORTED]
+
+
+def test_a_ground_station_stops_and_starts_the_camera_stream() -> None:
+    # QGroundControl sends VIDEO_STOP_STREAMING as its user leaves the vehicle and
+    # VIDEO_START_STREAMING as they choose it (both were UNSUPPORTED, the stream went on)
+    out: list[bytes] = []
+    camera = CameraComponent(
+        2, out.append, video_port=5600, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0, name="c"
+    )
+    heard: list[bool] = []
+    camera.on_streaming = heard.append
+    gcs, parser = mav.MAVLink(None, srcSystem=255, srcComponent=190), mav.MAVLink(None)
+
+    def ask(command: int, *p: float) -> list[object]:
+        msg = mav.MAVLink_command_long_message(2, 100, command, 0, *p, *([0.0] * (7 - len(p))))
+        camera.handle(parser.parse_buffer(msg.pack(gcs))[0])
+        got = [m for data in out for m in parser.parse_buffer(data) or []]
+        out.clear()
+        return got
+
+    info = (mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION, 1)
+    (ack,) = ask(mav.MAV_CMD_VIDEO_STOP_STREAMING, 1)
+    assert ack.result == mav.MAV_RESULT_ACCEPTED and heard == [False] and not camera.streaming
+    assert ask(*info)[1].flags == 0  # not running
+    (ack,) = ask(mav.MAV_CMD_VIDEO_START_STREAMING, 0)  # 0: every stream
+    assert ack.result == mav.MAV_RESULT_ACCEPTED and heard == [False, True]
+    assert ask(*info)[1].flags == mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING
+    (ack,) = ask(mav.MAV_CMD_VIDEO_STOP_STREAMING, 2)  # no stream 2
+    assert ack.result == mav.MAV_RESULT_DENIED and camera.streaming
+
+
+def test_rtp_timestamps_start_at_random_and_a_paused_sender_sends_nothing() -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx:
+        rx.bind(("127.0.0.1", 0))
+        rx.settimeout(2.0)
+        port = rx.getsockname()[1]
+        a, b = RtpH264Sender("127.0.0.1", port), RtpH264Sender("127.0.0.1", port)
+        try:
+            assert a.timestamp0 != b.timestamp0  # RFC 3550 5.1: a random start (2**-32 to collide)
+            unit = b"\0\0\0\x01\x65" + bytes(50)  # one small IDR slice: one packet
+            a.send(unit, 0.0)
+            a.paused = True
+            a.send(unit, 0.5)
+            a.paused = False
+            a.send(unit, 1.0)
+            stamps = [struct.unpack("!I", rx.recv(2048)[4:8])[0] for _ in range(2)]
+            rx.settimeout(0.2)
+            with pytest.raises(TimeoutError):
+                rx.recv(2048)
+        finally:
+            a.close()
+            b.close()
+    assert stamps[0] == a.timestamp0 and (stamps[1] - stamps[0]) % 2**32 == 90000  # 1 s on the 90 kHz clock
 
 
 # -- H.264 in the MCAP ------------------------------------------------------------------------------
