@@ -5,6 +5,7 @@ so their protocol code does not care which."""
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import re
@@ -145,6 +146,8 @@ def _check_serial_device(connect: str) -> None:
 #: message before it gives its caller back control (a flood of junk does not hold the caller)
 MAX_DATAGRAMS_PER_RECV = 256
 MAX_RECV_S = 0.02
+#: a serial device that went away is tried again this often, s
+REOPEN_S = 1.0
 #: a datagram longer than this is junk, not parsed (a vehicle's are at most a few MAVLink
 #: packets; pymavlink parses byte by byte: 64 KB of junk cost it 40 ms)
 MAX_DATAGRAM_BYTES = 8 * 1024
@@ -235,6 +238,10 @@ class MavPort:
         self.lost = 0
         self._seq: dict[tuple[int, int], int] = {}
         self._udp = False
+        #: a serial device that went away is opened again this often until it is back (a
+        #: flight controller on USB that reboots leaves and comes back as a new device)
+        self._serial = connection is not None and isinstance(connection, mavutil.mavserial)
+        self._reopen_at = 0.0
         if connection is not None:
             self.mav = connection.mav
             self.mav.robust_parsing = True
@@ -243,6 +250,8 @@ class MavPort:
             # pymavlink prints "EOF on TCP socket" and tries again on every read once the peer
             # has closed (150,000 lines a second): the port notes it once and reads no more
             connection.handle_eof = connection.handle_disconnect = self._peer_closed
+            if self._serial:  # (pymavlink's own write prints "Device ... is dead" on stdout)
+                connection.write = self._serial_write
         else:
             self.mav = mav.MAVLink(None, srcSystem=sysid, srcComponent=compid)
             self.mav.robust_parsing = True
@@ -364,14 +373,53 @@ class MavPort:
         return True
 
     def _peer_closed(self) -> None:
-        if not self.closed:
-            self.closed = True
+        if self.closed:
+            return
+        self.closed = True
+        if self._serial:
+            self._reopen_at = time.monotonic() + REOPEN_S
+            log.warning(
+                "MAVLink serial device %s went away (a flight controller on USB that reboots, or unplugged): "
+                "opened again when it is back",
+                self.connection.device,
+            )
+        else:
             log.warning("MAVLink link closed by its peer (end of file): nothing more comes on it")
+
+    def _serial_write(self, buf: bytes) -> int:
+        """A write to the serial device; one that fails (the device went away) is noted as
+        a read's failure is, not printed, and the bytes are lost."""
+        if self.closed:
+            return -1
+        try:
+            return int(self.connection.port.write(bytes(buf)) or 0)
+        except (OSError, ValueError):
+            self._peer_closed()
+            return -1
+
+    def _reopen(self) -> None:
+        """Open a serial device that went away again, if it is back (tried every
+        :data:`REOPEN_S`)."""
+        import serial  # (pyserial: pymavlink's serial connections use it)
+
+        conn = self.connection
+        self._reopen_at = time.monotonic() + REOPEN_S
+        try:
+            port = serial.Serial(conn.device, conn.baud, timeout=0, dsrdtr=False, rtscts=False, xonxoff=False)
+        except (OSError, ValueError):  # not back yet
+            return
+        with contextlib.suppress(OSError):
+            conn.port.close()
+        conn.port, conn.fd, conn.portdead = port, port.fileno(), False
+        self.closed = False
+        log.warning("MAVLink serial device %s is back: reading it again", conn.device)
 
     def _recv_stream(self, timeout_s: float) -> Any | None:
         """The next message on a stream connection (serial, TCP: a packet may come in
         pieces), waiting up to ``timeout_s``; at most :data:`MAX_RECV_S` past that is spent
         on bytes that make no message. On a link its peer closed, none (after the wait)."""
+        if self.closed and self._serial and time.monotonic() >= self._reopen_at:
+            self._reopen()
         if self.closed:
             time.sleep(max(0.0, timeout_s))
             return None

@@ -376,3 +376,49 @@ def test_a_tcp_peer_that_closes_is_noted_once_and_read_no_more(capsys: pytest.Ca
         reads = [port.recv(0.01) for _ in range(20)]
     assert len(got) == 2 and port.closed and reads == [None] * 20
     assert "EOF" not in capsys.readouterr().out
+
+
+def test_a_serial_device_that_goes_away_and_comes_back_is_read_again(caplog: pytest.LogCaptureFixture) -> None:
+    # a flight controller on USB that reboots: its /dev/ttyACM0 goes away and comes back as a
+    # new device under the same name (a pseudo-terminal behind a link stands in for it); the
+    # port was closed for good, and the companion heard nothing for the rest of the run
+    import os
+    import pty
+    import tempfile
+    import tty
+
+    def device() -> tuple[int, int]:
+        parent, child = pty.openpty()
+        tty.setraw(child)
+        return parent, child
+
+    with tempfile.TemporaryDirectory() as folder:
+        name = os.path.join(folder, "ttyACM0")
+        parent, child = device()
+        os.symlink(os.ttyname(child), name)
+        port = MavPort.open(f"{name},115200", 255, 190)
+        try:
+            os.write(parent, _heartbeats(2))
+            assert len(_read_all(port, 2)) == 2
+            os.close(parent)  # the device goes away: a read fails
+            os.close(child)
+            deadline = time.monotonic() + 3.0
+            while not port.closed and time.monotonic() < deadline:
+                port.recv(0.05)
+            assert port.closed
+            os.remove(name)
+            parent, child = device()  # back, a new device under the old name
+            os.symlink(os.ttyname(child), name)
+            got = []  # it beats on (what came before the port was opened again is flushed as it opens)
+            deadline = time.monotonic() + 5.0
+            while len(got) < 3 and time.monotonic() < deadline:
+                os.write(parent, _heartbeats(1))
+                got += [m for m in (port.recv(0.1),) if m is not None]
+        finally:
+            port.close()
+            os.close(parent)
+            with contextlib.suppress(OSError):
+                os.close(child)
+    assert [(m.get_type(), m.get_srcSystem()) for m in got] == [("HEARTBEAT", 1)] * 3
+    said = [r.getMessage() for r in caplog.records]
+    assert any("went away" in s for s in said) and any("is back: reading it again" in s for s in said)
