@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["clean", "prune_loops", "segment_distances", "simplify"]
+
 Point = tuple[float, float]
 
 #: the share of the accuracy within which a point is on the line and can be dropped
