@@ -6,6 +6,7 @@ import argparse
 import logging
 import math
 import time
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -122,7 +123,7 @@ class LiveView:
     ) -> None:
         from lfctl.record.rtp import RtpH264Sender
         from lfctl.record.video import H264Encoder
-        from lfctl.record.writer import Recorder
+        from lfctl.record.writer import SCENE_REPEAT_S, Recorder
 
         self.cfg, self.name, self.camera = cfg, name, camera
         start_ns, self._t0 = time.time_ns(), time.monotonic()  # the log's epoch and the run's clock, paired
@@ -135,7 +136,8 @@ class LiveView:
             camera.width, camera.height, rate, cfg.recording.video_bitrate_kbps, cfg.recording.video_gop
         )
         self.stream = H264Encoder(camera.width, camera.height, rate, cfg.live.video_bitrate_kbps, max(1, round(rate)))
-        self._calibrated = False
+        self._calibrated_at = -math.inf
+        self._calibration_every_s = SCENE_REPEAT_S
         self._watching = False
         self._first_step_s: float | None = None
         self._has_fix: bool | None = None  # what /log last said: None before it said anything
@@ -226,9 +228,9 @@ class LiveView:
         rec = self.rec
         if rec is None:
             return
-        if not self._calibrated:
+        if t - self._calibrated_at >= self._calibration_every_s:  # and again, for viewers that join later
             rec.calibration(t, self.name, self.camera)
-            self._calibrated = True
+            self._calibrated_at = t
         self._say_fix(t, step.fix is not None)
         odo = step.odometry
         rec.poses(t, (self.name,), np.array([[odo.north_m, odo.east_m]]), np.array([odo.yaw_rad]), fix=[step.fix])
@@ -249,6 +251,7 @@ class LiveView:
         if not self._watching:  # watched, the companion's STATUSTEXT says it
             for e in step.events:
                 rec.event(e.t_s, self.name, e.text, "warning" if e.kind == "lost" else "info")
+        rec.serve()  # (once: after the first step has made the channels)
 
     def _say_fix(self, t_s: float, has_fix: bool) -> None:
         """/log says, once each time it changes, whether the rover has a global position (a
@@ -353,9 +356,11 @@ def run(args: argparse.Namespace) -> int:
         view = None
         if live is not None or stream_to is not None:
             view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)
-            if view.port is not None and live is not None:
-                name = cfg.followers[0].name
-                announce_live(view.port, live[0], live_layout(name, name, "h264"))  # its view follows the rover
+            if view.rec is not None and live is not None:  # said once it serves, after the first step
+                layout = live_layout(
+                    cfg.followers[0].name, cfg.followers[0].name, "h264", scene=False
+                )  # follows the rover
+                view.rec.on_serve = partial(announce_live, host=live[0], layout=layout)
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         if view is not None:
             view.watch(companion.port)

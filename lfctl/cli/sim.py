@@ -123,7 +123,7 @@ def announce_live(port: int, host: str, layout: Path) -> None:
     print(f"foxglove     ws://{host}:{port}  (layout: {layout})", flush=True)
 
 
-def live_layout(follower: str, leader: str, image_format: str, camera: bool = True) -> Path:
+def live_layout(follower: str, leader: str, image_format: str, camera: bool = True, scene: bool = True) -> Path:
     """The Foxglove layout that shows this run: the shipped one when its names fit
     (``follower1`` behind ``leader``, H.264), else one made for it in the user cache
     (``~/.cache/lfctl/layouts``).
@@ -138,16 +138,18 @@ def live_layout(follower: str, leader: str, image_format: str, camera: bool = Tr
         ``h264`` or ``jpeg``, as ``[recording] image_format``.
     camera : bool
         The run has a camera (camera sensing); without one the layout has no camera panel.
+    scene : bool
+        The run publishes ``/scene`` (``lfctl follow`` does not).
     """
     from lfctl.data import examples_dir, user_cache
     from lfctl.record.layout import layout_json
 
-    if (follower, leader, image_format, camera) == ("follower1", "leader", "h264", True):
+    if (follower, leader, image_format, camera, scene) == ("follower1", "leader", "h264", True, True):
         return examples_dir() / "foxglove-layout.json"
-    kind = image_format if camera else "no-camera"
+    kind = (image_format if camera else "no-camera") + ("" if scene else "-no-scene")
     path = user_cache("layouts") / f"{leader}-{follower}-{kind}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(layout_json(follower, leader, image_format, camera))
+    path.write_text(layout_json(follower, leader, image_format, camera, scene))
     return path
 
 

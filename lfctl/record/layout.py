@@ -17,7 +17,11 @@ __all__ = ["layout_json"]
 
 
 def layout_json(
-    follower: str = "follower1", leader: str = "leader", image_format: str = "h264", camera: bool = True
+    follower: str = "follower1",
+    leader: str = "leader",
+    image_format: str = "h264",
+    camera: bool = True,
+    scene: bool = True,
 ) -> str:
     """The layout as JSON (Foxglove: Layout, Import from file).
 
@@ -32,6 +36,9 @@ def layout_json(
     camera : bool
         The run has a camera (camera sensing): without one there is no camera panel, whose
         topics would never come.
+    scene : bool
+        The run publishes ``/scene`` (the simulator's vehicles, mission and slots); without
+        it (``lfctl follow``) the 3D view shows ``/tf``'s frames only.
     """
     image = fl.ImagePanel(
         title=f"{follower} camera",
@@ -50,7 +57,7 @@ def layout_json(
             fixed_frame=MAP_FRAME,
             follow_mode="follow-position",
             enu_frame_id=MAP_FRAME,
-            topics={"/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True)},
+            topics={"/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True)} if scene else {},
         ),
     )
     errors = fl.PlotPanel(

@@ -37,10 +37,12 @@ import logging
 import math
 import platform
 import shutil
+import socket
 import subprocess
+import threading
 import time
 import zipfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -76,6 +78,8 @@ NED_IN_MAP = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 EVENT_MODE = "mode "
 #: the whole scene (vehicles, mission) is sent again this often, s, for viewers that join late
 SCENE_REPEAT_S = 5.0
+#: how long closing waits for the Foxglove server to stop, s
+SERVER_STOP_S = 3.0
 PACKAGES = (
     "fmpy",
     "numpy",
@@ -216,6 +220,7 @@ class _WriteErrors(logging.Filter):
         return not seen
 
 
+log = logging.getLogger(__name__)
 _WRITE_ERRORS = _WriteErrors()
 logging.getLogger(FOXGLOVE_LOGGER).addFilter(_WRITE_ERRORS)
 
@@ -398,6 +403,9 @@ class Recorder:
         self._ctx = foxglove.Context()
         self._mcap: Any = None
         self._server: Any = None
+        self._live: tuple[str, int] | None = None  # where to serve, once serve() is called
+        #: told the port once the Foxglove WebSocket takes connections (:meth:`serve`)
+        self.on_serve: Callable[[int], None] | None = None
         self._channels: dict[str, Any] = {}
         self._next_image: dict[str, float] = {}  # per follower: when the next image is due, sim s
         self._mounts: dict[str, CameraModel] = {}  # followers whose camera is in /tf
@@ -428,8 +436,8 @@ class Recorder:
         if live is not None:
             host, port = live
             try:
-                self._server = foxglove.start_server(name=f"lfctl {cfg.name}", host=host, port=port, context=self._ctx)
-            except RuntimeError as exc:
+                self._live = (host, _free_port(host, port))
+            except OSError as exc:
                 self._close_file()
                 if self.path is not None:  # made a moment ago (never over a file), with nothing in it
                     self.path.unlink(missing_ok=True)
@@ -498,8 +506,32 @@ class Recorder:
 
     @property
     def live_port(self) -> int | None:
-        """The Foxglove WebSocket's port (None without ``live``)."""
-        return int(self._server.port) if self._server is not None else None
+        """The Foxglove WebSocket's port (None without ``live``): chosen as the recorder is
+        made (a port 0 asked for is a free one then), served from :meth:`serve`."""
+        if self._server is not None:
+            return int(self._server.port)
+        return self._live[1] if self._live is not None else None
+
+    def serve(self) -> None:
+        """Start the Foxglove WebSocket (once; nothing without ``live``). Called after a run's
+        first step has made its channels: a client that joins while channels are being made
+        can be told of one and then refused it ("Unknown channel ID", foxglove-sdk 0.30), and
+        its panel stays empty for the run.
+
+        Raises
+        ------
+        RecordError
+            The server cannot listen there (another program took the port since).
+        """
+        if self._live is None or self._server is not None or self._closed:
+            return
+        host, port = self._live
+        try:
+            self._server = foxglove.start_server(name=f"lfctl {self.cfg.name}", host=host, port=port, context=self._ctx)
+        except RuntimeError as exc:
+            raise RecordError(f"cannot serve Foxglove on {host}:{port}: {exc}") from exc
+        if self.on_serve is not None:
+            self.on_serve(int(self._server.port))
 
     def _ns(self, t_s: float) -> int:
         return self.start_ns + int(round(t_s * 1e9))
@@ -1182,8 +1214,7 @@ class Recorder:
                     self._mcap.write_metadata("end", end)
             self._close_file()
         finally:
-            if self._server is not None:
-                self._server.stop()
+            self._stop_server()
         self._check_written()  # a log that could not be finished is an error, said once
 
     def discard(self) -> None:
@@ -1191,10 +1222,27 @@ class Recorder:
         if not self._closed:
             self._closed = True
             self._close_file()
-            if self._server is not None:
-                self._server.stop()
+            self._stop_server()
         if self.path is not None:
             self.path.unlink(missing_ok=True)
+
+    def _stop_server(self) -> None:
+        """Stop the Foxglove WebSocket, waiting at most :data:`SERVER_STOP_S`: foxglove-sdk's
+        stop waits for each client to take its close, which a client that stopped reading (a
+        laptop asleep, a half-open Wi-Fi link) never does, and the run never ended, Ctrl-C
+        and SIGTERM included. Past the wait the server is left to the process's exit, said."""
+        server, self._server = self._server, None
+        if server is None:
+            return
+        done = threading.Thread(target=server.stop, name="foxglove-stop", daemon=True)
+        done.start()
+        done.join(SERVER_STOP_S)
+        if done.is_alive():
+            log.warning(
+                "the Foxglove server did not stop within %g s (a client that stopped reading holds it): "
+                "left to end with the process",
+                SERVER_STOP_S,
+            )
 
     def __enter__(self) -> Recorder:
         return self
@@ -1273,3 +1321,13 @@ def _jsonable(value: Any) -> Any:
 #: JSONEncoder per call (a few microseconds each, for thousands of MAVLink packets a minute);
 #: the same options, so the same text
 _ENCODER = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=_jsonable)
+
+
+def _free_port(host: str, port: int) -> int:
+    """``port`` if a server may listen there on ``host`` now, else OSError; for 0, a free one
+    (the WebSocket starts later, at :meth:`Recorder.serve`)."""
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds: past TIME_WAIT
+        s.bind((host, port))
+        s.listen(1)
+        return int(s.getsockname()[1])

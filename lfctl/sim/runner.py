@@ -516,8 +516,7 @@ def run_scenario(
                     on_log(recorder.path)
                 if mission is not None:
                     recorder.attach(f"mission/{mission.path.name}", "text/plain", mission.data)
-                if on_live is not None and recorder.live_port is not None:
-                    on_live(recorder.live_port)
+                recorder.on_serve = on_live  # said once it takes connections, after the first step
 
                 def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
                     recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw))
@@ -636,6 +635,8 @@ def _closed_loop(
             sim.add_task("record", cfg.sim.telemetry_rate_hz, TelemetryTask(sim, recorder, links, followers))
         sim.add_task("guidance", cfg.sim.guidance_rate_hz, GuidanceTask(sim, links, drivers, followers, pool, recorder))
         sim.add_task("link", min(cfg.link.rate_hz, 1.0 / cfg.sim.dt_s), LinkTask(sim, links, drivers, recorder))
+        if recorder is not None:  # the live server starts once the first tick has made the channels
+            sim.add_task("live", cfg.sim.telemetry_rate_hz, lambda _t_s: recorder.serve())
         result = sim.run(duration_s, progress=progress, stop=stop)
     finally:
         if pool is not None:

@@ -200,6 +200,51 @@ def test_a_bad_live_address_names_the_value(value: str, capsys: pytest.CaptureFi
     assert repr(value) in err and "Traceback" not in err
 
 
+@pytest.mark.integration
+def test_the_server_is_announced_once_the_first_step_has_made_its_channels(background_run) -> None:
+    # foxglove-sdk 0.30 can tell a client that joins while channels are being made of one
+    # and then refuse it ("Unknown channel ID"), which leaves its panel empty for the run:
+    # the channels are made by the first step, before the server takes anyone
+    cfg = short_camera_cfg(20.0)
+    served: list[int] = []
+    first: dict[str, object] = {}
+
+    async def first_advertise(port: int) -> None:
+        async with websockets.connect(
+            f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"], close_timeout=1.0
+        ) as ws:
+            while "advertise" not in first:
+                msg = json.loads(await asyncio.wait_for(ws.recv(), timeout=10))
+                first[msg["op"]] = msg
+
+    with background_run(cfg, realtime=True, live=("127.0.0.1", 0), on_live=served.append) as errors:
+        assert wait_until(lambda: bool(served) or bool(errors), timeout_s=60.0), errors
+        asyncio.run(first_advertise(served[0]))
+    assert not errors, errors
+    topics = {ch["topic"] for ch in first["advertise"]["channels"]}  # type: ignore[index]
+    assert {"/follower1/camera/video", "/follower1/camera/annotations", "/follower1/camera/calibration",
+            "/tf", "/leader/pose", "/follower1/controller", "/scene", "/log"} <= topics, topics  # fmt: skip
+
+
+def test_closing_does_not_wait_for_ever_on_a_server_held_by_a_client(caplog: pytest.LogCaptureFixture) -> None:
+    # foxglove-sdk's stop waits for every client to take its close: one that stopped reading
+    # held the process after its run, Ctrl-C and SIGTERM too (the file was finished)
+    import threading
+    from types import SimpleNamespace
+
+    from lfctl.record.writer import SERVER_STOP_S
+
+    rec = Recorder(None, short_camera_cfg(1.0), live=("127.0.0.1", 0))
+    held = threading.Event()
+    rec._server = SimpleNamespace(stop=held.wait, port=0)  # a stop that never returns by itself
+    closing = threading.Thread(target=rec.close, daemon=True)
+    closing.start()
+    closing.join(SERVER_STOP_S + 30.0)  # (a hang check, not a timing: the wait is SERVER_STOP_S)
+    held.set()
+    assert not closing.is_alive()
+    assert any("did not stop within" in r.getMessage() for r in caplog.records)
+
+
 # -- RTP/UDP H.264 ----------------------------------------------------------------------------
 @pytest.mark.integration
 def test_the_rtp_stream_decodes_with_pyav_to_the_rendered_frames(
