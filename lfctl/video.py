@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import stat
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -176,7 +178,11 @@ class VideoSource:
     Parameters
     ----------
     source : str, int or os.PathLike
-        A camera index (``0`` or ``"0"``), a video file (a path) or a stream URL (``rtsp://...``).
+        A camera index (``0`` or ``"0"``), a video file (a path), a stream URL (``rtsp://...``),
+        a session description (a ``.sdp`` file: an RTP stream as a player takes it), or
+        ``rtp://HOST:PORT``: RTP/UDP H.264 with payload type 96 arriving on that port (as
+        ``lfctl sim --video``, QGroundControl's "UDP h.264 Video Stream" and most rover
+        cameras send it; its session description is made here).
     latest : bool
         For a camera or a stream: each read gives the newest frame, passing over older ones
         (a controller's view of the world); otherwise every frame in turn, however old.
@@ -197,18 +203,27 @@ class VideoSource:
         self.name = source
         target: str | int = int(source) if source.isdigit() and not path else source
         stream = isinstance(target, str) and "://" in target
+        self._sdp_file: str | None = None  # the session description made for an rtp:// source
+        if isinstance(target, str) and target.startswith("rtp://"):
+            target = self._sdp_file = _rtp_session(target)
+        rtp = isinstance(target, str) and target.lower().endswith(".sdp")  # a session description: a stream
+        stream = stream or rtp
         #: what the file's container says (None for a camera or a stream)
         self.info: FileInfo | None = None
         why_not = ""  # FFmpeg's reason a file would not open
         if isinstance(target, str) and not stream:
             self.info, why_not = self._check_file(source)
+        if rtp:
+            self._check_sdp(str(target), source)
         if stream:
             ms = int(STREAM_TIMEOUT_S * 1000)
             params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
-            self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
+            with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
+                self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
         else:
             self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
+            self._forget_sdp()
             if isinstance(target, int):
                 mine = f" (a file named {source!r} is here: give ./{source} for it)" if Path(source).is_file() else ""
                 raise ConfigError(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
@@ -232,6 +247,21 @@ class VideoSource:
         #: the frames carry no times of their own (a raw H.264 or MJPEG stream): a frame's
         #: time is counted from the declared rate
         self.untimed = self.live
+
+    @staticmethod
+    def _check_sdp(path: str, source: str) -> None:
+        """A session description must be a readable text file naming a video stream."""
+        try:
+            text = Path(path).read_text(errors="replace")[:65536]
+        except OSError as exc:
+            raise ConfigError(f"cannot read the session description {source[:200]!r}: {exc}") from None
+        if "m=video" not in text:
+            raise ConfigError(f"{source[:200]} is no session description of a video stream (no 'm=video' line)")
+
+    def _forget_sdp(self) -> None:
+        if self._sdp_file is not None:
+            Path(self._sdp_file).unlink(missing_ok=True)
+            self._sdp_file = None
 
     @staticmethod
     def _check_file(source: str) -> tuple[FileInfo | None, str]:
@@ -336,9 +366,49 @@ class VideoSource:
         if self._latest is not None and not self._latest.stop():
             return
         self._cap.release()
+        self._forget_sdp()
 
     def __enter__(self) -> VideoSource:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def _rtp_session(url: str) -> str:
+    """``rtp://HOST:PORT`` as a session description file (H.264, payload type 96), made in
+    the temporary folder; its path. ConfigError for a URL that is not ``rtp://HOST:PORT``."""
+    import tempfile
+
+    from lfctl.config import parse_host_port
+    from lfctl.record.rtp import sdp
+
+    rest = url[len("rtp://") :]
+    if not rest or "/" in rest or "?" in rest:
+        raise ConfigError(f"an RTP source is rtp://HOST:PORT (the port it arrives on), got {url[:200]!r}")
+    host, port = parse_host_port(rest, "rtp://")
+    if port == 0:
+        raise ConfigError(f"an RTP source needs the port it arrives on, got {url[:200]!r}")
+    fd, path = tempfile.mkstemp(prefix="lfctl-rtp-", suffix=".sdp")
+    with os.fdopen(fd, "w") as f:
+        f.write(sdp(host, port))
+    return path
+
+
+@contextlib.contextmanager
+def _ffmpeg_options(options: str | None) -> Iterator[None]:
+    """OpenCV's FFmpeg capture options (``OPENCV_FFMPEG_CAPTURE_OPTIONS``, read as a capture
+    opens) with ``options`` added while the block runs: an RTP session description opens
+    only with the udp and rtp protocols allowed."""
+    key = "OPENCV_FFMPEG_CAPTURE_OPTIONS"
+    before = os.environ.get(key)
+    if options is not None:
+        os.environ[key] = options if not before else f"{before}|{options}"
+    try:
+        yield
+    finally:
+        if options is not None:
+            if before is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = before

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import re
 import socket
 from collections.abc import Callable
 from pathlib import Path
@@ -184,3 +185,73 @@ def test_a_reader_waiting_when_the_camera_stops_is_told_at_once() -> None:
     assert live.stop()
     reader.join(10.0)
     assert not reader.is_alive() and got[-1] is None
+
+
+# -- RTP: the stream a rover's camera (or lfctl sim --video) sends ---------------------------------
+@pytest.mark.integration
+def test_an_rtp_stream_is_read_by_its_port_and_by_its_session_description(tmp_path: Path) -> None:
+    import threading
+
+    import cv2
+    import numpy as np
+
+    from lfctl.record.rtp import RtpH264Sender, sdp
+    from lfctl.record.video import H264Encoder
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # (free a moment ago: FFmpeg binds it to receive)
+    sending = threading.Event()
+
+    def send() -> None:  # a camera streaming at 30 Hz: a grey card with a red square moving
+        sender, encoder = RtpH264Sender("127.0.0.1", port), H264Encoder(320, 240, 30.0, 800, gop=15)
+        k = 0
+        while not sending.is_set():
+            frame = np.full((240, 320, 3), 128, np.uint8)
+            cv2.rectangle(frame, (40 + k % 100, 80), (100 + k % 100, 140), (0, 0, 255), -1)
+            sender.send(encoder.encode(frame).data, k / 30.0)
+            k += 1
+            sending.wait(1 / 30)
+        sender.close()
+
+    (tmp_path / "camera.sdp").write_text(sdp("127.0.0.1", port))
+    worker = threading.Thread(target=send, daemon=True)
+    worker.start()
+    try:
+        for source in (f"rtp://127.0.0.1:{port}", str(tmp_path / "camera.sdp")):
+            before = os.environ.get("OPENCV_FFMPEG_CAPTURE_OPTIONS")
+            with VideoSource(source) as video:
+                assert video.live
+                made = video._sdp_file  # the description made for rtp://, gone once closed
+                frames = [video.read() for _ in range(20)]
+            assert os.environ.get("OPENCV_FFMPEG_CAPTURE_OPTIONS") == before
+            assert made is None or not os.path.exists(made)
+            assert all(f is not None and f.shape == (240, 320, 3) for f in frames), source
+            red = frames[-1][:, :, 2].astype(int) - frames[-1][:, :, 1]  # type: ignore[index]
+            assert (red > 100).sum() > 2000  # the square, decoded
+    finally:
+        sending.set()
+        worker.join(5)
+
+
+@pytest.mark.parametrize(
+    ("source", "said"),
+    [
+        ("rtp://", "an RTP source is rtp://HOST:PORT"),
+        ("rtp://127.0.0.1:5600/live", "an RTP source is rtp://HOST:PORT"),
+        ("rtp://127.0.0.1", "'127.0.0.1'"),
+        ("rtp://127.0.0.1:0", "needs the port it arrives on"),
+    ],
+)
+def test_an_rtp_source_that_is_not_host_and_port_is_refused(source: str, said: str) -> None:
+    with pytest.raises(ConfigError, match=re.escape(said)):
+        VideoSource(source)
+
+
+def test_a_session_description_with_no_video_is_refused(tmp_path: Path) -> None:
+    audio = tmp_path / "radio.sdp"
+    audio.write_text("v=0\r\ns=radio\r\nc=IN IP4 127.0.0.1\r\nt=0 0\r\nm=audio 5004 RTP/AVP 0\r\n")
+    with pytest.raises(ConfigError, match="no session description of a video stream"):
+        VideoSource(audio)
+    with pytest.raises(ConfigError, match="cannot read the session description"):
+        VideoSource(tmp_path / "missing.sdp")

@@ -45,7 +45,11 @@ def register(sub: Any) -> None:
         type=connection,
         help="connection to the rover, e.g. udpout:ROVER_IP:14550 or /dev/ttyUSB0,921600",
     )
-    fo.add_argument("--camera", default="0", help="camera index, video file or stream URL (default 0)")
+    fo.add_argument(
+        "--camera",
+        default="0",
+        help="camera index, video file, stream URL, or rtp://HOST:PORT for RTP/UDP H.264 (default 0)",
+    )
     fo.add_argument("--target", type=integer(1, 255), default=1, help="the rover's system id (default 1)")
     fo.add_argument(
         "--scenario",

@@ -22,7 +22,10 @@ def register(sub: Any) -> None:
         help="run the tracker on a video file, camera index or stream; JSON line per frame",
         description="Track the leader's banner (or any object from --roi) in a video; prints one JSON line per frame and can write an annotated video.",
     )
-    t.add_argument("source", help="video file, camera index (0) or stream URL; or a shipped clip by name (bikes.mp4)")
+    t.add_argument(
+        "source",
+        help="video file, camera index (0), stream URL (rtsp://..., rtp://HOST:PORT for RTP/UDP H.264, a .sdp file); or a shipped clip by name (bikes.mp4)",
+    )
     t.add_argument("--roi", help="initial window x,y,w,h in pixels (default: find the banner's four markers)")
     t.add_argument("--out", type=video_out, help="write an annotated video here (.mp4, .avi, .mkv or .mov)")
     t.add_argument("--tracker", choices=tuple(TRACKER_KINDS), default="full", help="tracker kind (default: full)")
