@@ -259,6 +259,9 @@ class VehicleConfig(_Section):
     #: the ArUco tag its banner prints with ``banner.kind = "aruco"`` (None: ``banner.aruco_id``
     #: plus its place in [[vehicles]], the leader's 0); a follower looks for its target's id only
     aruco_id: int | None = _f(None, Bound(0, 586, integer=True), note="unique; < the dictionary's size")
+    #: follower only: false leaves it without a simulated companion computer: it waits as a
+    #: Rover does (HOLD, disarmed) for one on its UDP port, ``lfctl follow`` (--realtime only)
+    companion: bool = True
 
     def _prefix(self) -> str:
         ok = isinstance(self.name, str) and NAME_PATTERN.fullmatch(self.name)
@@ -272,6 +275,8 @@ class VehicleConfig(_Section):
             for k in ("target", "range_m", "bearing_rad"):
                 if getattr(self, k) is not None:
                     raise ConfigError(f"{key}.{_toml_key(k)}: a leader follows nobody, got {getattr(self, k)!r}")
+            if not self.companion:
+                raise ConfigError(f"{key}.companion: a leader has no companion computer to leave out, got false")
         for p, v in self.parameters.items():
             check_text(f"{key}.parameters key", p)
             Bound(-math.inf, math.inf).check(f"{key}.parameters.{p}", v)

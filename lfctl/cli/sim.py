@@ -223,6 +223,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.sim.watchdog import BlockedCallWatchdog
 
     path = resolve_scenario(args.scenario)
+    scenario_file = path  # (``path`` becomes the log's below)
     if path != Path(args.scenario):  # a name, not a file here: say which file runs
         print(f"lfctl sim: {args.scenario} is the shipped example {path}", file=sys.stderr)
     cfg = apply_options(load_config(path), args)
@@ -241,6 +242,21 @@ def run(args: argparse.Namespace) -> int:
             print(
                 f"mavlink      {name}: udpin {cfg.link.udp_host}:{port}"
                 + (f", udpout {cfg.link.gcs_udpout}" if cfg.link.gcs_udpout else ""),
+                flush=True,
+            )
+        here = "127.0.0.1" if cfg.link.udp_host in ("0.0.0.0", "") else cfg.link.udp_host  # (all addresses)
+        slots = cfg.slots()
+        for k, v in enumerate(cfg.followers):
+            port = links.ports.get(v.name)
+            if v.companion or port is None:
+                continue
+            # its companion is the user's: say how to start lfctl follow on it, camera and all
+            camera = f"rtp://{video[0]}:{video[1] + k}" if video is not None else "SOURCE (or --video for its camera)"
+            slot = slots[v.name]
+            print(
+                f"{v.name:<12} has no companion: waits in HOLD, disarmed, for one: `lfctl follow --mavlink "
+                f"udpout:{here}:{port} --target {cfg.vehicles.index(v) + 1} --scenario {scenario_file} --camera {camera} "
+                f"--range {slot.range_m:g} --bearing {math.degrees(slot.bearing_rad):g} --arm`",
                 flush=True,
             )
         leader_port = links.ports.get(cfg.leader.name)

@@ -111,6 +111,7 @@ class _Cameras:
         self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-encode") if threaded else None
         self._video: dict[str, H264Encoder] = {}  # the log's H.264, per follower
         self._stream: dict[str, H264Encoder] = {}  # the live stream's H.264, per follower
+        self._bare_streams = {v.name for v in cfg.followers if not v.companion}  # streamed as the camera sees
 
     def _encode_image(self, follower: str, frame: np.ndarray) -> tuple[bytes | None, float]:
         """The frame for the log, as ``[recording] image_format`` says, and the seconds it took."""
@@ -132,7 +133,9 @@ class _Cameras:
         return enc.encode(frame).data, time.perf_counter() - t0
 
     def _encode_stream(self, follower: str, frame: np.ndarray, sample: CameraSample) -> bytes:
-        """The frame for the live stream (annotated when ``[live] video_annotated``)."""
+        """The frame for the live stream (annotated when ``[live] video_annotated``, unless
+        the follower has no simulated companion: then the stream is the camera an outside one
+        tracks, and drawn boxes would be tracked with it)."""
         live = self.cfg.live
         enc = self._stream.get(follower)
         if enc is None:
@@ -141,7 +144,7 @@ class _Cameras:
             if w % 2 or h % 2:
                 raise ConfigError(f"camera.width_px x height_px is {w}x{h}: the H.264 stream (--video) needs both even")
             enc = self._stream[follower] = H264Encoder(w, h, fps, live.video_bitrate_kbps, max(1, round(fps)))
-        if live.video_annotated:
+        if live.video_annotated and follower not in self._bare_streams:
             m = sample.measurement
             label = f"{follower} t {sample.t_s:.1f} s " + (
                 f"{m.status.value} r {m.range_m:.2f} m b {math.degrees(m.bearing_rad):+.1f} deg"

@@ -210,10 +210,19 @@ class Links:
                     ep.forward = udp.send
             self.endpoints.append(ep)
             self.peers.append(peer)
-        # each follower's companion (component 191 of its system) on the in-memory link
+        # each follower's companion (component 191 of its system) on the in-memory link; a
+        # follower with ``companion = false`` has one that reaches nobody (its stack's
+        # perception still runs on the camera, its setpoints go nowhere), and waits in HOLD,
+        # disarmed, as a Rover does, for a companion on its UDP port
         self.companions = [
-            Companion(MavPort.memory(self.peers[i], 1 + i, COMPANION_COMPID), 1 + i)
-            for i in range(1, len(cfg.vehicles))
+            Companion(
+                MavPort.memory(
+                    self.peers[i] if v.companion else MemoryLink(f"{v.name}-nobody"), 1 + i, COMPANION_COMPID
+                ),
+                1 + i,
+            )
+            for i, v in enumerate(cfg.vehicles)
+            if i > 0
         ]
         leader = self.endpoints[0]
         if mission is None and cfg.mission.file is not None:
@@ -251,8 +260,9 @@ class Links:
                 "LFC_LOOKAHEAD": cfg.guidance.trail_lookahead_m,
             }
             set_values(ep.params, values, f"{v.name}'s slot and guidance")  # a ground station may set them
-            comp.set_guided()  # as a companion computer does at start-up
-            comp.arm()
+            if v.companion:
+                comp.set_guided()  # as a companion computer does at start-up
+                comp.arm()
 
     @property
     def ports(self) -> dict[str, int]:

@@ -504,6 +504,12 @@ def run_scenario(
     if law not in CONTROLLERS:
         raise ConfigError(f"controller must be one of {', '.join(map(repr, CONTROLLERS))}, got {law!r}")
     check_video(cfg, video)
+    alone = [v.name for v in cfg.followers if not v.companion]
+    if alone and not (cfg.sim.clock == "realtime" if realtime is None else realtime):
+        raise ConfigError(
+            f"vehicles[{alone[0]}].companion = false needs --realtime: the companion that commands it "
+            "(lfctl follow) talks to it over UDP in real time"
+        )
     for problem in slots_out_of_view(cfg):
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts

@@ -840,3 +840,58 @@ def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
     slow = [r.getMessage() for r in caplog.records if "LOCAL_POSITION_NED at" in r.getMessage()]
     assert slow and "not the 20 Hz asked for: asked again" in slow[0] and "SERIALn_OPTIONS bit 12" in slow[0], slow
     assert period == pytest.approx(0.05)  # 20 Hz again
+
+
+# -- a simulated follower with no companion: lfctl follow is its companion -------------------------
+@pytest.mark.integration
+def test_lfctl_follow_is_the_companion_of_a_simulated_follower_that_has_none(
+    background_run, free_udp_ports, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the whole real-rover set-up on one machine: the simulated follower waits in HOLD,
+    # disarmed, on its UDP port; its camera streams as RTP/UDP H.264 (unannotated, as a
+    # camera sends); lfctl follow reads the stream by its port and commands the follower
+    import dataclasses
+
+    from lfctl.data import examples_dir
+
+    cfg = parse_config((examples_dir() / "convoy.toml").read_text(), "convoy")
+    follower = dataclasses.replace(cfg.vehicles[1], companion=False)
+    base, video = free_udp_ports(2), free_udp_ports(1)
+    cfg = dataclasses.replace(
+        cfg,
+        vehicles=(cfg.vehicles[0], follower),
+        sim=dataclasses.replace(cfg.sim, duration_s=60.0),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+    links: list[Any] = []
+    with background_run(cfg, realtime=True, video=("127.0.0.1", video), on_links=links.append) as errors:
+        assert wait_until(lambda: bool(links), timeout_s=60.0), errors
+        ep = links[0].endpoints[1]
+        assert ep.mode == MODES["HOLD"] and not ep.armed  # no companion took it: as a Rover stands
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{base + 1}", "--target", "2", "--camera",
+                   f"rtp://127.0.0.1:{video}", "--arm", "--max-frames", "60", "--timeout", "10"])  # fmt: skip
+        took = (ep.mode, ep.armed)
+    assert not errors, errors
+    assert rc == 0 and took == (MODES["GUIDED"], True)
+    out = capsys.readouterr().out
+    tracking = int(re.search(r"target tracking in (\d+)", out).group(1))  # type: ignore[union-attr]
+    assert tracking >= 40, out  # the leader 1.5 m ahead, seen through the stream
+
+
+def test_a_follower_without_a_companion_needs_realtime_and_a_leader_has_none_to_leave_out() -> None:
+    import dataclasses
+
+    from lfctl.data import examples_dir
+    from lfctl.sim.runner import run_scenario
+
+    cfg = parse_config((examples_dir() / "convoy.toml").read_text(), "convoy")
+    alone = dataclasses.replace(cfg, vehicles=(cfg.vehicles[0], dataclasses.replace(cfg.vehicles[1], companion=False)))
+    with pytest.raises(ConfigError, match=r"vehicles\[follower1\]\.companion = false needs --realtime"):
+        run_scenario(alone, realtime=False)
+    text = (
+        (examples_dir() / "convoy.toml")
+        .read_text()
+        .replace('role = "leader"\n', 'role = "leader"\ncompanion = false\n', 1)
+    )
+    with pytest.raises(ConfigError, match=r"vehicles\[leader\]\.companion: a leader has no companion computer"):
+        parse_config(text, "convoy")
