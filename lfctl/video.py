@@ -206,7 +206,8 @@ class VideoSource:
         self._sdp_file: str | None = None  # the session description made for an rtp:// source
         if isinstance(target, str) and target.startswith("rtp://"):
             target = self._sdp_file = _rtp_session(target)
-        rtp = isinstance(target, str) and target.lower().endswith(".sdp")  # a session description: a stream
+        # a session description here (a stream); one at a URL is FFmpeg's to fetch
+        rtp = isinstance(target, str) and "://" not in target and target.lower().endswith(".sdp")
         stream = stream or rtp
         #: what the file's container says (None for a camera or a stream)
         self.info: FileInfo | None = None
@@ -218,8 +219,11 @@ class VideoSource:
         if stream:
             ms = int(STREAM_TIMEOUT_S * 1000)
             params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
-            with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
-                self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
+            try:
+                with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
+                    self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
+            finally:  # FFmpeg has read the description it was made for (or the open was cut short)
+                self._forget_sdp()
         else:
             self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():

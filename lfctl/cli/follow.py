@@ -56,6 +56,11 @@ def register(sub: Any) -> None:
         help="camera intrinsics and mount, banner, gains and rates from this scenario (a file, or a shipped name)",
     )
     fo.add_argument(
+        "--follower",
+        help="which of the scenario's followers this rover is: its slot, its target's banner, its name "
+        "(default: the first)",
+    )
+    fo.add_argument(
         "--range",
         type=number(0, 1000, lo_open=True, unit="m"),
         help="commanded range to the leader, m (default: the scenario's slot, 1.5)",
@@ -320,7 +325,11 @@ def run(args: argparse.Namespace) -> int:
             f"{args.scenario}: the scenario has no follower; lfctl follow runs its first follower's stack "
             '(its slot, gains and the banner it looks for): add a [[vehicles]] entry with role = "follower"'
         )
-    slot = cfg.slots()[cfg.followers[0].name]
+    names = [v.name for v in cfg.followers]
+    me = names[0] if args.follower is None else args.follower
+    if me not in names:
+        raise ConfigError(f"--follower {me!r}: the scenario's followers are {', '.join(names)}")
+    slot = cfg.slots()[me]
     range_m = slot.range_m if args.range is None else args.range
     bearing_rad = slot.bearing_rad if args.bearing is None else math.radians(args.bearing)
     rate_hz = cfg.sim.guidance_rate_hz if args.rate is None else args.rate
@@ -359,11 +368,9 @@ def run(args: argparse.Namespace) -> int:
             )
         view = None
         if live is not None or stream_to is not None:
-            view = LiveView(cfg, cfg.followers[0].name, CameraModel.from_config(camera), live, stream_to)
+            view = LiveView(cfg, me, CameraModel.from_config(camera), live, stream_to)
             if view.rec is not None and live is not None:  # said once it serves, after the first step
-                layout = live_layout(
-                    cfg.followers[0].name, cfg.followers[0].name, "h264", scene=False
-                )  # follows the rover
+                layout = live_layout(me, me, "h264", scene=False)  # its view follows the rover
                 view.rec.on_serve = partial(announce_live, host=live[0], layout=layout)
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         if view is not None:
@@ -380,7 +387,7 @@ def run(args: argparse.Namespace) -> int:
                 timeout_s=args.timeout,
                 max_frames=args.max_frames,
                 max_steps=args.steps,
-                name=cfg.followers[0].name,
+                name=me,
                 on_step=view,
                 clock=view.clock if view is not None else None,
             )

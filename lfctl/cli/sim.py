@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import logging
 import math
+import shlex
 import signal
 import sys
 import threading
@@ -68,7 +69,7 @@ def register(sub: Any) -> None:
         nargs="?",
         const="",
         metavar="HOST:PORT",
-        help="stream each follower's camera as RTP/UDP H.264 to a ground station, follower k to PORT + k - 1 "
+        help="stream each follower's camera as RTP/UDP H.264 to a ground station, follower k to PORT + 2 (k - 1) "
         "(default: [live] video, 127.0.0.1:5600, QGroundControl's; camera sensing); with --realtime a MAVLink "
         "camera component announces it",
     )
@@ -219,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.config import load_config
     from lfctl.data import resolve_scenario
     from lfctl.record.writer import run_path
-    from lfctl.sim.runner import check_video, run_scenario
+    from lfctl.sim.runner import check_video, run_scenario, stream_port
     from lfctl.sim.watchdog import BlockedCallWatchdog
 
     path = resolve_scenario(args.scenario)
@@ -251,12 +252,17 @@ def run(args: argparse.Namespace) -> int:
             if v.companion or port is None:
                 continue
             # its companion is the user's: say how to start lfctl follow on it, camera and all
-            camera = f"rtp://{video[0]}:{video[1] + k}" if video is not None else "SOURCE (or --video for its camera)"
+            camera = (
+                f"rtp://{video[0]}:{stream_port(video[1], k)}"
+                if video is not None
+                else "SOURCE (or --video for its camera)"
+            )
             slot = slots[v.name]
             print(
                 f"{v.name:<12} has no companion: waits in HOLD, disarmed, for one: `lfctl follow --mavlink "
-                f"udpout:{here}:{port} --target {cfg.vehicles.index(v) + 1} --scenario {scenario_file} --camera {camera} "
-                f"--range {slot.range_m:g} --bearing {math.degrees(slot.bearing_rad):g} --arm`",
+                f"udpout:{here}:{port} --target {cfg.vehicles.index(v) + 1} --scenario {shlex.quote(str(scenario_file))} "
+                f"--follower {v.name} --camera {camera} --range {slot.range_m:g} "
+                f"--bearing {math.degrees(slot.bearing_rad):g} --arm`",
                 flush=True,
             )
         leader_port = links.ports.get(cfg.leader.name)
@@ -294,7 +300,7 @@ def run(args: argparse.Namespace) -> int:
     check_video(cfg, video)  # refused before it is announced
     if video is not None:
         for k, v in enumerate(cfg.followers):
-            print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{video[1] + k}", flush=True)
+            print(f"video        {v.name}: RTP/UDP H.264 to {video[0]}:{stream_port(video[1], k)}", flush=True)
     if (live is not None or video is not None) and cfg.sim.clock != "realtime":
         print(
             "note: lockstep runs as fast as it can, and the live view and video go as fast with it;"

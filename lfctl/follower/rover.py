@@ -39,6 +39,9 @@ REASK_S = 2.0
 #: REQUEST_DATA_STREAM on the same link replaces them on ArduPilot), and it is asked again
 RATE_WINDOW_S = 3.0
 SLOW_SHARE = 0.5
+#: the fastest an ArduPilot rover streams a message, Hz (its main loop's 50 Hz): a faster
+#: rate asked for is measured against this
+STREAM_MAX_HZ = 50.0
 #: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
 #: once a second): its mode and arming are then not known, and setpoints are not counted as
 #: carried out
@@ -227,7 +230,7 @@ def follow_rover(
                 asked_at = t_s
             if t_s - rate_from[0] >= RATE_WINDOW_S:
                 came = (companion.vehicle.positions - rate_from[1]) / (t_s - rate_from[0])
-                if not stale and came < SLOW_SHARE * rate_hz and t_s - asked_at >= REASK_S:
+                if not stale and came < SLOW_SHARE * min(rate_hz, STREAM_MAX_HZ) and t_s - asked_at >= REASK_S:
                     _say_slow(name, came, rate_hz, slow_said)
                     slow_said = True
                     companion.ask_streams_again(rate_hz)

@@ -930,7 +930,7 @@ class VehicleEndpoint:
         if custom_mode == MODES["SMART_RTL"] and self.mode != custom_mode:
             # the way back cleaned of its straight runs' points and its loops before it is
             # driven (ModeSmartRTL's WaitForPathCleanup: a thorough cleanup)
-            self.path = clean_way_back(self.path, self.param("SRTL_ACCURACY"))
+            self.path = clean_way_back(self.path, self.param("SRTL_ACCURACY"), self._path_max)
         self.mode = custom_mode
         if custom_mode == MODES["GUIDED"]:
             self.guided = None  # entering GUIDED stops until a target comes
@@ -2001,7 +2001,7 @@ class VehicleEndpoint:
             self._path_saved_s = self.t_s  # nothing to keep here (Rover's add_point succeeds)
             return
         if len(self.path) >= self._path_max and not self._path_cleaned and accuracy > 0:
-            self.path = clean_way_back(self.path, accuracy)
+            self.path = clean_way_back(self.path, accuracy, self._path_max)
             self._path_cleaned = True
         if len(self.path) < self._path_max:
             self.path.append(here)

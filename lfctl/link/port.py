@@ -378,6 +378,10 @@ class MavPort:
         self.closed = True
         if self._serial:
             self._reopen_at = time.monotonic() + REOPEN_S
+            # closed at once: Linux gives a USB device that comes back its old name
+            # (/dev/ttyACM0) only once nobody holds the old one open
+            with contextlib.suppress(OSError):
+                self.connection.port.close()
             log.warning(
                 "MAVLink serial device %s went away (a flight controller on USB that reboots, or unplugged): "
                 "opened again when it is back",
@@ -408,8 +412,6 @@ class MavPort:
             port = serial.Serial(conn.device, conn.baud, timeout=0, dsrdtr=False, rtscts=False, xonxoff=False)
         except (OSError, ValueError):  # not back yet
             return
-        with contextlib.suppress(OSError):
-            conn.port.close()
         conn.port, conn.fd, conn.portdead = port, port.fileno(), False
         self.closed = False
         log.warning("MAVLink serial device %s is back: reading it again", conn.device)

@@ -13,15 +13,22 @@ them in two steps (ArduPilot's AP_SmartRTL):
   ends and the turn, which leaves no loop to cut: it is driven back out to the turn, as a
   Rover does.)
 
-The pruning here cuts, from the newest leg back, the largest loop each leg closes (Rover
-searches in the same order and keeps the longer of two overlapping loops).
+The pruning is Rover's own, decision for decision: each leg from the newest back is measured
+against the older legs from the oldest on and the first it meets makes a loop (the legs
+measured as ``AP_SmartRTL::segment_segment_dist`` measures them: the two lines' closest
+points, each clamped to its own leg, so two legs may be taken as further apart than they
+are, and parallel legs never meet); a loop inside, or overlapping, loops already found is
+kept only if its squared leg lengths add up to more than theirs, and replaces them; the
+newest of at most a quarter of ``SRTL_POINTS`` loops are cut first.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
-__all__ = ["clean", "prune_loops", "segment_distances", "simplify"]
+__all__ = ["clean", "leg_distances", "prune_loops", "simplify"]
 
 Point = tuple[float, float]
 
@@ -29,6 +36,10 @@ Point = tuple[float, float]
 SIMPLIFY_SHARE = 0.5
 #: the share of the accuracy within which two legs are taken to meet (no obstacle between)
 PRUNE_SHARE = 0.99
+#: |a c - b^2| under this: the legs are parallel (Rover's ``is_zero``, a float's epsilon)
+PARALLEL = float(np.finfo(np.float32).eps)
+#: the most loops kept, as a share of ``SRTL_POINTS`` (Rover's loop buffer)
+LOOPS_SHARE = 0.25
 
 
 def simplify(points: list[Point], epsilon_m: float) -> list[Point]:
@@ -61,11 +72,9 @@ def simplify(points: list[Point], epsilon_m: float) -> list[Point]:
     return [points[i] for i in np.flatnonzero(keep)]
 
 
-def prune_loops(points: list[Point], delta_m: float) -> list[Point]:
-    """Cut out the loops: where a leg comes within ``delta_m`` of an earlier leg that is not
-    its neighbour, the points between are dropped and the two legs joined at the point
-    midway between where they came closest. From the newest leg back, each leg cuts the
-    largest loop it closes.
+def prune_loops(points: list[Point], delta_m: float, max_loops: int | None = None) -> list[Point]:
+    """Cut out the loops, as ``AP_SmartRTL`` (``detect_loops``, ``add_loop``,
+    ``remove_points_by_loops``) does: see the module's description.
 
     Parameters
     ----------
@@ -73,45 +82,87 @@ def prune_loops(points: list[Point], delta_m: float) -> list[Point]:
         The way, oldest first, m.
     delta_m : float
         How close two legs must come to be taken to meet, m.
+    max_loops : int, optional
+        The most loops kept (Rover's: a quarter of ``SRTL_POINTS``); once found, the search
+        stops. None: no limit.
     """
     n = len(points)
     if n < 4:
         return list(points)
     p = np.asarray(points, float)
-    # every pair of legs (leg k: point k - 1 to point k) that are not neighbours, at once
+    # every leg against every older leg that is not its neighbour, at once (leg k: point
+    # k - 1 to point k); the search below reads them in Rover's order
     newer, older = np.nonzero(np.tri(n, n, -2, dtype=bool))
     newer, older = newer[older >= 1], older[older >= 1]
-    lo, hi = np.minimum(p[:-1], p[1:]), np.maximum(p[:-1], p[1:])  # each leg's box (leg k: row k - 1)
-    gap = np.maximum(lo[older - 1] - hi[newer - 1], lo[newer - 1] - hi[older - 1]).max(axis=1)
-    newer, older = newer[gap < delta_m], older[gap < delta_m]  # boxes further apart: legs too
-    dist, mid = segment_distances(p[newer - 1], p[newer], p[older - 1], p[older])
-    near = np.full((n, n), np.inf)
-    near[newer, older] = dist
-    meet = np.zeros((n, n, 2))
-    meet[newer, older] = mid
-    way = [points[-1]]  # what is kept, newest first
-    i, end = n - 1, None  # the leg from point i - 1 to point i, or to ``end`` where legs were joined
-    while i >= 1:
-        if i >= 3:
-            if end is None:
-                hits = np.flatnonzero(near[i, 1 : i - 1] < delta_m) + 1
-                joints = meet[i]
-            else:  # a joined leg: not one of the legs measured above
-                d, m = segment_distances(p[i - 1], np.asarray(end), p[: i - 2], p[1 : i - 1])
-                hits = np.flatnonzero(d < delta_m) + 1
-                joints = np.vstack([np.zeros((1, 2)), m])
-            if hits.size:
-                j = int(hits[0])  # the oldest leg it meets: the largest loop
-                end = (float(joints[j, 0]), float(joints[j, 1]))
-                way.append(end)
-                i = j  # the leg from point j - 1 to the joint is checked next
-                continue
-        way.append(points[i - 1])
-        i, end = i - 1, None
-    return way[::-1]
+    dist, mid = leg_distances(p[newer], p[newer - 1], p[older - 1], p[older])
+    meets = np.zeros((n, n), bool)
+    meets[newer, older] = dist < delta_m
+    joint = np.zeros((n, n, 2))
+    joint[newer, older] = mid
+    loops: list[_Loop] = []
+    # the newest leg first, then back to leg 4 (Rover's search stops below 4, except that
+    # its first leg is measured whatever its number)
+    for i in range(n - 1, 3, -1) if n > 4 else (3,):
+        hits = np.flatnonzero(meets[i, 1 : i - 1])
+        if not hits.size:
+            continue
+        j = int(hits[0]) + 1  # the oldest leg it meets
+        if max_loops is not None and len(loops) >= max_loops:
+            break  # (Rover's loop buffer full: it stops looking)
+        _add_loop(loops, _Loop(j, i - 1, (float(joint[i, j, 0]), float(joint[i, j, 1])), p))
+    way = list(points)
+    while loops:  # the last found first, the indices of those before it moved on
+        loop = loops.pop()
+        cut = loop.end - loop.start
+        way[loop.start : loop.end + 1] = [loop.joint]
+        for other in loops:
+            if other.start >= loop.end:
+                other.start -= cut
+            if other.end >= loop.end:
+                other.end -= cut
+    return way
 
 
-def clean(points: list[Point], accuracy_m: float) -> list[Point]:
+class _Loop:
+    """A loop found: its first and last point, where its legs are joined, its size (the
+    squared lengths of its legs and of the two half-legs to the joint, summed: Rover's)."""
+
+    def __init__(self, start: int, end: int, joint: Point, p: np.ndarray) -> None:
+        self.start, self.end, self.joint = start, end, joint
+        # summed in Rover's order (ties between loops are decided by the last bit)
+        size = _squared(joint, p[start]) + _squared(joint, p[end])
+        for k in range(start, end):
+            size += _squared(p[k], p[k + 1])
+        self.size = size
+
+    def overlaps(self, other: _Loop) -> bool:
+        """One within the other, or one's ends on either side of the other's (Rover's
+        ``loops_overlap``)."""
+        if other.start <= self.start and self.end <= other.end:
+            return True
+        if self.start <= other.start and other.end <= self.end:
+            return True
+        start_in = other.start <= self.start <= other.end
+        end_in = other.start <= self.end <= other.end
+        return start_in != end_in
+
+
+def _squared(a: Sequence[float], b: Sequence[float]) -> float:
+    """The squared distance between two points."""
+    dn, de = float(a[0]) - float(b[0]), float(a[1]) - float(b[1])
+    return dn * dn + de * de
+
+
+def _add_loop(loops: list[_Loop], new: _Loop) -> None:
+    """Keep ``new`` unless the loops it overlaps are larger together; then it replaces them."""
+    overlapped = [loop for loop in loops if loop.overlaps(new)]
+    if overlapped and sum(loop.size for loop in overlapped) > new.size:
+        return
+    loops[:] = [loop for loop in loops if loop not in overlapped]
+    loops.append(new)
+
+
+def clean(points: list[Point], accuracy_m: float, points_max: int | None = None) -> list[Point]:
     """The way back as a Rover drives it: simplified at half the accuracy, then its loops
     pruned at 0.99 of it (:func:`simplify`, :func:`prune_loops`).
 
@@ -121,8 +172,11 @@ def clean(points: list[Point], accuracy_m: float) -> list[Point]:
         The breadcrumbs, oldest first, m.
     accuracy_m : float
         ``SRTL_ACCURACY``, m (> 0).
+    points_max : int, optional
+        ``SRTL_POINTS``: a quarter of it is the most loops cut. None: no limit.
     """
-    return prune_loops(simplify(points, SIMPLIFY_SHARE * accuracy_m), PRUNE_SHARE * accuracy_m)
+    max_loops = None if points_max is None else int(LOOPS_SHARE * points_max)
+    return prune_loops(simplify(points, SIMPLIFY_SHARE * accuracy_m), PRUNE_SHARE * accuracy_m, max_loops)
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -133,31 +187,21 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
     return np.hypot(*(p - a - t[:, None] * ab).T)
 
 
-def segment_distances(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The closest distance between segments a-b and c-d (arrays of (n, 2) points, or one
-    point to pair with every row of the others), and the point midway between the two
-    closest points. In 2-D the closest pair is an end of one segment and the nearest point
-    of the other, unless they cross, when they meet at the crossing."""
-    a, b, c, d = np.broadcast_arrays(*(np.asarray(x, float).reshape(-1, 2) for x in (a, b, c, d)))
-
-    def nearest(q: np.ndarray, s0: np.ndarray, s1: np.ndarray) -> np.ndarray:
-        s = s1 - s0
-        den = np.einsum("ij,ij->i", s, s)
-        t = np.einsum("ij,ij->i", q - s0, s) / np.where(den > 0, den, 1.0)
-        return s0 + np.clip(np.where(den > 0, t, 0.0), 0.0, 1.0)[:, None] * s
-
-    pairs = [(a, nearest(a, c, d)), (b, nearest(b, c, d)), (nearest(c, a, b), c), (nearest(d, a, b), d)]
-    dist = np.stack([np.hypot(*(x - y).T) for x, y in pairs])
-    best = np.argmin(dist, axis=0)
-    rows = np.arange(len(a))
-    on_ab = np.stack([x for x, _y in pairs])[best, rows]
-    on_cd = np.stack([y for _x, y in pairs])[best, rows]
-    out_d, mid = dist[best, rows], (on_ab + on_cd) / 2
-    r, s = b - a, d - c
-    den = r[:, 0] * s[:, 1] - r[:, 1] * s[:, 0]
-    q = c - a
-    safe = np.where(den != 0, den, 1.0)
-    t = (q[:, 0] * s[:, 1] - q[:, 1] * s[:, 0]) / safe
-    u = (q[:, 0] * r[:, 1] - q[:, 1] * r[:, 0]) / safe
-    cross = (den != 0) & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
-    return np.where(cross, 0.0, out_d), np.where(cross[:, None], a + np.where(cross, t, 0.0)[:, None] * r, mid)
+def leg_distances(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How far apart legs a0-a1 and b0-b1 are (arrays of (n, 2) points, or one point to pair
+    with every row of the others), and the point midway between their closest points, as
+    Rover's ``AP_SmartRTL::segment_segment_dist`` measures them: the closest points of the two
+    lines, each clamped to its own leg on its own (so the distance may be more than the
+    legs' true closest distance); parallel legs are infinitely far apart."""
+    a0, a1, b0, b1 = np.broadcast_arrays(*(np.asarray(x, float).reshape(-1, 2) for x in (a0, a1, b0, b1)))
+    u, v, w = a1 - a0, b1 - b0, a0 - b0
+    a, b, c = (u * u).sum(1), (u * v).sum(1), (v * v).sum(1)
+    d, e = (u * w).sum(1), (v * w).sum(1)
+    den = a * c - b * b
+    parallel = np.abs(den) < PARALLEL
+    safe = np.where(parallel, 1.0, den)
+    t = np.clip((b * e - c * d) / safe, 0.0, 1.0)[:, None]
+    s = np.clip((a * e - b * d) / safe, 0.0, 1.0)[:, None]
+    on_a, on_b = a0 + u * t, b0 + v * s
+    dist = np.where(parallel, np.inf, np.hypot(*(on_a - on_b).T))
+    return dist, (on_a + on_b) / 2

@@ -174,7 +174,10 @@ class Links:
                 link = Fanout(udp, end)
             ep_tap = (lambda d, m, raw, _n=v.name: tap(_n, d, m, raw)) if tap is not None else None
             key = signing_key_from_passphrase(lc.signing_passphrase) if realtime else None
-            if realtime and video_ports is not None and v.name in video_ports:
+            # (a follower with no companion streams the camera its outside companion steers by:
+            # no camera component offers it to a ground station, whose VIDEO_STOP_STREAMING
+            # would blind that companion)
+            if realtime and video_ports is not None and v.name in video_ports and v.companion:
                 camera = CameraComponent(
                     1 + i,
                     udp.send,

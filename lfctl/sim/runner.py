@@ -106,8 +106,24 @@ class FollowerTrace:
         )
 
 
+def stream_port(base: int, k: int) -> int:
+    """The UDP port follower ``k`` (0: the first) streams its camera to: every second port
+    from ``base``, as RTP asks (RFC 3550: RTP on an even port, RTCP on the odd one after it,
+    which a receiver such as FFmpeg binds too).
+
+    Parameters
+    ----------
+    base : int
+        The first follower's port (``--video``'s).
+    k : int
+        The follower's place among the followers, from 0.
+    """
+    return base + 2 * k
+
+
 def check_video(cfg: Config, video: tuple[str, int] | None) -> None:
-    """Refuse live video (``video``: where it streams to, None: none) without camera sensing.
+    """Refuse live video (``video``: where it streams to, None: none) without camera sensing,
+    to port 0, or past the last port for the last follower (:func:`stream_port`).
 
     Parameters
     ----------
@@ -121,8 +137,16 @@ def check_video(cfg: Config, video: tuple[str, int] | None) -> None:
     ConfigError
         Video asked for, and the sensing is not the camera's.
     """
-    if video is not None and cfg.sim.sensing != "camera":
+    if video is None:
+        return
+    if cfg.sim.sensing != "camera":
         raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
+    last = stream_port(video[1], max(0, len(cfg.followers) - 1))
+    if video[1] == 0 or last > 65535:
+        raise ConfigError(
+            f"--video needs the port a receiver listens on, with every second one after it free for the other "
+            f"followers ({len(cfg.followers)}: up to {last}), got {video[1]}"
+        )
 
 
 @dataclass
@@ -478,7 +502,7 @@ def run_scenario(
         Serve the run on a Foxglove WebSocket there while it runs (port 0: a free one), with
         the same messages as the log.
     video : (host, port), optional
-        Stream each follower's camera as RTP/UDP H.264 there, follower k to ``port + k - 1``
+        Stream each follower's camera as RTP/UDP H.264 there, follower k to ``port + 2 (k - 1)``
         (camera sensing only); with ``realtime`` each follower's system also gets a MAVLink
         camera component that announces its stream.
     on_live : callable, optional
@@ -527,7 +551,9 @@ def run_scenario(
                 def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
                     recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw))
 
-            video_ports = {v.name: video[1] + k for k, v in enumerate(cfg.followers)} if video is not None else None
+            video_ports = (
+                {v.name: stream_port(video[1], k) for k, v in enumerate(cfg.followers)} if video is not None else None
+            )
             start_ns = recorder.start_ns if recorder is not None else None
             links = Links(cfg, sim.realtime, tap, video_ports, start_ns, mission)
             for ep in links.endpoints[1:]:  # the run's law (--controller, else the scenario's) is each follower's

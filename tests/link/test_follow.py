@@ -895,3 +895,22 @@ def test_a_follower_without_a_companion_needs_realtime_and_a_leader_has_none_to_
     )
     with pytest.raises(ConfigError, match=r"vehicles\[leader\]\.companion: a leader has no companion computer"):
         parse_config(text, "convoy")
+
+
+def test_follower_names_which_of_the_scenarios_followers_the_rover_is(
+    banner_video, standing_rover, capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    # its slot, its target's banner and its name are the named follower's (lfctl follow ran
+    # the first follower's stack, whatever the rover was: in a chain of ArUco banners the
+    # second looked for the leader's tag)
+    video = str(banner_video(3))
+    rc = main(["follow", "--mavlink", "udpout:127.0.0.1:9", "--scenario", "column5", "--follower", "nobody",
+               "--camera", video])  # fmt: skip
+    err = capsys.readouterr().err
+    assert rc == 2 and "--follower 'nobody': the scenario's followers are f1, f2, f3, f4" in err, err
+    with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}", "--scenario", "column5",
+                   "--follower", "f3", "--camera", video, "--max-frames", "2", "--timeout", "5"])  # fmt: skip
+    assert rc == 0
+    said = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
+    assert said and all(s.startswith("f3: ") for s in said), said
