@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import socket
 import stat
 import threading
 from collections.abc import Iterator
@@ -204,8 +205,9 @@ class VideoSource:
         target: str | int = int(source) if source.isdigit() and not path else source
         stream = isinstance(target, str) and "://" in target
         self._sdp_file: str | None = None  # the session description made for an rtp:// source
-        if isinstance(target, str) and target.startswith("rtp://"):
-            target = self._sdp_file = _rtp_session(target)
+        rtp_url = isinstance(target, str) and target.startswith("rtp://")
+        if rtp_url:
+            target = self._sdp_file = _rtp_session(str(target))
         # a session description here (a stream); one at a URL is FFmpeg's to fetch
         rtp = isinstance(target, str) and "://" not in target and target.lower().endswith(".sdp")
         stream = stream or rtp
@@ -231,6 +233,11 @@ class VideoSource:
             if isinstance(target, int):
                 mine = f" (a file named {source!r} is here: give ./{source} for it)" if Path(source).is_file() else ""
                 raise ConfigError(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
+            if rtp_url:
+                raise ConfigError(
+                    f"no RTP stream to {source[:200]} within {STREAM_TIMEOUT_S:g} s: start the camera (or lfctl sim "
+                    "--video) sending to this machine's port first, or within that time"
+                )
             if stream:
                 raise ConfigError(
                     f"cannot open video source {source[:200]!r} with OpenCV (no stream within "
@@ -393,6 +400,15 @@ def _rtp_session(url: str) -> str:
     host, port = parse_host_port(rest, "rtp://")
     if port == 0:
         raise ConfigError(f"an RTP source needs the port it arrives on, got {url[:200]!r}")
+    for p in (port, port + 1):  # the stream's, and RTCP's after it (FFmpeg binds both)
+        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM) as s:
+            try:
+                s.bind((host, p))
+            except OSError as exc:
+                raise ConfigError(
+                    f"{url[:200]}: cannot receive on {host}:{p} ({exc.strerror}): another reader holds it "
+                    "(lfctl follow or track, a ground station), or it is not this machine's address"
+                ) from None
     fd, path = tempfile.mkstemp(prefix="lfctl-rtp-", suffix=".sdp")
     with os.fdopen(fd, "w") as f:
         f.write(sdp(host, port))

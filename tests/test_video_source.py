@@ -258,3 +258,12 @@ def test_a_session_description_with_no_video_is_refused(tmp_path: Path) -> None:
         VideoSource(audio)
     with pytest.raises(ConfigError, match="cannot read the session description"):
         VideoSource(tmp_path / "missing.sdp")
+
+
+def test_an_rtp_port_another_reader_holds_is_named() -> None:
+    # a second lfctl follow on the stream's port was told "no stream within 10 s"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
+        held.bind(("127.0.0.1", 0))
+        port = held.getsockname()[1]
+        with pytest.raises(ConfigError, match=rf"cannot receive on 127\.0\.0\.1:{port} .*another reader holds it"):
+            VideoSource(f"rtp://127.0.0.1:{port}")

@@ -192,14 +192,22 @@ def print_report(report: RunReport) -> None:
 
         deg = math.degrees(1.0)
         rows = []
+        outside = {v.name for v in cfg.followers if not v.companion}
         for m in report.metrics:
-            st = m.time_in_state_s
+            st: dict[str, float | None] = dict(m.time_in_state_s)
+            if m.name in outside:  # its companion's tracker ran elsewhere (lfctl follow's closing line)
+                st = dict.fromkeys(st)
             rows.append((
                 m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
                 num(m.range_err_rms_m, ".3f"), num(m.range_err_max_m, ".3f"), num(m.bearing_err_rms_rad, ".2f", deg),
                 num(m.bearing_err_max_rad, ".2f", deg), num(m.min_separation_m, ".2f"), num(m.path_err_rms_m, ".3f"),
-                f"{st['tracking']:.2f}", f"{st['occluded']:.2f}", f"{st['lost']:.2f}",  # steps of dt: exact, and they add up
+                num(st["tracking"], ".2f"), num(st["occluded"], ".2f"), num(st["lost"], ".2f"),  # steps of dt: exact
             ))  # fmt: skip
+        if outside:
+            print(
+                f"{', '.join(sorted(outside))}: its companion ran outside the simulator: the errors are the truth "
+                "of how it drove; its tracking is in that companion's closing line"
+            )
         widths = [max(len(str(r[i])) for r in [head, *rows]) for i in range(len(head))]
         for r in [head, *rows]:
             print(

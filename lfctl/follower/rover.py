@@ -240,6 +240,11 @@ def follow_rover(
             state = _say_rover_state(companion, name, state)
             frame = video.read() if max_frames is None or frames < max_frames else None
             if frame is None:
+                if video.live and (max_frames is None or frames < max_frames):
+                    # (a file's end is its end; a camera or stream that stops is news)
+                    log.warning(
+                        "%s: the camera %s gives no more frames: the stream stopped; the run ends", name, video.name
+                    )
                 break
             frames += 1
             seen = perception.step(t_s, frame)
@@ -340,8 +345,8 @@ class _LinkWatch:
             self.said_companion = True
             log.warning(
                 "%s: another companion (system %d, component %d) talks on this link: two companions command "
-                "the rover in turn; stop the other (a follower in lfctl sim has its own: follow its leader, "
-                "system 1, instead)",
+                "the rover in turn; stop the other (a follower in lfctl sim has its own unless its scenario "
+                "says companion = false)",
                 name,
                 c.target,
                 COMPANION_COMPID,

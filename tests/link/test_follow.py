@@ -9,6 +9,7 @@ import math
 import re
 import socket
 import time
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -914,3 +915,24 @@ def test_follower_names_which_of_the_scenarios_followers_the_rover_is(
     assert rc == 0
     said = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
     assert said and all(s.startswith("f3: ") for s in said), said
+
+
+@pytest.mark.integration
+def test_the_summary_leaves_a_companionless_followers_tracking_to_its_companion(
+    tmp_path: Path, free_udp_ports, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from lfctl.data import examples_dir
+
+    text = (
+        (examples_dir() / "convoy.toml")
+        .read_text()
+        .replace("bearing_deg = 0.0\n", "bearing_deg = 0.0\ncompanion = false\n", 1)
+    )
+    scenario = tmp_path / "solo.toml"
+    scenario.write_text(text + f'\n[link]\nudp_base_port = {free_udp_ports(2)}\ngcs_udpout = ""\n')
+    assert main(["sim", str(scenario), "--realtime", "--duration", "1", "--no-record", "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "follower1    has no companion: waits in HOLD, disarmed, for one: `lfctl follow" in out
+    assert "--follower follower1" in out and "follower1: its companion ran outside the simulator" in out
+    row = next(line for line in out.splitlines() if line.startswith("follower1  leader"))
+    assert row.split()[-3:] == ["-", "-", "-"]  # its simulated tracker's seconds are not its companion's
