@@ -1989,11 +1989,12 @@ class VehicleEndpoint:
         return int(min(100.0, abs(command) * cruise_throttle / cruise_speed))  # int16_t: truncated
 
     def _record_path(self) -> None:
-        """SmartRTL's breadcrumbs: where an armed vehicle has been, outside RTL modes, a point
-        each ``SRTL_ACCURACY`` (AP_SmartRTL::add_point). When the ``SRTL_POINTS`` are used up
+        """SmartRTL's breadcrumbs: where the vehicle has been since it first armed, in every
+        mode but SmartRTL (Rover's ``ModeSmartRTL::save_position``; it samples at 3 Hz, lfctl
+        every tick), a point each ``SRTL_ACCURACY`` (AP_SmartRTL::add_point). When the ``SRTL_POINTS`` are used up
         the way is cleaned (its straight runs' points and its loops dropped); when that frees
         none for :data:`SRTL_TIMEOUT_S`, SmartRTL is given up until the next arming."""
-        if not self.armed or not self._path_active or self.mode in (MODES["RTL"], MODES["SMART_RTL"]):
+        if not self._path_active or self.mode == MODES["SMART_RTL"]:
             return
         here = (self.state["north_m"], self.state["east_m"])
         accuracy = self.param("SRTL_ACCURACY")

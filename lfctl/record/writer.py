@@ -518,10 +518,8 @@ class Recorder:
         can be told of one and then refused it ("Unknown channel ID", foxglove-sdk 0.30), and
         its panel stays empty for the run.
 
-        Raises
-        ------
-        RecordError
-            The server cannot listen there (another program took the port since).
+        A port another program took since it was checked is said, and the run goes on
+        without the live view (its log is unaffected).
         """
         if self._live is None or self._server is not None or self._closed:
             return
@@ -529,7 +527,9 @@ class Recorder:
         try:
             self._server = foxglove.start_server(name=f"lfctl {self.cfg.name}", host=host, port=port, context=self._ctx)
         except RuntimeError as exc:
-            raise RecordError(f"cannot serve Foxglove on {host}:{port}: {exc}") from exc
+            self._live = None
+            log.error("cannot serve Foxglove on %s:%d (%s): the run goes on without the live view", host, port, exc)
+            return
         if self.on_serve is not None:
             self.on_serve(int(self._server.port))
 

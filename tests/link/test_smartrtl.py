@@ -207,3 +207,16 @@ def test_points_used_up_and_none_freed_gives_smartrtl_up_until_the_next_arming()
     assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
     assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
     assert b.ep.path_started and b.ep.mode != MODES["SMART_RTL"]
+
+
+def test_the_way_back_is_kept_in_rtl_too() -> None:
+    # Rover's ModeSmartRTL::save_position saves in every mode but SmartRTL: RTL part way,
+    # then SmartRTL, goes back along the RTL leg too (lfctl left it out)
+    b = _armed()
+    _drive(b, [(0.0, 0.0), (20.0, 0.0)])
+    assert b.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
+    _drive(b, [(20.0, 0.0), (20.0, 10.0)])  # (a way RTL would not take: the points are what count)
+    assert b.ep.path[-1][1] > 8.0  # its RTL leg kept (a point each 2 m)
+    assert b.set_mode("SMART_RTL") == mav.MAV_RESULT_ACCEPTED
+    _drive(b, [(20.0, 10.0), (20.0, 20.0)])  # nothing saved while in SmartRTL
+    assert max(e for _n, e in b.ep.path) <= 10.5
