@@ -19,7 +19,16 @@ import numpy as np
 
 from lfctl.errors import ConfigError
 
-__all__ = ["STREAM_TIMEOUT_S", "FileInfo", "LatestFrames", "VideoSource", "probe_file"]
+__all__ = [
+    "RTP_CLOCK_HZ",
+    "RTP_PAYLOAD_TYPE",
+    "STREAM_TIMEOUT_S",
+    "FileInfo",
+    "LatestFrames",
+    "VideoSource",
+    "probe_file",
+    "sdp",
+]
 
 #: how long a stream (a URL) may take to open, and to give its next frame, s: a silent one
 #: is an error (opening) or its end (reading), not a process blocked for ever
@@ -391,13 +400,12 @@ def _rtp_session(url: str) -> str:
     the temporary folder; its path. ConfigError for a URL that is not ``rtp://HOST:PORT``."""
     import tempfile
 
-    from lfctl.config import parse_host_port
-    from lfctl.record.rtp import sdp
+    from lfctl.checks import check_host_port
 
     rest = url[len("rtp://") :]
     if not rest or "/" in rest or "?" in rest:
         raise ConfigError(f"an RTP source is rtp://HOST:PORT (the port it arrives on), got {url[:200]!r}")
-    host, port = parse_host_port(rest, "rtp://")
+    host, port = check_host_port("rtp://", rest, allow_any_port=True)
     if port == 0:
         raise ConfigError(f"an RTP source needs the port it arrives on, got {url[:200]!r}")
     for p in (port, port + 1):  # the stream's, and RTCP's after it (FFmpeg binds both)
@@ -432,3 +440,34 @@ def _ffmpeg_options(options: str | None) -> Iterator[None]:
                 os.environ.pop(key, None)
             else:
                 os.environ[key] = before
+
+
+#: the dynamic payload type QGroundControl and GStreamer pipelines expect for H.264 over RTP
+RTP_PAYLOAD_TYPE = 96
+#: RTP's clock for video, Hz
+RTP_CLOCK_HZ = 90_000
+
+
+def sdp(host: str, port: int, name: str = "lfctl camera") -> str:
+    """A session description of a stream :class:`lfctl.record.rtp.RtpH264Sender` sends to ``host:port``, for
+    players that need one (``ffplay -protocol_whitelist file,udp,rtp -i stream.sdp``).
+
+    Parameters
+    ----------
+    host : str
+        The address the stream is sent to (the receiving side).
+    port : int
+        Its UDP port.
+    name : str
+        The session's name.
+    """
+    return (
+        "v=0\r\n"
+        f"o=- 0 0 IN IP4 {host}\r\n"
+        f"s={name}\r\n"
+        f"c=IN IP4 {host}\r\n"
+        "t=0 0\r\n"
+        f"m=video {port} RTP/AVP {RTP_PAYLOAD_TYPE}\r\n"
+        f"a=rtpmap:{RTP_PAYLOAD_TYPE} H264/{RTP_CLOCK_HZ}\r\n"
+        f"a=fmtp:{RTP_PAYLOAD_TYPE} packetization-mode=1\r\n"
+    )

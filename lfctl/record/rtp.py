@@ -18,9 +18,10 @@ import struct
 
 __all__ = ["PAYLOAD_TYPE", "RtpH264Sender", "nal_units", "sdp"]
 
-#: the dynamic payload type QGroundControl and GStreamer pipelines expect for H.264
-PAYLOAD_TYPE = 96
-CLOCK_HZ = 90_000
+from lfctl.video import RTP_CLOCK_HZ as CLOCK_HZ
+from lfctl.video import RTP_PAYLOAD_TYPE as PAYLOAD_TYPE
+from lfctl.video import sdp
+
 #: RTP payload bytes per datagram: under a 1500-byte Ethernet MTU with IP, UDP and RTP headers
 MAX_PAYLOAD = 1400
 FU_A = 28
@@ -125,28 +126,3 @@ class RtpH264Sender:
     def close(self) -> None:
         """Close the socket."""
         self.sock.close()
-
-
-def sdp(host: str, port: int, name: str = "lfctl camera") -> str:
-    """A session description of a stream :class:`RtpH264Sender` sends to ``host:port``, for
-    players that need one (``ffplay -protocol_whitelist file,udp,rtp -i stream.sdp``).
-
-    Parameters
-    ----------
-    host : str
-        The address the stream is sent to (the receiving side).
-    port : int
-        Its UDP port.
-    name : str
-        The session's name.
-    """
-    return (
-        "v=0\r\n"
-        f"o=- 0 0 IN IP4 {host}\r\n"
-        f"s={name}\r\n"
-        f"c=IN IP4 {host}\r\n"
-        "t=0 0\r\n"
-        f"m=video {port} RTP/AVP {PAYLOAD_TYPE}\r\n"
-        f"a=rtpmap:{PAYLOAD_TYPE} H264/{CLOCK_HZ}\r\n"
-        f"a=fmtp:{PAYLOAD_TYPE} packetization-mode=1\r\n"
-    )
