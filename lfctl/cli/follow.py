@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import sys
 import time
 from functools import partial
 from typing import TYPE_CHECKING, Any
@@ -375,6 +376,13 @@ def run(args: argparse.Namespace) -> int:
         companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
         if view is not None:
             view.watch(companion.port)
+        # (the run's lines are the log's: without -v only warnings; say it has begun)
+        print(
+            f"lfctl follow: {me}'s companion for system {args.target} on {args.mavlink}, camera {args.camera}, "
+            f"{rate_hz:g} Hz; Ctrl-C ends it (-v says more)",
+            file=sys.stderr,
+            flush=True,
+        )
         try:
             done = follow_rover(
                 companion,
