@@ -406,15 +406,26 @@ def _rtp_session(url: str) -> str:
     if not rest or "/" in rest or "?" in rest:
         raise ConfigError(f"an RTP source is rtp://HOST:PORT (the port it arrives on), got {url[:200]!r}")
     host, port = check_host_port("rtp://", rest, allow_any_port=True)
-    if port == 0:
-        raise ConfigError(f"an RTP source needs the port it arrives on, got {url[:200]!r}")
-    for p in (port, port + 1):  # the stream's, and RTCP's after it (FFmpeg binds both)
-        with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_DGRAM) as s:
+    if not 0 < port < 65535:
+        raise ConfigError(
+            f"an RTP source needs the port it arrives on, below 65535 (RTCP takes the next), got {url[:200]!r}"
+        )
+    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host  # ([::1])
+    six = ":" in host
+    if not six:  # a name (localhost) as the address FFmpeg binds: its description takes no names
+        try:
+            host = socket.gethostbyname(host)
+        except OSError as exc:
+            raise ConfigError(f"{url[:200]}: cannot resolve {host!r} ({exc})") from None
+    family, anywhere = (socket.AF_INET6, "::") if six else (socket.AF_INET, "0.0.0.0")
+    # the stream's port on HOST, and RTCP's after it, which FFmpeg binds on every address
+    for addr in ((host, port), (anywhere, port + 1)):
+        with socket.socket(family, socket.SOCK_DGRAM) as s:
             try:
-                s.bind((host, p))
+                s.bind(addr)
             except OSError as exc:
                 raise ConfigError(
-                    f"{url[:200]}: cannot receive on {host}:{p} ({exc.strerror}): another reader holds it "
+                    f"{url[:200]}: cannot receive on {addr[0]}:{addr[1]} ({exc.strerror}): another reader holds it "
                     "(lfctl follow or track, a ground station), or it is not this machine's address"
                 ) from None
     fd, path = tempfile.mkstemp(prefix="lfctl-rtp-", suffix=".sdp")
@@ -461,11 +472,12 @@ def sdp(host: str, port: int, name: str = "lfctl camera") -> str:
     name : str
         The session's name.
     """
+    kind = "IP6" if ":" in host else "IP4"
     return (
         "v=0\r\n"
-        f"o=- 0 0 IN IP4 {host}\r\n"
+        f"o=- 0 0 IN {kind} {host}\r\n"
         f"s={name}\r\n"
-        f"c=IN IP4 {host}\r\n"
+        f"c=IN {kind} {host}\r\n"
         "t=0 0\r\n"
         f"m=video {port} RTP/AVP {RTP_PAYLOAD_TYPE}\r\n"
         f"a=rtpmap:{RTP_PAYLOAD_TYPE} H264/{RTP_CLOCK_HZ}\r\n"

@@ -222,7 +222,7 @@ def test_an_rtp_stream_is_read_by_its_port_and_by_its_session_description(tmp_pa
         import tempfile
 
         made = os.path.join(tempfile.gettempdir(), "lfctl-rtp-*.sdp")  # the descriptions made for rtp://
-        for source in (f"rtp://127.0.0.1:{port}", str(tmp_path / "camera.sdp")):
+        for source in (f"rtp://127.0.0.1:{port}", f"rtp://localhost:{port}", str(tmp_path / "camera.sdp")):
             before, left = os.environ.get("OPENCV_FFMPEG_CAPTURE_OPTIONS"), set(glob.glob(made))
             with VideoSource(source) as video:
                 assert video.live
@@ -244,6 +244,8 @@ def test_an_rtp_stream_is_read_by_its_port_and_by_its_session_description(tmp_pa
         ("rtp://127.0.0.1:5600/live", "an RTP source is rtp://HOST:PORT"),
         ("rtp://127.0.0.1", "'127.0.0.1'"),
         ("rtp://127.0.0.1:0", "needs the port it arrives on"),
+        ("rtp://127.0.0.1:65535", "below 65535 (RTCP takes the next)"),  # (port + 1 overflowed)
+        ("rtp://no-such-host.invalid:5600", "cannot resolve 'no-such-host.invalid'"),
     ],
 )
 def test_an_rtp_source_that_is_not_host_and_port_is_refused(source: str, said: str) -> None:
@@ -267,3 +269,9 @@ def test_an_rtp_port_another_reader_holds_is_named() -> None:
         port = held.getsockname()[1]
         with pytest.raises(ConfigError, match=rf"cannot receive on 127\.0\.0\.1:{port} .*another reader holds it"):
             VideoSource(f"rtp://127.0.0.1:{port}")
+
+
+def test_an_ipv6_rtp_address_is_described_as_one() -> None:
+    from lfctl.video import sdp
+
+    assert "c=IN IP6 ::1\r\n" in sdp("::1", 5600) and "c=IN IP4 127.0.0.1\r\n" in sdp("127.0.0.1", 5600)

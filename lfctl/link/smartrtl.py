@@ -89,7 +89,7 @@ def prune_loops(points: list[Point], delta_m: float, max_loops: int | None = Non
     n = len(points)
     if n < 4:
         return list(points)
-    p = np.asarray(points, float)
+    p = np.asarray(points, np.float32)  # (Rover's positions are single precision)
     # every leg against every older leg that is not its neighbour, at once (leg k: point
     # k - 1 to point k); the search below reads them in Rover's order
     newer, older = np.nonzero(np.tri(n, n, -2, dtype=bool))
@@ -147,10 +147,10 @@ class _Loop:
         return start_in != end_in
 
 
-def _squared(a: Sequence[float], b: Sequence[float]) -> float:
-    """The squared distance between two points."""
-    dn, de = float(a[0]) - float(b[0]), float(a[1]) - float(b[1])
-    return dn * dn + de * de
+def _squared(a: Sequence[float], b: Sequence[float]) -> np.float32:
+    """The squared distance between two points, in single precision (Rover's)."""
+    dn, de = np.float32(a[0]) - np.float32(b[0]), np.float32(a[1]) - np.float32(b[1])
+    return np.float32(dn * dn + de * de)
 
 
 def _add_loop(loops: list[_Loop], new: _Loop) -> None:
@@ -193,7 +193,9 @@ def leg_distances(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray
     Rover's ``AP_SmartRTL::segment_segment_dist`` measures them: the closest points of the two
     lines, each clamped to its own leg on its own (so the distance may be more than the
     legs' true closest distance); parallel legs are infinitely far apart."""
-    a0, a1, b0, b1 = np.broadcast_arrays(*(np.asarray(x, float).reshape(-1, 2) for x in (a0, a1, b0, b1)))
+    # in single precision, as Rover's Vector3f: which nearly parallel legs count as parallel,
+    # and ties, are decided by the float's last bits
+    a0, a1, b0, b1 = np.broadcast_arrays(*(np.asarray(x, np.float32).reshape(-1, 2) for x in (a0, a1, b0, b1)))
     u, v, w = a1 - a0, b1 - b0, a0 - b0
     a, b, c = (u * u).sum(1), (u * v).sum(1), (v * v).sum(1)
     d, e = (u * w).sum(1), (v * w).sum(1)

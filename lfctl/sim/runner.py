@@ -142,10 +142,10 @@ def check_video(cfg: Config, video: tuple[str, int] | None) -> None:
     if cfg.sim.sensing != "camera":
         raise ConfigError("live video needs camera sensing (sim.sensing = 'camera' or --sensing camera)")
     last = stream_port(video[1], max(0, len(cfg.followers) - 1))
-    if video[1] == 0 or last > 65535:
+    if video[1] == 0 or last > 65534:  # (each with its RTCP port after it)
         raise ConfigError(
-            f"--video needs the port a receiver listens on, with every second one after it free for the other "
-            f"followers ({len(cfg.followers)}: up to {last}), got {video[1]}"
+            f"--video needs the port a receiver listens on, with the ports after it free for the other "
+            f"followers' streams and RTCP ({len(cfg.followers)} followers: up to {last + 1}), got {video[1]}"
         )
 
 

@@ -857,7 +857,7 @@ def test_lfctl_follow_is_the_companion_of_a_simulated_follower_that_has_none(
 
     cfg = parse_config((examples_dir() / "convoy.toml").read_text(), "convoy")
     follower = dataclasses.replace(cfg.vehicles[1], companion=False)
-    base, video = free_udp_ports(2), free_udp_ports(1)
+    base, video = free_udp_ports(2), free_udp_ports(2)  # (the stream's port and its RTCP's)
     cfg = dataclasses.replace(
         cfg,
         vehicles=(cfg.vehicles[0], follower),

@@ -405,7 +405,7 @@ def test_a_serial_device_that_goes_away_and_comes_back_is_read_again(caplog: pyt
             deadline = time.monotonic() + 3.0
             while not port.closed and time.monotonic() < deadline:
                 port.recv(0.05)
-            assert port.closed
+            assert port.closed and not port.connection.port.is_open  # let go at once: the name is freed
             os.remove(name)
             parent, child = device()  # back, a new device under the old name
             os.symlink(os.ttyname(child), name)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -82,8 +83,9 @@ def _rovers_pruning(way: list[tuple[float, float]], delta: float, max_loops: int
         return list(way)
     loops: list[list] = []  # [start, end, joint, size]
 
-    def sq(a: tuple[float, float], b: tuple[float, float]) -> float:
-        return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1])
+    def sq(a: tuple[float, float], b: tuple[float, float]) -> np.float32:  # single precision, as Rover's
+        dn, de = np.float32(a[0]) - np.float32(b[0]), np.float32(a[1]) - np.float32(b[1])
+        return np.float32(dn * dn + de * de)
 
     def overlap(a: list, b: list) -> bool:
         if (a[0] >= b[0] and a[1] <= b[1]) or (b[0] >= a[0] and b[1] <= a[1]):
@@ -220,3 +222,12 @@ def test_the_way_back_is_kept_in_rtl_too() -> None:
     assert b.set_mode("SMART_RTL") == mav.MAV_RESULT_ACCEPTED
     _drive(b, [(20.0, 10.0), (20.0, 20.0)])  # nothing saved while in SmartRTL
     assert max(e for _n, e in b.ep.path) <= 10.5
+
+
+def test_the_way_is_kept_while_disarmed_once_started() -> None:
+    # AP_SmartRTL::update saves whatever the arming once its way has begun (a pushed rover)
+    b = _armed()
+    _drive(b, [(0.0, 0.0), (10.0, 0.0)])
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    _drive(b, [(10.0, 0.0), (10.0, 8.0)])
+    assert b.ep.path[-1][1] > 5.0

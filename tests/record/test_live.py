@@ -226,6 +226,21 @@ def test_the_server_is_announced_once_the_first_step_has_made_its_channels(backg
             "/tf", "/leader/pose", "/follower1/controller", "/scene", "/log"} <= topics, topics  # fmt: skip
 
 
+def test_a_live_port_taken_before_it_is_served_leaves_the_run_without_the_live_view(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # the port is checked as the recorder is made and served after the first step: one
+    # another program takes in between is said, and the run goes on (it ended the run)
+    rec = Recorder(None, short_camera_cfg(1.0), live=("127.0.0.1", 0))
+    port = rec.live_port
+    with socket.socket() as thief:
+        thief.bind(("127.0.0.1", port))
+        thief.listen()
+        rec.serve()
+    rec.close()
+    assert any(f"cannot serve Foxglove on 127.0.0.1:{port}" in r.getMessage() for r in caplog.records)
+
+
 def test_closing_does_not_wait_for_ever_on_a_server_held_by_a_client(caplog: pytest.LogCaptureFixture) -> None:
     # foxglove-sdk's stop waits for every client to take its close: one that stopped reading
     # held the process after its run, Ctrl-C and SIGTERM too (the file was finished)
