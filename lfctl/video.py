@@ -213,10 +213,10 @@ class VideoSource:
         self.name = source
         target: str | int = int(source) if source.isdigit() and not path else source
         stream = isinstance(target, str) and "://" in target
-        self._sdp_file: str | None = None  # the session description made for an rtp:// source
+        made: str | None = None  # the session description made for an rtp:// source
         rtp_url = isinstance(target, str) and target.startswith("rtp://")
         if rtp_url:
-            target = self._sdp_file = _rtp_session(str(target))
+            target = made = _rtp_session(str(target))
         # a session description here (a stream); one at a URL is FFmpeg's to fetch
         rtp = isinstance(target, str) and "://" not in target and target.lower().endswith(".sdp")
         stream = stream or rtp
@@ -234,11 +234,11 @@ class VideoSource:
                 with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
                     self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
             finally:  # FFmpeg has read the description it was made for (or the open was cut short)
-                self._forget_sdp()
+                if made is not None:
+                    Path(made).unlink(missing_ok=True)
         else:
             self._cap = cv2.VideoCapture(target)
         if not self._cap.isOpened():
-            self._forget_sdp()
             if isinstance(target, int):
                 mine = f" (a file named {source!r} is here: give ./{source} for it)" if Path(source).is_file() else ""
                 raise ConfigError(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
@@ -277,11 +277,6 @@ class VideoSource:
             raise ConfigError(f"cannot read the session description {source[:200]!r}: {exc}") from None
         if "m=video" not in text:
             raise ConfigError(f"{source[:200]} is no session description of a video stream (no 'm=video' line)")
-
-    def _forget_sdp(self) -> None:
-        if self._sdp_file is not None:
-            Path(self._sdp_file).unlink(missing_ok=True)
-            self._sdp_file = None
 
     @staticmethod
     def _check_file(source: str) -> tuple[FileInfo | None, str]:
@@ -386,7 +381,6 @@ class VideoSource:
         if self._latest is not None and not self._latest.stop():
             return
         self._cap.release()
-        self._forget_sdp()
 
     def __enter__(self) -> VideoSource:
         return self

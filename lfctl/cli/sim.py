@@ -266,14 +266,14 @@ def run(args: argparse.Namespace) -> int:
                 else "SOURCE (or --video for its camera)"
             )
             slot = slots[v.name]
+            signs = bool(cfg.link.signing_passphrase)
+            signing = " --signing-passphrase PASSPHRASE" if signs else ""
+            signing_note = " (PASSPHRASE: the scenario's link.signing_passphrase)" if signs else ""
             print(
                 f"{v.name:<12} has no companion: waits in HOLD, disarmed, for one: `lfctl follow --mavlink "
                 f"udpout:{here}:{port} --target {cfg.vehicles.index(v) + 1} --scenario {shlex.quote(str(scenario_file))} "
                 f"--follower {v.name} --camera {camera} --range {slot.range_m:g} "
-                f"--bearing {math.degrees(slot.bearing_rad):g} --arm"
-                + (" --signing-passphrase PASSPHRASE" if cfg.link.signing_passphrase else "")
-                + "`"
-                + (" (PASSPHRASE: the scenario's link.signing_passphrase)" if cfg.link.signing_passphrase else ""),
+                f"--bearing {math.degrees(slot.bearing_rad):g} --arm{signing}`{signing_note}",
                 flush=True,
             )
         leader_port = links.ports.get(cfg.leader.name)

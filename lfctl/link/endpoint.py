@@ -493,7 +493,7 @@ class VehicleEndpoint:
         """Whether a way back is kept: from the first arming (lfctl's; Rover's starts with a
         position), unless ``SRTL_POINTS`` or ``SRTL_ACCURACY`` was 0 then or the points ran
         out (Rover's AP_SmartRTL ``is_active``)."""
-        return self.path_generation > 0 and self._path_active
+        return self._path_active  # (set by the first arming's _start_path)
 
     def _start_path(self) -> None:
         """A new way back (AP_SmartRTL::set_home, as the vehicle arms: where it is as the
@@ -899,7 +899,7 @@ class VehicleEndpoint:
         if custom_mode == MODES["SMART_RTL"] and not self.path_started:
             return self._refuse_mode(
                 "SmartRTL unavailable: no path recorded"
-                if self._path_active or not self.path_generation
+                if not self.path_generation
                 else "SmartRTL unavailable: no path kept"
             )
         self._enter(custom_mode)
