@@ -101,7 +101,14 @@ def register(sub: Any) -> None:
         const="",
         metavar="HOST:PORT",
         help="stream the camera (annotated as [live] video_annotated says) as RTP/UDP H.264 to a ground station "
-        "(default: [live] video, 127.0.0.1:5600)",
+        "(default: [live] video, 127.0.0.1:5600), announced as the rover's camera (MAVLink camera component 100: "
+        "QGroundControl finds the stream by itself)",
+    )
+    fo.add_argument(
+        "--no-camera-component",
+        action="store_true",
+        help="with --video: do not announce the stream as a MAVLink camera component (the rover has its own "
+        "camera at component 100, or the ground station is set to the port by hand)",
     )
     fo.set_defaults(func=run)
 
@@ -155,6 +162,19 @@ class LiveView:
         self._in_window = 0
         #: packets /mavlink/<name> did not log (over :data:`MAVLINK_MAX_PER_S`)
         self.skipped_packets = 0
+
+    def streaming(self, on: bool) -> None:
+        """The ground station started (``on``) or stopped the video (VIDEO_START_STREAMING,
+        VIDEO_STOP_STREAMING to the camera component): the stream is sent or paused; the
+        companion goes on tracking its camera either way.
+
+        Parameters
+        ----------
+        on : bool
+            Send the stream.
+        """
+        if self.sender is not None:
+            self.sender.paused = not on
 
     @property
     def port(self) -> int | None:
@@ -373,9 +393,22 @@ def run(args: argparse.Namespace) -> int:
             if view.rec is not None and live is not None:  # said once it serves, after the first step
                 layout = live_layout(me, me, "h264", scene=False)  # its view follows the rover
                 view.rec.on_serve = partial(announce_live, host=live[0], layout=layout)
-        companion = Companion.open(args.mavlink, args.target, signing_key_from_passphrase(args.signing_passphrase))
+        key = signing_key_from_passphrase(args.signing_passphrase)
+        companion = Companion.open(args.mavlink, args.target, key)
         if view is not None:
             view.watch(companion.port)
+            if view.sender is not None and stream_to is not None and not args.no_camera_component:
+                camera_component = companion.offer_video(
+                    video_port=stream_to[1],
+                    width=w,
+                    height=h,
+                    fps=rate_hz,
+                    bitrate_kbps=cfg.live.video_bitrate_kbps,
+                    hfov_deg=math.degrees(2 * math.atan(w / 2 / perception.camera.K[0, 0])),  # (a calibration's too)
+                    name=f"{me} camera",
+                    signing_key=key,
+                )
+                camera_component.on_streaming = view.streaming
         # (the run's lines are the log's: without -v only warnings; say it has begun)
         print(
             f"lfctl follow: {me}'s companion for system {args.target} on {args.mavlink}, camera {args.camera}, "

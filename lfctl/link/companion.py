@@ -33,6 +33,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.checks import printable
 from lfctl.errors import LinkTimeoutError, VehicleKindError
 from lfctl.frames import HALF_EARTH_M, on_earth
+from lfctl.link.camera import CameraComponent
 from lfctl.link.endpoint import COMPANION_COMPID, MODES, TYPE_MASK_SPEED_YAWRATE
 from lfctl.link.ftp import FtpServer
 from lfctl.link.gcs import result_name, text_field
@@ -187,6 +188,11 @@ class Companion:
         #: the autopilot's last COMMAND_ACK result for each command, addressed to the companion
         self.acks: dict[int, int] = {}
         self._heartbeat_t_s: float | None = None
+        #: the camera component announcing the video this program sends (:meth:`offer_video`),
+        #: None without one, or once another camera with its ids was heard (then it steps aside)
+        self.camera: CameraComponent | None = None
+        #: another component with the camera's ids talks on the link (the rover's own camera)
+        self.camera_clash = False
 
     def param(self, name: str) -> float:
         """One of the companion's parameters now.
@@ -209,10 +215,70 @@ class Companion:
         t_s : float
             Now, on the companion's clock, s.
         """
+        if self.camera is not None:
+            self.camera.tick(t_s)  # (its own HEARTBEAT, once a second)
         if self._heartbeat_t_s is not None and t_s - self._heartbeat_t_s < HEARTBEAT_PERIOD_S:
             return
         self._heartbeat_t_s = t_s
         self._send_heartbeat()
+
+    def offer_video(
+        self,
+        *,
+        video_port: int,
+        width: int,
+        height: int,
+        fps: float,
+        bitrate_kbps: int,
+        hfov_deg: float,
+        name: str,
+        signing_key: bytes | None = None,
+    ) -> CameraComponent:
+        """Announce the video this program sends (``lfctl follow --video``) as the rover's
+        camera: a MAVLink camera component (100) of the rover's system on this link, whose
+        HEARTBEAT the rover's routing passes on to the ground station, so that
+        QGroundControl asks it for its stream (VIDEO_STREAM_INFORMATION: RTP/UDP H.264 on
+        ``video_port``) and shows it without a video setting; VIDEO_STOP_STREAMING and
+        VIDEO_START_STREAMING reach :attr:`CameraComponent.on_streaming`. It steps aside (said
+        in the log) if another component with its ids talks on the link: the rover's own camera.
+
+        Parameters
+        ----------
+        video_port : int
+            The UDP port the stream goes to (the ground station listens there).
+        width, height : int
+            The stream's frame size, px.
+        fps : float
+            Its frame rate, Hz.
+        bitrate_kbps : int
+            Its bitrate, kbit/s.
+        hfov_deg : float
+            The camera's horizontal field of view, deg.
+        name : str
+            The camera's and the stream's name.
+        signing_key : bytes, optional
+            MAVLink 2 signing key, when the rover signs its link.
+        """
+
+        def tap(direction: str, msg: Any, raw: bytes) -> None:
+            # what it sends; what it is handed, the port's read has shown already
+            if direction == "out" and self.port.tap is not None:
+                self.port.tap("out", msg, raw)
+
+        self.camera = CameraComponent(
+            self.target,
+            self.port.write,
+            video_port=video_port,
+            width=width,
+            height=height,
+            fps=fps,
+            bitrate_kbps=bitrate_kbps,
+            hfov_deg=hfov_deg,
+            name=name,
+            signing_key=signing_key,
+            tap=tap,
+        )
+        return self.camera
 
     def _send_heartbeat(self) -> None:
         self.port.send(
@@ -399,6 +465,20 @@ class Companion:
 
     def _take(self, m: Any, t_s: float) -> None:
         kind = m.get_type()
+        cam = self.camera
+        if cam is not None:
+            if cam.wants(m):
+                cam.handle(m)
+                return
+            if kind == "HEARTBEAT" and (m.get_srcSystem(), m.get_srcComponent()) == (self.target, cam.compid):
+                # (never its own: a link does not echo a sender's packets back to it)
+                self.camera, self.camera_clash = None, True
+                log.warning(
+                    "another camera (component %d of system %d) talks on the link: the video is not announced "
+                    "as the rover's camera (set the stream's port in the ground station instead)",
+                    cam.compid,
+                    self.target,
+                )
         if kind in PARAM_REQUESTS:
             self._param_request(m, kind)
             return

@@ -326,6 +326,21 @@ class MavPort:
         if self.tap is not None:
             self.tap("out", msg, data)
 
+    def write(self, data: bytes) -> None:
+        """Put one packet another component of this program packed (its own ids, sequence
+        number and signature: a camera beside the companion) on the link as it is.
+
+        Parameters
+        ----------
+        data : bytes
+            The packed packet.
+        """
+        if self.connection is not None:
+            self.connection.write(data)
+        else:
+            assert self.link is not None
+            self.link.send(data)
+
     def recv(self, timeout_s: float = 0.0) -> Any | None:
         """The next message received, waiting up to ``timeout_s`` (in memory: none after a
         pump of the other end), or None.

@@ -4,6 +4,7 @@ camera, GUIDED setpoints out, formation status reported."""
 from __future__ import annotations
 
 import base64
+import contextlib
 import json
 import math
 import re
@@ -32,14 +33,25 @@ from lfctl.vision.camera_model import CameraModel
 pytestmark = pytest.mark.integration
 
 
-@pytest.mark.parametrize("passphrase", [None, "convoy-7"])
+@pytest.mark.parametrize(
+    ("passphrase", "video_flags"),
+    [(None, ()), ("convoy-7", ("--video",)), (None, ("--video", "--no-camera-component"))],
+)
 def test_follow_drives_a_guided_rover_from_video(
-    banner_video, standing_rover, capsys: pytest.CaptureFixture[str], passphrase: str | None
+    banner_video,
+    standing_rover,
+    capsys: pytest.CaptureFixture[str],
+    passphrase: str | None,
+    video_flags: tuple[str, ...],
 ) -> None:
-    # with a passphrase the rover signs and takes only signed packets: the companion must sign
+    # with a passphrase the rover signs and takes only signed packets: the companion must sign,
+    # and so must the camera component that announces --video's stream
     video = banner_video(40)
     received: list[tuple[float, float]] = []
     names: set[str] = set()
+    senders: set[tuple[int, int]] = set()
+    rtp = loopback_udp()  # (where --video sends; never read)
+    stream = [*video_flags[:1], f"127.0.0.1:{rtp.getsockname()[1]}", *video_flags[1:]] if video_flags else []
 
     def commanded(rover: VehicleEndpoint) -> None:
         cmd = rover.guided_command()
@@ -47,7 +59,13 @@ def test_follow_drives_a_guided_rover_from_video(
             received.append(cmd)
 
     with standing_rover(signing_key_from_passphrase(passphrase), commanded) as rover:
-        rover.tap = lambda d, m, raw: names.add(m.get_type()) if d == "in" else None
+
+        def heard(direction: str, m: Any, raw: bytes) -> None:
+            if direction == "in":
+                names.add(m.get_type())
+                senders.add((m.get_srcSystem(), m.get_srcComponent()))
+
+        rover.tap = heard
         rc = main(
             [
                 "follow",
@@ -61,12 +79,17 @@ def test_follow_drives_a_guided_rover_from_video(
                 "--timeout",
                 "5",
                 *(["--signing-passphrase", passphrase] if passphrase else []),
+                *stream,
             ]
         )
         stopped = wait_until(lambda: left_stopped(rover))  # the last setpoints reach the rover in its time
         time.sleep(0.2)  # and nothing else comes after them
         stopped = stopped and left_stopped(rover)
+    rtp.close()
     assert rc == 0 and "sent" in capsys.readouterr().out
+    # the camera component (100) beside the companion (191) only with --video
+    announced = video_flags == ("--video",)
+    assert senders == {(1, COMPANION_COMPID)} | ({(1, 100)} if announced else set())
     assert rover.mode == MODES["GUIDED"] and rover.armed
     assert {"SET_POSITION_TARGET_LOCAL_NED", "NAMED_VALUE_FLOAT"} <= names
     assert max(v for v, _ in received) > 0.05  # the leader is ~1.8 m away: drive towards the slot
@@ -305,6 +328,76 @@ def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_
             companion.heartbeat(t)
         assert [m.get_type() for m in sent] == ["HEARTBEAT"] * 3
         assert (sent[0].type, sent[0].autopilot) == (mav.MAV_TYPE_ONBOARD_CONTROLLER, mav.MAV_AUTOPILOT_INVALID)
+    finally:
+        sock.close()
+        companion.close()
+
+
+def test_the_video_is_announced_as_the_rovers_camera_until_another_camera_talks(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
+    tapped: list[tuple[str, Any]] = []
+    companion.port.tap = lambda d, m, raw: tapped.append((d, m))
+    camera = companion.offer_video(
+        video_port=5602, width=640, height=480, fps=20.0, bitrate_kbps=1500, hfov_deg=62.0, name="follower1 camera"
+    )
+    switched: list[bool] = []
+    camera.on_streaming = switched.append
+    address = companion.port.connection.port.getsockname()
+    sock, gcs = _gcs_to(companion.port)
+    sock.settimeout(0.5)
+    parser = mav.MAVLink(None)
+
+    def heard() -> list[Any]:
+        out: list[Any] = []
+        with contextlib.suppress(TimeoutError):
+            while True:
+                out += parser.parse_buffer(sock.recv(4096)) or []
+                sock.settimeout(0.1)
+        sock.settimeout(0.5)
+        return out
+
+    def ask(msg: Any, sender: mav.MAVLink = gcs) -> list[Any]:
+        sock.sendto(msg.pack(sender), address)
+        companion.poll(0.0, 2.0)
+        return heard()
+
+    try:
+        ask(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3))
+        companion.heartbeat(1.0)
+        beats = {(m.get_srcSystem(), m.get_srcComponent(), m.type) for m in heard() if m.get_type() == "HEARTBEAT"}
+        # the rover's camera (system 1, component 100) beside its companion (191)
+        assert beats == {(1, 100, mav.MAV_TYPE_CAMERA), (1, COMPANION_COMPID, mav.MAV_TYPE_ONBOARD_CONTROLLER)}
+        # QGroundControl's questions, addressed to it as the rover's routing forwards them
+        info = mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION
+        ack, stream = ask(
+            mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, info, 0, 0, 0, 0, 0, 0)
+        )
+        assert (ack.get_type(), ack.result, ack.target_system, ack.target_component) == ("COMMAND_ACK", 0, 255, 190)
+        assert (stream.get_srcSystem(), stream.get_srcComponent()) == (1, 100)
+        assert (stream.type, stream.uri, stream.encoding) == (
+            mav.VIDEO_STREAM_TYPE_RTPUDP,
+            "5602",
+            mav.VIDEO_STREAM_ENCODING_H264,
+        )
+        assert (stream.resolution_h, stream.resolution_v, stream.framerate, stream.hfov) == (640, 480, 20.0, 62)
+        (ack,) = ask(mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_VIDEO_STOP_STREAMING, 0, 1, 0, 0, 0, 0, 0, 0))
+        assert ack.result == mav.MAV_RESULT_ACCEPTED and switched == [False]
+        # what it sends is in the port's log once, and so is what it was handed (the read's)
+        outs = [m.get_type() for d, m in tapped if d == "out" and m.get_srcComponent() == 100]
+        ins = [m.get_type() for d, m in tapped if d == "in" and m.get_type() == "COMMAND_LONG"]
+        assert outs == ["HEARTBEAT", "COMMAND_ACK", "VIDEO_STREAM_INFORMATION", "COMMAND_ACK"] and len(ins) == 2
+        # the rover's own camera talks: ours steps aside, said once; questions to 100 are left to it
+        other = mav.MAVLink(None, srcSystem=1, srcComponent=100)
+        ask(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_CAMERA, mav.MAV_AUTOPILOT_INVALID, 0, 0, 4, 3), other)
+        assert companion.camera is None and companion.camera_clash
+        assert "another camera (component 100 of system 1) talks on the link" in caplog.text
+        assert (
+            ask(mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, info, 0, 0, 0, 0, 0, 0)) == []
+        )
+        companion.heartbeat(3.0)
+        assert {m.get_srcComponent() for m in heard()} == {COMPANION_COMPID}
     finally:
         sock.close()
         companion.close()

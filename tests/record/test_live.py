@@ -520,6 +520,11 @@ def both_ways(got: dict[str, list[bytes]]) -> bool:
     return {("out", "GLOBAL_POSITION_INT"), ("in", "SET_POSITION_TARGET_LOCAL_NED")} <= seen
 
 
+def camera_beat(got: dict[str, list[bytes]]) -> bool:
+    """/mavlink/rover has shown the camera component's HEARTBEAT (once a second)."""
+    return any(p["compid"] == 100 for p in packets(got, "/mavlink/rover"))
+
+
 @pytest.mark.integration
 def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     tmp_path: Path, banner_video, standing_rover
@@ -533,7 +538,7 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     with standing_rover() as rover:
         proc, port = start_follow(tmp_path, rover, video, "--video", f"127.0.0.1:{rtp.getsockname()[1]}")
         try:
-            got = asyncio.run(subscribe_and_collect(port, wanted, until=both_ways))
+            got = asyncio.run(subscribe_and_collect(port, wanted, until=lambda g: both_ways(g) and camera_beat(g)))
         finally:
             interrupt(proc)
         stopped = wait_until(lambda: left_stopped(rover))  # the last setpoints reach the rover in its time
@@ -561,8 +566,12 @@ def test_follow_live_shows_the_rover_in_foxglove_and_streams_its_camera(
     for p in packets(got, "/mavlink/rover"):
         decoded = parser.parse_buffer(base64.b64decode(p["raw"]))
         assert decoded and decoded[0].get_type() == p["name"] and decoded[0].get_msgId() == p["msgid"]
-        # out: from the rover's autopilot; in: from its companion (component 191)
-        assert (p["sysid"], p["compid"]) == ((1, 1) if p["direction"] == "out" else (1, 191)), p
+        # out: from the rover's autopilot; in: from its companion (component 191) and the camera
+        # component that announces the video (100)
+        assert (p["sysid"], p["compid"]) in ({(1, 1)} if p["direction"] == "out" else {(1, 191), (1, 100)}), p
+    camera = [p for p in packets(got, "/mavlink/rover") if p["compid"] == 100]
+    assert camera and {p["name"] for p in camera} == {"HEARTBEAT"}  # (nobody asked it anything)
+    assert camera[0]["fields"]["type"] == mav.MAV_TYPE_CAMERA
     pos = next(p for p in packets(got, "/mavlink/rover") if p["name"] == "GLOBAL_POSITION_INT")
     assert (pos["fields"]["lat"], pos["fields"]["lon"]) == (round(lat * 1e7), round(lon * 1e7))
     sp = next(p for p in packets(got, "/mavlink/rover") if p["name"] == "SET_POSITION_TARGET_LOCAL_NED")
