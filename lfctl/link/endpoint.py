@@ -346,9 +346,12 @@ class VehicleEndpoint:
         #: (the vehicle's cameras): what is addressed to them is not acted on here
         self.routed_components: set[int] = set()
         # the senders seen, (system, component, channel), as ArduPilot's MAVLink routing learns
-        # its routes (at most MAX_ROUTES); the channel a message came on (network or memory)
-        self._routes: set[tuple[int, int, str]] = set()
-        self._channel = "memory"
+        # its routes (at most MAX_ROUTES); the channel a message came on: "memory", or the
+        # network peer's address (each peer of the UDP port is a channel of its own, as each
+        # of a Rover's links is: a ground station and a companion both on the port reach each
+        # other through it as they would through a Rover's radio and companion ports)
+        self._routes: set[tuple[int, int, Any]] = set()
+        self._channel: Any = "memory"
         self._sender: Any = None
         self.statustexts: list[tuple[float, str]] = []
         self.t_s = 0.0
@@ -370,6 +373,9 @@ class VehicleEndpoint:
         self.epoch_us = time.time_ns() // 1000
         #: routes companion reports to the GCS: (packet, an address not to send it to)
         self.forward: Callable[[bytes, Any], None] | None = None
+        #: sends a packet to one network peer (packet, its address): what a peer addresses to a
+        #: component heard on another peer is passed on to that one
+        self.send_to: Callable[[bytes, Any], None] | None = None
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
         #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
         self.time_budget_s: float | None = None
@@ -653,7 +659,7 @@ class VehicleEndpoint:
         self.stats.bad += 0 if good or unknown else 1
         if good:
             self.link.accept_peer(addr)
-        self._channel = "memory" if addr[0] == "memory" else "network"
+        self._channel = "memory" if addr[0] == "memory" else addr
         self._sender = addr  # the datagram's sender (a report is not routed back to it)
         for m in good:
             self._learn_route(m)
@@ -675,6 +681,8 @@ class VehicleEndpoint:
             if self.rebooting:  # restarting (from this frame on, if the datagram asked for it)
                 self.stats.rebooting += 1
                 return
+            if self._channel != "memory":
+                self._pass_on(m)
             self._dispatch(m, signed)
         except Exception:  # a bug in a handler: counted and logged, the run goes on
             self.stats.handler_errors += 1
@@ -693,6 +701,35 @@ class VehicleEndpoint:
             self.stats.other_sysid += 1
             return False
         return True
+
+    def _pass_on(self, m: Any) -> None:
+        """Pass a network peer's message on to the other peers as Rover's routing passes it
+        between its links (``MAVLink_routing::check_and_forward``): one addressed to a system
+        and component heard from another peer goes to that peer (a ground station's request to
+        ``lfctl follow``'s companion, 191, or its camera, 100; their answers back to the ground
+        station), and what a component of this vehicle other than the autopilot sends to no
+        one in particular (its HEARTBEAT, a camera's stream information, a companion's
+        STATUSTEXT) to every other peer. Never back to the sender; nothing to or from the
+        autopilot itself (its own are answered here)."""
+        data: bytes | None = None
+        target = getattr(m, "target_system", 0)
+        if target:
+            component = getattr(m, "target_component", 0)
+            if self.send_to is None or (target, component) == (self.sysid, 1):
+                return
+            to = {
+                channel
+                for sysid, compid, channel in self._routes
+                if channel != "memory"
+                and channel != self._channel
+                and sysid == target
+                and (component == 0 or compid == component)
+            }
+            for channel in to:
+                data = data if data is not None else bytes(m.get_msgbuf())
+                self.send_to(data, channel)
+        elif self.forward is not None and m.get_srcSystem() == self.sysid and m.get_srcComponent() != 1:
+            self.forward(bytes(m.get_msgbuf()), self._sender)
 
     def _forwarded(self, target: int, component: int) -> bool:
         """Whether Rover would pass a message for ``(target, component)`` on to another
@@ -743,12 +780,12 @@ class VehicleEndpoint:
         self._forward_report(m)
 
     def _forward_report(self, m: Any) -> None:
-        """A companion's report, routed to the ground station on the network link: the
-        in-memory companion's to every peer there; one that came over the network (a
-        companion there, ``lfctl follow``) to every peer but its sender, as Rover's routing
-        never sends a message back where it came from."""
-        if self.forward is not None and m.get_srcComponent() != 1:
-            self.forward(bytes(m.get_msgbuf()), None if self._channel == "memory" else self._sender)
+        """The in-memory companion's report, routed to the ground station: to every peer on
+        the network (one that came over the network, ``lfctl follow``'s, :meth:`_pass_on`
+        passes on to every peer but its sender, as Rover's routing never sends a message back
+        where it came from)."""
+        if self.forward is not None and m.get_srcComponent() != 1 and self._channel == "memory":
+            self.forward(bytes(m.get_msgbuf()), None)
 
     def _on_heartbeat(self, m: Any) -> None:
         if m.type == mav.MAV_TYPE_GCS:

@@ -125,6 +125,25 @@ class UdpLink:
             except OSError:  # nobody listening on a udpout port yet: not an error
                 pass
 
+    def send_to(self, data: bytes, addr: Address) -> None:
+        """Send to one peer, if it is one (heard lately, or a ``udpout`` target).
+
+        Parameters
+        ----------
+        data : bytes
+            One packed MAVLink packet.
+        addr : Address
+            The peer, (host, port).
+        """
+        heard = self.peers.get(addr)
+        if addr not in self.outs and (heard is None or self._clock() - heard > PEER_TIMEOUT_S):
+            return
+        try:
+            self.sock.sendto(data, addr)
+            self.tx_datagrams += 1
+        except OSError:  # (as send)
+            pass
+
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
         """Datagrams waiting on the socket, with their senders, without blocking.
 

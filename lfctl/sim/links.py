@@ -209,6 +209,7 @@ class Links:
             ep.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
             if realtime:
                 ep.time_budget_s = REALTIME_RECEIVE_BUDGET_S
+                ep.send_to = udp.send_to  # (a ground station's requests to lfctl follow's components)
                 if gcs_out:
                     ep.forward = udp.send
             self.endpoints.append(ep)

@@ -2541,6 +2541,50 @@ def test_a_companions_report_is_routed_to_the_network_but_never_back_to_its_send
     assert [exclude for _d, exclude in forwarded[1:]] == [("127.0.0.1", 14550)] * 2  # to all but the sender
 
 
+def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_there(bench: Bench) -> None:
+    # a rehearsal: lfctl follow's companion (191) and its camera (100) on one peer of the UDP
+    # port, a ground station on another; as a Rover passes messages between its links, what
+    # one addresses to the other goes there and is not acted on by the autopilot
+    passed: list[tuple[str, object]] = []
+    broadcast: list[object] = []
+    parser = mav.MAVLink(None)
+    bench.ep.send_to = lambda data, addr: passed.append((parser.parse_buffer(data)[0].get_type(), addr))
+    bench.ep.forward = lambda data, exclude: broadcast.append(exclude)
+    rover_side, ground_side = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)
+    ground = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+
+    def comes(msg: object, sender: mav.MAVLink, addr: tuple[str, int]) -> list[object]:
+        bench.a.inbox.append((msg.pack(sender), addr))  # type: ignore[attr-defined]
+        return [m for m in bench.tick() if m.get_type() in ("PARAM_VALUE", "COMMAND_ACK", "STATUSTEXT")]
+
+    comes(mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3), companion, rover_side)
+    comes(mav.MAVLink_heartbeat_message(30, 8, 0, 0, 4, 3), camera, rover_side)
+    comes(mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3), ground, ground_side)
+    # the companion's and the camera's HEARTBEATs to every other peer; the ground station's not
+    assert broadcast == [rover_side, rover_side] and passed == []
+    # the ground station asks the companion for LFC_RANGE and the camera for its stream
+    answered = comes(mav.MAVLink_param_request_read_message(1, 191, b"LFC_RANGE", -1), ground, ground_side)
+    info = mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION
+    request = mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, info, 0, 0, 0, 0, 0, 0)
+    answered += comes(request, ground, ground_side)
+    assert answered == []  # the autopilot left them to the components they are for
+    assert passed == [("PARAM_REQUEST_READ", rover_side), ("COMMAND_LONG", rover_side)]
+    # the camera's answer goes back to the ground station, and only there
+    ack = mav.MAVLink_command_ack_message(mav.MAV_CMD_REQUEST_MESSAGE, 0, 0, 0, 255, 190)
+    comes(ack, camera, rover_side)
+    assert passed[-1] == ("COMMAND_ACK", ground_side)
+    # what is for the autopilot is acted on here and passed on to no one
+    del passed[:]
+    arm = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    acks = [m.result for m in comes(arm, ground, ground_side) if m.get_type() == "COMMAND_ACK"]
+    assert acks == [mav.MAV_RESULT_ACCEPTED] and bench.ep.armed and passed == []
+    # a request to every component of the vehicle: acted on here and passed on to the companion's peer
+    answered = comes(mav.MAVLink_param_request_read_message(1, 0, b"WP_SPEED", -1), ground, ground_side)
+    assert [m.param_id for m in answered] == ["WP_SPEED"] and passed == [("PARAM_REQUEST_READ", rover_side)]
+
+
 def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
     import socket
 

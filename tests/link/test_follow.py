@@ -9,6 +9,7 @@ import json
 import math
 import re
 import socket
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -951,25 +952,77 @@ def test_lfctl_follow_is_the_companion_of_a_simulated_follower_that_has_none(
     cfg = parse_config((examples_dir() / "convoy.toml").read_text(), "convoy")
     follower = dataclasses.replace(cfg.vehicles[1], companion=False)
     base, video = free_udp_ports(2), free_udp_ports(2)  # (the stream's port and its RTCP's)
+    ground = loopback_udp()  # a ground station where the simulator sends its telemetry
+    rtp_out = loopback_udp()  # where lfctl follow's own stream goes (never read)
+    rtp_port = rtp_out.getsockname()[1]
     cfg = dataclasses.replace(
         cfg,
         vehicles=(cfg.vehicles[0], follower),
         sim=dataclasses.replace(cfg.sim, duration_s=60.0),
-        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=f"127.0.0.1:{ground.getsockname()[1]}"),
     )
     links: list[Any] = []
-    with background_run(cfg, realtime=True, video=("127.0.0.1", video), on_links=links.append) as errors:
-        assert wait_until(lambda: bool(links), timeout_s=60.0), errors
-        ep = links[0].endpoints[1]
-        assert ep.mode == MODES["HOLD"] and not ep.armed  # no companion took it: as a Rover stands
-        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{base + 1}", "--target", "2", "--camera",
-                   f"rtp://127.0.0.1:{video}", "--arm", "--max-frames", "60", "--timeout", "10"])  # fmt: skip
-        took = (ep.mode, ep.armed)
+    seen: dict[str, Any] = {}
+    stop = threading.Event()
+
+    def ground_station() -> None:
+        # QGroundControl on the follower's port: hears the camera lfctl follow announces
+        # through the simulator's routing, asks it for its stream and the companion for LFC_RANGE
+        gcs, parser = mav.MAVLink(None, srcSystem=255, srcComponent=190), mav.MAVLink(None)
+        to = ("127.0.0.1", base + 1)
+        ground.settimeout(0.05)
+        asked = 0.0
+        while not stop.is_set() and len(seen) < 3:
+            if time.monotonic() - asked > 0.5:
+                asked = time.monotonic()
+                ground.sendto(mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), to)
+                if "camera" in seen:
+                    info = mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION
+                    ask = mav.MAVLink_command_long_message(
+                        2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, info, 0, 0, 0, 0, 0, 0
+                    )
+                    ground.sendto(ask.pack(gcs), to)
+                    ground.sendto(mav.MAVLink_param_request_read_message(2, 191, b"LFC_RANGE", -1).pack(gcs), to)
+            try:
+                data = ground.recv(65535)
+            except TimeoutError:
+                continue
+            for m in parser.parse_buffer(data) or []:
+                src = (m.get_srcSystem(), m.get_srcComponent())
+                if src == (2, 100) and m.get_type() == "HEARTBEAT":
+                    seen["camera"] = m
+                elif src == (2, 100) and m.get_type() == "VIDEO_STREAM_INFORMATION":
+                    seen["stream"] = m
+                elif m.get_type() == "PARAM_VALUE" and m.param_id == "LFC_RANGE" and src[0] == 2:
+                    seen.setdefault("lfc_range", []).append((src, round(m.param_value, 3)))
+
+    try:
+        with background_run(cfg, realtime=True, video=("127.0.0.1", video), on_links=links.append) as errors:
+            assert wait_until(lambda: bool(links), timeout_s=60.0), errors
+            ep = links[0].endpoints[1]
+            assert ep.mode == MODES["HOLD"] and not ep.armed  # no companion took it: as a Rover stands
+            station = threading.Thread(target=ground_station, daemon=True)
+            station.start()
+            rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{base + 1}", "--target", "2", "--camera",
+                       f"rtp://127.0.0.1:{video}", "--arm", "--max-frames", "100", "--timeout", "10", "--range", "1.7",
+                       "--video", f"127.0.0.1:{rtp_port}"])  # fmt: skip
+            took = (ep.mode, ep.armed)
+            stop.set()
+            station.join(5.0)
+    finally:
+        ground.close()
+        rtp_out.close()
     assert not errors, errors
     assert rc == 0 and took == (MODES["GUIDED"], True)
     out = capsys.readouterr().out
     tracking = int(re.search(r"target tracking in (\d+)", out).group(1))  # type: ignore[union-attr]
-    assert tracking >= 40, out  # the leader 1.5 m ahead, seen through the stream
+    assert tracking >= 60, out  # the leader 1.5 m ahead, seen through the stream
+    # through the simulator as through a Rover: the camera's stream, and the companion's own
+    # LFC_RANGE (lfctl follow's 1.7), not the simulated autopilot's
+    assert seen["camera"].type == mav.MAV_TYPE_CAMERA, seen
+    assert seen["stream"].uri == str(rtp_port), seen
+    assert seen["lfc_range"] and {v for _src, v in seen["lfc_range"]} == {1.7}, seen["lfc_range"]
+    assert {src for src, _v in seen["lfc_range"]} == {(2, COMPANION_COMPID)}
 
 
 def test_a_follower_without_a_companion_needs_realtime_and_a_leader_has_none_to_leave_out() -> None:
