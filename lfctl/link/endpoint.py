@@ -113,6 +113,9 @@ MAX_BYTES_PER_TICK = 32 * 1024
 MAX_DATAGRAM_BYTES = 4 * 1024
 #: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
 MAX_ROUTES = 20
+#: a route on a network peer not heard from for this long gives way to a new one once the
+#: table is full, s (the UDP link's own peers time out after 30 s)
+ROUTE_IDLE_S = 30.0
 #: GUIDED stops a rate or heading target not renewed within this, s: fixed in Rover 4.6
 #: (``ModeGuided::update``; a GUID_TIMEOUT parameter came to Rover after 4.6)
 GUIDED_TIMEOUT_S = 3.0
@@ -350,7 +353,10 @@ class VehicleEndpoint:
         # network peer's address (each peer of the UDP port is a channel of its own, as each
         # of a Rover's links is: a ground station and a companion both on the port reach each
         # other through it as they would through a Rover's radio and companion ports)
-        self._routes: set[tuple[int, int, Any]] = set()
+        # (with when each was last heard, s: a route on a network peer silent for
+        # ROUTE_IDLE_S makes room for a new one when the table is full, as a peer that went
+        # away, an lfctl follow started again from another port, leaves its own behind)
+        self._routes: dict[tuple[int, int, Any], float] = {}
         self._channel: Any = "memory"
         self._sender: Any = None
         self.statustexts: list[tuple[float, str]] = []
@@ -671,8 +677,12 @@ class VehicleEndpoint:
         route = (m.get_srcSystem(), m.get_srcComponent(), self._channel)
         if route[0] == 0 or route[:2] == (self.sysid, 1):  # (no sender, or this autopilot's own id)
             return
-        if route not in self._routes and len(self._routes) < MAX_ROUTES:
-            self._routes.add(route)
+        if route not in self._routes and len(self._routes) >= MAX_ROUTES:
+            idle = [r for r, heard in self._routes.items() if r[2] != "memory" and self.t_s - heard > ROUTE_IDLE_S]
+            for r in idle:
+                del self._routes[r]
+        if route in self._routes or len(self._routes) < MAX_ROUTES:
+            self._routes[route] = self.t_s
 
     def _handle(self, m: Any, signed: bool) -> None:
         try:

@@ -17,7 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl import __version__
 from lfctl.bench.fuzz import datagrams
 from lfctl.frames import ned_to_geodetic
-from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MODES, VehicleEndpoint, packet_record
+from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MAX_ROUTES, MODES, ROUTE_IDLE_S, VehicleEndpoint, packet_record
 from lfctl.link.signing import setup_signing, signing_clock
 from lfctl.link.transport import MemoryLink
 
@@ -2583,6 +2583,32 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     # a request to every component of the vehicle: acted on here and passed on to the companion's peer
     answered = comes(mav.MAVLink_param_request_read_message(1, 0, b"WP_SPEED", -1), ground, ground_side)
     assert [m.param_id for m in answered] == ["WP_SPEED"] and passed == [("PARAM_REQUEST_READ", rover_side)]
+
+
+def test_a_full_route_table_makes_room_for_a_new_peer_once_old_ones_are_idle(bench: Bench) -> None:
+    # lfctl follow started again and again, each time from a new port: the routes its earlier
+    # runs left must not keep the latest one from being learnt (a table full of live routes
+    # still takes nothing more, as Rover's)
+    passed: list[object] = []
+    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    ground = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    heartbeat = mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3)
+    read = mav.MAVLink_param_request_read_message(1, 191, b"LFC_RANGE", -1)
+    for port in range(41000, 41000 + MAX_ROUTES):
+        bench.a.inbox.append((heartbeat.pack(companion), ("127.0.0.1", port)))
+    bench.tick()
+    latest = ("127.0.0.1", 42000)
+    bench.a.inbox.append((heartbeat.pack(companion), latest))
+    bench.a.inbox.append((read.pack(ground), ("127.0.0.1", 14550)))
+    bench.tick()
+    assert latest not in passed and len(passed) == MAX_ROUTES  # full of live routes: not learnt
+    del passed[:]
+    bench.tick(dt=ROUTE_IDLE_S + 1.0)  # the earlier ones go quiet
+    bench.a.inbox.append((heartbeat.pack(companion), latest))
+    bench.a.inbox.append((read.pack(ground), ("127.0.0.1", 14550)))
+    bench.tick()
+    assert passed == [latest]
 
 
 def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
