@@ -341,6 +341,8 @@ def run(args: argparse.Namespace) -> int:
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
     live = live_address(args.live, cfg.live.foxglove, "--live")
     stream_to = live_address(args.video, cfg.live.video, "--video")
+    if args.no_camera_component and stream_to is None:
+        raise ConfigError("--no-camera-component is for --video: without it no stream is sent nor announced")
     if not cfg.followers:
         raise ConfigError(
             f"{args.scenario}: the scenario has no follower; lfctl follow runs its first follower's stack "

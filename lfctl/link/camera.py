@@ -15,13 +15,14 @@ endpoint: it hands the camera what is addressed to it and passes everything else
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.link.port import pack_next
-from lfctl.link.signing import setup_signing
+from lfctl.link.signing import advance_signing_clock, setup_signing
 
 __all__ = ["CAMERA_COMPID", "CameraComponent", "CameraRouter"]
 
@@ -45,6 +46,14 @@ _LEGACY = {
 
 def _text(value: str, size: int) -> bytes:
     return value.encode()[:size]
+
+
+def _message_id(param1: float) -> int | None:
+    """The message id MAV_CMD_REQUEST_MESSAGE's param1 asks for; None for one that is not a
+    whole number in MAVLink's range (a NaN or an infinity from a peer ends nothing)."""
+    if not math.isfinite(param1) or param1 != int(param1) or not 0 <= param1 < 1 << 24:
+        return None
+    return int(param1)
 
 
 class CameraComponent:
@@ -111,6 +120,10 @@ class CameraComponent:
         self.on_streaming: Callable[[bool], None] | None = None
 
     def _send(self, msg: Any) -> None:
+        if self.mav.signing.sign_outgoing:
+            # its clock follows the wall clock: this codec reads nothing that would move it,
+            # and a receiver takes a new signed stream only within a minute of its own clock
+            advance_signing_clock(self.mav.signing, time.time())
         data = pack_next(msg, self.mav)
         self._send_raw(data)
         if self.tap is not None:
@@ -147,7 +160,7 @@ class CameraComponent:
         if m.target_component == self.compid:
             return True
         return m.target_component == 0 and (
-            m.command in _LEGACY or (m.command == mav.MAV_CMD_REQUEST_MESSAGE and int(m.param1) in _ANSWERS)
+            m.command in _LEGACY or (m.command == mav.MAV_CMD_REQUEST_MESSAGE and _message_id(m.param1) in _ANSWERS)
         )
 
     def handle(self, m: Any) -> None:
@@ -166,12 +179,25 @@ class CameraComponent:
             return
         msg_id = _LEGACY.get(m.command)
         if m.command == mav.MAV_CMD_REQUEST_MESSAGE:
-            msg_id = int(m.param1)
+            msg_id = _message_id(m.param1)
         answer = _ANSWERS.get(msg_id) if msg_id is not None else None
         result = mav.MAV_RESULT_ACCEPTED if answer is not None else mav.MAV_RESULT_UNSUPPORTED
         self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
-        if answer is not None:
-            self._send(getattr(self, f"_{answer}")())
+        if answer is None:
+            return
+        if answer == "camera_information":
+            # a ground station finding the camera (its discovery starts with this request:
+            # QGroundControl started again after its VIDEO_STOP_STREAMING) wants its video,
+            # and sends no START to a camera it has just found
+            self.resume()
+        self._send(getattr(self, f"_{answer}")())
+
+    def resume(self) -> None:
+        """Stream again (told to :attr:`on_streaming`), if stopped."""
+        if not self.streaming:
+            self.streaming = True
+            if self.on_streaming is not None:
+                self.on_streaming(True)
 
     def _start_stop(self, m: Any) -> None:
         """VIDEO_START_STREAMING / VIDEO_STOP_STREAMING (QGroundControl's as a vehicle is

@@ -193,6 +193,9 @@ class Companion:
         self.camera: CameraComponent | None = None
         #: another component with the camera's ids talks on the link (the rover's own camera)
         self.camera_clash = False
+        #: messages whose handling failed (a bug of ours; each kind said once in the log)
+        self.handler_errors = 0
+        self._failed_kinds: set[str] = set()
 
     def param(self, name: str) -> float:
         """One of the companion's parameters now.
@@ -456,7 +459,15 @@ class Companion:
         until = time.monotonic() + POLL_MAX_S  # the read's budget, from the first message (not the wait for it)
         while m is not None:
             n += 1
-            self._take(m, t_s)
+            try:
+                self._take(m, t_s)
+            except Exception:  # a bug of ours on a peer's message: said once per kind, the run goes on
+                self.handler_errors += 1
+                if m.get_type() not in self._failed_kinds and len(self._failed_kinds) < OTHER_AUTOPILOTS_MAX:
+                    self._failed_kinds.add(m.get_type())
+                    log.exception(
+                        "handling %s from %d/%d failed", m.get_type(), m.get_srcSystem(), m.get_srcComponent()
+                    )
             if n >= POLL_MAX_MESSAGES or time.monotonic() >= until:
                 self.overloaded += 1  # the rest waits for the next step
                 break
@@ -470,12 +481,15 @@ class Companion:
             if cam.wants(m):
                 cam.handle(m)
                 return
-            if kind == "HEARTBEAT" and (m.get_srcSystem(), m.get_srcComponent()) == (self.target, cam.compid):
-                # (never its own: a link does not echo a sender's packets back to it)
+            if (m.get_srcSystem(), m.get_srcComponent()) == (self.target, cam.compid):
+                # another component with its ids: any of its packets (never its own: a link does
+                # not echo a sender's packets back; and once the rover has heard ours on this
+                # link it no longer forwards the other's HEARTBEAT here, only its broadcasts)
                 self.camera, self.camera_clash = None, True
+                cam.resume()  # (a stream a ground station had stopped is sent again, unannounced)
                 log.warning(
-                    "another camera (component %d of system %d) talks on the link: the video is not announced "
-                    "as the rover's camera (set the stream's port in the ground station instead)",
+                    "another camera (component %d of system %d) talks on the link: the video is no longer "
+                    "announced as the rover's camera (set the stream's port in the ground station instead)",
                     cam.compid,
                     self.target,
                 )

@@ -389,11 +389,26 @@ def test_the_video_is_announced_as_the_rovers_camera_until_another_camera_talks(
         outs = [m.get_type() for d, m in tapped if d == "out" and m.get_srcComponent() == 100]
         ins = [m.get_type() for d, m in tapped if d == "in" and m.get_type() == "COMMAND_LONG"]
         assert outs == ["HEARTBEAT", "COMMAND_ACK", "VIDEO_STREAM_INFORMATION", "COMMAND_ACK"] and len(ins) == 2
-        # the rover's own camera talks: ours steps aside, said once; questions to 100 are left to it
+        # a request that is not a message id (NaN, infinity) is answered UNSUPPORTED and ends nothing;
+        # one to every component of the rover is the autopilot's (and the camera's only for its messages)
+        for bad in (math.nan, math.inf, -1.0, 2.5):
+            (ack,) = ask(
+                mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, bad, 0, 0, 0, 0, 0, 0)
+            )
+            assert (ack.get_srcComponent(), ack.result) == (100, mav.MAV_RESULT_UNSUPPORTED)
+            assert (
+                ask(mav.MAVLink_command_long_message(1, 0, mav.MAV_CMD_REQUEST_MESSAGE, 0, bad, 0, 0, 0, 0, 0, 0)) == []
+            )
+        assert companion.handler_errors == 0
+        # the rover's own camera talks (only its broadcasts reach this link once the rover has heard
+        # ours here): ours steps aside, said once, and the stream it had stopped goes again;
+        # questions to 100 are left to the other
         other = mav.MAVLink(None, srcSystem=1, srcComponent=100)
-        ask(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_CAMERA, mav.MAV_AUTOPILOT_INVALID, 0, 0, 4, 3), other)
+        status = mav.MAVLink_video_stream_status_message(1, 1, 30.0, 1280, 720, 2000000, 0, 90)
+        ask(status, other)
         assert companion.camera is None and companion.camera_clash
         assert "another camera (component 100 of system 1) talks on the link" in caplog.text
+        assert switched == [False, True]
         assert (
             ask(mav.MAVLink_command_long_message(1, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, info, 0, 0, 0, 0, 0, 0)) == []
         )

@@ -383,6 +383,63 @@ def test_a_ground_station_stops_and_starts_the_camera_stream() -> None:
     assert ask(*info)[1].flags == mav.VIDEO_STREAM_STATUS_FLAGS_RUNNING
     (ack,) = ask(mav.MAV_CMD_VIDEO_STOP_STREAMING, 2)  # no stream 2
     assert ack.result == mav.MAV_RESULT_DENIED and camera.streaming
+    # stopped, then found by a ground station started afresh (which sends no START to a camera
+    # it finds): its CAMERA_INFORMATION request, discovery's first, starts the stream again
+    ask(mav.MAV_CMD_VIDEO_STOP_STREAMING, 1)
+    ask(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_VIDEO_STREAM_STATUS)
+    assert heard[-1] is False and not camera.streaming  # (status asked: still stopped)
+    ask(mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, 1)
+    assert heard[-1] is True and camera.streaming
+
+
+def test_a_signed_camera_keeps_its_signing_clock_on_the_wall_clock(monkeypatch: pytest.MonkeyPatch) -> None:
+    # its codec reads nothing, so its clock moved by 10 us a packet: a ground station joining
+    # more than a minute into the run took its stream for an old capture and dropped it
+    from lfctl.link import camera as camera_module
+    from lfctl.link import signing as signing_module
+    from lfctl.link.signing import setup_signing, signing_key_from_passphrase
+
+    key = signing_key_from_passphrase("convoy-7")
+    out: list[bytes] = []
+    camera = CameraComponent(
+        2, out.append, video_port=5600, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0,
+        name="c", signing_key=key,
+    )  # fmt: skip
+    later = time.time() + 120.0
+    monkeypatch.setattr(camera_module.time, "time", lambda: later)
+    monkeypatch.setattr(signing_module.time, "time", lambda: later)
+    camera.tick(120.0)
+    late_gcs = mav.MAVLink(None)  # a ground station that joins two minutes in
+    setup_signing(late_gcs, key)
+    (beat,) = late_gcs.parse_buffer(out[-1])
+    assert beat.get_type() == "HEARTBEAT" and beat.type == mav.MAV_TYPE_CAMERA
+
+
+def test_a_request_for_no_message_id_is_refused_by_the_camera_and_ends_nothing() -> None:
+    udp = UdpLink(None)
+    camera = CameraComponent(
+        2, udp.send, video_port=5600, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0, name="c"
+    )
+    router = CameraRouter(udp, [camera])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.bind(("127.0.0.1", 0))
+            s.settimeout(1.0)
+            for bad in (math.nan, math.inf, -math.inf, 1e30):
+                for component in (100, 0):
+                    msg = mav.MAVLink_command_long_message(
+                        2, component, mav.MAV_CMD_REQUEST_MESSAGE, 0, bad, 0, 0, 0, 0, 0, 0
+                    )
+                    s.sendto(msg.pack(gcs), ("127.0.0.1", udp.port))
+            time.sleep(0.1)
+            passed = router.recv()
+            acks = [m for data in [s.recv(2048) for _ in range(4)] for m in mav.MAVLink(None).parse_buffer(data) or []]
+    finally:
+        udp.close()
+    # to the camera: UNSUPPORTED; to every component: not the camera's, passed on to the autopilot
+    assert [(a.get_srcComponent(), a.result) for a in acks] == [(100, mav.MAV_RESULT_UNSUPPORTED)] * 4
+    assert len(passed) == 4 and camera.requests == 4
 
 
 def test_rtp_timestamps_start_at_random_and_a_paused_sender_sends_nothing() -> None:
