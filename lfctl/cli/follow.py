@@ -101,8 +101,8 @@ def register(sub: Any) -> None:
         const="",
         metavar="HOST:PORT",
         help="stream the camera (annotated as [live] video_annotated says) as RTP/UDP H.264 to a ground station "
-        "(default: [live] video, 127.0.0.1:5600), announced as the rover's camera (MAVLink camera component 100: "
-        "QGroundControl finds the stream by itself)",
+        "(default: [live] video, 127.0.0.1:5600; on a rover, the ground station's address), announced as the "
+        "rover's camera (MAVLink camera component 100: QGroundControl finds the stream by itself)",
     )
     fo.add_argument(
         "--no-camera-component",
