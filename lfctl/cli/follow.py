@@ -322,6 +322,40 @@ class LiveView:
             self.sender.close()
 
 
+def _check_not_own_input(stream_to: tuple[str, int], camera: str) -> None:
+    """Refuse a ``--video`` sent to the port (or its RTCP's) that ``--camera rtp://`` reads on
+    this machine: the two H.264 streams would mix in one receiver, and the tracker would see
+    the broken frames (as in a rehearsal with both left at 5600)."""
+    import socket
+
+    from lfctl.config import parse_host_port
+    from lfctl.errors import ConfigError
+
+    if not camera.startswith("rtp://"):
+        return
+    try:
+        host, port = parse_host_port(camera[len("rtp://") :], "--camera")
+    except ConfigError:
+        return  # (the camera's own check says what is wrong with it)
+    to_host, to_port = stream_to
+    if to_port not in (port, port + 1):
+        return
+    to, at = to_host.strip("[]"), host.strip("[]")
+    if ":" in to or ":" in at:  # (IPv6: only the same address is the same receiver)
+        same = to == at
+    else:
+        try:
+            to, at = socket.gethostbyname(to), socket.gethostbyname(at)
+        except OSError:
+            return
+        same = to == at or (at == "0.0.0.0" and to.startswith("127."))
+    if same:
+        raise ConfigError(
+            f"--video {to_host}:{to_port} sends to the port --camera {camera} reads: the two streams would mix and "
+            "the tracker would see broken frames; give --video another port (and the ground station the same)"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
     from lfctl.cli.sim import announce_live, live_address, live_layout
@@ -343,6 +377,8 @@ def run(args: argparse.Namespace) -> int:
     stream_to = live_address(args.video, cfg.live.video, "--video")
     if args.no_camera_component and stream_to is None:
         raise ConfigError("--no-camera-component is for --video: without it no stream is sent nor announced")
+    if stream_to is not None:
+        _check_not_own_input(stream_to, str(args.camera))
     if not cfg.followers:
         raise ConfigError(
             f"{args.scenario}: the scenario has no follower; lfctl follow runs its first follower's stack "

@@ -586,6 +586,28 @@ def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> N
         MavPort.open(connect, 255, 190)
 
 
+@pytest.mark.parametrize(
+    ("video", "refused"),
+    [("127.0.0.1:5600", True), ("localhost:5601", True), ("127.0.0.1:5602", False), ("[::1]:5600", False)],
+)
+def test_a_stream_sent_to_the_port_the_camera_reads_is_refused(
+    video: str, refused: bool, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a rehearsal's `lfctl follow --camera rtp://127.0.0.1:5600 --video` (its default is 5600 too)
+    # sent its annotated stream into its own input: the tracker saw two streams mixed
+    from lfctl.cli.follow import _check_not_own_input
+    from lfctl.config import parse_host_port
+
+    to = parse_host_port(video, "--video")
+    if refused:
+        with pytest.raises(ConfigError, match=re.escape(f"--video {to[0]}:{to[1]} sends to the port --camera")):
+            _check_not_own_input(to, "rtp://127.0.0.1:5600")
+    else:
+        _check_not_own_input(to, "rtp://127.0.0.1:5600")
+    _check_not_own_input(("127.0.0.1", 5600), "0")  # a camera, not a stream: nothing to mix
+    _check_not_own_input(("127.0.0.1", 5600), "rtp://0.0.0.0:5610")
+
+
 # -- the rover's answers: awaited, sent again, refusals and mode changes said -----------------------
 def _memory_rover(drop: int = 0) -> tuple[VehicleEndpoint, Companion, list[int]]:
     """A rover endpoint and its companion on an in-memory link, the rover ticking at each read;
