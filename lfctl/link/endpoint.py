@@ -52,6 +52,7 @@ from lfctl.link.port import pack_next, statustext_messages
 from lfctl.link.rc import PilotInput, RcOverrides
 from lfctl.link.signing import VerifyingMAVLink, advance_signing_clock, setup_signing
 from lfctl.link.smartrtl import clean as clean_way_back
+from lfctl.link.transport import MAX_PEERS
 
 __all__ = [
     "COMPANION_COMPID",
@@ -113,9 +114,12 @@ MAX_BYTES_PER_TICK = 32 * 1024
 MAX_DATAGRAM_BYTES = 4 * 1024
 #: the most senders remembered for routing (ArduPilot's MAVLINK_MAX_ROUTES)
 MAX_ROUTES = 20
-#: a route on a network peer not heard from for this long gives way to a new one once the
-#: table is full, s (the UDP link's own peers time out after 30 s)
+#: a route on a network peer not heard from for this long is gone: nothing is passed to it,
+#: and it gives way to a new one once the table is full, s (the UDP link's peers time out after 30 s)
 ROUTE_IDLE_S = 30.0
+#: the most packets a tick passes on between network peers (each copy counts): a flood from
+#: one peer is not multiplied to every other without limit
+MAX_PASSED_ON_PER_TICK = 512
 #: GUIDED stops a rate or heading target not renewed within this, s: fixed in Rover 4.6
 #: (``ModeGuided::update``; a GUID_TIMEOUT parameter came to Rover after 4.6)
 GUIDED_TIMEOUT_S = 3.0
@@ -260,6 +264,7 @@ class LinkStats:
     rebooting: int = 0  # messages that came while the autopilot restarted (recorded, not acted on)
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
+    not_passed_on: int = 0  # messages for other peers over the per-tick limit (MAX_PASSED_ON_PER_TICK)
     send_errors: int = 0  # a message of ours held a value its field cannot (a bug: logged, not sent)
 
 
@@ -358,6 +363,7 @@ class VehicleEndpoint:
         # away, an lfctl follow started again from another port, leaves its own behind)
         self._routes: dict[tuple[int, int, Any], float] = {}
         self._channel: Any = "memory"
+        self._pass_on_left = MAX_PASSED_ON_PER_TICK
         self._sender: Any = None
         self.statustexts: list[tuple[float, str]] = []
         self.t_s = 0.0
@@ -611,6 +617,7 @@ class VehicleEndpoint:
         of wall time when set); what is over it waits in the socket. Returns the messages handled."""
         n = read = 0
         budget = MAX_BYTES_PER_TICK
+        self._pass_on_left = MAX_PASSED_ON_PER_TICK
         deadline = time.perf_counter() + self.time_budget_s if self.time_budget_s else None
         while read < MAX_DATAGRAMS_PER_TICK and budget > 0:
             batch = self.link.recv(min(32, MAX_DATAGRAMS_PER_TICK - read))
@@ -721,6 +728,8 @@ class VehicleEndpoint:
         one in particular (its HEARTBEAT, a camera's stream information, a companion's
         STATUSTEXT) to every other peer. Never back to the sender; nothing to or from the
         autopilot itself (its own are answered here)."""
+        if (m.get_srcSystem(), m.get_srcComponent()) == (self.sysid, 1):
+            return  # its own id come back (a relay looping the port's output into it), or forged
         data: bytes | None = None
         target = getattr(m, "target_system", 0)
         if target:
@@ -729,16 +738,25 @@ class VehicleEndpoint:
                 return
             to = {
                 channel
-                for sysid, compid, channel in self._routes
+                for (sysid, compid, channel), heard in self._routes.items()
                 if channel != "memory"
                 and channel != self._channel
                 and sysid == target
                 and (component == 0 or compid == component)
+                and self.t_s - heard <= ROUTE_IDLE_S
             }
             for channel in to:
+                if self._pass_on_left <= 0:
+                    self.stats.not_passed_on += 1
+                    return
+                self._pass_on_left -= 1
                 data = data if data is not None else bytes(m.get_msgbuf())
                 self.send_to(data, channel)
-        elif self.forward is not None and m.get_srcSystem() == self.sysid and m.get_srcComponent() != 1:
+        elif self.forward is not None and m.get_srcSystem() == self.sysid:
+            if self._pass_on_left <= 0:
+                self.stats.not_passed_on += 1
+                return
+            self._pass_on_left -= MAX_PEERS  # (a copy to each peer, at most)
             self.forward(bytes(m.get_msgbuf()), self._sender)
 
     def _forwarded(self, target: int, component: int) -> bool:
@@ -747,8 +765,10 @@ class VehicleEndpoint:
         if component in self.routed_components:
             return True
         return any(
-            channel != self._channel and (target == 0 or (sysid, compid) == (target, component))
-            for sysid, compid, channel in self._routes
+            channel != self._channel
+            and (target == 0 or (sysid, compid) == (target, component))
+            and (channel == "memory" or self.t_s - heard <= ROUTE_IDLE_S)  # (a peer gone quiet is gone)
+            for (sysid, compid, channel), heard in self._routes.items()
         )
 
     def _dispatch(self, m: Any, signed: bool = False) -> None:

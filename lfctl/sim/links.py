@@ -209,9 +209,10 @@ class Links:
             ep.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
             if realtime:
                 ep.time_budget_s = REALTIME_RECEIVE_BUDGET_S
-                ep.send_to = udp.send_to  # (a ground station's requests to lfctl follow's components)
-                if gcs_out:
-                    ep.forward = udp.send
+                # what a peer sends another (a ground station's requests to lfctl follow's
+                # components, their answers and reports), and the in-memory companion's reports
+                ep.send_to = udp.send_to
+                ep.forward = udp.send
             self.endpoints.append(ep)
             self.peers.append(peer)
         # each follower's companion (component 191 of its system) on the in-memory link; a

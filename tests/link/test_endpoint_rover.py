@@ -17,9 +17,17 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl import __version__
 from lfctl.bench.fuzz import datagrams
 from lfctl.frames import ned_to_geodetic
-from lfctl.link.endpoint import MAX_DATAGRAMS_PER_TICK, MAX_ROUTES, MODES, ROUTE_IDLE_S, VehicleEndpoint, packet_record
+from lfctl.link.endpoint import (
+    MAX_DATAGRAMS_PER_TICK,
+    MAX_PASSED_ON_PER_TICK,
+    MAX_ROUTES,
+    MODES,
+    ROUTE_IDLE_S,
+    VehicleEndpoint,
+    packet_record,
+)
 from lfctl.link.signing import setup_signing, signing_clock
-from lfctl.link.transport import MemoryLink
+from lfctl.link.transport import MAX_PEERS, MemoryLink
 
 HOME = (12.9602, 77.6690, 900.0)
 STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
@@ -2609,6 +2617,51 @@ def test_a_full_route_table_makes_room_for_a_new_peer_once_old_ones_are_idle(ben
     bench.a.inbox.append((read.pack(ground), ("127.0.0.1", 14550)))
     bench.tick()
     assert passed == [latest]
+
+
+def test_nothing_of_the_autopilots_own_id_is_passed_on_and_a_flood_is_not_multiplied(bench: Bench) -> None:
+    # a relay looping the port's output back into it (MAVProxy with --master and --out both on
+    # the port) sent every ACK of the autopilot round for ever; a flood from one peer to the
+    # others is passed on only up to a limit each tick, the rest counted
+    passed: list[object] = []
+    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    bench.ep.forward = lambda data, exclude: passed.append(exclude)
+    ground, relay = ("127.0.0.1", 40002), ("127.0.0.1", 40003)
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    bench.a.inbox.append((mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), ground))
+    bench.tick()
+    own = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+    for msg in (mav.MAVLink_command_ack_message(400, 0, 0, 0, 255, 190), mav.MAVLink_sys_status_message(*[0] * 13)):
+        bench.a.inbox.append((msg.pack(own), relay))
+    bench.tick()
+    assert passed == []
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    named = mav.MAVLink_named_value_float_message(0, b"rng_err", 0.1)
+    for _ in range(MAX_DATAGRAMS_PER_TICK):
+        bench.a.inbox.append((named.pack(companion) * 20, relay))
+    before = bench.ep.stats.messages
+    bench.tick()
+    handled = bench.ep.stats.messages - before
+    assert handled > MAX_PASSED_ON_PER_TICK and len(passed) == MAX_PASSED_ON_PER_TICK // MAX_PEERS
+    assert bench.ep.stats.not_passed_on == handled - len(passed)
+
+
+def test_a_route_gone_quiet_is_gone(bench: Bench) -> None:
+    # lfctl follow stopped: a ground station's request to its component is no longer sent to
+    # where it was, and the autopilot answers it as one it has no route to
+    passed: list[object] = []
+    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), ("127.0.0.1", 40001)))
+    bench.tick()
+    read = mav.MAVLink_param_request_read_message(1, 191, b"WP_SPEED", -1)
+    bench.a.inbox.append((read.pack(gcs), ("127.0.0.1", 40002)))
+    assert not [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"] and passed == [("127.0.0.1", 40001)]
+    bench.tick(dt=ROUTE_IDLE_S + 1.0)
+    bench.a.inbox.append((read.pack(gcs), ("127.0.0.1", 40002)))
+    assert [m.param_id for m in bench.tick() if m.get_type() == "PARAM_VALUE"] == ["WP_SPEED"]
+    assert passed == [("127.0.0.1", 40001)]
 
 
 def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
