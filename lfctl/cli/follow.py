@@ -364,6 +364,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.errors import ConfigError
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
+    from lfctl.link.camera import CameraComponent
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
     from lfctl.video import VideoSource
@@ -436,7 +437,9 @@ def run(args: argparse.Namespace) -> int:
         if view is not None:
             view.watch(companion.port)
             if view.sender is not None and stream_to is not None and not args.no_camera_component:
-                camera_component = companion.offer_video(
+                camera_component = CameraComponent(
+                    args.target,
+                    companion.port.write,
                     video_port=stream_to[1],
                     width=w,
                     height=h,
@@ -445,8 +448,10 @@ def run(args: argparse.Namespace) -> int:
                     hfov_deg=math.degrees(2 * math.atan(w / 2 / perception.camera.K[0, 0])),  # (a calibration's too)
                     name=f"{me} camera",
                     signing_key=key,
+                    tap=companion.camera_tap,
                 )
                 camera_component.on_streaming = view.streaming
+                companion.offer_video(camera_component)
         # (the run's lines are the log's: without -v only warnings; say it has begun)
         print(
             f"lfctl follow: {me}'s companion for system {args.target} on {args.mavlink}, camera {args.camera}, "

@@ -225,63 +225,29 @@ class Companion:
         self._heartbeat_t_s = t_s
         self._send_heartbeat()
 
-    def offer_video(
-        self,
-        *,
-        video_port: int,
-        width: int,
-        height: int,
-        fps: float,
-        bitrate_kbps: int,
-        hfov_deg: float,
-        name: str,
-        signing_key: bytes | None = None,
-    ) -> CameraComponent:
+    def camera_tap(self, direction: str, msg: Any, raw: bytes) -> None:
+        """A camera component's tap (:class:`CameraComponent`'s ``tap``) into the port's: what
+        it sends is shown; what it is handed, the port's read has shown already."""
+        if direction == "out" and self.port.tap is not None:
+            self.port.tap("out", msg, raw)
+
+    def offer_video(self, camera: CameraComponent) -> None:
         """Announce the video this program sends (``lfctl follow --video``) as the rover's
-        camera: a MAVLink camera component (100) of the rover's system on this link, whose
-        HEARTBEAT the rover's routing passes on to the ground station, so that
-        QGroundControl asks it for its stream (VIDEO_STREAM_INFORMATION: RTP/UDP H.264 on
-        ``video_port``) and shows it without a video setting; VIDEO_STOP_STREAMING and
-        VIDEO_START_STREAMING reach :attr:`CameraComponent.on_streaming`. It steps aside (said
-        in the log) if another component with its ids talks on the link: the rover's own camera.
+        camera: ``camera``, a MAVLink camera component (100) of the rover's system made to send
+        through this link (``send=companion.port.write``, ``tap=companion.camera_tap``), is
+        handed what is addressed to it and beats with the companion's :meth:`heartbeat`. The
+        rover's routing passes its HEARTBEAT on to the ground station, so that QGroundControl
+        asks it for its stream (VIDEO_STREAM_INFORMATION: RTP/UDP H.264 on its port) and shows
+        it without a video setting; VIDEO_STOP_STREAMING and VIDEO_START_STREAMING reach
+        :attr:`CameraComponent.on_streaming`. It steps aside (said in the log) if another
+        component with its ids talks on the link: the rover's own camera.
 
         Parameters
         ----------
-        video_port : int
-            The UDP port the stream goes to (the ground station listens there).
-        width, height : int
-            The stream's frame size, px.
-        fps : float
-            Its frame rate, Hz.
-        bitrate_kbps : int
-            Its bitrate, kbit/s.
-        hfov_deg : float
-            The camera's horizontal field of view, deg.
-        name : str
-            The camera's and the stream's name.
-        signing_key : bytes, optional
-            MAVLink 2 signing key, when the rover signs its link.
+        camera : CameraComponent
+            The camera to announce.
         """
-
-        def tap(direction: str, msg: Any, raw: bytes) -> None:
-            # what it sends; what it is handed, the port's read has shown already
-            if direction == "out" and self.port.tap is not None:
-                self.port.tap("out", msg, raw)
-
-        self.camera = CameraComponent(
-            self.target,
-            self.port.write,
-            video_port=video_port,
-            width=width,
-            height=height,
-            fps=fps,
-            bitrate_kbps=bitrate_kbps,
-            hfov_deg=hfov_deg,
-            name=name,
-            signing_key=signing_key,
-            tap=tap,
-        )
-        return self.camera
+        self.camera = camera
 
     def _send_heartbeat(self) -> None:
         self.port.send(

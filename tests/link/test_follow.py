@@ -24,6 +24,7 @@ from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S
 from lfctl.config import parse_config
 from lfctl.errors import ConfigError
 from lfctl.frames import ned_to_geodetic
+from lfctl.link.camera import CameraComponent
 from lfctl.link.companion import COMPANION_COMPID, Companion
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.port import MavPort
@@ -340,9 +341,11 @@ def test_the_video_is_announced_as_the_rovers_camera_until_another_camera_talks(
     companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
     tapped: list[tuple[str, Any]] = []
     companion.port.tap = lambda d, m, raw: tapped.append((d, m))
-    camera = companion.offer_video(
-        video_port=5602, width=640, height=480, fps=20.0, bitrate_kbps=1500, hfov_deg=62.0, name="follower1 camera"
-    )
+    camera = CameraComponent(
+        1, companion.port.write, video_port=5602, width=640, height=480, fps=20.0, bitrate_kbps=1500, hfov_deg=62.0,
+        name="follower1 camera", tap=companion.camera_tap,
+    )  # fmt: skip
+    companion.offer_video(camera)
     switched: list[bool] = []
     camera.on_streaming = switched.append
     address = companion.port.connection.port.getsockname()
