@@ -322,10 +322,25 @@ class LiveView:
             self.sender.close()
 
 
+def _here(address: str) -> bool:
+    """Whether ``address`` is one of this machine's (a socket binds to it)."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in address else socket.AF_INET
+    try:
+        with socket.socket(family, socket.SOCK_DGRAM) as s:
+            s.bind((address, 0))
+    except OSError:
+        return False
+    return True
+
+
 def _check_not_own_input(stream_to: tuple[str, int], camera: str) -> None:
-    """Refuse a ``--video`` sent to the port (or its RTCP's) that ``--camera rtp://`` reads on
-    this machine: the two H.264 streams would mix in one receiver, and the tracker would see
-    the broken frames (as in a rehearsal with both left at 5600)."""
+    """Refuse a ``--video`` sent to what ``--camera rtp://`` reads on this machine: its port on
+    its address (any of this machine's when it reads on every address), or the port after it,
+    RTCP's, which FFmpeg binds on every address. The two H.264 streams would mix in one
+    receiver and the tracker would see the broken frames (as in a rehearsal with both left at
+    5600)."""
     import socket
 
     from lfctl.config import parse_host_port
@@ -341,18 +356,19 @@ def _check_not_own_input(stream_to: tuple[str, int], camera: str) -> None:
     if to_port not in (port, port + 1):
         return
     to, at = to_host.strip("[]"), host.strip("[]")
-    if ":" in to or ":" in at:  # (IPv6: only the same address is the same receiver)
-        same = to == at
-    else:
-        try:
-            to, at = socket.gethostbyname(to), socket.gethostbyname(at)
-        except OSError:
-            return
-        same = to == at or (at == "0.0.0.0" and to.startswith("127."))
-    if same:
+    try:
+        if ":" not in to:
+            to = socket.gethostbyname(to)
+        if ":" not in at:
+            at = socket.gethostbyname(at)
+    except OSError:
+        return
+    everywhere = at in ("0.0.0.0", "::") or to_port == port + 1
+    if to == at or (everywhere and _here(to)):
         raise ConfigError(
-            f"--video {to_host}:{to_port} sends to the port --camera {camera} reads: the two streams would mix and "
-            "the tracker would see broken frames; give --video another port (and the ground station the same)"
+            f"--video {to_host}:{to_port} sends to what --camera {camera} reads: the two streams would mix and the "
+            "tracker would see broken frames; give --video a port no stream on this machine uses (a rehearsal's "
+            "take the simulator's --video port and every second one after it)"
         )
 
 

@@ -193,6 +193,8 @@ class Companion:
         self.camera: CameraComponent | None = None
         #: another component with the camera's ids talks on the link (the rover's own camera)
         self.camera_clash = False
+        #: its own packets (and its camera's) heard back: a relay loops the link's traffic into it
+        self.echoes = 0
         #: messages whose handling failed (a bug of ours; each kind said once in the log)
         self.handler_errors = 0
         self._failed_kinds: set[str] = set()
@@ -327,7 +329,7 @@ class Companion:
             until = min(deadline, next_send) if sent < tries else deadline  # (no send due: the answer)
             m = self.port.recv(min(0.05, max(0.0, until - now)))
             if m is not None:
-                self._take(m, now - start)
+                self._take_safely(m, now - start)
             result = self.acks.pop(cmd, None)
             if result == mav.MAV_RESULT_IN_PROGRESS:
                 sent = progress = tries  # no more sends: the final answer follows
@@ -425,22 +427,28 @@ class Companion:
         until = time.monotonic() + POLL_MAX_S  # the read's budget, from the first message (not the wait for it)
         while m is not None:
             n += 1
-            try:
-                self._take(m, t_s)
-            except Exception:  # a bug of ours on a peer's message: said once per kind, the run goes on
-                self.handler_errors += 1
-                if m.get_type() not in self._failed_kinds and len(self._failed_kinds) < OTHER_AUTOPILOTS_MAX:
-                    self._failed_kinds.add(m.get_type())
-                    log.exception(
-                        "handling %s from %d/%d failed", m.get_type(), m.get_srcSystem(), m.get_srcComponent()
-                    )
+            self._take_safely(m, t_s)
             if n >= POLL_MAX_MESSAGES or time.monotonic() >= until:
                 self.overloaded += 1  # the rest waits for the next step
                 break
             m = self.port.recv()
         return n
 
+    def _take_safely(self, m: Any, t_s: float) -> None:
+        """:meth:`_take`, a failure of which (a bug of ours on a peer's message) is counted and
+        said once per message kind: the run goes on."""
+        try:
+            self._take(m, t_s)
+        except Exception:
+            self.handler_errors += 1
+            if m.get_type() not in self._failed_kinds and len(self._failed_kinds) < OTHER_AUTOPILOTS_MAX:
+                self._failed_kinds.add(m.get_type())
+                log.exception("handling %s from %d/%d failed", m.get_type(), m.get_srcSystem(), m.get_srcComponent())
+
     def _take(self, m: Any, t_s: float) -> None:
+        if self.port.echo(m):  # its own (or its camera's) come back through a looping relay
+            self.echoes += 1
+            return
         kind = m.get_type()
         cam = self.camera
         if cam is not None:
@@ -448,9 +456,9 @@ class Companion:
                 cam.handle(m)
                 return
             if (m.get_srcSystem(), m.get_srcComponent()) == (self.target, cam.compid):
-                # another component with its ids: any of its packets (never its own: a link does
-                # not echo a sender's packets back; and once the rover has heard ours on this
-                # link it no longer forwards the other's HEARTBEAT here, only its broadcasts)
+                # another component with its ids: any of its packets (its own heard back are
+                # echoes, passed over above; and once the rover has heard ours on this link it
+                # no longer forwards the other's HEARTBEAT here, only its broadcasts)
                 self.camera, self.camera_clash = None, True
                 cam.resume()  # (a stream a ground station had stopped is sent again, unannounced)
                 log.warning(
@@ -475,7 +483,7 @@ class Companion:
             if kind == "HEARTBEAT" and other and _autopilot(m) and len(self.other_autopilots) < OTHER_AUTOPILOTS_MAX:
                 self.other_autopilots.add(m.get_srcSystem())
             if (m.get_srcSystem(), m.get_srcComponent()) == (self.target, COMPANION_COMPID):
-                self.other_companion = True  # another companion of this rover (never our own: not echoed back)
+                self.other_companion = True  # another companion of this rover (our own echoes passed over above)
             return
         kind, v = m.get_type(), self.vehicle
         if kind == "HEARTBEAT":

@@ -117,9 +117,15 @@ MAX_ROUTES = 20
 #: a route on a network peer not heard from for this long is gone: nothing is passed to it,
 #: and it gives way to a new one once the table is full, s (the UDP link's peers time out after 30 s)
 ROUTE_IDLE_S = 30.0
-#: the most packets a tick passes on between network peers (each copy counts): a flood from
-#: one peer is not multiplied to every other without limit
+#: the most packets a tick passes on between network peers for one sender (each copy counts):
+#: a flood from one peer is not multiplied to every other without limit, nor starves the others
 MAX_PASSED_ON_PER_TICK = 512
+#: the most senders a tick passes packets on for (the rest wait: a flood from many ports)
+MAX_PASSED_ON_SENDERS = 32
+#: a packet passed on is not passed on again within this long, s (a relay looping the port's
+#: output back into it); and the most such packets remembered
+PASSED_ON_MEMORY_S = 1.0
+PASSED_ON_MEMORY_MAX = 4096
 #: GUIDED stops a rate or heading target not renewed within this, s: fixed in Rover 4.6
 #: (``ModeGuided::update``; a GUID_TIMEOUT parameter came to Rover after 4.6)
 GUIDED_TIMEOUT_S = 3.0
@@ -363,7 +369,8 @@ class VehicleEndpoint:
         # away, an lfctl follow started again from another port, leaves its own behind)
         self._routes: dict[tuple[int, int, Any], float] = {}
         self._channel: Any = "memory"
-        self._pass_on_left = MAX_PASSED_ON_PER_TICK
+        self._pass_on_left: dict[Any, int] = {}  # copies each sender may still have passed on this tick
+        self._passed_on: dict[tuple[Any, ...], float] = {}  # packets passed on lately, and when
         self._sender: Any = None
         self.statustexts: list[tuple[float, str]] = []
         self.t_s = 0.0
@@ -383,8 +390,10 @@ class VehicleEndpoint:
         #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
         #: to its log's start so that SYSTEM_TIME and the log share a clock
         self.epoch_us = time.time_ns() // 1000
-        #: routes companion reports to the GCS: (packet, an address not to send it to)
-        self.forward: Callable[[bytes, Any], None] | None = None
+        #: sends to every network peer (packet, an address not to send it to; returns the copies
+        #: sent): the in-memory companion's reports, and what the vehicle's other components
+        #: on the network send to no one in particular (:meth:`_pass_on`)
+        self.forward: Callable[[bytes, Any], int | None] | None = None
         #: sends a packet to one network peer (packet, its address): what a peer addresses to a
         #: component heard on another peer is passed on to that one
         self.send_to: Callable[[bytes, Any], None] | None = None
@@ -617,7 +626,7 @@ class VehicleEndpoint:
         of wall time when set); what is over it waits in the socket. Returns the messages handled."""
         n = read = 0
         budget = MAX_BYTES_PER_TICK
-        self._pass_on_left = MAX_PASSED_ON_PER_TICK
+        self._pass_on_left.clear()
         deadline = time.perf_counter() + self.time_budget_s if self.time_budget_s else None
         while read < MAX_DATAGRAMS_PER_TICK and budget > 0:
             batch = self.link.recv(min(32, MAX_DATAGRAMS_PER_TICK - read))
@@ -711,7 +720,8 @@ class VehicleEndpoint:
         message names one, at component 0 or 1, or at another component that Rover would not
         forward it to: one it has heard from on no other channel (a message Rover cannot
         pass on is acted on by the autopilot itself). What is aimed at the vehicle's cameras,
-        or at a component heard on the other channel, is passed on by Rover and not acted on."""
+        or at a component heard on another channel (the in-memory link, another network
+        peer), is passed on by Rover and not acted on."""
         target = getattr(m, field, self.sysid)
         component = getattr(m, "target_component", 0)
         if target not in (0, self.sysid) or (component not in (0, 1) and self._forwarded(target, component)):
@@ -726,17 +736,20 @@ class VehicleEndpoint:
         ``lfctl follow``'s companion, 191, or its camera, 100; their answers back to the ground
         station), and what a component of this vehicle other than the autopilot sends to no
         one in particular (its HEARTBEAT, a camera's stream information, a companion's
-        STATUSTEXT) to every other peer. Never back to the sender; nothing to or from the
-        autopilot itself (its own are answered here)."""
+        STATUSTEXT) to every other peer. Never back to the sender; nothing bearing the
+        autopilot's own id (its own are answered here); a packet already passed on within
+        :data:`PASSED_ON_MEMORY_S` not again (a relay that sends the port's output back into
+        it, MAVProxy with ``--master`` and ``--out`` both on the port, would loop it for ever,
+        as mavlink-router's de-duplication prevents); at most :data:`MAX_PASSED_ON_PER_TICK`
+        copies a tick for each sender (the rest counted in ``stats.not_passed_on``)."""
         if (m.get_srcSystem(), m.get_srcComponent()) == (self.sysid, 1):
-            return  # its own id come back (a relay looping the port's output into it), or forged
-        data: bytes | None = None
+            return  # its own id come back, or forged
         target = getattr(m, "target_system", 0)
         if target:
             component = getattr(m, "target_component", 0)
             if self.send_to is None or (target, component) == (self.sysid, 1):
                 return
-            to = {
+            to = [
                 channel
                 for (sysid, compid, channel), heard in self._routes.items()
                 if channel != "memory"
@@ -744,20 +757,42 @@ class VehicleEndpoint:
                 and sysid == target
                 and (component == 0 or compid == component)
                 and self.t_s - heard <= ROUTE_IDLE_S
-            }
-            for channel in to:
-                if self._pass_on_left <= 0:
-                    self.stats.not_passed_on += 1
-                    return
-                self._pass_on_left -= 1
-                data = data if data is not None else bytes(m.get_msgbuf())
-                self.send_to(data, channel)
-        elif self.forward is not None and m.get_srcSystem() == self.sysid:
-            if self._pass_on_left <= 0:
-                self.stats.not_passed_on += 1
+            ]
+            if not to:
                 return
-            self._pass_on_left -= MAX_PEERS  # (a copy to each peer, at most)
-            self.forward(bytes(m.get_msgbuf()), self._sender)
+        elif self.forward is None or m.get_srcSystem() != self.sysid:
+            return
+        else:
+            to = []
+        if not self._first_pass(m):
+            return
+        left = self._pass_on_left.get(self._channel, MAX_PASSED_ON_PER_TICK)
+        if left <= 0 or (len(self._pass_on_left) >= MAX_PASSED_ON_SENDERS and self._channel not in self._pass_on_left):
+            self.stats.not_passed_on += 1
+            return
+        data = bytes(m.get_msgbuf())
+        if to:
+            for channel in dict.fromkeys(to):  # (one copy each, in the routes' order)
+                self.send_to(data, channel)
+            sent = len(to)
+        else:
+            assert self.forward is not None
+            sent = self.forward(data, self._sender)
+        self._pass_on_left[self._channel] = left - (sent if isinstance(sent, int) else MAX_PEERS)
+
+    def _first_pass(self, m: Any) -> bool:
+        """Whether ``m`` (its sender, sequence number, message id and bytes) has not been passed
+        on within :data:`PASSED_ON_MEMORY_S`; remembers it."""
+        key = (m.get_srcSystem(), m.get_srcComponent(), m.get_seq(), m.get_msgId(), bytes(m.get_msgbuf()[-8:]))
+        seen = self._passed_on.get(key)
+        if seen is not None and self.t_s - seen <= PASSED_ON_MEMORY_S:
+            return False
+        if len(self._passed_on) >= PASSED_ON_MEMORY_MAX:
+            self._passed_on = {k: t for k, t in self._passed_on.items() if self.t_s - t <= PASSED_ON_MEMORY_S}
+            if len(self._passed_on) >= PASSED_ON_MEMORY_MAX:
+                self._passed_on.clear()  # (a flood of distinct packets: forget, as the budget limits them)
+        self._passed_on[key] = self.t_s
+        return True
 
     def _forwarded(self, target: int, component: int) -> bool:
         """Whether Rover would pass a message for ``(target, component)`` on to another

@@ -318,7 +318,9 @@ class GroundStation:
         nothing comes (a Rover does not answer for a name it lacks)."""
         unknown = f"Unknown parameter {name}"
 
-        def answer(m: Any) -> bool:
+        def answer(m: Any) -> bool:  # (the autopilot's: a companion's LFC_* reach a ground station too)
+            if m.get_srcComponent() != 1:
+                return False
             return _pid(m) == name if m.get_type() == "PARAM_VALUE" else text_field(m.text) == unknown
 
         try:
@@ -348,7 +350,9 @@ class GroundStation:
             No PARAM_VALUE at all, or indexes still missing after the last round (named).
         """
         self.send(mav.MAVLink_param_request_list_message(self.target, 1))
-        listed = lambda m: m.param_index != 0xFFFF  # noqa: E731 (0xFFFF: an answer to a set or read by name)
+        # the autopilot's (a companion's own, LFC_*, reach a ground station too); 0xFFFF: an
+        # answer to a set or read by name
+        listed = lambda m: m.get_srcComponent() == 1 and m.param_index != 0xFFFF  # noqa: E731
         first = self.wait(("PARAM_VALUE",), where=lambda m: listed(m) and m.param_index < m.param_count)
         count = int(first.param_count)
         got: dict[int, tuple[str, float]] = {int(first.param_index): (_pid(first), float(first.param_value))}

@@ -25,6 +25,8 @@ from lfctl.link.signing import setup_signing
 
 __all__ = ["CHECK_LINK", "STATUSTEXT_MAX_BYTES", "DatagramLink", "MavPort", "pack_next", "statustext_messages"]
 
+#: the packets a port remembers having sent, to know them if they come back
+SENT_REMEMBERED = 64
 #: the longest line of text sent (in 50-byte STATUSTEXT chunks), bytes
 STATUSTEXT_MAX_BYTES = 200
 
@@ -259,6 +261,8 @@ class MavPort:
             self._parser.robust_parsing = True
         self._queue: deque[Any] = deque()
         self.tap: Callable[[str, Any, bytes], None] | None = None
+        #: the packets sent lately (the companion's and a camera's): one heard back is an echo
+        self._sent: deque[bytes] = deque(maxlen=SENT_REMEMBERED)
 
     @staticmethod
     def open(connect: str, sysid: int, compid: int, signing_key: bytes | None = None) -> MavPort:
@@ -323,6 +327,7 @@ class MavPort:
             assert self.link is not None
             data = pack_next(msg, self.mav)
             self.link.send(data)
+        self._sent.append(data)
         if self.tap is not None:
             self.tap("out", msg, data)
 
@@ -340,6 +345,13 @@ class MavPort:
         else:
             assert self.link is not None
             self.link.send(data)
+        self._sent.append(bytes(data))
+
+    def echo(self, m: Any) -> bool:
+        """Whether a received message is one this port sent lately, heard back: a relay that
+        loops a link's traffic into it (neither a Rover nor mavlink-router sends a packet back
+        where it came from; a misconfigured MAVProxy ``--out`` can)."""
+        return bool(self._sent) and bytes(m.get_msgbuf()) in self._sent
 
     def recv(self, timeout_s: float = 0.0) -> Any | None:
         """The next message received, waiting up to ``timeout_s`` (in memory: none after a

@@ -103,8 +103,9 @@ class UdpLink:
                 return
         self.peers[addr] = now
 
-    def send(self, data: bytes, exclude: Address | None = None) -> None:
-        """Send to every ``udpout`` target and every peer heard lately (a refused send is skipped).
+    def send(self, data: bytes, exclude: Address | None = None) -> int:
+        """Send to every ``udpout`` target and every peer heard lately (a refused send is
+        skipped); returns the datagrams sent.
 
         Parameters
         ----------
@@ -116,14 +117,17 @@ class UdpLink:
         """
         now = self._clock()
         last = max(self.peers, key=self.peers.__getitem__) if self.peers else None
+        sent = 0
         for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S or a == last)):
             if addr == exclude:
                 continue
             try:
                 self.sock.sendto(data, addr)
                 self.tx_datagrams += 1
+                sent += 1
             except OSError:  # nobody listening on a udpout port yet: not an error
                 pass
+        return sent
 
     def send_to(self, data: bytes, addr: Address) -> None:
         """Send to one peer, if it is one (heard lately, or a ``udpout`` target).

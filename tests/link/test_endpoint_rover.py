@@ -22,10 +22,12 @@ from lfctl.link.endpoint import (
     MAX_PASSED_ON_PER_TICK,
     MAX_ROUTES,
     MODES,
+    PASSED_ON_MEMORY_S,
     ROUTE_IDLE_S,
     VehicleEndpoint,
     packet_record,
 )
+from lfctl.link.port import pack_next
 from lfctl.link.signing import setup_signing, signing_clock
 from lfctl.link.transport import MAX_PEERS, MemoryLink
 
@@ -2583,6 +2585,10 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     ack = mav.MAVLink_command_ack_message(mav.MAV_CMD_REQUEST_MESSAGE, 0, 0, 0, 255, 190)
     comes(ack, camera, rover_side)
     assert passed[-1] == ("COMMAND_ACK", ground_side)
+    # one for a component on the sender's own peer is not sent back there (nor anywhere)
+    del passed[:]
+    comes(mav.MAVLink_command_ack_message(400, 0, 0, 0, 1, 191), camera, rover_side)
+    assert passed == []
     # what is for the autopilot is acted on here and passed on to no one
     del passed[:]
     arm = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
@@ -2619,14 +2625,13 @@ def test_a_full_route_table_makes_room_for_a_new_peer_once_old_ones_are_idle(ben
     assert passed == [latest]
 
 
-def test_nothing_of_the_autopilots_own_id_is_passed_on_and_a_flood_is_not_multiplied(bench: Bench) -> None:
-    # a relay looping the port's output back into it (MAVProxy with --master and --out both on
-    # the port) sent every ACK of the autopilot round for ever; a flood from one peer to the
-    # others is passed on only up to a limit each tick, the rest counted
+def test_a_relay_looping_the_port_into_itself_gets_nothing_round_twice(bench: Bench) -> None:
+    # a relay sending the port's output back into it (MAVProxy with --master and --out both on
+    # the port): the autopilot's ACKs, and lfctl follow's camera HEARTBEAT, went round for ever
     passed: list[object] = []
     bench.ep.send_to = lambda data, addr: passed.append(addr)
-    bench.ep.forward = lambda data, exclude: passed.append(exclude)
-    ground, relay = ("127.0.0.1", 40002), ("127.0.0.1", 40003)
+    bench.ep.forward = lambda data, exclude: passed.append(exclude) or 2
+    follow, ground, relay = ("127.0.0.1", 40001), ("127.0.0.1", 40002), ("127.0.0.1", 40003)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     bench.a.inbox.append((mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), ground))
     bench.tick()
@@ -2634,16 +2639,48 @@ def test_nothing_of_the_autopilots_own_id_is_passed_on_and_a_flood_is_not_multip
     for msg in (mav.MAVLink_command_ack_message(400, 0, 0, 0, 255, 190), mav.MAVLink_sys_status_message(*[0] * 13)):
         bench.a.inbox.append((msg.pack(own), relay))
     bench.tick()
-    assert passed == []
+    assert passed == []  # the autopilot's own id: never passed on
+    beat = mav.MAVLink_heartbeat_message(30, 8, 0, 0, 4, 3).pack(mav.MAVLink(None, srcSystem=1, srcComponent=100))
+    bench.a.inbox.append((beat, follow))
+    bench.tick()
+    assert passed == [follow]  # to every peer but follow
+    for _ in range(3):  # the relay sends it back, lap after lap
+        bench.a.inbox.append((beat, relay))
+        bench.tick()
+    assert passed == [follow]
+    bench.tick(dt=PASSED_ON_MEMORY_S + 0.1)
+    bench.a.inbox.append((beat, follow))  # the same bytes a second on: passed on again
+    bench.tick()
+    assert passed == [follow, follow]
+
+
+def test_a_flood_from_one_peer_is_not_multiplied_past_a_limit_nor_starves_another(bench: Bench) -> None:
+    passed: list[object] = []
+    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    bench.ep.forward = lambda data, exclude: passed.append(exclude) or MAX_PEERS
+    flood, ground, follow = ("127.0.0.1", 40003), ("127.0.0.1", 40002), ("127.0.0.1", 40001)
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
-    named = mav.MAVLink_named_value_float_message(0, b"rng_err", 0.1)
-    for _ in range(MAX_DATAGRAMS_PER_TICK):
-        bench.a.inbox.append((named.pack(companion) * 20, relay))
+    camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)  # (the flood's: another component's)
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), follow))
+    bench.tick()
+    del passed[:]
+    k = 0
+    for _ in range(MAX_DATAGRAMS_PER_TICK - 1):
+        frames = []
+        for _ in range(20):  # distinct packets (their values differ): none is a repeat
+            k += 1
+            frames.append(pack_next(mav.MAVLink_named_value_float_message(k, b"rng_err", k / 10), camera))
+        bench.a.inbox.append((b"".join(frames), flood))
+    read = mav.MAVLink_param_request_read_message(1, 191, b"LFC_RANGE", -1)
+    bench.a.inbox.append((read.pack(gcs), ground))  # the ground station's, behind the flood
     before = bench.ep.stats.messages
     bench.tick()
     handled = bench.ep.stats.messages - before
-    assert handled > MAX_PASSED_ON_PER_TICK and len(passed) == MAX_PASSED_ON_PER_TICK // MAX_PEERS
-    assert bench.ep.stats.not_passed_on == handled - len(passed)
+    broadcasts = MAX_PASSED_ON_PER_TICK // MAX_PEERS
+    assert handled > MAX_PASSED_ON_PER_TICK and passed.count(flood) == broadcasts
+    assert passed[-1] == follow  # the ground station's request still went through
+    assert bench.ep.stats.not_passed_on == handled - 1 - broadcasts
 
 
 def test_a_route_gone_quiet_is_gone(bench: Bench) -> None:

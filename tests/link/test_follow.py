@@ -370,9 +370,17 @@ def test_the_video_is_announced_as_the_rovers_camera_until_another_camera_talks(
     try:
         ask(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3))
         companion.heartbeat(1.0)
-        beats = {(m.get_srcSystem(), m.get_srcComponent(), m.type) for m in heard() if m.get_type() == "HEARTBEAT"}
+        first = heard()
+        beats = {(m.get_srcSystem(), m.get_srcComponent(), m.type) for m in first if m.get_type() == "HEARTBEAT"}
         # the rover's camera (system 1, component 100) beside its companion (191)
         assert beats == {(1, 100, mav.MAV_TYPE_CAMERA), (1, COMPANION_COMPID, mav.MAV_TYPE_ONBOARD_CONTROLLER)}
+        # a relay looping the link back sends them back: echoes, not another camera or companion
+        for m in first:
+            sock.sendto(bytes(m.get_msgbuf()), address)
+        companion.poll(0.0, 1.0)
+        companion.poll(0.0, 0.2)
+        assert companion.echoes == 2 and companion.camera is camera
+        assert not companion.camera_clash and not companion.other_companion
         # QGroundControl's questions, addressed to it as the rover's routing forwards them
         info = mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION
         ack, stream = ask(
@@ -591,7 +599,14 @@ def test_a_mistyped_address_is_named_not_waited_on(connect: str, said: str) -> N
 
 @pytest.mark.parametrize(
     ("video", "refused"),
-    [("127.0.0.1:5600", True), ("localhost:5601", True), ("127.0.0.1:5602", False), ("[::1]:5600", False)],
+    [
+        ("127.0.0.1:5600", True),
+        ("localhost:5601", True),  # RTCP's port, bound on every address
+        ("127.0.0.2:5601", True),
+        ("127.0.0.1:5602", False),
+        ("[::1]:5600", False),
+        ("192.0.2.1:5601", False),  # (a documentation address: not this machine's)
+    ],
 )
 def test_a_stream_sent_to_the_port_the_camera_reads_is_refused(
     video: str, refused: bool, capsys: pytest.CaptureFixture[str]
@@ -603,12 +618,43 @@ def test_a_stream_sent_to_the_port_the_camera_reads_is_refused(
 
     to = parse_host_port(video, "--video")
     if refused:
-        with pytest.raises(ConfigError, match=re.escape(f"--video {to[0]}:{to[1]} sends to the port --camera")):
+        with pytest.raises(ConfigError, match=re.escape(f"--video {to[0]}:{to[1]} sends to what --camera")):
             _check_not_own_input(to, "rtp://127.0.0.1:5600")
     else:
         _check_not_own_input(to, "rtp://127.0.0.1:5600")
     _check_not_own_input(("127.0.0.1", 5600), "0")  # a camera, not a stream: nothing to mix
     _check_not_own_input(("127.0.0.1", 5600), "rtp://0.0.0.0:5610")
+    with pytest.raises(ConfigError):  # read on every address: this machine's any is the same receiver
+        _check_not_own_input(("127.0.0.1", 5610), "rtp://0.0.0.0:5610")
+
+
+def test_a_companion_handler_that_fails_is_said_once_and_the_run_goes_on(
+    caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
+    sock, gcs = _gcs_to(companion.port)
+
+    def broken(m: Any, t_s: float) -> None:
+        raise ValueError("a bug")
+
+    monkeypatch.setattr(companion, "_take", broken)
+    try:
+        for _ in range(3):
+            sock.sendto(
+                mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), companion.port.connection.port.getsockname()
+            )
+        time.sleep(0.1)
+        assert companion.poll(0.0, 1.0) == 3 and companion.handler_errors == 3
+        assert caplog.text.count("handling HEARTBEAT from 255/190 failed") == 1
+    finally:
+        sock.close()
+        companion.close()
+
+
+def test_no_camera_component_without_video_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["follow", "--mavlink", "udpout:127.0.0.1:14999", "--camera", "0", "--no-camera-component"]
+    assert main(args) == 2
+    assert "--no-camera-component is for --video" in capsys.readouterr().err
 
 
 # -- the rover's answers: awaited, sent again, refusals and mode changes said -----------------------
@@ -723,6 +769,9 @@ class _ScriptedRover:
         if msg.get_type() == "COMMAND_LONG":
             self.sent.append(msg.confirmation)
 
+    def echo(self, m: Any) -> bool:  # (nothing comes back: see MavPort.echo)
+        return False
+
     def recv(self, timeout_s: float = 0.0) -> Any:
         t = time.monotonic() - self.t0
         result = self.answer(len(self.sent), t) if self.sent else None
@@ -835,6 +884,9 @@ class _SlowRover:
 
     def send(self, msg: Any) -> None:
         pass
+
+    def echo(self, m: Any) -> bool:
+        return False
 
     def recv(self, timeout_s: float = 0.0) -> Any:
         if not self.queue and timeout_s >= self.delay_s:

@@ -104,6 +104,9 @@ class _AnsweredOnce:
     def send(self, msg: Any) -> None:
         self.sent += msg.get_type() == "COMMAND_LONG"
 
+    def echo(self, m: Any) -> bool:  # (nothing comes back: see MavPort.echo)
+        return False
+
     def recv(self, timeout_s: float = 0.0) -> Any:
         self.timeouts.append(timeout_s)
         if len(self.timeouts) > 1:
@@ -228,6 +231,25 @@ def test_many_parameters_lost_are_asked_for_as_fast_as_ardupilot_takes_reads() -
 
     with vehicle(answer) as g:
         assert g.param_list() == {f"P{k}": float(k) for k in range(300)}
+
+
+def test_a_companions_own_parameters_are_not_taken_for_the_autopilots() -> None:
+    # through a rehearsal's port (or a Rover's routing) the companion's LFC_* come to a ground
+    # station too, with their own count and indexes: they were taken into the autopilot's list
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+
+    def answer(m: Any, send: Callable[[Any], None]) -> None:
+        theirs = mav.MAVLink_param_value_message(b"LFC_RANGE", 2.5, mav.MAV_PARAM_TYPE_REAL32, 6, 0)
+        if m.get_type() == "PARAM_REQUEST_LIST":
+            send(theirs.pack(companion))
+            _params(send, range(11), 11)
+        elif m.get_type() == "PARAM_REQUEST_READ":
+            send(mav.MAVLink_param_value_message(b"P3", 99.0, mav.MAV_PARAM_TYPE_REAL32, 6, 65535).pack(companion))
+            _params(send, range(3, 4), 11)
+
+    with vehicle(answer) as g:
+        assert g.param_list() == {f"P{k}": float(k) for k in range(11)}
+        assert g.param_get("P3") == 3.0
 
 
 def test_a_parameter_never_sent_ends_the_list_with_its_index_named() -> None:
