@@ -471,7 +471,7 @@ def run(args: argparse.Namespace) -> int:
         # (the run's lines are the log's: without -v only warnings; say it has begun)
         print(
             f"lfctl follow: {me}'s companion for system {args.target} on {args.mavlink}, camera {args.camera}, "
-            f"{rate_hz:g} Hz; Ctrl-C ends it (-v says more)",
+            f"{rate_hz:g} Hz; Ctrl-C ends it" + ("" if args.verbose or args.debug else " (-v says more)"),
             file=sys.stderr,
             flush=True,
         )

@@ -550,8 +550,12 @@ class Companion:
             return
         if kind == "PARAM_REQUEST_READ":
             self.param_server.request_read(m)
-        else:
-            self.param_server.set(m)
+            return
+        name = self.param_server.name_of(m.param_id)
+        before = self.params[name].value if name is not None else None
+        self.param_server.set(m)
+        if name is not None and self.params[name].value != before:
+            log.info("%s set to %g by %d/%d", name, self.params[name].value, m.get_srcSystem(), m.get_srcComponent())
 
     def _command(self, m: Any) -> None:
         """A command addressed to this component (not a broadcast: the autopilot answers

@@ -29,7 +29,7 @@ from lfctl.link.mission import (
     local_mission,
 )
 from lfctl.link.mission_server import CAPACITY, FENCE, MISSION, MISSION_TYPES, RALLY, list_problem
-from lfctl.link.params import set_values
+from lfctl.link.params import formation_params, set_values
 from lfctl.link.port import MavPort
 from lfctl.link.signing import signing_key_from_passphrase
 from lfctl.link.transport import Fanout, MemoryLink, UdpLink
@@ -264,10 +264,13 @@ class Links:
                 "LFC_SEARCH": search_degps(cfg, v.name),
                 "LFC_LOOKAHEAD": cfg.guidance.trail_lookahead_m,
             }
-            set_values(ep.params, values, f"{v.name}'s slot and guidance")  # a ground station may set them
             if v.companion:
+                set_values(ep.params, values, f"{v.name}'s slot and guidance")  # a ground station may set them
                 comp.set_guided()  # as a companion computer does at start-up
                 comp.arm()
+            else:  # its companion (lfctl follow) holds its own: a Rover has none of them
+                for name in formation_params():
+                    del ep.params[name]
 
     @property
     def ports(self) -> dict[str, int]:

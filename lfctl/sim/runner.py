@@ -309,7 +309,8 @@ class GuidanceTask:
     def _follower(self, t_s: float, world: WorldState, f: SimFollower) -> None:
         me = world.vehicle(f.index)
         ep = self.links.endpoints[f.index]
-        f.stack.tune_from_params(ep.param)  # a ground station may set them
+        if "LFC_RANGE" in ep.params:  # (a follower whose companion runs outside has none)
+            f.stack.tune_from_params(ep.param)  # a ground station may set them
         if self.open_loop == "formation":
             if self.pool is not None:
                 meas = self.pool.measurement(f.name)
@@ -557,7 +558,8 @@ def run_scenario(
             start_ns = recorder.start_ns if recorder is not None else None
             links = Links(cfg, sim.realtime, tap, video_ports, start_ns, mission)
             for ep in links.endpoints[1:]:  # the run's law (--controller, else the scenario's) is each follower's
-                ep.params["LFC_LAW"].value = CONTROLLERS.index(law)
+                if "LFC_LAW" in ep.params:  # (one whose companion runs outside has none: it holds its own)
+                    ep.params["LFC_LAW"].value = CONTROLLERS.index(law)
             senders: dict[str, RtpH264Sender] = {}
             try:
                 if video is not None and video_ports is not None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import contextlib
 import json
+import logging
 import math
 import re
 import socket
@@ -277,7 +278,10 @@ def _gcs_to(port: MavPort) -> tuple[socket.socket, mav.MAVLink]:
     return s, mav.MAVLink(None, srcSystem=255, srcComponent=190)
 
 
-def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_component() -> None:
+def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_component(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    caplog.set_level(logging.INFO, logger="lfctl.link.companion")
     companion = Companion(MavPort.open("udpin:127.0.0.1:0", 1, COMPANION_COMPID), 1)
     sent: list[Any] = []
     companion.port.tap = lambda d, m, raw: sent.append(m) if d == "out" else None
@@ -301,6 +305,7 @@ def test_the_companion_answers_a_ground_stations_parameter_requests_for_its_own_
         ((kind, m),) = ask(mav.MAVLink_param_set_message(1, COMPANION_COMPID, b"LFC_RANGE", 2.5, 9))
         assert (kind, m.param_id, m.param_value, m.param_index) == ("PARAM_VALUE", "LFC_RANGE", 2.5, 65535)
         assert companion.param("LFC_RANGE") == 2.5
+        assert "LFC_RANGE set to 2.5 by 255/190" in caplog.text  # (lfctl follow -v says it)
         # a broadcast set of LFC_LAW is its; of an autopilot parameter, not (it stays silent)
         ((kind, m),) = ask(mav.MAVLink_param_set_message(1, 0, b"LFC_LAW", 2.0, mav.MAV_PARAM_TYPE_INT8))
         assert (m.param_id, m.param_value) == ("LFC_LAW", 2.0) and companion.param("LFC_LAW") == 2
@@ -1100,6 +1105,7 @@ def test_lfctl_follow_is_the_companion_of_a_simulated_follower_that_has_none(
                        "--video", f"127.0.0.1:{rtp_port}"])  # fmt: skip
             took = (ep.mode, ep.armed)
             stop.set()
+            assert "LFC_RANGE" not in ep.params  # the companion's alone: a Rover has none
             station.join(5.0)
     finally:
         ground.close()
