@@ -596,9 +596,33 @@ class VehicleEndpoint:
                 self._unsendable.add(msg.get_type())
                 log.error("%s: %s not sent, a field out of its range (%s): %s", self.name, msg.get_type(), exc, msg)
             return
-        self.link.send(data)
+        peers = self._peers_of(msg)
+        if peers:
+            assert self.send_to is not None
+            for peer in peers:
+                self.send_to(data, peer)
+        else:
+            self.link.send(data)
         if self.tap is not None:
             self.tap("out", msg, data)
+
+    def _peers_of(self, msg: Any) -> list[Any]:
+        """The network peers a message addressed to a system (and component) goes to alone, as
+        a Rover answers on the link a request came on: those its addressee was heard on lately,
+        when none of them is the in-memory link. Empty (to every peer, as before): a message
+        to no one in particular, or one to an addressee not heard from on the network alone."""
+        target = getattr(msg, "target_system", 0)
+        if not target or self.send_to is None:
+            return []
+        component = getattr(msg, "target_component", 0)
+        peers = [
+            channel
+            for (sysid, compid, channel), heard in self._routes.items()
+            if sysid == target
+            and (component == 0 or compid == component)
+            and (channel == "memory" or self.t_s - heard <= ROUTE_IDLE_S)
+        ]
+        return [] if "memory" in peers else list(dict.fromkeys(peers))
 
     def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
         """A STATUSTEXT a ground station shows (also logged, and kept in :attr:`statustexts`).

@@ -2589,11 +2589,19 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     del passed[:]
     comes(mav.MAVLink_command_ack_message(400, 0, 0, 0, 1, 191), camera, rover_side)
     assert passed == []
-    # what is for the autopilot is acted on here and passed on to no one
+    # what is for the autopilot is acted on here and passed on to no one; its answer goes to the
+    # ground station alone, as a Rover answers on the link a request came on
     del passed[:]
     arm = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-    acks = [m.result for m in comes(arm, ground, ground_side) if m.get_type() == "COMMAND_ACK"]
-    assert acks == [mav.MAV_RESULT_ACCEPTED] and bench.ep.armed and passed == []
+    assert [m for m in comes(arm, ground, ground_side) if m.get_type() == "COMMAND_ACK"] == []
+    assert bench.ep.armed and passed == [("COMMAND_ACK", ground_side)]
+    del passed[:]
+    # the companion's own command is answered to it alone (MAVProxy on the port printed
+    # "Got COMMAND_ACK" for commands lfctl follow sent)
+    mode = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_DO_SET_MODE, 0, 1, 15, 0, 0, 0, 0, 0)
+    comes(mode, companion, rover_side)
+    assert passed == [("COMMAND_ACK", rover_side)]
+    del passed[:]
     # a request to every component of the vehicle: acted on here and passed on to the companion's peer
     answered = comes(mav.MAVLink_param_request_read_message(1, 0, b"WP_SPEED", -1), ground, ground_side)
     assert [m.param_id for m in answered] == ["WP_SPEED"] and passed == [("PARAM_REQUEST_READ", rover_side)]
