@@ -120,7 +120,8 @@ ROUTE_IDLE_S = 30.0
 #: the most packets a tick passes on between network peers for one sender (each copy counts):
 #: a flood from one peer is not multiplied to every other without limit, nor starves the others
 MAX_PASSED_ON_PER_TICK = 512
-#: the most senders a tick passes packets on for (the rest wait: a flood from many ports)
+#: the most senders a tick passes packets on for (the rest's are dropped, counted: a flood
+#: from many ports)
 MAX_PASSED_ON_SENDERS = 32
 #: a packet passed on is not passed on again within this long, s (a relay looping the port's
 #: output back into it); and the most such packets remembered
@@ -270,7 +271,7 @@ class LinkStats:
     rebooting: int = 0  # messages that came while the autopilot restarted (recorded, not acted on)
     over_budget: int = 0  # ticks that stopped reading at the wall-time budget
     handler_errors: int = 0  # a handler failed on a message (a bug: logged, never raised)
-    not_passed_on: int = 0  # messages for other peers over the per-tick limit (MAX_PASSED_ON_PER_TICK)
+    not_passed_on: int = 0  # messages for other peers dropped over the per-tick limits (MAX_PASSED_ON_*)
     send_errors: int = 0  # a message of ours held a value its field cannot (a bug: logged, not sent)
 
 
@@ -360,13 +361,13 @@ class VehicleEndpoint:
         #: (the vehicle's cameras): what is addressed to them is not acted on here
         self.routed_components: set[int] = set()
         # the senders seen, (system, component, channel), as ArduPilot's MAVLink routing learns
-        # its routes (at most MAX_ROUTES); the channel a message came on: "memory", or the
-        # network peer's address (each peer of the UDP port is a channel of its own, as each
-        # of a Rover's links is: a ground station and a companion both on the port reach each
-        # other through it as they would through a Rover's radio and companion ports)
-        # (with when each was last heard, s: a route on a network peer silent for
-        # ROUTE_IDLE_S makes room for a new one when the table is full, as a peer that went
-        # away, an lfctl follow started again from another port, leaves its own behind)
+        # its routes (at most MAX_ROUTES), with when each was last heard, s. The channel a
+        # message came on is "memory", or the network peer's address: each peer of the UDP port
+        # is a channel of its own, as each of a Rover's links is, so a ground station and a
+        # companion both on the port reach each other through it as through a Rover's radio
+        # and companion ports. A route on a peer silent for ROUTE_IDLE_S is gone, and makes
+        # room for a new one when the table is full (lfctl follow started again from another
+        # port leaves its old one behind)
         self._routes: dict[tuple[int, int, Any], float] = {}
         self._channel: Any = "memory"
         self._pass_on_left: dict[Any, int] = {}  # copies each sender may still have passed on this tick
