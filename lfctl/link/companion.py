@@ -229,7 +229,17 @@ class Companion:
 
     def camera_tap(self, direction: str, msg: Any, raw: bytes) -> None:
         """A camera component's tap (:class:`CameraComponent`'s ``tap``) into the port's: what
-        it sends is shown; what it is handed, the port's read has shown already."""
+        it sends is shown; what it is handed, the port's read has shown already.
+
+        Parameters
+        ----------
+        direction : str
+            ``out`` (the camera sent it) or ``in`` (it was handed to the camera).
+        msg : pymavlink message
+            The packet decoded.
+        raw : bytes
+            The packet as it travelled.
+        """
         if direction == "out" and self.port.tap is not None:
             self.port.tap("out", msg, raw)
 

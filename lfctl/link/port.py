@@ -350,7 +350,13 @@ class MavPort:
     def echo(self, m: Any) -> bool:
         """Whether a received message is one this port sent lately, heard back: a relay that
         loops a link's traffic into it (neither a Rover nor mavlink-router sends a packet back
-        where it came from; a misconfigured MAVProxy ``--out`` can)."""
+        where it came from; a misconfigured MAVProxy ``--out`` can).
+
+        Parameters
+        ----------
+        m : pymavlink message
+            A message this port received.
+        """
         return bool(self._sent) and bytes(m.get_msgbuf()) in self._sent
 
     def recv(self, timeout_s: float = 0.0) -> Any | None:
