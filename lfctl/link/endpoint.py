@@ -133,6 +133,9 @@ GUIDED_TIMEOUT_S = 3.0
 #: SmartRTL gives up its way back when no point could be kept for this long, s (Rover's
 #: SMARTRTL_TIMEOUT: the points used up and none cleaned away)
 SRTL_TIMEOUT_S = 15.0
+#: SmartRTL's breadcrumbs are taken this often, s (Rover schedules ModeSmartRTL::save_position
+#: at 3 Hz)
+SRTL_SAVE_PERIOD_S = 1.0 / 3.0
 #: MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
 REPOSITION_CHANGE_MODE = 1
 
@@ -430,6 +433,7 @@ class VehicleEndpoint:
         self._path_max = 0  # SRTL_POINTS as the way back began (Rover's: at boot)
         self._path_active = False  # a way back is kept (SRTL_POINTS and SRTL_ACCURACY > 0, not given up)
         self._path_saved_s = 0.0  # when a point was last kept, s
+        self._path_sample_due = -math.inf  # when the next breadcrumb is taken, s (3 Hz, in phase)
         if armed:
             self._start_path()
         self._nav: tuple[NavReport, tuple[object, ...]] | None = None  # see steering()
@@ -531,6 +535,7 @@ class VehicleEndpoint:
         self._path_max = int(self.param("SRTL_POINTS"))
         self._path_active = self._path_max > 0 and self.param("SRTL_ACCURACY") > 0
         self._path_saved_s = self.t_s
+        self._path_sample_due = -math.inf  # (the way's first point: this tick's)
 
     def home_point(self) -> tuple[float, float]:
         """Home in local NED, m: where the vehicle was when last disarmed (or a ground station
@@ -2117,12 +2122,14 @@ class VehicleEndpoint:
 
     def _record_path(self) -> None:
         """SmartRTL's breadcrumbs: where the vehicle has been since it first armed, in every
-        mode but SmartRTL (Rover's ``ModeSmartRTL::save_position``; it samples at 3 Hz, lfctl
-        every tick), a point each ``SRTL_ACCURACY`` (AP_SmartRTL::add_point). When the ``SRTL_POINTS`` are used up
+        mode but SmartRTL (Rover's ``ModeSmartRTL::save_position``, at 3 Hz: the first tick at or
+        after each third of a second), a point each ``SRTL_ACCURACY`` (AP_SmartRTL::add_point). When the ``SRTL_POINTS`` are used up
         the way is cleaned (its straight runs' points and its loops dropped); when that frees
         none for :data:`SRTL_TIMEOUT_S`, SmartRTL is given up until the next arming."""
-        if not self._path_active or self.mode == MODES["SMART_RTL"]:
+        if not self._path_active or self.mode == MODES["SMART_RTL"] or self.t_s < self._path_sample_due:
             return
+        due = self._path_sample_due + SRTL_SAVE_PERIOD_S  # (in phase; after a pause, from now)
+        self._path_sample_due = due if due > self.t_s else self.t_s + SRTL_SAVE_PERIOD_S
         here = (self.state["north_m"], self.state["east_m"])
         accuracy = self.param("SRTL_ACCURACY")
         if self.path and math.hypot(here[0] - self.path[-1][0], here[1] - self.path[-1][1]) < accuracy:

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mav
 from test_endpoint_rover import Bench
 
-from lfctl.link.endpoint import MODES, SRTL_TIMEOUT_S
+from lfctl.link.endpoint import MODES, SRTL_SAVE_PERIOD_S, SRTL_TIMEOUT_S
 from lfctl.link.smartrtl import clean, leg_distances, prune_loops, simplify
 
 
@@ -150,12 +150,14 @@ def test_the_distance_between_two_legs_as_rover_measures_it() -> None:
 
 # -- the endpoint ------------------------------------------------------------------------------
 def _drive(b: Bench, way: list[tuple[float, float]], step_m: float = 0.5) -> None:
-    """Tick the vehicle along ``way`` in steps of about ``step_m``."""
+    """Tick the vehicle along ``way`` in steps of about ``step_m``, a step each breadcrumb
+    period (Rover's 3 Hz: 1.5 m/s with the default step)."""
     for (n0, e0), (n1, e1) in itertools.pairwise(way):
         k = max(1, int(math.dist((n0, e0), (n1, e1)) / step_m))
         for i in range(1, k + 1):
             n, e = n0 + (n1 - n0) * i / k, e0 + (e1 - e0) * i / k
-            b.tick(state={"north_m": n, "east_m": e, "yaw_rad": 0.0, "speed_mps": 1.0, "yaw_rate_radps": 0.0})
+            state = {"north_m": n, "east_m": e, "yaw_rad": 0.0, "speed_mps": 1.0, "yaw_rate_radps": 0.0}
+            b.tick(dt=SRTL_SAVE_PERIOD_S, state=state)
 
 
 def _armed(**params: float) -> Bench:
@@ -185,6 +187,17 @@ def test_srtl_accuracy_spaces_the_points() -> None:
     assert [round(n) for n, _e in b.ep.path] == [0, 5, 10, 15, 20, 25, 30]
 
 
+def test_breadcrumbs_are_taken_at_3_hz_as_rover_takes_them() -> None:
+    # ModeSmartRTL::save_position is a 3 Hz task: at 6 m/s, 50 Hz ticks, the points are 2 m
+    # apart even with SRTL_ACCURACY 1 (taken every tick they were 1.08 m apart)
+    b = _armed(SRTL_ACCURACY=1.0)
+    for k in range(1, 151):  # 3 s
+        n = 6.0 * 0.02 * k
+        b.tick(state={"north_m": n, "east_m": 0.0, "yaw_rad": 0.0, "speed_mps": 6.0, "yaw_rate_radps": 0.0})
+    gaps = [b2[0] - a2[0] for a2, b2 in itertools.pairwise(b.ep.path)]
+    assert len(gaps) >= 8 and all(1.8 <= g <= 2.2 for g in gaps[1:]), gaps
+
+
 def test_srtl_points_0_keeps_no_way_back_and_smartrtl_is_refused() -> None:
     b = _armed(SRTL_POINTS=0)
     _drive(b, [(0.0, 0.0), (10.0, 0.0)])
@@ -197,7 +210,7 @@ def test_points_used_up_and_none_freed_gives_smartrtl_up_until_the_next_arming()
     b = _armed(SRTL_POINTS=10)
     # a zigzag with nothing to simplify and no loop: 10 points fill the way
     zig = [(4.0 * i, 0.0 if i % 2 == 0 else 4.0) for i in range(12)]
-    _drive(b, zig)
+    _drive(b, zig, step_m=2.0)  # (11 s: within SmartRTL's 15 s timeout)
     assert len(b.ep.path) == 10
     assert b.ep.path_started
     stay = {"north_m": zig[-1][0], "east_m": zig[-1][1] + 3.0, "yaw_rad": 0.0, "speed_mps": 0.0, "yaw_rate_radps": 0.0}

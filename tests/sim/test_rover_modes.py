@@ -181,8 +181,10 @@ def test_smart_rtl_goes_back_the_way_it_came() -> None:
     assert any(name == "SMART_RTL" for name, _s in rep.leader_modes)
     track = rep.result.pos_ned_m[:, 0]
     after = rep.result.t_s >= 40.0
-    # on the way back it passes the first waypoint (6, 0) again, unlike a straight RTL
-    assert np.min(np.hypot(track[after, 0] - 6.0, track[after, 1])) <= 0.6
+    # on the way back it passes the first waypoint (6, 0) again, unlike a straight RTL (which
+    # passes 4.2 m from it); its breadcrumbs are SRTL_ACCURACY (2 m) apart, taken at 3 Hz, so
+    # the corner is cut by up to about 1.4 m
+    assert np.min(np.hypot(track[after, 0] - 6.0, track[after, 1])) <= 1.5
     assert math.hypot(*track[-1]) <= 0.8
 
 
@@ -194,7 +196,8 @@ def test_a_speed_change_on_the_way_back_keeps_the_way_back() -> None:
 
     rep, _links = run_with({34.0: mode("SMART_RTL"), 50.0: slower}, duration_s=80.0)
     t, track = rep.result.t_s, rep.result.pos_ned_m[:, 0]
-    assert np.max(track[t >= 50.0, 1]) <= 1.0  # never back up the second leg towards (6, 6)
+    # never back up the second leg towards (6, 6): east only falls from the change on
+    assert np.max(np.diff(track[t >= 50.0, 1])) <= 0.01 and np.max(track[t >= 50.0, 1]) <= 2.0
     assert np.median(np.abs(rep.result.speed_mps[(t > 53.0) & (t < 60.0), 0])) == pytest.approx(0.3, abs=0.02)
     assert math.hypot(*track[-1]) <= 0.8
 
