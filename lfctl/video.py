@@ -27,6 +27,7 @@ __all__ = [
     "LatestFrames",
     "VideoSource",
     "probe_file",
+    "rtp_address",
     "sdp",
 ]
 
@@ -389,14 +390,18 @@ class VideoSource:
         self.close()
 
 
-def _rtp_session(url: str) -> str:
-    """``rtp://HOST:PORT`` as a session description file (H.264, payload type 96), made in
-    the temporary folder; its path. ConfigError for a URL that is not ``rtp://HOST:PORT``."""
-    import tempfile
+def rtp_address(url: str) -> tuple[str, int]:
+    """The address an ``rtp://HOST:PORT`` source arrives on (an IPv6 host without its
+    brackets). ConfigError for a URL that is not ``rtp://HOST:PORT`` with a port below 65535.
 
+    Parameters
+    ----------
+    url : str
+        The source, ``rtp://127.0.0.1:5600``.
+    """
     from lfctl.checks import check_host_port
 
-    rest = url[len("rtp://") :]
+    rest = url[len("rtp://") :] if url.startswith("rtp://") else ""
     if not rest or "/" in rest or "?" in rest:
         raise ConfigError(f"an RTP source is rtp://HOST:PORT (the port it arrives on), got {url[:200]!r}")
     host, port = check_host_port("rtp://", rest, allow_any_port=True)
@@ -404,7 +409,15 @@ def _rtp_session(url: str) -> str:
         raise ConfigError(
             f"an RTP source needs the port it arrives on, below 65535 (RTCP takes the next), got {url[:200]!r}"
         )
-    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host  # ([::1])
+    return (host[1:-1] if host.startswith("[") and host.endswith("]") else host), port  # ([::1])
+
+
+def _rtp_session(url: str) -> str:
+    """``rtp://HOST:PORT`` as a session description file (H.264, payload type 96), made in
+    the temporary folder; its path. ConfigError for a URL that is not ``rtp://HOST:PORT``."""
+    import tempfile
+
+    host, port = rtp_address(url)
     six = ":" in host
     if not six:  # a name (localhost) as the address FFmpeg binds: its description takes no names
         try:

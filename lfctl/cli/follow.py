@@ -343,19 +343,19 @@ def _check_not_own_input(stream_to: tuple[str, int], camera: str) -> None:
     5600)."""
     import socket
 
-    from lfctl.config import parse_host_port
     from lfctl.errors import ConfigError
+    from lfctl.video import rtp_address
 
     if not camera.startswith("rtp://"):
         return
     try:
-        host, port = parse_host_port(camera[len("rtp://") :], "--camera")
+        at, port = rtp_address(camera)
     except ConfigError:
         return  # (the camera's own check says what is wrong with it)
     to_host, to_port = stream_to
     if to_port not in (port, port + 1):
         return
-    to, at = to_host.strip("[]"), host.strip("[]")
+    to = to_host.strip("[]")
     try:
         if ":" not in to:
             to = socket.gethostbyname(to)

@@ -620,15 +620,8 @@ class VehicleEndpoint:
         target = getattr(msg, "target_system", 0)
         if not target or self.send_to is None:
             return []
-        component = getattr(msg, "target_component", 0)
-        peers = [
-            channel
-            for (sysid, compid, channel), heard in self._routes.items()
-            if sysid == target
-            and (component == 0 or compid == component)
-            and (channel == "memory" or self.t_s - heard <= ROUTE_IDLE_S)
-        ]
-        return [] if "memory" in peers else list(dict.fromkeys(peers))
+        peers = self._live_channels(target, getattr(msg, "target_component", 0))
+        return [] if "memory" in peers else peers
 
     def statustext(self, text: str, severity: int = mav.MAV_SEVERITY_WARNING) -> None:
         """A STATUSTEXT a ground station shows (also logged, and kept in :attr:`statustexts`).
@@ -779,15 +772,7 @@ class VehicleEndpoint:
             component = getattr(m, "target_component", 0)
             if self.send_to is None or (target, component) == (self.sysid, 1):
                 return
-            to = [
-                channel
-                for (sysid, compid, channel), heard in self._routes.items()
-                if channel != "memory"
-                and channel != self._channel
-                and sysid == target
-                and (component == 0 or compid == component)
-                and self.t_s - heard <= ROUTE_IDLE_S
-            ]
+            to = [c for c in self._live_channels(target, component) if c not in ("memory", self._channel)]
             if not to:
                 return
         elif self.forward is None or m.get_srcSystem() != self.sysid:
@@ -802,7 +787,7 @@ class VehicleEndpoint:
             return
         data = bytes(m.get_msgbuf())
         if to:
-            for channel in dict.fromkeys(to):  # (one copy each, in the routes' order)
+            for channel in to:
                 self.send_to(data, channel)
             sent = len(to)
         else:
@@ -829,11 +814,20 @@ class VehicleEndpoint:
         channel: to a broadcast system, to every sender heard elsewhere; else to that one."""
         if component in self.routed_components:
             return True
-        return any(
-            channel != self._channel
-            and (target == 0 or (sysid, compid) == (target, component))
-            and (channel == "memory" or self.t_s - heard <= ROUTE_IDLE_S)  # (a peer gone quiet is gone)
-            for (sysid, compid, channel), heard in self._routes.items()
+        return any(channel != self._channel for channel in self._live_channels(target, 0 if target == 0 else component))
+
+    def _live_channels(self, target: int, component: int) -> list[Any]:
+        """The channels ``(target, component)`` was heard on, each once, in the routes' order:
+        0 for either is any; a network peer's only while it talks (:data:`ROUTE_IDLE_S`: a
+        peer gone quiet is gone), the in-memory link's always."""
+        return list(
+            dict.fromkeys(
+                channel
+                for (sysid, compid, channel), heard in self._routes.items()
+                if target in (0, sysid)
+                and component in (0, compid)
+                and (channel == "memory" or self.t_s - heard <= ROUTE_IDLE_S)
+            )
         )
 
     def _dispatch(self, m: Any, signed: bool = False) -> None:

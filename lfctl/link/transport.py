@@ -115,22 +115,10 @@ class UdpLink:
             Not to this one (the sender of a message passed on: MAVLink routing never sends
             a message back where it came from).
         """
-        now = self._clock()
-        last = max(self.peers, key=self.peers.__getitem__) if self.peers else None
-        sent = 0
-        for addr in (*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S or a == last)):
-            if addr == exclude:
-                continue
-            try:
-                self.sock.sendto(data, addr)
-                self.tx_datagrams += 1
-                sent += 1
-            except OSError:  # nobody listening on a udpout port yet: not an error
-                pass
-        return sent
+        return sum(self._sendto(data, addr) for addr in self._reachable() if addr != exclude)
 
     def send_to(self, data: bytes, addr: Address) -> None:
-        """Send to one peer, if it is one (heard lately, or a ``udpout`` target).
+        """Send to one peer, if :meth:`send` would (a ``udpout`` target, a peer heard lately).
 
         Parameters
         ----------
@@ -139,14 +127,25 @@ class UdpLink:
         addr : Address
             The peer, (host, port).
         """
-        heard = self.peers.get(addr)
-        if addr not in self.outs and (heard is None or self._clock() - heard > PEER_TIMEOUT_S):
-            return
+        if addr in self._reachable():
+            self._sendto(data, addr)
+
+    def _reachable(self) -> list[Address]:
+        """Where :meth:`send` sends: every ``udpout`` target and every peer heard within
+        :data:`PEER_TIMEOUT_S`, or last heard."""
+        now = self._clock()
+        last = max(self.peers, key=self.peers.__getitem__) if self.peers else None
+        return [*self.outs, *(a for a, heard in self.peers.items() if now - heard <= PEER_TIMEOUT_S or a == last)]
+
+    def _sendto(self, data: bytes, addr: Address) -> bool:
+        """One datagram to ``addr``; whether it went (one refused is skipped: nobody listening
+        on a udpout port yet is not an error)."""
         try:
             self.sock.sendto(data, addr)
-            self.tx_datagrams += 1
-        except OSError:  # (as send)
-            pass
+        except OSError:
+            return False
+        self.tx_datagrams += 1
+        return True
 
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
         """Datagrams waiting on the socket, with their senders, without blocking.
