@@ -23,10 +23,10 @@ import logging
 import math
 import struct
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from functools import partial
-from typing import Any
+from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
@@ -70,6 +70,8 @@ log = logging.getLogger(__name__)
 
 #: a stream is sent at a tick this close before it is due, s (the ticks' float times)
 DUE_SLACK_S = 1e-6
+#: the schedule of the in-memory link and of network peers that set no rate (VehicleEndpoint._audience)
+SHARED = "shared"
 #: ArduPilot Rover custom mode numbers by name (the modes the endpoint knows)
 MODES = {"MANUAL": 0, "HOLD": 4, "FOLLOW": 6, "AUTO": 10, "RTL": 11, "SMART_RTL": 12, "GUIDED": 15}
 #: modes a ground station cannot arm in (as Rover: RTL and SmartRTL)
@@ -289,6 +291,71 @@ def _as_int(value: float, lo: int, hi: int) -> int | None:
     return int(value)
 
 
+class StreamRates:
+    """One channel's telemetry schedule, as a Rover keeps one for each of its links: each
+    message's period (infinite: not sent), when it is next due, and the periods
+    REQUEST_DATA_STREAM set for its groups (the link's SRn_ parameters: kept across a reboot,
+    where SET_MESSAGE_INTERVAL's rates are not)."""
+
+    def __init__(self) -> None:
+        self.groups: dict[int, float] = {}
+        self.intervals: dict[int, float] = {}
+        self.next_due: dict[int, float] = {}
+        self.restart()
+
+    def restart(self) -> None:
+        """The rates as the autopilot starts: the defaults, and the groups' periods over them."""
+        self.intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
+        self.intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
+        self.intervals.update(self.groups)
+        # a message not streamed by default is not due until asked for
+        self.next_due = {i: math.inf for i, period in self.intervals.items() if math.isinf(period)}
+
+    def stream(self, msg_id: int, period_s: float, t_s: float) -> None:
+        """Send ``msg_id`` every ``period_s`` from ``t_s`` (infinite: stop it, not sending it
+        once more)."""
+        self.intervals[msg_id] = period_s
+        self.next_due[msg_id] = t_s if math.isfinite(period_s) else math.inf
+
+    def soon(self, msg_id: int, t_s: float) -> None:
+        """Send ``msg_id`` at ``t_s`` (a change a ground station should hear of now), then on
+        its period as before; not if it is stopped."""
+        if math.isfinite(self.intervals.get(msg_id, math.inf)):
+            self.next_due[msg_id] = t_s
+
+    def due(self, t_s: float) -> list[int]:
+        """The messages due at ``t_s``, each then due again a period on."""
+        out = []
+        for msg_id, period in self.intervals.items():
+            due = self.next_due.get(msg_id, t_s)  # (a stream's first send is due now)
+            if t_s + DUE_SLACK_S >= due:
+                out.append(msg_id)
+                # the stream keeps its phase: due again a period after it was due (after the
+                # tick it went in, a 0.1 s period that fell a float's width past a tick slipped
+                # a tick each time, and a 4 Hz stream on 50 Hz ticks ran at 3.85 Hz); one that
+                # has fallen a period behind (a pause, a new rate) starts again from now
+                after = due + period
+                self.next_due[msg_id] = (after if after > t_s else t_s + period) if math.isfinite(period) else math.inf
+        return out
+
+
+class NetworkSide(Protocol):
+    """The UDP side of an endpoint's link, where each peer is a channel of its own
+    (:class:`lfctl.link.transport.UdpLink`)."""
+
+    def send(self, data: bytes, exclude: Collection[Any] = ()) -> int:
+        """Send to every peer (and fixed target) but those in ``exclude``; the copies sent."""
+        ...
+
+    def send_to(self, data: bytes, addr: Any) -> None:
+        """Send to one peer or target, if it is reachable."""
+        ...
+
+    def reachable(self) -> list[Any]:
+        """Every peer and fixed target a send reaches now."""
+        ...
+
+
 class VehicleEndpoint:
     """One vehicle's MAVLink face. Feed it datagrams with :meth:`receive`, call :meth:`tick`.
 
@@ -385,22 +452,28 @@ class VehicleEndpoint:
         #: PREFLIGHT_STORAGE param1 2: each parameter's value then; the ones still at it take
         #: their defaults at the reboot (a parameter set since is stored, as AP_Param keeps it)
         self._params_erased: dict[str, float] | None = None
-        #: each message's stream-group rate as REQUEST_DATA_STREAM last set it: kept across a
-        #: reboot, as Rover keeps its SRn_ parameters (SET_MESSAGE_INTERVAL's rates are not)
-        self._group_period: dict[int, float] = {}
+        #: the telemetry schedule of the in-memory link, of fixed targets and of every network
+        #: peer that has set no rate; a peer that sets one (REQUEST_DATA_STREAM,
+        #: SET_MESSAGE_INTERVAL) has its own from then on, as each of a Rover's links has its
+        #: SRn_ rates (at most MAX_PEERS; the one heard from longest ago makes room)
+        self._rates = StreamRates()
+        self._peer_rates: dict[Any, StreamRates] = {}
+        #: each network peer's next sequence number: a Rover counts packets per link, and a
+        #: peer that gets only some of the packets (its own rates, answers to it alone) must
+        #: not see the others' as lost
+        self._seqs: dict[Any, int] = {}
+        self._audience: Any = None  # while a stream's messages go out: whose schedule (see tick)
         self._ready_said = True  # "ArduPilot Ready" after a reboot has gone out
         self._start(armed)
         self.modes: list[tuple[float, int]] = [(0.0, self.mode)]  # (t_s, mode) from the start
         #: UTC at t_s = 0, us (SYSTEM_TIME): when the endpoint was made, unless the run sets it
         #: to its log's start so that SYSTEM_TIME and the log share a clock
         self.epoch_us = time.time_ns() // 1000
-        #: sends to every network peer (packet, an address not to send it to; returns the copies
-        #: sent): the in-memory companion's reports, and what the vehicle's other components
-        #: on the network send to no one in particular (:meth:`_pass_on`)
-        self.forward: Callable[[bytes, Any], int | None] | None = None
-        #: sends a packet to one network peer (packet, its address): what a peer addresses to a
-        #: component heard on another peer is passed on to that one
-        self.send_to: Callable[[bytes, Any], None] | None = None
+        #: the link's UDP side, each peer a channel of its own (set for a realtime run's UDP
+        #: port; None: the link is one channel): the autopilot's packets are counted and
+        #: scheduled per peer, the in-memory companion's reports go to every peer, and what one
+        #: peer sends another's components is passed on (:meth:`_pass_on`)
+        self.network: NetworkSide | None = None
         #: wall seconds a tick may spend on inbound traffic (None: no limit; set for UDP links
         #: in --realtime, never in lockstep, whose runs must not depend on the machine's speed)
         self.time_budget_s: float | None = None
@@ -444,12 +517,11 @@ class VehicleEndpoint:
         self.fence_breaches = 0
         self._fence_breach_ms = 0
         self._text_id = 0
-        self._intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
-        self._intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
-        self._intervals.update(self._group_period)  # REQUEST_DATA_STREAM's rates outlive a reboot
-        # a message not streamed by default is not due until asked for
-        self._next_due: dict[int, float] = {i: math.inf for i, period in self._intervals.items() if math.isinf(period)}
-        self._once: list[int] = []
+        for rates in (self._rates, *self._peer_rates.values()):
+            rates.restart()  # REQUEST_DATA_STREAM's rates outlive a reboot, SET_MESSAGE_INTERVAL's not
+        #: messages to send once at the next tick, and to whom: None every channel (a change
+        #: all should hear of), or the network peer whose request they answer
+        self._once: list[tuple[int, Any]] = []
         self._reached_seq = NO_ITEM_REACHED  # the last MISSION_ITEM_REACHED sent since the start
         self._param_period_s = PARAM_STREAM_PERIOD_S  # PARAM_VALUE's rate (SET_MESSAGE_INTERVAL)
         self._gcs_seen: float | None = None
@@ -581,7 +653,7 @@ class VehicleEndpoint:
         self.home_locked = True
         lat, lon, alt = self._home_geodetic()
         self.statustext(f"Set HOME to {lat:.6f} {lon:.6f} at {alt:.2f}m", mav.MAV_SEVERITY_INFO)
-        self._once.append(MSG_IDS["HOME_POSITION"])
+        self._once.append((MSG_IDS["HOME_POSITION"], None))
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
@@ -602,15 +674,48 @@ class VehicleEndpoint:
                 self._unsendable.add(msg.get_type())
                 log.error("%s: %s not sent, a field out of its range (%s): %s", self.name, msg.get_type(), exc, msg)
             return
-        peers = self._peers_of(msg)
-        if peers:
-            assert self.send_to is not None
-            for peer in peers:
-                self.send_to(data, peer)
-        else:
+        net = self.network
+        if net is None:
             self.link.send(data)
+        else:
+            # the in-memory link gets this packing (and the record); each network peer its own,
+            # with its own sequence number
+            reachable = net.reachable()
+            to = self._peers_of(msg)
+            if to or self._audience not in (None, SHARED):
+                to = to or [self._audience]  # an answer, or a stream, for those peers alone
+            else:
+                self.link.send(data, reachable)  # (the in-memory link alone)
+                to = [p for p in reachable if self._audience is None or p not in self._peer_rates]
+            for peer in to:
+                net.send_to(self._pack_for(msg, peer), peer)
+            if len(self._seqs) > 4 * MAX_PEERS:
+                self._seqs = {p: seq for p, seq in self._seqs.items() if p in reachable}
         if self.tap is not None:
             self.tap("out", msg, data)
+
+    def _asker(self) -> Any:
+        """Who an answer to the message in hand goes to: the network peer it came from, as a
+        Rover answers on the link a request came on; None (every channel) for one from the
+        in-memory link, or a link that is one channel."""
+        return self._channel if self.network is not None and self._channel != "memory" else None
+
+    def _answer(self, msg: Any) -> None:
+        """Send ``msg`` to whoever sent the message in hand (:meth:`_asker`)."""
+        self._audience = self._asker()
+        try:
+            self.send(msg)
+        finally:
+            self._audience = None
+
+    def _pack_for(self, msg: Any, peer: Any) -> bytes:
+        """``msg`` packed for one network peer, with that peer's next sequence number."""
+        m = self.mav
+        shared, m.seq = m.seq, self._seqs.get(peer, 0)
+        try:
+            return pack_next(msg, m)
+        finally:
+            self._seqs[peer], m.seq = m.seq, shared
 
     def _peers_of(self, msg: Any) -> list[Any]:
         """The network peers a message addressed to a system (and component) goes to alone, as
@@ -618,7 +723,7 @@ class VehicleEndpoint:
         when none of them is the in-memory link. Empty (to every peer, as before): a message
         to no one in particular, or one to an addressee not heard from on the network alone."""
         target = getattr(msg, "target_system", 0)
-        if not target or self.send_to is None:
+        if not target or self.network is None:
             return []
         peers = self._live_channels(target, getattr(msg, "target_component", 0))
         return [] if "memory" in peers else peers
@@ -770,12 +875,12 @@ class VehicleEndpoint:
         target = getattr(m, "target_system", 0)
         if target:
             component = getattr(m, "target_component", 0)
-            if self.send_to is None or (target, component) == (self.sysid, 1):
+            if self.network is None or (target, component) == (self.sysid, 1):
                 return
             to = [c for c in self._live_channels(target, component) if c not in ("memory", self._channel)]
             if not to:
                 return
-        elif self.forward is None or m.get_srcSystem() != self.sysid:
+        elif self.network is None or m.get_srcSystem() != self.sysid:
             return
         else:
             to = []
@@ -786,14 +891,14 @@ class VehicleEndpoint:
             self.stats.not_passed_on += 1
             return
         data = bytes(m.get_msgbuf())
+        assert self.network is not None
         if to:
             for channel in to:
-                self.send_to(data, channel)
+                self.network.send_to(data, channel)
             sent = len(to)
         else:
-            assert self.forward is not None
-            sent = self.forward(data, self._sender)
-        self._pass_on_left[self._channel] = left - (sent if isinstance(sent, int) else MAX_PEERS)
+            sent = self.network.send(data, (self._sender,))
+        self._pass_on_left[self._channel] = left - sent
 
     def _first_pass(self, m: Any) -> bool:
         """Whether ``m`` (its sender, sequence number, message id and bytes) has not been passed
@@ -873,8 +978,8 @@ class VehicleEndpoint:
         the network (one that came over the network, ``lfctl follow``'s, :meth:`_pass_on`
         passes on to every peer but its sender, as Rover's routing never sends a message back
         where it came from)."""
-        if self.forward is not None and m.get_srcComponent() != 1 and self._channel == "memory":
-            self.forward(bytes(m.get_msgbuf()), None)
+        if self.network is not None and m.get_srcComponent() != 1 and self._channel == "memory":
+            self.network.send(bytes(m.get_msgbuf()))
 
     def _on_heartbeat(self, m: Any) -> None:
         if m.type == mav.MAV_TYPE_GCS:
@@ -1062,7 +1167,7 @@ class VehicleEndpoint:
             self.guided = None  # entering GUIDED stops until a target comes
             self._guided_arrived = False
         self._guided_stale_reported = False
-        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
+        self._soon(MSG_IDS["HEARTBEAT"])  # tell the ground stations now
 
     def force_mode(self, name: str) -> None:
         """Put the vehicle in a mode without Rover's checks (the simulation's own set-up,
@@ -1119,14 +1224,14 @@ class VehicleEndpoint:
                 # for it sends the next parameters of a list under way, nothing otherwise; lfctl
                 # sends a list whole at once, so none is ever under way and nothing goes out
                 return mav.MAV_RESULT_ACCEPTED
-            if msg_id not in (*self._intervals, MSG_IDS["AUTOPILOT_VERSION"]):
+            if msg_id not in (*self._rates.intervals, MSG_IDS["AUTOPILOT_VERSION"]):
                 return mav.MAV_RESULT_FAILED  # as ArduPilot: a message it does not send (no text)
-            self._once.append(msg_id)
+            self._once.append((msg_id, self._asker()))
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
             if p[0] != 1.0:
                 return mav.MAV_RESULT_FAILED  # as Rover: param1 must be 1
-            self._once.append(MSG_IDS["AUTOPILOT_VERSION"])
+            self._once.append((MSG_IDS["AUTOPILOT_VERSION"], self._asker()))
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
             return self._reboot_command(p, target_component)
@@ -1154,7 +1259,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_DO_SET_HOME:
             return self._set_home_command(p, latlon_e7, frame)
         if cmd == mav.MAV_CMD_GET_HOME_POSITION:
-            self._once += [MSG_IDS["HOME_POSITION"], MSG_IDS["GPS_GLOBAL_ORIGIN"]]  # as Rover: both
+            self._once += [(MSG_IDS["HOME_POSITION"], self._asker()), (MSG_IDS["GPS_GLOBAL_ORIGIN"], self._asker())]
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_SET_MESSAGE_INTERVAL:
             return self._set_interval(p[0], p[1], p[2])
@@ -1174,7 +1279,7 @@ class VehicleEndpoint:
             seq = jump_tag_item(self.mission, math.trunc(p[0]))
             if seq == 0 or not self.set_current(seq):
                 return mav.MAV_RESULT_FAILED
-            self._once.append(MSG_IDS["MISSION_CURRENT"])
+            self._once.append((MSG_IDS["MISSION_CURRENT"], None))
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["RTL"]) else mav.MAV_RESULT_FAILED
@@ -1257,7 +1362,7 @@ class VehicleEndpoint:
                 # mission's state as it was; AUTO then starts it from item 1
                 self.missions.current_seq = 0
                 self.mission_complete = complete
-        self._next_due[MSG_IDS["HEARTBEAT"]] = self.t_s  # tell the ground station now
+        self._soon(MSG_IDS["HEARTBEAT"])  # tell the ground stations now
 
     def _set_interval(self, msg_id_f: float, interval_us: float, response_target: float = 0.0) -> int:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
@@ -1280,21 +1385,42 @@ class VehicleEndpoint:
             ms = 0 if interval_us <= 0 else max(1, int(interval_us // 1000))
             self._param_period_s = PARAM_STREAM_PERIOD_S if ms == 0 else min(ms, PARAM_SLOWEST_MS) / 1000
             return mav.MAV_RESULT_ACCEPTED
-        if msg_id not in self._intervals:
+        if msg_id not in self._rates.intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
             return mav.MAV_RESULT_DENIED  # Rover's newest source (MAVSDK: "Command Denied"); older: FAILED
+        rates = self._channel_rates(own=True)
         if interval_us == -1:
-            self._stream(msg_id, math.inf)
+            rates.stream(msg_id, math.inf, self.t_s)
         elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
-            self._stream(msg_id, self._group_period.get(msg_id, _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0))))
+            default = _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0))
+            rates.stream(msg_id, rates.groups.get(msg_id, default), self.t_s)
         else:
-            self._stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6)
+            rates.stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6, self.t_s)
         return mav.MAV_RESULT_ACCEPTED
 
-    def _stream(self, msg_id: int, period_s: float) -> None:
-        """Send ``msg_id`` every ``period_s`` from now (infinite: stop it, not sending it once more)."""
-        self._intervals[msg_id] = period_s
-        self._next_due[msg_id] = self.t_s if math.isfinite(period_s) else math.inf
+    def _channel_rates(self, own: bool = False) -> StreamRates:
+        """The telemetry schedule of the channel the message in hand came on. ``own``: a
+        network peer about to set a rate gets one of its own (a copy of the defaults, and its
+        groups' rates), as each of a Rover's links keeps its own; else a peer that has none
+        reads the shared one."""
+        channel = self._channel
+        if channel == "memory" or self.network is None:
+            return self._rates
+        rates = self._peer_rates.get(channel)
+        if rates is None and own:
+            if len(self._peer_rates) >= MAX_PEERS:  # the one heard from longest ago makes room
+                heard = {c: -math.inf for c in self._peer_rates}
+                for (_, _, c), t in self._routes.items():
+                    if c in heard:
+                        heard[c] = max(heard[c], t)
+                del self._peer_rates[min(heard, key=heard.__getitem__)]
+            rates = self._peer_rates[channel] = StreamRates()
+        return rates or self._rates
+
+    def _soon(self, msg_id: int) -> None:
+        """Send ``msg_id`` at this tick on every channel that streams it."""
+        for rates in (self._rates, *self._peer_rates.values()):
+            rates.soon(msg_id, self.t_s)
 
     def _get_interval(self, msg_id_f: float) -> int:
         """MAV_CMD_GET_MESSAGE_INTERVAL as ArduPilot answers it: MESSAGE_INTERVAL with the
@@ -1304,14 +1430,14 @@ class VehicleEndpoint:
         if msg_id is None:
             return mav.MAV_RESULT_DENIED
         if msg_id == MSG_IDS["PARAM_VALUE"]:  # Rover's parameter stream: always has a rate
-            self.send(mav.MAVLink_message_interval_message(msg_id, int(round(self._param_period_s * 1e6))))
+            self._answer(mav.MAVLink_message_interval_message(msg_id, int(round(self._param_period_s * 1e6))))
             return mav.MAV_RESULT_ACCEPTED
-        period = self._intervals.get(msg_id)
+        period = self._channel_rates().intervals.get(msg_id)
         if period is None:
-            self.send(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
+            self._answer(mav.MAVLink_message_interval_message(msg_id & 0xFFFF, 0))
             return mav.MAV_RESULT_FAILED
         interval_us = -1 if math.isinf(period) else int(round(period * 1e6))
-        self.send(mav.MAVLink_message_interval_message(msg_id, interval_us))
+        self._answer(mav.MAVLink_message_interval_message(msg_id, interval_us))
         return mav.MAV_RESULT_ACCEPTED
 
     def _on_request_data_stream(self, m: Any) -> None:
@@ -1322,9 +1448,10 @@ class VehicleEndpoint:
             return
         names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
+        rates = self._channel_rates(own=bool(names))
         for name in names:
-            self._group_period[MSG_IDS[name]] = _period(hz)
-            self._stream(MSG_IDS[name], _period(hz))
+            rates.groups[MSG_IDS[name]] = _period(hz)
+            rates.stream(MSG_IDS[name], _period(hz), self.t_s)
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
         # as Rover: climb and descent speeds (and SPEED_TYPE_ENUM_END) are DENIED, any other
@@ -1652,7 +1779,7 @@ class VehicleEndpoint:
             return mav.MAV_RESULT_DENIED
         if not self.set_current(seq, reset=reset_param == 1.0):
             return mav.MAV_RESULT_FAILED
-        self._once.append(MSG_IDS["MISSION_CURRENT"])
+        self._once.append((MSG_IDS["MISSION_CURRENT"], None))
         return mav.MAV_RESULT_ACCEPTED
 
     def set_current(self, seq: int, reset: bool = False) -> bool:
@@ -1940,19 +2067,21 @@ class VehicleEndpoint:
         self._report_prearm(t_s)
         self._check_fence()
         self._record_path()
-        for msg_id in list(self._once):
-            self._send_by_id(msg_id)
-        self._once.clear()
-        for msg_id, period in self._intervals.items():
-            due = self._next_due.get(msg_id, t_s)  # (a stream's first send is due now)
-            if t_s + DUE_SLACK_S >= due:
+        once, self._once = self._once, []
+        # each schedule's due messages to its own: the shared one's to the in-memory link and
+        # every peer that set no rate, a peer's own to it alone
+        live = self.network.reachable() if self.network is not None else []
+        try:
+            for msg_id, self._audience in once:
                 self._send_by_id(msg_id)
-                # the stream keeps its phase: due again a period after it was due (after the
-                # tick it went in, a 0.1 s period that fell a float's width past a tick slipped
-                # a tick each time, and a 4 Hz stream on 50 Hz ticks ran at 3.85 Hz); one that
-                # has fallen a period behind (a pause, a new rate) starts again from now
-                after = due + period
-                self._next_due[msg_id] = (after if after > t_s else t_s + period) if math.isfinite(period) else math.inf
+            for audience, rates in ((SHARED, self._rates), *self._peer_rates.items()):
+                self._audience = audience
+                due = rates.due(t_s)
+                if audience is SHARED or audience in live:  # (a peer out of reach: its rates kept)
+                    for msg_id in due:
+                        self._send_by_id(msg_id)
+        finally:
+            self._audience = None
 
     def _report_prearm(self, t_s: float) -> None:
         """As Rover's AP_Arming::update: while a disarmed vehicle fails a pre-arm check, each
@@ -2022,7 +2151,7 @@ class VehicleEndpoint:
             self.statustext(f"Fence breached: {breach}", mav.MAV_SEVERITY_CRITICAL)
             if self.armed:
                 self._fence_action(give_up=outside_m > FENCE_GIVE_UP_M)
-            self._next_due[MSG_IDS["FENCE_STATUS"]] = self.t_s
+            self._soon(MSG_IDS["FENCE_STATUS"])
         elif breach is None and self.fence_breach is not None:
             self.statustext("Fence breach cleared", mav.MAV_SEVERITY_INFO)
         self.fence_breach = breach

@@ -8,7 +8,7 @@ import random
 import socket
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 from lfctl.errors import LinkError
 
@@ -103,7 +103,7 @@ class UdpLink:
                 return
         self.peers[addr] = now
 
-    def send(self, data: bytes, exclude: Address | None = None) -> int:
+    def send(self, data: bytes, exclude: Collection[Address] = ()) -> int:
         """Send to every ``udpout`` target and every peer heard lately (a refused send is
         skipped); returns the datagrams sent.
 
@@ -111,11 +111,11 @@ class UdpLink:
         ----------
         data : bytes
             One packed MAVLink packet.
-        exclude : address, optional
-            Not to this one (the sender of a message passed on: MAVLink routing never sends
-            a message back where it came from).
+        exclude : collection of Address, optional
+            Not to these (the sender of a message passed on: MAVLink routing never sends a
+            message back where it came from).
         """
-        return sum(self._sendto(data, addr) for addr in self._reachable() if addr != exclude)
+        return sum(self._sendto(data, addr) for addr in self.reachable() if addr not in exclude)
 
     def send_to(self, data: bytes, addr: Address) -> None:
         """Send to one peer, if :meth:`send` would (a ``udpout`` target, a peer heard lately).
@@ -127,10 +127,10 @@ class UdpLink:
         addr : Address
             The peer, (host, port).
         """
-        if addr in self._reachable():
+        if addr in self.reachable():
             self._sendto(data, addr)
 
-    def _reachable(self) -> list[Address]:
+    def reachable(self) -> list[Address]:
         """Where :meth:`send` sends: every ``udpout`` target and every peer heard within
         :data:`PEER_TIMEOUT_S`, or last heard."""
         now = self._clock()
@@ -209,16 +209,18 @@ class LossyLink:
         """
         self.inner.accept_peer(addr)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, exclude: Collection[Address] = ()) -> None:
         """Send, unless this datagram is dropped.
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
+        exclude : collection of Address, optional
+            Peers not to send it to.
         """
         if self.rng.random() >= self.loss:
-            self.inner.send(data)
+            self.inner.send(data, exclude)
 
     def recv(self, max_datagrams: int = 2048) -> list[tuple[bytes, Address]]:
         """The datagrams waiting that are not dropped, with their senders.
@@ -276,13 +278,16 @@ class MemoryLink:
             The sender, (host, port).
         """
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, exclude: Collection[Address] = ()) -> None:
         """Queue a datagram for the other end.
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
+        exclude : collection of Address, optional
+            Network peers not to send it to: none is on this link (an endpoint's link may be
+            in memory alone, or in memory and UDP, :class:`Fanout`).
         """
         self.tx_datagrams += 1
         if self.other is not None:
@@ -331,16 +336,18 @@ class Fanout:
             if isinstance(link, UdpLink) and addr[0] != "memory":
                 link.accept_peer(addr)
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, exclude: Collection[Address] = ()) -> None:
         """Send on every link.
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
+        exclude : collection of Address, optional
+            UDP peers not to send it to (the in-memory links get it).
         """
         for link in self.links:
-            link.send(data)
+            link.send(data, exclude)
 
     def recv(self, max_datagrams: int = 256) -> list[tuple[bytes, Address]]:
         """What every link has waiting, link by link.

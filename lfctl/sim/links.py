@@ -209,10 +209,11 @@ class Links:
             ep.params["WP_RADIUS"].value = cfg.mission.acceptance_radius_m
             if realtime:
                 ep.time_budget_s = REALTIME_RECEIVE_BUDGET_S
-                # what a peer sends another (a ground station's requests to lfctl follow's
-                # components, their answers and reports), and the in-memory companion's reports
-                ep.send_to = udp.send_to
-                ep.forward = udp.send
+                # each peer a channel of its own: its packets counted and its telemetry
+                # scheduled apart, what a peer sends another (a ground station's requests to
+                # lfctl follow's components, their answers and reports) passed on, and the
+                # in-memory companion's reports to every peer
+                ep.network = udp
             self.endpoints.append(ep)
             self.peers.append(peer)
         # each follower's companion (component 191 of its system) on the in-memory link; a

@@ -5,10 +5,12 @@ MISSION; GUIDED in every setpoint form. In memory, driven by pymavlink frames.""
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import struct
 import time
+from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -34,6 +36,22 @@ from lfctl.link.transport import MAX_PEERS, MemoryLink
 HOME = (12.9602, 77.6690, 900.0)
 STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_rate_radps": 0.0}
 NAN, INF = math.nan, math.inf
+
+
+class Network:
+    """A stand-in for an endpoint's UDP side: what it is given to send goes to the callables
+    (``send`` returns the copies sent); ``peers`` are the ones it reaches."""
+
+    def __init__(
+        self,
+        send_to: Callable[[bytes, object], object] = lambda data, addr: None,
+        send: Callable[..., int] = lambda data, exclude=(): 0,
+        peers: list[object] | None = None,
+    ) -> None:
+        self.send_to, self.send, self.peers = send_to, send, peers or []
+
+    def reachable(self) -> list[object]:
+        return list(self.peers)
 
 
 class Bench:
@@ -128,7 +146,7 @@ def test_a_command_with_values_that_are_not_numbers_is_denied_and_nothing_change
     bench: Bench, cmd: int, params: tuple[float, ...]
 ) -> None:
     bench.tick()
-    before = (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq)
+    before = (bench.ep.mode, bench.ep.armed, dict(bench.ep._rates.intervals), bench.ep.current_seq)
     # refused (COMPONENT_ARM_DISARM with neither 0 nor 1, and DO_REPOSITION as a COMMAND_LONG:
     # UNSUPPORTED, as Rover)
     refused = (
@@ -137,7 +155,7 @@ def test_a_command_with_values_that_are_not_numbers_is_denied_and_nothing_change
         else (mav.MAV_RESULT_DENIED, mav.MAV_RESULT_FAILED)
     )
     assert bench.command(cmd, *params) in refused
-    assert (bench.ep.mode, bench.ep.armed, dict(bench.ep._intervals), bench.ep.current_seq) == before
+    assert (bench.ep.mode, bench.ep.armed, dict(bench.ep._rates.intervals), bench.ep.current_seq) == before
     assert bench.ep.stats.handler_errors == 0
 
 
@@ -2251,12 +2269,12 @@ def test_set_message_interval_with_a_response_target_is_denied(bench: Bench, lon
     att = mav.MAVLINK_MSG_ID_ATTITUDE
     for target in (1, 2, -1, NAN):  # Rover: anything but 0 (this link) is DENIED, first
         assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 1e6, target, long=long) == mav.MAV_RESULT_DENIED
-    assert bench.ep._intervals[att] == pytest.approx(0.1)  # the rate is untouched
+    assert bench.ep._rates.intervals[att] == pytest.approx(0.1)  # the rate is untouched
     texts = len(bench.ep.statustexts)
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 1e5, 1, long=long) == mav.MAV_RESULT_DENIED
     assert len(bench.ep.statustexts) == texts  # refused before the message is looked up
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 1e6, 0, long=long) == mav.MAV_RESULT_ACCEPTED
-    assert bench.ep._intervals[att] == pytest.approx(1.0)
+    assert bench.ep._rates.intervals[att] == pytest.approx(1.0)
 
 
 def test_a_reboot_for_another_component_is_denied(bench: Bench) -> None:
@@ -2539,16 +2557,16 @@ def test_a_companions_report_is_routed_to_the_network_but_never_back_to_its_send
     # network (lfctl follow) had its own STATUSTEXTs echoed back to it; the ground station
     # there still gets them
     forwarded: list[tuple[bytes, object]] = []
-    bench.ep.forward = lambda data, exclude: forwarded.append((data, exclude))
+    bench.ep.network = Network(send=lambda data, exclude=(): forwarded.append((data, exclude)) or 1)
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     text = mav.MAVLink_statustext_message(mav.MAV_SEVERITY_INFO, b"rover: target lost")
     bench.a.inbox.append((text.pack(companion), ("memory", 0)))  # the in-memory companion's
     bench.tick()
-    assert [exclude for _d, exclude in forwarded] == [None]  # to every peer on the network
+    assert [exclude for _d, exclude in forwarded] == [()]  # to every peer on the network
     _from_network(bench, text, companion)
     _from_network(bench, mav.MAVLink_named_value_float_message(0, b"rng_err", 0.2), companion)
     bench.tick()
-    assert [exclude for _d, exclude in forwarded[1:]] == [("127.0.0.1", 14550)] * 2  # to all but the sender
+    assert [exclude for _d, exclude in forwarded[1:]] == [(("127.0.0.1", 14550),)] * 2  # to all but the sender
 
 
 def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_there(bench: Bench) -> None:
@@ -2558,8 +2576,10 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     passed: list[tuple[str, object]] = []
     broadcast: list[object] = []
     parser = mav.MAVLink(None)
-    bench.ep.send_to = lambda data, addr: passed.append((parser.parse_buffer(data)[0].get_type(), addr))
-    bench.ep.forward = lambda data, exclude: broadcast.append(exclude)
+    bench.ep.network = Network(
+        send_to=lambda data, addr: passed.append((parser.parse_buffer(data)[0].get_type(), addr)),
+        send=lambda data, exclude=(): broadcast.append(*exclude) or 1,
+    )
     rover_side, ground_side = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)
@@ -2612,7 +2632,7 @@ def test_a_full_route_table_makes_room_for_a_new_peer_once_old_ones_are_idle(ben
     # runs left must not keep the latest one from being learnt (a table full of live routes
     # still takes nothing more, as Rover's)
     passed: list[object] = []
-    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    bench.ep.network = Network(send_to=lambda data, addr: passed.append(addr))
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     ground = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     heartbeat = mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3)
@@ -2637,8 +2657,9 @@ def test_a_relay_looping_the_port_into_itself_gets_nothing_round_twice(bench: Be
     # a relay sending the port's output back into it (MAVProxy with --master and --out both on
     # the port): the autopilot's ACKs, and lfctl follow's camera HEARTBEAT, went round for ever
     passed: list[object] = []
-    bench.ep.send_to = lambda data, addr: passed.append(addr)
-    bench.ep.forward = lambda data, exclude: passed.append(exclude) or 2
+    bench.ep.network = Network(
+        send_to=lambda data, addr: passed.append(addr), send=lambda data, exclude=(): passed.append(*exclude) or 2
+    )
     follow, ground, relay = ("127.0.0.1", 40001), ("127.0.0.1", 40002), ("127.0.0.1", 40003)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     bench.a.inbox.append((mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), ground))
@@ -2664,8 +2685,10 @@ def test_a_relay_looping_the_port_into_itself_gets_nothing_round_twice(bench: Be
 
 def test_a_flood_from_one_peer_is_not_multiplied_past_a_limit_nor_starves_another(bench: Bench) -> None:
     passed: list[object] = []
-    bench.ep.send_to = lambda data, addr: passed.append(addr)
-    bench.ep.forward = lambda data, exclude: passed.append(exclude) or MAX_PEERS
+    bench.ep.network = Network(
+        send_to=lambda data, addr: passed.append(addr),
+        send=lambda data, exclude=(): passed.append(*exclude) or MAX_PEERS,
+    )
     flood, ground, follow = ("127.0.0.1", 40003), ("127.0.0.1", 40002), ("127.0.0.1", 40001)
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)  # (the flood's: another component's)
@@ -2695,7 +2718,7 @@ def test_a_route_gone_quiet_is_gone(bench: Bench) -> None:
     # lfctl follow stopped: a ground station's request to its component is no longer sent to
     # where it was, and the autopilot answers it as one it has no route to
     passed: list[object] = []
-    bench.ep.send_to = lambda data, addr: passed.append(addr)
+    bench.ep.network = Network(send_to=lambda data, addr: passed.append(addr))
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), ("127.0.0.1", 40001)))
@@ -2724,7 +2747,7 @@ def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
         time.sleep(0.05)
         for _data, addr in link.recv():  # both heard: peers (as MAVLink from them makes them)
             link.accept_peer(addr)
-        link.send(b"report", exclude=a.getsockname())
+        link.send(b"report", exclude=[a.getsockname()])
         assert b.recv(64) == b"report"
         a.settimeout(0.2)
         with pytest.raises(TimeoutError):
@@ -2733,3 +2756,120 @@ def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
         a.close()
         b.close()
         link.close()
+
+
+class PeerCapture:
+    """Each network peer's packets as the endpoint sends them, parsed peer by peer."""
+
+    def __init__(self, bench: Bench, peers: list[tuple[str, int]]) -> None:
+        self.got: dict[object, list[Any]] = {p: [] for p in peers}
+        self._parsers = {p: mav.MAVLink(None) for p in peers}
+        bench.ep.network = Network(send_to=self._sent, peers=list(peers))
+
+    def _sent(self, data: bytes, addr: object) -> None:
+        self.got[addr] += [m for m in self._parsers[addr].parse_buffer(data) or [] if m.get_type() != "BAD_DATA"]
+
+    def count(self, peer: object, kind: str) -> int:
+        return sum(m.get_type() == kind for m in self.got[peer])
+
+
+def _peer_sends(bench: Bench, msg: object, sender: mav.MAVLink, addr: tuple[str, int]) -> list[Any]:
+    bench.a.inbox.append((msg.pack(sender), addr))  # type: ignore[attr-defined]
+    return bench.tick()
+
+
+def test_each_network_peer_keeps_its_own_stream_rates_as_each_rover_link_does(bench: Bench) -> None:
+    # a rehearsal's port: lfctl follow asks for its odometry at 20 Hz, MAVProxy for every group
+    # at 4 Hz as it connects; on a Rover each link has its own SRn_ rates, and a simulated
+    # vehicle's peers are its links: neither slows the other, and a peer that asked for
+    # nothing (and the in-memory link) keeps the defaults
+    follow, mavproxy, quiet = ("127.0.0.1", 40001), ("127.0.0.1", 40002), ("127.0.0.1", 40003)
+    cap = PeerCapture(bench, [follow, mavproxy, quiet])
+    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    interval = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
+    _peer_sends(bench, interval, companion, follow)
+    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 4, 1), gcs, mavproxy)
+    for p in cap.got.values():
+        p.clear()
+    memory = []
+    for _ in range(100):  # 2 s
+        memory += bench.tick(0.02)
+    counts = [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy, quiet)]
+    assert counts == [40, 8, 20]
+    assert sum(m.get_type() == "GLOBAL_POSITION_INT" for m in memory) == 20
+    assert cap.count(follow, "ATTITUDE") == 20 and cap.count(mavproxy, "ATTITUDE") == 8  # (10 Hz; 4 Hz)
+    assert all(cap.count(p, "HEARTBEAT") == 2 for p in cap.got)  # in no group: 1 Hz for each
+    # each asks what its rate is and hears its own
+    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, gpi, 0, 0, 0, 0, 0, 0)
+    for peer, sender, us in ((follow, companion, 50000), (mavproxy, gcs, 250000), (quiet, gcs, 100000)):
+        before = len(cap.got[peer])
+        _peer_sends(bench, get, sender, peer)
+        (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
+        assert answer.interval_us == us, peer
+
+
+def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(bench: Bench) -> None:
+    # a Rover numbers its packets per link: with its own rates (and answers to it alone) a
+    # ground station that counted one sequence with the other peers' would see most of its
+    # packets as lost (MAVProxy's and QGroundControl's link quality)
+    follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    cap = PeerCapture(bench, [follow, mavproxy])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    fast = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 20000, 0, 0, 0, 0, 0)
+    _peer_sends(bench, fast, mav.MAVLink(None, srcSystem=1, srcComponent=191), follow)
+    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 2, 1), gcs, mavproxy)
+    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, gpi, 0, 0, 0, 0, 0, 0)
+    _peer_sends(bench, get, gcs, mavproxy)
+    request = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
+    _peer_sends(bench, request, gcs, mavproxy)
+    for _ in range(300):  # 6 s: past 256 packets on the busy peer
+        bench.tick(0.02)
+    assert len(cap.got[follow]) > 300
+    for peer, got in cap.got.items():
+        seqs = [m.get_seq() for m in got]
+        assert seqs[0] == 0 and all((b - a) % 256 == 1 for a, b in itertools.pairwise(seqs)), peer
+    # answers to mavproxy's requests went to it alone, as a Rover answers on the asking link
+    for kind in ("COMMAND_ACK", "MESSAGE_INTERVAL", "AUTOPILOT_VERSION"):
+        assert (cap.count(mavproxy, kind), cap.count(follow, kind)) == (1, 0) if kind != "COMMAND_ACK" else (2, 1)
+
+
+def test_a_peers_group_rates_outlive_a_reboot_and_its_message_intervals_do_not(bench: Bench) -> None:
+    # Rover keeps each link's SRn_ rates in its parameters; SET_MESSAGE_INTERVAL's are in RAM
+    follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    cap = PeerCapture(bench, [follow, mavproxy])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    fast = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
+    _peer_sends(bench, fast, gcs, follow)
+    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 2, 1), gcs, mavproxy)
+    reboot = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
+    _peer_sends(bench, reboot, gcs, mavproxy)
+    for _ in range(200):
+        bench.tick(0.02)
+    assert not bench.ep.rebooting
+    for p in cap.got.values():
+        p.clear()
+    for _ in range(100):
+        bench.tick(0.02)
+    assert [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy)] == [20, 4]  # default 10 Hz; 2 Hz
+
+
+def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reach(bench: Bench) -> None:
+    peers = [("127.0.0.1", 41000 + i) for i in range(MAX_PEERS + 1)]
+    cap = PeerCapture(bench, peers)
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    stop = mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 0, 0)
+    for peer in peers:  # each stops its groups, the first one first (heard from longest ago)
+        _peer_sends(bench, stop, gcs, peer)
+    assert len(bench.ep._peer_rates) == MAX_PEERS and peers[0] not in bench.ep._peer_rates
+    for p in cap.got.values():
+        p.clear()
+    bench.ep.network.peers = peers[:-1]  # type: ignore[union-attr]  # the latest one no longer reached
+    for _ in range(50):
+        bench.tick(0.02)
+    assert cap.count(peers[0], "GLOBAL_POSITION_INT") == 10  # its rates made room: the defaults again
+    assert all(cap.count(p, "GLOBAL_POSITION_INT") == 0 for p in peers[1:])
+    assert cap.got[peers[-1]] == []  # nothing at all out of reach

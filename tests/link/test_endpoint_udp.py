@@ -32,10 +32,12 @@ STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_r
 class LiveEndpoint:
     """An endpoint on 127.0.0.1:0 ticked at 100 Hz by a thread (time = wall time)."""
 
-    def __init__(self, loss: float = 0.0, signing_key: bytes | None = None) -> None:
+    def __init__(self, loss: float = 0.0, signing_key: bytes | None = None, channels: bool = False) -> None:
         udp = UdpLink(("127.0.0.1", 0))
         self.link = LossyLink(udp, loss) if loss else udp
         self.ep = VehicleEndpoint("leader", 1, self.link, HOME, signing_key=signing_key)
+        if channels:  # each peer a channel of its own, as the simulator's realtime ports are
+            self.ep.network = udp
         self.port = udp.port
         self._stop = threading.Event()
         self._t0 = time.monotonic()
@@ -810,3 +812,44 @@ def test_mavsdk_lists_downloads_compares_and_uploads_over_ftp(live: LiveEndpoint
     )  # (float32 in the file)
     assert out["same"]  # its CRC-32 of the local copy is the vehicle's
     assert wait_until(lambda: len(live.ep.mission) == len(SQUARE) + 1)
+
+
+def test_two_clients_on_one_port_keep_their_own_rates_and_count_no_packet_lost() -> None:
+    # a rehearsal's port: MAVProxy asks for every group at 4 Hz as it connects, lfctl follow
+    # for its odometry at 20 Hz; each keeps its rate (as on a Rover's two links), and each
+    # counts every packet it gets in sequence (pymavlink's mav_loss, MAVProxy's link quality)
+    from pymavlink import mavutil
+
+    live = LiveEndpoint(channels=True)
+    clients = {
+        name: mavutil.mavlink_connection(f"udpout:127.0.0.1:{live.port}", source_system=sysid, source_component=comp)
+        for name, sysid, comp in (("mavproxy", 255, 190), ("follow", 1, 191))
+    }
+    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    try:
+        for c in clients.values():
+            c.mav.heartbeat_send(mav.MAV_TYPE_GCS, mav.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            assert c.wait_heartbeat(timeout=5) is not None
+        clients["mavproxy"].mav.request_data_stream_send(1, 1, mav.MAV_DATA_STREAM_ALL, 4, 1)
+        clients["follow"].mav.command_long_send(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
+        ack = clients["follow"].recv_match(type="COMMAND_ACK", blocking=True, timeout=5)
+        assert ack is not None and ack.result == mav.MAV_RESULT_ACCEPTED
+        # GLOBAL_POSITION_INT's own clock: from half a second after the ACK, for 3 s
+        start_ms = live.ep._boot_ms() + 500
+        stamps: dict[str, list[int]] = {name: [] for name in clients}
+
+        def window_read() -> bool:
+            for name, c in clients.items():
+                while (m := c.recv_match(blocking=False)) is not None:
+                    if m.get_type() == "GLOBAL_POSITION_INT" and m.time_boot_ms >= start_ms:
+                        stamps[name].append(m.time_boot_ms)
+            return all(s and s[-1] >= start_ms + 3000 for s in stamps.values())
+
+        assert wait_until(window_read, timeout_s=30)
+        counts = {name: sum(t < start_ms + 3000 for t in s) for name, s in stamps.items()}
+        assert 45 <= counts["follow"] <= 61 and 9 <= counts["mavproxy"] <= 13, counts  # 60 and 12 asked for
+        assert {name: c.mav_loss for name, c in clients.items()} == {"mavproxy": 0, "follow": 0}
+    finally:
+        for c in clients.values():
+            c.close()
+        live.close()

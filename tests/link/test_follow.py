@@ -112,7 +112,7 @@ def test_the_companion_takes_the_rovers_global_position_and_asks_for_it() -> Non
     companion.wait_vehicle(1.0, 20.0)
     clock[0] = 1.0
     companion.poll(1.0)  # the rover takes the requests, and streams
-    assert rover._intervals[mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT] == pytest.approx(0.05)
+    assert rover._rates.intervals[mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT] == pytest.approx(0.05)
     v = companion.vehicle
     lat, lon, alt = ned_to_geodetic(3.0, -4.0, 0.0, *HOME)
     assert v.lat_deg == pytest.approx(lat, abs=1e-7) and v.lon_deg == pytest.approx(lon, abs=1e-7)
@@ -855,7 +855,7 @@ def test_a_rover_gone_silent_is_said_its_setpoints_not_counted_and_ctrl_c_keeps_
         def on_step(step: Any) -> None:
             steps.append(step.t_s)
             if len(steps) == 10:
-                rover._intervals[MSG_IDS["HEARTBEAT"]] = math.inf  # silent from here
+                rover._rates.intervals[MSG_IDS["HEARTBEAT"]] = math.inf  # silent from here
             if len(steps) > 10 and step.t_s - steps[9] > HEARTBEAT_STALE_S + 3.0:
                 raise KeyboardInterrupt  # the user's Ctrl-C
 
@@ -1026,7 +1026,7 @@ def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
     try:
         with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
             _follow(rover, banner_video(200), on_step, max_frames=180)
-            period = rover._intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
+            period = rover._rates.intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
     finally:
         sock.close()
     slow = [r.getMessage() for r in caplog.records if "LOCAL_POSITION_NED at" in r.getMessage()]
