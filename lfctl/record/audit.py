@@ -19,7 +19,7 @@ import itertools
 import json
 import math
 import re
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -743,6 +743,8 @@ SESSION_GAP_S = 2.5
 #: a sender's sequence jumping this far (mod 256) restarted: a new process, not 128+ packets lost
 RESTART_JUMP = 128
 COMMANDS = ("COMMAND_LONG", "COMMAND_INT")
+#: the most unanswered commands an ack is looked for among (the oldest are given up)
+MAX_UNANSWERED = 1024
 
 
 def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]]:
@@ -758,32 +760,50 @@ def mavlink_packets(c: Contents) -> dict[str, list[tuple[float, dict[str, Any]]]
 
 
 def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, list[tuple[float, float]]]:
-    """Commands on one link and their acks: (commands, [(ack time, latency s)]).
+    """Commands to one vehicle and their acks: (commands, [(ack time, latency s)]).
 
-    An ack is matched to the oldest unanswered command of the same number from the system and
-    component it is addressed to, going the other way (commands in and acks out at a vehicle;
-    out and in at a companion); an ack without that address, on the command number alone.
+    The vehicle is the system its own packets (``out``) come from; a command counts when it is
+    addressed to it (or to every system): one for another vehicle that reached its port is
+    not its to answer. An ack is matched to the oldest unanswered command of the same number
+    that it answers: sent by the system and component the ack is addressed to (an ack without
+    that address: by anyone), and addressed to the ack's sender (or to every component). The
+    autopilot's acks are logged ``out``; a component's reached through the port (a camera,
+    ``lfctl follow``'s companion) ``in``, as the command it answers.
 
     Parameters
     ----------
     packets : list of (t_s, packet)
         One link's packets in log order.
     """
-    pending: dict[tuple[str, int, int, int], list[float]] = defaultdict(list)
+    own = Counter(m["sysid"] for _, m in packets if m["direction"] == "out").most_common(1)
+    sysid = own[0][0] if own else None
+    # unanswered commands: (t_s, sender system, sender component, target system, target component, number)
+    pending: list[tuple[float, int, int, int, int, Any]] = []
     out = []
     commands = 0
     for t, m in packets:
         fields = m.get("fields", {})
         if m["name"] in COMMANDS:
-            commands += 1
-            pending[(m["direction"], m["sysid"], m["compid"], fields.get("command", -1))].append(t)
+            target = fields.get("target_system", 0)
+            if sysid is None or target in (0, sysid):
+                commands += 1
+                pending.append(
+                    (t, m["sysid"], m["compid"], target, fields.get("target_component", 0), fields.get("command"))
+                )
+                del pending[:-MAX_UNANSWERED]
         elif m["name"] == "COMMAND_ACK":
-            other = "out" if m["direction"] == "in" else "in"
-            key = (other, fields.get("target_system", 0), fields.get("target_component", 0), fields.get("command"))
-            if not pending.get(key):
-                key = next((k for k, v in pending.items() if v and k[0] == other and k[3] == key[3]), key)
-            if pending.get(key):
-                out.append((t, t - pending[key].pop(0)))
+            to_sys, to_comp = fields.get("target_system", 0), fields.get("target_component", 0)
+            for i, (t0, src_sys, src_comp, tgt_sys, tgt_comp, command) in enumerate(pending):
+                if (
+                    command == fields.get("command")
+                    and to_sys in (0, src_sys)
+                    and to_comp in (0, src_comp)
+                    and tgt_sys in (0, m["sysid"])
+                    and tgt_comp in (0, m["compid"])
+                ):
+                    out.append((t, t - t0))
+                    del pending[i]
+                    break
     return commands, out
 
 
