@@ -177,6 +177,14 @@ class CameraComponent:
         if m.command in (mav.MAV_CMD_VIDEO_START_STREAMING, mav.MAV_CMD_VIDEO_STOP_STREAMING):
             self._start_stop(m)
             return
+        if m.command == mav.MAV_CMD_SET_CAMERA_MODE:
+            # its one mode (CAMERA_SETTINGS says VIDEO): asked for, nothing to do; another is
+            # not one it has (MAVSDK's set_mode(VIDEO) was refused by a camera in VIDEO mode)
+            result = mav.MAV_RESULT_ACCEPTED if m.param2 == mav.CAMERA_MODE_VIDEO else mav.MAV_RESULT_DENIED
+            self._send(
+                mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent())
+            )
+            return
         msg_id = _LEGACY.get(m.command)
         if m.command == mav.MAV_CMD_REQUEST_MESSAGE:
             msg_id = _message_id(m.param1)

@@ -390,6 +390,11 @@ def test_a_ground_station_stops_and_starts_the_camera_stream() -> None:
     assert heard[-1] is False and not camera.streaming  # (status asked: still stopped)
     ask(mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, 1)
     assert heard[-1] is True and camera.streaming
+    # its one mode, VIDEO (as CAMERA_SETTINGS says), is taken; PHOTO is not one it has
+    # (MAVSDK's set_mode(VIDEO) was UNSUPPORTED)
+    assert [a.result for a in ask(mav.MAV_CMD_SET_CAMERA_MODE, 0, mav.CAMERA_MODE_VIDEO)] == [mav.MAV_RESULT_ACCEPTED]
+    assert [a.result for a in ask(mav.MAV_CMD_SET_CAMERA_MODE, 0, mav.CAMERA_MODE_IMAGE)] == [mav.MAV_RESULT_DENIED]
+    assert camera.streaming
 
 
 def test_a_signed_camera_keeps_its_signing_clock_on_the_wall_clock(monkeypatch: pytest.MonkeyPatch) -> None:
