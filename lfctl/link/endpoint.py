@@ -23,7 +23,8 @@ import logging
 import math
 import struct
 import time
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 from typing import Any, Protocol
@@ -700,13 +701,19 @@ class VehicleEndpoint:
         in-memory link, or a link that is one channel."""
         return self._channel if self.network is not None and self._channel != "memory" else None
 
-    def _answer(self, msg: Any) -> None:
-        """Send ``msg`` to whoever sent the message in hand (:meth:`_asker`)."""
+    @contextmanager
+    def _answering(self) -> Iterator[None]:
+        """What is sent within goes to whoever sent the message in hand (:meth:`_asker`)."""
         self._audience = self._asker()
         try:
-            self.send(msg)
+            yield
         finally:
             self._audience = None
+
+    def _answer(self, msg: Any) -> None:
+        """Send ``msg`` to whoever sent the message in hand (:meth:`_asker`)."""
+        with self._answering():
+            self.send(msg)
 
     def _pack_for(self, msg: Any, peer: Any) -> bytes:
         """``msg`` packed for one network peer, with that peer's next sequence number."""
@@ -1608,14 +1615,18 @@ class VehicleEndpoint:
         self.statustext(f"lfctl V{__version__} (Rover, ArduPilot MAVLink)", mav.MAV_SEVERITY_INFO)
         self.statustext(f"lfctl sim: {self.name}, sysid {self.sysid}", mav.MAV_SEVERITY_INFO)
 
+    # a list and a read are answered to the asker alone, as Rover sends them on the asking
+    # link; a set's new value goes to every peer (GCS::send_parameter_value)
     def _on_param_request_list(self, m: Any) -> None:
         if self._for_me(m):
-            self._banner()  # as Rover: a parameter list starts with the banner
-            self.param_server.request_list()
+            with self._answering():
+                self._banner()  # as Rover: a parameter list starts with the banner
+                self.param_server.request_list()
 
     def _on_param_request_read(self, m: Any) -> None:
         if self._for_me(m):
-            self.param_server.request_read(m)
+            with self._answering():
+                self.param_server.request_read(m)
 
     def _on_param_set(self, m: Any) -> None:
         if self._for_me(m):

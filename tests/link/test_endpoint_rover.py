@@ -2873,3 +2873,23 @@ def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reac
     assert cap.count(peers[0], "GLOBAL_POSITION_INT") == 10  # its rates made room: the defaults again
     assert all(cap.count(p, "GLOBAL_POSITION_INT") == 0 for p in peers[1:])
     assert cap.got[peers[-1]] == []  # nothing at all out of reach
+
+
+def test_a_parameter_read_or_list_is_answered_to_its_asker_and_a_set_to_every_peer(bench: Bench) -> None:
+    # as Rover: a list and a read go out on the asking link (GCS_MAVLINK's queued parameters,
+    # param_replies' chan), a set's new value to every active link (GCS::send_parameter_value)
+    follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    cap = PeerCapture(bench, [follow, mavproxy])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    memory = _peer_sends(bench, mav.MAVLink_param_request_read_message(1, 1, b"WP_SPEED", -1), gcs, mavproxy)
+    assert (cap.count(mavproxy, "PARAM_VALUE"), cap.count(follow, "PARAM_VALUE")) == (1, 0)
+    assert not [m for m in memory if m.get_type() == "PARAM_VALUE"]
+    _peer_sends(bench, mav.MAVLink_param_request_list_message(1, 1), gcs, mavproxy)
+    assert cap.count(mavproxy, "PARAM_VALUE") == 1 + len(bench.ep.params) and cap.count(follow, "PARAM_VALUE") == 0
+    assert cap.count(follow, "STATUSTEXT") == 0  # (the banner before the list too)
+    memory = _peer_sends(
+        bench, mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32), gcs, mavproxy
+    )
+    assert cap.count(follow, "PARAM_VALUE") == 1 and [
+        m.param_value for m in memory if m.get_type() == "PARAM_VALUE"
+    ] == [1.5]
