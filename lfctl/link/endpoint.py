@@ -295,20 +295,13 @@ def _as_int(value: float, lo: int, hi: int) -> int | None:
 class StreamRates:
     """One channel's telemetry schedule, as a Rover keeps one for each of its links: each
     message's period (infinite: not sent), when it is next due, and the periods
-    REQUEST_DATA_STREAM set for its groups (the link's SRn_ parameters: kept across a reboot,
-    where SET_MESSAGE_INTERVAL's rates are not)."""
+    REQUEST_DATA_STREAM set for its groups (the link's SRn_ parameters, set in RAM: Rover does
+    not save them, so a reboot starts every link at its defaults again)."""
 
     def __init__(self) -> None:
         self.groups: dict[int, float] = {}
-        self.intervals: dict[int, float] = {}
-        self.next_due: dict[int, float] = {}
-        self.restart()
-
-    def restart(self) -> None:
-        """The rates as the autopilot starts: the defaults, and the groups' periods over them."""
         self.intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
         self.intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
-        self.intervals.update(self.groups)
         # a message not streamed by default is not due until asked for
         self.next_due = {i: math.inf for i, period in self.intervals.items() if math.isinf(period)}
 
@@ -376,7 +369,8 @@ class VehicleEndpoint:
         Start armed.
     tap : callable, optional
         Sees every packet: ``tap(direction, msg, raw)`` with ``"in"`` or ``"out"``, the
-        pymavlink message and its bytes (the recorder).
+        pymavlink message and its bytes (the recorder); ``tap("out", msg, raw, peer)`` for
+        one sent to one network peer alone (:attr:`network`).
     signing_key : bytes, optional
         MAVLink 2 signing key: sign what is sent, and accept only signed packets except from
         the in-memory link.
@@ -391,7 +385,7 @@ class VehicleEndpoint:
         *,
         mode: str = "HOLD",
         armed: bool = False,
-        tap: Callable[[str, Any, bytes], None] | None = None,
+        tap: Callable[..., None] | None = None,
         signing_key: bytes | None = None,
     ) -> None:
         self.name = name
@@ -453,12 +447,6 @@ class VehicleEndpoint:
         #: PREFLIGHT_STORAGE param1 2: each parameter's value then; the ones still at it take
         #: their defaults at the reboot (a parameter set since is stored, as AP_Param keeps it)
         self._params_erased: dict[str, float] | None = None
-        #: the telemetry schedule of the in-memory link, of fixed targets and of every network
-        #: peer that has set no rate; a peer that sets one (REQUEST_DATA_STREAM,
-        #: SET_MESSAGE_INTERVAL) has its own from then on, as each of a Rover's links has its
-        #: SRn_ rates (at most MAX_PEERS; the one heard from longest ago makes room)
-        self._rates = StreamRates()
-        self._peer_rates: dict[Any, StreamRates] = {}
         #: each network peer's next sequence number: a Rover counts packets per link, and a
         #: peer that gets only some of the packets (its own rates, answers to it alone) must
         #: not see the others' as lost
@@ -518,8 +506,13 @@ class VehicleEndpoint:
         self.fence_breaches = 0
         self._fence_breach_ms = 0
         self._text_id = 0
-        for rates in (self._rates, *self._peer_rates.values()):
-            rates.restart()  # REQUEST_DATA_STREAM's rates outlive a reboot, SET_MESSAGE_INTERVAL's not
+        #: the telemetry schedule of the in-memory link, of fixed targets and of every network
+        #: peer that has set no rate; a peer that sets one (REQUEST_DATA_STREAM,
+        #: SET_MESSAGE_INTERVAL) has its own from then on, as each of a Rover's links has its
+        #: SRn_ rates (at most MAX_PEERS; the one heard from longest ago makes room). Rover
+        #: saves neither kind of rate: a reboot starts them all at the defaults
+        self._rates = StreamRates()
+        self._peer_rates: dict[Any, StreamRates] = {}
         #: messages to send once at the next tick, and to whom: None every channel (a change
         #: all should hear of), or the network peer whose request they answer
         self._once: list[tuple[int, Any]] = []
@@ -677,23 +670,31 @@ class VehicleEndpoint:
             return
         net = self.network
         if net is None:
+            if self.tap is not None:
+                self.tap("out", msg, data)
             self.link.send(data)
+            return
+        reachable = net.reachable()
+        alone = self._peers_of(msg) or ([self._audience] if self._audience not in (None, SHARED) else [])
+        if alone:  # an answer, or a stream, for those peers alone: each recorded as it went
+            for peer in alone:
+                if peer in reachable:
+                    packed = self._pack_for(msg, peer)
+                    if self.tap is not None:
+                        self.tap("out", msg, packed, peer)
+                    net.send_to(packed, peer)
         else:
-            # the in-memory link gets this packing (and the record); each network peer its own,
-            # with its own sequence number
-            reachable = net.reachable()
-            to = self._peers_of(msg)
-            if to or self._audience not in (None, SHARED):
-                to = to or [self._audience]  # an answer, or a stream, for those peers alone
-            else:
-                self.link.send(data, reachable)  # (the in-memory link alone)
-                to = [p for p in reachable if self._audience is None or p not in self._peer_rates]
-            for peer in to:
-                net.send_to(self._pack_for(msg, peer), peer)
-            if len(self._seqs) > 4 * MAX_PEERS:
-                self._seqs = {p: seq for p, seq in self._seqs.items() if p in reachable}
-        if self.tap is not None:
-            self.tap("out", msg, data)
+            # to every channel: the in-memory link gets this packing, which is the record's;
+            # each network peer its own, with its own sequence number (the shared schedule's
+            # streams not to the peers that keep their own)
+            if self.tap is not None:
+                self.tap("out", msg, data)
+            self.link.send(data, reachable)  # (the in-memory link alone)
+            for peer in reachable:
+                if self._audience is None or peer not in self._peer_rates:
+                    net.send_to(self._pack_for(msg, peer), peer)
+        if len(self._seqs) > 4 * MAX_PEERS:
+            self._seqs = {p: seq for p, seq in self._seqs.items() if p in reachable}
 
     def _asker(self) -> Any:
         """Who an answer to the message in hand goes to: the network peer it came from, as a
@@ -1572,9 +1573,10 @@ class VehicleEndpoint:
     def reboot(self) -> None:
         """Restart the autopilot: for :data:`REBOOT_S` it sends nothing and acts on nothing
         that comes in (what arrives is still recorded); then it starts as it started at first
-        (disarmed, in the mode it was created in, SET_MESSAGE_INTERVAL's rates gone, home
-        following the vehicle, no GUIDED target, time_boot_ms and the MAVLink sequence from 0)
-        and says "ArduPilot Ready". Parameters, REQUEST_DATA_STREAM's rates, the mission
+        (disarmed, in the mode it was created in, every channel's stream rates at their
+        defaults: Rover saves neither SET_MESSAGE_INTERVAL's nor REQUEST_DATA_STREAM's; home
+        following the vehicle, no GUIDED target, time_boot_ms and every channel's MAVLink
+        sequence from 0) and says "ArduPilot Ready". Parameters, the mission
         (from its first item), the fence and the rally points are kept, as a Rover keeps them
         in storage; parameters erased (PREFLIGHT_STORAGE) and not set since come back at
         Rover's defaults. The vehicle stays where it is; disarmed, it stops."""
@@ -1589,6 +1591,7 @@ class VehicleEndpoint:
         self.ftp.reset()  # its sessions were in RAM
         self.mission_version += 1
         self.mav.seq = 0
+        self._seqs.clear()  # every channel's sequence starts again
         self.modes.append((self.t_s, self.mode))
         self._boot_t_s = self.t_s + REBOOT_S
         self._booting_until = self._boot_t_s
@@ -2522,7 +2525,7 @@ def _jsonable(value: Any) -> Any:
     return repr(value)
 
 
-def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
+def packet_record(direction: str, msg: Any, raw: bytes, to: Any = None) -> dict[str, Any]:
     """A packet as the /mavlink/<link> recording topic carries it: the raw bytes always,
     the fields decoded as far as they decode (JSON-safe, whatever the values).
 
@@ -2534,6 +2537,10 @@ def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
         The decoded message.
     raw : bytes
         The packet as it travelled.
+    to : (host, port), optional
+        The one network peer an endpoint sent it to (recorded as ``to``, "host:port"); None:
+        sent to every channel (the in-memory link and each peer, every peer packing it with
+        its own sequence number).
     """
     fields: dict[str, Any] = {}
     try:
@@ -2569,6 +2576,7 @@ def packet_record(direction: str, msg: Any, raw: bytes) -> dict[str, Any]:
         "seq": seq,
         "fields": fields,
         "raw": base64.b64encode(bytes(raw)).decode(),
+        **({"to": f"{to[0]}:{to[1]}"} if to is not None else {}),
     }
 
 

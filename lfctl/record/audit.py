@@ -170,6 +170,7 @@ _MAVLINK = {
     "name": (_text, True),
     "seq": (_byte, False),
     "fields": (_mav_fields, True),
+    "to": (_text, False),
 }
 _TRACKER = {"bbox": (_box, False), "truth_bbox": (_box, False), "truth_visible_fraction": (_num, False)}
 
@@ -238,13 +239,15 @@ PACKET_FIELDS = ("command", "target_system", "target_component", "type", "missio
 
 
 def _slim_packet(m: dict[str, Any]) -> dict[str, Any]:
-    """A decoded ``/mavlink/*`` packet with only what the audit reads: its header and
-    :data:`PACKET_FIELDS` (about a third of the memory of the whole packet)."""
+    """A decoded ``/mavlink/*`` packet with only what the audit reads: its header, the peer
+    it went to alone (if it did) and :data:`PACKET_FIELDS` (about a third of the memory of
+    the whole packet)."""
     fields = m["fields"]
     kept = {k: fields[k] for k in PACKET_FIELDS if k in fields}
     out = {"direction": m["direction"], "sysid": m["sysid"], "compid": m["compid"], "name": m["name"], "fields": kept}
-    if "seq" in m:
-        out["seq"] = m["seq"]
+    for key in ("seq", "to"):
+        if key in m:
+            out[key] = m[key]
     return out
 
 
@@ -881,7 +884,9 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
         rates: dict[str, int] = defaultdict(int)
         for _t, m in msgs:
             dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
-            rates[f"{m['direction']} {m['name']}"] += 1
+            # a packet sent to one peer alone is counted as that peer's (a peer that set its
+            # own rates gets its own stream; the sum of all is no one's rate)
+            rates[f"{m['direction']} {m['name']}" + (f" to {m['to']}" if "to" in m else "")] += 1
         duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
         commands, acks = ack_latencies(msgs)
         latencies = [lat for _, lat in acks]

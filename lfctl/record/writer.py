@@ -188,6 +188,10 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
                 "description": "the message's fields as pymavlink names them (which depends on msgid)",
             },
             "raw": {"type": "string", "contentEncoding": "base64"},
+            "to": {
+                "type": "string",
+                "description": "out, to one network peer alone (host:port); absent: to every channel",
+            },
         },
     },
 }

@@ -136,8 +136,8 @@ class Links:
         Also give each vehicle a UDP port (``link.udp_base_port + i``), signed with
         ``link.signing_passphrase`` if one is set.
     tap : callable, optional
-        Sees every packet of every endpoint: ``tap(vehicle, direction, msg, raw)`` (the
-        recorder).
+        Sees every packet of every endpoint: ``tap(vehicle, direction, msg, raw, to)``, ``to``
+        the one network peer it was sent to alone, or None (the recorder).
     video_ports : dict, optional
         Follower -> the UDP port its camera's RTP stream goes to: with ``realtime`` each such
         follower's system gets a camera component (100) on its UDP port that announces it.
@@ -149,7 +149,7 @@ class Links:
         self,
         cfg: Config,
         realtime: bool,
-        tap: Callable[[str, str, Any, bytes], None] | None = None,
+        tap: Callable[[str, str, Any, bytes, Any], None] | None = None,
         video_ports: dict[str, int] | None = None,
         start_ns: int | None = None,
         mission: ScenarioMission | None = None,
@@ -172,7 +172,7 @@ class Links:
                 udp = UdpLink((lc.udp_host, lc.udp_base_port + i), gcs_out)
                 self.udp.append(udp)
                 link = Fanout(udp, end)
-            ep_tap = (lambda d, m, raw, _n=v.name: tap(_n, d, m, raw)) if tap is not None else None
+            ep_tap = (lambda d, m, raw, to=None, _n=v.name: tap(_n, d, m, raw, to)) if tap is not None else None
             key = signing_key_from_passphrase(lc.signing_passphrase) if realtime else None
             # (a follower with no companion streams the camera its outside companion steers by:
             # no camera component offers it to a ground station, whose VIDEO_STOP_STREAMING

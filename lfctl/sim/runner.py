@@ -549,8 +549,8 @@ def run_scenario(
                     recorder.attach(f"mission/{mission.path.name}", "text/plain", mission.data)
                 recorder.on_serve = on_live  # said once it takes connections, after the first step
 
-                def tap(vehicle: str, direction: str, msg: Any, raw: bytes) -> None:
-                    recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw))
+                def tap(vehicle: str, direction: str, msg: Any, raw: bytes, to: Any = None) -> None:
+                    recorder.mavlink(sim.t_s, vehicle, packet_record(direction, msg, raw, to))
 
             video_ports = (
                 {v.name: stream_port(video[1], k) for k, v in enumerate(cfg.followers)} if video is not None else None

@@ -68,9 +68,9 @@ class Bench:
         self.t = 0.0
         self.state = STATE  # the vehicle, for ticks that do not give one
 
-    def _tap(self, direction: str, msg: object, raw: bytes) -> None:
+    def _tap(self, direction: str, msg: object, raw: bytes, to: object = None) -> None:
         # the recorder's encoding: allow_nan=False, no default: must never raise
-        self.records.append(json.dumps(packet_record(direction, msg, raw), allow_nan=False))
+        self.records.append(json.dumps(packet_record(direction, msg, raw, to), allow_nan=False))
 
     def send(self, msg: object, memory: bool = True) -> None:
         self.b.send(msg.pack(self.gcs))  # type: ignore[attr-defined]
@@ -1644,10 +1644,12 @@ def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(benc
     assert not bench.ep.home_locked and bench.ep.guided is None
     home = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
     assert home.relative_alt == 0
-    # storage is kept: the parameter, REQUEST_DATA_STREAM's rate (Rover's SRn_: POSITION at
-    # 2 Hz), the mission, with no item under way (MISSION_CURRENT 0: AUTO starts it at item 1)
+    # ... and REQUEST_DATA_STREAM's (POSITION at 2 Hz) too: Rover sets its SRn_ in RAM
+    # (persist_streamrates is false), so GLOBAL_POSITION_INT is at its 10 Hz again
+    assert 10 <= _count(out, "GLOBAL_POSITION_INT") <= 13
+    # storage is kept: the parameter, the mission, with no item under way (MISSION_CURRENT 0:
+    # AUTO starts it at item 1)
     assert bench.ep.param("WP_SPEED") == 1.5
-    assert 2 <= _count(out, "GLOBAL_POSITION_INT") <= 3
     assert len(bench.ep.mission) == len(good_mission()) and bench.ep.current_seq == 0
     assert bench.ep.stats.handler_errors == 0
 
@@ -2576,11 +2578,17 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     passed: list[tuple[str, object]] = []
     broadcast: list[object] = []
     parser = mav.MAVLink(None)
-    bench.ep.network = Network(
-        send_to=lambda data, addr: passed.append((parser.parse_buffer(data)[0].get_type(), addr)),
-        send=lambda data, exclude=(): broadcast.append(*exclude) or 1,
-    )
     rover_side, ground_side = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    answers = ("PARAM_REQUEST_READ", "COMMAND_LONG", "COMMAND_ACK", "PARAM_VALUE")  # (not the streams)
+
+    def sent(data: bytes, addr: object) -> None:
+        kind = parser.parse_buffer(data)[0].get_type()
+        if kind in answers:
+            passed.append((kind, addr))
+
+    bench.ep.network = Network(
+        send_to=sent, send=lambda data, exclude=(): broadcast.append(*exclude) or 1, peers=[rover_side, ground_side]
+    )
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)
     ground = mav.MAVLink(None, srcSystem=255, srcComponent=190)
@@ -2623,8 +2631,9 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     assert passed == [("COMMAND_ACK", rover_side)]
     del passed[:]
     # a request to every component of the vehicle: acted on here and passed on to the companion's peer
-    answered = comes(mav.MAVLink_param_request_read_message(1, 0, b"WP_SPEED", -1), ground, ground_side)
-    assert [m.param_id for m in answered] == ["WP_SPEED"] and passed == [("PARAM_REQUEST_READ", rover_side)]
+    # (its answer to the ground station alone, as Rover answers a read on the asking link)
+    comes(mav.MAVLink_param_request_read_message(1, 0, b"WP_SPEED", -1), ground, ground_side)
+    assert passed == [("PARAM_REQUEST_READ", rover_side), ("PARAM_VALUE", ground_side)]
 
 
 def test_a_full_route_table_makes_room_for_a_new_peer_once_old_ones_are_idle(bench: Bench) -> None:
@@ -2717,19 +2726,28 @@ def test_a_flood_from_one_peer_is_not_multiplied_past_a_limit_nor_starves_anothe
 def test_a_route_gone_quiet_is_gone(bench: Bench) -> None:
     # lfctl follow stopped: a ground station's request to its component is no longer sent to
     # where it was, and the autopilot answers it as one it has no route to
-    passed: list[object] = []
-    bench.ep.network = Network(send_to=lambda data, addr: passed.append(addr))
+    follow, ground = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    passed: list[tuple[str, object]] = []
+    parser = mav.MAVLink(None)
+
+    def sent(data: bytes, addr: object) -> None:
+        kind = parser.parse_buffer(data)[0].get_type()
+        if kind in ("PARAM_REQUEST_READ", "PARAM_VALUE"):
+            passed.append((kind, addr))
+
+    bench.ep.network = Network(send_to=sent, peers=[follow, ground])
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), ("127.0.0.1", 40001)))
+    bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), follow))
     bench.tick()
     read = mav.MAVLink_param_request_read_message(1, 191, b"WP_SPEED", -1)
-    bench.a.inbox.append((read.pack(gcs), ("127.0.0.1", 40002)))
-    assert not [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"] and passed == [("127.0.0.1", 40001)]
+    bench.a.inbox.append((read.pack(gcs), ground))
+    bench.tick()
+    assert passed == [("PARAM_REQUEST_READ", follow)]  # to the companion, not answered here
     bench.tick(dt=ROUTE_IDLE_S + 1.0)
-    bench.a.inbox.append((read.pack(gcs), ("127.0.0.1", 40002)))
-    assert [m.param_id for m in bench.tick() if m.get_type() == "PARAM_VALUE"] == ["WP_SPEED"]
-    assert passed == [("127.0.0.1", 40001)]
+    bench.a.inbox.append((read.pack(gcs), ground))
+    bench.tick()
+    assert passed[1:] == [("PARAM_VALUE", ground)]  # the autopilot's answer, to the asker
 
 
 def test_a_udp_link_sends_to_every_peer_but_the_one_excluded() -> None:
@@ -2833,11 +2851,12 @@ def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(ben
         assert seqs[0] == 0 and all((b - a) % 256 == 1 for a, b in itertools.pairwise(seqs)), peer
     # answers to mavproxy's requests went to it alone, as a Rover answers on the asking link
     for kind in ("COMMAND_ACK", "MESSAGE_INTERVAL", "AUTOPILOT_VERSION"):
-        assert (cap.count(mavproxy, kind), cap.count(follow, kind)) == (1, 0) if kind != "COMMAND_ACK" else (2, 1)
+        assert (cap.count(mavproxy, kind), cap.count(follow, kind)) == ((1, 0) if kind != "COMMAND_ACK" else (2, 1))
 
 
-def test_a_peers_group_rates_outlive_a_reboot_and_its_message_intervals_do_not(bench: Bench) -> None:
-    # Rover keeps each link's SRn_ rates in its parameters; SET_MESSAGE_INTERVAL's are in RAM
+def test_a_reboot_starts_every_peers_rates_and_sequence_afresh(bench: Bench) -> None:
+    # Rover saves no link's rates (SRn_ set in RAM: persist_streamrates is false; and
+    # SET_MESSAGE_INTERVAL's are in RAM), and every channel counts its packets from 0 again
     follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
     cap = PeerCapture(bench, [follow, mavproxy])
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
@@ -2847,14 +2866,17 @@ def test_a_peers_group_rates_outlive_a_reboot_and_its_message_intervals_do_not(b
     _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 2, 1), gcs, mavproxy)
     reboot = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     _peer_sends(bench, reboot, gcs, mavproxy)
+    for p in cap.got.values():
+        p.clear()
     for _ in range(200):
         bench.tick(0.02)
     assert not bench.ep.rebooting
+    assert [got[0].get_seq() for got in cap.got.values()] == [0, 0]  # the first packets after the restart
     for p in cap.got.values():
         p.clear()
     for _ in range(100):
         bench.tick(0.02)
-    assert [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy)] == [20, 4]  # default 10 Hz; 2 Hz
+    assert [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy)] == [20, 20]  # both 10 Hz again
 
 
 def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reach(bench: Bench) -> None:
@@ -2862,16 +2884,18 @@ def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reac
     cap = PeerCapture(bench, peers)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     stop = mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 0, 0)
-    for peer in peers:  # each stops its groups, the first one first (heard from longest ago)
+    for peer in peers[:-1]:  # each stops its groups
         _peer_sends(bench, stop, gcs, peer)
-    assert len(bench.ep._peer_rates) == MAX_PEERS and peers[0] not in bench.ep._peer_rates
+    _peer_sends(bench, mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3), gcs, peers[0])  # the first speaks again
+    _peer_sends(bench, stop, gcs, peers[-1])  # the last one's rates: the second's make room (heard longest ago)
+    assert len(bench.ep._peer_rates) == MAX_PEERS and peers[1] not in bench.ep._peer_rates
     for p in cap.got.values():
         p.clear()
     bench.ep.network.peers = peers[:-1]  # type: ignore[union-attr]  # the latest one no longer reached
     for _ in range(50):
         bench.tick(0.02)
-    assert cap.count(peers[0], "GLOBAL_POSITION_INT") == 10  # its rates made room: the defaults again
-    assert all(cap.count(p, "GLOBAL_POSITION_INT") == 0 for p in peers[1:])
+    assert cap.count(peers[1], "GLOBAL_POSITION_INT") == 10  # its rates made room: the defaults again
+    assert all(cap.count(p, "GLOBAL_POSITION_INT") == 0 for p in (peers[0], *peers[2:]))
     assert cap.got[peers[-1]] == []  # nothing at all out of reach
 
 
@@ -2893,3 +2917,23 @@ def test_a_parameter_read_or_list_is_answered_to_its_asker_and_a_set_to_every_pe
     assert cap.count(follow, "PARAM_VALUE") == 1 and [
         m.param_value for m in memory if m.get_type() == "PARAM_VALUE"
     ] == [1.5]
+
+
+def test_the_record_says_which_peer_a_packet_went_to_alone_and_its_bytes_match_its_fields(bench: Bench) -> None:
+    # each per-peer packing rewrote the message's header after the record's bytes were taken
+    # (its seq disagreed with them), and a peer's own stream read as the vehicle's: `lfctl
+    # audit` summed every schedule's GLOBAL_POSITION_INT into one rate no peer got
+    import base64
+
+    follow, quiet = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    PeerCapture(bench, [follow, quiet])
+    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    fast = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
+    _peer_sends(bench, fast, mav.MAVLink(None, srcSystem=1, srcComponent=191), follow)
+    del bench.records[:]
+    for _ in range(50):  # 1 s
+        bench.tick(0.02)
+    out = [r for r in map(json.loads, bench.records) if r["direction"] == "out"]
+    assert all(base64.b64decode(r["raw"])[4] == r["seq"] for r in out)  # MAVLink 2: seq is byte 4
+    gpis = [r.get("to") for r in out if r["name"] == "GLOBAL_POSITION_INT"]
+    assert gpis.count("127.0.0.1:40001") == 20 and gpis.count(None) == 10  # its own 20 Hz; everyone's 10 Hz
