@@ -660,6 +660,7 @@ class VehicleEndpoint:
         """
         if self.rebooting:
             return
+        seq = self.mav.seq
         try:
             data = pack_next(msg, self.mav)
         except struct.error as exc:  # a bug, but the run goes on: the first of each kind is logged
@@ -677,6 +678,7 @@ class VehicleEndpoint:
         reachable = net.reachable()
         alone = self._peers_of(msg) or ([self._audience] if self._audience not in (None, SHARED) else [])
         if alone:  # an answer, or a stream, for those peers alone: each recorded as it went
+            self.mav.seq = seq  # (not sent on the in-memory link: its sequence has no gap)
             for peer in alone:
                 if peer in reachable:
                     packed = self._pack_for(msg, peer)
@@ -693,8 +695,8 @@ class VehicleEndpoint:
             for peer in reachable:
                 if self._audience is None or peer not in self._peer_rates:
                     net.send_to(self._pack_for(msg, peer), peer)
-        if len(self._seqs) > 4 * MAX_PEERS:
-            self._seqs = {p: seq for p, seq in self._seqs.items() if p in reachable}
+        if len(self._seqs) > 4 * MAX_PEERS:  # peers long gone (those with their own rates kept)
+            self._seqs = {p: n for p, n in self._seqs.items() if p in reachable or p in self._peer_rates}
 
     def _asker(self) -> Any:
         """Who an answer to the message in hand goes to: the network peer it came from, as a
@@ -705,11 +707,11 @@ class VehicleEndpoint:
     @contextmanager
     def _answering(self) -> Iterator[None]:
         """What is sent within goes to whoever sent the message in hand (:meth:`_asker`)."""
-        self._audience = self._asker()
+        before, self._audience = self._audience, self._asker()
         try:
             yield
         finally:
-            self._audience = None
+            self._audience = before
 
     def _answer(self, msg: Any) -> None:
         """Send ``msg`` to whoever sent the message in hand (:meth:`_asker`)."""

@@ -13,7 +13,7 @@ import select
 import socket
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Any, Protocol
 
 from pymavlink import mavutil
@@ -62,13 +62,15 @@ def statustext_messages(data: bytes, severity: int, text_id: int) -> list[Any]:
 class DatagramLink(Protocol):
     """What carries MAVLink bytes: ``send`` a datagram, ``recv`` the waiting ones."""
 
-    def send(self, data: bytes) -> None:
+    def send(self, data: bytes, exclude: Collection[tuple[str, int]] = ()) -> Any:
         """Send one datagram.
 
         Parameters
         ----------
         data : bytes
             One packed MAVLink packet.
+        exclude : collection of (host, port), optional
+            Network peers not to send it to (a link in memory has none).
         """
 
     def recv(self, max_datagrams: int = ...) -> list[tuple[bytes, tuple[str, int]]]:
