@@ -300,6 +300,7 @@ class StreamRates:
 
     def __init__(self) -> None:
         self.groups: dict[int, float] = {}
+        self.param_period_s = PARAM_STREAM_PERIOD_S  # PARAM_VALUE's rate (the link's SRn_PARAMS)
         self.intervals = {MSG_IDS[name]: _period(rate) for name, rate in STREAMS.items()}
         self.intervals.update(dict.fromkeys(NOT_FITTED, math.inf))  # rates kept, nothing sent
         # a message not streamed by default is not due until asked for
@@ -517,7 +518,6 @@ class VehicleEndpoint:
         #: all should hear of), or the network peer whose request they answer
         self._once: list[tuple[int, Any]] = []
         self._reached_seq = NO_ITEM_REACHED  # the last MISSION_ITEM_REACHED sent since the start
-        self._param_period_s = PARAM_STREAM_PERIOD_S  # PARAM_VALUE's rate (SET_MESSAGE_INTERVAL)
         self._gcs_seen: float | None = None
         self.rc = RcOverrides()  # RC_CHANNELS_OVERRIDE and MANUAL_CONTROL: MANUAL's sticks
         self._rc_refused: set[int] = set()  # senders told that their sticks are not taken ...
@@ -1393,7 +1393,8 @@ class VehicleEndpoint:
             # 0 ms, is 100 ms, as is the default, 0) and never slower than 1 s; a faster rate
             # is kept (whole ms; under 1 ms is 1 ms, as for any message)
             ms = 0 if interval_us <= 0 else max(1, int(interval_us // 1000))
-            self._param_period_s = PARAM_STREAM_PERIOD_S if ms == 0 else min(ms, PARAM_SLOWEST_MS) / 1000
+            period = PARAM_STREAM_PERIOD_S if ms == 0 else min(ms, PARAM_SLOWEST_MS) / 1000
+            self._channel_rates(own=True).param_period_s = period
             return mav.MAV_RESULT_ACCEPTED
         if msg_id not in self._rates.intervals:
             self.statustext(f"No ap_message for mavlink id ({msg_id})", mav.MAV_SEVERITY_INFO)
@@ -1440,7 +1441,8 @@ class VehicleEndpoint:
         if msg_id is None:
             return mav.MAV_RESULT_DENIED
         if msg_id == MSG_IDS["PARAM_VALUE"]:  # Rover's parameter stream: always has a rate
-            self._answer(mav.MAVLink_message_interval_message(msg_id, int(round(self._param_period_s * 1e6))))
+            period_us = int(round(self._channel_rates().param_period_s * 1e6))
+            self._answer(mav.MAVLink_message_interval_message(msg_id, period_us))
             return mav.MAV_RESULT_ACCEPTED
         period = self._channel_rates().intervals.get(msg_id)
         if period is None:

@@ -2826,6 +2826,16 @@ def test_each_network_peer_keeps_its_own_stream_rates_as_each_rover_link_does(be
         _peer_sends(bench, get, sender, peer)
         (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
         assert answer.interval_us == us, peer
+    # the parameter stream's rate too (the link's SRn_PARAMS)
+    pv = mav.MAVLINK_MSG_ID_PARAM_VALUE
+    params = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, pv, 20000, 0, 0, 0, 0, 0)
+    _peer_sends(bench, params, gcs, mavproxy)
+    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, pv, 0, 0, 0, 0, 0, 0)
+    for peer, us in ((mavproxy, 20000), (quiet, 100000)):
+        before = len(cap.got[peer])
+        _peer_sends(bench, get, gcs, peer)
+        (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
+        assert answer.interval_us == us, peer
 
 
 def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(bench: Bench) -> None:
