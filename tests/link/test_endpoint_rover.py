@@ -2796,63 +2796,72 @@ def _peer_sends(bench: Bench, msg: object, sender: mav.MAVLink, addr: tuple[str,
     return bench.tick()
 
 
+#: a rehearsal's two peers: lfctl follow's companion (1/191) and MAVProxy (255/190)
+FOLLOW, MAVPROXY = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+GPI = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+
+
+def _cmd(command: int, *p: float) -> Any:
+    return mav.MAVLink_command_long_message(1, 1, command, 0, *p, *([0.0] * (7 - len(p))))
+
+
+def _rehearsal(bench: Bench, gpi_us: float, group: int, hz: int, *more: tuple[str, int]) -> tuple[PeerCapture, Any]:
+    """FOLLOW asks for GLOBAL_POSITION_INT every ``gpi_us``, MAVPROXY for ``group`` at ``hz``
+    (the peers ``more`` ask nothing); what each peer gets, and MAVProxy's codec."""
+    cap = PeerCapture(bench, [FOLLOW, MAVPROXY, *more])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    _peer_sends(bench, _cmd(mav.MAV_CMD_SET_MESSAGE_INTERVAL, GPI, gpi_us), _companion(), FOLLOW)
+    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, group, hz, 1), gcs, MAVPROXY)
+    return cap, gcs
+
+
+def _companion() -> Any:
+    """lfctl follow's companion's codec (a new one each time: a sequence of its own)."""
+    return mav.MAVLink(None, srcSystem=1, srcComponent=191)
+
+
+def _interval_heard(bench: Bench, cap: PeerCapture, peer: tuple[str, int], sender: Any, msg_id: int) -> int:
+    """The interval ``peer`` is told for ``msg_id`` when it asks (GET_MESSAGE_INTERVAL), us."""
+    before = len(cap.got[peer])
+    _peer_sends(bench, _cmd(mav.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id), sender, peer)
+    (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
+    return int(answer.interval_us)
+
+
 def test_each_network_peer_keeps_its_own_stream_rates_as_each_rover_link_does(bench: Bench) -> None:
     # a rehearsal's port: lfctl follow asks for its odometry at 20 Hz, MAVProxy for every group
     # at 4 Hz as it connects; on a Rover each link has its own SRn_ rates, and a simulated
     # vehicle's peers are its links: neither slows the other, and a peer that asked for
     # nothing (and the in-memory link) keeps the defaults
-    follow, mavproxy, quiet = ("127.0.0.1", 40001), ("127.0.0.1", 40002), ("127.0.0.1", 40003)
-    cap = PeerCapture(bench, [follow, mavproxy, quiet])
-    companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
-    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
-    interval = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
-    _peer_sends(bench, interval, companion, follow)
-    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 4, 1), gcs, mavproxy)
+    quiet = ("127.0.0.1", 40003)
+    cap, gcs = _rehearsal(bench, 50000, mav.MAV_DATA_STREAM_ALL, 4, quiet)
     for p in cap.got.values():
         p.clear()
     memory = []
     for _ in range(100):  # 2 s
         memory += bench.tick(0.02)
-    counts = [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy, quiet)]
+    counts = [cap.count(p, "GLOBAL_POSITION_INT") for p in (FOLLOW, MAVPROXY, quiet)]
     assert counts == [40, 8, 20]
     assert sum(m.get_type() == "GLOBAL_POSITION_INT" for m in memory) == 20
-    assert cap.count(follow, "ATTITUDE") == 20 and cap.count(mavproxy, "ATTITUDE") == 8  # (10 Hz; 4 Hz)
+    assert cap.count(FOLLOW, "ATTITUDE") == 20 and cap.count(MAVPROXY, "ATTITUDE") == 8  # (10 Hz; 4 Hz)
     assert all(cap.count(p, "HEARTBEAT") == 2 for p in cap.got)  # in no group: 1 Hz for each
     # each asks what its rate is and hears its own
-    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, gpi, 0, 0, 0, 0, 0, 0)
-    for peer, sender, us in ((follow, companion, 50000), (mavproxy, gcs, 250000), (quiet, gcs, 100000)):
-        before = len(cap.got[peer])
-        _peer_sends(bench, get, sender, peer)
-        (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
-        assert answer.interval_us == us, peer
+    for peer, sender, us in ((FOLLOW, _companion(), 50000), (MAVPROXY, gcs, 250000), (quiet, gcs, 100000)):
+        assert _interval_heard(bench, cap, peer, sender, GPI) == us, peer
     # the parameter stream's rate too (the link's SRn_PARAMS)
     pv = mav.MAVLINK_MSG_ID_PARAM_VALUE
-    params = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, pv, 20000, 0, 0, 0, 0, 0)
-    _peer_sends(bench, params, gcs, mavproxy)
-    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, pv, 0, 0, 0, 0, 0, 0)
-    for peer, us in ((mavproxy, 20000), (quiet, 100000)):
-        before = len(cap.got[peer])
-        _peer_sends(bench, get, gcs, peer)
-        (answer,) = [m for m in cap.got[peer][before:] if m.get_type() == "MESSAGE_INTERVAL"]
-        assert answer.interval_us == us, peer
+    _peer_sends(bench, _cmd(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, 20000), gcs, MAVPROXY)
+    assert [_interval_heard(bench, cap, peer, gcs, pv) for peer in (MAVPROXY, quiet)] == [20000, 100000]
 
 
 def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(bench: Bench) -> None:
     # a Rover numbers its packets per link: with its own rates (and answers to it alone) a
     # ground station that counted one sequence with the other peers' would see most of its
     # packets as lost (MAVProxy's and QGroundControl's link quality)
-    follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
-    cap = PeerCapture(bench, [follow, mavproxy])
-    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
-    fast = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 20000, 0, 0, 0, 0, 0)
-    _peer_sends(bench, fast, mav.MAVLink(None, srcSystem=1, srcComponent=191), follow)
-    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 2, 1), gcs, mavproxy)
-    get = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_MESSAGE_INTERVAL, 0, gpi, 0, 0, 0, 0, 0, 0)
-    _peer_sends(bench, get, gcs, mavproxy)
-    request = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
-    _peer_sends(bench, request, gcs, mavproxy)
+    cap, gcs = _rehearsal(bench, 20000, mav.MAV_DATA_STREAM_ALL, 2)
+    follow, mavproxy = FOLLOW, MAVPROXY
+    _peer_sends(bench, _cmd(mav.MAV_CMD_GET_MESSAGE_INTERVAL, GPI), gcs, mavproxy)
+    _peer_sends(bench, _cmd(mav.MAV_CMD_REQUEST_MESSAGE, 148), gcs, mavproxy)
     memory = []
     for _ in range(300):  # 6 s: past 256 packets on the busy peer
         memory += bench.tick(0.02)
@@ -2869,13 +2878,8 @@ def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(ben
 def test_a_reboot_starts_every_peers_rates_and_sequence_afresh(bench: Bench) -> None:
     # Rover saves no link's rates (SRn_ set in RAM: persist_streamrates is false; and
     # SET_MESSAGE_INTERVAL's are in RAM), and every channel counts its packets from 0 again
-    follow, mavproxy = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
-    cap = PeerCapture(bench, [follow, mavproxy])
-    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    gpi = mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
-    fast = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_SET_MESSAGE_INTERVAL, 0, gpi, 50000, 0, 0, 0, 0, 0)
-    _peer_sends(bench, fast, gcs, follow)
-    _peer_sends(bench, mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 2, 1), gcs, mavproxy)
+    cap, gcs = _rehearsal(bench, 50000, mav.MAV_DATA_STREAM_POSITION, 2)
+    follow, mavproxy = FOLLOW, MAVPROXY
     reboot = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     _peer_sends(bench, reboot, gcs, mavproxy)
     for p in cap.got.values():
