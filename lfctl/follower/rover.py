@@ -208,6 +208,7 @@ def follow_rover(
     link = _LinkWatch(companion, name)
     asked_at = -math.inf  # when the odometry was last asked for again
     rate_from = (t_start, companion.vehicle.positions)  # the odometry's rate is measured from here
+    restarts = companion.vehicle.restarts  # the rover's restarts seen (each has the odometry asked again)
     slow_said = False
     interrupted = False
     skipped_before = video.skipped  # frames a live camera made while the rover was being set up
@@ -219,15 +220,22 @@ def follow_rover(
             was_stale = stale
             stale = _say_odometry(companion, name, t_s, t_start, stale, stale_s)
             beating = link.check(t_s)
-            if link.came_back or (stale and t_s - asked_at >= REASK_S):
+            restarted = companion.vehicle.restarts > restarts
+            if link.came_back or restarted or (stale and t_s - asked_at >= REASK_S):
                 # a rover that rebooted (or whose streams stopped) sends only what its own
                 # stream rates say, on a companion's port perhaps nothing: asked again, and
                 # again while it is missing (a request may be lost, or sent mid-reboot)
-                if link.came_back or not was_stale:
+                if restarted:
+                    log.info("%s: the rover restarted (its clock began again): asked for its odometry again", name)
+                elif link.came_back or not was_stale:
                     log.info("%s: asked the rover for its odometry again", name)
                 link.came_back = False
+                restarts = companion.vehicle.restarts
                 companion.ask_streams_again(rate_hz)
                 asked_at = t_s
+                # the rate is measured from the request on: a silence before it (a reboot's)
+                # is not a slow stream
+                rate_from = (t_s, companion.vehicle.positions)
             if t_s - rate_from[0] >= RATE_WINDOW_S:
                 came = (companion.vehicle.positions - rate_from[1]) / (t_s - rate_from[0])
                 if not stale and came < SLOW_SHARE * min(rate_hz, STREAM_MAX_HZ) and t_s - asked_at >= REASK_S:

@@ -76,6 +76,9 @@ log = logging.getLogger(__name__)
 
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
 #: the largest magnitude of each odometry field the companion takes from its vehicle: half
+#: the vehicle's time_boot_ms going back by more than this, ms, is a restart (less: packets
+#: that came out of order)
+RESTART_BACK_MS = 1000
 #: the Earth's circumference from the local origin (LOCAL_POSITION_NED x, y, m: ArduPilot's
 #: public origin stays where it was set, however far the vehicle goes, but no place is
 #: farther), 1000 m/s (vx, vy), a turn and a half of yaw (ATTITUDE, rad; ArduPilot's is within
@@ -100,6 +103,8 @@ class VehicleReport:
     mav_type: int | None = None  # its HEARTBEAT's MAV_TYPE
     autopilot: int | None = None  # its HEARTBEAT's MAV_AUTOPILOT
     positions: int = 0  # LOCAL_POSITION_NED messages taken, all told (their rate: the odometry's)
+    boot_ms: int | None = None  # the last LOCAL_POSITION_NED's time_boot_ms
+    restarts: int = 0  # times that clock went back (the autopilot restarted), all told
     t_s: float | None = None
     north_m: float | None = None  # position, local NED, m (LOCAL_POSITION_NED)
     east_m: float | None = None  # position, local NED, m
@@ -502,6 +507,9 @@ class Companion:
                 v.mav_type, v.autopilot = m.type, m.autopilot
                 v.mode, v.armed = m.custom_mode, bool(m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
         elif kind == "LOCAL_POSITION_NED":
+            if v.boot_ms is not None and m.time_boot_ms + RESTART_BACK_MS < v.boot_ms:
+                v.restarts += 1  # its clock began again: the autopilot restarted (its stream rates too)
+            v.boot_ms = m.time_boot_ms
             if self._plausible(kind, ("x", m.x), ("y", m.y), ("vx", m.vx), ("vy", m.vy)):
                 # forward speed, signed (backing up is negative): the ground velocity along the
                 # heading (ATTITUDE's, the last that came); its size until a heading has come

@@ -1034,6 +1034,36 @@ def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
     assert period == pytest.approx(0.05)  # 20 Hz again
 
 
+def test_a_rover_that_rebooted_is_asked_again_and_no_ground_station_is_blamed(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # the reboot's 2 s of silence fell inside the odometry's rate window, and the restarted
+    # rover's default 10 Hz was asked up to 20 Hz only at the window's end, said to be a
+    # ground station's REQUEST_DATA_STREAM: a restart (its clock going back) is asked again at once
+    sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    rebooted: list[float] = []
+
+    def on_step(step: Any) -> None:
+        if not rebooted and step.t_s > 0.5:
+            rebooted.append(step.t_s)
+            force = mav.MAVLink_command_long_message(
+                1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 20190226, 0
+            )
+            sock.sendto(force.pack(gcs), ("127.0.0.1", rover.link.port))
+
+    try:
+        with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
+            _follow(rover, banner_video(200), on_step, max_frames=180)
+            period = rover._rates.intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
+            boots = rover.stats.rebooting, len(rover.modes)
+    finally:
+        sock.close()
+    said = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
+    assert boots[1] > 1 and any("the rover restarted (its clock began again): asked for" in s for s in said), said
+    assert not [s for s in said if "LOCAL_POSITION_NED at" in s], said
+    assert period == pytest.approx(0.05)  # 20 Hz again after the restart
+
+
 # -- a simulated follower with no companion: lfctl follow is its companion -------------------------
 @pytest.mark.integration
 def test_lfctl_follow_is_the_companion_of_a_simulated_follower_that_has_none(
