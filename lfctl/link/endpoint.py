@@ -1005,7 +1005,8 @@ class VehicleEndpoint:
     def _on_file_transfer_protocol(self, m: Any) -> None:
         """MAVLink FTP: the parameters and the three lists as files (:mod:`lfctl.link.ftp`)."""
         if self._for_me(m):  # (its target_network is not looked at, as Rover)
-            self.ftp.handle(bytes(m.payload), m.get_srcSystem(), m.get_srcComponent())
+            with self._answering():  # (the banner a parameter file's opening sends, to the asker)
+                self.ftp.handle(bytes(m.payload), m.get_srcSystem(), m.get_srcComponent())
 
     def _on_log_request_list(self, m: Any) -> None:
         """A simulated vehicle keeps no onboard (dataflash) logs, its run goes to the MCAP
@@ -1255,7 +1256,8 @@ class VehicleEndpoint:
             self.statustext("All parameters reset, reboot board", mav.MAV_SEVERITY_WARNING)
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SEND_BANNER:
-            self._banner()
+            with self._answering():  # as Rover's send_banner: on the asking link
+                self._banner()
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_SAFETY_SWITCH_STATE:
             if p[0] not in (mav.SAFETY_SWITCH_STATE_SAFE, mav.SAFETY_SWITCH_STATE_DANGEROUS):

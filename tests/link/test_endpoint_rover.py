@@ -2927,6 +2927,18 @@ def test_a_parameter_read_or_list_is_answered_to_its_asker_and_a_set_to_every_pe
     _peer_sends(bench, mav.MAVLink_param_request_list_message(1, 1), gcs, mavproxy)
     assert cap.count(mavproxy, "PARAM_VALUE") == 1 + len(bench.ep.params) and cap.count(follow, "PARAM_VALUE") == 0
     assert cap.count(follow, "STATUSTEXT") == 0  # (the banner before the list too)
+    _peer_sends(bench, _cmd(mav.MAV_CMD_DO_SEND_BANNER), gcs, mavproxy)  # (MAVProxy's `useralerts check`)
+    assert cap.count(follow, "STATUSTEXT") == 0 and cap.count(mavproxy, "STATUSTEXT") == 4
+    # ... and so does opening the parameter file by MAVLink FTP (MAVProxy's `param fetch`)
+    from lfctl.link.ftp import OP_OPEN_RO
+
+    path = b"@PARAM/param.pck"
+    head = struct.pack("<HBBBBBBI", 1, 0, OP_OPEN_RO, len(path), 0, 0, 0, 0)
+    _peer_sends(
+        bench, mav.MAVLink_file_transfer_protocol_message(0, 1, 1, list((head + path).ljust(251, b"\0"))), gcs, mavproxy
+    )
+    assert cap.count(mavproxy, "FILE_TRANSFER_PROTOCOL") == 1 and cap.count(mavproxy, "STATUSTEXT") == 6
+    assert cap.count(follow, "STATUSTEXT") == 0 and cap.count(follow, "FILE_TRANSFER_PROTOCOL") == 0
     memory = _peer_sends(
         bench, mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32), gcs, mavproxy
     )
