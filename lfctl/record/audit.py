@@ -767,9 +767,11 @@ def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, lis
 
     The vehicle is the system its own packets (``out``) come from; a command counts when it is
     addressed to it (or to every system): one for another vehicle that reached its port is
-    not its to answer. An ack is matched to the oldest unanswered command of the same number
-    that it answers: sent by the system and component the ack is addressed to (an ack without
-    that address: by anyone), and addressed to the ack's sender (or to every component). The
+    not its to answer. An ack is matched to the newest unanswered command of the same number
+    that it answers (MAVLink's command protocol has one command of a kind in flight from a
+    sender: older ones are tries that got no answer, sent again): sent by the system and
+    component the ack is addressed to (an ack without that address: by anyone), and addressed
+    to the ack's sender (or to every component). The
     autopilot's acks are logged ``out``; a component's reached through the port (a camera,
     ``lfctl follow``'s companion) ``in``, as the command it answers.
 
@@ -796,7 +798,8 @@ def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, lis
                 del pending[:-MAX_UNANSWERED]
         elif m["name"] == "COMMAND_ACK":
             to_sys, to_comp = fields.get("target_system", 0), fields.get("target_component", 0)
-            for i, (t0, src_sys, src_comp, tgt_sys, tgt_comp, command) in enumerate(pending):
+            for i in range(len(pending) - 1, -1, -1):
+                t0, src_sys, src_comp, tgt_sys, tgt_comp, command = pending[i]
                 if (
                     command == fields.get("command")
                     and to_sys in (0, src_sys)
@@ -882,11 +885,17 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
     for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
         rates: dict[str, int] = defaultdict(int)
-        for _t, m in msgs:
+        spans: dict[str, list[float]] = {}  # a peer's own stream: when it first and last went
+        for t, m in msgs:
             dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
             # a packet sent to one peer alone is counted as that peer's (a peer that set its
-            # own rates gets its own stream; the sum of all is no one's rate)
-            rates[f"{m['direction']} {m['name']}" + (f" to {m['to']}" if "to" in m else "")] += 1
+            # own rates gets its own stream; the sum of all is no one's rate), its rate over
+            # the time it went to that peer (from when the peer set its own rates)
+            key = f"{m['direction']} {m['name']}"
+            if "to" in m:
+                key += f" to {m['to']}"
+                spans.setdefault(key, [t, t])[1] = t
+            rates[key] += 1
         duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
         commands, acks = ack_latencies(msgs)
         latencies = [lat for _, lat in acks]
@@ -894,7 +903,9 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
             "duration_s": round(duration, 3),
-            "rates_hz": {k: round(n / duration, 3) for k, n in sorted(rates.items())} if duration > 0 else {},
+            "rates_hz": {k: round(_rate(n, spans.get(k), duration), 3) for k, n in sorted(rates.items())}
+            if duration > 0
+            else {},
             "commands": commands,
             "commands_acked": len(latencies),
             "command_ack_latency_ms_max": round(max(latencies) * 1000, 2) if latencies else None,
@@ -905,6 +916,14 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
         lost = lost_by_sequence(got)[-1]
         senders[sender] = {"packets": len(got), "lost": lost, "loss_pct": round(100 * lost / (lost + len(got)), 2)}
     return {"links": links, "senders": senders, "mission_changes_s": changes}
+
+
+def _rate(n: int, span: list[float] | None, duration: float) -> float:
+    """``n`` packets a second over the run's ``duration``, or over their own ``span`` (first,
+    last: n - 1 periods) when they went to one peer."""
+    if span is not None and n > 1 and span[1] > span[0]:
+        return (n - 1) / (span[1] - span[0])
+    return n / duration
 
 
 def check_thresholds(report: AuditReport) -> list[Finding]:

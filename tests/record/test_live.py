@@ -544,8 +544,11 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
         rec.mavlink(
             9.5, "leader", packet("out", 1, 1, 41, "COMMAND_ACK", command=176, target_system=250, target_component=1)
         )
-        # a stream one network peer set its own rate for: counted as that peer's
-        rec.mavlink(9.6, "leader", {**packet("out", 1, 1, 0, "GLOBAL_POSITION_INT"), "to": "127.0.0.1:40001"})
+        # a stream one network peer set its own rate for: counted as that peer's, over its own time
+        for k in range(6):
+            rec.mavlink(
+                9.0 + 0.1 * k, "leader", {**packet("out", 1, 1, k, "GLOBAL_POSITION_INT"), "to": "127.0.0.1:40001"}
+            )
     rep = audit(path)  # a log of MAVLink only: the missing topics are findings, the figures are what counts
     assert rep.figures["link_senders"]["255/190"] == {"packets": 15, "lost": 3, "loss_pct": 16.67}
     leader = rep.figures["links"]["/mavlink/leader"]
@@ -553,7 +556,7 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
     assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)
     assert leader["command_ack_latency_ms_median"] == pytest.approx(160.0)
     assert not math.isnan(leader["rates_hz"]["in HEARTBEAT"])
-    assert "out GLOBAL_POSITION_INT to 127.0.0.1:40001" in leader["rates_hz"]
+    assert leader["rates_hz"]["out GLOBAL_POSITION_INT to 127.0.0.1:40001"] == pytest.approx(10.0)
     assert "out GLOBAL_POSITION_INT" not in leader["rates_hz"]
 
 
@@ -584,10 +587,16 @@ def test_acks_are_matched_to_the_command_they_answer_by_who_sent_it_and_to_whom(
         cmd(2.0, (2, 0), 511),
         ack(2.01, (2, 1), "out", 511),  # a command to every component: the first to answer
         ack(2.02, (2, 191), "in", 511),  # ... and no other
+        # a command sent while the rover rebooted, twice unanswered, then answered at once:
+        # the answer is to the last try (it was paired with the first: 2.16 s)
+        cmd(5.0, (2, 1), 520),
+        cmd(6.0, (2, 1), 520),
+        cmd(7.0, (2, 1), 520),
+        ack(7.01, (2, 1), "out", 520),
     ]
     commands, acks = ack_latencies(log)
-    assert commands == 3
-    assert [(t, round(lat, 3)) for t, lat in acks] == [(1.02, 0.01), (1.04, 0.04), (2.01, 0.01)]
+    assert commands == 6
+    assert [(t, round(lat, 3)) for t, lat in acks] == [(1.02, 0.01), (1.04, 0.04), (2.01, 0.01), (7.01, 0.01)]
 
 
 # -- lfctl follow --live ---------------------------------------------------------------------------
