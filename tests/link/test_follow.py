@@ -1008,20 +1008,19 @@ def test_a_rover_that_sends_no_local_position_is_said_to_need_an_ekf_origin_and_
     assert any("no odometry (LOCAL_POSITION_NED) in the first 1 s" in s and "EKF origin" in s for s in said), said
 
 
-def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
-    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
-) -> None:
-    # a ground station on the rover's link sends REQUEST_DATA_STREAM (QGroundControl, Mission
-    # Planner and MAVProxy do as they connect): ArduPilot resets the stream's messages to its
-    # rate, LOCAL_POSITION_NED among them; never stale at 1 Hz, the odometry lagged for good
+def _follow_while_a_gcs_sends(
+    banner_video: Any, standing_rover: Any, caplog: pytest.LogCaptureFixture, msg: Any, after_s: float
+) -> tuple[list[str], float | None, Any]:
+    """lfctl follow on a standing rover for 180 frames (9 s), a ground station on the rover's
+    link sending it ``msg`` once ``after_s`` in: follow's log lines, the rover's
+    LOCAL_POSITION_NED period at the end, and the rover."""
     sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    asked: list[float] = []
+    sent: list[float] = []
 
     def on_step(step: Any) -> None:
-        if not asked and step.t_s > 0.3:
-            asked.append(step.t_s)
-            req = mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 1, 1)
-            sock.sendto(req.pack(gcs), ("127.0.0.1", rover.link.port))
+        if not sent and step.t_s > after_s:
+            sent.append(step.t_s)
+            sock.sendto(msg.pack(gcs), ("127.0.0.1", rover.link.port))
 
     try:
         with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
@@ -1029,7 +1028,18 @@ def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
             period = rover._rates.intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
     finally:
         sock.close()
-    slow = [r.getMessage() for r in caplog.records if "LOCAL_POSITION_NED at" in r.getMessage()]
+    return [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"], period, rover
+
+
+def test_odometry_slowed_by_a_ground_stations_stream_request_is_asked_for_again(
+    banner_video, standing_rover, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a ground station on the rover's link sends REQUEST_DATA_STREAM (QGroundControl, Mission
+    # Planner and MAVProxy do as they connect): ArduPilot resets the stream's messages to its
+    # rate, LOCAL_POSITION_NED among them; never stale at 1 Hz, the odometry lagged for good
+    req = mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 1, 1)
+    said, period, _rover = _follow_while_a_gcs_sends(banner_video, standing_rover, caplog, req, 0.3)
+    slow = [s for s in said if "LOCAL_POSITION_NED at" in s]
     assert slow and "not the 20 Hz asked for: asked again" in slow[0] and "SERIALn_OPTIONS bit 12" in slow[0], slow
     assert period == pytest.approx(0.05)  # 20 Hz again
 
@@ -1040,26 +1050,11 @@ def test_a_rover_that_rebooted_is_asked_again_and_no_ground_station_is_blamed(
     # the reboot's 2 s of silence fell inside the odometry's rate window, and the restarted
     # rover's default 10 Hz was asked up to 20 Hz only at the window's end, said to be a
     # ground station's REQUEST_DATA_STREAM: a restart (its clock going back) is asked again at once
-    sock, gcs = loopback_udp(), mav.MAVLink(None, srcSystem=255, srcComponent=190)
-    rebooted: list[float] = []
-
-    def on_step(step: Any) -> None:
-        if not rebooted and step.t_s > 0.5:
-            rebooted.append(step.t_s)
-            force = mav.MAVLink_command_long_message(
-                1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 20190226, 0
-            )
-            sock.sendto(force.pack(gcs), ("127.0.0.1", rover.link.port))
-
-    try:
-        with standing_rover() as rover, caplog.at_level("INFO", "lfctl.follower.rover"):
-            _follow(rover, banner_video(200), on_step, max_frames=180)
-            period = rover._rates.intervals.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
-            boots = rover.stats.rebooting, len(rover.modes)
-    finally:
-        sock.close()
-    said = [r.getMessage() for r in caplog.records if r.name == "lfctl.follower.rover"]
-    assert boots[1] > 1 and any("the rover restarted (its clock began again): asked for" in s for s in said), said
+    force = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 20190226, 0)
+    said, period, rover = _follow_while_a_gcs_sends(banner_video, standing_rover, caplog, force, 0.5)
+    assert rover._boot_t_s > 0 and any("the rover restarted (its clock began again): asked for" in s for s in said), (
+        said
+    )
     assert not [s for s in said if "LOCAL_POSITION_NED at" in s], said
     assert period == pytest.approx(0.05)  # 20 Hz again after the restart
 
