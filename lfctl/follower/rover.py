@@ -233,9 +233,6 @@ def follow_rover(
                 restarts = companion.vehicle.restarts
                 companion.ask_streams_again(rate_hz)
                 asked_at = t_s
-                # the rate is measured from the request on: a silence before it (a reboot's)
-                # is not a slow stream
-                rate_from = (t_s, companion.vehicle.positions)
             if t_s - rate_from[0] >= RATE_WINDOW_S:
                 came = (companion.vehicle.positions - rate_from[1]) / (t_s - rate_from[0])
                 if not stale and came < SLOW_SHARE * min(rate_hz, STREAM_MAX_HZ) and t_s - asked_at >= REASK_S:

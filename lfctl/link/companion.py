@@ -75,10 +75,10 @@ OTHER_AUTOPILOTS_MAX = 16
 log = logging.getLogger(__name__)
 
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
-#: the largest magnitude of each odometry field the companion takes from its vehicle: half
 #: the vehicle's time_boot_ms going back by more than this, ms, is a restart (less: packets
 #: that came out of order)
 RESTART_BACK_MS = 1000
+#: the largest magnitude of each odometry field the companion takes from its vehicle: half
 #: the Earth's circumference from the local origin (LOCAL_POSITION_NED x, y, m: ArduPilot's
 #: public origin stays where it was set, however far the vehicle goes, but no place is
 #: farther), 1000 m/s (vx, vy), a turn and a half of yaw (ATTITUDE, rad; ArduPilot's is within

@@ -2545,8 +2545,8 @@ def packet_record(direction: str, msg: Any, raw: bytes, to: Any = None) -> dict[
         The packet as it travelled.
     to : (host, port), optional
         The one network peer an endpoint sent it to (recorded as ``to``, "host:port"); None:
-        sent to every channel (the in-memory link and each peer, every peer packing it with
-        its own sequence number).
+        sent to the in-memory link and to each network peer that takes it (a stream: those
+        keeping no rates of their own), each peer's copy packed with its own sequence number.
     """
     fields: dict[str, Any] = {}
     try:

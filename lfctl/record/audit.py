@@ -786,6 +786,7 @@ def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, lis
     pending: list[tuple[float, int, int, int, int, Any]] = []
     out = []
     commands = 0
+    last_ack: tuple[Any, ...] = ()
     for t, m in packets:
         fields = m.get("fields", {})
         if m["name"] in COMMANDS:
@@ -798,6 +799,12 @@ def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, lis
                 del pending[:-MAX_UNANSWERED]
         elif m["name"] == "COMMAND_ACK":
             to_sys, to_comp = fields.get("target_system", 0), fields.get("target_component", 0)
+            # one ack sent to each peer its addressee was heard on is recorded once a peer:
+            # the copies answer one command
+            key = (t, m["sysid"], m["compid"], to_sys, to_comp, fields.get("command"), fields.get("result"))
+            if key == last_ack:
+                continue
+            last_ack = key
             for i in range(len(pending) - 1, -1, -1):
                 t0, src_sys, src_comp, tgt_sys, tgt_comp, command = pending[i]
                 if (
@@ -885,16 +892,16 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
     for topic, msgs in packets.items():
         dirs = {"in": 0, "out": 0}
         rates: dict[str, int] = defaultdict(int)
-        spans: dict[str, list[float]] = {}  # a peer's own stream: when it first and last went
+        spans: dict[str, list[float]] = {}  # each peer's: when a packet first and last went to it alone
         for t, m in msgs:
             dirs[m["direction"]] = dirs.get(m["direction"], 0) + 1
             # a packet sent to one peer alone is counted as that peer's (a peer that set its
             # own rates gets its own stream; the sum of all is no one's rate), its rate over
-            # the time it went to that peer (from when the peer set its own rates)
+            # the time packets went to that peer alone (from when it set its own rates)
             key = f"{m['direction']} {m['name']}"
             if "to" in m:
                 key += f" to {m['to']}"
-                spans.setdefault(key, [t, t])[1] = t
+                spans.setdefault(m["to"], [t, t])[1] = t
             rates[key] += 1
         duration = msgs[-1][0] - msgs[0][0] if len(msgs) > 1 else 0.0
         commands, acks = ack_latencies(msgs)
@@ -903,7 +910,9 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
             "packets_in": dirs.get("in", 0),
             "packets_out": dirs.get("out", 0),
             "duration_s": round(duration, 3),
-            "rates_hz": {k: round(_rate(n, spans.get(k), duration), 3) for k, n in sorted(rates.items())}
+            "rates_hz": {
+                k: round(_rate(n, spans.get(k.partition(" to ")[2]), duration), 3) for k, n in sorted(rates.items())
+            }
             if duration > 0
             else {},
             "commands": commands,
@@ -919,10 +928,10 @@ def _link_figures(c: Contents, leader: str) -> dict[str, Any]:
 
 
 def _rate(n: int, span: list[float] | None, duration: float) -> float:
-    """``n`` packets a second over the run's ``duration``, or over their own ``span`` (first,
-    last: n - 1 periods) when they went to one peer."""
-    if span is not None and n > 1 and span[1] > span[0]:
-        return (n - 1) / (span[1] - span[0])
+    """``n`` packets a second over the run's ``duration``, or over ``span`` (first, last) when
+    they went to one peer alone: the time packets went to that peer alone."""
+    if span is not None and span[1] > span[0]:
+        return n / (span[1] - span[0])
     return n / duration
 
 

@@ -190,7 +190,8 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
             "raw": {"type": "string", "contentEncoding": "base64"},
             "to": {
                 "type": "string",
-                "description": "out, to one network peer alone (host:port); absent: to every channel",
+                "description": "out, to one network peer alone (host:port); absent: to the in-memory link "
+                "and to each network peer that takes it (a stream: those keeping no rates of their own)",
             },
         },
     },

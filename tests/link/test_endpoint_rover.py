@@ -54,6 +54,19 @@ class Network:
         return list(self.peers)
 
 
+def _sends_of(kinds: tuple[str, ...], into: list[tuple[str, object]]) -> Callable[[bytes, object], None]:
+    """A ``Network.send_to`` that keeps (message name, peer) of each packet of ``kinds`` (the
+    autopilot's streams left out)."""
+    parser = mav.MAVLink(None)
+
+    def sent(data: bytes, addr: object) -> None:
+        kind = parser.parse_buffer(data)[0].get_type()
+        if kind in kinds:
+            into.append((kind, addr))
+
+    return sent
+
+
 class Bench:
     """An endpoint in memory, a ground station's MAVLink codec on the other end, and every
     packet the endpoint logs run through the recorder's JSON encoding."""
@@ -2577,17 +2590,11 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     # one addresses to the other goes there and is not acted on by the autopilot
     passed: list[tuple[str, object]] = []
     broadcast: list[object] = []
-    parser = mav.MAVLink(None)
     rover_side, ground_side = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
-    answers = ("PARAM_REQUEST_READ", "COMMAND_LONG", "COMMAND_ACK", "PARAM_VALUE")  # (not the streams)
-
-    def sent(data: bytes, addr: object) -> None:
-        kind = parser.parse_buffer(data)[0].get_type()
-        if kind in answers:
-            passed.append((kind, addr))
-
     bench.ep.network = Network(
-        send_to=sent, send=lambda data, exclude=(): broadcast.append(*exclude) or 1, peers=[rover_side, ground_side]
+        send_to=_sends_of(("PARAM_REQUEST_READ", "COMMAND_LONG", "COMMAND_ACK", "PARAM_VALUE"), passed),
+        send=lambda data, exclude=(): broadcast.append(*exclude) or 1,
+        peers=[rover_side, ground_side],
     )
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     camera = mav.MAVLink(None, srcSystem=1, srcComponent=100)
@@ -2728,14 +2735,7 @@ def test_a_route_gone_quiet_is_gone(bench: Bench) -> None:
     # where it was, and the autopilot answers it as one it has no route to
     follow, ground = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
     passed: list[tuple[str, object]] = []
-    parser = mav.MAVLink(None)
-
-    def sent(data: bytes, addr: object) -> None:
-        kind = parser.parse_buffer(data)[0].get_type()
-        if kind in ("PARAM_REQUEST_READ", "PARAM_VALUE"):
-            passed.append((kind, addr))
-
-    bench.ep.network = Network(send_to=sent, peers=[follow, ground])
+    bench.ep.network = Network(send_to=_sends_of(("PARAM_REQUEST_READ", "PARAM_VALUE"), passed), peers=[follow, ground])
     companion = mav.MAVLink(None, srcSystem=1, srcComponent=191)
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     bench.a.inbox.append((mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3).pack(companion), follow))
