@@ -18,6 +18,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from support import list_file, loopback_udp, wait_until
 
 from lfctl.errors import LinkTimeoutError, MissionProtocolError
+from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.endpoint import GUIDED_TIMEOUT_S, MODES, VehicleEndpoint
 from lfctl.link.gcs import GroundStation
 from lfctl.link.mission import MissionItem, load_mission, local_mission, save_mission
@@ -32,10 +33,20 @@ STATE = {"north_m": 1.0, "east_m": 2.0, "yaw_rad": 0.5, "speed_mps": 0.2, "yaw_r
 class LiveEndpoint:
     """An endpoint on 127.0.0.1:0 ticked at 100 Hz by a thread (time = wall time)."""
 
-    def __init__(self, loss: float = 0.0, signing_key: bytes | None = None, channels: bool = False) -> None:
+    def __init__(
+        self, loss: float = 0.0, signing_key: bytes | None = None, channels: bool = False, camera: bool = False
+    ) -> None:
         udp = UdpLink(("127.0.0.1", 0))
         self.link = LossyLink(udp, loss) if loss else udp
-        self.ep = VehicleEndpoint("leader", 1, self.link, HOME, signing_key=signing_key)
+        link: Any = self.link
+        self.camera: CameraComponent | None = None
+        if camera:  # a camera component on the port, as a realtime follower's with --video
+            self.camera = CameraComponent(
+                1, udp.send, video_port=5600, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0,
+                name="follower camera",
+            )  # fmt: skip
+            link = CameraRouter(self.link, [self.camera])
+        self.ep = VehicleEndpoint("leader", 1, link, HOME, signing_key=signing_key)
         if channels:  # each peer a channel of its own, as the simulator's realtime ports are
             self.ep.network = udp
         self.port = udp.port
@@ -46,7 +57,10 @@ class LiveEndpoint:
 
     def _run(self) -> None:
         while not self._stop.is_set():
-            self.ep.tick(time.monotonic() - self._t0, STATE)
+            t = time.monotonic() - self._t0
+            self.ep.tick(t, STATE)
+            if self.camera is not None:
+                self.camera.tick(t)
             time.sleep(0.01)
 
     def gcs(self, timeout_s: float = 3.0, signing_key: bytes | None = None) -> GroundStation:
@@ -853,3 +867,61 @@ def test_two_clients_on_one_port_keep_their_own_rates_and_count_no_packet_lost()
         for c in clients.values():
             c.close()
         live.close()
+
+
+def test_mavsdk_finds_the_camera_component_and_starts_and_stops_its_stream() -> None:
+    # MAVSDK's Camera plugin, as a user's ground software uses it: the camera found with its
+    # vendor, model and size; its stream stopped and started; VIDEO, its one mode, taken;
+    # what it cannot do (a photo) refused at once
+    pytest.importorskip("mavsdk")
+    import asyncio
+
+    live = LiveEndpoint(camera=True)
+    assert live.camera is not None
+    heard: list[bool] = []
+    live.camera.on_streaming = heard.append
+
+    async def session() -> dict:
+        from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+        from mavsdk.asyncio.plugins.camera.camera import CameraAsync
+        from mavsdk.plugins.camera import CameraError, Mode
+
+        async def result(coro: Any) -> str:
+            try:
+                await coro
+            except CameraError as exc:
+                return str(exc.result.name)
+            return "SUCCESS"
+
+        sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+        try:
+            await sdk.add_any_connection(f"udpout://127.0.0.1:{live.port}")
+            system = await sdk.first_autopilot(timeout_s=15.0)
+            cam = CameraAsync(system)
+            cameras: list = []
+            for _ in range(60):  # found within a second or two
+                cameras = (await cam.camera_list()).cameras
+                if cameras:
+                    break
+                await asyncio.sleep(0.25)
+            out: dict = {"cameras": [(c.component_id, c.vendor_name, c.model_name, c.horizontal_resolution_px,
+                                      c.vertical_resolution_px) for c in cameras]}  # fmt: skip
+            out["stop"] = await result(cam.stop_video_streaming(100, 1))
+            out["start"] = await result(cam.start_video_streaming(100, 1))
+            out["stream 5"] = await result(cam.start_video_streaming(100, 5))
+            out["video mode"] = await result(cam.set_mode(100, Mode.VIDEO))
+            out["photo mode"] = await result(cam.set_mode(100, Mode.PHOTO))
+            out["photo"] = await result(cam.take_photo(100))
+            return out
+        finally:
+            sdk.destroy()
+
+    try:
+        out = asyncio.run(asyncio.wait_for(session(), 90))
+    finally:
+        live.close()
+    assert out["cameras"] == [(100, "lfctl", "follower camera", 640, 480)]
+    assert (out["stop"], out["start"]) == ("SUCCESS", "SUCCESS")
+    assert wait_until(lambda: heard[-2:] == [False, True], 5.0), heard
+    assert (out["stream 5"], out["video mode"], out["photo mode"]) == ("DENIED", "SUCCESS", "DENIED")
+    assert out["photo"] == "ACTION_UNSUPPORTED"
