@@ -771,9 +771,10 @@ def ack_latencies(packets: list[tuple[float, dict[str, Any]]]) -> tuple[int, lis
     that it answers (MAVLink's command protocol has one command of a kind in flight from a
     sender: older ones are tries that got no answer, sent again): sent by the system and
     component the ack is addressed to (an ack without that address: by anyone), and addressed
-    to the ack's sender (or to every component). The
-    autopilot's acks are logged ``out``; a component's reached through the port (a camera,
-    ``lfctl follow``'s companion) ``in``, as the command it answers.
+    to the ack's sender (or to every component). The autopilot's acks are logged ``out``; a
+    component's reached through the port (a camera, ``lfctl follow``'s companion) ``in``, as
+    the command it answers; one ack sent to several peers (recorded once for each) is paired
+    once.
 
     Parameters
     ----------
