@@ -181,16 +181,14 @@ class CameraComponent:
             # its one mode (CAMERA_SETTINGS says VIDEO): asked for, nothing to do; another is
             # not one it has (MAVSDK's set_mode(VIDEO) was refused by a camera in VIDEO mode)
             result = mav.MAV_RESULT_ACCEPTED if m.param2 == mav.CAMERA_MODE_VIDEO else mav.MAV_RESULT_DENIED
-            self._send(
-                mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent())
-            )
+            self._ack(m, result)
             return
         msg_id = _LEGACY.get(m.command)
         if m.command == mav.MAV_CMD_REQUEST_MESSAGE:
             msg_id = _message_id(m.param1)
         answer = _ANSWERS.get(msg_id) if msg_id is not None else None
         result = mav.MAV_RESULT_ACCEPTED if answer is not None else mav.MAV_RESULT_UNSUPPORTED
-        self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
+        self._ack(m, result)
         if answer is None:
             return
         if answer == "camera_information":
@@ -217,6 +215,10 @@ class CameraComponent:
             self.streaming = m.command == mav.MAV_CMD_VIDEO_START_STREAMING
             if self.on_streaming is not None:
                 self.on_streaming(self.streaming)
+        self._ack(m, result)
+
+    def _ack(self, m: Any, result: int) -> None:
+        """COMMAND_ACK of the command ``m`` to its sender."""
         self._send(mav.MAVLink_command_ack_message(m.command, result, 0, 0, m.get_srcSystem(), m.get_srcComponent()))
 
     def _camera_information(self) -> Any:
