@@ -660,37 +660,37 @@ class VehicleEndpoint:
         """
         if self.rebooting:
             return
-        seq = self.mav.seq
+        net = self.network
+        reachable = net.reachable() if net is not None else []
+        # an answer, or a stream, for some network peers alone (each packed for its peer, and
+        # recorded as it went); else to every channel
+        alone = self._peers_of(msg) or ([self._audience] if self._audience not in (None, SHARED) else [])
         try:
-            data = pack_next(msg, self.mav)
+            if alone:
+                assert net is not None
+                for peer in alone:
+                    if peer in reachable:
+                        packed = self._pack_for(msg, peer)
+                        if self.tap is not None:
+                            self.tap("out", msg, packed, peer)
+                        net.send_to(packed, peer)
+            else:
+                data = pack_next(msg, self.mav)
         except struct.error as exc:  # a bug, but the run goes on: the first of each kind is logged
             self.stats.send_errors += 1
             if msg.get_type() not in self._unsendable:
                 self._unsendable.add(msg.get_type())
                 log.error("%s: %s not sent, a field out of its range (%s): %s", self.name, msg.get_type(), exc, msg)
             return
-        net = self.network
-        if net is None:
+        if not alone:
+            # the in-memory link gets this packing, which is the record's; each network peer its
+            # own, with its own sequence number (the shared schedule's streams not to the peers
+            # that keep their own)
             if self.tap is not None:
                 self.tap("out", msg, data)
-            self.link.send(data)
-            return
-        reachable = net.reachable()
-        alone = self._peers_of(msg) or ([self._audience] if self._audience not in (None, SHARED) else [])
-        if alone:  # an answer, or a stream, for those peers alone: each recorded as it went
-            self.mav.seq = seq  # (not sent on the in-memory link: its sequence has no gap)
-            for peer in alone:
-                if peer in reachable:
-                    packed = self._pack_for(msg, peer)
-                    if self.tap is not None:
-                        self.tap("out", msg, packed, peer)
-                    net.send_to(packed, peer)
-        else:
-            # to every channel: the in-memory link gets this packing, which is the record's;
-            # each network peer its own, with its own sequence number (the shared schedule's
-            # streams not to the peers that keep their own)
-            if self.tap is not None:
-                self.tap("out", msg, data)
+            if net is None:
+                self.link.send(data)
+                return
             self.link.send(data, reachable)  # (the in-memory link alone)
             for peer in reachable:
                 if self._audience is None or peer not in self._peer_rates:
