@@ -1,12 +1,13 @@
 """One exception hierarchy for lfctl (docs/architecture.md, "Errors").
 
 Each class also subclasses the fitting builtin, so callers may catch either.
-Messages name the bad value and what was expected. Four more live beside the code that
+Messages name the bad value and what was expected. Five more live beside the code that
 raises them, each a subclass of one here: ``lfctl.vision.frames.FrameError`` (a bad frame
 or window), ``lfctl.record.writer.RecordError`` (a log that cannot be written),
-``lfctl.sim.camera_pool.CameraWorkerError`` (a camera worker process that failed) and
-``lfctl.link.params.ParamFileError`` (a bad parameter file); ``except LfctlError`` takes
-them all.
+``lfctl.sim.camera_pool.CameraWorkerError`` (a camera worker process that failed),
+``lfctl.link.params.ParamFileError`` (a bad parameter file) and
+``lfctl.video.SourceNotReady`` (a camera or stream not there yet); ``except LfctlError``
+takes them all.
 """
 
 from __future__ import annotations

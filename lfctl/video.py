@@ -9,7 +9,8 @@ import os
 import socket
 import stat
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -20,12 +21,16 @@ import numpy as np
 from lfctl.errors import ConfigError
 
 __all__ = [
+    "REOPEN_S",
     "RTP_CLOCK_HZ",
     "RTP_PAYLOAD_TYPE",
     "STREAM_TIMEOUT_S",
     "FileInfo",
     "LatestFrames",
+    "Reopening",
+    "SourceNotReady",
     "VideoSource",
+    "open_live",
     "probe_file",
     "rtp_address",
     "sdp",
@@ -34,6 +39,14 @@ __all__ = [
 #: how long a stream (a URL) may take to open, and to give its next frame, s: a silent one
 #: is an error (opening) or its end (reading), not a process blocked for ever
 STREAM_TIMEOUT_S = 10.0
+#: a camera or stream that is not there yet, or has stopped, is tried again this often, s
+REOPEN_S = 1.0
+
+
+class SourceNotReady(ConfigError):
+    """A camera or stream that is not there now (no such camera yet, or busy; no stream
+    arriving): one that may come (a camera plugged in or started later) is tried again."""
+
 
 #: FFmpeg's readers that draw a text file (ANSI art, an .nfo, a .bin such as an ArduPilot
 #: log) as pictures, and the codecs they give: such a file is not a video
@@ -163,20 +176,28 @@ class LatestFrames:
                 self._ended = True
                 self._ready.notify_all()
 
-    def next(self) -> np.ndarray | None:
-        """The newest frame not yet taken (waiting up to ``timeout_s`` for one), or None once
-        the source has ended or stayed silent that long."""
+    @property
+    def ended(self) -> bool:
+        """Whether the source has ended: a failed read, or a stream silent for its read timeout
+        (its newest frame may still be waiting to be taken)."""
+        return self._ended
+
+    def next(self, timeout_s: float | None = None) -> np.ndarray | None:
+        """The newest frame not yet taken (waiting up to ``timeout_s`` for one, by default the
+        source's own), or None once the source has ended or stayed silent that long."""
+        wait = self._timeout_s if timeout_s is None else timeout_s
         with self._ready:
             if self._frame is None and not self._ended:
-                self._ready.wait_for(lambda: self._frame is not None or self._ended, self._timeout_s)
+                self._ready.wait_for(lambda: self._frame is not None or self._ended, wait)
             frame, self._frame = self._frame, None
             return frame
 
-    def stop(self) -> bool:
+    def stop(self, wait_s: float | None = None) -> bool:
         """Stop reading; whether the thread has ended (a read under way is waited for up to
-        ``timeout_s``: a source must not be released while the thread is inside it)."""
+        ``wait_s``, by default ``timeout_s``: a source must not be released while the thread
+        is inside it)."""
         self._stopping = True
-        self._thread.join(self._timeout_s)
+        self._thread.join(self._timeout_s if wait_s is None else wait_s)
         return not self._thread.is_alive()
 
 
@@ -242,14 +263,14 @@ class VideoSource:
         if not self._cap.isOpened():
             if isinstance(target, int):
                 mine = f" (a file named {source!r} is here: give ./{source} for it)" if Path(source).is_file() else ""
-                raise ConfigError(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
+                raise SourceNotReady(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
             if rtp_url:
-                raise ConfigError(
+                raise SourceNotReady(
                     f"no RTP stream to {source[:200]} within {STREAM_TIMEOUT_S:g} s: start the camera (or lfctl sim "
                     "--video) sending to this machine's port first, or within that time"
                 )
             if stream:
-                raise ConfigError(
+                raise SourceNotReady(
                     f"cannot open video source {source[:200]!r} with OpenCV (no stream within "
                     f"{STREAM_TIMEOUT_S:g} s, or unsupported format)"
                 )
@@ -261,6 +282,7 @@ class VideoSource:
         self.live = isinstance(target, int) or stream
         self._latest = LatestFrames(self._cap, STREAM_TIMEOUT_S) if latest and self.live else None
         self.frames_read = 0  # frames handed over
+        self._closed = False
         self._pending: np.ndarray | None = None  # a frame given back (unread), handed over next
         self._first_ms: float | None = None  # the first frame's time in the file, ms
         self._last_ms = -math.inf
@@ -286,6 +308,8 @@ class VideoSource:
         try:
             st = os.stat(source)
         except (OSError, ValueError):
+            if source.startswith("/dev/"):  # a camera's device, not there yet (a USB camera enumerating)
+                raise SourceNotReady(f"no camera device {source[:200]} (not plugged in, or not ready)") from None
             raise ConfigError(
                 f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
             ) from None
@@ -350,15 +374,30 @@ class VideoSource:
         self._pending = frame
         self.frames_read -= 1
 
-    def read(self) -> np.ndarray | None:
+    @property
+    def ended(self) -> bool:
+        """Whether a live source read with ``latest`` has stopped giving frames (its reading
+        thread ended: a failed read, or a stream silent for :data:`STREAM_TIMEOUT_S`); False
+        for any other source (a file's end is :meth:`read` returning None)."""
+        return self._latest is not None and self._latest.ended
+
+    def read(self, timeout_s: float | None = None) -> np.ndarray | None:
         """The next frame (BGR, uint8), or the newest (``latest``), or None at the end of the
-        source."""
+        source.
+
+        Parameters
+        ----------
+        timeout_s : float, optional
+            With ``latest``: how long to wait for a new frame before None (default
+            :data:`STREAM_TIMEOUT_S`); None then means none came in that time, and the source
+            has ended only if :attr:`ended` says so.
+        """
         if self._pending is not None:
             frame, self._pending = self._pending, None
             self.frames_read += 1
             return frame
         if self._latest is not None:
-            frame = self._latest.next()
+            frame = self._latest.next(timeout_s)
             self.frames_read += frame is not None
             return frame
         ok, frame = self._cap.read()
@@ -375,11 +414,15 @@ class VideoSource:
             self._last_ms, self._timed_frames = ms, self.frames_read
         return frame
 
-    def close(self) -> None:
-        """Release the source (once its reading thread, if any, has stopped: a capture
-        released under a read would crash the process; one stuck in its driver is left to
-        the process's end)."""
-        if self._latest is not None and not self._latest.stop():
+    def close(self, wait_s: float | None = None) -> None:
+        """Release the source (once its reading thread, if any, has stopped, waited for up to
+        ``wait_s``, by default :data:`STREAM_TIMEOUT_S`: a capture released under a read would
+        crash the process; one stuck in its driver is left to the process's end). Closing it
+        again does nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._latest is not None and not self._latest.stop(wait_s):
             return
         self._cap.release()
 
@@ -388,6 +431,114 @@ class VideoSource:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def open_live(
+    source: str | int | os.PathLike[str], wait_s: float | None = None, say: Callable[[str], None] | None = None
+) -> tuple[VideoSource, np.ndarray]:
+    """Open a video source and read its first frame; a camera or a stream that is not there
+    yet (:class:`SourceNotReady`, or one that opens and gives no frame) is tried again every
+    :data:`REOPEN_S` for up to ``wait_s`` (None: until it comes), as a rover's camera may
+    start after its companion. A live source is read with ``latest`` (its newest frame each
+    read); a file is not waited for.
+
+    Parameters
+    ----------
+    source : str, int or os.PathLike
+        As :class:`VideoSource` takes it.
+    wait_s : float, optional
+        How long to wait for a live source, s (None: no end; 0: one try).
+    say : callable, optional
+        Told why, at the first failed try and every :data:`STREAM_TIMEOUT_S` after.
+
+    Returns
+    -------
+    (VideoSource, np.ndarray)
+        The open source and its first frame (already read).
+
+    Raises
+    ------
+    ConfigError
+        A source that is no video (a file, at once), or a live one still not there after
+        ``wait_s`` (its last reason, and how long it was waited for).
+    """
+    start = time.monotonic()
+    said_at = -math.inf
+    while True:
+        try:
+            video = VideoSource(source, latest=True)
+        except SourceNotReady as exc:
+            why = str(exc)
+        else:
+            first = video.read()
+            if first is not None:
+                return video, first
+            video.close()
+            if not video.live:
+                raise ConfigError(f"video {str(source)[:200]!r} gave no frame (an empty or broken file)")
+            why = f"the camera {str(source)[:200]!r} opened but gave no frame within {STREAM_TIMEOUT_S:g} s"
+        waited = time.monotonic() - start
+        if wait_s is not None and waited >= wait_s:
+            raise ConfigError(f"{why} (waited {waited:.1f} s for it)")
+        if say is not None and waited - said_at >= STREAM_TIMEOUT_S:
+            said_at = waited
+            say(why)
+        pause = REOPEN_S if wait_s is None else min(REOPEN_S, wait_s - waited)
+        time.sleep(max(0.0, pause))
+
+
+class Reopening:
+    """A live source opened again on a thread of its own, every :data:`REOPEN_S` until it
+    opens (a camera whose stream stopped: its driver reset, a loose cable, the stream's sender
+    restarted); :meth:`take` hands it over once, :meth:`stop` ends the tries.
+
+    Parameters
+    ----------
+    opener : callable
+        Opens the source (``VideoSource(name, latest=True)``); :class:`SourceNotReady` or
+        any other :class:`ConfigError` means not yet, and it is tried again.
+    """
+
+    def __init__(self, opener: Callable[[], VideoSource]) -> None:
+        self._opener = opener
+        self.tries = 0
+        self.why = ""  # the last failed try's reason
+        self._opened: VideoSource | None = None
+        self._lock = threading.Lock()
+        self._stopping = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="lfctl-camera-open", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stopping.is_set():
+            self.tries += 1
+            try:
+                video = self._opener()
+            except ConfigError as exc:  # (a source gone for good says so at each try)
+                self.why = str(exc)
+            else:
+                with self._lock:
+                    if self._stopping.is_set():
+                        video.close()
+                    else:
+                        self._opened = video
+                return
+            self._stopping.wait(REOPEN_S)
+
+    def take(self) -> VideoSource | None:
+        """The source once it has opened (handed over once: the taker closes it), else None."""
+        with self._lock:
+            video, self._opened = self._opened, None
+            return video
+
+    def stop(self) -> None:
+        """End the tries, at once: a source opened and not taken is closed, and one a try
+        under way opens (up to :data:`STREAM_TIMEOUT_S` from now) is closed by its thread."""
+        self._stopping.set()
+        with self._lock:
+            video, self._opened = self._opened, None
+        if video is not None:
+            video.close()
 
 
 def rtp_address(url: str) -> tuple[str, int]:

@@ -275,3 +275,91 @@ def test_an_ipv6_rtp_address_is_described_as_one() -> None:
     from lfctl.video import sdp
 
     assert "c=IN IP6 ::1\r\n" in sdp("::1", 5600) and "c=IN IP4 127.0.0.1\r\n" in sdp("127.0.0.1", 5600)
+
+
+# -- a camera that is not there yet, or stops: tried again ----------------------------------------
+
+
+class _Opened:
+    """A stand-in for an open live source: its first frame, and whether it was closed."""
+
+    live, skipped = True, 0
+
+    def __init__(self, *_args: object, **_kwargs: object) -> None:
+        self.closed = False
+
+    def read(self, timeout_s: float | None = None) -> object:
+        return "frame"
+
+    def close(self, wait_s: float | None = None) -> None:
+        self.closed = True
+
+
+def test_a_camera_not_there_yet_is_waited_for_and_said(monkeypatch: pytest.MonkeyPatch) -> None:
+    from lfctl.video import SourceNotReady, open_live
+
+    tries: list[object] = []
+
+    def source(name: object, latest: bool = False) -> _Opened:
+        tries.append(name)
+        if len(tries) < 3:
+            raise SourceNotReady(f"cannot open camera {name} with OpenCV (no such camera, or it is busy)")
+        return _Opened()
+
+    monkeypatch.setattr(lfctl.video, "REOPEN_S", 0.01)
+    monkeypatch.setattr(lfctl.video, "VideoSource", source)
+    said: list[str] = []
+    video, first = open_live("0", None, said.append)
+    assert isinstance(video, _Opened) and first == "frame" and tries == ["0", "0", "0"]
+    assert said == ["cannot open camera 0 with OpenCV (no such camera, or it is busy)"]  # once: not every try
+
+
+def test_a_camera_device_not_there_is_given_up_after_the_wait_and_a_missing_file_at_once(tmp_path: Path) -> None:
+    from lfctl.video import open_live
+
+    with pytest.raises(ConfigError, match=r"no camera device /dev/lfctl-no-such-camera .*\(waited 0\.\d s for it\)"):
+        open_live("/dev/lfctl-no-such-camera", 0.2)
+    said: list[str] = []
+    with pytest.raises(ConfigError, match="does not exist"):
+        open_live(str(tmp_path / "missing.mp4"), None, said.append)  # (None: it would wait for ever)
+    assert said == []
+
+
+def test_a_stopped_camera_is_opened_again_on_its_own_thread_and_handed_over_once() -> None:
+    import threading
+
+    from lfctl.video import Reopening
+
+    tries: list[int] = []
+    opened = _Opened()
+    ready = threading.Event()
+
+    def opener() -> _Opened:
+        tries.append(1)
+        if len(tries) < 2:
+            raise ConfigError("no RTP stream yet")
+        ready.set()
+        return opened
+
+    reopening = Reopening(opener)  # type: ignore[arg-type]
+    assert ready.wait(5)
+    assert _wait_for(lambda: reopening.take() is opened)
+    assert reopening.take() is None and reopening.why == "no RTP stream yet"
+    reopening.stop()
+    assert not opened.closed  # handed over: the taker closes it
+    left = _Opened()
+    again = Reopening(lambda: left)  # type: ignore[arg-type,return-value]
+    assert _wait_for(lambda: not again._thread.is_alive())
+    again.stop()
+    assert left.closed  # opened, never taken: closed when the tries end
+
+
+def _wait_for(predicate: Callable[[], bool]) -> bool:
+    import time
+
+    deadline = time.monotonic() + 5.0
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True

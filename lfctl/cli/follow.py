@@ -51,6 +51,13 @@ def register(sub: Any) -> None:
         default="0",
         help="camera index, video file, stream URL, or rtp://HOST:PORT for RTP/UDP H.264 (default 0)",
     )
+    fo.add_argument(
+        "--camera-wait",
+        type=number(0, 10**6, unit="s"),
+        metavar="S",
+        help="seconds to wait for a camera or stream that is not there yet (default: until it comes, said every "
+        "10 s; a file is not waited for)",
+    )
     fo.add_argument("--target", type=integer(1, 255), default=1, help="the rover's system id (default 1)")
     fo.add_argument(
         "--scenario",
@@ -383,7 +390,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.link.camera import CameraComponent
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
-    from lfctl.video import VideoSource
+    from lfctl.video import REOPEN_S, open_live
     from lfctl.vision.banner import BannerGeometry
     from lfctl.vision.camera_model import CameraModel, at_frame_size
     from lfctl.vision.frames import colourless
@@ -411,10 +418,13 @@ def run(args: argparse.Namespace) -> int:
     rate_hz = cfg.sim.guidance_rate_hz if args.rate is None else args.rate
     if not RATE_HZ[0] <= rate_hz <= RATE_HZ[1]:  # the scenario's guidance rate may be outside
         raise ConfigError(f"--rate must be within [{RATE_HZ[0]:g}, {RATE_HZ[1]:g}] Hz, got {rate_hz:g}")
-    with VideoSource(args.camera, latest=True) as video:  # a camera's newest frame each step
-        first = video.read()
-        if first is None:
-            raise ConfigError(f"camera {args.camera!r} gave no frame")
+
+    def waiting(why: str) -> None:
+        end = "Ctrl-C ends" if args.camera_wait is None else f"for up to {args.camera_wait:g} s"
+        log.warning("waiting for the camera: %s; trying again every %g s (%s)", why, REOPEN_S, end)
+
+    video, first = open_live(args.camera, args.camera_wait, waiting)  # a camera's newest frame each step
+    with video:
         if not video.live:
             video.unread(first)  # a file's first frame is followed too (a camera's would be old by then)
         h, w = first.shape[:2]

@@ -10,6 +10,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -20,7 +21,7 @@ from lfctl.link.companion import Companion, answer_name, unanswered
 from lfctl.link.endpoint import COMPANION_COMPID, MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
-from lfctl.video import VideoSource
+from lfctl.video import REOPEN_S, Reopening, VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
 from lfctl.vision.track_state import TrackStatus
 
@@ -42,6 +43,16 @@ SLOW_SHARE = 0.5
 #: the fastest an ArduPilot rover streams a message, Hz (its main loop's 50 Hz): a faster
 #: rate asked for is measured against this
 STREAM_MAX_HZ = 50.0
+#: a live camera that gives no frame for this long, or three control periods if that is
+#: longer, is silent: the rover is held (zero setpoints) until frames come again, s
+CAMERA_SILENT_S = 1.0
+#: a silent camera is back once this many frames have come, each within the silence's
+#: length of the last: FFmpeg's decoder hands over the frames it still held as a stream ends,
+#: one at each read timeout, and those are no return
+BACK_FRAMES = 3
+#: at the run's end, a read under way in the camera's driver is waited for this long, s (a
+#: silent stream's lasts up to its read timeout; the process's end releases it)
+CLOSE_WAIT_S = 0.5
 #: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
 #: once a second): its mode and arming are then not known, and setpoints are not counted as
 #: carried out
@@ -86,6 +97,10 @@ class RoverRun:
     #: a live camera's frames passed over for a newer one: it made them faster than the steps
     #: took them (each step takes the newest)
     skipped: int = 0
+    #: times a live camera went silent (no frame for :data:`CAMERA_SILENT_S`): the rover held
+    #: still meanwhile (the setpoints are zeros)
+    camera_gaps: int = 0
+    camera_silent_s: float = 0.0  # how long the camera was silent in all, s
 
     def summary(self) -> str:
         """One line: what was sent, how many the rover took, and how often the target was seen."""
@@ -99,6 +114,9 @@ class RoverRun:
             line += f"; target tracking in {self.tracking}, occluded in {self.occluded}, lost in {self.lost} steps"
             if self.tracking == 0:
                 line += " (never seen: check the camera, the banner and its markers' hue)"
+        if self.camera_gaps:
+            times = "once" if self.camera_gaps == 1 else f"{self.camera_gaps} times"
+            line += f"; the camera silent {times}, {self.camera_silent_s:.1f} s in all (the rover held still)"
         if self.junk or self.passed_over:
             line += f"; passed over: {self.junk} junk packets, {self.passed_over} odometry messages"
         if self.interrupted:
@@ -121,6 +139,7 @@ def follow_rover(
     name: str = "rover",
     on_step: Callable[[RoverStep], None] | None = None,
     clock: Callable[[], float] | None = None,
+    open_camera: Callable[[], VideoSource] | None = None,
 ) -> RoverRun:
     """Follow the leader with a real rover until the video ends (or the limits are reached).
 
@@ -136,14 +155,18 @@ def follow_rover(
     ground station, and again when it comes back. The rover's mode and arming changes (its
     pilot or a ground station taking it out of GUIDED, or putting it back) and what its
     autopilot says (STATUSTEXT) are said in the log; the companion never takes the rover
-    back into GUIDED itself. The rover is sent zero setpoints at the end, however it ends.
+    back into GUIDED itself. A live camera that gives no frame for :data:`CAMERA_SILENT_S`
+    (or three periods) holds the rover still (zero setpoints, said in the log and to the
+    ground station); one that has stopped is opened again until it gives frames, and the
+    target is then looked for afresh (a camera back at another size ends the run). The rover
+    is sent zero setpoints at the end, however it ends.
 
     Parameters
     ----------
     companion : Companion
         The connection to the rover, as its companion computer.
     video : VideoSource
-        The camera.
+        The camera (closed when the run ends).
     perception : BannerPerception
         The camera's perception (intrinsics, banner, tracker).
     settings : FormationSettings
@@ -165,6 +188,9 @@ def follow_rover(
     clock : callable, optional
         The run's clock, s, for the steps' ``t_s`` (default: seconds since the loop
         started); give the one the steps are logged on, so they and the link's packets share it.
+    open_camera : callable, optional
+        Opens a live camera again once it has stopped (default: ``VideoSource(video.name,
+        latest=True)``); a source it opens is closed here.
     """
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
@@ -211,7 +237,7 @@ def follow_rover(
     restarts = companion.vehicle.restarts  # the rover's restarts seen (each has the odometry asked again)
     slow_said = False
     interrupted = False
-    skipped_before = video.skipped  # frames a live camera made while the rover was being set up
+    camera = _Camera(video, companion, name, max(CAMERA_SILENT_S, 3.0 / rate_hz), period, open_camera)
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
@@ -243,14 +269,20 @@ def follow_rover(
                 rate_from = (t_s, companion.vehicle.positions)
             _say_heard(companion, name)
             state = _say_rover_state(companion, name, state)
-            frame = video.read() if max_frames is None or frames < max_frames else None
-            if frame is None:
-                if video.live and (max_frames is None or frames < max_frames):
-                    # (a file's end is its end; a camera or stream that stops is news)
-                    log.warning(
-                        "%s: the camera %s gives no more frames: the stream stopped; the run ends", name, video.name
-                    )
+            if max_frames is not None and frames >= max_frames:
                 break
+            frame = camera.read(t_s)
+            if frame is None:
+                if not camera.live or camera.failed:
+                    break  # a file's end is its end; a camera back at another size cannot be followed
+                companion.setpoint(t_s, 0.0, 0.0)  # a silent camera: the rover held still
+                steps += 1
+                obeyed += beating and v.t_s is not None and not stale and v.mode == guided and bool(v.armed)
+                time.sleep(max(0.0, period - (now() - t_s)))
+                continue
+            if camera.came_back:  # (where the target went meanwhile, the track does not know)
+                perception.restart()
+                camera.came_back = False
             frames += 1
             seen = perception.step(t_s, frame)
             v = companion.vehicle
@@ -272,10 +304,141 @@ def follow_rover(
     finally:
         for _ in range(STOP_SETPOINTS):
             companion.setpoint(t_s, 0.0, 0.0)
+        camera.close(now())
     return RoverRun(
         steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST],
-        obeyed, companion.port.junk, companion.passed_over, interrupted, video.skipped - skipped_before,
+        obeyed, companion.port.junk, companion.passed_over, interrupted, camera.skipped, camera.gaps,
+        camera.silent_total_s,
     )  # fmt: skip
+
+
+class _Camera:
+    """The follower's camera through a run. A live one that gives no frame for ``silent_s``
+    is silent: said once in the log and to the ground station, and read a period at a time
+    meanwhile (the run holds the rover still); one that has stopped (a failed read, or a
+    stream silent for its read timeout) is closed and opened again on a thread of its own
+    until it opens (:class:`~lfctl.video.Reopening`). Frames that come again are said, and
+    must be of the size the run began with. A file is read frame after frame to its end."""
+
+    def __init__(
+        self,
+        video: VideoSource,
+        companion: Companion,
+        name: str,
+        silent_s: float,
+        period_s: float,
+        opener: Callable[[], VideoSource] | None,
+    ) -> None:
+        self.video: VideoSource | None = video
+        self.name, self.source = video.name, video.name
+        self.live = video.live
+        self.companion, self.follower = companion, name
+        self.silent_s, self.period_s = silent_s, period_s
+        self._opener = opener if opener is not None else partial(VideoSource, video.name, latest=True)
+        self._reopening: Reopening | None = None
+        self._skipped = -video.skipped  # (those made while the rover was being set up are not the run's)
+        self._shape: tuple[int, ...] | None = None  # the frames' (height, width), from the first
+        self._last_frame_t: float | None = None
+        self._silent_since: float | None = None
+        self._said_stopped = False  # that it stopped, this silence
+        self._seen = 0  # frames come while silent (see BACK_FRAMES)
+        self._seen_t: float | None = None  # the last one's time
+        self.came_back = False  # frames again after a silence (until the run has taken note)
+        self.failed = False  # back with frames of another size: not to be followed
+        self.gaps = 0
+        self.silent_total_s = 0.0
+
+    @property
+    def skipped(self) -> int:
+        """Frames passed over for a newer one in the run, over every source it had."""
+        return self._skipped + (self.video.skipped if self.video is not None else 0)
+
+    def read(self, t_s: float) -> np.ndarray | None:
+        """The newest frame, or None: a file's end, a live camera silent now (or being opened
+        again), or :attr:`failed`."""
+        if not self.live:
+            assert self.video is not None
+            return self.video.read()
+        if self.video is None:
+            assert self._reopening is not None
+            self.video = self._reopening.take()
+            if self.video is None:
+                self._silent(t_s)
+                return None
+            self._reopening = None
+            log.info("%s: the camera %s opened again: waiting for its frames", self.follower, self.source)
+        wait = self.period_s if self._silent_since is not None else self.silent_s
+        frame = self.video.read(wait)
+        if frame is None:
+            self._silent(t_s)
+            if self.video.ended:
+                self._reopen()
+            return None
+        shape = frame.shape[:2]
+        if self._shape is None:
+            self._shape = shape
+        elif shape != self._shape:
+            log.warning(
+                "%s: the camera %s came back with %dx%d frames, not the %dx%d the run began with: the run ends "
+                "(its perception is for the first size; start lfctl follow again)",
+                self.follower, self.source, shape[1], shape[0], self._shape[1], self._shape[0],
+            )  # fmt: skip
+            self.failed = True
+            return None
+        if self._silent_since is not None:
+            if self._seen_t is not None and t_s - self._seen_t > self.silent_s:
+                self._seen = 0  # (one frame long after the last: a decoder's held frame)
+            self._seen, self._seen_t = self._seen + 1, t_s
+            if self._seen < BACK_FRAMES:
+                return None  # still held
+            gap = t_s - self._silent_since
+            self.silent_total_s += gap
+            self._silent_since = None
+            self._said_stopped = False
+            self.came_back = True
+            log.info("%s: the camera's frames are back after %.1f s: looking for the target afresh", self.follower, gap)
+            self.companion.statustext(f"{self.follower[:20]}: camera back", mav.MAV_SEVERITY_INFO)
+        self._last_frame_t = t_s
+        return frame
+
+    def _silent(self, t_s: float) -> None:
+        """No frame now: a silence that begins is counted and said."""
+        if self._silent_since is None:
+            self._silent_since = self._last_frame_t if self._last_frame_t is not None else t_s
+            self._seen, self._seen_t = 0, None
+            self.gaps += 1
+            log.warning(
+                "%s: the camera %s gives no frames: the rover is held still until they come again",
+                self.follower,
+                self.source,
+            )
+            self.companion.statustext(f"{self.follower[:20]}: camera silent, rover held")
+
+    def _reopen(self) -> None:
+        """The source in hand has stopped: closed (a stream's port freed) and opened again."""
+        assert self.video is not None
+        self._skipped += self.video.skipped
+        self.video.close()
+        self.video = None
+        # (said once a silence: a stream that is not back ends again at each read timeout)
+        level = logging.INFO if self._said_stopped else logging.WARNING
+        log.log(level, "%s: the camera %s stopped: opening it again every %g s", self.follower, self.source, REOPEN_S)
+        self._said_stopped = True
+        self._reopening = Reopening(self._opener)
+
+    def close(self, t_s: float) -> None:
+        """End the run's use of the camera: a silence under way is counted, tries to open it
+        again end, and the source in hand is closed (a read stuck in a silent stream's driver
+        is waited for up to :data:`CLOSE_WAIT_S` only: Ctrl-C ends the run at once)."""
+        if self._silent_since is not None:
+            self.silent_total_s += t_s - self._silent_since
+            self._silent_since = None
+        if self._reopening is not None:
+            self._reopening.stop()
+        if self.video is not None:
+            self._skipped += self.video.skipped
+            self.video.close(CLOSE_WAIT_S)
+            self.video = None
 
 
 #: a start-up request's words: (what was asked for, what was refused, what the rover must be)

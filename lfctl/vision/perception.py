@@ -129,10 +129,18 @@ class BannerPerception:
     ) -> None:
         self.camera = camera
         self.banner = banner
+        self.settings = settings
+        self.expected_box = expected_box
+        self.restart()
+
+    def restart(self) -> None:
+        """Look for the target afresh, as at the start (its markers or tag, the one nearest
+        ``expected_box``): after a gap in the frames (a camera that stopped and came back) the
+        track's filters know nothing of where it went meanwhile."""
+        settings = self.settings
         self.tracker: Tracker | ArucoTracker = (
             ArucoTracker(settings) if isinstance(settings, ArucoSettings) else Tracker(settings)
         )
-        self.expected_box = expected_box
         self.started = False
 
     @staticmethod

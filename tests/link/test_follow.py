@@ -1205,3 +1205,192 @@ def test_the_summary_leaves_a_companionless_followers_tracking_to_its_companion(
     assert "--follower follower1" in out and "follower1: its companion ran outside the simulator" in out
     row = next(line for line in out.splitlines() if line.startswith("follower1  leader"))
     assert row.split()[-3:] == ["-", "-", "-"]  # its simulated tracker's seconds are not its companion's
+
+
+# -- a camera that stops and comes back -----------------------------------------------------------
+
+
+def test_a_camera_that_stops_holds_the_rover_and_is_opened_again_when_its_stream_comes_back(
+    standing_rover, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    # a rover's camera streaming RTP (as `lfctl sim --video` and most rover cameras do) that
+    # pauses long enough for FFmpeg's read to time out (its sender restarted, a cable), then
+    # resumes: the rover is held still meanwhile, said to the ground station, and the run goes
+    # on with the target looked for afresh
+    import lfctl.video
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.record.rtp import RtpH264Sender
+    from lfctl.record.video import H264Encoder
+    from lfctl.render.sequences import make_sequence
+    from lfctl.video import open_live
+    from lfctl.vision.perception import BannerPerception
+    from lfctl.vision.track_state import TrackStatus
+
+    monkeypatch.setattr(lfctl.video, "STREAM_TIMEOUT_S", 1.0)  # FFmpeg's read gives up 1 s into the pause
+    caplog.set_level(logging.INFO, logger="lfctl.follower.rover")
+    frames = [f for _t, f, _truth in make_sequence("clear", 1, 30).frames()]
+    port = loopback_udp()
+    rtp_port = port.getsockname()[1]
+    port.close()  # (free a moment ago: FFmpeg binds it to receive)
+    heard: list[tuple[str, Any]] = []  # what the rover got from the companion, in order
+    pause, resume, stop = threading.Event(), threading.Event(), threading.Event()
+
+    def camera() -> None:
+        sender, encoder = RtpH264Sender("127.0.0.1", rtp_port), H264Encoder(640, 480, 30.0, 2000, gop=15)
+        k = 0
+        while not stop.is_set():
+            if not pause.is_set() or resume.is_set():
+                sender.send(encoder.encode(frames[k % len(frames)]).data, k / 30.0)
+                k += 1
+            stop.wait(1 / 30)
+        sender.close()
+
+    def tap(direction: str, m: Any, raw: bytes, *to: Any) -> None:
+        if direction == "in" and m.get_type() in ("STATUSTEXT", "SET_POSITION_TARGET_LOCAL_NED"):
+            heard.append((m.get_type(), m))
+            if m.get_type() == "STATUSTEXT" and "camera silent" in m.text:
+                # the reading thread ends 1 s into the pause; resumed once the camera is being opened again
+                threading.Timer(2.0, resume.set).start()
+
+    statuses: list[TrackStatus] = []
+
+    def on_step(step: Any) -> None:
+        statuses.append(step.seen.measurement.status)
+        if len(statuses) == 20:
+            pause.set()
+
+    worker = threading.Thread(target=camera, daemon=True)
+    worker.start()
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    try:
+        with standing_rover() as rover:
+            rover.tap = tap
+            companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+            try:
+                video, _first = open_live(f"rtp://127.0.0.1:{rtp_port}", 10.0)
+                with video:
+                    perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                    settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                    done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                        arm=True, timeout_s=5.0, max_frames=50, on_step=on_step)  # fmt: skip
+            finally:
+                companion.close()
+    finally:
+        stop.set()
+        worker.join(5)
+    texts = [m.text for kind, m in heard if kind == "STATUSTEXT" and "camera" in m.text]
+    assert texts == ["rover: camera silent, rover held", "rover: camera back"]
+    silent_at = next(i for i, (_k, m) in enumerate(heard) if "camera silent" in getattr(m, "text", ""))
+    back_at = next(i for i, (_k, m) in enumerate(heard) if "camera back" in getattr(m, "text", ""))
+    held = [m for kind, m in heard[silent_at:back_at] if kind == "SET_POSITION_TARGET_LOCAL_NED"]
+    assert len(held) >= 10 and all((m.vx, m.vy, m.yaw_rate) == (0.0, 0.0, 0.0) for m in held)
+    assert done.frames == 50 and done.camera_gaps == 1 and done.camera_silent_s > 1.0
+    assert done.steps >= 50 + len(held)  # the held steps are setpoints sent too
+    assert statuses[20:].count(TrackStatus.TRACKING) >= 20, statuses  # found again on its markers
+    said = [r.getMessage() for r in caplog.records]
+    assert any("stopped: opening it again every 1 s" in t for t in said), said
+    assert any("opened again: waiting for its frames" in t for t in said) and any("looking for the target afresh" in t for t in said)
+    assert "the camera silent once" in done.summary()
+
+
+class _FakeCamera:
+    """A live source giving ``n`` frames of ``shape`` (then none: it has stopped)."""
+
+    def __init__(self, n: int, shape: tuple[int, int]) -> None:
+        self.name, self.live, self.skipped, self.closed = "rtp://127.0.0.1:5600", True, 0, False
+        self.left, self.shape = n, shape
+
+    @property
+    def ended(self) -> bool:
+        return self.left <= 0
+
+    def read(self, timeout_s: float | None = None) -> Any:
+        import numpy as np
+
+        if self.left <= 0:
+            return None
+        self.left -= 1
+        return np.full((*self.shape, 3), 128, np.uint8)
+
+    def close(self, wait_s: float | None = None) -> None:
+        self.closed = True
+
+
+def test_a_camera_back_at_another_size_ends_the_run_and_the_source_opened_for_it_is_closed(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    _rover, companion, _got = _memory_rover()
+    first, again = _FakeCamera(5, (480, 640)), _FakeCamera(5, (240, 320))
+    tries: list[int] = []
+
+    def opener() -> Any:
+        tries.append(1)
+        if len(tries) < 2:
+            raise ConfigError("no RTP stream yet")
+        return again
+
+    perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+    done = follow_rover(companion, first, perception, formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera),  # type: ignore[arg-type]
+                        rate_hz=20.0, status_rate_hz=2.0, timeout_s=2.0, open_camera=opener)  # fmt: skip
+    assert done.frames == 5 and done.camera_gaps == 1 and len(tries) == 2
+    assert first.closed and again.closed  # the stopped one freed (its port), the one opened here closed
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("came back with 320x240 frames, not the 640x480 the run began with: the run ends" in t for t in said)
+
+
+def test_camera_wait_bounds_the_wait_for_a_camera_not_there_yet(
+    capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    args = ["follow", "--mavlink", "udpout:127.0.0.1:14999", "--camera", "/dev/lfctl-no-camera", "--camera-wait", "0.3"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "no camera device /dev/lfctl-no-camera (not plugged in, or not ready) (waited 0." in err, err
+    said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert said == [
+        "waiting for the camera: no camera device /dev/lfctl-no-camera (not plugged in, or not ready); trying "
+        "again every 1 s (for up to 0.3 s)"
+    ]
+
+
+class _ScriptedCamera(_FakeCamera):
+    """A live source that gives, read after read, what ``script`` says: a frame (1) or none (0)."""
+
+    def __init__(self, script: list[int]) -> None:
+        super().__init__(len(script), (480, 640))
+        self.script = script
+
+    def read(self, timeout_s: float | None = None) -> Any:
+        import numpy as np
+
+        if not self.script:
+            self.left = 0
+            return None
+        return np.full((480, 640, 3), 128, np.uint8) if self.script.pop(0) else None
+
+
+def test_single_frames_a_stream_leaves_as_it_ends_are_no_return_of_the_camera(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # as an RTP stream stops, FFmpeg hands over a frame it still held at each read timeout:
+    # one frame seconds after the last does not end the silence (nor restart the target's search)
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.vision.perception import BannerPerception
+
+    caplog.set_level(logging.INFO, logger="lfctl.follower.rover")
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    _rover, companion, _got = _memory_rover()
+    camera = _ScriptedCamera([1] * 5 + ([0] * 30 + [1]) * 2 + [0] * 30 + [1] * 4)
+    perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+    done = follow_rover(companion, camera, perception, formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera),  # type: ignore[arg-type]
+                        rate_hz=20.0, status_rate_hz=2.0, timeout_s=2.0, max_steps=101)  # fmt: skip
+    said = [r.getMessage() for r in caplog.records]
+    back = [t for t in said if "frames are back" in t]
+    assert done.camera_gaps == 1 and len(back) == 1, said  # back only with the run of frames at the end
+    assert done.frames == 5 + 2 and done.steps == 101, done  # the first frames, the run's third and fourth
