@@ -19,6 +19,7 @@ signatures before any replay state changes (:mod:`lfctl.link.signing`).
 from __future__ import annotations
 
 import base64
+import hashlib
 import logging
 import math
 import struct
@@ -2449,9 +2450,27 @@ class VehicleEndpoint:
             )
             self.send(
                 mav.MAVLink_autopilot_version_message(
-                    caps, _version_word(*ROVER_VERSION), 0, 0, 0, [0] * 8, [0] * 8, [0] * 8, 0, 0, self.sysid, [0] * 18
+                    caps,
+                    _version_word(*ROVER_VERSION),
+                    0,
+                    0,
+                    0,
+                    [0] * 8,
+                    [0] * 8,
+                    [0] * 8,
+                    0,
+                    0,
+                    self.sysid,
+                    _board_uid(self.name),
                 )
             )
+
+
+def _board_uid(name: str) -> list[int]:
+    """AUTOPILOT_VERSION's uid2 for the vehicle called ``name``: a board's is its processor's
+    unique id, which ground stations and MAVSDK (``hardware_uid``) tell vehicles apart by; a
+    simulated vehicle's is 18 bytes of a hash of its name, the same from run to run."""
+    return list(hashlib.blake2b(f"lfctl vehicle {name}".encode(), digest_size=18).digest())
 
 
 def _version_word(major: int, minor: int, patch: int) -> int:

@@ -1815,6 +1815,11 @@ def test_mavlink_ftp_answers_the_asker_and_only_for_this_vehicle(bench: Bench) -
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0))
     (version,) = [m for m in bench.tick() if m.get_type() == "AUTOPILOT_VERSION"]
     assert version.capabilities & mav.MAV_PROTOCOL_CAPABILITY_FTP
+    # a board's unique id (MAVSDK's hardware_uid): each vehicle its own, the same from run to run
+    from lfctl.link.endpoint import _board_uid
+
+    assert list(version.uid2) == _board_uid(bench.ep.name) and any(version.uid2) and len(version.uid2) == 18
+    assert _board_uid("follower1") != _board_uid("follower2") and _board_uid("x") == _board_uid("x")
 
 
 def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_points(bench: Bench) -> None:
