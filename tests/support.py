@@ -4,14 +4,24 @@ depend on which was loaded first)."""
 
 from __future__ import annotations
 
+import contextlib
 import socket
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from lfctl.bench.common import free_udp_ports
 
-__all__ = ["LEADER_AND_FOLLOWER", "free_udp_ports", "left_stopped", "list_file", "loopback_udp", "wait_until"]
+__all__ = [
+    "LEADER_AND_FOLLOWER",
+    "free_udp_ports",
+    "left_stopped",
+    "list_file",
+    "loopback_udp",
+    "rtp_camera",
+    "wait_until",
+]
 
 #: a scenario's two vehicles as the small closed-loop tests write them: the leader at home,
 #: follower ``f1`` 1.5 m behind it (TOML, to put between a scenario's other tables)
@@ -65,3 +75,37 @@ def list_file(items: list[Any], mission_type: int = 0, options: int = 0, start: 
                  it.x, it.y, it.z, mission_type)  # fmt: skip
         out += unit.unpacker.pack(*(getattr(m, f) for f in unit.ordered_fieldnames))
     return out
+
+
+@contextlib.contextmanager
+def rtp_camera(frames: Sequence[Any], sending: Callable[[int], bool] = lambda k: True) -> Iterator[int]:
+    """A camera streaming RTP/UDP H.264 to 127.0.0.1 at 30 Hz while the block runs, as a rover's
+    does: ``frames`` (BGR, one size) over and over; at each tick it sends frame ``k`` (the
+    count sent so far) only while ``sending(k)`` holds. Yields the port it sends to (free
+    a moment before: FFmpeg binds it to receive)."""
+    from lfctl.record.rtp import RtpH264Sender
+    from lfctl.record.video import H264Encoder
+
+    probe = loopback_udp()
+    port = probe.getsockname()[1]
+    probe.close()
+    h, w = frames[0].shape[:2]
+    stop = threading.Event()
+
+    def send() -> None:
+        sender, encoder = RtpH264Sender("127.0.0.1", port), H264Encoder(w, h, 30.0, 2000, gop=15)
+        k = 0
+        while not stop.is_set():
+            if sending(k):
+                sender.send(encoder.encode(frames[k % len(frames)]).data, k / 30.0)
+                k += 1
+            stop.wait(1 / 30)
+        sender.close()
+
+    worker = threading.Thread(target=send, daemon=True)
+    worker.start()
+    try:
+        yield port
+    finally:
+        stop.set()
+        worker.join(5)

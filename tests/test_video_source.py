@@ -11,6 +11,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from support import rtp_camera
 
 import lfctl.video
 from lfctl.errors import ConfigError
@@ -190,37 +191,21 @@ def test_a_reader_waiting_when_the_camera_stops_is_told_at_once() -> None:
 # -- RTP: the stream a rover's camera (or lfctl sim --video) sends ---------------------------------
 @pytest.mark.integration
 def test_an_rtp_stream_is_read_by_its_port_and_by_its_session_description(tmp_path: Path) -> None:
-    import threading
+    import glob
+    import tempfile
 
     import cv2
     import numpy as np
 
-    from lfctl.record.rtp import RtpH264Sender, sdp
-    from lfctl.record.video import H264Encoder
+    from lfctl.record.rtp import sdp
 
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]  # (free a moment ago: FFmpeg binds it to receive)
-    sending = threading.Event()
-
-    def send() -> None:  # a camera streaming at 30 Hz: a grey card with a red square moving
-        sender, encoder = RtpH264Sender("127.0.0.1", port), H264Encoder(320, 240, 30.0, 800, gop=15)
-        k = 0
-        while not sending.is_set():
-            frame = np.full((240, 320, 3), 128, np.uint8)
-            cv2.rectangle(frame, (40 + k % 100, 80), (100 + k % 100, 140), (0, 0, 255), -1)
-            sender.send(encoder.encode(frame).data, k / 30.0)
-            k += 1
-            sending.wait(1 / 30)
-        sender.close()
-
-    (tmp_path / "camera.sdp").write_text(sdp("127.0.0.1", port))
-    worker = threading.Thread(target=send, daemon=True)
-    worker.start()
-    try:
-        import glob
-        import tempfile
-
+    cards = []  # a camera streaming at 30 Hz: a grey card with a red square moving
+    for k in range(100):
+        frame = np.full((240, 320, 3), 128, np.uint8)
+        cv2.rectangle(frame, (40 + k, 80), (100 + k, 140), (0, 0, 255), -1)
+        cards.append(frame)
+    with rtp_camera(cards) as port:
+        (tmp_path / "camera.sdp").write_text(sdp("127.0.0.1", port))
         made = os.path.join(tempfile.gettempdir(), "lfctl-rtp-*.sdp")  # the descriptions made for rtp://
         for source in (f"rtp://127.0.0.1:{port}", f"rtp://localhost:{port}", str(tmp_path / "camera.sdp")):
             before, left = os.environ.get("OPENCV_FFMPEG_CAPTURE_OPTIONS"), set(glob.glob(made))
@@ -232,9 +217,6 @@ def test_an_rtp_stream_is_read_by_its_port_and_by_its_session_description(tmp_pa
             assert all(f is not None and f.shape == (240, 320, 3) for f in frames), source
             red = frames[-1][:, :, 2].astype(int) - frames[-1][:, :, 1]  # type: ignore[index]
             assert (red > 100).sum() > 2000  # the square, decoded
-    finally:
-        sending.set()
-        worker.join(5)
 
 
 @pytest.mark.parametrize(
@@ -343,23 +325,13 @@ def test_a_stopped_camera_is_opened_again_on_its_own_thread_and_handed_over_once
 
     reopening = Reopening(opener)  # type: ignore[arg-type]
     assert ready.wait(5)
-    assert _wait_for(lambda: reopening.take() is opened)
+    got: list[object] = []
+    wait_until(lambda: got.append(reopening.take()) or got[-1] is opened)
     assert reopening.take() is None and reopening.why == "no RTP stream yet"
     reopening.stop()
     assert not opened.closed  # handed over: the taker closes it
     left = _Opened()
     again = Reopening(lambda: left)  # type: ignore[arg-type,return-value]
-    assert _wait_for(lambda: not again._thread.is_alive())
+    wait_until(lambda: not again._thread.is_alive())
     again.stop()
     assert left.closed  # opened, never taken: closed when the tries end
-
-
-def _wait_for(predicate: Callable[[], bool]) -> bool:
-    import time
-
-    deadline = time.monotonic() + 5.0
-    while not predicate():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True

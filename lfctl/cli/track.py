@@ -193,8 +193,16 @@ def run(args: argparse.Namespace) -> int:
                 seen = perception.step(t_s, frame, roi)
                 st = seen.track
                 if st is None and n == 0:
-                    raise ConfigError(
-                        "no banner (its four markers, or its ArUco tag) in the first frame: give --roi x,y,w,h"
+                    if not video.live:
+                        raise ConfigError(
+                            "no banner (its four markers, or its ArUco tag) in the first frame: give --roi x,y,w,h"
+                        )
+                    # a camera's first frame may not show it yet (or come half decoded, a stream
+                    # joined between keyframes): each frame is searched until it does
+                    print(
+                        f"lfctl track: no banner (its four markers, or its ArUco tag) in {args.source}'s first "
+                        "frame: looking for it in each frame (or give --roi x,y,w,h)",
+                        file=sys.stderr,
                     )
                 rec: dict[str, object] = {
                     "frame": n,

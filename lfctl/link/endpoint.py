@@ -221,8 +221,11 @@ POSITION_ONLY_TYPE_MASK = (
     | mav.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
     | 0xF000
 )
-#: SYS_STATUS's battery fields, "not measured" (voltage, current, remaining): lfctl models no battery
-BATTERY_NOT_MEASURED = (0xFFFF, -1, -1)
+#: SYS_STATUS's battery fields (voltage mV, current cA, remaining %) as a Rover without a
+#: battery monitor sends them: lfctl models no battery. Rover's send_sys_status sends the
+#: monitor's voltage, 0 with none (not MAVLink's UINT16_MAX "not sent", which MAVSDK shows as
+#: 65.535 V), and -1 for the current and the remaining energy it does not measure
+BATTERY_NOT_MEASURED = (0, -1, -1)
 #: SYS_STATUS sensors a rover has, all present, enabled and healthy (what MAVSDK's health reads)
 SENSORS = (
     mav.MAV_SYS_STATUS_SENSOR_3D_GYRO

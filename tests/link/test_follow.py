@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 from pymavlink.dialects.v10 import ardupilotmega as mav1
 from pymavlink.dialects.v20 import ardupilotmega as mav
-from support import left_stopped, loopback_udp, wait_until
+from support import left_stopped, loopback_udp, rtp_camera, wait_until
 
 from lfctl.cli import main
 from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S, LiveView
@@ -1220,8 +1220,6 @@ def test_a_camera_that_stops_holds_the_rover_and_is_opened_again_when_its_stream
     import lfctl.video
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
-    from lfctl.record.rtp import RtpH264Sender
-    from lfctl.record.video import H264Encoder
     from lfctl.render.sequences import make_sequence
     from lfctl.video import open_live
     from lfctl.vision.perception import BannerPerception
@@ -1230,21 +1228,8 @@ def test_a_camera_that_stops_holds_the_rover_and_is_opened_again_when_its_stream
     monkeypatch.setattr(lfctl.video, "STREAM_TIMEOUT_S", 1.0)  # FFmpeg's read gives up 1 s into the pause
     caplog.set_level(logging.INFO, logger="lfctl.follower.rover")
     frames = [f for _t, f, _truth in make_sequence("clear", 1, 30).frames()]
-    port = loopback_udp()
-    rtp_port = port.getsockname()[1]
-    port.close()  # (free a moment ago: FFmpeg binds it to receive)
     heard: list[tuple[str, Any]] = []  # what the rover got from the companion, in order
-    pause, resume, stop = threading.Event(), threading.Event(), threading.Event()
-
-    def camera() -> None:
-        sender, encoder = RtpH264Sender("127.0.0.1", rtp_port), H264Encoder(640, 480, 30.0, 2000, gop=15)
-        k = 0
-        while not stop.is_set():
-            if not pause.is_set() or resume.is_set():
-                sender.send(encoder.encode(frames[k % len(frames)]).data, k / 30.0)
-                k += 1
-            stop.wait(1 / 30)
-        sender.close()
+    pause, resume = threading.Event(), threading.Event()
 
     def tap(direction: str, m: Any, raw: bytes, *to: Any) -> None:
         if direction == "in" and m.get_type() in ("STATUSTEXT", "SET_POSITION_TARGET_LOCAL_NED"):
@@ -1260,25 +1245,19 @@ def test_a_camera_that_stops_holds_the_rover_and_is_opened_again_when_its_stream
         if len(statuses) == 20:
             pause.set()
 
-    worker = threading.Thread(target=camera, daemon=True)
-    worker.start()
     cfg = parse_config(DEFAULT_SCENARIO, "follow")
-    try:
-        with standing_rover() as rover:
-            rover.tap = tap
-            companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
-            try:
-                video, _first = open_live(f"rtp://127.0.0.1:{rtp_port}", 10.0)
-                with video:
-                    perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
-                    settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
-                    done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
-                                        arm=True, timeout_s=5.0, max_frames=50, on_step=on_step)  # fmt: skip
-            finally:
-                companion.close()
-    finally:
-        stop.set()
-        worker.join(5)
+    with rtp_camera(frames, lambda k: not pause.is_set() or resume.is_set()) as rtp_port, standing_rover() as rover:
+        rover.tap = tap
+        companion = Companion.open(f"udpout:127.0.0.1:{rover.link.port}", 1)
+        try:
+            video, _first = open_live(f"rtp://127.0.0.1:{rtp_port}", 10.0)
+            with video:
+                perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+                settings = formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera)
+                done = follow_rover(companion, video, perception, settings, rate_hz=20.0, status_rate_hz=2.0,
+                                    arm=True, timeout_s=5.0, max_frames=50, on_step=on_step)  # fmt: skip
+        finally:
+            companion.close()
     texts = [m.text for kind, m in heard if kind == "STATUSTEXT" and "camera" in m.text]
     assert texts == ["rover: camera silent, rover held", "rover: camera back"]
     silent_at = next(i for i, (_k, m) in enumerate(heard) if "camera silent" in getattr(m, "text", ""))

@@ -72,6 +72,58 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
     assert 0 < n < 27 and f"{cut} ended after {n} of the 30 frames it declares: the file is cut" in captured.err
 
 
+class _LiveCamera:
+    """A live camera (as VideoSource gives one) whose first ``dark`` frames are a plain grey
+    card (the banner not in view yet, or a stream's first frame half decoded), then the
+    rendered banner."""
+
+    live = untimed = True
+    info = declared_frames = declared_duration_s = pixel_aspect = None
+    fps, skipped = 30.0, 0
+
+    def __init__(self, source: object, latest: bool = False, dark: int = 5) -> None:
+        grey = np.full((480, 640, 3), 128, np.uint8)
+        self._frames = [grey] * dark + [f for _t, f, _truth in make_sequence("clear", 3, 20).frames()]
+        self.frames_read = 0
+
+    @property
+    def time_s(self) -> float:
+        return max(0, self.frames_read - 1) / self.fps
+
+    def read(self, timeout_s: float | None = None) -> np.ndarray | None:
+        if self.frames_read >= len(self._frames):
+            return None
+        self.frames_read += 1
+        return self._frames[self.frames_read - 1]
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> _LiveCamera:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        pass
+
+
+def test_a_live_camera_is_searched_for_the_banner_until_it_shows(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a file whose first frame shows no banner is an error (give --roi); a camera's first frame
+    # may not show it yet: each frame is searched, the frames before it said as lost
+    import lfctl.video
+
+    monkeypatch.setattr(lfctl.video, "VideoSource", _LiveCamera)
+    assert main(["track", "0"]) == 0
+    captured = capsys.readouterr()
+    recs = [json.loads(line) for line in captured.out.splitlines() if line.startswith("{")]
+    assert [r["state"] for r in recs[:5]] == ["lost"] * 5 and len(recs) == 25
+    assert sum("pose" in r for r in recs[5:]) >= 18  # found on its first frame in view
+    assert "no banner (its four markers, or its ArUco tag) in 0's first frame: looking for it in each frame" in (
+        captured.err
+    )
+
+
 def test_a_calibration_made_at_another_size_of_the_same_aspect_is_scaled_to_the_frames(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
