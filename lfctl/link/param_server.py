@@ -15,7 +15,9 @@ back sets the parameters it names (ArduPilot's parameter upload), each as a PARA
 
 from __future__ import annotations
 
+import math
 import struct
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -142,6 +144,11 @@ def unpack_params(data: bytes) -> list[tuple[str, float]]:
     return out
 
 
+#: a warning of lfctl's own (an unknown parameter, a value refused) is not said again within
+#: this long, s: a client's tries again of the same request get it once
+REPEAT_S = 1.0
+
+
 class ParamServer:
     """Answers PARAM_REQUEST_LIST, PARAM_REQUEST_READ and PARAM_SET over ``params``.
 
@@ -149,7 +156,9 @@ class ParamServer:
     read by name, index -1, as ArduPilot answers it); a set stores the value as ``AP_Param``
     stores it and is answered with the value in force, index -1, whether it was taken or not.
     An unknown name or index, a value outside the parameter's range and a read-only parameter
-    are each said in a line of text (ArduPilot's own words for a read-only one).
+    are each said in a line of text (ArduPilot's own words for a read-only one); the same line
+    of lfctl's own is said once in :data:`REPEAT_S`, as a client tries a request again (MAVSDK
+    five times in a few tens of milliseconds) and a Rover says nothing of those at all.
 
     Parameters
     ----------
@@ -165,6 +174,7 @@ class ParamServer:
         self.params = params
         self._send = send
         self._say = say
+        self._said: dict[str, float] = {}  # lfctl's own warnings, when each was last said (monotonic s)
         #: each parameter's default: its value when the server was made (the table's defaults)
         self.defaults = {name: p.value for name, p in params.items()}
 
@@ -213,13 +223,13 @@ class ParamServer:
             if m.param_index < len(names):
                 self._send(self.value_message(names[m.param_index]))
             else:
-                self._say(f"No parameter at index {m.param_index} (there are {len(names)})", mav.MAV_SEVERITY_WARNING)
+                self._warn(f"No parameter at index {m.param_index} (there are {len(names)})")
             return
         name = self.name_of(m.param_id)
         if name is not None:
             self._send(self.value_message(name, indexed=False))
         else:
-            self._say(f"Unknown parameter {param_text(m.param_id)}", mav.MAV_SEVERITY_WARNING)
+            self._warn(f"Unknown parameter {param_text(m.param_id)}")
 
     def set(self, m: Any) -> str | None:
         """Store a PARAM_SET's value if the parameter takes it, and answer with the value in
@@ -232,7 +242,7 @@ class ParamServer:
         """
         name = self.name_of(m.param_id)
         if name is None:
-            self._say(f"Unknown parameter {param_text(m.param_id)}", mav.MAV_SEVERITY_WARNING)
+            self._warn(f"Unknown parameter {param_text(m.param_id)}")
             return None
         refused = self.set_value(name, m.param_value)
         self._send(self.value_message(name, indexed=False))
@@ -261,8 +271,21 @@ class ParamServer:
         else:
             why = f"{name} rejected: {value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
         if not quiet:
-            self._say(why, mav.MAV_SEVERITY_WARNING)
+            if p.readonly:
+                self._say(why, mav.MAV_SEVERITY_WARNING)  # (as often as a Rover says it)
+            else:
+                self._warn(why)
         return why
+
+    def _warn(self, text: str) -> None:
+        """Say a warning of lfctl's own, unless the same was said within :data:`REPEAT_S`."""
+        now = time.monotonic()
+        if now - self._said.get(text, -math.inf) < REPEAT_S:
+            return
+        if len(self._said) >= 64:  # (names a peer makes up: only the recent ones matter)
+            self._said = {t: at for t, at in self._said.items() if now - at < REPEAT_S}
+        self._said[text] = now
+        self._say(text, mav.MAV_SEVERITY_WARNING)
 
     def packed(self, query: str = "") -> bytes:
         """``@PARAM/param.pck`` now, for a file read over MAVLink FTP, with the options a

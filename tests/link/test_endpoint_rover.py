@@ -1564,6 +1564,34 @@ def test_what_is_for_another_component_is_acted_on_as_rover_routes_it(bench: Ben
     assert bench.ep.armed
 
 
+def test_a_clients_tries_again_of_a_refused_parameter_request_are_said_once(
+    bench: Bench, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # MAVSDK sends a PARAM_SET or a read five times more when no answer of its liking comes:
+    # lfctl's own warning goes out once a second (a Rover says nothing of an unknown name),
+    # ArduPilot's read-only refusal each time, as a Rover's
+    import lfctl.link.param_server as ps
+
+    now = [100.0]
+    monkeypatch.setattr(ps.time, "monotonic", lambda: now[0])
+
+    def texts(*messages: Any) -> list[str]:
+        before = len(bench.ep.statustexts)
+        for m in messages:
+            bench.send(m)
+            bench.tick()
+        return [t for _s, t in bench.ep.statustexts[before:]]
+
+    nope = mav.MAVLink_param_request_read_message(1, 1, b"NOPE", -1)
+    far = mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1000.0, mav.MAV_PARAM_TYPE_REAL32)
+    assert texts(*[nope] * 6, *[far] * 6) == ["Unknown parameter NOPE", "WP_SPEED rejected: 1000 outside 0..100 m/s"]
+    now[0] += 1.5  # a request made again later is answered again
+    assert texts(nope, mav.MAVLink_param_request_read_message(1, 1, b"NOPE2", -1)) == [
+        "Unknown parameter NOPE",
+        "Unknown parameter NOPE2",
+    ]
+
+
 def test_param_value_answers_a_set_and_a_read_by_name_with_index_minus_1(bench: Bench) -> None:
     bench.send(mav.MAVLink_param_set_message(1, 1, b"wp_speed", 1.5, mav.MAV_PARAM_TYPE_REAL32))
     assert not [m for m in bench.tick() if m.get_type() == "PARAM_VALUE"]  # Rover finds WP_SPEED in its case only
