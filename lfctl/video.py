@@ -495,8 +495,9 @@ class Reopening:
     Parameters
     ----------
     opener : callable
-        Opens the source (``VideoSource(name, latest=True)``); :class:`SourceNotReady` or
-        any other :class:`ConfigError` means not yet, and it is tried again.
+        Opens the source (``VideoSource(name, latest=True)``); any error it raises
+        (:class:`SourceNotReady`, another :class:`ConfigError`, a driver's) means not yet,
+        and it is tried again.
     """
 
     def __init__(self, opener: Callable[[], VideoSource]) -> None:
@@ -514,8 +515,8 @@ class Reopening:
             self.tries += 1
             try:
                 video = self._opener()
-            except ConfigError as exc:  # (a source gone for good says so at each try)
-                self.why = str(exc)
+            except Exception as exc:  # (a driver's error too: the tries must go on, not die unseen)
+                self.why = str(exc) or type(exc).__name__
             else:
                 with self._lock:
                     if self._stopping.is_set():

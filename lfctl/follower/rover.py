@@ -277,6 +277,7 @@ def follow_rover(
                     break  # a file's end is its end; a camera back at another size cannot be followed
                 companion.setpoint(t_s, 0.0, 0.0)  # a silent camera: the rover held still
                 steps += 1
+                v = companion.vehicle
                 obeyed += beating and v.t_s is not None and not stale and v.mode == guided and bool(v.armed)
                 time.sleep(max(0.0, period - (now() - t_s)))
                 continue
@@ -330,7 +331,7 @@ class _Camera:
         opener: Callable[[], VideoSource] | None,
     ) -> None:
         self.video: VideoSource | None = video
-        self.name, self.source = video.name, video.name
+        self.source = video.name
         self.live = video.live
         self.companion, self.follower = companion, name
         self.silent_s, self.period_s = silent_s, period_s
