@@ -225,6 +225,8 @@ def _decoded(c: Contents, topic: str) -> tuple[list[tuple[float, dict[str, Any]]
         slim = topic.startswith("/mavlink/")
         for i, (t, d) in enumerate(c.messages.get(topic, [])):
             m = _check_json(d, spec[1]) if spec else _check_json(d, {})
+            if slim and isinstance(m, dict) and "to" in m and m["direction"] != "out":
+                m = "'to' (the peer a packet went to alone) on a packet that came in"
             if isinstance(m, str):
                 bad.append((i, c.sim_s(t), m))
             else:

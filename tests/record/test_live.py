@@ -549,8 +549,14 @@ def test_loss_is_counted_per_sender_across_links_and_acks_match_their_commands(t
             rec.mavlink(
                 9.0 + 0.1 * k, "leader", {**packet("out", 1, 1, k, "GLOBAL_POSITION_INT"), "to": "127.0.0.1:40001"}
             )
+        # a peer named on a packet that came in: no packet comes in to one peer alone
+        rec.mavlink(9.6, "leader", {**packet("in", 240, 1, 0), "to": "127.0.0.1:40003"})
     rep = audit(path)  # a log of MAVLink only: the missing topics are findings, the figures are what counts
     assert rep.figures["link_senders"]["255/190"] == {"packets": 15, "lost": 3, "loss_pct": 16.67}
+    assert "240/1" not in rep.figures["link_senders"]
+    assert any("'to' (the peer a packet went to alone) on a packet that came in" in f.what for f in rep.findings), [
+        f.what for f in rep.findings
+    ]
     leader = rep.figures["links"]["/mavlink/leader"]
     assert leader["commands"] == 3 and leader["commands_acked"] == 2
     assert leader["command_ack_latency_ms_max"] == pytest.approx(300.0)
