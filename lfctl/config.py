@@ -26,6 +26,7 @@ from lfctl.errors import ConfigError
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
+    "MAX_KEY_PARTS",
     "MAX_LIST",
     "MAX_SCENARIO_BYTES",
     "MAX_STEPS",
@@ -56,6 +57,7 @@ __all__ = [
     "load_config",
     "parse_config",
     "parse_host_port",
+    "read_toml",
     "resolve_paths",
 ]
 
@@ -1075,6 +1077,51 @@ def _toml_key(field_name: str) -> str:
     return field_name
 
 
+#: the most dotted parts a TOML key may have here (a scenario's deepest has 3, a sweep's 2):
+#: Python's TOML reader takes time growing with the square of a key's parts, so one key of
+#: half a million parts in a 1 MiB file would hold it for hours
+MAX_KEY_PARTS = 16
+
+
+def _key_parts(key: str) -> int:
+    """The dotted parts of a TOML key (or table header), dots inside quotes not counted."""
+    parts, quote = 1, ""
+    for ch in key:
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch == ".":
+            parts += 1
+    return parts
+
+
+def read_toml(text: str) -> dict[str, Any]:
+    """TOML text as :mod:`tomllib` reads it, every failure a ConfigError: bad TOML, arrays
+    nested too deeply, or a key of more than :data:`MAX_KEY_PARTS` dotted parts (refused
+    before it is parsed: see there).
+
+    Parameters
+    ----------
+    text : str
+        The TOML.
+    """
+    for n, line in enumerate(text.splitlines(), start=1):
+        if line.count(".") < MAX_KEY_PARTS:
+            continue  # (the common line, at once)
+        stripped = line.lstrip()
+        key = stripped.split("]", 1)[0] if stripped.startswith("[") else stripped.split("=", 1)[0]
+        parts = _key_parts(key)
+        if parts > MAX_KEY_PARTS:
+            raise ConfigError(f"line {n}: a key of {parts} dotted parts (at most {MAX_KEY_PARTS} are read)")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"not valid TOML: {exc}") from exc
+    except RecursionError:
+        raise ConfigError("arrays or tables nested too deeply to read") from None
+
+
 def parse_config(text: str, name: str = "scenario") -> Config:
     """Parse and validate scenario TOML text; see :func:`load_config`.
 
@@ -1088,15 +1135,13 @@ def parse_config(text: str, name: str = "scenario") -> Config:
     Raises
     ------
     ConfigError
-        Bad TOML, unknown key, wrong type or out-of-range value.
+        Bad TOML (or a key of too many dotted parts, or over :data:`MAX_SCENARIO_BYTES`), unknown
+        key, wrong type or out-of-range value.
     """
     text = text.removeprefix("\ufeff")  # a byte-order mark some editors write: not TOML, no meaning
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}") from exc  # (load_config names the file, as for a bad key)
-    except RecursionError:
-        raise ConfigError("arrays or tables nested too deeply to read") from None
+    if len(text) > MAX_SCENARIO_BYTES:  # (a log's attachment, say: load_config checks a file's bytes)
+        raise ConfigError(f"a scenario of {len(text)} characters: at most {MAX_SCENARIO_BYTES} are read")
+    data = read_toml(text)  # (load_config names the file, as for a bad key)
     return config_from_table(data, name, text)
 
 

@@ -215,3 +215,18 @@ def test_a_bad_value_is_named_as_the_scenario_file_writes_it(value: object, writ
     from lfctl.config import toml_value
 
     assert toml_value(value) == written
+
+
+def test_a_key_of_too_many_dotted_parts_is_refused_before_it_is_parsed() -> None:
+    # Python's TOML reader takes time with the square of a key's parts (80 kB of one key: 24 s;
+    # without the check this test would run for hours)
+    from lfctl.config import MAX_KEY_PARTS, read_toml
+
+    with pytest.raises(ConfigError, match=r"line 2: a key of 400001 dotted parts \(at most 16 are read\)"):
+        parse_config('name = "x"\n' + "a." * 400_000 + "b = 1\n")
+    with pytest.raises(ConfigError, match=r"line 1: a key of 17 dotted parts"):
+        read_toml("[" + ".".join(["t"] * 17) + "]\nx = 1\n")  # a table header too
+    deep = ".".join(["t"] * MAX_KEY_PARTS)
+    assert read_toml(f"{deep} = 1\n")["t"]["t"]  # 16 parts are read
+    quoted = '"' + "." * 40 + '" = 1\nk = "' + "x." * 40 + '"\n'  # dots in quotes are no parts
+    assert read_toml(quoted)["." * 40] == 1

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 import tomli_w
 
-from lfctl.config import Config, config_from_table, resolve_paths
+from lfctl.config import Config, config_from_table, read_toml, resolve_paths
 from lfctl.data import example_names, examples_dir, resolve_scenario
 from lfctl.errors import ConfigError
 
@@ -397,10 +397,7 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     ConfigError
         Bad TOML, unknown key, a bad axis, distribution, seed list or scenario.
     """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}") from exc
+    data = read_toml(text)
     unknown = sorted(set(data) - set(_TOP_KEYS))
     if unknown:
         raise ConfigError(f"unknown key {unknown[0]!r} (allowed here: {', '.join(_TOP_KEYS)})")
@@ -412,8 +409,8 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     candidate = (base_dir / scen) if base_dir is not None and not scen.is_absolute() else scen
     scenario = candidate if candidate.is_file() else resolve_scenario(data["scenario"])
     try:
-        base = tomllib.loads(scenario.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        base = read_toml(scenario.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ConfigError) as exc:
         raise ConfigError(f"scenario {scenario}: cannot read it: {exc}") from exc
     sweep_name = data.get("name", name)
     if (

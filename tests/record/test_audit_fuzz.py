@@ -996,6 +996,25 @@ def test_an_attached_scenario_nested_too_deeply_fails_strict(logs, tmp_path: Pat
     assert rc == 1 and "nested too deeply" in out and "SHA-256" in out
 
 
+@pytest.mark.parametrize(
+    ("attached", "said"),
+    [
+        (b"a." * 500_000 + b"b = 1", "a key of 500001 dotted parts (at most 16 are read)"),  # hours to parse
+        (b"name = 'x'\n" + b"# padding\n" * 120_000, "a scenario of 1200011 characters: at most 1048576 are read"),
+    ],
+)
+def test_an_attached_scenario_too_costly_to_read_fails_strict_and_plots_without_it(
+    logs, tmp_path: Path, capsys, attached: bytes, said: str
+) -> None:
+    # Python's TOML reader takes time with the square of a key's dotted parts: a 1 MB key held
+    # --strict and --plot for hours; the attachment is refused before it is parsed
+    p = rewrite(logs["zstd"], tmp_path / "hostile.mcap", attach={"scenario.toml": attached})
+    rc, out = run_cli(["audit", str(p), "--strict"], capsys)
+    assert rc == 1 and said in out and "SHA-256" in out
+    rc, out = run_cli(["audit", str(p), "--plot", str(tmp_path / "plots")], capsys)
+    assert rc == 1 and any((tmp_path / "plots").glob("*.png"))
+
+
 def test_replay_with_an_unknown_tracker_kind_is_refused_before_the_log_is_read(tmp_path: Path) -> None:
     from lfctl.errors import ConfigError
     from lfctl.record.replay import replay
