@@ -38,8 +38,9 @@ int model_check_parameters(const double *v, char *message, size_t size) {
         snprintf(message, size, "must be > 0 rad/s, got %g", v[VR_max_yaw_rate]);
         return VR_max_yaw_rate;
     }
-    if (!(v[VR_internal_step] > 0.0 && v[VR_internal_step] <= 1.0)) {
-        snprintf(message, size, "must be in (0, 1] s, got %g", v[VR_internal_step]);
+    /* at least 10 us: a smaller sub-step makes every doStep run for hours (1e-12 s: 1e10 of them) */
+    if (!(v[VR_internal_step] >= 1e-5 && v[VR_internal_step] <= 1.0)) {
+        snprintf(message, size, "must be in [1e-05, 1] s, got %g", v[VR_internal_step]);
         return VR_internal_step;
     }
     return 0;

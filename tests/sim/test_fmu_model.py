@@ -152,6 +152,16 @@ def test_invalid_parameter_value_is_named_at_initialisation(rover) -> None:
         lib.instantiate("a", {"skid_factor": 1.5}, (0, 0, 0), np.zeros(2), np.zeros(5))
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_a_sub_step_so_small_each_step_would_run_for_hours_is_refused(rover, fmi: int) -> None:
+    # 1e-12 s: 1e10 RK4 sub-steps a 10 ms step, in lfctl's own process with no step timeout
+    with (
+        FmuLibrary(rover.path(fmi)) as lib,
+        pytest.raises(FmuError, match=r"parameter internal_step: must be in \[1e-05, 1\] s, got 1e-12"),
+    ):
+        lib.instantiate("a", {"internal_step": 1e-12}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
 def test_unknown_parameter_is_a_config_error(rover) -> None:
     with FmuLibrary(rover.fmi2) as lib, pytest.raises(ConfigError, match=r"parameter 'wheelbase' does not exist"):
         lib.instantiate("a", {"wheelbase": 0.3}, (0, 0, 0), np.zeros(2), np.zeros(5))
