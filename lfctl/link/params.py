@@ -17,6 +17,7 @@ __all__ = [
     "INT8",
     "INT16",
     "INT32",
+    "MAV_FLOAT_MAX",
     "REAL32",
     "Param",
     "ParamFileError",
@@ -33,6 +34,9 @@ MAX_NAME_LEN = 16
 MAX_FILE_LINES = 20_000
 #: the largest parameter file read, bytes
 MAX_FILE_BYTES = 2 * 1024 * 1024
+#: the largest magnitude a parameter's value may have: what PARAM_SET's 32-bit float carries
+#: (`lfctl gcs param set` bounds its value the same)
+MAV_FLOAT_MAX = 3.4e38
 #: MAV_PARAM_TYPE values the parameters use
 INT8, INT16, INT32, REAL32 = 2, 4, 6, 9
 #: ARMING_CHECK's bits lfctl has checks for: all of them, and the parameter checks
@@ -280,6 +284,10 @@ def load_param_file(path: str | Path) -> dict[str, float]:
             raise ParamFileError(p, k, f"{name}: value {value_text!r} is not a number") from None
         if not math.isfinite(value):
             raise ParamFileError(p, k, f"{name}: value {value_text!r} is not finite")
+        if abs(value) > MAV_FLOAT_MAX:
+            raise ParamFileError(
+                p, k, f"{name}: value {value_text!r} is beyond what MAVLink's float carries (+-{MAV_FLOAT_MAX:g})"
+            )
         out[name] = value
     return out
 
