@@ -368,7 +368,9 @@ def test_parameter_files(tmp_path: Path) -> None:
     # internal OverflowError in `lfctl gcs param load`, after the lines before it were set)
     for huge in ("LFC_LAW 1e308", "1\t1\tLFC_SEARCH\t-1e39\t9"):
         (tmp_path / "huge.parm").write_text("LFC_SEARCH 30\n" + huge + "\n")
-        with pytest.raises(ConfigError, match=r"huge\.parm:2: LFC_\w+: value '-?1e3\d+' is beyond what MAVLink's float"):
+        with pytest.raises(
+            ConfigError, match=r"huge\.parm:2: LFC_\w+: value '-?1e3\d+' is beyond what MAVLink's float"
+        ):
             load_param_file(tmp_path / "huge.parm")
 
 

@@ -518,6 +518,13 @@ class FmuLibrary:
             if name in self.role_names.values():
                 other = next(r for r, n in self.role_names.items() if n == name)
                 raise ConfigError(f"{self.path}: variable {name!r} is mapped to two roles, {other!r} and {role!r}")
+            shared = next((r for r, v in vr.items() if v == int(var.valueReference)), None)
+            if shared is not None:  # (FMI's aliases share a value reference: one value under two names)
+                raise ConfigError(
+                    f"{self.path}: variables {self.role_names[shared]!r} (role {shared!r}) and {name!r} (role "
+                    f"{role!r}) share value reference {int(var.valueReference)}: one value, so setting one sets "
+                    "the other; each role needs a variable of its own"
+                )
             unit = role_map.units.get(role) or self._unit_of(var) or ROLE_SI_UNIT[role]
             si, factor = UNIT_TO_SI.get(unit) or self._si_of(unit, ROLE_SI_UNIT[role])
             if si != ROLE_SI_UNIT[role]:

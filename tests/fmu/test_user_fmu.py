@@ -134,6 +134,35 @@ def test_roles_mapped_by_hand_must_exist_and_one_variable_plays_one_role(faulty:
         FmuLibrary(faulty.fmi2, twice)
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_two_roles_on_one_value_reference_are_refused_naming_both(faulty: BuiltModel, tmp_path: Path, fmi: int) -> None:
+    # a model description whose yaw-rate input has the speed input's value reference: every
+    # turn command would be written onto the speed (the follower could never turn)
+    import re
+
+    def shared(md: str) -> str:
+        def vr_of(name: str) -> str:
+            m = re.search(rf'name="{name}"[^>]*?valueReference="(\d+)"', md)
+            assert m is not None, name
+            return m.group(1)
+
+        speed, turn = vr_of("speed_cmd"), vr_of("yaw_rate_cmd")
+        at = md.index('name="yaw_rate_cmd"')
+        return md[:at] + md[at:].replace(f'valueReference="{turn}"', f'valueReference="{speed}"', 1)
+
+    fmu = edited(faulty.path(fmi), tmp_path / "shared.fmu", shared)
+    if fmi == 3:  # FMI 3 has no aliases: fmpy's validation refuses the model description
+        with pytest.raises(FmuError, match=r'"yaw_rate_cmd" .* has the same value reference as variable "speed_cmd"'):
+            FmuLibrary(fmu)
+        return
+    with pytest.raises(  # FMI 2's aliases share one: as roles, refused here
+        ConfigError,
+        match=r"variables 'speed_cmd' \(role 'speed_cmd'\) and 'yaw_rate_cmd' \(role 'yaw_rate_cmd'\) share value "
+        r"reference \d+: one value",
+    ):
+        FmuLibrary(fmu)
+
+
 def test_an_array_variable_cannot_play_a_role(faulty: BuiltModel, tmp_path: Path) -> None:
     def yaw_array(md: str) -> str:
         start = md.index('name="yaw"')
