@@ -572,6 +572,11 @@ class _Reader:
         self.orphans: dict[int, list[Any]] = {}
         #: skipped chunk's offset -> [channels, schemas] whose lost definitions the summary gave
         self.restored: dict[int, list[int]] = {}
+        #: a complete file's ChunkIndex (chunk start -> its record's body length), read when a
+        #: damaged record stops the reading (see :meth:`resync`); None until then
+        self.chunk_index: dict[int, int] | None = None
+        self.resumed: set[int] = set()  # where reading went on after a damaged record
+        self.forced: dict[int, int] = {}  # chunk start -> body length, the index's over a damaged header
 
     # -- bytes --------------------------------------------------------------------------------
     def read(self, n: int, start: int) -> bytes:
@@ -628,12 +633,74 @@ class _Reader:
                 self.step(start)
             except _Fault as exc:
                 self.findings.append(Finding("error", exc.what, exc.offset, exc.kind))
-                if exc.skip:
+                if exc.skip or (exc.kind == "corrupt" and self.resync(exc)):
                     continue
                 fault = exc
                 break
         c.bytes_read = self.pos if fault is None else fault.offset
         self.finish(fault)
+
+    def resync(self, fault: _Fault) -> bool:
+        """Go on reading after a damaged record of a complete file's data section, at the
+        first Chunk its summary's ChunkIndex (its CRC checked) puts there or after it: the
+        index's length where the damage is in that chunk's own header, the bytes between
+        passed over (their definitions are the summary's too). Whether there is one."""
+        if not self.c.complete or self.summary_start is not None:
+            return False
+        if self.chunk_index is None:
+            self.chunk_index = self.read_chunk_index()
+        later = sorted(at for at in self.chunk_index if at >= fault.offset and at not in self.resumed)
+        if not later:
+            return False
+        self.explain(fault)  # (a flipped bit the data CRC locates: said now, the CRC is not checked after)
+        at = later[0]
+        self.resumed.add(at)
+        if at == fault.offset:
+            self.forced[at] = self.chunk_index[at]
+            where = f"this Chunk again, with the length the summary's index gives it ({self.chunk_index[at]} bytes)"
+        else:
+            where = f"byte {at}, the next Chunk the summary's index names (bytes {fault.offset}-{at} passed over)"
+        self.findings.append(Finding("warning", f"reading went on at {where}", fault.offset, "corrupt"))
+        self.seen_header = True  # (a damaged Header was there)
+        self.f.seek(at)
+        self.pos = at
+        return True
+
+    def read_chunk_index(self) -> dict[int, int]:
+        """A complete file's ChunkIndex records: chunk start -> its record's body length; empty
+        when the footer or the summary is damaged (its CRC does not hold) or too large."""
+        f, size = self.f, self.size
+        here = f.tell()
+        out: dict[int, int] = {}
+        try:
+            end = size - 8 - FOOTER_BYTES
+            f.seek(end)
+            foot = f.read(FOOTER_BYTES)
+            op, length, summary_start, _, crc = struct.unpack("<BQQQI", foot)
+            if (
+                op != FOOTER
+                or length != 20
+                or not 8 < summary_start < end
+                or end - summary_start > self.lim.record_bytes
+            ):
+                return out
+            f.seek(summary_start)
+            summary = f.read(end - summary_start)
+            if len(summary) != end - summary_start or (crc and zlib.crc32(foot[:25], zlib.crc32(summary)) != crc):
+                return out
+            at = 0
+            while at + 9 <= len(summary):
+                rop, rlen = _RECORD.unpack_from(summary, at)
+                if at + 9 + rlen > len(summary):
+                    break
+                if rop == CHUNK_INDEX and rlen >= 32:
+                    start, chunk_length = struct.unpack_from("<QQ", summary, at + 9 + 16)
+                    if 8 <= start < summary_start and 9 <= chunk_length <= summary_start - start:
+                        out[start] = chunk_length - 9
+                at += 9 + rlen
+            return out
+        finally:
+            f.seek(here)
 
     def _tail_is_magic(self) -> bool:
         here = self.f.tell()
@@ -656,6 +723,9 @@ class _Reader:
             raise self.fail(start, f"truncated: the file ends inside a record header ({self.size} bytes)", "truncated")
         header = self.read(9, start)
         op, length = _RECORD.unpack(header)
+        forced = self.forced.pop(start, None)
+        if forced is not None:  # a damaged Chunk header: what the summary's index says is here
+            op, length = CHUNK, forced
         kind = KINDS.get(op)
         if kind is None:
             raise self.fail(start, f"corrupt record: unknown opcode {op:#04x} (length field {length})")
@@ -697,7 +767,11 @@ class _Reader:
         try:
             self.record(op, kind, body, start, header)
         except _Bad as exc:
-            raise self.fail(start, f"corrupt {kind} record: {exc}") from None
+            # its framing holds (its length stayed in the file): reading goes on at the next
+            # record, but after a damaged DataEnd or Footer, where the file's end is told
+            if op == HEADER:
+                self.seen_header = True  # (there, though damaged)
+            raise self.fail(start, f"corrupt {kind} record: {exc}", skip=op not in (DATA_END, FOOTER)) from None
 
     def record(self, op: int, kind: str, body: bytes, start: int, header: bytes) -> None:
         c = self.c
@@ -1016,7 +1090,7 @@ class _Reader:
             raise _Bad(f"{cur.end} bytes, a DataEnd has 4")
         self.c.data_end = True
         self.summary_start = self.pos
-        if crc and crc != self.data_crc:
+        if crc and crc != self.data_crc and not self.resumed:  # (bytes passed over: the CRC cannot hold)
             self.findings.append(self.crc_finding("data section", crc, self.data_crc, 0, start, start))
 
     def footer(self, cur: _Cursor, body: bytes, start: int, header: bytes) -> None:

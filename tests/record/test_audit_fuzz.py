@@ -1021,3 +1021,41 @@ def test_replay_with_an_unknown_tracker_kind_is_refused_before_the_log_is_read(t
 
     with pytest.raises(ConfigError, match=r"tracker kind must be one of full, hs-lbp, hue .*got 'bogus'"):
         replay(tmp_path / "none.mcap", kind="bogus")
+
+
+def test_a_damaged_record_header_in_a_whole_log_loses_no_message_its_index_can_reach(
+    logs, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # one byte in a record's framing stopped the reading: the audit read 0 of 4819 messages and
+    # --recover wrote none, while the summary's ChunkIndex reaches every chunk (mcap's own
+    # reader read them all)
+    data = logs["zstd"].read_bytes()
+    whole = message_keys(logs["zstd"])
+    chunks = records_of(data, 6)
+    index = records_of(data, 7)[0][0]  # a MessageIndex after the first chunk
+    assert len(chunks) >= 3 and whole
+    header_len = bytearray(data)
+    header_len[20] ^= 0xFF  # inside the Header's profile length: its own length holds
+    chunk_len = bytearray(data)
+    chunk_len[chunks[0][0] + 8] ^= 0x7F  # the high byte of the first Chunk's length
+    opcode = bytearray(data)
+    opcode[index] = 0x69  # a record no MCAP has, between two chunks
+    cases = {"header": (header_len, 8), "chunk length": (chunk_len, chunks[0][0]), "opcode": (opcode, index)}
+    for what, (damaged, at) in cases.items():
+        bad = tmp_path / f"{what}.mcap"
+        bad.write_bytes(damaged)
+        assert message_keys(bad) == whole, what
+        errors = [f for f in audit(bad).findings if f.level == "error"]
+        assert errors[0].offset == at and errors[0].kind == "corrupt", (what, errors)
+        out = tmp_path / f"{what}-recovered.mcap"
+        rc, text = run_cli(["audit", str(bad), "--recover", str(out)], capsys)
+        assert rc == 1 and message_keys(out) == whole, (what, text)
+    rc, text = run_cli(["audit", str(tmp_path / "chunk length.mcap")], capsys)
+    assert "reading went on at this Chunk again, with the length the summary's index gives it" in text
+    rc, text = run_cli(["audit", str(tmp_path / "opcode.mcap")], capsys)
+    assert f"reading went on at byte {chunks[1][0]}, the next Chunk the summary's index names" in text
+    # ... but not on an index whose own CRC fails: what was read before the damage is what there is
+    summary_too = bytearray(chunk_len)
+    summary_too[records_of(data, 8)[0][0] + 9 + 16] ^= 1  # the first ChunkIndex's chunk_start_offset
+    (tmp_path / "both.mcap").write_bytes(summary_too)
+    assert not message_keys(tmp_path / "both.mcap")
