@@ -38,4 +38,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     if r.truncated:
         print(f"  the log is truncated (not finished): these are the frames before the cut (`lfctl audit {args.file}`)")
+    if r.damaged:
+        print(
+            f"  the log is damaged (a chunk skipped, a record passed over, or bytes after its end: `lfctl audit "
+            f"{args.file}` says where): these are the frames that could be read"
+        )
     return 0

@@ -41,6 +41,9 @@ class ReplayResult:
     recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
     replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
     truncated: bool = False  # the log was not finished (cut, or its run killed): what was read before the cut
+    #: damage the reading found in the file (a chunk skipped, a record passed over, bytes after
+    #: its end: the audit's integrity errors): the frames are those that could be read
+    damaged: int = 0
 
 
 def replay(path: Path, kind: str = "full", follower: str | None = None) -> ReplayResult:
@@ -121,7 +124,10 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     if n == 0:
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
     truncated = not c.footer
-    return ReplayResult(name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n, truncated)
+    damaged = sum(f.level == "error" and f.kind in ("corrupt", "crc") for f in report.findings)
+    return ReplayResult(
+        name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n, truncated, damaged
+    )
 
 
 def recorded_frames(

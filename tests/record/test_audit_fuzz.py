@@ -986,7 +986,13 @@ def test_replay_skips_images_that_do_not_decode(tmp_path: Path, capsys: pytest.C
     r = replay(mixed, "hue")
     assert r.frames == 7 and r.unreadable == 3
     rc, out = run_cli(["replay", str(mixed), "--tracker", "hue-only"], capsys)
-    assert rc == 0 and "skipped 3 recorded images" in out
+    assert rc == 0 and "skipped 3 recorded images" in out and "damaged" not in out
+    # bytes after the closing magic (or a chunk skipped) are said: the frames are those read
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(mixed.read_bytes() + b"\x00" * 100)
+    assert replay(damaged, "hue").damaged
+    rc, out = run_cli(["replay", str(damaged), "--tracker", "hue-only"], capsys)
+    assert rc == 0 and "the log is damaged (a chunk skipped, a record passed over, or bytes after its end" in out
 
 
 def test_an_attached_scenario_nested_too_deeply_fails_strict(logs, tmp_path: Path, capsys) -> None:
