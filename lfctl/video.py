@@ -41,6 +41,10 @@ __all__ = [
 STREAM_TIMEOUT_S = 10.0
 #: a camera or stream that is not there yet, or has stopped, is tried again this often, s
 REOPEN_S = 1.0
+#: a file's frames that do not decode, one after another, passed over before its end is
+#: taken as reached (a damaged stretch in the middle; read on after it, where its container
+#: declares more frames)
+MAX_UNDECODABLE_RUN = 30
 
 
 class SourceNotReady(ConfigError):
@@ -282,6 +286,9 @@ class VideoSource:
         self.live = isinstance(target, int) or stream
         self._latest = LatestFrames(self._cap, STREAM_TIMEOUT_S) if latest and self.live else None
         self.frames_read = 0  # frames handed over
+        #: a file's frames that did not decode (damaged in the middle) with frames after them
+        #: that did: passed over, the reading going on
+        self.passed_over = 0
         self._closed = False
         self._pending: np.ndarray | None = None  # a frame given back (unread), handed over next
         self._first_ms: float | None = None  # the first frame's time in the file, ms
@@ -323,6 +330,11 @@ class VideoSource:
             raise ConfigError(f"{source} is empty (0 bytes)")
         info = probe_file(source)
         return (info, "") if isinstance(info, FileInfo) else (None, info)
+
+    def _declares_more(self, failed: int) -> bool:
+        """Whether a file's container declares frames beyond those read and ``failed``."""
+        declared = self.info.frames if self.info is not None else None
+        return declared is not None and self.frames_read + self.passed_over + failed < declared
 
     @property
     def fps(self) -> float:
@@ -401,8 +413,13 @@ class VideoSource:
             self.frames_read += frame is not None
             return frame
         ok, frame = self._cap.read()
+        failed = 0  # frames of a file that do not decode, before the end its container declares
+        while (not ok or frame is None) and failed < MAX_UNDECODABLE_RUN and self._declares_more(failed):
+            failed += 1
+            ok, frame = self._cap.read()
         if not ok or frame is None:
             return None
+        self.passed_over += failed
         self.frames_read += 1
         if not self.untimed:
             ms = float(self._cap.get(cv2.CAP_PROP_POS_MSEC))

@@ -234,12 +234,20 @@ def run(args: argparse.Namespace) -> int:
             if writer is not None:
                 writer.release()
         last_s, timed = video.time_s, not video.untimed
+        passed_over = video.passed_over
     if n == 0:
         raise ConfigError(f"video source {args.source!r} gave no frames")
     if writer is not None:
         _check_written(args.out, n)
     whole = args.max_frames is None or n < args.max_frames
-    if whole and declared is not None and n < declared - 1:
+    if passed_over:
+        print(
+            f"lfctl track: {args.source}: {passed_over} frame{'s' if passed_over > 1 else ''} that did not decode "
+            "passed over (damaged in the middle; the frames after were tracked, `frame` counts those tracked and "
+            "`t_s` is each one's own time)",
+            file=sys.stderr,
+        )
+    if whole and declared is not None and n + passed_over < declared - 1:
         # (a container's count may be one off): a file that ends well short of it is cut or damaged
         said = f"{args.source} ended after {n} of the {declared} frames it declares"
         if n < SHORT_END * declared:

@@ -72,6 +72,25 @@ def test_finds_the_banner_and_reports_its_pose(capsys: pytest.CaptureFixture[str
     assert 0 < n < 27 and f"{cut} ended after {n} of the 30 frames it declares: the file is cut" in captured.err
 
 
+def test_frames_that_do_not_decode_in_the_middle_of_a_file_are_passed_over_and_said(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    # 5 kB zeroed a third into the bow-tie clip: OpenCV fails one read and decodes the 84 frames
+    # after it; the tracker stopped at the failed read and called the file cut
+    data = bytearray((footage_dir() / "carphone_pristine.mp4").read_bytes())
+    at = len(data) // 3
+    data[at : at + 5000] = bytes(5000)
+    damaged = tmp_path / "damaged.mp4"
+    damaged.write_bytes(data)
+    assert main(["track", str(damaged), "--roi", "80,101,45,18"]) == 0
+    captured = capsys.readouterr()
+    recs = [json.loads(line) for line in captured.out.splitlines() if line.startswith("{")]
+    assert len(recs) == 119 and recs[-1]["state"] == "tracking"
+    assert recs[-1]["t_s"] == pytest.approx(119 / 29.97, abs=0.05)  # its own time: the frame passed over counts
+    assert "1 frame that did not decode passed over (damaged in the middle" in captured.err
+    assert "ended after" not in captured.err
+
+
 class _LiveCamera:
     """A live camera (as VideoSource gives one) whose first ``dark`` frames are a plain grey
     card (the banner not in view yet, or a stream's first frame half decoded), then the
