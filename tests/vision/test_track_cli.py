@@ -98,7 +98,7 @@ class _LiveCamera:
 
     live = untimed = True
     info = declared_frames = declared_duration_s = pixel_aspect = None
-    fps, skipped = 30.0, 0
+    fps, skipped, passed_over = 30.0, 0, 0
 
     def __init__(self, source: object, latest: bool = False, dark: int = 5) -> None:
         grey = np.full((480, 640, 3), 128, np.uint8)
