@@ -372,6 +372,9 @@ def save_text(path: str | Path, text: str) -> None:
     except OSError as exc:
         why = "a named pipe no one reads" if exc.errno == errno.ENXIO else (exc.strerror or str(exc))
         raise ConfigError(f"cannot write {p}: {why}") from None
-    with os.fdopen(fd, "wb") as f:
-        os.set_blocking(fd, True)
-        f.write(text.encode("utf-8"))
+    try:
+        with os.fdopen(fd, "wb") as f:
+            os.set_blocking(fd, True)
+            f.write(text.encode("utf-8"))
+    except OSError as exc:  # a full device (/dev/full), a reader gone: named, as a bad path is
+        raise ConfigError(f"cannot write {p}: {exc.strerror or exc}") from None

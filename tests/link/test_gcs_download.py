@@ -107,6 +107,9 @@ def test_a_mission_is_saved_as_a_user_expects_and_never_blocks(tmp_path: Path) -
     with pytest.raises(ConfigError, match="not a regular file"):
         load_mission_file(resolve_mission(str(fifo)))
     save_mission([HOME], os.devnull)  # a device is written as it is
+    if os.path.exists("/dev/full"):  # a device that fails the write: named (it was a bare "[Errno 28]")
+        with pytest.raises(ConfigError, match="cannot write /dev/full: No space left on device"):
+            save_mission([HOME] * 5000, "/dev/full")
     (tmp_path / "real.waypoints").write_text("old\n")
     (tmp_path / "link.waypoints").symlink_to("real.waypoints")
     save_mission([HOME], tmp_path / "link.waypoints")  # through the link, which stays one
