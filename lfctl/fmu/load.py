@@ -892,9 +892,19 @@ class FmuInstance:
         for name, value in parameters.items():
             var = self.lib.variables.get(name)
             if var is None:
-                raise ConfigError(f"{self.lib.path}: parameter {name!r} does not exist in {self.lib.identifier}")
+                from lfctl.data import user_cache
+
+                built_in = Path(self.lib.path).parent.parent == user_cache("fmu")  # (a built model's cache)
+                shown = self.lib.identifier if built_in else self.lib.path
+                raise ConfigError(
+                    f"vehicles[{self.name}].parameters.{name}: parameter {name!r} does not exist in "
+                    f"{self.lib.identifier} (`lfctl fmu info {shown}` lists its variables)"
+                )
             if var.causality != "parameter":
-                raise ConfigError(f"{self.lib.path}: {name!r} has causality {var.causality!r}, not a parameter")
+                raise ConfigError(
+                    f"vehicles[{self.name}].parameters.{name}: {name!r} has causality {var.causality!r} in "
+                    f"{self.lib.identifier}, not a parameter"
+                )
             typed.setdefault(_setter(v, var.type), {})[int(var.valueReference)] = _typed_value(
                 self.lib.path, name, var.type, value
             )

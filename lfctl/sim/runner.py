@@ -144,8 +144,9 @@ def check_video(cfg: Config, video: tuple[str, int] | None) -> None:
     last = stream_port(video[1], max(0, len(cfg.followers) - 1))
     if video[1] == 0 or last > 65534:  # (each with its RTCP port after it)
         raise ConfigError(
-            f"--video needs the port a receiver listens on, with the ports after it free for the other "
-            f"followers' streams and RTCP ({len(cfg.followers)} followers: up to {last + 1}), got {video[1]}"
+            f"--video needs the port a receiver listens on, 1-{65534 - (last - video[1])} with "
+            f"{len(cfg.followers)} follower{'s' if len(cfg.followers) != 1 else ''} (RTCP and any other "
+            f"follower's stream take the {last - video[1] + 1} port{'s' if last > video[1] else ''} after it), got {video[1]}"
         )
 
 

@@ -197,7 +197,9 @@ class CameraModel:
         """The largest ray the picture holds (a normalised radius, x / z and y / z), on its
         border: the lens model means nothing past it."""
         rays = self._border_rays[1]
-        return float(np.nanmax(np.hypot(rays[:, 0], rays[:, 1])))
+        r = np.hypot(rays[:, 0], rays[:, 1])
+        r = r[np.isfinite(r)]
+        return float(r.max()) if r.size else math.nan  # (none: a lens check_lens refuses)
 
     def check_lens(self) -> None:
         """Refuse distortion coefficients that fold the picture back on itself (the lens

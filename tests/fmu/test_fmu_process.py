@@ -145,7 +145,11 @@ def test_where_each_fmu_runs(faulty: BuiltModel) -> None:
 @pytest.mark.parametrize(
     ("parameters", "error", "match"),
     [
-        ({"north": 1.0}, ConfigError, r"'north' has causality 'output', not a parameter"),
+        (
+            {"north": 1.0},
+            ConfigError,
+            r"vehicles\[f1\]\.parameters\.north: 'north' has causality 'output' in FaultyRover, not a",
+        ),
         ({"nonesuch": 1.0}, ConfigError, r"parameter 'nonesuch' does not exist in FaultyRover"),
         ({"internal_step": 2.0}, FmuError, r"FaultyRover \(f1\): fmi2ExitInitializationMode returned Error"),
     ],
