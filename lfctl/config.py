@@ -1083,17 +1083,12 @@ def _toml_key(field_name: str) -> str:
 MAX_KEY_PARTS = 16
 
 
-def _key_parts(key: str) -> int:
-    """The dotted parts of a TOML key (or table header), dots inside quotes not counted."""
-    parts, quote = 1, ""
-    for ch in key:
-        if quote:
-            quote = "" if ch == quote else quote
-        elif ch in "\"'":
-            quote = ch
-        elif ch == ".":
-            parts += 1
-    return parts
+#: a TOML key part (bare, or quoted on one line) and a run of more than MAX_KEY_PARTS of
+#: them joined by dots: wherever it stands (a key, a table header, an inline table; a comment
+#: or a string too, where no scenario has one). Possessive, and starting only where a bare
+#: part does, so that a long run of letters is scanned once, not once from each of its letters
+_KEY_PART = r"""(?:[A-Za-z0-9_-]++|"(?:[^"\\\n]|\\.)*+"|'[^'\n]*+')"""
+_LONG_KEY = re.compile(rf"(?<![A-Za-z0-9_-]){_KEY_PART}(?:[ \t]*+\.[ \t]*+{_KEY_PART}){{{MAX_KEY_PARTS},}}")
 
 
 def read_toml(text: str) -> dict[str, Any]:
@@ -1106,14 +1101,11 @@ def read_toml(text: str) -> dict[str, Any]:
     text : str
         The TOML.
     """
-    for n, line in enumerate(text.splitlines(), start=1):
-        if line.count(".") < MAX_KEY_PARTS:
-            continue  # (the common line, at once)
-        stripped = line.lstrip()
-        key = stripped.split("]", 1)[0] if stripped.startswith("[") else stripped.split("=", 1)[0]
-        parts = _key_parts(key)
-        if parts > MAX_KEY_PARTS:
-            raise ConfigError(f"line {n}: a key of {parts} dotted parts (at most {MAX_KEY_PARTS} are read)")
+    long = _LONG_KEY.search(text)
+    if long is not None:
+        line = text.count("\n", 0, long.start()) + 1
+        parts = len(re.findall(rf"{_KEY_PART}", long.group()))
+        raise ConfigError(f"line {line}: a key of {parts} dotted parts (at most {MAX_KEY_PARTS} are read)")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -46,7 +46,7 @@ import stat
 import struct
 import zlib
 from array import array
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right
 from collections import defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -86,6 +86,10 @@ MAX_MESSAGE_BYTES = 1024 * MiB
 MAX_OTHER_BYTES = 256 * MiB
 #: records of any kind read before the audit stops
 MAX_RECORDS = 10_000_000
+#: damaged records passed over (their framing intact), and resumptions at a chunk the
+#: summary's index names, before the audit stops: each is a finding, and a resumption reads the
+#: data section again to locate a flipped bit; a file made of damage gets this many, not millions
+MAX_PASSED_OVER = 64
 
 MAGIC = b"\x89MCAP0\r\n"
 KNOWN_SIGNATURES = {
@@ -576,6 +580,8 @@ class _Reader:
         #: damaged record stops the reading (see :meth:`resync`); None until then
         self.chunk_index: dict[int, int] | None = None
         self.resumed: set[int] = set()  # where reading went on after a damaged record
+        self.passed_over = 0  # damaged records passed over, and resumptions (MAX_PASSED_OVER)
+        self.index_starts: list[int] = []  # the index's chunk starts, in order
         self.forced: dict[int, int] = {}  # chunk start -> body length, the index's over a damaged header
 
     # -- bytes --------------------------------------------------------------------------------
@@ -645,16 +651,21 @@ class _Reader:
         first Chunk its summary's ChunkIndex (its CRC checked) puts there or after it: the
         index's length where the damage is in that chunk's own header, the bytes between
         passed over (their definitions are the summary's too). Whether there is one."""
-        if not self.c.complete or self.summary_start is not None:
+        if not self.c.complete or self.summary_start is not None or self.passed_over >= MAX_PASSED_OVER:
             return False
         if self.chunk_index is None:
             self.chunk_index = self.read_chunk_index()
-        later = sorted(at for at in self.chunk_index if at >= fault.offset and at not in self.resumed)
-        if not later:
+            self.index_starts = sorted(self.chunk_index)
+        i = bisect_left(self.index_starts, fault.offset)
+        if i < len(self.index_starts) and self.index_starts[i] in self.resumed:
+            i += 1  # (resumed there already: the damage is in that chunk itself)
+        if i >= len(self.index_starts):
             return False
-        self.explain(fault)  # (a flipped bit the data CRC locates: said now, the CRC is not checked after)
-        at = later[0]
+        if not self.resumed:
+            self.explain(fault)  # (a flipped bit the data CRC locates: said at the first; not checked after)
+        at = self.index_starts[i]
         self.resumed.add(at)
+        self.passed_over += 1
         if at == fault.offset:
             self.forced[at] = self.chunk_index[at]
             where = f"this Chunk again, with the length the summary's index gives it ({self.chunk_index[at]} bytes)"
@@ -771,7 +782,15 @@ class _Reader:
             # record, but after a damaged DataEnd or Footer, where the file's end is told
             if op == HEADER:
                 self.seen_header = True  # (there, though damaged)
-            raise self.fail(start, f"corrupt {kind} record: {exc}", skip=op not in (DATA_END, FOOTER)) from None
+            elif op == CHUNK:
+                self.skipped_chunk = start  # (its definitions lost: the summary's are used)
+            more = self.passed_over >= MAX_PASSED_OVER
+            skip = op not in (DATA_END, FOOTER) and not more
+            self.passed_over += skip
+            why = f"corrupt {kind} record: {exc}"
+            if more:
+                why += f" (and {MAX_PASSED_OVER} damaged records passed over before it: the audit stops here)"
+            raise self.fail(start, why, skip=skip) from None
 
     def record(self, op: int, kind: str, body: bytes, start: int, header: bytes) -> None:
         c = self.c
