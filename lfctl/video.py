@@ -41,6 +41,9 @@ __all__ = [
 STREAM_TIMEOUT_S = 10.0
 #: a camera or stream that is not there yet, or has stopped, is tried again this often, s
 REOPEN_S = 1.0
+#: how long a source being closed as a run ends waits for its reading thread's read under
+#: way, s (past it the capture is released by a later close, or by the process's end)
+STOP_WAIT_S = 0.5
 #: a file's frames that do not decode, one after another, passed over before its end is
 #: taken as reached (a damaged stretch in the middle; read on after it, where its container
 #: declares more frames)
@@ -222,16 +225,22 @@ class VideoSource:
     latest : bool
         For a camera or a stream: each read gives the newest frame, passing over older ones
         (a controller's view of the world); otherwise every frame in turn, however old.
+    timeout_s : float, optional
+        How long a stream may take to open, and to give its next frame (default
+        :data:`STREAM_TIMEOUT_S`).
 
     Raises
     ------
     ConfigError
         A file that does not exist, a named pipe or socket (it would block with no end), a
-        stream that does not open within :data:`STREAM_TIMEOUT_S`, or a source OpenCV cannot
-        open or read a frame from.
+        stream that does not open within ``timeout_s``, or a source OpenCV cannot open or
+        read a frame from.
     """
 
-    def __init__(self, source: str | int | os.PathLike[str], latest: bool = False) -> None:
+    def __init__(
+        self, source: str | int | os.PathLike[str], latest: bool = False, timeout_s: float | None = None
+    ) -> None:
+        wait = STREAM_TIMEOUT_S if timeout_s is None else timeout_s
         if isinstance(source, bool) or not isinstance(source, str | int | os.PathLike):
             raise ConfigError(f"video source must be a camera index, a file or a stream URL, got {source!r}")
         path = isinstance(source, os.PathLike)  # a path is a file, even one named "7"
@@ -254,7 +263,7 @@ class VideoSource:
         if rtp:
             self._check_sdp(str(target), source)
         if stream:
-            ms = int(STREAM_TIMEOUT_S * 1000)
+            ms = max(1, int(wait * 1000))
             params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
             try:
                 with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
@@ -270,13 +279,13 @@ class VideoSource:
                 raise SourceNotReady(f"cannot open camera {target} with OpenCV (no such camera, or it is busy){mine}")
             if rtp_url:
                 raise SourceNotReady(
-                    f"no RTP stream to {source[:200]} within {STREAM_TIMEOUT_S:g} s: start the camera (or lfctl sim "
+                    f"no RTP stream to {source[:200]} within {wait:g} s: start the camera (or lfctl sim "
                     "--video) sending to this machine's port first, or within that time"
                 )
             if stream:
                 raise SourceNotReady(
                     f"cannot open video source {source[:200]!r} with OpenCV (no stream within "
-                    f"{STREAM_TIMEOUT_S:g} s, or unsupported format)"
+                    f"{wait:g} s, or unsupported format)"
                 )
             raise ConfigError(
                 f"cannot read {source[:200]!r} as a video ({why_not or 'OpenCV cannot open it'}): not a video, or a "
@@ -284,12 +293,13 @@ class VideoSource:
             )
         #: a camera or a stream (frames come in real time), not a file
         self.live = isinstance(target, int) or stream
-        self._latest = LatestFrames(self._cap, STREAM_TIMEOUT_S) if latest and self.live else None
+        self._latest = LatestFrames(self._cap, wait) if latest and self.live else None
         self.frames_read = 0  # frames handed over
         #: a file's frames that did not decode (damaged in the middle) with frames after them
         #: that did: passed over, the reading going on
         self.passed_over = 0
-        self._closed = False
+        self._released = False
+        self._abandoned = False  # a close waited for the reading thread in vain
         self._pending: np.ndarray | None = None  # a frame given back (unread), handed over next
         self._first_ms: float | None = None  # the first frame's time in the file, ms
         self._last_ms = -math.inf
@@ -433,15 +443,17 @@ class VideoSource:
 
     def close(self, wait_s: float | None = None) -> None:
         """Release the source (once its reading thread, if any, has stopped, waited for up to
-        ``wait_s``, by default :data:`STREAM_TIMEOUT_S`: a capture released under a read would
-        crash the process; one stuck in its driver is left to the process's end). Closing it
-        again does nothing."""
-        if self._closed:
+        ``wait_s``, by default the source's timeout: a capture released under a read would
+        crash the process). One whose read is still under way then is left: a later close
+        does not wait again and releases it if the read has ended meanwhile, else the
+        process's end does. Closing a released source does nothing."""
+        if self._released:
             return
-        self._closed = True
-        if self._latest is not None and not self._latest.stop(wait_s):
+        if self._latest is not None and not self._latest.stop(0.0 if self._abandoned else wait_s):
+            self._abandoned = True
             return
         self._cap.release()
+        self._released = True
 
     def __enter__(self) -> VideoSource:
         return self
@@ -482,8 +494,11 @@ def open_live(
     start = time.monotonic()
     said_at = -math.inf
     while True:
+        # a stream's try (its opening, then its first frame) fits in what is left of the wait
+        left = math.inf if wait_s is None else wait_s - (time.monotonic() - start)
+        timeout = min(STREAM_TIMEOUT_S, max(0.1, left / 2))
         try:
-            video = VideoSource(source, latest=True)
+            video = VideoSource(source, latest=True, timeout_s=timeout)
         except SourceNotReady as exc:
             why = str(exc)
         else:
@@ -493,7 +508,7 @@ def open_live(
             video.close()
             if not video.live:
                 raise ConfigError(f"video {str(source)[:200]!r} gave no frame (an empty or broken file)")
-            why = f"the camera {str(source)[:200]!r} opened but gave no frame within {STREAM_TIMEOUT_S:g} s"
+            why = f"the camera {str(source)[:200]!r} opened but gave no frame within {timeout:g} s"
         waited = time.monotonic() - start
         if wait_s is not None and waited >= wait_s:
             raise ConfigError(f"{why} (waited {waited:.1f} s for it)")
@@ -517,8 +532,9 @@ class Reopening:
         and it is tried again.
     """
 
-    def __init__(self, opener: Callable[[], VideoSource]) -> None:
+    def __init__(self, opener: Callable[[], VideoSource], delay_s: float = 0.0) -> None:
         self._opener = opener
+        self._delay_s = delay_s  # before the first try
         self.tries = 0
         self.why = ""  # the last failed try's reason
         self._opened: VideoSource | None = None
@@ -528,6 +544,7 @@ class Reopening:
         self._thread.start()
 
     def _run(self) -> None:
+        self._stopping.wait(self._delay_s)
         while not self._stopping.is_set():
             self.tries += 1
             try:
@@ -537,7 +554,7 @@ class Reopening:
             else:
                 with self._lock:
                     if self._stopping.is_set():
-                        video.close()
+                        video.close(STOP_WAIT_S)
                     else:
                         self._opened = video
                 return
@@ -556,7 +573,7 @@ class Reopening:
         with self._lock:
             video, self._opened = self._opened, None
         if video is not None:
-            video.close()
+            video.close(STOP_WAIT_S)
 
 
 def rtp_address(url: str) -> tuple[str, int]:

@@ -282,7 +282,7 @@ def test_a_camera_not_there_yet_is_waited_for_and_said(monkeypatch: pytest.Monke
 
     tries: list[object] = []
 
-    def source(name: object, latest: bool = False) -> _Opened:
+    def source(name: object, latest: bool = False, timeout_s: float | None = None) -> _Opened:
         tries.append(name)
         if len(tries) < 3:
             raise SourceNotReady(f"cannot open camera {name} with OpenCV (no such camera, or it is busy)")
@@ -335,3 +335,16 @@ def test_a_stopped_camera_is_opened_again_on_its_own_thread_and_handed_over_once
     wait_until(lambda: not again._thread.is_alive())
     again.stop()
     assert left.closed  # opened, never taken: closed when the tries end
+
+
+def test_a_stream_waited_for_is_tried_within_what_is_left_of_the_wait() -> None:
+    # each try at a stream that sends nothing took FFmpeg's 10 s to open and 10 s for a first
+    # frame, so --camera-wait 1 gave up after 20 s: the tries are shortened to fit the wait
+    from lfctl.video import open_live
+
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()  # a free port: nothing will send to it
+    with pytest.raises(ConfigError, match=r"within 0\.\d+ s.*\(waited \d+\.\d s for it\)"):
+        open_live(f"rtp://127.0.0.1:{port}", 1.0)

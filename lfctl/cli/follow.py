@@ -390,7 +390,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.link.camera import CameraComponent
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
-    from lfctl.video import REOPEN_S, open_live
+    from lfctl.video import open_live
     from lfctl.vision.banner import BannerGeometry
     from lfctl.vision.camera_model import CameraModel, at_frame_size
     from lfctl.vision.frames import colourless
@@ -421,7 +421,7 @@ def run(args: argparse.Namespace) -> int:
 
     def waiting(why: str) -> None:
         end = "Ctrl-C ends" if args.camera_wait is None else f"for up to {args.camera_wait:g} s"
-        log.warning("waiting for the camera: %s; trying again every %g s (%s)", why, REOPEN_S, end)
+        log.warning("waiting for the camera: %s; trying again (%s)", why, end)
 
     video, first = open_live(args.camera, args.camera_wait, waiting)  # a camera's newest frame each step
     with video:

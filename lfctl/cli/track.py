@@ -182,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
                             raise ConfigError(
                                 f"cannot write {args.out} (check the directory and the .mp4/.avi extension)"
                             )
-                t_s = n / args.fps if args.fps else video.time_s
+                # (at --fps, the frames passed over took their time too)
+                t_s = (n + video.passed_over) / args.fps if args.fps else video.time_s
                 if video.untimed and not args.fps and not video.live and not untimed_said:
                     untimed_said = True
                     print(

@@ -21,7 +21,7 @@ from lfctl.link.companion import Companion, answer_name, unanswered
 from lfctl.link.endpoint import COMPANION_COMPID, MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
-from lfctl.video import REOPEN_S, Reopening, VideoSource
+from lfctl.video import REOPEN_S, STOP_WAIT_S, Reopening, VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
 from lfctl.vision.track_state import TrackStatus
 
@@ -50,9 +50,6 @@ CAMERA_SILENT_S = 1.0
 #: length of the last: FFmpeg's decoder hands over the frames it still held as a stream ends,
 #: one at each read timeout, and those are no return
 BACK_FRAMES = 3
-#: at the run's end, a read under way in the camera's driver is waited for this long, s (a
-#: silent stream's lasts up to its read timeout; the process's end releases it)
-CLOSE_WAIT_S = 0.5
 #: the rover's HEARTBEAT older than this is said to be missing (MAVLink's heartbeats come
 #: once a second): its mode and arming are then not known, and setpoints are not counted as
 #: carried out
@@ -237,7 +234,9 @@ def follow_rover(
     restarts = companion.vehicle.restarts  # the rover's restarts seen (each has the odometry asked again)
     slow_said = False
     interrupted = False
+    cam = perception.camera
     camera = _Camera(video, companion, name, max(CAMERA_SILENT_S, 3.0 / rate_hz), period, open_camera)
+    camera.expect((cam.height, cam.width))
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
@@ -337,6 +336,7 @@ class _Camera:
         self.silent_s, self.period_s = silent_s, period_s
         self._opener = opener if opener is not None else partial(VideoSource, video.name, latest=True)
         self._reopening: Reopening | None = None
+        self._reopened_at = -math.inf  # when the last tries to open it again began (monotonic s)
         self._skipped = -video.skipped  # (those made while the rover was being set up are not the run's)
         self._shape: tuple[int, ...] | None = None  # the frames' (height, width), from the first
         self._last_frame_t: float | None = None
@@ -348,6 +348,10 @@ class _Camera:
         self.failed = False  # back with frames of another size: not to be followed
         self.gaps = 0
         self.silent_total_s = 0.0
+
+    def expect(self, shape: tuple[int, int]) -> None:
+        """The frames' (height, width) the run's perception is for: another is not followed."""
+        self._shape = shape
 
     @property
     def skipped(self) -> int:
@@ -425,12 +429,16 @@ class _Camera:
         level = logging.INFO if self._said_stopped else logging.WARNING
         log.log(level, "%s: the camera %s stopped: opening it again every %g s", self.follower, self.source, REOPEN_S)
         self._said_stopped = True
-        self._reopening = Reopening(self._opener)
+        # (one that opened and stopped at once is tried again a second after the last try, not
+        # at every step)
+        now = time.monotonic()
+        self._reopening = Reopening(self._opener, max(0.0, self._reopened_at + REOPEN_S - now))
+        self._reopened_at = max(now, self._reopened_at + REOPEN_S)
 
     def close(self, t_s: float) -> None:
         """End the run's use of the camera: a silence under way is counted, tries to open it
         again end, and the source in hand is closed (a read stuck in a silent stream's driver
-        is waited for up to :data:`CLOSE_WAIT_S` only: Ctrl-C ends the run at once)."""
+        is waited for up to :data:`~lfctl.video.STOP_WAIT_S` only: Ctrl-C ends the run at once)."""
         if self._silent_since is not None:
             self.silent_total_s += t_s - self._silent_since
             self._silent_since = None
@@ -438,7 +446,7 @@ class _Camera:
             self._reopening.stop()
         if self.video is not None:
             self._skipped += self.video.skipped
-            self.video.close(CLOSE_WAIT_S)
+            self.video.close(STOP_WAIT_S)
             self.video = None
 
 

@@ -1334,8 +1334,32 @@ def test_camera_wait_bounds_the_wait_for_a_camera_not_there_yet(
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert said == [
         "waiting for the camera: no camera device /dev/lfctl-no-camera (not plugged in, or not ready); trying "
-        "again every 1 s (for up to 0.3 s)"
+        "again (for up to 0.3 s)"
     ]
+
+
+def test_a_camera_that_opens_and_stops_at_once_is_tried_again_once_a_second() -> None:
+    # (it was tried again at every step: 58 opens and as many lines in 3 s at 20 Hz)
+    from lfctl.follower.rover import follow_rover
+    from lfctl.follower.stack import formation_settings
+    from lfctl.vision.perception import BannerPerception
+
+    cfg = parse_config(DEFAULT_SCENARIO, "follow")
+    _rover, companion, _got = _memory_rover()
+    opened: list[_FakeCamera] = []
+
+    def opener() -> Any:
+        opened.append(_FakeCamera(0, (480, 640)))  # opens, and has already stopped
+        return opened[-1]
+
+    perception = BannerPerception.from_config(cfg.camera, cfg.banner, (1.5, 0.0))
+    done = follow_rover(companion, _FakeCamera(3, (480, 640)), perception,  # type: ignore[arg-type]
+                        formation_settings(cfg, 1.5, 0.0, "smc", cfg.camera), rate_hz=20.0, status_rate_hz=2.0,
+                        timeout_s=2.0, max_steps=3 + 50, open_camera=opener)  # fmt: skip
+    # 50 steps held (2.5 s at 20 Hz): a try a second, not one a step (a slow machine's 2.5 s may
+    # run longer: far fewer than the 50 steps' tries all the same)
+    assert done.frames == 3 and 1 <= len(opened) < 12, len(opened)
+    assert all(c.closed for c in opened)
 
 
 class _ScriptedCamera(_FakeCamera):
