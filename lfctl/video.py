@@ -399,7 +399,7 @@ class VideoSource:
     @property
     def ended(self) -> bool:
         """Whether a live source read with ``latest`` has stopped giving frames (its reading
-        thread ended: a failed read, or a stream silent for :data:`STREAM_TIMEOUT_S`); False
+        thread ended: a failed read, or a stream silent for the source's timeout); False
         for any other source (a file's end is :meth:`read` returning None)."""
         return self._latest is not None and self._latest.ended
 
@@ -410,8 +410,8 @@ class VideoSource:
         Parameters
         ----------
         timeout_s : float, optional
-            With ``latest``: how long to wait for a new frame before None (default
-            :data:`STREAM_TIMEOUT_S`); None then means none came in that time, and the source
+            With ``latest``: how long to wait for a new frame before None (default the
+            source's timeout); None then means none came in that time, and the source
             has ended only if :attr:`ended` says so.
         """
         if self._pending is not None:
@@ -530,6 +530,9 @@ class Reopening:
         Opens the source (``VideoSource(name, latest=True)``); any error it raises
         (:class:`SourceNotReady`, another :class:`ConfigError`, a driver's) means not yet,
         and it is tried again.
+    delay_s : float
+        Wait before the first try, s (a source that opened and stopped at once is not
+        opened again at once).
     """
 
     def __init__(self, opener: Callable[[], VideoSource], delay_s: float = 0.0) -> None:

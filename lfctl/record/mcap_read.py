@@ -657,7 +657,7 @@ class _Reader:
             self.chunk_index = self.read_chunk_index()
             self.index_starts = sorted(self.chunk_index)
         i = bisect_left(self.index_starts, fault.offset)
-        if i < len(self.index_starts) and self.index_starts[i] in self.resumed:
+        while i < len(self.index_starts) and self.index_starts[i] in self.resumed:
             i += 1  # (resumed there already: the damage is in that chunk itself)
         if i >= len(self.index_starts):
             return False
