@@ -318,7 +318,8 @@ class _Camera:
     meanwhile (the run holds the rover still); one that has stopped (a failed read, or a
     stream silent for its read timeout) is closed and opened again on a thread of its own
     until it opens (:class:`~lfctl.video.Reopening`). Frames that come again are said, and
-    must be of the size the run began with. A file is read frame after frame to its end."""
+    must be of the size the run's perception is for (:meth:`expect`). A file is read frame
+    after frame to its end."""
 
     def __init__(
         self,
@@ -338,7 +339,7 @@ class _Camera:
         self._reopening: Reopening | None = None
         self._reopened_at = -math.inf  # when the last tries to open it again began (monotonic s)
         self._skipped = -video.skipped  # (those made while the rover was being set up are not the run's)
-        self._shape: tuple[int, ...] | None = None  # the frames' (height, width), from the first
+        self._shape: tuple[int, ...] | None = None  # the frames' (height, width): expect's, or the first's
         self._last_frame_t: float | None = None
         self._silent_since: float | None = None
         self._said_stopped = False  # that it stopped, this silence
