@@ -284,6 +284,8 @@ class ParamServer:
             return
         if len(self._said) >= 64:  # (names a peer makes up: only the recent ones matter)
             self._said = {t: at for t, at in self._said.items() if now - at < REPEAT_S}
+            if len(self._said) >= 1024:  # a flood of them: bounded, each said again
+                self._said.clear()
         self._said[text] = now
         self._say(text, mav.MAV_SEVERITY_WARNING)
 
