@@ -408,7 +408,7 @@ class VehicleEndpoint:
             setup_signing(self.mav, signing_key)
             self.signed_parser = self._parser(signing_key)
         self.params = default_params(sysid)
-        self.param_server = ParamServer(self.params, self.send, self.statustext)
+        self.param_server = ParamServer(self.params, self.send, self.statustext, self._asker)
         self.missions = MissionServer(
             self.send,
             self.statustext,

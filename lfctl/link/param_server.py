@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import struct
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -157,8 +157,9 @@ class ParamServer:
     stores it and is answered with the value in force, index -1, whether it was taken or not.
     An unknown name or index, a value outside the parameter's range and a read-only parameter
     are each said in a line of text (ArduPilot's own words for a read-only one); the same line
-    of lfctl's own is said once in :data:`REPEAT_S`, as a client tries a request again (MAVSDK
-    five times in a few tens of milliseconds) and a Rover says nothing of those at all.
+    of lfctl's own is said to one asker once in :data:`REPEAT_S`, as a client tries a request
+    again (MAVSDK five times in a few tens of milliseconds) and a Rover says nothing of those
+    at all.
 
     Parameters
     ----------
@@ -168,13 +169,24 @@ class ParamServer:
         Sends one MAVLink message.
     say : callable
         Sends a line of text (STATUSTEXT) with a MAV_SEVERITY.
+    asker : callable, optional
+        Who sent the request in hand (a network peer): a client's tries again are its own,
+        another client's request (a second ``lfctl gcs``) is said its warning at once.
     """
 
-    def __init__(self, params: dict[str, Param], send: Callable[[Any], None], say: Callable[[str, int], None]) -> None:
+    def __init__(
+        self,
+        params: dict[str, Param],
+        send: Callable[[Any], None],
+        say: Callable[[str, int], None],
+        asker: Callable[[], Hashable] | None = None,
+    ) -> None:
         self.params = params
         self._send = send
         self._say = say
-        self._said: dict[str, float] = {}  # lfctl's own warnings, when each was last said (monotonic s)
+        self._asker = asker
+        #: (asker, one of lfctl's own warnings) -> when it was last said, monotonic s
+        self._said: dict[tuple[Hashable, str], float] = {}
         #: each parameter's default: its value when the server was made (the table's defaults)
         self.defaults = {name: p.value for name, p in params.items()}
 
@@ -278,15 +290,17 @@ class ParamServer:
         return why
 
     def _warn(self, text: str) -> None:
-        """Say a warning of lfctl's own, unless the same was said within :data:`REPEAT_S`."""
+        """Say a warning of lfctl's own, unless the same was said to the same asker within
+        :data:`REPEAT_S`."""
         now = time.monotonic()
-        if now - self._said.get(text, -math.inf) < REPEAT_S:
+        key = (self._asker() if self._asker is not None else None, text)
+        if now - self._said.get(key, -math.inf) < REPEAT_S:
             return
         if len(self._said) >= 64:  # (names a peer makes up: only the recent ones matter)
-            self._said = {t: at for t, at in self._said.items() if now - at < REPEAT_S}
+            self._said = {k: at for k, at in self._said.items() if now - at < REPEAT_S}
             if len(self._said) >= 1024:  # a flood of them: bounded, each said again
                 self._said.clear()
-        self._said[text] = now
+        self._said[key] = now
         self._say(text, mav.MAV_SEVERITY_WARNING)
 
     def packed(self, query: str = "") -> bytes:
