@@ -408,7 +408,8 @@ class VehicleEndpoint:
             setup_signing(self.mav, signing_key)
             self.signed_parser = self._parser(signing_key)
         self.params = default_params(sysid)
-        self.param_server = ParamServer(self.params, self.send, self.statustext, self._asker)
+        # (a repeated warning is held back per sender's address: a client's own tries again)
+        self.param_server = ParamServer(self.params, self.send, self.statustext, lambda: self._channel)
         self.missions = MissionServer(
             self.send,
             self.statustext,

@@ -1585,6 +1585,17 @@ def test_a_clients_tries_again_of_a_refused_parameter_request_are_said_once(
     nope = mav.MAVLink_param_request_read_message(1, 1, b"NOPE", -1)
     far = mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1000.0, mav.MAV_PARAM_TYPE_REAL32)
     assert texts(*[nope] * 6, *[far] * 6) == ["Unknown parameter NOPE", "WP_SPEED rejected: 1000 outside 0..100 m/s"]
+    # ... per sender: another client (a second `lfctl gcs`, from another port) is told at once
+    from lfctl.link.param_server import ParamServer
+
+    said: list[str] = []
+    who = ["127.0.0.1:40001"]
+    server = ParamServer(bench.ep.params, lambda m: None, lambda text, sev: said.append(text), lambda: who[0])
+    server.request_read(nope)
+    server.request_read(nope)
+    who[0] = "127.0.0.1:40002"
+    server.request_read(nope)
+    assert said == ["Unknown parameter NOPE", "Unknown parameter NOPE"]
     now[0] += 1.5  # a request made again later is answered again
     assert texts(nope, mav.MAVLink_param_request_read_message(1, 1, b"NOPE2", -1)) == [
         "Unknown parameter NOPE",
