@@ -409,6 +409,32 @@ class LinkTask:
                         self.recorder.event(t_s, ep.name, "armed" if ep.armed else "disarmed")
 
 
+def vehicles_on_each_other(cfg: Config) -> list[str]:
+    """Each pair of vehicles that starts closer than a rover's length (the renderer's body,
+    :data:`~lfctl.render.renderer.BODY_LENGTH_M`): on top of each other, a slip in a scenario
+    (the run goes on: its minimum separation says what came of it); :func:`run_scenario`
+    says so as it starts.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario.
+    """
+    from lfctl.render.renderer import BODY_LENGTH_M
+
+    out = []
+    vs = cfg.vehicles
+    for i, a in enumerate(vs):
+        for b in vs[i + 1 :]:
+            gap = math.hypot(a.north_m - b.north_m, a.east_m - b.east_m)
+            if gap < BODY_LENGTH_M:
+                out.append(
+                    f"vehicles {a.name} and {b.name} start {gap:.2f} m apart, closer than a rover's "
+                    f"{BODY_LENGTH_M:g} m length: on top of each other (north_m, east_m)"
+                )
+    return out
+
+
 def slots_out_of_view(cfg: Config) -> list[str]:
     """Each follower whose slot puts its target where its sensor cannot see it, said. With
     camera sensing: the target's banner not wholly in the picture when the follower holds its
@@ -536,7 +562,7 @@ def run_scenario(
             f"vehicles[{alone[0]}].companion = false needs --realtime: the companion that commands it "
             "(lfctl follow) talks to it over UDP in real time"
         )
-    for problem in slots_out_of_view(cfg):
+    for problem in (*slots_out_of_view(cfg), *vehicles_on_each_other(cfg)):
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:

@@ -1,4 +1,5 @@
-"""What a run says before it starts about a scenario whose followers cannot see their targets."""
+"""What a run says before it starts about a scenario whose followers cannot see their targets,
+or whose vehicles start on top of each other."""
 
 from __future__ import annotations
 
@@ -47,3 +48,14 @@ def test_a_slot_outside_the_truth_sensors_view_or_range_is_named() -> None:
         "its slot it will not see its target",
     ]
     assert slots_out_of_view(parse_config(SCENARIO.replace('"camera"', '"truth"'), "t")) == []
+
+
+def test_vehicles_that_start_on_top_of_each_other_are_named() -> None:
+    # a slip in a scenario (a follower's north_m left at the leader's 0): the run went on with
+    # a minimum separation of 0.00 m and no word
+    from lfctl.sim.runner import vehicles_on_each_other
+
+    on_top = LEADER_AND_FOLLOWER.replace("north_m = -1.5", "north_m = -0.1")
+    (said,) = vehicles_on_each_other(parse_config(on_top, "t"))
+    assert said.startswith("vehicles leader and f1 start 0.10 m apart, closer than a rover's 0.3 m length")
+    assert vehicles_on_each_other(parse_config(LEADER_AND_FOLLOWER, "t")) == []
