@@ -892,9 +892,9 @@ class FmuInstance:
         for name, value in parameters.items():
             var = self.lib.variables.get(name)
             if var is None:
-                from lfctl.data import user_cache
+                from lfctl.fmu.build import default_cache_dir
 
-                built_in = Path(self.lib.path).parent.parent == user_cache("fmu")  # (a built model's cache)
+                built_in = Path(self.lib.path).parent.parent == default_cache_dir()  # (a built model's)
                 shown = self.lib.identifier if built_in else self.lib.path
                 raise ConfigError(
                     f"vehicles[{self.name}].parameters.{name}: parameter {name!r} does not exist in "

@@ -677,23 +677,29 @@ class _Reader:
         self.pos = at
         return True
 
+    def read_footer(self) -> tuple[bytes, int, int] | None:
+        """A complete file's Footer record, where it must be: its bytes, summary_start and
+        summary_crc; None where no Footer is."""
+        self.f.seek(self.size - 8 - FOOTER_BYTES)
+        foot = self.f.read(FOOTER_BYTES)
+        if len(foot) != FOOTER_BYTES:
+            return None
+        op, length, summary_start, _, crc = struct.unpack("<BQQQI", foot)
+        return (foot, summary_start, crc) if op == FOOTER and length == 20 else None
+
     def read_chunk_index(self) -> dict[int, int]:
         """A complete file's ChunkIndex records: chunk start -> its record's body length; empty
         when the footer or the summary is damaged (its CRC does not hold) or too large."""
-        f, size = self.f, self.size
+        f = self.f
         here = f.tell()
         out: dict[int, int] = {}
         try:
-            end = size - 8 - FOOTER_BYTES
-            f.seek(end)
-            foot = f.read(FOOTER_BYTES)
-            op, length, summary_start, _, crc = struct.unpack("<BQQQI", foot)
-            if (
-                op != FOOTER
-                or length != 20
-                or not 8 < summary_start < end
-                or end - summary_start > self.lim.record_bytes
-            ):
+            footer = self.read_footer()
+            if footer is None:
+                return out
+            foot, summary_start, crc = footer
+            end = self.size - 8 - FOOTER_BYTES
+            if not 8 < summary_start < end or end - summary_start > self.lim.record_bytes:
                 return out
             f.seek(summary_start)
             summary = f.read(end - summary_start)
@@ -1234,11 +1240,10 @@ class _Reader:
         """A fault that stopped the reading of a complete file: a flipped bit the data section's
         (or the summary's) CRC locates moves the finding to the record that holds it."""
         f, size = self.f, self.size
-        f.seek(size - 8 - FOOTER_BYTES)
-        foot = f.read(FOOTER_BYTES)
-        op, length, summary_start, _, summary_crc = struct.unpack("<BQQQI", foot)
-        if op != FOOTER or length != 20:
+        footer = self.read_footer()
+        if footer is None:
             return
+        _, summary_start, summary_crc = footer
         data_end = (summary_start or size - 8 - FOOTER_BYTES) - DATA_END_BYTES
         sections = []  # (stored CRC, first byte, end) of the sections that may hold the flip
         if data_end > 8:  # the data section, also for a fault past it: a flipped length can jump there
