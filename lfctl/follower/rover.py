@@ -234,9 +234,8 @@ def follow_rover(
     restarts = companion.vehicle.restarts  # the rover's restarts seen (each has the odometry asked again)
     slow_said = False
     interrupted = False
-    cam = perception.camera
-    camera = _Camera(video, companion, name, max(CAMERA_SILENT_S, 3.0 / rate_hz), period, open_camera)
-    camera.expect((cam.height, cam.width))
+    shape = (perception.camera.height, perception.camera.width)
+    camera = _Camera(video, companion, name, max(CAMERA_SILENT_S, 3.0 / rate_hz), period, shape, open_camera)
     try:
         while max_steps is None or steps < max_steps:
             t_s = now()
@@ -318,8 +317,8 @@ class _Camera:
     meanwhile (the run holds the rover still); one that has stopped (a failed read, or a
     stream silent for its read timeout) is closed and opened again on a thread of its own
     until it opens (:class:`~lfctl.video.Reopening`). Frames that come again are said, and
-    must be of the size the run's perception is for (:meth:`expect`). A file is read frame
-    after frame to its end."""
+    must be of the size the run's perception is for. A file is read frame after frame to its
+    end."""
 
     def __init__(
         self,
@@ -328,6 +327,7 @@ class _Camera:
         name: str,
         silent_s: float,
         period_s: float,
+        shape: tuple[int, int],
         opener: Callable[[], VideoSource] | None,
     ) -> None:
         self.video: VideoSource | None = video
@@ -339,7 +339,7 @@ class _Camera:
         self._reopening: Reopening | None = None
         self._reopened_at = -math.inf  # when the last tries to open it again began (monotonic s)
         self._skipped = -video.skipped  # (those made while the rover was being set up are not the run's)
-        self._shape: tuple[int, ...] | None = None  # the frames' (height, width): expect's, or the first's
+        self._shape = shape  # the frames' (height, width) the run's perception is for
         self._last_frame_t: float | None = None
         self._silent_since: float | None = None
         self._said_stopped = False  # that it stopped, this silence
@@ -349,10 +349,6 @@ class _Camera:
         self.failed = False  # back with frames of another size: not to be followed
         self.gaps = 0
         self.silent_total_s = 0.0
-
-    def expect(self, shape: tuple[int, int]) -> None:
-        """The frames' (height, width) the run's perception is for: another is not followed."""
-        self._shape = shape
 
     @property
     def skipped(self) -> int:
@@ -381,9 +377,7 @@ class _Camera:
                 self._reopen()
             return None
         shape = frame.shape[:2]
-        if self._shape is None:
-            self._shape = shape
-        elif shape != self._shape:
+        if shape != self._shape:
             log.warning(
                 "%s: the camera %s came back with %dx%d frames, not the %dx%d the run began with: the run ends "
                 "(its perception is for the first size; start lfctl follow again)",
