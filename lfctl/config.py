@@ -95,6 +95,11 @@ TRAIL_MAX_BEARING_DEG = 30.0
 #: the sliding-mode law holds slots below this bearing either side: abeam, the follower's
 #: speed no longer changes the range, and past it the range law's sign turns round
 SMC_MAX_BEARING_DEG = 90.0
+_BEARING_NOTE = (
+    f'either side: < {SMC_MAX_BEARING_DEG:g} with guidance.controller = "smc", <= {TRAIL_MAX_BEARING_DEG:g} with "trail"'
+)
+#: a calibration's focal length is a pinhole's: a field of view under 170 deg, as hfov_deg's
+_FOCAL_NOTE = "0, or >= {0}_px / 2 / tan(85 deg) (a field of view under 170 deg)"
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -242,28 +247,32 @@ class VehicleConfig(_Section):
 
     name: str = _f(name=True)
     role: Literal["leader", "follower"] = _f()
-    model: str = _f("SkidSteerRover", name=True)  # a built-in model's name
+    #: a built-in model's name (the name of a user FMU's model, with ``fmu``)
+    model: str = _f("SkidSteerRover", name=True, note="without fmu: a built-in model, `KinematicUnicycle` or `SkidSteerRover`")
     fmu: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
     fmi_version: int = _f(2, Bound(2, 3, integer=True))  # which build of a built-in model to load: 2 or 3
     north_m: float = _f(0.0, _POS)  # initial position north, local NED, m
     east_m: float = _f(0.0, _POS)  # initial position east, m
     yaw_rad: float = _f(0.0, Bound(-360, 360))  # initial heading, rad (TOML yaw_deg)
-    #: FMU parameter name -> value
-    parameters: Mapping[str, float] = _f(factory=dict, max_items=MAX_LIST)
+    #: FMU parameter name -> value (a Boolean parameter's: true or false, or 1 or 0)
+    parameters: Mapping[str, float | bool] = _f(factory=dict, max_items=MAX_LIST, note="each a number, true or false")
     map: Mapping[str, str] = _f(factory=dict, note="a user FMU's only (with fmu); keys: the roles (see below)")
     units: Mapping[str, str] = _f(factory=dict, note="a user FMU's only (with fmu); keys: the roles (see below)")
     # follower only: whom to follow and where (the formation controller holds this slot)
-    target: str | None = _f(None, name=True)  # the vehicle it follows (None: as [formation] says)
+    #: the vehicle it follows (None: as [formation] says)
+    target: str | None = _f(None, name=True, note="another vehicle's name; no cycle of targets")
     #: commanded range to the target, m (None: as [formation] says)
     range_m: float | None = _f(None, Bound(0, 1000, lo_open=True))
     #: commanded bearing, clockwise positive (TOML bearing_deg)
-    bearing_rad: float | None = _f(None, Bound(-180, 180))
+    bearing_rad: float | None = _f(None, Bound(-180, 180), note=_BEARING_NOTE)
     #: the ArUco tag its banner prints with ``banner.kind = "aruco"`` (None: ``banner.aruco_id``
     #: plus its place in [[vehicles]], the leader's 0); a follower looks for its target's id only
-    aruco_id: int | None = _f(None, Bound(0, 586, integer=True), note="unique; < the dictionary's size")
+    aruco_id: int | None = _f(
+        None, Bound(0, 586, integer=True), note='with banner.kind = "aruco" only; unique; < the dictionary\'s size'
+    )
     #: follower only: false leaves it without a simulated companion computer: it waits as a
     #: Rover does (HOLD, disarmed) for one on its UDP port, ``lfctl follow`` (--realtime only)
-    companion: bool = True
+    companion: bool = _f(True, note="followers only; false needs `lfctl sim --realtime`")
 
     def _prefix(self) -> str:
         ok = isinstance(self.name, str) and NAME_PATTERN.fullmatch(self.name)
@@ -281,7 +290,8 @@ class VehicleConfig(_Section):
                 raise ConfigError(f"{key}.companion: a leader has no companion computer to leave out, got false")
         for p, v in self.parameters.items():
             check_text(f"{key}.parameters key", p)
-            Bound(-math.inf, math.inf).check(f"{key}.parameters.{p}", v)
+            if not isinstance(v, bool):  # (a Boolean FMU parameter's value)
+                Bound(-math.inf, math.inf).check(f"{key}.parameters.{p}", v)
         for table in ("map", "units"):
             for role, text in getattr(self, table).items():
                 if role not in VEHICLE_ROLES:
@@ -312,6 +322,7 @@ class ScriptConfig(_Section):
         items=(Bound(0, 1e6, lo_open=True), Bound(-100, 100), Bound(-3600, 3600)),
         names=("duration_s", "speed_mps", "yaw_rate_deg_s"),
         shape="[duration_s, speed_mps, yaw_rate_deg_s]",
+        note="at least 1 entry",
     )
     followers: Literal["formation", "stand", "copy"] = "formation"
 
@@ -342,6 +353,7 @@ class MissionConfig(_Section):
         arity=(2, 3),
         names=("north_m", "east_m", "hold_s"),
         shape="[north_m, east_m] or [north_m, east_m, hold_s]",
+        note="hold_s is whole seconds (a fraction is dropped, as Rover's mission item holds); not with file",
     )
     #: a waypoint driven through is reached within this distance, m (the leader's WP_RADIUS,
     #: Rover's range; 0: only by passing it); a point it stops on is driven onto
@@ -350,7 +362,9 @@ class MissionConfig(_Section):
     #: LOS lookahead on the path, m; 0: pure pursuit of the waypoint (eq. 12)
     lookahead_m: float = _f(0.8, Bound(0, 1000))
     #: a QGroundControl .plan or QGC WPL .waypoints file flown instead of ``waypoints``
-    file: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
+    file: str | None = _f(
+        None, text=4096, note="absolute, or relative to the scenario's folder and inside it; not with waypoints"
+    )
 
     def _check(self) -> None:
         if self.file is not None and self.waypoints:
@@ -445,7 +459,7 @@ class FormationConfig(_Section):
     #: range to the target, m; with targets = "leader", times the place in line or arm
     spacing_m: float = _f(1.5, Bound(0, 1000, lo_open=True))
     #: echelon, vee: how far off straight behind a follower sits (TOML angle_deg)
-    angle_rad: float = _f(math.radians(30.0), Bound(0, 90, hi_open=True))
+    angle_rad: float = _f(math.radians(30.0), Bound(0, 90, hi_open=True), note=_BEARING_NOTE)
 
 
 @dataclass(frozen=True)
@@ -464,10 +478,10 @@ class CameraConfig(_Section):
     height_px: int = _f(480, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image height, px
     #: horizontal field of view, sets fx (TOML hfov_deg)
     hfov_rad: float = _f(math.radians(62.0), Bound(0, 170, lo_open=True, hi_open=True))
-    fx_px: float = _f(0.0, Bound(0, 1e5))  # focal length, px; 0: from hfov
-    fy_px: float = _f(0.0, Bound(0, 1e5))  # focal length, px; 0: fx
-    cx_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
-    cy_px: float = _f(0.0, Bound(0, 1e5))  # principal point, px; 0: the image centre
+    fx_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("width"))  # focal length, px; 0: from hfov
+    fy_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("height"))  # focal length, px; 0: fx
+    cx_px: float = _f(0.0, Bound(0, 1e5), note="<= width_px")  # principal point, px; 0: the image centre
+    cy_px: float = _f(0.0, Bound(0, 1e5), note="<= height_px")  # principal point, px; 0: the image centre
     # lens distortion, OpenCV's model (a calibration's k1, k2, p1, p2, k3 as cv2.calibrateCamera
     # gives them); the renderer bends its frames by them and the pose takes them out
     k1: float = _f(0.0, Bound(-10, 10))  # radial distortion
@@ -542,7 +556,7 @@ class BannerConfig(_Section):
     marker_hue_deg: float = _f(0.0, Bound(0, 360, hi_open=True))  # red; HSV hue in degrees
     marker_saturation: float = _f(0.85, Bound(0, 1))  # the markers' HSV saturation in the rendered scene
     #: near white: the markers carry the hue
-    panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True))
+    panel_bgr: tuple[int, ...] = _f((215, 218, 222), each=Bound(0, 255, integer=True), note="3 entries")
     #: what the panel carries: "markers" (the paper's four) or "aruco" (one tag; each vehicle's
     #: banner prints its own id, see ``vehicles.aruco_id``)
     kind: Literal["markers", "aruco"] = "markers"
@@ -613,7 +627,8 @@ class OccluderConfig(_Section):
 
     _key = "scene.occluders"
     t_s: float = _f(bound=_TIME)
-    follower: str = _f("", name=True, optional=True)  # whose view it crosses ("": every follower's)
+    #: whose view it crosses ("": every follower's)
+    follower: str = _f("", name=True, optional=True, note="a vehicle's name")
     width_m: float = _f(0.6, _SIZE)  # the panel's size, m
     height_m: float = _f(0.6, _SIZE)  # the panel's size, m
     speed_mps: float = _f(0.4, Bound(0, 100, lo_open=True))
@@ -629,7 +644,7 @@ class LightKey(_Section):
     t_s: float = _f(bound=_TIME, note="keys in time order")  # when this key holds, s
     gain: float = _f(1.0, Bound(0, 100, lo_open=True))  # brightness factor
     #: per-channel factors (B, G, R)
-    tint_bgr: tuple[float, ...] = _f((1.0, 1.0, 1.0), each=Bound(0, 100, lo_open=True))
+    tint_bgr: tuple[float, ...] = _f((1.0, 1.0, 1.0), each=Bound(0, 100, lo_open=True), note="3 entries")
 
     def _check(self) -> None:
         if len(self.tint_bgr) != 3:
@@ -992,6 +1007,8 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         if value is None and type(None) in args:
             return None
         inner = [a for a in args if a is not type(None)]
+        if isinstance(value, bool) and bool in inner:  # (a number or true/false: take true/false as given)
+            return value
         return _convert(value, inner[0], key)
     if origin is Literal:
         if value not in args:
@@ -1267,7 +1284,9 @@ def reference() -> str:
     """Every scenario key with its type, default and accepted range, as a Markdown table
     (``docs/scenario-reference.md`` is this text; a test keeps the two equal)."""
     rows = ["| key | type | default | accepted |", "| --- | --- | --- | --- |"]
-    rows.append("| `name` | string | the file's stem | 1-64 letters, digits, `-`, `_` |")
+    rows.append(
+        "| `name` | string | the file's stem (other characters `_`, the first 64) | 1-64 letters, digits, `-`, `_` |"
+    )
     sections: list[tuple[str, type]] = [
         ("sim", SimConfig), ("vehicles", VehicleConfig), ("script", ScriptConfig), ("mission", MissionConfig),
         ("guidance", GuidanceConfig), ("sensing", SensingConfig), ("formation", FormationConfig),

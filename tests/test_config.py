@@ -32,6 +32,14 @@ def test_degrees_become_radians_once() -> None:
     assert cfg.followers[0].bearing_rad == pytest.approx(-math.pi / 6)
 
 
+def test_fmu_parameters_take_numbers_and_booleans_as_written() -> None:
+    cfg = parse_config(LEADER + "[vehicles.parameters]\ntau = 2\nflag = true\noff = false\n")
+    assert cfg.leader.parameters == {"tau": 2.0, "flag": True, "off": False}
+    assert [type(v) for v in cfg.leader.parameters.values()] == [float, bool, bool]
+    with pytest.raises(ConfigError, match=r"vehicles\[leader\]\.parameters\.tau must be a number, got \[1\]"):
+        parse_config(LEADER + "[vehicles.parameters]\ntau = [1]\n")
+
+
 def test_defaults_fill_the_sim_section() -> None:
     cfg = parse_config(LEADER)
     assert cfg.sim.dt_s == 0.01 and cfg.sim.clock == "lockstep" and cfg.name == "scenario"

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lfctl.config import parse_config
 from lfctl.errors import ConfigError, FmuError
 from lfctl.fmu.build import BuiltModel
 from lfctl.fmu.load import INPUT_ROLES, OUTPUT_ROLES, POSE_ROLES, FmuLibrary, RoleMap, _typed_value
@@ -73,6 +74,27 @@ def test_an_integer_parameter_goes_through_its_own_setter_and_must_be_whole(faul
         with pytest.raises(FmuError, match="fmi2SetInteger returned Error") as err:
             lib.instantiate("f1", {"mode": 3}, (0.0, 0.0, 0.0), *rows())
         assert "no variables of this type" in str(err.value)
+
+
+def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(faulty: BuiltModel, tmp_path: Path) -> None:
+    """A scenario's `flag = true` stays a Boolean on its way to the FMU (the config reader
+    turned it down as not a number before)."""
+    with zipfile.ZipFile(faulty.fmi2) as z:
+        vr = re.search(r'name="fault"\s+valueReference="(\d+)"', z.read("modelDescription.xml").decode())
+    assert vr is not None
+    flag = (
+        f'<ScalarVariable name="flag" valueReference="{vr.group(1)}" causality="parameter" '
+        'variability="fixed"><Boolean start="false"/></ScalarVariable>'
+    )
+    fmu = edited(
+        faulty.fmi2, tmp_path / "bool.fmu", lambda md: md.replace("</ModelVariables>", flag + "</ModelVariables>")
+    )
+    cfg = parse_config('[[vehicles]]\nname = "leader"\nrole = "leader"\n[vehicles.parameters]\nflag = true\n')
+    assert cfg.leader.parameters == {"flag": True}
+    with FmuLibrary(fmu) as lib:
+        # FaultyRover has no Boolean variables: it says so for fmi2SetBoolean, the setter reached
+        with pytest.raises(FmuError, match="fmi2SetBoolean returned Error"):
+            lib.instantiate("f1", dict(cfg.leader.parameters), (0.0, 0.0, 0.0), *rows())
 
 
 @pytest.mark.parametrize(
