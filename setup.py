@@ -3,11 +3,17 @@ vehicle models' C sources), ``examples/`` and ``footage/`` (labelled real video 
 benchmark) and ``docs/`` travel inside the package, as ``lfctl/fmu_models``, ``lfctl/examples``,
 ``lfctl/footage`` and ``lfctl/docs``, so a wheel builds its FMUs, runs the examples by name
 from any directory and has the pages its help names (``lfctl.data`` finds them in either place). Each of their folders is named as a package of
-its own (``lfctl.examples.sweeps``), as setuptools wants every folder of package data to be."""
+its own (``lfctl.examples.sweeps``), as setuptools wants every folder of package data to be.
 
+Every build copies the package afresh: setuptools' ``build_py`` keeps a file already in
+``build/lib`` unless the source is newer, so a tree copied without its times (``cp -r``,
+``scp -r``) over an old ``build/`` would ship the old code, and a deleted module would stay."""
+
+import shutil
 from pathlib import Path
 
 from setuptools import find_packages, setup
+from setuptools.command.build_py import build_py
 
 ROOTS = {
     "lfctl.fmu_models": "fmu_models",
@@ -29,10 +35,19 @@ def _data_packages() -> dict[str, str]:
     return out
 
 
+class FreshBuildPy(build_py):
+    """``build_py`` from an empty ``build/lib/lfctl``: nothing of an earlier build is kept."""
+
+    def run(self) -> None:
+        shutil.rmtree(Path(self.build_lib) / "lfctl", ignore_errors=True)
+        super().run()
+
+
 DATA = _data_packages()
 
 setup(
     packages=[*find_packages(include=["lfctl", "lfctl.*"]), *DATA],
     package_dir=DATA,
     package_data={package: ["*"] for package in DATA},
+    cmdclass={"build_py": FreshBuildPy},
 )

@@ -95,9 +95,7 @@ TRAIL_MAX_BEARING_DEG = 30.0
 #: the sliding-mode law holds slots below this bearing either side: abeam, the follower's
 #: speed no longer changes the range, and past it the range law's sign turns round
 SMC_MAX_BEARING_DEG = 90.0
-_BEARING_NOTE = (
-    f'either side: < {SMC_MAX_BEARING_DEG:g} with guidance.controller = "smc", <= {TRAIL_MAX_BEARING_DEG:g} with "trail"'
-)
+_BEARING_NOTE = f'either side: < {SMC_MAX_BEARING_DEG:g} with guidance.controller = "smc", <= {TRAIL_MAX_BEARING_DEG:g} with "trail"'
 #: a calibration's focal length is a pinhole's: a field of view under 170 deg, as hfov_deg's
 _FOCAL_NOTE = "0, or >= {0}_px / 2 / tan(85 deg) (a field of view under 170 deg)"
 
@@ -248,7 +246,9 @@ class VehicleConfig(_Section):
     name: str = _f(name=True)
     role: Literal["leader", "follower"] = _f()
     #: a built-in model's name (the name of a user FMU's model, with ``fmu``)
-    model: str = _f("SkidSteerRover", name=True, note="without fmu: a built-in model, `KinematicUnicycle` or `SkidSteerRover`")
+    model: str = _f(
+        "SkidSteerRover", name=True, note="without fmu: a built-in model, `KinematicUnicycle` or `SkidSteerRover`"
+    )
     fmu: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
     fmi_version: int = _f(2, Bound(2, 3, integer=True))  # which build of a built-in model to load: 2 or 3
     north_m: float = _f(0.0, _POS)  # initial position north, local NED, m

@@ -10,11 +10,13 @@ install, ``pip install .`` and a wheel behave alike.
 from __future__ import annotations
 
 import functools
+import hashlib
 from pathlib import Path
 
 from lfctl.errors import ConfigError
 
 __all__ = [
+    "code_digest",
     "docs_dir",
     "example_names",
     "examples_dir",
@@ -79,6 +81,37 @@ def docs_dir() -> Path:
 def footage_dir() -> Path:
     """The folder of labelled real video (its ``README.md`` says where each file comes from)."""
     return _folder("footage")
+
+
+def code_digest(package: Path | None = None, models: Path | None = None) -> str:
+    """SHA-256 over lfctl's Python sources (but the command line and the benchmarks) and the
+    vehicle models' C sources: two processes with the same digest run the same simulation.
+
+    Each file is named in the digest by its path inside the package, or inside the models
+    folder (under ``fmu_models/``), whichever holds it: a source checkout (the models beside
+    the package) and a wheel of the same commit (the models inside it) give the same digest.
+
+    Parameters
+    ----------
+    package : Path, optional
+        The ``lfctl`` package folder (default: this one).
+    models : Path, optional
+        The vehicle models' folder (default :func:`~lfctl.data.models_dir`).
+    """
+    package = _PACKAGE_DIR if package is None else package
+    models = models_dir() if models is None else models
+    sources = [p for p in sorted(package.rglob("*.py")) if p.relative_to(package).parts[0] not in ("cli", "bench")]
+    named = [(p.relative_to(package).as_posix(), p) for p in sources]
+    named += [
+        ("fmu_models/" + p.relative_to(models).as_posix(), p)
+        for p in sorted(models.rglob("*"))
+        if p.suffix in (".c", ".h")
+    ]
+    h = hashlib.sha256()
+    for name, p in named:
+        h.update(name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
 
 
 def example_names(suffix: str = ".toml", sub: str = "") -> list[str]:

@@ -14,6 +14,9 @@ from pathlib import Path
 
 import pytest
 
+from lfctl import __version__
+from lfctl.data import code_digest
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -47,9 +50,17 @@ def _run(cmd: list[str], cwd: Path, env: dict[str, str] | None = None, timeout: 
 def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_directory(tmp_path: Path) -> None:
     dist = tmp_path / "dist"
     src = _source_copy(tmp_path / "src")
+    # an earlier build's leftovers, newer than the sources (a tree copied without its times):
+    # neither an old copy of a module nor one since deleted may reach the wheel
+    old = src / "build" / "lib" / "lfctl"
+    old.mkdir(parents=True)
+    (old / "config.py").write_text("STALE = True\n")
+    (old / "deleted_since.py").write_text("STALE = True\n")
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", str(src), "-w", str(dist)], tmp_path)
     (wheel,) = dist.glob("lfctl-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
+    assert zipfile.ZipFile(wheel).read("lfctl/config.py") == (src / "lfctl" / "config.py").read_bytes()
+    assert "lfctl/deleted_since.py" not in names
     assert "lfctl/fmu_models/common/model_core.c" in names and "lfctl/examples/convoy.toml" in names
     assert "lfctl/bench/cosim.py" in names and not any(n.startswith("tests/") for n in names)
     assert "lfctl/examples/sweeps/noise.toml" in names and "lfctl/examples/sweeps/scenarios/ablation.toml" in names
@@ -74,7 +85,11 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     assert "sim time     2.00 s" in out
     (log,) = (empty / "logs").glob("*.mcap")
     audit = _run(["lfctl", "audit", str(log)], empty, env)
-    assert "integrity: OK" in audit and "(installed)" in audit
+    # the build that ran is the source's, byte for byte (the code's digest in the log and in
+    # --version), not an older build's
+    code = code_digest()[:12]
+    assert "integrity: OK" in audit and f"(installed; code {code})" in audit
+    assert _run(["lfctl", "--version"], empty, env).strip() == f"lfctl {__version__} (code {code})"
     # the page its help names is there, inside the installed package
     helped = _run(["lfctl", "audit", "--help"], empty, env)
     page = Path(helped.split("Reading is bounded (", 1)[1].split(")", 1)[0].replace("\n", "").replace(" ", ""))

@@ -34,7 +34,7 @@ ALLOWED = {
     "fmu": {"data", "errors", "fmu", "logs", "workers"},
     "link": {"checks", "errors", "frames", "link"},
     "follower": {"config", "frames", "guidance", "link", "schedule", "video", "vision", "follower"},
-    "record": {"checks", "config", "errors", "frames", "metrics", "video", "vision", "record"},
+    "record": {"checks", "config", "data", "errors", "frames", "metrics", "video", "vision", "record"},
     "sim": EVERYTHING - {"sweep", "bench", "cli"},
     "sweep": EVERYTHING - {"bench", "cli"},
     "bench": EVERYTHING - {"cli"},

@@ -18,6 +18,7 @@ from collections.abc import Sequence
 
 from lfctl import __version__
 from lfctl.cli.options import OneLineParser
+from lfctl.data import code_digest
 from lfctl.errors import ConfigError, FmuError, LfctlError
 from lfctl.logs import guard_log
 
@@ -59,12 +60,22 @@ def quiet_stdout() -> None:
     os.close(devnull)
 
 
+class _Version(argparse.Action):
+    """``lfctl 0.1.0 (code 9b865979ab12)``: the start of the code's SHA-256 (the simulation's
+    Python and C sources, :func:`lfctl.data.code_digest`) tells two builds of one version apart,
+    as a log's provenance does; worked out only when asked."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
+        print(f"lfctl {__version__} (code {code_digest()[:12]})")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every command."""
     p = OneLineParser(
         prog="lfctl", description="Vision-guided leader-follower ground robots: co-simulation, tools, benchmarks."
     )
-    p.add_argument("--version", action="version", version=f"lfctl {__version__}")
+    p.add_argument("--version", action=_Version, nargs=0, help="show the version and the code's digest, and exit")
     p.add_argument("--debug", action="store_true", help="show tracebacks and debug logging")
     p.add_argument("-v", "--verbose", action="store_true", help="log progress messages (INFO)")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")

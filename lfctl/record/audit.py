@@ -555,7 +555,9 @@ def audit(path: str | Path, limits: ReadLimits | None = None) -> AuditReport:
             )
     figures["attachments"] = sorted(c.attachments)
     figures["provenance"] = {
-        k: v for k, v in c.metadata.get("lfctl", {}).items() if k in ("version", "git_revision", "python")
+        k: v
+        for k, v in c.metadata.get("lfctl", {}).items()
+        if k in ("version", "git_revision", "code_sha256", "python")
     }
     figures["run"] = run
     end = c.metadata.get("end")
@@ -653,6 +655,13 @@ def _expected_topics(run: _Run) -> dict[str, float]:
             if run.images:
                 out[image_topic(f, run.image_format)] = run.image_s
     return out
+
+
+def _code(provenance: dict[str, str]) -> str:
+    """``; code 9b865979ab12`` (the start of the code's SHA-256, which tells two builds of one
+    version apart) from the ``lfctl`` metadata ("" for a log without it, or with a bad one)."""
+    digest = provenance.get("code_sha256", "")
+    return f"; code {digest[:12]}" if re.fullmatch(r"[0-9a-f]{64}", digest) else ""
 
 
 def _at(end: dict[str, str]) -> str:
@@ -1108,7 +1117,7 @@ def format_report(report: AuditReport) -> str:
     if fig.get("provenance"):
         p = fig["provenance"]
         lines.append(
-            f"  lfctl {p.get('version')} ({p.get('git_revision')}), python {p.get('python')}; attachments: {', '.join(fig.get('attachments', []))}"
+            f"  lfctl {p.get('version')} ({p.get('git_revision')}{_code(p)}), python {p.get('python')}; attachments: {', '.join(fig.get('attachments', []))}"
         )
     if fig.get("end"):
         e = fig["end"]

@@ -164,6 +164,7 @@ class ReadLimits:
     message_bytes: int = MAX_MESSAGE_BYTES  # chunk data kept, bytes (MAX_MESSAGE_BYTES)
     other_bytes: int = MAX_OTHER_BYTES  # attachments, metadata, schemas, channels kept (MAX_OTHER_BYTES)
     records: int = MAX_RECORDS  # records read before stopping (MAX_RECORDS)
+    passed_over: int = MAX_PASSED_OVER  # damaged records passed over, and resumptions (MAX_PASSED_OVER)
 
 
 @dataclass
@@ -651,7 +652,18 @@ class _Reader:
         first Chunk its summary's ChunkIndex (its CRC checked) puts there or after it: the
         index's length where the damage is in that chunk's own header, the bytes between
         passed over (their definitions are the summary's too). Whether there is one."""
-        if not self.c.complete or self.summary_start is not None or self.passed_over >= MAX_PASSED_OVER:
+        if not self.c.complete or self.summary_start is not None:
+            return False
+        if self.passed_over >= self.lim.passed_over:
+            self.findings.append(
+                Finding(
+                    "error",
+                    f"{self.passed_over} damaged records were passed over, or resumed after, before this one "
+                    f"(MAX_PASSED_OVER = {self.lim.passed_over}): the audit stops here",
+                    fault.offset,
+                    "limit",
+                )
+            )
             return False
         if self.chunk_index is None:
             self.chunk_index = self.read_chunk_index()
@@ -790,13 +802,16 @@ class _Reader:
                 self.seen_header = True  # (there, though damaged)
             elif op == CHUNK:
                 self.skipped_chunk = start  # (its definitions lost: the summary's are used)
-            more = self.passed_over >= MAX_PASSED_OVER
+            more = self.passed_over >= self.lim.passed_over
             skip = op not in (DATA_END, FOOTER) and not more
             self.passed_over += skip
             why = f"corrupt {kind} record: {exc}"
-            if more:
-                why += f" (and {MAX_PASSED_OVER} damaged records passed over before it: the audit stops here)"
-            raise self.fail(start, why, skip=skip) from None
+            if more:  # the record is damaged, and the stop is the limit's
+                why += (
+                    f"; {self.passed_over} damaged records were passed over before it (MAX_PASSED_OVER = "
+                    f"{self.lim.passed_over}): the audit stops here"
+                )
+            raise self.fail(start, why, "limit" if more else "corrupt", skip=skip) from None
 
     def record(self, op: int, kind: str, body: bytes, start: int, header: bytes) -> None:
         c = self.c

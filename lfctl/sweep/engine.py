@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import hashlib
 import json
 import logging
 import math
@@ -53,7 +52,7 @@ from typing import Any
 from distributed import WorkerPlugin
 
 from lfctl import __version__
-from lfctl.data import models_dir
+from lfctl.data import code_digest
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sweep.results import (
@@ -73,7 +72,6 @@ __all__ = [
     "QUIET_WORKERS",
     "SweepProgress",
     "SweepResult",
-    "code_digest",
     "local_cluster",
     "run_sweep",
     "scheduler_processes",
@@ -82,7 +80,6 @@ __all__ = [
 
 log = logging.getLogger("lfctl.sweep")
 
-_PACKAGE = Path(__file__).resolve().parents[1]
 #: how often the loop wakes without a finished run (progress, stop requests), s
 _TICK_S = 0.5
 #: Dask settings of the workers lfctl starts (the local cluster, :func:`scheduler_processes`):
@@ -97,37 +94,6 @@ QUIET_WORKERS: dict[str, object] = {
     "distributed.admin.tick.interval": "1s",
     "distributed.admin.system-monitor.interval": "2s",
 }
-
-
-def code_digest(package: Path | None = None, models: Path | None = None) -> str:
-    """SHA-256 over lfctl's Python sources (but the command line and the benchmarks) and the
-    vehicle models' C sources: two processes with the same digest run the same simulation.
-
-    Each file is named in the digest by its path inside the package, or inside the models
-    folder (under ``fmu_models/``), whichever holds it: a source checkout (the models beside
-    the package) and a wheel of the same commit (the models inside it) give the same digest.
-
-    Parameters
-    ----------
-    package : Path, optional
-        The ``lfctl`` package folder (default: this one).
-    models : Path, optional
-        The vehicle models' folder (default :func:`~lfctl.data.models_dir`).
-    """
-    package = _PACKAGE if package is None else package
-    models = models_dir() if models is None else models
-    sources = [p for p in sorted(package.rglob("*.py")) if p.relative_to(package).parts[0] not in ("cli", "bench")]
-    named = [(p.relative_to(package).as_posix(), p) for p in sources]
-    named += [
-        ("fmu_models/" + p.relative_to(models).as_posix(), p)
-        for p in sorted(models.rglob("*"))
-        if p.suffix in (".c", ".h")
-    ]
-    h = hashlib.sha256()
-    for name, p in named:
-        h.update(name.encode())
-        h.update(p.read_bytes())
-    return h.hexdigest()
 
 
 def worker_environment(settings: dict[str, object] | None = None) -> dict[str, str]:

@@ -76,7 +76,9 @@ def test_an_integer_parameter_goes_through_its_own_setter_and_must_be_whole(faul
         assert "no variables of this type" in str(err.value)
 
 
-def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(faulty: BuiltModel, tmp_path: Path) -> None:
+def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(
+    faulty: BuiltModel, tmp_path: Path
+) -> None:
     """A scenario's `flag = true` stays a Boolean on its way to the FMU (the config reader
     turned it down as not a number before)."""
     with zipfile.ZipFile(faulty.fmi2) as z:
@@ -91,10 +93,9 @@ def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(fau
     )
     cfg = parse_config('[[vehicles]]\nname = "leader"\nrole = "leader"\n[vehicles.parameters]\nflag = true\n')
     assert cfg.leader.parameters == {"flag": True}
-    with FmuLibrary(fmu) as lib:
-        # FaultyRover has no Boolean variables: it says so for fmi2SetBoolean, the setter reached
-        with pytest.raises(FmuError, match="fmi2SetBoolean returned Error"):
-            lib.instantiate("f1", dict(cfg.leader.parameters), (0.0, 0.0, 0.0), *rows())
+    # FaultyRover has no Boolean variables: it says so for fmi2SetBoolean, the setter reached
+    with FmuLibrary(fmu) as lib, pytest.raises(FmuError, match="fmi2SetBoolean returned Error"):
+        lib.instantiate("f1", dict(cfg.leader.parameters), (0.0, 0.0, 0.0), *rows())
 
 
 @pytest.mark.parametrize(

@@ -1065,3 +1065,18 @@ def test_a_damaged_record_header_in_a_whole_log_loses_no_message_its_index_can_r
     summary_too[records_of(data, 8)[0][0] + 9 + 16] ^= 1  # the first ChunkIndex's chunk_start_offset
     (tmp_path / "both.mcap").write_bytes(summary_too)
     assert not message_keys(tmp_path / "both.mcap")
+
+
+def test_damaged_records_passed_over_stop_at_their_limit_which_is_named(tmp_path: Path) -> None:
+    # Metadata records whose name length runs past the record (their framing intact): each is
+    # passed over, until MAX_PASSED_OVER of them; the next one stops the reading, as a limit
+    bad_meta = record(12, struct.pack("<I", 1000) + b"x")
+    p = tmp_path / "many.mcap"
+    p.write_bytes(finish([header(), *[bad_meta] * 8]))
+    _, findings = read_contents(p, ReadLimits(passed_over=5))
+    corrupt = [f for f in findings if f.kind == "corrupt" and "Metadata record" in f.what]
+    limit = [f for f in findings if f.kind == "limit"]
+    assert len(corrupt) == 5 and len(limit) == 1, [f.line() for f in findings]
+    assert "MAX_PASSED_OVER = 5" in limit[0].what and "the audit stops here" in limit[0].what
+    assert limit[0].offset == len(MAGIC) + len(header()) + 5 * len(bad_meta)
+    assert not [f for f in read_contents(p)[1] if f.kind == "limit"]  # the default (64) reads all eight

@@ -25,6 +25,7 @@ from support import free_udp_ports
 
 from lfctl.cli import main
 from lfctl.config import load_config
+from lfctl.data import code_digest
 from lfctl.record.audit import audit, format_report, recover
 from lfctl.record.writer import FLUSH_INTERVAL_S, Recorder
 from lfctl.sim.runner import run_scenario
@@ -189,6 +190,9 @@ def test_metadata_and_attachments_come_first_with_hashes(camera_log) -> None:
     assert {"scenario.toml", "SkidSteerRover.fmi2.fmu/modelDescription.xml"} <= set(rep.contents.attachments)
     assert rep.figures["run"]["scenario"] == "convoy" and rep.figures["run"]["seed"] == "1"
     assert rep.figures["provenance"]["version"]
+    # which build wrote it: the code's digest (every wheel of a version says "0.1.0 (installed)")
+    assert rep.figures["provenance"]["code_sha256"] == code_digest()
+    assert f"; code {code_digest()[:12]})" in format_report(rep)
     with path.open("rb") as f:
         kinds = [type(r).__name__ for r in StreamReader(f, emit_chunks=True).records]
     first_chunk = kinds.index("Chunk")

@@ -6,8 +6,8 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from lfctl.data import models_dir
-from lfctl.sweep.engine import _PACKAGE, code_digest
+from lfctl.data import _PACKAGE_DIR as _PACKAGE
+from lfctl.data import code_digest, models_dir
 
 
 def _wheel_layout(root: Path) -> tuple[Path, Path]:
