@@ -175,13 +175,6 @@ def run(args: argparse.Namespace) -> int:
                             "black edge (its codec takes even sizes)",
                             file=sys.stderr,
                         )
-                    if args.out:
-                        size = (w + pad_w, h + pad_h)
-                        writer = cv2.VideoWriter(str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), rate, size)
-                        if not writer.isOpened():
-                            raise ConfigError(
-                                f"cannot write {args.out} (check the directory and the .mp4/.avi extension)"
-                            )
                 # (at --fps, the frames passed over took their time too)
                 t_s = (n + video.passed_over) / args.fps if args.fps else video.time_s
                 if video.untimed and not args.fps and not video.live and not untimed_said:
@@ -223,6 +216,12 @@ def run(args: argparse.Namespace) -> int:
                         "method": seen.pose.method,
                     }
                 print(json.dumps(rec), flush=True)
+                if args.out and writer is None:  # opened (so emptied) once the first frame is tracked
+                    writer = cv2.VideoWriter(
+                        str(args.out), cv2.VideoWriter_fourcc(*"mp4v"), rate, (w + pad_w, h + pad_h)
+                    )
+                    if not writer.isOpened():
+                        raise ConfigError(f"cannot write {args.out} (check the directory and the .mp4/.avi extension)")
                 if writer is not None:
                     drawn = annotate(frame, st, f"{n} {rec['state']}")
                     if pad_w or pad_h:
