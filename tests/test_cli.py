@@ -330,3 +330,21 @@ def test_a_realtime_run_says_how_to_start_the_leaders_mission(
     out = capsys.readouterr().out
     hint = f"leader       waits in HOLD, disarmed, its mission stored: `lfctl gcs --connect udpout:127.0.0.1:{base} mode AUTO`"
     assert hint in out
+
+
+def test_help_keeps_a_long_path_whole_and_prints_the_code_digest(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a wheel's examples sit in .../site-packages/...: argparse broke the line at its hyphen
+    from lfctl.data import code_digest
+
+    long = "/home/rover-user/projects/.venv-lfctl/lib/python3.11/site-packages/lfctl/examples"
+    monkeypatch.setattr("lfctl.cli.sim.examples_dir", lambda: Path(long))
+    monkeypatch.setenv("COLUMNS", "50")
+    with pytest.raises(SystemExit):
+        main(["sim", "--help"])
+    out = capsys.readouterr().out
+    assert long in out.splitlines()
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out.strip().endswith(f"(code {code_digest()[:12]})")

@@ -49,7 +49,8 @@ def register(sub: Any) -> None:
     fo.add_argument(
         "--camera",
         default="0",
-        help="camera index, video file, stream URL, or rtp://HOST:PORT for RTP/UDP H.264 (default 0)",
+        help="camera index, video file (or a shipped clip by name: bikes.mp4), stream URL, or rtp://HOST:PORT for "
+        "RTP/UDP H.264 (default 0)",
     )
     fo.add_argument(
         "--camera-wait",
@@ -383,7 +384,7 @@ def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
     from lfctl.cli.sim import announce_live, live_address, live_layout
     from lfctl.config import load_config, parse_config
-    from lfctl.data import resolve_scenario
+    from lfctl.data import resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
@@ -397,6 +398,7 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.vision.perception import BannerPerception, banner_in_picture
 
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
+    args.camera = resolve_footage(args.camera)  # a shipped clip by name, as lfctl track takes it
     live = live_address(args.live, cfg.live.foxglove, "--live")
     stream_to = live_address(args.video, cfg.live.video, "--video")
     if args.no_camera_component and stream_to is None:

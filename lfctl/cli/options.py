@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import textwrap
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -13,7 +14,16 @@ from typing import Any
 from lfctl.checks import Bound, check_connection, check_name
 from lfctl.errors import ConfigError
 
-__all__ = ["TRACKER_KINDS", "OneLineParser", "connection", "integer", "name", "number", "param_name"]
+__all__ = [
+    "TRACKER_KINDS",
+    "OneLineParser",
+    "WholePathsFormatter",
+    "connection",
+    "integer",
+    "name",
+    "number",
+    "param_name",
+]
 
 
 #: ``--tracker``'s names (``track``, ``replay``) -> the tracker kind: ``hue-only`` as the
@@ -21,8 +31,28 @@ __all__ = ["TRACKER_KINDS", "OneLineParser", "connection", "integer", "name", "n
 TRACKER_KINDS = {"full": "full", "hs-lbp": "hs-lbp", "hue-only": "hue", "hue": "hue"}
 
 
+class WholePathsFormatter(argparse.HelpFormatter):
+    """argparse's help layout, but a line is never broken inside a word or at its hyphens: a
+    path such as ``.../site-packages/lfctl/examples`` stays whole, to be copied."""
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        text = " ".join(text.split())
+        return textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        text = " ".join(text.split())
+        return textwrap.fill(
+            text, width, initial_indent=indent, subsequent_indent=indent, break_on_hyphens=False, break_long_words=False
+        )
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """An argument parser whose usage errors are one line on stderr, exit code 2."""
+    """An argument parser whose usage errors are one line on stderr, exit code 2, and whose
+    help keeps paths whole (:class:`WholePathsFormatter`), its sub-commands' too."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", WholePathsFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> Any:  # argparse's signature says NoReturn
         """Print ``<prog>: error: <message> (see <prog> --help)`` and exit 2.

@@ -720,6 +720,18 @@ def test_a_rover_that_will_not_arm_is_said_with_its_reason_and_the_run_goes_on(
     assert "sent 10 setpoints (the rover in GUIDED, armed and with odometry for 0)" in capsys.readouterr().out
 
 
+def test_a_shipped_clip_is_taken_by_name_as_lfctl_track_takes_it(
+    standing_rover, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a wheel's user has no footage/ folder: `--camera bikes.mp4` said "does not exist"
+    with standing_rover() as rover:
+        rc = main(["follow", "--mavlink", f"udpout:127.0.0.1:{rover.link.port}", "--camera", "bikes.mp4",
+                   "--max-frames", "3", "--timeout", "5"])  # fmt: skip
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    assert "bikes.mp4" in out.err + out.out and "sent 3 setpoints" in out.out
+
+
 def _follow(rover: VehicleEndpoint, video_path: Any, on_step: Any, max_frames: int | None = None) -> Any:
     """`follow_rover` with the default scenario's follower on ``rover`` (armed, 20 Hz), from
     the video at ``video_path``; each step to ``on_step``."""
