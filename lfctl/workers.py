@@ -13,9 +13,11 @@ import ctypes
 import os
 import queue
 import signal
+import site
 import socket
 import subprocess
 import sys
+import sysconfig
 import threading
 import time
 from multiprocessing.connection import Connection
@@ -87,6 +89,26 @@ def _popen(args: list[str], **kwargs: Any) -> subprocess.Popen[bytes]:
     return proc
 
 
+def _site_folders() -> set[str]:
+    """The folders an interpreter puts on its module path for installed packages."""
+    paths = sysconfig.get_paths()
+    folders = [*site.getsitepackages(), paths["purelib"], paths["platlib"]]
+    if site.ENABLE_USER_SITE:
+        folders.append(site.getusersitepackages())
+    return {os.path.realpath(f) for f in folders}
+
+
+def _worker_environment() -> dict[str, str]:
+    """This process's environment for a worker: the folder lfctl was found in put first on
+    ``PYTHONPATH`` where the interpreter would not look (a source tree), not where it does
+    (a wheel's site-packages, which there would come before the standard library)."""
+    env = dict(os.environ)
+    if os.path.realpath(_PACKAGE_ROOT) not in _site_folders():
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
+    env[_PARENT_ENV] = str(os.getpid())
+    return env
+
+
 def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subprocess.Popen[bytes], Connection]:
     """Run ``python -P -m module CONN_FD [FD ...]`` and return it with this end of its connection.
 
@@ -105,9 +127,7 @@ def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subpr
         More file descriptors the worker inherits (a shared memory file, say).
     """
     ours, theirs = socket.socketpair()
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-    env[_PARENT_ENV] = str(os.getpid())
+    env = _worker_environment()
     try:
         with theirs:
             fds = (theirs.fileno(), *extra_fds)
