@@ -9,6 +9,18 @@ from typing import Any
 from lfctl.bench import NAMES
 from lfctl.cli.options import number
 
+#: what each benchmark measures, for its --help (one for each of NAMES)
+WHAT = {
+    "cosim": "the co-simulation master against a bare fmpy loop",
+    "vision": "the trackers and ArUco on the labelled real footage and the rendered tiers, with OpenCV's "
+    "trackers as peers (about 6 min on 2 cores; --quick about 2)",
+    "formation": "the sliding-mode follower against a proportional baseline",
+    "link": "the MAVLink endpoint against a minimal pymavlink responder (--fuzz: hostile datagrams and a soak)",
+    "record": "what recording costs a lockstep run, and what the video keeps",
+    "e2e": "the whole product as lfctl sim runs it: real-time factor on one and two cores, the cost split",
+    "sweep": "runs per minute of a sweep with 1 and with N workers",
+}
+
 
 def register(sub: Any) -> None:
     """Add the ``bench`` command to the parser."""
@@ -18,6 +30,7 @@ def register(sub: Any) -> None:
         description=f"Run the benchmarks ({', '.join(NAMES)}); each prints a table and a JSON line. "
         "Without NAME every one runs, each in its own process, and the results are also written to "
         "bench-results.md and bench-results.json here (one benchmark by name prints only).",
+        epilog="What each measures: " + "; ".join(f"{name}: {WHAT[name]}" for name in NAMES) + ".",
     )
     b.add_argument("name", nargs="?", metavar="NAME", help=f"one benchmark: {', '.join(NAMES)}")
     b.add_argument("--quick", action="store_true", help="shorter runs (for a smoke check)")

@@ -38,11 +38,11 @@ def register(sub: Any) -> None:
         help="upload a mission (QGC WPL 110 .waypoints/.txt, or a QGroundControl .plan with its fence and rally "
         "points; or a shipped one by name: square.waypoints)",
     )
-    gu.add_argument("file", type=Path)
+    gu.add_argument("file", type=Path, help="a .waypoints, .txt or .plan file, or a shipped mission's name (square)")
     gd = gsub.add_parser(
         "download", help="download the mission (print it, or save to FILE; a .plan gets the fence and rally points too)"
     )
-    gd.add_argument("file", type=Path, nargs="?")
+    gd.add_argument("file", type=Path, nargs="?", help="write it here (.waypoints or .plan) instead of printing it")
     gsub.add_parser("clear", help="clear the mission")
     modes = ("MANUAL", "HOLD", "AUTO", "GUIDED", "RTL", "SMART_RTL")  # every mode lfctl's vehicles fly
     gm = gsub.add_parser("mode", help=f"set the mode: {', '.join(modes)}")
