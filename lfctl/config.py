@@ -676,8 +676,8 @@ class SceneConfig(_Section):
     realism: Literal["on", "off"] = "off"
     #: "footage": ground, walls and background photographed (frames of footage/, chosen per
     #: seed; the vision benchmark's tiers use them); "procedural": drawn from noise, the
-    #: default, as the tracker loses the banner against the footage's red-brown brick
-    #: (docs/rendering.md); realism "on" only
+    #: default (the look the realistic tests and figures were measured with; the convoy
+    #: follows alike on both, docs/rendering.md); realism "on" only
     textures: Literal["footage", "procedural"] = "procedural"
     #: where the sun is, from north, clockwise (TOML sun_azimuth_deg)
     sun_azimuth_rad: float = _f(math.radians(140.0), Bound(-360, 360))
