@@ -35,6 +35,20 @@ def edited(src: Path, dst: Path, edit) -> Path:
     return dst
 
 
+def with_parameter_on_faults_reference(faulty: BuiltModel, dst: Path, name: str, typed: str) -> Path:
+    """FaultyRover (FMI 2) with one more parameter, ``name`` of type ``typed`` (``<Integer
+    start="0"/>``), on the value reference of its Real `fault`: FMI 2 value references are
+    unique per type only."""
+    with zipfile.ZipFile(faulty.fmi2) as z:
+        vr = re.search(r'name="fault"\s+valueReference="(\d+)"', z.read("modelDescription.xml").decode())
+    assert vr is not None
+    variable = (
+        f'<ScalarVariable name="{name}" valueReference="{vr.group(1)}" causality="parameter" '
+        f'variability="fixed">{typed}</ScalarVariable>'
+    )
+    return edited(faulty.fmi2, dst, lambda md: md.replace("</ModelVariables>", variable + "</ModelVariables>"))
+
+
 def rows() -> tuple[np.ndarray, np.ndarray]:
     return np.zeros(len(INPUT_ROLES)), np.zeros(len(OUTPUT_ROLES))
 
@@ -56,16 +70,7 @@ def test_an_fmu_that_can_be_instantiated_once_per_process_serves_one_vehicle(
 def test_an_integer_parameter_goes_through_its_own_setter_and_must_be_whole(faulty: BuiltModel, tmp_path: Path) -> None:
     """FMI 2 value references are unique per type only: an Integer parameter may share the
     value reference of a Real one (here `fault`'s), and must not be set through fmi2SetReal."""
-    with zipfile.ZipFile(faulty.fmi2) as z:
-        vr = re.search(r'name="fault"\s+valueReference="(\d+)"', z.read("modelDescription.xml").decode())
-    assert vr is not None
-    mode = (
-        f'<ScalarVariable name="mode" valueReference="{vr.group(1)}" causality="parameter" '
-        'variability="fixed"><Integer start="0"/></ScalarVariable>'
-    )
-    fmu = edited(
-        faulty.fmi2, tmp_path / "int.fmu", lambda md: md.replace("</ModelVariables>", mode + "</ModelVariables>")
-    )
+    fmu = with_parameter_on_faults_reference(faulty, tmp_path / "int.fmu", "mode", '<Integer start="0"/>')
     with FmuLibrary(fmu) as lib:
         with pytest.raises(ConfigError, match=r"parameter 'mode' is an Integer: give a whole number .* got 0\.5"):
             lib.instantiate("f1", {"mode": 0.5}, (0.0, 0.0, 0.0), *rows())
@@ -81,16 +86,7 @@ def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(
 ) -> None:
     """A scenario's `flag = true` stays a Boolean on its way to the FMU (the config reader
     turned it down as not a number before)."""
-    with zipfile.ZipFile(faulty.fmi2) as z:
-        vr = re.search(r'name="fault"\s+valueReference="(\d+)"', z.read("modelDescription.xml").decode())
-    assert vr is not None
-    flag = (
-        f'<ScalarVariable name="flag" valueReference="{vr.group(1)}" causality="parameter" '
-        'variability="fixed"><Boolean start="false"/></ScalarVariable>'
-    )
-    fmu = edited(
-        faulty.fmi2, tmp_path / "bool.fmu", lambda md: md.replace("</ModelVariables>", flag + "</ModelVariables>")
-    )
+    fmu = with_parameter_on_faults_reference(faulty, tmp_path / "bool.fmu", "flag", '<Boolean start="false"/>')
     cfg = parse_config('[[vehicles]]\nname = "leader"\nrole = "leader"\n[vehicles.parameters]\nflag = true\n')
     assert cfg.leader.parameters == {"flag": True}
     # FaultyRover has no Boolean variables: it says so for fmi2SetBoolean, the setter reached
