@@ -13,17 +13,15 @@ import ctypes
 import os
 import queue
 import signal
-import site
 import socket
 import subprocess
 import sys
-import sysconfig
 import threading
 import time
 from multiprocessing.connection import Connection
 from typing import Any
 
-__all__ = ["start_worker", "watch_parent", "worker_fds"]
+__all__ = ["start_worker", "watch_parent", "worker_command", "worker_fds"]
 
 _PACKAGE_ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 #: the worker's parent, for the worker to check (environment variable)
@@ -89,35 +87,53 @@ def _popen(args: list[str], **kwargs: Any) -> subprocess.Popen[bytes]:
     return proc
 
 
-def _site_folders() -> set[str]:
-    """The folders an interpreter puts on its module path for installed packages."""
-    paths = sysconfig.get_paths()
-    folders = [*site.getsitepackages(), paths["purelib"], paths["platlib"]]
-    if site.ENABLE_USER_SITE:
-        folders.append(site.getusersitepackages())
-    return {os.path.realpath(f) for f in folders}
+#: what a worker's interpreter runs first: lfctl's folder on its module path where it is
+#: not already (a source tree; a wheel's site-packages is, after the standard library),
+#: then the worker's module as ``-m`` would run it
+_BOOT = (
+    "import os, runpy, sys\n"
+    "root, module = sys.argv[1], sys.argv[2]\n"
+    "del sys.argv[1:3]\n"
+    "if os.path.realpath(root) not in {os.path.realpath(p) for p in sys.path}:\n"
+    "    sys.path.insert(0, root)\n"
+    "runpy.run_module(module, run_name='__main__', alter_sys=True)\n"
+)
 
 
-def _worker_environment() -> dict[str, str]:
-    """This process's environment for a worker: the folder lfctl was found in put first on
-    ``PYTHONPATH`` where the interpreter would not look (a source tree), not where it does
-    (a wheel's site-packages, which there would come before the standard library)."""
-    env = dict(os.environ)
-    if os.path.realpath(_PACKAGE_ROOT) not in _site_folders():
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [_PACKAGE_ROOT, env.get("PYTHONPATH")]))
-    env[_PARENT_ENV] = str(os.getpid())
-    return env
+def _interpreter_flags() -> list[str]:
+    """This interpreter's flags that decide where modules come from, for a worker's: a
+    parent run with ``-E`` (``PYTHONPATH`` ignored), ``-s``, ``-S`` or ``-I`` finds its
+    packages where its worker then does."""
+    f = sys.flags
+    if f.isolated:
+        return ["-I"]
+    return [flag for flag, on in (("-E", f.ignore_environment), ("-s", f.no_user_site), ("-S", f.no_site)) if on]
+
+
+def worker_command(module: str, fds: tuple[int, ...]) -> list[str]:
+    """The command line of a worker running ``module`` with ``fds``: this interpreter, with
+    its flags and ``-P`` (the current folder kept off the module path: a ``numpy.py`` there
+    is not imported), importing lfctl from where this process did.
+
+    Parameters
+    ----------
+    module : str
+        The module to run, e.g. ``"lfctl.fmu.host"``.
+    fds : tuple of int
+        The file descriptors it is given, as arguments.
+    """
+    return [sys.executable, "-P", *_interpreter_flags(), "-c", _BOOT, _PACKAGE_ROOT, module, *(str(fd) for fd in fds)]
 
 
 def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subprocess.Popen[bytes], Connection]:
-    """Run ``python -P -m module CONN_FD [FD ...]`` and return it with this end of its connection.
+    """Run ``module`` in a fresh interpreter (:func:`worker_command`) and return it with this
+    end of its connection.
 
     The worker is given its end of the socket pair's file descriptor, then ``extra_fds``
     (kept open in it), as arguments (:func:`worker_fds` takes them); its stdin is closed, its
     stdout and stderr are this process's. It runs in a process group of its own, so a Ctrl-C
     at the terminal or a signal to this process's group (``timeout``, ``kill -- -PGID``)
-    reaches this process alone, which ends the run and its workers in order; ``-P`` keeps the
-    current folder off its module path (a ``numpy.py`` there is not imported).
+    reaches this process alone, which ends the run and its workers in order.
 
     Parameters
     ----------
@@ -127,17 +143,12 @@ def start_worker(module: str, *, extra_fds: tuple[int, ...] = ()) -> tuple[subpr
         More file descriptors the worker inherits (a shared memory file, say).
     """
     ours, theirs = socket.socketpair()
-    env = _worker_environment()
+    env = dict(os.environ)
+    env[_PARENT_ENV] = str(os.getpid())
     try:
         with theirs:
             fds = (theirs.fileno(), *extra_fds)
-            proc = _popen(
-                [sys.executable, "-P", "-m", module, *(str(fd) for fd in fds)],
-                pass_fds=fds,
-                env=env,
-                stdin=subprocess.DEVNULL,
-                process_group=0,
-            )
+            proc = _popen(worker_command(module, fds), pass_fds=fds, env=env, stdin=subprocess.DEVNULL, process_group=0)
     except BaseException:
         ours.close()
         raise

@@ -276,8 +276,8 @@ def test_the_fmu_process_passes_on_no_descriptor_and_ignores_the_current_folder(
     with FmuLibrary(faulty.fmi2) as lib, FmuHost(1) as host:
         host.add(0, lib, "f1", {}, (0.0, 0.0, 0.0))
         cmdline = Path(f"/proc/{host.pid}/cmdline").read_bytes().split(b"\0")[:-1]
-        assert cmdline[1:4] == [b"-P", b"-m", b"lfctl.fmu.host"]
-        for fd in cmdline[4:]:  # its connection and the shared rows: close-on-exec in it
+        assert cmdline[1] == b"-P" and cmdline[5] == b"lfctl.fmu.host", cmdline
+        for fd in cmdline[6:]:  # its connection and the shared rows: close-on-exec in it
             flags = next(x for x in Path(f"/proc/{host.pid}/fdinfo/{int(fd)}").read_text().splitlines() if "flags" in x)
             assert int(flags.split()[1], 8) & os.O_CLOEXEC, (fd, flags)
     # a numpy.py in the folder lfctl runs from is not the worker's numpy
@@ -286,5 +286,17 @@ def test_the_fmu_process_passes_on_no_descriptor_and_ignores_the_current_folder(
     scen.write_text(_scenario(faulty.fmi2, 0, 0.0, tmp_path / "logs"))
     run = subprocess.run(
         [sys.executable, "-P", "-m", "lfctl", "sim", str(scen), "-q"], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert (run.returncode, run.stderr) == (0, "")
+    # a run started with -E ignores PYTHONPATH, and so does its worker: another lfctl there
+    # is neither's (the worker had the parent's package folder put first on PYTHONPATH once)
+    (tmp_path / "other" / "lfctl").mkdir(parents=True)
+    (tmp_path / "other" / "lfctl" / "__init__.py").write_text("raise ImportError('another lfctl')\n")
+    run = subprocess.run(
+        [sys.executable, "-E", "-P", "-m", "lfctl", "sim", str(scen), "-q"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(tmp_path / "other")},
     )
     assert (run.returncode, run.stderr) == (0, "")
