@@ -39,7 +39,9 @@ class FreshBuildPy(build_py):
     """``build_py`` from an empty ``build/lib/lfctl``: nothing of an earlier build is kept."""
 
     def run(self) -> None:
-        shutil.rmtree(Path(self.build_lib) / "lfctl", ignore_errors=True)
+        old = Path(self.build_lib).resolve() / "lfctl"
+        if old != (Path(__file__).resolve().parent / "lfctl") and old.is_dir():  # (never the sources: --build-lib .)
+            shutil.rmtree(old)  # a failure is the build's: stale files must not ship quietly
         super().run()
 
 

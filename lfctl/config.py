@@ -246,9 +246,7 @@ class VehicleConfig(_Section):
     name: str = _f(name=True)
     role: Literal["leader", "follower"] = _f()
     #: a built-in model's name (the name of a user FMU's model, with ``fmu``)
-    model: str = _f(
-        "SkidSteerRover", name=True, note="without fmu: a built-in model, `KinematicUnicycle` or `SkidSteerRover`"
-    )
+    model: str = _f("SkidSteerRover", name=True, builtin=True)
     fmu: str | None = _f(None, text=4096, note="absolute, or relative to the scenario's folder and inside it")
     fmi_version: int = _f(2, Bound(2, 3, integer=True))  # which build of a built-in model to load: 2 or 3
     north_m: float = _f(0.0, _POS)  # initial position north, local NED, m
@@ -1007,8 +1005,11 @@ def _convert(value: Any, tp: Any, key: str) -> Any:
         if value is None and type(None) in args:
             return None
         inner = [a for a in args if a is not type(None)]
-        if isinstance(value, bool) and bool in inner:  # (a number or true/false: take true/false as given)
-            return value
+        if bool in inner:  # a number, or true/false taken as given
+            if isinstance(value, bool):
+                return value
+            if not isinstance(value, (int, float)):
+                raise ConfigError(f"{key} must be a number, true or false, got {toml_value(value)}")
         return _convert(value, inner[0], key)
     if origin is Literal:
         if value not in args:
@@ -1361,6 +1362,8 @@ def _ref_accepted(f: dataclasses.Field[Any], tp: Any) -> str:
         parts.append(f"each {md['each'].text()}")
     if md.get("max_items") is not None:
         parts.append(f"at most {md['max_items']} entries")
+    if md.get("builtin"):
+        parts.append("without fmu: a built-in model, " + " or ".join(f"`{m}`" for m in builtin_models()))
     if md.get("note"):
         parts.append(md["note"])
     return "; ".join(parts) or "-"

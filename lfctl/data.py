@@ -17,6 +17,7 @@ from lfctl.errors import ConfigError
 
 __all__ = [
     "code_digest",
+    "code_identity",
     "docs_dir",
     "example_names",
     "examples_dir",
@@ -100,18 +101,36 @@ def code_digest(package: Path | None = None, models: Path | None = None) -> str:
     """
     package = _PACKAGE_DIR if package is None else package
     models = models_dir() if models is None else models
-    sources = [p for p in sorted(package.rglob("*.py")) if p.relative_to(package).parts[0] not in ("cli", "bench")]
+
+    def source(p: Path, root: Path) -> bool:
+        # an editor's lock or backup (.#config.py, a dangling link) is not the code
+        return p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts)
+
+    sources = [
+        p
+        for p in sorted(package.rglob("*.py"))
+        if p.relative_to(package).parts[0] not in ("cli", "bench") and source(p, package)
+    ]
     named = [(p.relative_to(package).as_posix(), p) for p in sources]
     named += [
         ("fmu_models/" + p.relative_to(models).as_posix(), p)
         for p in sorted(models.rglob("*"))
-        if p.suffix in (".c", ".h")
+        if p.suffix in (".c", ".h") and source(p, models)
     ]
     h = hashlib.sha256()
     for name, p in named:
         h.update(name.encode())
         h.update(p.read_bytes())
     return h.hexdigest()
+
+
+def code_identity() -> str:
+    """:func:`code_digest`, or ``unknown (why)`` when a source cannot be read: what a log's
+    provenance and ``lfctl --version`` say, never a reason for them to fail."""
+    try:
+        return code_digest()
+    except OSError as exc:
+        return f"unknown ({exc.strerror or exc}: {exc.filename})"
 
 
 def example_names(suffix: str = ".toml", sub: str = "") -> list[str]:

@@ -36,7 +36,9 @@ def test_fmu_parameters_take_numbers_and_booleans_as_written() -> None:
     cfg = parse_config(LEADER + "[vehicles.parameters]\ntau = 2\nflag = true\noff = false\n")
     assert cfg.leader.parameters == {"tau": 2.0, "flag": True, "off": False}
     assert [type(v) for v in cfg.leader.parameters.values()] == [float, bool, bool]
-    with pytest.raises(ConfigError, match=r"vehicles\[leader\]\.parameters\.tau must be a number, got \[1\]"):
+    with pytest.raises(
+        ConfigError, match=r"vehicles\[leader\]\.parameters\.tau must be a number, true or false, got \[1\]"
+    ):
         parse_config(LEADER + "[vehicles.parameters]\ntau = [1]\n")
 
 

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 from lfctl import __version__
 from lfctl.cli.options import OneLineParser
-from lfctl.data import code_digest
+from lfctl.data import code_identity
 from lfctl.errors import ConfigError, FmuError, LfctlError
 from lfctl.logs import guard_log
 
@@ -66,7 +66,8 @@ class _Version(argparse.Action):
     as a log's provenance does; worked out only when asked."""
 
     def __call__(self, parser: argparse.ArgumentParser, *_: object) -> None:
-        print(f"lfctl {__version__} (code {code_digest()[:12]})")
+        code = code_identity()
+        print(f"lfctl {__version__} (code {code[:12] if code.isalnum() else code})")
         parser.exit()
 
 

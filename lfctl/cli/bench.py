@@ -17,7 +17,7 @@ WHAT = {
     "formation": "the sliding-mode follower against a proportional baseline",
     "link": "the MAVLink endpoint against a minimal pymavlink responder (--fuzz: hostile datagrams and a soak)",
     "record": "what recording costs a lockstep run, and what the video keeps",
-    "e2e": "the whole product as lfctl sim runs it: real-time factor on one and two cores, the cost split",
+    "e2e": "the whole product as lfctl sim runs it: real-time factor on one core and on all, the cost split",
     "sweep": "runs per minute of a sweep with 1 and with N workers",
 }
 

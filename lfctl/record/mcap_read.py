@@ -652,8 +652,6 @@ class _Reader:
         first Chunk its summary's ChunkIndex (its CRC checked) puts there or after it: the
         index's length where the damage is in that chunk's own header, the bytes between
         passed over (their definitions are the summary's too). Whether there is one."""
-        if not self.c.complete or self.summary_start is not None:
-            return False
         if self.passed_over >= self.lim.passed_over:
             self.findings.append(
                 Finding(
@@ -664,6 +662,8 @@ class _Reader:
                     "limit",
                 )
             )
+            return False
+        if not self.c.complete or self.summary_start is not None:
             return False
         if self.chunk_index is None:
             self.chunk_index = self.read_chunk_index()
@@ -805,13 +805,8 @@ class _Reader:
             more = self.passed_over >= self.lim.passed_over
             skip = op not in (DATA_END, FOOTER) and not more
             self.passed_over += skip
-            why = f"corrupt {kind} record: {exc}"
-            if more:  # the record is damaged, and the stop is the limit's
-                why += (
-                    f"; {self.passed_over} damaged records were passed over before it (MAX_PASSED_OVER = "
-                    f"{self.lim.passed_over}): the audit stops here"
-                )
-            raise self.fail(start, why, "limit" if more else "corrupt", skip=skip) from None
+            # (past MAX_PASSED_OVER the reading stops: resync says so, as a limit finding)
+            raise self.fail(start, f"corrupt {kind} record: {exc}", skip=skip) from None
 
     def record(self, op: int, kind: str, body: bytes, start: int, header: bytes) -> None:
         c = self.c

@@ -88,7 +88,7 @@ def test_a_boolean_parameter_from_a_scenario_goes_through_the_boolean_setter(
     turned it down as not a number before)."""
     fmu = with_parameter_on_faults_reference(faulty, tmp_path / "bool.fmu", "flag", '<Boolean start="false"/>')
     cfg = parse_config('[[vehicles]]\nname = "leader"\nrole = "leader"\n[vehicles.parameters]\nflag = true\n')
-    assert cfg.leader.parameters == {"flag": True}
+    assert cfg.leader.parameters == {"flag": True} and type(cfg.leader.parameters["flag"]) is bool
     # FaultyRover has no Boolean variables: it says so for fmi2SetBoolean, the setter reached
     with FmuLibrary(fmu) as lib, pytest.raises(FmuError, match="fmi2SetBoolean returned Error"):
         lib.instantiate("f1", dict(cfg.leader.parameters), (0.0, 0.0, 0.0), *rows())

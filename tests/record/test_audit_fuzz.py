@@ -1076,7 +1076,8 @@ def test_damaged_records_passed_over_stop_at_their_limit_which_is_named(tmp_path
     _, findings = read_contents(p, ReadLimits(passed_over=5))
     corrupt = [f for f in findings if f.kind == "corrupt" and "Metadata record" in f.what]
     limit = [f for f in findings if f.kind == "limit"]
-    assert len(corrupt) == 5 and len(limit) == 1, [f.line() for f in findings]
+    # the sixth is damaged (corrupt) and where the reading stops (limit)
+    assert len(corrupt) == 6 and len(limit) == 1, [f.line() for f in findings]
     assert "MAX_PASSED_OVER = 5" in limit[0].what and "the audit stops here" in limit[0].what
-    assert limit[0].offset == len(MAGIC) + len(header()) + 5 * len(bad_meta)
+    assert limit[0].offset == corrupt[-1].offset == len(MAGIC) + len(header()) + 5 * len(bad_meta)
     assert not [f for f in read_contents(p)[1] if f.kind == "limit"]  # the default (64) reads all eight
