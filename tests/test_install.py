@@ -93,7 +93,8 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     assert _run(["lfctl", "--version"], empty, env).strip() == f"lfctl {__version__} (code {code})"
     # the page its help names is there, inside the installed package
     helped = _run(["lfctl", "audit", "--help"], empty, env)
-    page = Path(helped.split("Reading is bounded (", 1)[1].split(")", 1)[0].replace("\n", "").replace(" ", ""))
+    # (a path is never broken across lines: the line breaks before it)
+    page = Path(" ".join(helped.split()).split("Reading is bounded (", 1)[1].split(")", 1)[0])
     assert str(page).startswith(str(venv)) and page.is_file(), page
 
 
