@@ -199,6 +199,9 @@ def execute(run: Run, out_dir: str, logs: str = "none") -> dict[str, Any]:
     path = Path(out_dir) / rel if rel else None
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
+        # the run's log is named by its number: an earlier attempt's (a worker killed under it,
+        # a run cancelled that went on to its end) is not this run's, and the name is its
+        path.unlink(missing_ok=True)
     camera = run.config.sim.sensing == "camera"
     scores = {f.name: TrackScore() for f in run.config.followers} if camera else {}
 
@@ -213,9 +216,12 @@ def execute(run: Run, out_dir: str, logs: str = "none") -> dict[str, Any]:
         kept = rel if path is not None and path.exists() else ""
         return failed_row(run, "error", f"{type(exc).__name__}: {exc}".splitlines()[0], kept, wall)
     wall = time.perf_counter() - t0
-    if path is not None and logs == "failed":
-        path.unlink(missing_ok=True)
-        rel = ""
+    if report.log_path is not None and path is not None:
+        # the recorder's own name (another attempt may have taken ours meanwhile: then -2)
+        rel = report.log_path.relative_to(path.parent.parent).as_posix()
+        if logs == "failed":
+            report.log_path.unlink(missing_ok=True)
+            rel = ""
     row = _identity(run)
     step_s = 1.0 / run.config.sim.guidance_rate_hz
     for m, trace in zip(report.metrics, report.traces, strict=True):
