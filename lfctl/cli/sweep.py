@@ -46,7 +46,9 @@ def register(sub: Any) -> None:
     s.add_argument("sweep", metavar="SWEEP", help="sweep TOML file or a shipped sweep's name; or `report`")
     s.add_argument("dir", nargs="?", metavar="DIR", help="with `report`: the sweep's folder")
     s.add_argument(
-        "--scheduler", metavar="ADDR", help="a running Dask scheduler, tcp://HOST:8786 (default: a local cluster)"
+        "--scheduler",
+        metavar="ADDR",
+        help="a running Dask scheduler, tcp://HOST:8786 or HOST:8786 (default: a local cluster)",
     )
     s.add_argument(
         "--workers",
@@ -116,7 +118,11 @@ def run(args: argparse.Namespace) -> int:
     from lfctl.sweep.spec import load_sweep, plan
 
     if not args.debug:  # Dask reports each worker's start and stop; a dead one is the sweep's to report, as a row
-        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        import distributed  # noqa: F401  (its logging settings first: they give loggers under it levels of their own)
+
+        for name in ["distributed", *logging.root.manager.loggerDict]:  # (distributed.client: WARNING)
+            if name.split(".")[0] == "distributed":
+                logging.getLogger(name).setLevel(logging.CRITICAL)
         # a cluster interrupted while it starts leaves its comms' futures failed and unread,
         # which asyncio reports with a traceback as they are collected (after "lfctl:
         # interrupted"): those, and only those, are kept back

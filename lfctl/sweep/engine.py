@@ -52,7 +52,7 @@ from typing import Any
 from distributed import WorkerPlugin
 
 from lfctl import __version__
-from lfctl.data import code_digest
+from lfctl.data import code_identity
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sweep.results import (
@@ -180,14 +180,55 @@ def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: fl
                     p.wait()
 
 
-def _worker_identity() -> tuple[str, str]:
-    """On a worker: lfctl's version and code digest. Importing what a run needs here keeps
-    the imports out of the first run's time."""
+#: this process's lfctl code as it was imported: the digest of the sources when this module
+#: was (a worker that imported other code says so after the files have been put back)
+_LOADED_CODE = code_identity()
+#: how long the scheduler may leave the sweep's question (its workers' threads) unanswered
+#: before the sweep takes it for gone, s
+SCHEDULER_SILENT_S = 20.0
+
+
+def _worker_identity() -> tuple[str, str, str]:
+    """On a worker: lfctl's version, its code digest as imported, and where it was imported
+    from. Importing what a run needs here keeps the imports out of the first run's time."""
     import cv2  # noqa: F401
 
     import lfctl.sweep.task  # noqa: F401
 
-    return __version__, code_digest()
+    return __version__, _LOADED_CODE, str(Path(__file__).resolve().parents[1])
+
+
+class OtherCode(LfctlError):
+    """A run reached a worker whose lfctl is not the sweep's (one that joined after the
+    start's check, or a restarted one that imported other files)."""
+
+    def __init__(self, worker: str, identity: tuple[str, str, str]) -> None:
+        super().__init__(worker, identity)
+        self.worker, self.identity = worker, identity
+
+    def __str__(self) -> str:
+        version, code, where = self.identity
+        return f"{self.worker} (lfctl {version}, code {code[:12]}, from {where})"
+
+
+def checked_run(task: Callable[[Any, str, str], dict[str, Any]], expected: tuple[str, str], *args: Any) -> Any:
+    """On a worker: ``task(*args)`` when this worker's lfctl (version and code as imported) is
+    ``expected``, the sweep's; else :class:`OtherCode`, and the run is not run.
+
+    Parameters
+    ----------
+    task : callable
+        What the run is (:func:`lfctl.sweep.task.execute`).
+    expected : tuple of str
+        The sweep's lfctl version and code digest.
+    *args
+        The task's arguments: the run, the sweep's folder, which logs to keep.
+    """
+    if (__version__, _LOADED_CODE) != tuple(expected):
+        from distributed import get_worker
+
+        raise OtherCode(get_worker().address, _worker_identity())
+    return task(*args)
 
 
 @dataclass(frozen=True)
@@ -426,7 +467,7 @@ def _check_address(scheduler: str) -> tuple[str, int]:
     host and port."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
-    form = f"--scheduler must be an address such as tcp://HOST:8786, got {scheduler!r}"
+    form = f"--scheduler must be an address such as tcp://HOST:8786 (or HOST:8786), got {scheduler!r}"
     if not scheduler.startswith(("tcp://", "tls://")):
         raise ConfigError(form)
     try:
@@ -489,12 +530,19 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
         client.close()
         raise LfctlError(f"the scheduler at {scheduler} has {have} workers after 60 s, waiting for {want}") from None
     retries = client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.allowed_failures)
-    threads = sum(client.nthreads().values())
+    nthreads = client.nthreads()
+    threads = sum(nthreads.values())
     desc = (
-        f"Dask scheduler {scheduler}, {len(client.nthreads())} workers, {threads} threads; "
-        f"a crashed run is retried {retries} times (distributed.scheduler.allowed-failures)"
+        f"Dask scheduler {scheduler}, {_count(len(nthreads), 'worker')}, {_count(threads, 'thread')}; "
+        f"a crashed run is retried {'once' if retries == 1 else _count(retries, 'time')} "
+        "(distributed.scheduler.allowed-failures)"
     )
     return client, None, desc
+
+
+def _count(n: int, what: str) -> str:
+    """``1 worker``, ``2 workers``."""
+    return f"{n} {what}{'' if n == 1 else 's'}"
 
 
 def _identity(run: Callable[[Callable[[], Any]], Any], who: str, fix: str) -> Any:
@@ -509,20 +557,21 @@ def _identity(run: Callable[[Callable[[], Any]], Any], who: str, fix: str) -> An
 def _check_workers(client: Any, code: str) -> None:
     """The scheduler and every worker import this lfctl. The scheduler unpickles the runs it
     is given, so it needs lfctl too; asking it first also takes its imports (1.3 s on a fresh
-    ``dask scheduler`` here) out of the first run's time."""
+    ``dask scheduler`` here) out of the first run's time. (Workers that join later are
+    checked by each run: :func:`checked_run`.)"""
     ours = _identity(client.run_on_scheduler, "the Dask scheduler", "install this lfctl where it runs")
-    if tuple(ours) != (__version__, code):
+    if tuple(ours[:2]) != (__version__, code):
         raise LfctlError(
-            f"the Dask scheduler runs other lfctl code (lfctl {ours[0]}, code {ours[1][:12]}) than this process "
-            f"(lfctl {__version__}, code {code[:12]}): install the same lfctl everywhere"
+            f"the Dask scheduler runs other lfctl code (lfctl {ours[0]}, code {ours[1][:12]}, from {ours[2]}) than "
+            f"this process (lfctl {__version__}, code {code[:12]}): install the same lfctl everywhere"
         )
     seen = _identity(client.run, "Dask workers", "install this lfctl on every worker")
-    wrong = {w: v for w, v in seen.items() if v != (__version__, code)}
+    wrong = {w: v for w, v in seen.items() if tuple(v[:2]) != (__version__, code)}
     if wrong:
-        listed = ", ".join(f"{w} (lfctl {v[0]}, code {v[1][:12]})" for w, v in sorted(wrong.items()))
+        listed = ", ".join(str(OtherCode(w, tuple(v))) for w, v in sorted(wrong.items()))
         raise LfctlError(
             f"workers run other lfctl code than this process (lfctl {__version__}, code {code[:12]}): {listed}; "
-            "install the same lfctl everywhere (PYTHONPATH reaches local workers)"
+            "install the same lfctl everywhere"
         )
 
 
@@ -587,12 +636,14 @@ def run_sweep(
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers (workers) must be >= 1, got {workers}")
     if scheduler is not None:
+        if "://" not in scheduler:  # HOST:PORT, as Dask takes it: TCP
+            scheduler = f"tcp://{scheduler}"
         _check_address(scheduler)
     p = sweep if isinstance(sweep, SweepPlan) else plan(sweep if isinstance(sweep, SweepSpec) else load_sweep(sweep))
     # the folder the kernel would write to: "nosuch/.." (or a link and "..") is the folder above,
     # which must pass the same checks
     folder = (Path(out_dir) if out_dir is not None else Path("sweeps") / p.spec.name).resolve()
-    code = code_digest()
+    code = _LOADED_CODE
     done_rows = _prepare(folder, p, resume, code)  # (checks only: a new folder is made once the cluster is up)
     made = done_rows is not None
     have = {int(r["run"]) for r in done_rows or []}
@@ -606,7 +657,9 @@ def run_sweep(
     started = last_row = time.perf_counter()
     done = failed = 0
     pending: dict[Any, Any] = {}
-    lost: list[int] = []  # runs the scheduler cancelled (it restarted, or the connection broke)
+    lost: list[int] = []  # runs the scheduler lost (it restarted or went away, or the connection broke)
+    other: list[OtherCode] = []  # runs refused by workers with other lfctl code
+    silent = False  # the scheduler stopped answering
 
     def state() -> SweepProgress:
         return SweepProgress(
@@ -626,7 +679,7 @@ def run_sweep(
             made = True
         if todo:
             log.info("sweep %s: %d runs to do on %s", p.spec.name, len(todo), engine)
-        started = last_row = time.perf_counter()
+        started = last_row = heard = time.perf_counter()
         slots, slots_at = 1, -math.inf
         if progress is not None:
             progress(state(), None)
@@ -637,13 +690,21 @@ def run_sweep(
                 stopping = True
                 if progress is not None:  # said at once, even when nothing is left to wait for
                     progress(state(), None)
+            if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second
+                slots_at = time.perf_counter()
+                try:  # (briefly: a scheduler that has stopped answering must not hold the loop)
+                    slots, heard = max(1, sum(client.nthreads(callback_timeout=_TICK_S).values())), slots_at
+                except TimeoutError:
+                    if slots_at - heard > SCHEDULER_SILENT_S:
+                        silent = True
+                        lost.extend(r.run for r in pending.values())
+                        break
             if not stopping and todo:
-                if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second
-                    slots, slots_at = max(1, sum(client.nthreads().values())), time.perf_counter()
                 while todo and len(pending) < slots:
                     run = todo.popleft()
                     key = f"lfctl-sweep-{p.spec.name}-{session}-run{run.run}"
-                    pending[client.submit(fn, run, where, logs, key=key, pure=False)] = run
+                    future = client.submit(checked_run, fn, (__version__, code), run, where, logs, key=key, pure=False)
+                    pending[future] = run
             if not pending:
                 break
             try:
@@ -656,6 +717,11 @@ def run_sweep(
                 run = pending.pop(fut)
                 if fut.status == "cancelled":  # not by us: the scheduler lost it. No row: --resume runs it
                     lost.append(run.run)
+                    stopping = True
+                    continue
+                if fut.status == "error" and isinstance(fut.exception(), OtherCode):  # not run: no row
+                    other.append(fut.exception())
+                    todo.appendleft(run)  # (left to --resume)
                     stopping = True
                     continue
                 row = _row(fut, run)
@@ -681,10 +747,23 @@ def run_sweep(
             cluster.close()
     wall = last_row - started  # not the cluster's closing
     rows, summary = _finish(folder, p, plots)
-    if lost:
+    kept = f"the {len(rows)} finished rows are in {folder}, --resume runs the rest"
+    if other:
+        workers = ", ".join(sorted({str(e) for e in other}))
         raise LfctlError(
-            f"the Dask scheduler cancelled {len(lost)} runs (runs {', '.join(map(str, lost[:10]))}): it restarted or "
-            f"the connection broke; the {len(rows)} finished rows are in {folder}, --resume runs the rest"
+            f"the sweep stopped: a worker runs other lfctl code than this process (lfctl {__version__}, code "
+            f"{code[:12]}): {workers}; install the same lfctl everywhere; {kept}"
+        )
+    if silent:
+        raise LfctlError(
+            f"the Dask scheduler has not answered for {SCHEDULER_SILENT_S:g} s: the sweep stopped, its "
+            f"{len(lost)} running runs lost; {kept}"
+        )
+    if lost:
+        n = len(lost)
+        raise LfctlError(
+            f"lost {n} run{'s' if n != 1 else ''} (run{'s' if n != 1 else ''} {', '.join(map(str, lost[:10]))}): "
+            f"the connection to the Dask scheduler broke (it stopped or restarted); {kept}"
         )
     return SweepResult(folder, p, rows, summary, bool(todo), wall, engine, summary.files)
 

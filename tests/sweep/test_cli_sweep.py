@@ -46,8 +46,11 @@ def test_bad_variants_and_arguments_are_one_line_naming_them(
     with pytest.raises(SystemExit, match="2"):
         main(["sweep", str(ok), "--logs", "some"])
     assert "invalid choice: 'some'" in capsys.readouterr().err  # argparse names the choices
-    assert main(["sweep", str(ok), "--scheduler", "127.0.0.1:8786"]) == 2
+    assert main(["sweep", str(ok), "--scheduler", "udp://127.0.0.1:8786"]) == 2
     assert "--scheduler must be an address such as tcp://HOST:8786" in capsys.readouterr().err
+    # HOST:PORT is a TCP address, as Dask takes it (nothing listens on port 9 here)
+    assert main(["sweep", str(ok), "--scheduler", "127.0.0.1:9", "--out", str(tmp_path / "x")]) == 1
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
     with pytest.raises(SystemExit, match="2"):  # when the command line is read: before the plan is printed
         main(["sweep", str(ok), "--workers", "0"])
     assert capsys.readouterr() == (

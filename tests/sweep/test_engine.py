@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -16,9 +17,11 @@ import cloudpickle
 import pytest
 from distributed import Client
 
+from lfctl import __file__ as lfctl_file
 from lfctl import __version__
+from lfctl.data import models_dir
 from lfctl.errors import ConfigError, LfctlError
-from lfctl.sweep import SweepProgress, run_sweep
+from lfctl.sweep import SweepProgress, engine, run_sweep
 from lfctl.sweep.engine import _check_workers, _connect, local_cluster, scheduler_processes, worker_environment
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
@@ -165,7 +168,7 @@ def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
     with scheduler_processes(2) as address:
         assert address.startswith("tcp://127.0.0.1:")
         result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=2)
-        assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried 1 times" in result.engine
+        assert f"Dask scheduler {address}, 2 workers, 2 threads; a crashed run is retried once" in result.engine
         assert _table(result.rows) == _table(rows)
 
         # someone restarts the cluster mid-sweep: the runs it cancels get no row, and --resume runs them
@@ -177,11 +180,103 @@ def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
                 with Client(address) as other:
                     other.restart()
 
-        with pytest.raises(LfctlError, match=r"the Dask scheduler cancelled \d+ runs .* --resume runs the rest"):
+        with pytest.raises(
+            LfctlError, match=r"lost \d+ runs? .* the connection to the Dask scheduler broke .* --resume"
+        ):
             run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, progress=restart)
         assert 1 <= len(read_rows(tmp_path / "again")) < 8
         resumed = run_sweep(folder / "s.toml", tmp_path / "again", scheduler=address, resume=True)
     assert _table(resumed.rows) == _table(rows)
+
+
+def test_a_worker_with_other_lfctl_code_that_joins_mid_sweep_runs_nothing_and_stops_it(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    # the code was checked once, at the start: a worker that joined later ran 54 of 120 runs
+    # with its own code, silently. Here the newcomer's lfctl is a copy without the models
+    folder, rows = reference
+    package = Path(lfctl_file).parent
+    for p in package.rglob("*.py"):
+        (tmp_path / "tree" / p.relative_to(package.parent)).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / "tree" / p.relative_to(package.parent)).write_bytes(p.read_bytes())
+    env = {**os.environ, "PYTHONPATH": str(tmp_path / "tree")}
+    newcomer: list[subprocess.Popen] = []
+    with scheduler_processes(1) as address:
+
+        def join(state: object, row: dict | None) -> None:
+            if row is not None and not newcomer:
+                newcomer.append(
+                    subprocess.Popen(
+                        [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1", "--host", "127.0.0.1",
+                         "--no-dashboard", "--death-timeout", "60"],
+                        env=env, cwd=tmp_path,  # (-m puts the current folder, this checkout, first)
+                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                    )
+                )  # fmt: skip
+                with Client(address) as client:
+                    first = list(client.nthreads())
+                    client.wait_for_workers(2, timeout=60)
+                    client.retire_workers(first)  # what is left to run goes to the newcomer
+
+        try:
+            with pytest.raises(LfctlError, match=r"a worker runs other lfctl code .* from .*tree/lfctl\).* --resume"):
+                run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=join)
+        finally:
+            for proc in newcomer:
+                proc.terminate()
+                proc.wait(timeout=30)
+    written = read_rows(tmp_path / "out")  # the first worker's rows; none from the newcomer
+    assert 1 <= len(written) < len(rows)
+    assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
+
+
+def test_a_scheduler_that_stops_answering_ends_the_sweep_keeping_its_rows(
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a frozen scheduler (SIGSTOP here; a hung or swapping one, a link that drops packets):
+    # the loop waited on its answer for ever, deaf to the first two Ctrl-C
+    folder, rows = reference
+    monkeypatch.setattr(engine, "SCHEDULER_SILENT_S", 3.0)
+    with scheduler_processes(1) as address:
+        with Client(address) as client:
+            pid = client.run_on_scheduler(os.getpid)
+        frozen: list[int] = []
+
+        def freeze(state: object, row: dict | None) -> None:
+            if row is not None and not frozen:
+                os.kill(pid, signal.SIGSTOP)
+                frozen.append(row["run"])
+
+        try:
+            with pytest.raises(LfctlError, match=r"the Dask scheduler has not answered for 3 s: the sweep stopped"):
+                run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=freeze)
+        finally:
+            os.kill(pid, signal.SIGCONT)
+    written = read_rows(tmp_path / "out")
+    assert 1 <= len(written) < len(rows) and frozen
+    assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
+
+
+def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
+    # a worker that imported other code, its files put back since: it passed the check
+    package = Path(lfctl_file).parent
+    for p in [*package.rglob("*.py"), *models_dir().rglob("*")]:
+        rel = p.relative_to(package.parent) if p.suffix == ".py" else Path("fmu_models") / p.relative_to(models_dir())
+        if p.is_file():
+            (tmp_path / "tree" / rel).parent.mkdir(parents=True, exist_ok=True)
+            (tmp_path / "tree" / rel).write_bytes(p.read_bytes())
+    script = (
+        "import lfctl.data, lfctl.sweep.engine as e\n"
+        "before = e._worker_identity()[1]\n"
+        "f = e.Path(lfctl.data.__file__).with_name('frames.py')\n"
+        "f.write_text(f.read_text() + '# edited\\n')\n"
+        "print(before == e._worker_identity()[1], before != lfctl.data.code_digest())\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", script], env={**os.environ, "PYTHONPATH": str(tmp_path / "tree")}, cwd=tmp_path,
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert out.stdout.split() == ["True", "True"], out.stderr
 
 
 def test_workers_lfctl_starts_leave_out_what_feeds_only_the_dashboard() -> None:
@@ -230,14 +325,16 @@ class _Cluster:
 
 
 def test_a_scheduler_or_worker_with_other_lfctl_code_is_named() -> None:
-    me = (__version__, "c0de" * 16)
+    me = (__version__, "c0de" * 16, "/site/lfctl")
     _check_workers(_Cluster(me, {"tcp://w1": me}), me[1])  # the same code everywhere: fine
     with pytest.raises(LfctlError, match=r"the Dask scheduler runs other lfctl code \(lfctl 0.0.1, code 0ther"):
-        _check_workers(_Cluster(("0.0.1", "0ther" * 8), {"tcp://w1": me}), me[1])
+        _check_workers(_Cluster(("0.0.1", "0ther" * 8, "/old/lfctl"), {"tcp://w1": me}), me[1])
     with pytest.raises(LfctlError, match=r"the Dask scheduler cannot import lfctl .*ModuleNotFoundError"):
         _check_workers(_Cluster(ModuleNotFoundError("No module named 'lfctl'"), {}), me[1])
-    with pytest.raises(LfctlError, match=r"workers run other lfctl code .*: tcp://w2 \(lfctl 0.0.1, code 0ther"):
-        _check_workers(_Cluster(me, {"tcp://w1": me, "tcp://w2": ("0.0.1", "0ther" * 8)}), me[1])
+    with pytest.raises(
+        LfctlError, match=r"workers run other lfctl code .*: tcp://w2 \(lfctl 0.0.1, code 0ther.*, from /old"
+    ):
+        _check_workers(_Cluster(me, {"tcp://w1": me, "tcp://w2": ("0.0.1", "0ther" * 8, "/old/lfctl")}), me[1])
 
 
 def test_a_folder_is_checked_where_the_path_leads_and_a_failed_start_leaves_nothing(
