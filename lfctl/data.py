@@ -1,7 +1,8 @@
 """Files that travel with lfctl: the vehicle models' C sources (``fmu_models/``), the
-example scenarios (``examples/``) and labelled real video (``footage/``).
+example scenarios (``examples/``), labelled real video (``footage/``) and the docs
+(``docs/``); and the digest of lfctl's code, which tells two builds of one version apart.
 
-Both live at the top of the source tree, where a reader looks for them; the wheel and the
+They live at the top of the source tree, where a reader looks for them; the wheel and the
 sdist carry them inside the package (``lfctl/fmu_models``, ``lfctl/examples``, see
 ``setup.py``). These functions find them in either place, so a source checkout, an editable
 install, ``pip install .`` and a wheel behave alike.
