@@ -312,7 +312,8 @@ class Companion:
         waits for the final answer up to :data:`IN_PROGRESS_MAX_S`. Everything else that
         comes meanwhile is taken as :meth:`poll` takes it, one message at a time, and the
         companion's heartbeat goes on; however fast messages come, the wait ends at its
-        deadline. Returns the MAV_RESULT, None when no answer came (a lossy link, or an
+        deadline, ``tries`` x ``try_s``, put back as far as this process stalled (a loaded
+        companion computer) so that each try is sent and given its ``try_s``. Returns the MAV_RESULT, None when no answer came (a lossy link, or an
         autopilot that does not answer), or IN_PROGRESS when no final one followed it.
 
         Parameters
@@ -333,11 +334,12 @@ class Companion:
         beat = -math.inf
         progress = None
         self.acks.pop(cmd, None)
-        while (now := time.monotonic()) < deadline:
+        while (now := time.monotonic()) < deadline or sent < tries:
             if sent < tries and now >= next_send:
                 self._send_command(cmd, sent, params)
                 sent += 1
                 next_send = now + try_s
+                deadline = max(deadline, next_send)  # (a stall here must not eat the tries left)
             if now - beat >= HEARTBEAT_PERIOD_S:  # on this wait's own clock: the caller's may differ
                 beat = now
                 self._send_heartbeat()

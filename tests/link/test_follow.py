@@ -694,6 +694,26 @@ def test_a_command_lost_on_the_way_is_sent_again_and_its_answer_returned() -> No
     assert got == [0, 1, 2] and rover.mode != MODES["GUIDED"]
 
 
+def test_a_companion_that_stalls_still_sends_every_try(monkeypatch: pytest.MonkeyPatch) -> None:
+    # a loaded companion computer (here a 0.4 s stall in its first read, longer than the
+    # three tries' 0.15 s): the deadline passed and the tries left were never sent (seen in CI)
+    rover, companion, got = _memory_rover(drop=2)
+    recv = companion.port.recv
+    stalled: list[bool] = []
+
+    def slow(timeout: float) -> Any:
+        if not stalled:
+            stalled.append(True)
+            time.sleep(0.4)
+        return recv(timeout)
+
+    monkeypatch.setattr(companion.port, "recv", slow)
+    assert (
+        companion.request(mav.MAV_CMD_DO_SET_MODE, 1, MODES["GUIDED"], try_s=0.05, tries=3) == mav.MAV_RESULT_ACCEPTED
+    )
+    assert got == [0, 1, 2] and rover.mode == MODES["GUIDED"]
+
+
 def test_a_refused_stream_request_is_said_with_the_parameter_to_set(caplog: pytest.LogCaptureFixture) -> None:
     rover, companion, _got = _memory_rover()
     rover._set_interval = lambda *p: mav.MAV_RESULT_DENIED  # type: ignore[method-assign]
