@@ -500,8 +500,16 @@ def _probe(scheduler: str) -> None:
         raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc.strerror or exc}") from None
 
 
-def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]:
-    """A client and its cluster (None for a scheduler of one's own) and their description."""
+#: how long a sweep on a scheduler of one's own waits for ``--workers N`` to join, s
+WORKERS_WAIT_S = 60.0
+
+
+def _connect(
+    scheduler: str | None, workers: int | None, stop: Callable[[], bool] | None = None
+) -> tuple[Any, Any, str]:
+    """A client and its cluster (None for a scheduler of one's own) and their description.
+    Waiting for a scheduler's workers ends early when ``stop()`` is true (the sweep then
+    stops before any run)."""
     from distributed import Client
 
     if scheduler is None:
@@ -523,12 +531,21 @@ def _connect(scheduler: str | None, workers: int | None) -> tuple[Any, Any, str]
             f"what answers at {scheduler} is not a Dask scheduler ({type(exc).__name__}: {str(exc)[:200]})"
         ) from None
     want = workers or 1
-    try:
-        client.wait_for_workers(want, timeout=60)
-    except TimeoutError:
-        have = len(client.scheduler_info(n_workers=-1)["workers"])
-        client.close()
-        raise LfctlError(f"the scheduler at {scheduler} has {have} workers after 60 s, waiting for {want}") from None
+    deadline = time.monotonic() + WORKERS_WAIT_S
+    while True:  # in slices: a Ctrl-C is heard while the workers are awaited
+        try:
+            have = len(client.nthreads(callback_timeout=_TICK_S))
+        except TimeoutError:
+            have = 0
+        if have >= want or (stop is not None and stop()):
+            break
+        if time.monotonic() > deadline:
+            client.close()
+            raise LfctlError(
+                f"the scheduler at {scheduler} has {_count(have, 'worker')} after {WORKERS_WAIT_S:g} s, "
+                f"waiting for {want}"
+            )
+        time.sleep(_TICK_S / 2)
     retries = client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.allowed_failures)
     nthreads = client.nthreads()
     threads = sum(nthreads.values())
@@ -668,7 +685,7 @@ def run_sweep(
 
     try:
         if todo:
-            client, cluster, engine = _connect(scheduler, workers)
+            client, cluster, engine = _connect(scheduler, workers, stop)
             _check_workers(client, code)
         if not made:
             if cancel is not None and cancel():  # cancelled while the cluster started: nothing made

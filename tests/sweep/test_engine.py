@@ -257,6 +257,19 @@ def test_a_scheduler_that_stops_answering_ends_the_sweep_keeping_its_rows(
     assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
 
 
+def test_waiting_for_workers_hears_a_stop_and_ends_naming_how_many_came(
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # --workers 3 on a scheduler with one: a Ctrl-C went unheard until the 60 s wait ended
+    folder, _rows = reference
+    monkeypatch.setattr(engine, "WORKERS_WAIT_S", 2.0)
+    with scheduler_processes(1) as address:
+        result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=3, stop=lambda: True)
+        assert result.stopped and result.rows == []
+        with pytest.raises(LfctlError, match=r"has 1 worker after 2 s, waiting for 3"):
+            run_sweep(folder / "s.toml", tmp_path / "out2", scheduler=address, workers=3)
+
+
 def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
     # a worker that imported other code, its files put back since: it passed the check
     package = Path(lfctl_file).parent
