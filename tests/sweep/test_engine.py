@@ -11,6 +11,7 @@ import os
 import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import cloudpickle
@@ -45,6 +46,19 @@ seeds = 2
 def _table(rows: list[dict]) -> list[dict]:
     """The rows without what may differ between two runs of a sweep: the wall time."""
     return [{k: v for k, v in r.items() if k != "wall_time_s"} for r in rows]
+
+
+@pytest.fixture
+def address() -> Iterator[str]:
+    """A `dask scheduler` with one `dask worker` process on 127.0.0.1, stopped on leaving."""
+    with scheduler_processes(1) as address:
+        yield address
+
+
+def _some_of(written: list[dict], rows: list[dict]) -> None:
+    """A sweep that stopped part way wrote some of the reference's rows, each as it is there."""
+    assert 1 <= len(written) < len(rows)
+    assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +204,7 @@ def test_a_dask_scheduler_with_two_workers_gives_the_same_table(
 
 
 def test_a_worker_with_other_lfctl_code_that_joins_mid_sweep_runs_nothing_and_stops_it(
-    reference: tuple[Path, list[dict]], tmp_path: Path
+    reference: tuple[Path, list[dict]], tmp_path: Path, address: str
 ) -> None:
     # the code was checked once, at the start: a worker that joined later ran 54 of 120 runs
     # with its own code, silently. Here the newcomer's lfctl is a copy without the models
@@ -201,73 +215,67 @@ def test_a_worker_with_other_lfctl_code_that_joins_mid_sweep_runs_nothing_and_st
         (tmp_path / "tree" / p.relative_to(package.parent)).write_bytes(p.read_bytes())
     env = {**os.environ, "PYTHONPATH": str(tmp_path / "tree")}
     newcomer: list[subprocess.Popen] = []
-    with scheduler_processes(1) as address:
 
-        def join(state: object, row: dict | None) -> None:
-            if row is not None and not newcomer:
-                newcomer.append(
-                    subprocess.Popen(
-                        [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1", "--host", "127.0.0.1",
-                         "--no-dashboard", "--death-timeout", "60"],
-                        env=env, cwd=tmp_path,  # (-m puts the current folder, this checkout, first)
-                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                    )
-                )  # fmt: skip
-                with Client(address) as client:
-                    first = list(client.nthreads())
-                    client.wait_for_workers(2, timeout=60)
-                    client.retire_workers(first)  # what is left to run goes to the newcomer
+    def join(state: object, row: dict | None) -> None:
+        if row is not None and not newcomer:
+            newcomer.append(
+                subprocess.Popen(
+                    [sys.executable, "-m", "dask", "worker", address, "--nthreads", "1", "--host", "127.0.0.1",
+                     "--no-dashboard", "--death-timeout", "60"],
+                    env=env, cwd=tmp_path,  # (-m puts the current folder, this checkout, first)
+                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                )
+            )  # fmt: skip
+            with Client(address) as client:
+                first = list(client.nthreads())
+                client.wait_for_workers(2, timeout=60)
+                client.retire_workers(first)  # what is left to run goes to the newcomer
 
-        try:
-            with pytest.raises(LfctlError, match=r"a worker runs other lfctl code .* from .*tree/lfctl\).* --resume"):
-                run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=join)
-        finally:
-            for proc in newcomer:
-                proc.terminate()
-                proc.wait(timeout=30)
-    written = read_rows(tmp_path / "out")  # the first worker's rows; none from the newcomer
-    assert 1 <= len(written) < len(rows)
-    assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
+    try:
+        with pytest.raises(LfctlError, match=r"a worker runs other lfctl code .* from .*tree/lfctl\).* --resume"):
+            run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=join)
+    finally:
+        for proc in newcomer:
+            proc.terminate()
+            proc.wait(timeout=30)
+    _some_of(read_rows(tmp_path / "out"), rows)  # the first worker's rows; none from the newcomer
 
 
 def test_a_scheduler_that_stops_answering_ends_the_sweep_keeping_its_rows(
-    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, address: str
 ) -> None:
     # a frozen scheduler (SIGSTOP here; a hung or swapping one, a link that drops packets):
     # the loop waited on its answer for ever, deaf to the first two Ctrl-C
     folder, rows = reference
     monkeypatch.setattr(engine, "SCHEDULER_SILENT_S", 3.0)
-    with scheduler_processes(1) as address:
-        with Client(address) as client:
-            pid = client.run_on_scheduler(os.getpid)
-        frozen: list[int] = []
+    with Client(address) as client:
+        pid = client.run_on_scheduler(os.getpid)
+    frozen: list[int] = []
 
-        def freeze(state: object, row: dict | None) -> None:
-            if row is not None and not frozen:
-                os.kill(pid, signal.SIGSTOP)
-                frozen.append(row["run"])
+    def freeze(state: object, row: dict | None) -> None:
+        if row is not None and not frozen:
+            os.kill(pid, signal.SIGSTOP)
+            frozen.append(row["run"])
 
-        try:
-            with pytest.raises(LfctlError, match=r"the Dask scheduler has not answered for 3 s: the sweep stopped"):
-                run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=freeze)
-        finally:
-            os.kill(pid, signal.SIGCONT)
-    written = read_rows(tmp_path / "out")
-    assert 1 <= len(written) < len(rows) and frozen
-    assert _table(written) == _table([r for r in rows if r["run"] in {w["run"] for w in written}])
+    try:
+        with pytest.raises(LfctlError, match=r"the Dask scheduler has not answered for 3 s: the sweep stopped"):
+            run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, progress=freeze)
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    assert frozen
+    _some_of(read_rows(tmp_path / "out"), rows)
 
 
 def test_waiting_for_workers_hears_a_stop_and_ends_naming_how_many_came(
-    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, address: str
 ) -> None:
     # --workers 3 on a scheduler with one: a Ctrl-C went unheard until the 60 s wait ended
     folder, _rows = reference
     monkeypatch.setattr(engine, "WORKERS_WAIT_S", 2.0)
-    with scheduler_processes(1) as address:
-        result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=3, stop=lambda: True)
-        assert result.stopped and result.rows == []
-        with pytest.raises(LfctlError, match=r"has 1 worker after 2 s, waiting for 3"):
-            run_sweep(folder / "s.toml", tmp_path / "out2", scheduler=address, workers=3)
+    result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler=address, workers=3, stop=lambda: True)
+    assert result.stopped and result.rows == []
+    with pytest.raises(LfctlError, match=r"has 1 worker after 2 s, waiting for 3"):
+        run_sweep(folder / "s.toml", tmp_path / "out2", scheduler=address, workers=3)
 
 
 def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
