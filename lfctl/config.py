@@ -26,6 +26,7 @@ from lfctl.errors import ConfigError
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
+    "MAX_FOV_DEG",
     "MAX_KEY_PARTS",
     "MAX_LIST",
     "MAX_SCENARIO_BYTES",
@@ -96,8 +97,10 @@ TRAIL_MAX_BEARING_DEG = 30.0
 #: speed no longer changes the range, and past it the range law's sign turns round
 SMC_MAX_BEARING_DEG = 90.0
 _BEARING_NOTE = f'either side: < {SMC_MAX_BEARING_DEG:g} with guidance.controller = "smc", <= {TRAIL_MAX_BEARING_DEG:g} with "trail"'
-#: a calibration's focal length is a pinhole's: a field of view under 170 deg, as hfov_deg's
-_FOCAL_NOTE = "0, or >= {0}_px / 2 / tan(85 deg) (a field of view under 170 deg)"
+#: the widest field of view a camera may have, deg (hfov_deg's bound; a calibration's focal
+#: length is a pinhole's, under it)
+MAX_FOV_DEG = 170.0
+_FOCAL_NOTE = f"0, or >= {{0}}_px / 2 / tan({MAX_FOV_DEG / 2:g} deg) (a field of view under {MAX_FOV_DEG:g} deg)"
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -475,7 +478,7 @@ class CameraConfig(_Section):
     width_px: int = _f(640, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image width, px
     height_px: int = _f(480, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image height, px
     #: horizontal field of view, sets fx (TOML hfov_deg)
-    hfov_rad: float = _f(math.radians(62.0), Bound(0, 170, lo_open=True, hi_open=True))
+    hfov_rad: float = _f(math.radians(62.0), Bound(0, MAX_FOV_DEG, lo_open=True, hi_open=True))
     fx_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("width"))  # focal length, px; 0: from hfov
     fy_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("height"))  # focal length, px; 0: fx
     cx_px: float = _f(0.0, Bound(0, 1e5), note="<= width_px")  # principal point, px; 0: the image centre
@@ -527,10 +530,10 @@ class CameraConfig(_Section):
                 )
         for key, size, side in (("fx_px", self.width_px, "width_px"), ("fy_px", self.height_px, "height_px")):
             value = getattr(self, key)
-            least = size / 2 / math.tan(math.radians(85.0))
+            least = size / 2 / math.tan(math.radians(MAX_FOV_DEG / 2))
             if 0 < value < least:
                 raise ConfigError(
-                    f"camera.{key} = {value:g} px would be a field of view over 170 deg across camera.{side} = "
+                    f"camera.{key} = {value:g} px would be a field of view over {MAX_FOV_DEG:g} deg across camera.{side} = "
                     f"{size} px (a pinhole's focal length is at least {least:.3g} px there)"
                 )
 

@@ -24,6 +24,7 @@ __all__ = [
     "examples_dir",
     "find_example",
     "footage_dir",
+    "loaded_code",
     "models_dir",
     "resolve_footage",
     "resolve_mission",
@@ -132,6 +133,14 @@ def code_identity() -> str:
         return code_digest()
     except OSError as exc:
         return f"unknown ({exc.strerror or exc}: {exc.filename})"
+
+
+@functools.cache
+def loaded_code() -> str:
+    """:func:`code_identity` once per process, at its first use (the sweep's engine asks at
+    import): the code this process runs, which the files may no longer be, worked out once
+    however many runs it records."""
+    return code_identity()
 
 
 def example_names(suffix: str = ".toml", sub: str = "") -> list[str]:

@@ -54,7 +54,7 @@ from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from lfctl import __version__
 from lfctl.config import Config
-from lfctl.data import code_identity
+from lfctl.data import loaded_code
 from lfctl.errors import LfctlError
 from lfctl.frames import ned_to_geodetic
 from lfctl.vision.camera_model import CameraModel
@@ -555,7 +555,7 @@ class Recorder:
             {
                 "version": __version__,
                 "git_revision": git_revision(),
-                "code_sha256": code_identity(),  # which build ran: every wheel is "0.1.0 (installed)"
+                "code_sha256": loaded_code(),  # which build ran: every wheel is "0.1.0 (installed)"
                 "python": platform.python_version(),
                 "platform": platform.platform(),
                 **{f"package.{k}": v for k, v in package_versions().items()},

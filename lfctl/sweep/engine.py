@@ -52,7 +52,7 @@ from typing import Any
 from distributed import WorkerPlugin
 
 from lfctl import __version__
-from lfctl.data import code_identity
+from lfctl.data import loaded_code
 from lfctl.errors import ConfigError, LfctlError
 from lfctl.sim.camera_pool import usable_cores
 from lfctl.sweep.results import (
@@ -182,7 +182,7 @@ def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: fl
 
 #: this process's lfctl code as it was imported: the digest of the sources when this module
 #: was (a worker that imported other code says so after the files have been put back)
-_LOADED_CODE = code_identity()
+_LOADED_CODE = loaded_code()
 #: how long the scheduler may leave the sweep's question (its workers' threads) unanswered
 #: before the sweep takes it for gone, s
 SCHEDULER_SILENT_S = 20.0

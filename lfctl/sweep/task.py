@@ -218,7 +218,7 @@ def execute(run: Run, out_dir: str, logs: str = "none") -> dict[str, Any]:
     wall = time.perf_counter() - t0
     if report.log_path is not None and path is not None:
         # the recorder's own name (another attempt may have taken ours meanwhile: then -2)
-        rel = report.log_path.relative_to(path.parent.parent).as_posix()
+        rel = report.log_path.relative_to(out_dir).as_posix()
         if logs == "failed":
             report.log_path.unlink(missing_ok=True)
             rel = ""
