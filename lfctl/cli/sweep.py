@@ -45,16 +45,24 @@ def register(sub: Any) -> None:
     )
     s.add_argument("sweep", metavar="SWEEP", help="sweep TOML file or a shipped sweep's name; or `report`")
     s.add_argument("dir", nargs="?", metavar="DIR", help="with `report`: the sweep's folder")
-    s.add_argument(
+    where = s.add_mutually_exclusive_group()
+    where.add_argument(
         "--scheduler",
         metavar="ADDR",
         help="a running Dask scheduler, tcp://HOST:8786 or HOST:8786 (default: a local cluster)",
+    )
+    where.add_argument(
+        "--scheduler-file",
+        metavar="FILE",
+        help="the file a Dask scheduler writes its address to (dask scheduler --scheduler-file FILE; "
+        "dask-jobqueue, dask-mpi), waited for up to 60 s",
     )
     s.add_argument(
         "--workers",
         type=integer(1, 10**6),
         metavar="N",
-        help="local worker processes (default: one per core); with --scheduler, wait for N workers to join",
+        help="local worker processes (default: one per core); with --scheduler or --scheduler-file, wait for N "
+        "workers to join",
     )
     s.add_argument("--out", metavar="DIR", help="the sweep's folder (default: sweeps/<name>)")
     s.add_argument("--resume", action="store_true", help="finish the sweep in --out: skip runs it has rows for")
@@ -146,6 +154,14 @@ def run(args: argparse.Namespace) -> int:
         file=human,
     )
     print(f"folder       {out_dir}", file=human, flush=True)
+    if args.scheduler_file is not None and not Path(args.scheduler_file).exists():
+        from lfctl.sweep.engine import WORKERS_WAIT_S
+
+        print(
+            f"scheduler    waiting for {args.scheduler_file} to be written (up to {WORKERS_WAIT_S:g} s)",
+            file=human,
+            flush=True,
+        )
 
     announced, stopping, reader_gone = threading.Event(), threading.Event(), threading.Event()
 
@@ -189,6 +205,7 @@ def run(args: argparse.Namespace) -> int:
             p,
             out_dir,
             scheduler=args.scheduler,
+            scheduler_file=args.scheduler_file,
             workers=args.workers,
             resume=args.resume,
             logs=args.logs,

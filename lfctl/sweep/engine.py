@@ -110,7 +110,9 @@ def worker_environment(settings: dict[str, object] | None = None) -> dict[str, s
 
 
 @contextlib.contextmanager
-def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: float = 60.0) -> Iterator[str]:
+def scheduler_processes(
+    n_workers: int, allowed_failures: int = 1, timeout_s: float = 60.0, scheduler_file: str | Path | None = None
+) -> Iterator[str]:
     """A ``dask scheduler`` and ``dask worker`` processes (``n_workers``, one thread each) on
     127.0.0.1, started as a cluster's would be; yields the scheduler's address and stops
     them on exit. They end by themselves if this process dies (idle and death timeouts).
@@ -125,6 +127,9 @@ def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: fl
         worker died.
     timeout_s : float
         How long to wait for the scheduler and every worker, s.
+    scheduler_file : str or Path, optional
+        Where the scheduler writes its address (``--scheduler-file``; it removes the file
+        when it stops); default a file in a folder of its own.
 
     Raises
     ------
@@ -141,7 +146,7 @@ def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: fl
     quiet = {"env": env, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
     procs: list[subprocess.Popen[bytes]] = []
     with tempfile.TemporaryDirectory(prefix="lfctl-dask-") as tmp:
-        file = Path(tmp) / "scheduler.json"
+        file = Path(scheduler_file) if scheduler_file is not None else Path(tmp) / "scheduler.json"
         try:
             procs.append(
                 subprocess.Popen(
@@ -151,11 +156,14 @@ def scheduler_processes(n_workers: int, allowed_failures: int = 1, timeout_s: fl
                 )
             )  # fmt: skip
             deadline = time.monotonic() + timeout_s
-            while not (file.exists() and file.stat().st_size):
-                if time.monotonic() > deadline or procs[0].poll() is not None:
-                    raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s")
+            while True:  # (the file may be read while the scheduler is writing it)
+                try:
+                    address = scheduler_address(file, wait_s=0.0)
+                    break
+                except LfctlError:
+                    if time.monotonic() > deadline or procs[0].poll() is not None:
+                        raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s") from None
                 time.sleep(0.05)
-            address = str(json.loads(file.read_text())["address"])
             procs.append(
                 subprocess.Popen(
                     [*dask, "worker", address, "--nworkers", str(n_workers), "--nthreads", "1",
@@ -462,12 +470,12 @@ def local_cluster(n_workers: int) -> Iterator[str]:
         cluster.close()
 
 
-def _check_address(scheduler: str) -> tuple[str, int]:
-    """``--scheduler`` is ``tcp://`` or ``tls://``, a host and a port within 1..65535: its
-    host and port."""
+def _check_address(scheduler: str, source: str = "--scheduler") -> tuple[str, int]:
+    """``--scheduler`` (or what ``source`` names) is ``tcp://`` or ``tls://``, a host and a
+    port within 1..65535: its host and port."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
-    form = f"--scheduler must be an address such as tcp://HOST:8786 (or HOST:8786), got {scheduler!r}"
+    form = f"{source} must be an address such as tcp://HOST:8786 (or HOST:8786), got {scheduler!r}"
     if not scheduler.startswith(("tcp://", "tls://")):
         raise ConfigError(form)
     try:
@@ -477,6 +485,72 @@ def _check_address(scheduler: str) -> tuple[str, int]:
     if not host or not 1 <= int(port) <= 65535:
         raise ConfigError(f"{form}: the host must be given and the port within 1..65535")
     return host, int(port)
+
+
+#: how long a sweep on a scheduler of one's own waits for ``--workers N`` to join (and for
+#: ``--scheduler-file``'s file to be written), s
+WORKERS_WAIT_S = 60.0
+
+
+def scheduler_address(
+    scheduler_file: str | Path, stop: Callable[[], bool] | None = None, wait_s: float | None = None
+) -> str:
+    """The address in a Dask scheduler file (``dask scheduler --scheduler-file PATH`` writes
+    it, as do dask-jobqueue's and dask-mpi's schedulers, a JSON object with ``"address"``).
+    A scheduler that is still starting has not written it yet: the file is waited for (and
+    read again while it is half written) for up to ``wait_s`` (default
+    :data:`WORKERS_WAIT_S`), in slices, so that a stop is heard.
+
+    Parameters
+    ----------
+    scheduler_file : str or Path
+        The file.
+    stop : callable, optional
+        Asked while waiting; True ends the wait with ``KeyboardInterrupt`` (nothing has run).
+    wait_s : float, optional
+        How long to wait for the file and an address in it, s.
+
+    Raises
+    ------
+    ConfigError
+        The path is a folder or cannot be read, or the file holds no address after the wait.
+    LfctlError
+        No file there after the wait.
+    KeyboardInterrupt
+        ``stop()`` was true while waiting.
+    """
+    path = Path(scheduler_file)
+    wait = WORKERS_WAIT_S if wait_s is None else wait_s
+    deadline = time.monotonic() + wait
+    problem = None
+    while True:
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            problem = None
+        except (OSError, UnicodeDecodeError) as exc:  # a folder, no permission, not text
+            reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+            raise ConfigError(f"--scheduler-file {path}: cannot read it ({reason})") from None
+        else:
+            try:
+                got = json.loads(text)
+            except ValueError as exc:
+                problem = f"not JSON ({exc})"
+            else:
+                address = got.get("address") if isinstance(got, dict) else None
+                if isinstance(address, str) and address:
+                    return address
+                problem = 'no "address" in it, as a Dask scheduler writes (`dask scheduler --scheduler-file`)'
+        if stop is not None and stop():
+            raise KeyboardInterrupt
+        if time.monotonic() > deadline:
+            if problem is None:
+                raise LfctlError(
+                    f"--scheduler-file {path}: no such file after {wait:g} s "
+                    "(the scheduler writes it once it listens: `dask scheduler --scheduler-file PATH`)"
+                )
+            raise ConfigError(f"--scheduler-file {path}: {problem}, still after {wait:g} s")
+        time.sleep(min(_TICK_S / 5, max(0.0, deadline - time.monotonic())))
 
 
 #: how long what answers at --scheduler may take to speak first, as a Dask scheduler does, s
@@ -500,14 +574,11 @@ def _probe(scheduler: str) -> None:
         raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc.strerror or exc}") from None
 
 
-#: how long a sweep on a scheduler of one's own waits for ``--workers N`` to join, s
-WORKERS_WAIT_S = 60.0
-
-
 def _connect(
-    scheduler: str | None, workers: int | None, stop: Callable[[], bool] | None = None
+    scheduler: str | None, workers: int | None, stop: Callable[[], bool] | None = None, found_in: str = ""
 ) -> tuple[Any, Any, str]:
-    """A client and its cluster (None for a scheduler of one's own) and their description.
+    """A client and its cluster (None for a scheduler of one's own) and their description
+    (the scheduler's address named as ``found_in`` the file it came from, if it did).
     Waiting for a scheduler's workers ends early when ``stop()`` is true (the sweep then
     stops before any run)."""
     from distributed import Client
@@ -550,7 +621,7 @@ def _connect(
     nthreads = client.nthreads()
     threads = sum(nthreads.values())
     desc = (
-        f"Dask scheduler {scheduler}, {_count(len(nthreads), 'worker')}, {_count(threads, 'thread')}; "
+        f"Dask scheduler {scheduler}{f' (from {found_in})' if found_in else ''}, {_count(len(nthreads), 'worker')}, {_count(threads, 'thread')}; "
         f"a crashed run is retried {'once' if retries == 1 else _count(retries, 'time')} "
         "(distributed.scheduler.allowed-failures)"
     )
@@ -597,6 +668,7 @@ def run_sweep(
     out_dir: str | Path | None = None,
     *,
     scheduler: str | None = None,
+    scheduler_file: str | Path | None = None,
     workers: int | None = None,
     resume: bool = False,
     logs: str = "none",
@@ -616,9 +688,13 @@ def run_sweep(
         The sweep's folder (default ``sweeps/<name>``).
     scheduler : str, optional
         A running Dask scheduler (``tcp://HOST:8786``); default a ``LocalCluster`` here.
+    scheduler_file : str or Path, optional
+        Instead of ``scheduler``: the scheduler file it writes (``dask scheduler
+        --scheduler-file``), waited for up to 60 s (:func:`scheduler_address`).
     workers : int, optional
-        Local cluster: worker processes (default one per usable core). With ``scheduler``:
-        wait (up to 60 s) until that many workers have joined (default 1).
+        Local cluster: worker processes (default one per usable core). With ``scheduler``
+        or ``scheduler_file``: wait (up to 60 s) until that many workers have joined
+        (default 1).
     resume : bool
         Finish the sweep in ``out_dir``: skip the runs it has rows for.
     logs : "none", "failed" or "all"
@@ -652,6 +728,8 @@ def run_sweep(
         raise ConfigError(f"--logs (logs) must be one of {', '.join(LOG_MODES)}, got {logs!r}")
     if workers is not None and workers < 1:
         raise ConfigError(f"--workers (workers) must be >= 1, got {workers}")
+    if scheduler is not None and scheduler_file is not None:
+        raise ConfigError("give --scheduler or --scheduler-file (scheduler or scheduler_file), not both")
     if scheduler is not None:
         if "://" not in scheduler:  # HOST:PORT, as Dask takes it: TCP
             scheduler = f"tcp://{scheduler}"
@@ -685,7 +763,10 @@ def run_sweep(
 
     try:
         if todo:
-            client, cluster, engine = _connect(scheduler, workers, stop)
+            if scheduler_file is not None:
+                scheduler = scheduler_address(scheduler_file, stop)
+                _check_address(scheduler, f"the address in --scheduler-file {scheduler_file}")
+            client, cluster, engine = _connect(scheduler, workers, stop, str(scheduler_file or ""))
             _check_workers(client, code)
         if not made:
             if cancel is not None and cancel():  # cancelled while the cluster started: nothing made

@@ -51,6 +51,18 @@ def test_bad_variants_and_arguments_are_one_line_naming_them(
     # HOST:PORT is a TCP address, as Dask takes it (nothing listens on port 9 here)
     assert main(["sweep", str(ok), "--scheduler", "127.0.0.1:9", "--out", str(tmp_path / "x")]) == 1
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
+    with pytest.raises(SystemExit, match="2"):
+        main(["sweep", str(ok), "--scheduler", "127.0.0.1:9", "--scheduler-file", "s.json"])
+    assert "argument --scheduler-file: not allowed with argument --scheduler" in capsys.readouterr().err
+    monkeypatch.setattr("lfctl.sweep.engine.WORKERS_WAIT_S", 0.2)
+    assert main(["sweep", str(ok), "--scheduler-file", "nosuch.json", "--out", str(tmp_path / "x")]) == 1
+    err = capsys.readouterr().err  # (the human lines go to stderr when stdout is a pipe)
+    assert "scheduler    waiting for nosuch.json to be written (up to 0.2 s)\n" in err
+    assert err.endswith(
+        "lfctl: error: --scheduler-file nosuch.json: no such file after 0.2 s (the scheduler writes it once it "
+        "listens: `dask scheduler --scheduler-file PATH`)\n"
+    )
+    assert not (tmp_path / "x").exists()
     with pytest.raises(SystemExit, match="2"):  # when the command line is read: before the plan is printed
         main(["sweep", str(ok), "--workers", "0"])
     assert capsys.readouterr() == (

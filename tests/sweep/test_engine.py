@@ -7,10 +7,13 @@ worker are rows, and do not stop the sweep."""
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import signal
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -276,6 +279,71 @@ def test_waiting_for_workers_hears_a_stop_and_ends_naming_how_many_came(
     assert result.stopped and result.rows == []
     with pytest.raises(LfctlError, match=r"has 1 worker after 2 s, waiting for 3"):
         run_sweep(folder / "s.toml", tmp_path / "out2", scheduler=address, workers=3)
+
+
+def test_a_scheduler_file_is_waited_for_and_its_address_used(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    # dask-jobqueue and dask-mpi give a scheduler file, not an address; the sweep may start
+    # before the scheduler has written it
+    folder, _rows = reference
+    file = tmp_path / "shared" / "scheduler.json"
+    file.parent.mkdir()
+    up = threading.Event()  # the scheduler and its worker are up: the sweep stops before any run
+
+    def start(stack: contextlib.ExitStack) -> None:
+        stack.enter_context(scheduler_processes(1, scheduler_file=file))
+        up.set()
+
+    with contextlib.ExitStack() as later:
+        timer = threading.Timer(1.0, start, (later,))
+        timer.start()
+        try:
+            result = run_sweep(folder / "s.toml", tmp_path / "out", scheduler_file=file, stop=up.is_set)
+        finally:
+            timer.join()
+        address = json.loads(file.read_text())["address"]
+        assert f"Dask scheduler {address} (from {file}), 1 worker, 1 thread" in result.engine
+    assert result.stopped and result.rows == []
+    assert not file.exists()  # (the scheduler removes it when it stops)
+
+
+def test_a_scheduler_file_that_is_missing_wrong_or_unreadable_is_named(
+    reference: tuple[Path, list[dict]], tmp_path: Path
+) -> None:
+    file = tmp_path / "scheduler.json"
+    with pytest.raises(LfctlError, match=r"--scheduler-file .*scheduler.json: no such file after 0.3 s"):
+        engine.scheduler_address(file, wait_s=0.3)
+    file.write_text('{"type": "Scheduler", "addr')  # half written, and never finished
+    with pytest.raises(ConfigError, match=r"scheduler.json: not JSON \(.*\), still after 0.3 s"):
+        engine.scheduler_address(file, wait_s=0.3)
+    file.write_text('{"type": "Scheduler"}')
+    with pytest.raises(ConfigError, match=r'scheduler.json: no "address" in it'):
+        engine.scheduler_address(file, wait_s=0.0)
+    with pytest.raises(ConfigError, match=r"--scheduler-file .*: cannot read it \(Is a directory\)"):
+        engine.scheduler_address(tmp_path, wait_s=0.0)
+    with pytest.raises(KeyboardInterrupt):  # a Ctrl-C while waiting ends the wait
+        engine.scheduler_address(tmp_path / "none.json", stop=lambda: True)
+
+    # finished while it is waited for: read as soon as it is whole
+    def finish() -> None:
+        file.write_text('{"type": "Scheduler", "address": "tcp://127.0.0.1:8786"}')
+
+    file.write_text('{"type": "Sched')
+    timer = threading.Timer(0.3, finish)
+    timer.start()
+    try:
+        assert engine.scheduler_address(file, wait_s=30.0) == "tcp://127.0.0.1:8786"
+    finally:
+        timer.join()
+
+    folder, _rows = reference
+    file.write_text('{"address": "ucx://127.0.0.1:8786"}')  # a transport the sweep does not take
+    with pytest.raises(ConfigError, match=r"the address in --scheduler-file .* must be an address such as tcp://"):
+        run_sweep(folder / "s.toml", tmp_path / "new", scheduler_file=file)
+    with pytest.raises(ConfigError, match="give --scheduler or --scheduler-file"):
+        run_sweep(folder / "s.toml", tmp_path / "new", scheduler="tcp://127.0.0.1:8786", scheduler_file=file)
+    assert not (tmp_path / "new").exists()
 
 
 def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
