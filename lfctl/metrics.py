@@ -51,8 +51,9 @@ class FormationMetrics:
         The same for the bearing error, rad.
     min_separation_m : float or None
         Closest approach to any other vehicle over the run, m; None without samples.
-    time_in_state_s : dict of str to float
-        Seconds in each track state (``tracking``, ``occluded``, ``lost``).
+    time_in_state_s : dict of str to float or None
+        Seconds in each track state (``tracking``, ``occluded``, ``lost``); None where the
+        state was not known (a follower whose companion ran outside the simulator).
     control_effort_rad : float
         The absolute yaw-rate command integrated over the run, rad.
     chattering_per_s : float
@@ -73,7 +74,7 @@ class FormationMetrics:
     bearing_err_rms_rad: float | None
     bearing_err_max_rad: float | None
     min_separation_m: float | None
-    time_in_state_s: dict[str, float]
+    time_in_state_s: dict[str, float | None]
     control_effort_rad: float
     chattering_per_s: float
     path_err_rms_m: float | None = None
@@ -137,7 +138,7 @@ def formation_metrics(
     range_err_m: Sequence[float],
     bearing_err_rad: Sequence[float],
     separation_m: Sequence[float],
-    status: Sequence[str],
+    status: Sequence[str | None],
     yaw_rate_cmd_radps: Sequence[float],
     step_s: float,
     settle_s: float = SETTLE_S,
@@ -157,8 +158,9 @@ def formation_metrics(
         True range error (m) and bearing error (rad, wrapped) at each sample.
     separation_m : sequence of float
         Distance to the nearest other vehicle at each sample, m.
-    status : sequence of str
-        Track state at each sample (``TrackStatus`` values).
+    status : sequence of str or None
+        Track state at each sample (``TrackStatus`` values); None where it is not known
+        (then no time in any state is given).
     yaw_rate_cmd_radps : sequence of float
         The yaw-rate command at each sample, rad/s.
     step_s : float
@@ -177,7 +179,9 @@ def formation_metrics(
     duration = len(t) * step_s
     states = {s.value: 0 for s in TrackStatus}
     for s in status:
-        states[s] += 1
+        if s is not None:
+            states[s] += 1
+    known = all(s is not None for s in status)
     return FormationMetrics(
         name=name,
         target=target,
@@ -188,7 +192,7 @@ def formation_metrics(
         bearing_err_rms_rad=_rms(b_err),
         bearing_err_max_rad=_max_abs(b_err),
         min_separation_m=float(np.min(separation_m)) if len(separation_m) else None,
-        time_in_state_s={k: n * step_s for k, n in states.items()},
+        time_in_state_s={k: n * step_s if known else None for k, n in states.items()},
         control_effort_rad=float(np.sum(np.abs(yaw_cmd)) * step_s),
         chattering_per_s=sign_changes(yaw_cmd, CHATTER_DEADBAND_RADPS) / duration if duration > 0 else 0.0,
         path_err_rms_m=_rms(p_err) if p_err is not None else None,
@@ -286,30 +290,34 @@ class PathHistory:
 
 
 def track_episodes(
-    t_s: Sequence[float], status: Sequence[str], step_s: float, after_s: float = 0.5
+    t_s: Sequence[float], status: Sequence[str | None], step_s: float, after_s: float = 0.5
 ) -> list[TrackEpisode]:
-    """The stretches without tracking that begin after ``after_s`` (the start-up is not one).
+    """The stretches without tracking that begin after ``after_s`` (the start-up is not one);
+    none where a state is not known (None).
 
     Parameters
     ----------
     t_s : sequence of float
         Sample times, s.
-    status : sequence of str
+    status : sequence of str or None
         Track state at each sample.
     step_s : float
         The sample period, s.
     after_s : float
         Ignore stretches that begin before this time, s.
     """
-    episodes = []
+    episodes: list[TrackEpisode] = []
+    if any(s is None for s in status):
+        return episodes
     i, n = 0, len(status)
     while i < n:
-        if status[i] != TrackStatus.TRACKING.value and t_s[i] > after_s:
+        if status[i] != TrackStatus.TRACKING.value:
             j = i
             while j < n and status[j] != TrackStatus.TRACKING.value:
                 j += 1
-            worst = TrackStatus.LOST.value if TrackStatus.LOST.value in status[i:j] else TrackStatus.OCCLUDED.value
-            episodes.append(TrackEpisode(float(t_s[i]), (j - i) * step_s, j < n, worst))
+            if t_s[i] > after_s:  # (a stretch from before then is the start-up, all of it)
+                worst = TrackStatus.LOST.value if TrackStatus.LOST.value in status[i:j] else TrackStatus.OCCLUDED.value
+                episodes.append(TrackEpisode(float(t_s[i]), (j - i) * step_s, j < n, worst))
             i = j
         else:
             i += 1

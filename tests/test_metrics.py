@@ -9,7 +9,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from lfctl.metrics import PathHistory, distance_to_path, formation_metrics, sign_changes, variation_per_s
+from lfctl.metrics import (
+    PathHistory,
+    distance_to_path,
+    formation_metrics,
+    sign_changes,
+    track_episodes,
+    variation_per_s,
+)
 
 
 def test_variation_per_s_sums_the_command_s_moves_over_the_run() -> None:
@@ -75,3 +82,19 @@ def test_the_path_error_counts_after_settling_and_is_none_without_samples() -> N
     m = formation_metrics(*args, path_err_m=[9.0, 0.3, -0.4])
     assert m.path_err_rms_m == pytest.approx(math.sqrt((0.09 + 0.16) / 2)) and m.path_err_max_m == pytest.approx(0.4)
     assert formation_metrics(*args).path_err_rms_m is None  # an old log: no figure
+
+
+def test_time_in_each_state_by_hand_and_none_where_the_state_was_not_known() -> None:
+    t = [0.0, 0.5, 1.0, 1.5, 2.0]
+    args = ("f", "l", 1.5, 0.0, t, [0.0] * 5, [0.0] * 5, [2.0] * 5)
+    known = formation_metrics(*args, ["tracking", "occluded", "occluded", "lost", "tracking"], [0.0] * 5, 0.5)
+    assert known.time_in_state_s == {"tracking": 1.0, "occluded": 1.0, "lost": 0.5}
+    episodes = track_episodes(t, ["tracking", "occluded", "occluded", "lost", "tracking"], 0.5, after_s=0.25)
+    assert [(e.start_s, e.duration_s, e.recovered, e.worst) for e in episodes] == [(0.5, 1.5, True, "lost")]
+    # a stretch that begins by after_s is the start-up, all of it (its tail was counted as one)
+    assert track_episodes(t, ["occluded", "occluded", "lost", "tracking", "occluded"], 0.5)[0].start_s == 2.0
+    # a follower whose companion ran outside the simulator: its track state was that companion's
+    outside = formation_metrics(*args, [None] * 5, [0.1, -0.1, 0.1, -0.1, 0.1], 0.5)
+    assert outside.time_in_state_s == {"tracking": None, "occluded": None, "lost": None}
+    assert outside.chattering_per_s == pytest.approx(4 / 2.5)  # its commands still count
+    assert track_episodes(t, [None] * 5, 0.5) == []

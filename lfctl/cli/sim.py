@@ -194,9 +194,7 @@ def print_report(report: RunReport) -> None:
         rows = []
         outside = {v.name for v in cfg.followers if not v.companion}
         for m in report.metrics:
-            st: dict[str, float | None] = dict(m.time_in_state_s)
-            if m.name in outside:  # its companion's tracker ran elsewhere (lfctl follow's closing line)
-                st = dict.fromkeys(st)
+            st = m.time_in_state_s  # (None for a follower whose companion ran outside: it tracked there)
             rows.append((
                 m.name, m.target, f"{m.range_cmd_m:.2f}", f"{math.degrees(m.bearing_cmd_rad):.0f}",
                 num(m.range_err_rms_m, ".3f"), num(m.range_err_max_m, ".3f"), num(m.bearing_err_rms_rad, ".2f", deg),

@@ -144,7 +144,7 @@ _WANTS: dict[_Check, str] = {
 }
 #: field -> (check, required), for each JSON topic lfctl writes
 _CONTROLLER = {
-    "status": (_status, True),
+    "status": (_status, False),  # (none from a follower whose companion ran outside the simulator)
     "range_cmd_m": (_num, True),
     "bearing_cmd_deg": (_num, False),
     "range_error_m": (_num, True),
@@ -352,6 +352,7 @@ class _Run:
     image_s: float = 1 / 30
     vehicles: list[str] = field(default_factory=list)
     followers: list[str] = field(default_factory=list)
+    outside: list[str] = field(default_factory=list)  # of them, those whose companion ran outside the run
     camera: bool = False
     images: bool = False
     image_format: str = "jpeg"  # "h264" or "jpeg": which image topic the followers have
@@ -419,6 +420,7 @@ def _parse_run(run: dict[str, str]) -> _Run:
     r.image_s = _period(run, "image_rate_hz", 30.0, p)
     r.vehicles = _names(run, "vehicles", p)
     r.followers = _names(run, "followers", p)
+    r.outside = _names(run, "companion_outside", p)
     r.camera = run.get("sensing") == "camera"
     r.images = run.get("images") == "true"
     fmt = run.get("image_format", "jpeg")
@@ -650,8 +652,9 @@ def _expected_topics(run: _Run) -> dict[str, float]:
     for f in run.followers:
         out[f"/{f}/controller"] = run.guidance_s
         if run.camera:
-            out[f"/{f}/tracker"] = run.camera_s
-            out[f"/{f}/camera/annotations"] = run.camera_s
+            if f not in run.outside:  # (one whose companion ran outside tracked its frames there)
+                out[f"/{f}/tracker"] = run.camera_s
+                out[f"/{f}/camera/annotations"] = run.camera_s
             if run.images:
                 out[image_topic(f, run.image_format)] = run.image_s
     return out
@@ -693,7 +696,7 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
         if not msgs:
             continue
         t = [m[0] for m in msgs]
-        status = [m[1]["status"] for m in msgs]
+        status = [m[1].get("status") for m in msgs]
         first = msgs[0][1]
         m = formation_metrics(
             f,
@@ -719,7 +722,7 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
             "bearing_err_rms_deg": _rounded(m.bearing_err_rms_rad, 3, deg),
             "bearing_err_max_deg": _rounded(m.bearing_err_max_rad, 3, deg),
             "min_separation_m": _rounded(m.min_separation_m, 3),
-            "time_in_state_s": {k: round(v, 2) for k, v in m.time_in_state_s.items()},
+            "time_in_state_s": {k: _rounded(v, 2) for k, v in m.time_in_state_s.items()},
             "control_effort_rad": round(m.control_effort_rad, 4),
             "chattering_per_s": round(m.chattering_per_s, 4),
             "path_err_rms_m": _rounded(m.path_err_rms_m, 4),
@@ -1144,7 +1147,7 @@ def format_report(report: AuditReport) -> str:
             ]
             lines.append(
                 f"  {f['follower']:<10} {f['target']:<8} {cells[0]:>9} {cells[1]:>9} {cells[2]:>11} {cells[3]:>11} "
-                f"{cells[4]:>9} {cells[5]:>10} {st['tracking']:>10} {st['occluded']:>10} {st['lost']:>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
+                f"{cells[4]:>9} {cells[5]:>10} {_cell(st['tracking']):>10} {_cell(st['occluded']):>10} {_cell(st['lost']):>6} {_cell(f.get('pose_range_err_rms_pct')):>10} {_cell(f.get('pose_bearing_err_rms_deg')):>12}"
             )
             within, every = f.get("pose_samples", (0, 0))
             if every > within:

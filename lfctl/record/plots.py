@@ -336,7 +336,13 @@ def _errors(plt: Any, c: Contents, follower: str, path: Path) -> bool:
     a2.set_ylabel("bearing error (deg)")
     a2.plot([], [], color="tab:green", ls="--", label=f"--strict: RMS within {b_lim:g} deg")
     code = {"tracking": 2, "occluded": 1, "lost": 0}
-    a3.step(t, [code.get(m["status"], 0) for _, m in msgs], where="post", color="black", lw=1)
+    if all("status" in m for _, m in msgs):
+        a3.step(t, [code.get(m["status"], 0) for _, m in msgs], where="post", color="black", lw=1)
+    else:  # its companion ran outside the simulator (a rehearsal's follower): the state was its own
+        a3.text(
+            0.5, 0.5, "track state not recorded: its companion ran outside the simulator",
+            transform=a3.transAxes, ha="center", va="center", color="grey",
+        )  # fmt: skip
     a3.set_yticks([0, 1, 2], ["lost", "occluded", "tracking"])
     a3.set_ylim(-0.3, 2.3)
     a3.set_xlabel("simulation time (s)")

@@ -146,7 +146,10 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         "type": "object",
         "properties": {
             "t_s": {"type": "number", "description": "simulation time, s"},
-            "status": {"type": "string"},
+            "status": {
+                "type": "string",
+                "description": "the follower's track state; absent when its companion ran outside the simulator",
+            },
             "speed_cmd_mps": {"type": "number"},
             "yaw_rate_cmd_degps": {"type": "number"},
             "range_cmd_m": {"type": "number"},
@@ -574,6 +577,9 @@ class Recorder:
                 "controller": cfg.guidance.controller,
                 "vehicles": ",".join(v.name for v in cfg.vehicles),
                 "followers": ",".join(v.name for v in cfg.followers),
+                # followers whose companion (lfctl follow) ran outside the simulator: it tracked their
+                # frames itself, so they have no tracker topics and no track state here
+                "companion_outside": ",".join(v.name for v in cfg.followers if not v.companion),
                 "telemetry_rate_hz": repr(cfg.sim.telemetry_rate_hz),
                 "guidance_rate_hz": repr(cfg.sim.guidance_rate_hz),
                 "camera_rate_hz": repr(cfg.sim.camera_rate_hz),
@@ -994,6 +1000,39 @@ class Recorder:
         self._next_image[follower] = due + period if t_s - due < period else t_s + period
         return True
 
+    def camera_image(self, t_s: float, follower: str, image: bytes | None) -> fm.Timestamp:
+        """A camera tick's image alone (a camera whose frames this process does not track:
+        a rehearsal's follower, whose companion runs outside); returns the frame's stamp.
+
+        Parameters
+        ----------
+        t_s : float
+            The frame's simulation time, s.
+        follower : str
+            Whose camera.
+        image : bytes or None
+            The frame encoded (as :meth:`camera` takes it); None records nothing.
+        """
+        stamp = self._stamp(t_s)
+        if image is not None:
+            frame_id = f"{follower}/camera"
+            topic = image_topic(follower, self.cfg.recording.image_format)
+            if self.cfg.recording.image_format == "h264":
+                self._log(
+                    topic,
+                    fc.CompressedVideoChannel,
+                    t_s,
+                    fm.CompressedVideo(timestamp=stamp, frame_id=frame_id, data=image, format="h264"),
+                )
+            else:
+                self._log(
+                    topic,
+                    fc.CompressedImageChannel,
+                    t_s,
+                    fm.CompressedImage(timestamp=stamp, frame_id=frame_id, data=image, format="jpeg"),
+                )
+        return stamp
+
     def camera(
         self,
         t_s: float,
@@ -1026,24 +1065,7 @@ class Recorder:
         image : bytes, optional
             The frame encoded; None records no image this tick.
         """
-        stamp = self._stamp(t_s)
-        if image is not None:
-            frame_id = f"{follower}/camera"
-            topic = image_topic(follower, self.cfg.recording.image_format)
-            if self.cfg.recording.image_format == "h264":
-                self._log(
-                    topic,
-                    fc.CompressedVideoChannel,
-                    t_s,
-                    fm.CompressedVideo(timestamp=stamp, frame_id=frame_id, data=image, format="h264"),
-                )
-            else:
-                self._log(
-                    topic,
-                    fc.CompressedImageChannel,
-                    t_s,
-                    fm.CompressedImage(timestamp=stamp, frame_id=frame_id, data=image, format="jpeg"),
-                )
+        stamp = self.camera_image(t_s, follower, image)
         self._log(
             f"/{follower}/camera/annotations", fc.ImageAnnotationsChannel, t_s, _annotations(stamp, track, measurement)
         )
@@ -1107,7 +1129,9 @@ class Recorder:
         follower : str
             Whose step.
         payload : dict
-            The ``lfctl.Controller`` fields: status, commands, slot, truth and errors.
+            The ``lfctl.Controller`` fields: status, commands, slot, truth and errors (no
+            status from a follower whose companion runs outside: its commands are what
+            reached the vehicle).
         """
         self.json(f"/{follower}/controller", "lfctl.Controller", t_s, payload)
 

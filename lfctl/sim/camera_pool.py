@@ -103,7 +103,12 @@ class _Cameras:
 
     def __init__(self, cfg: Config, specs: list[tuple[str, int]], threaded: bool) -> None:
         self.cfg = cfg
-        self.sensors = {name: CameraSensor(cfg, name, seed) for name, seed in specs}
+        # a follower whose companion runs outside (lfctl follow) tracks its frames there: here
+        # they are only rendered, streamed as the camera sees them and recorded
+        self._bare_streams = {v.name for v in cfg.followers if not v.companion}
+        self.sensors = {
+            name: CameraSensor(cfg, name, seed, perceive=name not in self._bare_streams) for name, seed in specs
+        }
         # x264 through PyAV takes and gives back the interpreter lock several times a frame:
         # beside a busy tracker thread each hand-over waits for a switch interval, which made
         # a thread 4x slower than encoding in line; JPEG (one call, lock released) gains
@@ -111,7 +116,6 @@ class _Cameras:
         self._encoder = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfctl-encode") if threaded else None
         self._video: dict[str, H264Encoder] = {}  # the log's H.264, per follower
         self._stream: dict[str, H264Encoder] = {}  # the live stream's H.264, per follower
-        self._bare_streams = {v.name for v in cfg.followers if not v.companion}  # streamed as the camera sees
 
     def _encode_image(self, follower: str, frame: np.ndarray) -> tuple[bytes | None, float]:
         """The frame for the log, as ``[recording] image_format`` says, and the seconds it took."""
@@ -144,8 +148,8 @@ class _Cameras:
             if w % 2 or h % 2:
                 raise ConfigError(f"camera.width_px x height_px is {w}x{h}: the H.264 stream (--video) needs both even")
             enc = self._stream[follower] = H264Encoder(w, h, fps, live.video_bitrate_kbps, max(1, round(fps)))
-        if live.video_annotated and follower not in self._bare_streams:
-            m = sample.measurement
+        m = sample.measurement
+        if live.video_annotated and m is not None:
             label = f"{follower} t {sample.t_s:.1f} s " + (
                 f"{m.status.value} r {m.range_m:.2f} m b {math.degrees(m.bearing_rad):+.1f} deg"
                 if m.range_m is not None and m.bearing_rad is not None
@@ -331,7 +335,8 @@ class CameraPool:
         return out
 
     def measurement(self, follower: str) -> RelativeMeasurement | None:
-        """The follower's newest measurement (None before its first frame).
+        """The follower's newest measurement (None before its first frame, and from a camera
+        that only renders).
 
         Parameters
         ----------

@@ -29,7 +29,9 @@ class CameraSample:
     frame: np.ndarray | None  # None when it came from a camera worker process (see camera_pool)
     track: TrackState | None  # the tracker's result (None before the target was found)
     pose: MarkerPose | None  # the banner's pose from its markers, when seen
-    measurement: RelativeMeasurement  # what the follower's stack is fed
+    # what the follower's stack is fed; None from a camera that only renders (a follower
+    # whose companion runs outside the simulator perceives its frames itself)
+    measurement: RelativeMeasurement | None
     truth: FrameTruth  # what the frame really shows (the renderer's ground truth)
 
 
@@ -44,19 +46,26 @@ class CameraSensor:
         The follower's name.
     seed : int
         The renderer's seed (textures, noise).
+    perceive : bool
+        Track and estimate on each frame; False renders only (the frames of a follower
+        whose companion, ``lfctl follow``, runs outside the simulator and tracks them itself).
     """
 
-    def __init__(self, cfg: Config, follower: str, seed: int) -> None:
+    def __init__(self, cfg: Config, follower: str, seed: int, perceive: bool = True) -> None:
         self.follower = follower
         self.renderer = Renderer(cfg.camera, cfg.banner, cfg.scene, seed)
         slot = cfg.slots().get(follower)
         self.tag_ids = cfg.tag_ids()
         # the target's banner: with ArUco tags, its own id is the one looked for
-        self.perception = BannerPerception.from_config(
-            cfg.camera,
-            cfg.banner_of(slot.target) if slot is not None else cfg.banner,
-            (slot.range_m, slot.bearing_rad) if slot is not None else None,
-            kind=cfg.camera.tracker,
+        self.perception = (
+            BannerPerception.from_config(
+                cfg.camera,
+                cfg.banner_of(slot.target) if slot is not None else cfg.banner,
+                (slot.range_m, slot.bearing_rad) if slot is not None else None,
+                kind=cfg.camera.tracker,
+            )
+            if perceive
+            else None
         )
         self.render_s = 0.0  # seconds spent rendering, and tracking + pose (the cost split)
         self.vision_s = 0.0
@@ -69,7 +78,8 @@ class CameraSensor:
         target: int,
         on_render: Callable[[float, np.ndarray], None] | None = None,
     ) -> CameraSample:
-        """Render, track and estimate at ``t_s``; ``on_render(t_s, frame)`` is called between
+        """Render, track and estimate at ``t_s`` (render only, when the sensor does not
+        perceive: no track, pose or measurement); ``on_render(t_s, frame)`` is called between
         rendering and tracking (the recorder starts encoding the frame there).
 
         Parameters
@@ -105,6 +115,8 @@ class CameraSensor:
         if on_render is not None:
             on_render(t_s, frame)
             t1 = time.perf_counter()
+        if self.perception is None:
+            return CameraSample(t_s, frame, None, None, None, truth)
         seen = self.perception.step(t_s, frame)
         self.vision_s += time.perf_counter() - t1
         return CameraSample(t_s, frame, seen.track, seen.pose, seen.measurement, truth)

@@ -75,7 +75,8 @@ class FollowerTrace:
     range_err_m: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot then
     bearing_err_rad: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot, wrapped
     separation_m: array[float] = dataclasses.field(default_factory=_floats)  # to the nearest vehicle
-    status: list[TrackStatus] = dataclasses.field(default_factory=list)  # the stack's track state
+    # the stack's track state (None: its companion runs outside, and the state is its own)
+    status: list[TrackStatus | None] = dataclasses.field(default_factory=list)
     speed_cmd_mps: array[float] = dataclasses.field(default_factory=_floats)  # the commands sent
     yaw_rate_cmd_radps: array[float] = dataclasses.field(default_factory=_floats)  # positive right
     speed_mps: array[float] = dataclasses.field(default_factory=_floats)  # the follower's true speed
@@ -99,7 +100,7 @@ class FollowerTrace:
             self.range_err_m,
             self.bearing_err_rad,
             self.separation_m,
-            [s.value for s in self.status],
+            [s.value if s is not None else None for s in self.status],
             self.yaw_rate_cmd_radps,
             step_s,
             path_err_m=self.path_err_m,
@@ -179,6 +180,7 @@ class SimFollower:
     stack: Follower
     sensor: TruthSensor | None
     trace: FollowerTrace
+    simulated: bool = True  # its companion is the simulator's (False: lfctl follow's, outside)
 
 
 class CameraTask:
@@ -223,7 +225,10 @@ class CameraTask:
             if rec is not None:
                 t0 = time.perf_counter()
                 s = res.sample
-                rec.camera(t_s, job.follower, s.track, s.pose, s.measurement, s.truth, res.image)
+                if s.measurement is None:  # its companion runs outside and tracks the frames there
+                    rec.camera_image(t_s, job.follower, res.image)
+                else:
+                    rec.camera(t_s, job.follower, s.track, s.pose, s.measurement, s.truth, res.image)
                 self.record_s += time.perf_counter() - t0
 
 
@@ -312,7 +317,9 @@ class GuidanceTask:
         ep = self.links.endpoints[f.index]
         if "LFC_RANGE" in ep.params:  # (a follower whose companion runs outside has none)
             f.stack.tune_from_params(ep.param)  # a ground station may set them
-        if self.open_loop == "formation":
+        if not f.simulated:  # its companion (lfctl follow) runs outside: what drove it is what reached it
+            cmd, status, law = self.drivers[f.index].link_command(), None, ""
+        elif self.open_loop == "formation":
             if self.pool is not None:
                 meas = self.pool.measurement(f.name)
             else:
@@ -333,7 +340,7 @@ class GuidanceTask:
         f: SimFollower,
         speed_mps: float,
         cmd: tuple[float, float],
-        status: TrackStatus,
+        status: TrackStatus | None,
         law: str,
     ) -> None:
         tr, slot = f.trace, f.stack.settings
@@ -363,7 +370,7 @@ class GuidanceTask:
                 t_s,
                 f.name,
                 {
-                    "status": status.value,
+                    **({"status": status.value} if status is not None else {}),
                     "speed_cmd_mps": round(cmd[0], 5),
                     "yaw_rate_cmd_degps": round(math.degrees(cmd[1]), 4),
                     "range_cmd_m": slot.range_cmd_m,
@@ -677,7 +684,7 @@ def _closed_loop(
         )
         sensor = None if camera else TruthSensor(cfg.sensing, np.random.default_rng(seed))
         trace = FollowerTrace(v.name, slot.target, slot.range_m, slot.bearing_rad)
-        followers.append(SimFollower(v.name, idx[v.name], idx[slot.target], stack, sensor, trace))
+        followers.append(SimFollower(v.name, idx[v.name], idx[slot.target], stack, sensor, trace, v.companion))
     # frames stay in this process only when someone looks at them
     pool = CameraPool(cfg, seeds, 0 if on_frame is not None else default_workers(cfg)) if camera else None
     try:

@@ -1239,6 +1239,75 @@ def test_the_summary_leaves_a_companionless_followers_tracking_to_its_companion(
     assert row.split()[-3:] == ["-", "-", "-"]  # its simulated tracker's seconds are not its companion's
 
 
+@pytest.mark.slow
+def test_a_rehearsal_follower_is_not_tracked_by_the_simulator_and_its_log_has_what_drove_it(
+    tmp_path: Path, free_udp_ports
+) -> None:
+    # a rehearsal's follower is tracked by lfctl follow, outside: the simulator only renders
+    # its frames (its own tracker used to run on them, and its stack's unsent commands and
+    # track state went into the log as if they had driven the vehicle)
+    import dataclasses
+
+    from lfctl.config import load_config
+    from lfctl.data import examples_dir
+    from lfctl.record.audit import audit, format_report
+    from lfctl.record.mcap_read import read_contents
+    from lfctl.record.plots import plot_all
+    from lfctl.sim.runner import run_scenario
+
+    cfg = load_config(examples_dir() / "convoy.toml")
+    base = free_udp_ports(2)
+    cfg = dataclasses.replace(
+        cfg,
+        vehicles=(cfg.vehicles[0], dataclasses.replace(cfg.vehicles[1], companion=False)),
+        link=dataclasses.replace(cfg.link, udp_base_port=base, gcs_udpout=""),
+    )
+    speed, yaw_rate = 0.4, 0.25  # what the outside companion asks for
+    done = threading.Event()
+
+    def outside_companion() -> None:  # as lfctl follow drives it: GUIDED, armed, setpoints at 20 Hz
+        comp = Companion.open(f"udpout:127.0.0.1:{base + 1}", 2)
+        try:
+            comp.request(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["GUIDED"])
+            comp.request(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1.0)
+            t0 = time.monotonic()
+            while not done.is_set():
+                comp.setpoint(time.monotonic() - t0, speed, yaw_rate)
+                comp.poll(time.monotonic() - t0, 0.05)
+        finally:
+            comp.close()
+
+    log = tmp_path / "rehearsal.mcap"
+    driver = threading.Thread(target=outside_companion, daemon=True)
+    driver.start()
+    try:
+        report = run_scenario(cfg, realtime=True, duration_s=4.0, record_to=log)
+    finally:
+        done.set()
+        driver.join(10)
+    extra = report.result.extra
+    assert extra["vision_s"] == 0.0 and extra["render_s"] > 0  # rendered, never tracked
+    (m,) = report.metrics
+    assert m.time_in_state_s == {"tracking": None, "occluded": None, "lost": None}
+    c, findings = read_contents(log)
+    assert not findings
+    assert "/follower1/tracker" not in c.messages and "/follower1/camera/annotations" not in c.messages
+    assert len(c.messages["/follower1/camera/video"]) > 60  # the frames are recorded
+    assert c.metadata["run"]["companion_outside"] == "follower1"
+    steps = [json.loads(payload) for _t, payload in c.messages["/follower1/controller"]]
+    assert steps and not any("status" in x for x in steps)
+    driven = [(x["speed_cmd_mps"], x["yaw_rate_cmd_degps"]) for x in steps[len(steps) // 2 :]]
+    assert all(v == pytest.approx((speed, math.degrees(yaw_rate)), abs=1e-3) for v in driven), driven[:5]
+    r = audit(log)
+    assert r.ok, r.findings
+    (fig,) = r.figures["followers"]
+    assert fig["time_in_state_s"] == {"tracking": None, "occluded": None, "lost": None}
+    assert fig["occlusion_episodes"] == []
+    row = next(line for line in format_report(r).splitlines() if line.startswith("  follower1 "))
+    assert row.split()[9:12] == ["-", "-", "-"]
+    assert any(p.name.startswith("follower1") for p in plot_all(r, tmp_path / "plots"))
+
+
 # -- a camera that stops and comes back -----------------------------------------------------------
 
 
