@@ -1,6 +1,6 @@
 """lfctl as a user installs it: a wheel into a fresh virtual environment, used from an empty
 directory (no checkout on the path), builds its FMUs, runs a shipped example by name and
-audits the log. The sdist carries the C sources and the examples too."""
+audits the log. The sdist carries the C sources and the examples too, and no tests."""
 
 from __future__ import annotations
 
@@ -99,8 +99,15 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
 
 
 @pytest.mark.slow
-def test_sdist_carries_the_c_sources_and_the_examples(tmp_path: Path) -> None:
+def test_sdist_carries_the_c_sources_and_the_examples_and_nothing_a_user_left_there(tmp_path: Path) -> None:
     src = _source_copy(tmp_path / "src")
+    # what a user leaves in the shipped folders (a run from examples/, an editor, a compiler,
+    # lfctl bench) went into every sdist and wheel; a new example of their own still goes
+    junk = ["examples/logs/20261207T000000Z-convoy-1.mcap", "examples/convoy.toml~", "examples/bench-results.md",
+            "fmu_models/SkidSteerRover/a.out", "docs/.#audit.md"]  # fmt: skip
+    for name in [*junk, "examples/mine.toml"]:
+        (src / name).parent.mkdir(parents=True, exist_ok=True)
+        (src / name).write_text("x")
     _run(
         [sys.executable, "-c", f"from setuptools import build_meta; build_meta.build_sdist({str(tmp_path)!r})"],
         src,
@@ -112,5 +119,8 @@ def test_sdist_carries_the_c_sources_and_the_examples(tmp_path: Path) -> None:
         "fmu_models/common/model_core.c",
         "fmu_models/SkidSteerRover/model.c",
         "examples/convoy.toml",
+        "examples/mine.toml",
         "setup.py",
     } <= names
+    assert not set(junk) & names
+    assert not any(n.startswith("tests/") for n in names)  # (the tests run from a checkout: their fixtures are there)
