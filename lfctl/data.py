@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
 from pathlib import Path
 
-from lfctl.errors import ConfigError
+from lfctl.errors import ConfigError, LfctlError
 
 __all__ = [
     "code_digest",
@@ -54,6 +55,43 @@ def user_cache(sub: str) -> Path:
     import platformdirs
 
     return Path(platformdirs.user_cache_dir("lfctl")) / sub
+
+
+def cache_error(folder: Path, exc: OSError, given: bool = False) -> LfctlError:
+    """The error for a cache folder this user cannot make or write in (no home, a home
+    that is not theirs, a cache another user made): which folder, why, whose it is when it
+    is another user's, and how to put the cache elsewhere.
+
+    Parameters
+    ----------
+    folder : Path
+        The cache folder.
+    exc : OSError
+        What failed.
+    given : bool
+        The folder was given on the command line (``--cache-dir``), not lfctl's default.
+    """
+    owner = ""
+    for place in (folder, *folder.parents):  # the nearest part that exists
+        try:
+            uid = place.stat().st_uid
+        except OSError:
+            continue
+        if uid != os.getuid():
+            try:
+                import pwd
+
+                name = pwd.getpwuid(uid).pw_name
+            except (ImportError, KeyError):
+                name = f"uid {uid}"
+            owner = f"; {place} belongs to {name}"
+        break
+    how = (
+        "give a folder this user can write"
+        if given
+        else "set XDG_CACHE_HOME to a folder this user can write (lfctl's cache is then $XDG_CACHE_HOME/lfctl)"
+    )
+    return LfctlError(f"cannot write lfctl's cache {folder} ({exc.strerror or exc}{owner}): {how}")
 
 
 def models_dir() -> Path:

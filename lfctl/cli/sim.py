@@ -142,15 +142,18 @@ def live_layout(follower: str, leader: str, image_format: str, camera: bool = Tr
     scene : bool
         The run publishes ``/scene`` (``lfctl follow`` does not).
     """
-    from lfctl.data import examples_dir, user_cache
+    from lfctl.data import cache_error, examples_dir, user_cache
     from lfctl.record.layout import layout_json
 
     if (follower, leader, image_format, camera, scene) == ("follower1", "leader", "h264", True, True):
         return examples_dir() / "foxglove-layout.json"
     kind = (image_format if camera else "no-camera") + ("" if scene else "-no-scene")
     path = user_cache("layouts") / f"{leader}-{follower}-{kind}.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(layout_json(follower, leader, image_format, camera, scene))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(layout_json(follower, leader, image_format, camera, scene))
+    except OSError as exc:
+        raise cache_error(path.parent, exc) from None
     return path
 
 

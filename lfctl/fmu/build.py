@@ -28,7 +28,7 @@ from pathlib import Path
 
 import fmpy
 
-from lfctl.data import builtin_models, models_dir, user_cache
+from lfctl.data import builtin_models, cache_error, models_dir, user_cache
 from lfctl.errors import BuildToolError, ConfigError, FmuError
 
 __all__ = [
@@ -439,22 +439,27 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
         root.parent.mkdir(parents=True, exist_ok=True)
     except (FileExistsError, NotADirectoryError):
         raise ConfigError(f"the FMU cache {root.parent} is not a folder") from None
-    # one builder at a time per entry: the workers of a sweep on a cold cache start together,
-    # and a second build replacing the first would pull the files from under its readers
-    with _locked(root.parent / f".{root.name}.lock"):
-        if not force and built.fmi2.is_file() and built.fmi3.is_file():
-            return built  # built by another process while this one waited
-        log.info("building %s FMUs into %s", src.identifier, root)
-        with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
-            work = Path(tmp)
-            out_dir = work / "out"
-            out_dir.mkdir()
-            for fmi in (2, 3):
-                _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
-            (out_dir / SOURCES_KEY_FILE).write_text(_sources_key(src) + "\n")
-            if root.exists():
-                shutil.rmtree(root)
-            os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
+    except OSError as exc:  # no home, or one that is not this user's
+        raise cache_error(root.parent, exc, given=cache_dir is not None) from None
+    try:
+        # one builder at a time per entry: the workers of a sweep on a cold cache start together,
+        # and a second build replacing the first would pull the files from under its readers
+        with _locked(root.parent / f".{root.name}.lock"):
+            if not force and built.fmi2.is_file() and built.fmi3.is_file():
+                return built  # built by another process while this one waited
+            log.info("building %s FMUs into %s", src.identifier, root)
+            with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
+                work = Path(tmp)
+                out_dir = work / "out"
+                out_dir.mkdir()
+                for fmi in (2, 3):
+                    _package(src, fmi, compiler, work, out_dir / built.path(fmi).name)
+                (out_dir / SOURCES_KEY_FILE).write_text(_sources_key(src) + "\n")
+                if root.exists():
+                    shutil.rmtree(root)
+                os.replace(out_dir, root)  # atomic: a half-built cache entry is never visible
+    except PermissionError as exc:  # a cache another user made: its entries read, but none added
+        raise cache_error(root.parent, exc, given=cache_dir is not None) from None
     return built
 
 

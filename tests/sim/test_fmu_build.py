@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -13,7 +14,8 @@ import pytest
 from fmpy.validation import validate_fmu
 
 from lfctl import data
-from lfctl.errors import BuildToolError, FmuError
+from lfctl.cli import main
+from lfctl.errors import BuildToolError, FmuError, LfctlError
 from lfctl.fmu import build as fmu_build
 from lfctl.fmu.build import available_models, build_model, parse_model_source
 
@@ -82,6 +84,42 @@ def test_processes_building_at_once_build_once_and_all_get_it(tmp_path: Path) ->
     assert [p.returncode for p in procs] == [0, 0, 0], outs
     assert sum(err.count("building KinematicUnicycle FMUs") for _, err in outs) == 1, outs  # the others waited
     assert len({out for out, _ in outs}) == 1 and int(outs[0][0].split()[0]) > 0
+
+
+def test_a_cache_this_user_cannot_write_is_named_with_how_to_move_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # no home (a service's HOME=/nonexistent, a container's HOME=/): the run failed with a bare
+    # "[Errno 13] Permission denied: '/nonexistent'", nothing saying it was the FMU cache
+    try:  # (sysfs: not even root makes a folder there)
+        Path("/sys/lfctl-test").mkdir()
+    except OSError:
+        pass
+    else:
+        Path("/sys/lfctl-test").rmdir()
+        pytest.skip("no folder here that even root cannot write")
+    with pytest.raises(LfctlError, match=r"cannot write lfctl's cache /sys/lfctl-test/fmu \(.*\): give a folder"):
+        build_model("KinematicUnicycle", Path("/sys/lfctl-test/fmu"))
+    monkeypatch.setenv("XDG_CACHE_HOME", "/sys/lfctl-test")
+    assert main(["fmu", "build", "KinematicUnicycle"]) == 1
+    assert capsys.readouterr().err.startswith(
+        "lfctl: error: cannot write lfctl's cache /sys/lfctl-test/lfctl/fmu (Operation not permitted): set "
+        "XDG_CACHE_HOME to a folder this user can write (lfctl's cache is then $XDG_CACHE_HOME/lfctl)"
+    )
+    # another user's cache: its entries read, but adding one failed naming only a lock file
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    if os.getuid() == 0:
+        os.chown(theirs, 65534, 65534)
+
+    def refused(path: Path) -> None:
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(fmu_build, "_locked", refused)
+    with pytest.raises(LfctlError, match=r"cannot write lfctl's cache .*theirs \(Permission denied.*\): give") as err:
+        build_model("KinematicUnicycle", theirs)
+    if os.getuid() == 0:
+        assert f"; {theirs} belongs to " in str(err.value)
 
 
 def test_cache_key_changes_with_compiler_version() -> None:
