@@ -348,3 +348,21 @@ def test_help_keeps_a_long_path_whole_and_prints_the_code_digest(
     with pytest.raises(SystemExit):
         main(["--version"])
     assert capsys.readouterr().out.strip().endswith(f"(code {code_digest()[:12]})")
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["--version"], ["fmu", "info", "KinematicUnicycle"]])
+@pytest.mark.parametrize("unbuffered", ["", "1"])
+def test_a_reader_that_left_before_the_last_write_is_not_an_error(argv: list[str], unbuffered: str) -> None:
+    # `lfctl --help | head -n 0`: the output waited in Python's buffer until the interpreter's
+    # flush at exit, which printed "Exception ignored ... BrokenPipeError" and exited 120 (with
+    # PYTHONUNBUFFERED, --version's print ended in a traceback)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    if unbuffered:
+        env["PYTHONUNBUFFERED"] = unbuffered
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "lfctl", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    proc.stdout.close()  # the reader leaves before anything is written
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0 and err == "", err

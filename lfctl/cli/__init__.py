@@ -167,13 +167,37 @@ def _joined_values(words: list[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one command; returns its exit code.
+    """Run one command; returns its exit code. A reader of stdout that leaves early (``lfctl
+    ... | head``) ends nothing with an error, however early it left: the last output is
+    flushed here, where its failure is caught, not by the interpreter as it exits (which
+    printed "Exception ignored ... BrokenPipeError" and exited 120).
 
     Parameters
     ----------
     argv : sequence of str, optional
         The arguments (default ``sys.argv[1:]``).
     """
+    try:
+        code = _main(argv)
+    except SystemExit:  # --help, --version, the command line's errors
+        _flush_stdout()
+        raise
+    except BrokenPipeError:  # (--version printed while stdout is unbuffered)
+        quiet_stdout()
+        return 0
+    _flush_stdout()
+    return code
+
+
+def _flush_stdout() -> None:
+    """Flush stdout; a reader that has left is not an error of ours."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        quiet_stdout()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     words = _joined_values(list(sys.argv[1:] if argv is None else argv))
     args, unknown = parser.parse_known_args(words)
