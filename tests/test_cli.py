@@ -366,3 +366,23 @@ def test_a_reader_that_left_before_the_last_write_is_not_an_error(argv: list[str
     proc.stdout.close()  # the reader leaves before anything is written
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 0 and err == "", err
+
+
+def test_paths_with_spaces_stay_whole_in_help_and_are_quoted_in_commands_to_copy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a venv under "~/My Projects": the help broke the examples' folder at its space, and the
+    # `lfctl audit LOG` to paste did not quote a log folder with one
+    import lfctl.cli.sim
+
+    folder = Path("/home/me/My Projects/venv ü/lib/python3.11/site-packages/lfctl/examples")
+    monkeypatch.setattr(lfctl.cli.sim, "examples_dir", lambda: folder)
+    monkeypatch.setenv("COLUMNS", "60")
+    with pytest.raises(SystemExit):
+        main(["sim", "--help"])
+    assert str(folder) in capsys.readouterr().out.splitlines()  # a line of its own: it fits none with words
+    scenario = tmp_path / "s.toml"
+    scenario.write_text((ROOT / "examples" / "convoy.toml").read_text() + '\n[recording]\ndir = "my runs"\n')
+    assert main(["sim", str(scenario), "--duration", "0.5", "--sensing", "truth", "-q"]) == 0
+    (log,) = (tmp_path / "my runs").glob("*.mcap")
+    assert f"check it with `lfctl audit 'my runs/{log.name}'`" in capsys.readouterr().out

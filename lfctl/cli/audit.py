@@ -12,7 +12,7 @@ from typing import Any
 
 def register(sub: Any) -> None:
     """Add the ``audit`` command to the parser."""
-    from lfctl.cli.options import integer
+    from lfctl.cli.options import integer, whole_path
     from lfctl.data import docs_dir
     from lfctl.record.mcap_read import MAX_MESSAGES
 
@@ -20,7 +20,7 @@ def register(sub: Any) -> None:
         "audit",
         help="check a run's MCAP log: integrity, provenance, formation/link/mission figures",
         description="Audit an MCAP run log. Exit 0 when intact (and, with --strict, within the scenario's limits), "
-        f"1 otherwise, 2 when the path is not a regular file. Reading is bounded ({docs_dir() / 'audit.md'}).",
+        f"1 otherwise, 2 when the path is not a regular file. Reading is bounded ({whole_path(docs_dir() / 'audit.md')}).",
     )
     a.add_argument("file", type=Path, help="an .mcap log (logs/<run>.mcap)")
     a.add_argument("--json", action="store_true", help="machine-readable report")

@@ -23,6 +23,7 @@ __all__ = [
     "name",
     "number",
     "param_name",
+    "whole_path",
 ]
 
 
@@ -31,19 +32,38 @@ __all__ = [
 TRACKER_KINDS = {"full": "full", "hs-lbp": "hs-lbp", "hue-only": "hue", "hue": "hue"}
 
 
+#: stands for a space inside a path in help text until the text is wrapped (not whitespace to
+#: ``str.split`` or ``textwrap``, so the path is one word)
+_PATH_SPACE = "\0"
+
+
+def whole_path(path: object) -> str:
+    """A path to put in help text: :class:`WholePathsFormatter` keeps it on one line even where
+    it holds spaces (a venv under ``~/My Projects``).
+
+    Parameters
+    ----------
+    path : path-like
+        The path.
+    """
+    return str(path).replace(" ", _PATH_SPACE)
+
+
 class WholePathsFormatter(argparse.HelpFormatter):
     """argparse's help layout, but a line is never broken inside a word or at its hyphens: a
-    path such as ``.../site-packages/lfctl/examples`` stays whole, to be copied."""
+    path such as ``.../site-packages/lfctl/examples`` stays whole, to be copied (one with
+    spaces too, when given through :func:`whole_path`)."""
 
     def _split_lines(self, text: str, width: int) -> list[str]:
         text = " ".join(text.split())
-        return textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)
+        lines = textwrap.wrap(text, width, break_on_hyphens=False, break_long_words=False)
+        return [line.replace(_PATH_SPACE, " ") for line in lines]
 
     def _fill_text(self, text: str, width: int, indent: str) -> str:
         text = " ".join(text.split())
         return textwrap.fill(
             text, width, initial_indent=indent, subsequent_indent=indent, break_on_hyphens=False, break_long_words=False
-        )
+        ).replace(_PATH_SPACE, " ")
 
 
 class OneLineParser(argparse.ArgumentParser):

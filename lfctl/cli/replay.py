@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -37,10 +38,12 @@ def run(args: argparse.Namespace) -> int:
     if r.unreadable:
         print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     if r.truncated:
-        print(f"  the log is truncated (not finished): these are the frames before the cut (`lfctl audit {args.file}`)")
+        print(
+            f"  the log is truncated (not finished): these are the frames before the cut (`lfctl audit {shlex.quote(args.file)}`)"
+        )
     if r.damaged:
         print(
             f"  the log is damaged (a chunk skipped, a record passed over, or bytes after its end: `lfctl audit "
-            f"{args.file}` says where): these are the frames that could be read"
+            f"{shlex.quote(args.file)}` says where): these are the frames that could be read"
         )
     return 0

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lfctl.cli import stopped_by
-from lfctl.cli.options import integer, number
+from lfctl.cli.options import integer, number, whole_path
 from lfctl.data import example_names, examples_dir
 
 if TYPE_CHECKING:
@@ -31,7 +31,7 @@ def register(sub: Any) -> None:
         help="run a scenario and print a summary",
         description="Run a scenario (a TOML file, or a shipped example by name: "
         f"{', '.join(example_names()) or 'none found'}) in the co-simulation and print a summary.",
-        epilog=f"The shipped examples (copy one to edit it): {examples_dir()}",
+        epilog=f"The shipped examples (copy one to edit it): {whole_path(examples_dir())}",
     )
     s.add_argument(
         "scenario", help="scenario TOML file, or the name of a shipped example such as convoy, column5 or vee"
@@ -338,7 +338,10 @@ def run(args: argparse.Namespace) -> int:
             )
     except KeyboardInterrupt:
         if logged and logged[0].exists():  # finished, "interrupted" in its end metadata
-            print(f"\nlog          {logged[0]}  (interrupted; check it with `lfctl audit {logged[0]}`)", flush=True)
+            print(
+                f"\nlog          {logged[0]}  (interrupted; check it with `lfctl audit {shlex.quote(str(logged[0]))}`)",
+                flush=True,
+            )
         raise
     finally:
         for sig, handler in handlers.items():
@@ -349,5 +352,7 @@ def run(args: argparse.Namespace) -> int:
     if report.log_path is not None:
         log.info("recorded %d messages to %s", report.log_messages, report.log_path)
         size_mb = report.log_path.stat().st_size / 1e6
-        print(f"\nlog          {report.log_path}  ({size_mb:.1f} MB; check it with `lfctl audit {report.log_path}`)")
+        print(
+            f"\nlog          {report.log_path}  ({size_mb:.1f} MB; check it with `lfctl audit {shlex.quote(str(report.log_path))}`)"
+        )
     return 0

@@ -29,9 +29,7 @@ class CameraSample:
     frame: np.ndarray | None  # None when it came from a camera worker process (see camera_pool)
     track: TrackState | None  # the tracker's result (None before the target was found)
     pose: MarkerPose | None  # the banner's pose from its markers, when seen
-    # what the follower's stack is fed; None from a camera that only renders (a follower
-    # whose companion runs outside the simulator perceives its frames itself)
-    measurement: RelativeMeasurement | None
+    measurement: RelativeMeasurement | None  # what the follower's stack is fed (None: the camera only renders)
     truth: FrameTruth  # what the frame really shows (the renderer's ground truth)
 
 

@@ -75,8 +75,7 @@ class FollowerTrace:
     range_err_m: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot then
     bearing_err_rad: array[float] = dataclasses.field(default_factory=_floats)  # truth - the slot, wrapped
     separation_m: array[float] = dataclasses.field(default_factory=_floats)  # to the nearest vehicle
-    # the stack's track state (None: its companion runs outside, and the state is its own)
-    status: list[TrackStatus | None] = dataclasses.field(default_factory=list)
+    status: list[TrackStatus | None] = dataclasses.field(default_factory=list)  # the stack's (None: outside's)
     speed_cmd_mps: array[float] = dataclasses.field(default_factory=_floats)  # the commands sent
     yaw_rate_cmd_radps: array[float] = dataclasses.field(default_factory=_floats)  # positive right
     speed_mps: array[float] = dataclasses.field(default_factory=_floats)  # the follower's true speed
