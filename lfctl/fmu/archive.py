@@ -50,6 +50,7 @@ __all__ = [
     "ExtractionDir",
     "check_archive",
     "extract_archive",
+    "pid_alive",
     "read_member",
     "remove_stale_extractions",
 ]
@@ -350,7 +351,14 @@ class ExtractionDir:
             self._lock_fd = None
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """A process ``pid`` exists (this user's or another's).
+
+    Parameters
+    ----------
+    pid : int
+        The process id.
+    """
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -390,7 +398,7 @@ def remove_stale_extractions(tmpdir: str | Path | None = None) -> list[Path]:
             st = entry.stat(follow_symlinks=False)
         except OSError:
             continue
-        if not stat.S_ISDIR(st.st_mode) or st.st_uid != uid or pid == os.getpid() or _pid_alive(pid):
+        if not stat.S_ISDIR(st.st_mode) or st.st_uid != uid or pid == os.getpid() or pid_alive(pid):
             continue
         folder = Path(entry.path)
         try:

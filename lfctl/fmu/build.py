@@ -30,6 +30,7 @@ import fmpy
 
 from lfctl.data import builtin_models, cache_error, models_dir, user_cache
 from lfctl.errors import BuildToolError, ConfigError, FmuError
+from lfctl.fmu.archive import pid_alive
 
 __all__ = [
     "BuiltModel",
@@ -448,7 +449,8 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
             if not force and built.fmi2.is_file() and built.fmi3.is_file():
                 return built  # built by another process while this one waited
             log.info("building %s FMUs into %s", src.identifier, root)
-            with tempfile.TemporaryDirectory(dir=root.parent, prefix=".build-") as tmp:
+            _remove_dead_builds(root.parent)
+            with tempfile.TemporaryDirectory(dir=root.parent, prefix=f".build-{os.getpid()}-") as tmp:
                 work = Path(tmp)
                 out_dir = work / "out"
                 out_dir.mkdir()
@@ -461,6 +463,24 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
     except PermissionError as exc:  # a cache another user made: its entries read, but none added
         raise cache_error(root.parent, exc, given=cache_dir is not None) from None
     return built
+
+
+def _remove_dead_builds(cache: Path) -> list[Path]:
+    """Remove the build folders (``.build-<pid>-...``) in ``cache`` that this user's processes
+    left when they were killed mid-build (their process is gone); the folders removed.
+    Another user's, or a live process's, are left alone."""
+    removed = []
+    for folder in cache.glob(".build-*-*"):
+        pid = folder.name.split("-")[1]
+        try:
+            mine = folder.is_dir() and not folder.is_symlink() and folder.stat().st_uid == os.getuid()
+        except OSError:
+            continue
+        if mine and pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
+            shutil.rmtree(folder, ignore_errors=True)
+            removed.append(folder)
+            log.info("removed %s, left by a build whose process is gone", folder)
+    return removed
 
 
 @contextlib.contextmanager

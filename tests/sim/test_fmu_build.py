@@ -122,6 +122,18 @@ def test_a_cache_this_user_cannot_write_is_named_with_how_to_move_it(
         assert f"; {theirs} belongs to " in str(err.value)
 
 
+def test_a_build_killed_midway_leaves_no_folder_behind_after_the_next_build(tmp_path: Path) -> None:
+    # a build killed while it compiled left its hidden .build-* folder in the cache for good
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    gone = tmp_path / f".build-{int(dead.stdout)}-abcd1234"  # (its process has ended)
+    alive = tmp_path / f".build-{os.getppid()}-efgh5678"  # a live process's, maybe building
+    for folder in (gone, alive):
+        (folder / "out").mkdir(parents=True)
+    build_model("KinematicUnicycle", tmp_path)
+    assert not gone.exists() and alive.is_dir()
+    assert not [p for p in tmp_path.glob(".build-*") if p != alive]  # (nor its own)
+
+
 def test_cache_key_changes_with_compiler_version() -> None:
     src = parse_model_source(data.models_dir() / "SkidSteerRover")
     assert fmu_build.cache_key(src, "gcc 12.2.0") != fmu_build.cache_key(src, "gcc 13.1.0")
