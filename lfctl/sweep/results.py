@@ -54,6 +54,9 @@ META = "sweep.json"
 JOURNAL = "runs.jsonl"
 #: the figures the printed summary shows per follower (all of them are in summary.csv)
 HEADLINE = ("range_err_rms_m", "bearing_err_rms_deg", "lost_s", "chattering_per_s", "track_success")
+#: of them, those a run has only after the settling time, and only with camera sensing
+ERROR_FIGURES = frozenset({"range_err_rms_m", "bearing_err_rms_deg"})
+CAMERA_FIGURES = frozenset({"track_success"})
 
 
 @dataclass(frozen=True)
@@ -377,8 +380,16 @@ def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], fol
     if left_out and not any(s["ok"] for s in summary):  # said, not dropped in silence
         lines += ["", "no figures: no run succeeded (the failed column and the rows' error say why)"]
     elif left_out:
-        lines += ["", f"no figures for {', '.join(left_out)} in any variant (runs no longer than the"
-                  f" {SETTLE_S:g} s settling time have no errors; a camera figure needs camera sensing)"]  # fmt: skip
+        kinds = {m.rsplit(".", 1)[-1] for m in left_out}
+        why = [
+            *(
+                [f"runs no longer than the {SETTLE_S:g} s settling time have no errors"]
+                if kinds & ERROR_FIGURES
+                else []
+            ),
+            *(["a camera figure needs camera sensing"] if kinds & CAMERA_FIGURES else []),
+        ]
+        lines += ["", f"no figures for {', '.join(left_out)} in any variant" + (f" ({'; '.join(why)})" if why else "")]
     return "\n".join(lines) + "\n"
 
 

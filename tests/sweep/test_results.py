@@ -12,6 +12,7 @@ import pytest
 from lfctl.errors import ConfigError
 from lfctl.sweep.plots import MAX_LINES, line_keys, plot_sweep
 from lfctl.sweep.results import (
+    HEADLINE,
     append_row,
     mean_ci,
     metric_columns,
@@ -70,10 +71,19 @@ def test_a_headline_figure_no_variant_has_is_said_not_dropped_in_silence() -> No
     s = summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m", "f1.lost_s"])
     text = summary_markdown(s, ["sensing.range_noise_m"], ["f1"])
     assert "| range_err_rms_m |" in text.splitlines()[0] + " |"  # some variant has it: shown
-    assert "no figures for bearing_err_rms_deg, chattering_per_s, track_success in any variant" in text
+    # each reason said where it applies, and only there
+    assert text.splitlines()[-1] == (
+        "no figures for bearing_err_rms_deg, chattering_per_s, track_success in any variant (runs no longer than "
+        "the 5 s settling time have no errors; a camera figure needs camera sensing)"
+    )
     none = summary_markdown(summarise([_row(0, 0, None)], ["sensing.range_noise_m"], ["f1.range_err_rms_m"]),
                             ["sensing.range_noise_m"], ["f1"])  # fmt: skip
     assert "no figures for range_err_rms_m, " in none and "settling time" in none
+    truth = _row(0, 0, 1.0, **{"f1.bearing_err_rms_deg": 2.0, "f1.chattering_per_s": 0.5})  # (no track_success)
+    camera_only = summarise([truth], ["sensing.range_noise_m"], [f"f1.{m}" for m in HEADLINE])
+    assert summary_markdown(camera_only, ["sensing.range_noise_m"], ["f1"]).splitlines()[-1] == (
+        "no figures for track_success in any variant (a camera figure needs camera sensing)"
+    )
     failed = summarise([_row(0, 0, None, "error", error="FmuError: x")], ["sensing.range_noise_m"], ["f1.lost_s"])
     assert "no figures: no run succeeded" in summary_markdown(failed, ["sensing.range_noise_m"], ["f1"])
 
