@@ -9,7 +9,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from lfctl.cli.options import TRACKER_KINDS, integer, number, video_out, whole_path
+from lfctl.cli.options import TRACKER_KINDS, integer, number, video_out
 
 if TYPE_CHECKING:
     from lfctl.config import BannerConfig, Config
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
             )
         raise ConfigError(
             f"video source {args.source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
-            f" or a shipped clip by name, from {whole_path(footage_dir())})"
+            f" or a shipped clip by name, from {footage_dir()})"
         )
     scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
