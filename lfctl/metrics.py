@@ -292,7 +292,8 @@ class PathHistory:
 def track_episodes(
     t_s: Sequence[float], status: Sequence[str | None], step_s: float, after_s: float = 0.5
 ) -> list[TrackEpisode]:
-    """The stretches without tracking that begin after ``after_s`` (the start-up is not one);
+    """The stretches without tracking that begin after ``after_s`` (the start-up is not one,
+    however long: a target never found gives none, its time is in the time in each state);
     none where a state is not known (None).
 
     Parameters

@@ -135,6 +135,7 @@ def main(quick: bool = False) -> None:
                 results[mode] |= _video_figures(path, follower, duration)
             if mode in ("h264", "jpeg"):
                 r = replay(path, "full", follower)
+                assert r.recorded_success is not None and r.recorded_markers is not None  # (its own camera run)
                 results[mode] |= {
                     "replayed_success": round(r.replayed_success, 3),
                     "live_success": round(r.recorded_success, 3),

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import shlex
 from pathlib import Path
 from typing import Any
 
-from lfctl.cli.options import TRACKER_KINDS, name
+from lfctl.cli.options import TRACKER_KINDS, command, name
 
 
 def register(sub: Any) -> None:
@@ -29,21 +28,24 @@ def run(args: argparse.Namespace) -> int:
 
     r = replay(args.file, TRACKER_KINDS[args.tracker], args.follower)
     print(f"replayed {r.frames} frames of {r.follower} from {args.file}")
-    print(
-        f"  recorded tracker (full):  success {r.recorded_success:.3f}  "
-        f"(IoU >= 0.5 on {r.scored} frames with at least {MIN_VISIBLE:.0%} of the banner visible)"
-    )
-    print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
-    print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
+    scored = f"(IoU >= 0.5 on {r.scored} frames with at least {MIN_VISIBLE:.0%} of the banner visible)"
+    if r.recorded_success is None or r.recorded_markers is None:
+        print(f"  recorded tracker: none (its companion tracked these frames outside the simulator)  {scored}")
+        print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
+        print(f"  four markers found: replayed {r.replayed_markers:.3f}")
+    else:
+        print(f"  recorded tracker (full):  success {r.recorded_success:.3f}  {scored}")
+        print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
+        print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
     if r.unreadable:
         print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     if r.truncated:
         print(
-            f"  the log is truncated (not finished): these are the frames before the cut (`lfctl audit {shlex.quote(args.file)}`)"
+            f"  the log is truncated (not finished): these are the frames before the cut (`{command('lfctl', 'audit', args.file)}`)"
         )
     if r.damaged:
         print(
-            f"  the log is damaged (a chunk skipped, a record passed over, or bytes after its end: `lfctl audit "
-            f"{shlex.quote(args.file)}` says where): these are the frames that could be read"
+            "  the log is damaged (a chunk skipped, a record passed over, or bytes after its end: "
+            f"`{command('lfctl', 'audit', args.file)}` says where): these are the frames that could be read"
         )
     return 0

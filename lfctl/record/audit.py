@@ -20,7 +20,7 @@ import json
 import math
 import re
 from collections import Counter, defaultdict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -144,7 +144,7 @@ _WANTS: dict[_Check, str] = {
 }
 #: field -> (check, required), for each JSON topic lfctl writes
 _CONTROLLER = {
-    "status": (_status, False),  # (none from a follower whose companion ran outside the simulator)
+    "status": (_status, True),
     "range_cmd_m": (_num, True),
     "bearing_cmd_deg": (_num, False),
     "range_error_m": (_num, True),
@@ -173,10 +173,14 @@ _MAVLINK = {
     "to": (_text, False),
 }
 _TRACKER = {"bbox": (_box, False), "truth_bbox": (_box, False), "truth_visible_fraction": (_num, False)}
+#: a follower whose companion ran outside the run (run metadata ``companion_outside``): no
+#: track state of the simulator's in its steps
+_CONTROLLER_OUTSIDE = {**_CONTROLLER, "status": (_status, False)}
 
 
-def _spec(topic: str) -> tuple[str, dict[str, tuple[_Check, bool]]] | None:
-    """The JSON schema name and field checks of a topic (None: not a JSON topic the audit reads)."""
+def _spec(topic: str, outside: Collection[str] = ()) -> tuple[str, dict[str, tuple[_Check, bool]]] | None:
+    """The JSON schema name and field checks of a topic (None: not a JSON topic the audit reads);
+    ``outside``: the followers whose companion ran outside the run."""
     if topic.startswith("/mavlink/"):
         return "lfctl.MavlinkPacket", _MAVLINK
     if topic == "/leader/mission":
@@ -187,8 +191,15 @@ def _spec(topic: str) -> tuple[str, dict[str, tuple[_Check, bool]]] | None:
         ("/tracker", "lfctl.Tracker", _TRACKER),
     ):
         if topic.endswith(suffix) and topic.count("/") == 2:
+            if spec is _CONTROLLER and topic.split("/")[1] in outside:
+                return name, _CONTROLLER_OUTSIDE
             return name, spec
     return None
+
+
+def _outside(c: Contents) -> list[str]:
+    """The followers the run metadata names in ``companion_outside`` (valid names only)."""
+    return _names(c.metadata.get("run", {}), "companion_outside", [])
 
 
 def _check_json(data: bytes, spec: dict[str, tuple[_Check, bool]]) -> dict[str, Any] | str:
@@ -221,7 +232,7 @@ def _decoded(c: Contents, topic: str) -> tuple[list[tuple[float, dict[str, Any]]
     if topic not in c.decoded:
         good: list[tuple[float, dict[str, Any]]] = []
         bad: list[tuple[int, float, str]] = []
-        spec = _spec(topic)
+        spec = _spec(topic, _outside(c))
         slim = topic.startswith("/mavlink/")
         for i, (t, d) in enumerate(c.messages.get(topic, [])):
             m = _check_json(d, spec[1]) if spec else _check_json(d, {})
@@ -261,7 +272,7 @@ def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]
 def _bad_json_findings(c: Contents) -> list[Finding]:
     out = []
     for topic in sorted(c.messages):
-        spec = _spec(topic)
+        spec = _spec(topic, _outside(c))
         if spec is None:
             continue
         bad = _decoded(c, topic)[1]
@@ -652,8 +663,8 @@ def _expected_topics(run: _Run) -> dict[str, float]:
     for f in run.followers:
         out[f"/{f}/controller"] = run.guidance_s
         if run.camera:
-            if f not in run.outside:  # (one whose companion ran outside tracked its frames there)
-                out[f"/{f}/tracker"] = run.camera_s
+            out[f"/{f}/tracker"] = run.camera_s  # (only the truth, for one whose companion ran outside)
+            if f not in run.outside:  # (that one tracked its frames there)
                 out[f"/{f}/camera/annotations"] = run.camera_s
             if run.images:
                 out[image_topic(f, run.image_format)] = run.image_s
@@ -727,7 +738,9 @@ def _formation_figures(c: Contents, run: _Run) -> list[dict[str, Any]]:
             "chattering_per_s": round(m.chattering_per_s, 4),
             "path_err_rms_m": _rounded(m.path_err_rms_m, 4),
             "path_err_max_m": _rounded(m.path_err_max_m, 4),
-            "occlusion_episodes": [
+            "occlusion_episodes": None  # (its track state was the outside companion's)
+            if None in status
+            else [
                 {
                     "start_s": round(e.start_s, 2),
                     "duration_s": round(e.duration_s, 2),
@@ -1155,7 +1168,7 @@ def format_report(report: AuditReport) -> str:
                     f"    pose errors from the {within} of {every} poses with the target within {POSE_RANGE_M:g} m"
                     " (the truth's range); the others are not counted"
                 )
-            for e in f["occlusion_episodes"]:
+            for e in f["occlusion_episodes"] or []:
                 lines.append(  # the episode's time counts in occluded s and lost s by state
                     f"    not tracking from {e['start_s']} s for {e['duration_s']} s (at worst {e['worst']}), "
                     + ("recovered" if e["recovered"] else "not recovered")

@@ -35,10 +35,12 @@ class ReplayResult:
     follower: str  # whose camera
     frames: int  # recorded images
     scored: int  # frames scored: those after the first with a truth box, banner at least MIN_VISIBLE shown
-    recorded_success: float  # fraction of scored frames the live tracker got right, 0..1
+    #: fraction of scored frames the live tracker got right, 0..1; None when no tracker ran in
+    #: the recording (a rehearsal's follower: its companion tracked the frames outside)
+    recorded_success: float | None
     replayed_success: float  # the same for the replayed tracker
     unreadable: int = 0  # recorded images skipped: they do not decode, or differ in size from the first
-    recorded_markers: float = 0.0  # fraction of scored frames whose four markers the live tracker found
+    recorded_markers: float | None = 0.0  # fraction of scored frames whose four markers the live tracker found
     replayed_markers: float = 0.0  # the same for the replayed tracker (markers readable after encoding)
     truncated: bool = False  # the log was not finished (cut, or its run killed): what was read before the cut
     #: damage the reading found in the file (a chunk skipped, a record passed over, bytes after
@@ -125,8 +127,18 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
         raise ConfigError(f"{path}: no frame with a recorded truth box to score against")
     truncated = not c.footer
     damaged = sum(f.level == "error" and f.kind in ("corrupt", "crc") for f in report.findings)
+    live = any("state" in m for m in recorded.values())  # (none: the frames were tracked outside the run)
     return ReplayResult(
-        name, count, n, ok_old / n, ok_new / n, unreadable, markers_old / n, markers_new / n, truncated, damaged
+        name,
+        count,
+        n,
+        ok_old / n if live else None,
+        ok_new / n,
+        unreadable,
+        markers_old / n if live else None,
+        markers_new / n,
+        truncated,
+        damaged,
     )
 
 

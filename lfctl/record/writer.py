@@ -115,7 +115,7 @@ JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         "type": "object",
         "properties": {
             "t_s": {"type": "number", "description": "simulation time, s"},
-            "state": {"type": "string"},
+            "state": {"type": "string", "description": "absent: the frame was tracked outside the simulator"},
             "bbox": {"type": "array", "items": {"type": "number"}, "description": "x, y, w, h, px (absent: no window)"},
             "quality": {"type": "number"},
             "distance": {"type": "number"},
@@ -1000,19 +1000,8 @@ class Recorder:
         self._next_image[follower] = due + period if t_s - due < period else t_s + period
         return True
 
-    def camera_image(self, t_s: float, follower: str, image: bytes | None) -> fm.Timestamp:
-        """A camera tick's image alone (a camera whose frames this process does not track:
-        a rehearsal's follower, whose companion runs outside); returns the frame's stamp.
-
-        Parameters
-        ----------
-        t_s : float
-            The frame's simulation time, s.
-        follower : str
-            Whose camera.
-        image : bytes or None
-            The frame encoded (as :meth:`camera` takes it); None records nothing.
-        """
+    def _image(self, t_s: float, follower: str, image: bytes | None) -> fm.Timestamp:
+        """A camera tick's image, if one was encoded; the frame's stamp."""
         stamp = self._stamp(t_s)
         if image is not None:
             frame_id = f"{follower}/camera"
@@ -1042,11 +1031,13 @@ class Recorder:
         measurement: RelativeMeasurement | None = None,
         truth: Any = None,
         image: bytes | None = None,
+        perceived: bool = True,
     ) -> None:
         """One camera tick: the image (H.264 access unit or JPEG, as ``[recording]
         image_format`` says, encoded by the camera when :meth:`image_due` said so), its
         annotations, the tracker state and the pose against the truth, all stamped with the
-        frame's time.
+        frame's time. A frame that was not ``perceived`` (a rehearsal's follower, whose
+        companion tracks its frames outside the simulator) has its image and its truth only.
 
         Parameters
         ----------
@@ -1064,18 +1055,25 @@ class Recorder:
             What the frame really shows (the renderer's ground truth; none on a real rover).
         image : bytes, optional
             The frame encoded; None records no image this tick.
+        perceived : bool
+            This process tracked the frame (False: the image and the truth only).
         """
-        stamp = self.camera_image(t_s, follower, image)
-        self._log(
-            f"/{follower}/camera/annotations", fc.ImageAnnotationsChannel, t_s, _annotations(stamp, track, measurement)
-        )
-        # a value that is not there is left out (Foxglove's JSON schemas have no null)
-        payload: dict[str, Any] = {
-            "state": track.status.value if track else "lost",
-            "quality": float(track.quality) if track else 0.0,
-            "distance": float(track.distance) if track else 1.0,
-            "reason": track.reason if track else "not started",
-        }
+        stamp = self._image(t_s, follower, image)
+        payload: dict[str, Any] = {}
+        if perceived:
+            self._log(
+                f"/{follower}/camera/annotations",
+                fc.ImageAnnotationsChannel,
+                t_s,
+                _annotations(stamp, track, measurement),
+            )
+            # a value that is not there is left out (Foxglove's JSON schemas have no null)
+            payload = {
+                "state": track.status.value if track else "lost",
+                "quality": float(track.quality) if track else 0.0,
+                "distance": float(track.distance) if track else 1.0,
+                "reason": track.reason if track else "not started",
+            }
         if track is not None and track.bbox:
             payload["bbox"] = list(track.bbox)
         if track is not None and track.markers is not None:

@@ -224,10 +224,9 @@ class CameraTask:
             if rec is not None:
                 t0 = time.perf_counter()
                 s = res.sample
-                if s.measurement is None:  # its companion runs outside and tracks the frames there
-                    rec.camera_image(t_s, job.follower, res.image)
-                else:
-                    rec.camera(t_s, job.follower, s.track, s.pose, s.measurement, s.truth, res.image)
+                # (no measurement: its companion runs outside and tracks the frames there)
+                perceived = s.measurement is not None
+                rec.camera(t_s, job.follower, s.track, s.pose, s.measurement, s.truth, res.image, perceived)
                 self.record_s += time.perf_counter() - t0
 
 

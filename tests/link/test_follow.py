@@ -1253,6 +1253,7 @@ def test_a_rehearsal_follower_is_not_tracked_by_the_simulator_and_its_log_has_wh
     from lfctl.record.audit import audit, format_report
     from lfctl.record.mcap_read import read_contents
     from lfctl.record.plots import plot_all
+    from lfctl.record.replay import replay
     from lfctl.sim.runner import run_scenario
 
     cfg = load_config(examples_dir() / "convoy.toml")
@@ -1291,8 +1292,11 @@ def test_a_rehearsal_follower_is_not_tracked_by_the_simulator_and_its_log_has_wh
     assert m.time_in_state_s == {"tracking": None, "occluded": None, "lost": None}
     c, findings = read_contents(log)
     assert not findings
-    assert "/follower1/tracker" not in c.messages and "/follower1/camera/annotations" not in c.messages
-    assert len(c.messages["/follower1/camera/video"]) > 60  # the frames are recorded
+    assert "/follower1/camera/annotations" not in c.messages and "/follower1/pose_estimate" not in c.messages
+    assert len(c.messages["/follower1/camera/video"]) > 60  # the frames are recorded, with their truth alone
+    frames = [json.loads(payload) for _t, payload in c.messages["/follower1/tracker"]]
+    assert frames and all(set(x) <= {"t_s", "truth_bbox", "truth_visible_fraction"} for x in frames)
+    assert any("truth_bbox" in x for x in frames)
     assert c.metadata["run"]["companion_outside"] == "follower1"
     steps = [json.loads(payload) for _t, payload in c.messages["/follower1/controller"]]
     assert steps and not any("status" in x for x in steps)
@@ -1302,10 +1306,13 @@ def test_a_rehearsal_follower_is_not_tracked_by_the_simulator_and_its_log_has_wh
     assert r.ok, r.findings
     (fig,) = r.figures["followers"]
     assert fig["time_in_state_s"] == {"tracking": None, "occluded": None, "lost": None}
-    assert fig["occlusion_episodes"] == []
+    assert fig["occlusion_episodes"] is None
     row = next(line for line in format_report(r).splitlines() if line.startswith("  follower1 "))
     assert row.split()[9:12] == ["-", "-", "-"]
     assert any(p.name.startswith("follower1") for p in plot_all(r, tmp_path / "plots"))
+    # the frames lfctl follow saw, tracked again against their truth
+    replayed = replay(log)
+    assert replayed.recorded_success is None and replayed.scored > 0 and 0 <= replayed.replayed_success <= 1
 
 
 # -- a camera that stops and comes back -----------------------------------------------------------

@@ -687,3 +687,33 @@ def test_the_pose_errors_say_how_many_poses_they_leave_out(camera_log, monkeypat
     rep = audit(path)
     assert rep.figures["followers"][0]["pose_samples"] == [0, every]
     assert f"pose errors from the 0 of {every} poses with the target within 1 m" in format_report(rep)
+
+
+@pytest.mark.parametrize("companion", [True, False])
+def test_a_step_without_its_track_state_is_a_finding_unless_the_companion_ran_outside(
+    tmp_path: Path, companion: bool
+) -> None:
+    # a rehearsal's follower (companion = false) records no track state; any other follower's
+    # step without one is a damaged message, left out of the figures and said
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    cfg = dataclasses.replace(
+        cfg, vehicles=(cfg.vehicles[0], dataclasses.replace(cfg.vehicles[1], companion=companion))
+    )
+    rec = Recorder(tmp_path / "c.mcap", cfg)
+    step = {"speed_cmd_mps": 0.3, "yaw_rate_cmd_degps": 1.0, "range_cmd_m": 1.5, "range_error_m": 0.1,
+            "bearing_error_deg": 1.0, "separation_m": 1.4}  # fmt: skip
+    for k in range(10):
+        rec.controller(k * 0.05, "follower1", {**step, **({"status": "tracking"} if k < 5 else {})})
+    rec.close("completed", 0.5)
+    rep = audit(tmp_path / "c.mcap")
+    found = [f.what for f in rep.findings if "/follower1/controller" in f.what]
+    (fig,) = rep.figures["followers"]
+    if companion:
+        assert found == [
+            "5 of 10 messages on /follower1/controller are not valid lfctl.Controller (first: message 5 at "
+            "t = 0.250 s: no field 'status'); figures leave them out"
+        ]
+        assert fig["time_in_state_s"]["tracking"] == 0.25 and fig["occlusion_episodes"] == []
+    else:
+        assert not found
+        assert fig["time_in_state_s"] == {"tracking": None, "occluded": None, "lost": None}
