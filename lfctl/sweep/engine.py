@@ -74,6 +74,7 @@ __all__ = [
     "SweepResult",
     "local_cluster",
     "run_sweep",
+    "scheduler_address",
     "scheduler_processes",
     "worker_environment",
 ]
@@ -475,7 +476,8 @@ def _check_address(scheduler: str, source: str = "--scheduler") -> tuple[str, in
     port within 1..65535: its host and port."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
-    form = f"{source} must be an address such as tcp://HOST:8786 (or HOST:8786), got {scheduler!r}"
+    also = " (or HOST:8786)" if source == "--scheduler" else ""
+    form = f"{source} must be an address such as tcp://HOST:8786{also}, got {scheduler!r}"
     if not scheduler.startswith(("tcp://", "tls://")):
         raise ConfigError(form)
     try:
@@ -494,19 +496,20 @@ WORKERS_WAIT_S = 60.0
 
 def scheduler_address(
     scheduler_file: str | Path, stop: Callable[[], bool] | None = None, wait_s: float | None = None
-) -> str:
+) -> str | None:
     """The address in a Dask scheduler file (``dask scheduler --scheduler-file PATH`` writes
     it, as do dask-jobqueue's and dask-mpi's schedulers, a JSON object with ``"address"``).
     A scheduler that is still starting has not written it yet: the file is waited for (and
     read again while it is half written) for up to ``wait_s`` (default
-    :data:`WORKERS_WAIT_S`), in slices, so that a stop is heard.
+    :data:`WORKERS_WAIT_S`), in slices, so that a stop is heard: None when ``stop()`` came
+    true first.
 
     Parameters
     ----------
     scheduler_file : str or Path
         The file.
     stop : callable, optional
-        Asked while waiting; True ends the wait with ``KeyboardInterrupt`` (nothing has run).
+        Asked while waiting; True ends the wait (the address is then None).
     wait_s : float, optional
         How long to wait for the file and an address in it, s.
 
@@ -516,8 +519,6 @@ def scheduler_address(
         The path is a folder or cannot be read, or the file holds no address after the wait.
     LfctlError
         No file there after the wait.
-    KeyboardInterrupt
-        ``stop()`` was true while waiting.
     """
     path = Path(scheduler_file)
     wait = WORKERS_WAIT_S if wait_s is None else wait_s
@@ -542,7 +543,7 @@ def scheduler_address(
                     return address
                 problem = 'no "address" in it, as a Dask scheduler writes (`dask scheduler --scheduler-file`)'
         if stop is not None and stop():
-            raise KeyboardInterrupt
+            return None
         if time.monotonic() > deadline:
             if problem is None:
                 raise LfctlError(
@@ -596,7 +597,8 @@ def _connect(
     except (OSError, TimeoutError) as exc:
         raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     except TypeError as exc:  # tls:// without Dask's TLS settings
-        raise ConfigError(f"--scheduler {scheduler}: {exc} (set distributed.comm.tls in Dask's config)") from None
+        given = f"the address in --scheduler-file {found_in}" if found_in else "--scheduler"
+        raise ConfigError(f"{given} {scheduler}: {exc} (set distributed.comm.tls in Dask's config)") from None
     except Exception as exc:  # a peer that is not a Dask scheduler: its bytes make no sense as one
         raise LfctlError(
             f"what answers at {scheduler} is not a Dask scheduler ({type(exc).__name__}: {str(exc)[:200]})"
@@ -762,11 +764,22 @@ def run_sweep(
         )
 
     try:
-        if todo:
-            if scheduler_file is not None:
-                scheduler = scheduler_address(scheduler_file, stop)
+        if todo and scheduler_file is not None:
+            scheduler = scheduler_address(scheduler_file, stop)
+            if scheduler is None:  # stopped while the file was awaited: nothing runs
+                engine = f"no Dask scheduler: stopped while waiting for {scheduler_file}"
+            else:
                 _check_address(scheduler, f"the address in --scheduler-file {scheduler_file}")
-            client, cluster, engine = _connect(scheduler, workers, stop, str(scheduler_file or ""))
+        if todo and (scheduler is not None or scheduler_file is None):
+            try:
+                client, cluster, engine = _connect(scheduler, workers, stop, str(scheduler_file or ""))
+            except LfctlError as exc:
+                if scheduler_file is None or isinstance(exc, ConfigError):
+                    raise
+                raise LfctlError(
+                    f"{exc} (its address came from --scheduler-file {scheduler_file}: a scheduler that was "
+                    "killed leaves its file behind)"
+                ) from None
             _check_workers(client, code)
         if not made:
             if cancel is not None and cancel():  # cancelled while the cluster started: nothing made
@@ -788,6 +801,8 @@ def run_sweep(
                 stopping = True
                 if progress is not None:  # said at once, even when nothing is left to wait for
                     progress(state(), None)
+            if client is None:  # (stopped before a scheduler was found)
+                break
             if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second
                 slots_at = time.perf_counter()
                 try:  # (briefly: a scheduler that has stopped answering must not hold the loop)

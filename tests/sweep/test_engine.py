@@ -322,8 +322,7 @@ def test_a_scheduler_file_that_is_missing_wrong_or_unreadable_is_named(
         engine.scheduler_address(file, wait_s=0.0)
     with pytest.raises(ConfigError, match=r"--scheduler-file .*: cannot read it \(Is a directory\)"):
         engine.scheduler_address(tmp_path, wait_s=0.0)
-    with pytest.raises(KeyboardInterrupt):  # a Ctrl-C while waiting ends the wait
-        engine.scheduler_address(tmp_path / "none.json", stop=lambda: True)
+    assert engine.scheduler_address(tmp_path / "none.json", stop=lambda: True) is None  # a Ctrl-C ends the wait
 
     # finished while it is waited for: read as soon as it is whole
     def finish() -> None:
@@ -344,6 +343,13 @@ def test_a_scheduler_file_that_is_missing_wrong_or_unreadable_is_named(
     with pytest.raises(ConfigError, match="give --scheduler or --scheduler-file"):
         run_sweep(folder / "s.toml", tmp_path / "new", scheduler="tcp://127.0.0.1:8786", scheduler_file=file)
     assert not (tmp_path / "new").exists()
+    # a killed scheduler's file, left behind: the error says where the address came from
+    file.write_text('{"address": "tcp://127.0.0.1:9"}')
+    with pytest.raises(LfctlError, match=r"cannot reach .* \(its address came from --scheduler-file .*scheduler.json"):
+        run_sweep(folder / "s.toml", tmp_path / "new", scheduler_file=file)
+    # a stop while the file is awaited stops the sweep as a stop while workers are awaited does
+    stopped = run_sweep(folder / "s.toml", tmp_path / "new", scheduler_file=tmp_path / "later.json", stop=lambda: True)
+    assert stopped.stopped and stopped.rows == [] and "stopped while waiting for" in stopped.engine
 
 
 def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
