@@ -18,6 +18,7 @@ import fnmatch
 import glob
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 from setuptools import find_packages, setup
@@ -52,7 +53,9 @@ def _git_files() -> set[str] | None:
             check=True,
             timeout=120,
         ).stdout
-    except (OSError, subprocess.SubprocessError):
+    except (OSError, subprocess.SubprocessError) as exc:  # no git, or one refusing the folder (another owner's)
+        why = exc.stderr.decode(errors="replace").strip() if isinstance(exc, subprocess.CalledProcessError) else exc
+        print(f"setup.py: git ls-files failed ({why}): packaging every file not in SKIP", file=sys.stderr)
         return None
     return set(filter(None, listed.decode("utf-8", "surrogateescape").split("\0")))
 
@@ -68,12 +71,18 @@ def _shipped(path: Path, listed: set[str] | None) -> bool:
 
 def _data_packages() -> tuple[dict[str, str], dict[str, list[str]]]:
     """Every folder under the data roots that has files to ship, as a package name -> its
-    folder, and each package's files."""
+    folder, and each package's files. A sweep's output (a folder holding ``sweep.json``:
+    ``lfctl sweep`` run inside ``examples/``) never ships."""
     listed = _git_files()
     folders, files = {}, {}
     for package, root in ROOTS.items():
+        sweeps = {f.parent for f in Path(root).rglob("sweep.json")}
         for folder in [Path(root), *sorted(p for p in Path(root).rglob("*") if p.is_dir())]:
+            if sweeps & {folder, *folder.parents}:
+                continue
             names = sorted(f.name for f in folder.iterdir() if f.is_file() and _shipped(f, listed))
+            if names and any(c in folder.as_posix() for c in "[]*?"):  # package_data's patterns start with it
+                raise SystemExit(f"setup.py: {folder}: a folder whose name has [, ], * or ? cannot be packaged")
             if names:
                 name = ".".join((package, *folder.relative_to(root).parts))
                 folders[name] = folder.as_posix()

@@ -99,15 +99,25 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
 
 
 @pytest.mark.slow
-def test_sdist_carries_the_c_sources_and_the_examples_and_nothing_a_user_left_there(tmp_path: Path) -> None:
+@pytest.mark.parametrize("checkout", [False, True], ids=["a tree", "a git checkout"])
+def test_sdist_carries_the_c_sources_and_the_examples_and_nothing_a_user_left_there(
+    tmp_path: Path, checkout: bool
+) -> None:
     src = _source_copy(tmp_path / "src")
-    # what a user leaves in the shipped folders (a run from examples/, an editor, a compiler,
-    # lfctl bench) went into every sdist and wheel; a new example of their own still goes
+    # what a user leaves in the shipped folders (a run from examples/, a sweep run there, an
+    # editor, a compiler, lfctl bench) went into every sdist and wheel; a new example of
+    # their own still goes
     junk = ["examples/logs/20261207T000000Z-convoy-1.mcap", "examples/convoy.toml~", "examples/bench-results.md",
-            "fmu_models/SkidSteerRover/a.out", "docs/.#audit.md"]  # fmt: skip
-    for name in [*junk, "examples/mine.toml"]:
+            "fmu_models/SkidSteerRover/a.out", "docs/.#audit.md", "examples/sweeps/noise/sweep.json",
+            "examples/sweeps/noise/runs.csv", "examples/sweeps/noise/plots/seed.png"]  # fmt: skip
+    for name in [*junk, "examples/mine.toml", "examples/private.toml"]:
         (src / name).parent.mkdir(parents=True, exist_ok=True)
         (src / name).write_text("x")
+    if checkout:  # what git ignores stays out too
+        with open(src / ".gitignore", "a") as f:
+            f.write("examples/private.toml\n")
+        _run(["git", "init", "-q"], src)
+        junk.append("examples/private.toml")
     _run(
         [sys.executable, "-c", f"from setuptools import build_meta; build_meta.build_sdist({str(tmp_path)!r})"],
         src,
