@@ -18,6 +18,7 @@ from pathlib import Path
 from lfctl.errors import ConfigError, LfctlError
 
 __all__ = [
+    "cache_error",
     "code_digest",
     "code_identity",
     "docs_dir",

@@ -366,6 +366,11 @@ def test_a_reader_that_left_before_the_last_write_is_not_an_error(argv: list[str
     proc.stdout.close()  # the reader leaves before anything is written
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=120) == 0 and err == "", err
+    # a stdout closed before it started (`lfctl --version >&-`): Python's sys.stdout is None
+    shut = subprocess.run(
+        ["sh", "-c", '"$0" -m lfctl "$@" >&-', sys.executable, *argv], capture_output=True, env=env, timeout=120
+    )
+    assert shut.returncode == 0 and b"Error" not in shut.stderr, shut.stderr  # (argparse's help goes to stderr)
 
 
 def test_paths_with_spaces_stay_whole_in_help_and_are_quoted_in_commands_to_copy(

@@ -190,7 +190,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _flush_stdout() -> None:
-    """Flush stdout; a reader that has left is not an error of ours."""
+    """Flush stdout; a reader that has left is not an error of ours (nor a stdout closed
+    before lfctl started, ``lfctl ... >&-``, which Python gives as None)."""
+    if sys.stdout is None:
+        return
     try:
         sys.stdout.flush()
     except BrokenPipeError:

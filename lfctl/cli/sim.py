@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from lfctl.cli import stopped_by
-from lfctl.cli.options import integer, number, whole_path
+from lfctl.cli.options import command, integer, number, whole_path
 from lfctl.data import example_names, examples_dir
 
 if TYPE_CHECKING:
@@ -339,7 +339,7 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         if logged and logged[0].exists():  # finished, "interrupted" in its end metadata
             print(
-                f"\nlog          {logged[0]}  (interrupted; check it with `lfctl audit {shlex.quote(str(logged[0]))}`)",
+                f"\nlog          {logged[0]}  (interrupted; check it with `{command('lfctl', 'audit', logged[0])}`)",
                 flush=True,
             )
         raise
@@ -353,6 +353,6 @@ def run(args: argparse.Namespace) -> int:
         log.info("recorded %d messages to %s", report.log_messages, report.log_path)
         size_mb = report.log_path.stat().st_size / 1e6
         print(
-            f"\nlog          {report.log_path}  ({size_mb:.1f} MB; check it with `lfctl audit {shlex.quote(str(report.log_path))}`)"
+            f"\nlog          {report.log_path}  ({size_mb:.1f} MB; check it with `{command('lfctl', 'audit', report.log_path)}`)"
         )
     return 0

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 from lfctl.cli import quiet_stdout, stop_exit_code, stopped_by
-from lfctl.cli.options import counted, integer
+from lfctl.cli.options import command, counted, integer
 from lfctl.data import example_names
 
 if TYPE_CHECKING:
@@ -239,7 +239,7 @@ def run(args: argparse.Namespace) -> int:
     if result.stopped:
         print(
             f"stopped      {len(result.rows)} of {len(p.runs)} runs have rows; "
-            f"`lfctl sweep {args.sweep} --out {out_dir} --resume` finishes the sweep",
+            f"`{command('lfctl', 'sweep', args.sweep, '--out', out_dir, '--resume')}` finishes the sweep",
             file=human,
         )
     if result.stopped or reader_gone.is_set():  # (its reader gone at the last row: not every row was read)

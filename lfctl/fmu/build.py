@@ -17,9 +17,11 @@ import logging
 import os
 import re
 import shutil
+import stat
 import subprocess
 import sysconfig
 import tempfile
+import time
 import xml.etree.ElementTree as ET
 import zipfile
 from collections.abc import Iterator
@@ -465,21 +467,32 @@ def build_model_folder(folder: Path, cache_dir: Path | None = None, *, force: bo
     return built
 
 
+#: a build folder older than this whose process is gone was left by a build that was killed, s
+#: (a build takes seconds, each compile at most 300 s; the age keeps a build on another machine
+#: or in another PID namespace that shares the cache, whose process id means nothing here)
+STALE_BUILD_S = 3600.0
+
+
 def _remove_dead_builds(cache: Path) -> list[Path]:
-    """Remove the build folders (``.build-<pid>-...``) in ``cache`` that this user's processes
-    left when they were killed mid-build (their process is gone); the folders removed.
+    """Remove the build folders (``.build-<pid>-...``) in ``cache`` that this user's builds
+    left when they were killed: older than :data:`STALE_BUILD_S` and their process gone
+    (folders from before the process id was in the name: by age alone); the folders removed.
     Another user's, or a live process's, are left alone."""
     removed = []
-    for folder in cache.glob(".build-*-*"):
-        pid = folder.name.split("-")[1]
+    now = time.time()
+    for folder in cache.glob(".build-*"):
+        pid = folder.name.split("-")[1] if folder.name.count("-") >= 2 else ""
         try:
-            mine = folder.is_dir() and not folder.is_symlink() and folder.stat().st_uid == os.getuid()
+            st = folder.lstat()
         except OSError:
             continue
-        if mine and pid.isdigit() and int(pid) != os.getpid() and not pid_alive(int(pid)):
-            shutil.rmtree(folder, ignore_errors=True)
-            removed.append(folder)
-            log.info("removed %s, left by a build whose process is gone", folder)
+        if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid() or now - st.st_mtime < STALE_BUILD_S:
+            continue
+        if pid.isdigit() and (int(pid) == os.getpid() or pid_alive(int(pid))):
+            continue
+        shutil.rmtree(folder, ignore_errors=True)
+        removed.append(folder)
+        log.info("removed %s, left by a build that was killed", folder)
     return removed
 
 

@@ -23,6 +23,7 @@ import logging
 import math
 import os
 import re
+import shlex
 import threading
 import zipfile
 from collections import deque
@@ -499,7 +500,7 @@ class FmuLibrary:
             if var is None:
                 raise ConfigError(
                     f"{self.path}: variable {name!r} (mapped to role {role!r}) does not exist; "
-                    f"`lfctl fmu info {self.path}` lists the variables"
+                    f"`lfctl fmu info {shlex.quote(str(self.path))}` lists the variables"
                 )
             want = "input" if role in INPUT_ROLES else ("output" if role in OUTPUT_ROLES else "parameter")
             if var.causality != want:
@@ -898,7 +899,7 @@ class FmuInstance:
                 shown = self.lib.identifier if built_in else self.lib.path
                 raise ConfigError(
                     f"vehicles[{self.name}].parameters.{name}: parameter {name!r} does not exist in "
-                    f"{self.lib.identifier} (`lfctl fmu info {shown}` lists its variables)"
+                    f"{self.lib.identifier} (`lfctl fmu info {shlex.quote(str(shown))}` lists its variables)"
                 )
             if var.causality != "parameter":
                 raise ConfigError(
