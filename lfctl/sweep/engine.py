@@ -490,7 +490,8 @@ def _check_address(scheduler: str, source: str = "--scheduler") -> tuple[str, in
 
 
 #: how long a sweep on a scheduler of one's own waits for ``--workers N`` to join (and for
-#: ``--scheduler-file``'s file to be written), s
+#: ``--scheduler-file``'s file to be written), and how long any cluster may go without a
+#: worker while runs wait (its workers died and none came back) before the sweep stops, s
 WORKERS_WAIT_S = 60.0
 
 
@@ -757,6 +758,7 @@ def run_sweep(
     lost: list[int] = []  # runs the scheduler lost (it restarted or went away, or the connection broke)
     other: list[OtherCode] = []  # runs refused by workers with other lfctl code
     silent = False  # the scheduler stopped answering
+    unstaffed = False  # the cluster had no worker for WORKERS_WAIT_S
 
     def state() -> SweepProgress:
         return SweepProgress(
@@ -792,6 +794,7 @@ def run_sweep(
             log.info("sweep %s: %d runs to do on %s", p.spec.name, len(todo), engine)
         started = last_row = heard = time.perf_counter()
         slots, slots_at = 1, -math.inf
+        staffed = started  # when the cluster last had a worker
         if progress is not None:
             progress(state(), None)
         while todo or pending:
@@ -806,7 +809,14 @@ def run_sweep(
             if time.perf_counter() - slots_at > 1.0:  # workers may join or leave: asked once a second
                 slots_at = time.perf_counter()
                 try:  # (briefly: a scheduler that has stopped answering must not hold the loop)
-                    slots, heard = max(1, sum(client.nthreads(callback_timeout=_TICK_S).values())), slots_at
+                    threads, heard = sum(client.nthreads(callback_timeout=_TICK_S).values()), slots_at
+                    slots = max(1, threads)
+                    if threads:
+                        staffed = slots_at
+                    elif slots_at - staffed > WORKERS_WAIT_S:  # every worker gone, none restarted or joining
+                        unstaffed = True
+                        lost.extend(r.run for r in pending.values())
+                        break
                 except TimeoutError:
                     if slots_at - heard > SCHEDULER_SILENT_S:
                         silent = True
@@ -866,6 +876,11 @@ def run_sweep(
         raise LfctlError(
             f"the sweep stopped: a worker runs other lfctl code than this process (lfctl {__version__}, code "
             f"{code[:12]}): {workers}; install the same lfctl everywhere; {kept}"
+        )
+    if unstaffed:
+        raise LfctlError(
+            f"the Dask cluster has had no worker for {WORKERS_WAIT_S:g} s (they died and none was restarted or "
+            f"joined): the sweep stopped, {_count(len(lost), 'running run')} lost; {kept}"
         )
     if silent:
         raise LfctlError(

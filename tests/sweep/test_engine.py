@@ -14,6 +14,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -350,6 +351,28 @@ def test_a_scheduler_file_that_is_missing_wrong_or_unreadable_is_named(
     # a stop while the file is awaited stops the sweep as a stop while workers are awaited does
     stopped = run_sweep(folder / "s.toml", tmp_path / "new", scheduler_file=tmp_path / "later.json", stop=lambda: True)
     assert stopped.stopped and stopped.rows == [] and "stopped while waiting for" in stopped.engine
+
+
+def _end_the_workers_task(run: Run, out_dir: str, logs: str) -> dict:
+    """Close the worker and its nanny, as a nanny that gives up does: nothing restarts it."""
+    from distributed import get_worker
+
+    worker = get_worker()
+    worker.loop.add_callback(worker.close, nanny=True, reason="the test ends its worker")
+    time.sleep(60)
+    return {}
+
+
+def test_a_cluster_left_without_workers_ends_the_sweep_keeping_its_rows(
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a LocalCluster whose nanny closed after its worker had died again and again (seen under
+    # load in the test suite) left the sweep waiting for ever for runs no worker would take
+    folder, _rows = reference
+    monkeypatch.setattr(engine, "WORKERS_WAIT_S", 3.0)
+    with pytest.raises(LfctlError, match=r"has had no worker for 3 s .*: the sweep stopped, 1 running run lost"):
+        run_sweep(folder / "s.toml", tmp_path / "out", workers=1, task=_end_the_workers_task)
+    assert read_rows(tmp_path / "out") == []
 
 
 def test_a_process_says_the_code_it_imported_not_what_its_files_became(tmp_path: Path) -> None:
