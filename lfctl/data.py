@@ -10,10 +10,12 @@ install, ``pip install .`` and a wheel behave alike.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import os
 from pathlib import Path
+from typing import Any
 
 from lfctl.errors import ConfigError, LfctlError
 
@@ -28,6 +30,7 @@ __all__ = [
     "footage_dir",
     "loaded_code",
     "models_dir",
+    "pyplot",
     "resolve_footage",
     "resolve_mission",
     "resolve_scenario",
@@ -93,6 +96,31 @@ def cache_error(folder: Path, exc: OSError, given: bool = False) -> LfctlError:
         else "set XDG_CACHE_HOME to a folder this user can write (lfctl's cache is then $XDG_CACHE_HOME/lfctl)"
     )
     return LfctlError(f"cannot write lfctl's cache {folder} ({exc.strerror or exc}{owner}): {how}")
+
+
+def pyplot() -> Any:
+    """matplotlib's pyplot on the Agg backend (files, no display). Where matplotlib's own
+    folder cannot be made (a user without a writable home: a service, a container), it is
+    put in lfctl's cache when that one can be (``XDG_CACHE_HOME``): matplotlib otherwise
+    warned twice on every plotting run and built its font cache afresh each time."""
+    if "MPLCONFIGDIR" not in os.environ:
+        try:
+            home = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "matplotlib"
+            home.mkdir(parents=True, exist_ok=True)
+            usable = os.access(home, os.W_OK)
+        except (OSError, RuntimeError):  # (RuntimeError: no home at all)
+            usable = False
+        if not usable:
+            with contextlib.suppress(OSError):
+                mine = user_cache("matplotlib")
+                mine.mkdir(parents=True, exist_ok=True)
+                os.environ["MPLCONFIGDIR"] = str(mine)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def models_dir() -> Path:

@@ -391,3 +391,21 @@ def test_paths_with_spaces_stay_whole_in_help_and_are_quoted_in_commands_to_copy
     assert main(["sim", str(scenario), "--duration", "0.5", "--sensing", "truth", "-q"]) == 0
     (log,) = (tmp_path / "my runs").glob("*.mcap")
     assert f"check it with `lfctl audit 'my runs/{log.name}'`" in capsys.readouterr().out
+
+
+def test_plots_without_a_writable_home_use_lfctls_cache_for_matplotlib(tmp_path: Path) -> None:
+    # a service user (HOME=/nonexistent) with XDG_CACHE_HOME set: matplotlib warned twice on
+    # every plotting run ("mkdir -p failed ...", "created a temporary cache directory ...")
+    try:  # (sysfs: not even root makes a folder there)
+        Path("/sys/lfctl-home").mkdir()
+    except OSError:
+        pass
+    else:
+        Path("/sys/lfctl-home").rmdir()
+        pytest.skip("no folder here that even root cannot write")
+    env = {k: v for k, v in os.environ.items() if k not in ("MPLCONFIGDIR", "XDG_CONFIG_HOME")}
+    env |= {"HOME": "/sys/lfctl-home", "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    code = "import os; from lfctl.data import pyplot; pyplot().figure(); print(os.environ['MPLCONFIGDIR'])"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert proc.stdout.strip() == str(tmp_path / "cache" / "lfctl" / "matplotlib")

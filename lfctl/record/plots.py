@@ -461,10 +461,9 @@ def plot_all(report: AuditReport, out_dir: Path) -> list[Path]:
     out_dir : Path
         Where the PNGs go (made if missing).
     """
-    import matplotlib
+    from lfctl.data import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     c = report.contents
     if not c.channels and not c.metadata:  # nothing readable (not MCAP, empty): no empty plots

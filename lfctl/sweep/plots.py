@@ -74,10 +74,9 @@ def plot_sweep(
         The runs' rows (dicts), the swept keys and the followers' names, as
         :func:`lfctl.sweep.results.write_tables` takes them.
     """
-    import matplotlib
+    from lfctl.data import pyplot
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     ok = [r for r in rows if r.get("status") == "ok"]
     varied = [k for k in keys if len({_key(r.get(k)) for r in rows}) > 1]
