@@ -20,11 +20,30 @@ __all__ = [
     "LinkError",
     "LinkTimeoutError",
     "MissionProtocolError",
+    "file_name_encoding_error",
 ]
 
 
 class LfctlError(Exception):
     """Base of every error lfctl raises on purpose."""
+
+
+def file_name_encoding_error(exc: UnicodeError) -> LfctlError:
+    """The error for a file name Python cannot encode: a name outside ASCII (the working
+    folder's, a scenario's) under the C locale with Python's UTF-8 mode off
+    (``PYTHONUTF8=0``), where the name reaches Python as surrogates.
+
+    Parameters
+    ----------
+    exc : UnicodeError
+        What failed.
+    """
+    import sys
+
+    return LfctlError(
+        f"a file name here is not valid in this system's file name encoding ({sys.getfilesystemencoding()}: "
+        f"{exc.reason}): run lfctl under a UTF-8 locale (LANG=C.UTF-8) or with PYTHONUTF8=1"
+    )
 
 
 class ConfigError(LfctlError, ValueError):

@@ -409,3 +409,19 @@ def test_plots_without_a_writable_home_use_lfctls_cache_for_matplotlib(tmp_path:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert proc.returncode == 0 and proc.stderr == "", proc.stderr
     assert proc.stdout.strip() == str(tmp_path / "cache" / "lfctl" / "matplotlib")
+
+
+def test_a_folder_name_the_locale_cannot_encode_is_said_not_blamed_on_the_fmu(tmp_path: Path) -> None:
+    # LC_ALL=C with Python's UTF-8 mode off, in a folder named outside ASCII: every run failed
+    # with "...SkidSteerRover.fmi2.fmu has no valid modelDescription.xml" (exit 2), a fine FMU
+    folder = os.path.join(os.fsencode(tmp_path), "d\xfcr".encode())  # (bytes: as the file system has it)
+    os.mkdir(folder)
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("LC_", "LANG", "PYTHONUTF8", "PYTHONIOENCODING"))}
+    env |= {"LC_ALL": "C", "LANG": "C", "PYTHONUTF8": "0"}
+    argv = [sys.executable, "-m", "lfctl", "sim", "convoy", "--duration", "0.5", "--sensing", "truth", "--no-record"]
+    proc = subprocess.run(argv, cwd=folder, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == (
+        "lfctl: error: a file name here is not valid in this system's file name encoding (ascii: surrogates not "
+        "allowed): run lfctl under a UTF-8 locale (LANG=C.UTF-8) or with PYTHONUTF8=1"
+    )

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 from lfctl import __version__
 from lfctl.cli.options import OneLineParser
 from lfctl.data import code_identity
-from lfctl.errors import ConfigError, FmuError, LfctlError
+from lfctl.errors import ConfigError, FmuError, LfctlError, file_name_encoding_error
 from lfctl.logs import guard_log
 
 __all__ = ["build_parser", "main", "quiet_stdout", "stop_exit_code", "stopped_by"]
@@ -251,6 +251,11 @@ def _main(argv: Sequence[str] | None) -> int:
         if args.debug:
             raise
         print(f"lfctl: error: {exc}", file=sys.stderr)
+        return 1
+    except UnicodeError as exc:  # a file name the locale cannot encode (LC_ALL=C, PYTHONUTF8=0)
+        if args.debug:
+            raise
+        print(f"lfctl: error: {file_name_encoding_error(exc)}", file=sys.stderr)
         return 1
     except Exception as exc:  # a bug of ours: still one line, and how to see the rest
         if args.debug:

@@ -40,7 +40,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
-from lfctl.errors import ConfigError, FmuError
+from lfctl.errors import ConfigError, FmuError, file_name_encoding_error
 from lfctl.fmu.archive import ExtractionDir, extract_archive, read_member, remove_stale_extractions
 
 __all__ = [
@@ -456,6 +456,8 @@ class FmuLibrary:
             raise FmuError(f"FMU file {p} does not exist", model=str(p), call="load") from exc
         except zipfile.BadZipFile as exc:
             raise FmuError(f"{p} is not an FMU: not a readable zip archive ({exc})", model=str(p), call="load") from exc
+        except UnicodeError as exc:  # the FMU is not at fault: a name on its way is not encodable here
+            raise file_name_encoding_error(exc) from exc
         except Exception as exc:  # (fmpy's validation lists its findings on lines of their own)
             why = "; ".join(line.strip("- ") for line in str(exc).splitlines() if line.strip())
             raise FmuError(f"{p} has no valid modelDescription.xml: {why}", model=str(p), call="load") from exc
