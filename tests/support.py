@@ -9,7 +9,10 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import Any
+
+import pytest
 
 from lfctl.bench.common import free_udp_ports
 
@@ -109,3 +112,15 @@ def rtp_camera(frames: Sequence[Any], sending: Callable[[int], bool] = lambda k:
     finally:
         stop.set()
         worker.join(5)
+
+
+def unmakeable_folder(name: str) -> Path:
+    """A folder path no one here can make, not even root (under sysfs): a home or cache that
+    is not writable. Skips the test where there is no such place."""
+    path = Path("/sys") / name
+    try:
+        path.mkdir()
+    except OSError:
+        return path
+    path.rmdir()
+    pytest.skip("no folder here that even root cannot make")

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from support import unmakeable_folder
 
 from lfctl.cli import main
 
@@ -396,13 +397,7 @@ def test_paths_with_spaces_stay_whole_in_help_and_are_quoted_in_commands_to_copy
 def test_plots_without_a_writable_home_use_lfctls_cache_for_matplotlib(tmp_path: Path) -> None:
     # a service user (HOME=/nonexistent) with XDG_CACHE_HOME set: matplotlib warned twice on
     # every plotting run ("mkdir -p failed ...", "created a temporary cache directory ...")
-    try:  # (sysfs: not even root makes a folder there)
-        Path("/sys/lfctl-home").mkdir()
-    except OSError:
-        pass
-    else:
-        Path("/sys/lfctl-home").rmdir()
-        pytest.skip("no folder here that even root cannot write")
+    unmakeable_folder("lfctl-home")
     env = {k: v for k, v in os.environ.items() if k not in ("MPLCONFIGDIR", "XDG_CONFIG_HOME")}
     env |= {"HOME": "/sys/lfctl-home", "XDG_CACHE_HOME": str(tmp_path / "cache")}
     code = "import os; from lfctl.data import pyplot; pyplot().figure(); print(os.environ['MPLCONFIGDIR'])"

@@ -13,6 +13,7 @@ from pathlib import Path
 import fmpy
 import pytest
 from fmpy.validation import validate_fmu
+from support import unmakeable_folder
 
 from lfctl import data
 from lfctl.cli import main
@@ -92,13 +93,7 @@ def test_a_cache_this_user_cannot_write_is_named_with_how_to_move_it(
 ) -> None:
     # no home (a service's HOME=/nonexistent, a container's HOME=/): the run failed with a bare
     # "[Errno 13] Permission denied: '/nonexistent'", nothing saying it was the FMU cache
-    try:  # (sysfs: not even root makes a folder there)
-        Path("/sys/lfctl-test").mkdir()
-    except OSError:
-        pass
-    else:
-        Path("/sys/lfctl-test").rmdir()
-        pytest.skip("no folder here that even root cannot write")
+    unmakeable_folder("lfctl-test")
     with pytest.raises(LfctlError, match=r"cannot write lfctl's cache /sys/lfctl-test/fmu \(.*\): give a folder"):
         build_model("KinematicUnicycle", Path("/sys/lfctl-test/fmu"))
     monkeypatch.setenv("XDG_CACHE_HOME", "/sys/lfctl-test")
