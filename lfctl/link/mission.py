@@ -372,13 +372,22 @@ KEPT_FIELDS: dict[int, tuple[str, str]] = {
 }  # fmt: skip
 
 
+def _directed(radius: float, param3: float) -> float:
+    """A loiter's kept radius given back with its direction, as AP_Mission does: the flag is
+    ``param3 < 0`` (so -0 sent is clockwise) and a counter-clockwise radius is given back
+    negated (so a radius kept as 0 comes back as -0)."""
+    return -radius if param3 < 0 else radius
+
+
 def as_stored(item: MissionItem) -> MissionItem:
     """A mission item as a Rover keeps it, and so gives it back when the mission is
     downloaded and reads it when the item runs (``AP_Mission::mavlink_int_to_mission_cmd``
     and back): for the commands lfctl carries out, the params the command has no room for
     are 0 and each kept param takes its field's type (a waypoint's wait a 16-bit whole
     number, 2.5 s kept as 2; DO_JUMP's target and count whole; a loiter's direction
-    the sign of its radius, -0 too, or +-1; a circle's turns whole, or 256ths below one).
+    kept apart from its radius, as ``param3 < 0``: a radius of -0.5 comes back as -0,
+    counter-clockwise, and one of -0 as 0, clockwise, as ArduPilot reads it; a circle's
+    turns whole, or 256ths below one).
     A command that stores no place (DO_JUMP, DO_CHANGE_SPEED, the conditions, ...) has x,
     y and z 0, but for the few that keep numbers there (a camera's, a gimbal's); for the
     other commands the params and numbers they have no room for are 0 (:data:`KEPT_FIELDS`),
@@ -401,13 +410,13 @@ def as_stored(item: MissionItem) -> MissionItem:
     u16 = 65535
     if c == NAV_WAYPOINT:
         params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
-    elif c == NAV_LOITER_UNLIM:  # (the direction a flag of its own: a radius of -0 is counter-clockwise)
-        params = (0.0, 0.0, math.copysign(_int_as(abs(p3), 0, u16), p3), 0.0)
+    elif c == NAV_LOITER_UNLIM:  # (the direction a flag of its own, set by param3 < 0)
+        params = (0.0, 0.0, _directed(_int_as(abs(p3), 0, u16), p3), 0.0)
     elif c == NAV_LOITER_TURNS:
         r = math.trunc(abs(p3)) if abs(p3) <= 255 else 10 * min(255, math.trunc(abs(p3) * 0.1))
         # turns in a byte; 0 < turns < 1 in 256ths of a turn (a flag says so)
         turns = math.trunc(p1 * 256.0) / 256.0 if 0.0 < p1 < 1.0 else _int_as(min(255.0, p1), 0, 255)
-        params = (turns, 0.0, math.copysign(float(r), p3), 1.0 if p4 > 0 else 0.0)
+        params = (turns, 0.0, _directed(float(r), p3), 1.0 if p4 > 0 else 0.0)
     elif c == NAV_LOITER_TIME:
         params = (_int_as(p1, 0, u16), 0.0, -1.0 if p3 < 0 else 1.0, 1.0 if p4 > 0 else 0.0)
     elif c == NAV_RETURN_TO_LAUNCH:

@@ -398,7 +398,7 @@ class VehicleDriver:
         circle = CircleGuidance(
             (leg.north_m, leg.east_m),
             radius,
-            math.copysign(1.0, item.param3) < 0,  # (-0 too: AP_Mission keeps the direction apart)
+            math.copysign(1.0, item.param3) < 0,  # (a kept -0 too: counter-clockwise, its radius under 1 m)
             max(0.0, item.param1),  # as kept (as_stored): whole turns, or 256ths below one
             speed,
             max(turn_radius, 0.2 if radius >= 0.5 else 0.1),  # Rover's reached_edge distance
