@@ -61,7 +61,13 @@ def _git_files() -> set[str] | None:
 
 
 def _shipped(path: Path, listed: set[str] | None) -> bool:
-    """A file under a data root that travels with the package."""
+    """A file under a data root that travels with the package (not one whose name is not
+    UTF-8: a wheel's file list cannot hold it, and setuptools failed the build on it)."""
+    try:
+        path.as_posix().encode("utf-8")
+    except UnicodeEncodeError:
+        print(f"setup.py: {path.as_posix()!r}: a file name that is not UTF-8 is left out", file=sys.stderr)
+        return False
     if any(fnmatch.fnmatch(path.name, pattern) for pattern in SKIP):
         return False
     if any(fnmatch.fnmatch(part, pattern) for part in path.parts[:-1] for pattern in SKIP_FOLDERS):

@@ -56,11 +56,13 @@ def test_wheel_in_a_fresh_venv_builds_fmus_and_runs_an_example_from_an_empty_dir
     old.mkdir(parents=True)
     (old / "config.py").write_text("STALE = True\n")
     (old / "deleted_since.py").write_text("STALE = True\n")
+    (src / os.fsdecode(b"examples/b\xffd.toml")).write_text("x")  # a name that is not UTF-8 failed the build
     _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", str(src), "-w", str(dist)], tmp_path)
     (wheel,) = dist.glob("lfctl-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
     assert zipfile.ZipFile(wheel).read("lfctl/config.py") == (src / "lfctl" / "config.py").read_bytes()
     assert "lfctl/deleted_since.py" not in names
+    assert not [n for n in names if n.startswith("lfctl/examples/b") and n.endswith("d.toml")]
     assert "lfctl/fmu_models/common/model_core.c" in names and "lfctl/examples/convoy.toml" in names
     assert "lfctl/bench/cosim.py" in names and not any(n.startswith("tests/") for n in names)
     assert "lfctl/examples/sweeps/noise.toml" in names and "lfctl/examples/sweeps/scenarios/ablation.toml" in names
@@ -113,6 +115,7 @@ def test_sdist_carries_the_c_sources_and_the_examples_and_nothing_a_user_left_th
     for name in [*junk, "examples/mine.toml", "examples/private.toml"]:
         (src / name).parent.mkdir(parents=True, exist_ok=True)
         (src / name).write_text("x")
+    (src / os.fsdecode(b"examples/b\xffd.toml")).write_text("x")  # a name that is not UTF-8 failed the build
     if checkout:  # what git ignores stays out too
         with open(src / ".gitignore", "a") as f:
             f.write("examples/private.toml\n")
@@ -133,4 +136,5 @@ def test_sdist_carries_the_c_sources_and_the_examples_and_nothing_a_user_left_th
         "setup.py",
     } <= names
     assert not set(junk) & names
+    assert not [n for n in names if n.startswith("examples/b") and n.endswith("d.toml")]  # (not UTF-8: left out)
     assert not any(n.startswith("tests/") for n in names)  # (the tests run from a checkout: their fixtures are there)
