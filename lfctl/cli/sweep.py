@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 from lfctl.cli import quiet_stdout, stop_exit_code, stopped_by
 from lfctl.cli.options import command, counted, integer
 from lfctl.data import example_names
+from lfctl.errors import LfctlError
 
 if TYPE_CHECKING:
     from lfctl.sweep.engine import SweepProgress
@@ -75,6 +76,20 @@ def register(sub: Any) -> None:
     )
     s.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     s.set_defaults(func=run)
+
+
+def _runs_left(p: Any, out_dir: Path, args: argparse.Namespace) -> bool:
+    """Runs are left to do (a ``--resume`` of a finished sweep has none: it waits for no
+    scheduler). A journal that cannot be read counts as runs left: the sweep says why."""
+    if not args.resume:
+        return True
+    from lfctl.sweep.results import read_journal
+
+    try:
+        done = {r.get("run") for r in read_journal(out_dir)}
+    except (OSError, LfctlError):
+        return True
+    return any(r.run not in done for r in p.runs)
 
 
 def _duration(seconds: float | None) -> str:
@@ -154,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
         file=human,
     )
     print(f"folder       {out_dir}", file=human, flush=True)
-    if args.scheduler_file is not None and not Path(args.scheduler_file).exists():
+    if args.scheduler_file is not None and not Path(args.scheduler_file).exists() and _runs_left(p, out_dir, args):
         from lfctl.sweep.engine import WORKERS_WAIT_S
 
         print(

@@ -88,6 +88,10 @@ def test_a_pipe_gets_a_json_line_per_run_and_report_rebuilds_the_summary(
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "| 1 | p | 2/2 |" in out and "plots        " in out
+    # resuming a finished sweep waits for no scheduler, and does not say it does
+    resume = ["sweep", str(sweep), "--out", str(tmp_path / "out"), "--resume", "--scheduler-file", "nosuch.json"]
+    assert main(resume) == 0
+    assert "waiting for" not in capsys.readouterr().err
 
 
 #: a sweep still running this long after it started is killed, so that a test reading its
