@@ -29,14 +29,13 @@ def run(args: argparse.Namespace) -> int:
     r = replay(args.file, TRACKER_KINDS[args.tracker], args.follower)
     print(f"replayed {r.frames} frames of {r.follower} from {args.file}")
     scored = f"(IoU >= 0.5 on {r.scored} frames with at least {MIN_VISIBLE:.0%} of the banner visible)"
-    if r.recorded_success is None or r.recorded_markers is None:
+    if r.recorded_success is None:
         print(f"  recorded tracker: none (its companion tracked these frames outside the simulator)  {scored}")
-        print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
-        print(f"  four markers found: replayed {r.replayed_markers:.3f}")
     else:
         print(f"  recorded tracker (full):  success {r.recorded_success:.3f}  {scored}")
-        print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
-        print(f"  four markers found: recorded {r.recorded_markers:.3f}, replayed {r.replayed_markers:.3f}")
+    print(f"  replayed tracker ({args.tracker}): success {r.replayed_success:.3f}")
+    recorded = f"recorded {r.recorded_markers:.3f}, " if r.recorded_markers is not None else ""
+    print(f"  four markers found: {recorded}replayed {r.replayed_markers:.3f}")
     if r.unreadable:
         print(f"  skipped {r.unreadable} recorded images that do not decode (or differ in size)")
     if r.truncated:

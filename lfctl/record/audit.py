@@ -271,8 +271,9 @@ def _json_messages(c: Contents, topic: str) -> list[tuple[float, dict[str, Any]]
 
 def _bad_json_findings(c: Contents) -> list[Finding]:
     out = []
+    outside = _outside(c)
     for topic in sorted(c.messages):
-        spec = _spec(topic, _outside(c))
+        spec = _spec(topic, outside)
         if spec is None:
             continue
         bad = _decoded(c, topic)[1]

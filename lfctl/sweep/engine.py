@@ -156,15 +156,12 @@ def scheduler_processes(
                     **quiet,
                 )
             )  # fmt: skip
-            deadline = time.monotonic() + timeout_s
-            while True:  # (the file may be read while the scheduler is writing it)
-                try:
-                    address = scheduler_address(file, wait_s=0.0)
-                    break
-                except LfctlError:
-                    if time.monotonic() > deadline or procs[0].poll() is not None:
-                        raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s") from None
-                time.sleep(0.05)
+            try:  # (its file is read again while the scheduler is writing it; a scheduler that ended stops the wait)
+                address = scheduler_address(file, stop=lambda: procs[0].poll() is not None, wait_s=timeout_s)
+            except LfctlError:
+                address = None
+            if address is None:
+                raise LfctlError(f"dask scheduler did not start within {timeout_s:g} s")
             procs.append(
                 subprocess.Popen(
                     [*dask, "worker", address, "--nworkers", str(n_workers), "--nthreads", "1",
