@@ -61,3 +61,15 @@ def test_the_180th_meridian_is_crossed_the_short_way_and_a_pole_still_has_an_eas
     )
     assert on_earth(90.0, -180.0) and not on_earth(90.0001, 0.0) and not on_earth(0.0, 180.0001)
     assert not on_earth(math.nan, 0.0) and not on_earth(0.0, math.inf)
+
+
+def test_rot_z_takes_a_body_vector_into_ned() -> None:
+    from lfctl.frames import rot_z
+
+    # heading east (90 deg): forward is east, right is south, down stays down
+    r = rot_z(math.pi / 2)
+    assert r @ [1.0, 0.0, 0.0] == pytest.approx([0.0, 1.0, 0.0], abs=1e-12)
+    assert r @ [0.0, 1.0, 0.0] == pytest.approx([-1.0, 0.0, 0.0], abs=1e-12)
+    assert r @ [0.0, 0.0, 1.0] == pytest.approx([0.0, 0.0, 1.0], abs=1e-12)
+    # the same turn as body_to_ned at any heading: 30 deg, (2, 1) m forward and right
+    assert (rot_z(math.radians(30)) @ [2.0, 1.0, 0.0])[:2] == pytest.approx(body_to_ned(2.0, 1.0, math.radians(30)))
