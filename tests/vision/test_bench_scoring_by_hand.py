@@ -113,3 +113,40 @@ def test_recovery_ignores_a_short_flicker_and_an_occlusion_at_the_end() -> None:
     assert recovery_frames([1.0] * 2 + [0.05] * 10 + [1.0], [0.0] * 13) == []
     # hidden to the last frame: nothing to recover yet
     assert recovery_frames([1.0] * 2 + [0.0] * 12, [0.0] * 14) == []
+
+
+def test_the_aruco_comparison_scores_detection_on_half_visible_frames_and_errors_on_every_pose() -> None:
+    from lfctl.bench.vision_aruco import _stats
+
+    # five frames, truth 2 m at bearing 0. Visible shares 1, 0.5, 0.6, 0.3, 0:
+    # detection is over the frames at least half visible (0, 1, 2): poses on 0 and 1, 2/3;
+    # a pose on frame 4 (under 5 % visible) is a pose while hidden;
+    # range errors over every pose: |2.2 - 2| / 2 = 10 %, 5 %, 50 %, 0 %: median 7.5 %;
+    # bearing errors 0.01 rad = 0.573 deg, 0.02 rad = 1.146 deg, 0, 0: median 0.286 deg;
+    # ms 1..5: median 3
+    nan = float("nan")
+    cell = {
+        "vis": [1.0, 0.5, 0.6, 0.3, 0.0],
+        "truth_range_m": 2.0,
+        "truth_bearing_rad": 0.0,
+        "rec": {
+            "aruco": {
+                "range_m": [2.2, 1.9, nan, 1.0, 2.0],
+                "bearing_rad": [0.01, -0.02, nan, 0.0, 0.0],
+                "ms": [1, 2, 3, 4, 5],
+            }
+        },
+    }
+    assert _stats([cell], "aruco") == {
+        "detection": 0.667,
+        "scored_frames": 3,
+        "range_err_median_pct": 7.5,
+        "bearing_err_median_deg": 0.286,
+        "ms_median": 3.0,
+        "poses_while_hidden": 1,
+    }
+    # no pose at all: no errors to take
+    blind = {**cell, "rec": {"aruco": {"range_m": [nan] * 5, "bearing_rad": [nan] * 5, "ms": [1] * 5}}}
+    assert _stats([blind], "aruco")["detection"] == 0.0
+    assert _stats([blind], "aruco")["range_err_median_pct"] is None
+    assert _stats([blind], "aruco")["poses_while_hidden"] == 0  # hidden, and no pose: nothing claimed
