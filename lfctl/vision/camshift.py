@@ -68,7 +68,9 @@ def camshift_in_roi(
 
     ``window`` and the result are in full-image coordinates; returns the new window and the
     mean probability (0..1) inside it: ``window`` and 0 when it starts outside the region, a
-    zero-size window and 0 when CamShift loses it.
+    zero-size window at ``window``'s corner and 0 when CamShift loses it (no probability in
+    the window it measures: OpenCV then hands back mean shift's window grown by 10 px a side,
+    empty, not an empty size). A window partly outside the region starts on its part inside.
 
     Parameters
     ----------
@@ -83,13 +85,13 @@ def camshift_in_roi(
     x, y, w, h = window
     rh, rw = prob_roi.shape[:2]
     lx, ly = max(0, x - ox), max(0, y - oy)
-    lw, lh = max(1, min(w, rw - lx)), max(1, min(h, rh - ly))
     if lx >= rw or ly >= rh:
         return window, 0.0
+    lw, lh = max(1, min(w - (lx - (x - ox)), rw - lx)), max(1, min(h - (ly - (y - oy)), rh - ly))
     _, (nx, ny, nw, nh) = cv2.CamShift(prob_roi, (lx, ly, lw, lh), TERM)
-    if nw <= 0 or nh <= 0:
+    mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0 if nw > 0 and nh > 0 else 0.0
+    if mass <= 0.0:
         return (x, y, 0, 0), 0.0
-    mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0
     return (nx + ox, ny + oy, nw, nh), mass
 
 
