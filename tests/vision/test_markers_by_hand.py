@@ -401,3 +401,61 @@ def test_green_markers_pass_against_a_green_banner_hue() -> None:
     # would pass. By hand: 100 deg = OpenCV 50; markers (50, 217, 217): 0 deg off: passes.
     hsv, c = scene(SQUARE, marker=(50, 217, 217))
     assert check_constellation(c, hsv, 100.0) == ""
+
+
+def _panel_darkened(n_dark: int, width: int = 89) -> tuple[np.ndarray, Constellation]:
+    """SQUARE's scene in a picture ``width`` px wide, with ``n_dark`` panel pixels dark (value
+    50): the first of rows 46..74 (between the markers' rows), x = 30..88, read left to right."""
+    hsv, c = scene(SQUARE, shape=(120, width))
+    ys, xs = np.mgrid[46:75, 30:89]
+    hsv[ys.ravel()[:n_dark], xs.ravel()[:n_dark]] = (0, 10, 50)
+    return hsv, c
+
+
+def test_the_panel_must_be_light_on_60_percent_of_its_pixels_counted_by_hand() -> None:
+    # The panel's quad: the centres (40..80) about (60, 60) scaled by 0.22 / 0.14 * 0.95
+    # = 1.492857: 60 -+ 29.857, rounded 30 and 90, filled with its edges; the picture ends
+    # at x = 88: 59 x 61 = 3599 px. Each 5 x 5 marker (box at 38 or 78) takes a rectangle
+    # from x - 1 - 5 // 3 to x + 5 + 1 (36..44 or 76..84) out: 9 x 9 = 81 px, 324 in all:
+    # 3275 panel pixels, of which 60 % is 1965 exactly. 1310 dark: light 1965, a banner;
+    # 1311 dark: light 1964, not.
+    hsv, c = _panel_darkened(1310)
+    assert check_constellation(c, hsv, 0.0) == ""
+    hsv, c = _panel_darkened(1311)
+    assert check_constellation(c, hsv, 0.0) == "panel"
+    # a dark rim round a marker (column 36, rows 36..44: inside its rectangle) is not panel
+    hsv, c = _panel_darkened(1310)
+    hsv[36:45, 36] = (0, 10, 50)
+    assert check_constellation(c, hsv, 0.0) == ""
+    # in a wider picture the quad's last column (x = 90) is panel too: 61 x 61 - 324 = 3397
+    # pixels, 60 % of them 2038.2: 1358 dark leaves 2039 light, a banner; 1359, not
+    for n_dark, verdict in ((1358, ""), (1359, "panel")):
+        hsv, c = _panel_darkened(n_dark, width=120)
+        assert check_constellation(c, hsv, 0.0) == verdict, n_dark
+
+
+def test_the_panel_is_light_against_the_markers_upper_median_saturation() -> None:
+    # markers of saturation 200, 210, 220 and 230 (the printed 0.85 of 255 is 217; each is
+    # above 0.7 of it): the panel counts as light below half the upper median, 220 / 2 = 110.
+    # A panel of saturation 109 is light, 110 is not.
+    for panel_s, verdict in ((109, ""), (110, "panel")):
+        hsv, c = scene(SQUARE)
+        hsv[np.all(hsv == LIGHT, axis=2)] = (0, panel_s, 220)
+        for (x, y, w, h), sat in zip((b.bbox for b in c.blobs), (200, 230, 210, 220), strict=True):
+            hsv[y : y + h, x : x + w, 1] = sat
+        assert check_constellation(c, hsv, 0.0) == verdict, panel_s
+
+
+def test_a_panel_mostly_outside_the_picture_is_too_little_to_tell() -> None:
+    # Markers 5 px on a 20 px square in the top-left corner of a 30 x 30 picture, about
+    # (14, 14). With a panel 1.5 sides wide the quad is 14 -+ 10 * 1.5 * 0.95 = 14 -+ 14.25:
+    # 0..28, all inside: 29 x 29 - 4 x 81 = 517 px of an expected 28^2 (1 - 4 (0.25 / 1.5)^2)
+    # = 696.9: more than 0.3 of it, and light: a banner. Four sides wide, 14 -+ 38: 900 - 324
+    # = 576 px of the picture against an expected 76^2 (1 - 4 (0.25 / 4)^2) = 5685.75: under
+    # 0.3 of it (1705.7), too little of the panel in view to call it one. 2.5 sides wide,
+    # 14 -+ 23.75: -10..38, 48^2 (1 - 4 (0.25 / 2.5)^2) = 2211.8 expected, 576 under 0.3 of it.
+    corner = [(4, 4), (24, 4), (24, 24), (4, 24)]
+    hsv, c = scene(corner, shape=(30, 30))
+    assert check_constellation(c, hsv, 0.0, look=BannerLook(0.85, 0.25, 1.5)) == ""
+    assert check_constellation(c, hsv, 0.0, look=BannerLook(0.85, 0.25, 4.0)) == "panel"
+    assert check_constellation(c, hsv, 0.0, look=BannerLook(0.85, 0.25, 2.5)) == "panel"
