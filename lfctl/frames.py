@@ -16,6 +16,7 @@ import math
 import numpy as np
 
 __all__ = [
+    "FLT_EPSILON",
     "body_to_ned",
     "geodetic_to_ned",
     "ned_to_body",
@@ -27,6 +28,9 @@ __all__ = [
 ]
 
 EARTH_RADIUS_M = 6378137.0  # WGS-84 equatorial radius
+#: a float32's epsilon: ArduPilot's AP_Math compares against it (``is_positive(x)`` is
+#: ``x >= FLT_EPSILON``, ``is_negative(x)`` is ``x <= -FLT_EPSILON``, ``is_zero`` within it)
+FLT_EPSILON = 1.1920928955078125e-07
 HALF_EARTH_M = math.pi * EARTH_RADIUS_M  # no place is farther along the ground, m
 
 

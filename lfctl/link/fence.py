@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.frames import geodetic_to_ned, on_earth
+from lfctl.frames import FLT_EPSILON, geodetic_to_ned, on_earth
 from lfctl.link.mission import (
     CIRCLE_EXCLUSION,
     CIRCLE_INCLUSION,
@@ -119,7 +119,7 @@ def validate_fence(items: list[MissionItem]) -> tuple[int, int, str] | None:
         elif left:
             return i, error, f"Received incorrect type (want={kind} got={it.command})"
         elif it.command in (CIRCLE_INCLUSION, CIRCLE_EXCLUSION):
-            if not (math.isfinite(it.param1) and it.param1 > 0):
+            if not (math.isfinite(it.param1) and it.param1 >= FLT_EPSILON):  # Rover's is_positive
                 return i, error, "Non-positive circle radius"
         elif it.command == RETURN_POINT:
             if seen_return:
@@ -227,7 +227,9 @@ class Fence:
             Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
         """
         breached = 0
-        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) > radius_m:
+        # on the circle is out (AC_Fence::check_fence_circle: distance >= radius); on a stored
+        # inclusion circle's edge is in, on an exclusion circle's out of it (AC_PolyFence_loader)
+        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) >= radius_m:
             breached |= FENCE_TYPE_CIRCLE
         if fence_type & FENCE_TYPE_POLYGON and (
             any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons)

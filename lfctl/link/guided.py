@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from lfctl.frames import geodetic_to_ned, wrap_pi
+from lfctl.frames import FLT_EPSILON, geodetic_to_ned, wrap_pi
 
 __all__ = [
     "MASK_ACC_IGNORE",
@@ -177,7 +177,7 @@ def position_target(
         heading = math.atan2(vy, vx) + (pose.yaw_rad if body else 0.0)
     if has_yaw:
         heading = yaw + (pose.yaw_rad if body else 0.0)
-    if vel and (has_yaw or has_rate) and vx < 0:
+    if vel and (has_yaw or has_rate) and vx <= -FLT_EPSILON:  # Rover's is_negative(vx)
         speed = -speed  # with a heading or turn rate given, the sign of vx says forward or back
     if vel and has_rate and not has_yaw:
         return GuidedTarget("rate", t_s, speed_mps=speed, yaw_rate_radps=yaw_rate)
@@ -220,10 +220,9 @@ def attitude_target(
         return "a field it uses is not a number"
     speed = speed_default_mps * max(-1.0, min(1.0, thrust))
     if type_mask & ATT_YAW_RATE_IGNORE:
+        # Rover's Quaternion::get_euler_yaw, as it is: not normalised, so an all-zero
+        # quaternion is yaw atan2(0, 1) = 0, north (a real Rover drives north on it too)
         w, x, y, z = q
-        norm = math.sqrt(w * w + x * x + y * y + z * z)
-        if norm < 1e-6:
-            return "the quaternion is zero"
         heading = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
         return GuidedTarget("heading", t_s, speed_mps=speed, heading_rad=wrap_pi(heading))
     return GuidedTarget("rate", t_s, speed_mps=speed, yaw_rate_radps=body_yaw_rate)

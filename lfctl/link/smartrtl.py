@@ -28,6 +28,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from lfctl.frames import FLT_EPSILON
+
 __all__ = ["clean", "leg_distances", "prune_loops", "simplify"]
 
 Point = tuple[float, float]
@@ -37,7 +39,7 @@ SIMPLIFY_SHARE = 0.5
 #: the share of the accuracy within which two legs are taken to meet (no obstacle between)
 PRUNE_SHARE = 0.99
 #: |a c - b^2| under this: the legs are parallel (Rover's ``is_zero``, a float's epsilon)
-PARALLEL = float(np.finfo(np.float32).eps)
+PARALLEL = FLT_EPSILON
 #: the most loops kept, as a share of ``SRTL_POINTS`` (Rover's loop buffer)
 LOOPS_SHARE = 0.25
 
