@@ -156,7 +156,9 @@ class Fence:
     inclusion_circles, exclusion_circles : list of (north, east, radius)
         Likewise for circles, m.
     return_point : (north, east) or None
-        Where a breach sends the vehicle, if given.
+        The list's return point (NAV_FENCE_RETURN_POINT), if it has one. A Rover's breach
+        action does not go there (RTL goes home or to a rally point; on ArduPilot only Plane
+        flies to the return point): it is kept as the list holds it, and nothing reads it.
     """
 
     inclusion_polygons: list[list[tuple[float, float]]] = field(default_factory=list)
