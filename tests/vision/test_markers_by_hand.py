@@ -153,15 +153,22 @@ def test_the_constellation_gates_at_their_edges(quad: list[list[float]], area: f
 # -- refine_centre and refine -------------------------------------------------------------------
 
 
-def test_the_sub_pixel_centre_weighs_saturation_above_30_and_reads_the_images_first_column_and_row() -> None:
+@pytest.mark.parametrize(("hue_deg", "opencv_hue"), [(0.0, 0), (100.0, 50)])
+def test_the_sub_pixel_centre_weighs_saturation_above_30_and_reads_the_images_first_column_and_row(
+    hue_deg: float, opencv_hue: int
+) -> None:
     # Wrong, a marker in the image's corner would lose its first column or row, or every
-    # centre move by another saturation floor.
-    # By hand: a 2 x 1 marker at (0, 0): saturation 130 and 230, hue 0: weights 130 - 30 = 100
-    # and 230 - 30 = 200 (0 elsewhere): x = (0 * 100 + 1 * 200) / 300 = 2/3, y = 0.
+    # centre move by another saturation floor; or (the marker hue turned into OpenCV's scale
+    # another way) markers of any hue but red would lose their sub-pixel centre.
+    # By hand: a 2 x 1 marker at (0, 0): saturation 130 and 230, of the marker's hue (100 deg
+    # is OpenCV's 50): weights 130 - 30 = 100 and 230 - 30 = 200 (0 elsewhere):
+    # x = (0 * 100 + 1 * 200) / 300 = 2/3, y = 0. A pixel of the other hue beside it (100 deg
+    # off) weighs 0.
     hsv = np.zeros((5, 10, 3), np.uint8)
-    hsv[0, 0] = (0, 130, 200)
-    hsv[0, 1] = (0, 230, 200)
-    x, y = refine_centre(hsv, blob_at(0, 0, 2, 1), 0.0, 18.0)
+    hsv[0, 0] = (opencv_hue, 130, 200)
+    hsv[0, 1] = (opencv_hue, 230, 200)
+    hsv[0, 2] = (50 - opencv_hue, 255, 200)
+    x, y = refine_centre(hsv, blob_at(0, 0, 2, 1), hue_deg, 18.0)
     assert x == pytest.approx(2.0 / 3.0, abs=1e-12)
     assert y == 0.0
 
@@ -180,20 +187,6 @@ def test_the_sub_pixel_centre_looks_two_pixels_round_the_blob_and_no_further() -
     x, y = refine_centre(hsv, blob_at(5, 3, 2, 1), 0.0, 18.0)
     assert x == pytest.approx(5.0 + 2.0 / 3.0, abs=1e-12)
     assert y == pytest.approx(3.0, abs=1e-12)
-
-
-def test_the_sub_pixel_centre_of_a_green_marker() -> None:
-    # Wrong (the marker hue turned into OpenCV's scale another way), markers of any hue but
-    # red would lose their sub-pixel centre.
-    # By hand: hue 100 deg = OpenCV 50; the 2 x 1 marker of hue 50 at (0, 0) with saturation
-    # 130 and 230: x = 2/3 as for red; a red pixel beside it (hue 0, 100 deg off) weighs 0.
-    hsv = np.zeros((5, 10, 3), np.uint8)
-    hsv[0, 0] = (50, 130, 200)
-    hsv[0, 1] = (50, 230, 200)
-    hsv[0, 2] = (0, 255, 200)
-    x, y = refine_centre(hsv, blob_at(0, 0, 2, 1), 100.0, 18.0)
-    assert x == pytest.approx(2.0 / 3.0, abs=1e-12)
-    assert y == 0.0
 
 
 def test_the_sub_pixel_centre_of_a_faint_or_missing_marker() -> None:
