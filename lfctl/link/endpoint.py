@@ -1953,16 +1953,17 @@ class VehicleEndpoint:
         return None
 
     def _within_fence(self, north_m: float, east_m: float) -> bool:
-        """A destination the fence allows (Rover refuses guided targets outside it)."""
+        """A destination the fence allows (Rover refuses guided targets outside it, and rally
+        points outside it are not taken: AC_Fence::check_destination_within_fence)."""
         if not self.param("FENCE_ENABLE"):
             return True
-        return not self._breaches(north_m, east_m)
+        return not self._breaches(north_m, east_m, destination=True)
 
-    def _breaches(self, north_m: float, east_m: float) -> int:
+    def _breaches(self, north_m: float, east_m: float, destination: bool = False) -> int:
         """The fences (north, east) breaches as FENCE_TYPE and FENCE_RADIUS set them, as
-        FENCE_TYPE bits (0: none)."""
+        FENCE_TYPE bits (0: none); ``destination``: a place asked for, not the vehicle's."""
         fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        return self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point())
+        return self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point(), destination)
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:

@@ -212,6 +212,7 @@ class Fence:
         fence_type: int,
         radius_m: float,
         home_ned: tuple[float, float] = (0.0, 0.0),
+        destination: bool = False,
     ) -> int:
         """Every fence the vehicle at (north, east) breaches, as FENCE_TYPE bits (0: none), as
         AC_Fence keeps its breached fences: the circle of ``radius_m`` around home, and the
@@ -227,11 +228,16 @@ class Fence:
             FENCE_RADIUS, m.
         home_ned : (north_m, east_m)
             Home, local NED, m: the circle's centre (as ArduPilot's AC_Fence measures it).
+        destination : bool
+            (north, east) is a place asked for (a GUIDED target, a rally point), not where the
+            vehicle is: on the home circle is then inside it.
         """
         breached = 0
-        # on the circle is out (AC_Fence::check_fence_circle: distance >= radius); on a stored
-        # inclusion circle's edge is in, on an exclusion circle's out of it (AC_PolyFence_loader)
-        if fence_type & FENCE_TYPE_CIRCLE and math.hypot(north_m - home_ned[0], east_m - home_ned[1]) >= radius_m:
+        # a vehicle on the circle is out (AC_Fence::check_fence_circle: distance >= radius), a
+        # destination on it in (check_destination_within_fence: refused past the radius); on a
+        # stored inclusion circle's edge is in, on an exclusion circle's out (AC_PolyFence_loader)
+        out = math.hypot(north_m - home_ned[0], east_m - home_ned[1])
+        if fence_type & FENCE_TYPE_CIRCLE and (out > radius_m if destination else out >= radius_m):
             breached |= FENCE_TYPE_CIRCLE
         if fence_type & FENCE_TYPE_POLYGON and (
             any(not _inside_polygon(north_m, east_m, p) for p in self.inclusion_polygons)

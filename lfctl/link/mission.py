@@ -14,7 +14,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import read_text_file, save_text
 from lfctl.errors import ConfigError
-from lfctl.frames import geodetic_to_ned
+from lfctl.frames import FLT_EPSILON, geodetic_to_ned
 
 log = logging.getLogger(__name__)
 
@@ -1057,7 +1057,7 @@ def _plan_fence(p: Path, fence: object) -> list[MissionItem]:
             raise ConfigError(
                 f"{where} must be {{'inclusion': true or false, 'circle': {{'center': [lat, lon], 'radius': m}}}}"
             )
-        if not (math.isfinite(radius) and radius > 0):  # type: ignore[arg-type]
+        if not (math.isfinite(radius) and radius >= FLT_EPSILON):  # type: ignore[arg-type]  # as validate_fence
             raise ConfigError(f"{where}: the circle's radius must be above 0 m, got {radius!r}")
         lat, lon = _latlon(f"{where}.circle.center", inner.get("center"))  # type: ignore[union-attr]
         cmd = CIRCLE_INCLUSION if inclusion else CIRCLE_EXCLUSION

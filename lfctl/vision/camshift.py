@@ -61,13 +61,27 @@ def window_moments(prob: np.ndarray, window: tuple[int, int, int, int]) -> Windo
     return WindowMoments(m00, xc, yc, a, b, c, major, minor, angle)
 
 
+def _part_inside(
+    shape: tuple[int, ...], roi_origin: tuple[int, int], window: tuple[int, int, int, int]
+) -> tuple[int, int, int, int] | None:
+    """The part of ``window`` (full-image pixels) inside a region of ``shape`` at
+    ``roi_origin``, in the region's pixels and at least 1 px a side; None when none of it is."""
+    ox, oy = roi_origin
+    x, y, w, h = window
+    rh, rw = shape[:2]
+    lx, ly = max(0, x - ox), max(0, y - oy)
+    if lx >= rw or ly >= rh or x + w <= ox or y + h <= oy:
+        return None
+    return lx, ly, max(1, min(w - (lx - (x - ox)), rw - lx)), max(1, min(h - (ly - (y - oy)), rh - ly))
+
+
 def camshift_in_roi(
     prob_roi: np.ndarray, roi_origin: tuple[int, int], window: tuple[int, int, int, int]
 ) -> tuple[tuple[int, int, int, int], float]:
     """cv2.CamShift on a back-projection of a region of interest.
 
     ``window`` and the result are in full-image coordinates; returns the new window and the
-    mean probability (0..1) inside it: ``window`` and 0 when it starts outside the region, a
+    mean probability (0..1) inside it: ``window`` and 0 when none of it is in the region, a
     zero-size window at ``window``'s corner and 0 when CamShift loses it (no probability in
     the window it measures: OpenCV then hands back mean shift's window grown by 10 px a side,
     empty, not an empty size). A window partly outside the region starts on its part inside.
@@ -81,14 +95,12 @@ def camshift_in_roi(
     window : Box
         Where to start: (x, y, w, h) in full-image pixels.
     """
-    ox, oy = roi_origin
-    x, y, w, h = window
-    rh, rw = prob_roi.shape[:2]
-    lx, ly = max(0, x - ox), max(0, y - oy)
-    if lx >= rw or ly >= rh:
+    inside = _part_inside(prob_roi.shape, roi_origin, window)
+    if inside is None:
         return window, 0.0
-    lw, lh = max(1, min(w - (lx - (x - ox)), rw - lx)), max(1, min(h - (ly - (y - oy)), rh - ly))
-    _, (nx, ny, nw, nh) = cv2.CamShift(prob_roi, (lx, ly, lw, lh), TERM)
+    ox, oy = roi_origin
+    x, y = window[:2]
+    _, (nx, ny, nw, nh) = cv2.CamShift(prob_roi, inside, TERM)
     mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0 if nw > 0 and nh > 0 else 0.0
     if mass <= 0.0:
         return (x, y, 0, 0), 0.0
@@ -102,8 +114,8 @@ def meanshift_in_roi(
     probability's centroid and keeps its size (CAMShift without eq. 8's resizing).
 
     ``window`` and the result are in full-image coordinates; returns the moved window (clipped
-    to the region) and the mean probability (0..1) inside it, or ``window`` and 0 when it
-    starts outside the region.
+    to the region) and the mean probability (0..1) inside it, or ``window`` and 0 when none of
+    it is in the region. A window partly outside the region starts on its part inside.
 
     Parameters
     ----------
@@ -114,13 +126,10 @@ def meanshift_in_roi(
     window : Box
         Where to start: (x, y, w, h) in full-image pixels.
     """
-    ox, oy = roi_origin
-    x, y, w, h = window
-    rh, rw = prob_roi.shape[:2]
-    lx, ly = max(0, x - ox), max(0, y - oy)
-    if lx >= rw or ly >= rh:
+    inside = _part_inside(prob_roi.shape, roi_origin, window)
+    if inside is None:
         return window, 0.0
-    lw, lh = max(1, min(w - (lx - (x - ox)), rw - lx)), max(1, min(h - (ly - (y - oy)), rh - ly))
-    _, (nx, ny, nw, nh) = cv2.meanShift(prob_roi, (lx, ly, lw, lh), TERM)
+    ox, oy = roi_origin
+    _, (nx, ny, nw, nh) = cv2.meanShift(prob_roi, inside, TERM)
     mass = float(prob_roi[ny : ny + nh, nx : nx + nw].mean()) / 255.0
     return (nx + ox, ny + oy, nw, nh), mass

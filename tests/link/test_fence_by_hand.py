@@ -169,6 +169,14 @@ def test_on_the_home_circle_is_a_breach() -> None:
     assert Fence().breaches(3.0, 4.0, FENCE_TYPE_CIRCLE, 5.0) == FENCE_TYPE_CIRCLE
 
 
+def test_a_destination_on_the_home_circle_is_within_it() -> None:
+    # check_destination_within_fence refuses a target only past the radius (distance > radius,
+    # AC_Fence.cpp): a GUIDED target or a rally point at (3, 4), 5.0 m from home with
+    # FENCE_RADIUS 5, is allowed, where a vehicle standing there breaches; at (3, 4.001), past it
+    assert Fence().breaches(3.0, 4.0, FENCE_TYPE_CIRCLE, 5.0, destination=True) == 0
+    assert Fence().breaches(3.0, 4.001, FENCE_TYPE_CIRCLE, 5.0, destination=True) == FENCE_TYPE_CIRCLE
+
+
 # --- Fence.breaches: the stored shapes (AC_PolyFence_loader::breached) --------------------------
 
 

@@ -201,6 +201,12 @@ def test_a_complex_item_lfctl_cannot_read_is_named(tmp_path: Path, complex_item:
         ),
         ("geoFence", {"polygons": [{"inclusion": True, "polygon": [[12.9, 77.6], [12.91, 77.6]]}]}, "this one 2"),
         ("geoFence", {"circles": [{"inclusion": True, "circle": {"center": [12.9, 77.6], "radius": 0}}]}, "got 0"),
+        # under a float's epsilon: not positive to Rover's validate_fence either
+        (
+            "geoFence",
+            {"circles": [{"inclusion": True, "circle": {"center": [12.9, 77.6], "radius": 1e-8}}]},
+            "got 1e-08",
+        ),
         ("geoFence", {"polygons": [{"inclusion": True, "polygon": [[10**400, 77.6]] * 3}]}, "polygon[0] must be [lat"),
         ("geoFence", {"breachReturn": [12.9, 77.6]}, "geoFence.breachReturn must be [latitude, longitude, altitude]"),
         ("geoFence", {"circles": [{"circle": {"center": [12.9, 77.6], "radius": "5"}}]}, "geoFence.circles[0] must be"),

@@ -107,9 +107,11 @@ def test_mean_shifts_mass_is_the_mean_probability_over_255() -> None:
         (125, 52, 4, 2),  # right of it
         (105, 60, 4, 2),  # starts at local y = 10 = the region's height
         (105, 65, 4, 2),  # below it
+        (96, 52, 4, 2),  # ends at x = 100, where the region starts: left of it
+        (105, 46, 4, 4),  # ends at y = 50: above it
     ],
 )
-def test_a_window_starting_outside_the_region_is_handed_back_with_no_mass(window: tuple[int, int, int, int]) -> None:
+def test_a_window_wholly_outside_the_region_is_handed_back_with_no_mass(window: tuple[int, int, int, int]) -> None:
     # Wrong, mean shift would run from a window outside the region and pull it somewhere in it.
     assert meanshift_in_roi(uniform(255), ORIGIN, window) == (window, 0.0)
     assert camshift_in_roi(uniform(255), ORIGIN, window) == (window, 0.0)
