@@ -76,7 +76,7 @@ def with_crc(data: bytearray) -> bytes:
     return bytes(data)
 
 
-def test_one_flipped_bit_anywhere_the_signature_covers_is_refused() -> None:
+def test_one_flipped_bit_in_what_the_signature_covers_is_refused() -> None:
     # 10 header bytes, 9 of payload, 2 of CRC, then the link id, 6 of timestamp, 6 of signature
     good = bytearray(packet(signer(), T0 + 1))
     assert takes(receiver(), with_crc(bytearray(good)))  # the CRC rewrite alone changes nothing

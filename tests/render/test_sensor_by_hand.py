@@ -1,5 +1,5 @@
-"""The camera sensor's effects (lfctl.render.sensor), each on a tiny frame whose every output
-value is worked out by hand in the test: the vignetting's fall-off, the noise's sizes, the
+"""The camera sensor's effects (lfctl.render.sensor), each on a tiny frame whose output is
+worked out by hand in the test (exactly, or for the noise its spread, from a fixed seed): the vignetting's fall-off, the noise's sizes, the
 auto-exposure's metering and lag, the white balance and the scene's light as channel gains,
 motion blur and the rolling shutter's bands. test_realism.py checks the same effects on whole
 rendered frames, within tolerances; these pin the numbers."""
