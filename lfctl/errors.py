@@ -12,6 +12,8 @@ takes them all.
 
 from __future__ import annotations
 
+import shlex
+
 __all__ = [
     "BuildToolError",
     "ConfigError",
@@ -20,8 +22,22 @@ __all__ = [
     "LinkError",
     "LinkTimeoutError",
     "MissionProtocolError",
+    "command",
     "file_name_encoding_error",
 ]
+
+
+def command(*words: object) -> str:
+    """A command line to copy and paste, as messages name one: each word quoted as a POSIX
+    shell needs it (a path with a space, a name with a quote), e.g.
+    ``lfctl audit 'my runs/x.mcap'``.
+
+    Parameters
+    ----------
+    *words : object
+        The command's words (paths and numbers as their text).
+    """
+    return " ".join(shlex.quote(str(w)) for w in words)
 
 
 class LfctlError(Exception):

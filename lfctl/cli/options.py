@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import argparse
 import re
-import shlex
 import textwrap
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from lfctl.checks import Bound, check_connection, check_name
-from lfctl.errors import ConfigError
+from lfctl.errors import ConfigError, command
 
 __all__ = [
     "TRACKER_KINDS",
@@ -37,18 +36,6 @@ TRACKER_KINDS = {"full": "full", "hs-lbp": "hs-lbp", "hue-only": "hue", "hue": "
 #: stands for a space inside a path in help text until the text is wrapped (not whitespace to
 #: ``str.split`` or ``textwrap``, so the path is one word)
 _PATH_SPACE = "\0"
-
-
-def command(*words: object) -> str:
-    """A command line to copy and paste: each word quoted as a POSIX shell needs it (a path
-    with a space, a name with a quote), e.g. ``lfctl audit 'my runs/x.mcap'``.
-
-    Parameters
-    ----------
-    *words : object
-        The command's words (paths and numbers as their text).
-    """
-    return " ".join(shlex.quote(str(w)) for w in words)
 
 
 def whole_path(path: object) -> str:

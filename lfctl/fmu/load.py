@@ -23,7 +23,6 @@ import logging
 import math
 import os
 import re
-import shlex
 import threading
 import zipfile
 from collections import deque
@@ -40,7 +39,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
-from lfctl.errors import ConfigError, FmuError, file_name_encoding_error
+from lfctl.errors import ConfigError, FmuError, command, file_name_encoding_error
 from lfctl.fmu.archive import ExtractionDir, extract_archive, read_member, remove_stale_extractions
 
 __all__ = [
@@ -502,7 +501,7 @@ class FmuLibrary:
             if var is None:
                 raise ConfigError(
                     f"{self.path}: variable {name!r} (mapped to role {role!r}) does not exist; "
-                    f"`lfctl fmu info {shlex.quote(str(self.path))}` lists the variables"
+                    f"`{command('lfctl', 'fmu', 'info', self.path)}` lists the variables"
                 )
             want = "input" if role in INPUT_ROLES else ("output" if role in OUTPUT_ROLES else "parameter")
             if var.causality != want:
@@ -901,7 +900,7 @@ class FmuInstance:
                 shown = self.lib.identifier if built_in else self.lib.path
                 raise ConfigError(
                     f"vehicles[{self.name}].parameters.{name}: parameter {name!r} does not exist in "
-                    f"{self.lib.identifier} (`lfctl fmu info {shlex.quote(str(shown))}` lists its variables)"
+                    f"{self.lib.identifier} (`{command('lfctl', 'fmu', 'info', shown)}` lists its variables)"
                 )
             if var.causality != "parameter":
                 raise ConfigError(
