@@ -244,8 +244,24 @@ REBOOT_S = 2.0
 #: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN's param6 that reboots an armed vehicle (ArduPilot's
 #: magic_force_reboot_value; MAVProxy's `reboot force` sends it)
 FORCE_REBOOT = 20190226
-#: FENCE_ACTION values (Rover's FailsafeAction)
-FENCE_REPORT, FENCE_RTL, FENCE_HOLD, FENCE_SMARTRTL, FENCE_SMARTRTL_HOLD, FENCE_DISARM = range(6)
+#: FS_ACTION's and FENCE_ACTION's values (Rover's FailsafeAction; FENCE_ACTION's 0 reports only)
+ACTION_NONE, ACTION_RTL, ACTION_HOLD, ACTION_SMARTRTL, ACTION_SMARTRTL_HOLD, ACTION_TERMINATE, ACTION_LOITER_HOLD = (
+    range(7)
+)
+#: Rover's LOITER mode number: lfctl's vehicle has no LOITER, so "LOITER or HOLD" holds
+LOITER_MODE = 5
+#: the modes each action tries in turn, the first that starts kept (Terminate disarms instead)
+ACTION_MODES = {
+    ACTION_RTL: ("RTL", "HOLD"),
+    ACTION_HOLD: ("HOLD",),
+    ACTION_SMARTRTL: ("SMART_RTL", "RTL", "HOLD"),
+    ACTION_SMARTRTL_HOLD: ("SMART_RTL", "HOLD"),
+    ACTION_LOITER_HOLD: ("LOITER", "HOLD"),
+}
+#: FS_GCS_ENABLE's "the failsafe, but a mission in AUTO goes on"
+FS_GCS_CONTINUE_MISSION = 2
+#: FS_OPTIONS' bit for a failsafe that acts in HOLD too
+FS_OPTION_ACTIVE_IN_HOLD = 1
 #: after a circle breach, AC_Fence's backup circle: this much farther out it is breached again, m
 CIRCLE_BACKUP_M = 20.0
 #: farther than this outside the circle, a breach's action is HOLD (AC_FENCE_GIVE_UP_DISTANCE), m
@@ -533,8 +549,9 @@ class VehicleEndpoint:
         self._prearm_failing = False  # a pre-arm check failed at the last tick
         self._prearm_shown = -math.inf  # when the "PreArm:" texts last went out ...
         self._prearm_due = math.inf  # ... and when they go out next
-        self._gcs_failsafe = False
-        self._failsafe_acted = False  # Rover's failsafe.triggered: it took the vehicle out of its mode
+        self._gcs_failsafe = False  # the ground station is lost (Rover's failsafe.bits)
+        self._gcs_failsafe_since = 0.0  # since when, s (failsafe.start_time)
+        self._failsafe_triggered = False  # the failsafe has acted (failsafe.triggered)
 
     @staticmethod
     def _parser(signing_key: bytes | None) -> Any:
@@ -997,15 +1014,13 @@ class VehicleEndpoint:
             self.network.send(bytes(m.get_msgbuf()))
 
     def _on_heartbeat(self, m: Any) -> None:
-        if m.type == mav.MAV_TYPE_GCS:
+        if m.get_srcSystem() == int(self.param("SYSID_MYGCS")):  # Rover's handle_heartbeat: any type
             self._gcs_alive()
 
     def _gcs_alive(self) -> None:
-        """The ground station was heard from: the GCS failsafe's clock restarts (and clears)."""
+        """The ground station was heard from: the GCS failsafe's clock restarts (the next
+        check clears a failsafe)."""
         self._gcs_seen = self.t_s
-        if self._gcs_failsafe:
-            self._gcs_failsafe = self._failsafe_acted = False
-            self.statustext("Failsafe cleared: ground station back", mav.MAV_SEVERITY_INFO)
 
     def _on_file_transfer_protocol(self, m: Any) -> None:
         """MAVLink FTP: the parameters and the three lists as files (:mod:`lfctl.link.ftp`)."""
@@ -2127,17 +2142,52 @@ class VehicleEndpoint:
             self.statustext(f"{prefix}: {failure}", mav.MAV_SEVERITY_CRITICAL)
 
     def _check_gcs_failsafe(self, t_s: float) -> None:
+        """Rover's ``gcs_failsafe_check`` and ``failsafe_trigger``, armed or not. With
+        ``FS_GCS_ENABLE`` on and ``SYSID_MYGCS`` once heard (a HEARTBEAT, or its sticks), the
+        ground station is lost once it has been silent for ``FS_GCS_TIMEOUT``; the failsafe
+        acts once that has lasted more than ``FS_TIMEOUT``, unless the vehicle is in RTL, or in
+        HOLD without ``FS_OPTIONS`` bit 0 (it acts on a later check, if the mode changes while
+        the ground station is still lost). Acting: "GCS Failsafe", every RC override
+        dropped, and ``FS_ACTION`` (:meth:`_take_action`), or with ``FS_GCS_ENABLE`` 2 in AUTO
+        the mission goes on. The ground station heard again: "GCS Failsafe Cleared" (if it
+        acted). With ``FS_GCS_ENABLE`` 0 nothing is checked, and the failsafe's state is left
+        as it was."""
+        if not self.param("FS_GCS_ENABLE") or self._gcs_seen is None:
+            return
+        lost = t_s - self._gcs_seen >= self.param("FS_GCS_TIMEOUT")
+        if lost and not self._gcs_failsafe:
+            self._gcs_failsafe_since = t_s
+        self._gcs_failsafe = lost
+        if self._failsafe_triggered and not lost:
+            self._failsafe_triggered = False
+            self.statustext("GCS Failsafe Cleared", mav.MAV_SEVERITY_INFO)
+        in_hold = self.mode == MODES["HOLD"] and not int(self.param("FS_OPTIONS")) & FS_OPTION_ACTIVE_IN_HOLD
         if (
-            self.param("FS_GCS_ENABLE")
-            and self._gcs_seen is not None
-            and not self._gcs_failsafe
-            and t_s - self._gcs_seen > self.param("FS_GCS_TIMEOUT")
+            not lost
+            or self._failsafe_triggered
+            or t_s - self._gcs_failsafe_since <= self.param("FS_TIMEOUT")
+            or self.mode == MODES["RTL"]
+            or in_hold
         ):
-            self._gcs_failsafe = True
-            if self.armed and self.mode != MODES["HOLD"]:
-                self._enter(MODES["HOLD"])
-                self._failsafe_acted = True
-            self.statustext("Failsafe: ground station heartbeat lost, HOLD")
+            return
+        self._failsafe_triggered = True
+        self.statustext("GCS Failsafe", mav.MAV_SEVERITY_WARNING)
+        self.rc.clear()
+        if self.mode == MODES["AUTO"] and int(self.param("FS_GCS_ENABLE")) == FS_GCS_CONTINUE_MISSION:
+            self.statustext("Failsafe - Continuing Auto Mode", mav.MAV_SEVERITY_WARNING)
+        else:
+            self._take_action(int(self.param("FS_ACTION")))
+
+    def _take_action(self, action: int) -> None:
+        """A failsafe's or a fence breach's action, as Rover's ``FailsafeAction``: the modes of
+        :data:`ACTION_MODES` in turn until one starts (LOITER never does: lfctl's vehicle has
+        none), or disarm (Terminate); 0 (and any other value) does nothing."""
+        if action == ACTION_TERMINATE:
+            self.set_armed(False)
+            return
+        for name in ACTION_MODES.get(action, ()):
+            if self.set_mode(LOITER_MODE if name == "LOITER" else MODES[name]):
+                return
 
     def _check_fence(self) -> None:
         """As Rover's ``fence_check`` on ``AC_Fence::check``: a fence newly breached is said
@@ -2184,24 +2234,10 @@ class VehicleEndpoint:
 
     def _fence_action(self, give_up: bool = False) -> None:
         action = int(self.param("FENCE_ACTION"))
-        if action == FENCE_REPORT:
+        if action == ACTION_NONE:
             return
-        if give_up:  # too far out to drive back: stop where it is
-            if self.mode != MODES["HOLD"]:
-                self.set_mode(MODES["HOLD"])
-            return
-        if action == FENCE_DISARM:
-            self.set_armed(False)
-            return
-        chain = {
-            FENCE_RTL: ("RTL", "HOLD"),
-            FENCE_HOLD: ("HOLD",),
-            FENCE_SMARTRTL: ("SMART_RTL", "RTL", "HOLD"),
-            FENCE_SMARTRTL_HOLD: ("SMART_RTL", "HOLD"),
-        }.get(action, ("HOLD",))
-        for name in chain:
-            if self.mode == MODES[name] or self.set_mode(MODES[name]):
-                return
+        # too far out to drive back: stop where it is
+        self._take_action(ACTION_HOLD if give_up else action)
 
     def steering(self, report: NavReport | None) -> None:
         """Where the vehicle's autopilot steers now (its driver tells it at each guidance
@@ -2243,12 +2279,13 @@ class VehicleEndpoint:
         return (self.mode, self.armed, self.reversed, self.mission_version, self.guided)
 
     def system_status(self) -> int:
-        """HEARTBEAT's MAV_STATE as Rover's ``vehicle_system_status``: CRITICAL while a
-        failsafe that acted lasts (one that found the vehicle disarmed or in HOLD did not act,
-        as Rover's ``failsafe.triggered``), STANDBY in HOLD, ACTIVE otherwise, armed or not
+        """HEARTBEAT's MAV_STATE as Rover's ``vehicle_system_status``: CRITICAL from a
+        failsafe's acting until it clears (Rover's ``failsafe.triggered``: whatever its action
+        did, even nothing; a failsafe that waits, the vehicle in RTL or HOLD, has not acted),
+        STANDBY in HOLD, ACTIVE otherwise, armed or not
         (QGroundControl takes an armed vehicle that is ACTIVE as moving, and then offers no
         Disarm)."""
-        if self._failsafe_acted:
+        if self._failsafe_triggered:
             return int(mav.MAV_STATE_CRITICAL)
         return int(mav.MAV_STATE_STANDBY if self.mode == MODES["HOLD"] else mav.MAV_STATE_ACTIVE)
 
@@ -2325,7 +2362,7 @@ class VehicleEndpoint:
             # healthy unless breached (MAVProxy says "fence breach" when the health bit drops)
             fence = mav.MAV_SYS_STATUS_GEOFENCE
             present = self._fence_present()
-            acting = present and self.param("FENCE_ENABLE") and int(self.param("FENCE_ACTION")) != FENCE_REPORT
+            acting = present and self.param("FENCE_ENABLE") and int(self.param("FENCE_ACTION")) != ACTION_NONE
             enabled = SENSORS | (fence if acting else 0)
             health = SENSORS | (fence if not (present and self.fence_breach is not None) else 0)
             if self.prearm_failures():  # QGroundControl's "Ready To Fly" / "Not Ready"

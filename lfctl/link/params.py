@@ -133,9 +133,28 @@ def default_params(sysid: int) -> dict[str, Param]:
             0, 0, 3, "", "at a mission's end: 0 hold in AUTO, 1 loiter in AUTO, 2 ACRO, 3 MANUAL", kind=INT8
         ),
         "TURN_RADIUS": Param(
-            0.9, 0.0, 100.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
+            0.9, 0.0, 10.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
         ),
-        "FS_GCS_ENABLE": Param(0, 0, 2, "", "1 or 2: HOLD when the ground station's heartbeat is lost", kind=INT8),
+        "FS_ACTION": Param(
+            2,
+            0,
+            6,
+            "",
+            "on a failsafe: 0 nothing, 1 RTL or HOLD, 2 HOLD, 3 SmartRTL or RTL or HOLD, 4 SmartRTL or HOLD, "
+            "5 disarm, 6 LOITER or HOLD (lfctl has no LOITER: HOLD)",
+            kind=INT8,
+        ),
+        "FS_TIMEOUT": Param(1.5, 1.0, 100.0, "s", "a failsafe acts once its condition has lasted this long"),
+        "FS_OPTIONS": Param(0, 0, 1, "", "bitmask: 1 a failsafe acts in HOLD too", kind=INT32),
+        "FS_GCS_ENABLE": Param(
+            0,
+            0,
+            2,
+            "",
+            "1: the failsafe (FS_ACTION) once SYSID_MYGCS is silent for FS_GCS_TIMEOUT; 2: the same, "
+            "but a mission in AUTO goes on",
+            kind=INT8,
+        ),
         "FS_GCS_TIMEOUT": Param(5.0, 2.0, 120.0, "s", "ground station heartbeat timeout"),
         "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence", kind=INT8),
         "FENCE_TYPE": Param(
@@ -144,9 +163,10 @@ def default_params(sysid: int) -> dict[str, Param]:
         "FENCE_ACTION": Param(
             1,
             0,
-            5,
+            6,
             "",
-            "on breach: 0 report, 1 RTL or HOLD, 2 HOLD, 3 SmartRTL or RTL or HOLD, 4 SmartRTL or HOLD, 5 disarm",
+            "on breach: 0 report, 1 RTL or HOLD, 2 HOLD, 3 SmartRTL or RTL or HOLD, 4 SmartRTL or HOLD, "
+            "5 disarm, 6 LOITER or HOLD (lfctl has no LOITER: HOLD)",
             kind=INT8,
         ),
         "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),

@@ -131,6 +131,10 @@ class RcOverrides:
         else:
             self._values[channel] = (pwm, t_s)
 
+    def clear(self) -> None:
+        """Drop every override (Rover's ``RC_Channels::clear_overrides``, as a failsafe acts)."""
+        self._values.clear()
+
     def from_rc_override(self, channels: list[int], t_s: float) -> None:
         """Take an RC_CHANNELS_OVERRIDE.
 

@@ -1250,21 +1250,110 @@ def test_heartbeat_state_as_rover_says_it(bench: Bench) -> None:
     bench.ep.params["FS_GCS_ENABLE"].value = 1
     bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
     bench.tick()
-    bench.tick(6.0)  # the ground station's heartbeat lost (FS_GCS_TIMEOUT 5 s): HOLD, in a failsafe
+    bench.tick(6.0)  # the ground station lost (FS_GCS_TIMEOUT 5 s) ...
+    bench.tick(1.6)  # ... for more than FS_TIMEOUT (1.5 s): FS_ACTION 2, HOLD, in a failsafe
     assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
     bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
     bench.tick()
     assert _heartbeat_state(bench) == mav.MAV_STATE_STANDBY  # back: the failsafe is over, still in HOLD
+    assert bench.ep.statustexts[-1][1] == "GCS Failsafe Cleared"
 
 
-def test_a_failsafe_that_finds_the_vehicle_disarmed_is_not_critical(bench: Bench) -> None:
-    # Rover's failsafe.triggered: only a failsafe that took the vehicle out of its mode
-    bench.ep.params["FS_GCS_ENABLE"].value = 1
-    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+def _lose_the_gcs(bench: Bench, fs_gcs_enable: int = 1) -> None:
+    """The ground station (system 255) heard once, then silent past FS_GCS_TIMEOUT (5 s): the
+    failsafe's condition begins; it acts after FS_TIMEOUT (1.5 s) more."""
+    bench.ep.params["FS_GCS_ENABLE"].value = fs_gcs_enable
     bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
     bench.tick()
-    bench.tick(6.0)
-    assert bench.ep.mode == MODES["MANUAL"] and _heartbeat_state(bench) == mav.MAV_STATE_ACTIVE
+    bench.tick(5.0)
+
+
+def test_the_gcs_failsafe_acts_fs_timeout_after_the_ground_station_is_lost_armed_or_not(bench: Bench) -> None:
+    # Rover's failsafe_trigger has no arming check: a disarmed vehicle in MANUAL goes to HOLD too
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    _lose_the_gcs(bench)  # lost at 5.02 s (5.0 s of silence: FS_GCS_TIMEOUT reached)
+    bench.tick(1.5)  # 1.5 s of it: not more than FS_TIMEOUT
+    assert bench.ep.mode == MODES["MANUAL"] and bench.ep.system_status() == mav.MAV_STATE_ACTIVE
+    bench.tick(0.1)
+    assert bench.ep.mode == MODES["HOLD"] and bench.ep.system_status() == mav.MAV_STATE_CRITICAL
+    assert bench.ep.statustexts[-1][1] == "GCS Failsafe" and not bench.ep.armed
+
+
+@pytest.mark.parametrize(
+    ("action", "points", "mode", "armed"),
+    [(0, 300, "MANUAL", True), (1, 300, "RTL", True), (2, 300, "HOLD", True), (3, 300, "SMART_RTL", True),
+     (3, 0, "RTL", True), (4, 300, "SMART_RTL", True), (4, 0, "HOLD", True), (5, 300, "MANUAL", False),
+     (6, 300, "HOLD", True)],
+)  # fmt: skip
+def test_the_gcs_failsafe_takes_fs_action(bench: Bench, action: int, points: int, mode: str, armed: bool) -> None:
+    # SRTL_POINTS 0 at the arming: no way back kept, so SmartRTL cannot start and 3 falls to RTL,
+    # 4 to HOLD; 6 is LOITER or HOLD, and lfctl's vehicle has no LOITER; 5 disarms
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.ep.params["SRTL_POINTS"].value = points
+    bench.ep.set_armed(True)
+    bench.ep.params["FS_ACTION"].value = action
+    _lose_the_gcs(bench)
+    bench.tick(1.6)
+    assert (bench.ep.mode, bench.ep.armed) == (MODES[mode], armed)
+    assert bench.ep.system_status() == mav.MAV_STATE_CRITICAL  # it acted, even when the action is nothing
+
+
+def test_the_gcs_failsafe_waits_in_rtl_and_in_hold_and_acts_when_the_mode_changes(bench: Bench) -> None:
+    assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
+    _lose_the_gcs(bench)
+    bench.tick(10.0)
+    assert bench.ep.mode == MODES["RTL"] and _heartbeat_state(bench) == mav.MAV_STATE_ACTIVE
+    assert not any(t == "GCS Failsafe" for _, t in bench.ep.statustexts)
+    assert bench.ep.set_mode(MODES["MANUAL"])  # the ground station is still lost: it acts now
+    bench.tick()
+    assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
+
+
+def test_fs_options_bit_0_lets_the_gcs_failsafe_act_in_hold(bench: Bench) -> None:
+    bench.ep.params["FS_OPTIONS"].value = 1
+    bench.ep.params["FS_ACTION"].value = 1  # RTL
+    bench.ep.set_armed(True)
+    assert bench.ep.mode == MODES["HOLD"]
+    _lose_the_gcs(bench)
+    bench.tick(1.6)
+    assert bench.ep.mode == MODES["RTL"]
+
+
+def test_fs_gcs_enable_2_lets_a_mission_in_auto_go_on(bench: Bench) -> None:
+    assert upload(bench, good_mission()) == mav.MAV_MISSION_ACCEPTED
+    assert bench.set_mode("AUTO") == mav.MAV_RESULT_ACCEPTED
+    _lose_the_gcs(bench, fs_gcs_enable=2)
+    bench.tick(1.6)
+    assert bench.ep.mode == MODES["AUTO"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
+    texts = [t for _, t in bench.ep.statustexts]
+    assert texts[-2:] == ["GCS Failsafe", "Failsafe - Continuing Auto Mode"]
+
+
+def test_the_gcs_failsafe_drops_every_rc_override(bench: Bench) -> None:
+    bench.ep.params["RC_OVERRIDE_TIME"].value = -1  # kept until released
+    bench.ep.params["FS_ACTION"].value = 0  # nothing but the failsafe's own work
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_rc_channels_override_message(1, 1, 1900, 0, 1715, 0, 0, 0, 0, 0))
+    _lose_the_gcs(bench)  # (the sticks count as a heartbeat: silent from the heartbeat after them)
+    assert bench.ep.pilot_input().active
+    bench.tick(1.6)
+    assert not bench.ep.pilot_input().active and bench.ep.mode == MODES["MANUAL"]
+
+
+def test_only_sysid_mygcs_keeps_the_ground_station_alive(bench: Bench) -> None:
+    # Rover's handle_heartbeat: a HEARTBEAT from SYSID_MYGCS, of any type; another system's
+    # ground station heartbeat is not the vehicle's ground station
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    _lose_the_gcs(bench)
+    other = mav.MAVLink(None, srcSystem=245, srcComponent=190)  # MAVSDK's own system id
+    for _ in range(4):
+        bench.raw(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(other))
+        bench.tick(0.5)
+    assert bench.ep.mode == MODES["HOLD"]
+    bench.ep.params["SYSID_MYGCS"].value = 245
+    bench.raw(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_ONBOARD_CONTROLLER, 8, 0, 0, 4, 3).pack(other))
+    bench.tick()
+    assert bench.ep.statustexts[-1][1] == "GCS Failsafe Cleared"
 
 
 def test_a_message_not_sent_is_refused_without_a_text_when_requested_once(bench: Bench) -> None:
@@ -1439,8 +1528,10 @@ def test_sticks_keep_the_ground_station_alive_and_time_out_after_rc_override_tim
     bench.send(mav.MAVLink_param_set_message(1, 1, b"RC_OVERRIDE_TIME", -1, mav.MAV_PARAM_TYPE_REAL32))
     bench.send(mav.MAVLink_rc_channels_override_message(1, 1, 1900, 0, 1715, 0, 0, 0, 0, 0))
     bench.tick(0.02)
-    bench.tick(6.0)  # -1: the override is kept, but the ground station is lost (FS_GCS_TIMEOUT 5 s): HOLD
-    assert bench.ep.pilot_input().active and bench.ep.mode == MODES["HOLD"]
+    bench.tick(5.0)  # -1: the override is kept, but the ground station is lost (FS_GCS_TIMEOUT 5 s) ...
+    assert bench.ep.pilot_input().active and bench.ep.mode == MODES["MANUAL"]
+    bench.tick(1.6)  # ... and FS_TIMEOUT later the failsafe holds and drops the override
+    assert not bench.ep.pilot_input().active and bench.ep.mode == MODES["HOLD"]
 
 
 def test_rc_channels_reports_the_live_overrides_at_the_rc_channels_streams_rate(bench: Bench) -> None:
@@ -1484,7 +1575,8 @@ def test_manual_control_keeps_the_ground_station_alive_and_any_stick_value_is_sa
     out = [m for _ in range(10) for m in bench.tick(0.05)]
     (rc,) = [m for m in out if m.get_type() == "RC_CHANNELS"][-1:]
     assert rc.chan1_raw == (1100 - 12707) & 0xFFFF and bench.ep.pilot_input().steering == -1.0
-    bench.tick(6.0)  # nothing from the ground station for FS_GCS_TIMEOUT: HOLD
+    bench.tick(6.0)  # nothing from the ground station for FS_GCS_TIMEOUT ...
+    bench.tick(1.6)  # ... and FS_TIMEOUT more: HOLD
     assert bench.ep.mode == MODES["HOLD"]
 
 

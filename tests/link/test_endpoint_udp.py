@@ -314,9 +314,11 @@ def test_gcs_heartbeat_lost_puts_the_vehicle_in_hold_when_the_failsafe_is_on() -
     b.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3).pack(m))
     ep.tick(0.0, STATE)
     ep.tick(4.9, STATE)
+    ep.tick(5.0, STATE)  # FS_GCS_TIMEOUT (5 s) of silence: lost ...
+    ep.tick(6.5, STATE)
     assert ep.mode == MODES["AUTO"]
-    ep.tick(5.1, STATE)
-    assert ep.mode == MODES["HOLD"] and any("heartbeat lost" in t for _, t in ep.statustexts)
+    ep.tick(6.6, STATE)  # ... for more than FS_TIMEOUT (1.5 s): FS_ACTION's HOLD
+    assert ep.mode == MODES["HOLD"] and any(t == "GCS Failsafe" for _, t in ep.statustexts)
 
 
 def test_by_default_a_lost_gcs_heartbeat_changes_nothing_as_on_a_rover() -> None:
