@@ -514,7 +514,8 @@ class VehicleEndpoint:
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
         self.path_generation = 0  # each arming starts a new way back: counted
         self._path_cleaned = False  # the way, full, was cleaned and nothing added since
-        self._path_max = 0  # SRTL_POINTS as the way back began (Rover's: at boot)
+        self._path_max = 0  # the points the way back may have (see _smartrtl_points)
+        self._srtl_points: int | None = None  # SRTL_POINTS as the autopilot started (None: not yet taken)
         self._path_active = False  # a way back is kept (SRTL_POINTS and SRTL_ACCURACY > 0, not given up)
         self._path_saved_s = 0.0  # when a point was last kept, s
         self._path_sample_due = -math.inf  # when the next breadcrumb is taken, s (3 Hz, in phase)
@@ -611,17 +612,28 @@ class VehicleEndpoint:
     @property
     def path_started(self) -> bool:
         """Whether a way back is kept: from the first arming (lfctl's; Rover's starts with a
-        position), unless ``SRTL_POINTS`` or ``SRTL_ACCURACY`` was 0 then or the points ran
-        out (Rover's AP_SmartRTL ``is_active``)."""
+        position), unless ``SRTL_POINTS`` or ``SRTL_ACCURACY`` was 0 as the autopilot started
+        or the points ran out (Rover's AP_SmartRTL ``is_active``)."""
         return self._path_active  # (set by the first arming's _start_path)
+
+    def _smartrtl_points(self) -> int:
+        """The points the way back has room for: ``SRTL_POINTS`` as the autopilot started,
+        or 0 (none kept) when it or ``SRTL_ACCURACY`` was 0 then. Rover's AP_SmartRTL::init
+        sizes the way once, at boot (both parameters are ``@RebootRequired``), so a change
+        takes a reboot. Taken at the first tick after a start, so a scenario's values count
+        as a Rover's stored ones do (or at an arming before it)."""
+        if self._srtl_points is None:
+            points = int(self.param("SRTL_POINTS"))
+            self._srtl_points = points if points > 0 and self.param("SRTL_ACCURACY") > 0 else 0
+        return self._srtl_points
 
     def _start_path(self) -> None:
         """A new way back (AP_SmartRTL::set_home, as the vehicle arms: where it is as the
         tick ends is the way's first point)."""
         self.path = []
         self.path_generation += 1
-        self._path_max = int(self.param("SRTL_POINTS"))
-        self._path_active = self._path_max > 0 and self.param("SRTL_ACCURACY") > 0
+        self._path_max = self._smartrtl_points()
+        self._path_active = self._path_max > 0
         self._path_saved_s = self.t_s
         self._path_sample_due = -math.inf  # (the way's first point: this tick's)
 
@@ -2096,6 +2108,7 @@ class VehicleEndpoint:
         if not self._ready_said:
             self._ready_said = True
             self.statustext("ArduPilot Ready", mav.MAV_SEVERITY_INFO)  # AP_Vehicle::setup's last words
+        self._smartrtl_points()  # (taken once after each start, before what comes in)
         self._update_home()
         if self.signed_parser is not None:
             advance_signing_clock(self.signed_parser.signing, time.time())

@@ -206,6 +206,28 @@ def test_srtl_points_0_keeps_no_way_back_and_smartrtl_is_refused() -> None:
     assert "SmartRTL unavailable: no path kept" in [s for _t, s in b.ep.statustexts]
 
 
+def test_srtl_points_and_accuracy_are_taken_as_the_autopilot_starts_a_change_takes_a_reboot() -> None:
+    # Rover's AP_SmartRTL::init sizes the way once at boot (@RebootRequired): SRTL_POINTS 0 set
+    # after the start keeps the way at the next arming; after a reboot none is kept
+    b = _armed()
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    b.ep.params["SRTL_POINTS"].value = 0
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    _drive(b, [(0.0, 0.0), (10.0, 0.0)])
+    assert b.ep.path_started and len(b.ep.path) >= 5
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert b.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    while b.ep.rebooting or not any(t == "ArduPilot Ready" for _, t in b.ep.statustexts[-3:]):
+        b.tick(0.1)
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    _drive(b, [(10.0, 0.0), (20.0, 0.0)])
+    assert not b.ep.path_started and b.ep.path == []
+    b.ep.params["SRTL_POINTS"].value = 300  # and back: again only after a reboot
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 0) == mav.MAV_RESULT_ACCEPTED
+    assert b.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED
+    assert not b.ep.path_started
+
+
 def test_points_used_up_and_none_freed_gives_smartrtl_up_until_the_next_arming() -> None:
     b = _armed(SRTL_POINTS=10)
     # a zigzag with nothing to simplify and no loop: 10 points fill the way
