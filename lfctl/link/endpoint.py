@@ -248,15 +248,14 @@ FORCE_REBOOT = 20190226
 ACTION_NONE, ACTION_RTL, ACTION_HOLD, ACTION_SMARTRTL, ACTION_SMARTRTL_HOLD, ACTION_TERMINATE, ACTION_LOITER_HOLD = (
     range(7)
 )
-#: Rover's LOITER mode number: lfctl's vehicle has no LOITER, so "LOITER or HOLD" holds
-LOITER_MODE = 5
-#: the modes each action tries in turn, the first that starts kept (Terminate disarms instead)
+#: the modes each action tries in turn, the first that starts kept (Terminate disarms
+#: instead); lfctl's vehicle has no LOITER mode, so "LOITER or HOLD" holds
 ACTION_MODES = {
     ACTION_RTL: ("RTL", "HOLD"),
     ACTION_HOLD: ("HOLD",),
     ACTION_SMARTRTL: ("SMART_RTL", "RTL", "HOLD"),
     ACTION_SMARTRTL_HOLD: ("SMART_RTL", "HOLD"),
-    ACTION_LOITER_HOLD: ("LOITER", "HOLD"),
+    ACTION_LOITER_HOLD: ("HOLD",),
 }
 #: FS_GCS_ENABLE's "the failsafe, but a mission in AUTO goes on"
 FS_GCS_CONTINUE_MISSION = 2
@@ -303,6 +302,12 @@ class LinkStats:
 
 def _finite(*values: float) -> bool:
     return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+
+
+def _ms(duration_s: float) -> int:
+    """A duration in whole ms, as Rover's ``millis()`` differences count it (to the nearest:
+    the ticks' float sums land a hair either side of a whole ms)."""
+    return round(duration_s * 1000)
 
 
 def _as_int(value: float, lo: int, hi: int) -> int | None:
@@ -619,7 +624,8 @@ class VehicleEndpoint:
     def _smartrtl_points(self) -> int:
         """The points the way back has room for: ``SRTL_POINTS`` as the autopilot started,
         or 0 (none kept) when it or ``SRTL_ACCURACY`` was 0 then. Rover's AP_SmartRTL::init
-        sizes the way once, at boot (both parameters are ``@RebootRequired``), so a change
+        sizes the way once, at boot (``SRTL_POINTS`` is ``@RebootRequired``; ``SRTL_ACCURACY``
+        is read then only to see whether it is 0, and live for the spacing), so a change
         takes a reboot. Taken at the first tick after a start, so a scenario's values count
         as a Rover's stored ones do (or at an arming before it)."""
         if self._srtl_points is None:
@@ -1031,7 +1037,7 @@ class VehicleEndpoint:
 
     def _gcs_alive(self) -> None:
         """The ground station was heard from: the GCS failsafe's clock restarts (the next
-        check clears a failsafe)."""
+        check, with ``FS_GCS_ENABLE`` on, clears a failsafe)."""
         self._gcs_seen = self.t_s
 
     def _on_file_transfer_protocol(self, m: Any) -> None:
@@ -2164,10 +2170,10 @@ class VehicleEndpoint:
         dropped, and ``FS_ACTION`` (:meth:`_take_action`), or with ``FS_GCS_ENABLE`` 2 in AUTO
         the mission goes on. The ground station heard again: "GCS Failsafe Cleared" (if it
         acted). With ``FS_GCS_ENABLE`` 0 nothing is checked, and the failsafe's state is left
-        as it was."""
+        as it was. Times are compared in whole ms, as Rover's ``millis()``."""
         if not self.param("FS_GCS_ENABLE") or self._gcs_seen is None:
             return
-        lost = t_s - self._gcs_seen >= self.param("FS_GCS_TIMEOUT")
+        lost = _ms(t_s - self._gcs_seen) >= _ms(self.param("FS_GCS_TIMEOUT"))
         if lost and not self._gcs_failsafe:
             self._gcs_failsafe_since = t_s
         self._gcs_failsafe = lost
@@ -2178,7 +2184,7 @@ class VehicleEndpoint:
         if (
             not lost
             or self._failsafe_triggered
-            or t_s - self._gcs_failsafe_since <= self.param("FS_TIMEOUT")
+            or _ms(t_s - self._gcs_failsafe_since) <= _ms(self.param("FS_TIMEOUT"))
             or self.mode == MODES["RTL"]
             or in_hold
         ):
@@ -2193,13 +2199,13 @@ class VehicleEndpoint:
 
     def _take_action(self, action: int) -> None:
         """A failsafe's or a fence breach's action, as Rover's ``FailsafeAction``: the modes of
-        :data:`ACTION_MODES` in turn until one starts (LOITER never does: lfctl's vehicle has
-        none), or disarm (Terminate); 0 (and any other value) does nothing."""
+        :data:`ACTION_MODES` in turn until one starts, or disarm (Terminate); 0 (and any
+        other value) does nothing."""
         if action == ACTION_TERMINATE:
             self.set_armed(False)
             return
         for name in ACTION_MODES.get(action, ()):
-            if self.set_mode(LOITER_MODE if name == "LOITER" else MODES[name]):
+            if self.set_mode(MODES[name]):
                 return
 
     def _check_fence(self) -> None:

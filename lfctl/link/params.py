@@ -155,7 +155,9 @@ def default_params(sysid: int) -> dict[str, Param]:
             "but a mission in AUTO goes on",
             kind=INT8,
         ),
-        "FS_GCS_TIMEOUT": Param(5.0, 2.0, 120.0, "s", "ground station heartbeat timeout"),
+        "FS_GCS_TIMEOUT": Param(
+            5.0, 2.0, 120.0, "s", "the ground station (SYSID_MYGCS: its heartbeat or its sticks) is lost after this"
+        ),
         "FENCE_ENABLE": Param(0, 0, 1, "", "1: check the geofence", kind=INT8),
         "FENCE_TYPE": Param(
             6, 0, 15, "", "bitmask: 2 circle of FENCE_RADIUS around home, 4 polygons and circles uploaded", kind=INT8

@@ -479,6 +479,26 @@ def test_a_fence_breach_is_reported_and_sends_the_vehicle_home(bench: Bench) -> 
     assert status and status[-1].breach_status == 1 and status[-1].breach_count == 1
 
 
+@pytest.mark.parametrize(
+    ("action", "points", "mode", "armed"),
+    [(0, 300, "GUIDED", True), (2, 300, "HOLD", True), (3, 300, "SMART_RTL", True), (3, 0, "RTL", True),
+     (4, 300, "SMART_RTL", True), (4, 0, "HOLD", True), (5, 300, "GUIDED", False), (6, 300, "HOLD", True)],
+)  # fmt: skip
+def test_a_fence_breach_takes_fence_action(bench: Bench, action: int, points: int, mode: str, armed: bool) -> None:
+    # Rover's fence_check: the same FailsafeAction chain as a failsafe's (1 is the test above);
+    # SRTL_POINTS 0 as the autopilot starts keeps no way back, so SmartRTL cannot start
+    bench.ep.params["SRTL_POINTS"].value = points
+    bench.ep.params["FENCE_ACTION"].value = action
+    assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    bench.ep.params["FENCE_ENABLE"].value = 1
+    bench.ep.set_armed(True)
+    assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
+    bench.tick(state=dict(STATE, north_m=1.0, east_m=1.0))
+    bench.tick(state=dict(STATE, north_m=7.0, east_m=1.0))
+    assert bench.ep.fence_breach == "polygon" and (bench.ep.mode, bench.ep.armed) == (MODES[mode], armed)
+    assert not any("LOITER" in t for _, t in bench.ep.statustexts)  # (no LOITER tried: straight to HOLD)
+
+
 def test_a_circle_breach_is_met_again_20_m_farther_out_and_past_100_m_the_action_is_hold(bench: Bench) -> None:
     # Rover's fence_check on AC_Fence::check: after a circle breach a backup circle 20 m
     # farther out is breached again (the action again), once the 10 s of manual recovery a
@@ -1286,10 +1306,11 @@ def test_the_gcs_failsafe_acts_fs_timeout_after_the_ground_station_is_lost_armed
      (6, 300, "HOLD", True)],
 )  # fmt: skip
 def test_the_gcs_failsafe_takes_fs_action(bench: Bench, action: int, points: int, mode: str, armed: bool) -> None:
-    # SRTL_POINTS 0 at the arming: no way back kept, so SmartRTL cannot start and 3 falls to RTL,
-    # 4 to HOLD; 6 is LOITER or HOLD, and lfctl's vehicle has no LOITER; 5 disarms
-    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    # SRTL_POINTS 0 as the autopilot starts (its first tick): no way back kept, so SmartRTL cannot
+    # start and 3 falls to RTL, 4 to HOLD; 6 is LOITER or HOLD, and lfctl's vehicle has no
+    # LOITER; 5 disarms
     bench.ep.params["SRTL_POINTS"].value = points
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
     bench.ep.set_armed(True)
     bench.ep.params["FS_ACTION"].value = action
     _lose_the_gcs(bench)
@@ -1307,6 +1328,37 @@ def test_the_gcs_failsafe_waits_in_rtl_and_in_hold_and_acts_when_the_mode_change
     assert bench.ep.set_mode(MODES["MANUAL"])  # the ground station is still lost: it acts now
     bench.tick()
     assert bench.ep.mode == MODES["HOLD"] and _heartbeat_state(bench) == mav.MAV_STATE_CRITICAL
+
+
+def test_a_gcs_failsafe_that_only_waited_clears_without_a_word(bench: Bench) -> None:
+    assert bench.ep.mode == MODES["HOLD"]
+    _lose_the_gcs(bench)
+    bench.tick(10.0)  # in HOLD: it waits, never acts
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    texts = [t for _, t in bench.ep.statustexts]
+    assert "GCS Failsafe" not in texts and "GCS Failsafe Cleared" not in texts
+    assert bench.ep.system_status() == mav.MAV_STATE_STANDBY
+
+
+def test_fs_gcs_enable_0_during_a_failsafe_leaves_it_as_it_was_until_a_reboot(bench: Bench) -> None:
+    # Rover's gcs_failsafe_check returns before failsafe_trigger with the failsafe off: the
+    # ground station heard again clears nothing; a reboot starts afresh
+    assert bench.set_mode("MANUAL") == mav.MAV_RESULT_ACCEPTED
+    _lose_the_gcs(bench)
+    bench.tick(1.6)
+    assert bench.ep.system_status() == mav.MAV_STATE_CRITICAL
+    bench.ep.params["FS_GCS_ENABLE"].value = 0
+    bench.send(mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GCS, 8, 0, 0, 4, 3))
+    bench.tick()
+    assert bench.ep.system_status() == mav.MAV_STATE_CRITICAL
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    bench.tick(3.0)
+    bench.tick()
+    assert not bench.ep.rebooting and bench.ep.system_status() == mav.MAV_STATE_STANDBY
+    bench.ep.params["FS_GCS_ENABLE"].value = 1
+    bench.tick(10.0)  # the ground station not heard since the reboot: no failsafe
+    assert bench.ep.system_status() == mav.MAV_STATE_STANDBY and bench.ep.mode == MODES["HOLD"]
 
 
 def test_fs_options_bit_0_lets_the_gcs_failsafe_act_in_hold(bench: Bench) -> None:
