@@ -34,7 +34,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl import __version__
 from lfctl.checks import printable
-from lfctl.frames import HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
+from lfctl.frames import FLT_EPSILON, HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
 from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
 from lfctl.link.ftp import FtpFile, FtpServer
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
@@ -308,6 +308,18 @@ def _ms(duration_s: float) -> int:
     """A duration in whole ms, as Rover's ``millis()`` differences count it (to the nearest:
     the ticks' float sums land a hair either side of a whole ms)."""
     return round(duration_s * 1000)
+
+
+def _c_uint32(value: float) -> int | None:
+    """A float command parameter through C's cast to ``uint32_t``, as Rover reads a message
+    id: the fraction cut off; None where C leaves the cast undefined (NaN, infinite, under 0
+    or past 2^32)."""
+    return math.trunc(value) if _finite(value) and -1 < value < 2**32 else None
+
+
+def _c_int32(value: float) -> int | None:
+    """A float command parameter through C's cast to ``int32_t`` (see :func:`_c_uint32`)."""
+    return math.trunc(value) if _finite(value) and -(2**31) - 1 < value < 2**31 else None
 
 
 def _as_int(value: float, lo: int, hi: int) -> int | None:
@@ -1263,7 +1275,7 @@ class VehicleEndpoint:
                 return mav.MAV_RESULT_DENIED
             return self._mode_command(base, custom)
         if cmd == mav.MAV_CMD_REQUEST_MESSAGE:
-            msg_id = _as_int(p[0], 0, 2**24 - 1)
+            msg_id = _c_uint32(p[0])
             if msg_id is None:
                 return mav.MAV_RESULT_DENIED
             if msg_id == mav.MAVLINK_MSG_ID_MESSAGE_INTERVAL:  # as Rover: GET_MESSAGE_INTERVAL of param2's id
@@ -1316,7 +1328,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_GET_MESSAGE_INTERVAL:
             return self._get_interval(p[0])
         if cmd == mav.MAV_CMD_MISSION_START:
-            if not (_finite(p[0], p[1]) and p[0] == 0 and p[1] == 0):
+            if not (abs(p[0]) < FLT_EPSILON and abs(p[1]) < FLT_EPSILON):  # Rover's is_zero (NaN is not)
                 return mav.MAV_RESULT_DENIED  # first / last item: not supported, as Rover
             return mav.MAV_RESULT_ACCEPTED if self.set_mode(MODES["AUTO"]) else mav.MAV_RESULT_FAILED
         if cmd == mav.MAV_CMD_DO_SET_MISSION_CURRENT:
@@ -1418,16 +1430,20 @@ class VehicleEndpoint:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
         does not send is DENIED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
-        ACCEPTED and stays unsent). A response target (param3) other than 0, the sender's own
+        ACCEPTED and stays unsent). The interval is kept in whole ms, as Rover's. A response target (param3) other than 0, the sender's own
         link, is DENIED before anything else is looked at, as Rover's
         ``handle_command_set_message_interval``. PARAM_VALUE's rate is Rover's parameter
         stream's: never stopped (-1 and 0 are its default, 100 ms), never slower than
         :data:`PARAM_SLOWEST_MS`."""
         if response_target != 0:  # NaN too: Rover's is_zero is false for it
             return mav.MAV_RESULT_DENIED
-        msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
-        if msg_id is None or not _finite(interval_us) or interval_us < -1:
+        # Rover casts param1 to uint32_t and param2 to int32_t: a fraction is cut off (-1.5 is
+        # -1, stop; 0.5 is 0, the default); a value no such integer holds (NaN too), which C
+        # leaves undefined, lfctl DENIES
+        msg_id, interval = _c_uint32(msg_id_f), _c_int32(interval_us)
+        if msg_id is None or interval is None or interval < -1:
             return mav.MAV_RESULT_DENIED
+        interval_us = interval
         if msg_id == MSG_IDS["PARAM_VALUE"]:
             # as Rover's set_ap_message_interval for its parameter stream: never stopped (-1,
             # 0 ms, is 100 ms, as is the default, 0) and never slower than 1 s; a faster rate
@@ -1445,8 +1461,8 @@ class VehicleEndpoint:
         elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
             default = _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0))
             rates.stream(msg_id, rates.groups.get(msg_id, default), self.t_s)
-        else:
-            rates.stream(msg_id, min(max(interval_us, 1000.0), 60e6) / 1e6, self.t_s)
+        else:  # whole ms, as Rover keeps it (interval_us / 1000 in integers)
+            rates.stream(msg_id, min(max(interval_us // 1000, 1), 60000) / 1000, self.t_s)
         return mav.MAV_RESULT_ACCEPTED
 
     def _channel_rates(self, own: bool = False) -> StreamRates:
@@ -1477,7 +1493,7 @@ class VehicleEndpoint:
         """MAV_CMD_GET_MESSAGE_INTERVAL as ArduPilot answers it: MESSAGE_INTERVAL with the
         interval, -1 for a message stopped; 0 and FAILED for one not sent (its id cut to the
         field's 16 bits, as ArduPilot's C does)."""
-        msg_id = _as_int(msg_id_f, 0, 2**24 - 1)
+        msg_id = _c_uint32(msg_id_f)  # Rover's cast (a value no uint32_t holds: DENIED)
         if msg_id is None:
             return mav.MAV_RESULT_DENIED
         if msg_id == MSG_IDS["PARAM_VALUE"]:  # Rover's parameter stream: always has a rate
@@ -1752,15 +1768,14 @@ class VehicleEndpoint:
 
     def _mission_item(self, m: Any, item: MissionItem, float_item: bool = False) -> None:
         mtype = getattr(m, "mission_type", MISSION)
-        if m.current == 2 and mtype == MISSION:  # a guided "go here"
-            ok = self._guided_location(item)
-            result = mav.MAV_MISSION_ACCEPTED if ok else mav.MAV_MISSION_ERROR
-            self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
-            return
-        if m.current == 3 and mtype == MISSION:
-            # an altitude change (MAVProxy's `guided` changealt): Rover takes an item it can
-            # read and, having no altitude to change, does nothing (no upload involved)
-            result = validate_item(item, max(2, len(self.mission)))
+        if m.current in (2, 3) and mtype == MISSION:
+            # as Rover's handle_mission_item: the item decoded alone (no upload involved), an
+            # item it cannot read answered with that; then a guided "go here" (2), or an
+            # altitude change (3, MAVProxy's `guided changealt`: Rover, having no altitude to
+            # change, does nothing)
+            result = validate_item(item, None)
+            if result == mav.MAV_MISSION_ACCEPTED and m.current == 2 and not self._guided_location(item):
+                result = mav.MAV_MISSION_ERROR
             self.missions._ack(m.get_srcSystem(), m.get_srcComponent(), result, mtype)
             return
         if float_item:  # before the item is handled, as Rover's handle_mission_item
@@ -1809,10 +1824,11 @@ class VehicleEndpoint:
 
     def _mission_current(self, seq: int) -> Any:
         """MISSION_CURRENT as Rover sends it: ``seq``; total, the last item's number (home,
-        item 0, not counted; UINT16_MAX without a mission); the mission's state (no mission,
-        not started, active, complete) and mission_mode 1 while the mode flies it (AUTO)."""
+        item 0, not counted: 0 for home alone, as Rover's ``send_mission_current``, where the
+        message's definition would have UINT16_MAX); the mission's state (no mission, not
+        started, active, complete) and mission_mode 1 while the mode flies it (AUTO)."""
         items = len(self.mission)
-        total = items - 1 if items > 1 else 0xFFFF
+        total = max(items - 1, 0)
         if items < 2:
             state = mav.MISSION_STATE_NO_MISSION
         elif self.mission_complete:
@@ -2546,8 +2562,9 @@ def _whole_degrees(angle_rad: float) -> int:
 
 
 def _period(rate_hz: float) -> float:
-    """A stream's period, s: infinite (not sent) at 0 Hz."""
-    return 1.0 / rate_hz if rate_hz > 0 else math.inf
+    """A stream's period, s, in whole ms as Rover's ``get_interval_for_stream`` makes it
+    (1000 / Hz in integers: 3 Hz is 333 ms); infinite (not sent) at 0 Hz."""
+    return max(1000 // rate_hz, 1) / 1000 if rate_hz > 0 else math.inf
 
 
 def _command_latlon(p: list[float], latlon_e7: tuple[int, int] | None) -> tuple[int, int] | None:

@@ -700,9 +700,16 @@ class FleetTable:
         elif kind == "LOCAL_POSITION_NED":
             row.north_m, row.east_m = float(m.x), float(m.y)
         elif kind == "MISSION_CURRENT":
-            total = int(getattr(m, "total", 0))
+            total, state = int(getattr(m, "total", 0)), int(getattr(m, "mission_state", 0))
             row.mission_seq = int(m.seq)
-            row.mission_total = total if 0 < total < 0xFFFF else (0 if total == 0xFFFF else None)
+            # no mission: Rover says total 0 with the state NO_MISSION, the message's definition
+            # UINT16_MAX; a MAVLink 1 MISSION_CURRENT (no total, no state) says nothing
+            if 0 < total < 0xFFFF:
+                row.mission_total = total
+            elif total == 0xFFFF or state == mav.MISSION_STATE_NO_MISSION:
+                row.mission_total = 0
+            else:
+                row.mission_total = None
         elif kind == "GLOBAL_POSITION_INT":
             row.lat_deg, row.lon_deg = m.lat / 1e7, m.lon / 1e7
             row.speed_mps = math.hypot(m.vx, m.vy) / 100

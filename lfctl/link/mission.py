@@ -287,8 +287,8 @@ NAN_ALLOWED = {
 }
 
 
-def validate_item(item: MissionItem, count: int) -> int:
-    """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 is home).
+def validate_item(item: MissionItem, count: int | None) -> int:
+    """MAV_MISSION_ACCEPTED or the MAV_MISSION_* error for this item (seq 0 of a list is home).
 
     First, as ArduPilot's ``AP_Mission::sanity_check_params`` for every command: params 1-4
     must not be infinite, nor NaN, except where a NaN means "unset" (param4, the yaw, of
@@ -299,8 +299,11 @@ def validate_item(item: MissionItem, count: int) -> int:
     ----------
     item : MissionItem
         The item as uploaded.
-    count : int
-        The mission's item count (DO_JUMP must land inside it).
+    count : int or None
+        The mission's item count (DO_JUMP must land inside it); None for an item that is no
+        list's (a "go here" or an altitude change): decoded alone, as Rover's
+        ``AP_Mission::mavlink_int_to_mission_cmd`` decodes it, its seq not home's and a
+        DO_JUMP's target not checked (only an upload's ``append_item`` checks it).
     """
     may_be_nan = NAN_ALLOWED.get(item.command, ())
     for k, value in enumerate((item.param1, item.param2, item.param3, item.param4)):
@@ -308,7 +311,7 @@ def validate_item(item: MissionItem, count: int) -> int:
             return mav.MAV_MISSION_INVALID_PARAM1 + k
     if item.command not in SUPPORTED:
         return mav.MAV_MISSION_UNSUPPORTED
-    cmd = NAV_WAYPOINT if item.seq == 0 else item.command  # home: a place, whatever the command
+    cmd = NAV_WAYPOINT if item.seq == 0 and count is not None else item.command  # home: a place, whatever the command
     if cmd in STORES_LOCATION:
         if not -90.0 <= item.lat_deg <= 90.0:
             return mav.MAV_MISSION_INVALID_PARAM5_X
@@ -325,7 +328,7 @@ def validate_item(item: MissionItem, count: int) -> int:
         for k, (value, top) in enumerate(((item.param2, 23), (item.param3, 59), (item.param4, 59))):
             if not (_whole(value) and -1 <= value <= top):  # -1: any
                 return mav.MAV_MISSION_INVALID_PARAM2 + k
-    if cmd == DO_JUMP and not 1 <= math.trunc(item.param1) < count:  # Rover cuts a fraction off
+    if cmd == DO_JUMP and count is not None and not 1 <= math.trunc(item.param1) < count:  # Rover cuts a fraction off
         return mav.MAV_MISSION_ERROR  # MissionItemProtocol_Waypoints::append_item's answer
     # a tag needs no JUMP_TAG on upload: one may come later
     if cmd in (DO_JUMP, DO_JUMP_TAG) and not -1 <= math.trunc(item.param2) <= JUMP_REPEAT_MAX:

@@ -180,23 +180,18 @@ def _item_message(
     """A downloaded item: MISSION_ITEM_INT, or (``float_item``) the float MISSION_ITEM an old
     client's MISSION_REQUEST gets, its x and y in degrees but for :data:`RAW_XY`'s commands."""
     frame, z = DOWNLOAD_FRAME.get(it.frame, it.frame), it.z
+    params = (it.param1, it.param2, it.param3, it.param4)
     if mission_type == FENCE:
-        frame, z = mav.MAV_FRAME_GLOBAL, 0.0  # MissionItemProtocol_Fence: no altitude
-    elif mission_type == MISSION and it.command not in STORES_LOCATION:
+        # MissionItemProtocol_Fence: no altitude; param1 the vertex count or the radius, the
+        # rest as the stored AC_PolyFenceItem has them: none
+        frame, z, params = mav.MAV_FRAME_GLOBAL, 0.0, (it.param1, 0.0, 0.0, 0.0)
+    elif mission_type == RALLY:
+        params = (0.0, 0.0, 0.0, 0.0)  # MissionItemProtocol_Rally: a place and its altitude alone
+    elif it.command not in STORES_LOCATION:
         frame = mav.MAV_FRAME_GLOBAL  # the others (DO_CHANGE_SPEED, DO_JUMP, ...), as Rover's
-    head = (
-        sysid,
-        compid,
-        it.seq,
-        frame,
-        it.command,
-        current,
-        1 if mission_type == MISSION else it.autocontinue,  # Rover's mission items always continue
-        it.param1,
-        it.param2,
-        it.param3,
-        it.param4,
-    )
+    # Rover's mission items always continue; a fence's or a rally point's item is built
+    # afresh, autocontinue 0
+    head = (sysid, compid, it.seq, frame, it.command, current, int(mission_type == MISSION), *params)
     if not float_item:
         return mav.MAVLink_mission_item_int_message(*head, it.x, it.y, z, mission_type)
     scale = 1.0 if it.command in RAW_XY else 1e-7

@@ -2025,9 +2025,15 @@ def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_point
     assert upload(bench, fence, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
     back = download(bench, mav.MAV_MISSION_TYPE_FENCE)
     assert {(it.frame, it.z) for it in back} == {(mav.MAV_FRAME_GLOBAL, 0.0)}  # type: ignore[attr-defined]
-    rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 0, 0, 0, 0, lat, lon, 0, 2)]
+    # MissionItemProtocol_Fence::get_item_as_mission_item builds each item afresh: param1 (the
+    # vertex count) and the place, autocontinue 0 (uploaded as 1)
+    assert {(it.autocontinue, it.param1, it.param2) for it in back} == {(0, 3.0, 0.0)}  # type: ignore[attr-defined]
+    rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 7, 8, 9, 10, lat, lon, 0, 2)]
     assert upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
-    assert [it.frame for it in download(bench, mav.MAV_MISSION_TYPE_RALLY)] == [3]  # type: ignore[attr-defined]
+    (point,) = download(bench, mav.MAV_MISSION_TYPE_RALLY)
+    # MissionItemProtocol_Rally: the place and its altitude alone, autocontinue 0
+    assert point.frame == 3 and point.autocontinue == 0  # type: ignore[attr-defined]
+    assert (point.param1, point.param2, point.param3, point.param4) == (0.0, 0.0, 0.0, 0.0)  # type: ignore[attr-defined]
 
 
 def test_a_downloaded_item_has_the_params_rover_keeps_in_their_types(bench: Bench) -> None:

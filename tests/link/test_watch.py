@@ -57,6 +57,23 @@ def test_rows_wait_for_the_autopilot_and_go_stale_after_3_s() -> None:
     assert old["stale"] and "STALE" in render_fleet([old])[1]
 
 
+@pytest.mark.parametrize(
+    ("total", "state", "shown"),
+    [(0, mav.MISSION_STATE_NO_MISSION, 0), (0xFFFF, mav.MISSION_STATE_UNKNOWN, 0), (0, mav.MISSION_STATE_UNKNOWN, None),
+     (3, mav.MISSION_STATE_ACTIVE, 3)],
+)  # fmt: skip
+def test_a_vehicle_with_no_mission_is_told_apart_from_one_that_does_not_say(
+    total: int, state: int, shown: object
+) -> None:
+    # Rover's send_mission_current: home alone is a total of 0 with the state NO_MISSION; the
+    # message's definition says UINT16_MAX; a total of 0 with no state says nothing
+    table = FleetTable()
+    table.add(message(heartbeat(4, False), 2), 0.0)
+    table.add(message(mav.MAVLink_mission_current_message(0, total, state), 2), 0.0)
+    (row,) = fleet_rows(table, 0.5)
+    assert row["mission_total"] == shown
+
+
 def test_a_lost_followers_no_value_is_null_in_the_json_not_nan() -> None:
     """The companion reports an unknown error as NaN (MAVLink's "no value"); JSON has no NaN."""
     table = FleetTable()
