@@ -10,10 +10,12 @@ test_endpoint_rover.py. Home is at 12.9602 N 77.6690 E, 900 m above mean sea lev
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
+from test_endpoint_rover import upload
 
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.mission import MissionItem
@@ -115,18 +117,15 @@ def bench() -> Bench:
 def upload_float(
     bench: Bench, items: list[tuple[int, float, float]], mission_type: int = 0, param1: float = 0.0
 ) -> int:
-    """Upload (command, x, y) items as the float MISSION_ITEM; the final MISSION_ACK's type."""
-    bench.send(mav.MAVLink_mission_count_message(1, 1, len(items), mission_type))
-    for _ in range(len(items) + 3):
-        for m in bench.tick():
-            if m.get_type() == "MISSION_ACK":
-                return int(m.type)
-            if m.get_type() == "MISSION_REQUEST":
-                cmd, x, y = items[m.seq]
-                frame = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT
-                item = (m.seq, frame, cmd, 0, 1, param1, 0, 0, 0, x, y, 0, mission_type)
-                bench.send(mav.MAVLink_mission_item_message(1, 1, *item))
-    raise AssertionError("no MISSION_ACK")
+    """Upload (command, x, y) items as the float MISSION_ITEM (test_endpoint_rover's upload,
+    which sends x and y / 1e7); the final MISSION_ACK's type."""
+    frame = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT
+    its = [
+        SimpleNamespace(seq=k, frame=frame, command=cmd, param1=param1, param2=0.0, param3=0.0, param4=0.0,
+                        x=x * 1e7, y=y * 1e7, z=0.0)
+        for k, (cmd, x, y) in enumerate(items)
+    ]  # fmt: skip
+    return upload(bench, its, mission_type, as_float=True)  # type: ignore[arg-type]
 
 
 # --- MISSION_ITEM (float): AP_Mission::convert_MISSION_ITEM_to_MISSION_ITEM_INT ---------------
