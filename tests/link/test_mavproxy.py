@@ -324,7 +324,7 @@ def test_mavproxy_moves_the_lists_and_parameters_as_files_over_mavlink_ftp(mavpr
                 proc.stdin.write(line + "\n")  # type: ignore[union-attr]
                 proc.stdin.flush()  # type: ignore[union-attr]
 
-            got_params = console.wait_for(r"Received 2\d parameters \(ftp\)")  # @PARAM/param.pck, not the list
+            got_params = console.wait_for(rf"Received {len(ep.params)} parameters \(ftp\)")  # @PARAM/param.pck
             sent = console.wait_for(r"Sent waypoint of length 3")
             send(f"fence ftpload {fence}")
             fenced = console.wait_for(r"Sent fence item of length 3")
