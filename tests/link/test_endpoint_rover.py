@@ -2026,13 +2026,22 @@ def test_downloaded_frames_are_rovers_for_places_commands_fences_and_rally_point
     back = download(bench, mav.MAV_MISSION_TYPE_FENCE)
     assert {(it.frame, it.z) for it in back} == {(mav.MAV_FRAME_GLOBAL, 0.0)}  # type: ignore[attr-defined]
     # MissionItemProtocol_Fence::get_item_as_mission_item builds each item afresh: param1 (the
-    # vertex count) and the place, autocontinue 0 (uploaded as 1)
-    assert {(it.autocontinue, it.param1, it.param2) for it in back} == {(0, 3.0, 0.0)}  # type: ignore[attr-defined]
-    rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 7, 8, 9, 10, lat, lon, 0, 2)]
+    # vertex count, a byte: 3.7 uploaded is 3) and the place, autocontinue 0 (uploaded as 1);
+    # a return point's param1 is none (5 uploaded is 0)
+    fence = [
+        mav.MAVLink_mission_item_int_message(1, 1, k, rel, 5001, 0, 1, 3.7, 4, 0, 0, lat + dy, lon + dx, 5, 1)
+        for k, (dy, dx) in enumerate(((1000, 1000), (1000, -1000), (-1000, 0)))
+    ] + [mav.MAVLink_mission_item_int_message(1, 1, 3, rel, 5000, 0, 1, 5, 0, 0, 0, lat, lon, 0, 1)]
+    assert upload(bench, fence, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    back = download(bench, mav.MAV_MISSION_TYPE_FENCE)
+    got = [(it.autocontinue, it.param1, it.param2) for it in back]  # type: ignore[attr-defined]
+    assert got == [(0, 3.0, 0.0)] * 3 + [(0, 0.0, 0.0)]
+    rally = [mav.MAVLink_mission_item_int_message(1, 1, 0, rel, 5100, 0, 1, 7, 8, 9, 10, lat, lon, 10.7, 2)]
     assert upload(bench, rally, mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
     (point,) = download(bench, mav.MAV_MISSION_TYPE_RALLY)
-    # MissionItemProtocol_Rally: the place and its altitude alone, autocontinue 0
-    assert point.frame == 3 and point.autocontinue == 0  # type: ignore[attr-defined]
+    # MissionItemProtocol_Rally: the place and its altitude alone (an int16: 10.7 m is 10),
+    # autocontinue 0
+    assert point.frame == 3 and point.autocontinue == 0 and point.z == 10.0  # type: ignore[attr-defined]
     assert (point.param1, point.param2, point.param3, point.param4) == (0.0, 0.0, 0.0, 0.0)  # type: ignore[attr-defined]
 
 
