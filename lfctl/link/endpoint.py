@@ -531,7 +531,6 @@ class VehicleEndpoint:
         self.path: list[tuple[float, float]] = []  # SmartRTL's way back, oldest first (used up as driven)
         self.path_generation = 0  # each arming starts a new way back: counted
         self._path_cleaned = False  # the way, full, was cleaned and nothing added since
-        self._path_max = 0  # the points the way back may have (see _smartrtl_points)
         self._srtl_points: int | None = None  # SRTL_POINTS as the autopilot started (None: not yet taken)
         self._path_active = False  # a way back is kept (SRTL_POINTS and SRTL_ACCURACY > 0, not given up)
         self._path_saved_s = 0.0  # when a point was last kept, s
@@ -650,8 +649,7 @@ class VehicleEndpoint:
         tick ends is the way's first point)."""
         self.path = []
         self.path_generation += 1
-        self._path_max = self._smartrtl_points()
-        self._path_active = self._path_max > 0
+        self._path_active = self._smartrtl_points() > 0
         self._path_saved_s = self.t_s
         self._path_sample_due = -math.inf  # (the way's first point: this tick's)
 
@@ -1222,7 +1220,7 @@ class VehicleEndpoint:
         if custom_mode == MODES["SMART_RTL"] and self.mode != custom_mode:
             # the way back cleaned of its straight runs' points and its loops before it is
             # driven (ModeSmartRTL's WaitForPathCleanup: a thorough cleanup)
-            self.path = clean_way_back(self.path, self.param("SRTL_ACCURACY"), self._path_max)
+            self.path = clean_way_back(self.path, self.param("SRTL_ACCURACY"), self._smartrtl_points())
         self.mode = custom_mode
         if custom_mode == MODES["GUIDED"]:
             self.guided = None  # entering GUIDED stops until a target comes
@@ -1430,8 +1428,9 @@ class VehicleEndpoint:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
         does not send is DENIED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
-        ACCEPTED and stays unsent). The interval is kept in whole ms, as Rover's. A response target (param3) other than 0, the sender's own
-        link, is DENIED before anything else is looked at, as Rover's
+        ACCEPTED and stays unsent). The interval is kept in whole ms, as Rover's. A response
+        target (param3) other than 0, the sender's own link, is DENIED before anything else is
+        looked at, as Rover's
         ``handle_command_set_message_interval``. PARAM_VALUE's rate is Rover's parameter
         stream's: never stopped (-1 and 0 are its default, 100 ms), never slower than
         :data:`PARAM_SLOWEST_MS`."""
@@ -2356,10 +2355,11 @@ class VehicleEndpoint:
         if self.path and math.hypot(here[0] - self.path[-1][0], here[1] - self.path[-1][1]) < accuracy:
             self._path_saved_s = self.t_s  # nothing to keep here (Rover's add_point succeeds)
             return
-        if len(self.path) >= self._path_max and not self._path_cleaned and accuracy > 0:
-            self.path = clean_way_back(self.path, accuracy, self._path_max)
+        room = self._smartrtl_points()
+        if len(self.path) >= room and not self._path_cleaned and accuracy > 0:
+            self.path = clean_way_back(self.path, accuracy, room)
             self._path_cleaned = True
-        if len(self.path) < self._path_max:
+        if len(self.path) < room:
             self.path.append(here)
             self._path_saved_s = self.t_s
             self._path_cleaned = False

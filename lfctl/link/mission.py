@@ -65,6 +65,7 @@ __all__ = [
     "command_name",
     "far_place",
     "home_item",
+    "int_as",
     "is_nav",
     "jump_tag_item",
     "jump_tag_items",
@@ -342,7 +343,7 @@ def validate_item(item: MissionItem, count: int | None) -> int:
     return mav.MAV_MISSION_ACCEPTED
 
 
-def _int_as(x: float, lo: int, hi: int) -> float:
+def int_as(x: float, lo: int, hi: int) -> float:
     """``x`` through C's float-to-integer conversion into a field of ``[lo, hi]``: cut to a
     whole number, held at the field's ends (as an ARM flight controller converts it)."""
     return float(min(hi, max(lo, math.trunc(x)))) if math.isfinite(x) else 0.0
@@ -412,30 +413,30 @@ def as_stored(item: MissionItem) -> MissionItem:
     c, p1, p2, p3, p4 = item.command, item.param1, item.param2, item.param3, item.param4
     u16 = 65535
     if c == NAV_WAYPOINT:
-        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+        params = (int_as(p1, 0, u16), 0.0, 0.0, 0.0)
     elif c == NAV_LOITER_UNLIM:  # (the direction a flag of its own, set by param3 < 0)
-        params = (0.0, 0.0, _directed(_int_as(abs(p3), 0, u16), p3), 0.0)
+        params = (0.0, 0.0, _directed(int_as(abs(p3), 0, u16), p3), 0.0)
     elif c == NAV_LOITER_TURNS:
         r = math.trunc(abs(p3)) if abs(p3) <= 255 else 10 * min(255, math.trunc(abs(p3) * 0.1))
         # turns in a byte; 0 < turns < 1 in 256ths of a turn (a flag says so)
-        turns = math.trunc(p1 * 256.0) / 256.0 if 0.0 < p1 < 1.0 else _int_as(min(255.0, p1), 0, 255)
+        turns = math.trunc(p1 * 256.0) / 256.0 if 0.0 < p1 < 1.0 else int_as(min(255.0, p1), 0, 255)
         params = (turns, 0.0, _directed(float(r), p3), 1.0 if p4 > 0 else 0.0)
     elif c == NAV_LOITER_TIME:
-        params = (_int_as(p1, 0, u16), 0.0, -1.0 if p3 < 0 else 1.0, 1.0 if p4 > 0 else 0.0)
+        params = (int_as(p1, 0, u16), 0.0, -1.0 if p3 < 0 else 1.0, 1.0 if p4 > 0 else 0.0)
     elif c == NAV_RETURN_TO_LAUNCH:
         params = (0.0, 0.0, 0.0, 0.0)
     elif c == NAV_DELAY:  # seconds a float, the time of day's fields 8-bit
-        params = (p1, _int_as(p2, -128, 127), _int_as(p3, -128, 127), _int_as(p4, -128, 127))
+        params = (p1, int_as(p2, -128, 127), int_as(p3, -128, 127), int_as(p4, -128, 127))
     elif c in (CONDITION_DELAY, CONDITION_DISTANCE):
         params = (p1, 0.0, 0.0, 0.0)
     elif c in (DO_JUMP, DO_JUMP_TAG):
-        params = (_int_as(p1, 0, u16), _int_as(p2, -32768, 32767), 0.0, 0.0)
+        params = (int_as(p1, 0, u16), int_as(p2, -32768, 32767), 0.0, 0.0)
     elif c == JUMP_TAG:
-        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+        params = (int_as(p1, 0, u16), 0.0, 0.0, 0.0)
     elif c == DO_CHANGE_SPEED:
-        params = (_int_as(p1, 0, 255), p2, p3, 0.0)
+        params = (int_as(p1, 0, 255), p2, p3, 0.0)
     elif c in (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE):
-        params = (_int_as(p1, 0, u16), 0.0, 0.0, 0.0)
+        params = (int_as(p1, 0, u16), 0.0, 0.0, 0.0)
     elif c in KEPT_FIELDS:
         kept = KEPT_FIELDS[c][0]
         q = [p if str(k) in kept else 0.0 for k, p in enumerate((p1, p2, p3, p4), start=1)]

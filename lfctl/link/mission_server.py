@@ -40,6 +40,7 @@ from lfctl.link.mission import (
     STORES_LOCATION,
     MissionItem,
     as_stored,
+    int_as,
     validate_item,
 )
 
@@ -186,13 +187,13 @@ def _item_message(
         # MissionItemProtocol_Fence: no altitude; param1 what the stored AC_PolyFenceItem
         # keeps (a polygon's vertex count, a byte; a circle's radius; a return point none)
         if it.command in (POLYGON_INCLUSION, POLYGON_EXCLUSION):
-            p1 = float(min(255, max(0, math.trunc(it.param1)))) if math.isfinite(it.param1) else 0.0
+            p1 = int_as(it.param1, 0, 255)
         else:
             p1 = 0.0 if it.command == RETURN_POINT else it.param1
         frame, z, params = mav.MAV_FRAME_GLOBAL, 0.0, (p1, 0.0, 0.0, 0.0)
     elif mission_type == RALLY:
         # MissionItemProtocol_Rally: a place and its altitude alone, whole metres (an int16)
-        z, params = float(math.trunc(it.z)) if math.isfinite(it.z) else 0.0, (0.0, 0.0, 0.0, 0.0)
+        z, params = int_as(it.z, -32768, 32767), (0.0, 0.0, 0.0, 0.0)
     elif it.command not in STORES_LOCATION:
         frame = mav.MAV_FRAME_GLOBAL  # the others (DO_CHANGE_SPEED, DO_JUMP, ...), as Rover's
     # Rover's mission items always continue; a fence's or a rally point's item is built
