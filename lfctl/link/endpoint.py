@@ -532,6 +532,7 @@ class VehicleEndpoint:
         self.path_generation = 0  # each arming starts a new way back: counted
         self._path_cleaned = False  # the way, full, was cleaned and nothing added since
         self._srtl_points: int | None = None  # SRTL_POINTS as the autopilot started (None: not yet taken)
+        self._loop_rate_hz: int | None = None  # SCHED_LOOP_RATE as the autopilot started (None: not yet taken)
         self._path_active = False  # a way back is kept (SRTL_POINTS and SRTL_ACCURACY > 0, not given up)
         self._path_saved_s = 0.0  # when a point was last kept, s
         self._path_sample_due = -math.inf  # when the next breadcrumb is taken, s (3 Hz, in phase)
@@ -643,6 +644,26 @@ class VehicleEndpoint:
             points = int(self.param("SRTL_POINTS"))
             self._srtl_points = points if points > 0 and self.param("SRTL_ACCURACY") > 0 else 0
         return self._srtl_points
+
+    def _loop_period_us(self) -> int:
+        """The main loop's period, us: ``SCHED_LOOP_RATE`` as the autopilot started, held to
+        50-2000 Hz, as Rover's AP_Scheduler::init takes it at boot (``@RebootRequired``: a
+        change takes a reboot), in integers (1 000 000 / Hz). Taken at the first tick after a
+        start, as :meth:`_smartrtl_points`."""
+        if self._loop_rate_hz is None:
+            self._loop_rate_hz = min(max(int(self.param("SCHED_LOOP_RATE")), 50), 2000)
+        return 1_000_000 // self._loop_rate_hz
+
+    def _cap_ms(self, interval_ms: int) -> int:
+        """A message's interval, whole ms, as Rover's ``cap_message_interval`` holds it: no
+        message goes out faster than 0.8 x the loop rate, so an interval with
+        ``interval_ms * 800`` under the loop period (us) is raised to the period / 800
+        (truncated, as Rover's float to uint16_t: 25 ms at Rover's default 50 Hz); 0 (not
+        sent) stays 0."""
+        period_us = self._loop_period_us()
+        if interval_ms == 0 or interval_ms * 800 >= period_us:
+            return interval_ms
+        return int(period_us / 800.0)
 
     def _start_path(self) -> None:
         """A new way back (AP_SmartRTL::set_home, as the vehicle arms: where it is as the
@@ -1428,7 +1449,10 @@ class VehicleEndpoint:
         """MAV_CMD_SET_MESSAGE_INTERVAL as ArduPilot takes it: -1 stops the message, 0 puts
         back its default rate, under 1 ms is 1 ms, over 60 s is 60 s; a message this vehicle
         does not send is DENIED (one for equipment it has not fitted, :data:`NOT_FITTED`, is
-        ACCEPTED and stays unsent). The interval is kept in whole ms, as Rover's. A response
+        ACCEPTED and stays unsent). The interval is kept in whole ms, as Rover's. One faster
+        than 0.8 x ``SCHED_LOOP_RATE`` (under 25 ms at Rover's default 50 Hz) is DENIED with
+        Rover's "Requested rate for message ID ... too fast. Increase SCHED_LOOP_RATE", as
+        Rover 4.6's ``set_message_interval`` (older Rovers slowed it to that silently). A response
         target (param3) other than 0, the sender's own link, is DENIED before anything else is
         looked at, as Rover's
         ``handle_command_set_message_interval``. PARAM_VALUE's rate is Rover's parameter
@@ -1443,11 +1467,19 @@ class VehicleEndpoint:
         if msg_id is None or interval is None or interval < -1:
             return mav.MAV_RESULT_DENIED
         interval_us = interval
+        known = msg_id == MSG_IDS["PARAM_VALUE"] or msg_id in self._rates.intervals
+        # whole ms as Rover keeps it (interval_us / 1000 in integers; under 1 ms is 1, over 60 s
+        # is 60 s); 0 for -1 (stop) and 0 (the default)
+        ms = min(max(interval_us // 1000, 1), 60000) if interval_us > 0 else 0
+        if known and ms and self._cap_ms(ms) > ms:  # faster than 0.8 x the loop rate: refused
+            self.statustext(
+                f"Requested rate for message ID {msg_id} too fast. Increase SCHED_LOOP_RATE", mav.MAV_SEVERITY_INFO
+            )
+            return mav.MAV_RESULT_DENIED
         if msg_id == MSG_IDS["PARAM_VALUE"]:
             # as Rover's set_ap_message_interval for its parameter stream: never stopped (-1,
             # 0 ms, is 100 ms, as is the default, 0) and never slower than 1 s; a faster rate
-            # is kept (whole ms; under 1 ms is 1 ms, as for any message)
-            ms = 0 if interval_us <= 0 else max(1, int(interval_us // 1000))
+            # is kept (whole ms, down to 0.8 x the loop rate, as for any message)
             period = PARAM_STREAM_PERIOD_S if ms == 0 else min(ms, PARAM_SLOWEST_MS) / 1000
             self._channel_rates(own=True).param_period_s = period
             return mav.MAV_RESULT_ACCEPTED
@@ -1460,8 +1492,8 @@ class VehicleEndpoint:
         elif interval_us == 0:  # its group's rate, as a REQUEST_DATA_STREAM last set it (Rover's SRx_)
             default = _period(STREAMS.get(ID_NAMES.get(msg_id, ""), 0.0))
             rates.stream(msg_id, rates.groups.get(msg_id, default), self.t_s)
-        else:  # whole ms, as Rover keeps it (interval_us / 1000 in integers)
-            rates.stream(msg_id, min(max(interval_us // 1000, 1), 60000) / 1000, self.t_s)
+        else:
+            rates.stream(msg_id, ms / 1000, self.t_s)
         return mav.MAV_RESULT_ACCEPTED
 
     def _channel_rates(self, own: bool = False) -> StreamRates:
@@ -1516,9 +1548,12 @@ class VehicleEndpoint:
         names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
         hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
         rates = self._channel_rates(own=bool(names))
+        period = _period(hz)
+        if math.isfinite(period):  # no faster than 0.8 x the loop rate (Rover's set_ap_message_interval)
+            period = self._cap_ms(round(period * 1000)) / 1000
         for name in names:
-            rates.groups[MSG_IDS[name]] = _period(hz)
-            rates.stream(MSG_IDS[name], _period(hz), self.t_s)
+            rates.groups[MSG_IDS[name]] = period
+            rates.stream(MSG_IDS[name], period, self.t_s)
 
     def _change_speed(self, speed_type: float, speed: float) -> int:
         # as Rover: climb and descent speeds (and SPEED_TYPE_ENUM_END) are DENIED, any other
@@ -2130,6 +2165,7 @@ class VehicleEndpoint:
             self._ready_said = True
             self.statustext("ArduPilot Ready", mav.MAV_SEVERITY_INFO)  # AP_Vehicle::setup's last words
         self._smartrtl_points()  # (taken once after each start, before what comes in)
+        self._loop_period_us()  # (likewise)
         self._update_home()
         if self.signed_parser is not None:
             advance_signing_clock(self.signed_parser.signing, time.time())

@@ -128,6 +128,14 @@ def default_params(sysid: int) -> dict[str, Param]:
             "SmartRTL: the most points of the way back (taken at boot); 0: none kept",
             kind=INT16,
         ),
+        "SCHED_LOOP_RATE": Param(
+            50,
+            50,
+            400,
+            "Hz",
+            "the main loop's rate (taken at boot): a message is sent at most 0.8 x this often",
+            kind=INT16,
+        ),
         "CIRC_SPEED": Param(0.0, 0.0, 10.0, "m/s", "speed round a mission's NAV_LOITER_TURNS circle; 0: WP_SPEED"),
         "MIS_DONE_BEHAVE": Param(
             0, 0, 3, "", "at a mission's end: 0 hold in AUTO, 1 loiter in AUTO, 2 ACRO, 3 MANUAL", kind=INT8

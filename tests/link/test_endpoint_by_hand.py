@@ -17,7 +17,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
 from test_endpoint_rover import upload
 
-from lfctl.link.endpoint import MODES, VehicleEndpoint
+from lfctl.link.endpoint import MODES, REBOOT_S, VehicleEndpoint
 from lfctl.link.mission import MissionItem
 from lfctl.link.transport import MemoryLink
 
@@ -442,13 +442,70 @@ def test_an_interval_of_0_puts_back_the_default_rate(bench: Bench) -> None:
 
 
 def test_an_interval_over_60_s_is_60_s(bench: Bench) -> None:
-    # the endpoint's bound (its _set_interval: "over 60 s is 60 s"): 120 000 000 us asked,
-    # 60 000 000 us kept; under 1 ms is 1 ms: 500 us asked, 1000 us kept
+    # GCS_Common.cpp set_message_interval: "interval_us > 60000000: interval_ms = 60000":
+    # 120 000 000 us asked, 60 000 000 us kept
     set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
     assert bench.command_long(set_interval, VFR_HUD_ID, 120_000_000) == mav.MAV_RESULT_ACCEPTED
     assert interval_of(bench, VFR_HUD_ID) == 60_000_000
-    assert bench.command_long(set_interval, VFR_HUD_ID, 500) == mav.MAV_RESULT_ACCEPTED
-    assert interval_of(bench, VFR_HUD_ID) == 1000
+
+
+TOO_FAST = "Requested rate for message ID {} too fast. Increase SCHED_LOOP_RATE"
+
+
+def test_an_interval_faster_than_0_8_of_the_loop_rate_is_denied(bench: Bench) -> None:
+    # Rover 4.6's set_message_interval: DENIED, with TOO_FAST, when cap_message_interval(ms) > ms;
+    # cap_message_interval raises an interval with ms * 800 < the loop period (us) to period /
+    # 800. Rover's SCHED_LOOP_RATE is 50 Hz (AP_Scheduler: 400 only for Copter and Sub): a
+    # period of 1 000 000 / 50 = 20 000 us. 24 999 us is 24 ms (whole ms): 24 * 800 = 19 200 <
+    # 20 000, DENIED and VFR_HUD kept at its 250 ms; 25 ms: 25 * 800 = 20 000, not under it:
+    # ACCEPTED (40 Hz, the fastest)
+    set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
+    bench.tick()
+    seen = len(bench.ep.statustexts)
+    assert bench.command_long(set_interval, VFR_HUD_ID, 24_999) == mav.MAV_RESULT_DENIED
+    assert [t for _, t in bench.ep.statustexts[seen:]] == [TOO_FAST.format(VFR_HUD_ID)]
+    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert bench.command_long(set_interval, VFR_HUD_ID, 25_000) == mav.MAV_RESULT_ACCEPTED
+    assert interval_of(bench, VFR_HUD_ID) == 25_000
+    # under 1 ms is 1 ms, still too fast; PARAM_VALUE's stream likewise (10 ms: 8 000 < 20 000);
+    # -1 (stop) and 0 (the default) are no rate, never too fast
+    assert bench.command_long(set_interval, VFR_HUD_ID, 500) == mav.MAV_RESULT_DENIED
+    assert bench.command_long(set_interval, PARAM_VALUE_ID, 10_000) == mav.MAV_RESULT_DENIED
+    assert bench.command_long(set_interval, VFR_HUD_ID, -1) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command_long(set_interval, VFR_HUD_ID, 0) == mav.MAV_RESULT_ACCEPTED
+    # a message this vehicle does not send is DENIED for that, with its own text only
+    seen = len(bench.ep.statustexts)
+    assert bench.command_long(set_interval, 12345, 1000) == mav.MAV_RESULT_DENIED
+    assert [t for _, t in bench.ep.statustexts[seen:]] == ["No ap_message for mavlink id (12345)"]
+
+
+def test_a_faster_loop_rate_takes_a_reboot_and_then_allows_faster_messages(bench: Bench) -> None:
+    # SCHED_LOOP_RATE is @RebootRequired (AP_Scheduler::init reads it at boot): set to 400 Hz,
+    # 3 ms is still too fast until the autopilot restarts. Then the period is 1 000 000 / 400 =
+    # 2 500 us: 3 ms * 800 = 2 400 < 2 500 is raised to int(2 500 / 800.0) = int(3.125) = 3,
+    # not more than 3: ACCEPTED (as on Rover); 2 999 us is 2 ms: raised to 3 > 2, DENIED
+    set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
+    bench.tick()
+    bench.ep.params["SCHED_LOOP_RATE"].value = 400
+    assert bench.command_long(set_interval, VFR_HUD_ID, 3000) == mav.MAV_RESULT_DENIED
+    bench.ep.reboot()
+    bench.tick(REBOOT_S + 0.1)
+    bench.tick()
+    assert bench.command_long(set_interval, VFR_HUD_ID, 3000) == mav.MAV_RESULT_ACCEPTED
+    assert interval_of(bench, VFR_HUD_ID) == 3000
+    assert bench.command_long(set_interval, VFR_HUD_ID, 2999) == mav.MAV_RESULT_DENIED
+
+
+def test_a_data_stream_of_50_hz_goes_out_at_40_hz(bench: Bench) -> None:
+    # REQUEST_DATA_STREAM at 50 Hz (lfctl's and Rover's most): 1000 / 50 = 20 ms, which
+    # set_ap_message_interval passes through cap_message_interval: 20 * 800 = 16 000 < 20 000
+    # (SCHED_LOOP_RATE 50 Hz), so 20 000 / 800 = 25 ms; 10 Hz (100 ms) is kept
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 50, 1))
+    bench.tick()
+    assert interval_of(bench, VFR_HUD_ID) == 25_000
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 10, 1))
+    bench.tick()
+    assert interval_of(bench, VFR_HUD_ID) == 100_000
 
 
 @pytest.mark.parametrize(

@@ -1071,7 +1071,8 @@ def test_request_data_stream_sets_rovers_stream_groups(bench: Bench) -> None:
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA1, 1000, 1))
     bench.tick()
     out = [m for _ in range(100) for m in bench.tick(0.01)]  # 1 s at 100 ticks a second
-    assert 45 <= _count(out, "ATTITUDE") <= 51  # held to 50 Hz, Rover's SRx_ limit
+    # held to 50 Hz (Rover's SRx_ limit), 20 ms, then to 0.8 x SCHED_LOOP_RATE (50 Hz): 25 ms
+    assert 38 <= _count(out, "ATTITUDE") <= 41
 
 
 def test_message_intervals_as_ardupilot(bench: Bench) -> None:
@@ -1080,7 +1081,9 @@ def test_message_intervals_as_ardupilot(bench: Bench) -> None:
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 100000) == mav.MAV_RESULT_DENIED
     assert bench.ep.statustexts[-1][1] == "No ap_message for mavlink id (12345)"
     assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, 12345) == mav.MAV_RESULT_FAILED
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED  # as 1 ms (below)
+    # 500 us is 1 ms, faster than 0.8 x SCHED_LOOP_RATE (50 Hz): DENIED, with Rover 4.6's text
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_DENIED
+    assert bench.ep.statustexts[-1][1] == "Requested rate for message ID 30 too fast. Increase SCHED_LOOP_RATE"
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
     out = [m for _ in range(50) for m in bench.tick(0.02)]
     assert _count(out, "ATTITUDE") == 0
@@ -1134,8 +1137,8 @@ def test_get_message_interval_as_ardupilot(bench: Bench) -> None:
     assert interval(att) == 100_000  # 10 Hz by default
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 250_000) == mav.MAV_RESULT_ACCEPTED
     assert interval(att) == 250_000
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_ACCEPTED
-    assert interval(att) == 1000  # under 1 ms is 1 ms
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_DENIED  # too fast
+    assert interval(att) == 250_000  # kept
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, -1) == mav.MAV_RESULT_ACCEPTED
     assert interval(att) == -1
     assert interval(12345, mav.MAV_RESULT_FAILED) == 0  # not a message this vehicle sends
@@ -2465,12 +2468,17 @@ def test_param_value_is_rovers_parameter_stream(bench: Bench) -> None:
         assert result == mav.MAV_RESULT_ACCEPTED
         assert _count(out, "PARAM_VALUE") == 0
     # its rate: SRn_PARAMS' 10 Hz; never stopped (-1 is the default), never slower than 1 s;
-    # faster is kept, in whole ms (Rover's set_ap_message_interval)
+    # faster is kept, in whole ms (Rover's set_ap_message_interval), down to 0.8 x the loop
+    # rate: 25 ms at SCHED_LOOP_RATE 50 Hz; faster is DENIED (set_message_interval) and the
+    # rate kept
     assert _interval_of(bench, pv) == (mav.MAV_RESULT_ACCEPTED, 100_000)
-    cases = ((250_000, 250_000), (5e6, 1_000_000), (20_000, 20_000), (5_500, 5_000), (300, 1_000))
+    cases = ((250_000, 250_000), (5e6, 1_000_000), (25_000, 25_000), (25_900, 25_000))
     for asked, kept in (*cases, (-1, 100_000), (0, 100_000)):
         assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, asked) == mav.MAV_RESULT_ACCEPTED
         assert _interval_of(bench, pv) == (mav.MAV_RESULT_ACCEPTED, kept)
+    for asked in (24_999, 5_500, 300):
+        assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, asked) == mav.MAV_RESULT_DENIED
+        assert _interval_of(bench, pv) == (mav.MAV_RESULT_ACCEPTED, 100_000)
     assert not any("No ap_message" in text for _t, text in bench.ep.statustexts)
     # REQUEST_MESSAGE of MESSAGE_INTERVAL answers for it as GET_MESSAGE_INTERVAL does
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, 400_000) == mav.MAV_RESULT_ACCEPTED
@@ -3054,15 +3062,15 @@ def test_each_network_peer_keeps_its_own_stream_rates_as_each_rover_link_does(be
         assert _interval_heard(bench, cap, peer, sender, GPI) == us, peer
     # the parameter stream's rate too (the link's SRn_PARAMS)
     pv = mav.MAVLINK_MSG_ID_PARAM_VALUE
-    _peer_sends(bench, _cmd(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, 20000), gcs, MAVPROXY)
-    assert [_interval_heard(bench, cap, peer, gcs, pv) for peer in (MAVPROXY, quiet)] == [20000, 100000]
+    _peer_sends(bench, _cmd(mav.MAV_CMD_SET_MESSAGE_INTERVAL, pv, 30000), gcs, MAVPROXY)
+    assert [_interval_heard(bench, cap, peer, gcs, pv) for peer in (MAVPROXY, quiet)] == [30000, 100000]
 
 
 def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(bench: Bench) -> None:
     # a Rover numbers its packets per link: with its own rates (and answers to it alone) a
     # ground station that counted one sequence with the other peers' would see most of its
     # packets as lost (MAVProxy's and QGroundControl's link quality)
-    cap, gcs = _rehearsal(bench, 20000, mav.MAV_DATA_STREAM_ALL, 2)
+    cap, gcs = _rehearsal(bench, 25000, mav.MAV_DATA_STREAM_ALL, 2)
     follow, mavproxy = FOLLOW, MAVPROXY
     _peer_sends(bench, _cmd(mav.MAV_CMD_GET_MESSAGE_INTERVAL, GPI), gcs, mavproxy)
     _peer_sends(bench, _cmd(mav.MAV_CMD_REQUEST_MESSAGE, 148), gcs, mavproxy)

@@ -291,12 +291,14 @@ def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None
     assert g.set_mode("FOLLOW") == mav.MAV_RESULT_FAILED and live.ep.mode == MODES["GUIDED"]
     assert g.command(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == mav.MAV_RESULT_ACCEPTED
     assert g.wait(("AUTOPILOT_VERSION",)).capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_INT
-    # SET_MESSAGE_INTERVAL: ATTITUDE at 50 Hz instead of 10 Hz
-    assert g.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 20_000) == mav.MAV_RESULT_ACCEPTED
+    # SET_MESSAGE_INTERVAL: ATTITUDE at 40 Hz (the fastest at Rover's SCHED_LOOP_RATE 50: 0.8 x)
+    # instead of 10 Hz; 50 Hz is refused
+    assert g.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 20_000) == mav.MAV_RESULT_DENIED
+    assert g.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 25_000) == mav.MAV_RESULT_ACCEPTED
     g.wait(("ATTITUDE",))  # one that may have left before the new interval
     boot_ms = [g.wait(("ATTITUDE",)).time_boot_ms for _ in range(15)]
     gaps = np.diff(boot_ms)  # the vehicle's clock, not the wall's
-    # 20 ms (50 Hz) from 100 ms (10 Hz); a gap is whole ticks of this wall-clock endpoint
+    # 25 ms (40 Hz) from 100 ms (10 Hz); a gap is whole ticks of this wall-clock endpoint
     # (10 ms sleeps), so a busy machine's slow ticks lengthen it, but not near 100 ms
     assert np.median(gaps) <= 60, boot_ms
     assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
