@@ -27,8 +27,11 @@ from lfctl.vision.track_state import TrackStatus
 
 __all__ = ["RoverRun", "RoverStep", "follow_rover"]
 
-#: setpoints of zero sent when the run ends, so the rover is left standing
+#: setpoints of zero sent when the run ends, :data:`STOP_SPACING_S` apart, so the rover is
+#: left standing: spread out, so that a lossy link that drops a burst does not leave it
+#: driving on its last setpoint until its GUIDED timeout (3 s) stops it
 STOP_SETPOINTS = 3
+STOP_SPACING_S = 0.15
 #: the rover's LOCAL_POSITION_NED older than this, or three control periods if that is
 #: longer, is said to be missing (the stack then steers on the last position it had: the
 #: camera still closes the loop)
@@ -40,9 +43,6 @@ REASK_S = 2.0
 #: REQUEST_DATA_STREAM on the same link replaces them on ArduPilot), and it is asked again
 RATE_WINDOW_S = 3.0
 SLOW_SHARE = 0.5
-#: the fastest an ArduPilot rover streams a message, Hz (its main loop's 50 Hz): a faster
-#: rate asked for is measured against this
-STREAM_MAX_HZ = 50.0
 #: a live camera that gives no frame for this long, or three control periods if that is
 #: longer, is silent: the rover is held (zero setpoints) until frames come again, s
 CAMERA_SILENT_S = 1.0
@@ -192,6 +192,7 @@ def follow_rover(
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
     companion.wait_vehicle(timeout_s, rate_hz)
+    _check_speed_limit(companion, name, settings)
     v = companion.vehicle
     log.info(
         "%s: the rover (system %d) answers: %s, %s",
@@ -247,7 +248,7 @@ def follow_rover(
             restarted = companion.vehicle.restarts > restarts
             if link.came_back or restarted or (stale and t_s - asked_at >= REASK_S):
                 # a rover that rebooted (or whose streams stopped) sends only what its own
-                # stream rates say, on a companion's port perhaps nothing: asked again, and
+                # stream rates say (by default 1 Hz or none): asked again, and
                 # again while it is missing (a request may be lost, or sent mid-reboot)
                 if restarted:
                     log.info("%s: the rover restarted (its clock began again): asked for its odometry again", name)
@@ -259,8 +260,9 @@ def follow_rover(
                 asked_at = t_s
             if t_s - rate_from[0] >= RATE_WINDOW_S:
                 came = (companion.vehicle.positions - rate_from[1]) / (t_s - rate_from[0])
-                if not stale and came < SLOW_SHARE * min(rate_hz, STREAM_MAX_HZ) and t_s - asked_at >= REASK_S:
-                    _say_slow(name, came, rate_hz, slow_said)
+                asked = companion.stream_hz.get(mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED, rate_hz)
+                if not stale and came < SLOW_SHARE * asked and t_s - asked_at >= REASK_S:
+                    _say_slow(name, came, asked, slow_said)
                     slow_said = True
                     companion.ask_streams_again(rate_hz)
                     asked_at = t_s
@@ -301,9 +303,10 @@ def follow_rover(
     except KeyboardInterrupt:  # Ctrl-C, SIGTERM: the run ends here, its figures said
         interrupted = True
     finally:
-        for _ in range(STOP_SETPOINTS):
-            companion.setpoint(t_s, 0.0, 0.0)
-        camera.close(now())
+        try:
+            _leave_standing(companion, t_s)
+        finally:
+            camera.close(now())
     return RoverRun(
         steps, frames, seen_as[TrackStatus.TRACKING], seen_as[TrackStatus.OCCLUDED], seen_as[TrackStatus.LOST],
         obeyed, companion.port.junk, companion.passed_over, interrupted, camera.skipped, camera.gaps,
@@ -602,6 +605,34 @@ def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, s
     return now_stale
 
 
+def _leave_standing(companion: Companion, t_s: float) -> None:
+    """The run's last setpoints: :data:`STOP_SETPOINTS` of zero, :data:`STOP_SPACING_S` apart."""
+    for k in range(STOP_SETPOINTS):
+        if k:
+            time.sleep(STOP_SPACING_S)
+        companion.setpoint(t_s + k * STOP_SPACING_S, 0.0, 0.0)
+
+
+def _check_speed_limit(companion: Companion, name: str, settings: FormationSettings) -> None:
+    """Say when the rover will not drive as fast as the follower may ask: ArduPilot Rover holds
+    a GUIDED speed setpoint to its ``WP_SPEED`` (either way; GCS_MAVLink_Rover's
+    handle_set_position_target_local_ned), so a follower whose top speed is above it falls
+    behind a leader that drives faster, with nothing else to say so."""
+    wp_speed = companion.read_param("WP_SPEED")
+    top = max(abs(settings.range.max_speed_mps), abs(settings.range.min_speed_mps))
+    if wp_speed is None:
+        log.info("%s: the rover did not say its WP_SPEED: its limit on the setpoints' speed is not known", name)
+    elif top > wp_speed:
+        log.warning(
+            "%s: the rover holds GUIDED speed to its WP_SPEED, %g m/s, under the follower's %g m/s: it may fall "
+            "behind a faster leader (set WP_SPEED on the rover to at least %g)",
+            name,
+            wp_speed,
+            top,
+            top,
+        )
+
+
 def _say_slow(name: str, came_hz: float, rate_hz: float, said: bool) -> None:
     """The rover's LOCAL_POSITION_NED comes at ``came_hz``, under half the ``rate_hz`` asked
     for: said as a warning the first time (with what to set on the rover), in the log's
@@ -612,7 +643,8 @@ def _say_slow(name: str, came_hz: float, rate_hz: float, said: bool) -> None:
     log.warning(
         "%s: the rover sends LOCAL_POSITION_NED at %.1f Hz, not the %g Hz asked for: asked again (a ground "
         "station's REQUEST_DATA_STREAM on the same link sets ArduPilot's stream rates; on the companion's port "
-        "set SERIALn_OPTIONS bit 12, which ignores those requests, or the link is too slow for the rate)",
+        "set SERIALn_OPTIONS bit 12 (ArduPilot 4.6 and older; MAVn_OPTIONS' option from 4.7), which ignores "
+        "those requests, or the link is too slow for the rate)",
         name,
         came_hz,
         rate_hz,

@@ -53,6 +53,10 @@ ODOMETRY_MSG_IDS = (
     mav.MAVLINK_MSG_ID_ATTITUDE,
     mav.MAVLINK_MSG_ID_GLOBAL_POSITION_INT,
 )
+#: the fastest a Rover sends a message at its default main loop (SCHED_LOOP_RATE 50 Hz: at
+#: most 0.8 x that, 25 ms); ArduPilot 4.6 refuses a SET_MESSAGE_INTERVAL faster than its own
+#: loop allows, and the odometry is then asked for at this rate
+ROVER_STREAM_MAX_HZ = 40.0
 #: the companion's HEARTBEAT period, s (MAVLink's 1 Hz)
 HEARTBEAT_PERIOD_S = 1.0
 #: a command that waits for its answer (:meth:`Companion.request`): how long each try waits for
@@ -71,9 +75,9 @@ POLL_MAX_MESSAGES = 500
 POLL_MAX_S = 0.05
 #: the other autopilots heard on the link that are remembered (each is said once)
 OTHER_AUTOPILOTS_MAX = 16
-#: the parameter protocol's requests
 log = logging.getLogger(__name__)
 
+#: the parameter protocol's requests
 PARAM_REQUESTS = ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET")
 #: the vehicle's time_boot_ms going back by more than this, ms, is a restart (less: packets
 #: that came out of order)
@@ -192,6 +196,11 @@ class Companion:
         self.heard: deque[tuple[int, str]] = deque(maxlen=HEARD_MAX)
         #: the autopilot's last COMMAND_ACK result for each command, addressed to the companion
         self.acks: dict[int, int] = {}
+        # each odometry message's rate the vehicle took (:meth:`wait_vehicle`), Hz
+        self.stream_hz: dict[int, float] = {}
+        # the autopilot's parameters read (:meth:`read_param`), by name; only those asked for
+        self.vehicle_params: dict[str, float] = {}
+        self._params_asked: set[str] = set()
         self._heartbeat_t_s: float | None = None
         #: the camera component announcing the video this program sends (:meth:`offer_video`),
         #: None without one, or once another camera with its ids was heard (then it steps aside)
@@ -354,6 +363,38 @@ class Companion:
             elif result is not None:
                 return result
         return None if progress is None else mav.MAV_RESULT_IN_PROGRESS
+
+    def read_param(self, name: str, try_s: float = COMMAND_TRY_S, tries: int = COMMAND_TRIES) -> float | None:
+        """One of the autopilot's parameters (PARAM_REQUEST_READ by name, sent again when its
+        PARAM_VALUE does not come within ``try_s``; what else comes meanwhile is taken as
+        :meth:`poll` takes it, and the companion's heartbeat goes on). Returns its value, or
+        None when no answer came (a lossy link, or a parameter the autopilot does not have).
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name (``WP_SPEED``).
+        try_s : float
+            Longest wait for each try's answer, s.
+        tries : int
+            Sends, at most.
+        """
+        self._params_asked.add(name)
+        self.vehicle_params.pop(name, None)
+        start = beat = time.monotonic()
+        for _ in range(tries):
+            self.port.send(mav.MAVLink_param_request_read_message(self.target, 1, name.encode(), -1))
+            until = time.monotonic() + try_s
+            while (now := time.monotonic()) < until:
+                if now - beat >= HEARTBEAT_PERIOD_S:
+                    beat = now
+                    self._send_heartbeat()
+                m = self.port.recv(min(0.05, until - now))
+                if m is not None:
+                    self._take_safely(m, now - start)
+                if name in self.vehicle_params:
+                    return self.vehicle_params[name]
+        return None
 
     def set_guided(self) -> None:
         """Ask for GUIDED mode (the answer is not awaited: :meth:`request` waits for it)."""
@@ -531,6 +572,8 @@ class Companion:
                 self.acks[m.command] = m.result
         elif kind == "STATUSTEXT":
             self.heard.append((m.severity, text_field(m.text)))
+        elif kind == "PARAM_VALUE" and (name := text_field(m.param_id)) in self._params_asked:
+            self.vehicle_params[name] = float(m.param_value)
         elif kind == "GLOBAL_POSITION_INT":
             v.global_t_s = t_s
             known = (m.lat, m.lon) != (0, 0) and on_earth(m.lat / 1e7, m.lon / 1e7)
@@ -649,8 +692,9 @@ class Companion:
 
     def ask_streams_again(self, rate_hz: float) -> None:
         """Ask for the odometry streams once more, not awaiting the answers (the loop's steps
-        go on): a rover that rebooted, or whose streams stopped, sends only what its own
-        stream-rate parameters say, which on a companion's port may be nothing.
+        go on): a rover that rebooted, or whose streams stopped, sends them only at its own
+        stream-rate parameters' rates (by default 1 Hz, or none on older ones). Each at the rate the
+        vehicle took when first asked (:attr:`stream_hz`), else ``rate_hz``.
 
         Parameters
         ----------
@@ -658,17 +702,33 @@ class Companion:
             Rate of LOCAL_POSITION_NED, ATTITUDE and GLOBAL_POSITION_INT to ask for, Hz.
         """
         for msg_id in ODOMETRY_MSG_IDS:
-            self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / rate_hz)
+            self.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / self.stream_hz.get(msg_id, rate_hz))
 
     def _ask_stream(self, msg_id: int, rate_hz: float) -> int | None:
-        """MAV_CMD_SET_MESSAGE_INTERVAL for one message, awaited; a refusal or silence is said,
-        with the ArduPilot stream-rate parameter that sends the message otherwise."""
+        """MAV_CMD_SET_MESSAGE_INTERVAL for one message, awaited. A rate faster than a Rover
+        sends at its default loop rate (:data:`ROVER_STREAM_MAX_HZ`) that is refused is asked
+        for again at that rate, and said; a refusal or silence after that is said, with the
+        ArduPilot stream-rate parameter that sends the message otherwise. The rate taken is
+        kept in :attr:`stream_hz`."""
+        name = mav.mavlink_map[msg_id].msgname
         result = self.request(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / rate_hz)
-        if result != mav.MAV_RESULT_ACCEPTED:
-            name = mav.mavlink_map[msg_id].msgname
+        if result == mav.MAV_RESULT_DENIED and rate_hz > ROVER_STREAM_MAX_HZ:
+            log.info(
+                "the vehicle refused %s at %g Hz: a Rover sends a message at most 0.8 x its SCHED_LOOP_RATE "
+                "(%g Hz at its default 50 Hz; raise SCHED_LOOP_RATE and reboot it for more): asked for %g Hz",
+                name,
+                rate_hz,
+                ROVER_STREAM_MAX_HZ,
+                ROVER_STREAM_MAX_HZ,
+            )
+            rate_hz = ROVER_STREAM_MAX_HZ
+            result = self.request(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 1e6 / rate_hz)
+        if result == mav.MAV_RESULT_ACCEPTED:
+            self.stream_hz[msg_id] = rate_hz
+        else:
             log.warning(
-                "the vehicle %s %s at %g Hz (%s): set its stream rate instead (ArduPilot: SRn_%s on its "
-                "companion's serial port n)",
+                "the vehicle %s %s at %g Hz (%s): set its stream rate instead (ArduPilot: SRn_%s, n the "
+                "companion's port among the autopilot's MAVLink ports, counted from 0: not its SERIAL number)",
                 "did not answer the request for" if unanswered(result) else "refused",
                 name,
                 rate_hz,

@@ -13,6 +13,7 @@ import socket
 import threading
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -24,9 +25,12 @@ from lfctl.cli import main
 from lfctl.cli.follow import DEFAULT_SCENARIO, MAVLINK_MAX_PER_S, NO_FIX_AFTER_S, LiveView
 from lfctl.config import parse_config
 from lfctl.errors import ConfigError
+from lfctl.follower import rover as rover_module
+from lfctl.follower.rover import _check_speed_limit
 from lfctl.frames import ned_to_geodetic
+from lfctl.guidance.formation import FormationSettings
 from lfctl.link.camera import CameraComponent
-from lfctl.link.companion import COMPANION_COMPID, Companion
+from lfctl.link.companion import COMPANION_COMPID, ODOMETRY_MSG_IDS, Companion
 from lfctl.link.endpoint import MODES, VehicleEndpoint
 from lfctl.link.port import MavPort
 from lfctl.link.signing import signing_key_from_passphrase
@@ -722,6 +726,65 @@ def test_a_refused_stream_request_is_said_with_the_parameter_to_set(caplog: pyte
     said = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("refused ATTITUDE at 20 Hz (MAV_RESULT_DENIED)" in t and "SRn_EXTRA1" in t for t in said)
     assert any("refused LOCAL_POSITION_NED" in t and "SRn_POSITION" in t for t in said)
+
+
+def test_odometry_asked_faster_than_a_rover_sends_is_asked_for_at_40_hz(caplog: pytest.LogCaptureFixture) -> None:
+    # ArduPilot 4.6 at a Rover's default SCHED_LOOP_RATE (50 Hz) refuses an interval under
+    # 25 ms (no message faster than 0.8 x 50 = 40 Hz): 50 Hz asked is DENIED, asked again at
+    # 40 Hz it is taken: every odometry message then comes each 25 ms, and is asked again at
+    # that rate (after a reboot, or when it slows), not refused again
+    rover, companion, _got = _memory_rover()
+    with caplog.at_level("INFO", "lfctl.link.companion"):
+        answers = companion.wait_vehicle(2.0, 50.0)
+    assert set(answers.values()) == {mav.MAV_RESULT_ACCEPTED}
+    assert companion.stream_hz == dict.fromkeys(ODOMETRY_MSG_IDS, 40.0)
+    assert all(rover._rates.intervals[i] == 0.025 for i in ODOMETRY_MSG_IDS)
+    said = [r.getMessage() for r in caplog.records]
+    assert any("refused LOCAL_POSITION_NED at 50 Hz" in t and "SCHED_LOOP_RATE" in t for t in said), said
+    assert not [r for r in caplog.records if r.levelno >= logging.WARNING]
+    refusals = len([t for _, t in rover.statustexts if "too fast" in t])
+    assert refusals == 3
+    companion.ask_streams_again(50.0)
+    companion.poll(0.0, 0.2)
+    assert len([t for _, t in rover.statustexts if "too fast" in t]) == refusals
+
+
+def test_the_rovers_parameters_are_read_by_name() -> None:
+    rover, companion, _got = _memory_rover()
+    rover.params["WP_SPEED"].value = 1.25
+    assert companion.read_param("WP_SPEED", try_s=0.3) == 1.25
+    # a name the autopilot does not have: no answer (Rover sends none), None after the tries
+    assert companion.read_param("NO_SUCH_PARAM", try_s=0.05, tries=2) is None
+
+
+@pytest.mark.parametrize(("wp_speed", "warned"), [(0.3, True), (0.5, False), (2.0, False)])
+def test_a_rover_slower_than_the_follower_may_drive_is_said(
+    caplog: pytest.LogCaptureFixture, wp_speed: float, warned: bool
+) -> None:
+    # Rover's handle_set_position_target_local_ned holds a GUIDED speed to WP_SPEED: a follower
+    # whose top speed (0.5 m/s, the default) is above it would fall behind without a word
+    rover, companion, _got = _memory_rover()
+    rover.params["WP_SPEED"].value = wp_speed
+    settings = FormationSettings()
+    assert settings.range.max_speed_mps == 0.5
+    with caplog.at_level("INFO", "lfctl.follower.rover"):
+        _check_speed_limit(companion, "rover", settings)
+    said = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert bool(said) == warned, said
+    if warned:
+        assert "WP_SPEED, 0.3 m/s, under the follower's 0.5 m/s" in said[0]
+
+
+def test_the_last_setpoints_are_spread_out_so_a_lost_burst_does_not_leave_the_rover_driving(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    sent: list[tuple[float, float, float]] = []
+    slept: list[float] = []
+    monkeypatch.setattr(rover_module.time, "sleep", slept.append)
+    companion = SimpleNamespace(setpoint=lambda t, v, w: sent.append((t, v, w)))
+    rover_module._leave_standing(companion, 10.0)  # type: ignore[arg-type]
+    assert sent == [(10.0, 0.0, 0.0), (10.15, 0.0, 0.0), (10.3, 0.0, 0.0)]
+    assert slept == [0.15, 0.15]
 
 
 def test_a_rover_that_will_not_arm_is_said_with_its_reason_and_the_run_goes_on(
