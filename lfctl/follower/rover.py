@@ -85,8 +85,9 @@ class RoverRun:
     lost: int = 0  # steps with the target lost (LOST)
     #: steps while the rover said, in a HEARTBEAT no older than :data:`HEARTBEAT_STALE_S`,
     #: that it was in GUIDED and armed, and its odometry came: the setpoints it carried out
-    #: (in another mode, or disarmed, ArduPilot ignores them, and so it does with no
-    #: position estimate and EKF origin, when it sends no LOCAL_POSITION_NED either)
+    #: (in another mode ArduPilot ignores them, and so it does with no position estimate
+    #: and EKF origin, when it sends no LOCAL_POSITION_NED either; disarmed, it keeps the
+    #: newest and drives on it once armed, and its motors do nothing until then)
     guided: int = 0
     junk: int = 0  # what the link brought that was no MAVLink of the dialect (cut, corrupt, unknown ids)
     passed_over: int = 0  # odometry messages passed over: not a number, or past any ground vehicle's
