@@ -5,8 +5,9 @@ vehicle's system, with its own HEARTBEAT (MAV_TYPE_CAMERA). A ground station tha
 asks, with MAV_CMD_REQUEST_MESSAGE (or the older MAV_CMD_REQUEST_CAMERA_INFORMATION and
 MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION), for CAMERA_INFORMATION (flag HAS_VIDEO_STREAM)
 and VIDEO_STREAM_INFORMATION, whose RTPUDP stream's URI is the UDP port it should listen
-on (QGroundControl turns ``5600`` into ``udp://0.0.0.0:5600``). Each request is answered
-with a COMMAND_ACK from the camera and, when accepted, the message.
+on (QGroundControl turns ``5600`` into ``udp://0.0.0.0:5600``; QGroundControl 5 then
+applies its own UDP URL setting over it, 5600 unless changed). Each request is answered with
+a COMMAND_ACK from the camera and, when accepted, the message.
 
 :class:`CameraRouter` puts a camera on a vehicle's link without touching the vehicle's
 endpoint: it hands the camera what is addressed to it and passes everything else on.
@@ -44,8 +45,16 @@ _LEGACY = {
 }
 
 
+#: the older requests whose param1 says whether to send (1) or not (0)
+_LEGACY_ASKED = frozenset((mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, mav.MAV_CMD_REQUEST_CAMERA_SETTINGS))
+#: the messages about one stream, whose request names it (0: every stream; this camera has one, 1)
+_PER_STREAM = frozenset((mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION, mav.MAVLINK_MSG_ID_VIDEO_STREAM_STATUS))
+
+
 def _text(value: str, size: int) -> bytes:
-    return value.encode()[:size]
+    """A char[size] field's bytes: at most size - 1, so a NUL always ends it (QGroundControl
+    reads the stream's name as a C string: a full field ran on into the URI after it)."""
+    return value.encode()[: size - 1]
 
 
 def _message_id(param1: float) -> int | None:
@@ -183,14 +192,21 @@ class CameraComponent:
             result = mav.MAV_RESULT_ACCEPTED if m.param2 == mav.CAMERA_MODE_VIDEO else mav.MAV_RESULT_DENIED
             self._ack(m, result)
             return
-        msg_id = _LEGACY.get(m.command)
+        msg_id, which = _LEGACY.get(m.command), m.param1  # (the older commands: the stream, or whether to send)
         if m.command == mav.MAV_CMD_REQUEST_MESSAGE:
-            msg_id = _message_id(m.param1)
+            msg_id, which = _message_id(m.param1), m.param2
         answer = _ANSWERS.get(msg_id) if msg_id is not None else None
-        result = mav.MAV_RESULT_ACCEPTED if answer is not None else mav.MAV_RESULT_UNSUPPORTED
-        self._ack(m, result)
         if answer is None:
+            self._ack(m, mav.MAV_RESULT_UNSUPPORTED)
             return
+        if (msg_id in _PER_STREAM or m.command in _LEGACY_ASKED) and which not in (0.0, 1.0):
+            # a stream this camera does not have (MAVLink: 0 every stream, 1 the first), or
+            # neither "send" (1) nor "do not" (0): nothing sent
+            self._ack(m, mav.MAV_RESULT_DENIED)
+            return
+        self._ack(m, mav.MAV_RESULT_ACCEPTED)
+        if m.command in _LEGACY_ASKED and which == 0.0:
+            return  # MAVLink's "no request": answered, nothing sent
         if answer == "camera_information":
             # a ground station finding the camera (its discovery starts with this request:
             # QGroundControl started again after its VIDEO_STOP_STREAMING) wants its video,

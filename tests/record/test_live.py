@@ -397,6 +397,54 @@ def test_a_ground_station_stops_and_starts_the_camera_stream() -> None:
     assert camera.streaming
 
 
+def test_the_camera_answers_only_for_its_one_stream_and_only_when_asked() -> None:
+    # MAVLink's camera protocol: MAV_CMD_REQUEST_MESSAGE's param2 (the older commands' param1)
+    # names the stream, 0 every one, 1 the first (this camera has one); the older
+    # REQUEST_CAMERA_INFORMATION / _SETTINGS param1 is 1 "send" or 0 "do not", any other
+    # value invalid. A long name ends in a NUL within its char[32] (QGroundControl reads it as
+    # a C string: a full field ran on into the URI after it)
+    out: list[bytes] = []
+    camera = CameraComponent(
+        2, out.append, video_port=5602, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0,
+        name="convoy_alpha_follower_north camera",
+    )  # fmt: skip
+    gcs, parser = mav.MAVLink(None, srcSystem=255, srcComponent=190), mav.MAVLink(None)
+
+    def ask(command: int, *p: float) -> list[tuple[str, int | None]]:
+        msg = mav.MAVLink_command_long_message(2, 100, command, 0, *p, *([0.0] * (7 - len(p))))
+        camera.handle(parser.parse_buffer(msg.pack(gcs))[0])
+        got = [m for data in out for m in parser.parse_buffer(data) or []]
+        out.clear()
+        return [(m.get_type(), getattr(m, "result", None)) for m in got]
+
+    accepted, denied = ("COMMAND_ACK", mav.MAV_RESULT_ACCEPTED), ("COMMAND_ACK", mav.MAV_RESULT_DENIED)
+    for msg_id, name in ((mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION, "VIDEO_STREAM_INFORMATION"),
+                         (mav.MAVLINK_MSG_ID_VIDEO_STREAM_STATUS, "VIDEO_STREAM_STATUS")):  # fmt: skip
+        for stream in (0, 1):
+            assert ask(mav.MAV_CMD_REQUEST_MESSAGE, msg_id, stream) == [accepted, (name, None)]
+        for stream in (2, 0.5, math.nan):
+            assert ask(mav.MAV_CMD_REQUEST_MESSAGE, msg_id, stream) == [denied]
+    assert ask(mav.MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION, 7) == [denied]
+    camera.streaming = False
+    assert ask(mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, 0) == [accepted]  # "no request"
+    assert not camera.streaming  # (nor taken as a ground station finding the camera)
+    assert ask(mav.MAV_CMD_REQUEST_CAMERA_SETTINGS, 0) == [accepted]
+    assert ask(mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, 2) == [denied]
+    assert ask(mav.MAV_CMD_REQUEST_CAMERA_INFORMATION, 1) == [accepted, ("CAMERA_INFORMATION", None)]
+    assert camera.streaming
+    # REQUEST_MESSAGE of CAMERA_INFORMATION names no stream: its param2 is not looked at
+    assert ask(mav.MAV_CMD_REQUEST_MESSAGE, mav.MAVLINK_MSG_ID_CAMERA_INFORMATION, 5) == [
+        accepted,
+        ("CAMERA_INFORMATION", None),
+    ]
+    info = camera._video_stream_information()
+    raw = bytes(info.pack(mav.MAVLink(None)))
+    (decoded,) = mav.MAVLink(None).parse_buffer(raw)
+    assert decoded.name == "convoy_alpha_follower_north cam"  # 31 bytes, then its NUL
+    assert decoded.uri == "5602"
+    assert bytes(camera._camera_information().model_name)[31] == 0
+
+
 def test_a_signed_camera_keeps_its_signing_clock_on_the_wall_clock(monkeypatch: pytest.MonkeyPatch) -> None:
     # its codec reads nothing, so its clock moved by 10 us a packet: a ground station joining
     # more than a minute into the run took its stream for an old capture and dropped it
