@@ -1,9 +1,11 @@
 """The Foxglove layout lfctl ships (``examples/foxglove-layout.json``), built with
 foxglove-sdk's layout types from the topic names the recorder uses.
 
-3D (the ``map`` frame, east-north-up, following the leader; vehicles, mission and slots
-from ``/scene``, the camera frames from ``/tf``), Map (every ``/<vehicle>/fix``), the
-follower's camera with its annotations, plots of its range and bearing error, and the Log.
+3D (the ``map`` frame, east-north-up, following the leader; slots, vehicles and mission
+from ``/scene``, ``/scene/vehicles`` and ``/scene/mission``, the camera frames from
+``/tf``), Map (every ``/<vehicle>/fix``), the follower's camera with its annotations, plots
+of its range and bearing error (against the truth in a simulation, its own estimate on a
+rover), and the Log.
 It opens a live ``lfctl sim --live`` as well as a recorded log.
 """
 
@@ -11,7 +13,7 @@ from __future__ import annotations
 
 import foxglove.layouts as fl
 
-from lfctl.record.writer import MAP_FRAME, image_topic
+from lfctl.record.writer import MAP_FRAME, MISSION_TOPIC, SCENE_TOPIC, VEHICLES_TOPIC, image_topic
 
 __all__ = ["layout_json"]
 
@@ -37,8 +39,10 @@ def layout_json(
         The run has a camera (camera sensing): without one there is no camera panel, whose
         topics would never come.
     scene : bool
-        The run publishes ``/scene`` (the simulator's vehicles, mission and slots); without
-        it (``lfctl follow``) the 3D view shows ``/tf``'s frames only.
+        The run publishes the 3D scene (``/scene``, ``/scene/vehicles``, ``/scene/mission``:
+        the simulator's slots, vehicles and mission) and its controller's errors are against
+        the truth; without it (``lfctl follow``) the 3D view shows ``/tf``'s frames only and
+        the errors are the follower's estimate.
     """
     image = fl.ImagePanel(
         title=f"{follower} camera",
@@ -50,18 +54,26 @@ def layout_json(
             )
         ),
     )
-    scene = fl.ThreeDeePanel(
+    view3d = fl.ThreeDeePanel(
         title="formation",
         config=fl.ThreeDeeConfig(
             follow_tf=leader,
             fixed_frame=MAP_FRAME,
             follow_mode="follow-position",
             enu_frame_id=MAP_FRAME,
-            topics={"/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True)} if scene else {},
+            topics=(
+                {
+                    t: fl.BaseRendererSceneUpdateTopicSettings(visible=True)
+                    for t in (SCENE_TOPIC, VEHICLES_TOPIC, MISSION_TOPIC)
+                }
+                if scene
+                else {}
+            ),
         ),
     )
     errors = fl.PlotPanel(
-        title=f"{follower} formation errors (truth)",
+        # (a simulation's are against the truth; a real rover's are its own estimate)
+        title=f"{follower} formation errors ({'truth' if scene else 'estimate'})",
         config=fl.PlotConfig(
             paths=[
                 fl.PlotSeries(value=f"/{follower}/controller.range_error_m", label="range error (m)"),
@@ -73,7 +85,7 @@ def layout_json(
     layout = fl.Layout(
         content=_split(
             "row",
-            (3, _split("column", (3, scene), (2, errors))),
+            (3, _split("column", (3, view3d), (2, errors))),
             (
                 2,
                 _split(

@@ -35,7 +35,7 @@ from lfctl.record.audit import (
     lost_by_sequence,
     mavlink_packets,
 )
-from lfctl.record.writer import EVENT_MODE, PALETTE, scenario_events
+from lfctl.record.writer import EVENT_MODE, MISSION_TOPIC, PALETTE, SCENE_TOPIC, scenario_events
 
 __all__ = ["TIME_MARK_S", "plot_all"]
 
@@ -121,12 +121,13 @@ def _mode_changes(c: Contents) -> list[tuple[float, str, str]]:
 
 
 def _scene_mission(c: Contents) -> tuple[float, list[tuple[float, float]], float] | None:
-    """The first mission ``/scene`` shows: (sim time, its places as (north, east), acceptance
-    radius), from its ``mission`` entity; None when the log has none (or it does not decode)."""
+    """The first mission the 3D scene shows (``/scene/mission``; a log made before that topic
+    had it in ``/scene``): (sim time, its places as (north, east), acceptance radius), from
+    its ``mission`` entity; None when the log has none (or it does not decode)."""
     from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
     from google.protobuf.message import DecodeError
 
-    for t, d in c.messages.get("/scene", []):
+    for t, d in c.messages.get(MISSION_TOPIC) or c.messages.get(SCENE_TOPIC, []):
         try:
             update = SceneUpdate.FromString(d)
         except DecodeError:

@@ -77,7 +77,13 @@ MAP_FRAME = "map"
 NED_IN_MAP = (math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0)
 #: a /log event that says a vehicle's mode changed starts with this (``mode GUIDED``)
 EVENT_MODE = "mode "
-#: the whole scene (vehicles, mission) is sent again this often, s, for viewers that join late
+#: the 3D scene's topics, each whole in every message (Foxglove's 3D panel, after a seek,
+#: draws only the newest message of each topic): the followers' slots (every guidance step),
+#: the vehicles with their banners, and the mission
+SCENE_TOPIC = "/scene"
+VEHICLES_TOPIC = "/scene/vehicles"
+MISSION_TOPIC = "/scene/mission"
+#: the vehicles and the mission are sent again this often, s, for viewers that join late
 SCENE_REPEAT_S = 5.0
 #: how long closing waits for the Foxglove server to stop, s
 SERVER_STOP_S = 3.0
@@ -771,9 +777,11 @@ class Recorder:
         self._scene_at = -math.inf
 
     def scene(self, t_s: float, slots: dict[str, tuple[float, float, float, float]]) -> None:
-        """``/scene``: each follower's commanded slot now, and every :data:`SCENE_REPEAT_S`
-        (and after a mission change) the vehicles with their banners and the mission (and each
-        camera's calibration again, for viewers that join late).
+        """The 3D scene: each follower's commanded slot now (:data:`SCENE_TOPIC`), and every
+        :data:`SCENE_REPEAT_S` (and after a mission change) the vehicles with their banners
+        (:data:`VEHICLES_TOPIC`) and the mission (:data:`MISSION_TOPIC`), and each camera's
+        calibration again, for viewers that join late. Each topic's message is whole, so the
+        newest of each (what Foxglove draws after a seek) shows the whole scene.
 
         Parameters
         ----------
@@ -811,11 +819,13 @@ class Recorder:
             )
         if t_s - self._scene_at >= SCENE_REPEAT_S:
             self._scene_at = t_s
-            entities += [*self._vehicle_entities(stamp), self._mission_entity(stamp)]
+            vehicles = fm.SceneUpdate(entities=self._vehicle_entities(stamp))
+            self._log(VEHICLES_TOPIC, fc.SceneUpdateChannel, t_s, vehicles)
+            self._log(MISSION_TOPIC, fc.SceneUpdateChannel, t_s, fm.SceneUpdate(entities=[self._mission_entity(stamp)]))
             for follower, cam in list(self._mounts.items()):
                 if t_s > 0:  # the calibration again, for viewers that joined after the start
                     self.calibration(t_s, follower, cam)
-        self._log("/scene", fc.SceneUpdateChannel, t_s, fm.SceneUpdate(entities=entities))
+        self._log(SCENE_TOPIC, fc.SceneUpdateChannel, t_s, fm.SceneUpdate(entities=entities))
 
     def _vehicle_entities(self, stamp: fm.Timestamp) -> list[fm.SceneEntity]:
         """Each vehicle as a body with its banner (panel and four markers, or its ArUco tag as

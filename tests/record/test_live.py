@@ -816,3 +816,14 @@ def test_a_run_without_a_camera_gets_a_layout_without_a_camera_panel(
     assert path.is_relative_to(tmp_path) and "/camera/" not in text
     assert "/r1/controller.range_error_m" in text and '"/log"' in text
     assert live_layout("follower1", "leader", "h264", camera=False) != EXAMPLES / "foxglove-layout.json"
+
+
+def test_a_real_rovers_layout_calls_its_errors_an_estimate() -> None:
+    # lfctl follow's controller errors are the stack's own estimate (a rover has no truth):
+    # its layout, with no 3D scene, said "(truth)" as the simulator's does
+    def titles(text: str) -> list[str]:
+        return re.findall(r'"title":\s*"([^"]*formation errors[^"]*)"', text)
+
+    assert titles(layout_json("rover", "rover", "h264", scene=False)) == ["rover formation errors (estimate)"]
+    assert titles(layout_json()) == ["follower1 formation errors (truth)"]
+    assert "/scene" not in layout_json("rover", "rover", "h264", scene=False)

@@ -105,7 +105,8 @@ def test_every_topic_round_trips_through_the_official_reader(camera_log) -> None
             if channel.topic == "/follower1/camera/calibration":
                 assert decoded.frame_id == "follower1/camera"
     expected = {
-        "/leader/pose", "/follower1/pose", "/leader/fix", "/follower1/fix", "/tf", "/scene", "/log",
+        "/leader/pose", "/follower1/pose", "/leader/fix", "/follower1/fix", "/tf", "/scene", "/scene/vehicles",
+        "/scene/mission", "/log",
         "/follower1/controller", "/follower1/tracker", "/follower1/pose_estimate", "/follower1/camera/video",
         "/follower1/camera/annotations", "/follower1/camera/calibration",
     }  # fmt: skip
@@ -585,6 +586,34 @@ def test_the_audit_counts_waypoints_as_the_run_summary_does(tmp_path: Path) -> N
     )
 
 
+def test_the_newest_message_of_each_scene_topic_shows_the_whole_scene(truth_log) -> None:
+    """Foxglove's 3D panel, after a seek, draws only the newest message of each topic (its
+    backfill): at every moment the scene's topics' newest messages together hold every
+    vehicle, the mission and every follower's slot. (One /scene carrying the vehicles and the
+    mission every 5 s and the slots alone between left the vehicles and waypoints out of a
+    view sought to, for up to 5 s, or for good while paused.)"""
+    from foxglove_schemas_protobuf.SceneUpdate_pb2 import SceneUpdate
+
+    path, _report = truth_log
+    cfg = load_config(EXAMPLES / "convoy.toml")
+    messages = audit(path).contents.messages
+    topics = ("/scene", "/scene/vehicles", "/scene/mission")
+    timeline = sorted((t, topic, d) for topic in topics for t, d in messages[topic])
+    first_whole = max(messages[topic][0][0] for topic in topics)
+    newest: dict[str, set[str]] = {}
+    want = {f"vehicle/{v.name}" for v in cfg.vehicles} | {"mission"} | {f"slot/{f.name}" for f in cfg.followers}
+    checked = 0
+    for k, (t, topic, d) in enumerate(timeline):
+        newest[topic] = {e.id for e in SceneUpdate.FromString(d).entities}
+        if t >= first_whole and (k + 1 == len(timeline) or timeline[k + 1][0] > t):  # (all of time t taken)
+            assert set().union(*newest.values()) == want, (t, newest)
+            checked += 1
+    assert checked > 100
+    # each topic holds its own part, whole: the slots at every guidance step, the rest every 5 s
+    assert len(messages["/scene"]) > 10 * len(messages["/scene/vehicles"]) > 0
+    assert len(messages["/scene/vehicles"]) == len(messages["/scene/mission"])
+
+
 def test_the_scene_shows_each_vehicles_own_tag(tmp_path: Path) -> None:
     """With the ArUco banner each vehicle's entity carries its tag (a black square on the
     panel, no red markers) and names its id, as its banner prints it."""
@@ -592,7 +621,7 @@ def test_the_scene_shows_each_vehicles_own_tag(tmp_path: Path) -> None:
 
     cfg = small_chunks(load_config(EXAMPLES / "convoy-aruco.toml"), tmp_path, "truth", 1.0)
     run_scenario(cfg, record_to=tmp_path / "t.mcap")
-    first = SceneUpdate.FromString(audit(tmp_path / "t.mcap").contents.messages["/scene"][0][1])
+    first = SceneUpdate.FromString(audit(tmp_path / "t.mcap").contents.messages["/scene/vehicles"][0][1])
     vehicles = {e.id: e for e in first.entities if e.id.startswith("vehicle/")}
     texts = {k: e.texts[0].text for k, e in vehicles.items()}
     assert texts == {f"vehicle/{n}": f"{n} (tag {t})" for n, t in cfg.tag_ids().items()}
