@@ -418,6 +418,7 @@ class Recorder:
         self._ctx = foxglove.Context()
         self._mcap: Any = None
         self._server: Any = None
+        self._server_ns = -1  # the clock last told to the live view's clients
         self._live: tuple[str, int] | None = None  # where to serve, once serve() is called
         #: told the port once the Foxglove WebSocket takes connections (:meth:`serve`)
         self.on_serve: Callable[[int], None] | None = None
@@ -540,7 +541,16 @@ class Recorder:
             return
         host, port = self._live
         try:
-            self._server = foxglove.start_server(name=f"lfctl {self.cfg.name}", host=host, port=port, context=self._ctx)
+            # it publishes its clock (the log's: a lockstep run's time runs faster than the
+            # wall's), which Foxglove then reads messages on; without it Foxglove reads them on
+            # the wall clock, and a fast run's bodies drawn at that time fell behind their slots
+            self._server = foxglove.start_server(
+                name=f"lfctl {self.cfg.name}",
+                host=host,
+                port=port,
+                context=self._ctx,
+                capabilities=[foxglove.websocket.Capability.Time],
+            )
         except RuntimeError as exc:
             self._live = None
             log.error("cannot serve Foxglove on %s:%d (%s): the run goes on without the live view", host, port, exc)
@@ -650,8 +660,17 @@ class Recorder:
         return ch
 
     def _log(self, topic: str, kind: Any, t_s: float, msg: Any) -> None:
-        self._typed(topic, kind).log(msg, log_time=self._ns(t_s))
+        ns = self._ns(t_s)
+        self._tell_time(ns)
+        self._typed(topic, kind).log(msg, log_time=ns)
         self._written()
+
+    def _tell_time(self, ns: int) -> None:
+        """Tell the live view's clients the log's time, once for each new time, before its
+        messages (Foxglove's WebSocket time: the messages' clock)."""
+        if self._server is not None and ns > self._server_ns:
+            self._server_ns = ns
+            self._server.broadcast_time(ns)
 
     def json(self, topic: str, schema: str, t_s: float, payload: dict[str, Any]) -> None:
         """A JSON message on a JSON-schema channel (made on first use); ``t_s`` is added to it.
@@ -678,7 +697,9 @@ class Recorder:
                 context=self._ctx,
             )
         data = _ENCODER.encode({"t_s": round(t_s, 6), **payload})
-        ch.log(data.encode(), log_time=self._ns(t_s))
+        ns = self._ns(t_s)
+        self._tell_time(ns)
+        ch.log(data.encode(), log_time=ns)
         self._written()
 
     # -- vehicles ----------------------------------------------------------------------------

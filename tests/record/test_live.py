@@ -827,3 +827,38 @@ def test_a_real_rovers_layout_calls_its_errors_an_estimate() -> None:
     assert titles(layout_json("rover", "rover", "h264", scene=False)) == ["rover formation errors (estimate)"]
     assert titles(layout_json()) == ["follower1 formation errors (truth)"]
     assert "/scene" not in layout_json("rover", "rover", "h264", scene=False)
+
+
+def test_the_live_view_is_told_the_logs_clock() -> None:
+    # Foxglove reads a WebSocket's messages on the server's clock when it publishes one, else
+    # on the wall clock: a lockstep run (faster than the wall) drew its vehicles, placed at
+    # that time, behind their slots, placed at their own stamps. The server says it has a
+    # clock ("time") and tells each new time (opcode 2) before that time's messages
+    rec = Recorder(None, short_camera_cfg(1.0), live=("127.0.0.1", 0))
+    rec.event(0.0, "lfctl", "start")
+    rec.serve()
+    told: list[int] = []
+
+    async def client() -> dict[str, object]:
+        async with websockets.connect(
+            f"ws://127.0.0.1:{rec.live_port}", subprotocols=["foxglove.sdk.v1"], close_timeout=1.0
+        ) as ws:
+            info = json.loads(await asyncio.wait_for(ws.recv(), timeout=10))
+            for k in range(1, 200):
+                rec.event(k * 0.25, "lfctl", f"step {k}")
+                try:
+                    frame = await asyncio.wait_for(ws.recv(), timeout=0.05)
+                except TimeoutError:
+                    continue
+                if isinstance(frame, bytes) and frame[0] == 2:  # time: op, u64 ns
+                    told.append(struct.unpack_from("<Q", frame, 1)[0])
+                    break
+            return info
+
+    try:
+        info = asyncio.run(client())
+    finally:
+        rec.close()
+    assert info["op"] == "serverInfo" and "time" in info["capabilities"], info  # type: ignore[operator]
+    (ns,) = told
+    assert (ns - rec.start_ns) % 250_000_000 == 0 and ns > rec.start_ns  # a step's time, on the log's clock
