@@ -92,7 +92,11 @@ class CameraComponent:
         MAVLink 2 signing key: sign what the camera sends.
     tap : callable, optional
         Sees every packet the camera sends or is handed: ``tap(direction, msg, raw)`` (the
-        recorder).
+        recorder; ``tap("out", msg, raw, to)`` for an answer sent to one peer alone).
+    send_to : callable, optional
+        ``send_to(bytes, (host, port))``: one peer alone. Given, the answers to a request
+        whose sender :meth:`handle` is told of go to that sender alone, as a Rover's routing
+        sends a message addressed to one system and component only where it learnt it.
     """
 
     def __init__(
@@ -109,10 +113,13 @@ class CameraComponent:
         name: str,
         compid: int = CAMERA_COMPID,
         signing_key: bytes | None = None,
-        tap: Callable[[str, Any, bytes], None] | None = None,
+        tap: Callable[..., None] | None = None,
+        send_to: Callable[[bytes, tuple[str, int]], None] | None = None,
     ) -> None:
         self.sysid, self.compid = sysid, compid
         self._send_raw = send
+        self._send_to = send_to
+        self._reply_to: tuple[str, int] | None = None  # the sender of the request in hand
         self.video_port = video_port
         self.width, self.height, self.fps = width, height, fps
         self.bitrate_kbps, self.hfov_deg, self.name = bitrate_kbps, hfov_deg, name
@@ -134,6 +141,12 @@ class CameraComponent:
             # and a receiver takes a new signed stream only within a minute of its own clock
             advance_signing_clock(self.mav.signing, time.time())
         data = pack_next(msg, self.mav)
+        to = self._reply_to
+        if to is not None and self._send_to is not None:
+            self._send_to(data, to)
+            if self.tap is not None:
+                self.tap("out", msg, data, to)
+            return
         self._send_raw(data)
         if self.tap is not None:
             self.tap("out", msg, data)
@@ -172,14 +185,23 @@ class CameraComponent:
             m.command in _LEGACY or (m.command == mav.MAV_CMD_REQUEST_MESSAGE and _message_id(m.param1) in _ANSWERS)
         )
 
-    def handle(self, m: Any) -> None:
+    def handle(self, m: Any, sender: tuple[str, int] | None = None) -> None:
         """Answer a command :meth:`wants`: COMMAND_ACK, then the message asked for.
 
         Parameters
         ----------
         m : pymavlink message
             COMMAND_LONG or COMMAND_INT for the camera.
+        sender : (host, port), optional
+            Where it came from: the answers go there alone (with ``send_to``).
         """
+        self._reply_to = sender
+        try:
+            self._handle(m)
+        finally:
+            self._reply_to = None
+
+    def _handle(self, m: Any) -> None:
         if self.tap is not None:
             self.tap("in", m, bytes(m.get_msgbuf()))
         self.requests += 1
@@ -346,7 +368,7 @@ class CameraRouter:
                     rest.append(bytes(m.get_msgbuf()))
                 else:
                     self.accept_peer(addr)  # a valid command: its sender gets the answer
-                    camera.handle(m)
+                    camera.handle(m, addr)
                     taken = True
             if not taken:
                 out.append((data, addr))

@@ -190,6 +190,7 @@ class Links:
                     name=f"{v.name} camera",
                     signing_key=key,
                     tap=ep_tap,
+                    send_to=udp.send_to,
                 )
                 self.cameras.append(camera)
                 self.camera_of[v.name] = camera

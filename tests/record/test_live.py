@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import dataclasses
 import json
 import math
@@ -862,3 +863,40 @@ def test_the_live_view_is_told_the_logs_clock() -> None:
     assert info["op"] == "serverInfo" and "time" in info["capabilities"], info  # type: ignore[operator]
     (ns,) = told
     assert (ns - rec.start_ns) % 250_000_000 == 0 and ns > rec.start_ns  # a step's time, on the log's clock
+
+
+@pytest.mark.integration
+def test_the_cameras_answers_go_to_the_asking_peer_alone() -> None:
+    # a Rover routes a message addressed to one system and component only to the link where it
+    # learnt it: a second ground station on a follower's port got the camera's COMMAND_ACKs and
+    # answers to the first one's requests (its HEARTBEAT still goes to both)
+    udp = UdpLink(None)
+    camera = CameraComponent(
+        2, udp.send, video_port=5600, width=640, height=480, fps=30.0, bitrate_kbps=1500, hfov_deg=62.0,
+        name="c", send_to=udp.send_to,
+    )  # fmt: skip
+    router = CameraRouter(udp, [camera])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as a, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as b:
+        for s in (a, b):
+            s.bind(("127.0.0.1", 0))
+            s.settimeout(0.2)
+            udp.accept_peer(s.getsockname())  # both heard before (each a ground station)
+        ask = mav.MAVLink_command_long_message(
+            2, 100, mav.MAV_CMD_REQUEST_MESSAGE, 0, mav.MAVLINK_MSG_ID_CAMERA_INFORMATION, 0, 0, 0, 0, 0, 0
+        )
+        a.sendto(ask.pack(gcs), ("127.0.0.1", udp.port))
+        assert wait_until(lambda: bool(router.recv()) or camera.requests == 1, timeout_s=5.0)
+        camera.tick(1.0)  # a HEARTBEAT, to everyone
+
+        def heard(s: socket.socket) -> list[str]:
+            parser, out = mav.MAVLink(None), []
+            with contextlib.suppress(TimeoutError):
+                while True:
+                    out += [m.get_type() for m in parser.parse_buffer(s.recv(4096)) or []]
+            return out
+
+        got_a, got_b = heard(a), heard(b)
+    udp.close()
+    assert got_a == ["COMMAND_ACK", "CAMERA_INFORMATION", "HEARTBEAT"], got_a
+    assert got_b == ["HEARTBEAT"], got_b
