@@ -608,7 +608,7 @@ class Companion:
         if kind == "PARAM_REQUEST_LIST":
             self.param_server.request_list()
             return
-        by_index = kind == "PARAM_REQUEST_READ" and m.param_index >= 0
+        by_index = kind == "PARAM_REQUEST_READ" and m.param_index != -1
         if m.target_component == 0 and (by_index or self.param_server.name_of(m.param_id) is None):
             return
         if kind == "PARAM_REQUEST_READ":

@@ -235,7 +235,9 @@ class FtpServer:
         seq, session, opcode, size, _req, _burst, _pad, offset = _HEADER.unpack_from(payload)
         if opcode in (ACK, NAK):
             return
-        data = bytes(payload[_HEADER.size : _HEADER.size + min(size, DATA_BYTES)])
+        # the whole data field (a name is measured over it, as ArduPilot's strnlen), and the
+        # request's own bytes
+        field = bytes(payload[_HEADER.size : _HEADER.size + DATA_BYTES])
         key = (sysid, compid, session)
         now = self._clock()
         self._tokens = min(REPLY_BURST, self._tokens + max(0.0, now - self._tokens_t) * REPLIES_PER_S)
@@ -265,18 +267,18 @@ class FtpServer:
         elif opcode == OP_NONE:
             replies = [self._reply(head, ACK)]
         elif opcode == OP_LIST:
-            replies = [self._list(head, size, data)]
+            replies = [self._list(head, size, field)]
         elif opcode in (OP_REMOVE, OP_MKDIR, OP_RMDIR, OP_RENAME):
             replies = [self._nak(head, ERR_FILE_NOT_FOUND)]  # nothing here can be removed or made
         elif opcode == OP_CRC:
-            replies = [self._crc(head, size, data)]
+            replies = [self._crc(head, size, field)]
         elif opcode in (OP_OPEN_RO, OP_READ, OP_BURST, OP_CREATE, OP_OPEN_WO, OP_WRITE):
             s = self._session(key, now)
             if s is None:
                 replies = [self._nak(head, ERR_NO_SESSIONS)]
             else:
                 idle_s, s.last_s = now - s.last_s, now
-                replies = self._on_session(s, head, size, data, idle_s)
+                replies = self._on_session(s, head, size, field, idle_s)
         else:  # TruncateFile, ListDirectoryWithTime and anything newer: unknown to ArduPilot
             replies = [self._nak(head, ERR_UNKNOWN_COMMAND)]
         no_room = replies[0][3] == NAK and replies[0][12] == ERR_NO_SESSIONS
@@ -289,17 +291,17 @@ class FtpServer:
         self._deliver(replies, sysid, compid)
 
     def _on_session(
-        self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes, idle_s: float
+        self, s: _Session, head: tuple[int, int, int, int], size: int, field: bytes, idle_s: float
     ) -> list[bytes]:
         opcode = head[2]
         if opcode in (OP_OPEN_RO, OP_CREATE, OP_OPEN_WO):
             if opcode == OP_OPEN_RO and s.content is not None and idle_s > SESSION_TIMEOUT_S:
                 s.close()  # as ArduPilot: its ground station timed out on the open's reply
-            return [self._open(s, head, size, data)]
+            return [self._open(s, head, size, field)]
         if not s.open:
             return [self._nak(head, ERR_FILE_NOT_FOUND)]  # no file open on the session
         if opcode == OP_WRITE:
-            return [self._write(s, head, data)]
+            return [self._write(s, head, field[:size])]
         if s.content is None:
             return [self._nak(head, ERR_FAIL)]  # a read on a file open for writing
         if opcode == OP_READ:
@@ -390,7 +392,7 @@ class FtpServer:
             return self._nak(head, ERR_FILE_NOT_FOUND)
         out = b""
         for entry in entries[head[3] :]:
-            if len(out) + len(entry) > DATA_BYTES:
+            if len(out) + len(entry) >= DATA_BYTES:  # as ArduPilot's list_dir: never the whole field
                 break
             out += entry
         if not out:
@@ -454,14 +456,14 @@ class FtpServer:
         return self._reply(head, NAK, data, offset=head[3] if head[2] == OP_LIST or burst else 0, burst=burst)
 
 
-def _name(size: int, data: bytes) -> str | None:
+def _name(size: int, field: bytes) -> str | None:
     """The path a request names, or None when its size does not match it (ArduPilot's
-    ``check_name_len``: the size is the name's length, or one more for its NUL)."""
+    ``check_name_len``: the name is measured up to its NUL over the whole data field,
+    ``field``, and the size is its length, or one more for its NUL)."""
     if size == 0 or size > DATA_BYTES:
         return None
-    raw = data[:size]
-    name = raw.split(b"\0", 1)[0]
-    if len(name) != size and not (len(name) == size - 1 and raw[-1:] == b"\0"):
+    name = field.split(b"\0", 1)[0]
+    if len(name) != size and not (len(name) == size - 1 and field[size - 1 : size] == b"\0"):
         return None
     return name.decode("utf-8", errors="replace")
 

@@ -16,6 +16,7 @@ back sets the parameters it names (ArduPilot's parameter upload), each as a PARA
 from __future__ import annotations
 
 import math
+import re
 import struct
 import time
 from collections.abc import Callable, Hashable
@@ -223,7 +224,8 @@ class ParamServer:
             self._send(self.value_message(name))
 
     def request_read(self, m: Any) -> None:
-        """One parameter, by index (``param_index`` >= 0) or by name (PARAM_REQUEST_READ).
+        """One parameter, by index (``param_index`` other than -1: a negative one is none, as
+        Rover's uint16_t index past the table) or by name (-1) (PARAM_REQUEST_READ).
 
         Parameters
         ----------
@@ -231,8 +233,8 @@ class ParamServer:
             The PARAM_REQUEST_READ.
         """
         names = list(self.params)
-        if m.param_index >= 0:
-            if m.param_index < len(names):
+        if m.param_index != -1:
+            if 0 <= m.param_index < len(names):
                 self._send(self.value_message(names[m.param_index]))
             else:
                 self._warn(f"No parameter at index {m.param_index} (there are {len(names)})")
@@ -316,16 +318,18 @@ class ParamServer:
         ------
         ValueError
             An option ArduPilot refuses (its value named): start or count past 65534,
-            withdefaults other than 0 or 1, start past the last parameter, or an unknown one.
+            withdefaults other than 0 or 1, or start past the last parameter.
         """
         opts = {"start": 0, "count": 0, "withdefaults": 0}
-        for part in filter(None, query.split("&")):
-            key, _, raw = part.partition("=")
-            if key not in opts or not raw.isdigit():
-                raise ValueError(f"param.pck option {part!r}: start=N, count=N or withdefaults=0/1")
-            opts[key] = int(raw)
-            if opts[key] > (1 if key == "withdefaults" else 0xFFFE):
-                raise ValueError(f"param.pck option {part!r} out of range")
+        # as AP_Filesystem_Param::open: the options are looked for at every character, what
+        # is not one is skipped, and a value is strtoul's (its leading digits; none: 0)
+        for i in range(len(query)):
+            for key in opts:
+                if query.startswith(f"{key}=", i):
+                    digits = re.match(r"\d*", query[i + len(key) + 1 :])
+                    opts[key] = int(digits.group()) if digits and digits.group() else 0
+                    if opts[key] > (1 if key == "withdefaults" else 0xFFFE):
+                        raise ValueError(f"param.pck option {key}={opts[key]} out of range")
         if opts["start"] >= len(self.params):
             raise ValueError(f"param.pck start={opts['start']}: there are {len(self.params)} parameters")
         defaults = self.defaults if opts["withdefaults"] else None
