@@ -113,6 +113,14 @@ def unpack_params(data: bytes) -> list[tuple[str, float]]:
     ValueError
         What is wrong with the file, and where.
     """
+    out: list[tuple[str, float]] = []
+    _read_params(data, out)
+    return out
+
+
+def _read_params(data: bytes, out: list[tuple[str, float]]) -> None:
+    """:func:`unpack_params`, each pair put in ``out`` as it is read (so the caller keeps
+    those before a damaged one, as ArduPilot's param_upload_parse has set them by then)."""
     if len(data) < _PACKED_HEADER.size:
         raise ValueError(f"{len(data)} bytes, fewer than the header's {_PACKED_HEADER.size}")
     magic, count, length = _PACKED_HEADER.unpack_from(data)
@@ -120,7 +128,6 @@ def unpack_params(data: bytes) -> list[tuple[str, float]]:
         raise ValueError(f"magic 0x{magic:04x}, not 0x{PACKED_MAGIC:04x}")
     if length != len(data):
         raise ValueError(f"the header gives the file's length as {length}, it is {len(data)} bytes")
-    out: list[tuple[str, float]] = []
     pos, last = _PACKED_HEADER.size, b""
     for k in range(count):
         where = f"parameter {k + 1} of {count} (byte {pos})"
@@ -142,7 +149,6 @@ def unpack_params(data: bytes) -> list[tuple[str, float]]:
         (value,) = struct.unpack_from("<" + fmt, data, pos + 2 + name_len)
         out.append((raw.decode(errors="replace"), float(value)))
         pos, last = pos + 2 + name_len + size, raw
-    return out
 
 
 #: a warning of lfctl's own (an unknown parameter, a value refused) is not said again within
@@ -350,18 +356,28 @@ class ParamServer:
         """Set the parameters an uploaded ``@PARAM/param.pck`` names, each as a PARAM_SET
         would (out of range or read-only: not set); a name the table lacks is skipped, as
         ArduPilot skips it. What was set and what was not is said in one line of text (a
-        file may name thousands). Returns None when the file was read, else why it could not
-        be (nothing set).
+        file may name thousands). Returns None when the file was read whole, else why it
+        could not be: a damaged header sets nothing, a damaged parameter stops the reading
+        there, those before it set (as ArduPilot's param_upload_parse sets each as it reads).
 
         Parameters
         ----------
         data : bytes
             The file.
         """
+        values: list[tuple[str, float]] = []
         try:
-            values = unpack_params(data)
+            _read_params(data, values)
         except ValueError as exc:
-            return f"param.pck not read: {exc}"
+            if not values:
+                return f"param.pck not read: {exc}"
+            self._set_all(values)
+            return f"param.pck read up to {exc}"
+        self._set_all(values)
+        return None
+
+    def _set_all(self, values: list[tuple[str, float]]) -> None:
+        """Set an upload's (name, value) pairs, and say in one line what was and was not."""
         refused: dict[str, str] = {}  # by name: a file may name one many times
         unknown: dict[str, None] = {}
         taken = 0
@@ -378,4 +394,3 @@ class ParamServer:
         if unknown:
             line += "; no such parameter " + ", ".join(unknown)
         self._say(line, mav.MAV_SEVERITY_WARNING if refused or unknown else mav.MAV_SEVERITY_INFO)
-        return None

@@ -115,12 +115,6 @@ def test_a_read_with_index_minus_2_is_by_index_and_gets_no_answer() -> None:
     assert said.sent == []
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="AP_Filesystem_Param::param_upload_parse (libraries/AP_Filesystem/AP_Filesystem_Param.cpp) "
-    "sets each parameter as it reads it (set_float, save_sync) and returns false at the first damaged "
-    "one: those before it stay set; lfctl checks the whole file first and sets none",
-)
 def test_an_upload_damaged_partway_keeps_the_parameters_before_the_damage() -> None:
     said = Said()
     data = bytearray(upload_file({"WP_SPEED": Param(4.0, 0, 100, "", ""), "WP_RADIUS": Param(3.0, 0, 100, "", "")}))
