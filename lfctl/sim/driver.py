@@ -11,7 +11,9 @@ mode, mission and targets its MAVLink endpoint holds become speed and yaw-rate c
   :mod:`lfctl.link.rc`) as speed and yaw rate; no live override: stop;
 - HOLD, disarmed: stop.
 
-A reversed vehicle (MAV_CMD_DO_SET_REVERSE) drives its targets backwards.
+A reversed vehicle (MAV_CMD_DO_SET_REVERSE, Rover's AR_WPNav flag) drives its mission legs,
+GUIDED places and way home backwards; a GUIDED heading target is steered with the body, as
+Rover's ModeGuided does. A speed round a circle it cannot keep is cut and said.
 """
 
 from __future__ import annotations
@@ -420,7 +422,7 @@ class VehicleDriver:
         if ep.desired_speed_mps != kept:
             # a ground station's DO_CHANGE_SPEED while it circles: Rover's ModeAuto gives it to
             # the circle alone, the waypoints' speed stays as it was
-            circle.set_speed(ep.speed_mps)
+            self._circle_speed(circle, ep.speed_mps)
             ep.desired_speed_mps = kept
         if circle.done:
             self._circle = None
@@ -434,6 +436,12 @@ class VehicleDriver:
         to_target = math.atan2(out.target_ned_m[1] - self._pos[1], out.target_ned_m[0] - self._pos[0])
         ep.steering(NavReport(heading, to_target, out.distance_m, out.cross_track_m, out.target_ned_m))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
+
+    def _circle_speed(self, circle: CircleGuidance, speed_mps: float) -> None:
+        """A new speed round the circle; one it cannot keep is cut to its limit and said, as
+        Rover's ModeCircle::set_desired_speed (check_config_speed)."""
+        if circle.set_speed(speed_mps):
+            self.endpoint.statustext(f"Circle: max speed is {circle.speed_mps:4.1f}", mav.MAV_SEVERITY_WARNING)
 
     def _say_jumps(self, jumps: tuple[tuple[int, int, int], ...]) -> None:
         for jump, taken, repeats in jumps:
@@ -546,7 +554,7 @@ class VehicleDriver:
             circling = self._circle is not None and self._circle[0] == self._leg
             if circling and it.param2 > 0:  # Rover's ModeCircle::set_desired_speed: the circle's alone
                 assert self._circle is not None
-                self._circle[1].set_speed(it.param2)
+                self._circle_speed(self._circle[1], it.param2)
                 ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)
             elif not circling and it.param2 >= WP_SPEED_MIN_MPS:  # set_speed_max takes no slower (-1: none)
                 ep.set_speed(it.param2)
@@ -580,9 +588,10 @@ class VehicleDriver:
             return g.speed_mps, g.yaw_rate_radps
         me = world.vehicle(self.index)
         if g.kind == "heading":
-            yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad
-            rate = self._heading.step(wrap_pi(g.heading_rad - yaw), self.step_s)
-            return (-g.speed_mps if ep.reversed else g.speed_mps), rate
+            # Rover's ModeGuided (HeadingAndSpeed) turns the body to the heading and drives as
+            # asked: DO_SET_REVERSE, AR_WPNav's flag, does not reach it
+            rate = self._heading.step(wrap_pi(g.heading_rad - me.yaw_rad), self.step_s)
+            return g.speed_mps, rate
         speed = g.speed_mps if g.speed_mps > 0 else ep.speed_mps
         done, cmd = self._drive_to([(g.north_m, g.east_m)], (g.t_s, g.north_m, g.east_m, speed), speed, t_s, world)
         if done:
