@@ -11,33 +11,12 @@ from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
+from test_ftp import HEADER, Clock, parse, request
 
 from lfctl.link import ftp
 from lfctl.link import param_server as ps
 from lfctl.link.param_server import ParamServer, pack_params, unpack_params
 from lfctl.link.params import INT8, INT16, Param, default_params
-
-HEADER = struct.Struct("<HBBBBBBI")
-
-
-def request(
-    seq: int, opcode: int, data: bytes = b"", session: int = 0, offset: int = 0, size: int | None = None
-) -> bytes:
-    n = len(data) if size is None else size
-    return (HEADER.pack(seq, session, opcode, n, 0, 0, 0, offset) + data).ljust(251, b"\0")
-
-
-def parse(reply: bytes) -> tuple[tuple[int, ...], bytes]:
-    head = HEADER.unpack_from(reply)
-    return head, reply[12 : 12 + head[3]]
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
 
 
 class Served:
@@ -94,7 +73,7 @@ def upload_file(params: dict[str, Param]) -> bytes:
     return bytes(data)
 
 
-# == what ArduPilot does where lfctl answers otherwise (xfail, strict) =========================
+# == what ArduPilot's source does (xfail, strict, where lfctl still answers otherwise) ==========
 
 
 @pytest.mark.xfail(
