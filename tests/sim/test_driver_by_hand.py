@@ -791,3 +791,13 @@ def test_a_condition_delay_lets_the_commands_after_it_go_wherever_the_vehicle_is
     assert ep.desired_speed_mps is None
     drv.update(0.7, at(0.0, 0.0, t_s=0.7))
     assert ep.desired_speed_mps == 0.3
+
+
+# -- HOLD ---------------------------------------------------------------------------------------------
+
+
+def test_hold_stops_the_vehicle() -> None:
+    # Rover's ModeHold::update: stop_vehicle() (throttle to stop, steering centred)
+    drv, _ep = bench("HOLD")
+    assert drv.update(STEP_S, at(1.0, 1.0, yaw_rad=0.3, t_s=STEP_S)) == (0.0, 0.0)
+    assert drv.link_command() == (0.0, 0.0)
