@@ -100,8 +100,8 @@ PAYLOAD_BYTES = 251
 DATA_BYTES = PAYLOAD_BYTES - _HEADER.size
 #: the most replies one BurstReadFile gets before the ground station asks for more
 BURST_PACKETS = 64
-#: sessions open at once (over all senders)
-MAX_SESSIONS = 4
+#: sessions open at once (over all senders): GCS_FTP's AP_MAVLINK_FTP_MAX_SESSIONS
+MAX_SESSIONS = 5
 #: a session this long idle may be taken over by another, or its file reopened, s (ArduPilot's)
 SESSION_TIMEOUT_S = 3.0
 #: a session this long idle is closed, s (ArduPilot's)

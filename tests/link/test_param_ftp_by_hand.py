@@ -137,11 +137,6 @@ def test_a_listing_never_fills_the_whole_data_field() -> None:
     assert data == f"F{first}\t0\0".encode()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="GCS_FTP.h (multi-session GCS_FTP): AP_MAVLINK_FTP_MAX_SESSIONS is 5, GCS_FTP::worker "
-    "refuses a sixth only while the oldest is active; lfctl keeps 4 (MAX_SESSIONS)",
-)
 def test_five_sessions_may_be_open_at_once_as_ardupilots_gcs_ftp_keeps() -> None:
     s = Served()
     replies = [s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))[0] for k in range(6)]
@@ -349,9 +344,9 @@ def test_an_upload_is_said_as_info_when_all_was_set_and_as_a_warning_naming_what
 # == the FTP server: its numbers, by hand ========================================================
 
 
-def test_four_sessions_at_once_and_a_fifth_sender_waits_three_seconds_for_an_idle_one() -> None:
+def test_five_sessions_at_once_and_a_sixth_sender_waits_three_seconds_for_an_idle_one() -> None:
     s = Served()
-    for k in range(4):
+    for k in range(5):
         assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))[0][0][2] == ftp.ACK
     s.clock.t = 102.5  # idle, not yet 3 s (FTP_SESSION_TIMEOUT 3000 ms)
     assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][1] == bytes([ftp.ERR_NO_SESSIONS])
@@ -496,17 +491,18 @@ def test_a_listing_longer_than_the_data_field_goes_on_at_the_next_offset() -> No
 
 def test_the_oldest_idle_session_is_the_one_taken_over() -> None:
     s = Served()
-    for k in range(4):  # opened a second apart
+    newest = ftp.MAX_SESSIONS - 1
+    for k in range(ftp.MAX_SESSIONS):  # opened a second apart
         s.clock.t = 100.0 + k
         s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))
-    s.clock.t = 106.5  # every one idle 3 s or more
+    s.clock.t = 103.5 + newest  # every one idle 3 s or more
     assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][0][2] == ftp.ACK
     assert s.ask(request(1, ftp.OP_READ, session=0, size=4))[0][1] == bytes([ftp.ERR_FILE_NOT_FOUND])  # taken
-    assert s.ask(request(1, ftp.OP_READ, session=3, size=4))[0][0][2] == ftp.ACK  # the newest: still open
+    assert s.ask(request(1, ftp.OP_READ, session=newest, size=4))[0][0][2] == ftp.ACK  # the newest: still open
     # the oldest idle 3 s but the newest not: the oldest is taken over all the same
-    s.clock.t = 108.0
-    s.ask(request(2, ftp.OP_READ, session=3, size=4))
-    s.clock.t = 110.0  # sessions 1, 2 idle 8.5 s and more, 9 idle 3.5 s, 3 idle 2 s
+    s.clock.t = 105.0 + newest
+    s.ask(request(2, ftp.OP_READ, session=newest, size=4))
+    s.clock.t = 107.0 + newest  # sessions 1.. idle 8.5 s and more, 9 idle 3.5 s, the newest 2 s
     assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=8))[0][0][2] == ftp.ACK
 
 
@@ -543,7 +539,7 @@ def test_reset_sessions_forgets_the_senders_kept_replies_and_no_others() -> None
 
 def test_a_refusal_for_want_of_room_is_not_sent_again_once_there_is_room() -> None:
     s = Served()
-    for k in range(4):
+    for k in range(ftp.MAX_SESSIONS):
         s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))
     assert s.ask(request(7, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][1] == bytes([ftp.ERR_NO_SESSIONS])
     s.ask(request(1, ftp.OP_TERMINATE, session=0))  # room now, at once
