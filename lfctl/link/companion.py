@@ -349,13 +349,8 @@ class Companion:
                 sent += 1
                 next_send = now + try_s
                 deadline = max(deadline, next_send)  # (a stall here must not eat the tries left)
-            if now - beat >= HEARTBEAT_PERIOD_S:  # on this wait's own clock: the caller's may differ
-                beat = now
-                self._send_heartbeat()
             until = min(deadline, next_send) if sent < tries else deadline  # (no send due: the answer)
-            m = self.port.recv(min(0.05, max(0.0, until - now)))
-            if m is not None:
-                self._take_safely(m, now - start)
+            beat = self._listen(now, until, start, beat)
             result = self.acks.pop(cmd, None)
             if result == mav.MAV_RESULT_IN_PROGRESS:
                 sent = progress = tries  # no more sends: the final answer follows
@@ -386,15 +381,24 @@ class Companion:
             self.port.send(mav.MAVLink_param_request_read_message(self.target, 1, name.encode(), -1))
             until = time.monotonic() + try_s
             while (now := time.monotonic()) < until:
-                if now - beat >= HEARTBEAT_PERIOD_S:
-                    beat = now
-                    self._send_heartbeat()
-                m = self.port.recv(min(0.05, until - now))
-                if m is not None:
-                    self._take_safely(m, now - start)
+                beat = self._listen(now, until, start, beat)
                 if name in self.vehicle_params:
                     return self.vehicle_params[name]
         return None
+
+    def _listen(self, now: float, until: float, start: float, beat: float) -> float:
+        """One step of a wait for an answer: the companion's heartbeat when one is due (on the
+        wait's own clock, from ``beat``, when it was last sent: the caller's clock may
+        differ), then at most one message read, waiting up to ``until``, taken as
+        :meth:`poll` takes it (stamped from ``start``). Returns when the heartbeat was last
+        sent."""
+        if now - beat >= HEARTBEAT_PERIOD_S:
+            beat = now
+            self._send_heartbeat()
+        m = self.port.recv(min(0.05, max(0.0, until - now)))
+        if m is not None:
+            self._take_safely(m, now - start)
+        return beat
 
     def set_guided(self) -> None:
         """Ask for GUIDED mode (the answer is not awaited: :meth:`request` waits for it)."""
