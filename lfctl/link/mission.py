@@ -574,8 +574,9 @@ class Leg:
     #: the DO commands and conditions between the navigation item before this one and this
     #: one that a Rover runs, in turn as the leg begins, as ArduPilot's mission library runs them
     before: tuple[MissionItem, ...] = ()
-    #: the DO_JUMPs' repeats left as this leg was reached in the walk, (item, left) for each
-    #: jump met so far: a mission resumed here goes on counting from them
+    #: the times each DO_JUMP had been taken as this leg was reached in the walk, (item,
+    #: times) for each jump taken so far: a mission resumed here goes on counting from them,
+    #: against the repeats its items have then (a Rover reads each jump from storage)
     jumps: tuple[tuple[int, int], ...] = ()
     #: the counted jumps taken on the way from the leg before to this one, (item, times
     #: taken, repeats), as Rover says each ("Mission: 3 Jump 1/2"); a jump repeated for ever
@@ -618,8 +619,8 @@ def to_legs(
         nearest rally point (:meth:`~lfctl.link.endpoint.VehicleEndpoint.rtl_destination`);
         by default the local origin.
     jumps : tuple of (int, int)
-        DO_JUMP repeats already used up, as a leg's :attr:`Leg.jumps` keeps them (a mission
-        resumed part-way through a loop); by default every jump starts afresh.
+        The times each DO_JUMP has been taken, (item, times), as a leg's :attr:`Leg.jumps`
+        keeps them (a mission resumed part-way through a loop); by default none.
     """
     return walk_mission(items, home, start_seq, start, return_to, jumps)[0]
 
@@ -650,7 +651,7 @@ def walk_mission(
     before: list[MissionItem] = []
     blocked = False
     here = start
-    jumps_left: dict[int, int] = dict(jumps)
+    jumps_run: dict[int, int] = dict(jumps)
     jumped: list[tuple[int, int, int]] = []  # since the last leg: (item, times taken, repeats)
     first_met: int | None = None  # jumps taken since the last leg when its first item before was met
     tags = jump_tag_items(items)  # looked up once: the walk may pass a jump thousands of times
@@ -680,7 +681,7 @@ def walk_mission(
                 hold = 0.0
             first = len(jumped) if first_met is None else first_met
             legs.append(
-                Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_left.items()), tuple(jumped), first)
+                Leg(it.seq, *here, hold, it.command, tuple(before), tuple(jumps_run.items()), tuple(jumped), first)
             )
             before, blocked, jumped, first_met = [], False, [], None
             if hold == math.inf:
@@ -690,12 +691,14 @@ def walk_mission(
             if target == 0:
                 break  # a tag no JUMP_TAG has ends the mission, whatever the count (get_next_cmd)
             if math.isfinite(it.param1) and math.isfinite(it.param2):  # (a stored mission's are)
+                # AP_Mission::get_next_cmd: -1 jumps for ever (bounded above), uncounted;
+                # else while the times taken are fewer than the repeats the item has now
                 repeats = math.trunc(it.param2)
-                left = jumps_left.setdefault(i, repeats)
-                if left != 0:
-                    jumps_left[i] = left - 1 if left > 0 else left  # -1: for ever (bounded above)
-                    if left > 0:
-                        jumped.append((i, repeats - left + 1, repeats))
+                run = jumps_run.get(i, 0)
+                if repeats == -1 or run < repeats:
+                    if repeats != -1:
+                        jumps_run[i] = run + 1
+                        jumped.append((i, run + 1, repeats))
                     i = target if target is not None else math.trunc(it.param1)
                     continue
         elif it.command in SKIPPED_NAV:  # tried, and said, as the search passes it

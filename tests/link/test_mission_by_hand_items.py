@@ -216,13 +216,13 @@ def test_a_jump_back_repeated_once_drives_the_loop_twice_then_goes_on() -> None:
     # Wrong, a mission's loop would be driven the wrong number of times (or for ever), and a
     # resumed mission would count its jumps from the wrong place.
     # By hand: home, WP1, WP2, DO_JUMP(to 1, once), WP3: WP1, WP2, (jump) WP1, WP2, (the jump
-    # spent) WP3. Its repeats left: none before it is met, 0 after.
+    # spent) WP3. The times it has been taken: none before it is met, 1 after.
     home = home_item(*HOME)
     wp1, wp2 = place(1, NAV_WAYPOINT), MissionItem(2, REL, NAV_WAYPOINT, x=129602000, y=776701000, z=10.0)
     wp3 = MissionItem(4, REL, NAV_WAYPOINT, x=129602000, y=776702000, z=10.0)
     legs, tail = walk_mission([home, wp1, wp2, do(3, DO_JUMP, 1.0, 1.0), wp3], HOME)
     assert [leg.seq for leg in legs] == [1, 2, 1, 2, 4] and tail == ()
-    assert [leg.jumps for leg in legs] == [(), (), ((3, 0),), ((3, 0),), ((3, 0),)]
+    assert [leg.jumps for leg in legs] == [(), (), ((3, 1),), ((3, 1),), ((3, 1),)]
     assert legs[2].jumped == ((3, 1, 1),)
     assert (legs[2].north_m, legs[2].east_m) == (legs[0].north_m, legs[0].east_m)
     # repeated 0 times: straight through

@@ -477,13 +477,6 @@ def test_an_edit_of_a_finished_mission_does_not_fly_it_again_even_one_that_chang
     assert ep.mission_complete and drv.command == (0.0, 0.0)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="lfctl keeps the DO_JUMP repeats left, counted from the repeats the jump had when first "
-    "met; AP_Mission::get_next_cmd (libraries/AP_Mission/AP_Mission.cpp) reads the jump from "
-    "storage each time and jumps while get_jump_times_run(cmd) < cmd.content.jump.num_times, so "
-    "an edit of the repeats under way counts",
-)
 def test_an_edit_of_a_jumps_repeats_under_way_counts_from_the_times_it_has_run() -> None:
     # jump to 1 once; on the second lap the repeats are edited to 2: the jump has run once,
     # 1 < 2, so at waypoint 2 it jumps again ("Mission: 3 Jump 2/2") for a third lap
