@@ -124,6 +124,24 @@ class LeaderAutopilot:
             self.settings = replace(self.settings, acceptance_radius_m=radius_m)
             self.follower.acceptance_radius_m = radius_m
 
+    def replace_after(self, index: int, waypoints: Sequence[Sequence[float]], stop_at: Collection[int] = ()) -> None:
+        """The waypoints after ``index`` replaced (a mission edited ahead of the vehicle):
+        the one under way and those before it are kept, with the progress made.
+
+        Parameters
+        ----------
+        index : int
+            The last waypoint kept.
+        waypoints : sequence of sequences of float
+            The new ones after it, as the constructor takes them.
+        stop_at : collection of int
+            Of the new ones, those it stops on though it waits there 0 s (their indices in
+            the whole route, as the constructor's).
+        """
+        self.holds[index + 1 :] = [float(w[2]) if len(w) > 2 else 0.0 for w in waypoints]
+        self.follower.waypoints[index + 1 :] = [(float(w[0]), float(w[1])) for w in waypoints]
+        self._stop_at = frozenset({i for i in self._stop_at if i <= index} | set(stop_at))
+
     def stops_at(self, index: int) -> bool:
         """Whether it stops on waypoint ``index``: a wait there, the last one, or one of ``stop_at``.
 

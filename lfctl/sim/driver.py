@@ -40,7 +40,9 @@ from lfctl.link.mission import (
     NAV_DELAY,
     NAV_LOITER_TIME,
     NAV_LOITER_TURNS,
+    NAV_LOITER_UNLIM,
     NAV_RETURN_TO_LAUNCH,
+    NAV_WAYPOINT,
     NOTHING_FITTED,
     PLACES,
     SKIPPED_NAV,
@@ -55,6 +57,12 @@ from lfctl.link.mission import (
 )
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
+
+#: the navigation items a Rover drives in its AUTO WP submode (do_nav_wp): an edit of the
+#: mission ahead restarts the one under way only in it (ModeAuto::update)
+WP_SUBMODE = frozenset({NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM})
+#: the navigation items AP_Mission_ChangeDetector watches: the one under way and the next two
+CHANGE_WATCHED = 3
 
 __all__ = ["VehicleDriver", "autopilot_settings", "speed_max"]
 
@@ -151,6 +159,7 @@ class VehicleDriver:
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
         # the circle under way: (leg, guidance, the waypoints' speed as it began: DO_CHANGE_SPEED)
         self._circle: tuple[int, CircleGuidance, float | None] | None = None
+        self._watched: tuple[tuple[object, ...], ...] = ()  # the navigation items ahead, as last read
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
         """The vehicle's command at ``t_s`` (kept in :attr:`command`); where it steers goes to
@@ -232,12 +241,14 @@ class VehicleDriver:
         key = (ep.mission_version, ep.mission_edits)
         if self._key != key or self._autopilot is None:
             edited = self._autopilot is not None and self._key[:1] == key[:1]
-            if edited and (ep.mission_complete or self._take_edit()):
-                # edited in place: a finished mission has nothing more to fly, one under way
-                # goes on with the places of the items still to come, as on Rover
+            if edited and (ep.mission_complete or self._legs):
+                # edited in place: a finished mission has nothing more to fly; one under way
+                # goes on, or restarts the item under way (:meth:`_take_edit`)
                 self._key = key
+                if not ep.mission_complete:
+                    self._take_edit(t_s)
             else:
-                self._start_mission(t_s, edited)
+                self._start_mission(t_s)
         ap = self._autopilot
         assert ap is not None
         if ap.settings.cruise_speed_mps != ep.speed_mps:
@@ -268,36 +279,49 @@ class VehicleDriver:
         ep.steering(_nav_report(out.los, ep.reversed, ap.follower.waypoints))
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
-    def _take_edit(self) -> bool:
-        """The mission flown was edited in place (a partial update): the legs still to come
-        take their items' new places, as Rover reads each item when it comes to it, while
-        the leg under way and what it runs go on. False when the edit changed more than
-        places (a command, a wait, the DO commands, the mission's end): the mission is then
-        planned again from the item under way."""
-        if not self._legs:
-            return False
-        ep, now = self.endpoint, self._legs[self._leg]
-        legs, tail = walk_mission(ep.mission, self.home, now.seq, self._pos, ep.rtl_destination, now.jumps)
-        old = self._legs[self._leg :]
+    def _take_edit(self, t_s: float) -> None:
+        """The mission flown was edited in place (a partial update), as Rover takes it: the
+        items still to come are read as they come (AP_Mission reads each from storage), and
+        the item under way goes on as it began (``replace_cmd`` does not restart it), unless
+        the edit changed one of the navigation items AP_Mission_ChangeDetector watches (the
+        one under way and the next two, as stored) while the vehicle drives a waypoint:
+        ModeAuto::update then restarts the item under way (``restart_current_nav_cmd``),
+        which says so, starts it again from where the vehicle is with its new content, and
+        drops the DO command or condition that was running; the DO_JUMP counts go on."""
+        ep, k = self.endpoint, self._leg
+        now = self._legs[k]
+        walk = (ep.mission, self.home, now.seq, self._pos, ep.rtl_destination, now.jumps)
+        watched, self._watched = self._watched, self._ahead(walk_mission(*walk)[0])
+        if watched != self._watched and now.command in WP_SUBMODE:
+            ep.statustext("Auto mission changed, restarted command", mav.MAV_SEVERITY_CRITICAL)
+            self._start_mission(t_s)
+            return
+        # the legs after the one under way, as the mission now has them (the item under way
+        # may no longer be a navigation item: AP_Mission goes on from the item after it)
+        ap = self._autopilot
+        assert ap is not None
+        legs, tail = walk_mission(ep.mission, self.home, now.seq + 1, self._pos, ep.rtl_destination, now.jumps)
+        self._legs[k + 1 :], self._tail = legs, tail
+        ap.replace_after(
+            k,
+            [(g.north_m, g.east_m, g.hold_s) for g in legs],
+            [j for j, g in enumerate(legs, start=k + 1) if g.command == NAV_LOITER_TIME],
+        )
 
-        def shape(some: list[Leg]) -> list[tuple[object, ...]]:
-            return [(g.seq, g.command, g.hold_s, g.before, g.jumps) for g in some[1:]]
+    def _ahead(self, legs: Sequence[Leg]) -> tuple[tuple[object, ...], ...]:
+        """The navigation items AP_Mission_ChangeDetector compares, as the mission has them:
+        the first :data:`CHANGE_WATCHED` of ``legs`` (from the one under way), each as stored
+        (its number, command, params and place; not the ``autocontinue`` a Rover does not keep)."""
+        items = (self.endpoint.mission[g.seq] for g in legs[:CHANGE_WATCHED])
+        return tuple(
+            (it.seq, it.frame, it.command, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z) for it in items
+        )
 
-        if len(legs) != len(old) or shape(legs) != shape(old) or tail != self._tail:
-            return False
-        for k, leg in enumerate(legs[1:], start=self._leg + 1):
-            self._place(k, (leg.north_m, leg.east_m))
-        return True
-
-    def _start_mission(self, t_s: float, edited: bool = False) -> None:
+    def _start_mission(self, t_s: float) -> None:
         """(Re)start the mission from its current item, from where the vehicle is: a new or
-        changed mission, a new current item, or AUTO entered again (Rover restarts the item
-        under way, its wait and the DO commands with it). ``edited``: the mission flown was
-        edited in place; a circle under way goes on with the turns it has done (Rover's
-        ``replace_cmd`` does not restart the command running)."""
+        changed mission, a new current item, AUTO entered again (Rover restarts the item
+        under way, its wait and the DO commands with it), or an edit of the items ahead."""
         ep = self.endpoint
-        circling = self._circle if edited else None
-        circling_seq = self._legs[circling[0]].seq if circling is not None else None
         # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
         # for a new or finished mission, a restart from item 0, or DO_SET_MISSION_CURRENT's
         # reset, param2 1: each bumps the endpoint's mission_restarts)
@@ -334,8 +358,6 @@ class VehicleDriver:
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
-            if circling is not None and self._circle is not None and self._legs[0].seq == circling_seq:
-                self._circle = (0, circling[1], circling[2])
             if pending:  # the DO command that was running starts again, and those behind it
                 self._queue = pending + self._queue
                 self._run_items(t_s)
@@ -350,6 +372,7 @@ class VehicleDriver:
         ap = self._autopilot
         assert ap is not None
         self._leg, self._queue, self._condition = k, list(leg.before), None
+        self._watched = self._ahead(self._legs[k:])
         # as AP_Mission says each counted jump as it passes it: the ones before the first
         # item met, then the search's items, then the rest
         self._say_jumps(leg.jumped[: leg.jumps_first])

@@ -545,13 +545,6 @@ def test_a_condition_delay_beyond_32_bits_is_held_at_its_ends() -> None:
     assert condition_delay_s(-1.0e7) == pytest.approx(2147483.648, abs=1e-6)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="lfctl goes on with the leg under way when a later item is moved; Rover's ModeAuto::update "
-    "(Rover/mode_auto.cpp) runs mis_change_detector.check_for_mission_change() (the current and "
-    "next nav commands, libraries/AP_Mission/AP_Mission_ChangeDetector.cpp) and, in its WP "
-    "submode, mission.restart_current_nav_cmd(): 'Auto mission changed, restarted command'",
-)
 def test_moving_the_next_waypoint_restarts_the_waypoint_under_way_as_rover_does() -> None:
     # MAVProxy's `wp move 2` while item 1 is under way: AP_Mission::restart_current_nav_cmd is
     # set_current_cmd(1), which starts item 1 again ("Mission: 1 WP" a second time)
@@ -609,13 +602,6 @@ def test_an_edit_of_the_command_after_the_last_waypoint_is_the_one_run_at_the_en
     assert ep.mission_complete and "Mission: 3 ChangeSpeed" in said(ep) and "Mission: 3 SetServo" not in said(ep)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="lfctl plans the mission again from the circle under way when a later item's wait is "
-    "edited, and says its item again; Rover's ModeAuto::update (Rover/mode_auto.cpp) restarts the "
-    "current command on a mission change only in its WP submode (_submode == SubMode::WP), so a "
-    "circle goes on and nothing is said",
-)
 def test_an_edit_while_circling_leaves_the_circle_and_its_words_alone() -> None:
     drv, ep, gcs = bench_and_gcs("AUTO")
     store(ep, circle_at(3.0, 0.0, turns=2.0), (6.0, 0.0), (9.0, 0.0))
@@ -794,3 +780,94 @@ def test_hold_stops_the_vehicle() -> None:
     drv, _ep = bench("HOLD")
     assert drv.update(STEP_S, at(1.0, 1.0, yaw_rad=0.3, t_s=STEP_S)) == (0.0, 0.0)
     assert drv.link_command() == (0.0, 0.0)
+
+
+# -- an edit of the items ahead, as Rover's AP_Mission_ChangeDetector sees it -------------------------
+
+RESTARTED = "Auto mission changed, restarted command"
+
+
+def moved_to(it: MissionItem, north_m: float, east_m: float) -> MissionItem:
+    """``it`` at another place (local NED, m)."""
+    place = local_mission([(north_m, east_m)], HOME)[1]
+    return dataclasses.replace(it, x=place.x, y=place.y)
+
+
+def test_moving_the_waypoint_under_way_restarts_it_for_its_new_place() -> None:
+    # the item under way is the first the detector watches: restart_current_nav_cmd starts it
+    # again with its new content (do_nav_wp), so the vehicle heads for (0, 3), due east
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    rewrite(ep, gcs, moved_to(ep.mission[1], 0.0, 3.0))
+    drive(drv, ep, (0.0, 0.0))
+    assert said(ep).count(RESTARTED) == 1 and said(ep).count("Mission: 1 WP") == 2
+    assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((0.0, 3.0), abs=0.01)
+
+
+def test_an_edit_of_the_fourth_navigation_item_ahead_restarts_nothing_and_is_flown_when_reached() -> None:
+    # the detector watches three navigation items (mis_change_detect_cmd_max): from item 1,
+    # items 1, 2 and 3; item 4 moved to (12, 3) is read from storage when it comes
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), (6.0, 0.0), (9.0, 0.0), (12.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    rewrite(ep, gcs, moved_to(ep.mission[4], 12.0, 3.0))
+    drive(drv, ep, (1.0, 0.0), (3.0, 0.0), (6.0, 0.0), (9.0, 0.0))
+    assert RESTARTED not in said(ep) and said(ep).count("Mission: 1 WP") == 1
+    assert ep.current_seq == 4
+    assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((12.0, 3.0), abs=0.01)
+
+
+def test_an_edit_of_a_do_command_ahead_restarts_nothing_and_runs_as_edited() -> None:
+    # the detector compares navigation items only: the speed change between waypoints 1 and
+    # 3, edited from 0.3 to 0.2 m/s, is run as edited when waypoint 3 begins
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    rewrite(ep, gcs, dataclasses.replace(ep.mission[2], param2=0.2))
+    drive(drv, ep, (1.0, 0.0), (3.0, 0.0))
+    assert RESTARTED not in said(ep) and said(ep).count("Mission: 1 WP") == 1  # waypoint 1 went on
+    assert "speed: 0.2 m/s" in said(ep) and "speed: 0.3 m/s" not in said(ep)
+
+
+def test_a_restart_drops_the_condition_and_do_commands_still_waiting() -> None:
+    # waypoint 4 begins behind a 100 s CONDITION_DELAY holding a speed change; moving
+    # waypoint 5 (watched) restarts item 4: set_current_cmd(4) clears the DO command running
+    # and AP_Mission's search starts at item 4 itself, so neither runs again, however long
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(
+        ep, (3.0, 0.0), item(mav.MAV_CMD_CONDITION_DELAY, 100.0), item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
+        (6.0, 0.0), (9.0, 0.0),
+    )  # fmt: skip
+    drive(drv, ep, (0.0, 0.0), (3.0, 0.0))
+    assert "Mission: 2 CondDelay" in said(ep) and ep.current_seq == 4
+    rewrite(ep, gcs, moved_to(ep.mission[5], 9.0, 3.0))
+    drive(drv, ep, *[(3.5, 0.0)] * 1100)  # 110 s
+    assert said(ep).count(RESTARTED) == 1 and said(ep).count("Mission: 4 WP") == 2
+    assert "speed: 0.3 m/s" not in said(ep)
+
+
+def test_an_edit_while_a_missions_rtl_is_under_way_restarts_nothing() -> None:
+    # a mission's RTL runs in ModeAuto's RTL submode: the restart is for the WP submode only
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), item(mav.MAV_CMD_NAV_RETURN_TO_LAUNCH), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (3.0, 0.0))
+    assert ep.current_seq == 2
+    before = said(ep)
+    rewrite(ep, gcs, moved_to(ep.mission[3], 6.0, 3.0))
+    drive(drv, ep, (3.0, 0.0))  # (home 3 m off, outside WP_RADIUS's 2 m)
+    assert said(ep)[len(before) :] == ["Flight plan received"]
+
+
+def test_a_restart_keeps_the_jump_counts() -> None:
+    # on the second lap (item 1 under way, the jump taken once of once) item 2 is moved: item
+    # 1 restarts (set_current_cmd of an item other than 0 keeps the jump tracking), so after
+    # item 2 the jump is spent and the mission goes on to item 4
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0), item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0), (4.0, 0.0))
+    assert "Mission: 3 Jump 1/1" in said(ep) and ep.current_seq == 1
+    rewrite(ep, gcs, moved_to(ep.mission[2], 4.0, 1.0))
+    drive(drv, ep, (1.0, 0.0), (2.0, 0.0), (4.0, 1.0))
+    assert said(ep).count(RESTARTED) == 1 and said(ep).count("Mission: 3 Jump 1/1") == 1
+    assert ep.current_seq == 4

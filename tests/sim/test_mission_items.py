@@ -665,8 +665,9 @@ def test_a_partial_update_edits_the_mission_being_flown_without_starting_it_agai
     def square(links: Links) -> None:
         store(places(links.home, (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)))(links)
 
-    # `wp move 2` while item 1 is under way: the leg under way goes on (its words not said
-    # again), item 2 is flown at its new place
+    # `wp move 2` while item 1 is under way: item 2 is one of the next navigation items
+    # Rover's AP_Mission_ChangeDetector watches, so ModeAuto restarts item 1 (said again, with
+    # "Auto mission changed, restarted command"), and item 2 is flown at its new place
     def move_2(links: Links) -> None:
         (moved,) = places(links.home, (4.0, -4.0))
         send(links, mav.MAVLink_mission_write_partial_list_message(1, 1, 2, 2, 0))
@@ -676,7 +677,8 @@ def test_a_partial_update_edits_the_mission_being_flown_without_starting_it_agai
 
     rep, links = run_with({0.5: square, 3.0: move_2}, duration_s=70.0)
     said = texts(links, after_s=0.4)
-    assert said.count("Mission: 1 WP") == 1 and "Mission: 2 WP" in said
+    assert said.count("Mission: 1 WP") == 2 and "Mission: 2 WP" in said
+    assert said.count("Auto mission changed, restarted command") == 1
     assert [i + 1 for i, _t in rep.waypoints_reached] == [1, 2, 3]
     t2 = dict(rep.waypoints_reached)[1]
     assert math.hypot(*(leader_at(rep, t2) - np.array([4.0, -4.0]))) <= 0.6  # at the new place
