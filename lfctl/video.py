@@ -59,6 +59,9 @@ class SourceNotReady(ConfigError):
 #: log) as pictures, and the codecs they give: such a file is not a video
 TEXT_FORMATS = frozenset({"tty", "bin", "xbin", "adf", "idf"})
 TEXT_CODECS = frozenset({"ansi", "bintext", "xbin", "idf"})
+#: the first bytes of an MCAP file (the format's magic, with its major version): FFmpeg's
+#: probe takes a run's log for a raw H.264 stream (its frames are in it) and decodes smears
+MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
 @dataclass(frozen=True)
@@ -92,9 +95,18 @@ def probe_file(path: str) -> FileInfo | str:
     Raises
     ------
     ConfigError
-        A file with no video stream (audio only), or one FFmpeg draws as text, not a video.
+        A file with no video stream (audio only), one FFmpeg draws as text, not a video, or
+        an MCAP log.
     """
     import av
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(len(MCAP_MAGIC))
+    except OSError:
+        head = b""  # (FFmpeg says why below)
+    if head == MCAP_MAGIC:
+        raise ConfigError(f"{path} is an MCAP log, not a video: `lfctl replay {path}` shows its camera frames")
 
     undecodable = False
     try:

@@ -121,6 +121,27 @@ def test_what_is_not_a_video_is_refused_saying_what_it_is(
     assert code == 2 and not lines and said in err
 
 
+def test_a_runs_mcap_log_is_refused_as_a_log_and_replay_named(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # a log whose camera frames are H.264 (as lfctl records them): FFmpeg's probe takes the
+    # file for a raw H.264 stream and decodes smears from it; it is named for what it is
+    from mcap.writer import Writer
+
+    raw = write(tmp_path / "cam.h264", fmt="h264").read_bytes()
+    log = tmp_path / "run.mcap"
+    with log.open("wb") as f:
+        w = Writer(f)
+        w.start()
+        channel = w.register_channel("/camera", "", w.register_schema("foxglove.CompressedVideo", "jsonschema", b"{}"))
+        for k in range(3):
+            w.add_message(channel, log_time=k, publish_time=k, data=raw)
+        w.finish()
+    code, lines, err = track(capsys, str(log), "--roi", "20,20,40,30")
+    assert code == 2 and not lines
+    assert f"{log} is an MCAP log, not a video: `lfctl replay {log}` shows its camera frames" in err
+
+
 def test_a_directory_audio_alone_and_a_cameras_number_are_named(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
