@@ -1732,8 +1732,9 @@ class VehicleEndpoint:
     # -- missions, fence, rally -------------------------------------------------------------
     def _list_changed(self, mission_type: int, items: list[MissionItem]) -> None:
         if mission_type == MISSION:
+            # a new mission; a finished one stays finished (AP_Mission's state) until AUTO is
+            # entered again, which starts the new one from its first item
             self.mission_version += 1
-            self.mission_complete = False
         elif mission_type == FENCE:
             self.fence = Fence.from_items(items, self.home)
         elif mission_type == RALLY:

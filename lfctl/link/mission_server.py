@@ -285,7 +285,9 @@ class MissionServer:
     def _ack(self, sysid: int, compid: int, result: int, mission_type: int) -> None:
         self.send(mav.MAVLink_mission_ack_message(sysid, compid, result, mission_type))
 
-    def store(self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0) -> None:
+    def store(
+        self, mission_type: int, items: list[MissionItem], sysid: int = 0, compid: int = 0, uploaded: bool = False
+    ) -> None:
         """Make ``items`` the list of this type in force (checked already).
 
         Parameters
@@ -296,11 +298,16 @@ class MissionServer:
             The items (a mission's item 0 is home).
         sysid, compid : int
             Who changed it (0: the vehicle itself, e.g. a mission stored at boot).
+        uploaded : bool
+            A ground station's upload (the mission protocol's or MAVLink FTP's): as on a
+            Rover, whose upload writes the items over the old ones (``AP_Mission::truncate``,
+            ``replace_cmd``, ``add_cmd``), the mission item under way stays the one of that
+            number; else (a clear, a mission stored at boot) no item is under way.
         """
         self.lists[mission_type] = [as_stored(it) for it in items] if mission_type == MISSION else list(items)
         self._revision += 1
-        if mission_type == MISSION:
-            self.current_seq = 0  # as Rover after an upload: no item under way (AUTO starts at item 1)
+        if mission_type == MISSION and not uploaded:
+            self.current_seq = 0  # no item under way (AUTO starts at item 1)
         self.changes.append(ListChange(MISSION_TYPES[mission_type], self._t_s, sysid, compid, len(items)))
         self.on_change(mission_type, self.lists[mission_type])
 
@@ -344,7 +351,7 @@ class MissionServer:
         if m.count == 0:
             # as Rover: an upload with nothing to ask for is complete at once (and said so)
             self._uploads.pop(mtype, None)
-            self.store(mtype, [], *src)
+            self.store(mtype, [], *src, uploaded=True)
             self.on_received(mtype)
             self._ack(*src, mav.MAV_MISSION_ACCEPTED, mtype)
             return
@@ -453,7 +460,7 @@ class MissionServer:
         if up.mission_type == FENCE and (bad := validate_fence(items)) is not None:
             self._refuse_fence(up, bad)
             return
-        self.store(up.mission_type, items, up.sysid, up.compid)
+        self.store(up.mission_type, items, up.sysid, up.compid, uploaded=True)
         self.on_received(up.mission_type)
         self._ack(up.sysid, up.compid, mav.MAV_MISSION_ACCEPTED, up.mission_type)
 
@@ -619,7 +626,7 @@ class MissionServer:
                 return f"its first item is {start}: a whole {name} starts at 0 (or give the no-clear option)"
             if (why := _list_refusal(items, mission_type)) is not None:
                 return why
-            self.store(mission_type, items, sysid, compid)
+            self.store(mission_type, items, sysid, compid, uploaded=True)
         self.on_received(mission_type)
         return None
 

@@ -241,12 +241,23 @@ class VehicleDriver:
         key = (ep.mission_version, ep.mission_edits)
         if self._key != key or self._autopilot is None:
             edited = self._autopilot is not None and self._key[:1] == key[:1]
-            if edited and (ep.mission_complete or self._legs):
-                # edited in place: a finished mission has nothing more to fly; one under way
-                # goes on, or restarts the item under way (:meth:`_take_edit`)
+            # a new mission uploaded while this one is flown: Rover writes it over the old
+            # one and goes on with the item of the same number, as after an edit
+            uploaded = (
+                self._autopilot is not None
+                and bool(self._key)
+                and ep.mission is not self._built
+                and bool(self._legs)
+                and not self._completed
+                and ep.current_seq == self._legs[self._leg].seq
+            )
+            if self._autopilot is not None and ep.mission_complete:
+                # a finished mission, edited or replaced, stays finished until AUTO is entered again
                 self._key = key
-                if not ep.mission_complete:
-                    self._take_edit(t_s)
+            elif (edited or uploaded) and self._legs:
+                # one under way goes on, or restarts the item under way (:meth:`_take_edit`)
+                self._key = key
+                self._take_edit(t_s)
             else:
                 self._start_mission(t_s)
         ap = self._autopilot
@@ -280,22 +291,27 @@ class VehicleDriver:
         return (-out.speed_mps if ep.reversed else out.speed_mps), out.yaw_rate_radps
 
     def _take_edit(self, t_s: float) -> None:
-        """The mission flown was edited in place (a partial update), as Rover takes it: the
-        items still to come are read as they come (AP_Mission reads each from storage), and
-        the item under way goes on as it began (``replace_cmd`` does not restart it), unless
-        the edit changed one of the navigation items AP_Mission_ChangeDetector watches (the
-        one under way and the next two, as stored) while the vehicle drives a waypoint:
-        ModeAuto::update then restarts the item under way (``restart_current_nav_cmd``),
-        which says so, starts it again from where the vehicle is with its new content, and
-        drops the DO command or condition that was running; the DO_JUMP counts go on."""
+        """The mission flown was edited in place (a partial update) or written over by a new
+        one, as Rover takes it: the items still to come are read as they come (AP_Mission
+        reads each from storage), and the item under way goes on as it began (``replace_cmd``
+        does not restart it), unless the change touched one of the navigation items
+        AP_Mission_ChangeDetector watches (the one under way and the next two, as stored)
+        while the vehicle drives a waypoint: ModeAuto::update then restarts the item under
+        way (``restart_current_nav_cmd``), which says so, starts the item of that number
+        again from where the vehicle is with its new content, and drops the DO command or
+        condition that was running; the DO_JUMP counts (by item number) go on. A new mission
+        too short to have that number fails the restart, and the item under way goes on."""
         ep, k = self.endpoint, self._leg
         now = self._legs[k]
+        self._built = ep.mission
         walk = (ep.mission, self.home, now.seq, self._pos, ep.rtl_destination, now.jumps)
         watched, self._watched = self._watched, self._ahead(walk_mission(*walk)[0])
         if watched != self._watched and now.command in WP_SUBMODE:
-            ep.statustext("Auto mission changed, restarted command", mav.MAV_SEVERITY_CRITICAL)
-            self._start_mission(t_s)
-            return
+            if now.seq < len(ep.mission):
+                ep.statustext("Auto mission changed, restarted command", mav.MAV_SEVERITY_CRITICAL)
+                self._start_mission(t_s)
+                return
+            ep.statustext("Auto mission changed but failed to restart command", mav.MAV_SEVERITY_CRITICAL)
         # the legs after the one under way, as the mission now has them (the item under way
         # may no longer be a navigation item: AP_Mission goes on from the item after it)
         ap = self._autopilot
@@ -322,15 +338,17 @@ class VehicleDriver:
         changed mission, a new current item, AUTO entered again (Rover restarts the item
         under way, its wait and the DO commands with it), or an edit of the items ahead."""
         ep = self.endpoint
-        # the same mission, not finished: DO_JUMP's counts go on (AP_Mission resets them only
-        # for a new or finished mission, a restart from item 0, or DO_SET_MISSION_CURRENT's
-        # reset, param2 1: each bumps the endpoint's mission_restarts)
-        same = (
-            bool(self._legs)
-            and ep.mission is self._built
-            and not self._completed
-            and self._restarts == ep.mission_restarts
-        )
+        # the item to start from, as AP_Mission::resume: the one under way, re-read from the
+        # mission as it is now; one past its end (a shorter mission uploaded since) starts
+        # the mission from item 1 (start(), its jump counts afresh)
+        start = max(1, ep.current_seq)
+        fresh = start >= len(ep.mission)
+        if fresh:
+            start = 1
+        # not finished: DO_JUMP's counts go on, kept by item number over edits and uploads
+        # (AP_Mission resets them only for a finished mission, a restart from item 0, or
+        # DO_SET_MISSION_CURRENT's reset, param2 1: each bumps the endpoint's mission_restarts)
+        same = bool(self._legs) and not fresh and not self._completed and self._restarts == ep.mission_restarts
         self._restarts = ep.mission_restarts
         resume = same and self._paused[:1] == (ep.mission_version,)
         self._paused = ()
@@ -341,7 +359,6 @@ class VehicleDriver:
             pending += self._queue
         self._key = (ep.mission_version, ep.mission_edits)
         self._built, self._completed = ep.mission, False
-        start = max(1, ep.current_seq)
         self._legs, self._tail = walk_mission(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
         settings = dataclasses.replace(
             autopilot_settings(self.cfg), cruise_speed_mps=ep.speed_mps, acceptance_radius_m=ep.param("WP_RADIUS")

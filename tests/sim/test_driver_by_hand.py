@@ -100,7 +100,7 @@ def store(ep: VehicleEndpoint, *parts: MissionItem | tuple[float, float]) -> Non
     for part in parts:
         it = local_mission([part], HOME)[1] if isinstance(part, tuple) else part
         items.append(dataclasses.replace(it, seq=len(items)))
-    ep.missions.store(MISSION, items, 255, 190)
+    ep.missions.store(MISSION, items, 255, 190, uploaded=True)
 
 
 def circle_at(north_m: float, east_m: float, radius_m: float = 2.0, turns: float = 1.0) -> MissionItem:
@@ -746,18 +746,68 @@ def test_a_guided_place_reached_is_said_with_mission_item_reached_0_and_the_vehi
 # -- a new mission, a CONDITION_DELAY far from the waypoint ---------------------------------------------
 
 
-def test_a_new_mission_uploaded_on_the_way_starts_its_jumps_afresh() -> None:
-    # the jump of the mission flown is used up on its second lap; a new upload (the same
-    # items) is a new mission, whose DO_JUMP counts start afresh (driver.py's rule for
-    # AP_Mission's jump tracking; not checked here against AP_Mission's upload path)
+def test_a_new_mission_uploaded_on_the_way_goes_on_from_the_item_under_way_with_its_jump_counts() -> None:
+    # the jump of the mission flown is used up on its second lap, item 2 under way; the same
+    # items uploaded again: Rover's upload writes them over the old ones (truncate,
+    # replace_cmd; no reset), so item 2 is still under way, unchanged (no restart), and the
+    # jump tracking, kept by item number, has item 3 run once of once: the mission ends
     drv, ep = bench("AUTO")
     laps = ((0.0, 0.0), (2.0, 0.0), (4.0, 0.0))
     store(ep, (2.0, 0.0), (4.0, 0.0), item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0))
     drive(drv, ep, *laps, (2.0, 0.0))  # lap 2 under way: the jump used up
-    assert said(ep).count("Mission: 3 Jump 1/1") == 1 and not ep.mission_complete
+    assert said(ep).count("Mission: 3 Jump 1/1") == 1 and ep.current_seq == 2
+    before = len(said(ep))
     store(ep, (2.0, 0.0), (4.0, 0.0), item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0))
-    drive(drv, ep, *laps)
-    assert said(ep).count("Mission: 3 Jump 1/1") == 2
+    assert ep.current_seq == 2 and ep.mission_current == 2
+    drive(drv, ep, (3.0, 0.0), (4.0, 0.0), (4.0, 0.0))
+    assert said(ep)[before:] == ["Reached waypoint #2", "Mission Complete"]
+    assert ep.mission_complete
+
+
+def test_a_new_mission_uploaded_on_the_way_restarts_the_item_of_that_number_when_it_changed() -> None:
+    # item 2 under way; the new mission's item 2 is elsewhere (6, 2): the detector sees the
+    # item under way changed, and ModeAuto restarts item 2, the new one
+    drv, ep = bench("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    assert ep.current_seq == 2
+    store(ep, (2.0, 0.0), (6.0, 2.0), (8.0, 0.0))
+    drive(drv, ep, (3.0, 0.0))
+    assert said(ep)[-2:] == ["Auto mission changed, restarted command", "Mission: 2 WP"]
+    assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((6.0, 2.0), abs=0.01)
+
+
+def test_a_new_mission_too_short_for_the_item_under_way_lets_it_finish_then_completes() -> None:
+    # item 3 under way; a mission of one waypoint uploaded: restart_current_nav_cmd fails
+    # (item 3 >= num_commands), so Rover says so and drives the item it has to its end;
+    # advancing past it finds nothing in the new mission: complete
+    drv, ep = bench("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0), (4.0, 0.0))
+    assert ep.current_seq == 3
+    store(ep, (1.0, 1.0))
+    drive(drv, ep, (5.0, 0.0))
+    assert said(ep)[-1] == "Auto mission changed but failed to restart command"
+    assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((6.0, 0.0), abs=0.01)
+    drive(drv, ep, (6.0, 0.0), (6.0, 0.0))
+    assert said(ep)[-2:] == ["Reached waypoint #3", "Mission Complete"] and ep.mission_complete
+
+
+def test_a_new_mission_uploaded_after_the_end_waits_for_auto_to_be_entered_again() -> None:
+    # AP_Mission's state stays MISSION_COMPLETE over an upload: nothing is flown (no
+    # "Mission: 1 WP", the vehicle stopped, MISSION_CURRENT's state complete) until AUTO is
+    # entered again, which starts the new mission from its first item
+    drv, ep = bench("AUTO")
+    store(ep, (2.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0), (2.0, 0.0))
+    assert ep.mission_complete
+    before = len(said(ep))
+    store(ep, (5.0, 0.0), (7.0, 0.0))
+    drive(drv, ep, (2.0, 0.0), (2.0, 0.0))
+    assert said(ep)[before:] == [] and drv.command == (0.0, 0.0) and ep.mission_complete
+    assert ep.set_mode(MODES["HOLD"]) and ep.set_mode(MODES["AUTO"])
+    drive(drv, ep, (2.0, 0.0))
+    assert said(ep)[before:] == ["Mission: 1 WP"] and drv.command[0] > 0.0
 
 
 def test_a_condition_delay_lets_the_commands_after_it_go_wherever_the_vehicle_is() -> None:
@@ -871,3 +921,19 @@ def test_a_restart_keeps_the_jump_counts() -> None:
     drive(drv, ep, (1.0, 0.0), (2.0, 0.0), (4.0, 1.0))
     assert said(ep).count(RESTARTED) == 1 and said(ep).count("Mission: 3 Jump 1/1") == 1
     assert ep.current_seq == 4
+
+
+def test_a_new_mission_uploaded_in_hold_is_resumed_at_the_item_number_under_way() -> None:
+    # AUTO left on item 2; a new mission uploaded in HOLD keeps the number (AP_Mission's
+    # _nav_cmd.index), and AUTO's resume re-reads item 2 from the new mission: (6, 2)
+    drv, ep = bench("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    assert ep.set_mode(MODES["HOLD"])
+    drive(drv, ep, (2.5, 0.0))
+    store(ep, (1.0, 1.0), (6.0, 2.0), (8.0, 0.0))
+    assert ep.current_seq == 2
+    assert ep.set_mode(MODES["AUTO"])
+    drive(drv, ep, (2.5, 0.0))
+    assert said(ep)[-1] == "Mission: 2 WP"
+    assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((6.0, 2.0), abs=0.01)

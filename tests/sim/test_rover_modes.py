@@ -219,17 +219,21 @@ def test_a_speed_set_after_the_mission_ends_does_not_fly_its_last_leg_again() ->
 
 
 def test_a_second_mission_is_counted_on_its_own_in_the_summary_and_the_audit(tmp_path: Path) -> None:
-    # the scenario's 2 waypoints flown, then a client's mission of 1 replaces it and is flown:
-    # 1/1 (every arrival listed), not "2/1"; the audit of the run's log says the same
+    # the scenario's 2 waypoints flown, then a client's mission of 1 replaces it: the vehicle
+    # stays where it finished (AP_Mission's state stays MISSION_COMPLETE over an upload) until
+    # AUTO is entered again, which flies the new one from its first item: 1/1 (every arrival
+    # listed), not "2/1"; the audit of the run's log says the same
     from lfctl.link.mission import local_mission
     from lfctl.link.mission_server import MISSION
     from lfctl.record.audit import audit
 
     def replace(links: Links) -> None:
-        links.endpoints[0].missions.store(MISSION, local_mission([(0.0, 3.0)], links.home), 255, 190)
+        links.endpoints[0].missions.store(MISSION, local_mission([(0.0, 3.0)], links.home), 255, 190, uploaded=True)
 
-    rep, _links = run_with({34.0: replace}, duration_s=55.0, record_to=tmp_path / "m.mcap")
+    commands = {34.0: replace, 38.0: mode("HOLD"), 38.5: mode("AUTO")}
+    rep, _links = run_with(commands, duration_s=65.0, record_to=tmp_path / "m.mcap")
     assert [i for i, _t in rep.waypoints_reached] == [0, 1, 0]
+    assert math.hypot(*(leader_at(rep, 38.0) - leader_at(rep, 34.0))) <= 0.05  # still, until AUTO again
     assert (rep.n_reached, rep.n_waypoints) == (1, 1)
     fig = audit(tmp_path / "m.mcap").figures
     assert (fig["waypoints_reached"], fig["waypoints"]) == (1, 1) and len(fig["mission"]) == 3
