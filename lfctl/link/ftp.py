@@ -11,7 +11,8 @@ once, so a ground station that wanted one does not wait out its timeout.
 What :class:`FtpServer` answers, as ``GCS_FTP::Session::handle_request``: OpenFileRO (the
 file is read whole then, so a download is one consistent copy, and its size is given),
 ReadFile and BurstReadFile (a burst is at most :data:`BURST_PACKETS` replies, the last marked
-``burst_complete``; reading past the end is EndOfFile), ListDirectory, CalcFileCRC32
+``burst_complete``; reading past the end is EndOfFile; a file that opens but cannot be read,
+:class:`ReadFails`, fails its reads with FailErrno), ListDirectory, CalcFileCRC32
 (ArduPilot's CRC-32: zlib's polynomial from a zero seed, without the final inversion),
 CreateFile and OpenFileWO on a writable file, WriteFile, TerminateSession (which hands a
 written file over: refused, the reply is FailErrno with EINVAL and a line of text says why),
@@ -67,6 +68,7 @@ __all__ = [
     "SESSION_TIMEOUT_S",
     "FtpFile",
     "FtpServer",
+    "ReadFails",
     "ardupilot_crc32",
 ]
 
@@ -128,6 +130,30 @@ def ardupilot_crc32(data: bytes) -> int:
     return zlib.crc32(data, 0xFFFFFFFF) ^ 0xFFFFFFFF
 
 
+class ReadFails(ValueError):
+    """Raised by an :class:`FtpFile`'s ``read`` for a file that opens but cannot be read, as
+    ArduPilot's ``AP_Filesystem_Param`` opens ``param.pck?start=N`` whatever N and fails only
+    the read that takes its header (``AP_Filesystem_Param::read``): OpenFileRO is ACKed, giving
+    ``size``; a read (ReadFile, BurstReadFile) from before byte ``until`` is FailErrno with
+    ``code``, one from ``until`` on finds the file's end (nothing follows the header).
+
+    Parameters
+    ----------
+    why : str
+        Why it cannot be read (said in a line of text at the open).
+    code : int
+        The errno a failed read carries.
+    until : int
+        The reads that start before this byte fail.
+    size : int
+        The file's size the open's reply gives, bytes.
+    """
+
+    def __init__(self, why: str, code: int = errno.EINVAL, until: int = 0, size: int = 0) -> None:
+        super().__init__(why)
+        self.code, self.until, self.size = code, until, size
+
+
 @dataclass
 class FtpFile:
     """One file a vehicle serves.
@@ -136,7 +162,8 @@ class FtpFile:
     ----------
     read : callable
         The file now, given what followed ``?`` in the name asked for (``""``: nothing);
-        raises ValueError naming what it cannot take there.
+        raises ValueError naming what it cannot take there (the open is refused), or
+        :class:`ReadFails` (the open is taken, the reads fail).
     write : callable, optional
         Takes a written file whole, with its writer's system and component: returns None
         when taken, else why not. None: the file is read-only.
@@ -164,13 +191,14 @@ class _Session:
     content: bytes | None = None  # a file open for reading
     written: bytearray | None = None  # a file open for writing
     file: FtpFile | None = None
+    fails: ReadFails | None = None  # a file open for reading whose reads fail
 
     @property
     def open(self) -> bool:
         return self.content is not None or self.written is not None
 
     def close(self) -> None:
-        self.path, self.content, self.written, self.file = "", None, None, None
+        self.path, self.content, self.written, self.file, self.fails = "", None, None, None, None
 
 
 class FtpServer:
@@ -305,7 +333,9 @@ class FtpServer:
         if s.content is None:
             return [self._nak(head, ERR_FAIL)]  # a read on a file open for writing
         if opcode == OP_READ:
-            return [self._read(s.content, head, size)]
+            return [self._read(s, head, size)]
+        if s.fails is not None and head[3] < s.fails.until:  # the first read fails: the burst ends
+            return [self._nak(head, ERR_FAIL_ERRNO, s.fails.code, burst=True)]
         return self._burst(s.content, head, size or DATA_BYTES, max(1, min(BURST_PACKETS, int(self._tokens))))
 
     def _open(self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
@@ -327,6 +357,12 @@ class FtpServer:
             return self._reply(head, ACK)
         try:
             content = f.read(query)
+        except ReadFails as exc:  # opened all the same (ArduPilot's open takes it); its reads fail
+            self._say(f"FTP: {name} cannot be read: {exc}")
+            s.path, s.file, s.content, s.fails = path, f, b"", exc
+            if f.on_open is not None:
+                f.on_open()
+            return self._reply(head, ACK, struct.pack("<I", exc.size))
         except ValueError as exc:
             self._say(f"FTP: {name} not read: {exc}")
             return self._nak(head, ERR_FAIL_ERRNO, errno.EINVAL)
@@ -335,9 +371,11 @@ class FtpServer:
             f.on_open()
         return self._reply(head, ACK, struct.pack("<I", len(content)))
 
-    def _read(self, content: bytes, head: tuple[int, int, int, int], size: int) -> bytes:
+    def _read(self, s: _Session, head: tuple[int, int, int, int], size: int) -> bytes:
         offset = head[3]
-        chunk = content[offset : offset + size]
+        if s.fails is not None and offset < s.fails.until:
+            return self._nak(head, ERR_FAIL_ERRNO, s.fails.code)
+        chunk = (s.content or b"")[offset : offset + size]
         if not chunk:
             return self._nak(head, ERR_END_OF_FILE)
         return self._reply(head, ACK, chunk, offset=offset)

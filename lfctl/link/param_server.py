@@ -15,6 +15,7 @@ back sets the parameters it names (ArduPilot's parameter upload), each as a PARA
 
 from __future__ import annotations
 
+import errno
 import math
 import re
 import struct
@@ -24,7 +25,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
-from lfctl.link.ftp import FtpFile
+from lfctl.link.ftp import FtpFile, ReadFails
 from lfctl.link.params import INT8, INT16, INT32, REAL32, Param
 
 __all__ = ["PACKED_MAGIC", "PACKED_MAGIC_DEFAULTS", "ParamServer", "pack_params", "param_text", "unpack_params"]
@@ -323,8 +324,12 @@ class ParamServer:
         Raises
         ------
         ValueError
-            An option ArduPilot refuses (its value named): start or count past 65534,
-            withdefaults other than 0 or 1, or start past the last parameter.
+            An option ArduPilot refuses at the open (its value named): start or count past
+            65534, withdefaults other than 0 or 1.
+        ReadFails
+            start at or past the number of parameters: ArduPilot's open takes it and its read
+            of the header fails, EINVAL (``AP_Filesystem_Param::read``); the size the open
+            gives is its stat's, 12 bytes a parameter.
         """
         opts = {"start": 0, "count": 0, "withdefaults": 0}
         # as AP_Filesystem_Param::open: the options are looked for at every character, what
@@ -337,7 +342,12 @@ class ParamServer:
                     if opts[key] > (1 if key == "withdefaults" else 0xFFFE):
                         raise ValueError(f"param.pck option {key}={opts[key]} out of range")
         if opts["start"] >= len(self.params):
-            raise ValueError(f"param.pck start={opts['start']}: there are {len(self.params)} parameters")
+            raise ReadFails(
+                f"param.pck start={opts['start']}: there are {len(self.params)} parameters",
+                errno.EINVAL,
+                until=_PACKED_HEADER.size,
+                size=12 * len(self.params),
+            )
         defaults = self.defaults if opts["withdefaults"] else None
         return pack_params(self.params, defaults, opts["start"], opts["count"])
 

@@ -108,19 +108,37 @@ def test_param_pck_options_ardupilot_does_not_know_are_skipped(query: str) -> No
     assert said.server.packed(query) == said.server.packed("")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="AP_Filesystem_Param::open takes start=N whatever N (below 65535); only the read fails "
-    "(AP_Filesystem_Param::read: total_params <= start is EINVAL), so GCS_FTP's OpenFileRO is ACKed; "
-    "lfctl refuses the open",
-)
 def test_param_pck_opened_with_start_past_the_end_opens_and_its_read_fails() -> None:
+    # AP_Filesystem_Param::open takes start=N whatever N (below 65535); only the read fails
+    # (AP_Filesystem_Param::read: total_params <= start is EINVAL), so GCS_FTP's OpenFileRO is ACKed
     said = Said()
     s = Served({"@PARAM/param.pck": said.server.ftp_file()})
     ((head, _),) = s.ask(request(0, ftp.OP_OPEN_RO, b"@PARAM/param.pck?start=4"))
     assert head[2] == ftp.ACK
     ((head, data),) = s.ask(request(1, ftp.OP_READ, size=239))
     assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL]))
+
+
+def test_param_pck_past_the_end_gives_its_stat_size_fails_from_the_header_and_ends_after_it() -> None:
+    said = Said()  # four parameters
+    s = Served({"@PARAM/param.pck": said.server.ftp_file()})
+    # the open's size is GCS_FTP's stat of it: AP_Filesystem_Param::stat, 12 bytes a parameter, 4 x 12 = 48
+    ((head, data),) = s.ask(request(0, ftp.OP_OPEN_RO, b"@PARAM/param.pck?start=9"))
+    assert (head[2], data) == (ftp.ACK, struct.pack("<I", 48))
+    assert s.texts == ["FTP: @PARAM/param.pck?start=9 cannot be read: param.pck start=9: there are 4 parameters"]
+    # a read from inside the 6-byte header fails (EINVAL), as it is the header's read that fails ...
+    ((head, data),) = s.ask(request(1, ftp.OP_READ, offset=5, size=10))
+    assert (head[2], head[7], data) == (ftp.NAK, 0, bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL]))
+    # ... one from byte 6 on finds no parameter past start: the end (EndOfFile)
+    ((head, data),) = s.ask(request(2, ftp.OP_READ, offset=6, size=10))
+    assert (head[2], data) == (ftp.NAK, bytes([ftp.ERR_END_OF_FILE]))
+    # a burst from 0: its first read fails, one NAK marked complete at the burst's offset
+    ((head, data),) = s.ask(request(3, ftp.OP_BURST))
+    assert (head[2], head[5], head[7], data) == (ftp.NAK, 1, 0, bytes([ftp.ERR_FAIL_ERRNO, errno.EINVAL]))
+    # start=3, the last of the four: a file of one parameter, read as ever
+    ((head, _),) = s.ask(request(4, ftp.OP_OPEN_RO, b"@PARAM/param.pck?start=3", session=1))
+    ((head, data),) = s.ask(request(5, ftp.OP_READ, session=1, size=239))
+    assert data == said.server.packed("start=3") and data[:6] == b"\x1b\x67\x01\x00\x04\x00"
 
 
 def test_a_size_shorter_than_the_name_is_invalid_data_size() -> None:
