@@ -10,9 +10,10 @@ once, so a ground station that wanted one does not wait out its timeout.
 
 What :class:`FtpServer` answers, as ``GCS_FTP::Session::handle_request``: OpenFileRO (the
 file is read whole then, so a download is one consistent copy, and its size is given),
-ReadFile and BurstReadFile (a burst is at most :data:`BURST_PACKETS` replies, the last marked
-``burst_complete``; reading past the end is EndOfFile; a file that opens but cannot be read,
-:class:`ReadFails`, fails its reads with FailErrno), ListDirectory, CalcFileCRC32
+ReadFile and BurstReadFile (a burst runs to the file's end, EndOfFile, or to
+:data:`BURST_PACKETS` replies, only its last reply marked ``burst_complete``; reading past the
+end is EndOfFile; a file that opens but cannot be read, :class:`ReadFails`, fails its reads
+with FailErrno), ListDirectory, CalcFileCRC32
 (ArduPilot's CRC-32: zlib's polynomial from a zero seed, without the final inversion),
 CreateFile and OpenFileWO on a writable file, WriteFile, TerminateSession (which hands a
 written file over: refused, the reply is FailErrno with EINVAL and a line of text says why),
@@ -32,8 +33,13 @@ refused by its checks, and said.
 
 Replies are rationed, as a vehicle's link is: at most :data:`REPLIES_PER_S` a second on
 average (:data:`REPLY_BURST` at once); a request that finds none left goes unanswered, as
-ArduPilot drops a request its queue has no room for (the ground station asks again), and a
-burst ends early, marked complete (the ground station asks for the rest).
+ArduPilot drops a request its queue has no room for (the ground station asks again). A burst
+is paced by the ration as ArduPilot's by the link's free buffer space: it sends what the
+ration has at once and goes on at :meth:`FtpServer.tick` as the ration refills, so a ground
+station sees the same replies as from a Rover, only the last marked complete, and other
+traffic is not held up. Unlike ArduPilot's one FTP worker, which answers what comes during a
+burst after the burst, a request that comes during one is answered at once (a new burst on
+the same session replaces it; the session's closing ends it).
 
 The payload is MAVLink FTP's (``seq_number`` uint16, ``session``, ``opcode``, ``size``,
 ``req_opcode``, ``burst_complete``, padding, ``offset`` uint32, then up to 239 bytes of data).
@@ -100,8 +106,9 @@ _HEADER = struct.Struct("<HBBBBBBI")
 #: the payload's length, and the data it carries after the header
 PAYLOAD_BYTES = 251
 DATA_BYTES = PAYLOAD_BYTES - _HEADER.size
-#: the most replies one BurstReadFile gets before the ground station asks for more
-BURST_PACKETS = 64
+#: the most replies one BurstReadFile gets before the ground station asks for more: GCS_FTP's
+#: transfer_size (a full parameter file of the most parameters)
+BURST_PACKETS = 2000
 #: sessions open at once (over all senders): GCS_FTP's AP_MAVLINK_FTP_MAX_SESSIONS
 MAX_SESSIONS = 5
 #: a session this long idle may be taken over by another, or its file reopened, s (ArduPilot's)
@@ -184,6 +191,17 @@ class FtpFile:
 
 
 @dataclass
+class _Burst:
+    """A BurstReadFile under way: its request's sequence number, the next reply's offset, the
+    bytes a reply, and the replies sent."""
+
+    seq: int
+    offset: int
+    size: int
+    sent: int = 0
+
+
+@dataclass
 class _Session:
     key: tuple[int, int, int]  # sysid, compid, session number
     last_s: float
@@ -192,13 +210,15 @@ class _Session:
     written: bytearray | None = None  # a file open for writing
     file: FtpFile | None = None
     fails: ReadFails | None = None  # a file open for reading whose reads fail
+    burst: _Burst | None = None  # a BurstReadFile under way
 
     @property
     def open(self) -> bool:
         return self.content is not None or self.written is not None
 
     def close(self) -> None:
-        self.path, self.content, self.written, self.file, self.fails = "", None, None, None, None
+        self.path, self.content, self.written, self.file = "", None, None, None
+        self.fails, self.burst = None, None
 
 
 class FtpServer:
@@ -242,9 +262,29 @@ class FtpServer:
         self._tokens_t = self._clock()
 
     def tick(self) -> None:
-        """Close the sessions idle for :data:`SESSION_KILL_S` (a written file is handed over):
-        call it now and then, so a file whose TerminateSession was lost is not held for ever."""
-        self._expire(self._clock())
+        """Close the sessions idle for :data:`SESSION_KILL_S` (a written file is handed over),
+        and send the bursts under way as many replies as the ration has refilled since (one
+        from each in turn): call it often (each step), so a long burst goes on at the
+        ration's pace and a file whose TerminateSession was lost is not held for ever."""
+        now = self._clock()
+        self._refill(now)
+        self._expire(now)
+        going = [s for s in self._sessions.values() if s.burst is not None]
+        while going and self._tokens >= 1.0:
+            for s in list(going):
+                if self._tokens < 1.0:
+                    break
+                replies = self._burst(s, 1)
+                self._tokens -= len(replies)
+                s.last_s = now  # (as ArduPilot's push_reply: a session sending is not idle)
+                self._deliver(replies, s.key[0], s.key[1])
+                if s.burst is None:
+                    going.remove(s)
+
+    def _refill(self, now: float) -> None:
+        """The ration, refilled for the time since it was last looked at."""
+        self._tokens = min(REPLY_BURST, self._tokens + max(0.0, now - self._tokens_t) * REPLIES_PER_S)
+        self._tokens_t = now  # (a clock set back refills nothing and takes nothing)
 
     # -- the requests ----------------------------------------------------------------------
     def handle(self, payload: bytes, sysid: int, compid: int) -> None:
@@ -268,8 +308,7 @@ class FtpServer:
         field = bytes(payload[_HEADER.size : _HEADER.size + DATA_BYTES])
         key = (sysid, compid, session)
         now = self._clock()
-        self._tokens = min(REPLY_BURST, self._tokens + max(0.0, now - self._tokens_t) * REPLIES_PER_S)
-        self._tokens_t = now  # (a clock set back refills nothing and takes nothing)
+        self._refill(now)
         if self._tokens < 1.0:
             self.unanswered += 1  # as lost: the ground station asks again
             return
@@ -310,7 +349,12 @@ class FtpServer:
         else:  # TruncateFile, ListDirectoryWithTime and anything newer: unknown to ArduPilot
             replies = [self._nak(head, ERR_UNKNOWN_COMMAND)]
         no_room = replies[0][3] == NAK and replies[0][12] == ERR_NO_SESSIONS
-        if not no_room:  # (a refusal for want of room is not kept: asked again, there may be room)
+        if opcode == OP_BURST:
+            # a burst is not kept (it may go on after this): sent again, it starts again from its
+            # offset, as ArduPilot's keeps only the last reply, which a burst of more than one
+            # reply numbers past its request's
+            self._last.pop(key, None)
+        elif not no_room:  # (a refusal for want of room is not kept: asked again, there may be room)
             self._last[key] = (seq, opcode, now, replies)
             self._last.move_to_end(key)
             while len(self._last) > _KEPT_REPLIES:
@@ -334,9 +378,9 @@ class FtpServer:
             return [self._nak(head, ERR_FAIL)]  # a read on a file open for writing
         if opcode == OP_READ:
             return [self._read(s, head, size)]
-        if s.fails is not None and head[3] < s.fails.until:  # the first read fails: the burst ends
-            return [self._nak(head, ERR_FAIL_ERRNO, s.fails.code, burst=True)]
-        return self._burst(s.content, head, size or DATA_BYTES, max(1, min(BURST_PACKETS, int(self._tokens))))
+        # a burst: as many replies now as the ration has (at least one), the rest as it refills
+        s.burst = _Burst(head[0], head[3], size or DATA_BYTES)  # (one under way before: replaced)
+        return self._burst(s, int(self._tokens))
 
     def _open(self, s: _Session, head: tuple[int, int, int, int], size: int, data: bytes) -> bytes:
         """OpenFileRO, CreateFile or OpenFileWO: one file a session; its name checked as
@@ -380,20 +424,27 @@ class FtpServer:
             return self._nak(head, ERR_END_OF_FILE)
         return self._reply(head, ACK, chunk, offset=offset)
 
-    def _burst(self, content: bytes, head: tuple[int, int, int, int], size: int, packets: int) -> list[bytes]:
-        """BurstReadFile: the file from the offset asked for in replies of ``size`` bytes,
-        each with the next sequence number, ending in EndOfFile at the end (marked
-        ``burst_complete``), or after ``packets`` with the last one marked."""
-        seq, session, opcode, offset = head
-        out = []
-        for k in range(packets):
-            h = (seq + k, session, opcode, offset)
-            chunk = content[offset : offset + size]
-            if not chunk:
+    def _burst(self, s: _Session, packets: int) -> list[bytes]:
+        """The next ``packets`` replies (at least one) of the burst under way on ``s``: the
+        file from the offset asked for in replies of the size asked for, each with the next
+        sequence number, until EndOfFile at the end or :data:`BURST_PACKETS` replies, the
+        last marked ``burst_complete`` (the burst is then over: ``s.burst`` None)."""
+        b = s.burst
+        out: list[bytes] = []
+        while b is not None and len(out) < max(1, packets):
+            h = (b.seq + b.sent, s.key[2], OP_BURST, b.offset)
+            chunk = (s.content or b"")[b.offset : b.offset + b.size]
+            if s.fails is not None and b.offset < s.fails.until:
+                out.append(self._nak(h, ERR_FAIL_ERRNO, s.fails.code, burst=True))
+            elif not chunk:
                 out.append(self._nak(h, ERR_END_OF_FILE, burst=True))
-                break
-            out.append(self._reply(h, ACK, chunk, offset=offset, burst=k == packets - 1))
-            offset += len(chunk)
+            else:
+                b.sent += 1
+                out.append(self._reply(h, ACK, chunk, offset=b.offset, burst=b.sent == BURST_PACKETS))
+                b.offset += len(chunk)
+                if b.sent < BURST_PACKETS:
+                    continue
+            s.burst = b = None  # its last reply sent
         return out
 
     def _write(self, s: _Session, head: tuple[int, int, int, int], data: bytes) -> bytes:

@@ -81,6 +81,13 @@ class Served:
         assert all(len(p) == 251 and (s, c) == (sysid, compid) for p, s, c in self.replies)
         return [parse(p) for p, _, _ in self.replies]
 
+    def tick(self, after_s: float) -> list[tuple[tuple[int, ...], bytes]]:
+        """What the server sends at its tick ``after_s`` later (a burst going on)."""
+        self.replies.clear()
+        self.clock.t += after_s
+        self.server.tick()
+        return [parse(p) for p, _, _ in self.replies]
+
 
 # -- the packed parameter file ---------------------------------------------------------------
 TABLE = {
@@ -220,16 +227,24 @@ def test_a_burst_sends_the_file_in_numbered_parts_and_ends_at_its_end() -> None:
     assert b"".join(d for h, d in replies if h[2] == ftp.ACK) == s.content[100:]
     last_head, last = replies[-1]
     assert (last_head[2], last, last_head[5]) == (ftp.NAK, bytes([ftp.ERR_END_OF_FILE]), 1)  # burst complete
-    # a long file: BURST_PACKETS parts, the last marked complete, and the rest on asking again
-    s.content = bytes(300 * ftp.BURST_PACKETS)
+    # a long file of 300 x 239 bytes, one burst: what the ration has at once, the rest as it
+    # refills (GCS_FTP's burst waits for room on the link), only the very last marked complete
+    s.content = bytes(300 * ftp.DATA_BYTES)
     s.ask(request(0, ftp.OP_RESET))
     s.ask(request(1, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=1))
+    # 256 at once, less the 6 replies so far and the reset's and the open's: 248
     replies = s.ask(request(2, ftp.OP_BURST, session=1))
-    assert len(replies) == ftp.BURST_PACKETS and all(h[2] == ftp.ACK for h, _ in replies)
-    assert [h[5] for h, _ in replies] == [0] * (ftp.BURST_PACKETS - 1) + [1]
-    # the rest: 19,200 - 64 x 239 = 3,904 bytes, 17 parts (16 of 239, one of 80), then the end
-    rest = s.ask(request(3, ftp.OP_BURST, session=1, offset=ftp.BURST_PACKETS * ftp.DATA_BYTES))
-    assert [len(d) for _, d in rest] == [239] * 16 + [80, 1]
+    assert len(replies) == 248 and all(h[2] == ftp.ACK and h[5] == 0 for h, _ in replies)
+    assert (replies[0][0][0], replies[-1][0][0], replies[-1][0][7]) == (3, 250, 247 * 239)
+    assert s.tick(0.0) == []  # the ration spent: nothing more yet
+    # 0.125 s later: 400 a second, 50 more, the parts from 248 to 297
+    more = s.tick(0.125)
+    assert [h[7] // 239 for h, _ in more] == list(range(248, 298)) and all(h[5] == 0 for h, _ in more)
+    # another 0.125 s: the last 2 parts and the end, EndOfFile marked complete (sequence 3 + 300)
+    rest = s.tick(0.125)
+    assert [len(d) for _, d in rest] == [239, 239, 1] and [h[5] for h, _ in rest] == [0, 0, 1]
+    assert (rest[-1][0][0], rest[-1][0][2], rest[-1][1]) == (303, ftp.NAK, bytes([ftp.ERR_END_OF_FILE]))
+    assert s.tick(1.0) == []  # over
 
 
 def test_a_request_sent_again_gets_the_same_reply_not_a_second_action() -> None:
@@ -349,10 +364,11 @@ def test_replies_are_rationed_so_no_peer_can_make_the_vehicle_flood() -> None:
     s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
     sent = sum(len(s.ask(request(k, ftp.OP_BURST, offset=0))) for k in range(1, 200))  # all at one instant
     assert sent <= ftp.REPLY_BURST and s.server.unanswered > 0
-    # a second later, a whole burst again, its last reply marked complete (asked for more, it goes on)
+    # a second later, a burst again (replacing the one under way): the full ration at once, 256,
+    # none marked complete: the rest goes on at the ration's pace
     s.clock.t += 1.0
     replies = s.ask(request(500, ftp.OP_BURST, offset=0))
-    assert len(replies) == ftp.BURST_PACKETS and replies[-1][0][5] == 1
+    assert len(replies) == ftp.REPLY_BURST and not any(h[5] for h, _ in replies)
     # over a second, the ration's refill and no more
     total = 0
     for k in range(100):

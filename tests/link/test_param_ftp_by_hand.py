@@ -45,6 +45,13 @@ class Served:
         self.server.handle(payload, sysid, compid)
         return [parse(p) for p in self.replies]
 
+    def tick(self, after_s: float) -> list[tuple[tuple[int, ...], bytes]]:
+        """What the server sends at its tick ``after_s`` later (a burst going on)."""
+        self.replies.clear()
+        self.clock.t += after_s
+        self.server.tick()
+        return [parse(p) for p in self.replies]
+
 
 def table() -> dict[str, Param]:
     return {
@@ -161,13 +168,9 @@ def test_five_sessions_may_be_open_at_once_as_ardupilots_gcs_ftp_keeps() -> None
     assert [h[2] for h, _ in replies] == [ftp.ACK] * 5 + [ftp.NAK]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="GCS_FTP::Session::handle_request, BurstReadFile: a burst runs to transfer_size replies "
-    "(2000; 500 in the single-session GCS_FTP) before it is marked burst_complete; lfctl stops at 64 "
-    "(BURST_PACKETS)",
-)
 def test_a_burst_of_a_100_reply_file_runs_to_its_end_in_one_request() -> None:
+    # GCS_FTP::Session::handle_request, BurstReadFile: a burst runs to transfer_size replies
+    # (2000; 500 in the single-session GCS_FTP) before it is marked burst_complete
     s = Served()
     s.content = bytes(239 * 100)
     s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
@@ -580,13 +583,124 @@ def test_replies_other_than_a_listings_and_a_bursts_carry_offset_0_no_burst_mark
         assert head[2] == ftp.ACK and (head[5], head[6], head[7]) == (0, 0, 0)
 
 
-def test_a_burst_with_one_reply_left_in_the_ration_sends_one_marked_complete() -> None:
+def test_a_burst_with_one_reply_left_in_the_ration_sends_one_and_the_rest_as_it_refills() -> None:
     s = Served()
     s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
     for k in range(254):  # 256 at once: the open and 254 more leave one
         s.ask(request(1 + k, ftp.OP_NONE))
     replies = s.ask(request(300, ftp.OP_BURST, size=100))
-    assert [(h[2], h[5], h[7]) for h, _ in replies] == [(ftp.ACK, 1, 0)]
+    assert [(h[2], h[5], h[7]) for h, _ in replies] == [(ftp.ACK, 0, 0)]  # one, not the end: not marked
+    # 0.0201 s later, 400 a second: 8.04, 8 more, the parts at 100 ... 700 (the last 71 bytes) and the end
+    rest = s.tick(0.0201)
+    assert [(h[2], h[5], h[7], len(d)) for h, d in rest] == [(ftp.ACK, 0, o, 100) for o in range(100, 700, 100)] + [
+        (ftp.ACK, 0, 700, 71),
+        (ftp.NAK, 1, 771, 1),  # EndOfFile, marked complete, at the burst's offset then
+    ]
+    assert [h[0] for h, _ in rest] == list(range(302, 310))  # 300 + 1 + 1 ... 300 + 1 + 8
+
+
+def test_a_burst_runs_to_2000_replies_at_the_rations_pace_the_2000th_alone_marked() -> None:
+    # GCS_FTP's transfer_size: the 2,000th reply is marked burst_complete, though the file goes on
+    s = Served()
+    s.content = bytes(239 * 2001)
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))  # 256 - 1 = 255 left
+    replies = s.ask(request(1, ftp.OP_BURST))
+    assert len(replies) == 255
+    # 2,000 - 255 = 1,745 more at 400 a second: 200 each 0.5 s, 8 x 200 then 145
+    ticks = [s.tick(0.5) for _ in range(10)]
+    assert [len(t) for t in ticks] == [200] * 8 + [145, 0]
+    replies += [r for t in ticks for r in t]
+    assert [h[0] for h, _ in replies] == list(range(2, 2002))  # 1 + 1 ... 1 + 2,000
+    assert [h[7] for h, _ in replies] == [239 * k for k in range(2000)]
+    assert all(h[2] == ftp.ACK for h, _ in replies) and [h[5] for h, _ in replies] == [0] * 1999 + [1]
+    # asked again from the 2,000th part: the last one and the end
+    rest = s.ask(request(2002, ftp.OP_BURST, offset=239 * 2000))
+    assert [(h[2], h[5], len(d)) for h, d in rest] == [(ftp.ACK, 0, 239), (ftp.NAK, 1, 1)]
+
+
+def test_a_session_sending_a_burst_is_not_idle_and_is_not_taken_over() -> None:
+    # GCS_FTP's push_reply sets last_send_ms at each reply: a session bursting is in use
+    s = Served()
+    s.content = bytes(239 * 2000)
+    for k in range(ftp.MAX_SESSIONS):
+        s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=k))  # 256 - 5 = 251 left
+    assert len(s.ask(request(1, ftp.OP_BURST))) == 251  # session 0's last request: at 100 s
+    s.clock.t = 103.4  # the ration full again (256): the other four read, 252 left ...
+    for k in range(1, ftp.MAX_SESSIONS):
+        assert s.ask(request(1, ftp.OP_READ, session=k, size=4))[0][0][2] == ftp.ACK
+    assert len(s.tick(0.0)) == 252  # ... which the burst sends, at 103.4 s
+    assert len(s.tick(0.1001)) == 40  # and 40 (of 40.04) more at 103.5001 s
+    # 0.0026 s later (1.08 in the ration) a sixth asks: session 0 asked nothing for 3.5 s but sent
+    # 0.0026 s ago, the others read 0.1027 s ago: none idle 3 s, no session for it
+    s.clock.t += 0.0026
+    assert s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=9))[0][1] == bytes([ftp.ERR_NO_SESSIONS])
+
+
+def test_a_request_during_a_burst_is_answered_at_once_and_the_burst_goes_on() -> None:
+    s = Served()
+    s.content = bytes(239 * 300)
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=1))
+    assert len(s.ask(request(1, ftp.OP_BURST))) == 254  # 256 - 2 opens
+    # 0.0101 s later: 4.04 in the ration; another session's read takes one at once ...
+    s.clock.t += 0.0101
+    ((head, data),) = s.ask(request(1, ftp.OP_READ, session=1, offset=239, size=4))
+    assert (head[2], head[7], data) == (ftp.ACK, 239, bytes(4))
+    # ... and the burst the other 3 (parts 254, 255, 256), 0.04 left
+    assert [h[7] // 239 for h, _ in s.tick(0.0)] == [254, 255, 256]
+    # 0.0101 s: 4.08; a read on the bursting session itself is answered at once too ...
+    s.clock.t += 0.0101
+    ((head, _),) = s.ask(request(5, ftp.OP_READ, offset=0, size=4))
+    assert head[2] == ftp.ACK
+    # ... and the burst goes on where it was: parts 257 ... 259, numbered 1 + 1 + 257 ...
+    going = s.tick(0.0)
+    assert [(h[0], h[7] // 239) for h, _ in going] == [(259, 257), (260, 258), (261, 259)]
+
+
+def test_a_burst_ends_when_its_session_closes_and_a_new_one_replaces_it() -> None:
+    s = Served()
+    s.content = bytes(239 * 1000)
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    assert len(s.ask(request(1, ftp.OP_BURST))) == 255
+    # a burst again on the session, from part 900, 0.0251 s later (10.04 in the ration): it
+    # replaces the one under way, its parts 900 ... 909 numbered from its own request, 7
+    s.clock.t += 0.0251
+    again = s.ask(request(7, ftp.OP_BURST, offset=239 * 900))
+    assert [(h[0], h[7] // 239) for h, _ in again] == [(8 + k, 900 + k) for k in range(10)]
+    assert s.tick(0.0) == []  # (0.04 left)
+    # TerminateSession ends it: the ration refills, nothing more is sent
+    s.clock.t += 0.0101
+    assert s.ask(request(20, ftp.OP_TERMINATE))[0][0][2] == ftp.ACK
+    assert s.tick(1.0) == []
+    # and ResetSessions the same
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=3))
+    assert len(s.ask(request(1, ftp.OP_BURST, session=3))) == ftp.REPLY_BURST - 1
+    s.clock.t += 0.01
+    s.ask(request(2, ftp.OP_RESET))
+    assert s.tick(1.0) == []
+
+
+def test_bursts_on_two_sessions_share_the_ration_one_reply_each_in_turn() -> None:
+    s = Served()
+    s.content = bytes(239 * 1000)
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=1))
+    assert len(s.ask(request(1, ftp.OP_BURST))) == 254  # 256 - 2 opens: the ration spent
+    s.clock.t += 0.0026  # 1.04 in the ration: the second burst's first part, 0.04 left
+    assert [h[7] // 239 for h, _ in s.ask(request(1, ftp.OP_BURST, session=1, offset=239 * 500))] == [500]
+    # 0.015 s: 6.04, 6 replies, three each, in turn
+    going = s.tick(0.015)
+    assert [(h[1], h[7] // 239) for h, _ in going] == [(0, 254), (1, 501), (0, 255), (1, 502), (0, 256), (1, 503)]
+
+
+def test_a_burst_sent_again_starts_again_from_its_offset() -> None:
+    # not its kept replies: GCS_FTP keeps only the last reply, numbered past a burst's request
+    s = Served()
+    s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin"))
+    first = s.ask(request(1, ftp.OP_BURST, size=239))
+    assert [h[7] for h, _ in first] == [0, 239, 478, 717, 771]  # 771 bytes: 3 x 239 + 54, then the end
+    s.content = b"x" * 300  # (the file was read whole at the open: the same parts again)
+    assert s.ask(request(1, ftp.OP_BURST, size=239)) == first
 
 
 def test_writes_in_parts_make_the_file_of_their_bytes() -> None:
