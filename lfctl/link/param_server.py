@@ -49,6 +49,15 @@ def param_text(value: str | bytes) -> str:
     return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
 
 
+def _ascii_upper(text: str) -> str:
+    """``text`` with its ASCII letters in upper case and nothing else changed (as C's
+    ``strcasecmp`` compares: ``"ß".upper()`` is ``"SS"``, no name's letters)."""
+    return text.translate(_UPPER)
+
+
+_UPPER = str.maketrans("abcdefghijklmnopqrstuvwxyz", "ABCDEFGHIJKLMNOPQRSTUVWXYZ")
+
+
 def _packed_value(fmt: str, value: float) -> bytes:
     """``value`` as the packed file holds it (an integer type's value is an integer already)."""
     return struct.pack("<" + fmt, value if fmt == "f" else int(value))
@@ -160,9 +169,11 @@ REPEAT_S = 1.0
 class ParamServer:
     """Answers PARAM_REQUEST_LIST, PARAM_REQUEST_READ and PARAM_SET over ``params``.
 
-    A list gets every parameter with its index; a read by index or by exact name gets one (a
-    read by name, index -1, as ArduPilot answers it); a set stores the value as ``AP_Param``
-    stores it and is answered with the value in force, index -1, whether it was taken or not.
+    A list gets every parameter with its index; a read by index or by name gets one (a read
+    by name, index -1 and the name as it was asked, as ArduPilot answers it); a set stores the
+    value as ``AP_Param`` stores it and is answered with the value in force, index -1, whether
+    it was taken or not. A name is found as ``AP_Param::find`` finds it (:meth:`name_of`):
+    its top-level group's name in its own case, the rest in any case.
     An unknown name or index, a value outside the parameter's range and a read-only parameter
     are each said in a line of text (ArduPilot's own words for a read-only one); the same line
     of lfctl's own is said to one asker once in :data:`REPEAT_S`, as a client tries a request
@@ -198,7 +209,7 @@ class ParamServer:
         #: each parameter's default: its value when the server was made (the table's defaults)
         self.defaults = {name: p.value for name, p in params.items()}
 
-    def value_message(self, name: str, indexed: bool = True) -> Any:
+    def value_message(self, name: str, indexed: bool = True, said: str | None = None) -> Any:
         """PARAM_VALUE for ``name``: with its index in the list, or (``indexed`` False) index -1.
 
         Parameters
@@ -207,15 +218,20 @@ class ParamServer:
             A parameter of the table.
         indexed : bool
             Give its index (a list, a read by index) or -1 (a set, a read by name).
+        said : str, optional
+            The name as the request spelled it, to answer with instead (a read by name, a
+            read-only parameter's set: Rover answers those with the request's own ``key``).
         """
         names = list(self.params)
         p = self.params[name]
         index = names.index(name) if indexed else 0xFFFF
-        return mav.MAVLink_param_value_message(name.encode(), float(p.value), p.kind, len(names), index)
+        return mav.MAVLink_param_value_message((said or name).encode(), float(p.value), p.kind, len(names), index)
 
     def name_of(self, raw: str | bytes) -> str | None:
-        """The parameter a request names: its exact name (ArduPilot's ``AP_Param`` finds a
-        name only in its own case), or None.
+        """The parameter a request names, or None: as ``AP_Param::find`` finds it, its
+        top-level group's name (:attr:`Param.group`) in its own case and the rest in any
+        case (``wp_speed`` is WP_SPEED, ``SCHED_loop_rate`` SCHED_LOOP_RATE,
+        ``sched_loop_rate`` nothing).
 
         Parameters
         ----------
@@ -223,7 +239,13 @@ class ParamServer:
             The request's ``param_id``.
         """
         name = param_text(raw)
-        return name if name in self.params else None
+        if name in self.params:
+            return name
+        folded = _ascii_upper(name)
+        for known, p in self.params.items():
+            if name.startswith(p.group) and _ascii_upper(known) == folded:
+                return known
+        return None
 
     def request_list(self) -> None:
         """Every parameter, in order (PARAM_REQUEST_LIST)."""
@@ -248,28 +270,32 @@ class ParamServer:
             return
         name = self.name_of(m.param_id)
         if name is not None:
-            self._send(self.value_message(name, indexed=False))
+            self._send(self.value_message(name, indexed=False, said=param_text(m.param_id)))
         else:
             self._warn(f"Unknown parameter {param_text(m.param_id)}")
 
     def set(self, m: Any) -> str | None:
         """Store a PARAM_SET's value if the parameter takes it, and answer with the value in
-        force; returns the parameter's name when the value was stored.
+        force; returns the parameter's name when the value was stored. The answer names the
+        parameter by its name, but a read-only one's (refused, as Rover's
+        ``handle_param_set``) by the set's own spelling, as its line of text does.
 
         Parameters
         ----------
         m : pymavlink message
             The PARAM_SET.
         """
-        name = self.name_of(m.param_id)
+        said = param_text(m.param_id)
+        name = self.name_of(said)
         if name is None:
-            self._warn(f"Unknown parameter {param_text(m.param_id)}")
+            self._warn(f"Unknown parameter {said}")
             return None
-        refused = self.set_value(name, m.param_value)
-        self._send(self.value_message(name, indexed=False))
+        refused = self.set_value(name, m.param_value, said=said)
+        readonly = self.params[name].readonly
+        self._send(self.value_message(name, indexed=False, said=said if readonly else None))
         return name if refused is None else None
 
-    def set_value(self, name: str, value: float, quiet: bool = False) -> str | None:
+    def set_value(self, name: str, value: float, quiet: bool = False, said: str | None = None) -> str | None:
         """Store ``value`` in the parameter ``name`` if it takes it (:meth:`Param.accepts`);
         returns None when stored, else why not, which is also said in a line of text unless
         ``quiet``.
@@ -282,13 +308,16 @@ class ParamServer:
             The value asked for.
         quiet : bool
             Do not say a refusal (the caller says them together).
+        said : str, optional
+            The name as a PARAM_SET spelled it: a read-only parameter's refusal names it so,
+            as Rover's does.
         """
         p = self.params[name]
         if p.accepts(value):
             p.value = p.stored(value)
             return None
         if p.readonly:
-            why = f"Param write denied ({name})"  # ArduPilot's text
+            why = f"Param write denied ({said or name})"  # ArduPilot's text, its key as asked
         else:
             why = f"{name} rejected: {value:g} outside {p.lo:g}..{p.hi:g} {p.unit}".rstrip()
         if not quiet:
@@ -364,11 +393,12 @@ class ParamServer:
 
     def upload(self, data: bytes) -> str | None:
         """Set the parameters an uploaded ``@PARAM/param.pck`` names, each as a PARAM_SET
-        would (out of range or read-only: not set); a name the table lacks is skipped, as
-        ArduPilot skips it. What was set and what was not is said in one line of text (a
-        file may name thousands). Returns None when the file was read whole, else why it
-        could not be: a damaged header sets nothing, a damaged parameter stops the reading
-        there, those before it set (as ArduPilot's param_upload_parse sets each as it reads).
+        would (out of range or read-only: not set), its name found as :meth:`name_of` finds
+        it; a name the table lacks is skipped, as ArduPilot skips it. What was set and what
+        was not is said in one line of text (a file may name thousands). Returns None when
+        the file was read whole, else why it could not be: a damaged header sets nothing, a
+        damaged parameter stops the reading there, those before it set (as ArduPilot's
+        param_upload_parse sets each as it reads).
 
         Parameters
         ----------
@@ -391,9 +421,10 @@ class ParamServer:
         refused: dict[str, str] = {}  # by name: a file may name one many times
         unknown: dict[str, None] = {}
         taken = 0
-        for name, value in values:
-            if name not in self.params:
-                unknown[name] = None
+        for named, value in values:
+            name = self.name_of(named)  # (param_upload_parse finds each with AP_Param::find)
+            if name is None:
+                unknown[named] = None
             elif self.set_value(name, value, quiet=True) is not None:
                 refused[name] = "read-only" if self.params[name].readonly else f"{value:g}"
             else:

@@ -63,6 +63,15 @@ class Param:
         Its MAV_PARAM_TYPE, ArduPilot's: REAL32 (9) for an ``AP_Float``, INT8 (2), INT16
         (4) or INT32 (6) for an ``AP_Int8`` / ``AP_Int16`` / ``AP_Int32`` (PARAM_VALUE says
         it; MAVSDK's ``get_param_int`` needs it).
+    group : str
+        The name of the top-level ``AP_Param`` group Rover keeps it in, the part of its name
+        ``AP_Param::find`` matches in its own case (``strncmp``), the rest in any case
+        (``strncasecmp``, ``strcasecmp``): ``"SCHED_"`` (``SCHED_LOOP_RATE``),
+        ``"ARMING_"`` (``ARMING_CHECK``); ``""``, the whole name in any case, for a top-level
+        scalar (``CRUISE_SPEED``) or one in a group named ``""`` (``ParametersG2``'s
+        ``TURN_RADIUS`` and its subgroups' ``WP_SPEED``, ``SRTL_POINTS``; ``AP_Vehicle``'s
+        ``FENCE_*``). lfctl's ``LFC_*`` are ``"LFC_"``, as a script's table
+        (``AP_Param::add_table``, a top-level group of its prefix) would be.
     """
 
     value: float
@@ -72,6 +81,7 @@ class Param:
     description: str
     readonly: bool = False
     kind: int = REAL32
+    group: str = ""
 
     def accepts(self, value: float) -> bool:
         """Whether a ground station may set ``value`` (finite, in range once stored, not
@@ -135,6 +145,7 @@ def default_params(sysid: int) -> dict[str, Param]:
             "Hz",
             "the main loop's rate (taken at boot): a message is sent at most 0.8 x this often",
             kind=INT16,
+            group="SCHED_",  # Rover's GOBJECT(scheduler, "SCHED_", AP_Scheduler)
         ),
         "CIRC_SPEED": Param(0.0, 0.0, 10.0, "m/s", "speed round a mission's NAV_LOITER_TURNS circle; 0: WP_SPEED"),
         "MIS_DONE_BEHAVE": Param(
@@ -182,7 +193,13 @@ def default_params(sysid: int) -> dict[str, Param]:
         "FENCE_RADIUS": Param(300.0, 30.0, 10000.0, "m", "circle fence radius around home"),
         "FENCE_MARGIN": Param(2.0, 1.0, 10.0, "m", "distance inside the fence that counts as near it"),
         "ARMING_CHECK": Param(
-            1, 0, 0x7FFFFF, "", "pre-arm checks: 0 none, 1 all, else a bitmask (32: parameters)", kind=INT32
+            1,
+            0,
+            0x7FFFFF,
+            "",
+            "pre-arm checks: 0 none, 1 all, else a bitmask (32: parameters)",
+            kind=INT32,
+            group="ARMING_",  # Rover's GOBJECT(arming, "ARMING_", AP_Arming)
         ),
         "SYSID_MYGCS": Param(
             255, 1, 255, "", "the ground station whose RC_CHANNELS_OVERRIDE and MANUAL_CONTROL are taken", kind=INT16
@@ -201,8 +218,9 @@ def default_params(sysid: int) -> dict[str, Param]:
 def formation_params() -> dict[str, Param]:
     """lfctl's formation parameters, ``LFC_*``, at their defaults: the slot, the coast, the
     search and the law. A simulated follower has them among its vehicle's parameters; on a
-    real rover its companion (``lfctl follow``, component 191) has them."""
-    return {
+    real rover its companion (``lfctl follow``, component 191) has them. Their names are
+    found as a script's table of prefix ``LFC_`` would be (:attr:`Param.group`)."""
+    table = {
         "LFC_RANGE": Param(1.5, 0.1, 1000.0, "m", "formation: commanded range to the target"),
         "LFC_BEARING": Param(0.0, -180.0, 180.0, "deg", "formation: commanded bearing to the target"),
         "LFC_COAST": Param(2.0, 0.0, 3600.0, "s", "formation: coast this long on the filter when the target is hidden"),
@@ -221,6 +239,9 @@ def formation_params() -> dict[str, Param]:
             0.3, 0.01, 100.0, "m", "formation: the trail law steers for the point this far along the path"
         ),
     }
+    for p in table.values():
+        p.group = "LFC_"
+    return table
 
 
 def set_values(params: dict[str, Param], values: dict[str, float], source: str) -> None:

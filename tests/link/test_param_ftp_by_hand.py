@@ -83,16 +83,72 @@ def upload_file(params: dict[str, Param]) -> bytes:
 # == what ArduPilot's source does (xfail, strict, where lfctl still answers otherwise) ==========
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="AP_Param::find (libraries/AP_Param/AP_Param.cpp) matches a top-level group's prefix with "
-    "strncmp but a subgroup's prefix with strncasecmp and a member with strcasecmp: Rover's WP_SPEED "
-    "(ParametersG2, prefix '', subgroup 'WP_') is found as 'wp_speed'; lfctl matches the exact case only",
-)
 def test_a_set_naming_wp_speed_in_lower_case_sets_it_as_ap_param_find_finds_it() -> None:
+    # AP_Param::find (libraries/AP_Param/AP_Param.cpp) matches a top-level group's prefix with
+    # strncmp but a subgroup's prefix with strncasecmp and a member with strcasecmp: Rover's
+    # WP_SPEED (ParametersG2, prefix '', subgroup 'WP_') is found as 'wp_speed'
     said = Said(default_params(1))
     said.server.set(mav.MAVLink_param_set_message(1, 1, b"wp_speed", 1.5, mav.MAV_PARAM_TYPE_REAL32))
     assert said.server.params["WP_SPEED"].value == 1.5
+
+
+@pytest.mark.parametrize(
+    ("asked", "found"),
+    [
+        ("wp_speed", "WP_SPEED"),  # ParametersG2 (group ''), its subgroup WP_: all in any case
+        ("Wp_SpEeD", "WP_SPEED"),
+        ("srtl_points", "SRTL_POINTS"),
+        ("turn_radius", "TURN_RADIUS"),  # a member of ParametersG2
+        ("rc_override_time", "RC_OVERRIDE_TIME"),  # ParametersG2's subgroup RC, RC_Channels' _OVERRIDE_TIME
+        ("fence_enable", "FENCE_ENABLE"),  # AP_Vehicle (group ''), its subgroup FENCE_
+        ("sysid_thismav", "SYSID_THISMAV"),  # a top-level scalar: strcasecmp over the whole name
+        ("cruise_Throttle", "CRUISE_THROTTLE"),
+        ("mis_done_behave", "MIS_DONE_BEHAVE"),  # ParametersG2's, not the top-level MIS_ group's
+        ("SCHED_loop_rate", "SCHED_LOOP_RATE"),  # the top-level group SCHED_ in its case, the rest in any
+        ("sched_loop_rate", None),  # strncmp: SCHED_ in another case is no group
+        ("Sched_LOOP_RATE", None),
+        ("ARMING_check", "ARMING_CHECK"),
+        ("arming_CHECK", None),
+        ("LFC_range", "LFC_RANGE"),  # lfctl's, as a script's table of prefix LFC_
+        ("lfc_range", None),
+        ("wp_speeds", None),  # the whole name, no more
+        ("wp_spee", None),
+        ("cruiſe_speed", None),  # strcasecmp folds ASCII only (Python's upper() makes this ſ an S)
+    ],
+)
+def test_a_name_is_found_as_ap_param_find_finds_it(asked: str, found: str | None) -> None:
+    assert Said(default_params(1)).server.name_of(asked.encode()) == found
+
+
+def test_a_read_by_name_in_another_case_is_answered_in_the_case_asked() -> None:
+    # GCS_MAVLINK::param_io_timer copies the request's param_name into the reply, then finds it
+    said = Said()
+    said.server.request_read(mav.MAVLink_param_request_read_message(1, 1, b"wp_Speed", -1))
+    (m,) = said.sent
+    assert (m.param_id, m.param_value, m.param_index, m.param_count) == ("wp_Speed", 2.5, 65535, 4)
+
+
+def test_a_set_in_another_case_answers_the_name_and_a_read_only_one_the_name_asked() -> None:
+    # handle_param_set: a value taken is saved and sent by its own name (save_sync's
+    # copy_name_info); a read-only one is refused with the set's own key, in its text and its answer
+    said = Said()
+    assert said.server.set(mav.MAVLink_param_set_message(1, 1, b"wp_radius", 3.0, mav.MAV_PARAM_TYPE_REAL32)) == (
+        "WP_RADIUS"
+    )
+    fixed = mav.MAVLink_param_set_message(1, 1, b"sysid_THISMAV", 7, mav.MAV_PARAM_TYPE_INT16)
+    assert said.server.set(fixed) is None
+    assert [(m.param_id, m.param_value) for m in said.sent] == [("WP_RADIUS", 3.0), ("sysid_THISMAV", 1.0)]
+    assert said.texts == [("Param write denied (sysid_THISMAV)", mav.MAV_SEVERITY_WARNING)]
+    assert said.server.params["WP_RADIUS"].value == 3.0 and said.server.params["SYSID_THISMAV"].value == 1
+
+
+def test_an_upload_finds_its_names_as_ap_param_find_does() -> None:
+    # param_upload_parse looks each name up with AP_Param::find
+    said = Said(default_params(1))
+    data = upload_file({"wp_radius": Param(3.0, 0, 100, "", ""), "arming_check": Param(0, 0, 1, "", "", kind=INT16)})
+    assert said.server.upload(data) is None
+    assert said.server.params["WP_RADIUS"].value == 3.0 and said.server.params["ARMING_CHECK"].value == 1
+    assert said.texts == [("Param upload: 1 of 2 set; no such parameter arming_check", mav.MAV_SEVERITY_WARNING)]
 
 
 def test_a_read_with_index_minus_2_is_by_index_and_gets_no_answer() -> None:
