@@ -1177,6 +1177,11 @@ def config_from_table(table: Mapping[str, Any], name: str = "scenario", source: 
         Unknown key, wrong type or out-of-range value.
     """
     data = dict(table)
+    if isinstance(data.get("scenario"), str):  # (a sweep's base scenario: a scenario has no such key)
+        raise ConfigError(
+            f"unknown key 'scenario': this is a sweep over the scenario {data['scenario']!r}, not a scenario; "
+            "run it with `lfctl sweep`"
+        )
     data.setdefault("name", re.sub(r"[^A-Za-z0-9_-]", "_", name)[:64] or "scenario")
     data.setdefault("sim", {})
     vehicles = data.get("vehicles", [])

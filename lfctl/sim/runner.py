@@ -50,7 +50,7 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["FollowerTrace", "RunReport", "check_video", "run_scenario", "slots_out_of_view"]
+__all__ = ["FollowerTrace", "RunReport", "check_video", "events_after_the_end", "run_scenario", "slots_out_of_view"]
 
 log = logging.getLogger(__name__)
 
@@ -440,6 +440,30 @@ def vehicles_on_each_other(cfg: Config) -> list[str]:
     return out
 
 
+def events_after_the_end(cfg: Config) -> list[str]:
+    """Each timed event of the scenario that the run ends before (an occluder's crossing, a
+    truth-sensor dropout, from ``sim.duration_s`` on): a slip, or a scenario run shorter than
+    it was written for (``--duration``); :func:`run_scenario` says so as it starts.
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario, with the run's duration.
+    """
+    end = cfg.sim.duration_s
+    out = [
+        f"scene.occluders[{i}].t_s = {occ.t_s:g} s is at or after the run's end ({end:g} s): it never crosses"
+        for i, occ in enumerate(cfg.scene.occluders)
+        if occ.t_s >= end
+    ]
+    out += [
+        f"sensing.dropouts[{i}] starts at {start:g} s, at or after the run's end ({end:g} s): it never happens"
+        for i, (start, _stop) in enumerate(cfg.sensing.dropouts)
+        if start >= end
+    ]
+    return out
+
+
 def slots_out_of_view(cfg: Config) -> list[str]:
     """Each follower whose slot puts its target where its sensor cannot see it, said. With
     camera sensing: the target's banner not wholly in the picture when the follower holds its
@@ -567,7 +591,7 @@ def run_scenario(
             f"vehicles[{alone[0]}].companion = false needs --realtime: the companion that commands it "
             "(lfctl follow) talks to it over UDP in real time"
         )
-    for problem in (*slots_out_of_view(cfg), *vehicles_on_each_other(cfg)):
+    for problem in (*slots_out_of_view(cfg), *vehicles_on_each_other(cfg), *events_after_the_end(cfg)):
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:

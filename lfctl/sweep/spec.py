@@ -399,6 +399,12 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     """
     data = read_toml(text)
     unknown = sorted(set(data) - set(_TOP_KEYS))
+    sections = sorted(set(unknown) & {f.name for f in dataclasses.fields(Config)})
+    if sections:
+        raise ConfigError(
+            f"unknown key {sections[0]!r}: this is a scenario, not a sweep; run it with `lfctl sim` "
+            "(a sweep names its scenario in `scenario = ...`)"
+        )
     if unknown:
         raise ConfigError(f"unknown key {unknown[0]!r} (allowed here: {', '.join(_TOP_KEYS)})")
     if "scenario" not in data or not isinstance(data["scenario"], str):

@@ -1,12 +1,12 @@
 """What a run says before it starts about a scenario whose followers cannot see their targets,
-or whose vehicles start on top of each other."""
+or whose vehicles start on top of each other, or whose timed events come after its end."""
 
 from __future__ import annotations
 
 from support import LEADER_AND_FOLLOWER
 
 from lfctl.config import parse_config
-from lfctl.sim.runner import slots_out_of_view
+from lfctl.sim.runner import events_after_the_end, slots_out_of_view
 
 SCENARIO = (
     """[sim]
@@ -59,3 +59,25 @@ def test_vehicles_that_start_on_top_of_each_other_are_named() -> None:
     (said,) = vehicles_on_each_other(parse_config(on_top, "t"))
     assert said.startswith("vehicles leader and f1 start 0.10 m apart, closer than a rover's 0.3 m length")
     assert vehicles_on_each_other(parse_config(LEADER_AND_FOLLOWER, "t")) == []
+
+
+def test_an_occluder_or_a_dropout_the_run_ends_before_is_named() -> None:
+    # a 70 s run with an occluder at 300 s and a dropout from 70 s (the end itself): neither
+    # ever happens; one at 69.9 s and a dropout from 10 s do, and are not named
+    events = (
+        """[sim]
+duration_s = 70
+[[scene.occluders]]
+t_s = 300
+[[scene.occluders]]
+t_s = 69.9
+[sensing]
+dropouts = [[10.0, 20.0], [70.0, 80.0]]
+"""
+        + LEADER_AND_FOLLOWER
+    )
+    assert events_after_the_end(parse_config(events, "t")) == [
+        "scene.occluders[0].t_s = 300 s is at or after the run's end (70 s): it never crosses",
+        "sensing.dropouts[1] starts at 70 s, at or after the run's end (70 s): it never happens",
+    ]
+    assert events_after_the_end(parse_config(events.replace("duration_s = 70", "duration_s = 400"), "t")) == []

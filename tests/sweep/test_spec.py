@@ -253,3 +253,22 @@ def test_a_spec_changed_after_it_was_read_is_refused_and_one_read_from_changed_t
     assert text != spec.source
     small = parse_sweep(text, "noise", spec.path.parent)
     assert small.seeds == (1, 2) and len(plan(small).runs) == len(plan(spec).runs) // 5
+
+
+def test_a_sweep_given_as_a_scenario_and_a_scenario_given_as_a_sweep_are_named_with_the_command() -> None:
+    # a new user's likely slip: each file is said to be what it is, with the command to run it
+    # (before, each was an unknown key of the other: 'description', 'banner')
+    from lfctl.data import examples_dir
+
+    sweep_file = examples_dir() / "sweeps" / "gains-bearing.toml"
+    with pytest.raises(
+        ConfigError, match=r"this is a sweep over the scenario 'convoy', not a scenario; run it with `lfctl sweep`"
+    ):
+        load_config(sweep_file)
+    with pytest.raises(
+        ConfigError, match=r"unknown key 'banner': this is a scenario, not a sweep; run it with `lfctl sim`"
+    ):
+        load_sweep(examples_dir() / "convoy.toml")
+    # a scenario's own bad key is still only that
+    with pytest.raises(ConfigError, match=r"unknown key 'scenario' \(allowed here:"):
+        parse_config("scenario = 3\n")
