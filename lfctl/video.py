@@ -18,6 +18,7 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from lfctl.data import footage_dir
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -62,6 +63,14 @@ TEXT_CODECS = frozenset({"ansi", "bintext", "xbin", "idf"})
 #: the first bytes of an MCAP file (the format's magic, with its major version): FFmpeg's
 #: probe takes a run's log for a raw H.264 stream (its frames are in it) and decodes smears
 MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+def missing_source(source: str) -> str:
+    """What to say of a video source that names no file, camera or stream."""
+    return (
+        f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
+        f" or a shipped clip by name, from {footage_dir()})"
+    )
 
 
 @dataclass(frozen=True)
@@ -339,9 +348,7 @@ class VideoSource:
         except (OSError, ValueError):
             if source.startswith("/dev/"):  # a camera's device, not there yet (a USB camera enumerating)
                 raise SourceNotReady(f"no camera device {source[:200]} (not plugged in, or not ready)") from None
-            raise ConfigError(
-                f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL)"
-            ) from None
+            raise ConfigError(missing_source(source)) from None
         if stat.S_ISFIFO(st.st_mode) or stat.S_ISSOCK(st.st_mode):
             raise ConfigError(f"{source} is a named pipe or socket, not a video file (a stream is given by its URL)")
         if stat.S_ISDIR(st.st_mode):

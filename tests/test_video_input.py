@@ -314,3 +314,12 @@ def test_an_mp4_trimmed_without_reencoding_is_not_called_cut(
         assert check.streams.video[0].frames == 60  # the samples, kept
     code, lines, err = track(capsys, str(trimmed), "--roi", "38,20,40,30")
     assert code == 0 and len(lines) == 42 and "declares" not in err, err
+
+
+def test_a_missing_source_is_said_alike_wherever_it_is_opened(tmp_path: Path) -> None:
+    # lfctl follow --camera and lfctl track take shipped clips by name: both say so
+    with pytest.raises(
+        ConfigError,
+        match=r"does not exist \(give a file, a camera index or a stream URL; or a shipped clip by name, from ",
+    ):
+        VideoSource(str(tmp_path / "nope.mp4"))
