@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import read_text_file, save_text
@@ -710,6 +711,86 @@ def walk_mission(
             first_met = len(jumped)
         i += 1
     return legs, tuple(before)
+
+
+#: the navigation items AP_Mission_ChangeDetector watches: the one under way and the next two
+CHANGE_WATCHED = 3
+
+
+def is_nav_command(command: int) -> bool:
+    """``AP_Mission::is_nav_cmd``: a navigation command (below NAV_LAST, and a few above)."""
+    return command <= mav.MAV_CMD_NAV_LAST or command in (
+        mav.MAV_CMD_NAV_SET_YAW_SPEED,
+        mav.MAV_CMD_NAV_SCRIPT_TIME,
+        mav.MAV_CMD_NAV_ATTITUDE_TIME,
+    )
+
+
+def watched_items(
+    items: list[MissionItem], start_seq: int, jumps: tuple[tuple[int, int], ...] = ()
+) -> tuple[tuple[object, ...], ...]:
+    """The navigation items a Rover's AP_Mission_ChangeDetector compares to tell that the
+    mission ahead changed: from ``start_seq`` (the item under way), up to
+    :data:`CHANGE_WATCHED` of them, each found as ``AP_Mission::get_next_nav_cmd`` finds it
+    (a DO_JUMP with repeats left followed every time, its count not taken; a search that
+    meets the same jump twice, or a tag no JUMP_TAG has, ends), each as Rover stores it: its
+    number, command, params, place (degE7) and altitude in whole centimetres
+    (``mavlink_int_to_mission_cmd``: ``z * 100`` in a float32, cut to an integer), and its
+    frame only as the altitude's reference it sets (GLOBAL and GLOBAL_INT alike, as
+    ``relative_alt`` and ``terrain_alt``). Items stored as :func:`as_stored` keeps them.
+
+    Parameters
+    ----------
+    items : list of MissionItem
+        The mission, item 0 = home.
+    start_seq : int
+        The item under way.
+    jumps : tuple of (int, int)
+        The times each DO_JUMP has been taken, as :attr:`Leg.jumps` keeps them.
+    """
+    taken = dict(jumps)
+    tags = jump_tag_items(items)
+    out: list[tuple[object, ...]] = []
+    i = start_seq
+    while len(out) < CHANGE_WATCHED and 0 < i < len(items):
+        seen: set[int] = set()
+        while 0 < i < len(items) and items[i].command in (DO_JUMP, DO_JUMP_TAG):
+            it = items[i]
+            repeats = math.trunc(it.param2)
+            if i in seen or (repeats != -1 and taken.get(i, 0) >= repeats):
+                i = -1 if i in seen else i + 1  # the same jump again: the search ends
+                continue
+            seen.add(i)
+            i = tags.get(it.param1, 0) if it.command == DO_JUMP_TAG else math.trunc(it.param1)
+        if not 0 < i < len(items):
+            break
+        it = items[i]
+        if is_nav_command(it.command):
+            relative = it.frame in (
+                mav.MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                mav.MAV_FRAME_GLOBAL_TERRAIN_ALT,
+                mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+            )
+            terrain = it.frame in (mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
+            centimetres = int(np.float32(it.z) * np.float32(100.0)) if math.isfinite(it.z) else 0
+            out.append(
+                (
+                    it.seq,
+                    it.command,
+                    relative,
+                    terrain,
+                    it.param1,
+                    it.param2,
+                    it.param3,
+                    it.param4,
+                    it.x,
+                    it.y,
+                    centimetres,
+                )
+            )
+        i += 1
+    return tuple(out)
 
 
 def seconds_until_utc(now_unix_s: float, hour: int, minute: int, second: int) -> float:

@@ -36,6 +36,8 @@ from lfctl.link.mission import (
     CONDITION_DELAY,
     CONDITION_DISTANCE,
     DO_CHANGE_SPEED,
+    DO_JUMP,
+    DO_JUMP_TAG,
     JUMP_TAG,
     NAV_DELAY,
     NAV_LOITER_TIME,
@@ -50,10 +52,12 @@ from lfctl.link.mission import (
     Leg,
     MissionItem,
     command_name,
+    is_nav_command,
     mission_text,
     nav_count,
     seconds_until_utc,
     walk_mission,
+    watched_items,
 )
 from lfctl.sim.scripted import scripted_command
 from lfctl.sim.world import WorldState
@@ -61,8 +65,6 @@ from lfctl.sim.world import WorldState
 #: the navigation items a Rover drives in its AUTO WP submode (do_nav_wp): an edit of the
 #: mission ahead restarts the one under way only in it (ModeAuto::update)
 WP_SUBMODE = frozenset({NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM})
-#: the navigation items AP_Mission_ChangeDetector watches: the one under way and the next two
-CHANGE_WATCHED = 3
 
 __all__ = ["VehicleDriver", "autopilot_settings", "speed_max"]
 
@@ -229,12 +231,17 @@ class VehicleDriver:
     # -- AUTO ----------------------------------------------------------------------------------
     def _auto(self, t_s: float, world: WorldState) -> tuple[float, float]:
         ep = self.endpoint
-        if not ep.mission:
+        running = self._autopilot is not None and bool(self._key) and bool(self._legs) and not self._completed
+        if not ep.mission and not running:
             return (
                 scripted_command(self.cfg.script, t_s)
                 if self.scripted and not self.cfg.mission.waypoints
                 else (0.0, 0.0)
             )
+        # a mission emptied under way (an upload of no items: Rover's truncate(0), which no
+        # state check refuses): AP_Mission::update does nothing while it has no items, so the
+        # item under way is never done, and ModeAuto drives on to its place (a circle round)
+        frozen = not ep.mission
         me = world.vehicle(self.index)
         self._pos = (me.north_m, me.east_m)
         self._yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad  # the way it drives
@@ -267,7 +274,7 @@ class VehicleDriver:
             # start, WP_SPEED): the latest wins, as Rover's one speed limit for its waypoints
             ap.settings = dataclasses.replace(ap.settings, cruise_speed_mps=ep.speed_mps)
         ap.set_acceptance_radius(ep.param("WP_RADIUS"))  # set on the way: as Rover, at once
-        if self._holding is not None and not ap.waiting(t_s):
+        if self._holding is not None and not ap.waiting(t_s) and not frozen:
             self._finish(self._holding[0], t_s)  # its wait is over: the next item begins before it is reached
         yaw = self._yaw
         if self._circle is not None and self._circle[0] == self._leg and not ep.mission_complete:
@@ -282,9 +289,9 @@ class VehicleDriver:
                 return 0.0, 0.0  # the mission ended (or circles of no turns went on past the bound)
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         self._distance = out.los.distance_to_go_m
-        for k in out.los.reached:
+        for k in () if frozen else out.los.reached:
             self._arrive(k, t_s)
-        if not ep.mission_complete:
+        if not ep.mission_complete and not frozen:
             self._run_items(t_s)
         # after the items reached moved the current one
         ep.steering(_nav_report(out.los, ep.reversed, ap.follower.waypoints))
@@ -293,25 +300,29 @@ class VehicleDriver:
     def _take_edit(self, t_s: float) -> None:
         """The mission flown was edited in place (a partial update) or written over by a new
         one, as Rover takes it: the items still to come are read as they come (AP_Mission
-        reads each from storage), and the item under way goes on as it began (``replace_cmd``
-        does not restart it), unless the change touched one of the navigation items
-        AP_Mission_ChangeDetector watches (the one under way and the next two, as stored)
-        while the vehicle drives a waypoint: ModeAuto::update then restarts the item under
-        way (``restart_current_nav_cmd``), which says so, starts the item of that number
-        again from where the vehicle is with its new content, and drops the DO command or
-        condition that was running; the DO_JUMP counts (by item number) go on. A new mission
-        too short to have that number fails the restart, and the item under way goes on."""
+        reads each from storage, the DO commands waiting their turn too), and the item under
+        way goes on as it began (``replace_cmd`` does not restart it), unless the change
+        touched one of the navigation items AP_Mission_ChangeDetector watches
+        (:func:`~lfctl.link.mission.watched_items`) while the vehicle drives a waypoint:
+        ModeAuto::update then restarts the item under way (``restart_current_nav_cmd``),
+        which starts the item of that number again from where the vehicle is with its new
+        content, drops the DO command or condition that was running, keeps the DO_JUMP
+        counts (by item number), and then says so. A mission too short to have that number
+        fails the restart, and the item under way goes on; one with no navigation item from
+        that number on fails it too, once the mission has completed."""
         ep, k = self.endpoint, self._leg
         now = self._legs[k]
         self._built = ep.mission
-        walk = (ep.mission, self.home, now.seq, self._pos, ep.rtl_destination, now.jumps)
-        watched, self._watched = self._watched, self._ahead(walk_mission(*walk)[0])
+        watched, self._watched = self._watched, watched_items(ep.mission, now.seq, now.jumps)
         if watched != self._watched and now.command in WP_SUBMODE:
             if now.seq < len(ep.mission):
-                ep.statustext("Auto mission changed, restarted command", mav.MAV_SEVERITY_CRITICAL)
                 self._start_mission(t_s)
-                return
+                if self._legs:
+                    ep.statustext("Auto mission changed, restarted command", mav.MAV_SEVERITY_CRITICAL)
+                    return
             ep.statustext("Auto mission changed but failed to restart command", mav.MAV_SEVERITY_CRITICAL)
+            if not self._legs:
+                return  # (the mission completed)
         # the legs after the one under way, as the mission now has them (the item under way
         # may no longer be a navigation item: AP_Mission goes on from the item after it)
         ap = self._autopilot
@@ -323,15 +334,15 @@ class VehicleDriver:
             [(g.north_m, g.east_m, g.hold_s) for g in legs],
             [j for j, g in enumerate(legs, start=k + 1) if g.command == NAV_LOITER_TIME],
         )
-
-    def _ahead(self, legs: Sequence[Leg]) -> tuple[tuple[object, ...], ...]:
-        """The navigation items AP_Mission_ChangeDetector compares, as the mission has them:
-        the first :data:`CHANGE_WATCHED` of ``legs`` (from the one under way), each as stored
-        (its number, command, params and place; not the ``autocontinue`` a Rover does not keep)."""
-        items = (self.endpoint.mission[g.seq] for g in legs[:CHANGE_WATCHED])
-        return tuple(
-            (it.seq, it.frame, it.command, it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z) for it in items
-        )
+        # the DO commands still waiting their turn, as they are now (get_next_do_cmd reads
+        # each from storage; one that is no longer a DO command ends them, as its search does)
+        waiting = []
+        for it in self._queue:
+            now_it = ep.mission[it.seq] if it.seq < len(ep.mission) else None
+            if now_it is None or is_nav_command(now_it.command) or now_it.command in (DO_JUMP, DO_JUMP_TAG):
+                break
+            waiting.append(now_it)
+        self._queue = waiting
 
     def _start_mission(self, t_s: float) -> None:
         """(Re)start the mission from its current item, from where the vehicle is: a new or
@@ -350,13 +361,14 @@ class VehicleDriver:
         # DO_SET_MISSION_CURRENT's reset, param2 1: each bumps the endpoint's mission_restarts)
         same = bool(self._legs) and not fresh and not self._completed and self._restarts == ep.mission_restarts
         self._restarts = ep.mission_restarts
-        resume = same and self._paused[:1] == (ep.mission_version,)
+        # AUTO entered again with a condition holding the DO commands back: AP_Mission::resume
+        # restarts from the condition's item number (set_current_cmd(_do_cmd.index)), as the
+        # mission has it now: the condition, the DO commands after it, then the navigation
+        # item (an item set current meanwhile is started from instead)
+        if same and self._paused and self._condition is not None and ep.current_seq == self._legs[self._leg].seq:
+            start = self._condition[0]
         self._paused = ()
         jumps = self._legs[self._leg].jumps if same else ()
-        pending: list[MissionItem] = []
-        if resume:
-            pending = [ep.mission[self._condition[0]]] if self._condition is not None else []
-            pending += self._queue
         self._key = (ep.mission_version, ep.mission_edits)
         self._built, self._completed = ep.mission, False
         self._legs, self._tail = walk_mission(ep.mission, self.home, start, self._pos, ep.rtl_destination, jumps)
@@ -375,9 +387,6 @@ class VehicleDriver:
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
-            if pending:  # the DO command that was running starts again, and those behind it
-                self._queue = pending + self._queue
-                self._run_items(t_s)
         elif not ep.mission_complete:
             self._end_mission(t_s)
 
@@ -389,7 +398,7 @@ class VehicleDriver:
         ap = self._autopilot
         assert ap is not None
         self._leg, self._queue, self._condition = k, list(leg.before), None
-        self._watched = self._ahead(self._legs[k:])
+        self._watched = watched_items(ep.mission, leg.seq, leg.jumps)
         # as AP_Mission says each counted jump as it passes it: the ones before the first
         # item met, then the search's items, then the rest
         self._say_jumps(leg.jumped[: leg.jumps_first])
@@ -464,7 +473,7 @@ class VehicleDriver:
             # the circle alone, the waypoints' speed stays as it was
             self._circle_speed(circle, ep.speed_mps)
             ep.desired_speed_mps = kept
-        if circle.done:
+        if circle.done and ep.mission:  # (never done while the mission has no items)
             self._circle = None
             ap.follower.index, ap.follower.prev = k + 1, self._pos  # the next leg from here
             self._finish(k, t_s)

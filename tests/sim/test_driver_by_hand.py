@@ -773,7 +773,7 @@ def test_a_new_mission_uploaded_on_the_way_restarts_the_item_of_that_number_when
     assert ep.current_seq == 2
     store(ep, (2.0, 0.0), (6.0, 2.0), (8.0, 0.0))
     drive(drv, ep, (3.0, 0.0))
-    assert said(ep)[-2:] == ["Auto mission changed, restarted command", "Mission: 2 WP"]
+    assert said(ep)[-2:] == ["Mission: 2 WP", "Auto mission changed, restarted command"]
     assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((6.0, 2.0), abs=0.01)
 
 
@@ -937,3 +937,147 @@ def test_a_new_mission_uploaded_in_hold_is_resumed_at_the_item_number_under_way(
     drive(drv, ep, (2.5, 0.0))
     assert said(ep)[-1] == "Mission: 2 WP"
     assert ep.nav is not None and ep.nav.destination_ned_m == pytest.approx((6.0, 2.0), abs=0.01)
+
+
+# -- the mission ahead changed: the review against Rover's code (AP_Mission, ModeAuto) ----------------
+
+FAILED = "Auto mission changed but failed to restart command"
+
+
+def test_restart_text_comes_after_the_restarted_items_own_words() -> None:
+    # ModeAuto::update: if (mission.restart_current_nav_cmd()) GCS_SEND_TEXT(...restarted...):
+    # the restart (set_current_cmd -> advance_current_nav_cmd -> start_command's
+    # "Mission: 1 WP") runs first, the text is sent once it returned true
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    b = len(said(ep))
+    rewrite(ep, gcs, moved_to(ep.mission[2], 6.0, 3.0))
+    drive(drv, ep, (0.2, 0.0))
+    assert said(ep)[b:] == ["Flight plan received", "Mission: 1 WP", RESTARTED]
+
+
+def test_last_item_under_way_made_a_do_command_completes_and_fails_the_restart() -> None:
+    # restart_current_nav_cmd -> set_current_cmd(2) -> advance_current_nav_cmd(2): item 2 is a
+    # DO command (started, "Mission: 2 ChangeSpeed", "speed: 0.3 m/s"), no navigation item
+    # follows: false -> complete() ("Mission Complete") and set_current_cmd returns false, so
+    # ModeAuto says "... but failed to restart command", after the rest
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    b = len(said(ep))
+    rewrite(ep, gcs, dataclasses.replace(item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3), seq=2))
+    drive(drv, ep, (2.5, 0.0))
+    assert said(ep)[b:] == [
+        "Flight plan received",
+        "Mission: 2 ChangeSpeed",
+        "speed: 0.3 m/s",
+        "Mission Complete",
+        FAILED,
+    ]
+
+
+def test_item_under_way_made_a_jump_to_itself_for_ever_fails_the_restart() -> None:
+    # advance_current_nav_cmd(2): get_next_cmd follows the jump to itself until max_loops
+    # (64) and returns false: complete(), then "failed to restart command"
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    b = len(said(ep))
+    rewrite(ep, gcs, dataclasses.replace(item(mav.MAV_CMD_DO_JUMP, 2.0, -1.0), seq=2))
+    drive(drv, ep, (2.5, 0.0))
+    assert said(ep)[b:] == ["Flight plan received", "Mission Complete", FAILED]
+
+
+def test_a_do_command_waiting_behind_a_condition_runs_as_edited() -> None:
+    # item 3 (speed 0.3) waits behind a 3 s CONDITION_DELAY while waypoint 4 is driven; it is
+    # edited to 0.2 (not a navigation item: no restart). When the delay is done,
+    # advance_current_do_cmd -> get_next_do_cmd reads item 3 from storage: 0.2
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(
+        ep, (2.0, 0.0), item(mav.MAV_CMD_CONDITION_DELAY, 3.0), item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3), (12.0, 0.0)
+    )
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    assert ep.current_seq == 4
+    b = len(said(ep))
+    rewrite(ep, gcs, dataclasses.replace(ep.mission[3], param2=0.2))
+    drive(drv, ep, *[(2.5, 0.0)] * 40)
+    assert RESTARTED not in said(ep)
+    assert "speed: 0.2 m/s" in said(ep)[b:] and ep.desired_speed_mps == pytest.approx(0.2)
+
+
+def test_an_upload_of_no_items_while_auto_drives_fails_the_restart_and_drives_on() -> None:
+    # MISSION_COUNT 0: truncate(0) (_cmd_total 0); the detector finds no navigation item
+    # (num_cmds 0 != cmd_count): restart_current_nav_cmd fails (index >= num_commands());
+    # AP_Mission::update returns at once with _cmd_total 0, so the mission never completes,
+    # and ModeAuto's WP submode drives on to the waypoint it had
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), (4.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (1.0, 0.0))
+    assert ep.current_seq == 2
+    b = len(said(ep))
+    send(ep, gcs, mav.MAVLink_mission_count_message(1, 1, 0, 0))
+    drive(drv, ep, (1.2, 0.0))
+    assert said(ep)[b:] == ["Flight plan received", FAILED]
+    assert drv.command[0] > 0.0 and not ep.mission_complete
+
+
+def test_auto_entered_again_after_an_upload_resumes_at_the_do_command_that_held() -> None:
+    # HOLD left with item 4 under way and the CONDITION_DELAY (item 2) still loaded as the
+    # DO command; a new mission of four waypoints uploaded; AUTO: AP_Mission::resume ->
+    # set_current_cmd(_do_cmd.index = 2) -> advance_current_nav_cmd(2): item 2 of the new
+    # mission is a waypoint, started: "Mission: 2 WP", driven to (2, 5)
+    drv, ep = bench("AUTO")
+    store(
+        ep,
+        (2.0, 0.0),
+        item(mav.MAV_CMD_CONDITION_DELAY, 100.0),
+        item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
+        (8.0, 0.0),
+    )
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0), (2.5, 0.0))
+    assert ep.current_seq == 4
+    assert ep.set_mode(MODES["HOLD"])
+    drive(drv, ep, (2.5, 0.0))
+    store(ep, (1.0, 5.0), (2.0, 5.0), (3.0, 5.0), (4.0, 5.0))
+    b = len(said(ep))
+    assert ep.set_mode(MODES["AUTO"])
+    drive(drv, ep, (2.5, 0.0))
+    assert said(ep)[b:] == ["Mission: 2 WP"] and ep.current_seq == 2
+
+
+def test_an_edit_past_a_jump_not_yet_used_up_restarts_nothing() -> None:
+    # 1 wp, 2 DO_JUMP->1 x1, 3 wp, 4 wp; item 1 under way on lap 1. The detector's window is
+    # three get_next_nav_cmd calls, which never count jumps (increment false): 1, 1, 1.
+    # Item 3 is not in it: moving it restarts nothing
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), item(mav.MAV_CMD_DO_JUMP, 1.0, 1.0), (4.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    assert ep.current_seq == 1
+    b = len(said(ep))
+    rewrite(ep, gcs, moved_to(ep.mission[3], 4.0, 2.0))
+    drive(drv, ep, (0.5, 0.0))
+    assert RESTARTED not in said(ep)[b:]
+
+
+def test_a_frame_change_rover_stores_the_same_restarts_nothing() -> None:
+    # mavlink_int_to_mission_cmd: GLOBAL_RELATIVE_ALT and GLOBAL_RELATIVE_ALT_INT both set
+    # relative_alt = 1: the stored command is the same, the detector sees no change
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    b = len(said(ep))
+    rewrite(ep, gcs, dataclasses.replace(ep.mission[1], frame=mav.MAV_FRAME_GLOBAL_RELATIVE_ALT))
+    drive(drv, ep, (0.5, 0.0))
+    assert RESTARTED not in said(ep)[b:]
+
+
+def test_an_altitude_change_under_a_centimetre_restarts_nothing() -> None:
+    # cmd.content.location.alt = packet.z * 100.0f, an integer (cm): +1 mm stores the same
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (3.0, 0.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0))
+    b = len(said(ep))
+    rewrite(ep, gcs, dataclasses.replace(ep.mission[1], z=ep.mission[1].z + 0.001))
+    drive(drv, ep, (0.5, 0.0))
+    assert RESTARTED not in said(ep)[b:]
