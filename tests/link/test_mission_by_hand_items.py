@@ -6,6 +6,7 @@ fence, which items are places, and the legs of a mission with a DO_JUMP."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mav
@@ -30,6 +31,7 @@ from lfctl.link.mission import (
     load_mission_file,
     validate_item,
     walk_mission,
+    watched_items,
 )
 
 REL = mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
@@ -281,3 +283,31 @@ def test_a_loiter_radius_of_minus_zero_is_clockwise_as_ardupilot_reads_it(comman
     assert cw == 0.0 and math.copysign(1.0, cw) == 1.0
     ccw = as_stored(place(1, command, turns, 0.0, -0.5, 0.0)).param3
     assert ccw == 0.0 and math.copysign(1.0, ccw) == -1.0
+
+
+# --- watched_items: what AP_Mission_ChangeDetector compares ------------------------------
+
+
+def test_the_watched_items_follow_a_jump_with_repeats_left_each_time_and_are_compared_as_stored() -> None:
+    # Wrong, a Rover would restart the waypoint under way on edits it does not see, or miss
+    # ones it does. By hand (get_next_nav_cmd from item 1, three times): WP1; from 2 the jump
+    # (taken 0 of 1) back to WP1; from 2 again WP1: items 1, 1, 1. With the jump taken once:
+    # WP1, then past the spent jump WP3, then none (2 items).
+    home = home_item(*HOME)
+    wp1, wp3 = place(1, NAV_WAYPOINT), place(3, NAV_WAYPOINT)
+    items = [home, wp1, do(2, DO_JUMP, 1.0, 1.0), wp3]
+    assert [w[0] for w in watched_items(items, 1)] == [1, 1, 1]
+    assert [w[0] for w in watched_items(items, 1, ((2, 1),))] == [1, 3]
+    # a jump for ever to itself ends the search (met twice): nothing after it
+    assert [w[0] for w in watched_items([home, wp1, do(2, DO_JUMP, 2.0, -1.0), wp3], 1)] == [1]
+    # as stored: GLOBAL_RELATIVE_ALT and its _INT form alike; 10.004 m is 1000 cm as 10 m is;
+    # 10.01 m is not; GLOBAL is another reference
+    one = watched_items([home, wp1], 1)
+    assert watched_items([home, replace(wp1, frame=mav.MAV_FRAME_GLOBAL_RELATIVE_ALT)], 1) == one
+    assert watched_items([home, replace(wp1, z=10.004)], 1) == one
+    assert watched_items([home, replace(wp1, z=10.01)], 1) != one
+    assert watched_items([home, replace(wp1, frame=mav.MAV_FRAME_GLOBAL_INT)], 1) != one
+    # DO commands are not watched: a speed change between the waypoints changes nothing
+    assert watched_items([home, wp1, do(2, DO_CHANGE_SPEED, 1.0, 0.5), wp3], 1) == watched_items(
+        [home, wp1, do(2, DO_CHANGE_SPEED, 1.0, 0.9), wp3], 1
+    )
