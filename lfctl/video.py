@@ -18,7 +18,6 @@ from typing import Protocol
 import cv2
 import numpy as np
 
-from lfctl.data import footage_dir
 from lfctl.errors import ConfigError
 
 __all__ = [
@@ -65,12 +64,11 @@ TEXT_CODECS = frozenset({"ansi", "bintext", "xbin", "idf"})
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
-def missing_source(source: str) -> str:
-    """What to say of a video source that names no file, camera or stream."""
-    return (
-        f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL;"
-        f" or a shipped clip by name, from {footage_dir()})"
-    )
+def missing_source(source: str, shipped: Path | None = None) -> str:
+    """What to say of a video source that names no file, camera or stream; ``shipped``: the
+    folder of clips a command also takes by name (lfctl's footage)."""
+    by_name = f"; or a shipped clip by name, from {shipped}" if shipped is not None else ""
+    return f"video source {source[:200]!r} does not exist (give a file, a camera index or a stream URL{by_name})"
 
 
 @dataclass(frozen=True)

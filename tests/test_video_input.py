@@ -316,10 +316,14 @@ def test_an_mp4_trimmed_without_reencoding_is_not_called_cut(
     assert code == 0 and len(lines) == 42 and "declares" not in err, err
 
 
-def test_a_missing_source_is_said_alike_wherever_it_is_opened(tmp_path: Path) -> None:
+def test_a_missing_source_is_said_alike_by_track_and_follow(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     # lfctl follow --camera and lfctl track take shipped clips by name: both say so
-    with pytest.raises(
-        ConfigError,
-        match=r"does not exist \(give a file, a camera index or a stream URL; or a shipped clip by name, from ",
-    ):
-        VideoSource(str(tmp_path / "nope.mp4"))
+    said = "does not exist (give a file, a camera index or a stream URL; or a shipped clip by name, from "
+    nope = str(tmp_path / "nope.mp4")
+    code, _lines, err = track(capsys, nope, "--roi", "20,20,40,30")
+    assert code == 2 and said in err
+    assert main(["follow", "--camera", nope, "--mavlink", "udpout:127.0.0.1:9"]) == 2
+    assert said in capsys.readouterr().err
+    # the video reader itself names no shipped clips (it reads any source)
+    with pytest.raises(ConfigError, match=r"does not exist \(give a file, a camera index or a stream URL\)$"):
+        VideoSource(nope)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 import time
 from functools import partial
@@ -384,14 +385,14 @@ def run(args: argparse.Namespace) -> int:
     """Connect to the rover and follow until the camera ends or the limits are reached."""
     from lfctl.cli.sim import announce_live, live_address, live_layout
     from lfctl.config import load_config, parse_config
-    from lfctl.data import resolve_footage, resolve_scenario
+    from lfctl.data import footage_dir, resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.follower.rover import follow_rover
     from lfctl.follower.stack import formation_settings
     from lfctl.link.camera import CameraComponent
     from lfctl.link.companion import Companion
     from lfctl.link.signing import signing_key_from_passphrase
-    from lfctl.video import open_live
+    from lfctl.video import missing_source, open_live
     from lfctl.vision.banner import BannerGeometry
     from lfctl.vision.camera_model import CameraModel, at_frame_size
     from lfctl.vision.frames import colourless
@@ -399,6 +400,10 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = load_config(resolve_scenario(args.scenario)) if args.scenario else parse_config(DEFAULT_SCENARIO, "follow")
     args.camera = resolve_footage(args.camera)  # a shipped clip by name, as lfctl track takes it
+    camera = str(args.camera)
+    if not (camera.isdigit() or "://" in camera or camera.startswith("/dev/") or os.path.lexists(camera)):
+        # (a camera device not there yet is waited for: a USB camera enumerating)
+        raise ConfigError(missing_source(camera, footage_dir()))
     live = live_address(args.live, cfg.live.foxglove, "--live")
     stream_to = live_address(args.video, cfg.live.video, "--video")
     if args.no_camera_component and stream_to is None:

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from lfctl.config import BannerConfig, CameraConfig, load_config
-    from lfctl.data import resolve_footage, resolve_scenario
+    from lfctl.data import footage_dir, resolve_footage, resolve_scenario
     from lfctl.errors import ConfigError
     from lfctl.video import VideoSource, missing_source
     from lfctl.vision.camera_model import at_frame_size
@@ -110,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
                 f"{args.source[:200]!r}: lfctl track reads videos, not numbered image files: make a video of them "
                 "first (ffmpeg -framerate 30 -i frame_%04d.png clip.mp4)"
             )
-        raise ConfigError(missing_source(args.source))
+        raise ConfigError(missing_source(args.source, footage_dir()))
     scen = load_config(resolve_scenario(args.scenario)) if args.scenario else None
     n = 0
     writer = None
