@@ -1000,3 +1000,30 @@ def test_smartrtl_before_any_arming_says_no_path_was_recorded(bench: Bench) -> N
         (mav.MAV_SEVERITY_WARNING, "SmartRTL unavailable: no path recorded"),
         (mav.MAV_SEVERITY_WARNING, "Flight mode change failed"),
     ]
+
+
+# --- a whole mission uploaded over the one in force (MissionItemProtocol: truncate, replace, add) ---
+
+
+def test_an_upload_keeps_the_item_number_under_way_and_a_finished_state_a_clear_does_not(bench: Bench) -> None:
+    # Rover's upload writes over the old items (AP_Mission::truncate, replace_cmd, add_cmd),
+    # nothing reset: MISSION_CURRENT's seq stays 2, by the mission protocol (a count of 0
+    # too) as by MAVLink FTP; a finished mission stays finished (MISSION_STATE_COMPLETE);
+    # MISSION_CLEAR_ALL (not running) clears the item under way (AP_Mission::clear)
+    wp, frame = mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    items = [MissionItem(k, frame, wp, x=LAT_E7 + 100 * k, y=776_690_000) for k in range(4)]
+    square_mission(bench)
+    assert bench.ep.set_current(2)
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.current_seq == 2
+    assert upload(bench, []) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.current_seq == 2 and bench.ep.mission == []
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    bench.ep.complete_mission()
+    assert upload(bench, items[:3]) == mav.MAV_MISSION_ACCEPTED
+    assert bench.ep.mission_complete and bench.ep.current_seq == 2
+    asked = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, 42, 0, 0, 0, 0, 0, 0)
+    (current,) = bench.answers(asked, "MISSION_CURRENT")
+    assert (current.seq, current.mission_state) == (2, mav.MISSION_STATE_COMPLETE)
+    (ack,) = bench.answers(mav.MAVLink_mission_clear_all_message(1, 1, 0), "MISSION_ACK")
+    assert ack.type == mav.MAV_MISSION_ACCEPTED and bench.ep.current_seq == 0
