@@ -475,6 +475,11 @@ def test_a_list_file_by_hand_and_back() -> None:
     assert ms.upload_packed(MISSION, list_file([wp(0, 5000), wp(1, 6000)], options=1, start=2), 255, 190, 2.0) is None
     assert [i.x - LAT for i in ms.lists[MISSION]] == [1000, 1000, 5000, 6000]
     assert ms.changes[-1].edit
+    # a whole file written over the mission keeps the item under way, as an upload by the
+    # mission protocol does (Rover's upload writes over the old items, nothing reset)
+    assert ms.set_current(2)
+    assert ms.upload_packed(MISSION, list_file([wp(0), wp(1), wp(2, 7000)]), 255, 190, 3.0) is None
+    assert ms.current_seq == 2
 
 
 @pytest.mark.parametrize(
