@@ -44,6 +44,7 @@ from lfctl.link.mission import (
     RAW_XY,
     MissionItem,
     home_item,
+    is_nav_command,
     jump_tag_item,
     validate_item,
 )
@@ -604,7 +605,7 @@ class VehicleEndpoint:
         while 0 < seq < len(mission) and seq not in seen:
             seen.add(seq)
             it = mission[seq]
-            if it.command <= mav.MAV_CMD_NAV_LAST:  # AP_Mission::is_nav_cmd
+            if is_nav_command(it.command):
                 return seq
             # a DO_JUMP with repeats to make is followed (one of 0 repeats is passed, as Rover's)
             jump = int(it.param1) if it.command == DO_JUMP and it.param2 != 0 else -1

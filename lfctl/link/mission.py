@@ -773,7 +773,9 @@ def watched_items(
                 mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
             )
             terrain = it.frame in (mav.MAV_FRAME_GLOBAL_TERRAIN_ALT, mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
-            centimetres = int(np.float32(it.z) * np.float32(100.0)) if math.isfinite(it.z) else 0
+            with np.errstate(over="ignore", invalid="ignore"):
+                cm = np.float32(it.z) * np.float32(100.0)  # (past float32's range: inf, kept as 0)
+            centimetres = int(cm) if np.isfinite(cm) else 0
             out.append(
                 (
                     it.seq,
