@@ -483,7 +483,6 @@ class Companion:
         timeout_s : float
             Longest wait for the first message, s.
         """
-        self.ftp.tick()  # a written file whose session went idle is handed over
         n = 0
         m = self.port.recv(timeout_s)
         until = time.monotonic() + POLL_MAX_S  # the read's budget, from the first message (not the wait for it)
@@ -494,6 +493,10 @@ class Companion:
                 self.overloaded += 1  # the rest waits for the next step
                 break
             m = self.port.recv()
+        # after the requests read (a burst going on takes what the ration has left, as the
+        # endpoint's does after its reading): a written file whose session went idle is
+        # handed over, and bursts go on
+        self.ftp.tick()
         return n
 
     def _take_safely(self, m: Any, t_s: float) -> None:

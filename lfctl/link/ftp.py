@@ -260,6 +260,7 @@ class FtpServer:
         self._last: OrderedDict[tuple[int, int, int], tuple[int, int, float, list[bytes]]] = OrderedDict()
         self._tokens = REPLY_BURST
         self._tokens_t = self._clock()
+        self._burst_served: tuple[int, int, int] | None = None  # the session whose burst went last
 
     def tick(self) -> None:
         """Close the sessions idle for :data:`SESSION_KILL_S` (a written file is handed over),
@@ -270,6 +271,12 @@ class FtpServer:
         self._refill(now)
         self._expire(now)
         going = [s for s in self._sessions.values() if s.burst is not None]
+        # in turn from the session after the one served last, so none is left out however
+        # often the ration runs dry
+        keys = [s.key for s in going]
+        if self._burst_served in keys:
+            k = keys.index(self._burst_served) + 1
+            going = going[k:] + going[:k]
         while going and self._tokens >= 1.0:
             for s in list(going):
                 if self._tokens < 1.0:
@@ -277,6 +284,7 @@ class FtpServer:
                 replies = self._burst(s, 1)
                 self._tokens -= len(replies)
                 s.last_s = now  # (as ArduPilot's push_reply: a session sending is not idle)
+                self._burst_served = s.key
                 self._deliver(replies, s.key[0], s.key[1])
                 if s.burst is None:
                     going.remove(s)

@@ -20,6 +20,7 @@ from lfctl.link.endpoint import GCS_COMPID, MODE_NAMES, MODES
 from lfctl.link.fence import RALLY_POINT, validate_fence
 from lfctl.link.mission import PLACE_FRAMES, MissionItem, command_name, validate_item
 from lfctl.link.mission_server import FENCE, MISSION, MISSION_TYPES
+from lfctl.link.param_server import ascii_upper
 from lfctl.link.port import CHECK_LINK, MavPort
 
 __all__ = ["GCS_SYSID", "FleetTable", "GroundStation", "VehicleRow", "result_name"]
@@ -321,7 +322,11 @@ class GroundStation:
         def answer(m: Any) -> bool:  # (the autopilot's: a companion's LFC_* reach a ground station too)
             if m.get_srcComponent() != 1:
                 return False
-            return _pid(m) == name if m.get_type() == "PARAM_VALUE" else text_field(m.text) == unknown
+            if m.get_type() == "PARAM_VALUE":
+                # a Rover answers a set with the parameter's own name, whatever case it was
+                # asked in (AP_Param::find takes most of a name in any case)
+                return ascii_upper(_pid(m)) == ascii_upper(name)
+            return text_field(m.text) == unknown
 
         try:
             m = self.wait(("PARAM_VALUE", "STATUSTEXT"), where=answer)

@@ -28,7 +28,15 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl.link.ftp import FtpFile, ReadFails
 from lfctl.link.params import INT8, INT16, INT32, REAL32, Param
 
-__all__ = ["PACKED_MAGIC", "PACKED_MAGIC_DEFAULTS", "ParamServer", "pack_params", "param_text", "unpack_params"]
+__all__ = [
+    "PACKED_MAGIC",
+    "PACKED_MAGIC_DEFAULTS",
+    "ParamServer",
+    "ascii_upper",
+    "pack_params",
+    "param_text",
+    "unpack_params",
+]
 
 #: ``@PARAM/param.pck``'s magic numbers: without and with default values
 PACKED_MAGIC, PACKED_MAGIC_DEFAULTS = 0x671B, 0x671C
@@ -39,19 +47,27 @@ _AP_FORMAT = {ap: fmt for ap, fmt in _AP_TYPE.values()}
 
 
 def param_text(value: str | bytes) -> str:
-    """A MAVLink char field as text (a parameter's name: up to 16 bytes, NUL-padded).
+    """A MAVLink char field as text (a parameter's name: up to 16 bytes, NUL-padded), to its
+    first NUL, as ArduPilot reads it (a C string: ``param_upload_parse``'s name too).
 
     Parameters
     ----------
     value : str or bytes
         The field as pymavlink gives it.
     """
-    return (value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)).rstrip("\x00")
+    text = value.decode(errors="replace") if isinstance(value, (bytes, bytearray)) else str(value)
+    return text.split("\x00", 1)[0]
 
 
-def _ascii_upper(text: str) -> str:
-    """``text`` with its ASCII letters in upper case and nothing else changed (as C's
-    ``strcasecmp`` compares: ``"ß".upper()`` is ``"SS"``, no name's letters)."""
+def ascii_upper(text: str) -> str:
+    """``text`` with its ASCII letters in upper case and nothing else changed, as C's
+    ``strcasecmp`` compares two names (``"ß".upper()`` is ``"SS"``, no name's letters).
+
+    Parameters
+    ----------
+    text : str
+        A parameter's name.
+    """
     return text.translate(_UPPER)
 
 
@@ -241,9 +257,9 @@ class ParamServer:
         name = param_text(raw)
         if name in self.params:
             return name
-        folded = _ascii_upper(name)
+        folded = ascii_upper(name)
         for known, p in self.params.items():
-            if name.startswith(p.group) and _ascii_upper(known) == folded:
+            if name.startswith(p.group) and ascii_upper(known) == folded:
                 return known
         return None
 
@@ -424,7 +440,7 @@ class ParamServer:
         for named, value in values:
             name = self.name_of(named)  # (param_upload_parse finds each with AP_Param::find)
             if name is None:
-                unknown[named] = None
+                unknown[param_text(named)] = None
             elif self.set_value(name, value, quiet=True) is not None:
                 refused[name] = "read-only" if self.params[name].readonly else f"{value:g}"
             else:

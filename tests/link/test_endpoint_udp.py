@@ -302,6 +302,10 @@ def test_commands_are_acknowledged_as_ardupilot_does(live: LiveEndpoint) -> None
     # (10 ms sleeps), so a busy machine's slow ticks lengthen it, but not near 100 ms
     assert np.median(gaps) <= 60, boot_ms
     assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
+    # named in another case (AP_Param::find takes it): the vehicle answers as WP_SPEED, and
+    # the client takes that answer (it waited for 'wp_speed' and timed out)
+    assert g.param_set("wp_speed", 0.45) == pytest.approx(0.45) and g.param_get("wp_speed") == pytest.approx(0.45)
+    assert g.param_set("WP_SPEED", 0.42) == pytest.approx(0.42)
     assert g.param_set("WP_SPEED", 550.0) == pytest.approx(0.42)  # out of range: refused, value kept
     assert g.param_set("WP_SPEED", math.nan) == pytest.approx(0.42)
     assert len(g.param_list()) == len(live.ep.params)

@@ -1569,3 +1569,23 @@ def test_single_frames_a_stream_leaves_as_it_ends_are_no_return_of_the_camera(
     back = [t for t in said if "frames are back" in t]
     assert done.camera_gaps == 1 and len(back) == 1, said  # back only with the run of frames at the end
     assert done.frames == 5 + 2 and done.steps == 101, done  # the first frames, the run's third and fourth
+
+
+def test_the_companions_ftp_answers_what_it_read_before_a_burst_goes_on() -> None:
+    # Wrong, a burst under way would spend the reply ration at each poll before the requests
+    # waiting were read, and those (a client's own TerminateSession) would go unanswered for
+    # the burst's whole run: the companion reads first, then lets the bursts go on, as the
+    # vehicle's endpoint does
+    a, b = MemoryLink.pair("gcs", "companion")
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    companion = Companion(MavPort.memory(b, 1, COMPANION_COMPID), 1)
+    calls: list[str] = []
+    real = companion.ftp
+    companion.ftp = SimpleNamespace(  # type: ignore[assignment]
+        tick=lambda: calls.append("tick") or real.tick(),
+        handle=lambda *args: calls.append("handle") or real.handle(*args),
+    )
+    payload = bytes(251)  # a None request (opcode 0) of session 0
+    a.send(mav.MAVLink_file_transfer_protocol_message(0, 1, COMPANION_COMPID, list(payload)).pack(gcs))
+    companion.poll(1.0)
+    assert calls == ["handle", "tick"]

@@ -151,6 +151,17 @@ def test_an_upload_finds_its_names_as_ap_param_find_does() -> None:
     assert said.texts == [("Param upload: 1 of 2 set; no such parameter arming_check", mav.MAV_SEVERITY_WARNING)]
 
 
+def test_an_uploaded_name_is_read_to_its_first_nul_as_a_c_string() -> None:
+    # param_upload_parse copies the name into a char array and AP_Param::find reads it as
+    # a C string: 'WP_RADIUS\0xy' is WP_RADIUS (set), 'NOPE\0WP_SPEED' is NOPE (unknown, and
+    # said without its NUL)
+    said = Said(default_params(1))
+    data = upload_file({"WP_RADIUS\0xy": Param(3.0, 0, 100, "", ""), "NOPE\0WP_SPEED": Param(0.5, 0, 100, "", "")})
+    assert said.server.upload(data) is None
+    assert said.server.params["WP_RADIUS"].value == 3.0 and said.server.params["WP_SPEED"].value != 0.5
+    assert said.texts == [("Param upload: 1 of 2 set; no such parameter NOPE", mav.MAV_SEVERITY_WARNING)]
+
+
 def test_a_read_with_index_minus_2_is_by_index_and_gets_no_answer() -> None:
     said = Said()
     said.server.request_read(mav.MAVLink_param_request_read_message(1, 1, b"WP_SPEED", -2))
@@ -747,6 +758,26 @@ def test_bursts_on_two_sessions_share_the_ration_one_reply_each_in_turn() -> Non
     # 0.015 s: 6.04, 6 replies, three each, in turn
     going = s.tick(0.015)
     assert [(h[1], h[7] // 239) for h, _ in going] == [(0, 254), (1, 501), (0, 255), (1, 502), (0, 256), (1, 503)]
+
+
+def test_bursts_on_three_sessions_each_get_a_reply_in_turn_however_little_the_ration_has() -> None:
+    # Wrong, each tick would start again from the first session, and with one reply's worth
+    # of ration a tick the third session's burst would get nothing for as long as the others
+    # burst. By hand: 253 replies to the first burst (256 - 3 opens: the ration spent); 0.0026
+    # s later 1.04 in the ration: the second burst's first reply (0.04 left), and again for
+    # the third (0.08 left); then each 0.0025 s tick refills 1 (1.08): one reply a tick, to
+    # sessions 0, 1, 2, 0, 1, 2 in turn
+    s = Served()
+    s.content = bytes(239 * 1000)
+    for session in (0, 1, 2):
+        s.ask(request(0, ftp.OP_OPEN_RO, b"@SYS/data.bin", session=session))
+    assert len(s.ask(request(1, ftp.OP_BURST))) == 253
+    s.clock.t += 0.0026
+    assert len(s.ask(request(1, ftp.OP_BURST, session=1, offset=239 * 500))) == 1
+    s.clock.t += 0.0026
+    assert len(s.ask(request(1, ftp.OP_BURST, session=2, offset=239 * 800))) == 1
+    served = [h[1] for _ in range(6) for h, _ in s.tick(0.0025)]
+    assert served == [0, 1, 2, 0, 1, 2]
 
 
 def test_a_burst_sent_again_starts_again_from_its_offset() -> None:
