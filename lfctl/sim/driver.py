@@ -250,14 +250,7 @@ class VehicleDriver:
             edited = self._autopilot is not None and self._key[:1] == key[:1]
             # a new mission uploaded while this one is flown: Rover writes it over the old
             # one and goes on with the item of the same number, as after an edit
-            uploaded = (
-                self._autopilot is not None
-                and bool(self._key)
-                and ep.mission is not self._built
-                and bool(self._legs)
-                and not self._completed
-                and ep.current_seq == self._legs[self._leg].seq
-            )
+            uploaded = running and ep.mission is not self._built and ep.current_seq == self._legs[self._leg].seq
             if self._autopilot is not None and ep.mission_complete:
                 # a finished mission, edited or replaced, stays finished until AUTO is entered again
                 self._key = key
