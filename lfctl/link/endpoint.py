@@ -97,8 +97,9 @@ ACRO_MODE = 1
 MIS_DONE_ACRO, MIS_DONE_MANUAL = 2, 3
 #: Rover's INITIALISING mode, which never starts on request (ModeInitializing::_enter)
 INITIALISING_MODE = 16
-#: Rover's period of the "PreArm:" texts while a check fails, and their delay once one starts
-#: failing, s (AP_Arming::update)
+#: Rover's AP_Arming::update, run once a second from boot: the "PreArm:" texts go out when more
+#: than PREARM_DISPLAY_S have passed since the last display (whether anything failed then or
+#: not), or, once the common checks have gone from passing to failing, more than PREARM_SOON_S
 PREARM_DISPLAY_S, PREARM_SOON_S = 30.0, 4.0
 #: the least time between two "sticks ignored" texts, s (:meth:`VehicleEndpoint._from_my_gcs`)
 RC_REFUSED_TEXT_S = 2.0
@@ -236,6 +237,16 @@ SENSORS = (
     | mav.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
     | mav.MAV_SYS_STATUS_AHRS
     | mav.MAV_SYS_STATUS_PREARM_CHECK
+)
+#: SYS_STATUS's controllers, present in every mode and enabled and healthy in the autopilot
+#: modes, as Rover's GCS_Rover::update_vehicle_sensor_status_flags: the first two where its
+#: mode is attitude_stabilized (every one of lfctl's but MANUAL and HOLD), the last two where it
+#: is_autopilot_mode (AUTO, GUIDED, RTL and SmartRTL; the same modes)
+CONTROLLERS = (
+    mav.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+    | mav.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+    | mav.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+    | mav.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
 )
 #: a disarmed vehicle's home follows it once it is this far from it, m (Rover's
 #: DISTANCE_HOME_MINCHANGE)
@@ -565,9 +576,13 @@ class VehicleEndpoint:
         self._rc_refused_text_t = -math.inf  # when the last of those texts went out
         self._guided_stale_reported = False
         self._guided_arrived = False  # GUIDED reached its place (and stopped there)
-        self._prearm_failing = False  # a pre-arm check failed at the last tick
-        self._prearm_shown = -math.inf  # when the "PreArm:" texts last went out ...
-        self._prearm_due = math.inf  # ... and when they go out next
+        # Rover's AP_Arming state (its RAM, zero at boot): s since boot of the next once-a-second
+        # update and of the last display, whether the common checks passed when last run, and
+        # whether their turn to failing is to be said soon (report_immediately)
+        self._prearm_update_s = 1.0
+        self._prearm_shown_s = 0.0
+        self._prearm_common_passed = False
+        self._prearm_soon = False
         self._gcs_failsafe = False  # the ground station is lost (Rover's failsafe.bits)
         self._gcs_failsafe_since = 0.0  # since when, s (failsafe.start_time)
         self._failsafe_triggered = False  # the failsafe has acted (failsafe.triggered)
@@ -1167,8 +1182,11 @@ class VehicleEndpoint:
     def _mode_command(self, base_mode: int, custom_mode: int) -> int:
         """A mode change a ground station asked for (SET_MODE, DO_SET_MODE): only a custom
         mode is taken (else DENIED), FAILED when the mode is refused (Rover's
-        ``_set_mode_common``); base_mode 128 alone is the safety switch (:meth:`_safety_switch`)."""
+        ``_set_mode_common``); base_mode 128 alone is the safety switch (:meth:`_safety_switch`),
+        custom_mode 0 off and 1 on, any other DENIED."""
         if base_mode == mav.MAV_MODE_FLAG_DECODE_POSITION_SAFETY:
+            if custom_mode not in (0, 1):
+                return mav.MAV_RESULT_DENIED  # neither off (0) nor on (1): Rover's "invalid parameters"
             return self._safety_switch(custom_mode == 0)
         if not base_mode & mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             return mav.MAV_RESULT_DENIED
@@ -1207,7 +1225,7 @@ class VehicleEndpoint:
             # camera, through GUIDED and the companion: refuse rather than accept and do nothing
             return self._refuse_mode("FOLLOW mode not supported: use GUIDED")
         if custom_mode == MODES["AUTO"] and len(self.mission) < 2:
-            return self._refuse_mode("No Mission. Can't set AUTO.")
+            return self._refuse_mode("No Mission. Can't set AUTO.", mav.MAV_SEVERITY_NOTICE)  # Rover's, at NOTICE
         if custom_mode == MODES["SMART_RTL"] and not self.path_started:
             return self._refuse_mode(
                 "SmartRTL unavailable: no path recorded"
@@ -1336,7 +1354,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_RUN_PREARM_CHECKS:
             if self.armed:
                 return mav.MAV_RESULT_TEMPORARILY_REJECTED
-            self._say_failures("PreArm", self.prearm_failures())
+            self._say_failures("PreArm", self._run_prearm_checks())
             return mav.MAV_RESULT_ACCEPTED
         if cmd == mav.MAV_CMD_DO_SET_HOME:
             return self._set_home_command(p, latlon_e7, frame)
@@ -1410,12 +1428,13 @@ class VehicleEndpoint:
         if not _finite(arm) or arm not in (0.0, 1.0):
             return mav.MAV_RESULT_UNSUPPORTED  # as Rover: neither arm (1) nor disarm (0)
         if arm == 1.0 and force not in FORCE_ARM:
-            failures = self.prearm_failures()  # a ground station switches to HOLD first, as MAVSDK does
+            failures = self._run_prearm_checks()  # a ground station switches to HOLD first, as MAVSDK does
             self._say_failures("Arm", failures)
             if failures:
                 return mav.MAV_RESULT_FAILED
-        if arm == 1.0 and not self.armed and self.param("ARMING_CHECK") == 0:
-            self.statustext("Warning: Arming Checks Disabled", mav.MAV_SEVERITY_WARNING)  # Rover's
+        if arm == 1.0 and not self.armed and self.param("ARMING_CHECK") == 0 and force not in FORCE_ARM:
+            # Rover's, on an arm that runs the checks (AP_Arming::arm's do_arming_checks): not a forced one
+            self.statustext("Warning: Arming Checks Disabled", mav.MAV_SEVERITY_WARNING)
         self.set_armed(arm == 1.0)
         return mav.MAV_RESULT_ACCEPTED
 
@@ -2197,16 +2216,37 @@ class VehicleEndpoint:
             self._audience = None
 
     def _report_prearm(self, t_s: float) -> None:
-        """As Rover's AP_Arming::update: while a disarmed vehicle fails a pre-arm check, each
-        failure as a "PreArm:" text every 30 s, and 4 s after the checks start failing."""
-        failures = self.prearm_failures()
-        failing = bool(failures)
-        if failing and not self._prearm_failing:
-            self._prearm_due = max(t_s, self._prearm_shown) + PREARM_SOON_S
-        self._prearm_failing = failing
-        if failing and t_s >= self._prearm_due:
-            self._prearm_shown, self._prearm_due = t_s, t_s + PREARM_DISPLAY_S
+        """As Rover's AP_Arming::update, once a second from boot: while a disarmed vehicle fails
+        a pre-arm check, each failure as a "PreArm:" text when more than 30 s have passed since
+        the last display (which moves every 30 s, failing or not), or more than 4 s once the
+        common checks (here the fence's) have gone from passing to failing. A vehicle failing
+        from boot says so first after 30 s; the checks of Rover's own (its mode, WP_SPEED) wait
+        for the 30 s turn."""
+        since_boot = t_s - self._boot_t_s
+        if since_boot < self._prearm_update_s:
+            return
+        now = float(math.floor(since_boot))  # this second's update (one a tick longer than 1 s missed)
+        self._prearm_update_s = now + 1.0
+        display = now - self._prearm_shown_s > PREARM_DISPLAY_S or (
+            self._prearm_soon and now - self._prearm_shown_s > PREARM_SOON_S
+        )
+        if display:
+            self._prearm_soon, self._prearm_shown_s = False, now
+        failures = self._run_prearm_checks()
+        if display:
             self._say_failures("PreArm", failures)
+
+    def _run_prearm_checks(self) -> list[str]:
+        """The pre-arm checks run (:meth:`prearm_failures`), as Rover's pre_arm_checks: when
+        the common ones (AP_Arming's own, here the fence) turn from passing to failing, their
+        failure is to be said soon; armed, or with ``ARMING_CHECK`` 0, they are not run."""
+        failures = self.prearm_failures()
+        if not self.armed and self.param("ARMING_CHECK") != 0:
+            passed = self._fence_failure() is None
+            if self._prearm_common_passed and not passed:
+                self._prearm_soon = True
+            self._prearm_common_passed = passed
+        return failures
 
     def _say_failures(self, prefix: str, failures: list[str]) -> None:
         """Each pre-arm failure as Rover's check_failed says it: "PreArm: ..." or, on an arm, "Arm: ..."."""
@@ -2436,13 +2476,18 @@ class VehicleEndpoint:
             fence = mav.MAV_SYS_STATUS_GEOFENCE
             present = self._fence_present()
             acting = present and self.param("FENCE_ENABLE") and int(self.param("FENCE_ACTION")) != ACTION_NONE
-            enabled = SENSORS | (fence if acting else 0)
-            health = SENSORS | (fence if not (present and self.fence_breach is not None) else 0)
+            controlling = CONTROLLERS if self.mode in AUTOPILOT_MODES else 0
+            enabled = SENSORS | controlling | (fence if acting else 0)
+            health = SENSORS | controlling | (fence if not (present and self.fence_breach is not None) else 0)
             if self.prearm_failures():  # QGroundControl's "Ready To Fly" / "Not Ready"
                 health &= ~mav.MAV_SYS_STATUS_PREARM_CHECK
+            if self.param("ARMING_CHECK") == 0:  # no checks: the verdict present only (GCS_Common)
+                enabled &= ~mav.MAV_SYS_STATUS_PREARM_CHECK
+                health &= ~mav.MAV_SYS_STATUS_PREARM_CHECK
+            present_bits = SENSORS | CONTROLLERS | (fence if present else 0)
             self.send(
                 mav.MAVLink_sys_status_message(
-                    SENSORS | (fence if present else 0), enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
+                    present_bits, enabled, health, 0, *BATTERY_NOT_MEASURED, 0, 0, 0, 0, 0, 0
                 )
             )
         elif name == "NAV_CONTROLLER_OUTPUT":

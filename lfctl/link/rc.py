@@ -9,7 +9,8 @@ Rover's defaults: steering on channel 1 (``RCMAP_ROLL``), throttle on channel 3
 both, and its throttle channel is centred, so below the trim is reverse).
 
 - RC_CHANNELS_OVERRIDE: channels 1-8 take any value but 65535 ("no change"); 0 releases the
-  channel. Channels 9-18 ignore 0 and 65535 alike, and 65534 releases them.
+  channel. Channels 9-16 ignore 0 and 65535 alike, and 65534 releases them; 17 and 18 are not
+  read (Rover has 16 channels, ``NUM_RC_CHANNELS``: RC_CHANNELS reports them as 0).
 - MANUAL_CONTROL: ``y`` (-1000..1000) drives the steering channel and ``z`` (-1000..1000) the
   throttle channel, both mapped linearly onto 1100..1900 us; 32767 (INT16_MAX) releases the
   channel.
@@ -54,8 +55,10 @@ RC_DEAD_ZONE = 30
 STEER_CHANNEL, THROTTLE_CHANNEL = 1, 3
 #: the range of Rover's control_in on its throttle (percent) and steering (centidegrees) channels
 THROTTLE_RANGE, STEER_RANGE = 100, 4500
-#: the channels RC_CHANNELS_OVERRIDE carries
+#: the channels RC_CHANNELS carries
 N_CHANNELS = 18
+#: the channels a Rover has, and reads of an RC_CHANNELS_OVERRIDE (NUM_RC_CHANNELS)
+ROVER_CHANNELS = 16
 UINT16_MAX = 65535
 INT16_MAX = 32767
 
@@ -145,7 +148,7 @@ class RcOverrides:
         t_s : float
             When it arrived, s.
         """
-        for k, value in enumerate(channels[:N_CHANNELS]):
+        for k, value in enumerate(channels[:ROVER_CHANNELS]):
             if k < 8:
                 if value != UINT16_MAX:
                     self.set(k + 1, value, t_s)

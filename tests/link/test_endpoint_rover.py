@@ -1898,14 +1898,29 @@ def test_a_rover_mode_lfctl_does_not_fly_is_named_and_a_failed_change_says_so(be
     n = len(bench.ep.statustexts)
     assert bench.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 16) == mav.MAV_RESULT_FAILED
     assert [t for _, t in bench.ep.statustexts[n:]] == ["Flight mode change failed"]  # INITIALISING never starts
-    assert bench.set_mode("AUTO") == mav.MAV_RESULT_FAILED  # no mission
-    assert [t for _, t in bench.ep.statustexts[-2:]] == ["No Mission. Can't set AUTO.", "Flight mode change failed"]
+    bench.send(mav.MAVLink_set_mode_message(1, mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODES["AUTO"]))
+    said = [(m.severity, m.text) for m in bench.tick() if m.get_type() == "STATUSTEXT"]  # no mission:
+    # ModeAuto::_enter's words at NOTICE, Rover::set_mode's failure at WARNING
+    assert said == [
+        (mav.MAV_SEVERITY_NOTICE, "No Mission. Can't set AUTO."),
+        (mav.MAV_SEVERITY_WARNING, "Flight mode change failed"),
+    ]
 
 
 def test_prearm_checks_as_rovers_with_arming_check_and_the_sys_status_ready_bit(bench: Bench) -> None:
-    def ready() -> bool:
+    def prearm_bits() -> tuple[bool, bool, bool]:
         (status,) = [m for m in bench.tick(1.0) if m.get_type() == "SYS_STATUS"][-1:]
-        return bool(status.onboard_control_sensors_health & mav.MAV_SYS_STATUS_PREARM_CHECK)
+        return tuple(  # type: ignore[return-value]
+            bool(bits & mav.MAV_SYS_STATUS_PREARM_CHECK)
+            for bits in (
+                status.onboard_control_sensors_present,
+                status.onboard_control_sensors_enabled,
+                status.onboard_control_sensors_health,
+            )
+        )
+
+    def ready() -> bool:
+        return prearm_bits() == (True, True, True)
 
     assert ready()
     bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.0, mav.MAV_PARAM_TYPE_REAL32))
@@ -1924,20 +1939,58 @@ def test_prearm_checks_as_rovers_with_arming_check_and_the_sys_status_ready_bit(
     assert bench.set_mode("RTL") == mav.MAV_RESULT_ACCEPTED
     assert not ready() and bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_FAILED
     bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 0, mav.MAV_PARAM_TYPE_INT32))
-    assert ready()  # no checks: Rover arms in RTL too, and warns
+    # no checks: the verdict is present but neither enabled nor healthy (GCS_Common's
+    # update_sensor_status_flags: only with checks enabled), and Rover arms in RTL too, and warns
+    assert prearm_bits() == (True, False, False)
     assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
     assert "Warning: Arming Checks Disabled" in [t for _, t in bench.ep.statustexts[-2:]]
+    assert prearm_bits() == (True, False, False)  # armed too
 
 
-def test_a_failing_prearm_check_is_said_4_s_after_it_starts_failing_then_every_30_s(bench: Bench) -> None:
+@pytest.mark.parametrize("force", [2989.0, 21196.0])
+def test_a_forced_arm_does_not_warn_that_the_checks_are_disabled(bench: Bench, force: float) -> None:
+    # AP_Arming::arm warns only "if (armed && do_arming_checks && checks_to_perform == 0)": a
+    # forced arm (MAVProxy's `arm throttle force`) runs no checks, so it has nothing to warn of
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"ARMING_CHECK", 0, mav.MAV_PARAM_TYPE_INT32))
+    bench.tick()
+    assert bench.command(mav.MAV_CMD_COMPONENT_ARM_DISARM, 1, force) == mav.MAV_RESULT_ACCEPTED and bench.ep.armed
+    assert "Warning: Arming Checks Disabled" not in [t for _, t in bench.ep.statustexts]
+
+
+def _prearm_times(bench: Bench, text: str, until_s: float) -> list[float]:
+    """When ``text`` went out as the bench ticks at 10 Hz up to ``until_s``, s since boot."""
+    while bench.t < until_s - 1e-9:
+        bench.tick(0.1)
+    return [round(t, 1) for t, said in bench.ep.statustexts if said == text]
+
+
+def test_a_failing_prearm_check_of_rovers_own_is_said_every_30_s_of_the_boot_clock(bench: Bench) -> None:
+    # AP_Arming::update runs once a second from boot and displays when more than 30 s have
+    # passed since the last display, which moves whether anything failed or not: at 31 s, 62
+    # s, 93 s. WP_SPEED (Rover's parameter_checks) is not among the common checks whose turn
+    # to failing is said sooner, so WP_SPEED 0 set at 10 s is said first at 31 s
     bench.tick(10.0)
     bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 0.0, mav.MAV_PARAM_TYPE_REAL32))
-    times = []
-    for _ in range(800):  # 80 s
-        bench.tick(0.1)
-        times += [t for t, text in bench.ep.statustexts if text == "PreArm: WP_SPEED too low" and t not in times]
-    start = 10.1  # the first tick that saw it failing
-    assert [t - start for t in times] == pytest.approx([4.0, 34.0, 64.0], abs=0.25)  # to a tick or two
+    assert _prearm_times(bench, "PreArm: WP_SPEED too low", 100.0) == pytest.approx([31.0, 62.0, 93.0], abs=0.11)
+
+
+def test_a_common_check_that_starts_failing_is_said_within_2_s(bench: Bench) -> None:
+    # the fence (AP_Arming's own fence_checks): passing until 40.05 s, failing from then. The
+    # update at 41 s runs the checks and sees the turn (report_immediately); the one at 42 s,
+    # more than 4 s after the last display (31 s), says it; then every 31 s of the boot clock
+    assert _prearm_times(bench, "", 40.0) == []  # (every update run, once a second)
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_TYPE", 4.0, mav.MAV_PARAM_TYPE_INT8))
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_ENABLE", 1.0, mav.MAV_PARAM_TYPE_INT8))
+    times = _prearm_times(bench, "PreArm: Fences enabled, but none selected", 100.0)
+    assert times == pytest.approx([42.0, 73.0], abs=0.11)  # (to a 0.1 s tick)
+
+
+def test_a_vehicle_failing_a_common_check_from_boot_says_so_first_at_31_s(bench: Bench) -> None:
+    # AP_Arming starts with "the checks did not pass" (its RAM is zero at boot): no turn to
+    # failing is seen, so the first display is the 30 s one
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_TYPE", 4.0, mav.MAV_PARAM_TYPE_INT8))
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_ENABLE", 1.0, mav.MAV_PARAM_TYPE_INT8))
+    assert _prearm_times(bench, "PreArm: Fences enabled, but none selected", 40.0) == pytest.approx([31.0], abs=0.11)
 
 
 def test_guided_takes_a_speed_once_it_has_arrived(bench: Bench) -> None:
@@ -2744,6 +2797,9 @@ def test_the_safety_switch_of_a_board_without_one_as_rover_answers(bench: Bench)
 
     assert set_mode_ack(0) == mav.MAV_RESULT_ACCEPTED  # off: the outputs are live already
     assert set_mode_ack(1) == mav.MAV_RESULT_FAILED  # on: there is no switch to turn on
+    # neither: _set_mode_common's "invalid parameters", by message and by command alike
+    assert set_mode_ack(2) == mav.MAV_RESULT_DENIED and set_mode_ack(7) == mav.MAV_RESULT_DENIED
+    assert bench.command(mav.MAV_CMD_DO_SET_MODE, mav.MAV_MODE_FLAG_DECODE_POSITION_SAFETY, 2) == mav.MAV_RESULT_DENIED
     cmd = mav.MAV_CMD_DO_SET_SAFETY_SWITCH_STATE
     assert bench.command(cmd, mav.SAFETY_SWITCH_STATE_DANGEROUS) == mav.MAV_RESULT_ACCEPTED
     assert bench.command(cmd, mav.SAFETY_SWITCH_STATE_SAFE) == mav.MAV_RESULT_FAILED
@@ -3174,3 +3230,28 @@ def test_the_record_says_which_peer_a_packet_went_to_alone_and_its_bytes_match_i
     assert all(base64.b64decode(r["raw"])[4] == r["seq"] for r in out)  # MAVLink 2: seq is byte 4
     gpis = [r.get("to") for r in out if r["name"] == "GLOBAL_POSITION_INT"]
     assert gpis.count("127.0.0.1:40001") == 20 and gpis.count(None) == 10  # its own 20 Hz; everyone's 10 Hz
+
+
+def test_sys_status_reports_the_controllers_as_rovers_mode_runs_them(bench: Bench) -> None:
+    # GCS_Rover::update_vehicle_sensor_status_flags: the four controllers always present;
+    # rate and attitude where the mode is attitude_stabilized, yaw and position where it is an
+    # autopilot mode: none of them in HOLD or MANUAL, all four in GUIDED, AUTO, RTL, SmartRTL
+    controllers = (
+        mav.MAV_SYS_STATUS_SENSOR_ANGULAR_RATE_CONTROL
+        | mav.MAV_SYS_STATUS_SENSOR_ATTITUDE_STABILIZATION
+        | mav.MAV_SYS_STATUS_SENSOR_YAW_POSITION
+        | mav.MAV_SYS_STATUS_SENSOR_XY_POSITION_CONTROL
+    )
+
+    def bits() -> tuple[int, int, int]:
+        (status,) = [m for m in bench.tick(1.0) if m.get_type() == "SYS_STATUS"][-1:]
+        return (
+            status.onboard_control_sensors_present & controllers,
+            status.onboard_control_sensors_enabled & controllers,
+            status.onboard_control_sensors_health & controllers,
+        )
+
+    assert bits() == (controllers, 0, 0)  # HOLD
+    for mode, expected in (("GUIDED", controllers), ("RTL", controllers), ("MANUAL", 0)):
+        assert bench.set_mode(mode) == mav.MAV_RESULT_ACCEPTED
+        assert bits() == (controllers, expected, expected), mode

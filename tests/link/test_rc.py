@@ -71,7 +71,7 @@ def test_rc_override_no_change_release_and_the_high_channels() -> None:
     assert rc.value(1, 0.0, 3.0) == 1600 and rc.value(3, 0.0, 3.0) == 1700
     assert rc.value(9, 0.0, 3.0) == 1234
     assert rc.value(2, 0.0, 3.0) is None and rc.value(10, 0.0, 3.0) is None
-    # 65535 leaves channel 1 as it was; 0 releases channel 3; on 9-18 0 changes nothing and 65534 releases
+    # 65535 leaves channel 1 as it was; 0 releases channel 3; on 9-16 0 changes nothing and 65534 releases
     rc.from_rc_override([65535, 0, 0, 0, 0, 0, 0, 0, 0], t_s=1.0)
     assert rc.value(1, 1.0, 3.0) == 1600 and rc.value(3, 1.0, 3.0) is None
     assert rc.value(9, 1.0, 3.0) == 1234

@@ -45,12 +45,13 @@ def test_a_manual_control_axis_is_truncated_to_a_whole_microsecond(axis: int, pw
     assert manual_to_pwm(axis) == pwm
 
 
-def test_rc_channels_override_carries_at_most_18_channels() -> None:
-    # a 19th value is no channel: it is not kept, and values() reports 18 channels
+def test_rc_channels_override_is_read_to_channel_16_as_a_rover_has_16() -> None:
+    # Rover's handle_rc_channels_override reads chan1..chan16 (NUM_RC_CHANNELS): channels 17 and
+    # 18 are not taken, and values() reports them as 0, as Rover's RC_CHANNELS does
     rc = RcOverrides()
-    rc.from_rc_override([1500] * 18 + [1600], t_s=0.0)
-    assert rc.values(0.0, 3.0) == [1500] * 18
-    assert rc.value(19, 0.0, 3.0) is None
+    rc.from_rc_override([1500] * 16 + [1700, 1800, 1600], t_s=0.0)
+    assert rc.values(0.0, 3.0) == [1500] * 16 + [0, 0]
+    assert rc.value(17, 0.0, 3.0) is None and rc.value(19, 0.0, 3.0) is None
 
 
 def test_values_report_each_live_override_and_0_for_the_rest() -> None:
