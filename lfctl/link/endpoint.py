@@ -35,7 +35,16 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 from lfctl import __version__
 from lfctl.checks import printable
 from lfctl.frames import FLT_EPSILON, HALF_EARTH_M, ned_to_geodetic, on_earth, wrap_pi
-from lfctl.link.fence import FENCE_TYPE_CIRCLE, FENCE_TYPE_POLYGON, Fence, breach_name, fence_names, rally_points
+from lfctl.link.fence import (
+    FENCE_ALL,
+    FENCE_TYPE_ALT_MIN,
+    FENCE_TYPE_CIRCLE,
+    FENCE_TYPE_POLYGON,
+    Fence,
+    breach_name,
+    fence_names,
+    rally_points,
+)
 from lfctl.link.ftp import FtpFile, FtpServer
 from lfctl.link.guided import GuidedTarget, Pose, attitude_target, global_to_local, position_target
 from lfctl.link.mission import (
@@ -583,6 +592,12 @@ class VehicleEndpoint:
         self._prearm_shown_s = 0.0
         self._prearm_common_passed = False
         self._prearm_soon = False
+        # the fences turned on, FENCE_TYPE bits (AC_Fence's _enabled_fences, in RAM): at boot
+        # every configured one but the floor with FENCE_ENABLE set, else none; then as
+        # FENCE_ENABLE changes (:meth:`_follow_fence_enable`) and DO_FENCE_ENABLE asks, which
+        # leaves the parameter as it is, as on Rover
+        self._fence_enable_seen = self.param("FENCE_ENABLE")  # (its _last_enabled)
+        self.fences_enabled = self._configured_fences() & ~FENCE_TYPE_ALT_MIN if self._fence_enable_seen else 0
         self._gcs_failsafe = False  # the ground station is lost (Rover's failsafe.bits)
         self._gcs_failsafe_since = 0.0  # since when, s (failsafe.start_time)
         self._failsafe_triggered = False  # the failsafe has acted (failsafe.triggered)
@@ -1245,6 +1260,7 @@ class VehicleEndpoint:
     def _enter(self, custom_mode: int) -> None:
         if custom_mode != self.mode and self._breached_fences:  # Rover's set_mode
             self._fence_recovery_until = self.t_s + FENCE_RECOVERY_S
+            self.statustext("Manual recovery started", mav.MAV_SEVERITY_INFO)  # AC_Fence::manual_recovery_start
         if custom_mode != self.mode:
             log.info("%s: mode %s -> %s", self.name, MODE_NAMES[self.mode], MODE_NAMES[custom_mode])
             self.modes.append((self.t_s, custom_mode))
@@ -1393,15 +1409,7 @@ class VehicleEndpoint:
         if cmd == mav.MAV_CMD_DO_CHANGE_SPEED:
             return self._change_speed(p[0], p[1])
         if cmd == mav.MAV_CMD_DO_FENCE_ENABLE:
-            # as ArduPilot's GCS_Fence: 0 off, 1 on, 2 the floor off (a rover has none), else FAILED
-            action = _as_int(p[0], 0, 65535)
-            if action is None:
-                return mav.MAV_RESULT_DENIED
-            if action > 2 or (action == 1 and not self._fence_present()):
-                return mav.MAV_RESULT_FAILED  # on, with no fence to check: AC_Fence::present
-            if action < 2:
-                self.params["FENCE_ENABLE"].value = action
-            return mav.MAV_RESULT_ACCEPTED
+            return self._fence_enable_command(p[0], p[1])
         # anything else, MAV_CMD_NAV_SET_YAW_SPEED too: Rover 4.5 took it (deprecated), Rover's
         # newest source is built without it (AP_MAVLINK_MAV_CMD_NAV_SET_YAW_SPEED_ENABLED 0)
         return mav.MAV_RESULT_UNSUPPORTED
@@ -1999,7 +2007,8 @@ class VehicleEndpoint:
 
     def run_mission_item(self, item: MissionItem, verified: bool = True) -> None:
         """Carry out a mission's DO command on the vehicle as the same command from a ground
-        station would (DO_SET_HOME, DO_SET_REVERSE, DO_FENCE_ENABLE), then say it is done.
+        station would (DO_SET_HOME, DO_SET_REVERSE; DO_FENCE_ENABLE as AP_Mission runs it, see
+        :meth:`_fence_enable_item`), then say it is done.
 
         Parameters
         ----------
@@ -2009,10 +2018,13 @@ class VehicleEndpoint:
             Say it is done (MISSION_ITEM_REACHED); False for an item the mission never checks
             (the one started after the last navigation item, as the mission completes).
         """
-        p = [item.param1, item.param2, item.param3, item.param4, float(item.x), float(item.y), item.z]
-        # a mission's MISSION frame is above mean sea level, as AP_Mission reads a place in it
-        frame = mav.MAV_FRAME_GLOBAL if item.frame == mav.MAV_FRAME_MISSION else item.frame
-        self._command(item.command, p, (item.x, item.y), frame)
+        if item.command == mav.MAV_CMD_DO_FENCE_ENABLE:  # AP_Mission's own, not the command's
+            self._fence_enable_item(item.param1)
+        else:
+            p = [item.param1, item.param2, item.param3, item.param4, float(item.x), float(item.y), item.z]
+            # a mission's MISSION frame is above mean sea level, as AP_Mission reads a place in it
+            frame = mav.MAV_FRAME_GLOBAL if item.frame == mav.MAV_FRAME_MISSION else item.frame
+            self._command(item.command, p, (item.x, item.y), frame)
         if verified:
             self.item_done(item.seq)
 
@@ -2029,25 +2041,88 @@ class VehicleEndpoint:
         candidates = [self.home_point(), *(p for p in self.rally if self._within_fence(*p))]
         return min(candidates, key=lambda p: math.hypot(p[0] - north_m, p[1] - east_m))
 
+    def _configured_fences(self) -> int:
+        """The fences FENCE_TYPE configures, FENCE_TYPE bits (AC_Fence's _configured_fences)."""
+        return int(self.param("FENCE_TYPE")) & FENCE_ALL
+
+    def _present_fences(self) -> int:
+        """The configured fences there is something to check for, as Rover's
+        ``AC_Fence::present``: the polygons only with some fence item uploaded."""
+        present = self._configured_fences()
+        return present & ~FENCE_TYPE_POLYGON if self.fence.empty else present
+
     def _fence_present(self) -> bool:
-        """A fence there is to check, as Rover's ``AC_Fence::present``: FENCE_TYPE's circle
-        (or an altitude bit), or its polygons with some fence item uploaded."""
-        fence_type = int(self.param("FENCE_TYPE"))
-        polygons = bool(fence_type & FENCE_TYPE_POLYGON) and not self.fence.empty
-        return bool(fence_type & ~FENCE_TYPE_POLYGON & 0x0F) or polygons
+        """A fence there is to check (:meth:`_present_fences`)."""
+        return bool(self._present_fences())
+
+    def _checked_fences(self) -> int:
+        """The fences the vehicle is checked against now: turned on and configured."""
+        return self.fences_enabled & self._configured_fences()
+
+    def _follow_fence_enable(self) -> None:
+        """As Rover's ``AC_Fence::update``: a change of FENCE_ENABLE turns every configured
+        fence but the floor on (1) or every fence off (0); setting it to what it was changes
+        nothing, so what DO_FENCE_ENABLE did stands until then."""
+        value = self.param("FENCE_ENABLE")
+        if value != self._fence_enable_seen:
+            self._fence_enable_seen = value
+            self.fences_enabled = self._configured_fences() & ~FENCE_TYPE_ALT_MIN if value else 0
+
+    def _fence_enable_command(self, action_p: float, fences_p: float) -> int:
+        """MAV_CMD_DO_FENCE_ENABLE, as Rover 4.6's GCS_Fence: param1 0 off, 1 on (FAILED when none
+        of the fences asked for is there to check), 2 the floor off (a rover has none); param2
+        the FENCE_TYPE bits it is for (0: all). It turns fences on and off in RAM, as
+        ``AC_Fence::enable``: FENCE_ENABLE is not changed, and a reboot forgets it."""
+        action, fences = _as_int(action_p, 0, 65535), _as_int(fences_p, 0, 255)
+        if action is None or fences is None:
+            return mav.MAV_RESULT_DENIED
+        fences = fences or FENCE_ALL
+        if action == 0:
+            self.fences_enabled &= ~(self._configured_fences() & fences)
+        elif action == 1:
+            if not self._present_fences() & fences:
+                return mav.MAV_RESULT_FAILED  # none of them there to check
+            self.fences_enabled |= self._configured_fences() & fences
+        elif action == 2:
+            self.fences_enabled &= ~FENCE_TYPE_ALT_MIN
+        else:
+            return mav.MAV_RESULT_FAILED
+        return mav.MAV_RESULT_ACCEPTED
+
+    def _fence_enable_item(self, action_p: float) -> None:
+        """A mission's DO_FENCE_ENABLE, as Rover 4.6's ``AP_Mission::start_command_fence``:
+        param1 0 turns every configured fence off, 1 on (``enable_configured``), 2 the floor
+        off, each said at NOTICE for the fences it changed ("Circle and Polygon fences
+        enabled", ``print_fence_message``); any other value does nothing."""
+        action = _as_int(action_p, 0, 65535)
+        if action in (0, 1):
+            before = self.fences_enabled
+            if action:
+                self.fences_enabled |= self._configured_fences()
+            else:
+                self.fences_enabled &= ~self._configured_fences()
+            changed = before ^ self.fences_enabled
+            if changed:
+                self.statustext(
+                    f"{fence_names(changed)} {'enabled' if action else 'disabled'}", mav.MAV_SEVERITY_NOTICE
+                )
+        elif action == 2:
+            self.fences_enabled &= ~FENCE_TYPE_ALT_MIN
+            self.statustext(f"{fence_names(FENCE_TYPE_ALT_MIN)} disabled", mav.MAV_SEVERITY_NOTICE)
 
     def _fence_failure(self) -> str | None:
         """The fence's pre-arm failure, as Rover's ``AC_Fence::pre_arm_check`` words it (run
         by ``AP_Arming::fence_checks``, which no ``ARMING_CHECK`` bit turns off), or None:
         "Fences enabled, but none selected" with ``FENCE_ENABLE`` on and no fence to check;
-        with it on, an inclusion circle narrower than ``FENCE_MARGIN`` ("Polygon fence margin
-        is greater than inclusion circle radius"), then "Vehicle breaching Polygon fence" (or
-        Circle, or both) while the vehicle is outside the fence. The checks on values lfctl's
-        parameter ranges already rule out (a negative radius or margin) cannot fail here."""
-        if not self.param("FENCE_ENABLE"):
-            return None
-        if not self._fence_present():
+        with a fence turned on (the parameter, or DO_FENCE_ENABLE), an inclusion circle
+        narrower than ``FENCE_MARGIN`` ("Polygon fence margin is greater than inclusion circle
+        radius"), then "Vehicle breaching Polygon fence" (or Circle, or both) while the vehicle
+        is outside the fence. The checks on values lfctl's parameter ranges already rule out (a
+        negative radius or margin) cannot fail here."""
+        if self.param("FENCE_ENABLE") and not self._fence_present():
             return "Fences enabled, but none selected"
+        if not self.fences_enabled or not self._configured_fences():
+            return None
         fence_type = int(self.param("FENCE_TYPE"))
         margin = self.param("FENCE_MARGIN")
         if fence_type & FENCE_TYPE_POLYGON and any(r < margin for *_, r in self.fence.inclusion_circles):
@@ -2058,16 +2133,17 @@ class VehicleEndpoint:
 
     def _within_fence(self, north_m: float, east_m: float) -> bool:
         """A destination the fence allows (Rover refuses guided targets outside it, and rally
-        points outside it are not taken: AC_Fence::check_destination_within_fence)."""
-        if not self.param("FENCE_ENABLE"):
-            return True
+        points outside it are not taken: AC_Fence::check_destination_within_fence): checked
+        against the fences turned on."""
         return not self._breaches(north_m, east_m, destination=True)
 
     def _breaches(self, north_m: float, east_m: float, destination: bool = False) -> int:
-        """The fences (north, east) breaches as FENCE_TYPE and FENCE_RADIUS set them, as
+        """The fences turned on that (north, east) breaches (FENCE_RADIUS for the circle), as
         FENCE_TYPE bits (0: none); ``destination``: a place asked for, not the vehicle's."""
-        fence_type, radius = int(self.param("FENCE_TYPE")), self.param("FENCE_RADIUS")
-        return self.fence.breaches(north_m, east_m, fence_type, radius, self.home_point(), destination)
+        fences, radius = self._checked_fences(), self.param("FENCE_RADIUS")
+        if not fences:
+            return 0
+        return self.fence.breaches(north_m, east_m, fences, radius, self.home_point(), destination)
 
     # -- GUIDED ---------------------------------------------------------------------------------
     def _pose(self) -> Pose:
@@ -2196,6 +2272,7 @@ class VehicleEndpoint:
         self.missions.tick(t_s)
         self.ftp.tick()
         self._check_gcs_failsafe(t_s)
+        self._follow_fence_enable()
         self._report_prearm(t_s)
         self._check_fence()
         self._record_path()
@@ -2302,8 +2379,10 @@ class VehicleEndpoint:
                 return
 
     def _check_fence(self) -> None:
-        """As Rover's ``fence_check`` on ``AC_Fence::check``: a fence newly breached is said
-        and acted on (armed). The circle is breached again each time the vehicle goes
+        """As Rover's ``fence_check`` on ``AC_Fence::check``: a fence newly breached is
+        counted (FENCE_STATUS: one breach for each fence, the time of the first while none
+        was breached) and acted on (armed), without a word, as Rover says nothing of a breach
+        (only "Manual recovery started" as the mode changes, :meth:`_enter`). The circle is breached again each time the vehicle goes
         :data:`CIRCLE_BACKUP_M` farther out than where it last breached it (AC_Fence's backup
         circle), so a vehicle driven on outwards meets the action again; and more than
         :data:`FENCE_GIVE_UP_M` outside the circle the action is HOLD, whatever FENCE_ACTION
@@ -2311,7 +2390,7 @@ class VehicleEndpoint:
         :data:`FENCE_RECOVERY_S` after a mode change made while breached (the fence's own, or a
         ground station's taking the vehicle back) no new breach is acted on, as Rover's
         ``set_mode`` starts AC_Fence's manual recovery; what is breached is still kept."""
-        if not self.param("FENCE_ENABLE"):
+        if not self._checked_fences():
             self.fence_breach = None
             self._breached_fences = 0
             self._circle_backup_m = 0.0
@@ -2334,14 +2413,13 @@ class VehicleEndpoint:
         if new and self.t_s < self._fence_recovery_until:
             new = 0  # the pilot's time to bring it back
         if new:
-            self.fence_breaches += 1
-            self._fence_breach_ms = self._boot_ms()
-            self.statustext(f"Fence breached: {breach}", mav.MAV_SEVERITY_CRITICAL)
+            if not before:  # AC_Fence::record_breach: the time of the first of a run of breaches
+                self._fence_breach_ms = self._boot_ms()
+            self.fence_breaches += bin(new).count("1")  # ... and a count for each fence
+            log.warning("%s: fence breached: %s", self.name, breach)  # (lfctl's log, not a STATUSTEXT)
             if self.armed:
                 self._fence_action(give_up=outside_m > FENCE_GIVE_UP_M)
             self._soon(MSG_IDS["FENCE_STATUS"])
-        elif breach is None and self.fence_breach is not None:
-            self.statustext("Fence breach cleared", mav.MAV_SEVERITY_INFO)
         self.fence_breach = breach
 
     def _fence_action(self, give_up: bool = False) -> None:
@@ -2471,11 +2549,11 @@ class VehicleEndpoint:
             )
         elif name == "SYS_STATUS":
             # the geofence as Rover's AC_Fence reports it: present when there is a fence to
-            # check, enabled with FENCE_ENABLE unless FENCE_ACTION is 0 (report only),
+            # check, enabled with a fence turned on unless FENCE_ACTION is 0 (report only),
             # healthy unless breached (MAVProxy says "fence breach" when the health bit drops)
             fence = mav.MAV_SYS_STATUS_GEOFENCE
             present = self._fence_present()
-            acting = present and self.param("FENCE_ENABLE") and int(self.param("FENCE_ACTION")) != ACTION_NONE
+            acting = present and self.fences_enabled and int(self.param("FENCE_ACTION")) != ACTION_NONE
             controlling = CONTROLLERS if self.mode in AUTOPILOT_MODES else 0
             enabled = SENSORS | controlling | (fence if acting else 0)
             health = SENSORS | controlling | (fence if not (present and self.fence_breach is not None) else 0)
@@ -2587,11 +2665,15 @@ class VehicleEndpoint:
                 )  # as Rover's send_home_position: no orientation (NaN), the time since boot
             )  # fmt: skip
         elif name == "FENCE_STATUS":
-            if self.param("FENCE_ENABLE"):
+            if self.fences_enabled:  # GCS_Fence's send_fence_status: with a fence turned on
                 breach_type = mav.FENCE_BREACH_BOUNDARY if self.fence_breach else mav.FENCE_BREACH_NONE
                 self.send(
                     mav.MAVLink_fence_status_message(
-                        int(self.fence_breach is not None), self.fence_breaches, breach_type, self._fence_breach_ms
+                        int(self.fence_breach is not None),
+                        self.fence_breaches,
+                        breach_type,
+                        self._fence_breach_ms,
+                        mav.FENCE_MITIGATE_NONE,  # a rover has AC_Avoid, not limiting here
                     )
                 )
         elif name == "AUTOPILOT_VERSION":

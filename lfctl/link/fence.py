@@ -44,6 +44,9 @@ RALLY_COMMANDS = {RALLY_POINT}
 #: FENCE_TYPE bits a rover uses
 FENCE_TYPE_CIRCLE = 2
 FENCE_TYPE_POLYGON = 4
+#: FENCE_TYPE's floor (Min Alt), which FENCE_ENABLE does not turn on, and all four fences
+FENCE_TYPE_ALT_MIN = 8
+FENCE_ALL = 0x0F
 #: every FENCE_TYPE bit, in AC_Fence's order (max altitude, circle, polygon, min altitude), with
 #: the name Rover gives each in its texts (``AC_Fence::get_fence_names``)
 FENCE_NAMES = ((1, "Max Alt"), (FENCE_TYPE_CIRCLE, "Circle"), (FENCE_TYPE_POLYGON, "Polygon"), (8, "Min Alt"))

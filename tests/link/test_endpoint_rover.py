@@ -469,14 +469,15 @@ def test_a_fence_breach_is_reported_and_sends_the_vehicle_home(bench: Bench) -> 
     outside = dict(STATE, north_m=7.0, east_m=1.0)
     msgs = bench.tick(state=outside)
     assert bench.ep.fence_breach == "polygon" and bench.ep.mode == MODES["RTL"]
-    assert any(
-        m.get_type() == "STATUSTEXT" and b"Fence breached" in bytes(m.text, "latin1")
-        if isinstance(m.text, str)
-        else b"Fence breached" in m.text
-        for m in msgs
-    )
+    # Rover's fence_check says nothing of the breach; its switch to RTL starts AC_Fence's
+    # manual recovery, which is said (manual_recovery_start, at INFO)
+    said = [(m.severity, m.text) for m in msgs if m.get_type() == "STATUSTEXT"]
+    assert said == [(mav.MAV_SEVERITY_INFO, "Manual recovery started")]
     status = [m for m in msgs if m.get_type() == "FENCE_STATUS"]
     assert status and status[-1].breach_status == 1 and status[-1].breach_count == 1
+    assert status[-1].breach_mitigation == mav.FENCE_MITIGATE_NONE  # GCS_Fence, a vehicle with AC_Avoid
+    back = [m for m in bench.tick(state=inside) if m.get_type() == "STATUSTEXT"]
+    assert bench.ep.fence_breach is None and back == []  # cleared without a word too
 
 
 @pytest.mark.parametrize(
@@ -513,8 +514,12 @@ def test_a_circle_breach_is_met_again_20_m_farther_out_and_past_100_m_the_action
         bench.state = dict(STATE, north_m=north_m, east_m=0.0)  # where the commands' ticks find it too
         return bench.tick(dt)
 
-    def breached(msgs: list[object]) -> int:
-        return sum(1 for m in msgs if m.get_type() == "STATUSTEXT" and m.text.startswith("Fence breached"))
+    counted = [ep.fence_breaches]
+
+    def breached(_msgs: list[object]) -> int:
+        """The breaches counted since the last call (FENCE_STATUS's breach_count)."""
+        new, counted[0] = ep.fence_breaches - counted[0], ep.fence_breaches
+        return new
 
     at(10.0)
     assert breached(at(31.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 1
@@ -1033,13 +1038,43 @@ def test_integer_parameters_say_so_and_store_whole_numbers_as_ardupilot(bench: B
     assert any(m.get_type() == "STATUSTEXT" and "No parameter at index 999" in m.text for m in out)
 
 
-@pytest.mark.parametrize(("action", "result", "enabled"), [(1, 0, 1), (0, 0, 0), (2, 0, None), (3, 4, None)])
-def test_do_fence_enable_as_ardupilot(bench: Bench, action: int, result: int, enabled: int | None) -> None:
-    # 0 off, 1 on, 2 the floor off (a rover has none: accepted, nothing changes), else FAILED
-    bench.ep.params["FENCE_ENABLE"].value = 1 - (enabled if enabled is not None else 0)
-    before = bench.ep.param("FENCE_ENABLE")
-    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, action) == result
-    assert bench.ep.param("FENCE_ENABLE") == (before if enabled is None else enabled)
+@pytest.mark.parametrize(
+    ("action", "fences", "result", "enabled"),
+    [(1, 0, 0, 6), (0, 0, 0, 0), (2, 0, 0, None), (3, 0, 4, None), (1, 2, 0, 2), (0, 4, 0, 2), (1, 4, 4, None)],
+)
+def test_do_fence_enable_as_ardupilot(bench: Bench, action: int, fences: int, result: int, enabled: int | None) -> None:
+    # Rover 4.6's GCS_Fence: param1 0 off, 1 on, 2 the floor off (a rover has none: accepted,
+    # nothing changes), else FAILED; param2 the fences it is for (0: all): on is FAILED when
+    # none of them is there to check (here the circle alone, FENCE_TYPE 6 with no polygon)
+    bench.ep.params["FENCE_TYPE"].value = 6
+    bench.ep.params["FENCE_ENABLE"].value = 1 if action == 0 else 0
+    bench.tick()
+    before = bench.ep.fences_enabled
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, action, fences) == result
+    assert bench.ep.fences_enabled == (before if enabled is None else enabled)
+    # AC_Fence::enable changes the fences in RAM only: FENCE_ENABLE is as it was
+    assert bench.ep.param("FENCE_ENABLE") == (1 if action == 0 else 0)
+
+
+def test_do_fence_enable_is_forgotten_at_a_reboot_and_fence_enable_rules_when_it_changes(bench: Bench) -> None:
+    # AC_Fence's parameter says "these changes are not persisted": after a reboot the fences
+    # are as FENCE_ENABLE says (0: off); a change of FENCE_ENABLE turns them all on or off
+    ep = bench.ep
+    ep.params["FENCE_TYPE"].value = 2
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_ACCEPTED
+    assert ep.fences_enabled == 2 and ep.param("FENCE_ENABLE") == 0
+    assert [m for m in bench.tick(1.0) if m.get_type() == "FENCE_STATUS"]  # with a fence on
+    assert bench.command(mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == mav.MAV_RESULT_ACCEPTED
+    bench.tick(3.0)
+    assert ep.fences_enabled == 0
+    assert not [m for m in bench.tick(1.0) if m.get_type() == "FENCE_STATUS"]
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_ENABLE", 1.0, mav.MAV_PARAM_TYPE_INT8))
+    bench.tick()
+    assert ep.fences_enabled == 2
+    assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 0) == mav.MAV_RESULT_ACCEPTED and ep.fences_enabled == 0
+    bench.send(mav.MAVLink_param_set_message(1, 1, b"FENCE_ENABLE", 1.0, mav.MAV_PARAM_TYPE_INT8))
+    bench.tick()
+    assert ep.fences_enabled == 0  # set to what it was: no change, so the command's off stands
 
 
 def test_manual_mode_says_it_takes_manual_input(bench: Bench) -> None:
@@ -1117,6 +1152,7 @@ def test_rtl_skips_a_rally_point_outside_the_fence(bench: Bench) -> None:
     n, e = bench.ep.rtl_destination(*near_outside)
     assert (n, e) == pytest.approx((0.0, 7.0), abs=0.05)  # fence off: the nearest rally point
     bench.ep.params["FENCE_ENABLE"].value = 1
+    bench.tick()  # (the fences turn on as AC_Fence::update sees the parameter change)
     n, e = bench.ep.rtl_destination(*near_outside)
     assert (n, e) == pytest.approx((3.0, 3.0), abs=0.05)  # fence on: the one inside it
     assert bench.ep.rtl_destination(0.2, -0.3) == (0.0, 0.0)  # home, nearer than either
@@ -1195,10 +1231,10 @@ def test_the_fence_cannot_be_enabled_when_there_is_none(bench: Bench) -> None:
     # AC_Fence::present: FENCE_TYPE polygons only and none uploaded is no fence (FAILED)
     bench.ep.params["FENCE_TYPE"].value = 4
     assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_FAILED
-    assert bench.ep.param("FENCE_ENABLE") == 0
+    assert bench.ep.fences_enabled == 0
     assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
     assert bench.command(mav.MAV_CMD_DO_FENCE_ENABLE, 1) == mav.MAV_RESULT_ACCEPTED
-    assert bench.ep.param("FENCE_ENABLE") == 1
+    assert bench.ep.fences_enabled == 4  # the polygon, turned on in RAM (FENCE_ENABLE stays 0)
 
 
 def test_vfr_hud_as_rover_fills_it(bench: Bench) -> None:
@@ -3255,3 +3291,56 @@ def test_sys_status_reports_the_controllers_as_rovers_mode_runs_them(bench: Benc
     for mode, expected in (("GUIDED", controllers), ("RTL", controllers), ("MANUAL", 0)):
         assert bench.set_mode(mode) == mav.MAV_RESULT_ACCEPTED
         assert bits() == (controllers, expected, expected), mode
+
+
+def test_fence_status_counts_each_fence_breached_and_times_the_first_of_a_run(bench: Bench) -> None:
+    # AC_Fence::record_breach, once for each fence newly breached: the count goes up by one
+    # for each, and the time is taken only when no fence was breached before (the circle's
+    # backup circle breached again farther out counts, but does not move the time)
+    ep = bench.ep
+    assert upload(bench, fence_square(5.0), mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
+    ep.params["FENCE_TYPE"].value, ep.params["FENCE_RADIUS"].value, ep.params["FENCE_ENABLE"].value = 6, 8.0, 1
+    ep.params["FENCE_ACTION"].value = 0  # report only: no mode change, no manual recovery
+    bench.state = dict(STATE, north_m=0.0, east_m=0.0)
+    bench.tick()
+    ep.set_armed(True)  # home stays here
+    bench.tick(1.0, state=dict(STATE, north_m=20.0, east_m=0.0))  # out of both at once
+    assert (ep.fence_breaches, ep.fence_breach) == (2, "circle")
+    first_ms = ep._fence_breach_ms
+    bench.tick(1.0, state=dict(STATE, north_m=41.0, east_m=0.0))  # past the backup circle (20 + 20 m)
+    assert ep.fence_breaches == 3 and ep._fence_breach_ms == first_ms
+    (status,) = [
+        m for m in bench.tick(1.0, state=dict(STATE, north_m=41.0, east_m=0.0)) if m.get_type() == "FENCE_STATUS"
+    ]
+    assert (status.breach_count, status.breach_time) == (3, first_ms)
+
+
+@pytest.mark.parametrize(
+    ("p1", "fences", "said"),
+    [
+        (1.0, 6, ["Circle and Polygon fences enabled"]),
+        (0.0, 0, ["Circle and Polygon fences disabled"]),
+        (2.0, 6, ["Min Alt fence disabled"]),
+        (3.0, 6, []),
+    ],
+)
+def test_a_missions_fence_enable_is_ap_missions_and_says_what_it_changed(
+    bench: Bench, p1: float, fences: int, said: list[str]
+) -> None:
+    # AP_Mission::start_command_fence, not the ground station's command: 0 and 1 turn every
+    # configured fence off or on (enable_configured: the polygon too, none uploaded), said at
+    # NOTICE for the fences changed (print_fence_message); 2 the floor off, said; else nothing
+    ep = bench.ep
+    ep.params["FENCE_TYPE"].value = 6
+    if p1 != 1.0:
+        ep.params["FENCE_ENABLE"].value = 1
+    bench.tick()
+    before = len(ep.statustexts)
+    ep.run_mission_item(Item(2, mav.MAV_CMD_DO_FENCE_ENABLE, p1=p1), verified=False)  # type: ignore[arg-type]
+    texts = [(m.severity, m.text) for m in bench.tick() if m.get_type() == "STATUSTEXT"]
+    assert texts == [(mav.MAV_SEVERITY_NOTICE, text) for text in said]
+    assert [t for _, t in ep.statustexts[before:]] == said
+    assert ep.fences_enabled == fences
+    ep.run_mission_item(Item(3, mav.MAV_CMD_DO_FENCE_ENABLE, p1=p1), verified=False)  # type: ignore[arg-type]
+    if p1 in (0.0, 1.0):  # again: nothing changes, nothing is said
+        assert [t for _, t in ep.statustexts[before:]] == said
