@@ -2029,17 +2029,31 @@ class VehicleEndpoint:
             self.item_done(item.seq)
 
     def rtl_destination(self, north_m: float, east_m: float) -> tuple[float, float]:
-        """Where RTL drives from (north, east): the nearest of home and the rally points the
-        fence allows (a rally point outside an enabled fence is not valid, as Rover's
-        AP_Rally_Rover::is_valid; home always is).
+        """Where RTL drives from (north, east), as Rover's ``calc_best_rally_or_home_location``:
+        the nearest rally point the fence allows (one outside a fence turned on is not valid,
+        ``AP_Rally_Rover::is_valid``), unless it is farther than ``RALLY_LIMIT_KM`` (0: no
+        limit) or, with ``RALLY_INCL_HOME`` 1, home is as near or nearer: then home.
 
         Parameters
         ----------
         north_m, east_m : float
             The vehicle, local NED, m.
         """
-        candidates = [self.home_point(), *(p for p in self.rally if self._within_fence(*p))]
-        return min(candidates, key=lambda p: math.hypot(p[0] - north_m, p[1] - east_m))
+        home = self.home_point()
+
+        def distance(p: tuple[float, float]) -> float:
+            return math.hypot(p[0] - north_m, p[1] - east_m)
+
+        valid = [p for p in self.rally if self._within_fence(*p)]
+        if not valid:
+            return home
+        nearest = min(valid, key=distance)
+        limit_m = self.param("RALLY_LIMIT_KM") * 1000.0
+        if limit_m > 0 and distance(nearest) > limit_m:
+            return home
+        if self.param("RALLY_INCL_HOME") and not distance(nearest) < distance(home):
+            return home
+        return nearest
 
     def _configured_fences(self) -> int:
         """The fences FENCE_TYPE configures, FENCE_TYPE bits (AC_Fence's _configured_fences)."""

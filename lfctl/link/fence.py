@@ -253,7 +253,8 @@ class Fence:
 
 
 def rally_points(items: list[MissionItem], home: tuple[float, float, float]) -> list[tuple[float, float]]:
-    """The rally points of a RALLY list, local NED metres from home.
+    """The rally points of a RALLY list, local NED metres from home; one at latitude and
+    longitude 0 is none (Rover's ``get_rally_point_with_index`` skips it as unset).
 
     Parameters
     ----------
@@ -262,4 +263,4 @@ def rally_points(items: list[MissionItem], home: tuple[float, float, float]) -> 
     home : (lat_deg, lon_deg, alt_m)
         The local origin.
     """
-    return [_local(it, home) for it in items if it.command in RALLY_COMMANDS]
+    return [_local(it, home) for it in items if it.command in RALLY_COMMANDS and (it.x, it.y) != (0, 0)]

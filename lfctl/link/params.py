@@ -123,6 +123,17 @@ def default_params(sysid: int) -> dict[str, Param]:
         "CRUISE_SPEED": Param(2.0, 0.0, 100.0, "m/s", "speed at the cruise throttle"),
         "CRUISE_THROTTLE": Param(50, 0, 100, "%", "throttle at CRUISE_SPEED (VFR_HUD's throttle)", kind=INT8),
         "RTL_SPEED": Param(0.0, 0.0, 100.0, "m/s", "RTL and SmartRTL speed; 0: WP_SPEED"),
+        "RALLY_LIMIT_KM": Param(
+            0.5, 0.0, 1000.0, "km", "RTL goes home when every rally point is farther than this; 0: no limit"
+        ),
+        "RALLY_INCL_HOME": Param(
+            1,
+            0,
+            1,
+            "",
+            "1: RTL goes home when it is nearer than the nearest rally point; 0: to the rally point",
+            kind=INT8,
+        ),
         "SRTL_ACCURACY": Param(
             2.0,
             0.0,

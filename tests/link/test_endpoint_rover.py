@@ -3344,3 +3344,31 @@ def test_a_missions_fence_enable_is_ap_missions_and_says_what_it_changed(
     ep.run_mission_item(Item(3, mav.MAV_CMD_DO_FENCE_ENABLE, p1=p1), verified=False)  # type: ignore[arg-type]
     if p1 in (0.0, 1.0):  # again: nothing changes, nothing is said
         assert [t for _, t in ep.statustexts[before:]] == said
+
+
+@pytest.mark.parametrize(
+    ("limit_km", "incl_home", "at", "goes_to"),
+    [
+        (0.5, 1, (1300.0, 0.0), "home"),  # the rally point 700 m away: past RALLY_LIMIT_KM, home
+        (0.0, 1, (1300.0, 0.0), "rally"),  # no limit: the nearer of the two
+        (1.0, 1, (1300.0, 0.0), "rally"),
+        (1.0, 1, (900.0, 0.0), "home"),  # home 900 m, the rally point 1100 m: home is nearer
+        (2.0, 0, (900.0, 0.0), "rally"),  # home not considered: the rally point within the limit
+        (0.5, 0, (900.0, 0.0), "home"),  # ... unless it is past the limit
+    ],
+)
+def test_rtl_takes_a_rally_point_as_rover_weighs_it_against_home(
+    bench: Bench, limit_km: float, incl_home: int, at: tuple[float, float], goes_to: str
+) -> None:
+    # AP_Rally::calc_best_rally_or_home_location (Rover: RALLY_LIMIT_KM 0.5, RALLY_INCL_HOME 1):
+    # the nearest rally point past the limit is none; with home included, home unless the
+    # rally point is strictly nearer. A rally point 2 km north of home
+    lat, lon, _alt = ned_to_geodetic(2000.0, 0.0, 0.0, *HOME)
+    far = Item(0, mav.MAV_CMD_NAV_RALLY_POINT, x=round(lat * 1e7), y=round(lon * 1e7), frame=mav.MAV_FRAME_GLOBAL_INT)
+    unset = Item(1, mav.MAV_CMD_NAV_RALLY_POINT, x=0, y=0, frame=mav.MAV_FRAME_GLOBAL_INT)  # skipped, as Rover's
+    assert upload(bench, [far, unset], mav.MAV_MISSION_TYPE_RALLY) == mav.MAV_MISSION_ACCEPTED
+    bench.state = {**STATE, "north_m": 0.0, "east_m": 0.0}
+    bench.tick()  # home here
+    bench.ep.params["RALLY_LIMIT_KM"].value, bench.ep.params["RALLY_INCL_HOME"].value = limit_km, incl_home
+    n, e = bench.ep.rtl_destination(*at)
+    assert (n, e) == pytest.approx((0.0, 0.0) if goes_to == "home" else (2000.0, 0.0), abs=0.5)
