@@ -1269,7 +1269,13 @@ class VehicleEndpoint:
                 # flag) at their default speed (each mode's _enter)
                 self.reversed = False
                 self.desired_speed_mps = None
-            if custom_mode == MODES["AUTO"] and self.mission_complete and self.missions.set_current(1):
+            if custom_mode == MODES["AUTO"] and self.param("MIS_RESTART") == 1 and self.missions.set_current(1):
+                # AP_Mission::start_or_resume with MIS_RESTART 1: start(), from the first item
+                # with DO_JUMP's counts afresh, whether the mission was finished or not
+                self.mission_restarts += 1
+                self.mission_version += 1
+                self.mission_complete = False
+            elif custom_mode == MODES["AUTO"] and self.mission_complete and self.missions.set_current(1):
                 # a finished mission starts again from its first item (AP_Mission::resume)
                 self.mission_version += 1
                 self.mission_complete = False

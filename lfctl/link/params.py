@@ -162,6 +162,15 @@ def default_params(sysid: int) -> dict[str, Param]:
         "MIS_DONE_BEHAVE": Param(
             0, 0, 3, "", "at a mission's end: 0 hold in AUTO, 1 loiter in AUTO, 2 ACRO, 3 MANUAL", kind=INT8
         ),
+        "MIS_RESTART": Param(
+            0,
+            0,
+            1,
+            "",
+            "entering AUTO: 0 resumes the mission, 1 restarts it from its first item (DO_JUMP's counts afresh)",
+            kind=INT8,
+            group="MIS_",  # Rover's GOBJECT(mission, "MIS_", AP_Mission): its AP_Int8 _restart
+        ),
         "TURN_RADIUS": Param(
             0.9, 0.0, 10.0, "m", "the vehicle's turning radius: a mission's circle is at least this large"
         ),

@@ -1081,3 +1081,22 @@ def test_an_altitude_change_under_a_centimetre_restarts_nothing() -> None:
     rewrite(ep, gcs, dataclasses.replace(ep.mission[1], z=ep.mission[1].z + 0.001))
     drive(drv, ep, (0.5, 0.0))
     assert RESTARTED not in said(ep)[b:]
+
+
+# -- MIS_RESTART ---------------------------------------------------------------------------------------
+
+
+def test_mis_restart_1_starts_the_mission_from_its_first_item_when_auto_is_entered() -> None:
+    # AP_Mission's MIS_RESTART (AP_Int8, default 0: resume); ModeAuto::update calls
+    # start_or_resume(): with _restart == 1 start(), from item 1 with the jump counts reset
+    for restart, current in ((0.0, 2), (1.0, 1)):
+        drv, ep, gcs = bench_and_gcs("AUTO")
+        send(ep, gcs, mav.MAVLink_param_set_message(1, 1, b"MIS_RESTART", restart, mav.MAV_PARAM_TYPE_INT8))
+        assert ep.param("MIS_RESTART") == restart
+        store(ep, (2.0, 0.0), (4.0, 0.0), (6.0, 0.0))
+        drive(drv, ep, (0.0, 0.0), (2.0, 0.0))  # waypoint 1 reached: 2 under way
+        assert ep.current_seq == 2
+        assert ep.set_mode(MODES["HOLD"]) and ep.set_mode(MODES["AUTO"])
+        drive(drv, ep, (-1.0, 0.0))  # (3 m from waypoint 1, 5 from 2: neither reached)
+        assert ep.current_seq == current, restart
+        assert said(ep)[-1] == f"Mission: {current} WP"
