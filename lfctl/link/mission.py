@@ -47,6 +47,7 @@ __all__ = [
     "NAV_RETURN_TO_LAUNCH",
     "NAV_WAYPOINT",
     "NOTHING_FITTED",
+    "NOTHING_FITTED_REACHED",
     "PLACES",
     "POLYGON_EXCLUSION",
     "POLYGON_INCLUSION",
@@ -65,6 +66,7 @@ __all__ = [
     "check_site",
     "command_name",
     "far_place",
+    "hands_over",
     "home_item",
     "int_as",
     "is_nav",
@@ -87,6 +89,7 @@ NAV_LOITER_UNLIM = mav.MAV_CMD_NAV_LOITER_UNLIM  # 17
 NAV_LOITER_TURNS = mav.MAV_CMD_NAV_LOITER_TURNS  # 18
 NAV_LOITER_TIME = mav.MAV_CMD_NAV_LOITER_TIME  # 19
 NAV_RETURN_TO_LAUNCH = mav.MAV_CMD_NAV_RETURN_TO_LAUNCH  # 20
+NAV_GUIDED_ENABLE = mav.MAV_CMD_NAV_GUIDED_ENABLE  # 92
 NAV_DELAY = mav.MAV_CMD_NAV_DELAY  # 93
 CONDITION_DELAY = mav.MAV_CMD_CONDITION_DELAY  # 112
 CONDITION_DISTANCE = mav.MAV_CMD_CONDITION_DISTANCE  # 114
@@ -95,6 +98,7 @@ DO_CHANGE_SPEED = mav.MAV_CMD_DO_CHANGE_SPEED  # 178
 DO_SET_HOME = mav.MAV_CMD_DO_SET_HOME  # 179
 DO_SET_REVERSE = mav.MAV_CMD_DO_SET_REVERSE  # 194
 DO_FENCE_ENABLE = mav.MAV_CMD_DO_FENCE_ENABLE  # 207
+NAV_SET_YAW_SPEED = mav.MAV_CMD_NAV_SET_YAW_SPEED  # 213
 JUMP_TAG = mav.MAV_CMD_JUMP_TAG  # 600
 DO_JUMP_TAG = mav.MAV_CMD_DO_JUMP_TAG  # 601
 
@@ -105,9 +109,21 @@ def _commands(*names: str) -> frozenset[int]:
 
 
 #: the navigation commands a Rover flies: to a place (waypoint; loiter for a time or for
-#: ever), home or the nearest rally point (RTL), a wait where it stands (NAV_DELAY), or
-#: turns round a circle (NAV_LOITER_TURNS, as Rover 4.5 and later drive it)
-FLOWN = frozenset((NAV_WAYPOINT, NAV_LOITER_UNLIM, NAV_LOITER_TURNS, NAV_LOITER_TIME, NAV_RETURN_TO_LAUNCH, NAV_DELAY))
+#: ever), home or the nearest rally point (RTL), a wait where it stands (NAV_DELAY), turns
+#: round a circle (NAV_LOITER_TURNS, as Rover 4.5 and later drive it), or a turn to a
+#: heading at a speed (NAV_SET_YAW_SPEED); and a NAV_GUIDED_ENABLE that hands nothing over
+#: (param1 0: :func:`hands_over`), done at once
+FLOWN = frozenset(
+    (
+        NAV_WAYPOINT,
+        NAV_LOITER_UNLIM,
+        NAV_LOITER_TURNS,
+        NAV_LOITER_TIME,
+        NAV_RETURN_TO_LAUNCH,
+        NAV_DELAY,
+        NAV_SET_YAW_SPEED,
+    )
+)
 #: the commands that run beside the navigation and act on what lfctl has: the speed, home,
 #: driving in reverse, the fence; and the conditions that hold the ones after them back
 ACTED_ON = frozenset(
@@ -115,25 +131,32 @@ ACTED_ON = frozenset(
 )
 #: the commands ArduPilot's mission library carries out itself on hardware lfctl does not
 #: have (servos, relays, cameras, a gripper, a sprayer, an auxiliary switch, a parachute, a
-#: gimbal, scripts): taken, and said to act on nothing when their turn comes
+#: gimbal, scripts), and the gimbal's region of interest Rover's mode sends to its mount:
+#: taken, and said to act on nothing when their turn comes
 NOTHING_FITTED = _commands(
     "DO_SET_RELAY", "DO_REPEAT_RELAY", "DO_SET_SERVO", "DO_REPEAT_SERVO", "DO_DIGICAM_CONFIGURE",
-    "DO_DIGICAM_CONTROL", "DO_SET_CAM_TRIGG_DIST", "DO_CONTROL_VIDEO", "IMAGE_START_CAPTURE",
+    "DO_DIGICAM_CONTROL", "DO_SET_CAM_TRIGG_DIST", "IMAGE_START_CAPTURE",
     "IMAGE_STOP_CAPTURE", "VIDEO_START_CAPTURE", "VIDEO_STOP_CAPTURE", "DO_GRIPPER", "DO_SPRAYER",
     "DO_AUX_FUNCTION", "DO_PARACHUTE", "DO_SEND_SCRIPT_MESSAGE", "DO_SET_RESUME_REPEAT_DIST",
     "DO_GIMBAL_MANAGER_PITCHYAW", "DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE",
     "SET_CAMERA_ZOOM", "SET_CAMERA_FOCUS", "SET_CAMERA_SOURCE",
 )  # fmt: skip
+#: of :data:`NOTHING_FITTED`, the ones Rover's own mode checks, not its mission library
+#: (ModeAuto::verify_command's "do commands (always return true)"): said done, with
+#: MISSION_ITEM_REACHED, as Rover's verify_command_callback sends it
+NOTHING_FITTED_REACHED = _commands("DO_SET_ROI", "DO_SET_ROI_LOCATION", "DO_SET_ROI_NONE")
 #: the commands a mission may hold that a Rover passes over when their turn comes (aircraft's
-#: take-offs and landings, splines, an offboard computer's turn, a heading to reach):
-#: taken, as Rover's mission library takes them, and tried and passed over in turn
+#: take-offs and landings, splines, a video camera's old command no part of Rover checks),
+#: and a NAV_GUIDED_ENABLE that hands over to an offboard computer, which a Rover waits on
+#: and lfctl passes over (:func:`hands_over`): taken, as Rover's mission library takes them,
+#: and tried and passed over in turn
 SKIPPED = _commands(
     "NAV_LAND", "NAV_TAKEOFF", "NAV_CONTINUE_AND_CHANGE_ALT", "NAV_LOITER_TO_ALT", "NAV_SPLINE_WAYPOINT",
     "NAV_GUIDED_ENABLE", "NAV_ALTITUDE_WAIT", "NAV_VTOL_TAKEOFF", "NAV_VTOL_LAND",
-    "NAV_PAYLOAD_PLACE", "NAV_SET_YAW_SPEED", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
+    "NAV_PAYLOAD_PLACE", "NAV_SCRIPT_TIME", "NAV_ATTITUDE_TIME", "CONDITION_YAW",
     "DO_LAND_START", "DO_GO_AROUND", "DO_INVERTED_FLIGHT", "DO_AUTOTUNE_ENABLE", "DO_VTOL_TRANSITION",
     "DO_ENGINE_CONTROL", "DO_WINCH", "DO_PAUSE_CONTINUE", "DO_GUIDED_LIMITS", "DO_MOUNT_CONTROL",
-    "DO_RETURN_PATH_START",
+    "DO_RETURN_PATH_START", "DO_CONTROL_VIDEO",
 )  # fmt: skip
 #: the skipped ones that are navigation (AP_Mission::is_nav_cmd): tried ("Mission: N
 #: Takeoff") and passed over, as a Rover's mission moves on when one fails to start
@@ -626,6 +649,20 @@ def to_legs(
     return walk_mission(items, home, start_seq, start, return_to, jumps)[0]
 
 
+def hands_over(item: MissionItem) -> bool:
+    """Whether a NAV_GUIDED_ENABLE hands the vehicle to an offboard computer: its param1 as
+    AP_Mission keeps it (``cmd.p1``, a 16-bit whole number) above 0, as Rover's
+    ``do_nav_guided_enable`` asks. lfctl passes such an item over (no offboard computer
+    drives within AUTO here); one of 0 is done at once, as ``verify_nav_guided_enable``.
+
+    Parameters
+    ----------
+    item : MissionItem
+        A NAV_GUIDED_ENABLE.
+    """
+    return int_as(item.param1, 0, 65535) > 0
+
+
 def walk_mission(
     items: list[MissionItem],
     home: tuple[float, float, float],
@@ -663,10 +700,10 @@ def walk_mission(
     while 0 < i < len(items) and len(legs) < MAX_EXPANDED and steps < MAX_EXPANDED * len(items):
         steps += 1
         it = items[i]
-        if it.command in FLOWN:
+        if it.command in FLOWN or (it.command == NAV_GUIDED_ENABLE and not hands_over(it)):
             if it.command == NAV_RETURN_TO_LAUNCH:
                 here = return_to(*here) if return_to is not None else (0.0, 0.0)
-            elif it.command != NAV_DELAY and (it.x, it.y) != (0, 0):
+            elif it.command not in (NAV_DELAY, NAV_SET_YAW_SPEED, NAV_GUIDED_ENABLE) and (it.x, it.y) != (0, 0):
                 n, e, _ = geodetic_to_ned(it.lat_deg, it.lon_deg, home[2], *home)
                 here = (n, e)
             if it.command == NAV_LOITER_UNLIM:

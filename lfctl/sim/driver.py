@@ -19,6 +19,7 @@ Rover's ModeGuided does. A speed round a circle it cannot keep is cut and said.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 
@@ -40,18 +41,22 @@ from lfctl.link.mission import (
     DO_JUMP_TAG,
     JUMP_TAG,
     NAV_DELAY,
+    NAV_GUIDED_ENABLE,
     NAV_LOITER_TIME,
     NAV_LOITER_TURNS,
     NAV_LOITER_UNLIM,
     NAV_RETURN_TO_LAUNCH,
+    NAV_SET_YAW_SPEED,
     NAV_WAYPOINT,
     NOTHING_FITTED,
+    NOTHING_FITTED_REACHED,
     PLACES,
     SKIPPED_NAV,
     SKIPPED_SAID,
     Leg,
     MissionItem,
     command_name,
+    int_as,
     is_nav_command,
     mission_text,
     nav_count,
@@ -67,6 +72,18 @@ from lfctl.sim.world import WorldState
 WP_SUBMODE = frozenset({NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM})
 
 __all__ = ["VehicleDriver", "autopilot_settings", "speed_max"]
+
+
+@dataclasses.dataclass
+class _Turn:
+    """A NAV_SET_YAW_SPEED under way, as Rover's ModeAuto HeadingAndSpeed submode holds it
+    (or a NAV_GUIDED_ENABLE of param1 0, which has no heading and is done at once)."""
+
+    leg: int
+    heading_cd: float | None  # Rover's _desired_yaw_cd (None: a NAV_GUIDED_ENABLE)
+    speed_mps: float  # Rover's _desired_speed
+    reached: bool  # Rover's _reached_heading: checked by the mission at its next update
+    kept: float | None  # the waypoints' speed as it began (a ground station's DO_CHANGE_SPEED)
 
 
 def autopilot_settings(cfg: Config) -> AutopilotSettings:
@@ -153,6 +170,7 @@ class VehicleDriver:
         self._completed = False  # ... and it is finished
         self._pos = (0.0, 0.0)  # where the vehicle is this step, local NED, m
         self._yaw = 0.0  # the way it drives this step (its tail's, in reverse), rad
+        self._body_yaw = 0.0  # the way its body points this step, rad
         self._distance = 0.0  # how far it is from the leg's end, m
         self._goto: LeaderAutopilot | None = None
         self._goto_key: tuple[object, ...] = ()
@@ -161,6 +179,10 @@ class VehicleDriver:
         self._heading = SlidingModeController(autopilot_settings(cfg).heading)
         # the circle under way: (leg, guidance, the waypoints' speed as it began: DO_CHANGE_SPEED)
         self._circle: tuple[int, CircleGuidance, float | None] | None = None
+        self._turn: _Turn | None = None  # the heading and speed under way
+        # the leg whose navigation item has started: Rover's submode is still the one before
+        # while the first DO command ahead of a navigation item starts
+        self._nav_started = -1
         self._watched: tuple[tuple[object, ...], ...] = ()  # the navigation items ahead, as last read
 
     def update(self, t_s: float, world: WorldState) -> tuple[float, float]:
@@ -245,6 +267,7 @@ class VehicleDriver:
         me = world.vehicle(self.index)
         self._pos = (me.north_m, me.east_m)
         self._yaw = me.yaw_rad + math.pi if ep.reversed else me.yaw_rad  # the way it drives
+        self._body_yaw = me.yaw_rad
         key = (ep.mission_version, ep.mission_edits)
         if self._key != key or self._autopilot is None:
             edited = self._autopilot is not None and self._key[:1] == key[:1]
@@ -270,16 +293,25 @@ class VehicleDriver:
         if self._holding is not None and not ap.waiting(t_s) and not frozen:
             self._finish(self._holding[0], t_s)  # its wait is over: the next item begins before it is reached
         yaw = self._yaw
-        if self._circle is not None and self._circle[0] == self._leg and not ep.mission_complete:
-            cmd = self._round(t_s, yaw)
-            for _ in self._legs:  # another circle began: it steers now (bounded: each is a leg)
-                if cmd is not None or self._circle is None or ep.mission_complete:
-                    break
+        stepped = False
+        # a circle or a heading leg under way steers itself; one done lets the next leg begin,
+        # which may be another (bounded: each is a leg)
+        for _ in range(len(self._legs) + 1):
+            if ep.mission_complete:
+                break
+            if self._turn is not None and self._turn.leg == self._leg:
+                cmd = self._heading_leg(t_s, me.yaw_rad)
+            elif self._circle is not None and self._circle[0] == self._leg:
                 cmd = self._round(t_s, yaw)
+            else:
+                break
+            stepped = True
             if cmd is not None:
                 return cmd
-            if ep.mission_complete or self._circle is not None:
-                return 0.0, 0.0  # the mission ended (or circles of no turns went on past the bound)
+        else:
+            return 0.0, 0.0  # (legs of no turns, or turns done at once, went on past the bound)
+        if stepped and ep.mission_complete:
+            return 0.0, 0.0  # the mission ended
         out = ap.step(t_s, me.north_m, me.east_m, yaw, self.step_s)
         self._distance = out.los.distance_to_go_m
         for k in () if frozen else out.los.reached:
@@ -377,6 +409,7 @@ class VehicleDriver:
             stop_at=[k for k, g in enumerate(self._legs) if g.command == NAV_LOITER_TIME],
         )
         self._holding, self._queue, self._condition, self._circle = None, [], None, None
+        self._turn, self._nav_started = None, -1  # (Rover's _enter: the Stop submode)
         if self._legs:
             ep.missions.current_seq = self._legs[0].seq  # MISSION_CURRENT: the navigation item
             self._begin(0, t_s)
@@ -395,7 +428,8 @@ class VehicleDriver:
         # as AP_Mission says each counted jump as it passes it: the ones before the first
         # item met, then the search's items, then the rest
         self._say_jumps(leg.jumped[: leg.jumps_first])
-        self._search(t_s)
+        checks: list[Callable[[], None]] = []
+        self._search(t_s, checks=checks)
         self._say_jumps(leg.jumped[leg.jumps_first :])
         item = ep.mission[leg.seq]
         ep.statustext(mission_text(item), mav.MAV_SEVERITY_INFO)
@@ -404,7 +438,7 @@ class VehicleDriver:
             # Rover's RTL start: the item enters ModeRTL (its speed; Mode::enter drives forwards)
             ep.set_speed(ep.param("RTL_SPEED") or ep.param("WP_SPEED"))
             ep.reversed = False
-        elif leg.command == NAV_DELAY or (item.x, item.y) == (0, 0):
+        elif leg.command in (NAV_DELAY, NAV_SET_YAW_SPEED, NAV_GUIDED_ENABLE) or (item.x, item.y) == (0, 0):
             # here: where the vehicle is as the item begins, with nothing to drive (the leg
             # starts there too): it is reached at once and stops there, as Rover's start_stop,
             # not driven back to once the vehicle has coasted past it
@@ -420,8 +454,60 @@ class VehicleDriver:
                 wait = seconds_until_utc(now, int(item.param2), int(item.param3), int(item.param4))
                 ap.holds[k] = wait
             ep.statustext(f"Delaying {int(wait)} sec", mav.MAV_SEVERITY_INFO)
+        if leg.command == NAV_SET_YAW_SPEED:
+            self._start_turn(k, item)
+        elif leg.command == NAV_GUIDED_ENABLE:  # param1 0: nothing to hand over, done at once
+            self._turn = _Turn(k, None, 0.0, True, ep.desired_speed_mps)
+        self._nav_started = k
+        # AP_Mission checks the DO command its search started only once the navigation
+        # item has started (update() verifies _do_cmd after advance_current_nav_cmd)
+        for check in checks:
+            check()
         self._distance = math.dist(self._pos, ap.follower.waypoints[k])
         self._run_items(t_s)
+
+    def _start_turn(self, k: int, item: MissionItem) -> None:
+        """Leg ``k`` is a NAV_SET_YAW_SPEED: its heading and speed as Rover's
+        ``do_nav_set_yaw_speed`` sets them. The heading is param1's degrees (param3 1, as
+        AP_Mission keeps it in a byte: from the vehicle's heading now, wrapped to +-180°;
+        else as given, not wrapped), in centidegrees; the speed param2's, limited to
+        ``WP_SPEED`` either way (negative: backwards)."""
+        ep = self.endpoint
+        heading_cd = item.param1 * 100.0
+        if int_as(item.param3, 0, 255) > 0:
+            heading_cd = _wrap_180_cd(_yaw_sensor_cd(self._body_yaw) + heading_cd)
+        limit = ep.param("WP_SPEED")
+        self._turn = _Turn(k, heading_cd, max(-limit, min(limit, item.param2)), False, ep.desired_speed_mps)
+
+    def _heading_leg(self, t_s: float, body_yaw: float) -> tuple[float, float] | None:
+        """A step of the heading leg under way: its command; None once the mission has
+        found it done (the item is then done, and the next leg has begun from where the
+        vehicle is). As Rover's HeadingAndSpeed submode: the body is turned to the heading at
+        the leg's speed until it is within 5° of it (compared unwrapped, as Rover compares
+        ``_desired_yaw_cd`` with ``yaw_sensor``, 0-360°: a heading given below 0° or above
+        360° is never reached), then the vehicle stops; the mission checks that at its next
+        update."""
+        ep, ap, turn = self.endpoint, self._autopilot, self._turn
+        assert turn is not None and ap is not None
+        if turn.reached and ep.mission:  # (never checked while the mission has no items)
+            ap.follower.index, ap.follower.prev = turn.leg + 1, self._pos  # the next leg from here
+            self._finish(turn.leg, t_s)
+            if self._turn is turn:
+                self._turn = None
+            return None
+        if turn.heading_cd is not None and ep.desired_speed_mps != turn.kept:
+            # a ground station's DO_CHANGE_SPEED in the heading leg: Rover's ModeAuto gives it
+            # to the leg alone, the waypoints' speed stays as it was
+            turn.speed_mps = ep.speed_mps
+            ep.desired_speed_mps = turn.kept
+        self._distance = 0.0  # Rover's get_distance_to_destination in this submode
+        self._run_items(t_s)
+        if turn.heading_cd is None or turn.reached:
+            return 0.0, 0.0
+        target = math.radians(turn.heading_cd / 100.0)
+        rate = self._heading.step(wrap_pi(target - body_yaw), self.step_s)
+        turn.reached = abs(turn.heading_cd - _yaw_sensor_cd(body_yaw)) < 500
+        return turn.speed_mps, rate
 
     def _start_circle(self, k: int, item: MissionItem) -> None:
         """Leg ``k`` is a NAV_LOITER_TURNS: set up its circle as Rover's ``do_circle`` and
@@ -467,9 +553,11 @@ class VehicleDriver:
             self._circle_speed(circle, ep.speed_mps)
             ep.desired_speed_mps = kept
         if circle.done and ep.mission:  # (never done while the mission has no items)
-            self._circle = None
             ap.follower.index, ap.follower.prev = k + 1, self._pos  # the next leg from here
+            # the circle is still Rover's submode while the first DO command ahead starts
             self._finish(k, t_s)
+            if self._circle is not None and self._circle[0] == k:
+                self._circle = None
             return None
         out = circle.step(*self._pos, yaw, self.step_s)
         self._distance = out.distance_m
@@ -489,17 +577,18 @@ class VehicleDriver:
         for jump, taken, repeats in jumps:
             self.endpoint.statustext(f"Mission: {jump} Jump {taken}/{repeats}", mav.MAV_SEVERITY_INFO)
 
-    def _search(self, t_s: float, verified: bool = True) -> None:
+    def _search(self, t_s: float, verified: bool = True, checks: list[Callable[[], None]] | None = None) -> None:
         """What AP_Mission's search for the next navigation item does with the items before
         it: each navigation item it cannot start is tried (and said), and the first DO
         command or condition it meets is started; the others wait their turn. ``verified``:
         the items started are checked afterwards (MISSION_ITEM_REACHED when done); not after
-        the last navigation item, where the mission completes first."""
+        the last navigation item, where the mission completes first. ``checks``: where the
+        checks go, to be run once the navigation item has started."""
         started, rest = False, []
         for it in self._queue:
             if it.command in SKIPPED_NAV or not started:
                 started = started or it.command not in SKIPPED_NAV
-                self._start_item(it, t_s, verified)
+                self._start_item(it, t_s, verified, checks)
             else:
                 rest.append(it)
         self._queue = rest
@@ -519,7 +608,12 @@ class VehicleDriver:
         if leg.command == NAV_RETURN_TO_LAUNCH:
             ep.statustext("Reached destination", mav.MAV_SEVERITY_INFO)
         elif leg.command != NAV_DELAY:
-            wait = f". Loiter for {int(leg.hold_s)} seconds" if 0 < leg.hold_s < math.inf else ""
+            said = leg.hold_s
+            if leg.command == NAV_LOITER_UNLIM and leg.seq < len(ep.mission):
+                # AP_Mission keeps a loiter for ever's radius in the p1 do_nav_wp reads as its
+                # wait (signed 16 bits): Rover says it, though the loiter never ends
+                said = abs(ep.mission[leg.seq].param3)
+            wait = f". Loiter for {int(said)} seconds" if 0 < int(said) < 32768 else ""
             ep.statustext(f"Reached waypoint #{leg.seq}{wait}", mav.MAV_SEVERITY_INFO)
         waits = ap.holds[k] > 0
         if leg.command in PLACES:
@@ -579,39 +673,60 @@ class VehicleDriver:
                 continue
             self._start_item(self._queue.pop(0), t_s)
 
-    def _start_item(self, it: MissionItem, t_s: float, verified: bool = True) -> None:
+    def _start_item(
+        self, it: MissionItem, t_s: float, verified: bool = True, checks: list[Callable[[], None]] | None = None
+    ) -> None:
         """Start one DO command or condition of the mission (or try a navigation item a
-        Rover skips), saying so as ArduPilot's mission library does; ``verified``: say when
-        it is done (MISSION_ITEM_REACHED)."""
+        Rover skips), saying so as ArduPilot's mission library does; ``verified``: check it
+        (Rover's verify_command: MISSION_ITEM_REACHED when done, "Skipping invalid cmd #N"
+        for one Rover has no case for); ``checks``: leave that check there, to run later
+        (the first DO command of a leg is checked once its navigation item has started)."""
         ep, cmd = self.endpoint, it.command
-        done = ep.item_done if verified else _unverified
         ep.statustext(mission_text(it), mav.MAV_SEVERITY_INFO)
         if cmd in SKIPPED_NAV:
             return
+        check: Callable[[], None] | None = None
         if cmd == CONDITION_DELAY:
             self._condition = (it.seq, "time", t_s + condition_delay_s(it.param1))
         elif cmd == CONDITION_DISTANCE:
             self._condition = (it.seq, "distance", float(int(max(0.0, it.param1))))  # whole metres
         elif cmd == DO_CHANGE_SPEED:
-            circling = self._circle is not None and self._circle[0] == self._leg
-            if circling and it.param2 > 0:  # Rover's ModeCircle::set_desired_speed: the circle's alone
-                assert self._circle is not None
-                self._circle_speed(self._circle[1], it.param2)
-                ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)
-            elif not circling and it.param2 >= WP_SPEED_MIN_MPS:  # set_speed_max takes no slower (-1: none)
-                ep.set_speed(it.param2)
-                ep.statustext(f"speed: {it.param2:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
-            done(it.seq)
+            self._change_speed(it.param2)
+            check = functools.partial(ep.item_done, it.seq)
         elif cmd in ACTED_ON:
-            ep.run_mission_item(it, verified)
+            ep.run_mission_item(it, verified=False)
+            check = functools.partial(ep.item_done, it.seq)
         elif cmd in NOTHING_FITTED:
             ep.statustext(f"Mission {it.seq}: {command_name(cmd)} not fitted", mav.MAV_SEVERITY_INFO)
+            if cmd in NOTHING_FITTED_REACHED:
+                check = functools.partial(ep.item_done, it.seq)
         elif cmd == JUMP_TAG:
             pass  # a place the tag names: the mission library says it and moves on
         else:  # a DO command a Rover does not carry out
-            if cmd in SKIPPED_SAID:
-                ep.statustext(f"Skipping invalid cmd #{cmd}", mav.MAV_SEVERITY_WARNING)
-            done(it.seq)
+            check = functools.partial(_skip, ep, it.seq, cmd if cmd in SKIPPED_SAID else None)
+        if check is None or not verified:
+            return
+        if checks is not None:
+            checks.append(check)
+        else:
+            check()
+
+    def _change_speed(self, speed_mps: float) -> None:
+        """A mission's DO_CHANGE_SPEED, as Rover's ``do_change_speed`` and
+        ``ModeAuto::set_desired_speed``: for the submode running as it starts, which is the
+        one before while it is the first DO command ahead of a navigation item (a circle or
+        a heading leg just done keeps it, and the waypoints' speed stays as it was)."""
+        ep, circle, turn = self.endpoint, self._circle, self._turn
+        if circle is not None and circle[0] == self._nav_started:
+            if speed_mps > 0:  # Rover's ModeCircle::set_desired_speed: the circle's alone
+                self._circle_speed(circle[1], speed_mps)
+                ep.statustext(f"speed: {speed_mps:.1f} m/s", mav.MAV_SEVERITY_INFO)
+        elif turn is not None and turn.leg == self._nav_started and turn.heading_cd is not None:
+            turn.speed_mps = speed_mps  # HeadingAndSpeed takes any speed, the leg's alone
+            ep.statustext(f"speed: {speed_mps:.1f} m/s", mav.MAV_SEVERITY_INFO)
+        elif speed_mps >= WP_SPEED_MIN_MPS:  # set_speed_max takes no slower (-1: none)
+            ep.set_speed(speed_mps)
+            ep.statustext(f"speed: {speed_mps:.1f} m/s", mav.MAV_SEVERITY_INFO)  # Rover's do_change_speed
 
     @property
     def distinct_reached(self) -> int:
@@ -699,8 +814,27 @@ def condition_delay_s(seconds: float) -> float:
     return (ms % 2**32) / 1000.0
 
 
-def _unverified(seq: int) -> None:
-    """An item started that is never checked: nothing is said when it is done."""
+def _skip(ep: VehicleEndpoint, seq: int, command: int | None) -> None:
+    """A DO command a Rover does not carry out, checked: Rover's verify_command says it
+    skips ``command`` (its ``default:``; None for DO_GUIDED_LIMITS, which it checks), and it
+    is done."""
+    if command is not None:
+        ep.statustext(f"Skipping invalid cmd #{command}", mav.MAV_SEVERITY_WARNING)
+    ep.item_done(seq)
+
+
+def _yaw_sensor_cd(yaw_rad: float) -> int:
+    """A heading as Rover's AHRS ``yaw_sensor`` keeps it: whole centidegrees, 0 to 36000."""
+    cd = int(math.degrees(wrap_pi(yaw_rad)) * 100.0)
+    return cd + 36000 if cd < 0 else cd
+
+
+def _wrap_180_cd(cd: float) -> float:
+    """ArduPilot's ``wrap_180_cd``: centidegrees to (-18000, 18000]."""
+    res = math.fmod(cd, 36000.0)
+    if res < 0:
+        res += 36000.0
+    return res - 36000.0 if res > 18000.0 else res
 
 
 def speed_max(cruise_speed_mps: float, cruise_throttle_pct: float) -> float:

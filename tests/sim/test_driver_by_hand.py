@@ -1083,6 +1083,97 @@ def test_an_altitude_change_under_a_centimetre_restarts_nothing() -> None:
     assert RESTARTED not in said(ep)[b:]
 
 
+# -- NAV_SET_YAW_SPEED and NAV_GUIDED_ENABLE in a mission -------------------------------------------
+
+
+def heard(gcs: MemoryLink) -> list[str]:
+    """What a ground station has heard since it last listened, in order: each STATUSTEXT's
+    text, and "REACHED n" for each MISSION_ITEM_REACHED."""
+    parser, got = mav.MAVLink(None), []
+    for data, _addr in gcs.recv(100000):
+        for m in parser.parse_buffer(data) or []:
+            if m.get_type() == "STATUSTEXT":
+                got.append(m.text)
+            elif m.get_type() == "MISSION_ITEM_REACHED":
+                got.append(f"REACHED {m.seq}")
+    return got
+
+
+def test_a_missions_set_yaw_speed_turns_to_the_heading_at_its_speed_then_stops_and_is_done() -> None:
+    # Rover's do_nav_set_yaw_speed: absolute (param3 0), _desired_yaw_cd = 90 * 100 = 9000;
+    # _desired_speed = 0.3 (within WP_SPEED). The HeadingAndSpeed submode steers to it at that
+    # speed and sets _reached_heading once fabsf(9000 - yaw_sensor) < 500: at 80 deg (8000) it
+    # is not, at 86 deg (8600) it is; then stop_vehicle(). verify_nav_set_yaw_speed returns
+    # it at the mission's next update: MISSION_ITEM_REACHED 2, then "Mission: 3 WP".
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), item(mav.MAV_CMD_NAV_SET_YAW_SPEED, 90.0, 0.3), (2.0, 4.0))
+    drv.update(STEP_S, at(0.0, 0.0, t_s=STEP_S))
+    drv.update(2 * STEP_S, at(2.0, 0.0, t_s=2 * STEP_S))  # waypoint 1 reached; item 2 begins
+    assert heard(gcs)[-3:] == ["Reached waypoint #1", "REACHED 1", "Mission: 2 SetYawSpd"]
+    speed, rate = drv.update(3 * STEP_S, at(2.0, 0.0, math.radians(80.0), t_s=3 * STEP_S))
+    assert speed == pytest.approx(0.3) and rate > 0.0 and ep.current_seq == 2
+    speed, rate = drv.update(4 * STEP_S, at(2.0, 0.0, math.radians(86.0), t_s=4 * STEP_S))
+    assert speed == pytest.approx(0.3) and ep.current_seq == 2  # reached as it steers: checked next
+    assert heard(gcs) == []
+    speed, _rate = drv.update(5 * STEP_S, at(2.0, 0.0, math.radians(86.0), t_s=5 * STEP_S))
+    assert heard(gcs) == ["REACHED 2", "Mission: 3 WP"] and ep.current_seq == 3 and speed > 0.0
+
+
+def test_a_relative_set_yaw_speed_below_zero_degrees_is_never_reached_and_its_speed_is_limited() -> None:
+    # param3 1: wrap_180_cd(yaw_sensor + angle * 100) = wrap_180_cd(1000 - 10000) = -9000 from
+    # 10 deg. Rover compares it with yaw_sensor (0-36000) unwrapped: pointing at -90 deg
+    # (27000) the difference is 36000, so _reached_heading never holds and the item never
+    # ends. Its speed is constrain_float(-3, -WP_SPEED, WP_SPEED): backwards at WP_SPEED.
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    wp_speed = ep.param("WP_SPEED")
+    store(ep, MissionItem(0, mav.MAV_FRAME_MISSION, mav.MAV_CMD_NAV_SET_YAW_SPEED, -100.0, -3.0, 1.0), (2.0, 0.0))
+    drv.update(STEP_S, at(0.0, 0.0, math.radians(10.0), t_s=STEP_S))
+    for k in range(2, 6):
+        speed, _rate = drv.update(k * STEP_S, at(0.0, 0.0, math.radians(-90.0), t_s=k * STEP_S))
+        assert speed == pytest.approx(-wp_speed)
+    assert ep.current_seq == 1 and "REACHED 1" not in heard(gcs)
+
+
+def test_a_missions_guided_enable_of_zero_is_done_at_the_next_update_and_one_is_passed_over() -> None:
+    # do_nav_guided_enable starts guided only for cmd.p1 > 0; verify_nav_guided_enable returns
+    # true for p1 0 (MISSION_ITEM_REACHED 2 at the mission's next update). p1 1 would wait for
+    # an offboard computer's targets, which lfctl does not take in AUTO: passed over, as before.
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), item(mav.MAV_CMD_NAV_GUIDED_ENABLE, 0.0), (2.0, 4.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    assert heard(gcs)[-2:] == ["REACHED 1", "Mission: 2 GuidedEnable"] and ep.current_seq == 2
+    drive(drv, ep, (2.0, 0.0))
+    assert heard(gcs) == ["REACHED 2", "Mission: 3 WP"] and ep.current_seq == 3
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), item(mav.MAV_CMD_NAV_GUIDED_ENABLE, 1.0), (2.0, 4.0))
+    drive(drv, ep, (0.0, 0.0), (2.0, 0.0))
+    assert heard(gcs)[-3:] == ["REACHED 1", "Mission: 2 GuidedEnable", "Mission: 3 WP"] and ep.current_seq == 3
+
+
+# -- a DO_CHANGE_SPEED straight after a circle ------------------------------------------------------
+
+
+def test_the_first_speed_change_after_a_circle_is_the_circles_and_the_next_the_waypoints() -> None:
+    # AP_Mission::advance_current_nav_cmd, after the circle is verified, starts the first DO
+    # command (do_change_speed) before the waypoint: ModeAuto's submode is still Circle, so
+    # set_desired_speed goes to ModeCircle ("speed: 0.3 m/s" said, the waypoints' speed not
+    # set). The one after it starts once the waypoint's do_nav_wp has made the submode WP:
+    # set_speed_max(0.25), the waypoints' speed.
+    drv, ep = bench("AUTO")
+    store(
+        ep,
+        circle_at(3.0, 0.0, turns=0.0),
+        item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.3),
+        (9.0, 0.0),
+        item(mav.MAV_CMD_DO_CHANGE_SPEED, 1.0, 0.25),
+        (12.0, 0.0),
+    )
+    drv.update(STEP_S, at(0.0, 0.0, t_s=STEP_S))  # no turns: done at once, waypoint 3 begun
+    assert ep.current_seq == 3 and "speed: 0.3 m/s" in said(ep) and ep.desired_speed_mps is None
+    drive(drv, ep, (9.0, 0.0))
+    assert ep.current_seq == 5 and ep.desired_speed_mps == 0.25
+
+
 # -- MIS_RESTART ---------------------------------------------------------------------------------------
 
 
@@ -1100,3 +1191,67 @@ def test_mis_restart_1_starts_the_mission_from_its_first_item_when_auto_is_enter
         drive(drv, ep, (-1.0, 0.0))  # (3 m from waypoint 1, 5 from 2: neither reached)
         assert ep.current_seq == current, restart
         assert said(ep)[-1] == f"Mission: {current} WP"
+
+
+# -- the DO commands Rover's mode checks ----------------------------------------------------------------
+
+
+def test_roi_is_said_done_and_control_video_skipped_as_rovers_verify_command_has_them() -> None:
+    # ModeAuto::verify_command: DO_SET_ROI (and ROI_LOCATION, ROI_NONE in the newest source) is
+    # one of its "do commands (always return true)": MISSION_ITEM_REACHED 2. DO_CONTROL_VIDEO is
+    # in neither AP_Mission's verify list nor Rover's: "Skipping invalid cmd #200" and
+    # MISSION_ITEM_REACHED 2. DO_SET_SERVO is AP_Mission's own: no MISSION_ITEM_REACHED.
+    for command, words, done in (
+        (mav.MAV_CMD_DO_SET_ROI, ["Mission 2: DO_SET_ROI not fitted"], ["REACHED 2"]),
+        (mav.MAV_CMD_DO_SET_ROI_NONE, ["Mission 2: DO_SET_ROI_NONE not fitted"], ["REACHED 2"]),
+        (mav.MAV_CMD_DO_CONTROL_VIDEO, [], ["Skipping invalid cmd #200", "REACHED 2"]),
+        (mav.MAV_CMD_DO_SET_SERVO, ["Mission 2: DO_SET_SERVO not fitted"], []),
+    ):
+        drv, ep, gcs = bench_and_gcs("AUTO")
+        store(ep, (2.0, 0.0), item(command, 5.0), (2.0, 6.0))
+        drive(drv, ep, (0.0, 0.0))
+        heard(gcs)
+        drive(drv, ep, (2.0, 0.0))
+        got = heard(gcs)
+        start = got.index("Mission: 3 WP")
+        assert got[start - len(words) : start] == words, command
+        assert got[start + 1 :] == done, command
+
+
+# -- NAV_LOITER_UNLIM with a radius ------------------------------------------------------------------
+
+
+def test_a_loiter_for_ever_with_a_radius_says_it_as_a_wait() -> None:
+    # mavlink_int_to_mission_cmd: NAV_LOITER_UNLIM's cmd.p1 = fabsf(param3) (5); do_nav_wp reads
+    # cmd.p1 as loiter_duration; verify_nav_wp then says "Reached waypoint #1. Loiter for 5
+    # seconds", though verify_loiter_unlimited never ends the item
+    drv, ep = bench("AUTO")
+    place = local_mission([(3.0, 0.0)], HOME)[1]
+    store(ep, dataclasses.replace(place, command=mav.MAV_CMD_NAV_LOITER_UNLIM, param3=-5.0), (6.0, 0.0))
+    drive(drv, ep, (0.0, 0.0), (3.0, 0.0), (3.0, 0.0))
+    assert "Reached waypoint #1. Loiter for 5 seconds" in said(ep) and ep.current_seq == 1
+
+
+# -- the first DO command's check ----------------------------------------------------------------------
+
+
+def test_a_skipped_do_command_is_checked_after_the_next_waypoint_has_started() -> None:
+    # AP_Mission::update: advance_current_nav_cmd starts the DO command ("Mission: 2
+    # MountControl") and then the waypoint ("Mission: 3 WP"); only then does verify_command
+    # (_do_cmd) reach Rover's default: "Skipping invalid cmd #205", MISSION_ITEM_REACHED 2. After
+    # the last waypoint the mission completes before any check: nothing is skipped or done.
+    drv, ep, gcs = bench_and_gcs("AUTO")
+    store(ep, (2.0, 0.0), item(mav.MAV_CMD_DO_MOUNT_CONTROL), (2.0, 4.0), item(mav.MAV_CMD_DO_MOUNT_CONTROL))
+    drive(drv, ep, (0.0, 0.0))
+    heard(gcs)
+    drive(drv, ep, (2.0, 0.0))
+    assert heard(gcs) == [
+        "Reached waypoint #1",
+        "REACHED 1",
+        "Mission: 2 MountControl",
+        "Mission: 3 WP",
+        "Skipping invalid cmd #205",
+        "REACHED 2",
+    ]
+    drive(drv, ep, (2.0, 2.0), (2.0, 4.0))
+    assert heard(gcs)[-3:] == ["REACHED 3", "Mission: 4 MountControl", "Mission Complete"]
