@@ -154,25 +154,29 @@ SRTL_SAVE_PERIOD_S = 1.0 / 3.0
 #: MAV_DO_REPOSITION_FLAGS_CHANGE_MODE
 REPOSITION_CHANGE_MODE = 1
 
-#: default stream rates (Hz), as ArduPilot's SRx_ parameters would set them
+#: default stream rates (Hz), as Rover's SRn_ parameters set them: every group (below) at 1 Hz
+#: (GCS_MAVLINK_Parameters: SRn_EXT_STAT, _POSITION, _RC_CHAN, _EXTRA1-3 all 1), so each of its
+#: messages at 1 Hz; HEARTBEAT at 1 Hz in no group; the rest only when asked for or set
 STREAMS = {
     "HEARTBEAT": 1.0,
     "SYS_STATUS": 1.0,
-    "GPS_RAW_INT": 5.0,
-    "GLOBAL_POSITION_INT": 10.0,
-    "LOCAL_POSITION_NED": 10.0,
-    "ATTITUDE": 10.0,
-    "VFR_HUD": 4.0,
+    "GPS_RAW_INT": 1.0,
+    "GLOBAL_POSITION_INT": 1.0,
+    "LOCAL_POSITION_NED": 1.0,
+    "ATTITUDE": 1.0,
+    "VFR_HUD": 1.0,
     "MISSION_CURRENT": 1.0,
-    "HOME_POSITION": 0.5,
+    # in no group: sent as home is set or moves, with GPS_GLOBAL_ORIGIN (AP_AHRS::set_home), and
+    # when asked for
+    "HOME_POSITION": 0.0,
     "FENCE_STATUS": 1.0,
-    "NAV_CONTROLLER_OUTPUT": 2.0,
-    "POSITION_TARGET_GLOBAL_INT": 2.0,
+    "NAV_CONTROLLER_OUTPUT": 1.0,
+    "POSITION_TARGET_GLOBAL_INT": 1.0,
     "EXTENDED_SYS_STATE": 0.0,  # 0: not streamed unless asked for (QGroundControl asks)
     "RC_CHANNELS": 1.0,
     "ATTITUDE_QUATERNION": 0.0,  # sent when asked for (MAVSDK's attitude quaternion)
-    "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, and with GET_HOME_POSITION
-    "SYSTEM_TIME": 0.0,  # sent when asked for, or with the EXTRA3 group (MAVSDK's unix epoch time)
+    "GPS_GLOBAL_ORIGIN": 0.0,  # sent when asked for, with GET_HOME_POSITION, and as home is set
+    "SYSTEM_TIME": 1.0,  # the EXTRA3 group's (MAVSDK's unix epoch time)
     # sent when asked for (and as each item is done): the last item reached, as Rover repeats it
     "MISSION_ITEM_REACHED": 0.0,
 }
@@ -730,6 +734,12 @@ class VehicleEndpoint:
         here = (self.state["north_m"], self.state["east_m"])
         if self.home_ned is None or math.dist(here, self.home_ned) >= HOME_MIN_CHANGE_M:
             self.home_ned = here
+            self._home_set()
+
+    def _home_set(self) -> None:
+        """Home was set (or moved): HOME_POSITION and GPS_GLOBAL_ORIGIN go out on every link,
+        as Rover's AP_AHRS::set_home sends them (HOME_POSITION is in no stream group)."""
+        self._once += [(MSG_IDS["HOME_POSITION"], None), (MSG_IDS["GPS_GLOBAL_ORIGIN"], None)]
 
     def set_home(self, north_m: float, east_m: float, up_m: float = 0.0) -> None:
         """Put home here and keep it there (MAV_CMD_DO_SET_HOME): it no longer follows the
@@ -749,7 +759,7 @@ class VehicleEndpoint:
         self.home_locked = True
         lat, lon, alt = self._home_geodetic()
         self.statustext(f"Set HOME to {lat:.6f} {lon:.6f} at {alt:.2f}m", mav.MAV_SEVERITY_INFO)
-        self._once.append((MSG_IDS["HOME_POSITION"], None))
+        self._home_set()
 
     # -- outgoing --------------------------------------------------------------------------
     def send(self, msg: Any) -> None:

@@ -413,7 +413,7 @@ def test_a_mission_start_whose_first_item_is_below_flt_epsilon_is_item_0(bench: 
 
 # --- stream rates: SET_MESSAGE_INTERVAL's 0 and its bounds, REQUEST_DATA_STREAM ---------------
 
-VFR_HUD_ID = mav.MAVLINK_MSG_ID_VFR_HUD  # 74, streamed at 4 Hz by default (STREAMS)
+VFR_HUD_ID = mav.MAVLINK_MSG_ID_VFR_HUD  # 74, streamed at 1 Hz by default (SRn_EXTRA2's 1)
 
 
 def interval_of(bench: Bench, msg_id: int) -> int:
@@ -431,14 +431,14 @@ def test_a_stream_rate_is_a_whole_number_of_ms_as_on_rover(bench: Bench) -> None
 
 
 def test_an_interval_of_0_puts_back_the_default_rate(bench: Bench) -> None:
-    # MAV_CMD_SET_MESSAGE_INTERVAL param2 0: the default rate again; VFR_HUD's is 4 Hz,
-    # 1 / 4 Hz = 0.25 s = 250 000 us (and -1 stops it: -1 is told back)
+    # MAV_CMD_SET_MESSAGE_INTERVAL param2 0: the default rate again; VFR_HUD's is its group's,
+    # SRn_EXTRA2's 1 Hz: 1 000 000 us (and -1 stops it: -1 is told back)
     set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
-    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert interval_of(bench, VFR_HUD_ID) == 1_000_000
     assert bench.command_long(set_interval, VFR_HUD_ID, -1) == mav.MAV_RESULT_ACCEPTED
     assert interval_of(bench, VFR_HUD_ID) == -1
     assert bench.command_long(set_interval, VFR_HUD_ID, 0) == mav.MAV_RESULT_ACCEPTED
-    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert interval_of(bench, VFR_HUD_ID) == 1_000_000
 
 
 def test_an_interval_over_60_s_is_60_s(bench: Bench) -> None:
@@ -457,14 +457,14 @@ def test_an_interval_faster_than_0_8_of_the_loop_rate_is_denied(bench: Bench) ->
     # cap_message_interval raises an interval with ms * 800 < the loop period (us) to period /
     # 800. Rover's SCHED_LOOP_RATE is 50 Hz (AP_Scheduler: 400 only for Copter and Sub): a
     # period of 1 000 000 / 50 = 20 000 us. 24 999 us is 24 ms (whole ms): 24 * 800 = 19 200 <
-    # 20 000, DENIED and VFR_HUD kept at its 250 ms; 25 ms: 25 * 800 = 20 000, not under it:
+    # 20 000, DENIED and VFR_HUD kept at its 1000 ms; 25 ms: 25 * 800 = 20 000, not under it:
     # ACCEPTED (40 Hz, the fastest)
     set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
     bench.tick()
     seen = len(bench.ep.statustexts)
     assert bench.command_long(set_interval, VFR_HUD_ID, 24_999) == mav.MAV_RESULT_DENIED
     assert [t for _, t in bench.ep.statustexts[seen:]] == [TOO_FAST.format(VFR_HUD_ID)]
-    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert interval_of(bench, VFR_HUD_ID) == 1_000_000
     assert bench.command_long(set_interval, VFR_HUD_ID, 25_000) == mav.MAV_RESULT_ACCEPTED
     assert interval_of(bench, VFR_HUD_ID) == 25_000
     # under 1 ms is 1 ms, still too fast; PARAM_VALUE's stream likewise (10 ms: 8 000 < 20 000);
@@ -516,10 +516,10 @@ def test_a_data_stream_of_50_hz_goes_out_at_40_hz(bench: Bench) -> None:
     ],
 )
 def test_a_data_stream_request_not_for_this_vehicle_changes_nothing(bench: Bench, target: int, start_stop: int) -> None:
-    # EXTRA2 is VFR_HUD's group: 10 Hz asked would be 100 000 us; ignored, it stays 250 000 us
+    # EXTRA2 is VFR_HUD's group: 10 Hz asked would be 100 000 us; ignored, it stays 1 000 000 us
     bench.send(mav.MAVLink_request_data_stream_message(target, 1, mav.MAV_DATA_STREAM_EXTRA2, 10, start_stop))
     bench.tick()
-    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert interval_of(bench, VFR_HUD_ID) == 1_000_000
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 10, 1))
     bench.tick()
     assert interval_of(bench, VFR_HUD_ID) == 100_000  # the same request, for this vehicle: 1 / 10 Hz
@@ -691,7 +691,7 @@ def test_a_negative_interval_other_than_minus_1_is_denied(bench: Bench) -> None:
     # GCS_MAVLINK::set_message_interval: -1 stops the message; any other interval_us < 0 is DENIED
     set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL
     assert bench.command_long(set_interval, VFR_HUD_ID, -2) == mav.MAV_RESULT_DENIED
-    assert interval_of(bench, VFR_HUD_ID) == 250_000
+    assert interval_of(bench, VFR_HUD_ID) == 1_000_000
 
 
 def test_an_interval_is_kept_in_whole_milliseconds_as_on_rover(bench: Bench) -> None:

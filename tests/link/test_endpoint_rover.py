@@ -839,7 +839,7 @@ def test_do_set_home_keeps_the_altitude_in_the_commands_frame(bench: Bench) -> N
 
     def home_and_relative_alt() -> tuple[float, float, float]:
         bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
-        out = [m for _ in range(30) for m in bench.tick(0.02)]
+        out = [m for _ in range(60) for m in bench.tick(0.02)]  # (GLOBAL_POSITION_INT at 1 Hz)
         home = [m for m in out if m.get_type() == "HOME_POSITION"][-1]
         pos = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
         return home.altitude / 1000, home.z, pos.relative_alt / 1000
@@ -1132,6 +1132,9 @@ def test_stream_rates_hold_however_long_the_run_has_gone(bench: Bench, start_s: 
     # averages 4 Hz (0.24 and 0.26 s apart), not 3.85 Hz (every 0.26 s)
     bench.t = start_s
     bench.tick()
+    set_interval = mav.MAV_CMD_SET_MESSAGE_INTERVAL  # (a ground station's rates: Rover's are 1 Hz)
+    assert bench.command(set_interval, mav.MAVLINK_MSG_ID_ATTITUDE, 100_000) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(set_interval, mav.MAVLINK_MSG_ID_VFR_HUD, 250_000) == mav.MAV_RESULT_ACCEPTED
     out = [m for _ in range(1000) for m in bench.tick(0.02)]  # 20 s
     assert 199 <= _count(out, "ATTITUDE") <= 201  # 10 Hz
     assert 79 <= _count(out, "VFR_HUD") <= 81  # 4 Hz
@@ -1170,7 +1173,7 @@ def test_get_message_interval_as_ardupilot(bench: Bench) -> None:
         return int(mi.interval_us)
 
     att = mav.MAVLINK_MSG_ID_ATTITUDE
-    assert interval(att) == 100_000  # 10 Hz by default
+    assert interval(att) == 1_000_000  # 1 Hz by default (SRn_EXTRA1's)
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 250_000) == mav.MAV_RESULT_ACCEPTED
     assert interval(att) == 250_000
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 500) == mav.MAV_RESULT_DENIED  # too fast
@@ -1239,9 +1242,9 @@ def test_the_fence_cannot_be_enabled_when_there_is_none(bench: Bench) -> None:
 
 def test_vfr_hud_as_rover_fills_it(bench: Bench) -> None:
     # QGroundControl's ground speed and throttle and MAVSDK's fixed-wing metrics come from it
-    out = [m for _ in range(50) for m in bench.tick(0.02)]  # 1 s
+    out = [m for _ in range(150) for m in bench.tick(0.02)]  # 3 s
     huds = [m for m in out if m.get_type() == "VFR_HUD"]
-    assert 3 <= len(huds) <= 5  # 4 Hz by default
+    assert 3 <= len(huds) <= 4  # 1 Hz by default (SRn_EXTRA2's)
     hud = huds[-1]
     assert hud.groundspeed == hud.airspeed == pytest.approx(0.2)  # no airspeed sensor: the ground speed
     assert hud.heading == 28  # 0.5 rad = 28.6 degrees, in whole degrees as Rover's yaw_sensor / 100
@@ -1288,7 +1291,7 @@ def test_extra2_is_vfr_huds_stream_group(bench: Bench) -> None:
     bench.tick()
     out = [m for _ in range(100) for m in bench.tick(0.02)]  # 2 s
     assert 18 <= _count(out, "VFR_HUD") <= 21
-    assert 18 <= _count(out, "ATTITUDE") <= 21  # EXTRA1 as it was (10 Hz)
+    assert 1 <= _count(out, "ATTITUDE") <= 3  # EXTRA1 as it was (1 Hz)
 
 
 def _heartbeat_state(bench: Bench) -> int:
@@ -1490,7 +1493,7 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
     # MAVProxy's console (distance and bearing to the waypoint) and QGroundControl read it
     from lfctl.link.endpoint import NavReport
 
-    def navs(seconds: float = 1.0) -> list[object]:
+    def navs(seconds: float = 2.0) -> list[object]:
         out = [m for _ in range(int(seconds / 0.02)) for m in bench.tick(0.02)]
         return [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
 
@@ -1507,7 +1510,7 @@ def test_nav_controller_output_as_rover_in_its_autopilot_modes(bench: Bench) -> 
     assert stopped(navs())  # the report was for HOLD: not sent once the mode changed
     bench.ep.steering(report)
     got = navs()
-    assert len(got) == 2  # 2 Hz, in EXTENDED_STATUS
+    assert len(got) == 2  # 1 Hz in 2 s, in EXTENDED_STATUS
     n = got[-1]
     assert (n.nav_bearing, n.target_bearing, n.wp_dist) == (349, 350, 12)  # whole degrees and metres
     assert n.xtrack_error == pytest.approx(0.4)  # Rover's sign: positive left of the track
@@ -1834,8 +1837,8 @@ def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(benc
     assert upload(bench, good_mission()) == mav.MAV_MISSION_ACCEPTED
     assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2) == mav.MAV_RESULT_ACCEPTED
     bench.send(mav.MAVLink_param_set_message(1, 1, b"WP_SPEED", 1.5, mav.MAV_PARAM_TYPE_REAL32))
-    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 2, 1))
-    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 1e6) == mav.MAV_RESULT_ACCEPTED
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_POSITION, 5, 1))
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, mav.MAVLINK_MSG_ID_ATTITUDE, 1e5) == mav.MAV_RESULT_ACCEPTED
     here = dict(zip(("lat", "lon"), ned_to_geodetic(1.0, 2.0, 0.0, *HOME)[:2], strict=True))
     assert (
         bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, here["lat"], here["lon"], HOME[2] + 12.5)
@@ -1871,15 +1874,15 @@ def test_a_reboot_goes_quiet_then_starts_afresh_keeping_what_a_rover_stores(benc
     assert out[0].get_seq() == 0  # the MAVLink sequence too
     beat = [m for m in out if m.get_type() == "HEARTBEAT"][-1]
     assert beat.custom_mode == MODES["HOLD"] and not beat.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED
-    # RAM is new: SET_MESSAGE_INTERVAL's rate gone (ATTITUDE 10 Hz again, not 1 Hz), home
+    # RAM is new: SET_MESSAGE_INTERVAL's rate gone (ATTITUDE 1 Hz again, not 10 Hz), home
     # unlocked and on the ground, no GUIDED target
-    assert 10 <= _count(out, "ATTITUDE") <= 13
+    assert 1 <= _count(out, "ATTITUDE") <= 2
     assert not bench.ep.home_locked and bench.ep.guided is None
     home = [m for m in out if m.get_type() == "GLOBAL_POSITION_INT"][-1]
     assert home.relative_alt == 0
-    # ... and REQUEST_DATA_STREAM's (POSITION at 2 Hz) too: Rover sets its SRn_ in RAM
-    # (persist_streamrates is false), so GLOBAL_POSITION_INT is at its 10 Hz again
-    assert 10 <= _count(out, "GLOBAL_POSITION_INT") <= 13
+    # ... and REQUEST_DATA_STREAM's (POSITION at 5 Hz) too: Rover sets its SRn_ in RAM
+    # (persist_streamrates is false), so GLOBAL_POSITION_INT is at its 1 Hz again
+    assert 1 <= _count(out, "GLOBAL_POSITION_INT") <= 2
     # storage is kept: the parameter, the mission, with no item under way (MISSION_CURRENT 0:
     # AUTO starts it at item 1)
     assert bench.ep.param("WP_SPEED") == 1.5
@@ -1908,9 +1911,17 @@ def test_the_banner_on_request_and_before_a_parameter_list_as_rover(bench: Bench
 
 
 def test_gps_global_origin_and_attitude_quaternion_when_asked_for(bench: Bench) -> None:
+    first = bench.tick()  # home is set as the autopilot starts: AP_AHRS::set_home sends both, once
+    assert [m.get_type() for m in first if m.get_type() in ("HOME_POSITION", "GPS_GLOBAL_ORIGIN")] == [
+        "HOME_POSITION",
+        "GPS_GLOBAL_ORIGIN",
+    ]
     out = [m for _ in range(100) for m in bench.tick(0.02)]
-    assert not [m for m in out if m.get_type() in ("GPS_GLOBAL_ORIGIN", "ATTITUDE_QUATERNION")]  # not streamed
-    assert bench.command(mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 12.9605, 77.6695, 900) == mav.MAV_RESULT_ACCEPTED
+    streamed = ("GPS_GLOBAL_ORIGIN", "ATTITUDE_QUATERNION", "HOME_POSITION")
+    assert not [m for m in out if m.get_type() in streamed]  # none streamed: HOME_POSITION is in no group
+    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0, 129605000, 776695000, 900))
+    said = [m.get_type() for m in bench.tick() if m.get_type() in ("HOME_POSITION", "GPS_GLOBAL_ORIGIN")]
+    assert said == ["HOME_POSITION", "GPS_GLOBAL_ORIGIN"]  # set_home again: both
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
     out = bench.tick()
     (origin,) = [m for m in out if m.get_type() == "GPS_GLOBAL_ORIGIN"]
@@ -2581,8 +2592,8 @@ def test_param_value_is_rovers_parameter_stream(bench: Bench) -> None:
 def test_set_message_interval_with_a_response_target_is_denied(bench: Bench, long: bool) -> None:
     att = mav.MAVLINK_MSG_ID_ATTITUDE
     for target in (1, 2, -1, NAN):  # Rover: anything but 0 (this link) is DENIED, first
-        assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 1e6, target, long=long) == mav.MAV_RESULT_DENIED
-    assert bench.ep._rates.intervals[att] == pytest.approx(0.1)  # the rate is untouched
+        assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, att, 2e5, target, long=long) == mav.MAV_RESULT_DENIED
+    assert bench.ep._rates.intervals[att] == pytest.approx(1.0)  # the rate is untouched
     texts = len(bench.ep.statustexts)
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, 12345, 1e5, 1, long=long) == mav.MAV_RESULT_DENIED
     assert len(bench.ep.statustexts) == texts  # refused before the message is looked up
@@ -2773,7 +2784,7 @@ def test_nav_controller_output_in_guided_without_a_place_as_rovers_mode_guided(b
     # ModeGuided reports in every submode (an autopilot mode): stopped, turn rate and speed:
     # all 0; heading and speed: that heading as wrap_180, whole degrees; HOLD and MANUAL: none
     def last_nav() -> object | None:
-        out = [m for _ in range(30) for m in bench.tick(0.02)]
+        out = [m for _ in range(60) for m in bench.tick(0.02)]  # (1 Hz: at least one in 1.2 s)
         navs = [m for m in out if m.get_type() == "NAV_CONTROLLER_OUTPUT"]
         return navs[-1] if navs else None
 
@@ -3142,12 +3153,12 @@ def test_each_network_peer_keeps_its_own_stream_rates_as_each_rover_link_does(be
     for _ in range(100):  # 2 s
         memory += bench.tick(0.02)
     counts = [cap.count(p, "GLOBAL_POSITION_INT") for p in (FOLLOW, MAVPROXY, quiet)]
-    assert counts == [40, 8, 20]
-    assert sum(m.get_type() == "GLOBAL_POSITION_INT" for m in memory) == 20
-    assert cap.count(FOLLOW, "ATTITUDE") == 20 and cap.count(MAVPROXY, "ATTITUDE") == 8  # (10 Hz; 4 Hz)
+    assert counts == [40, 8, 2]  # 20 Hz, 4 Hz, Rover's default 1 Hz
+    assert sum(m.get_type() == "GLOBAL_POSITION_INT" for m in memory) == 2
+    assert cap.count(FOLLOW, "ATTITUDE") == 2 and cap.count(MAVPROXY, "ATTITUDE") == 8  # (1 Hz; 4 Hz)
     assert all(cap.count(p, "HEARTBEAT") == 2 for p in cap.got)  # in no group: 1 Hz for each
     # each asks what its rate is and hears its own
-    for peer, sender, us in ((FOLLOW, _companion(), 50000), (MAVPROXY, gcs, 250000), (quiet, gcs, 100000)):
+    for peer, sender, us in ((FOLLOW, _companion(), 50000), (MAVPROXY, gcs, 250000), (quiet, gcs, 1_000_000)):
         assert _interval_heard(bench, cap, peer, sender, GPI) == us, peer
     # the parameter stream's rate too (the link's SRn_PARAMS)
     pv = mav.MAVLINK_MSG_ID_PARAM_VALUE
@@ -3179,7 +3190,7 @@ def test_a_peer_that_gets_only_its_own_packets_sees_no_gap_in_their_sequence(ben
 def test_a_reboot_starts_every_peers_rates_and_sequence_afresh(bench: Bench) -> None:
     # Rover saves no link's rates (SRn_ set in RAM: persist_streamrates is false; and
     # SET_MESSAGE_INTERVAL's are in RAM), and every channel counts its packets from 0 again
-    cap, gcs = _rehearsal(bench, 50000, mav.MAV_DATA_STREAM_POSITION, 2)
+    cap, gcs = _rehearsal(bench, 50000, mav.MAV_DATA_STREAM_POSITION, 5)
     follow, mavproxy = FOLLOW, MAVPROXY
     reboot = mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 0, 1, 0, 0, 0, 0, 0, 0)
     _peer_sends(bench, reboot, gcs, mavproxy)
@@ -3193,7 +3204,7 @@ def test_a_reboot_starts_every_peers_rates_and_sequence_afresh(bench: Bench) -> 
         p.clear()
     for _ in range(100):
         bench.tick(0.02)
-    assert [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy)] == [20, 20]  # both 10 Hz again
+    assert [cap.count(p, "GLOBAL_POSITION_INT") for p in (follow, mavproxy)] == [2, 2]  # both 1 Hz again
 
 
 def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reach(bench: Bench) -> None:
@@ -3209,9 +3220,9 @@ def test_rates_are_kept_for_at_most_max_peers_and_not_sent_to_a_peer_out_of_reac
     for p in cap.got.values():
         p.clear()
     bench.ep.network.peers = peers[:-1]  # type: ignore[union-attr]  # the latest one no longer reached
-    for _ in range(50):
+    for _ in range(100):
         bench.tick(0.02)
-    assert cap.count(peers[1], "GLOBAL_POSITION_INT") == 10  # its rates made room: the defaults again
+    assert cap.count(peers[1], "GLOBAL_POSITION_INT") == 2  # its rates made room: the defaults (1 Hz) again
     assert all(cap.count(p, "GLOBAL_POSITION_INT") == 0 for p in (peers[0], *peers[2:]))
     assert cap.got[peers[-1]] == []  # nothing at all out of reach
 
@@ -3265,7 +3276,7 @@ def test_the_record_says_which_peer_a_packet_went_to_alone_and_its_bytes_match_i
     out = [r for r in map(json.loads, bench.records) if r["direction"] == "out"]
     assert all(base64.b64decode(r["raw"])[4] == r["seq"] for r in out)  # MAVLink 2: seq is byte 4
     gpis = [r.get("to") for r in out if r["name"] == "GLOBAL_POSITION_INT"]
-    assert gpis.count("127.0.0.1:40001") == 20 and gpis.count(None) == 10  # its own 20 Hz; everyone's 10 Hz
+    assert gpis.count("127.0.0.1:40001") == 20 and gpis.count(None) == 1  # its own 20 Hz; everyone's 1 Hz
 
 
 def test_sys_status_reports_the_controllers_as_rovers_mode_runs_them(bench: Bench) -> None:
