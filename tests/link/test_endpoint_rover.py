@@ -1919,7 +1919,9 @@ def test_gps_global_origin_and_attitude_quaternion_when_asked_for(bench: Bench) 
     out = [m for _ in range(100) for m in bench.tick(0.02)]
     streamed = ("GPS_GLOBAL_ORIGIN", "ATTITUDE_QUATERNION", "HOME_POSITION")
     assert not [m for m in out if m.get_type() in streamed]  # none streamed: HOME_POSITION is in no group
-    bench.send(mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0, 129605000, 776695000, 900))
+    bench.send(
+        mav.MAVLink_command_int_message(1, 1, 0, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0, 129605000, 776695000, 900)
+    )
     said = [m.get_type() for m in bench.tick() if m.get_type() in ("HOME_POSITION", "GPS_GLOBAL_ORIGIN")]
     assert said == ["HOME_POSITION", "GPS_GLOBAL_ORIGIN"]  # set_home again: both
     bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_GET_HOME_POSITION, 0, 0, 0, 0, 0, 0, 0, 0))
