@@ -267,17 +267,20 @@ SHORT_END = 0.9
 
 
 def _check_paths(source: str, out: str | None) -> None:
-    """Refuse an --out that is the source itself (a named pipe or socket as the source is
-    refused by the video source)."""
+    """Refuse an --out that is the source itself or any file that exists (an earlier annotated
+    video, a recording: track writes over nothing, as `audit --recover` does not); a named pipe
+    or socket as the source is refused by the video source."""
     import os
     from pathlib import Path
 
     from lfctl.errors import ConfigError
 
-    if not Path(source).exists():
-        return  # a camera index or a URL (or no such file: the video source says so)
-    if out is not None and Path(out).exists() and os.path.samefile(source, out):  # (links too)
+    if out is None:
+        return
+    if Path(source).exists() and Path(out).exists() and os.path.samefile(source, out):  # (links too)
         raise ConfigError(f"--out {out} is the video being tracked: give another file")
+    if os.path.lexists(out):  # (a link to nothing too: the writer would create its target)
+        raise ConfigError(f"--out {out}: it exists (track writes over nothing: name a new file)")
 
 
 def _check_written(out: str, frames: int) -> None:

@@ -221,23 +221,39 @@ def test_a_pipe_or_the_video_itself_as_out_is_refused(tmp_path: Path, capsys: py
     assert video.read_bytes() == (footage_dir() / "bikes.mp4").read_bytes()  # untouched
 
 
-def test_a_run_that_fails_on_its_first_frame_leaves_an_earlier_out_file_alone(
+def test_a_run_that_fails_on_its_first_frame_writes_no_out_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    # the writer used to be opened (the file emptied) before frame 0 was tracked: a failed
-    # run left a 257-byte file no player opens in place of the earlier annotated video
+    # the writer is opened once frame 0 is tracked: a run refused on it leaves no 257-byte
+    # file no player opens
     video = str(footage_dir() / "bikes.mp4")
     out = tmp_path / "annotated.mp4"
-    out.write_bytes(b"an earlier run's video")
     for argv, says in (
         ([], "no banner"),
         (["--roi", "9999,9999,10,10"], "outside"),
     ):
         assert main(["track", video, *argv, "--out", str(out)]) == 2
         assert says in capsys.readouterr().err
-        assert out.read_bytes() == b"an earlier run's video"
+        assert not out.exists()
     assert main(["track", video, "--roi", "1,2,30,30", "--max-frames", "2", "--out", str(out)]) == 0
     assert cv2.VideoCapture(str(out)).get(cv2.CAP_PROP_FRAME_COUNT) == 2
+
+
+def test_an_existing_out_file_is_refused_and_left_alone(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An earlier recording named as --out is not written over (it was, silently: a 4 MB video
+    became the 3 frames tracked); worded as `audit --recover` words it, a dangling link too."""
+    video = str(footage_dir() / "bikes.mp4")
+    out = tmp_path / "precious.mp4"
+    out.write_bytes(b"an earlier recording")
+    dangling = tmp_path / "link.mp4"
+    dangling.symlink_to(tmp_path / "nowhere.mp4")
+    for path in (out, dangling):
+        assert main(["track", video, "--roi", "1,2,30,30", "--max-frames", "2", "--out", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert f"--out {path}: it exists (track writes over nothing: name a new file)" in err, err
+        assert "Traceback" not in err
+    assert out.read_bytes() == b"an earlier recording"
+    assert not (tmp_path / "nowhere.mp4").exists()
 
 
 def test_a_shipped_scenario_is_taken_by_name(capsys: pytest.CaptureFixture[str]) -> None:
