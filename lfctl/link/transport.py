@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import errno
+import logging
 import random
 import socket
 import time
@@ -11,6 +12,8 @@ from collections import deque
 from collections.abc import Callable, Collection
 
 from lfctl.errors import LinkError
+
+log = logging.getLogger(__name__)
 
 __all__ = ["Address", "Fanout", "LossyLink", "MemoryLink", "UdpLink"]
 
@@ -21,6 +24,12 @@ Address = tuple[str, int]
 PEER_TIMEOUT_S = 30.0
 #: ground stations a vehicle talks to at once
 MAX_PEERS = 16
+#: with the table full, a new peer takes the place of the one heard from longest ago once
+#: that one has been silent this long (a ground station in use sends its HEARTBEAT every
+#: second; a one-shot `lfctl gcs` call that has exited never sends again), s
+STALE_PEER_S = 5.0
+#: a refused peer is logged at most once in this long (with the count since), s
+REFUSAL_LOG_S = 10.0
 
 
 class UdpLink:
@@ -31,9 +40,11 @@ class UdpLink:
     with :meth:`accept_peer`), plus fixed ``udpout`` targets. A peer silent for
     :data:`PEER_TIMEOUT_S` is forgotten, but the one heard last: as a Rover's UDP port keeps
     sending to the client it heard, a script that sends one command and then only listens
-    keeps its telemetry. When :data:`MAX_PEERS` are all still talking, a new
-    one is refused (counted), so a flood of new source ports cannot evict a ground station
-    that is in use. The port is bound exclusively: a second program (or a second run)
+    keeps its telemetry. When :data:`MAX_PEERS` are held, a new peer takes the place of the
+    one heard from longest ago if that one has been silent for :data:`STALE_PEER_S` (one-shot
+    `lfctl gcs` calls one after another, each from a new source port); when all are still
+    talking, it is refused (counted, and logged at most every :data:`REFUSAL_LOG_S`), so a
+    flood of new source ports cannot evict a ground station that is in use. The port is bound exclusively: a second program (or a second run)
     cannot share it.
 
     Parameters
@@ -70,6 +81,8 @@ class UdpLink:
         self.outs = list(outs or [])
         self.peers: dict[Address, float] = {}  # peer -> when it last sent valid MAVLink
         self.refused_peers = 0
+        self._refusals_unlogged = 0
+        self._refusal_logged_at: float | None = None
         self.tx_datagrams = 0
         self.rx_datagrams = 0
         self._clock = clock
@@ -86,7 +99,8 @@ class UdpLink:
 
     def accept_peer(self, addr: Address) -> None:
         """A sender whose datagram parsed as MAVLink: reply to it from now on (while it keeps
-        sending; a new peer is refused when the table is full of active ones).
+        sending). With the table full, a new peer replaces the one heard from longest ago if
+        that one has been silent for :data:`STALE_PEER_S`, and is refused otherwise.
 
         Parameters
         ----------
@@ -99,9 +113,31 @@ class UdpLink:
         if addr not in self.peers:
             self._forget_silent(now)
             if len(self.peers) >= MAX_PEERS:
-                self.refused_peers += 1
-                return
+                oldest = min(self.peers, key=self.peers.__getitem__)
+                if now - self.peers[oldest] < STALE_PEER_S:
+                    self._refuse(addr, now)
+                    return
+                del self.peers[oldest]
         self.peers[addr] = now
+
+    def _refuse(self, addr: Address, now: float) -> None:
+        self.refused_peers += 1
+        self._refusals_unlogged += 1
+        if self._refusal_logged_at is not None and now - self._refusal_logged_at < REFUSAL_LOG_S:
+            return
+        log.warning(
+            "UDP port %d: refused %s new peer%s (latest %s:%d): all %d peers sent within %.0f s "
+            "(a flood of source ports, or more ground stations than it serves at once)",
+            self.port,
+            self._refusals_unlogged,
+            "" if self._refusals_unlogged == 1 else "s",
+            addr[0],
+            addr[1],
+            MAX_PEERS,
+            STALE_PEER_S,
+        )
+        self._refusal_logged_at = now
+        self._refusals_unlogged = 0
 
     def send(self, data: bytes, exclude: Collection[Address] = ()) -> int:
         """Send to every ``udpout`` target and every peer heard lately (a refused send is

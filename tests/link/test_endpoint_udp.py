@@ -495,6 +495,63 @@ def test_a_crowd_of_new_senders_does_not_evict_the_ground_station_in_use() -> No
         link.close()
 
 
+def test_one_shot_calls_one_after_another_each_take_the_place_of_the_longest_silent() -> None:
+    # a script setting 20 parameters with one `lfctl gcs` call each (a new source port each,
+    # about a second each): the 17th was refused while the first 16 held their slots for 30 s,
+    # and told "is the vehicle up?"
+    from lfctl.link.transport import MAX_PEERS, STALE_PEER_S
+
+    now = [0.0]
+    link = UdpLink(("127.0.0.1", 0), clock=lambda: now[0])
+    try:
+        for k in range(MAX_PEERS + 4):
+            caller = ("127.0.0.1", 42000 + k)
+            for _ in range(3):  # its heartbeats and requests over the call's second
+                link.accept_peer(caller)
+                assert caller in link.peers, k
+                now[0] += 0.4
+        assert link.refused_peers == 0 and len(link.peers) == MAX_PEERS
+        assert ("127.0.0.1", 42000) not in link.peers  # the first ones made room
+        # a peer silent for less than STALE_PEER_S keeps its place: a full table of them refuses
+        now[0] += STALE_PEER_S + 1.0
+        busy = [("127.0.0.1", 43000 + k) for k in range(MAX_PEERS)]
+        for peer in busy:
+            link.accept_peer(peer)
+        assert set(link.peers) == set(busy)
+        now[0] += STALE_PEER_S / 2
+        link.accept_peer(("127.0.0.1", 44000))
+        assert set(link.peers) == set(busy) and link.refused_peers == 1
+    finally:
+        link.close()
+
+
+def test_a_long_flood_of_new_ports_never_evicts_a_ground_station_sending_each_second(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    import logging
+
+    from lfctl.link.transport import REFUSAL_LOG_S
+
+    now = [0.0]
+    link = UdpLink(("127.0.0.1", 0), clock=lambda: now[0])
+    try:
+        gcs = ("127.0.0.1", 40001)
+        link.accept_peer(gcs)
+        with caplog.at_level(logging.WARNING, logger="lfctl.link.transport"):
+            for k in range(6000):  # ten a second for ten minutes, each port sending once
+                now[0] += 0.1
+                link.accept_peer(("127.0.0.1", 1024 + k))
+                if k % 10 == 0:
+                    link.accept_peer(gcs)  # its HEARTBEAT each second
+                assert gcs in link.peers, k
+        assert link.refused_peers > 0
+        said = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
+        assert 1 <= len(said) <= 600 / REFUSAL_LOG_S + 1, len(said)
+        assert f"UDP port {link.port}: refused 1 new peer (latest 127.0.0.1:" in said[0]
+    finally:
+        link.close()
+
+
 def test_a_client_that_only_listens_keeps_its_telemetry_and_older_silent_ones_are_dropped() -> None:
     # a pymavlink logger that sent one heartbeat and then only listens lost its stream after
     # the peer timeout; a Rover's UDP port keeps sending to the client it heard
