@@ -23,6 +23,7 @@ from typing import Any, Literal
 from lfctl.checks import NAME_PATTERN, Bound, check_host_port, check_inside, check_name, check_text, read_text_file
 from lfctl.data import builtin_models
 from lfctl.errors import ConfigError
+from lfctl.link.params import formation_params
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
@@ -101,6 +102,11 @@ _BEARING_NOTE = f'either side: < {SMC_MAX_BEARING_DEG:g} with guidance.controlle
 #: length is a pinhole's, under it)
 MAX_FOV_DEG = 170.0
 _FOCAL_NOTE = f"0, or >= {{0}}_px / 2 / tan({MAX_FOV_DEG / 2:g} deg) (a field of view under {MAX_FOV_DEG:g} deg)"
+
+#: a follower's slot and guidance start its ``LFC_*`` parameters, which a ground station may
+#: set: each key that sets one takes that parameter's range (one source; a value outside it
+#: would be refused when the run starts)
+_LFC = {name: Bound(p.lo, p.hi) for name, p in formation_params().items()}
 
 #: a position or distance in the local frame, m (100 km each way)
 _POS = Bound(-1e5, 1e5)
@@ -263,9 +269,9 @@ class VehicleConfig(_Section):
     #: the vehicle it follows (None: as [formation] says)
     target: str | None = _f(None, name=True, note="another vehicle's name; no cycle of targets")
     #: commanded range to the target, m (None: as [formation] says)
-    range_m: float | None = _f(None, Bound(0, 1000, lo_open=True))
+    range_m: float | None = _f(None, _LFC["LFC_RANGE"])
     #: commanded bearing, clockwise positive (TOML bearing_deg)
-    bearing_rad: float | None = _f(None, Bound(-180, 180), note=_BEARING_NOTE)
+    bearing_rad: float | None = _f(None, _LFC["LFC_BEARING"], note=_BEARING_NOTE)
     #: the ArUco tag its banner prints with ``banner.kind = "aruco"`` (None: ``banner.aruco_id``
     #: plus its place in [[vehicles]], the leader's 0); a follower looks for its target's id only
     aruco_id: int | None = _f(
@@ -385,7 +391,7 @@ class GuidanceConfig(_Section):
     #: followers' law: sliding mode, the P baseline, or the target's trail (its path, not a
     #: line to it: no corner cut)
     controller: Literal["smc", "p", "trail"] = "smc"
-    trail_lookahead_m: float = _f(0.3, Bound(0, 100, lo_open=True))  # the trail law's lookahead distance, m
+    trail_lookahead_m: float = _f(0.3, _LFC["LFC_LOOKAHEAD"])  # the trail law's lookahead distance, m
     #: followers' speed limit; also caps the leader's cruise speed
     max_speed_mps: float = _f(0.5, Bound(0, 100, lo_open=True))
     #: followers may back up this fast to restore the range
@@ -407,11 +413,11 @@ class GuidanceConfig(_Section):
     #: fraction of its speed the leader sheds for a 180 deg turn
     turn_slowdown: float = _f(0.6, Bound(0, 1))
     p_gain: float = _f(0.8, _GAIN)  # the P baseline's position gain (FOLL_POS_P), 1/s
-    coast_s: float = _f(2.0, Bound(0, 3600))  # followers coast on their filter this long without a measurement, s
+    coast_s: float = _f(2.0, _LFC["LFC_COAST"])  # followers coast on their filter this long without a measurement, s
     slowdown_s: float = _f(1.0, Bound(0, 3600, lo_open=True))  # then slow to a stop over this long before LOST, s
     #: once LOST, turn in place one full turn at this rate to look for the target (TOML
     #: search_yaw_rate_degps; 0: hold still; at most max_yaw_rate; only a follower of the leader nobody follows)
-    search_yaw_rate_radps: float = _f(0.0, Bound(0, 360))  # deg/s
+    search_yaw_rate_radps: float = _f(0.0, _LFC["LFC_SEARCH"])  # deg/s
 
 
 @dataclass(frozen=True)
@@ -458,7 +464,7 @@ class FormationConfig(_Section):
     shape: Literal["none", "column", "echelon", "vee"] = "none"
     targets: Literal["chain", "leader"] = "chain"
     #: range to the target, m; with targets = "leader", times the place in line or arm
-    spacing_m: float = _f(1.5, Bound(0, 1000, lo_open=True))
+    spacing_m: float = _f(1.5, _LFC["LFC_RANGE"], note='times the place in line with targets = "leader": at most 1000')
     #: echelon, vee: how far off straight behind a follower sits (TOML angle_deg)
     angle_rad: float = _f(math.radians(30.0), Bound(0, 90, hi_open=True), note=_BEARING_NOTE)
 
@@ -481,8 +487,8 @@ class CameraConfig(_Section):
     hfov_rad: float = _f(math.radians(62.0), Bound(0, MAX_FOV_DEG, lo_open=True, hi_open=True))
     fx_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("width"))  # focal length, px; 0: from hfov
     fy_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("height"))  # focal length, px; 0: fx
-    cx_px: float = _f(0.0, Bound(0, 1e5), note="<= width_px")  # principal point, px; 0: the image centre
-    cy_px: float = _f(0.0, Bound(0, 1e5), note="<= height_px")  # principal point, px; 0: the image centre
+    cx_px: float = _f(0.0, Bound(0, 1e5), note="< width_px")  # principal point, px; 0: the image centre
+    cy_px: float = _f(0.0, Bound(0, 1e5), note="< height_px")  # principal point, px; 0: the image centre
     # lens distortion, OpenCV's model (a calibration's k1, k2, p1, p2, k3 as cv2.calibrateCamera
     # gives them); the renderer bends its frames by them and the pose takes them out
     k1: float = _f(0.0, Bound(-10, 10))  # radial distortion
@@ -524,9 +530,9 @@ class CameraConfig(_Section):
         # pinhole's (a field of view under 170 deg, as hfov_deg's): others are typing slips
         for key, size, side in (("cx_px", self.width_px, "width_px"), ("cy_px", self.height_px, "height_px")):
             value = getattr(self, key)
-            if value > size:
+            if value >= size:  # (on the far edge, the camera would see nothing on that side)
                 raise ConfigError(
-                    f"camera.{key} must lie on the picture (within 0..camera.{side} = {size}), got {value:g}"
+                    f"camera.{key} must lie on the picture (below camera.{side} = {size}; 0: its centre), got {value:g}"
                 )
         for key, size, side in (("fx_px", self.width_px, "width_px"), ("fy_px", self.height_px, "height_px")):
             value = getattr(self, key)
@@ -892,6 +898,15 @@ class Config:
                         f"vehicles[{name}]: a slot at bearing {math.degrees(slot.bearing_rad):g} deg is wider than "
                         f'guidance.controller = "trail" holds (at most {TRAIL_MAX_BEARING_DEG:g} deg): use "smc"'
                     )
+        rng = _LFC["LFC_RANGE"]
+        for v in self.followers:  # a shape's range is spacing_m times the place in line: check the product
+            slot = self.slots()[v.name]
+            if v.range_m is None and not rng.contains(slot.range_m):
+                raise ConfigError(
+                    f"formation.spacing_m = {self.formation.spacing_m:g} puts vehicles[{v.name}] {slot.range_m:g} m "
+                    f'from its target (with formation.targets = "leader", the spacing times its place in line): '
+                    f"a slot's range must be {rng.text()} m (a smaller spacing_m, or the follower's own range_m)"
+                )
         # followers' targets must lead back to the leader without a cycle
         target = {name: slot.target for name, slot in self.slots().items()}
         for start in target:

@@ -76,7 +76,7 @@ def test_defaults_fill_the_sim_section() -> None:
         ('[[vehicles]]\nname = "a b"\nrole = "leader"\n', r"vehicles\.name must be 1-64 letters, digits"),
         (
             LEADER + FOLLOWER.format(n=1) + "range_m = -1.5\n",
-            r"vehicles\[f1\]\.range_m must be within \(0, 1000\], got -1\.5",
+            r"vehicles\[f1\]\.range_m must be within \[0\.1, 1000\], got -1\.5",
         ),
         (
             LEADER + FOLLOWER.format(n=1) + "bearing_deg = 200\n",

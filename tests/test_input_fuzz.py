@@ -216,6 +216,61 @@ def test_the_red_team_scenarios_are_refused_by_name(text: str, message: str) -> 
         parse_config(text)
 
 
+FOLLOWER = '[[vehicles]]\nname = "f1"\nrole = "follower"\n'
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (LEADER + FOLLOWER + "range_m = 1e-9\n", r"vehicles\[f1\]\.range_m must be within \[0\.1, 1000\], got 1e-09"),
+        (
+            "[formation]\nshape = 'column'\nspacing_m = 0.05\n" + LEADER + FOLLOWER,
+            r"formation\.spacing_m must be within \[0\.1, 1000\]",
+        ),
+        (
+            "[formation]\nshape = 'column'\ntargets = 'leader'\nspacing_m = 600\n"
+            + LEADER
+            + FOLLOWER
+            + FOLLOWER.replace("f1", "f2"),
+            r"formation\.spacing_m = 600 puts vehicles\[f2\] 1200 m from its target .* must be within \[0\.1, 1000\] m",
+        ),
+        (
+            "[guidance]\ntrail_lookahead_m = 0.001\n" + LEADER,
+            r"guidance\.trail_lookahead_m must be within \[0\.01, 100\]",
+        ),
+        (
+            "[camera]\ncx_px = 640\n" + LEADER,
+            r"camera\.cx_px must lie on the picture \(below camera\.width_px = 640; 0: its centre\), got 640",
+        ),
+        ("[camera]\ncy_px = 480\n" + LEADER, r"camera\.cy_px must lie on the picture \(below camera\.height_px = 480"),
+    ],
+    ids=lambda v: str(v)[-40:],
+)
+def test_values_a_run_would_refuse_at_its_start_are_refused_when_the_scenario_is_read(text: str, message: str) -> None:
+    """A slot or guidance value outside its LFC_* parameter's range (the run refused it at t = 0,
+    after a sweep had started its cluster), and a principal point on the picture's far edge (a
+    field of view of 0: "view_half_fov_rad must be within (0, pi]", naming no key)."""
+    with pytest.raises(ConfigError, match=message):
+        parse_config(text)
+
+
+def test_the_slot_keys_take_the_parameters_ranges_from_the_parameters() -> None:
+    import dataclasses
+
+    from lfctl.config import FormationConfig, GuidanceConfig, VehicleConfig
+    from lfctl.link.params import formation_params
+
+    bound = {
+        f.name: f.metadata.get("bound")
+        for cls in (VehicleConfig, GuidanceConfig, FormationConfig)
+        for f in dataclasses.fields(cls)
+    }
+    for key, name in (("range_m", "LFC_RANGE"), ("spacing_m", "LFC_RANGE"), ("trail_lookahead_m", "LFC_LOOKAHEAD"),
+                      ("coast_s", "LFC_COAST"), ("search_yaw_rate_radps", "LFC_SEARCH"), ("bearing_rad", "LFC_BEARING")):  # fmt: skip
+        p = formation_params()[name]
+        assert (bound[key].lo, bound[key].hi) == (p.lo, p.hi), key
+
+
 def test_scenario_files_that_are_not_files_or_too_big(tmp_path: Path) -> None:
     from lfctl.config import load_config
 

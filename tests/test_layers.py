@@ -23,7 +23,7 @@ ALLOWED = {
     "checks": {"errors"},
     "logs": {"checks"},
     "frames": set(),
-    "config": {"checks", "data", "errors"},
+    "config": {"checks", "data", "errors", "link.params"},
     "data": {"errors"},
     "schedule": set(),
     "video": {"checks", "errors"},

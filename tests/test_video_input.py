@@ -272,8 +272,14 @@ def test_a_calibration_of_the_picture_turned_a_quarter_is_said_so() -> None:
 @pytest.mark.parametrize(
     ("keys", "said"),
     [
-        ("cx_px = 5000.0", "camera.cx_px must lie on the picture (within 0..camera.width_px = 640), got 5000"),
-        ("cy_px = 481.0", "camera.cy_px must lie on the picture (within 0..camera.height_px = 480), got 481"),
+        (
+            "cx_px = 5000.0",
+            "camera.cx_px must lie on the picture (below camera.width_px = 640; 0: its centre), got 5000",
+        ),
+        (
+            "cy_px = 481.0",
+            "camera.cy_px must lie on the picture (below camera.height_px = 480; 0: its centre), got 481",
+        ),
         ("fx_px = 0.0001", "camera.fx_px = 0.0001 px would be a field of view over 170 deg"),
     ],
 )

@@ -138,6 +138,16 @@ def test_every_variant_is_built_before_anything_runs_and_an_error_names_variant_
         plan(parse_sweep(HEAD + "[grid]\n'camera.trackr' = ['hue']\n"))
 
 
+def test_a_variant_whose_slot_its_run_would_refuse_is_refused_before_anything_runs() -> None:
+    # it used to be planned, run, and written as an error row at t = 0 of each of its runs
+    spec = parse_sweep(HEAD + "[grid]\n'vehicles[1].range_m' = [1.5, 0.05]\n")
+    with pytest.raises(
+        ConfigError,
+        match=r"variant 1 \(vehicles\[1\]\.range_m = 0\.05\): vehicles\[follower1\]\.range_m must be within \[0\.1, 1000\], got 0\.05",
+    ):
+        plan(spec)
+
+
 def test_grid_times_samples_times_seeds_and_repetitions_with_keys_as_in_a_scenario_file() -> None:
     text = (
         HEAD
