@@ -12,6 +12,7 @@ errors not below 0). It needs two runs; with one the bounds are empty.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 from collections.abc import Iterable, Sequence
@@ -28,6 +29,8 @@ from lfctl.checks import write_whole
 from lfctl.errors import ConfigError
 from lfctl.metrics import SETTLE_S
 from lfctl.sweep.task import FIGURE_RANGES, FIGURES, ID_COLUMNS, STATUS_COLUMNS
+
+log = logging.getLogger(__name__)
 
 __all__ = [
     "HEADLINE",
@@ -57,6 +60,12 @@ HEADLINE = ("range_err_rms_m", "bearing_err_rms_deg", "lost_s", "chattering_per_
 #: of them, those a run has only after the settling time, and only with camera sensing
 ERROR_FIGURES = frozenset({"range_err_rms_m", "bearing_err_rms_deg"})
 CAMERA_FIGURES = frozenset({"track_success"})
+#: the columns besides the followers' figures that hold a number (or nothing)
+NUMBER_COLUMNS = ("waypoints_reached", "sim_time_s", "wall_time_s")
+#: the largest whole number a figure may be (what a table's 64-bit integer column holds)
+MAX_WHOLE = 2**63 - 1
+#: the journal lines skipped already said, by file (a resume reads the journal more than once)
+_said_skipped: set[tuple[str, tuple[int, ...]]] = set()
 
 
 @dataclass(frozen=True)
@@ -136,8 +145,10 @@ def append_row(out_dir: Path, row: dict[str, Any]) -> None:
 
 def read_journal(out_dir: Path) -> list[dict[str, Any]]:
     """The rows in the journal, one per run (the last one written wins), by run number.
-    A line cut short by a crash (not JSON: a resume goes on after it) is skipped; a JSON line
-    that is not a run's row is a ConfigError naming it.
+    A line that is not JSON (cut short by a crash: a resume goes on after it, on a line of its
+    own) is skipped, and said (a warning naming it) unless it is the last; a JSON line that is
+    not a run's row, or whose figures are not numbers, is a ConfigError naming the line and
+    the column (nothing of it reaches the results table).
 
     Parameters
     ----------
@@ -149,10 +160,17 @@ def read_journal(out_dir: Path) -> list[dict[str, Any]]:
         return []
     rows: dict[int, dict[str, Any]] = {}
     lines = path.read_bytes().splitlines()
+    skipped = []
     for k, raw in enumerate(lines):
+        if not raw.strip():
+            continue
         try:
             row = json.loads(raw.decode("utf-8"))
+        except RecursionError:
+            raise ConfigError(f"{path}, line {k + 1}: nested too deeply to be a run's row") from None
         except ValueError:  # (a UnicodeDecodeError too)
+            if k < len(lines) - 1:
+                skipped.append(k + 1)
             continue  # a row cut short by a crash (a resume appends after it): its run is run again
         fields = [row.get(f) for f in ("run", "variant", "status")] if isinstance(row, dict) else [None] * 3
         run, variant, status = fields
@@ -161,10 +179,62 @@ def read_journal(out_dir: Path) -> list[dict[str, Any]]:
         ):
             raise ConfigError(
                 f"{path}, line {k + 1}: not a run's row (run and variant numbers and a status; got "
-                f"run {run!r}, variant {variant!r}, status {status!r})"
+                f"run {_shown(run)}, variant {_shown(variant)}, status {_shown(status)})"
             )
+        check_numbers(row, f"{path}, line {k + 1}")
         rows[run] = row
+    if skipped and (str(path), tuple(skipped)) not in _said_skipped:
+        _said_skipped.add((str(path), tuple(skipped)))
+        shown = ", ".join(map(str, skipped[:10])) + (f" and {len(skipped) - 10} more" if len(skipped) > 10 else "")
+        log.warning(
+            "%s: line%s %s not JSON, skipped (cut short by a crash, or damaged: a run with no other row is run "
+            "again on --resume)",
+            path,
+            "s" if len(skipped) > 1 else "",
+            shown + (" are" if len(skipped) > 1 else " is"),
+        )
     return [rows[k] for k in sorted(rows)]
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def is_number_column(column: str) -> bool:
+    """True for a column that holds a number or nothing: a follower's figure
+    (``<follower>.<figure>``, a follower's name holds no dot) or one of :data:`NUMBER_COLUMNS`.
+
+    Parameters
+    ----------
+    column : str
+        The column's name.
+    """
+    head, dot, figure = column.rpartition(".")
+    return column in NUMBER_COLUMNS or (bool(dot) and "." not in head and figure in FIGURES)
+
+
+def check_numbers(row: dict[str, Any], where: str) -> None:
+    """Each figure of a run's row a number or null (a hand-edited journal's text, Boolean or
+    whole number past 64 bits is a ConfigError naming ``where`` and the column).
+
+    Parameters
+    ----------
+    row : dict
+        The row.
+    where : str
+        The row's place, for the message (the journal's line).
+    """
+    for column, value in row.items():
+        if value is None or not isinstance(column, str) or not is_number_column(column):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"{where}: {column} must be a number or null, got {_shown(value)}")
+        if isinstance(value, int) and abs(value) > MAX_WHOLE:
+            raise ConfigError(
+                f"{where}: {column} must be a number or null, got a whole number of {len(str(abs(value)))} digits "
+                f"(past {MAX_WHOLE})"
+            )
 
 
 def metric_columns(followers: Sequence[str]) -> list[str]:
@@ -263,7 +333,10 @@ def read_rows(out_dir: str | Path) -> list[dict[str, Any]]:
     missing = [c for c in ("run", "variant", "status") if c not in table.column_names]
     if missing:
         raise ConfigError(f"{path}: not a sweep's results table (no column {', '.join(map(repr, missing))})")
-    return list(table.to_pylist())
+    rows = list(table.to_pylist())
+    for row in rows:  # (a table written from a hand-edited journal before lfctl checked it)
+        check_numbers(row, f"{path}, the row of run {row.get('run')}")
+    return rows
 
 
 def mean_ci(

@@ -484,6 +484,11 @@ def test_a_folder_is_checked_where_the_path_leads_and_a_failed_start_leaves_noth
         (b"[1, 2]", r"line 9: not a run's row"),
         (b'{"x": 1}', r"line 9: not a run's row .* got run None"),
         (b'{"run": 99999, "variant": 0, "status": "ok"}', r"a row of run 99999, variant 0, which is not one of"),
+        (
+            b'{"run": 0, "variant": 0, "status": "ok", "follower1.lost_s": "abc"}',
+            r"line 9: follower1\.lost_s must be a number",
+        ),
+        (b"[" * 100_000 + b"]" * 100_000, r"line 9: nested too deeply"),
     ],
 )
 def test_a_damaged_journal_is_named_on_resume(
@@ -497,8 +502,10 @@ def test_a_damaged_journal_is_named_on_resume(
     first = (out / "runs.jsonl").read_bytes().splitlines()[0]
     with open(out / "runs.jsonl", "ab") as f:  # (a bad last line is one cut short: not this)
         f.write(line + b"\n" + first + b"\n")
+    table = (out / "runs.parquet").read_bytes()
     with pytest.raises(ConfigError, match=why):
         run_sweep(folder / "s.toml", out, resume=True)
+    assert (out / "runs.parquet").read_bytes() == table  # nothing of it written
 
 
 def test_a_peer_that_says_nothing_is_not_taken_for_a_scheduler(

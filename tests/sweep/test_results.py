@@ -198,3 +198,72 @@ def test_a_value_drawn_at_random_is_shown_to_four_digits_in_the_summary() -> Non
         summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m"]), ["sensing.range_noise_m"], ["f1"]
     )
     assert "| 0 | 1.875 | 1/1 |" in text and "1.8752" not in text
+
+
+@pytest.mark.parametrize(
+    ("line", "why"),
+    [
+        (
+            b'{"run": 1, "variant": 0, "status": "ok", "f1.lost_s": "abc"}',
+            r"line 2: f1\.lost_s must be a number or null, got 'abc'",
+        ),
+        (
+            b'{"run": 1, "variant": 0, "status": "ok", "f1.lost_s": true}',
+            r"line 2: f1\.lost_s must be a number or null, got True",
+        ),
+        (
+            b'{"run": 1, "variant": 0, "status": "ok", "f1.lost_s": 123456789012345678901234567890}',
+            r"line 2: f1\.lost_s must be a number or null, got a whole number of 30 digits",
+        ),
+        (
+            b'{"run": 1, "variant": 0, "status": "ok", "wall_time_s": [1]}',
+            r"line 2: wall_time_s must be a number or null, got \[1\]",
+        ),
+        (b"[" * 100_000 + b"]" * 100_000, r"line 2: nested too deeply to be a run's row"),
+    ],
+    ids=["text", "boolean", "huge-int", "list", "deep"],
+)
+def test_a_hand_edited_journal_line_is_named_by_line_and_column_and_reaches_no_table(
+    tmp_path: Path, line: bytes, why: str
+) -> None:
+    # a text figure went into runs.parquet and then every `sweep report` ended in TypeError;
+    # a huge whole number in OverflowError, a deep line in RecursionError (internal errors)
+    append_row(tmp_path, _row(0, 0, 0.1))
+    with open(tmp_path / "runs.jsonl", "ab") as f:
+        f.write(line + b"\n")
+    append_row(tmp_path, _row(2, 1, 0.2))
+    with pytest.raises(ConfigError, match=why):
+        read_journal(tmp_path)
+
+
+def test_a_line_that_is_not_json_is_said_unless_it_is_the_last(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    import logging
+
+    append_row(tmp_path, _row(0, 0, 0.1))
+    with open(tmp_path / "runs.jsonl", "ab") as f:
+        f.write(b"garbage typed in by hand\n")
+    append_row(tmp_path, _row(1, 0, 0.2))
+    with open(tmp_path / "runs.jsonl", "ab") as f:
+        f.write(b'{"run": 2, "varia')  # the last line, cut short by a crash: not said
+    with caplog.at_level(logging.WARNING, logger="lfctl.sweep.results"):
+        assert [r["run"] for r in read_journal(tmp_path)] == [0, 1]
+        read_journal(tmp_path)  # (said once, however often a resume reads it)
+    said = [r.getMessage() for r in caplog.records]
+    assert len(said) == 1 and f"{tmp_path / 'runs.jsonl'}: line 2 is not JSON, skipped" in said[0], said
+
+
+def test_a_table_with_text_in_a_figure_column_is_named_not_an_internal_error(tmp_path: Path) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    rows = [_row(0, 0, 0.1), _row(1, 0, 0.2)]
+    table = {k: [r.get(k) for r in rows] for k in rows[0]}
+    table["f1.lost_s"] = ["abc", "0.5"]  # as write_tables wrote a hand-edited journal's text
+    pq.write_table(pa.table(table), tmp_path / "runs.parquet")
+    write_meta(tmp_path, {"name": "t", "keys": [], "followers": ["f1"]})
+    with pytest.raises(
+        ConfigError, match=r"runs\.parquet, the row of run 0: f1\.lost_s must be a number or null, got 'abc'"
+    ):
+        report(tmp_path)
