@@ -62,8 +62,8 @@ def register(sub: Any) -> None:
         "--workers",
         type=integer(1, 10**6),
         metavar="N",
-        help="local worker processes (default: one per core); with --scheduler or --scheduler-file, wait for N "
-        "workers to join",
+        help="local worker processes (default: one per core; at most the runs left and 4 a core, said when "
+        "capped); with --scheduler or --scheduler-file, wait for N workers to join",
     )
     s.add_argument("--out", metavar="DIR", help="the sweep's folder (default: sweeps/<name>)")
     s.add_argument("--resume", action="store_true", help="finish the sweep in --out: skip runs it has rows for")

@@ -573,21 +573,64 @@ def _probe(scheduler: str) -> None:
         raise LfctlError(f"cannot reach the Dask scheduler at {scheduler}: {exc.strerror or exc}") from None
 
 
+#: a local cluster starts at most this many worker processes a core (each is a Python process
+#: of about 110 MB; past the cores they only take turns)
+LOCAL_WORKERS_PER_CORE = 4
+
+
+def local_workers(asked: int | None, runs_left: int, cores: int) -> tuple[int, str]:
+    """How many worker processes a local cluster starts: ``asked`` (default one a core), at
+    most the runs left and :data:`LOCAL_WORKERS_PER_CORE` a core; and what was capped, said
+    (empty when nothing was).
+
+    Parameters
+    ----------
+    asked : int or None
+        ``--workers``.
+    runs_left : int
+        Runs to do.
+    cores : int
+        Cores this process may run on.
+    """
+    n = asked or cores
+    bound = LOCAL_WORKERS_PER_CORE * max(cores, 1)
+    if n > bound:
+        n = bound
+    if n > runs_left >= 1:
+        n = runs_left
+    if asked is None or n == asked:
+        return n, ""
+    if n == runs_left and n < bound:
+        why = f"the {_count(runs_left, 'run')} left"
+    else:
+        why = f"{LOCAL_WORKERS_PER_CORE} a core on {_count(cores, 'core')}"
+    return n, f" (--workers {asked}: capped at {n}, {why})"
+
+
 def _connect(
-    scheduler: str | None, workers: int | None, stop: Callable[[], bool] | None = None, found_in: str = ""
+    scheduler: str | None,
+    workers: int | None,
+    stop: Callable[[], bool] | None = None,
+    found_in: str = "",
+    runs_left: int = 0,
 ) -> tuple[Any, Any, str]:
     """A client and its cluster (None for a scheduler of one's own) and their description
-    (the scheduler's address named as ``found_in`` the file it came from, if it did).
-    Waiting for a scheduler's workers ends early when ``stop()`` is true (the sweep then
-    stops before any run)."""
+    (the scheduler's address named as ``found_in`` the file it came from, if it did). A
+    local cluster starts :func:`local_workers` processes for ``runs_left``. Waiting for a
+    scheduler's workers ends early when ``stop()`` is true (the sweep then stops before any
+    run)."""
     from distributed import Client
 
     if scheduler is None:
-        n = workers or usable_cores()
+        n, capped = local_workers(workers, runs_left, usable_cores())
         cluster = _local_cluster(n)
         client = Client(cluster)
         client.register_plugin(_IgnoreSigint())
-        return client, cluster, f"Dask LocalCluster, {n} worker processes x 1 thread; a crashed run is retried once"
+        return (
+            client,
+            cluster,
+            f"Dask LocalCluster, {n} worker processes x 1 thread{capped}; a crashed run is retried once",
+        )
     if scheduler.startswith("tcp://"):
         _probe(scheduler)
     try:
@@ -771,7 +814,7 @@ def run_sweep(
                 _check_address(scheduler, f"the address in --scheduler-file {scheduler_file}")
         if todo and (scheduler is not None or scheduler_file is None):
             try:
-                client, cluster, engine = _connect(scheduler, workers, stop, str(scheduler_file or ""))
+                client, cluster, engine = _connect(scheduler, workers, stop, str(scheduler_file or ""), len(todo))
             except LfctlError as exc:
                 if scheduler_file is None or isinstance(exc, ConfigError):
                     raise

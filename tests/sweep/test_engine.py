@@ -508,6 +508,42 @@ def test_a_damaged_journal_is_named_on_resume(
     assert (out / "runs.parquet").read_bytes() == table  # nothing of it written
 
 
+@pytest.mark.parametrize(
+    ("asked", "left", "cores", "n", "said"),
+    [
+        (None, 8, 2, 2, ""),
+        (None, 1, 2, 1, ""),
+        (3, 100, 2, 3, ""),
+        (40, 2, 2, 2, " (--workers 40: capped at 2, the 2 runs left)"),
+        (40, 100, 2, 8, " (--workers 40: capped at 8, 4 a core on 2 cores)"),
+        (10**6, 100_000, 2, 8, " (--workers 1000000: capped at 8, 4 a core on 2 cores)"),
+    ],
+)
+def test_a_local_cluster_starts_at_most_the_runs_left_and_four_workers_a_core(
+    asked: int | None, left: int, cores: int, n: int, said: str
+) -> None:
+    # --workers 40 for a 2-run sweep on 2 cores started 40 processes (1.4 GB to 5.5 GB used,
+    # 7x slower); --workers 1000000 was taken
+    assert engine.local_workers(asked, left, cores) == (n, said)
+
+
+def test_the_cluster_a_sweep_starts_is_capped_and_says_so(
+    reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    started: list[int] = []
+
+    def cluster(n_workers: int) -> None:
+        started.append(n_workers)
+        raise LfctlError("no cluster in this test")
+
+    monkeypatch.setattr(engine, "_local_cluster", cluster)
+    monkeypatch.setattr(engine, "usable_cores", lambda: 2)
+    folder, _rows = reference
+    with pytest.raises(LfctlError, match="no cluster in this test"):
+        run_sweep(folder / "s.toml", tmp_path / "new", workers=1000)
+    assert started == [8]
+
+
 def test_a_peer_that_says_nothing_is_not_taken_for_a_scheduler(
     reference: tuple[Path, list[dict]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
