@@ -6,6 +6,7 @@ so their protocol code does not care which."""
 from __future__ import annotations
 
 import contextlib
+import io
 import logging
 import os
 import re
@@ -289,12 +290,19 @@ class MavPort:
         # MAVLink 2 from the first packet: mavutil otherwise starts in MAVLink 1 and, on the first
         # MAVLink 2 packet it hears, replaces its parser, losing any signing set up on it
         os.environ["MAVLINK20"] = "1"
+        # pymavlink prints each refused TCP connect ("[Errno 111] Connection refused sleeping") to
+        # stdout, where `gcs watch` writes its JSON: kept off it, in lfctl's log (--debug)
+        chatter = io.StringIO()
         try:
-            conn = mavutil.mavlink_connection(
-                connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
-            )
+            with contextlib.redirect_stdout(chatter) if connect.startswith("tcp:") else contextlib.nullcontext():
+                conn = mavutil.mavlink_connection(
+                    connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
+                )
         except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
             raise LinkError(connect, str(exc)) from exc
+        finally:
+            for line in chatter.getvalue().splitlines():
+                log.debug("%s: pymavlink: %s", connect, line)
         if signing_key is not None:
             setup_signing(conn.mav, signing_key)
         return MavPort(sysid, compid, connection=conn)

@@ -195,3 +195,19 @@ def test_a_snapshot_with_no_vehicle_waits_the_timeout_then_says_none(free_udp_po
     finally:
         gcs.close()
     assert json.loads(out.getvalue())["vehicles"] == []
+
+
+def test_a_refused_tcp_connection_leaves_stdout_to_the_json(capsys: pytest.CaptureFixture[str]) -> None:
+    # pymavlink printed "[Errno 111] Connection refused sleeping" on stdout, in front of the
+    # JSON a pipe reads; lfctl's one line goes to stderr
+    import socket
+
+    from lfctl.cli import main
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # (closed again: nothing listens there)
+    assert main(["gcs", "--connect", f"tcp:127.0.0.1:{port}", "--timeout", "2", "watch", "--count", "1"]) == 1
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert "Connection refused" in err and err.count("\n") == 1, err
