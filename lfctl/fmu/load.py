@@ -448,7 +448,15 @@ class FmuLibrary:
         """
         p = Path(path)
         if not p.is_dir():
-            read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
+            xml = read_member(p, "modelDescription.xml")  # limits and its CRC first: fmpy parses it as it streams
+            root = _root_element(xml)
+            if root is not None and root != "fmiModelDescription":  # (fmpy's own error is a NoneType's)
+                raise FmuError(
+                    f"{p} has no valid modelDescription.xml: its root element is <{root[:40]}>, "
+                    "not <fmiModelDescription>",
+                    model=str(p),
+                    call="load",
+                )
         try:
             return read_model_description(str(p))
         except FileNotFoundError as exc:
@@ -1046,3 +1054,19 @@ class FmuInstance:
             "FmuLibrary.close): instantiate it again",
             call,
         )
+
+
+def _root_element(xml: bytes) -> str | None:
+    """The name of an XML document's root element (None: it does not parse that far; fmpy
+    then says why). Read up to the root's start alone: no entity in its content is expanded."""
+    import xml.etree.ElementTree as ET
+
+    parser = ET.XMLPullParser(events=("start",))
+    try:
+        for start in range(0, len(xml), 4096):
+            parser.feed(xml[start : start + 4096])
+            for _event, element in parser.read_events():
+                return element.tag.rsplit("}", 1)[-1]  # (a namespace's braces left out)
+    except ET.ParseError:
+        return None
+    return None

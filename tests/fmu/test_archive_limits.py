@@ -303,3 +303,18 @@ def test_an_fmu_whose_identifier_names_no_library_is_named_at_load(faulty: Built
         str(err.value) == (f"{other} has no binaries/linux64/Other.so, the library its modelIdentifier 'Other' names")
         and err.value.call == "load"
     )
+
+
+def test_a_model_description_with_another_root_element_is_named(faulty: BuiltModel, tmp_path: Path) -> None:
+    # fmpy's own error leaked: "'NoneType' object has no attribute 'startswith'"
+    fmu = tmp_path / "wrong_root.fmu"
+    with zipfile.ZipFile(faulty.fmi2) as src, zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info in src.infolist():
+            dst.writestr(info, b"<foo/>" if info.filename == "modelDescription.xml" else src.read(info))
+    with pytest.raises(FmuError) as caught:
+        FmuLibrary.describe(fmu)
+    said = str(caught.value)
+    assert (
+        "wrong_root.fmu has no valid modelDescription.xml: its root element is <foo>, not <fmiModelDescription>" in said
+    )
+    assert "NoneType" not in said
