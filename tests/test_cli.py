@@ -420,3 +420,18 @@ def test_a_folder_name_the_locale_cannot_encode_is_said_not_blamed_on_the_fmu(tm
         "lfctl: error: a file name here is not valid in this system's file name encoding (ascii: surrogates not "
         "allowed): run lfctl under a UTF-8 locale (LANG=C.UTF-8) or with PYTHONUTF8=1"
     )
+
+
+def test_a_file_as_recording_dir_is_bad_input_named_as_a_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # it was exit 1, a run's failure, with "[Errno 17] File exists"
+    taken = tmp_path / "afile"
+    taken.write_text("kept")
+    for where in (taken, taken / "sub"):
+        scenario = tmp_path / "s.toml"
+        scenario.write_text((ROOT / "examples" / "convoy.toml").read_text() + f'\n[recording]\ndir = "{where}"\n')
+        assert main(["sim", str(scenario), "--duration", "0.5", "--sensing", "truth", "-q"]) == 2
+        err = capsys.readouterr().err
+        assert f"(recording.dir): {taken} is a file, not a folder" in err and "Errno" not in err, err
+    assert taken.read_text() == "kept"

@@ -55,7 +55,7 @@ from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 from lfctl import __version__
 from lfctl.config import Config
 from lfctl.data import loaded_code
-from lfctl.errors import LfctlError
+from lfctl.errors import ConfigError, LfctlError
 from lfctl.frames import ned_to_geodetic
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.pose import MarkerPose
@@ -466,6 +466,14 @@ class Recorder:
         second) gets ``-2``, ``-3``, ... before the suffix. Returns the path and the writer."""
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+        except (FileExistsError, NotADirectoryError) as exc:  # a file where a folder should be: bad input
+            blocker = next((q for q in (path.parent, *path.parent.parents) if q.exists() and not q.is_dir()), None)
+            what = (
+                str(exc)
+                if blocker is None
+                else f"{blocker} is {'a file' if blocker.is_file() else 'there'}, not a folder"
+            )
+            raise ConfigError(f"cannot create the log folder {path.parent} (recording.dir): {what}") from exc
         except OSError as exc:
             raise RecordError(f"cannot create the log folder {path.parent} (recording.dir): {exc}") from exc
         for n in range(1, _MAX_SUFFIX + 1):
