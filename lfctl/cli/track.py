@@ -41,7 +41,7 @@ def register(sub: Any) -> None:
     t.add_argument("--max-frames", type=integer(1, 10**9), help="stop after this many frames")
     t.add_argument(
         "--fps",
-        type=number(0, 10000, lo_open=True, unit="fps"),
+        type=number(0.01, 10000, unit="fps"),  # (a frame each 100 s at the least: below is a slip)
         help="the frames' rate, for t_s (default: each frame's own time in a file; a raw .h264 or MJPEG "
         "stream has none, and is counted at the rate FFmpeg assumes)",
     )

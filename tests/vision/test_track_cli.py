@@ -294,3 +294,12 @@ def test_a_camera_that_is_not_there_is_one_line_without_opencvs_own_warnings(tmp
     )
     assert done.returncode == 2
     assert done.stderr == "lfctl: error: cannot open camera 7 with OpenCV (no such camera, or it is busy)\n"
+
+
+def test_a_frame_rate_below_one_frame_in_100_s_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    # --fps 1e-300 was taken, and t_s became 1e+300
+    with pytest.raises(SystemExit) as stop:
+        main(["track", str(footage_dir() / "bikes.mp4"), "--roi", "1,2,30,30", "--fps", "1e-300"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--fps" in err and "within [0.01, 10000] fps, got 1e-300" in err, err
