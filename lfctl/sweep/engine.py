@@ -337,14 +337,32 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
     if folder.exists() and any(folder.iterdir()):
         raise ConfigError(f"{folder} exists and is not a sweep's folder: choose another --out")
     _files_beside(p)  # a bad name: refused before anything is made
+    _check_makeable(folder)
     return None
+
+
+def _check_makeable(folder: Path) -> None:
+    """Refuse an --out that cannot be made (under a file, in a folder this user may not write
+    to, or in /proc), before the cluster starts; nothing is left behind."""
+    above = next((q for q in folder.parents if q.exists()), None)
+    if above is None:
+        return
+    if not above.is_dir():
+        raise ConfigError(f"--out {folder}: cannot make it: {above} is not a folder")
+    try:  # a folder made and removed at once where --out would be made (os.access says yes to root, /proc no)
+        os.rmdir(tempfile.mkdtemp(prefix=".lfctl-probe-", dir=above))
+    except OSError as exc:
+        raise ConfigError(f"--out {folder}: cannot make a folder in {above}: {exc.strerror or exc}") from None
 
 
 def _make(folder: Path, p: SweepPlan, code: str) -> None:
     """Make a new sweep's folder: its description, sweep file, scenario, variants and the
     files the scenario names beside it."""
     beside = _files_beside(p)
-    (folder / "variants").mkdir(parents=True, exist_ok=True)
+    try:
+        (folder / "variants").mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out {folder}: cannot make it: {exc.strerror or exc}") from None
     spec = p.spec
     write_meta(
         folder,

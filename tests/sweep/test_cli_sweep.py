@@ -72,6 +72,30 @@ def test_bad_variants_and_arguments_are_one_line_naming_them(
     assert not (tmp_path / "sweeps").exists()  # options are checked before the folder is made
 
 
+def test_an_out_that_cannot_be_made_is_named_before_a_cluster_starts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # "/proc/x" gave a bare "[Errno 2] No such file or directory: '/proc/x'", once the cluster was up
+    def no_cluster(n_workers: int) -> None:
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr("lfctl.sweep.engine._local_cluster", no_cluster)
+    ok = tmp_path / "ok.toml"
+    ok.write_text(TRUTH.format(top="", duration=2.0))
+    (tmp_path / "afile").write_text("")
+    for out, why in (
+        ("/proc/lfctl-sweep", "--out /proc/lfctl-sweep: cannot make a folder in /proc: "),
+        (
+            str(tmp_path / "afile" / "x"),
+            f"--out {tmp_path / 'afile' / 'x'}: cannot make it: {tmp_path / 'afile'} is not a folder",
+        ),
+    ):
+        assert main(["sweep", str(ok), "--out", out, "-q"]) == 2
+        err = capsys.readouterr().err
+        assert f"lfctl: error: {why}" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "ok.toml"]  # (no probe left)
+
+
 def test_a_pipe_gets_a_json_line_per_run_and_report_rebuilds_the_summary(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
