@@ -1004,6 +1004,7 @@ def load_mission_file(path: str | Path, text: str | None = None) -> MissionFile:
     p = Path(path)
     if text is None:
         text = read_text_file(p, "mission", MAX_FILE_BYTES)
+    text = text.removeprefix("\ufeff")  # a byte-order mark some editors write: no meaning
     if p.suffix == ".plan" or text.lstrip().startswith("{"):
         found = MissionFile(*_load_plan(p, text), plan=True)
     else:

@@ -176,6 +176,14 @@ def test_a_waypoint_files_frame_column_is_read_and_its_float_frames_taken_as_int
     assert (wp.x, wp.y, wp.z) == (129601000, 776701000, 10.0)
 
 
+@pytest.mark.parametrize("name", ["m.waypoints", "m.plan"])
+def test_a_mission_file_opening_with_a_byte_order_mark_reads_as_without(name: str) -> None:
+    # Windows editors save UTF-8 with a BOM (U+FEFF) in front; it is no part of either format
+    row = ["0", "1", "0", "16", "0", "0", "0", "0", "12.96", "77.67", "900", "1"]
+    text = "QGC WPL 110\n" + "\t".join(row) + "\n" if name.endswith(".waypoints") else plan([])
+    assert load_mission_file(name, "\ufeff" + text) == load_mission_file(name, text)
+
+
 def plan(items: list[dict], fence: dict | None = None) -> str:
     import json
 
