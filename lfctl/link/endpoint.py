@@ -193,11 +193,14 @@ PARAM_SLOWEST_MS = 1000
 #: an ADS-B receiver. As a Rover without them, a request or a rate for one is ACCEPTED and
 #: nothing is sent (MAVSDK's set_rate_battery succeeds).
 NOT_FITTED_NAMES = ("BATTERY_STATUS", "DISTANCE_SENSOR", "RANGEFINDER", "RPM", "ESC_TELEMETRY_1_TO_4", "ADSB_VEHICLE")
+#: messages Rover knows whose sender a rover leaves empty (GCS_MAVLINK's base methods, which
+#: Rover does not override): asked for (MAVROS asks for both), ACCEPTED and nothing is sent
+EMPTY_NAMES = ("POSITION_TARGET_LOCAL_NED", "ATTITUDE_TARGET")
 MSG_IDS = {
     name: getattr(mav, f"MAVLINK_MSG_ID_{name}")
-    for name in (*STREAMS, *NOT_FITTED_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
+    for name in (*STREAMS, *NOT_FITTED_NAMES, *EMPTY_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
 }
-NOT_FITTED = frozenset(MSG_IDS[name] for name in NOT_FITTED_NAMES)
+NOT_FITTED = frozenset(MSG_IDS[name] for name in (*NOT_FITTED_NAMES, *EMPTY_NAMES))
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
 #: this vehicle sends in them
 DATA_STREAMS: dict[int, tuple[str, ...]] = {
@@ -2634,10 +2637,13 @@ class VehicleEndpoint:
             values = self.rc.values(self.t_s, self.param("RC_OVERRIDE_TIME"))
             self.send(mav.MAVLink_rc_channels_message(t_ms, 0, *values, 255))
         elif name == "GPS_RAW_INT":
+            # cog is the GPS's course over ground, the way the vehicle moves: backing up, the
+            # heading's opposite (AP_GPS::send_mavlink_gps_raw's ground_course)
+            cog = (hdg + 18000) % 36000 if s["speed_mps"] < 0 else hdg
             self.send(
                 mav.MAVLink_gps_raw_int_message(
                     self._boot_us(), 3, int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000)),
-                    100, 100, int(round(abs(s["speed_mps"]) * 100)), hdg, 12,
+                    100, 100, int(round(abs(s["speed_mps"]) * 100)), cog, 12,
                 )
             )  # fmt: skip
         elif name == "GLOBAL_POSITION_INT":

@@ -3385,3 +3385,24 @@ def test_rtl_takes_a_rally_point_as_rover_weighs_it_against_home(
     bench.ep.params["RALLY_LIMIT_KM"].value, bench.ep.params["RALLY_INCL_HOME"].value = limit_km, incl_home
     n, e = bench.ep.rtl_destination(*at)
     assert (n, e) == pytest.approx((0.0, 0.0) if goes_to == "home" else (2000.0, 0.0), abs=0.5)
+
+
+@pytest.mark.parametrize(("speed", "cog"), [(1.0, 3000), (-1.0, 21000), (0.0, 3000)])
+def test_gps_raw_ints_course_is_the_way_the_vehicle_moves(bench: Bench, speed: float, cog: int) -> None:
+    # AP_GPS::send_mavlink_gps_raw sends the GPS's ground course: nose at 30 deg, forwards 30
+    # deg; backing up at 1 m/s it moves towards 210 deg, as GLOBAL_POSITION_INT's vx, vy say
+    bench.state = {**STATE, "yaw_rad": math.radians(30.0), "speed_mps": speed}
+    request = (mav.MAVLINK_MSG_ID_GPS_RAW_INT, 0, 0, 0, 0, 0, 0)
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, *request))
+    (gps,) = [m for m in bench.tick(0.001) if m.get_type() == "GPS_RAW_INT"][-1:]
+    assert (gps.cog, gps.vel) == (cog, round(abs(speed) * 100))
+
+
+@pytest.mark.parametrize("msg_id", [mav.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, mav.MAVLINK_MSG_ID_ATTITUDE_TARGET])
+def test_targets_rover_has_no_sender_for_are_accepted_and_nothing_comes(bench: Bench, msg_id: int) -> None:
+    # GCS_Common maps both to ap_messages, and a rover's senders for them are GCS_MAVLINK's
+    # empty ones (Rover overrides only send_position_target_global_int): ACCEPTED, nothing sent
+    assert bench.command(mav.MAV_CMD_REQUEST_MESSAGE, msg_id) == mav.MAV_RESULT_ACCEPTED
+    assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 100_000) == mav.MAV_RESULT_ACCEPTED
+    out = [m for _ in range(100) for m in bench.tick(0.02)]
+    assert not [m for m in out if m.get_msgId() == msg_id]
