@@ -2443,14 +2443,14 @@ class VehicleEndpoint:
                 outside_m = out - self.param("FENCE_RADIUS")
         else:
             self._circle_backup_m = 0.0
-        if new and self.t_s < self._fence_recovery_until:
-            new = 0  # the pilot's time to bring it back
         if new:
             if not before:  # AC_Fence::record_breach: the time of the first of a run of breaches
                 self._fence_breach_ms = self._boot_ms()
             self.fence_breaches += bin(new).count("1")  # ... and a count for each fence
             log.warning("%s: fence breached: %s", self.name, breach)  # (lfctl's log, not a STATUSTEXT)
-            if self.armed:
+            # recorded during the manual recovery too, as Rover 4.6's AC_Fence::check records
+            # before it looks at the recovery; only the action waits for the pilot's time
+            if self.armed and self.t_s >= self._fence_recovery_until:
                 self._fence_action(give_up=outside_m > FENCE_GIVE_UP_M)
             self._soon(MSG_IDS["FENCE_STATUS"])
         self.fence_breach = breach

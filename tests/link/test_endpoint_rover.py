@@ -525,11 +525,13 @@ def test_a_circle_breach_is_met_again_20_m_farther_out_and_past_100_m_the_action
     assert breached(at(31.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 1
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED  # the ground station takes it on outwards
     assert breached(at(45.0)) == 0 and ep.mode == MODES["GUIDED"]  # inside the backup circle (51 m)
-    assert breached(at(51.5)) == 0 and ep.mode == MODES["GUIDED"]  # past it, but within the 10 s of recovery
+    # past it, within the 10 s of recovery: counted (Rover 4.6's AC_Fence::check records the
+    # breach before it looks at the recovery), not acted on
+    assert breached(at(51.5)) == 1 and ep.mode == MODES["GUIDED"]
     # the checks go on during the recovery (AC_Fence's last step is the recovery's): the
     # backup circle moved out to 71.5 m
     assert breached(at(52.0, dt=10.0)) == 0 and ep.mode == MODES["GUIDED"]
-    assert breached(at(72.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 2
+    assert breached(at(72.0)) == 1 and ep.mode == MODES["RTL"] and ep.fence_breaches == 3
     assert bench.set_mode("GUIDED") == mav.MAV_RESULT_ACCEPTED
     assert breached(at(140.0, dt=10.0)) == 1 and ep.mode == MODES["HOLD"]  # 110 m outside: HOLD, not RTL
     at(10.0)  # back inside: cleared, and the next breach is a first one again
@@ -1054,6 +1056,13 @@ def test_do_fence_enable_as_ardupilot(bench: Bench, action: int, fences: int, re
     assert bench.ep.fences_enabled == (before if enabled is None else enabled)
     # AC_Fence::enable changes the fences in RAM only: FENCE_ENABLE is as it was
     assert bench.ep.param("FENCE_ENABLE") == (1 if action == 0 else 0)
+    # what a ground station sees: FENCE_STATUS while a fence is on (GCS_Fence's
+    # send_fence_status), and SYS_STATUS's geofence bit enabled (FENCE_ACTION 1)
+    out = bench.tick(1.0)
+    on = bool(bench.ep.fences_enabled)
+    assert bool([m for m in out if m.get_type() == "FENCE_STATUS"]) is on
+    (status,) = [m for m in out if m.get_type() == "SYS_STATUS"][-1:]
+    assert bool(status.onboard_control_sensors_enabled & mav.MAV_SYS_STATUS_GEOFENCE) is on
 
 
 def test_do_fence_enable_is_forgotten_at_a_reboot_and_fence_enable_rules_when_it_changes(bench: Bench) -> None:
