@@ -2148,10 +2148,11 @@ class VehicleEndpoint:
         by ``AP_Arming::fence_checks``, which no ``ARMING_CHECK`` bit turns off), or None:
         "Fences enabled, but none selected" with ``FENCE_ENABLE`` on and no fence to check;
         with a fence turned on (the parameter, or DO_FENCE_ENABLE), an inclusion circle
-        narrower than ``FENCE_MARGIN`` ("Polygon fence margin is greater than inclusion circle
-        radius"), then "Vehicle breaching Polygon fence" (or Circle, or both) while the vehicle
-        is outside the fence. The checks on values lfctl's parameter ranges already rule out (a
-        negative radius or margin) cannot fail here."""
+        narrower than ``FENCE_MARGIN`` ("Polygon fence margin is less than inclusion circle
+        radius", Rover 4.6's words; its newer source says "greater than"), then "Vehicle
+        breaching Polygon fence" (or Circle, or both) while the vehicle is outside the fence.
+        The checks on values lfctl's parameter ranges already rule out (a negative radius or
+        margin) cannot fail here."""
         if self.param("FENCE_ENABLE") and not self._fence_present():
             return "Fences enabled, but none selected"
         if not self.fences_enabled or not self._configured_fences():
@@ -2159,7 +2160,7 @@ class VehicleEndpoint:
         fence_type = int(self.param("FENCE_TYPE"))
         margin = self.param("FENCE_MARGIN")
         if fence_type & FENCE_TYPE_POLYGON and any(r < margin for *_, r in self.fence.inclusion_circles):
-            return "Polygon fence margin is greater than inclusion circle radius"
+            return "Polygon fence margin is less than inclusion circle radius"
         if self._breached_fences:
             return f"Vehicle breaching {fence_names(self._breached_fences)}"
         return None

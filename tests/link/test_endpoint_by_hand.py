@@ -683,7 +683,7 @@ def test_an_inclusion_circle_as_wide_as_the_margin_passes_the_pre_arm_check(
     circle = MissionItem(0, RELATIVE_INT, mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, radius, x=LAT_E7, y=776_690_000)
     bench.ep.missions.store(mav.MAV_MISSION_TYPE_FENCE, [circle])
     bench.tick()  # (the fences turn on as AC_Fence::update sees FENCE_ENABLE change)
-    failure = "Polygon fence margin is greater than inclusion circle radius"
+    failure = "Polygon fence margin is less than inclusion circle radius"
     assert (failure in bench.ep.prearm_failures()) is fails
 
 

@@ -2708,7 +2708,7 @@ def test_an_enabled_fence_with_nothing_to_check_or_a_circle_inside_the_margin_fa
     circle = [Item(0, mav.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, p1=1.5, x=lat, y=lon, frame=mav.MAV_FRAME_GLOBAL_INT)]
     assert upload(bench, circle, mav.MAV_MISSION_TYPE_FENCE) == mav.MAV_MISSION_ACCEPTED
     bench.tick()
-    assert bench.ep.prearm_failures()[0] == "Polygon fence margin is greater than inclusion circle radius"
+    assert bench.ep.prearm_failures()[0] == "Polygon fence margin is less than inclusion circle radius"
     bench.ep.params["FENCE_MARGIN"].value = 1.0
     bench.state = dict(STATE, north_m=0.5, east_m=0.5)
     bench.tick()
