@@ -201,6 +201,11 @@ MSG_IDS = {
     for name in (*STREAMS, *NOT_FITTED_NAMES, *EMPTY_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
 }
 NOT_FITTED = frozenset(MSG_IDS[name] for name in (*NOT_FITTED_NAMES, *EMPTY_NAMES))
+#: what Rover's routing never passes on between its links (MAVLink_routing::check_and_forward:
+#: a radio's own reports, and ADS-B traffic, which has its own stream rate)
+NEVER_PASSED_ON = frozenset(
+    (mav.MAVLINK_MSG_ID_RADIO, mav.MAVLINK_MSG_ID_RADIO_STATUS, mav.MAVLINK_MSG_ID_ADSB_VEHICLE)
+)
 #: REQUEST_DATA_STREAM's groups (MAV_DATA_STREAM), as Rover's GCS_MAVLink puts the messages
 #: this vehicle sends in them
 DATA_STREAMS: dict[int, tuple[str, ...]] = {
@@ -987,9 +992,11 @@ class VehicleEndpoint:
         between its links (``MAVLink_routing::check_and_forward``): one addressed to a system
         and component heard from another peer goes to that peer (a ground station's request to
         ``lfctl follow``'s companion, 191, or its camera, 100; their answers back to the ground
-        station), and what a component of this vehicle other than the autopilot sends to no
-        one in particular (its HEARTBEAT, a camera's stream information, a companion's
-        STATUSTEXT) to every other peer. Never back to the sender; nothing bearing the
+        station; one for another system to every peer that system was heard on, whatever the
+        component), and what anyone sends to no one in particular (a HEARTBEAT, a camera's
+        stream information, a companion's STATUSTEXT, a ground station's HEARTBEAT to the
+        companion) to every other peer, but RADIO, RADIO_STATUS and ADSB_VEHICLE, which Rover
+        never passes on. Never back to the sender; nothing bearing the
         autopilot's own id (its own are answered here); a packet already passed on within
         :data:`PASSED_ON_MEMORY_S` not again (a relay that sends the port's output back into
         it, MAVProxy with ``--master`` and ``--out`` both on the port, would loop it for ever,
@@ -1002,10 +1009,12 @@ class VehicleEndpoint:
             component = getattr(m, "target_component", 0)
             if self.network is None or (target, component) == (self.sysid, 1):
                 return
-            to = [c for c in self._live_channels(target, component) if c not in ("memory", self._channel)]
+            # another system: wherever it was heard, any component (check_and_forward's !match_system)
+            heard_as = component if target == self.sysid else 0
+            to = [c for c in self._live_channels(target, heard_as) if c not in ("memory", self._channel)]
             if not to:
                 return
-        elif self.network is None or m.get_srcSystem() != self.sysid:
+        elif self.network is None or m.get_msgId() in NEVER_PASSED_ON:
             return
         else:
             to = []
@@ -1189,11 +1198,12 @@ class VehicleEndpoint:
     # -- modes --------------------------------------------------------------------------------
     def _on_timesync(self, m: Any) -> None:
         """TIMESYNC: a request (``tc1`` 0) is answered with the autopilot's clock, ns since
-        boot, and the request's ``ts1``, as Rover's ``handle_timesync`` (MAVROS and MAVSDK
-        estimate the link's time offset from it); an answer to someone else's is not ours."""
+        boot, and the request's ``ts1``, on the asker's link alone, as Rover's
+        ``handle_timesync`` answers on its channel (MAVROS and MAVSDK estimate the link's time
+        offset from it); an answer to someone else's is not ours."""
         if m.tc1 != 0 or getattr(m, "target_system", 0) not in (0, self.sysid):
             return
-        self.send(mav.MAVLink_timesync_message(self._boot_us() * 1000, m.ts1))
+        self._answer(mav.MAVLink_timesync_message(self._boot_us() * 1000, m.ts1))
 
     def _on_set_mode(self, m: Any) -> None:
         """SET_MODE (the message): as DO_SET_MODE, and answered as Rover answers it, with a

@@ -2930,8 +2930,9 @@ def test_each_network_peer_is_a_channel_so_a_ground_station_reaches_a_companion_
     comes(mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3), companion, rover_side)
     comes(mav.MAVLink_heartbeat_message(30, 8, 0, 0, 4, 3), camera, rover_side)
     comes(mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3), ground, ground_side)
-    # the companion's and the camera's HEARTBEATs to every other peer; the ground station's not
-    assert broadcast == [rover_side, rover_side] and passed == []
+    # every HEARTBEAT to every other peer (MAVLink_routing::handle_heartbeat): the companion's
+    # and the camera's to the ground station, the ground station's to the companion
+    assert broadcast == [rover_side, rover_side, ground_side] and passed == []
     # the ground station asks the companion for LFC_RANGE and the camera for its stream
     answered = comes(mav.MAVLink_param_request_read_message(1, 191, b"LFC_RANGE", -1), ground, ground_side)
     info = mav.MAVLINK_MSG_ID_VIDEO_STREAM_INFORMATION
@@ -3003,6 +3004,8 @@ def test_a_relay_looping_the_port_into_itself_gets_nothing_round_twice(bench: Be
     gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
     bench.a.inbox.append((mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3).pack(gcs), ground))
     bench.tick()
+    assert passed == [ground]  # its HEARTBEAT to every other peer, as Rover's handle_heartbeat
+    del passed[:]
     own = mav.MAVLink(None, srcSystem=1, srcComponent=1)
     for msg in (mav.MAVLink_command_ack_message(400, 0, 0, 0, 255, 190), mav.MAVLink_sys_status_message(*[0] * 13)):
         bench.a.inbox.append((msg.pack(own), relay))
@@ -3415,3 +3418,54 @@ def test_targets_rover_has_no_sender_for_are_accepted_and_nothing_comes(bench: B
     assert bench.command(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 100_000) == mav.MAV_RESULT_ACCEPTED
     out = [m for _ in range(100) for m in bench.tick(0.02)]
     assert not [m for m in out if m.get_msgId() == msg_id]
+
+
+def test_a_timesync_request_is_answered_on_the_askers_link_alone(bench: Bench) -> None:
+    # Rover's handle_timesync answers with mavlink_msg_timesync_send(chan, ...): the link the
+    # request came on; the other ground station and the companion get no answer to it
+    asker, other = ("127.0.0.1", 40001), ("127.0.0.1", 40002)
+    cap = PeerCapture(bench, [asker, other])
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    _peer_sends(bench, mav.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3), gcs, other)  # (heard: a peer)
+    _peer_sends(bench, mav.MAVLink_timesync_message(0, 123456789), gcs, asker)
+    assert (cap.count(asker, "TIMESYNC"), cap.count(other, "TIMESYNC")) == (1, 0)
+
+
+def test_broadcasts_from_any_sender_and_messages_for_another_system_go_where_rover_sends_them(bench: Bench) -> None:
+    # MAVLink_routing::check_and_forward: a message to no one in particular goes to every other
+    # link (a ground station's STATUSTEXT reaches the companion), but never a radio's
+    # RADIO_STATUS nor ADSB_VEHICLE; one for another system to every link that system was
+    # heard on, whatever component it names (system 2 heard only as 2/100, a command to 2/1)
+    ground, companion, other_vehicle = ("127.0.0.1", 40001), ("127.0.0.1", 40002), ("127.0.0.1", 40003)
+    cap = PeerCapture(bench, [ground, companion, other_vehicle])
+
+    def fan_out(data: bytes, exclude: tuple[object, ...] = ()) -> int:  # the UDP side's send to all
+        to = [p for p in cap.got if p not in exclude]
+        for p in to:
+            cap._sent(data, p)
+        return len(to)
+
+    bench.ep.network.send = fan_out  # type: ignore[union-attr]
+    gcs = mav.MAVLink(None, srcSystem=255, srcComponent=190)
+    _peer_sends(
+        bench,
+        mav.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3),
+        mav.MAVLink(None, srcSystem=1, srcComponent=191),
+        companion,
+    )
+    _peer_sends(
+        bench,
+        mav.MAVLink_heartbeat_message(30, 8, 0, 0, 4, 3),
+        mav.MAVLink(None, srcSystem=2, srcComponent=100),
+        other_vehicle,
+    )
+    for p in cap.got.values():
+        p.clear()
+    _peer_sends(bench, mav.MAVLink_statustext_message(6, b"hello", 0, 0), gcs, ground)
+    _peer_sends(bench, mav.MAVLink_radio_status_message(200, 190, 100, 0, 0, 0, 0), gcs, ground)
+    assert [cap.count(p, "STATUSTEXT") for p in (ground, companion, other_vehicle)] == [0, 1, 1]
+    assert all(cap.count(p, "RADIO_STATUS") == 0 for p in cap.got)
+    arm = mav.MAVLink_command_long_message(2, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
+    _peer_sends(bench, arm, gcs, ground)
+    assert [cap.count(p, "COMMAND_LONG") for p in (ground, companion, other_vehicle)] == [0, 0, 1]
+    assert not bench.ep.armed  # not this vehicle's
