@@ -107,6 +107,7 @@ def test_packets_carry_consecutive_sequence_numbers_so_a_gcs_counts_no_loss(live
     # pymavlink's pack() leaves the sequence number alone (send() advances it): a vehicle
     # that only packed sent every packet as seq 0, and a GCS counted all but one as lost
     g = live.gcs()
+    g.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_ALL, 10, 1))  # (MAVProxy asks too)
     seqs = [g.wait(("HEARTBEAT", "ATTITUDE", "GLOBAL_POSITION_INT", "SYS_STATUS")).get_seq() for _ in range(40)]
     assert len(set(seqs)) > 30
     assert g.port.lost == 0 and g.port.received >= 40
