@@ -87,6 +87,12 @@ def replay(path: Path, kind: str = "full", follower: str | None = None) -> Repla
     if not count and not c.footer and images_expected:
         raise ConfigError(f"{path} is truncated (not finished) before any camera image of {name!r} was written")
     if not count:
+        damage = next((f.what for f in report.findings if f.level == "error"), None)
+        if damage is not None and images_expected:  # they were recorded: the damage took them
+            raise ConfigError(
+                f"{path} is damaged ({damage}): none of {name!r}'s camera images can be read "
+                f"(`lfctl audit {path}` says where)"
+            )
         raise ConfigError(
             f"{path} has no recorded camera images for follower {name!r} "
             "(was it run with sensing = 'camera' and recording.images = true?)"

@@ -372,6 +372,24 @@ def test_replay_names_what_is_wrong_with_the_file(camera_log, tmp_path: Path, ca
     assert "the log is truncated (not finished)" in capsys.readouterr().out
 
 
+def test_replay_of_a_log_whose_every_chunk_is_damaged_says_it_is_damaged(camera_log, tmp_path: Path, capsys) -> None:
+    # every chunk's middle overwritten (the attachments and the summary intact): no image can
+    # be read, and that is the damage's doing, not the run's settings (sensing, images)
+    from mcap.reader import make_reader
+
+    data = bytearray(camera_log[0].read_bytes())
+    with camera_log[0].open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and summary.chunk_indexes
+    for chunk in summary.chunk_indexes:
+        mid = chunk.chunk_start_offset + chunk.chunk_length // 2
+        data[mid : mid + 64] = b"\xff" * 64
+    (tmp_path / "damaged.mcap").write_bytes(bytes(data))
+    assert main(["replay", str(tmp_path / "damaged.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert "is damaged" in err and "camera images can be read" in err and "was it run with" not in err
+
+
 def test_replay_of_a_cut_log_without_images_says_there_were_none(truth_log, tmp_path: Path, capsys) -> None:
     data = truth_log[0].read_bytes()
     (tmp_path / "cut.mcap").write_bytes(data[: len(data) // 2])
