@@ -295,10 +295,19 @@ class VehicleConfig(_Section):
                     raise ConfigError(f"{key}.{_toml_key(k)}: a leader follows nobody, got {getattr(self, k)!r}")
             if not self.companion:
                 raise ConfigError(f"{key}.companion: a leader has no companion computer to leave out, got false")
+        # the start pose's parameters are the vehicle's own keys' (a value here was overwritten by them)
+        pose = {
+            self.map.get(role, role): k
+            for role, k in (("north_0", "north_m"), ("east_0", "east_m"), ("yaw_0", "yaw_deg"))
+        }
         for p, v in self.parameters.items():
             check_text(f"{key}.parameters key", p)
             if not isinstance(v, bool):  # (a Boolean FMU parameter's value)
                 Bound(-math.inf, math.inf).check(f"{key}.parameters.{p}", v)
+            if p in pose:
+                raise ConfigError(
+                    f"{key}.parameters.{p}: the start pose is the vehicle's {pose[p]} key; set that instead, got {v!r}"
+                )
         for table in ("map", "units"):
             for role, text in getattr(self, table).items():
                 if role not in VEHICLE_ROLES:

@@ -42,6 +42,14 @@ def test_fmu_parameters_take_numbers_and_booleans_as_written() -> None:
         parse_config(LEADER + "[vehicles.parameters]\ntau = [1]\n")
 
 
+@pytest.mark.parametrize(("name", "key"), [("north_0", "north_m"), ("east_0", "east_m"), ("yaw_0", "yaw_deg")])
+def test_a_start_pose_parameter_is_refused_naming_the_key_that_sets_it(name: str, key: str) -> None:
+    # the run sets north_0, east_0 and yaw_0 from the vehicle's own keys: a value given as an
+    # FMU parameter was silently overwritten (north_0 = 1e308 started the vehicle at 0)
+    with pytest.raises(ConfigError, match=rf"vehicles\[leader\]\.parameters\.{name}: .* {key} key"):
+        parse_config(LEADER + f"[vehicles.parameters]\n{name} = 1e308\n")
+
+
 def test_defaults_fill_the_sim_section() -> None:
     cfg = parse_config(LEADER)
     assert cfg.sim.dt_s == 0.01 and cfg.sim.clock == "lockstep" and cfg.name == "scenario"
