@@ -608,8 +608,9 @@ class VehicleEndpoint:
         # every configured one but the floor with FENCE_ENABLE set, else none; then as
         # FENCE_ENABLE changes (:meth:`_follow_fence_enable`) and DO_FENCE_ENABLE asks, which
         # leaves the parameter as it is, as on Rover
-        self._fence_enable_seen = self.param("FENCE_ENABLE")  # (its _last_enabled)
-        self.fences_enabled = self._configured_fences() & ~FENCE_TYPE_ALT_MIN if self._fence_enable_seen else 0
+        self._fence_enable_seen = math.nan  # (its _last_enabled: none yet, so the first look sets them)
+        self.fences_enabled = 0
+        self._follow_fence_enable()
         self._gcs_failsafe = False  # the ground station is lost (Rover's failsafe.bits)
         self._gcs_failsafe_since = 0.0  # since when, s (failsafe.start_time)
         self._failsafe_triggered = False  # the failsafe has acted (failsafe.triggered)
@@ -2120,17 +2121,23 @@ class VehicleEndpoint:
         if action is None or fences is None:
             return mav.MAV_RESULT_DENIED
         fences = fences or FENCE_ALL
-        if action == 0:
-            self.fences_enabled &= ~(self._configured_fences() & fences)
-        elif action == 1:
-            if not self._present_fences() & fences:
-                return mav.MAV_RESULT_FAILED  # none of them there to check
-            self.fences_enabled |= self._configured_fences() & fences
+        if action == 1 and not self._present_fences() & fences:
+            return mav.MAV_RESULT_FAILED  # none of them there to check
+        if action in (0, 1):
+            self._turn_fences(action == 1, fences)
         elif action == 2:
             self.fences_enabled &= ~FENCE_TYPE_ALT_MIN
         else:
             return mav.MAV_RESULT_FAILED
         return mav.MAV_RESULT_ACCEPTED
+
+    def _turn_fences(self, on: bool, fences: int) -> int:
+        """Turn the configured ones of ``fences`` (FENCE_TYPE bits) on or off, as
+        ``AC_Fence::enable``; the fences that changed."""
+        before = self.fences_enabled
+        chosen = self._configured_fences() & fences
+        self.fences_enabled = before | chosen if on else before & ~chosen
+        return before ^ self.fences_enabled
 
     def _fence_enable_item(self, action_p: float) -> None:
         """A mission's DO_FENCE_ENABLE, as Rover 4.6's ``AP_Mission::start_command_fence``:
@@ -2139,12 +2146,7 @@ class VehicleEndpoint:
         enabled", ``print_fence_message``); any other value does nothing."""
         action = _as_int(action_p, 0, 65535)
         if action in (0, 1):
-            before = self.fences_enabled
-            if action:
-                self.fences_enabled |= self._configured_fences()
-            else:
-                self.fences_enabled &= ~self._configured_fences()
-            changed = before ^ self.fences_enabled
+            changed = self._turn_fences(action == 1, FENCE_ALL)
             if changed:
                 self.statustext(
                     f"{fence_names(changed)} {'enabled' if action else 'disabled'}", mav.MAV_SEVERITY_NOTICE
@@ -2167,9 +2169,8 @@ class VehicleEndpoint:
             return "Fences enabled, but none selected"
         if not self.fences_enabled or not self._configured_fences():
             return None
-        fence_type = int(self.param("FENCE_TYPE"))
         margin = self.param("FENCE_MARGIN")
-        if fence_type & FENCE_TYPE_POLYGON and any(r < margin for *_, r in self.fence.inclusion_circles):
+        if self._configured_fences() & FENCE_TYPE_POLYGON and any(r < margin for *_, r in self.fence.inclusion_circles):
             return "Polygon fence margin is less than inclusion circle radius"
         if self._breached_fences:
             return f"Vehicle breaching {fence_names(self._breached_fences)}"
