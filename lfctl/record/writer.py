@@ -432,6 +432,7 @@ class Recorder:
         self.messages = 0
         self._closed = False
         self._hashes: dict[str, str] = {}
+        self._made_dirs: list[Path] = []  # folders made for the log, deepest first (removed with it)
         self._flushed_at = time.monotonic()
         # a failed write (a full disk) makes the MCAP writer refuse every write after it: the
         # next flush says so (within FLUSH_INTERVAL_S), and ends the run (_check_written)
@@ -455,8 +456,7 @@ class Recorder:
                 self._live = (host, _free_port(host, port))
             except OSError as exc:
                 self._close_file()
-                if self.path is not None:  # made a moment ago (never over a file), with nothing in it
-                    self.path.unlink(missing_ok=True)
+                self._remove_file()  # made a moment ago (never over a file), with nothing in it
                 raise RecordError(f"cannot serve Foxglove on {host}:{port}: {exc}") from exc
         if self._mcap is not None:
             self._provenance()
@@ -464,6 +464,7 @@ class Recorder:
     def _open_new(self, path: Path, options: MCAPWriteOptions) -> tuple[Path, Any]:
         """Create the log, never over an existing file: a name taken (two runs in the same
         second) gets ``-2``, ``-3``, ... before the suffix. Returns the path and the writer."""
+        self._made_dirs = [q for q in (path.parent, *path.parent.parents) if not q.exists()]
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except (FileExistsError, NotADirectoryError) as exc:  # a file where a folder should be: bad input
@@ -1291,8 +1292,19 @@ class Recorder:
             self._closed = True
             self._close_file()
             self._stop_server()
-        if self.path is not None:
-            self.path.unlink(missing_ok=True)
+        self._remove_file()
+
+    def _remove_file(self) -> None:
+        """Delete the log of a run that never started, and the folders made for it that
+        are still empty (a refused start leaves no empty ``logs/`` behind)."""
+        if self.path is None:
+            return
+        self.path.unlink(missing_ok=True)
+        for folder in self._made_dirs:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (another run's log went there meanwhile), or gone
+                break
 
     def _stop_server(self) -> None:
         """Stop the Foxglove WebSocket, waiting at most :data:`SERVER_STOP_S`: foxglove-sdk's

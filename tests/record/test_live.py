@@ -180,10 +180,13 @@ def test_a_websocket_client_gets_poses_video_and_location_from_a_running_sim(tmp
     assert audit(log).ok
 
 
+@pytest.mark.parametrize("logs_there", [False, True])
 def test_live_on_a_port_in_use_is_a_clear_error(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    logs_there: bool, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(tmp_path)  # the log would go to ./logs
+    if logs_there:
+        (tmp_path / "logs").mkdir()
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
         busy.listen()
@@ -192,6 +195,8 @@ def test_live_on_a_port_in_use_is_a_clear_error(
     err = capsys.readouterr().err
     assert code == 1 and f"127.0.0.1:{port}" in err and "Traceback" not in err
     assert not list(tmp_path.rglob("*.mcap"))  # no empty log left behind, which audit would fail
+    # nor the folder made for it; one that was there stays
+    assert (tmp_path / "logs").is_dir() == logs_there
 
 
 @pytest.mark.parametrize("value", ["nohost", "127.0.0.1:99999", ":80"])
