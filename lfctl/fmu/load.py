@@ -334,6 +334,19 @@ def _out_of_range(var: Any, value: object) -> str | None:
     return f"outside its declared range [{lo:g}, {hi:g}]"
 
 
+_REFUSED = re.compile(r"\bparameter (\w+): (.+)")
+
+
+def _refused_parameter(log: Sequence[str], parameters: Mapping[str, object]) -> tuple[str, str] | None:
+    """The first parameter of ``parameters`` an FMU's log names as refused ("... parameter
+    NAME: why"), with the FMU's words for why; None when it names none of them."""
+    for line in log:
+        found = _REFUSED.search(line)
+        if found is not None and found[1] in parameters:
+            return found[1], found[2].strip()
+    return None
+
+
 def _status_text(status: int) -> str:
     return FMI_STATUS[status] if 0 <= status < len(FMI_STATUS) else f"illegal status {status}"
 
@@ -935,7 +948,19 @@ class FmuInstance:
             self._checked("fmi2EnterInitializationMode", s.enterInitializationMode)
         else:
             self._checked("fmi3EnterInitializationMode", s.enterInitializationMode, startTime=self._start_time_s)
-        self._checked(f"fmi{v}ExitInitializationMode", s.exitInitializationMode)
+        try:
+            self._checked(f"fmi{v}ExitInitializationMode", s.exitInitializationMode)
+        except FmuError as exc:
+            # the FMU checks its parameters as it leaves initialization (the built-in models'
+            # strict bounds, which a model description's min and max cannot say): a value the
+            # scenario gave that the FMU names in its refusal is the scenario's error
+            refused = _refused_parameter(exc.log, parameters)
+            if refused is None:
+                raise
+            name, words = refused
+            raise ConfigError(
+                f"vehicles[{self.name}].parameters.{name} = {parameters[name]!r}: {self.lib.identifier} says: {words}"
+            ) from exc
 
     # -- hot path ------------------------------------------------------------------------
     def step(self, dt_s: float) -> None:

@@ -151,7 +151,12 @@ def test_where_each_fmu_runs(faulty: BuiltModel) -> None:
             r"vehicles\[f1\]\.parameters\.north: 'north' has causality 'output' in FaultyRover, not a",
         ),
         ({"nonesuch": 1.0}, ConfigError, r"parameter 'nonesuch' does not exist in FaultyRover"),
-        ({"internal_step": 2.0}, FmuError, r"FaultyRover \(f1\): fmi2ExitInitializationMode returned Error"),
+        # the FMU refuses it as it leaves initialization, naming it: the scenario's value
+        (
+            {"internal_step": 2.0},
+            ConfigError,
+            r"vehicles\[f1\]\.parameters\.internal_step = 2\.0: FaultyRover says: must be in \(0, 1\] s, got 2$",
+        ),
     ],
 )
 def test_what_the_fmu_refuses_comes_back_as_in_one_process(

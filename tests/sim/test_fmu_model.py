@@ -15,7 +15,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
-from lfctl.fmu.load import OUTPUT_ROLES, FmuLibrary
+from lfctl.fmu.load import OUTPUT_ROLES, FmuLibrary, _refused_parameter
 
 pytestmark = pytest.mark.fmu
 
@@ -145,11 +145,23 @@ def test_non_positive_step_is_an_fmu_error(rover, fmi: int, dt: float) -> None:
 
 
 def test_invalid_parameter_value_is_named_at_initialisation(rover) -> None:
+    # a strict bound (a model description's min and max are inclusive) the model checks as it
+    # leaves initialization: the scenario's value, named as the scenario names it (exit 2)
     with (
         FmuLibrary(rover.fmi2) as lib,
-        pytest.raises(FmuError, match=r"parameter skid_factor: must be in \(0, 1\], got 1.5"),
+        pytest.raises(
+            ConfigError,
+            match=r"^vehicles\[a\]\.parameters\.skid_factor = 1\.5: SkidSteerRover says: must be in \(0, 1\], got 1.5$",
+        ),
     ):
         lib.instantiate("a", {"skid_factor": 1.5}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
+def test_a_refusal_naming_no_parameter_the_scenario_set_stays_the_fmus_error() -> None:
+    log = ["fmi2ExitInitializationMode: parameter tau: must be > 0 s, got 0"]
+    assert _refused_parameter(log, {"skid_factor": 0.5}) is None  # its own default: the FMU's fault
+    assert _refused_parameter(log, {"tau": 0.0}) == ("tau", "must be > 0 s, got 0")
+    assert _refused_parameter(["fmi2ExitInitializationMode: out of memory"], {"tau": 0.0}) is None
 
 
 @pytest.mark.parametrize("fmi", [2, 3])
@@ -157,7 +169,7 @@ def test_a_sub_step_so_small_each_step_would_run_for_hours_is_refused(rover, fmi
     # 1e-12 s: 1e10 RK4 sub-steps a 10 ms step, in lfctl's own process with no step timeout
     with (
         FmuLibrary(rover.path(fmi)) as lib,
-        pytest.raises(FmuError, match=r"parameter internal_step: must be in \[1e-05, 1\] s, got 1e-12"),
+        pytest.raises(ConfigError, match=r"parameters\.internal_step = 1e-12: .* must be in \[1e-05, 1\] s, got 1e-12"),
     ):
         lib.instantiate("a", {"internal_step": 1e-12}, (0, 0, 0), np.zeros(2), np.zeros(5))
 
