@@ -227,7 +227,6 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
 #: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
-MAX_STREAM_HZ = 50.0
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
 _GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT", "VFR_HUD"))
@@ -1599,16 +1598,15 @@ class VehicleEndpoint:
 
     def _on_request_data_stream(self, m: Any) -> None:
         """REQUEST_DATA_STREAM (MAVProxy and Mission Planner send it): the messages of Rover's
-        stream group at the rate asked for (start_stop 0, or a rate of 0, stops them; at most
-        :data:`MAX_STREAM_HZ`). HEARTBEAT and HOME_POSITION are in no group, as on Rover."""
+        stream group at the rate asked for, read as Rover reads it (:func:`_stream_interval_ms`;
+        start_stop 0 stops them). HEARTBEAT and HOME_POSITION are in no group, as on Rover."""
         if not self._for_me(m) or m.start_stop not in (0, 1):
             return
         names = DATA_STREAMS.get(m.req_stream_id, ())  # other groups: messages not sent here
-        hz = min(float(m.req_message_rate), MAX_STREAM_HZ) if m.start_stop == 1 else 0.0
+        interval_ms = _stream_interval_ms(int(m.req_message_rate)) if m.start_stop == 1 else 0
         rates = self._channel_rates(own=bool(names))
-        period = _period(hz)
-        if math.isfinite(period):  # no faster than 0.8 x the loop rate (Rover's set_ap_message_interval)
-            period = self._cap_ms(round(period * 1000)) / 1000
+        # no faster than 0.8 x the loop rate (Rover's set_ap_message_interval); 0: not sent
+        period = self._cap_ms(interval_ms) / 1000 if interval_ms else math.inf
         for name in names:
             rates.groups[MSG_IDS[name]] = period
             rates.stream(MSG_IDS[name], period, self.t_s)
@@ -2778,6 +2776,18 @@ def _period(rate_hz: float) -> float:
     """A stream's period, s, in whole ms as Rover's ``get_interval_for_stream`` makes it
     (1000 / Hz in integers: 3 Hz is 333 ms); infinite (not sent) at 0 Hz."""
     return max(1000 // rate_hz, 1) / 1000 if rate_hz > 0 else math.inf
+
+
+def _stream_interval_ms(rate: int) -> int:
+    """REQUEST_DATA_STREAM's rate (uint16, Hz) as Rover's stream rate makes it an interval, ms:
+    kept in an int16 (32768 and more are negative), 1000 / Hz in C's integers, as uint32, at
+    most 60000. 0 is not sent: a rate of 0, or over 1000 Hz (1000 / Hz is 0) or -1000 and
+    below; -1 to -1000 (65535 to 64536) is 60 s, the wrapped negative's cap."""
+    freq = rate - 65536 if rate >= 32768 else rate
+    if freq == 0:
+        return 0
+    ms = int(1000 / freq)  # (C's division truncates toward zero, as int() does)
+    return 60000 if ms < 0 or ms > 60000 else ms
 
 
 def _command_latlon(p: list[float], latlon_e7: tuple[int, int] | None) -> tuple[int, int] | None:

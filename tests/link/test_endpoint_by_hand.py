@@ -497,7 +497,7 @@ def test_a_faster_loop_rate_takes_a_reboot_and_then_allows_faster_messages(bench
 
 
 def test_a_data_stream_of_50_hz_goes_out_at_40_hz(bench: Bench) -> None:
-    # REQUEST_DATA_STREAM at 50 Hz (lfctl's and Rover's most): 1000 / 50 = 20 ms, which
+    # REQUEST_DATA_STREAM at 50 Hz (SRn_'s documented most): 1000 / 50 = 20 ms, which
     # set_ap_message_interval passes through cap_message_interval: 20 * 800 = 16 000 < 20 000
     # (SCHED_LOOP_RATE 50 Hz), so 20 000 / 800 = 25 ms; 10 Hz (100 ms) is kept
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 50, 1))
@@ -506,6 +506,28 @@ def test_a_data_stream_of_50_hz_goes_out_at_40_hz(bench: Bench) -> None:
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, 10, 1))
     bench.tick()
     assert interval_of(bench, VFR_HUD_ID) == 100_000
+
+
+@pytest.mark.parametrize(
+    ("rate", "interval_us"),
+    [
+        (1000, 25_000),  # 1000 / 1000 = 1 ms, capped to 0.8 x the loop rate as 50 Hz is
+        (1001, -1),  # 1000 / 1001 is 0 in integers: not sent (a bigger rate is no faster)
+        (32767, -1),
+        (32768, -1),  # the int16 Rover keeps it in: -32768; 1000 / -32768 is 0: not sent
+        (64535, -1),  # -1001: 0 again
+        (64536, 60_000_000),  # -1000: -1 ms, as uint32 past 60 000: 60 s
+        (65535, 60_000_000),  # -1: -1000 ms, the same
+    ],
+)
+def test_a_data_stream_rate_is_read_as_rovers_int16_and_integer_division(
+    bench: Bench, rate: int, interval_us: int
+) -> None:
+    # GCS_MAVLINK::handle_request_data_stream keeps req_message_rate (uint16) in an int16_t,
+    # and get_interval_for_stream makes it 1000 / rate as uint32, at most 60 000 ms, 0 not sent
+    bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA2, rate, 1))
+    bench.tick()
+    assert interval_of(bench, VFR_HUD_ID) == interval_us
 
 
 @pytest.mark.parametrize(

@@ -1115,7 +1115,7 @@ def test_request_data_stream_sets_rovers_stream_groups(bench: Bench) -> None:
     bench.send(mav.MAVLink_request_data_stream_message(1, 1, mav.MAV_DATA_STREAM_EXTRA1, 1000, 1))
     bench.tick()
     out = [m for _ in range(100) for m in bench.tick(0.01)]  # 1 s at 100 ticks a second
-    # held to 50 Hz (Rover's SRx_ limit), 20 ms, then to 0.8 x SCHED_LOOP_RATE (50 Hz): 25 ms
+    # 1000 / 1000 = 1 ms, held to 0.8 x SCHED_LOOP_RATE (50 Hz): 25 ms
     assert 38 <= _count(out, "ATTITUDE") <= 41
 
 
