@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
 import os
@@ -153,7 +154,10 @@ class LiveView:
 
         self.cfg, self.name, self.camera = cfg, name, camera
         start_ns, self._t0 = time.time_ns(), time.monotonic()  # the log's epoch and the run's clock, paired
-        self.rec = Recorder(None, cfg, live=live, start_ns=start_ns) if live is not None else None
+        # its frames are H.264 whatever the scenario records (`[recording] image_format = "jpeg"`
+        # put them on a CompressedImage labelled jpeg, a topic its layout does not name)
+        h264 = dataclasses.replace(cfg, recording=dataclasses.replace(cfg.recording, image_format="h264"))
+        self.rec = Recorder(None, h264, live=live, start_ns=start_ns) if live is not None else None
         if self.rec is not None:  # /log from the start: a viewer subscribed to it sees the first event
             self.rec.event(0.0, "lfctl", f"follow: {name}'s companion computer (component 191)")
         self.sender = RtpH264Sender(*video) if video is not None else None

@@ -249,6 +249,46 @@ def test_mavlink_logging_is_bounded_per_second_but_keeps_every_statustext() -> N
     assert "skipped 7 packets" in rec.events[-1][2] and len(rec.events) == 2
 
 
+def test_the_live_view_sends_its_camera_as_h264_whatever_the_scenario_records(tmp_path: Path) -> None:
+    # its encoder makes H.264 and its layout names /<name>/camera/video: a scenario recording
+    # JPEG put those frames on /<name>/camera/image/compressed, a CompressedImage said to be jpeg
+    import foxglove
+    import numpy as np
+    from mcap.reader import make_reader
+
+    cfg = parse_config(DEFAULT_SCENARIO + '\n[recording]\nimage_format = "jpeg"\n', "follow")
+    camera = CameraModel.from_config(cfg.camera)
+    view = LiveView(cfg, "rover", camera, ("127.0.0.1", 0), None)
+    assert view.rec is not None
+    sink = foxglove.open_mcap(str(tmp_path / "view.mcap"), context=view.rec._ctx)  # what a viewer gets
+    lost = SimpleNamespace(value="lost")
+    step = SimpleNamespace(
+        t_s=0.1,
+        frame=np.zeros((camera.height, camera.width, 3), np.uint8),
+        seen=SimpleNamespace(
+            measurement=SimpleNamespace(status=lost, range_m=None, bearing_rad=None), track=None, pose=None
+        ),
+        odometry=SimpleNamespace(north_m=0.0, east_m=0.0, yaw_rad=0.0),
+        output=SimpleNamespace(
+            status=lost, speed_mps=0.0, yaw_rate_radps=0.0, law="smc", range_est_m=None, bearing_est_rad=None
+        ),
+        settings=SimpleNamespace(range_cmd_m=1.5, bearing_cmd_rad=0.0),
+        events=[],
+        fix=None,
+    )
+    try:
+        view(step)  # type: ignore[arg-type]
+    finally:
+        view.close()
+        sink.close()
+    with (tmp_path / "view.mcap").open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    topics = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()}
+    assert topics["/rover/camera/video"] == "foxglove.CompressedVideo"
+    assert "/rover/camera/image/compressed" not in topics
+
+
 def test_the_live_view_says_when_the_rover_has_no_global_position_once_per_change() -> None:
     cfg = parse_config(DEFAULT_SCENARIO, "follow")
     view = LiveView(cfg, "rover", CameraModel.from_config(cfg.camera), None, None)
