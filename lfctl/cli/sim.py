@@ -307,7 +307,7 @@ def run(args: argparse.Namespace) -> int:
     live = live_address(args.live, cfg.live.foxglove, "--live")
     video = live_address(args.video, cfg.live.video, "--video")
     first = cfg.followers[0].name if cfg.followers else "follower1"
-    camera = cfg.sim.sensing == "camera"
+    camera = cfg.sim.sensing == "camera" and cfg.recording.images  # (no images: no camera panel)
     layout = live_layout(first, cfg.leader.name, cfg.recording.image_format, camera) if live is not None else Path()
     check_video(cfg, video)  # refused before it is announced
     if video is not None:

@@ -824,6 +824,21 @@ def test_a_run_without_a_camera_gets_a_layout_without_a_camera_panel(
     assert live_layout("follower1", "leader", "h264", camera=False) != EXAMPLES / "foxglove-layout.json"
 
 
+def test_a_camera_run_recording_no_images_gets_a_layout_without_a_camera_panel(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # [recording] images = false: the run has a camera but sends no frames, and --live printed
+    # the shipped layout, whose Image panel waited for /follower1/camera/video for ever
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    scenario = tmp_path / "noimages.toml"
+    scenario.write_text((EXAMPLES / "convoy.toml").read_text() + "\n[recording]\nimages = false\n")
+    assert main(["sim", str(scenario), "--duration", "0.3", "--no-record", "--live", "127.0.0.1:0", "-q"]) == 0
+    found = re.search(r"\(layout: (.+)\)", capsys.readouterr().out)
+    assert found is not None
+    layout = Path(found.group(1))
+    assert layout != EXAMPLES / "foxglove-layout.json" and "/camera/" not in layout.read_text()
+
+
 def test_a_real_rovers_layout_calls_its_errors_an_estimate() -> None:
     # lfctl follow's controller errors are the stack's own estimate (a rover has no truth):
     # its layout, with no 3D scene, said "(truth)" as the simulator's does
