@@ -121,6 +121,8 @@ def live_address(value: str | None, default: str, option: str) -> tuple[str, int
 
 def announce_live(port: int, host: str, layout: Path) -> None:
     """Say where Foxglove connects, and which layout to open (see :func:`live_layout`)."""
+    if ":" in host and not host.startswith("["):
+        host = f"[{host}]"  # an IPv6 address, as a URL writes it (ws://::1:8765 is no URL)
     print(f"foxglove     ws://{host}:{port}  (layout: {layout})", flush=True)
 
 

@@ -452,6 +452,7 @@ class Recorder:
             self.path, self._mcap = self._open_new(self.path, options)
         if live is not None:
             host, port = live
+            host = host[1:-1] if host.startswith("[") and host.endswith("]") else host  # [::1], as a URL writes it
             try:
                 self._live = (host, _free_port(host, port))
             except OSError as exc:

@@ -247,6 +247,38 @@ def test_a_live_port_taken_before_it_is_served_leaves_the_run_without_the_live_v
     assert any(f"cannot serve Foxglove on 127.0.0.1:{port}" in r.getMessage() for r in caplog.records)
 
 
+def test_an_ipv6_live_address_is_served_and_announced_as_a_url(capsys: pytest.CaptureFixture[str]) -> None:
+    # `--live [::1]:0` (HOST:PORT's IPv6 form) failed ("Name or service not known"), and
+    # `--live ::1:0` printed ws://::1:PORT, which no WebSocket client takes
+    from functools import partial
+
+    from websockets.asyncio.client import connect
+
+    from lfctl.cli.sim import announce_live
+
+    try:
+        with socket.socket(socket.AF_INET6) as s:
+            s.bind(("::1", 0))
+    except OSError:
+        pytest.skip("no IPv6 loopback here")
+    for given in ("[::1]", "::1"):
+        rec = Recorder(None, short_camera_cfg(1.0), live=(given, 0))
+        rec.on_serve = partial(announce_live, host=given, layout=Path("layout.json"))
+        rec.event(0.0, "lfctl", "start")
+        rec.serve()
+        try:
+            url = re.search(r"foxglove +(\S+)", capsys.readouterr().out)
+            assert url is not None and url.group(1) == f"ws://[::1]:{rec.live_port}"
+
+            async def subprotocol(url: str) -> str | None:
+                async with connect(url, subprotocols=["foxglove.sdk.v1"]) as ws:  # type: ignore[list-item]
+                    return ws.subprotocol
+
+            assert asyncio.run(subprotocol(url.group(1))) == "foxglove.sdk.v1"
+        finally:
+            rec.close()
+
+
 def test_closing_does_not_wait_for_ever_on_a_server_held_by_a_client(caplog: pytest.LogCaptureFixture) -> None:
     # foxglove-sdk's stop waits for every client to take its close: one that stopped reading
     # held the process after its run, Ctrl-C and SIGTERM too (the file was finished)
