@@ -430,6 +430,7 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     for key, values in _section(data, "grid", lambda v: False):
         if not isinstance(values, list) or not values:
             raise ConfigError(f"grid.{key!r} must be a non-empty array of values, got {values!r}")
+        _unrepeated(key, values)
         grid.append((key, tuple(values)))
     random, samples, sample_seed = _random(data.get("random", {}))
     seeds = _seeds(data.get("seeds"), base)
@@ -480,6 +481,31 @@ def _section(data: dict[str, Any], name: str, leaf: Any) -> list[tuple[str, Any]
     if not isinstance(table, dict):
         raise ConfigError(f"{name} must be a table ([{name}]), got {table!r}")
     return _flatten(table, "", leaf)
+
+
+def _same_as(value: Any) -> Any:
+    """A grid value as a set compares it: equal numbers alike (``0`` and ``0.0`` make the same
+    scenario), a Boolean apart from the number it equals, arrays and tables by their items."""
+    if isinstance(value, bool):
+        return ("bool", value)
+    if isinstance(value, list):
+        return ("array", tuple(_same_as(v) for v in value))
+    if isinstance(value, dict):
+        return ("table", tuple(sorted((k, _same_as(v)) for k, v in value.items())))
+    return value
+
+
+def _unrepeated(key: str, values: list[Any]) -> None:
+    """ConfigError naming a value ``grid.key`` gives twice: two variants the same, their runs
+    the same runs again under another variant number."""
+    seen: dict[Any, int] = {}
+    for i, value in enumerate(values):
+        first = seen.setdefault(_same_as(value), i)
+        if first != i:
+            raise ConfigError(
+                f"grid.{key!r} gives {values[first]!r} twice (values {first} and {i}): each variant once; "
+                f"more runs of one come from seeds or repetitions"
+            )
 
 
 def _random(table: Any) -> tuple[list[tuple[str, str, tuple[Any, ...]]], int, int]:

@@ -154,7 +154,7 @@ def test_a_second_ctrl_c_cancels_and_writes_what_finished(tmp_path: Path, how: s
     # two workers, a short and a long run side by side: when the short one's row comes, the
     # long one is running, and the cancel must drop it
     (tmp_path / "s.toml").write_text(
-        'scenario = "convoy"\n[set]\n"sim.sensing" = "truth"\n[grid]\n"sim.duration_s" = [3.0, 400.0, 3.0, 3.0]\n'
+        'scenario = "convoy"\n[set]\n"sim.sensing" = "truth"\n[grid]\n"sim.duration_s" = [3.0, 400.0, 3.1, 3.2]\n'
     )
     rows: list[dict] = []
     running_then: list[int] = []
