@@ -50,7 +50,15 @@ from lfctl.sim.world import WorldState
 from lfctl.vision.camera_model import CameraModel
 from lfctl.vision.track_state import TrackStatus
 
-__all__ = ["FollowerTrace", "RunReport", "check_video", "events_after_the_end", "run_scenario", "slots_out_of_view"]
+__all__ = [
+    "FollowerTrace",
+    "RunReport",
+    "check_video",
+    "events_after_the_end",
+    "run_scenario",
+    "scenario_warnings",
+    "slots_out_of_view",
+]
 
 log = logging.getLogger(__name__)
 
@@ -464,6 +472,19 @@ def events_after_the_end(cfg: Config) -> list[str]:
     return out
 
 
+def scenario_warnings(cfg: Config) -> list[str]:
+    """What :func:`run_scenario` warns of as it starts, from the scenario alone: slots out of
+    the sensor's view, vehicles on top of each other, events after the run's end (a sweep
+    says them once for all its runs).
+
+    Parameters
+    ----------
+    cfg : Config
+        The scenario, with the run's duration.
+    """
+    return [*slots_out_of_view(cfg), *vehicles_on_each_other(cfg), *events_after_the_end(cfg)]
+
+
 def slots_out_of_view(cfg: Config) -> list[str]:
     """Each follower whose slot puts its target where its sensor cannot see it, said. With
     camera sensing: the target's banner not wholly in the picture when the follower holds its
@@ -591,7 +612,7 @@ def run_scenario(
             f"vehicles[{alone[0]}].companion = false needs --realtime: the companion that commands it "
             "(lfctl follow) talks to it over UDP in real time"
         )
-    for problem in (*slots_out_of_view(cfg), *vehicles_on_each_other(cfg), *events_after_the_end(cfg)):
+    for problem in scenario_warnings(cfg):
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:

@@ -297,6 +297,31 @@ class _IgnoreSigint(WorkerPlugin):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _say_scenario_warnings(p: SweepPlan) -> None:
+    """Warn once of what each run would warn of as it starts (a slot out of view, an event
+    after the run's end: :func:`~lfctl.sim.runner.scenario_warnings`), naming the variants
+    it holds for; the runs on the workers leave it out (:func:`lfctl.sweep.task.execute`).
+
+    Parameters
+    ----------
+    p : SweepPlan
+        The sweep.
+    """
+    from lfctl.sim.runner import scenario_warnings
+
+    found: dict[str, list[int]] = {}
+    for v in p.variants:
+        for text in scenario_warnings(v.config):
+            found.setdefault(text, []).append(v.index)
+    for text, indices in found.items():
+        if len(indices) == len(p.variants):
+            which = "every run"
+        else:
+            shown = ", ".join(map(str, indices[:10])) + (f" and {len(indices) - 10} more" if len(indices) > 10 else "")
+            which = f"variant{'s' if len(indices) > 1 else ''} {shown}"
+        log.warning("%s: %s", which, text)
+
+
 def _followers(p: SweepPlan) -> list[str]:
     names: list[str] = []
     for v in p.variants:
@@ -804,6 +829,8 @@ def run_sweep(
     made = done_rows is not None
     have = {int(r["run"]) for r in done_rows or []}
     todo = collections.deque(r for r in p.runs if r.run not in have)
+    if todo:
+        _say_scenario_warnings(p)
     fn = task or execute
     where = str(folder.resolve())
     session = uuid.uuid4().hex[:8]
