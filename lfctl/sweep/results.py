@@ -62,6 +62,8 @@ ERROR_FIGURES = frozenset({"range_err_rms_m", "bearing_err_rms_deg"})
 CAMERA_FIGURES = frozenset({"track_success"})
 #: the columns besides the followers' figures that hold a number (or nothing)
 NUMBER_COLUMNS = ("waypoints_reached", "sim_time_s", "wall_time_s")
+#: of them, those that count (a whole number): int64 in every table, even one where no run has one
+WHOLE_COLUMNS = frozenset({"waypoints_reached"})
 #: the largest whole number a figure may be (what a table's 64-bit integer column holds)
 MAX_WHOLE = 2**63 - 1
 #: the journal lines skipped already said, by file (a resume reads the journal more than once)
@@ -253,8 +255,9 @@ def _cell(value: Any) -> Any:
     return json.dumps(value) if isinstance(value, (list, dict, tuple)) else value
 
 
-def _column(values: list[Any]) -> pa.Array:
-    """One column, numbers widened to float when mixed with floats, anything else mixed as text."""
+def _column(values: list[Any], empty: pa.DataType | None = None) -> pa.Array:
+    """One column, numbers widened to float when mixed with floats, anything else mixed as text;
+    of type ``empty`` (default float64) when no value is present."""
     present = [v for v in values if v is not None]
     kinds = {type(v) for v in present}
     if kinds <= {int, float} and float in kinds:
@@ -262,12 +265,15 @@ def _column(values: list[Any]) -> pa.Array:
     if len(kinds) > 1:
         return pa.array([None if v is None else str(v) for v in values], pa.string())
     if not present:
-        return pa.array(values, pa.float64())
+        return pa.array(values, empty or pa.float64())
     return pa.array(values)
 
 
 def _table(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> pa.Table:
-    return pa.table({c: _column([_cell(r.get(c)) for r in rows]) for c in columns})
+    # (a count stays int64 when no run has one, every run failed: sweeps' tables concatenate)
+    return pa.table(
+        {c: _column([_cell(r.get(c)) for r in rows], pa.int64() if c in WHOLE_COLUMNS else None) for c in columns}
+    )
 
 
 def write_tables(

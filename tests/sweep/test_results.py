@@ -267,3 +267,19 @@ def test_a_table_with_text_in_a_figure_column_is_named_not_an_internal_error(tmp
         ConfigError, match=r"runs\.parquet, the row of run 0: f1\.lost_s must be a number or null, got 'abc'"
     ):
         report(tmp_path)
+
+
+def test_a_count_column_keeps_its_type_when_no_run_has_one(tmp_path: Path) -> None:
+    # every run failed: waypoints_reached was double, and the table would not concatenate
+    # (pyarrow.concat_tables) with a sweep's whose runs succeeded, where it is int64
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    tables = []
+    for name, rows in (("ok", [_row(0, 0, 1.0, waypoints_reached=3)]), ("failed", [_row(0, 0, None, "error")])):
+        (tmp_path / name).mkdir()
+        write_tables(tmp_path / name, rows, ["sensing.range_noise_m"], ["f1"])
+        tables.append(pq.read_table(tmp_path / name / "runs.parquet"))
+    assert [t.schema.field("waypoints_reached").type for t in tables] == [pa.int64(), pa.int64()]
+    assert tables[0].schema == tables[1].schema
+    assert pa.concat_tables(tables).column("waypoints_reached").to_pylist() == [3, None]
