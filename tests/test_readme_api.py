@@ -40,3 +40,29 @@ def test_readme_tracker_example_runs_and_tracks_the_cyclist_after_the_vans(capsy
     lines = capsys.readouterr().out.splitlines()
     assert [line.split()[1] for line in lines[:6]] == ["occluded", "occluded", *["tracking"] * 4]  # hidden 10-25
     assert lines[-1] == "TrackStatus.LOST 0.0 0.0"  # a bearing alone starts no formation filter
+
+
+def _anchor(heading: str) -> str:
+    """A heading's anchor as GitHub makes it: lower case, punctuation dropped, spaces to ``-``."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_every_relative_link_in_the_readme_and_docs_leads_somewhere() -> None:
+    root = README.parent
+    pages = [README, *sorted((root / "docs").glob("*.md"))]
+    anchors = {}
+    for page in pages:
+        prose = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)  # a shell comment is no heading
+        anchors[page.resolve()] = {_anchor(h) for h in re.findall(r"^#+\s+(.*)$", prose, re.M)}
+    broken = []
+    for page in pages:
+        for link in re.findall(r"\]\(([^)\s]+)\)", page.read_text()):
+            if re.match(r"[a-z]+:", link):
+                continue  # https: and the like
+            path, _, fragment = link.partition("#")
+            target = (page.parent / path).resolve() if path else page.resolve()
+            if not target.exists():
+                broken.append(f"{page.name}: {link} (no file {target})")
+            elif fragment and fragment not in anchors.get(target, set()):
+                broken.append(f"{page.name}: {link} (no heading with that anchor)")
+    assert not broken, broken
