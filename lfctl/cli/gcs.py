@@ -190,8 +190,8 @@ def _param(gcs: Any, args: argparse.Namespace, from_file: dict[str, float] | Non
 STALE_S = 3.0
 #: redraws per second
 WATCH_HZ = 2.0
-#: on a pipe, the first update waits this long for the vehicles on the link (each sends its
-#: heartbeat once a second), s: a snapshot (``--count 1``) lists them all
+#: the first update waits this long for the vehicles on the link (each sends its heartbeat
+#: once a second), s: a snapshot (``--count 1``) lists them all
 WATCH_SETTLE_S = 1.2
 
 
@@ -275,9 +275,10 @@ def render_fleet(rows: list[dict[str, Any]]) -> list[str]:
 
 def watch(gcs: Any, count: int | None, out: Any = None) -> None:
     """Every vehicle heard, until Ctrl-C (or ``count`` updates): on a terminal a screen that
-    redraws in place; on a pipe one JSON object per update, the first once a vehicle has been
-    heard and every vehicle has had time to be (:data:`WATCH_SETTLE_S`), or with none after
-    the ground station's timeout.
+    redraws in place; on a pipe one JSON object per update. The first update comes once a
+    vehicle has been heard and every vehicle has had time to be (:data:`WATCH_SETTLE_S`), or
+    with none after the ground station's timeout; a terminal's screens before it say that
+    watch waits, and are not counted.
 
     Parameters
     ----------
@@ -312,12 +313,17 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
                 m = gcs.next_message(0.0)
             if now < next_draw:
                 continue
-            if not screen and shown == 0 and now - t0 < gcs.timeout_s:
+            # a snapshot lists the vehicles, not the moment before they are heard: until then a
+            # terminal shows that it waits, and a pipe gets nothing; neither is an update counted
+            settled = shown > 0 or now - t0 >= gcs.timeout_s
+            if not settled:
                 heard = any(r.autopilot for r in table.rows.values())
-                if not heard or now - t0 < WATCH_SETTLE_S:
-                    continue  # a snapshot lists the vehicles, not the moment before they are heard
+                settled = heard and now - t0 >= WATCH_SETTLE_S
+            if not settled and not screen:
+                continue
             next_draw = now + 1.0 / WATCH_HZ
-            shown += 1
+            if settled:
+                shown += 1
             rows = fleet_rows(table, now)
             if screen:
                 head = f"lfctl gcs watch  {time.strftime('%H:%M:%S')}  {len(rows)} vehicles  (Ctrl-C to stop)"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import time
 from pathlib import Path
 from typing import Any
 
@@ -111,8 +112,31 @@ def test_on_a_terminal_every_update_redraws_from_the_top() -> None:
     out = Terminal()
     watch(FakeStation([message(heartbeat(10, True), 1)]), 3, out)
     text = out.getvalue()
-    assert text.count("\x1b[H") == 3 and text.count("\x1b[J") == 3  # home, draw, clear below: no scrolling
+    # home, draw, clear below: no scrolling (3 updates, and the screens while the vehicles settle)
+    assert text.count("\x1b[H") == text.count("\x1b[J") >= 3
     assert "AUTO" in text and text.endswith("\x1b[?25h")  # the cursor is given back
+
+
+class LateStation(FakeStation):
+    """Gives its messages only once ``after_s`` has passed: a vehicle heard a moment after
+    watch starts, as on a link where it sends its heartbeat once a second."""
+
+    def __init__(self, msgs: list[object], after_s: float) -> None:
+        super().__init__(msgs)
+        self.from_s = time.monotonic() + after_s
+
+    def next_message(self, timeout_s: float) -> object | None:
+        return super().next_message(timeout_s) if time.monotonic() >= self.from_s else None
+
+
+def test_a_one_update_snapshot_on_a_terminal_shows_the_vehicle_not_the_wait_for_it() -> None:
+    # `lfctl gcs watch --count 1` on a terminal drew its one screen before any heartbeat had
+    # come ("0 vehicles", "waiting for a vehicle's heartbeat") and ended there
+    out = Terminal()
+    watch(LateStation([message(heartbeat(10, True), 1)], 0.3), 1, out)
+    last = out.getvalue().rsplit("\x1b[H", 1)[1]
+    assert "1 vehicles" in last and "AUTO" in last and "waiting" not in last
+    assert "waiting for a vehicle's heartbeat" in out.getvalue()  # said while it waited
 
 
 def test_on_a_pipe_each_update_is_one_json_object() -> None:
