@@ -66,3 +66,22 @@ def test_every_relative_link_in_the_readme_and_docs_leads_somewhere() -> None:
             elif fragment and fragment not in anchors.get(target, set()):
                 broken.append(f"{page.name}: {link} (no heading with that anchor)")
     assert not broken, broken
+
+
+def test_the_readme_scenario_table_names_every_scenario_key() -> None:
+    from lfctl.config import reference
+
+    text = README.read_text()
+    section = text[text.index("## Scenario files") : text.index("## Conventions")]
+    named = " ".join(re.findall(r"`([^`]*)`", section))
+    # named by a range or a pattern there: `fx_px` .. `cy_px`, `vel_*_mps`
+    by_pattern = {"camera.fy_px", "camera.cx_px", "scene.props.vel_north_mps", "scene.props.vel_east_mps"}
+    missing = []
+    for row in reference().splitlines()[2:]:
+        if not row.startswith("| `"):
+            continue
+        key = row.split("|")[1].strip().strip("`")
+        leaf = re.escape(key.rsplit(".", 1)[-1])
+        if key not in by_pattern and not re.search(rf"(^|[\s.\[(/]){leaf}($|[\s\]`=,)])", named):
+            missing.append(key)
+    assert not missing, f"README's 'Scenario files' does not name {missing}"
