@@ -672,7 +672,7 @@ def _connect(
         return (
             client,
             cluster,
-            f"Dask LocalCluster, {n} worker processes x 1 thread{capped}; a crashed run is retried once",
+            f"Dask LocalCluster, {n} worker process{'es' * (n != 1)} x 1 thread{capped}; a crashed run is retried once",
         )
     if scheduler.startswith("tcp://"):
         _probe(scheduler)

@@ -441,7 +441,7 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
     runs = variants * len(seeds) * repetitions
     if variants > MAX_VARIANTS or runs > MAX_RUNS:
         raise ConfigError(
-            f"the sweep has {variants} variants (grid combinations x samples) and {runs} runs (x seeds x "
+            f"the sweep has {variants} variant{'s' * (variants != 1)} (grid combinations x samples) and {runs} runs (x seeds x "
             f"repetitions); at most {MAX_VARIANTS} variants and {MAX_RUNS} runs: split it into several sweeps"
         )
     images = data.get("images", False)

@@ -107,7 +107,7 @@ def test_a_pipe_gets_a_json_line_per_run_and_report_rebuilds_the_summary(
     captured = capsys.readouterr()
     rows = [json.loads(line) for line in captured.out.splitlines()]  # stdout is not a terminal here
     assert sorted(r["run"] for r in rows) == [0, 1, 2, 3] and {r["seed"] for r in rows} == {5, 6}
-    assert "engine       Dask LocalCluster, 1 worker processes x 1 thread" in captured.err
+    assert "engine       Dask LocalCluster, 1 worker process x 1 thread" in captured.err
     assert "| variant | guidance.controller | ok/runs | range_err_rms_m |" in captured.err
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out

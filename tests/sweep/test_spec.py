@@ -106,6 +106,10 @@ def test_set_key_errors_name_the_key(key: str, message: str) -> None:
             HEAD + "[grid]\n" + "".join(f"'k{i}' = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n" for i in range(10)),
             r"the sweep has 10000000000 variants .* at most 10000 variants and 100000 runs",
         ),
+        (
+            HEAD + "seeds = 2\nrepetitions = 100000\n",
+            r"^the sweep has 1 variant \(grid combinations x samples\) and 200000 runs",
+        ),
         (HEAD + "[grid]\n'sim.seed' = [1, 2]\n", r"'sim\.seed' cannot be varied by a sweep: it is set by seeds"),
         (
             HEAD + "[set]\n'sim.dt_s' = 0.01\n[grid]\n'sim.dt_s' = [0.01, 0.02]\n",
