@@ -74,7 +74,7 @@ _said_skipped: set[tuple[str, tuple[int, ...]]] = set()
 class SweepSummary:
     """The summary of a sweep's rows: one row per variant, its Markdown, the files written."""
 
-    rows: list[dict[str, Any]]  # per variant: keys, runs, ok, failed, <metric>.mean / .ci95_lo / .ci95_hi
+    rows: list[dict[str, Any]]  # per variant: keys, runs, ok, failed, <metric>.mean / .ci95_lo / .ci95_hi / .n
     markdown: str  # the headline figures as a Markdown table
     files: list[Path]  # summary tables and plots written
 
@@ -390,7 +390,9 @@ def figure_range(column: str) -> tuple[float, float]:
 
 def summarise(rows: Sequence[dict[str, Any]], keys: Sequence[str], metrics: Sequence[str]) -> list[dict[str, Any]]:
     """One row per variant: its swept values, runs, ``ok``, ``failed``, and per metric
-    ``<metric>.mean``, ``.ci95_lo``, ``.ci95_hi`` over its ``ok`` runs.
+    ``<metric>.mean``, ``.ci95_lo``, ``.ci95_hi`` over its ``ok`` runs, and ``.n``, how many
+    of them have the figure (a run with no scored frame has no tracking success, one no
+    longer than the settling time no errors: fewer than ``ok``).
 
     Parameters
     ----------
@@ -411,7 +413,9 @@ def summarise(rows: Sequence[dict[str, Any]], keys: Sequence[str], metrics: Sequ
         s: dict[str, Any] = {"variant": variant, **{k: runs[0].get(k) for k in keys}}
         s.update(runs=len(runs), ok=len(ok), failed=len(runs) - len(ok))
         for m in metrics:
-            s[f"{m}.mean"], s[f"{m}.ci95_lo"], s[f"{m}.ci95_hi"] = mean_ci((r.get(m) for r in ok), figure_range(m))
+            values = [v for v in (r.get(m) for r in ok) if v is not None and math.isfinite(v)]
+            s[f"{m}.mean"], s[f"{m}.ci95_lo"], s[f"{m}.ci95_hi"] = mean_ci(values, figure_range(m))
+            s[f"{m}.n"] = len(values)
         out.append(s)
     return out
 
@@ -453,7 +457,12 @@ def summary_markdown(summary: Sequence[dict[str, Any]], keys: Sequence[str], fol
         cells = [str(s["variant"]), *[_key_text(s.get(k)) for k in keys], f"{s['ok']}/{s['runs']}"]
         for m in shown:
             mean, lo, hi = s.get(f"{m}.mean"), s.get(f"{m}.ci95_lo"), s.get(f"{m}.ci95_hi")
-            cells.append(_num(mean) + (f" [{_num(lo)}, {_num(hi)}]" if lo is not None else ""))
+            n = s.get(f"{m}.n", s["ok"])
+            cells.append(
+                _num(mean)
+                + (f" [{_num(lo)}, {_num(hi)}]" if lo is not None else "")
+                + (f" (n {n})" if n != s["ok"] else "")
+            )
         lines.append("| " + " | ".join(cells) + " |")
     left_out = [(f"{f}.{fig}" if prefix else fig) for f in followers for fig in HEADLINE if f"{f}.{fig}" not in shown]
     if left_out and not any(s["ok"] for s in summary):  # said, not dropped in silence
@@ -500,7 +509,7 @@ def report(out_dir: str | Path, plots: bool = True) -> SweepSummary:
     summary = summarise(rows, keys, metrics)
     files = [folder / "summary.parquet", folder / "summary.csv", folder / "summary.md"]
     columns = ["variant", *keys, "runs", "ok", "failed"] + [
-        f"{m}.{s}" for m in metrics for s in ("mean", "ci95_lo", "ci95_hi")
+        f"{m}.{s}" for m in metrics for s in ("mean", "ci95_lo", "ci95_hi", "n")
     ]
     _write_table(_table(summary, columns), files[0], files[1])
     md = summary_markdown(summary, keys, followers)

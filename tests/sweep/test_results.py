@@ -65,6 +65,19 @@ def test_summary_counts_failures_and_takes_figures_from_ok_runs_only() -> None:
     assert s[1]["sensing.range_noise_m"] == 0.1
 
 
+def test_a_figure_some_ok_runs_lack_says_how_many_its_interval_is_over() -> None:
+    # variant 0: three ok runs, one without the figure (no errors in a run no longer than the
+    # settling time): the mean 2.0 and its interval are over two runs, said as (n 2)
+    rows = [_row(0, 0, 1.0), _row(1, 0, 3.0), _row(2, 0, None), _row(3, 1, 2.0), _row(4, 1, 2.0)]
+    s = summarise(rows, ["sensing.range_noise_m"], ["f1.range_err_rms_m"])
+    assert [(v["ok"], v["f1.range_err_rms_m.n"]) for v in s] == [(3, 2), (2, 2)]
+    lines = summary_markdown(s, ["sensing.range_noise_m"], ["f1"]).splitlines()
+    # t(0.975, 1) = 12.706, s = 1.4142: half = 12.706 * 1.4142 / sqrt(2) = 12.706; cut at 0
+    assert lines[2].endswith("| 3/3 | 2 [0, 14.7] (n 2) |") and lines[3].endswith(
+        "| 2/2 | 2 [2, 2] |"
+    )  # all of them: no n
+
+
 def test_a_headline_figure_no_variant_has_is_said_not_dropped_in_silence() -> None:
     # a sweep of 5 s runs (no longer than the settling time) had no range error column and no word why
     rows = [_row(0, 0, 1.0), _row(1, 1, None)]
