@@ -250,7 +250,16 @@ class SlidingModeController:
             rate is taken as 0, not a difference over no time).
         feedforward_radps : float
             The equivalent control, rad/s.
+
+        Raises
+        ------
+        ValueError
+            An error or equivalent control that is not a number, named: it would be the
+            command, and (kept as the previous error) the next step's too.
         """
+        for name, value in (("error", err_rad), ("feed-forward", feedforward_radps)):
+            if not math.isfinite(value):
+                raise ValueError(f"the bearing law's {name} is {value!r}: a yaw-rate command needs a number")
         rate = 0.0 if self._prev_err is None or not dt_s >= MIN_RATE_DT_S else wrap_pi(err_rad - self._prev_err) / dt_s
         self._prev_err = err_rad
         return smc_yaw_rate_radps(err_rad, rate, self.gains, feedforward_radps)

@@ -111,3 +111,18 @@ def test_the_bearing_laws_rate_is_not_a_difference_over_almost_no_time() -> None
     over_a_step.step(0.0, 0.05)
     assert over_nothing.step(0.1, 1e-9) == SlidingModeController(BearingGains()).step(0.1, 0.05)  # as a first step
     assert over_a_step.step(0.1, MIN_RATE_DT_S) != over_nothing.step(0.1, 0.05)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_the_bearing_law_refuses_an_error_or_feed_forward_that_is_not_a_number(bad: float) -> None:
+    # Wrong, a NaN error was the yaw-rate command (clamp lets NaN through), and kept as the
+    # previous error it made the next step's command NaN too, whatever that step's error.
+    ctl = SlidingModeController(BearingGains())
+    ctl.step(0.1, 0.05)
+    with pytest.raises(ValueError, match="bearing law's error is"):
+        ctl.step(bad, 0.05)
+    with pytest.raises(ValueError, match="bearing law's feed-forward is"):
+        ctl.step(0.1, 0.05, bad)
+    # the refused steps left the memory as it was: error 0.1 then 0.1, rate 0; by hand
+    # sigma = 0.1, sat(0.1 / 0.25) = 0.4, r = 1.2 * 0.4 = 0.48
+    assert ctl.step(0.1, 0.05) == pytest.approx(0.48, abs=1e-12)
