@@ -209,7 +209,16 @@ class WaypointFollower:
         most : int, optional
             Advance past at most this many waypoints (default: all that are reached), so
             that whoever steps it sees each one begin before the next is reached.
+
+        Raises
+        ------
+        ValueError
+            A position or heading that is not a number, named (a NaN position passes every
+            waypoint's "not yet reached" test and would finish the route).
         """
+        for name, value in (("north_m", north_m), ("east_m", east_m), ("heading_rad", heading_rad)):
+            if not math.isfinite(value):
+                raise ValueError(f"waypoint guidance's {name} is {value!r}: it needs a number")
         reached: list[int] = []
         while not self.done and (most is None or len(reached) < most):
             wp = self.waypoints[self.index]

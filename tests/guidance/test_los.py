@@ -111,3 +111,15 @@ def test_invalid_settings_are_named() -> None:
         WaypointFollower([(1.0, 1.0)], math.nan, None)
     with pytest.raises(ValueError, match="lookahead_m must be > 0 or None, got -1"):
         WaypointFollower([(1.0, 1.0)], 0.3, -1.0)
+
+
+@pytest.mark.parametrize("field", ["north_m", "east_m", "heading_rad"])
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_a_position_or_heading_that_is_not_a_number_is_refused_and_reaches_nothing(field: str, bad: float) -> None:
+    # Wrong, a NaN position finished the route in one step: every comparison with NaN is
+    # false, so no waypoint was "not yet reached" (all three reached, done, the leader stopped).
+    wf = WaypointFollower([(5.0, 0.0), (5.0, 5.0), (0.0, 5.0)], 0.3, 0.8)
+    pose = {"north_m": 0.0, "east_m": 0.0, "heading_rad": 0.0, field: bad}
+    with pytest.raises(ValueError, match=f"waypoint guidance's {field} is"):
+        wf.step(**pose)
+    assert (wf.index, wf.done) == (0, False)
