@@ -7,6 +7,7 @@ so guidance never knows which one it is fed by.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
 __all__ = ["RelativeMeasurement", "TrackStatus"]
@@ -44,6 +45,14 @@ class RelativeMeasurement:
     seen_back_m : float
         For a bearing-only measurement: how far behind the target's reference point, along
         the target's heading, the point the ray was taken to lies, m (a banner on its back).
+
+    Raises
+    ------
+    TypeError
+        ``status`` that is not a :class:`TrackStatus`.
+    ValueError
+        ``t_s``, ``origin_body_m`` or ``seen_back_m`` not a number, named (``range_m`` and
+        ``bearing_rad`` may be: a sensor's garbage there is no sighting).
     """
 
     t_s: float
@@ -57,3 +66,13 @@ class RelativeMeasurement:
     def __post_init__(self) -> None:
         if not isinstance(self.status, TrackStatus):  # a string here read as "not seen"
             raise TypeError(f"status must be a TrackStatus (TrackStatus.TRACKING, ...), got {self.status!r}")
+        # a NaN origin or offset put the bearing-only fix, the target's filter and every command
+        # after it at NaN (while TRACKING); an infinite time made every later measurement stale
+        for name, value in (
+            ("t_s", self.t_s),
+            ("origin_body_m", self.origin_body_m[0]),
+            ("origin_body_m", self.origin_body_m[1]),
+            ("seen_back_m", self.seen_back_m),
+        ):
+            if not math.isfinite(value):
+                raise ValueError(f"a measurement's {name} must be a number, got {getattr(self, name)!r}")

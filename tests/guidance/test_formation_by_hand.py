@@ -449,3 +449,26 @@ def test_a_trail_follower_past_the_near_range_drives_the_trails_gap_even_with_th
     ctl._trail_restart = False
     assert len(ctl.trail.points) == 5
     assert ctl._trail(1.0, 0.0, 0.0, 0.0, STILL, 0.1, False) == pytest.approx((0.25, 0.0), abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {"origin_body_m": (math.nan, 0.0)},
+        {"origin_body_m": (0.0, math.inf)},
+        {"seen_back_m": math.nan},
+        {"seen_back_m": math.inf},
+        {"t_s": math.inf},
+        {"t_s": math.nan},
+    ],
+)
+def test_a_measurement_whose_time_or_ray_geometry_is_not_a_number_is_refused(kw: dict[str, object]) -> None:
+    # Wrong, a bearing-only sighting with a NaN camera origin or banner offset put the fix, the
+    # target's filter and every speed and yaw-rate command after it at NaN while the track
+    # still read TRACKING; one stamped at t = inf was fused and every later one was stale.
+    fields: dict[str, object] = {"t_s": 0.2, "status": TrackStatus.TRACKING, "bearing_rad": 0.1, "quality": 1.0, **kw}
+    name = next(iter(kw))
+    with pytest.raises(ValueError, match=f"a measurement's {name} must be a number"):
+        RelativeMeasurement(**fields)  # type: ignore[arg-type]
+    # a NaN range or bearing stays a sensor's "no sighting", not an error
+    RelativeMeasurement(0.2, TrackStatus.TRACKING, math.nan, math.nan, 1.0)
