@@ -67,6 +67,8 @@ class RangeGains:
         Speed command limits, m/s (min <= max).
     min_cos_bearing : float
         Smallest |cos(bearing)| used in the denominator: guards the broadside singularity.
+
+    Every value is finite (a ValueError names one that is not).
     """
 
     eta_mps: float = 0.25
@@ -76,9 +78,13 @@ class RangeGains:
     min_cos_bearing: float = 0.2
 
     def __post_init__(self) -> None:
+        # (an infinite gain or limit is no number either: inf * sat(0) made the command NaN)
         for name in ("eta_mps", "phi_m", "min_cos_bearing"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
+            if not 0 < getattr(self, name) < math.inf:
+                raise ValueError(f"{name} must be > 0 and finite, got {getattr(self, name)!r}")
+        for name in ("min_speed_mps", "max_speed_mps"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)!r}")
         if not self.min_speed_mps <= self.max_speed_mps:
             raise ValueError(f"min_speed_mps {self.min_speed_mps!r} must be <= max_speed_mps {self.max_speed_mps!r}")
 
@@ -97,6 +103,8 @@ class BearingGains:
         Boundary-layer half-width on the sliding variable, rad (> 0).
     max_yaw_rate_radps : float
         Yaw-rate command limit, rad/s.
+
+    Every value is finite (a ValueError names one that is not).
     """
 
     eta_radps: float = 1.2
@@ -106,10 +114,10 @@ class BearingGains:
 
     def __post_init__(self) -> None:
         for name in ("eta_radps", "phi_rad", "max_yaw_rate_radps"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        if not self.lam_s >= 0:
-            raise ValueError(f"lam_s must be >= 0, got {self.lam_s!r}")
+            if not 0 < getattr(self, name) < math.inf:
+                raise ValueError(f"{name} must be > 0 and finite, got {getattr(self, name)!r}")
+        if not 0 <= self.lam_s < math.inf:
+            raise ValueError(f"lam_s must be >= 0 and finite, got {self.lam_s!r}")
 
 
 def range_rate_mps(

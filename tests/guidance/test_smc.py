@@ -126,3 +126,24 @@ def test_the_bearing_law_refuses_an_error_or_feed_forward_that_is_not_a_number(b
     # the refused steps left the memory as it was: error 0.1 then 0.1, rate 0; by hand
     # sigma = 0.1, sat(0.1 / 0.25) = 0.4, r = 1.2 * 0.4 = 0.48
     assert ctl.step(0.1, 0.05) == pytest.approx(0.48, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: RangeGains(eta_mps=math.inf),
+        lambda: RangeGains(phi_m=math.inf),
+        lambda: RangeGains(min_cos_bearing=math.inf),
+        lambda: RangeGains(min_speed_mps=-math.inf),
+        lambda: RangeGains(max_speed_mps=math.inf),
+        lambda: BearingGains(eta_radps=math.inf),
+        lambda: BearingGains(phi_rad=math.inf),
+        lambda: BearingGains(lam_s=math.inf),
+        lambda: BearingGains(max_yaw_rate_radps=math.inf),
+    ],
+)
+def test_gains_refuse_an_infinite_value(make: object) -> None:
+    # Wrong, RangeGains(eta_mps=inf) on the slot commanded speed inf * sat(0) = NaN, and
+    # BearingGains(eta_radps=inf) or lam_s=inf a NaN yaw rate with no error or no error rate.
+    with pytest.raises(ValueError, match="finite"):
+        make()  # type: ignore[operator]
