@@ -123,3 +123,17 @@ def test_a_position_or_heading_that_is_not_a_number_is_refused_and_reaches_nothi
     with pytest.raises(ValueError, match=f"waypoint guidance's {field} is"):
         wf.step(**pose)
     assert (wf.index, wf.done) == (0, False)
+
+
+def test_eq16_cross_track_by_hand_on_a_southbound_path_across_the_back() -> None:
+    # Wrong, on a path heading south (psi_d = pi) the difference psi_d - psi_los, near 2 pi
+    # unwrapped, would put a vehicle on the wrong side or the wrong distance.
+    # By hand: path (10, 0) -> (0, 0): psi_d = atan2(0, -10) = pi. Vehicle at (5, 1): 1 m east
+    # of a southbound path is its left. psi_los = atan2(-1, -5) = -pi + atan(0.2) = -2.944197.
+    # psi_d - psi_los = 6.085790, wrapped: -0.197396 (= -atan 0.2); S = sqrt(26) = 5.099020;
+    # e = 5.099020 sin(-0.197396) = 5.099020 * -0.196116 = -1.0 (left: negative).
+    s = distance_to_go_m(5.0, 1.0, 0.0, 0.0)
+    los = los_angle_rad(5.0, 1.0, 0.0, 0.0)
+    path = path_angle_rad(10.0, 0.0, 0.0, 0.0)
+    assert (s, los, path) == pytest.approx((5.099020, -2.944197, math.pi), abs=1e-6)
+    assert cross_track_m(s, los, path) == pytest.approx(-1.0, abs=1e-9)

@@ -147,3 +147,39 @@ def test_gains_refuse_an_infinite_value(make: object) -> None:
     # BearingGains(eta_radps=inf) or lam_s=inf a NaN yaw rate with no error or no error rate.
     with pytest.raises(ValueError, match="finite"):
         make()  # type: ignore[operator]
+
+
+def test_eq23_by_hand_for_a_follower_heading_east_and_a_leader_moving_off_the_sight_line() -> None:
+    # Wrong, the range law would mix the leader's velocity or the follower's heading into the
+    # wrong axis (the printed eq. 21-23 swap sin and cos) once neither points along north.
+    # By hand: leader 1 m north and 2 m east (S = sqrt(5) = 2.236068), moving 0.2 north and
+    # 0.1 east; follower heading east (psi = pi/2); slot 1.5 m: s = 0.736068 > Phi, sat = 1.
+    # numerator = 0.25 * 2.236068 + 1 * 0.2 + 2 * 0.1 = 0.559017 + 0.4 = 0.959017;
+    # denominator = 1 * cos(pi/2) + 2 * sin(pi/2) = 2; U = 0.479508 m/s.
+    # Check with eq. 20: dS/dt = (1 (0.2 - U * 0) + 2 (0.1 - U)) / S = (0.4 - 0.959017) / 2.236068
+    # = -0.559017 / 2.236068 = -0.25 = -eta.
+    u = smc_speed_mps(1.0, 2.0, 0.2, 0.1, math.pi / 2, 1.5, WIDE)
+    assert u == pytest.approx(0.479508, abs=1e-6)
+    assert range_rate_mps(1.0, 2.0, 0.2, 0.1, 0.479508, math.pi / 2) == pytest.approx(-0.25, abs=1e-5)
+
+
+def test_eq26_by_hand_with_the_equivalent_control_and_the_yaw_rate_limit() -> None:
+    # Wrong, the feed-forward would be dropped or scaled, or the limit not applied after it.
+    # By hand (eta 1.2, lambda 0.1, Phi 0.25, limit 1.5): e = 0.05, de/dt = 0.5: s = 0.05 + 0.05
+    # = 0.1; sat(0.1 / 0.25) = 0.4; r = 0.3 + 1.2 * 0.4 = 0.78. With e = 1 (sat 1) and r_eq = 1:
+    # 1 + 1.2 = 2.2, clipped to 1.5; with r_eq = -1 and e = -1: -2.2, clipped to -1.5.
+    g = BearingGains(eta_radps=1.2, lam_s=0.1, phi_rad=0.25, max_yaw_rate_radps=1.5)
+    assert smc_yaw_rate_radps(0.05, 0.5, g, 0.3) == pytest.approx(0.78, abs=1e-12)
+    assert smc_yaw_rate_radps(1.0, 0.0, g, 1.0) == 1.5
+    assert smc_yaw_rate_radps(-1.0, 0.0, g, -1.0) == -1.5
+
+
+def test_the_bearing_laws_error_rate_across_the_back_is_the_short_way_round() -> None:
+    # Wrong, an error going from 3.1 to -3.1 rad (the target crossing straight behind) would read
+    # as a rate of -62 rad/s instead of +0.83.
+    # By hand: wrap(-3.1 - 3.1) = -6.2 + 2 pi = 0.0831853; over 0.1 s: 0.831853 rad/s.
+    # eta 1, lambda 1, Phi 10: s = -3.1 + 0.831853 = -2.268147; sat(-0.2268147); r = -0.2268147.
+    # (The long way: s = -3.1 - 62 = -65.1, sat -1, r = -1.)
+    ctl = SlidingModeController(BearingGains(eta_radps=1.0, lam_s=1.0, phi_rad=10.0, max_yaw_rate_radps=5.0))
+    ctl.step(3.1, 0.1)
+    assert ctl.step(-3.1, 0.1) == pytest.approx(-0.2268147, abs=1e-7)

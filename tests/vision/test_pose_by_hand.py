@@ -141,3 +141,22 @@ def test_a_banner_turned_30_degrees_left_reads_so_by_either_estimator() -> None:
         assert pose.range_m == pytest.approx(2.0, abs=1e-6)
         assert pose.bearing_rad == pytest.approx(0.0, abs=1e-6)
         assert pose.quality == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_papers_estimate_of_a_banner_off_the_axis_by_hand() -> None:
+    # Wrong, an off-axis banner would read its range as the depth (2 m) or its lateral offset
+    # from a thin-lens depth (the printed eq. 10, z = f (E/h + 1)).
+    # By hand: banner centre 0.5 m right, 2 m ahead, facing the camera: left pair at x = 0.4,
+    # right pair at x = 0.6. Pixels: u = 320 + 500 x / 2 = 420 and 470, v = 240 -+ 500 * 0.1 / 2
+    # = 215 / 265. Left pair rays (1, 0.2, -+0.05): horizontal run sqrt(1.04) = 1.019804, climb
+    # -+0.049029, drop 0.098058, d = 0.2 / 0.098058 = 2.039608 (= sqrt(2^2 + 0.4^2)); placed
+    # along (1, 0.2) / 1.019804: (2.0, 0.4). Right pair likewise (2.0, 0.6). Eq. 9: centre
+    # (2.0, 0.5); eq. 11: range sqrt(4.25) = 2.061553, bearing atan(0.25) = 0.244979 rad;
+    # heading atan2(-(2 - 2), 0.6 - 0.4) = 0; quality 1 (gap 0.2 = E).
+    pose = paper_pose(np.array([[420, 215], [470, 215], [470, 265], [420, 265]], float), K, E)
+    assert pose is not None
+    assert pose.centre_cam_m == pytest.approx([0.5, 0.0, 2.0], abs=1e-9)
+    assert pose.range_m == pytest.approx(2.061553, abs=1e-6)
+    assert pose.bearing_rad == pytest.approx(0.244979, abs=1e-6)
+    assert pose.rel_heading_rad == pytest.approx(0.0, abs=1e-9)
+    assert pose.quality == pytest.approx(1.0, abs=1e-9)
