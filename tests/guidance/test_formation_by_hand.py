@@ -472,3 +472,25 @@ def test_a_measurement_whose_time_or_ray_geometry_is_not_a_number_is_refused(kw:
         RelativeMeasurement(**fields)  # type: ignore[arg-type]
     # a NaN range or bearing stays a sensor's "no sighting", not an error
     RelativeMeasurement(0.2, TrackStatus.TRACKING, math.nan, math.nan, 1.0)
+
+
+def test_the_target_filters_prediction_by_hand_for_half_a_second() -> None:
+    # Wrong, the target's filter would grow its uncertainty with the wrong power of the step,
+    # or couple north with east's velocity (the state is [north, east, v_north, v_east]).
+    # By hand: meas_sigma 0.03 (R = 0.0009), accel_sigma 0.3 (q = 0.09); init at (1, 2):
+    # P0 = diag(0.0009, 0.0009, 0.25, 0.25); velocity set to (0.2, -0.1). dt = 0.5:
+    # x = (1 + 0.1, 2 - 0.05, 0.2, -0.1) = (1.1, 1.95, 0.2, -0.1);
+    # P[0, 0] = 0.0009 + dt^2 0.25 + q dt^4 / 4 = 0.0009 + 0.0625 + 0.00140625 = 0.06480625;
+    # P[0, 2] = dt 0.25 + q dt^3 / 2 = 0.125 + 0.005625 = 0.130625;
+    # P[2, 2] = 0.25 + q dt^2 = 0.25 + 0.0225 = 0.2725; north and east uncoupled: P[0, 1] =
+    # P[0, 3] = P[1, 2] = 0.
+    est = TargetEstimator(0.03, 0.3)
+    est.init(1.0, 2.0)
+    est.kf.x[2:4] = [0.2, -0.1]
+    est.predict(0.5)
+    assert est.kf.x == pytest.approx([1.1, 1.95, 0.2, -0.1], abs=1e-12)
+    P = est.kf.P
+    assert (P[0, 0], P[1, 1]) == pytest.approx((0.06480625, 0.06480625), abs=1e-12)
+    assert (P[0, 2], P[1, 3], P[2, 0]) == pytest.approx((0.130625, 0.130625, 0.130625), abs=1e-12)
+    assert (P[2, 2], P[3, 3]) == pytest.approx((0.2725, 0.2725), abs=1e-12)
+    assert (P[0, 1], P[0, 3], P[1, 2], P[2, 3]) == (0.0, 0.0, 0.0, 0.0)
