@@ -64,6 +64,22 @@ def test_a_one_pixel_high_line_has_a_major_axis_below_one_and_no_minor_axis() ->
     assert m.angle_rad == 0.0
 
 
+def test_eq7_b_of_a_two_pixel_diagonal_by_hand() -> None:
+    # Wrong (b without its factor 2, as a garbled eq. 7 reads), a leaning target's axes and
+    # angle would be off: a diagonal would read sqrt(0.375) long, 0.25 wide, at 22.5 degrees.
+    # By hand: ones at (x, y) = (0, 0) and (1, 1) in window (0, 0, 2, 2): M00 = 2, xc = yc = 0.5;
+    # a = (0 + 1) / 2 - 0.25 = 0.25, c = 0.25, b = 2 ((0 + 1) / 2 - 0.25) = 0.5;
+    # root = sqrt(0.5^2 + 0^2) = 0.5; major = sqrt((0.5 + 0.5) / 2) = 0.707107, minor = 0;
+    # angle = atan2(0.5, 0) / 2 = pi / 4 (image y down: the line runs down and right).
+    prob = np.array([[1, 0], [0, 1]], np.uint8)
+    m = window_moments(prob, (0, 0, 2, 2))
+    assert (m.m00, m.xc, m.yc) == (2.0, 0.5, 0.5)
+    assert (m.a, m.b, m.c) == pytest.approx((0.25, 0.5, 0.25), abs=1e-12)
+    assert m.major == pytest.approx(0.707107, abs=1e-6)
+    assert m.minor == pytest.approx(0.0, abs=1e-12)
+    assert m.angle_rad == pytest.approx(math.pi / 4, abs=1e-12)
+
+
 # -- meanshift_in_roi ---------------------------------------------------------------------------
 
 
