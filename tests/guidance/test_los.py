@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from lfctl.guidance.los import (
@@ -137,3 +137,19 @@ def test_eq16_cross_track_by_hand_on_a_southbound_path_across_the_back() -> None
     path = path_angle_rad(10.0, 0.0, 0.0, 0.0)
     assert (s, los, path) == pytest.approx((5.099020, -2.944197, math.pi), abs=1e-6)
     assert cross_track_m(s, los, path) == pytest.approx(-1.0, abs=1e-9)
+
+
+@given(*[st.floats(-100.0, 100.0)] * 6)
+def test_eq16_cross_track_is_the_signed_distance_from_the_segments_line(
+    pn: float, pe: float, wn: float, we: float, n: float, e: float
+) -> None:
+    # In any quadrant and across the +-pi wrap: S sin(psi_d - psi_los) is the distance from the
+    # line through the segment, positive on its right. Worked independently: the right-hand
+    # normal of a unit direction (t_n, t_e) in NED is (-t_e, t_n).
+    length = math.hypot(wn - pn, we - pe)
+    assume(length > 1e-3)
+    tn, te = (wn - pn) / length, (we - pe) / length
+    want = (n - pn) * -te + (e - pe) * tn
+    s = distance_to_go_m(n, e, wn, we)
+    got = cross_track_m(s, los_angle_rad(n, e, wn, we), path_angle_rad(pn, pe, wn, we))
+    assert got == pytest.approx(want, abs=1e-7 * max(1.0, s))

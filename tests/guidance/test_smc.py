@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from lfctl.guidance.smc import (
@@ -183,3 +183,26 @@ def test_the_bearing_laws_error_rate_across_the_back_is_the_short_way_round() ->
     ctl = SlidingModeController(BearingGains(eta_radps=1.0, lam_s=1.0, phi_rad=10.0, max_yaw_rate_radps=5.0))
     ctl.step(3.1, 0.1)
     assert ctl.step(-3.1, 0.1) == pytest.approx(-0.2268147, abs=1e-7)
+
+
+@given(
+    st.floats(-100, 100),
+    st.floats(-100, 100),
+    st.floats(-2, 2),
+    st.floats(-2, 2),
+    st.floats(-10, 10),
+    st.floats(0.1, 20),
+)
+def test_eq23_speed_makes_eq20_obey_the_reaching_law_wherever_it_is_not_limited(
+    dx: float, dy: float, vx: float, vy: float, psi: float, rcmd: float
+) -> None:
+    # Whatever the geometry (any heading, any quadrant, the leader moving any way), the speed
+    # eq. 23 commands, put into eq. 20, gives dS/dt = -eta sat((S - S_com) / Phi), unless the
+    # speed limit or the |cos beta| floor (the broadside guard) changed it.
+    gains = RangeGains(eta_mps=0.25, phi_m=0.25, min_speed_mps=-100.0, max_speed_mps=100.0)
+    s = math.hypot(dx, dy)
+    assume(s > 1e-3 and abs(dx * math.cos(psi) + dy * math.sin(psi)) / s >= gains.min_cos_bearing)
+    u = smc_speed_mps(dx, dy, vx, vy, psi, rcmd, gains)
+    assume(abs(u) < 100.0)
+    want = -gains.eta_mps * sat((s - rcmd) / gains.phi_m)
+    assert range_rate_mps(dx, dy, vx, vy, u, psi) == pytest.approx(want, abs=1e-7 * (1.0 + abs(u)))
