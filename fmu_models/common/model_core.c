@@ -253,8 +253,13 @@ static void rk4(const double *v, double *x, double h) {
     model_normalize(x);
 }
 
+/* The most RK4 sub-steps one doStep takes (about two minutes of computing): a longer step is
+ * refused rather than run for hours, and its count always fits a long (a cast of a larger
+ * double is undefined behaviour). */
+#define CORE_MAX_SUB_STEPS 1e9
+
 int core_do_step(ModelInstance *m, const char *call, double current_time, double step_size) {
-    double internal, h, tolerance;
+    double internal, h, tolerance, steps;
     long n, k;
     if (!(step_size > 0.0) || !isfinite(step_size))
         return fail(m, "%s: communicationStepSize must be > 0, got %g", call, step_size);
@@ -263,8 +268,12 @@ int core_do_step(ModelInstance *m, const char *call, double current_time, double
         return fail(m, "%s: currentCommunicationPoint %.17g does not match the FMU time %.17g",
                     call, current_time, m->v[VR_time]);
     internal = m->v[VR_FIXED_STEP];
-    n = (long)ceil(step_size / internal - 1e-9);
-    if (n < 1) n = 1;
+    steps = ceil(step_size / internal - 1e-9);
+    if (!(steps <= CORE_MAX_SUB_STEPS)) /* (NaN too: an internal_step from a corrupt FMU state) */
+        return fail(m, "%s: communicationStepSize %g s needs %.3g sub-steps of internal_step %g s, "
+                       "more than %g: take smaller steps",
+                    call, step_size, steps, internal, CORE_MAX_SUB_STEPS);
+    n = steps < 1.0 ? 1 : (long)steps;
     h = step_size / (double)n;
     for (k = 0; k < n; k++) rk4(m->v, m->x, h);
     m->v[VR_time] = current_time + step_size;

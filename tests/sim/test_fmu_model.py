@@ -144,6 +144,20 @@ def test_non_positive_step_is_an_fmu_error(rover, fmi: int, dt: float) -> None:
         assert info.value.status == 3 and info.value.model == "SkidSteerRover"
 
 
+@pytest.mark.parametrize("fmi", [2, 3])
+@pytest.mark.parametrize("dt", [1e16, 1e300])
+def test_a_step_of_more_than_1e9_sub_steps_is_an_fmu_error(rover, fmi: int, dt: float) -> None:
+    # counts of 1 ms sub-steps no long holds: the cast was undefined behaviour, and took one
+    # RK4 step of the whole length, returning OK (and inf). (A step of 1e7 s, 1e10 sub-steps,
+    # is refused too, where it ran for some 17 minutes: too slow to show here without the fix.)
+    with FmuLibrary(rover.path(fmi)) as lib:
+        inst = lib.instantiate("a", {}, (0, 0, 0), np.array([0.3, 0.0]), np.zeros(5))
+        with pytest.raises(
+            FmuError, match=r"DoStep.*communicationStepSize .* sub-steps of internal_step 0.001 s, more than 1e\+09"
+        ):
+            inst.step(dt)
+
+
 def test_invalid_parameter_value_is_named_at_initialisation(rover) -> None:
     # a strict bound (a model description's min and max are inclusive) the model checks as it
     # leaves initialization: the scenario's value, named as the scenario names it (exit 2)
