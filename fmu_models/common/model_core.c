@@ -294,7 +294,8 @@ int core_no_variables_of_type(ModelInstance *m, const char *call, size_t nvr) {
 }
 
 CoreSnapshot *core_snapshot_new(const ModelInstance *m) {
-    CoreSnapshot *s = (CoreSnapshot *)malloc(sizeof *s);
+    /* calloc: the padding after `state` is serialized too, and must not carry heap bytes */
+    CoreSnapshot *s = (CoreSnapshot *)calloc(1, sizeof *s);
     if (!s) return NULL;
     s->state = m->state;
     memcpy(s->v, m->v, sizeof s->v);
