@@ -551,9 +551,17 @@ class FmuLibrary:
             unit = role_map.units.get(role) or self._unit_of(var) or ROLE_SI_UNIT[role]
             si, factor = UNIT_TO_SI.get(unit) or self._si_of(unit, ROLE_SI_UNIT[role])
             if si != ROLE_SI_UNIT[role]:
+                # an override names where it came from: the variable itself may declare another unit
+                declared = self._unit_of(var)
+                said = (
+                    f"unit {unit!r} of role {role!r} in [vehicles.units] (variable {name!r} declares "
+                    f"{repr(declared) if declared else 'none'})"
+                    if role_map.units.get(role)
+                    else f"variable {name!r} for role {role!r} has unit {unit!r}"
+                )
                 raise ConfigError(
-                    f"{self.path}: variable {name!r} for role {role!r} has unit {unit!r}; expected one "
-                    f"convertible to {ROLE_SI_UNIT[role]} ({', '.join(k for k, v in UNIT_TO_SI.items() if v[0] == ROLE_SI_UNIT[role])})"
+                    f"{self.path}: {said}; expected one convertible to {ROLE_SI_UNIT[role]} "
+                    f"({', '.join(k for k, v in UNIT_TO_SI.items() if v[0] == ROLE_SI_UNIT[role])})"
                 )
             vr[role] = int(var.valueReference)
             scale[role] = factor

@@ -286,6 +286,16 @@ def test_a_unit_the_fmu_defines_is_converted_by_its_base_unit(
         assert lib.scale["yaw"] == pytest.approx(scale)
 
 
+def test_a_unit_override_that_does_not_fit_its_role_is_named_as_the_scenarios(faulty: BuiltModel) -> None:
+    # it said "variable 'yaw' for role 'yaw' has unit 'm'": the FMU declares rad, the m is the scenario's
+    with pytest.raises(
+        ConfigError,
+        match=r"unit 'm' of role 'yaw' in \[vehicles\.units\] \(variable 'yaw' declares 'rad'\); expected one "
+        r"convertible to rad \(rad, deg\)$",
+    ):
+        FmuLibrary(faulty.fmi2, RoleMap(units={"yaw": "m"}))
+
+
 @pytest.mark.parametrize("factor", ["0", "-1", "1e999", "NaN"])
 def test_a_unit_factor_that_is_not_finite_and_positive_is_refused(
     faulty: BuiltModel, tmp_path: Path, factor: str

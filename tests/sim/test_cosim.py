@@ -249,7 +249,11 @@ def test_user_fmu_wrong_causality_is_named(pythonfmu_rover: Path) -> None:
 @pytest.mark.integration
 def test_user_fmu_with_unconvertible_unit_is_named(pythonfmu_rover: Path) -> None:
     text = byo_scenario(pythonfmu_rover).replace('yaw = "deg"', 'yaw = "furlong"')
-    with pytest.raises(ConfigError, match=r"role 'yaw' has unit 'furlong'; expected one convertible to rad"):
+    with pytest.raises(
+        ConfigError,
+        match=r"unit 'furlong' of role 'yaw' in \[vehicles\.units\] \(variable 'psi_deg' declares none\); expected one "
+        r"convertible to rad",
+    ):
         scripted_run(text)
 
 
