@@ -54,7 +54,8 @@ class RtpH264Sender:
     Parameters
     ----------
     host : str
-        Where the ground station listens (an IPv4 address or name).
+        Where the ground station listens (an address or name; an IPv6 address with or
+        without the brackets HOST:PORT writes it in, ``[::1]``).
     port : int
         Its UDP port (QGroundControl's default is 5600).
     ssrc : int, optional
@@ -67,11 +68,15 @@ class RtpH264Sender:
     """
 
     def __init__(self, host: str, port: int, ssrc: int | None = None) -> None:
+        bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host  # [::1], as HOST:PORT writes it
+        # an IPv6 address as it is (--video's HOST:PORT and an rtp:// camera take one); a name
+        # as IPv4, as before (a receiver on 0.0.0.0 hears nothing sent to localhost's ::1)
+        family = socket.AF_INET6 if ":" in bare else socket.AF_INET
         try:
-            self.addr = (socket.gethostbyname(host), port)
-        except OSError as exc:
+            self.addr = socket.getaddrinfo(bare, port, family, socket.SOCK_DGRAM)[0][4]
+        except (OSError, UnicodeError) as exc:
             raise OSError(f"cannot send video to {host}:{port}: {exc}") from exc
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock = socket.socket(family, socket.SOCK_DGRAM)
         self.sock.setblocking(False)
         self.ssrc = int.from_bytes(os.urandom(4), "big") if ssrc is None else ssrc & 0xFFFFFFFF
         self.seq = int.from_bytes(os.urandom(2), "big")

@@ -557,6 +557,26 @@ def test_rtp_timestamps_start_at_random_and_a_paused_sender_sends_nothing() -> N
     assert stamps[0] == a.timestamp0 and (stamps[1] - stamps[0]) % 2**32 == 90000  # 1 s on the 90 kHz clock
 
 
+def test_rtp_goes_to_an_ipv6_address_as_host_port_writes_it() -> None:
+    # `--video [::1]:5600` was accepted, announced, and then failed ("Name or service not
+    # known"): the sender took IPv4 only, where `--camera rtp://[::1]:5600` receives IPv6
+    rx = socket.socket(socket.AF_INET6, socket.SOCK_DGRAM)
+    with rx:
+        try:
+            rx.bind(("::1", 0))
+        except OSError:
+            pytest.skip("no IPv6 loopback here")
+        rx.settimeout(2.0)
+        port = rx.getsockname()[1]
+        for host in ("[::1]", "::1"):
+            sender = RtpH264Sender(host, port)
+            try:
+                sender.send(b"\0\0\0\x01\x65" + bytes(50), 0.0)
+                assert rx.recv(2048)[12:] == b"\x65" + bytes(50)  # the NAL unit behind the RTP header
+            finally:
+                sender.close()
+
+
 # -- H.264 in the MCAP ------------------------------------------------------------------------------
 def test_h264_in_the_mcap_reads_in_the_official_reader_and_decodes_to_the_rendered_frames(tmp_path: Path) -> None:
     cfg = short_camera_cfg(2.0, image_rate_hz=10.0, dir=str(tmp_path))
