@@ -226,7 +226,6 @@ DATA_STREAMS: dict[int, tuple[str, ...]] = {
     mav.MAV_DATA_STREAM_EXTRA3: ("SYSTEM_TIME", *(n for n in NOT_FITTED_NAMES if n != "ADSB_VEHICLE")),
 }
 DATA_STREAMS[mav.MAV_DATA_STREAM_ALL] = tuple(n for names in DATA_STREAMS.values() for n in names)
-#: the fastest a REQUEST_DATA_STREAM may set a group, Hz (Rover's SRx_ parameters: 0-50)
 ID_NAMES = {v: k for k, v in MSG_IDS.items()}
 #: the streams that carry the global position (:meth:`VehicleEndpoint._send_by_id`)
 _GLOBAL_STREAMS = frozenset(("GPS_RAW_INT", "GLOBAL_POSITION_INT", "VFR_HUD"))
