@@ -326,7 +326,9 @@ def watch(gcs: Any, count: int | None, out: Any = None) -> None:
                 shown += 1
             rows = fleet_rows(table, now)
             if screen:
-                head = f"lfctl gcs watch  {time.strftime('%H:%M:%S')}  {len(rows)} vehicles  (Ctrl-C to stop)"
+                head = (
+                    f"lfctl gcs watch  {time.strftime('%H:%M:%S')}  {counted(len(rows), 'vehicle')}  (Ctrl-C to stop)"
+                )
                 body = "".join(line + "\x1b[K\n" for line in [head, "", *render_fleet(rows)])
                 out.write("\x1b[H" + body + "\x1b[J")  # home, lines over the old ones, clear the rest
             else:
