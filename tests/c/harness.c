@@ -91,6 +91,8 @@ int main(void) {
     fmi3Boolean ev, term, early;
     fmi3Float64 last;
     fmi3FMUState state = NULL;
+    size_t size = 0;
+    fmi3Byte *bytes;
     int round;
     CHECK(fmi3InstantiateCoSimulation("x", "{wrong}", "", 0, 0, 0, 0, NULL, 0, NULL, logger, NULL) == NULL);
     CHECK(errors_logged == 1);
@@ -105,6 +107,15 @@ int main(void) {
         for (k = 0; k < 100; k++)
             CHECK(fmi3DoStep(c, k * 0.01, 0.01, 1, &ev, &term, &early, &last) == fmi3OK);
         CHECK(fmi3GetFMUState(c, &state) == fmi3OK);
+        CHECK(fmi3SerializedFMUStateSize(c, state, &size) == fmi3OK);
+        bytes = malloc(size);
+        CHECK(fmi3SerializeFMUState(c, state, bytes, size) == fmi3OK);
+        /* as FMI 2's: no byte of the FMU's heap in the padding after the state */
+        for (k = (int)sizeof(ModelState); k < (int)offsetof(CoreSnapshot, v); k++)
+            CHECK(bytes[k] == 0);
+        CHECK(fmi3FreeFMUState(c, &state) == fmi3OK);
+        CHECK(fmi3DeserializeFMUState(c, bytes, size, &state) == fmi3OK);
+        free(bytes);
         CHECK(fmi3SetFMUState(c, state) == fmi3OK);
         CHECK(fmi3FreeFMUState(c, &state) == fmi3OK);
         CHECK(fmi3GetInt32(c, &vr_north, 1, NULL, 1) == fmi3Error); /* no Int32 variables */
