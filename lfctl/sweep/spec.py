@@ -503,8 +503,8 @@ def _unrepeated(key: str, values: list[Any]) -> None:
         first = seen.setdefault(_same_as(value), i)
         if first != i:
             raise ConfigError(
-                f"grid.{key!r} gives {values[first]!r} twice (values {first} and {i}): each variant once; "
-                f"more runs of one come from seeds or repetitions"
+                f"grid.{key!r} gives {values[first]!r} twice (places {first + 1} and {i + 1} of its array): "
+                f"each variant once; more runs of one come from seeds or repetitions"
             )
 
 

@@ -87,9 +87,10 @@ def test_set_key_errors_name_the_key(key: str, message: str) -> None:
         (HEAD + "seeds = [1, 1]\n", r"seeds must not repeat \(use repetitions\)"),
         (
             HEAD + "[grid]\n'guidance.controller' = ['smc', 'p', 'smc']\n",
-            r"grid\.'guidance\.controller' gives 'smc' twice \(values 0 and 2\): each variant once",
+            r"grid\.'guidance\.controller' gives 'smc' twice \(places 1 and 3 of its array\): each variant once",
         ),
-        (HEAD + "[grid]\n'sensing.range_noise_m' = [0, 0.0]\n", r"gives 0 twice \(values 0 and 1\)"),
+        # (places, not "values 0 and 1": the values are 0 and 0.0)
+        (HEAD + "[grid]\n'sensing.range_noise_m' = [0, 0.0]\n", r"gives 0 twice \(places 1 and 2 of its array\)"),
         (HEAD + "repetitions = 0\n", r"repetitions must be an integer within 1\.\.100000, got 0"),
         (HEAD + "seeds = 1000000000\n", r"seeds must be a count within 1\.\.100000 .*, got 1000000000"),
         (HEAD + "seeds = [99999999999999999999]\n", r"list of integers within 0\.\.9223372036854775807"),
