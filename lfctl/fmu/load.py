@@ -748,6 +748,9 @@ class FmuInstance:
         self.lib = lib
         self.name = name
         self.messages: deque[str] = deque(maxlen=KEPT_MESSAGES)  # the newest the FMU logged
+        # what it logged as Discard, Error or Fatal, the newest, and how many in all
+        self._refusals: deque[str] = deque(maxlen=KEPT_MESSAGES)
+        self._refused = 0
         self.t_s = start_time_s
         self._start_time_s = start_time_s
         self._freed = False
@@ -883,6 +886,9 @@ class FmuInstance:
     def _keep(self, status: int, category: bytes | None, message: bytes | None) -> None:
         text = (message or b"").decode("utf-8", "replace")
         self.messages.append(text)
+        if status >= 2:
+            self._refusals.append(text)
+            self._refused += 1
         # Errors travel inside the FmuError that follows; warnings are worth a line here.
         level = logging.WARNING if status == 1 else logging.DEBUG
         log.log(level, "%s [%s] %s", self.name, _status_text(status), text)
@@ -956,13 +962,16 @@ class FmuInstance:
             self._checked("fmi2EnterInitializationMode", s.enterInitializationMode)
         else:
             self._checked("fmi3EnterInitializationMode", s.enterInitializationMode, startTime=self._start_time_s)
+        before = self._refused
         try:
             self._checked(f"fmi{v}ExitInitializationMode", s.exitInitializationMode)
         except FmuError as exc:
             # the FMU checks its parameters as it leaves initialization (the built-in models'
             # strict bounds, which a model description's min and max cannot say): a value the
-            # scenario gave that the FMU names in its refusal is the scenario's error
-            refused = _refused_parameter(exc.log, parameters)
+            # scenario gave that the FMU names in its refusal (an error it logged in this call,
+            # not a line it logged before) is the scenario's error
+            new = min(self._refused - before, len(self._refusals))
+            refused = _refused_parameter(list(self._refusals)[len(self._refusals) - new :], parameters)
             if refused is None:
                 raise
             name, words = refused

@@ -15,7 +15,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
 from lfctl.errors import ConfigError, FmuError
-from lfctl.fmu.load import OUTPUT_ROLES, FmuLibrary, _refused_parameter
+from lfctl.fmu.load import OUTPUT_ROLES, FmuInstance, FmuLibrary, _refused_parameter
 
 pytestmark = pytest.mark.fmu
 
@@ -169,6 +169,23 @@ def test_invalid_parameter_value_is_named_at_initialisation(rover) -> None:
         ),
     ):
         lib.instantiate("a", {"skid_factor": 1.5}, (0, 0, 0), np.zeros(2), np.zeros(5))
+
+
+def test_only_what_the_fmu_refused_as_it_left_initialization_names_the_parameter(
+    rover, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a line it logged earlier, and not as an error, that names a parameter the scenario set
+    # ("parameter tau: set to 0.2") is not the refusal: skid_factor is
+    checked = FmuInstance._checked
+
+    def chatty(self: FmuInstance, call: str, fn: object, *args: object, **kwargs: object) -> None:
+        if call == "fmi2EnterInitializationMode":
+            self._keep(0, b"logAll", b"fmi2SetReal: parameter tau: set to 0.2")
+        checked(self, call, fn, *args, **kwargs)
+
+    monkeypatch.setattr(FmuInstance, "_checked", chatty)
+    with FmuLibrary(rover.fmi2) as lib, pytest.raises(ConfigError, match=r"parameters\.skid_factor = 1\.5: "):
+        lib.instantiate("a", {"tau": 0.2, "skid_factor": 1.5}, (0, 0, 0), np.zeros(2), np.zeros(5))
 
 
 def test_a_refusal_naming_no_parameter_the_scenario_set_stays_the_fmus_error() -> None:
