@@ -1301,11 +1301,9 @@ class Recorder:
         if self.path is None:
             return
         self.path.unlink(missing_ok=True)
-        for folder in self._made_dirs:
-            try:
+        for folder in self._made_dirs:  # (each tried: in a/../b, a/.. is no folder to remove, a is)
+            with contextlib.suppress(OSError):  # not empty (another run's log went there meanwhile), or gone
                 folder.rmdir()
-            except OSError:  # not empty (another run's log went there meanwhile), or gone
-                break
 
     def _stop_server(self) -> None:
         """Stop the Foxglove WebSocket, waiting at most :data:`SERVER_STOP_S`: foxglove-sdk's

@@ -41,7 +41,7 @@ from lfctl.record.audit import audit
 from lfctl.record.layout import layout_json
 from lfctl.record.rtp import RtpH264Sender, nal_units, sdp
 from lfctl.record.video import H264Encoder, psnr
-from lfctl.record.writer import Recorder
+from lfctl.record.writer import Recorder, RecordError
 from lfctl.sim.runner import run_scenario
 
 pytestmark = pytest.mark.fmu
@@ -197,6 +197,17 @@ def test_live_on_a_port_in_use_is_a_clear_error(
     assert not list(tmp_path.rglob("*.mcap"))  # no empty log left behind, which audit would fail
     # nor the folder made for it; one that was there stays
     assert (tmp_path / "logs").is_dir() == logs_there
+
+
+def test_a_refused_start_removes_every_folder_made_for_its_log_dotdot_too(tmp_path: Path) -> None:
+    # mkdir makes a/../b/logs by making a, b and logs: a is removed too (a/.. is no folder to remove)
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        with pytest.raises(RecordError, match="cannot serve Foxglove"):
+            Recorder(tmp_path / "a" / ".." / "b" / "logs" / "run.mcap", short_camera_cfg(1.0), live=("127.0.0.1", port))
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("value", ["nohost", "127.0.0.1:99999", ":80"])
