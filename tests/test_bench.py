@@ -2,6 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import shlex
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
 from lfctl.bench.formation import compare
 
 
@@ -27,3 +36,53 @@ def test_formation_compares_the_figures_as_measured_not_as_printed() -> None:
     # 0.003304 / 0.000908 = 3.639 (from the printed 0.0033 / 0.0009: 3.667)
     assert got["path_rms_ratio_trail_over_smc"] == 3.639
     assert got["trail_on_path_lost_no_longer"] is False
+
+
+def test_ctrl_c_of_every_benchmark_leaves_nothing_a_benchmark_started(tmp_path: Path) -> None:
+    # a benchmark (run by run_all in a process of its own) that started a process which
+    # outlives a Ctrl-C, as vision's pool workers do (they catch it as a job's error and wait
+    # for the next job): subprocess.run killed the benchmark alone and left them for ever
+    pid_file = tmp_path / "worker.pid"
+    worker = (
+        "import os, signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+        f"open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(120)"
+    )
+    bench = f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', {worker!r}]); time.sleep(120)"
+    fake_python = tmp_path / "python"  # what run_all starts as `python -m lfctl.bench.NAME`
+    fake_python.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -c {shlex.quote(bench)}\n")
+    fake_python.chmod(0o755)
+    driver = (
+        "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
+        f"sys.executable = {str(fake_python)!r}; import lfctl.bench; lfctl.bench.run_all(('cosim',), True, "
+        f"__import__('pathlib').Path({str(tmp_path)!r}))"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", driver], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    worker_pid = None
+    try:
+        for _ in range(200):
+            if pid_file.exists() and pid_file.read_text():
+                worker_pid = int(pid_file.read_text())
+                break
+            time.sleep(0.05)
+        assert worker_pid is not None, "the benchmark's worker did not start"
+        proc.send_signal(signal.SIGINT)  # Ctrl-C
+        assert proc.wait(timeout=60) != 0
+        assert b"KeyboardInterrupt" in proc.stderr.read()  # (stopped, not ended by itself)
+        time.sleep(0.5)
+        assert not _alive(worker_pid), "the benchmark's worker outlived Ctrl-C"
+        assert not (tmp_path / "bench-results.json").exists()  # nothing written after a Ctrl-C
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if worker_pid is not None and _alive(worker_pid):
+            os.kill(worker_pid, signal.SIGKILL)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with contextlib.suppress(OSError):  # a zombie (its parent gone, init not yet reaped it) is not alive
+        return Path(f"/proc/{pid}/stat").read_text().split(") ")[-1][0] != "Z"
+    return True

@@ -4,9 +4,11 @@ with ``python -m lfctl.bench.<name>`` or ``lfctl bench <name>``."""
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import json
 import os
+import signal
 import stat
 import subprocess
 import sys
@@ -56,7 +58,17 @@ def run_one(name: str, quick: bool = False, fuzz: bool = False, soak_s: float | 
 
 def _run_child(name: str, quick: bool) -> BenchOutcome:
     cmd = [sys.executable, "-m", f"lfctl.bench.{name}", *(["--quick"] if quick else [])]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
+    # in a session of its own, with whatever it starts (vision's pool, e2e's cameras, sweep's
+    # workers): a Ctrl-C reaches it once, from here, and nothing it started outlives it
+    with subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    ) as child:
+        try:
+            stdout, stderr = child.communicate()
+        except BaseException:  # Ctrl-C, or SIGTERM (lfctl's KeyboardInterrupt)
+            _stop_child(child)
+            raise
+    proc = subprocess.CompletedProcess(cmd, child.returncode, stdout, stderr)
     print(proc.stdout, end="", flush=True)
     lines = proc.stdout.strip().splitlines()
     if proc.returncode != 0 or not lines or not lines[-1].startswith("{"):
@@ -69,6 +81,27 @@ def _run_child(name: str, quick: bool) -> BenchOutcome:
         )
         return BenchOutcome(name, lines, None, f"exit {proc.returncode}: {last}")
     return BenchOutcome(name, lines[:-1], json.loads(lines[-1]))
+
+
+#: how long a benchmark stopped by Ctrl-C may take to end (its pool's jobs running, its
+#: cluster closing) before it and what it started are killed, s
+STOP_S = 30.0
+
+
+def _stop_child(child: subprocess.Popen[str]) -> None:
+    """Stop a benchmark's process as a Ctrl-C would (SIGINT to its process group), give it
+    :data:`STOP_S` to end, then kill whatever of its group is left: a process it started
+    that outlived it (a pool worker waiting for its next job) would run on for ever.
+    (subprocess.run killed the benchmark alone after 0.25 s, which left vision's pool
+    workers blocked on their queue.)"""
+    try:
+        with contextlib.suppress(ProcessLookupError, subprocess.TimeoutExpired):
+            os.killpg(child.pid, signal.SIGINT)
+            child.wait(STOP_S)
+    finally:
+        with contextlib.suppress(ProcessLookupError):  # (all of it ended)
+            os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
 
 
 def run_all(names: tuple[str, ...] = NAMES, quick: bool = False, out_dir: Path = Path()) -> list[BenchOutcome]:
