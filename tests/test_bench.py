@@ -86,3 +86,13 @@ def _alive(pid: int) -> bool:
     with contextlib.suppress(OSError):  # a zombie (its parent gone, init not yet reaped it) is not alive
         return Path(f"/proc/{pid}/stat").read_text().split(") ")[-1][0] != "Z"
     return True
+
+
+def test_the_link_benchmarks_p99_is_the_nearest_rank() -> None:
+    from lfctl.bench.link import pct
+
+    # of 1..200, 99 % are at or below 198: the 198th; 1..1000: the 990th
+    assert pct([float(v) for v in range(200, 0, -1)], 0.99) == 198.0
+    assert pct([float(v) for v in range(1, 1001)], 0.99) == 990.0
+    assert pct([3.0], 0.99) == 3.0
+    assert pct([1.0, 2.0, 3.0, 4.0], 0.5) == 2.0  # (the lower middle: half of them at or below it)
