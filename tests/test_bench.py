@@ -96,3 +96,16 @@ def test_the_link_benchmarks_p99_is_the_nearest_rank() -> None:
     assert pct([float(v) for v in range(1, 1001)], 0.99) == 990.0
     assert pct([3.0], 0.99) == 3.0
     assert pct([1.0, 2.0, 3.0, 4.0], 0.5) == 2.0  # (the lower middle: half of them at or below it)
+
+
+def test_a_peer_that_refused_every_run_of_a_tier_has_no_figures_only_the_reason() -> None:
+    from lfctl.bench.vision import refused_on_every_run
+
+    # MIL on the range tier: its first box is the picture's whole height (init: no positive
+    # samples), on every seed; the bench printed success 0 for it, as if it had tracked
+    why = "init: !posSamples.empty() (-215)"
+    runs = [{"init_failed": [f"MIL@range/{seed}: {why}"]} for seed in (0, 1, 2)]
+    assert refused_on_every_run("MIL", runs) == why
+    assert refused_on_every_run("full", runs) is None  # (it ran)
+    # refused on one seed of three: it ran on the others, which it is scored on (the refused one as failing)
+    assert refused_on_every_run("MIL", [runs[0], {"init_failed": []}, {"init_failed": []}]) is None

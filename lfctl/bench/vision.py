@@ -448,6 +448,22 @@ def timing_pass(tier: str, n_frames: int, peers: tuple[str, ...]) -> dict[str, f
     return out
 
 
+def refused_on_every_run(k: str, runs: list[dict]) -> str | None:
+    """Why tracker ``k`` refused to start on every run of a tier (the first run's reason, from
+    :func:`run_job`'s ``init_failed``); None when it started on any (a run it refused is then
+    scored as failing, as the table's note says). A tracker that never ran has no figures.
+
+    Parameters
+    ----------
+    k : str
+        The tracker.
+    runs : list of dict
+        The tier's runs (:func:`run_job`'s results).
+    """
+    why = [f.split(": ", 1)[1] for r in runs for f in r["init_failed"] if f.startswith(f"{k}@")]
+    return why[0] if runs and len(why) == len(runs) else None
+
+
 def recovery_frames(vis: list[float], ious: list[float]) -> list[int]:
     """For each full occlusion (visible < 5 %), frames from its end until IoU >= 0.5 again."""
     out = []
@@ -514,6 +530,11 @@ def main(quick: bool = False) -> None:
         rs = [r for r in results if r["tier"] == tier]
         out[tier] = {}
         for k in names:
+            why = refused_on_every_run(k, rs)
+            if why is not None:  # it never ran here: no figures (zeros were printed), the reason
+                out[tier][k] = {"success": None, "refused_to_start": why}
+                rows.append((tier, k, f"refused to start: {why}", "", "", "", "", ""))
+                continue
             valid = np.concatenate([np.array(r["valid"]) for r in rs])
             ious = np.concatenate([np.array(r["rec"][k]["iou"]) for r in rs])
             errs = np.concatenate([np.array(r["rec"][k]["err"]) for r in rs])
