@@ -5,7 +5,8 @@ images as the scenario says (H.264 by default): real-time factor for leader + 1 
 and on every core, and leader + 4 (examples/column5.toml with camera sensing) on every
 core, and where the time goes: physics (FMU stepping), render, vision (tracker + pose),
 guidance, link (MAVLink endpoints), recording (image encoding, poses, messages), other
-(the master's own loop). Render, vision and encoding are CPU seconds summed over the
+(the master's own loop). Each stage is timed by the wall clock (perf_counter): CPU time
+only while nothing else shares the cores. Render, vision and encoding are summed over the
 camera processes (sim.camera_workers), so with workers the split adds up to more than
 the wall time. Leader + 1 on one core runs with the scenario's (default, fast) renderer
 and recording, and without recording the camera's frames (what the H.264 video costs the
@@ -158,10 +159,12 @@ def main(quick: bool = False) -> None:
         rows,
     )
     one, one_all, four, real, bare = runs  # one and bare: the median rounds
-    # cost: CPU seconds of every stage (over all processes) per simulated second per follower
+    # cost: the seconds spent in every stage (summed over the processes) per simulated second
+    # per follower. The stages are timed by the wall clock (perf_counter), so this is CPU time
+    # only while nothing else shares the cores: another program's load counts in it
     per_follower = [sum(r["split_s"].values()) / r["sim_s"] / r["followers"] for r in (one_all, four)]
     print(
-        f"\nCPU seconds per simulated second per follower: {per_follower[0]:.3f} (1 follower), {per_follower[1]:.3f} (4 followers): growth is {'linear' if per_follower[1] <= 1.25 * per_follower[0] else 'super-linear'}"
+        f"\nstage seconds (wall clock in each stage, over the processes) per simulated second per follower: {per_follower[0]:.3f} (1 follower), {per_follower[1]:.3f} (4 followers): growth is {'linear' if per_follower[1] <= 1.25 * per_follower[0] else 'super-linear'}"
     )
     print(
         f"recording the camera's frames ({load_config(examples_dir() / 'convoy.toml').recording.image_format}, "
