@@ -18,7 +18,7 @@ import pytest
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
 from foxglove_schemas_protobuf.PoseInFrame_pb2 import PoseInFrame
 from mcap.decoder import DecoderFactory as McapDecoderFactory
-from mcap.reader import NonSeekingReader
+from mcap.reader import NonSeekingReader, make_reader
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 from support import free_udp_ports
@@ -228,7 +228,9 @@ def test_audit_figures_equal_the_run_that_wrote_the_file(truth_log, capsys: pyte
 
 def test_a_flipped_byte_inside_a_chunk_is_a_crc_error(truth_log, tmp_path: Path) -> None:
     data = bytearray(truth_log[0].read_bytes())
-    i = len(data) // 3  # in the data section, among the compressed chunks
+    with truth_log[0].open("rb") as f:  # the middle of the largest chunk: in its compressed records
+        chunk = max(make_reader(f).get_summary().chunk_indexes, key=lambda c: c.chunk_length)
+    i = chunk.chunk_start_offset + chunk.chunk_length // 2  # (not a chunk's header, whose sizes give another error)
     data[i] ^= 0xFF
     bad = tmp_path / "flipped.mcap"
     bad.write_bytes(bytes(data))
