@@ -214,6 +214,10 @@ def check_host_port(key: str, value: str, *, allow_any_port: bool = False) -> tu
 NET_PREFIXES = ("udpin", "udpout", "udp", "udpbcast", "tcp", "tcpin")
 
 
+#: a serial device's baud, bits/s (``/dev/ttyAMA0,921600``)
+SERIAL_BAUD = Bound(50, 20_000_000, integer=True)
+
+
 def check_connection(key: str, value: str) -> str:
     """A pymavlink connection string: ``udpin:HOST:PORT``, ``udpout:...``, ``tcp:...``,
     ``tcpin:...``, or a serial device ``/dev/tty...[,BAUD]``.
@@ -230,9 +234,12 @@ def check_connection(key: str, value: str) -> str:
     if sep and prefix in NET_PREFIXES:
         check_host_port(key, rest)
         return value
-    device, _, baud = value.partition(",")
-    if device.startswith(("/dev/", "COM")) and (not baud or Bound(50, 20_000_000, integer=True).contains(_int(baud))):
-        return value
+    device, comma, baud = value.partition(",")
+    if device.startswith(("/dev/", "COM")) and "," not in baud:
+        if not comma or SERIAL_BAUD.contains(_int(baud)):
+            return value
+        # (pymavlink took "/dev/ttyS0," and failed on int(''); "0" and "1e9" read as a bad device)
+        raise ConfigError(f"{key} must have a baud {SERIAL_BAUD.text()} after the comma, got {_show(value)}")
     raise ConfigError(
         f"{key} must be udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT, tcpin:HOST:PORT or a serial "
         f"device such as /dev/ttyUSB0,921600, got {_show(value)}"

@@ -485,6 +485,18 @@ def test_bad_options_are_one_line_and_exit_2(
             assert values is NUMBERS and bad not in ALWAYS_BAD, f"accepted {args}"
 
 
+@pytest.mark.parametrize(
+    "connect", ["/dev/ttyAMA0,", "/dev/ttyAMA0,0", "/dev/ttyAMA0,fast", "/dev/ttyAMA0,99999999999"]
+)
+def test_a_serial_device_s_bad_baud_is_named(connect: str, capsys: pytest.CaptureFixture[str]) -> None:
+    # "/dev/ttyAMA0," got past the check to pymavlink, which failed on int(''): "invalid literal
+    # for int() with base 10: ''", exit 1; the others read as no serial device at all
+    with pytest.raises(SystemExit) as stop:
+        build_parser().parse_args(["follow", "--mavlink", connect])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2 and f"must have a baud within 50..20000000 after the comma, got {connect!r}" in err
+
+
 @pytest.mark.parametrize("name", ["", "../../x", "WP SPEED", "A" * 17, "a\x00b"])
 def test_bad_parameter_names_are_refused_by_their_rule(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as stop:
