@@ -684,6 +684,12 @@ class Companion:
                 else ("the autopilots of systems " + ", ".join(str(o) for o in others) + " talk")
             )
             detail = f"{who} on this link: --target {others[0]}?"
+        elif self.port.serial and self.port.junk and not self.port.received and not self.port.mav.signing.reject_count:
+            # (what a UART at another baud reads: noise, never a packet; a bad signature is no hint of it)
+            detail = (
+                f"only bytes that are no MAVLink came on it ({self.port.junk} bad packets): is the baud the rover's "
+                "SERIALn_BAUD, and the port set to MAVLink (SERIALn_PROTOCOL 2)?"
+            )
         raise LinkTimeoutError("HEARTBEAT", sysid=self.target, timeout_s=timeout_s, detail=detail)
 
     def _check_kind(self) -> None:

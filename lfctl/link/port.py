@@ -322,6 +322,11 @@ class MavPort:
         """
         return MavPort(sysid, compid, link=link, pump=pump)
 
+    @property
+    def serial(self) -> bool:
+        """Whether the port is a serial device's."""
+        return self._serial
+
     def send(self, msg: Any) -> None:
         """Send one message (sequence number and signature as the codec says).
 

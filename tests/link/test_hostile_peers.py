@@ -400,6 +400,38 @@ def test_a_tcp_peer_that_closes_is_noted_once_and_read_no_more(capsys: pytest.Ca
     assert "EOF" not in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("comes", ["noise", "signed with another key"])
+def test_a_serial_port_that_hears_only_noise_asks_for_its_baud(comes: str) -> None:
+    # a UART at another baud than the rover's reads noise: the timeout said only "is the
+    # vehicle up, the address right...", as for a silent one; packets of another key are no noise
+    import os
+    import pty
+    import random
+    import tty
+
+    from lfctl.link.signing import setup_signing, signing_key_from_passphrase
+
+    parent, child = pty.openpty()
+    tty.setraw(child)
+    companion = Companion.open(f"{os.ttyname(child)},57600", 1, signing_key_from_passphrase("convoy-7"))
+    try:
+        if comes == "noise":
+            os.write(parent, random.Random(3).randbytes(4000))
+        else:
+            codec = mav.MAVLink(None, srcSystem=1, srcComponent=1)
+            setup_signing(codec, signing_key_from_passphrase("another"))
+            hb = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_GROUND_ROVER, 3, 0, 0, 4, 3)
+            os.write(parent, b"".join(hb.pack(codec) for _ in range(20)))
+        with pytest.raises(LinkTimeoutError) as timeout:
+            companion.wait_vehicle(1.0, 20.0)
+    finally:
+        companion.close()
+        os.close(parent)
+        os.close(child)
+    baud = "is the baud the rover's SERIALn_BAUD, and the port set to MAVLink (SERIALn_PROTOCOL 2)?"
+    assert (baud in str(timeout.value)) == (comes == "noise"), str(timeout.value)
+
+
 def test_a_serial_device_that_goes_away_and_comes_back_is_read_again(caplog: pytest.LogCaptureFixture) -> None:
     # a flight controller on USB that reboots: its /dev/ttyACM0 goes away and comes back as a
     # new device under the same name (a pseudo-terminal behind a link stands in for it); the
