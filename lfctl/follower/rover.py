@@ -17,7 +17,14 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.follower.stack import Follower, FollowerEvent, formation_param_values
 from lfctl.guidance.formation import FormationOutput, FormationSettings, Odometry
-from lfctl.link.companion import Companion, answer_name, unanswered
+from lfctl.link.companion import (
+    ODOMETRY_MSG_IDS,
+    ROVER_STREAM_MAX_HZ,
+    STATUS_NAMES,
+    Companion,
+    answer_name,
+    unanswered,
+)
 from lfctl.link.endpoint import COMPANION_COMPID, MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
@@ -192,6 +199,7 @@ def follow_rover(
     """
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
+    _check_link_budget(companion, name, rate_hz, status_rate_hz)
     companion.wait_vehicle(timeout_s, rate_hz)
     _check_speed_limit(companion, name, settings)
     v = companion.vehicle
@@ -612,6 +620,49 @@ def _leave_standing(companion: Companion, t_s: float) -> None:
         if k:
             time.sleep(STOP_SPACING_S)
         companion.setpoint(t_s + k * STOP_SPACING_S, 0.0, 0.0)
+
+
+#: the share of a serial port's bytes a second past which the companion's traffic is said to
+#: overrun it (the rover sends its own streams on the port too)
+LINK_BUDGET_SHARE = 0.8
+
+
+def _frame_bytes(msg_id: int, signed: bool) -> int:
+    """The most bytes one MAVLink 2 packet of ``msg_id`` takes on the wire."""
+    size = mav.HEADER_LEN_V2 + mav.mavlink_map[msg_id].unpacker.size + 2
+    return size + (mav.MAVLINK_SIGNATURE_BLOCK_LEN if signed else 0)
+
+
+def _check_link_budget(companion: Companion, name: str, rate_hz: float, status_rate_hz: float) -> None:
+    """Say when a serial port's baud cannot carry the setpoints at ``rate_hz`` (with the
+    status) or the odometry asked for: a UART sends baud / 10 bytes a second (8N1) each way;
+    what the companion cannot send queues in the operating system's buffer, so the setpoints
+    reach the rover late and the step waits on the write, and ArduPilot skips a stream's
+    message when the port has no room for it."""
+    port = companion.port
+    if not port.serial:
+        return
+    capacity = int(port.connection.baud) / 10
+    signed = port.mav.signing.sign_outgoing  # (a rover that checks signatures signs its own)
+    up = rate_hz * _frame_bytes(mav.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED, signed)
+    up += status_rate_hz * len(STATUS_NAMES) * _frame_bytes(mav.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT, signed)
+    odometry_hz = min(rate_hz, ROVER_STREAM_MAX_HZ)
+    down = odometry_hz * sum(_frame_bytes(i, signed) for i in ODOMETRY_MSG_IDS)
+    if max(up, down) > LINK_BUDGET_SHARE * capacity:
+        log.warning(
+            "%s: at %s baud the serial port carries %d bytes/s each way: the setpoints at %g Hz need %d and the "
+            "odometry asked for at %g Hz %d%s: setpoints that do not fit queue and reach the rover late, and the "
+            "rover sends the odometry slower than asked (a faster SERIALn_BAUD with the same ,BAUD here, or a "
+            "lower --rate)",
+            name,
+            port.connection.baud,
+            capacity,
+            rate_hz,
+            up,
+            odometry_hz,
+            down,
+            ", signed" if signed else "",
+        )
 
 
 def _check_speed_limit(companion: Companion, name: str, settings: FormationSettings) -> None:

@@ -815,6 +815,43 @@ def test_a_rover_slower_than_the_follower_may_drive_is_said(
         assert "WP_SPEED, 0.3 m/s, under the follower's 0.5 m/s" in said[0]
 
 
+@pytest.mark.parametrize(
+    ("baud", "rate_hz", "passphrase", "said"),
+    [
+        (57600, 20.0, None, ""),  # the defaults on a 57600 telemetry port: 1462 and 2400 bytes/s of 5760
+        (57600, 20.0, "convoy-7", ""),
+        (57600, 100.0, None, "the setpoints at 100 Hz need 6680 and the odometry asked for at 40 Hz 4800:"),
+        (57600, 40.0, "convoy-7", "the setpoints at 40 Hz need 3378 and the odometry asked for at 40 Hz 6360, signed:"),
+        (921600, 100.0, "convoy-7", ""),
+    ],
+)
+def test_a_serial_port_too_slow_for_the_setpoints_or_the_odometry_is_said(
+    caplog: pytest.LogCaptureFixture, baud: int, rate_hz: float, passphrase: str | None, said: str
+) -> None:
+    # a UART carries baud / 10 bytes a second each way: at 57600 the setpoints at 100 Hz
+    # queued in the port's buffer and reached the rover up to 0.8 s late, without a word
+    import os
+    import pty
+
+    from lfctl.follower.rover import _check_link_budget
+    from lfctl.link.signing import signing_key_from_passphrase
+
+    parent, child = pty.openpty()
+    companion = Companion.open(f"{os.ttyname(child)},{baud}", 1, signing_key_from_passphrase(passphrase))
+    try:
+        with caplog.at_level("WARNING", "lfctl.follower.rover"):
+            _check_link_budget(companion, "rover", rate_hz, 2.0)
+    finally:
+        companion.close()
+        os.close(parent)
+        os.close(child)
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == bool(said) and all(f"at {baud} baud the serial port carries" in w for w in warned)
+    assert all(said in w for w in warned), warned
+    # over a network there is no baud to check
+    assert not rover_module._check_link_budget(_memory_rover()[1], "rover", 100.0, 2.0)
+
+
 def test_the_last_setpoints_are_spread_out_so_a_lost_burst_does_not_leave_the_rover_driving(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
