@@ -153,6 +153,9 @@ MAX_DATAGRAMS_PER_RECV = 256
 MAX_RECV_S = 0.02
 #: a serial device that went away is tried again this often, s
 REOPEN_S = 1.0
+#: the longest a write to a serial device waits for room in its buffer, s (a UART drains it
+#: at its baud; a USB device that stopped reading never does)
+SERIAL_WRITE_WAIT_S = 0.25
 #: a datagram longer than this is junk, not parsed (a vehicle's are at most a few MAVLink
 #: packets; pymavlink parses byte by byte: 64 KB of junk cost it 40 ms)
 MAX_DATAGRAM_BYTES = 8 * 1024
@@ -247,6 +250,8 @@ class MavPort:
         #: flight controller on USB that reboots leaves and comes back as a new device)
         self._serial = connection is not None and isinstance(connection, mavutil.mavserial)
         self._reopen_at = 0.0
+        #: writes to a serial device that took no bytes for :data:`SERIAL_WRITE_WAIT_S`, in a row
+        self.stalled = 0
         if connection is not None:
             self.mav = connection.mav
             self.mav.robust_parsing = True
@@ -439,15 +444,36 @@ class MavPort:
             log.warning("MAVLink link closed by its peer (end of file): nothing more comes on it")
 
     def _serial_write(self, buf: bytes) -> int:
-        """A write to the serial device; one that fails (the device went away) is noted as
-        a read's failure is, not printed, and the bytes are lost."""
+        """A write to the serial device, waiting up to :data:`SERIAL_WRITE_WAIT_S` for room;
+        one that fails (the device went away) is noted as a read's failure is, not printed,
+        and the bytes are lost. A device that takes no bytes in that time (a flight controller
+        on USB that stopped reading) loses the rest of the packet, and the writes after it
+        wait no more, until it takes a whole one again (said once): pyserial's own write
+        waited for it for ever, and then Ctrl-C's last zero setpoints too."""
         if self.closed:
             return -1
+        data = bytes(buf)
+        give_up = time.monotonic() + (0.0 if self.stalled else SERIAL_WRITE_WAIT_S)  # (stalled: no wait)
         try:
-            return int(self.connection.port.write(bytes(buf)) or 0)
+            fd = self.connection.port.fileno()
+            while data:
+                with contextlib.suppress(BlockingIOError):
+                    data = data[os.write(fd, data) :]
+                left = give_up - time.monotonic()
+                if data and (left <= 0 or not select.select([], [fd], [], left)[1]):
+                    self.stalled += 1
+                    if self.stalled == 1:
+                        log.warning(
+                            "MAVLink serial device %s takes no bytes (a flight controller on USB that stopped "
+                            "reading it?): what is sent is lost until it does",
+                            self.connection.device,
+                        )
+                    return len(buf) - len(data)
         except (OSError, ValueError):
             self._peer_closed()
             return -1
+        self.stalled = 0
+        return len(buf)
 
     def _reopen(self) -> None:
         """Open a serial device that went away again, if it is back (tried every

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import select
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -430,6 +431,45 @@ def test_a_serial_port_that_hears_only_noise_asks_for_its_baud(comes: str) -> No
         os.close(child)
     baud = "is the baud the rover's SERIALn_BAUD, and the port set to MAVLink (SERIALn_PROTOCOL 2)?"
     assert (baud in str(timeout.value)) == (comes == "noise"), str(timeout.value)
+
+
+def test_a_serial_device_that_stops_reading_does_not_hold_the_sender(caplog: pytest.LogCaptureFixture) -> None:
+    # a flight controller on USB that stops reading its port: the writes filled the buffer and
+    # the next one (pyserial's, no write timeout) waited for ever, the step, the heartbeat and
+    # Ctrl-C's last zero setpoints with it
+    import os
+    import pty
+    import tty
+
+    parent, child = pty.openpty()
+    tty.setraw(child)
+    port = MavPort.open(f"{os.ttyname(child)},115200", 255, 190)
+    hb = mav.MAVLink_heartbeat_message(mav.MAV_TYPE_ONBOARD_CONTROLLER, 8, 0, 0, 4, 3)
+    sent: list[float] = []
+
+    def send() -> None:
+        while len(sent) < 20_000 and getattr(port, "stalled", 0) < 50:  # (a pty holds some 60 KB: 3000 heartbeats)
+            start = time.monotonic()
+            port.send(hb)
+            sent.append(time.monotonic() - start)
+
+    sender = threading.Thread(target=send, daemon=True)
+    try:
+        sender.start()
+        sender.join(timeout=20.0)
+        assert not sender.is_alive() and port.stalled == 50 and not port.closed
+        assert max(sent) < 0.5 and sum(sent) < 5.0  # the first stalled write waited 0.25 s, the rest none
+        said = [r.getMessage() for r in caplog.records if "takes no bytes" in r.getMessage()]
+        assert len(said) == 1, said
+        while select.select([parent], [], [], 0.2)[0]:  # it reads again: the next whole packet goes
+            os.read(parent, 65536)
+        port.send(hb)
+        assert port.stalled == 0
+    finally:
+        port.close()
+        os.close(parent)
+        os.close(child)
+        sender.join(timeout=5.0)
 
 
 def test_a_serial_device_that_goes_away_and_comes_back_is_read_again(caplog: pytest.LogCaptureFixture) -> None:
