@@ -252,6 +252,9 @@ class MavPort:
         self._reopen_at = 0.0
         #: writes to a serial device that took no bytes for :data:`SERIAL_WRITE_WAIT_S`, in a row
         self.stalled = 0
+        #: the unsent rest of a packet a stalled write began: sent before the next one, so the
+        #: line never carries half a packet (the rover would read the next one's bytes as its rest)
+        self._tail = b""
         if connection is not None:
             self.mav = connection.mav
             self.mav.robust_parsing = True
@@ -447,12 +450,14 @@ class MavPort:
         """A write to the serial device, waiting up to :data:`SERIAL_WRITE_WAIT_S` for room;
         one that fails (the device went away) is noted as a read's failure is, not printed,
         and the bytes are lost. A device that takes no bytes in that time (a flight controller
-        on USB that stopped reading) loses the rest of the packet, and the writes after it
-        wait no more, until it takes a whole one again (said once): pyserial's own write
-        waited for it for ever, and then Ctrl-C's last zero setpoints too."""
+        on USB that stopped reading) keeps the rest of a packet it began for the next write
+        (half a packet would cost the next one too), loses those it did not begin, and the
+        writes after it wait no more, until it takes a whole one again (said once): pyserial's
+        own write waited for it for ever, and then Ctrl-C's last zero setpoints too."""
         if self.closed:
             return -1
-        data = bytes(buf)
+        data = self._tail + bytes(buf)
+        begun = len(self._tail)
         give_up = time.monotonic() + (0.0 if self.stalled else SERIAL_WRITE_WAIT_S)  # (stalled: no wait)
         try:
             fd = self.connection.port.fileno()
@@ -468,10 +473,15 @@ class MavPort:
                             "reading it?): what is sent is lost until it does",
                             self.connection.device,
                         )
-                    return len(buf) - len(data)
+                    # the rest of the packet begun goes first next time; one not begun is lost whole
+                    sent = begun + len(buf) - len(data)
+                    self._tail = data if sent > begun else data[: begun - sent]
+                    return max(0, sent - begun)
         except (OSError, ValueError):
+            self._tail = b""
             self._peer_closed()
             return -1
+        self._tail = b""
         self.stalled = 0
         return len(buf)
 
@@ -487,7 +497,7 @@ class MavPort:
         except (OSError, ValueError):  # not back yet
             return
         conn.port, conn.fd, conn.portdead = port, port.fileno(), False
-        self.closed = False
+        self.closed, self._tail = False, b""  # (a device that came back has no packet begun)
         log.warning("MAVLink serial device %s is back: reading it again", conn.device)
 
     def _recv_stream(self, timeout_s: float) -> Any | None:
