@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from lfctl.bench.formation import compare
 
 
@@ -76,6 +78,28 @@ def test_ctrl_c_of_every_benchmark_leaves_nothing_a_benchmark_started(tmp_path: 
             proc.kill()
         if worker_pid is not None and _alive(worker_pid):
             os.kill(worker_pid, signal.SIGKILL)
+
+
+def test_a_benchmark_stopped_by_ctrl_c_is_read_while_it_ends(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a benchmark that writes more than a pipe holds as it ends (its pool's workers' tracebacks,
+    # a cluster's close): the wait for it read nothing, so it blocked on the full pipe and was
+    # killed at STOP_S without finishing its cleanup
+    import lfctl.bench
+
+    monkeypatch.setattr(lfctl.bench, "STOP_S", 20.0)
+    done = tmp_path / "cleaned"
+    code = (
+        "import sys, time\ntry:\n    time.sleep(60)\nexcept KeyboardInterrupt:\n"
+        f"    sys.stderr.write('x' * 200_000)\n    sys.stderr.flush()\n    open({str(done)!r}, 'w').close()\n"
+    )
+    with subprocess.Popen(
+        [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    ) as child:
+        time.sleep(1.0)  # (in its sleep)
+        start = time.monotonic()
+        lfctl.bench._stop_child(child)
+    assert child.returncode == 0 and done.exists()
+    assert time.monotonic() - start < 10.0
 
 
 def _alive(pid: int) -> bool:

@@ -90,14 +90,15 @@ STOP_S = 30.0
 
 def _stop_child(child: subprocess.Popen[str]) -> None:
     """Stop a benchmark's process as a Ctrl-C would (SIGINT to its process group), give it
-    :data:`STOP_S` to end, then kill whatever of its group is left: a process it started
-    that outlived it (a pool worker waiting for its next job) would run on for ever.
-    (subprocess.run killed the benchmark alone after 0.25 s, which left vision's pool
-    workers blocked on their queue.)"""
+    :data:`STOP_S` to end, reading what it writes meanwhile (a full pipe would hold it, its
+    workers' tracebacks say, until the kill), then kill whatever of its group is left: a
+    process it started that outlived it (a pool worker waiting for its next job) would run
+    on for ever. (subprocess.run killed the benchmark alone after 0.25 s, which left
+    vision's pool workers blocked on their queue.)"""
     try:
         with contextlib.suppress(ProcessLookupError, subprocess.TimeoutExpired):
             os.killpg(child.pid, signal.SIGINT)
-            child.wait(STOP_S)
+            child.communicate(timeout=STOP_S)
     finally:
         with contextlib.suppress(ProcessLookupError):  # (all of it ended)
             os.killpg(child.pid, signal.SIGKILL)
