@@ -102,6 +102,38 @@ def test_a_benchmark_stopped_by_ctrl_c_is_read_while_it_ends(tmp_path: Path, mon
     assert time.monotonic() - start < 10.0
 
 
+def test_a_hangup_stops_the_benchmark_running(tmp_path: Path) -> None:
+    # the terminal closed: the shell passes SIGHUP to its job, lfctl's process group; the
+    # benchmark, in a session of its own, heard nothing and ran on with nobody to read it
+    pid_file = tmp_path / "bench.pid"
+    bench = f"import os, time; open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(120)"
+    fake_python = tmp_path / "python"  # what run_all starts as `python -m lfctl.bench.NAME`
+    fake_python.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -c {shlex.quote(bench)}\n")
+    fake_python.chmod(0o755)
+    driver = (
+        f"import sys; sys.executable = {str(fake_python)!r}; import lfctl.bench; "
+        f"lfctl.bench.run_all(('cosim',), True, __import__('pathlib').Path({str(tmp_path)!r}))"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", driver], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    bench_pid = None
+    try:
+        for _ in range(200):
+            if pid_file.exists() and pid_file.read_text():
+                bench_pid = int(pid_file.read_text())
+                break
+            time.sleep(0.05)
+        assert bench_pid is not None, "the benchmark did not start"
+        proc.send_signal(signal.SIGHUP)
+        proc.wait(timeout=60)
+        time.sleep(0.5)
+        assert not _alive(bench_pid), "the benchmark outlived the hangup"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        if bench_pid is not None and _alive(bench_pid):
+            os.kill(bench_pid, signal.SIGKILL)
+
+
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)

@@ -12,6 +12,7 @@ import signal
 import stat
 import subprocess
 import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,12 +61,15 @@ def _run_child(name: str, quick: bool) -> BenchOutcome:
     cmd = [sys.executable, "-m", f"lfctl.bench.{name}", *(["--quick"] if quick else [])]
     # in a session of its own, with whatever it starts (vision's pool, e2e's cameras, sweep's
     # workers): a Ctrl-C reaches it once, from here, and nothing it started outlives it
-    with subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
-    ) as child:
+    with (
+        _hangup_stops(),
+        subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        ) as child,
+    ):
         try:
             stdout, stderr = child.communicate()
-        except BaseException:  # Ctrl-C, or SIGTERM (lfctl's KeyboardInterrupt)
+        except BaseException:  # Ctrl-C, SIGTERM (lfctl's KeyboardInterrupt) or SIGHUP
             _stop_child(child)
             raise
     proc = subprocess.CompletedProcess(cmd, child.returncode, stdout, stderr)
@@ -81,6 +85,25 @@ def _run_child(name: str, quick: bool) -> BenchOutcome:
         )
         return BenchOutcome(name, lines, None, f"exit {proc.returncode}: {last}")
     return BenchOutcome(name, lines[:-1], json.loads(lines[-1]))
+
+
+@contextlib.contextmanager
+def _hangup_stops() -> Iterator[None]:
+    """SIGHUP (the terminal closed, the shell passing it to its jobs) stops the benchmark as
+    Ctrl-C does: in a session of its own it hears no hangup, and ran on with nobody to read it."""
+
+    def hangup(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGHUP, hangup)
+    except ValueError:  # (not the main thread: its signals are not ours to take)
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGHUP, previous)
 
 
 #: how long a benchmark stopped by Ctrl-C may take to end (its pool's jobs running, its
