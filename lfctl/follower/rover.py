@@ -199,8 +199,8 @@ def follow_rover(
     """
     # a ground station may set them; each must be one it could set
     set_values(companion.params, formation_param_values(settings), "lfctl follow")
-    _check_link_budget(companion, name, rate_hz, status_rate_hz)
     companion.wait_vehicle(timeout_s, rate_hz)
+    _check_link_budget(companion, name, rate_hz, status_rate_hz)  # (the odometry's rates as the rover took them)
     _check_speed_limit(companion, name, settings)
     v = companion.vehicle
     log.info(
@@ -646,8 +646,11 @@ def _check_link_budget(companion: Companion, name: str, rate_hz: float, status_r
     signed = port.mav.signing.sign_outgoing  # (a rover that checks signatures signs its own)
     up = rate_hz * _frame_bytes(mav.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED, signed)
     up += status_rate_hz * len(STATUS_NAMES) * _frame_bytes(mav.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT, signed)
-    odometry_hz = min(rate_hz, ROVER_STREAM_MAX_HZ)
-    down = odometry_hz * sum(_frame_bytes(i, signed) for i in ODOMETRY_MSG_IDS)
+    # each at the rate the rover took (one with SCHED_LOOP_RATE raised takes rate_hz), else
+    # at the fastest its default loop sends
+    taken = {i: companion.stream_hz.get(i, min(rate_hz, ROVER_STREAM_MAX_HZ)) for i in ODOMETRY_MSG_IDS}
+    odometry_hz = max(taken.values())
+    down = sum(hz * _frame_bytes(i, signed) for i, hz in taken.items())
     if max(up, down) > LINK_BUDGET_SHARE * capacity:
         log.warning(
             "%s: at %s baud the serial port carries %d bytes/s each way: the setpoints at %g Hz need %d and the "

@@ -852,6 +852,31 @@ def test_a_serial_port_too_slow_for_the_setpoints_or_the_odometry_is_said(
     assert not rover_module._check_link_budget(_memory_rover()[1], "rover", 100.0, 2.0)
 
 
+def test_odometry_the_rover_took_faster_than_its_default_loop_is_counted_in_the_serial_budget(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # a Rover with SCHED_LOOP_RATE raised takes the odometry at --rate 100: 12000 bytes/s over
+    # a 115200 baud port's 11520, counted as 40 Hz (4800) and not said
+    import os
+    import pty
+
+    from lfctl.follower.rover import _check_link_budget
+    from lfctl.link.companion import ODOMETRY_MSG_IDS
+
+    parent, child = pty.openpty()
+    companion = Companion.open(f"{os.ttyname(child)},115200", 1, None)
+    companion.stream_hz.update(dict.fromkeys(ODOMETRY_MSG_IDS, 100.0))  # (what wait_vehicle keeps)
+    try:
+        with caplog.at_level("WARNING", "lfctl.follower.rover"):
+            _check_link_budget(companion, "rover", 100.0, 2.0)
+    finally:
+        companion.close()
+        os.close(parent)
+        os.close(child)
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 1 and "the odometry asked for at 100 Hz 12000" in warned[0], warned
+
+
 def test_the_last_setpoints_are_spread_out_so_a_lost_burst_does_not_leave_the_rover_driving(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
