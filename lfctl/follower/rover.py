@@ -651,12 +651,15 @@ def _check_link_budget(companion: Companion, name: str, rate_hz: float, status_r
     taken = {i: companion.stream_hz.get(i, min(rate_hz, ROVER_STREAM_MAX_HZ)) for i in ODOMETRY_MSG_IDS}
     odometry_hz = max(taken.values())
     down = sum(hz * _frame_bytes(i, signed) for i, hz in taken.items())
-    if max(up, down) > LINK_BUDGET_SHARE * capacity:
+    limit = LINK_BUDGET_SHARE * capacity
+    if max(up, down) > limit:
+        late = [
+            *(["setpoints that do not fit queue and reach the rover late"] if up > limit else []),
+            *(["the rover sends the odometry slower than asked"] if down > limit else []),
+        ]
         log.warning(
             "%s: at %s baud the serial port carries %d bytes/s each way: the setpoints at %g Hz need %d and the "
-            "odometry asked for at %g Hz %d%s: setpoints that do not fit queue and reach the rover late, and the "
-            "rover sends the odometry slower than asked (a faster SERIALn_BAUD with the same ,BAUD here, or a "
-            "lower --rate)",
+            "odometry asked for at %g Hz %d%s: %s (a faster SERIALn_BAUD with the same ,BAUD here, or a lower --rate)",
             name,
             port.connection.baud,
             capacity,
@@ -665,6 +668,7 @@ def _check_link_budget(companion: Companion, name: str, rate_hz: float, status_r
             odometry_hz,
             down,
             ", signed" if signed else "",
+            ", and ".join(late),
         )
 
 

@@ -848,6 +848,9 @@ def test_a_serial_port_too_slow_for_the_setpoints_or_the_odometry_is_said(
     warned = [r.getMessage() for r in caplog.records]
     assert len(warned) == bool(said) and all(f"at {baud} baud the serial port carries" in w for w in warned)
     assert all(said in w for w in warned), warned
+    # each consequence said where it holds: the signed odometry alone is over (its setpoints fit)
+    late = "setpoints that do not fit queue and reach the rover late"
+    assert all((late in w) == (rate_hz == 100.0) and "the rover sends the odometry slower" in w for w in warned)
     # over a network there is no baud to check
     assert not rover_module._check_link_budget(_memory_rover()[1], "rover", 100.0, 2.0)
 
