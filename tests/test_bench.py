@@ -40,6 +40,33 @@ def test_formation_compares_the_figures_as_measured_not_as_printed() -> None:
     assert got["trail_on_path_lost_no_longer"] is False
 
 
+def _fake_benchmark(tmp_path: Path, bench: str, pid_file: Path, driver_head: str = "") -> tuple[subprocess.Popen, int]:
+    """``run_all`` of one benchmark whose process runs ``bench`` (as ``python -m
+    lfctl.bench.NAME`` would), in a driver process; returns the driver and the pid ``bench``
+    writes to ``pid_file`` once it runs."""
+    fake_python = tmp_path / "python"  # what run_all starts as `python -m lfctl.bench.NAME`
+    fake_python.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -c {shlex.quote(bench)}\n")
+    fake_python.chmod(0o755)
+    driver = (
+        f"{driver_head}import sys; sys.executable = {str(fake_python)!r}; import lfctl.bench; "
+        f"lfctl.bench.run_all(('cosim',), True, __import__('pathlib').Path({str(tmp_path)!r}))"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", driver], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    for _ in range(200):
+        if pid_file.exists() and pid_file.read_text():
+            return proc, int(pid_file.read_text())
+        time.sleep(0.05)
+    proc.kill()
+    raise AssertionError("the benchmark did not start")
+
+
+def _end(proc: subprocess.Popen, pid: int) -> None:
+    if proc.poll() is None:
+        proc.kill()
+    if _alive(pid):
+        os.kill(pid, signal.SIGKILL)
+
+
 def test_ctrl_c_of_every_benchmark_leaves_nothing_a_benchmark_started(tmp_path: Path) -> None:
     # a benchmark (run by run_all in a process of its own) that started a process which
     # outlives a Ctrl-C, as vision's pool workers do (they catch it as a job's error and wait
@@ -50,23 +77,9 @@ def test_ctrl_c_of_every_benchmark_leaves_nothing_a_benchmark_started(tmp_path: 
         f"open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(120)"
     )
     bench = f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', {worker!r}]); time.sleep(120)"
-    fake_python = tmp_path / "python"  # what run_all starts as `python -m lfctl.bench.NAME`
-    fake_python.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -c {shlex.quote(bench)}\n")
-    fake_python.chmod(0o755)
-    driver = (
-        "import signal, sys; signal.signal(signal.SIGINT, signal.default_int_handler); "
-        f"sys.executable = {str(fake_python)!r}; import lfctl.bench; lfctl.bench.run_all(('cosim',), True, "
-        f"__import__('pathlib').Path({str(tmp_path)!r}))"
-    )
-    proc = subprocess.Popen([sys.executable, "-c", driver], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    worker_pid = None
+    head = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler); "
+    proc, worker_pid = _fake_benchmark(tmp_path, bench, pid_file, head)
     try:
-        for _ in range(200):
-            if pid_file.exists() and pid_file.read_text():
-                worker_pid = int(pid_file.read_text())
-                break
-            time.sleep(0.05)
-        assert worker_pid is not None, "the benchmark's worker did not start"
         proc.send_signal(signal.SIGINT)  # Ctrl-C
         assert proc.wait(timeout=60) != 0
         assert b"KeyboardInterrupt" in proc.stderr.read()  # (stopped, not ended by itself)
@@ -74,10 +87,7 @@ def test_ctrl_c_of_every_benchmark_leaves_nothing_a_benchmark_started(tmp_path: 
         assert not _alive(worker_pid), "the benchmark's worker outlived Ctrl-C"
         assert not (tmp_path / "bench-results.json").exists()  # nothing written after a Ctrl-C
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        if worker_pid is not None and _alive(worker_pid):
-            os.kill(worker_pid, signal.SIGKILL)
+        _end(proc, worker_pid)
 
 
 def test_a_benchmark_stopped_by_ctrl_c_is_read_while_it_ends(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -96,10 +106,8 @@ def test_a_benchmark_stopped_by_ctrl_c_is_read_while_it_ends(tmp_path: Path, mon
         [sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
     ) as child:
         time.sleep(1.0)  # (in its sleep)
-        start = time.monotonic()
         lfctl.bench._stop_child(child)
-    assert child.returncode == 0 and done.exists()
-    assert time.monotonic() - start < 10.0
+    assert child.returncode == 0 and done.exists()  # it finished its cleanup, not killed at STOP_S
 
 
 def test_a_hangup_stops_the_benchmark_running(tmp_path: Path) -> None:
@@ -107,31 +115,14 @@ def test_a_hangup_stops_the_benchmark_running(tmp_path: Path) -> None:
     # benchmark, in a session of its own, heard nothing and ran on with nobody to read it
     pid_file = tmp_path / "bench.pid"
     bench = f"import os, time; open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(120)"
-    fake_python = tmp_path / "python"  # what run_all starts as `python -m lfctl.bench.NAME`
-    fake_python.write_text(f"#!/bin/sh\nexec {shlex.quote(sys.executable)} -c {shlex.quote(bench)}\n")
-    fake_python.chmod(0o755)
-    driver = (
-        f"import sys; sys.executable = {str(fake_python)!r}; import lfctl.bench; "
-        f"lfctl.bench.run_all(('cosim',), True, __import__('pathlib').Path({str(tmp_path)!r}))"
-    )
-    proc = subprocess.Popen([sys.executable, "-c", driver], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    bench_pid = None
+    proc, bench_pid = _fake_benchmark(tmp_path, bench, pid_file)
     try:
-        for _ in range(200):
-            if pid_file.exists() and pid_file.read_text():
-                bench_pid = int(pid_file.read_text())
-                break
-            time.sleep(0.05)
-        assert bench_pid is not None, "the benchmark did not start"
         proc.send_signal(signal.SIGHUP)
         proc.wait(timeout=60)
         time.sleep(0.5)
         assert not _alive(bench_pid), "the benchmark outlived the hangup"
     finally:
-        if proc.poll() is None:
-            proc.kill()
-        if bench_pid is not None and _alive(bench_pid):
-            os.kill(bench_pid, signal.SIGKILL)
+        _end(proc, bench_pid)
 
 
 def _alive(pid: int) -> bool:
