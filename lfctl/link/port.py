@@ -6,6 +6,7 @@ so their protocol code does not care which."""
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import logging
 import os
@@ -21,7 +22,7 @@ from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import NET_PREFIXES, check_host_port
-from lfctl.errors import ConfigError, LinkError
+from lfctl.errors import ConfigError, LfctlError, LinkError
 from lfctl.link.signing import setup_signing
 
 __all__ = ["CHECK_LINK", "STATUSTEXT_MAX_BYTES", "DatagramLink", "MavPort", "pack_next", "statustext_messages"]
@@ -126,6 +127,31 @@ def _check_network_address(connect: str) -> None:
         socket.getaddrinfo(host.strip("[]"), port)
     except (OSError, UnicodeError) as exc:
         raise LinkError(connect, f"host {host!r} is not an address here ({exc})") from None
+
+
+def _open_error(connect: str, exc: BaseException) -> LfctlError:
+    """What a failed open says: a file that is no terminal (``/dev/null``, where pyserial's
+    words are "Inappropriate ioctl for device") is the connection string's error (exit 2), a
+    device the user may not open names the ``dialout`` group; else the words as they came."""
+    codes = set()
+    seen: BaseException | None = exc
+    while seen is not None and len(codes) < 8:  # (the exception and what it was raised from)
+        code = getattr(seen, "errno", None)
+        code = (
+            code if isinstance(code, int) else (seen.args[0] if seen.args and isinstance(seen.args[0], int) else None)
+        )
+        codes.add(code)
+        seen = seen.__cause__ or seen.__context__
+    device = connect.partition(",")[0]
+    if errno.ENOTTY in codes:
+        return ConfigError(f"--mavlink {connect!r}: {device} is not a serial port (no terminal device: {exc})")
+    if errno.EACCES in codes:
+        return LinkError(
+            connect,
+            f"{exc} (a serial port belongs to the dialout group on Debian and Ubuntu: "
+            "sudo usermod -aG dialout $USER, then log in again)",
+        )
+    return LinkError(connect, str(exc))
 
 
 def _check_serial_device(connect: str) -> None:
@@ -307,7 +333,7 @@ class MavPort:
                     connect, source_system=sysid, source_component=compid, dialect="ardupilotmega", autoreconnect=False
                 )
         except Exception as exc:  # pymavlink raises plain exceptions for bad strings and ports
-            raise LinkError(connect, str(exc)) from exc
+            raise _open_error(connect, exc) from exc
         finally:
             for line in chatter.getvalue().splitlines():
                 log.debug("%s: pymavlink: %s", connect, line)

@@ -551,3 +551,24 @@ def test_a_serial_device_that_goes_away_and_comes_back_is_read_again(caplog: pyt
     assert [(m.get_type(), m.get_srcSystem()) for m in got] == [("HEARTBEAT", 1)] * 3
     said = [r.getMessage() for r in caplog.records]
     assert any("went away" in s for s in said) and any("is back: reading it again" in s for s in said)
+
+
+def test_a_file_that_is_no_serial_port_is_the_connection_strings_error() -> None:
+    # /dev/null exists, so it passed the device check, and pyserial's termios call failed:
+    # "Inappropriate ioctl for device", exit 1, as if the link had failed
+    with pytest.raises(ConfigError, match=r"'/dev/null,57600': /dev/null is not a serial port \(no terminal device"):
+        MavPort.open("/dev/null,57600", 255, 190)
+
+
+def test_a_serial_port_the_user_may_not_open_names_the_dialout_group() -> None:
+    import serial
+
+    from lfctl.errors import LinkError
+    from lfctl.link.port import _open_error
+
+    # pyserial's own words for EACCES (errno 13), as it raises them
+    refused = serial.SerialException(13, "could not open port /dev/ttyUSB0: [Errno 13] Permission denied")
+    err = _open_error("/dev/ttyUSB0,57600", refused)
+    assert isinstance(err, LinkError) and "Permission denied" in str(err) and "dialout" in str(err)
+    other = _open_error("/dev/ttyUSB0,57600", serial.SerialException(5, "could not open port: I/O error"))
+    assert isinstance(other, LinkError) and "dialout" not in str(other)
