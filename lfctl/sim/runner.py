@@ -544,6 +544,7 @@ def run_scenario(
     video: tuple[str, int] | None = None,
     on_live: Callable[[int], None] | None = None,
     on_log: Callable[[Path], None] | None = None,
+    warn: bool = True,
 ) -> RunReport:
     """Run a scenario closed loop and return the report.
 
@@ -588,6 +589,9 @@ def run_scenario(
     on_log : callable, optional
         Told the MCAP log's path once it is open (a name taken gets ``-2``, ...): where an
         interrupted run's finished log is.
+    warn : bool
+        Log :func:`scenario_warnings` as the run starts (a sweep says them once for all its
+        runs, and runs each with ``warn=False``).
 
     Raises
     ------
@@ -612,7 +616,7 @@ def run_scenario(
             f"vehicles[{alone[0]}].companion = false needs --realtime: the companion that commands it "
             "(lfctl follow) talks to it over UDP in real time"
         )
-    for problem in scenario_warnings(cfg):
+    for problem in scenario_warnings(cfg) if warn else ():
         log.warning("%s", problem)
     mission = scenario_mission(cfg)  # a bad mission file stops the run before it starts
     with Simulation(cfg, realtime=realtime, cache_dir=cache_dir) as sim:

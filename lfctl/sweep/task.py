@@ -10,7 +10,6 @@ path relative to the sweep's folder.
 
 from __future__ import annotations
 
-import logging
 import math
 import time
 from pathlib import Path
@@ -19,7 +18,7 @@ from typing import Any
 from lfctl.metrics import FormationMetrics, variation_per_s
 from lfctl.record.replay import MIN_VISIBLE
 from lfctl.sim.camera_sensor import CameraSample
-from lfctl.sim.runner import FollowerTrace, run_scenario, scenario_warnings
+from lfctl.sim.runner import FollowerTrace, run_scenario
 from lfctl.sweep.spec import Run
 from lfctl.vision.boxes import iou
 
@@ -105,22 +104,6 @@ class TrackScore:
     def view(self) -> float | None:
         """Share of frames with the target in the picture (None without frames)."""
         return self.in_view / self.frames if self.frames else None
-
-
-class _SaidBefore(logging.Filter):
-    """Drops the scenario's warnings (:func:`~lfctl.sim.runner.scenario_warnings`) from a
-    run's log: the sweep says them once, as it starts, not each run on its worker (where no
-    terminal's guard holds them back: two lines a run)."""
-
-    def __init__(self, said: list[str]) -> None:
-        super().__init__()
-        self.said = frozenset(said)
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        try:
-            return record.getMessage() not in self.said
-        except Exception:  # a bad log call: logging reports it
-            return True
 
 
 def log_name(run: int) -> str:
@@ -225,18 +208,14 @@ def execute(run: Run, out_dir: str, logs: str = "none") -> dict[str, Any]:
     def on_frame(follower: str, sample: CameraSample) -> None:
         scores[follower].add(sample)
 
-    said = _SaidBefore(scenario_warnings(run.config))  # (said by the sweep as it started)
-    runner_log = logging.getLogger(run_scenario.__module__)
-    runner_log.addFilter(said)
     t0 = time.perf_counter()
     try:
-        report = run_scenario(run.config, record_to=path, on_frame=on_frame if camera else None)
+        # (the scenario's warnings: said by the sweep as it started, once for all its runs)
+        report = run_scenario(run.config, record_to=path, on_frame=on_frame if camera else None, warn=False)
     except Exception as exc:  # the row says what went wrong; the sweep goes on
         wall = time.perf_counter() - t0
         kept = rel if path is not None and path.exists() else ""
         return failed_row(run, "error", f"{type(exc).__name__}: {exc}".splitlines()[0], kept, wall)
-    finally:
-        runner_log.removeFilter(said)
     wall = time.perf_counter() - t0
     if report.log_path is not None and path is not None:
         # the recorder's own name (another attempt may have taken ours meanwhile: then -2)
