@@ -355,3 +355,119 @@ def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_c
     assert out["epoch_us"] / 1e6 == pytest.approx(time.time(), abs=120)  # realtime: the run's start + its time
     w, x, y, z = out["q"]
     assert x == y == 0.0 and w * w + z * z == pytest.approx(1.0, abs=1e-5)  # level, turned about down
+
+
+async def plugins_session(port: int, endpoint: Any, home: tuple[float, float, float]) -> dict:
+    """MAVSDK's Geofence, Mission (not MissionRaw), Offboard and Info plugins, as a script uses them."""
+    from mavsdk.asyncio.plugins.action.action import ActionAsync
+    from mavsdk.asyncio.plugins.geofence.geofence import GeofenceAsync
+    from mavsdk.asyncio.plugins.info.info import InfoAsync
+    from mavsdk.asyncio.plugins.mission.mission import MissionAsync
+    from mavsdk.asyncio.plugins.offboard.offboard import OffboardAsync
+    from mavsdk.asyncio.plugins.telemetry.telemetry import TelemetryAsync
+    from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
+    from mavsdk.plugins.mission import MissionItem, MissionPlan
+    from mavsdk.plugins.offboard import VelocityNedYaw
+    from mavsdk.plugins.telemetry import FlightMode
+
+    from lfctl.frames import ned_to_geodetic
+
+    def place(n: float, e: float) -> tuple[float, float]:
+        lat, lon, _ = ned_to_geodetic(n, e, 0.0, *home)
+        return lat, lon
+
+    def waypoint(n: float, e: float) -> MissionItem:
+        return MissionItem(*place(n, e), relative_altitude_m=0.0, is_fly_through=True)
+
+    out: dict = {}
+    async with autopilot(port) as system:
+        fence, mission, offboard = GeofenceAsync(system), MissionAsync(system), OffboardAsync(system)
+        action, telemetry, info = ActionAsync(system), TelemetryAsync(system), InfoAsync(system)
+        version = await info.get_version()
+        out["version"] = (version.flight_sw_major, version.flight_sw_minor, version.flight_sw_patch)
+        # the Geofence plugin: polygons and circles, inclusion and exclusion, as FENCE items
+        square = Polygon(
+            [Point(*place(n, e)) for n, e in ((20, 20), (20, -20), (-20, -20), (-20, 20))], FenceType.INCLUSION
+        )
+        hole = Polygon([Point(*place(n, e)) for n, e in ((3, 3), (3, 5), (5, 5), (5, 3))], FenceType.EXCLUSION)
+        circles = [
+            Circle(Point(*place(0, 0)), 30.0, FenceType.INCLUSION),
+            Circle(Point(*place(-5, -5)), 1.0, FenceType.EXCLUSION),
+        ]
+        await fence.upload_geofence(GeofenceData([square, hole], circles))
+        back = await fence.download_geofence()
+        out["fence"] = (
+            [(len(p.points), p.fence_type) for p in back.polygons],
+            [(c.radius, c.fence_type) for c in back.circles],
+        )
+        await fence.clear_geofence()
+        cleared = await fence.download_geofence()
+        out["fence_cleared"] = (len(cleared.polygons), len(cleared.circles))
+        # the Mission plugin sends no home item: on a Rover, as here, its first item is the home
+        # slot and is never flown, so the plan starts with a placeholder
+        await mission.upload_mission(MissionPlan([waypoint(0.0, 0.0), waypoint(1.0, 0.0), waypoint(1.0, 1.0)]))
+        await action.arm()
+        await mission.start_mission()
+        for _ in range(100):  # on its way to the last item (item 2)
+            await asyncio.sleep(0.2)
+            if endpoint.mission_current == 2:
+                break
+        await mission.pause_mission()  # HOLD
+        out["paused"] = await settled(telemetry.flight_mode, FlightMode.HOLD)
+        await mission.start_mission()  # AUTO and MISSION_START: resumed, as Rover's AUTO resumes
+        out["resumed_at"] = endpoint.mission_current
+        out["finished"] = False
+        for _ in range(150):  # up to 30 s for 2 m at WP_SPEED and a turn
+            await asyncio.sleep(0.2)
+            if await mission.is_mission_finished():
+                out["finished"] = True
+                break
+        progress = await mission.mission_progress()
+        out["progress"] = (progress.current, progress.total)
+        out["at_end_m"] = math.hypot(endpoint.state["north_m"] - 1.0, endpoint.state["east_m"] - 1.0)
+        # Offboard: MAVSDK sets GUIDED and streams SET_POSITION_TARGET_LOCAL_NED, here a
+        # velocity with a heading (due east), which a Rover drives as a heading and a speed
+        await offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.2, 0.0, 90.0))
+        await offboard.start()
+        out["offboard_mode"] = await settled(telemetry.flight_mode, FlightMode.OFFBOARD)
+        for _ in range(50):  # up to 10 s to turn and drive east
+            await asyncio.sleep(0.2)
+            if abs(math.degrees(endpoint.state["yaw_rad"]) - 90.0) < 3.0 and endpoint.state["speed_mps"] > 0.15:
+                break
+        out["offboard"] = (math.degrees(endpoint.state["yaw_rad"]), endpoint.state["speed_mps"])
+        await offboard.stop()  # MAVSDK's HOLD
+        out["after_stop"] = await settled(telemetry.flight_mode, FlightMode.HOLD)
+        await mission.clear_mission()
+        out["mission_cleared"] = len((await mission.download_mission()).mission_items)
+        await action.disarm()
+    return out
+
+
+def test_mavsdk_geofence_mission_offboard_and_info_plugins(truth_convoy, background_run) -> None:
+    from mavsdk.plugins.geofence import FenceType
+    from mavsdk.plugins.telemetry import FlightMode
+
+    from lfctl.sim.links import Links
+
+    cfg = truth_convoy(60.0)
+    links: list[Links] = []
+    with background_run(cfg, realtime=True, on_links=links.append) as errors:
+        while not links:
+            asyncio.run(asyncio.sleep(0.05))
+        home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
+        out = asyncio.run(
+            asyncio.wait_for(plugins_session(cfg.link.udp_base_port, links[0].endpoints[0], home), timeout=120)
+        )
+    assert not errors, errors
+    assert out["version"] == (4, 6, 0)  # AUTOPILOT_VERSION's Rover release
+    incl, excl = FenceType.INCLUSION, FenceType.EXCLUSION
+    assert out["fence"] == ([(4, incl), (4, excl)], [(30.0, incl), (1.0, excl)])
+    assert out["fence_cleared"] == (0, 0)
+    assert out["paused"] == FlightMode.HOLD and out["resumed_at"] == 2, out
+    assert out["finished"], out  # its MISSION_ITEM_REACHED of the last item
+    assert out["progress"] == (3, 3) and out["at_end_m"] < 0.5, out
+    assert out["offboard_mode"] == FlightMode.OFFBOARD  # MAVSDK's name for Rover's GUIDED
+    heading, speed = out["offboard"]
+    assert heading == pytest.approx(90.0, abs=3.0) and speed == pytest.approx(0.2, abs=0.03), out
+    assert out["after_stop"] == FlightMode.HOLD
+    assert out["mission_cleared"] == 0
