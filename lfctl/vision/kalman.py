@@ -196,6 +196,30 @@ class OcclusionCoaster:
         _predict(self.kf)
         return float(self.kf.x[0]), float(self.kf.x[1])
 
+    def keep_within(
+        self, width: float, height: float, margin_x: float = 0.0, margin_y: float = 0.0
+    ) -> tuple[float, float]:
+        """Keep the coasted centre on the picture, at least ``margin_x`` / ``margin_y`` from
+        its edges (the middle, for a picture narrower than twice the margin): a coordinate
+        past that is put back on it and its speed along that axis stopped (a target that
+        left past an edge is just past it, not still travelling away); the centre, px.
+
+        Parameters
+        ----------
+        width, height : float
+            The picture's size, px.
+        margin_x, margin_y : float
+            How far from the edges the centre stays, px (half the window's width and height:
+            the window stays whole on the picture).
+        """
+        x = self.kf.x
+        for i, size, margin in ((0, width, margin_x), (1, height, margin_y)):
+            lo, hi = min(margin, size / 2.0), max(size - margin, size / 2.0)
+            if not lo <= x[i] <= hi:
+                x[i] = min(max(float(x[i]), lo), hi)
+                x[i + 2] = 0.0
+        return float(x[0]), float(x[1])
+
     @property
     def sigma_px(self) -> float:
         """1-sigma position uncertainty (the larger axis), px."""

@@ -47,6 +47,29 @@ def test_the_occlusion_coasters_default_process_noise_by_hand() -> None:
     assert c.sigma_px == pytest.approx(math.sqrt(1.5), rel=1e-12)
 
 
+def test_the_coaster_keeps_a_centre_that_left_the_picture_at_its_edge_by_hand() -> None:
+    # Wrong, a target that left past an edge would be coasted on out of the picture, where no
+    # search region reaches, and never looked for again.
+    # By hand: from (630, 200) at (+12, -3) px a frame, P = 0: the predict gives (642, 197);
+    # in a 640 x 480 picture with margins 20 x 30 the centre may be at u 20..620, v 30..450:
+    # u is put back to 620 and its speed stopped; v, inside, keeps its place and speed.
+    c = OcclusionCoaster(np.array([630.0, 200.0, 12.0, -3.0]), np.zeros((4, 4)))
+    c.predict()
+    assert c.keep_within(640, 480, 20.0, 30.0) == (620.0, 197.0)
+    assert c.kf.x.tolist() == [620.0, 197.0, 0.0, -3.0]
+    # the next frame it stays at the edge (no speed out) while v goes on
+    c.predict()
+    assert c.keep_within(640, 480, 20.0, 30.0) == (620.0, 194.0)
+    # past the top-left corner, both axes are put back; a margin over half the picture: the middle
+    c = OcclusionCoaster(np.array([-5.0, -8.0, -1.0, -2.0]), np.zeros((4, 4)))
+    assert c.keep_within(640, 480, 400.0, 30.0) == (320.0, 30.0)
+    assert c.kf.x.tolist() == [320.0, 30.0, 0.0, 0.0]
+    # inside: nothing changes, exactly on the margin included
+    c = OcclusionCoaster(np.array([20.0, 450.0, 5.0, 5.0]), np.zeros((4, 4)))
+    assert c.keep_within(640, 480, 20.0, 30.0) == (20.0, 450.0)
+    assert c.kf.x.tolist() == [20.0, 450.0, 5.0, 5.0]
+
+
 def test_the_area_filters_default_gate_is_three_and_a_half_sigma() -> None:
     # Wrong, the tracker (which passes no gate_sigma) would flag occlusions at another size.
     # By hand: P0_pp = meas_var = 4, S = 4 + 4 = 8: 3.4 sigma is inside, 3.6 outside.

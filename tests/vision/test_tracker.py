@@ -431,6 +431,34 @@ def test_a_hidden_target_coasts_on_the_motion_of_its_confident_frames(fit_frames
         assert pace < -3.0
 
 
+def test_a_target_that_left_past_the_edge_is_looked_for_at_that_edge_and_found_again() -> None:
+    """A blue box runs right 8 px a frame out past the picture's right edge, stays out for
+    20 frames (a camera that turned away), and comes back in at the same edge 60 px lower,
+    where it stands. The hidden target is looked for at the edge where it left: it is found
+    there, not coasted on out of the picture (where no search region reaches: it was OCCLUDED,
+    then LOST, for good)."""
+    rng = np.random.default_rng(5)
+    base = cv2.GaussianBlur(rng.normal(110, 12, (240, 400, 3)).clip(0, 255).astype(np.uint8), (3, 3), 0)
+
+    def at(x: int, y: int) -> np.ndarray:
+        f = base.copy()
+        cv2.rectangle(f, (x, y), (x + 39, y + 39), (200, 120, 40), -1)
+        return f
+
+    frames = [at(260 + 8 * k, 80) for k in range(18)]  # off the picture from frame 18
+    frames += [base.copy() for _ in range(20)]
+    frames += [at(360, 140) for _ in range(20)]  # back, wholly in view at the right edge
+    tr = Tracker(TrackerSettings(use_markers=False))
+    states = [tr.init(frames[0], (260, 80, 40, 40))] + [tr.update(f) for f in frames[1:]]
+    assert all(st.status is not TrackStatus.TRACKING for st in states[20:38])  # gone
+    assert not any("left the frame" in st.reason for st in states)
+    back = states[38:]
+    found = next(i for i, st in enumerate(back) if st.status is TrackStatus.TRACKING)
+    assert found <= 3
+    assert all(st.status is TrackStatus.TRACKING for st in back[found:])
+    assert iou(back[-1].bbox, (360, 140, 40, 40)) >= 0.7
+
+
 @pytest.mark.parametrize("distance", [0.0, 0.3])
 def test_a_window_with_no_pixel_of_the_target_is_not_taken_on_its_colour_distance(
     monkeypatch: pytest.MonkeyPatch, distance: float
