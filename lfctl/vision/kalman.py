@@ -196,13 +196,12 @@ class OcclusionCoaster:
         _predict(self.kf)
         return float(self.kf.x[0]), float(self.kf.x[1])
 
-    def keep_within(
-        self, width: float, height: float, margin_x: float = 0.0, margin_y: float = 0.0
-    ) -> tuple[float, float]:
+    def keep_within(self, width: float, height: float, margin_x: float = 0.0, margin_y: float = 0.0) -> bool:
         """Keep the coasted centre on the picture, at least ``margin_x`` / ``margin_y`` from
         its edges (the middle, for a picture narrower than twice the margin): a coordinate
         past that is put back on it and its speed along that axis stopped (a target that
-        left past an edge is just past it, not still travelling away); the centre, px.
+        left past an edge is just past it, not still travelling away). Whether it was put
+        back; :attr:`centre` is where it is now.
 
         Parameters
         ----------
@@ -213,12 +212,19 @@ class OcclusionCoaster:
             the window stays whole on the picture).
         """
         x = self.kf.x
+        put_back = False
         for i, size, margin in ((0, width, margin_x), (1, height, margin_y)):
             lo, hi = min(margin, size / 2.0), max(size - margin, size / 2.0)
             if not lo <= x[i] <= hi:
                 x[i] = min(max(float(x[i]), lo), hi)
                 x[i + 2] = 0.0
-        return float(x[0]), float(x[1])
+                put_back = True
+        return put_back
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        """The coasted centre, px."""
+        return float(self.kf.x[0]), float(self.kf.x[1])
 
     @property
     def sigma_px(self) -> float:

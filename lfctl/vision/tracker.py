@@ -42,9 +42,11 @@ to come back, or the tracking gate and its grey-level pattern's gate together
 (:mod:`~lfctl.vision.appearance`: a target that lands lit from another side is plainly its own
 shape and shading). While hidden, the search coasts on the constant velocity fitted to the
 target's last confident centres (``TrackerSettings.motion_fit_frames``), not on the centre
-filter's, which the windows an occluder or a neighbour dragged off it have already bent; the
-coasting stops where the window reaches the picture's edge, so a target that left past an edge
-(a camera that turned away) is looked for at that edge, not coasted on out of the picture. A banner whose markers were seen is held to its track: without its markers the
+filter's, which the windows an occluder or a neighbour dragged off it have already bent; a
+target followed by its colours stops coasting where its window reaches the picture's edge, so
+one that left past an edge (a camera that turned away) is looked for at that edge, not coasted
+on out of the picture, where no search reaches (a banner whose markers were seen coasts on,
+and is looked for in the whole picture once its window has left it). A banner whose markers were seen is held to its track: without its markers the
 window may not leave the centre filter's validation gate, and once hidden it comes back only
 on its markers (in the realistic look the camera's exposure can turn the ground the light
 grey of its panel, which its colours alone do not tell apart). Real footage without markers
@@ -732,11 +734,14 @@ class Tracker:
         ph = max(4.0, pw * aspect)
         if hidden:
             assert self._coaster is not None
-            self._coaster.predict()
-            # a target that left past the picture's edge is just past it: the coasted window
-            # stops at the edge, whole on the picture, and is looked for there (coasting on,
-            # it would leave the picture and never be looked for again)
-            pred_c = self._coaster.keep_within(frame.shape[1], frame.shape[0], pw / 2.0, ph / 2.0)
+            pred_c = self._coaster.predict()
+            if not self._markers_seen:
+                # a target that left past the picture's edge is just past it: the coasted
+                # window stops at the edge, whole on the picture, and is looked for there
+                # (coasting on, it would leave the picture and never be looked for again; a
+                # banner whose markers were seen is looked for in the whole picture then)
+                self._coaster.keep_within(frame.shape[1], frame.shape[0], pw / 2.0, ph / 2.0)
+                pred_c = self._coaster.centre
         pred_win = (int(round(pred_c[0] - pw / 2)), int(round(pred_c[1] - ph / 2)), int(round(pw)), int(round(ph)))
         scale = s.search_scale
         if hidden:

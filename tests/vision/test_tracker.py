@@ -452,6 +452,14 @@ def test_a_target_that_left_past_the_edge_is_looked_for_at_that_edge_and_found_a
     states = [tr.init(frames[0], (260, 80, 40, 40))] + [tr.update(f) for f in frames[1:]]
     assert all(st.status is not TrackStatus.TRACKING for st in states[20:38])  # gone
     assert not any("left the frame" in st.reason for st in states)
+    assert all(st.bbox is not None for st in states[18:38])  # the coasted window, on the picture
+    # a banner whose markers were seen coasts on out of the picture, as it did: it is looked
+    # for in the whole picture on its markers then (this box has none, so it stays hidden)
+    banner = Tracker(TrackerSettings())
+    banner.init(frames[0], (260, 80, 40, 40))
+    banner._markers_seen = True  # as if its markers had been seen at the start
+    coasted = [banner.update(f) for f in frames[1:38]]
+    assert coasted[-1].status is TrackStatus.OCCLUDED and coasted[-1].bbox is None  # off the picture
     back = states[38:]
     found = next(i for i, st in enumerate(back) if st.status is TrackStatus.TRACKING)
     assert found <= 3
