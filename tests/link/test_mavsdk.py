@@ -7,7 +7,7 @@ import asyncio
 import contextlib
 import math
 import time
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable, Iterator
 from typing import Any
 
 import pytest
@@ -333,17 +333,22 @@ async def manual_drive(port: int, endpoint: Any, max_speed_mps: float) -> dict:
     return out
 
 
-def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_convoy, background_run) -> None:
-    from mavsdk.plugins.telemetry import FlightMode
-
-    from lfctl.sim.links import Links
-
-    cfg = truth_convoy(60.0)
-    links: list[Links] = []
+@contextlib.contextmanager
+def realtime_endpoint(background_run, cfg) -> Iterator[tuple[Any, list]]:
+    """A ``--realtime`` run of ``cfg`` in the background: its first vehicle's endpoint, once
+    the links are up, and the run's error list."""
+    links: list[Any] = []
     with background_run(cfg, realtime=True, on_links=links.append) as errors:
         while not links:
             asyncio.run(asyncio.sleep(0.05))
-        ep = links[0].endpoints[0]
+        yield links[0].endpoints[0], errors
+
+
+def test_mavsdk_manual_control_drives_manual_once_sysid_mygcs_is_its_own(truth_convoy, background_run) -> None:
+    from mavsdk.plugins.telemetry import FlightMode
+
+    cfg = truth_convoy(60.0)
+    with realtime_endpoint(background_run, cfg) as (ep, errors):
         out = asyncio.run(
             asyncio.wait_for(manual_drive(cfg.link.udp_base_port, ep, cfg.guidance.max_speed_mps), timeout=120)
         )
@@ -447,17 +452,10 @@ def test_mavsdk_geofence_mission_offboard_and_info_plugins(truth_convoy, backgro
     from mavsdk.plugins.geofence import FenceType
     from mavsdk.plugins.telemetry import FlightMode
 
-    from lfctl.sim.links import Links
-
     cfg = truth_convoy(60.0)
-    links: list[Links] = []
-    with background_run(cfg, realtime=True, on_links=links.append) as errors:
-        while not links:
-            asyncio.run(asyncio.sleep(0.05))
+    with realtime_endpoint(background_run, cfg) as (ep, errors):
         home = (cfg.link.home_lat_deg, cfg.link.home_lon_deg, cfg.link.home_alt_m)
-        out = asyncio.run(
-            asyncio.wait_for(plugins_session(cfg.link.udp_base_port, links[0].endpoints[0], home), timeout=120)
-        )
+        out = asyncio.run(asyncio.wait_for(plugins_session(cfg.link.udp_base_port, ep, home), timeout=120))
     assert not errors, errors
     assert out["version"] == (4, 6, 0)  # AUTOPILOT_VERSION's Rover release
     incl, excl = FenceType.INCLUSION, FenceType.EXCLUSION
