@@ -437,7 +437,11 @@ async def plugins_session(port: int, endpoint: Any, home: tuple[float, float, fl
         out["offboard_mode"] = await settled(telemetry.flight_mode, FlightMode.OFFBOARD)
         for _ in range(50):  # up to 10 s to turn and drive east
             await asyncio.sleep(0.2)
-            if abs(math.degrees(endpoint.state["yaw_rad"]) - 90.0) < 3.0 and endpoint.state["speed_mps"] > 0.15:
+            # waited for as the test asserts it (a loaded machine's run may still be speeding up)
+            if (
+                abs(math.degrees(endpoint.state["yaw_rad"]) - 90.0) < 3.0
+                and abs(endpoint.state["speed_mps"] - 0.2) < 0.03
+            ):
                 break
         out["offboard"] = (math.degrees(endpoint.state["yaw_rad"]), endpoint.state["speed_mps"])
         await offboard.stop()  # MAVSDK's HOLD
