@@ -210,7 +210,19 @@ class OcclusionCoaster:
         margin_x, margin_y : float
             How far from the edges the centre stays, px (half the window's width and height:
             the window stays whole on the picture).
+
+        Raises
+        ------
+        ValueError
+            A size that is not finite and positive, or a margin that is NaN (it would leave the
+            centre where it is yet stop its speed and say it was put back); an infinite margin
+            is one over half the picture: the middle.
         """
+        if not (0 < width < math.inf and 0 < height < math.inf) or math.isnan(margin_x) or math.isnan(margin_y):
+            raise ValueError(
+                f"a picture of finite positive size and margins that are numbers, got {width!r} x {height!r}, "
+                f"margins {margin_x!r}, {margin_y!r}"
+            )
         x = self.kf.x
         put_back = False
         for i, size, margin in ((0, width, margin_x), (1, height, margin_y)):

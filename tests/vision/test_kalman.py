@@ -247,3 +247,26 @@ def test_centre_filter_takes_a_motion_and_keeps_its_covariance() -> None:
     for bad in ([1.0, 2.0, 3.0], [1.0, 2.0, float("nan"), 4.0]):
         with pytest.raises(ValueError, match="4 finite values"):
             f.set_motion(np.array(bad))
+
+
+@pytest.mark.parametrize(
+    ("size", "margins"),
+    [
+        ((640.0, 480.0), (float("nan"), 30.0)),
+        ((640.0, 480.0), (20.0, float("nan"))),
+        ((float("nan"), 480.0), (20.0, 30.0)),
+        ((640.0, float("inf")), (20.0, 30.0)),
+        ((0.0, 480.0), (20.0, 30.0)),
+        ((640.0, -1.0), (20.0, 30.0)),
+    ],
+)
+def test_the_coaster_refuses_a_picture_or_margin_it_cannot_keep_a_centre_within(size: tuple, margins: tuple) -> None:
+    # Wrong, a NaN margin passed every comparison: the centre stayed where it was, its speed
+    # was stopped, and keep_within said it had put it back.
+    c = OcclusionCoaster(np.array([100.0, 100.0, 3.0, 3.0]), np.eye(4))
+    with pytest.raises(ValueError, match="finite positive size and margins that are numbers"):
+        c.keep_within(*size, *margins)
+    assert c.kf.x.tolist() == [100.0, 100.0, 3.0, 3.0]
+    # an infinite margin is one over half the picture: the middle, as the docstring says
+    assert c.keep_within(640.0, 480.0, float("inf"), 30.0) is True
+    assert c.centre == (320.0, 100.0)
