@@ -46,8 +46,8 @@ filter's, which the windows an occluder or a neighbour dragged off it have alrea
 target followed by its colours stops coasting where its window reaches the picture's edge, so
 one that left past an edge (a camera that turned away) is looked for at that edge, not coasted
 on out of the picture, where no search reaches (a banner whose markers were seen coasts on,
-and is looked for in the whole picture once its window has left it). A banner whose markers were seen is held to its track: without its markers the
-window may not leave the centre filter's validation gate, and once hidden it comes back only
+and is looked for in the whole picture once its window has left it). A banner whose markers
+were seen is held to its track: without its markers the window may not leave the centre filter's validation gate, and once hidden it comes back only
 on its markers (in the realistic look the camera's exposure can turn the ground the light
 grey of its panel, which its colours alone do not tell apart). Real footage without markers
 is unaffected.
@@ -725,28 +725,26 @@ class Tracker:
         assert self._centre is not None and self._area is not None and self.window is not None and self._lut is not None
         s = self.s
         pred_c = self._centre.predict()
-        hidden = self.status is not TrackStatus.TRACKING and self._coaster is not None
+        coaster = self._coaster if self.status is not TrackStatus.TRACKING else None  # coasting while hidden
         # the hidden target's size is held as last seen, its uncertainty too: back in view, a
         # window sprawling over what hid it must not pass the size gate as a new size
-        pred_size = float(np.exp(self._area.size if hidden else self._area.predict()))
+        pred_size = float(np.exp(self._area.size if coaster is not None else self._area.predict()))
         aspect = self._aspect
         pw = max(4.0, pred_size / np.sqrt(aspect))
         ph = max(4.0, pw * aspect)
-        if hidden:
-            assert self._coaster is not None
-            pred_c = self._coaster.predict()
+        if coaster is not None:
+            pred_c = coaster.predict()
             if not self._markers_seen:
                 # a target that left past the picture's edge is just past it: the coasted
                 # window stops at the edge, whole on the picture, and is looked for there
                 # (coasting on, it would leave the picture and never be looked for again; a
                 # banner whose markers were seen is looked for in the whole picture then)
-                self._coaster.keep_within(frame.shape[1], frame.shape[0], pw / 2.0, ph / 2.0)
-                pred_c = self._coaster.centre
+                coaster.keep_within(frame.shape[1], frame.shape[0], pw / 2.0, ph / 2.0)
+                pred_c = coaster.centre
         pred_win = (int(round(pred_c[0] - pw / 2)), int(round(pred_c[1] - ph / 2)), int(round(pw)), int(round(ph)))
         scale = s.search_scale
-        if hidden:
-            assert self._coaster is not None
-            scale += 2.0 * self._coaster.sigma_px / max(pw, ph)  # widen while hidden
+        if coaster is not None:
+            scale += 2.0 * coaster.sigma_px / max(pw, ph)  # widen while hidden
         if self.status is TrackStatus.LOST:
             scale = max(scale, LOST_SEARCH_SCALE)
         usual = None  # the region a target without a pattern would have, when wider is searched
