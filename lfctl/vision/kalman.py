@@ -190,6 +190,9 @@ class OcclusionCoaster:
         self.kf = _cv_filter(2, accel_var, 4.0)
         self.kf.x = x.copy()
         self.kf.P = P.copy()
+        #: whether :meth:`keep_within` has put the centre back on the picture since the target
+        #: was hidden: it left past an edge
+        self.held_at_edge = False
 
     def predict(self) -> tuple[float, float]:
         """Advance one frame with no measurement; the coasted centre, px."""
@@ -201,7 +204,7 @@ class OcclusionCoaster:
         its edges (the middle, for a picture narrower than twice the margin): a coordinate
         past that is put back on it and its speed along that axis stopped (a target that
         left past an edge is just past it, not still travelling away). Whether it was put
-        back; :attr:`centre` is where it is now.
+        back (and :attr:`held_at_edge` from then on); :attr:`centre` is where it is now.
 
         Parameters
         ----------
@@ -231,6 +234,7 @@ class OcclusionCoaster:
                 x[i] = min(max(float(x[i]), lo), hi)
                 x[i + 2] = 0.0
                 put_back = True
+        self.held_at_edge |= put_back
         return put_back
 
     @property

@@ -44,9 +44,12 @@ shape and shading). While hidden, the search coasts on the constant velocity fit
 target's last confident centres (``TrackerSettings.motion_fit_frames``), not on the centre
 filter's, which the windows an occluder or a neighbour dragged off it have already bent; a
 target followed by its colours stops coasting where its window reaches the picture's edge, so
-one that left past an edge (a camera that turned away) is looked for at that edge, not coasted
-on out of the picture, where no search reaches (a banner whose markers were seen coasts on,
-and is looked for in the whole picture once its window has left it). A banner whose markers
+one that left past an edge (a camera that turned away) is not coasted on out of the picture,
+where no search reaches; from then on it is looked for in the whole picture, as the camera's
+motion may bring it back anywhere, taken outside the region it would have had only on its
+pattern too, and found again it starts the centre filter afresh (a banner whose markers were
+seen coasts on, and is looked for in the whole picture on its markers once its window has left
+it). A banner whose markers
 were seen is held to its track: without its markers the window may not leave the centre filter's validation gate, and once hidden it comes back only
 on its markers (in the realistic look the camera's exposure can turn the ground the light
 grey of its panel, which its colours alone do not tell apart). Real footage without markers
@@ -630,6 +633,18 @@ class Tracker:
             ds.append(self._window_colours(planes, box, area)[1])
         return float(np.median(ds)) if ds else 1.0
 
+    def _measure_centre(self, cx: float, cy: float) -> None:
+        """Give the centre filter the window's centre; a target found again after it left past
+        the picture's edge starts it afresh there, its velocity unknown: the camera turned
+        away and back, so the motion it had before says nothing of where it goes now (taken as
+        a measurement, the jump across the picture would set it running off that way)."""
+        assert self._centre is not None
+        if self._coaster is not None and self._coaster.held_at_edge:
+            self._centre = CentreFilter(cx, cy)
+            self._steady.clear()
+        else:
+            self._centre.update(cx, cy)
+
     def _start_filters(self, box: Box) -> None:
         x, y, w, h = box
         self._start_size = float(np.sqrt(w * h))
@@ -760,6 +775,14 @@ class Tracker:
             usual = _scaled(pred_win, scale, pred_c)  # unclipped: it may lie off the frame
             scale = LOST_SEARCH_SCALE
         search = clip_box(_scaled(pred_win, scale, pred_c), frame.shape)
+        if coaster is not None and coaster.held_at_edge and self._pattern is not None and not self._markers_seen:
+            # a target that left past the picture's edge comes back where the camera's motion
+            # brings it, which need not be the edge it left by (a pan that swings back, a
+            # camera that turned away and back along another path): it is looked for in the
+            # whole picture, and outside the region it would have had only its pattern takes it
+            if usual is None:
+                usual = _scaled(pred_win, scale, pred_c)
+            search = (0, 0, frame.shape[1], frame.shape[0])
         if search is None:
             return self._miss(frame, pred_win, None, 1.0, "prediction left the frame")
         sx, sy, sw, sh = search
@@ -848,7 +871,7 @@ class Tracker:
         # tracking: update the filters and (carefully) the model
         x, y, w, h = fix.window
         cx, cy = x + w / 2.0, y + h / 2.0
-        self._centre.update(cx, cy)
+        self._measure_centre(cx, cy)
         if fix.size_px is not None:
             self._area.update(float(np.log(fix.size_px)), EXACT_SIZE_VAR if constellation is not None else None)
         else:
@@ -1080,7 +1103,7 @@ class Tracker:
                 taken, _, grey = self._outside_usual(frame, grey, usual, win, d)
                 if not taken:
                     continue
-            self._centre.update(cx, cy)
+            self._measure_centre(cx, cy)
             self._area = self._size_filter(size, self.s.size_meas_var)  # measured once, as CAMShift would
             self._resume(clipped)
             self._sprawling = True

@@ -55,12 +55,15 @@ def test_the_coaster_keeps_a_centre_that_left_the_picture_at_its_edge_by_hand() 
     # u is put back to 620 and its speed stopped; v, inside, keeps its place and speed.
     c = OcclusionCoaster(np.array([630.0, 200.0, 12.0, -3.0]), np.zeros((4, 4)))
     c.predict()
+    assert c.held_at_edge is False
     assert c.keep_within(640, 480, 20.0, 30.0) is True
+    assert c.held_at_edge is True  # it left past an edge
     assert c.centre == (620.0, 197.0)
     assert c.kf.x.tolist() == [620.0, 197.0, 0.0, -3.0]
     # the next frame it stays at the edge (no speed out) while v goes on
     c.predict()
     assert c.keep_within(640, 480, 20.0, 30.0) is False  # already there: nothing put back
+    assert c.held_at_edge is True  # and it still left past an edge
     assert c.centre == (620.0, 194.0)
     # past the top-left corner, both axes are put back; a margin over half the picture: the middle
     c = OcclusionCoaster(np.array([-5.0, -8.0, -1.0, -2.0]), np.zeros((4, 4)))
@@ -70,6 +73,7 @@ def test_the_coaster_keeps_a_centre_that_left_the_picture_at_its_edge_by_hand() 
     # inside: nothing changes, exactly on the margin included
     c = OcclusionCoaster(np.array([20.0, 450.0, 5.0, 5.0]), np.zeros((4, 4)))
     assert c.keep_within(640, 480, 20.0, 30.0) is False
+    assert c.held_at_edge is False
     assert c.centre == (20.0, 450.0)
     assert c.kf.x.tolist() == [20.0, 450.0, 5.0, 5.0]
 

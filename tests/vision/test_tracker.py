@@ -467,6 +467,54 @@ def test_a_target_that_left_past_the_edge_is_looked_for_at_that_edge_and_found_a
     assert iou(back[-1].bbox, (360, 140, 40, 40)) >= 0.7
 
 
+def _past_the_edge_and_back(look: np.ndarray, reentry: bool = True) -> list:
+    """The bar target runs right 8 px a frame out past the right edge of a 320 px picture, is
+    out for 10 frames (a camera that turned away), and from frame 23 ``look`` stands at the
+    far left (the camera turned back along another path): 180 px from the edge it left by,
+    outside the region it would have had there (4 window sizes). The tracker's states."""
+    rng = np.random.default_rng(0)
+    ground = rng.integers(100, 140, (240, 320, 1)).astype(np.uint8).repeat(3, axis=2)
+    tracker = Tracker(TrackerSettings(use_markers=False, appearance_reentry=reentry))
+    states = []
+    for i in range(30):
+        frame, x = ground.copy(), 220 + 8 * i
+        if x < 320:
+            frame[100:130, x : min(320, x + 30)] = _bar_target()[:, : min(30, 320 - x)]
+        elif i >= 23:
+            frame[100:130, 20:50] = look
+        states.append(tracker.init(frame, (x, 100, 30, 30)) if i == 0 else tracker.update(frame))
+    return states
+
+
+def test_a_target_that_left_past_the_edge_is_looked_for_in_the_whole_picture() -> None:
+    """Back at the far left, the target is found on its first frame there, on its pattern
+    (outside the region it would have had); while it was out, once its coasted window had
+    stopped at the edge, the whole picture was searched."""
+    states = _past_the_edge_and_back(_bar_target())
+    assert all(st.status is TrackStatus.OCCLUDED for st in states[13:23])  # wholly out
+    whole = (0, 0, 320, 240)
+    assert states[22].search == whole
+    back = states[23]
+    assert back.status is TrackStatus.TRACKING
+    assert back.reason.startswith(f"{BACK_ON_PATTERN} {OUTSIDE_USUAL}")
+    assert back.bbox is not None and iou(back.bbox, (20, 100, 30, 30)) >= 0.6
+    assert all(st.status is TrackStatus.TRACKING for st in states[23:])
+    assert states[-1].search != whole  # tracking again: the usual region
+
+
+def test_a_look_alike_across_the_picture_is_not_taken_for_a_target_that_left_past_the_edge() -> None:
+    """The same colours (the bar across the top, not down the side) at the far left: searched
+    for in the whole picture, it is found, and refused for its pattern; a target without a
+    pattern (``appearance_reentry=False``) is not looked for there at all."""
+    turned = np.ascontiguousarray(_bar_target().transpose(1, 0, 2))
+    states = _past_the_edge_and_back(turned)
+    assert all(st.status is TrackStatus.OCCLUDED for st in states[23:])
+    assert all(st.reason.startswith(OUTSIDE_USUAL) and "fails" in st.reason for st in states[23:])
+    states = _past_the_edge_and_back(_bar_target(), reentry=False)
+    assert all(st.status is not TrackStatus.TRACKING for st in states[23:])
+    assert all(st.search is None or st.search[0] > 50 for st in states[13:])  # never over the far left
+
+
 @pytest.mark.parametrize("distance", [0.0, 0.3])
 def test_a_window_with_no_pixel_of_the_target_is_not_taken_on_its_colour_distance(
     monkeypatch: pytest.MonkeyPatch, distance: float
