@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import contextlib
+import json
+import math
 import os
 import shlex
 import signal
@@ -13,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from lfctl.bench.common import print_json
 from lfctl.bench.formation import compare
 
 
@@ -156,3 +159,19 @@ def test_a_peer_that_refused_every_run_of_a_tier_has_no_figures_only_the_reason(
     assert refused_on_every_run("full", runs) is None  # (it ran)
     # refused on one seed of three: it ran on the others, which it is scored on (the refused one as failing)
     assert refused_on_every_run("MIL", [runs[0], {"init_failed": []}, {"init_failed": []}]) is None
+
+
+def test_the_closing_json_line_is_strict_json_with_null_for_what_was_not_measured(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # Wrong, a median of nothing (NaN) or an infinite ratio would print a bare NaN or
+    # Infinity, which jq and JavaScript refuse: the whole line lost to the one figure.
+    print_json("x", {"a": math.nan, "b": [1.5, math.inf, (2, -math.inf)], "c": {"d": {"e": math.nan}}, "f": "NaN"})
+    line = capsys.readouterr().out.strip()
+
+    def refuse(constant: str) -> None:
+        raise AssertionError(f"non-standard JSON constant {constant} in {line}")
+
+    doc = json.loads(line, parse_constant=refuse)
+    assert doc["benchmark"] == "x"
+    assert doc["results"] == {"a": None, "b": [1.5, None, [2, None]], "c": {"d": {"e": None}}, "f": "NaN"}

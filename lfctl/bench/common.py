@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import platform
 import random
@@ -44,6 +45,10 @@ def _fmt(value: object) -> str:
 def print_json(benchmark: str, results: object) -> None:
     """The last line of every benchmark: one JSON object (with the machine and Python).
 
+    A figure that could not be measured (NaN, as a median of nothing is) or is infinite is
+    written ``null``: JSON has no NaN, and Python's ``json`` would write a bare ``NaN`` that
+    ``jq``, JavaScript and most other readers refuse, losing the whole line.
+
     Parameters
     ----------
     benchmark : str
@@ -51,16 +56,25 @@ def print_json(benchmark: str, results: object) -> None:
     results : object
         Its figures, JSON-serialisable.
     """
-    print(
-        json.dumps(
-            {
-                "benchmark": benchmark,
-                "machine": platform.machine(),
-                "python": platform.python_version(),
-                "results": results,
-            }
-        )
-    )
+    line = {
+        "benchmark": benchmark,
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "results": results,
+    }
+    print(json.dumps(_finite_or_null(line), allow_nan=False))
+
+
+def _finite_or_null(value: object) -> object:
+    """``value`` with every NaN or infinite float in it (at any depth of dicts, lists and
+    tuples) made None."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(v) for v in value]
+    return value
 
 
 def run_as_script(main: Callable[[bool], None], doc: str | None, argv: Sequence[str] | None = None) -> None:
