@@ -814,15 +814,23 @@ class Tracker:
         cand, d = self._window_colours(planes, fix.window, search)  # the window's inner part
         back = self.status is not TrackStatus.TRACKING  # coming back needs the stricter gate
         accepted = gate.accepts(d, reentry=back)
+        grey = None  # the frame in grey, made only when the pattern is wanted
         if not gate.confident(d) and constellation is None:
             # not clearly where it was predicted: the best window anywhere in the search region
             alt = self._detect(prob, (sx, sy), pred_win)
+            if alt is not None and usual is not None:
+                taken, _, grey = self._outside_usual(frame, grey, usual, alt.window, d)
+                near = None if taken else self._detect_within(prob, (sx, sy), usual, pred_win)
+                if near is not None and gate.accepts(self._window_colours(planes, near.window, search)[1]):
+                    # a look-alike outside the region it would have had, refused for its pattern,
+                    # must not hide the target in that region: the best window there, if the
+                    # gate takes it (else the look-alike stays, to be refused for its pattern)
+                    alt = near
             if alt is not None:
                 alt_cand, alt_d = self._window_colours(planes, alt.window, search)
                 if alt_d < d:
                     fix, cand, d = alt, alt_cand, alt_d
                     accepted = gate.accepts(d, reentry=back)
-        grey = None  # the frame in grey, made only when the pattern is wanted
         why = ""
         if (
             back
@@ -1016,6 +1024,15 @@ class Tracker:
             return None
         start = (origin[0] + px - kw // 2, origin[1] + py - kh // 2, pw, ph)
         return self._locate(prob, origin, start)
+
+    def _detect_within(self, prob: np.ndarray, origin: tuple[int, int], box: Box, pred_win: Box) -> _Fix | None:
+        """:meth:`_detect` in the part of the region (``prob``, whose top-left is ``origin``) that
+        ``box`` (frame pixels) takes in; None when it takes in none."""
+        inside = clip_box((box[0] - origin[0], box[1] - origin[1], box[2], box[3]), prob.shape)
+        if inside is None:
+            return None
+        x, y, w, h = inside
+        return self._detect(prob[y : y + h, x : x + w], (origin[0] + x, origin[1] + y), pred_win)
 
     def _calibrate(self, frame: np.ndarray, roi: Box) -> None:
         """How mean shift and CAMShift see this target, against the box it was started on: run
