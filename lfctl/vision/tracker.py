@@ -274,8 +274,9 @@ class TrackerSettings:
         pattern rule: 3 times the window 86, 4 times 61, 6 times 61; and by colour alone
         the rendered occlusion tier 0.669 to 0.616, 18 hidden frames claimed, which the
         rule prevents). A banner whose markers were seen still comes back only on its
-        markers, in the region it had. False: the re-entry gate alone, and the narrower
-        region until LOST.
+        markers, in the region it had; markers found outside the region a target whose
+        markers were never seen would have had do not bring it back on their own (another
+        vehicle's banner). False: the re-entry gate alone, and the narrower region until LOST.
     turn_step_deg : float
         How far a rigid target's turn is looked for on each frame, degrees, either way (0:
         the window's aspect is CAMShift's slow average alone). A target whose grey-level
@@ -794,6 +795,15 @@ class Tracker:
         if s.use_markers:
             must = "track" if self.status is TrackStatus.TRACKING else "return"
             constellation = self._markers_near(hsv, pred_win, (sx, sy), must)
+        if (
+            constellation is not None
+            and usual is not None
+            and not _holds_point(usual, _centre_of(constellation.banner_bbox(s.panel_over_side)))
+        ):
+            # markers never seen on this target (else there is no ``usual``), outside the region
+            # it would have had: another vehicle's banner, as likely as its own; it comes back
+            # there on its colours and pattern, not on markers alone
+            constellation = None
         if constellation is None and self._markers_seen:
             self._markers_missing += 1
             if self._markers_missing % 3 == 0:

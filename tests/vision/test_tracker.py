@@ -553,6 +553,31 @@ def test_a_look_alike_across_the_picture_does_not_hide_a_target_back_at_the_edge
         assert states[23].bbox is not None and iou(states[23].bbox, (285, 100, 30, 16)) >= 0.4
 
 
+def test_a_banner_across_the_picture_is_not_taken_on_its_markers_for_a_target_that_left_past_the_edge() -> None:
+    """With the markers on (the default), the bar target (no markers) runs out past the edge; a
+    rendered banner, of about its size, stands at the far left from frame 23. Its markers are
+    found in the whole picture searched, outside the region the target would have had: they
+    do not bring it back (another vehicle's banner), nor do its colours."""
+    _t, rendered, truth = next(make_sequence("clear", 0, 1).frames())
+    x, y, w, h = truth.bbox
+    crop = rendered[y - 6 : y + h + 6, x - 6 : x + w + 6]
+    crop = cv2.resize(crop, None, fx=42.0 / crop.shape[0], fy=42.0 / crop.shape[0], interpolation=cv2.INTER_AREA)
+    rng = np.random.default_rng(0)
+    ground = rng.integers(100, 140, (240, 320, 1)).astype(np.uint8).repeat(3, axis=2)
+    shown = ground.copy()
+    shown[90 : 90 + crop.shape[0], 10 : 10 + crop.shape[1]] = crop
+    assert Tracker().init_from_markers(shown) is not None  # the banner's markers are found there
+    tracker = Tracker(TrackerSettings())
+    states = []
+    for i in range(30):
+        frame, x = (shown if i >= 23 else ground).copy(), 220 + 8 * i
+        if x < 320:
+            frame[100:130, x : min(320, x + 30)] = _bar_target()[:, : min(30, 320 - x)]
+        states.append(tracker.init(frame, (x, 100, 30, 30)) if i == 0 else tracker.update(frame))
+    assert states[22].search == (0, 0, 320, 240)
+    assert all(st.status is TrackStatus.OCCLUDED and st.markers is None for st in states[23:])
+
+
 @pytest.mark.parametrize("distance", [0.0, 0.3])
 def test_a_window_with_no_pixel_of_the_target_is_not_taken_on_its_colour_distance(
     monkeypatch: pytest.MonkeyPatch, distance: float
