@@ -191,6 +191,12 @@ class AppearanceGate:
         return max(scored) if scored else None
 
     @property
+    def can_pass(self) -> bool:
+        """Whether any window can pass yet: the typical score learnt, and above the best
+        impostor's around the start (else :meth:`passes` refuses every window)."""
+        return self.typical is not None and self.typical > self.background
+
+    @property
     def threshold(self) -> float | None:
         """The lowest score that passes (exclusive); None while still learning."""
         if self.typical is None:
@@ -207,7 +213,7 @@ class AppearanceGate:
             The window's :meth:`score`.
         """
         t = self.threshold
-        return s is not None and t is not None and self.typical is not None and self.typical > self.background and s > t
+        return s is not None and t is not None and self.can_pass and s > t
 
     def observe(self, s: float | None) -> None:
         """Learn from the score of a window the track accepted.

@@ -191,7 +191,8 @@ class OcclusionCoaster:
         self.kf.x = x.copy()
         self.kf.P = P.copy()
         #: whether :meth:`keep_within` has put the centre back on the picture since the target
-        #: was hidden: it left past an edge
+        #: was hidden: its coasted window reached the edge (it left past it, or stood at it
+        #: and the coasting's noise took the centre a little past the margin)
         self.held_at_edge = False
 
     def predict(self) -> tuple[float, float]:

@@ -45,15 +45,16 @@ target's last confident centres (``TrackerSettings.motion_fit_frames``), not on 
 filter's, which the windows an occluder or a neighbour dragged off it have already bent; a
 target followed by its colours stops coasting where its window reaches the picture's edge, so
 one that left past an edge (a camera that turned away) is not coasted on out of the picture,
-where no search reaches; from then on it is looked for in the whole picture, as the camera's
-motion may bring it back anywhere, taken outside the region it would have had only on its
-pattern too, and found again it starts the centre filter afresh (a banner whose markers were
-seen coasts on, and is looked for in the whole picture on its markers once its window has left
-it). A banner whose markers
-were seen is held to its track: without its markers the window may not leave the centre filter's validation gate, and once hidden it comes back only
-on its markers (in the realistic look the camera's exposure can turn the ground the light
-grey of its panel, which its colours alone do not tell apart). Real footage without markers
-is unaffected.
+where no search reaches. From then on, while hidden, one that can come back on its pattern is
+looked for in the whole picture, as the camera's motion may bring it back anywhere, taken
+outside the region it would have had only on its pattern too (markers found there do not bring
+it back on their own: another vehicle's banner); found again, it starts the centre filter
+afresh. A banner whose markers were seen coasts on, and is looked for in the whole picture on
+its markers once its window has left it. A banner whose markers were seen is held to its
+track: without its markers the window may not leave the centre filter's validation gate, and
+once hidden it comes back only on its markers (in the realistic look the camera's exposure can
+turn the ground the light grey of its panel, which its colours alone do not tell apart). Real
+footage without markers is unaffected.
 
 Pure: frames in, :class:`TrackState` out; no clock, file or socket.
 """
@@ -635,10 +636,11 @@ class Tracker:
         return float(np.median(ds)) if ds else 1.0
 
     def _measure_centre(self, cx: float, cy: float) -> None:
-        """Give the centre filter the window's centre; a target found again after it left past
-        the picture's edge starts it afresh there, its velocity unknown: the camera turned
-        away and back, so the motion it had before says nothing of where it goes now (taken as
-        a measurement, the jump across the picture would set it running off that way)."""
+        """Give the centre filter the window's centre; a target found again after its coasted
+        window reached the picture's edge (it left past it, or stood at it) starts it afresh
+        there, its velocity unknown: the camera turned away and back, so the motion it had
+        before says nothing of where it goes now (taken as a measurement, a jump across the
+        picture would set it running off that way)."""
         assert self._centre is not None
         if self._coaster is not None and self._coaster.held_at_edge:
             self._centre = CentreFilter(cx, cy)
@@ -752,9 +754,9 @@ class Tracker:
             pred_c = coaster.predict()
             if not self._markers_seen:
                 # a target that left past the picture's edge is just past it: the coasted
-                # window stops at the edge, whole on the picture, and is looked for there
-                # (coasting on, it would leave the picture and never be looked for again; a
-                # banner whose markers were seen is looked for in the whole picture then)
+                # window stops at the edge, whole on the picture (coasting on, it would leave
+                # the picture and never be looked for again; a banner whose markers were seen
+                # is looked for in the whole picture then)
                 coaster.keep_within(frame.shape[1], frame.shape[0], pw / 2.0, ph / 2.0)
                 pred_c = coaster.centre
         pred_win = (int(round(pred_c[0] - pw / 2)), int(round(pred_c[1] - ph / 2)), int(round(pw)), int(round(ph)))
@@ -776,13 +778,23 @@ class Tracker:
             usual = _scaled(pred_win, scale, pred_c)  # unclipped: it may lie off the frame
             scale = LOST_SEARCH_SCALE
         search = clip_box(_scaled(pred_win, scale, pred_c), frame.shape)
-        if coaster is not None and coaster.held_at_edge and self._pattern is not None and not self._markers_seen:
-            # a target that left past the picture's edge comes back where the camera's motion
-            # brings it, which need not be the edge it left by (a pan that swings back, a
-            # camera that turned away and back along another path): it is looked for in the
-            # whole picture, and outside the region it would have had only its pattern takes it
+        if (
+            coaster is not None
+            and coaster.held_at_edge
+            and self._pattern is not None
+            and self._pattern.can_pass  # learnt: else nothing outside the usual region could pass
+            and not self._markers_seen
+        ):
+            # a target whose coasted window reached the picture's edge (it left past it, or
+            # stood at it) comes back where the camera's motion brings it, which need not be
+            # that edge (a pan that swings back, a camera that turned away and back along
+            # another path): it is looked for in the whole picture, and outside the region it
+            # would have had only its pattern takes it. That region is held at the lost
+            # target's size: the coaster's uncertainty grows on at the edge, and with it the
+            # region would cover the picture within a second, taking a look-alike anywhere
+            # on its colours alone
             if usual is None:
-                usual = _scaled(pred_win, scale, pred_c)
+                usual = _scaled(pred_win, min(scale, LOST_SEARCH_SCALE), pred_c)
             search = (0, 0, frame.shape[1], frame.shape[0])
         if search is None:
             return self._miss(frame, pred_win, None, 1.0, "prediction left the frame")

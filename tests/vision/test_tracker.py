@@ -478,20 +478,23 @@ def test_a_target_that_left_past_the_edge_is_looked_for_at_that_edge_and_found_a
     assert iou(back[-1].bbox, (360, 140, 40, 40)) >= 0.7
 
 
-def _past_the_edge_and_back(look: np.ndarray, reentry: bool = True) -> list:
-    """The bar target runs right 8 px a frame out past the right edge of a 320 px picture, is
-    out for 10 frames (a camera that turned away), and from frame 23 ``look`` stands at the
-    far left (the camera turned back along another path): 180 px from the edge it left by,
-    outside the region it would have had there (4 window sizes). The tracker's states."""
+def _past_the_edge_and_back(
+    look: np.ndarray, reentry: bool = True, start: int = 220, back: int = 23, frames: int = 30
+) -> list:
+    """The bar target runs right 8 px a frame from x = ``start`` out past the right edge of a
+    320 px picture (wholly out from frame 13 by default: a camera that turned away), and from
+    frame ``back`` ``look`` stands at the far left (the camera turned back along another
+    path): 180 px from the edge it left by, outside the region it would have had there (4
+    window sizes). The tracker's states."""
     rng = np.random.default_rng(0)
     ground = rng.integers(100, 140, (240, 320, 1)).astype(np.uint8).repeat(3, axis=2)
     tracker = Tracker(TrackerSettings(use_markers=False, appearance_reentry=reentry))
     states = []
-    for i in range(30):
-        frame, x = ground.copy(), 220 + 8 * i
+    for i in range(frames):
+        frame, x = ground.copy(), start + 8 * i
         if x < 320:
             frame[100:130, x : min(320, x + 30)] = _bar_target()[:, : min(30, 320 - x)]
-        elif i >= 23:
+        elif i >= back:
             frame[100:130, 20:50] = look
         states.append(tracker.init(frame, (x, 100, 30, 30)) if i == 0 else tracker.update(frame))
     return states
@@ -524,6 +527,26 @@ def test_a_look_alike_across_the_picture_is_not_taken_for_a_target_that_left_pas
     states = _past_the_edge_and_back(_bar_target(), reentry=False)
     assert all(st.status is not TrackStatus.TRACKING for st in states[23:])
     assert all(st.search is None or st.search[0] > 50 for st in states[13:])  # never over the far left
+
+
+def test_a_look_alike_is_refused_for_its_pattern_however_long_the_target_was_out() -> None:
+    """The look-alike of the test above, first seen 33 frames after the target went out: the
+    coaster's uncertainty has grown on at the edge meanwhile (the region it gives would take in
+    the whole picture), but the region outside which the pattern must pass is held at the lost
+    target's, 4 window sizes: the look-alike is still refused."""
+    turned = np.ascontiguousarray(_bar_target().transpose(1, 0, 2))
+    states = _past_the_edge_and_back(turned, back=46, frames=50)
+    assert all(st.status is TrackStatus.OCCLUDED for st in states[13:])
+    assert all(st.reason.startswith(OUTSIDE_USUAL) and "fails" in st.reason for st in states[46:])
+
+
+def test_a_target_out_before_its_pattern_is_learnt_is_not_searched_for_in_the_whole_picture() -> None:
+    """The bar target goes out past the edge on frame 4, before its pattern's typical score is
+    learnt (five accepted frames): no window outside the region it would have had could pass,
+    so the whole picture is not searched (it costs 2-3 times a frame, for nothing)."""
+    states = _past_the_edge_and_back(_bar_target(), start=290, back=12, frames=20)
+    assert all(st.status is not TrackStatus.TRACKING for st in states[4:12])
+    assert all(st.search != (0, 0, 320, 240) for st in states)
 
 
 def test_a_look_alike_across_the_picture_does_not_hide_a_target_back_at_the_edge_it_left_by() -> None:
