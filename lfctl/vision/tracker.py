@@ -868,7 +868,11 @@ class Tracker:
             score = self._pattern.best_score(grey, fix.window)
             if self._pattern.passes(score):
                 accepted = True
-                why = f"{BACK_ON_PATTERN} (colour distance {d:.2f}, pattern {score:.2f})"
+                # taken on its pattern outside the region it would have had: the reason says so,
+                # as it does for a window taken there past the re-entry gate (_outside_usual)
+                outside = usual is not None and not _holds_point(usual, _centre_of(fix.window))
+                where = f" {OUTSIDE_USUAL}" if outside else ""
+                why = f"{BACK_ON_PATTERN}{where} (colour distance {d:.2f}, pattern {score:.2f})"
         if accepted and not why and constellation is None and _region_sum(prob, (sx, sy), fix.window)[0] <= 0:
             # taken on colours alone, yet not one of the window's pixels back-projects above the
             # floor: the window is only the prediction, and the model's histogram, blended from

@@ -17,6 +17,7 @@ from lfctl.vision import tracker as tracker_module
 from lfctl.vision.boxes import iou
 from lfctl.vision.exposure import Exposure
 from lfctl.vision.frames import FrameError
+from lfctl.vision.gates import DistanceGate
 from lfctl.vision.markers import BannerLook, check_constellation, find_constellations
 from lfctl.vision.track_state import TrackStatus
 from lfctl.vision.tracker import (
@@ -527,6 +528,18 @@ def test_a_look_alike_across_the_picture_is_not_taken_for_a_target_that_left_pas
     states = _past_the_edge_and_back(_bar_target(), reentry=False)
     assert all(st.status is not TrackStatus.TRACKING for st in states[23:])
     assert all(st.search is None or st.search[0] > 50 for st in states[13:])  # never over the far left
+
+
+def test_a_target_back_on_its_pattern_outside_the_usual_region_is_said_to_be(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bar target back at the far left, its colours made to pass only the tracking gate,
+    not the re-entry one (as a target lit differently comes back): it is taken on its pattern,
+    and the reason says the window lies outside the region it would have had, as a window
+    taken there past the re-entry gate says."""
+    accepts = DistanceGate.accepts
+    monkeypatch.setattr(DistanceGate, "accepts", lambda self, d, reentry=False: not reentry and accepts(self, d))
+    back = _past_the_edge_and_back(_bar_target())[23]
+    assert back.status is TrackStatus.TRACKING
+    assert back.reason.startswith(f"{BACK_ON_PATTERN} {OUTSIDE_USUAL} (colour distance")
 
 
 def test_a_look_alike_is_refused_for_its_pattern_however_long_the_target_was_out() -> None:
