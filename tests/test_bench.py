@@ -165,7 +165,8 @@ def test_the_closing_json_line_is_strict_json_with_null_for_what_was_not_measure
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     # Wrong, a median of nothing (NaN) or an infinite ratio would print a bare NaN or
-    # Infinity, which jq and JavaScript refuse: the whole line lost to the one figure.
+    # Infinity, which strict JSON readers (JavaScript's JSON.parse) refuse: the whole line
+    # lost to the one figure.
     print_json("x", {"a": math.nan, "b": [1.5, math.inf, (2, -math.inf)], "c": {"d": {"e": math.nan}}, "f": "NaN"})
     line = capsys.readouterr().out.strip()
 

@@ -47,7 +47,8 @@ def print_json(benchmark: str, results: object) -> None:
 
     A figure that could not be measured (NaN, as a median of nothing is) or is infinite is
     written ``null``: JSON has no NaN, and Python's ``json`` would write a bare ``NaN`` that
-    ``jq``, JavaScript and most other readers refuse, losing the whole line.
+    strict readers (JavaScript's ``JSON.parse``, Go's, Rust's serde) refuse, losing the whole
+    line.
 
     Parameters
     ----------
