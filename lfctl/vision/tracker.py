@@ -468,6 +468,12 @@ def _holds_point(box: Box, point: tuple[float, float]) -> bool:
     return x <= point[0] < x + w and y <= point[1] < y + h
 
 
+def _outside(region: Box | None, window: Box) -> bool:
+    """Whether ``window``'s centre lies outside ``region`` (never, without a region: the
+    usual search region of a target with no wider search)."""
+    return region is not None and not _holds_point(region, _centre_of(window))
+
+
 def _box_at(cx: float, cy: float, size: float, aspect: float) -> Box:
     """The box centred on (cx, cy) with sqrt(w h) = ``size`` and h / w = ``aspect``."""
     w = max(2.0, size / np.sqrt(max(aspect, 1e-3)))
@@ -807,11 +813,7 @@ class Tracker:
         if s.use_markers:
             must = "track" if self.status is TrackStatus.TRACKING else "return"
             constellation = self._markers_near(hsv, pred_win, (sx, sy), must)
-        if (
-            constellation is not None
-            and usual is not None
-            and not _holds_point(usual, _centre_of(constellation.banner_bbox(s.panel_over_side)))
-        ):
+        if constellation is not None and _outside(usual, constellation.banner_bbox(s.panel_over_side)):
             # markers never seen on this target (else there is no ``usual``), outside the region
             # it would have had: another vehicle's banner, as likely as its own; it comes back
             # there on its colours and pattern, not on markers alone
@@ -840,16 +842,18 @@ class Tracker:
         if not gate.confident(d) and constellation is None:
             # not clearly where it was predicted: the best window anywhere in the search region
             alt = self._detect(prob, (sx, sy), pred_win)
+            alt_colours = None if alt is None else self._window_colours(planes, alt.window, search)
             if alt is not None and usual is not None:
                 taken, _, grey = self._outside_usual(frame, grey, usual, alt.window, d)
                 near = None if taken else self._detect_within(prob, (sx, sy), usual, pred_win)
-                if near is not None and gate.accepts(self._window_colours(planes, near.window, search)[1]):
+                near_colours = None if near is None else self._window_colours(planes, near.window, search)
+                if near_colours is not None and gate.accepts(near_colours[1]):
                     # a look-alike outside the region it would have had, refused for its pattern,
                     # must not hide the target in that region: the best window there, if the
                     # gate takes it (else the look-alike stays, to be refused for its pattern)
-                    alt = near
-            if alt is not None:
-                alt_cand, alt_d = self._window_colours(planes, alt.window, search)
+                    alt, alt_colours = near, near_colours
+            if alt is not None and alt_colours is not None:
+                alt_cand, alt_d = alt_colours
                 if alt_d < d:
                     fix, cand, d = alt, alt_cand, alt_d
                     accepted = gate.accepts(d, reentry=back)
@@ -870,8 +874,7 @@ class Tracker:
                 accepted = True
                 # taken on its pattern outside the region it would have had: the reason says so,
                 # as it does for a window taken there past the re-entry gate (_outside_usual)
-                outside = usual is not None and not _holds_point(usual, _centre_of(fix.window))
-                where = f" {OUTSIDE_USUAL}" if outside else ""
+                where = f" {OUTSIDE_USUAL}" if _outside(usual, fix.window) else ""
                 why = f"{BACK_ON_PATTERN}{where} (colour distance {d:.2f}, pattern {score:.2f})"
         if accepted and not why and constellation is None and _region_sum(prob, (sx, sy), fix.window)[0] <= 0:
             # taken on colours alone, yet not one of the window's pixels back-projects above the
@@ -1167,7 +1170,7 @@ class Tracker:
         have had) with no reason; outside it only if its pattern passes, the reason saying
         so (:data:`OUTSIDE_USUAL`); and the frame in grey, made here if it was not."""
         assert self._pattern is not None
-        if _holds_point(usual, _centre_of(window)):
+        if not _outside(usual, window):
             return True, "", grey
         if grey is None:
             grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
