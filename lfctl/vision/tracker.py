@@ -1145,8 +1145,9 @@ class Tracker:
             clipped = clip_box(win, frame.shape)
             if clipped is None:
                 continue
+            where = ""  # outside the usual region, taken on its pattern: the reason says so
             if usual is not None:
-                taken, _, grey = self._outside_usual(frame, grey, usual, win, d)
+                taken, where, grey = self._outside_usual(frame, grey, usual, win, d)
                 if not taken:
                     continue
             self._measure_centre(cx, cy)
@@ -1157,6 +1158,8 @@ class Tracker:
                 self._steady.append((self.frame_index, *_centre_of(clipped)))
             self.status = TrackStatus.TRACKING
             why = f"{FOUND_SMALLER} {k:.2f}x the predicted size: the window had spread over its surroundings"
+            if where:
+                why += f"; {where}"
             return TrackState(
                 self.frame_index, self.status, clipped, float(np.clip(1.0 - d, 0.0, 1.0)), d, None, search, why
             )

@@ -14,6 +14,7 @@ from lfctl.render.sequences import make_sequence
 from lfctl.sim.camera_sensor import CameraSensor
 from lfctl.vision import markers
 from lfctl.vision import tracker as tracker_module
+from lfctl.vision.appearance import AppearanceGate
 from lfctl.vision.boxes import iou
 from lfctl.vision.exposure import Exposure
 from lfctl.vision.frames import FrameError
@@ -402,6 +403,36 @@ def test_only_a_grown_window_is_looked_for_smaller(growth: float, status: TrackS
     assert tr._sprawling == (status is TrackStatus.TRACKING)
     tr.init(before, (140, 100, 40, 40))  # a new start forgets the mark
     assert not tr._sprawling
+
+
+def test_a_window_found_smaller_outside_the_usual_region_is_taken_on_its_pattern_and_said_to_be(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Outside the region a hidden target would have had, a window found at a smaller size is
+    taken only if its pattern passes, and then its reason says both how and where."""
+    before, after = _recoloured_box_frames()
+    tr = Tracker(TrackerSettings(use_markers=False, sprawl_growth=0.0))
+    tr.init(before, (140, 100, 40, 40))
+    for _ in range(6):
+        tr.update(before)
+    assert tr.window is not None
+    search = (0, 0, after.shape[1], after.shape[0])
+    planes, _ = tr._features(after)
+    prob = tr._probability(planes)
+    usual = (0, 0, 60, 60)  # the region it would have had: far from the box
+    smaller = (after, tr.window, search, planes, prob, False, usual)
+    monkeypatch.setattr(AppearanceGate, "best_score", lambda self, grey, box: 0.5)  # (a plain box has no pattern)
+    monkeypatch.setattr(AppearanceGate, "passes", lambda self, s: False)
+    assert tr._look_smaller(*smaller) is None
+    monkeypatch.setattr(AppearanceGate, "passes", lambda self, s: True)
+    st = tr._look_smaller(*smaller)
+    assert st is not None and st.status is TrackStatus.TRACKING
+    assert st.reason.startswith(FOUND_SMALLER)
+    assert f"{BACK_ON_PATTERN} {OUTSIDE_USUAL}" in st.reason
+    # inside the region it would have had, no pattern is asked for and none is named
+    monkeypatch.setattr(AppearanceGate, "passes", lambda self, s: False)
+    st = tr._look_smaller(after, tr.window, search, planes, prob, False, search)
+    assert st is not None and OUTSIDE_USUAL not in st.reason
 
 
 def _moving_box_frames(n: int, speed_px: int) -> list[np.ndarray]:
