@@ -176,3 +176,14 @@ def test_the_closing_json_line_is_strict_json_with_null_for_what_was_not_measure
     doc = json.loads(line, parse_constant=refuse)
     assert doc["benchmark"] == "x"
     assert doc["results"] == {"a": None, "b": [1.5, None, [2, None]], "c": {"d": {"e": None}}, "f": "NaN"}
+
+
+def test_the_e2e_benchmarks_cpu_seconds_take_in_the_processes_the_run_started() -> None:
+    # camera workers and an FMU's own process spend CPU outside this one: the CPU-time factor
+    # counts them once they have ended
+    from lfctl.bench.e2e import cpu_seconds
+
+    before = cpu_seconds()
+    burn = "import time\nwhile time.process_time() < 0.3:\n    pass\n"
+    subprocess.run([sys.executable, "-c", burn], check=True, timeout=120)
+    assert cpu_seconds() - before >= 0.3
