@@ -482,6 +482,7 @@ class VehicleEndpoint:
             home=self._home_item,
             on_edit=self._list_edited,
             on_received=self._list_received,
+            nav_index=lambda: self.mission_current,
         )
         self.ftp = FtpServer(self._ftp_files(), self._send_ftp, self.statustext)
         self.mission_version = 0  # bumps when the mission or the current item changes

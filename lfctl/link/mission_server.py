@@ -229,6 +229,10 @@ class MissionServer:
         Told ``mission_type`` when an upload of a list ends accepted (a whole one, one of no
         items, or a partial update), before the ACK goes out: where Rover's
         ``MissionItemProtocol::complete`` speaks (a MISSION_CLEAR_ALL is not an upload).
+    nav_index : callable, optional
+        The current navigation command's item number (MISSION_CURRENT's seq; 0: none); a
+        downloaded mission item's ``current`` is 1 where its command id equals it, as Rover
+        sets it (default: the current item).
     """
 
     def __init__(
@@ -240,6 +244,7 @@ class MissionServer:
         home: Callable[[], MissionItem] | None = None,
         on_edit: Callable[[int, list[MissionItem]], None] | None = None,
         on_received: Callable[[int], None] | None = None,
+        nav_index: Callable[[], int] | None = None,
     ) -> None:
         self.send = send
         self.statustext = statustext
@@ -248,6 +253,7 @@ class MissionServer:
         self.on_received = on_received or (lambda mission_type: None)
         self.running = running or (lambda: False)
         self.home = home
+        self.nav_index = nav_index or (lambda: self.current_seq)
         self.lists: dict[int, list[MissionItem]] = {t: [] for t in MISSION_TYPES}
         self._revision = 0  # bumps when a list's items change (a file's items are packed again)
         self._packed: dict[int, tuple[tuple[int, ...], bytes]] = {}  # each list's items as a file's, past home
@@ -542,7 +548,7 @@ class MissionServer:
         """
         items = self.lists[mission_type]
         live_home = mission_type == MISSION and self.home is not None and bool(items)
-        key = (self._revision, self.current_seq, len(items))
+        key = (self._revision, self.nav_index(), len(items))
         cached = self._packed.get(mission_type)
         if cached is None or cached[0] != key:  # (a full mission takes ~7 ms to pack: not on each open)
             cached = key, b"".join(self._packed_item(it, mission_type) for it in items[live_home:])
@@ -552,7 +558,7 @@ class MissionServer:
         return head + home + cached[1]
 
     def _packed_item(self, it: MissionItem, mission_type: int) -> bytes:
-        current = int(mission_type == MISSION and it.seq == self.current_seq)
+        current = int(mission_type == MISSION and it.command == self.nav_index())  # as a download's
         m = _item_message(it, 0, 0, current, mission_type)
         return _ITEM.unpacker.pack(*(getattr(m, f) for f in _ITEM.ordered_fieldnames))
 
@@ -674,7 +680,9 @@ class MissionServer:
         it = items[m.seq]
         if mtype == MISSION and m.seq == 0 and self.home is not None:
             it = self.home()  # as Rover's AP_Mission reads item 0: home now
-        current = int(mtype == MISSION and it.seq == self.current_seq)
+        # as Rover's MissionItemProtocol_Waypoints::get_item: 1 where the item's command id
+        # equals the current navigation command's index (not its seq), so almost never
+        current = int(mtype == MISSION and it.command == self.nav_index())
         self.send(_item_message(it, *src, current, mtype, float_item))
 
     def on_clear(self, m: Any, t_s: float) -> None:

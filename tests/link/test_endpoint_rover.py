@@ -3469,3 +3469,20 @@ def test_broadcasts_from_any_sender_and_messages_for_another_system_go_where_rov
     _peer_sends(bench, arm, gcs, ground)
     assert [cap.count(p, "COMMAND_LONG") for p in (ground, companion, other_vehicle)] == [0, 0, 1]
     assert not bench.ep.armed  # not this vehicle's
+
+
+def test_a_downloaded_items_current_flag_is_set_as_rovers_get_item_sets_it(bench: Bench) -> None:
+    # MissionItemProtocol_Waypoints::get_item: current = (cmd.id == the navigation command's
+    # index), so neither home at rest nor an item set current (here a DO item, whose next
+    # navigation item MISSION_CURRENT names) is flagged; a nav index of 16 flags waypoints
+    items = [*good_mission(2), Item(2, mav.MAV_CMD_DO_CHANGE_SPEED, p1=1, p2=0.5), *good_mission(4)[3:]]
+    assert upload(bench, items) == mav.MAV_MISSION_ACCEPTED
+    assert [m.current for m in download(bench, mav.MAV_MISSION_TYPE_MISSION)] == [0, 0, 0, 0]  # type: ignore[attr-defined]
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 2) == mav.MAV_RESULT_ACCEPTED  # MAVSDK's way
+    assert bench.ep.mission_current == 3
+    assert [m.current for m in download(bench, mav.MAV_MISSION_TYPE_MISSION)] == [0, 0, 0, 0]  # type: ignore[attr-defined]
+    many = [*good_mission(18)]
+    assert upload(bench, many) == mav.MAV_MISSION_ACCEPTED
+    assert bench.command(mav.MAV_CMD_DO_SET_MISSION_CURRENT, 16) == mav.MAV_RESULT_ACCEPTED
+    assert bench.ep.mission_current == 16
+    assert {m.current for m in download(bench, mav.MAV_MISSION_TYPE_MISSION)} == {1}  # type: ignore[attr-defined]

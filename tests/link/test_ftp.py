@@ -467,10 +467,11 @@ def test_a_list_file_by_hand_and_back() -> None:
     assert changed[-1][0] == MISSION and ms.changes[-1].sysid == 255
     data = ms.packed(MISSION)
     assert len(data) == 10 + 3 * 38 == ms.packed_size(MISSION)
-    # item 0 is home now (as a download's), its `current` 1 (no item under way after an upload)
+    # item 0 is home now (as a download's), its `current` 0 (AP_Mission::get_item: 1 only where
+    # the command id equals the navigation command's index, and none is under way)
     unit = mav.MAVLink_mission_item_int_message
     first = dict(zip(unit.ordered_fieldnames, unit.unpacker.unpack(data[10:48]), strict=True))
-    assert (first["seq"], first["x"], first["z"], first["current"], first["frame"]) == (0, LAT, 900.0, 1, 0)
+    assert (first["seq"], first["x"], first["z"], first["current"], first["frame"]) == (0, LAT, 900.0, 0, 0)
     # the no-clear option replaces item 2 and adds item 3, keeping the rest
     assert ms.upload_packed(MISSION, list_file([wp(0, 5000), wp(1, 6000)], options=1, start=2), 255, 190, 2.0) is None
     assert [i.x - LAT for i in ms.lists[MISSION]] == [1000, 1000, 5000, 6000]
