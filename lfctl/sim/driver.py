@@ -222,6 +222,11 @@ class VehicleDriver:
             self._paused = self._key or self._paused
             self._key = ()
         if not ep.armed:
+            if ep.mode == MODES["AUTO"]:
+                # as Rover: AUTO runs its mission from the moment it is entered, armed or not
+                # (ModeAuto::update every loop starts it, AP_Mission says "Mission: 1 WP"); the
+                # motors of a disarmed vehicle stay still
+                self._auto(t_s, world)
             return 0.0, 0.0
         if ep.mode == MODES["GUIDED"]:
             return self._guided(t_s, world)

@@ -561,3 +561,19 @@ def test_a_reposition_outside_the_fence_leaves_the_vehicle_in_guided_stopped() -
     ep = links.endpoints[0]
     assert ep.mode == MODES["GUIDED"] and ep.guided is None
     assert abs(rep.result.final.vehicle(0).speed_mps) < 0.02
+
+
+def test_auto_entered_disarmed_starts_the_mission_and_the_vehicle_stays_still() -> None:
+    # Rover's ModeAuto runs the mission from the moment AUTO is entered, armed or not
+    # (ModeAuto::update starts it, AP_Mission says "Mission: 1 WP"): a ground station sees
+    # the item under way before it arms; the disarmed motors do not move the vehicle
+    def disarm(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    rep, links = run_with({0.5: mode("HOLD"), 1.0: disarm, 2.0: mode("AUTO")}, duration_s=5.0)
+    ep = links.endpoints[0]
+    assert not ep.armed and rep.leader_modes[-1][0] == "AUTO"
+    assert (2.0, "Mission: 1 WP") in [(round(t, 1), text) for t, text in ep.statustexts if t >= 2.0]
+    assert ep.current_seq == 1  # MISSION_CURRENT names item 1, as Rover's
+    assert rep.result.final.vehicle(0).speed_mps == pytest.approx(0.0, abs=0.02)
+    assert math.hypot(*(leader_at(rep, 5.0) - leader_at(rep, 2.0))) < 0.05
