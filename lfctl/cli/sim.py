@@ -126,15 +126,15 @@ def announce_live(port: int, host: str, layout: Path) -> None:
     print(f"foxglove     ws://{host}:{port}  (layout: {layout})", flush=True)
 
 
-def live_layout(follower: str, leader: str, image_format: str, camera: bool = True, scene: bool = True) -> Path:
+def live_layout(follower: str | None, leader: str, image_format: str, camera: bool = True, scene: bool = True) -> Path:
     """The Foxglove layout that shows this run: the shipped one when its names fit
     (``follower1`` behind ``leader``, H.264), else one made for it in the user cache
     (``~/.cache/lfctl/layouts``).
 
     Parameters
     ----------
-    follower : str
-        Whose camera and errors the layout shows.
+    follower : str or None
+        Whose camera and errors the layout shows; None (no follower): the leader's views alone.
     leader : str
         The vehicle its 3D view follows.
     image_format : str
@@ -150,7 +150,8 @@ def live_layout(follower: str, leader: str, image_format: str, camera: bool = Tr
     if (follower, leader, image_format, camera, scene) == ("follower1", "leader", "h264", True, True):
         return examples_dir() / "foxglove-layout.json"
     kind = (image_format if camera else "no-camera") + ("" if scene else "-no-scene")
-    path = user_cache("layouts") / f"{leader}-{follower}-{kind}.json"
+    name = f"{leader}-{follower}-{kind}" if follower is not None else f"{leader}-alone"
+    path = user_cache("layouts") / f"{name}.json"
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(layout_json(follower, leader, image_format, camera, scene))
@@ -308,7 +309,7 @@ def run(args: argparse.Namespace) -> int:
 
     live = live_address(args.live, cfg.live.foxglove, "--live")
     video = live_address(args.video, cfg.live.video, "--video")
-    first = cfg.followers[0].name if cfg.followers else "follower1"
+    first = cfg.followers[0].name if cfg.followers else None
     camera = cfg.sim.sensing == "camera" and cfg.recording.images  # (no images: no camera panel)
     layout = live_layout(first, cfg.leader.name, cfg.recording.image_format, camera) if live is not None else Path()
     check_video(cfg, video)  # refused before it is announced

@@ -19,7 +19,7 @@ __all__ = ["layout_json"]
 
 
 def layout_json(
-    follower: str = "follower1",
+    follower: str | None = "follower1",
     leader: str = "leader",
     image_format: str = "h264",
     camera: bool = True,
@@ -29,8 +29,9 @@ def layout_json(
 
     Parameters
     ----------
-    follower : str
-        Whose camera and errors it shows.
+    follower : str or None
+        Whose camera and errors it shows; None (a run with no follower): neither, whose
+        topics would never come.
     leader : str
         The vehicle the 3D view follows.
     image_format : str
@@ -85,12 +86,12 @@ def layout_json(
     layout = fl.Layout(
         content=_split(
             "row",
-            (3, _split("column", (3, view3d), (2, errors))),
+            (3, _split("column", (3, view3d), (2, errors)) if follower is not None else view3d),
             (
                 2,
                 _split(
                     "column",
-                    *([(3, image)] if camera else []),
+                    *([(3, image)] if camera and follower is not None else []),
                     (2, fl.MapPanel(title="map", config=fl.MapConfig())),
                     (2, fl.LogPanel(title="log", config=fl.LogConfig(topic_to_render="/log"))),
                 ),

@@ -902,6 +902,27 @@ def test_a_camera_run_recording_no_images_gets_a_layout_without_a_camera_panel(
     assert layout != EXAMPLES / "foxglove-layout.json" and "/camera/" not in layout.read_text()
 
 
+def test_a_run_with_no_follower_gets_a_layout_without_a_followers_panels(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # a leader alone (camera sensing, as the convoy's): --live printed the shipped layout, whose
+    # Image panel and error plot waited for /follower1/... topics the run never has
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    text = (EXAMPLES / "convoy.toml").read_text()
+    follower = text.index('[[vehicles]]\nname = "follower1"')
+    occluder = text.index("[[scene.occluders]]")
+    text = text[:follower] + text[text.index("[mission]") : occluder] + text[text.index("[[scene.lighting]]") :]
+    scenario = tmp_path / "alone.toml"
+    scenario.write_text(text)
+    assert main(["sim", str(scenario), "--duration", "0.3", "--no-record", "--live", "127.0.0.1:0", "-q"]) == 0
+    found = re.search(r"\(layout: (.+)\)", capsys.readouterr().out)
+    assert found is not None
+    layout = Path(found.group(1)).read_text()
+    assert "follower" not in layout and "/camera/" not in layout
+    assert '"/scene/vehicles"' in layout and '"/log"' in layout
+    assert '"followTf":"leader"' in json.dumps(json.loads(layout), separators=(",", ":"))
+
+
 def test_a_real_rovers_layout_calls_its_errors_an_estimate() -> None:
     # lfctl follow's controller errors are the stack's own estimate (a rover has no truth):
     # its layout, with no 3D scene, said "(truth)" as the simulator's does
