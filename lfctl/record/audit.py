@@ -665,10 +665,10 @@ def _expected_topics(run: _Run) -> dict[str, float]:
         out[f"/{f}/controller"] = run.guidance_s
         if run.camera:
             out[f"/{f}/tracker"] = run.camera_s  # (only the truth, for one whose companion ran outside)
-            if f not in run.outside:  # (that one tracked its frames there)
-                out[f"/{f}/camera/annotations"] = run.camera_s
             if run.images:
                 out[image_topic(f, run.image_format)] = run.image_s
+                if f not in run.outside:  # (that one tracked its frames there)
+                    out[f"/{f}/camera/annotations"] = run.image_s  # (with each image)
     return out
 
 

@@ -1075,7 +1075,7 @@ class Recorder:
         perceived: bool = True,
     ) -> None:
         """One camera tick: the image (H.264 access unit or JPEG, as ``[recording]
-        image_format`` says, encoded by the camera when :meth:`image_due` said so), its
+        image_format`` says, encoded by the camera when :meth:`image_due` said so) with its
         annotations, the tracker state and the pose against the truth, all stamped with the
         frame's time. A frame that was not ``perceived`` (a rehearsal's follower, whose
         companion tracks its frames outside the simulator) has its image and its truth only.
@@ -1101,13 +1101,17 @@ class Recorder:
         """
         stamp = self._image(t_s, follower, image)
         payload: dict[str, Any] = {}
-        if perceived:
+        if perceived and image is not None:
+            # with its image alone: Foxglove draws the newest annotations over the image shown
+            # (or, synchronised, those of its time), so annotations of frames not recorded
+            # would put a later frame's window over the picture
             self._log(
                 f"/{follower}/camera/annotations",
                 fc.ImageAnnotationsChannel,
                 t_s,
                 _annotations(stamp, track, measurement),
             )
+        if perceived:
             # a value that is not there is left out (Foxglove's JSON schemas have no null)
             payload = {
                 "state": track.status.value if track else "lost",
