@@ -196,11 +196,25 @@ NOT_FITTED_NAMES = ("BATTERY_STATUS", "DISTANCE_SENSOR", "RANGEFINDER", "RPM", "
 #: messages Rover knows whose sender a rover leaves empty (GCS_MAVLINK's base methods, which
 #: Rover does not override): asked for (MAVROS asks for both), ACCEPTED and nothing is sent
 EMPTY_NAMES = ("POSITION_TARGET_LOCAL_NED", "ATTITUDE_TARGET")
+#: the camera's and the gimbal's messages Rover knows (mavlink_id_to_ap_message_id, with
+#: AP_CAMERA_ENABLED and HAL_MOUNT_ENABLED, on in its builds), in no stream group: as a Rover
+#: with neither set up (CAM1_TYPE, MNT1_TYPE 0), a request or a rate for one is ACCEPTED and
+#: nothing is sent (a vehicle's camera component answers for itself, :mod:`lfctl.link.camera`)
+NO_CAMERA_NAMES = (
+    "CAMERA_FEEDBACK",
+    "CAMERA_INFORMATION",
+    "CAMERA_SETTINGS",
+    "CAMERA_CAPTURE_STATUS",
+    "GIMBAL_DEVICE_ATTITUDE_STATUS",
+    "AUTOPILOT_STATE_FOR_GIMBAL_DEVICE",
+    "GIMBAL_MANAGER_INFORMATION",
+    "GIMBAL_MANAGER_STATUS",
+)
 MSG_IDS = {
     name: getattr(mav, f"MAVLINK_MSG_ID_{name}")
-    for name in (*STREAMS, *NOT_FITTED_NAMES, *EMPTY_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
+    for name in (*STREAMS, *NOT_FITTED_NAMES, *EMPTY_NAMES, *NO_CAMERA_NAMES, "AUTOPILOT_VERSION", "PARAM_VALUE")
 }
-NOT_FITTED = frozenset(MSG_IDS[name] for name in (*NOT_FITTED_NAMES, *EMPTY_NAMES))
+NOT_FITTED = frozenset(MSG_IDS[name] for name in (*NOT_FITTED_NAMES, *EMPTY_NAMES, *NO_CAMERA_NAMES))
 #: what Rover's routing never passes on between its links (MAVLink_routing::check_and_forward:
 #: a radio's own reports, and ADS-B traffic, which has its own stream rate)
 NEVER_PASSED_ON = frozenset(

@@ -929,6 +929,34 @@ def test_asking_for_an_id_past_24_bits_fails_as_on_rover(bench: Bench) -> None:
     assert bench.command_long(mav.MAV_CMD_REQUEST_MESSAGE, 2**24) == mav.MAV_RESULT_FAILED
 
 
+@pytest.mark.parametrize(
+    "msg_id",
+    [
+        mav.MAVLINK_MSG_ID_CAMERA_FEEDBACK,
+        mav.MAVLINK_MSG_ID_CAMERA_INFORMATION,
+        mav.MAVLINK_MSG_ID_CAMERA_SETTINGS,
+        mav.MAVLINK_MSG_ID_CAMERA_CAPTURE_STATUS,
+        mav.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS,
+        mav.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE,
+        mav.MAVLINK_MSG_ID_GIMBAL_MANAGER_INFORMATION,
+        mav.MAVLINK_MSG_ID_GIMBAL_MANAGER_STATUS,
+    ],
+)
+def test_a_camera_or_gimbal_message_is_accepted_and_not_sent(bench: Bench, msg_id: int) -> None:
+    # mavlink_id_to_ap_message_id maps the camera's (AP_CAMERA_ENABLED) and the mount's
+    # (HAL_MOUNT_ENABLED) messages, on in Rover's builds: handle_command_request_message and
+    # set_mavlink_message_id_interval ACCEPT them, and with no camera or gimbal set up
+    # (CAM1_TYPE, MNT1_TYPE 0) nothing is sent; lfctl answered FAILED and DENIED
+    bench.tick()
+    bench.send(mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0))
+    out = bench.tick() + bench.tick()
+    assert [m.result for m in out if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_ACCEPTED]
+    assert not [m for m in out if m.get_msgId() == msg_id]
+    assert bench.command_long(mav.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, 100_000) == mav.MAV_RESULT_ACCEPTED
+    assert not [m for m in bench.tick(0.5) + bench.tick(0.5) if m.get_msgId() == msg_id]
+    assert interval_of(bench, msg_id) == 100_000
+
+
 def test_an_interval_for_an_id_past_24_bits_is_named_as_on_rover(bench: Bench) -> None:
     # GCS_MAVLINK::set_message_interval: no ap_message for (uint32_t)16 777 216: in SITL
     # "No ap_message for mavlink id (16777216)" (INFO), and DENIED
