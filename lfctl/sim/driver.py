@@ -221,13 +221,16 @@ class VehicleDriver:
             # command that was running and the DO_JUMP counts as they were
             self._paused = self._key or self._paused
             self._key = ()
-        if not ep.armed:
-            if ep.mode == MODES["AUTO"]:
-                # as Rover: AUTO runs its mission from the moment it is entered, armed or not
-                # (ModeAuto::update every loop starts it, AP_Mission says "Mission: 1 WP"); the
-                # motors of a disarmed vehicle stay still
-                self._auto(t_s, world)
-            return 0.0, 0.0
+        # as Rover, whose mode's update runs every loop, armed or not (Rover::update_current_mode):
+        # AUTO runs its mission from the moment it is entered (AP_Mission says "Mission: 1
+        # WP"), GUIDED and RTL steer for their place (NAV_CONTROLLER_OUTPUT, the target); the
+        # motors of a disarmed vehicle stay still
+        cmd = self._mode_command(t_s, world)
+        return cmd if ep.armed else (0.0, 0.0)
+
+    def _mode_command(self, t_s: float, world: WorldState) -> tuple[float, float]:
+        """The mode's command, as if armed."""
+        ep = self.endpoint
         if ep.mode == MODES["GUIDED"]:
             return self._guided(t_s, world)
         if ep.mode == MODES["AUTO"]:

@@ -577,3 +577,37 @@ def test_auto_entered_disarmed_starts_the_mission_and_the_vehicle_stays_still() 
     assert ep.current_seq == 1  # MISSION_CURRENT names item 1, as Rover's
     assert rep.result.final.vehicle(0).speed_mps == pytest.approx(0.0, abs=0.02)
     assert math.hypot(*(leader_at(rep, 5.0) - leader_at(rep, 2.0))) < 0.05
+
+
+@pytest.mark.parametrize("where", ["GUIDED", "RTL"])
+def test_a_disarmed_vehicle_in_guided_or_rtl_reports_where_it_would_steer_and_stays_still(where: str) -> None:
+    # Rover's mode update runs every loop, armed or not: a ground station sees the distance
+    # and bearing to the place (NAV_CONTROLLER_OUTPUT) as soon as it gives the place, before
+    # it arms; the disarmed motors do not move the vehicle
+    def disarm(links: Links) -> None:
+        send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0))
+
+    def goto(links: Links) -> None:
+        x, y = latlon(links, -3.0, 4.0)
+        send(
+            links,
+            mav.MAVLink_command_int_message(
+                1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 1, 0, 0, x, y, 0
+            ),
+        )
+
+    seen: list[object] = []
+    commands = {3.0: mode("HOLD"), 3.5: disarm, 4.0: goto if where == "GUIDED" else mode("RTL")}
+    commands[5.0] = lambda links: seen.append(links.endpoints[0].nav)
+    rep, links = run_with(commands, duration_s=6.0)
+    ep = links.endpoints[0]
+    assert not ep.armed and rep.leader_modes[-1][0] == where
+    nav = seen[0]
+    assert nav is not None  # (None: nothing sent)
+    here = leader_at(rep, 5.0)
+    if where == "GUIDED":
+        assert nav.distance_m > 0.2  # not there yet, and says how far
+    else:  # home follows a disarmed vehicle (Rover's update_home): RTL's place is where it is
+        assert nav.distance_m < 0.05
+    assert nav.distance_m == pytest.approx(math.hypot(*(here - np.array(nav.destination_ned_m))), abs=0.05)
+    assert math.hypot(*(leader_at(rep, 6.0) - leader_at(rep, 4.0))) < 0.05
