@@ -457,6 +457,11 @@ class VehicleEndpoint:
     signing_key : bytes, optional
         MAVLink 2 signing key: sign what is sent, and accept only signed packets except from
         the in-memory link.
+    custom_version : str
+        AUTOPILOT_VERSION's flight_custom_version, up to 8 ASCII characters: where a Rover puts
+        its firmware's git hash (QGroundControl shows it as the firmware's); the simulator
+        gives the first 8 of the running lfctl's code digest (``lfctl --version``). Empty:
+        zeros.
     """
 
     def __init__(
@@ -470,7 +475,10 @@ class VehicleEndpoint:
         armed: bool = False,
         tap: Callable[..., None] | None = None,
         signing_key: bytes | None = None,
+        custom_version: str = "",
     ) -> None:
+        raw = custom_version.encode("ascii")[:8]
+        self.custom_version = list(raw) + [0] * (8 - len(raw))
         self.name = name
         self.sysid = sysid
         self.link = link
@@ -2757,7 +2765,7 @@ class VehicleEndpoint:
                     0,
                     0,
                     0,
-                    [0] * 8,
+                    self.custom_version,
                     [0] * 8,
                     [0] * 8,
                     0,

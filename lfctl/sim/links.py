@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mav
 
 from lfctl.checks import read_text_file
 from lfctl.config import Config
+from lfctl.data import loaded_code
 from lfctl.errors import ConfigError
 from lfctl.link.camera import CameraComponent, CameraRouter
 from lfctl.link.companion import Companion
@@ -195,7 +196,9 @@ class Links:
                 self.cameras.append(camera)
                 self.camera_of[v.name] = camera
                 link = CameraRouter(link, [camera], key)
-            ep = VehicleEndpoint(v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key)
+            ep = VehicleEndpoint(
+                v.name, 1 + i, link, self.home, tap=ep_tap, signing_key=key, custom_version=_code_hash()
+            )
             ep.routed_components = {c.compid for c in self.cameras if c.sysid == 1 + i}
             if start_ns is not None:
                 ep.epoch_us = start_ns // 1000  # SYSTEM_TIME on the log's clock
@@ -320,3 +323,11 @@ class Links:
         """Close the UDP sockets."""
         for udp in self.udp:
             udp.close()
+
+
+def _code_hash() -> str:
+    """The first 8 characters of the running lfctl's code digest (``lfctl --version``): what
+    its vehicles say where a Rover's AUTOPILOT_VERSION carries its firmware's git hash; empty
+    when the digest is unknown."""
+    digest = loaded_code()[:8]
+    return digest if len(digest) == 8 and all(c in "0123456789abcdef" for c in digest) else ""

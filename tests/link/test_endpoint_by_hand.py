@@ -387,8 +387,15 @@ def test_asking_for_the_autopilots_capabilities_sends_its_version(bench: Bench) 
     bench.send(mav.MAVLink_command_long_message(1, 1, cmd, 0, 1, 0, 0, 0, 0, 0, 0))
     out = bench.tick() + bench.tick()
     assert [m.result for m in out if m.get_type() == "COMMAND_ACK"] == [mav.MAV_RESULT_ACCEPTED]
-    assert len([m for m in out if m.get_type() == "AUTOPILOT_VERSION"]) == 1
+    (version,) = [m for m in out if m.get_type() == "AUTOPILOT_VERSION"]
     assert bench.ep.stats.handler_errors == 0
+    assert list(version.flight_custom_version) == [0] * 8  # none given
+    # where a Rover puts its firmware's git hash (8 ASCII characters), what the endpoint is given
+    assert VehicleEndpoint("v", 1, MemoryLink("v"), HOME, custom_version="f30f646e").custom_version == list(b"f30f646e")
+    bench.ep.custom_version = list(b"f30f646e")
+    bench.send(mav.MAVLink_command_long_message(1, 1, cmd, 0, 1, 0, 0, 0, 0, 0, 0))
+    (version,) = [m for m in bench.tick() + bench.tick() if m.get_type() == "AUTOPILOT_VERSION"]
+    assert bytes(version.flight_custom_version) == b"f30f646e"
 
 
 @pytest.mark.parametrize(("first", "last"), [(1, 0), (0, 2), (1, 3)])

@@ -611,3 +611,11 @@ def test_a_disarmed_vehicle_in_guided_or_rtl_reports_where_it_would_steer_and_st
         assert nav.distance_m < 0.05
     assert nav.distance_m == pytest.approx(math.hypot(*(here - np.array(nav.destination_ned_m))), abs=0.05)
     assert math.hypot(*(leader_at(rep, 6.0) - leader_at(rep, 4.0))) < 0.05
+
+
+def test_the_simulators_vehicles_carry_lfcts_code_digest_where_a_rover_has_its_git_hash() -> None:
+    # AUTOPILOT_VERSION's flight_custom_version: QGroundControl shows it as the firmware's git hash
+    from lfctl.data import loaded_code
+
+    _rep, links = run_with({}, duration_s=0.1)
+    assert bytes(links.endpoints[0].custom_version).decode("ascii") == loaded_code()[:8]
