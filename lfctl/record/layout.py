@@ -77,8 +77,10 @@ def layout_json(
         title=f"{follower} formation errors ({'truth' if scene else 'estimate'})",
         config=fl.PlotConfig(
             paths=[
-                fl.PlotSeries(value=f"/{follower}/controller.range_error_m", label="range error (m)"),
-                fl.PlotSeries(value=f"/{follower}/controller.bearing_error_deg", label="bearing error (deg)"),
+                fl.PlotSeries(value=f"/{follower}/controller.range_error_m", label="range error (m)", enabled=True),
+                fl.PlotSeries(
+                    value=f"/{follower}/controller.bearing_error_deg", label="bearing error (deg)", enabled=True
+                ),
             ],
             show_legend=True,
         ),

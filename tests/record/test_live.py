@@ -1004,3 +1004,17 @@ def test_the_cameras_answers_go_to_the_asking_peer_alone() -> None:
     udp.close()
     assert got_a == ["COMMAND_ACK", "CAMERA_INFORMATION", "HEARTBEAT"], got_a
     assert got_b == ["HEARTBEAT"], got_b
+
+
+def test_the_layouts_plot_series_are_switched_on() -> None:
+    # each series says it is on, as the app writes a plot's series itself: a reader that takes
+    # a missing "enabled" as off would leave the formation errors plot empty
+    def series(node: object) -> list[dict]:
+        if isinstance(node, dict):
+            found = [p for p in node.get("paths", []) if isinstance(p, dict)] if "paths" in node else []
+            return found + [s for v in node.values() for s in series(v)]
+        return [s for v in node for s in series(v)] if isinstance(node, list) else []
+
+    for text in (layout_json(), layout_json("r1", "lead", "jpeg", camera=False)):
+        paths = series(json.loads(text))
+        assert paths and all(p.get("enabled") is True for p in paths)
