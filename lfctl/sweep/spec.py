@@ -304,6 +304,26 @@ def _item_index(items: list[Any], name: str | int, key: str, where: str) -> int:
     return named[0]
 
 
+def _place(key: str, table: dict[str, Any]) -> tuple[tuple[str, str | int], ...]:
+    """Where a key leads in the scenario's tables, an array entry by its position however the
+    key names it (``vehicles[1]``, ``vehicles[-1]`` and ``vehicles[follower1]`` alike); a step
+    the scenario does not have stays as written (building the variants names it)."""
+    node: Any = table
+    place: list[tuple[str, str | int]] = []
+    for kind, name in parse_key(key):
+        if kind == "item" and isinstance(node, list) and node:
+            try:
+                name = _item_index(node, name, key, "") % len(node)
+            except ConfigError:
+                node = None
+            else:
+                node = node[name]
+        else:
+            node = node.get(name) if isinstance(node, dict) else None
+        place.append((kind, name))
+    return tuple(place)
+
+
 def _flatten(table: Mapping[str, Any], prefix: str, leaf: Any) -> list[tuple[str, Any]]:
     """Dotted keys of a table's leaves (``leaf(value)`` says whether a table is a leaf)."""
     out = []
@@ -452,12 +472,15 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
         raise ConfigError(f"description must be a string, got {description!r}")
     keys = [k for k, _ in fixed] + [k for k, _ in grid] + [k for k, _, _ in random]
     for key in keys:
-        parse_key(key)
-        if key in _RESERVED:
-            raise ConfigError(f"{key!r} cannot be varied by a sweep: it is set by {_RESERVED[key]}")
-    for key in keys:
-        if keys.count(key) > 1:
-            raise ConfigError(f"key {key!r} appears more than once in [set], [grid] and [random]")
+        where = _where(parse_key(key))  # "sim. seed" is sim.seed
+        if where in _RESERVED:
+            raise ConfigError(f"{key!r} cannot be varied by a sweep: it is set by {_RESERVED[where]}")
+    places = [_place(key, base) for key in keys]
+    for i, (key, place) in enumerate(zip(keys, places, strict=True)):
+        first = keys[places.index(place)]
+        if places.index(place) != i:
+            also = f" (as {first!r})" if first != key else ""
+            raise ConfigError(f"key {key!r} appears more than once in [set], [grid] and [random]{also}")
     return SweepSpec(
         name=sweep_name,
         scenario=scenario,

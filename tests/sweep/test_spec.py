@@ -112,9 +112,19 @@ def test_set_key_errors_name_the_key(key: str, message: str) -> None:
             r"^the sweep has 1 variant \(grid combinations x samples\) and 200000 runs",
         ),
         (HEAD + "[grid]\n'sim.seed' = [1, 2]\n", r"'sim\.seed' cannot be varied by a sweep: it is set by seeds"),
+        (HEAD + "[grid]\n'sim. seed' = [1, 2]\n", r"'sim\. seed' cannot be varied by a sweep: it is set by seeds"),
         (
             HEAD + "[set]\n'sim.dt_s' = 0.01\n[grid]\n'sim.dt_s' = [0.01, 0.02]\n",
             r"key 'sim\.dt_s' appears more than once",
+        ),
+        (
+            HEAD + "[grid]\n'vehicles[1].range_m' = [1.5, 2.0]\n'vehicles[follower1].range_m' = [1.6, 2.1]\n",
+            r"key 'vehicles\[follower1\]\.range_m' appears more than once in \[set\], \[grid\] and \[random\] "
+            r"\(as 'vehicles\[1\]\.range_m'\)$",
+        ),
+        (
+            HEAD + "[set]\n'vehicles[-1].range_m' = 1.5\n[grid]\n'vehicles[ 1 ].range_m' = [1.6, 2.1]\n",
+            r"key 'vehicles\[ 1 \]\.range_m' appears more than once",
         ),
         (HEAD + "[grid]\n'scene.lighting[x' = [1]\n", r"is not a name with optional \[index\] parts"),
     ],
