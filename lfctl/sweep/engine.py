@@ -66,7 +66,7 @@ from lfctl.sweep.results import (
     write_tables,
 )
 from lfctl.sweep.spec import Run, SweepPlan, SweepSpec, load_sweep, plan
-from lfctl.sweep.task import LOG_MODES, execute, failed_row
+from lfctl.sweep.task import LOG_MODES, execute, failed_row, log_name
 
 __all__ = [
     "QUIET_WORKERS",
@@ -932,7 +932,7 @@ def run_sweep(
                     todo.appendleft(run)  # (left to --resume)
                     stopping = True
                     continue
-                row = _row(fut, run)
+                row = _row(fut, run, folder if logs != "none" else None)
                 fut.release()
                 append_row(folder, row)
                 last_row = time.perf_counter()
@@ -981,17 +981,20 @@ def run_sweep(
     return SweepResult(folder, p, rows, summary, bool(todo), wall, engine, summary.files)
 
 
-def _row(fut: Any, run: Run) -> dict[str, Any]:
+def _row(fut: Any, run: Run, logs_in: Path | None = None) -> dict[str, Any]:
     """A finished future's row: the task's, or one saying why there is none (the task
     catches the run's own errors, so these are the engine's: a dead worker, a task that did
-    not unpickle)."""
+    not unpickle). With ``logs_in`` (the sweep's folder, when it keeps logs) a crashed run's
+    row names the log its last attempt left, cut short where its worker died."""
     from distributed.scheduler import KilledWorker
 
     if fut.status == "finished":
         return dict(fut.result())
     exc = fut.exception()
     if isinstance(exc, KilledWorker):
-        return failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})")
+        rel = log_name(run.run)
+        kept = rel if logs_in is not None and (logs_in / rel).is_file() else ""
+        return failed_row(run, "crashed", f"KilledWorker: every worker that ran it died ({exc})", kept)
     return failed_row(run, "error", f"{type(exc).__name__}: {exc}")
 
 

@@ -30,7 +30,7 @@ from lfctl.sweep import SweepProgress, engine, run_sweep
 from lfctl.sweep.engine import _check_workers, _connect, local_cluster, scheduler_processes, worker_environment
 from lfctl.sweep.results import read_rows
 from lfctl.sweep.spec import Run
-from lfctl.sweep.task import execute
+from lfctl.sweep.task import execute, log_name
 
 pytestmark = [pytest.mark.integration, pytest.mark.fmu]
 
@@ -147,6 +147,33 @@ def test_runs_that_raise_or_kill_their_worker_are_rows_and_the_sweep_goes_on(tmp
     )
     assert by_run[0]["log_path"] == "" and not list((tmp_path / "out" / "logs").glob("*.mcap"))  # ok: deleted
     assert [s["failed"] for s in result.summary.rows] == [1, 3]
+
+
+def _dying_while_recording_task(run: Run, out_dir: str, logs: str) -> dict:
+    """Run 1 kills its worker once its log has begun, on every attempt."""
+    log = Path(out_dir) / log_name(run.run)
+
+    def die_once_recording() -> None:
+        while not (log.exists() and log.stat().st_size > 0):
+            time.sleep(0.01)
+        os._exit(3)
+
+    if run.run == 1:
+        threading.Thread(target=die_once_recording, daemon=True).start()
+    return execute(run, out_dir, logs)
+
+
+def test_a_crashed_runs_row_names_the_log_its_worker_left(tmp_path: Path) -> None:
+    (tmp_path / "s.toml").write_text(
+        'scenario = "convoy"\n[set]\n"sim.sensing" = "truth"\n[grid]\n"sim.duration_s" = [2.0, 300.0]\n'
+    )
+    result = run_sweep(
+        tmp_path / "s.toml", tmp_path / "out", workers=1, task=_dying_while_recording_task, logs="failed"
+    )
+    by_run = {r["run"]: r for r in result.rows}
+    assert [by_run[0]["status"], by_run[1]["status"]] == ["ok", "crashed"]
+    assert by_run[0]["log_path"] == "" and by_run[1]["log_path"] == "logs/run-00001.mcap"
+    assert (tmp_path / "out" / "logs" / "run-00001.mcap").is_file()
 
 
 @pytest.mark.parametrize("how", ["cancel", "interrupt"])
