@@ -513,6 +513,13 @@ def report(out_dir: str | Path, plots: bool = True) -> SweepSummary:
     ]
     _write_table(_table(summary, columns), files[0], files[1])
     md = summary_markdown(summary, keys, followers)
+    planned = meta.get("runs")
+    if isinstance(planned, int) and not isinstance(planned, bool) and len(rows) < planned:
+        # a stopped sweep: say so where it is read, or half a sweep passes for a whole one
+        md = (
+            f"unfinished: {len(rows)} of its {planned} runs have rows (variants without any are not "
+            f"in the table); `lfctl sweep SPEC --out {folder} --resume` finishes it\n\n" + md
+        )
     title = f"# sweep {meta['name']}: {len(rows)} runs, {sum(r['status'] != 'ok' for r in rows)} failed\n\n"
     with write_whole(files[2]) as tmp:
         tmp.write_text(title + md)

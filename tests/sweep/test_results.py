@@ -143,6 +143,20 @@ def test_tables_round_trip_with_mixed_and_array_values_and_report_rebuilds_summa
     assert json.loads((tmp_path / "sweep.json").read_text())["name"] == "t"
 
 
+def test_the_report_of_a_stopped_sweep_says_it_is_unfinished(tmp_path: Path) -> None:
+    # sweep.json plans 12 runs, 6 have rows: the report read like a whole sweep of 6
+    for run in range(6):
+        append_row(tmp_path, _row(run, 0, 0.01 * (run + 1)))
+    write_meta(tmp_path, {"name": "t", "keys": [], "followers": ["f1"], "runs": 12})
+    write_tables(tmp_path, read_journal(tmp_path), [], ["f1"])
+    summary = report(tmp_path)
+    assert summary.markdown.startswith("unfinished: 6 of its 12 runs have rows")
+    assert "--resume" in summary.markdown.splitlines()[0]
+    assert "unfinished: 6 of its 12" in (tmp_path / "summary.md").read_text()
+    write_meta(tmp_path, {"name": "t", "keys": [], "followers": ["f1"], "runs": 6})  # all there
+    assert "unfinished" not in report(tmp_path).markdown
+
+
 def test_report_of_a_folder_without_a_sweep_says_so(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="no such folder"):
         report(tmp_path / "nowhere")
