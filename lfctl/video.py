@@ -283,7 +283,10 @@ class VideoSource:
             self._check_sdp(str(target), source)
         if stream:
             ms = max(1, int(wait * 1000))
-            params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms]
+            # one decoding thread: FFmpeg's frame threads hold back a frame each (a frame more
+            # than one thread behind the camera, and each held frame handed over only when a
+            # read times out once the stream stops: its end came a read timeout later each)
+            params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, ms, cv2.CAP_PROP_N_THREADS, 1]
             try:
                 with _ffmpeg_options("protocol_whitelist;file,udp,rtp" if rtp else None):
                     self._cap = cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)

@@ -348,3 +348,23 @@ def test_a_stream_waited_for_is_tried_within_what_is_left_of_the_wait() -> None:
     probe.close()  # a free port: nothing will send to it
     with pytest.raises(ConfigError, match=r"within 0\.\d+ s.*\(waited \d+\.\d s for it\)"):
         open_live(f"rtp://127.0.0.1:{port}", 1.0)
+
+
+def test_a_stream_is_decoded_without_frames_held_back_by_decoding_threads() -> None:
+    import time
+
+    import numpy as np
+
+    # each frame a grey level of its own: the newest frame decoded says which one it is
+    cards = [np.full((240, 320, 3), 4 * k, np.uint8) for k in range(60)]
+    with (
+        rtp_camera(cards, sending=lambda k: k < 60) as port,
+        VideoSource(f"rtp://127.0.0.1:{port}", latest=True, timeout_s=5.0) as video,
+    ):
+        assert video.read() is not None
+        time.sleep(3.0)  # the camera has sent its 60 frames (2 s at 30 Hz) and stopped
+        newest = video.read(timeout_s=0.5)
+        assert newest is not None
+        # FFmpeg's H.264 parser holds the last frame until the next begins; decoding threads
+        # held one more each past the first (two threads here: frame 57, a frame more behind)
+        assert round(float(newest.mean()) / 4) == 58
