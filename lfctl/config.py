@@ -27,6 +27,7 @@ from lfctl.link.params import formation_params
 
 __all__ = [
     "MAX_CAMERA_PIXELS",
+    "MAX_CAMERA_SIDE_PX",
     "MAX_FOV_DEG",
     "MAX_KEY_PARTS",
     "MAX_LIST",
@@ -76,6 +77,8 @@ MAX_LIST = 1000
 #: the most pixels in a camera image (4096 x 2160, DCI 4K): rendering takes about 100 bytes
 #: a pixel (0.9 GB at this size, per camera)
 MAX_CAMERA_PIXELS = 4096 * 2160
+#: the longest side of a camera image, px
+MAX_CAMERA_SIDE_PX = 4096
 #: the largest scenario file read, bytes
 MAX_SCENARIO_BYTES = 1024 * 1024
 #: the most simulation steps in one run (duration_s / dt_s)
@@ -490,8 +493,10 @@ class CameraConfig(_Section):
     """
 
     _key = "camera"
-    width_px: int = _f(640, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image width, px
-    height_px: int = _f(480, Bound(16, 4096, integer=True), note="width x height <= 8847360")  # image height, px
+    #: image width, px
+    width_px: int = _f(640, Bound(16, MAX_CAMERA_SIDE_PX, integer=True), note="width x height <= 8847360")
+    #: image height, px
+    height_px: int = _f(480, Bound(16, MAX_CAMERA_SIDE_PX, integer=True), note="width x height <= 8847360")
     #: horizontal field of view, sets fx (TOML hfov_deg)
     hfov_rad: float = _f(math.radians(62.0), Bound(0, MAX_FOV_DEG, lo_open=True, hi_open=True))
     fx_px: float = _f(0.0, Bound(0, 1e5), note=_FOCAL_NOTE.format("width"))  # focal length, px; 0: from hfov

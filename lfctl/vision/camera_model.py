@@ -13,7 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
-from lfctl.config import CameraConfig
+from lfctl.config import MAX_CAMERA_PIXELS, MAX_CAMERA_SIDE_PX, CameraConfig
 from lfctl.errors import ConfigError
 from lfctl.frames import rot_z
 
@@ -63,6 +63,13 @@ def at_frame_size(camera: CameraConfig, width: int, height: int) -> tuple[Camera
     W, H = camera.width_px, camera.height_px
     if (width, height) == (W, H):
         return camera, None
+    if max(width, height) > MAX_CAMERA_SIDE_PX or width * height > MAX_CAMERA_PIXELS:
+        # (else the scenario's camera.width_px bound was named: a setting the user never gave)
+        raise ConfigError(
+            f"larger than lfctl's camera takes, {MAX_CAMERA_SIDE_PX} px a side and {MAX_CAMERA_PIXELS} pixels "
+            "(4096 x 2160): scale the video down first, e.g. `ffmpeg -i IN -vf scale=1920:-2 OUT`, or set the "
+            "camera to a smaller picture"
+        )
     given = [k for k in ("fx_px", "fy_px", "cx_px", "cy_px") if getattr(camera, k) != 0]
     if not given:
         return dataclasses.replace(camera, width_px=width, height_px=height), None

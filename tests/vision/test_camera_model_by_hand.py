@@ -76,3 +76,14 @@ def test_without_a_principal_point_it_is_the_middle_of_the_picture() -> None:
     # pixel centres at whole numbers: the middle of 640 x 480 is (319.5, 239.5)
     K = CameraModel.from_config(CameraConfig(fx_px=500.0)).K
     assert (K[0, 2], K[1, 2]) == (319.5, 239.5)
+
+
+@pytest.mark.parametrize("size", [(7680, 4320), (5312, 2988), (4097, 100)])
+def test_frames_larger_than_the_camera_takes_are_named_by_their_size(size: tuple[int, int]) -> None:
+    # an 8K or 5.3K video given to `lfctl track` was refused as "camera.width_px must be within
+    # 16..4096", a scenario setting its user never gave
+    from lfctl.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^larger than lfctl's camera takes, 4096 px a side .* scale the video down"):
+        at_frame_size(CameraConfig(), *size)
+    assert at_frame_size(CameraConfig(), 4096, 2160)[0].width_px == 4096  # the largest it takes
