@@ -88,9 +88,11 @@ def leader_at(rep: RunReport, t_s: float) -> np.ndarray:
     return rep.result.pos_ned_m[k, 0]
 
 
-def test_reposition_in_guided_drives_the_leader_there_and_it_stops() -> None:
+def reposition(north_m: float, east_m: float) -> Callable[[Links], None]:
+    """A ground station's "go here" (DO_REPOSITION, switching to GUIDED) to a point from home."""
+
     def goto(links: Links) -> None:
-        x, y = latlon(links, -3.0, 4.0)
+        x, y = latlon(links, north_m, east_m)
         send(
             links,
             mav.MAVLink_command_int_message(
@@ -98,7 +100,11 @@ def test_reposition_in_guided_drives_the_leader_there_and_it_stops() -> None:
             ),
         )
 
-    rep, _links = run_with({5.0: goto}, duration_s=45.0)
+    return goto
+
+
+def test_reposition_in_guided_drives_the_leader_there_and_it_stops() -> None:
+    rep, _links = run_with({5.0: reposition(-3.0, 4.0)}, duration_s=45.0)
     assert rep.leader_modes[0][0] == "AUTO" and any(name == "GUIDED" for name, _s in rep.leader_modes)
     end = leader_at(rep, 45.0)
     assert math.hypot(end[0] + 3.0, end[1] - 4.0) <= 0.5  # within WP_RADIUS-ish of the target
@@ -587,17 +593,8 @@ def test_a_disarmed_vehicle_in_guided_or_rtl_reports_where_it_would_steer_and_st
     def disarm(links: Links) -> None:
         send(links, mav.MAVLink_command_long_message(1, 1, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0))
 
-    def goto(links: Links) -> None:
-        x, y = latlon(links, -3.0, 4.0)
-        send(
-            links,
-            mav.MAVLink_command_int_message(
-                1, 1, mav.MAV_FRAME_GLOBAL_INT, mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 1, 0, 0, x, y, 0
-            ),
-        )
-
     seen: list[object] = []
-    commands = {3.0: mode("HOLD"), 3.5: disarm, 4.0: goto if where == "GUIDED" else mode("RTL")}
+    commands = {3.0: mode("HOLD"), 3.5: disarm, 4.0: reposition(-3.0, 4.0) if where == "GUIDED" else mode("RTL")}
     commands[5.0] = lambda links: seen.append(links.endpoints[0].nav)
     rep, links = run_with(commands, duration_s=6.0)
     ep = links.endpoints[0]
