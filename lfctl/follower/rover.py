@@ -408,7 +408,9 @@ class _Camera:
             self._silent_since = None
             self._said_stopped = False
             self.came_back = True
-            log.info("%s: the camera's frames are back after %.1f s: looking for the target afresh", self.follower, gap)
+            log.warning(  # (as loud as their loss: without -v the end of a warning was never said)
+                "%s: the camera's frames are back after %.1f s: looking for the target afresh", self.follower, gap
+            )
             self.companion.statustext(f"{self.follower[:20]}: camera back", mav.MAV_SEVERITY_INFO)
         self._last_frame_t = t_s
         return frame
@@ -506,7 +508,7 @@ class _LinkWatch:
         beating = last is not None and t_s - last <= HEARTBEAT_STALE_S
         if beating != self.beating:
             if beating:
-                log.info("%s: the rover's HEARTBEAT is back", name)
+                log.warning("%s: the rover's HEARTBEAT is back", name)  # (as loud as its loss)
                 self.came_back = True
             else:
                 log.warning(
@@ -609,7 +611,7 @@ def _say_odometry(companion: Companion, name: str, t_s: float, t_start: float, s
         )
         companion.statustext(f"{who}: no odometry for {stale_s:g} s")
     elif stale and not now_stale:
-        log.info("%s: odometry (LOCAL_POSITION_NED) back", name)
+        log.warning("%s: odometry (LOCAL_POSITION_NED) back", name)  # (as loud as its loss)
         companion.statustext(f"{who}: odometry back", mav.MAV_SEVERITY_INFO)
     return now_stale
 

@@ -577,6 +577,9 @@ def test_odometry_that_stops_is_said_to_the_log_and_the_ground_station_and_so_is
     assert logged == ["rover: no odometry (LOCAL_POSITION_NED) for 1 s: the stack steers on its last position",
                       "rover: asked the rover for its odometry again",
                       "rover: odometry (LOCAL_POSITION_NED) back"]  # fmt: skip
+    # its return is said as loudly as its loss: without -v (warnings only) the loss stood unanswered
+    levels = [r.levelno for r in caplog.records if r.name == "lfctl.follower.rover" and "odometry (" in r.getMessage()]
+    assert levels == [logging.WARNING, logging.WARNING]
 
 
 def test_odometry_is_missing_after_three_periods_at_a_slow_rate_and_each_line_fits_one_statustext() -> None:
@@ -1134,6 +1137,23 @@ def test_another_companion_of_the_rover_on_the_link_is_said(caplog: pytest.LogCa
     assert len(said) == 1 and said[0].startswith("rover: another companion (system 1, component 191) talks")
 
 
+def test_the_rovers_heartbeat_coming_back_is_said_as_loudly_as_its_loss(caplog: pytest.LogCaptureFixture) -> None:
+    # without -v (warnings only) the loss was said and its end never
+    from lfctl.follower.rover import HEARTBEAT_STALE_S, _LinkWatch
+
+    companion = Companion(_ScriptedRover(lambda sends, t: None), 1)  # type: ignore[arg-type]
+    companion.port.junk = 0  # type: ignore[attr-defined]
+    watch = _LinkWatch(companion, "rover")
+    companion.vehicle.heartbeat_t_s = 0.0
+    assert watch.check(0.0)
+    assert not watch.check(HEARTBEAT_STALE_S + 1.0)  # lost
+    companion.vehicle.heartbeat_t_s = HEARTBEAT_STALE_S + 2.0
+    assert watch.check(HEARTBEAT_STALE_S + 2.0) and watch.came_back  # back
+    said = [(r.levelno, r.getMessage()) for r in caplog.records if "HEARTBEAT" in r.getMessage()]
+    assert [level for level, _text in said] == [logging.WARNING, logging.WARNING], said
+    assert said[1][1] == "rover: the rover's HEARTBEAT is back"
+
+
 # -- a review against ArduPilot Rover's source: what a real rover needs ---------------------------
 @pytest.mark.parametrize(
     ("mav_type", "autopilot", "taken"),
@@ -1673,6 +1693,7 @@ def test_single_frames_a_stream_leaves_as_it_ends_are_no_return_of_the_camera(
     said = [r.getMessage() for r in caplog.records]
     back = [t for t in said if "frames are back" in t]
     assert done.camera_gaps == 1 and len(back) == 1, said  # back only with the run of frames at the end
+    assert [r.levelno for r in caplog.records if "frames are back" in r.getMessage()] == [logging.WARNING]
     assert done.frames == 5 + 2 and done.steps == 101, done  # the first frames, the run's third and fourth
 
 
