@@ -548,17 +548,18 @@ class MissionServer:
         """
         items = self.lists[mission_type]
         live_home = mission_type == MISSION and self.home is not None and bool(items)
-        key = (self._revision, self.nav_index(), len(items))
+        nav = self.nav_index()
+        key = (self._revision, nav, len(items))
         cached = self._packed.get(mission_type)
         if cached is None or cached[0] != key:  # (a full mission takes ~7 ms to pack: not on each open)
-            cached = key, b"".join(self._packed_item(it, mission_type) for it in items[live_home:])
+            cached = key, b"".join(self._packed_item(it, mission_type, nav) for it in items[live_home:])
             self._packed[mission_type] = cached
         head = _FILE_HEADER.pack(LIST_FILE_MAGIC, mission_type, 0, 0, len(items))
-        home = self._packed_item(self.home(), mission_type) if live_home and self.home else b""
+        home = self._packed_item(self.home(), mission_type, nav) if live_home and self.home else b""
         return head + home + cached[1]
 
-    def _packed_item(self, it: MissionItem, mission_type: int) -> bytes:
-        current = int(mission_type == MISSION and it.command == self.nav_index())  # as a download's
+    def _packed_item(self, it: MissionItem, mission_type: int, nav: int) -> bytes:
+        current = int(mission_type == MISSION and it.command == nav)  # as a download's (``nav``: nav_index())
         m = _item_message(it, 0, 0, current, mission_type)
         return _ITEM.unpacker.pack(*(getattr(m, f) for f in _ITEM.ordered_fieldnames))
 

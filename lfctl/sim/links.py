@@ -329,5 +329,5 @@ def _code_hash() -> str:
     """The first 8 characters of the running lfctl's code digest (``lfctl --version``): what
     its vehicles say where a Rover's AUTOPILOT_VERSION carries its firmware's git hash; empty
     when the digest is unknown."""
-    digest = loaded_code()[:8]
-    return digest if len(digest) == 8 and all(c in "0123456789abcdef" for c in digest) else ""
+    digest = loaded_code()
+    return digest[:8] if digest.isalnum() else ""  # (as `lfctl --version` tells it from "unknown (why)")

@@ -475,11 +475,11 @@ def parse_sweep(text: str, name: str = "sweep", base_dir: Path | None = None) ->
         where = _where(parse_key(key))  # "sim. seed" is sim.seed
         if where in _RESERVED:
             raise ConfigError(f"{key!r} cannot be varied by a sweep: it is set by {_RESERVED[where]}")
-    places = [_place(key, base) for key in keys]
-    for i, (key, place) in enumerate(zip(keys, places, strict=True)):
-        first = keys[places.index(place)]
-        if places.index(place) != i:
-            also = f" (as {first!r})" if first != key else ""
+    first: dict[tuple[tuple[str, str | int], ...], int] = {}  # where each key leads -> the first key's index
+    for i, key in enumerate(keys):
+        j = first.setdefault(_place(key, base), i)
+        if j != i:
+            also = f" (as {keys[j]!r})" if keys[j] != key else ""
             raise ConfigError(f"key {key!r} appears more than once in [set], [grid] and [random]{also}")
     return SweepSpec(
         name=sweep_name,
