@@ -336,7 +336,7 @@ def _prepare(folder: Path, p: SweepPlan, resume: bool, code: str) -> list[dict[s
         meta = read_meta(folder)
         if not resume:
             raise ConfigError(
-                f"{folder} already holds sweep {meta.get('name')!r}: finish it with --resume (resume=True), or give another --out (out_dir)"
+                f"{folder} already holds sweep {meta.get('name')!r}: finish it with --resume, or give another --out"
             )
         if meta.get("digest") != p.digest:
             raise ConfigError(

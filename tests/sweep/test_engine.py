@@ -104,7 +104,7 @@ def test_the_same_sweep_gives_the_same_table_stopped_and_resumed_on_one_worker(
     first = run_sweep(folder / "s.toml", tmp_path / "out", workers=1, progress=progress, stop=lambda: bool(seen))
     assert first.stopped and 1 <= len(first.rows) < 8 and not first.complete
     assert len(read_rows(tmp_path / "out")) == len(first.rows)  # what finished is written
-    with pytest.raises(ConfigError, match=r"already holds sweep 's': finish it with --resume \(resume=True\)"):
+    with pytest.raises(ConfigError, match=r"already holds sweep 's': finish it with --resume, or give another --out$"):
         run_sweep(folder / "s.toml", tmp_path / "out", workers=1)
     seen.clear()
     second = run_sweep(folder / "s.toml", tmp_path / "out", workers=1, resume=True, progress=progress)
