@@ -28,7 +28,7 @@ from lfctl.link.companion import (
 from lfctl.link.endpoint import COMPANION_COMPID, MODES
 from lfctl.link.gcs import mode_name
 from lfctl.link.params import set_values
-from lfctl.video import REOPEN_S, STOP_WAIT_S, Reopening, VideoSource
+from lfctl.video import REOPEN_S, STOP_WAIT_S, STREAM_TIMEOUT_S, Reopening, VideoSource
 from lfctl.vision.perception import BannerPerception, Perception
 from lfctl.vision.track_state import TrackStatus
 
@@ -436,7 +436,15 @@ class _Camera:
         self.video = None
         # (said once a silence: a stream that is not back ends again at each read timeout)
         level = logging.INFO if self._said_stopped else logging.WARNING
-        log.log(level, "%s: the camera %s stopped: opening it again every %g s", self.follower, self.source, REOPEN_S)
+        log.log(
+            level,
+            "%s: the camera %s stopped: opening it again until it is back (tries %g s apart or more: a stream's "
+            "waits up to %g s to open and as long for a frame)",
+            self.follower,
+            self.source,
+            REOPEN_S,
+            STREAM_TIMEOUT_S,
+        )
         self._said_stopped = True
         # (one that opened and stopped at once is tried again a second after the last try, not
         # at every step)
