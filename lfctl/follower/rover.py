@@ -438,7 +438,7 @@ class _Camera:
         level = logging.INFO if self._said_stopped else logging.WARNING
         log.log(
             level,
-            "%s: the camera %s stopped: opening it again until it is back (tries %g s apart or more: a stream's "
+            "%s: the camera %s stopped: opening it again until it is back (tries %g s apart or more: a stream's try "
             "waits up to %g s to open and as long for a frame)",
             self.follower,
             self.source,
